@@ -19,7 +19,11 @@
 //! ```
 
 pub mod drawing;
+pub mod gcode_in;
+pub mod gcode_out;
 pub mod profile;
+pub mod steps;
+pub mod trajectory;
 
 pub use drawing::{Drawing, Layer, Pen, Polyline, Rgb};
 pub use kurbo;
