@@ -19,7 +19,11 @@
 //! ```
 
 pub mod drawing;
+pub mod flatten;
+pub mod preview;
 pub mod profile;
+pub mod svg_out;
+pub mod travel;
 
 pub use drawing::{Drawing, Layer, Pen, Polyline, Rgb};
 pub use kurbo;
