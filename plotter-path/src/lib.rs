@@ -20,8 +20,10 @@
 
 pub mod drawing;
 pub mod flatten;
+pub mod layout;
 pub mod preview;
 pub mod profile;
+pub mod svg;
 pub mod svg_out;
 pub mod travel;
 
