@@ -19,11 +19,17 @@
 //! ```
 
 pub mod drawing;
+pub mod flatten;
 pub mod gcode_in;
 pub mod gcode_out;
+pub mod layout;
+pub mod preview;
 pub mod profile;
 pub mod steps;
+pub mod svg;
+pub mod svg_out;
 pub mod trajectory;
+pub mod travel;
 
 pub use drawing::{Drawing, Layer, Pen, Polyline, Rgb};
 pub use kurbo;
