@@ -10,6 +10,7 @@ pub mod axis;
 pub mod config;
 pub mod fmath;
 pub mod hal;
+pub mod planner;
 pub mod stepper;
 
 pub use axis::{Axis, NUM_AXES};
