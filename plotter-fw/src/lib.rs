@@ -11,6 +11,7 @@ pub mod config;
 pub mod fmath;
 pub mod hal;
 pub mod planner;
+pub mod protocol;
 pub mod stepper;
 
 pub use axis::{Axis, NUM_AXES};
