@@ -8,8 +8,11 @@ extern crate std;
 
 pub mod axis;
 pub mod config;
+pub mod errors;
 pub mod fmath;
+pub mod gcode;
 pub mod hal;
+pub mod line_buffer;
 pub mod planner;
 pub mod protocol;
 pub mod stepper;
