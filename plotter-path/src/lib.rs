@@ -23,6 +23,7 @@ pub mod flatten;
 pub mod gcode_in;
 pub mod gcode_out;
 pub mod layout;
+pub mod motion;
 pub mod preview;
 pub mod profile;
 pub mod steps;
