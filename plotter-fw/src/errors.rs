@@ -24,7 +24,6 @@
 //! | 1 | `HardLimit` | a switch was pressed outside homing: motion stopped, queue flushed, position unhomed |
 //! | 2 | `HomingNotFound` | homing travelled its maximum distance without reaching the switch |
 //! | 3 | `HomingNotReleased` | the switch was still pressed after the pull-off |
-//! | 4 | `ResetInMotion` | a reset stopped the machine while moving: position no longer homed |
 
 use core::fmt;
 
@@ -99,8 +98,6 @@ pub enum AlarmCode {
     HomingNotFound = 2,
     /// Homing switch still pressed after pull-off.
     HomingNotReleased = 3,
-    /// Reset while moving.
-    ResetInMotion = 4,
 }
 
 impl AlarmCode {
@@ -115,7 +112,6 @@ impl AlarmCode {
             AlarmCode::HardLimit => "hard limit: switch pressed outside homing",
             AlarmCode::HomingNotFound => "homing failed: switch not found",
             AlarmCode::HomingNotReleased => "homing failed: switch still pressed after pull-off",
-            AlarmCode::ResetInMotion => "reset while moving: position lost",
         }
     }
 }

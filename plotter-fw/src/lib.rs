@@ -12,9 +12,15 @@ pub mod errors;
 pub mod fmath;
 pub mod gcode;
 pub mod hal;
+pub mod homing;
+pub mod limits;
 pub mod line_buffer;
+pub mod machine;
 pub mod planner;
 pub mod protocol;
+pub mod realtime;
+#[cfg(feature = "std")]
+pub mod sim;
 pub mod stepper;
 
 pub use axis::{Axis, NUM_AXES};

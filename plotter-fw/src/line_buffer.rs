@@ -65,6 +65,14 @@ impl<const N: usize> RxBuffer<N> {
         true
     }
 
+    /// Record a byte dropped by the caller (over the announced size although the ring had room).
+    pub fn mark_loss(&mut self) {
+        if self.loss_at.is_none() {
+            self.loss_at = Some(self.pushed);
+        }
+        self.lost = self.lost.saturating_add(1);
+    }
+
     /// Take the oldest byte. The second value is `true` when bytes were lost right after this one.
     pub fn pop(&mut self) -> Option<(u8, bool)> {
         if self.len == 0 {

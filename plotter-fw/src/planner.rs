@@ -197,11 +197,13 @@ pub fn to_step_block(block: &PlanBlock, exit_speed_sqr: f32) -> StepBlock {
     }
     let k = block.events_per_mm;
     let rate = |v: f32| floor_u32(v * k).min(MAX_RATE);
+    let cruise = rate(block.nominal_speed).max(1);
     StepBlock {
         steps: block.steps,
-        entry_rate: rate(sqrt(block.entry_speed_sqr)),
-        cruise_rate: rate(block.nominal_speed).max(1),
-        exit_rate: rate(sqrt(exit_speed_sqr)),
+        // `sqrt` of a squared speed may land an ulp above the nominal speed: cap at cruise.
+        entry_rate: rate(sqrt(block.entry_speed_sqr)).min(cruise),
+        cruise_rate: cruise,
+        exit_rate: rate(sqrt(exit_speed_sqr)).min(cruise),
         accel: rate(block.acceleration).max(1),
         dwell_ticks: 0,
     }
@@ -268,7 +270,7 @@ mod tests {
     #[test]
     fn fixed_blocks_are_stop_boundaries() {
         let c = MachineConfig::xy_plotter();
-        let mut v = vec![
+        let mut v = std::vec![
             PlanBlock::line(&c, [8000, 0, 0, 0], 100.0).unwrap(),
             PlanBlock::fixed(StepBlock::dwell(1000)),
             PlanBlock::line(&c, [8000, 0, 0, 0], 100.0).unwrap(),

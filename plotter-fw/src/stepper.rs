@@ -268,7 +268,9 @@ struct Active {
     sign: [i32; NUM_AXES],
     /// Tick of event `k` (from the profile start).
     last_tick: u32,
-    /// Homing: axes whose switch is watched, and those already stopped by it.
+    /// Axes whose switch is read at each event: the home mask in a homing block, else the hard-limit mask.
+    watch: u8,
+    /// Homing: axes stopped by their switch, and those already stopped.
     home_mask: u8,
     locked: u8,
 }
@@ -361,8 +363,9 @@ impl Stepper {
         self.fault
     }
 
-    /// Queue a block; `home_mask` (0 for normal moves) names axes to stop when their switch is pressed. Returns the
-    /// block back when the queue is full.
+    /// Queue a block. `home_mask` is 0 for normal moves (hard limits checked); for homing blocks it carries
+    /// [`crate::homing::HOMING_BLOCK`] (no hard-limit check) plus the axes to stop when their switch reads pressed.
+    /// Returns the block back when the queue is full.
     pub fn push(&mut self, block: StepBlock, home_mask: u8) -> Result<(), StepBlock> {
         self.queue.push_back((block, home_mask)).map_err(|(b, _)| b)
     }
@@ -450,7 +453,8 @@ impl Stepper {
             err: [n / 2; NUM_AXES],
             sign: [0; NUM_AXES],
             last_tick: 0,
-            home_mask,
+            watch: if home_mask & crate::homing::HOMING_BLOCK != 0 { home_mask & 0x0F } else { self.limit_mask },
+            home_mask: home_mask & 0x0F,
             locked: 0,
         };
         for axis in Axis::ALL {
@@ -462,7 +466,7 @@ impl Stepper {
                 hal.set_dir(axis, (s < 0) ^ (self.invert & axis.bit() != 0));
             }
         }
-        if home_mask != 0 {
+        if home_mask & 0x0F != 0 {
             self.homing_hits = 0;
         }
         let first = if n == 0 { block.dwell_ticks } else { profile.tick_of(1) };
@@ -489,14 +493,12 @@ impl Stepper {
             }
             return self.load_next(hal);
         }
-        let watch = act.home_mask | self.limit_mask;
-        if watch != 0 {
-            let pressed = hal.pressed() & watch;
+        if act.watch != 0 {
+            let pressed = hal.pressed() & act.watch;
             if pressed != 0 {
                 if act.home_mask == 0 {
                     self.fault = Some(StepperFault::HardLimit(pressed));
-                    self.active = None;
-                    self.queue.clear();
+                    self.abort();
                     return None;
                 }
                 act.locked |= pressed & act.home_mask;
