@@ -143,6 +143,11 @@ pub struct MotionPlan {
     pub draw_mm: f64,
     /// Pen-up travel length, mm.
     pub travel_mm: f64,
+    /// For a resumed plan ([`plan_resume`]): how many blocks of the original plan were already done.
+    pub resumed_from: usize,
+    /// For a resumed plan: the number of leading blocks that bring the pen back (not part of the original plan).
+    /// `blocks[preamble + i]` is block `resumed_from + i` of the original plan.
+    pub preamble: usize,
 }
 
 impl MotionPlan {
@@ -157,6 +162,28 @@ impl MotionPlan {
     /// Exact execution time of the blocks from `from` on (ticks).
     pub fn ticks_from(&self, from: usize) -> u64 {
         self.blocks.iter().skip(from).map(|b| u64::from(b.block.duration_ticks())).sum()
+    }
+
+    /// Index in the original plan of `blocks[i]`, `None` for a resume preamble block.
+    pub fn original_index(&self, i: usize) -> Option<usize> {
+        i.checked_sub(self.preamble).map(|k| k + self.resumed_from)
+    }
+
+    /// A hash of the plan's geometry and block kinds (FNV-1a), to check that a resumed plot re-plans the same
+    /// drawing.
+    pub fn geometry_hash(&self) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |v: i32| {
+            for b in v.to_le_bytes() {
+                h ^= u64::from(b);
+                h = h.wrapping_mul(0x0100_0000_01b3);
+            }
+        };
+        for b in &self.blocks {
+            b.block.steps.iter().for_each(|s| eat(*s));
+            eat(i32::from(b.kind as u8));
+        }
+        h
     }
 
     /// Position after block `i` (steps), by summing from the start.
@@ -299,7 +326,61 @@ pub fn plan(
 ) -> Result<MotionPlan, PlanError> {
     let cfg = machine_config(profile)?;
     check_work_area(profile, steps)?;
-    let RawPlan { blocks: mut raw, meta, pos: end, .. } = build_blocks(profile, &cfg, steps, start)?;
+    let raw = build_blocks(profile, &cfg, steps, start)?;
+    Ok(finish(profile, &cfg, raw.blocks, raw.meta, start, lookahead, (0, 0)))
+}
+
+/// Plan the rest of a drawing after its first `done` blocks (as numbered by [`plan`] from `original_start`) were
+/// executed, starting from machine position `now`: the pen is lifted if it is down, travels to where block `done`
+/// starts, is set to the height it had there, and blocks `done..` follow with their original geometry (so the
+/// pen-down steps are exactly those an uninterrupted plot makes), re-planned from rest.
+pub fn plan_resume(
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    original_start: MachinePos,
+    done: usize,
+    now: MachinePos,
+) -> Result<MotionPlan, PlanError> {
+    let cfg = machine_config(profile)?;
+    check_work_area(profile, steps)?;
+    let full = build_blocks(profile, &cfg, steps, original_start)?;
+    let done = done.min(full.blocks.len());
+    let mut target = original_start;
+    for b in &full.blocks[..done] {
+        for (t, s) in target.iter_mut().zip(b.steps) {
+            *t += s;
+        }
+    }
+    let (up, _) = pen_steps(profile)?;
+    let stroke = full.meta.get(done).map_or(0, |m| m.1);
+    #[allow(clippy::cast_possible_truncation)]
+    let travel = profile.pen.travel_feed_mm_s as f32;
+    let mut pre = RawPlan { cfg: &cfg, blocks: Vec::new(), meta: Vec::new(), pos: now, settle: settle_ticks(profile) };
+    if now[2] != up {
+        pre.pen(up, MoveKind::PenUp, stroke);
+    }
+    pre.line_to(StepPos::new(target[0], target[1]), travel, MoveKind::Travel, stroke);
+    if target[2] != up {
+        pre.pen(target[2], MoveKind::PenDown, stroke);
+    }
+    let preamble = pre.blocks.len();
+    let mut blocks = pre.blocks;
+    let mut meta = pre.meta;
+    blocks.extend_from_slice(&full.blocks[done..]);
+    meta.extend_from_slice(&full.meta[done..]);
+    Ok(finish(profile, &cfg, blocks, meta, now, Lookahead::Whole, (done, preamble)))
+}
+
+/// Link, plan and quantize a raw block sequence.
+fn finish(
+    profile: &MachineProfile,
+    cfg: &MachineConfig,
+    mut raw: Vec<PlanBlock>,
+    meta: Vec<(MoveKind, usize)>,
+    start: MachinePos,
+    lookahead: Lookahead,
+    (resumed_from, preamble): (usize, usize),
+) -> MotionPlan {
     planner::link_all(&mut raw, cfg.junction_deviation_mm);
     let step_blocks: Vec<StepBlock> = match lookahead {
         Lookahead::Whole => {
@@ -310,9 +391,13 @@ pub fn plan(
     };
     let mut blocks = Vec::with_capacity(step_blocks.len());
     let mut total = 0u64;
+    let mut end = start;
     for (b, (kind, stroke)) in step_blocks.iter().zip(meta) {
         let q = protocol::quantize(b);
         total += u64::from(q.duration_ticks());
+        for (e, s) in end.iter_mut().zip(q.steps) {
+            *e += s;
+        }
         blocks.push(PlannedBlock { block: q, kind, stroke });
     }
     let mapper = StepMapper::new(profile);
@@ -327,7 +412,7 @@ pub fn plan(
             _ => {}
         }
     }
-    Ok(MotionPlan { blocks, start, end, total_ticks: total, draw_mm, travel_mm })
+    MotionPlan { blocks, start, end, total_ticks: total, draw_mm, travel_mm, resumed_from, preamble }
 }
 
 /// Plan each block seeing at most `w` blocks (itself included): the block's speed plan is taken from planning the
@@ -436,6 +521,33 @@ mod tests {
         // A window as long as the drawing is the whole plan.
         let all = plan(&p, &steps, start, Lookahead::Window(whole.blocks.len())).unwrap();
         assert_eq!(all.total_ticks, whole.total_ticks);
+    }
+
+    #[test]
+    fn resume_keeps_the_remaining_geometry() {
+        let p = profile();
+        let d = Drawing::single_layer("a", vec![square(10.0, 10.0, 5.0), square(30.0, 10.0, 5.0)]);
+        let steps = drawing_to_steps(&p, &d).unwrap();
+        let start = homed_position(&p).unwrap();
+        let full = plan(&p, &steps, start, Lookahead::Whole).unwrap();
+        assert_eq!((full.resumed_from, full.preamble), (0, 0));
+        // Resume in the middle of the first square's drawing (block 4 is its second Draw), pen found down at 0,0.
+        let r = plan_resume(&p, &steps, start, 4, [0, 0, 0, 0]).unwrap();
+        use MoveKind::*;
+        let kinds: Vec<MoveKind> = r.blocks[..r.preamble].iter().map(|b| b.kind).collect();
+        assert_eq!(kinds, [PenUp, Settle, Travel, PenDown, Settle]);
+        assert_eq!(r.position_after(r.preamble - 1), full.position_after(3));
+        let rest: Vec<_> = r.blocks[r.preamble..].iter().map(|b| (b.block.steps, b.kind)).collect();
+        let orig: Vec<_> = full.blocks[4..].iter().map(|b| (b.block.steps, b.kind)).collect();
+        assert_eq!(rest, orig);
+        assert_eq!(r.end, full.end);
+        assert_eq!(r.original_index(r.preamble), Some(4));
+        assert_eq!(r.original_index(0), None);
+        // Resuming at a pen-up point from the pen-up height needs no pen moves.
+        let r = plan_resume(&p, &steps, start, 9, start).unwrap();
+        assert_eq!(r.blocks[..r.preamble].iter().map(|b| b.kind).collect::<Vec<_>>(), [Travel]);
+        assert_ne!(full.geometry_hash(), r.geometry_hash());
+        assert_eq!(full.geometry_hash(), plan(&p, &steps, start, Lookahead::Window(4)).unwrap().geometry_hash());
     }
 
     #[test]
