@@ -1,0 +1,132 @@
+//! The simulated plotter in-process: the firmware simulator behind the [`Transport`] trait, on virtual time.
+//!
+//! Sending feeds bytes onto the simulator's serial line (at the profile's baud rate when `baud` is set, so link
+//! throughput is modelled exactly); receiving runs the simulation forward in small slices of virtual time until a
+//! reply line is complete. The host therefore reacts to replies within one slice (one byte time at the baud rate),
+//! like a host that is much faster than its link.
+
+use std::io;
+use std::time::Duration;
+
+use plotter_fw::sim::{Sim, SimOptions};
+use plotter_fw::{MachineConfig, TICK_HZ};
+
+use super::faults::Noise;
+use super::{LineSplitter, Transport};
+
+/// The in-process simulated plotter.
+pub(crate) struct SimTransport {
+    sim: Sim,
+    lines: LineSplitter,
+    slice_ticks: u64,
+    streaming: bool,
+    was_moving: bool,
+    underruns: u64,
+    noise: Option<Noise>,
+}
+
+impl SimTransport {
+    /// A simulator for `cfg`; `baud` = `None` delivers bytes as fast as the firmware's buffer takes them.
+    pub(crate) fn new(cfg: MachineConfig, baud: Option<u32>) -> Self {
+        let mut opts = SimOptions::for_config(&cfg);
+        opts.baud = baud;
+        let slice_ticks = baud.map_or(100, |b| (u64::from(TICK_HZ) * 10).div_ceil(u64::from(b.max(1))));
+        SimTransport {
+            sim: Sim::with_options(cfg, opts),
+            lines: LineSplitter::default(),
+            slice_ticks,
+            streaming: false,
+            was_moving: false,
+            underruns: 0,
+            noise: None,
+        }
+    }
+
+    /// Corrupt the bytes sent to the firmware with `noise`.
+    pub(crate) fn with_noise(mut self, noise: Noise) -> Self {
+        self.noise = Some(noise);
+        self
+    }
+
+    /// The noise applied so far, if any.
+    pub(crate) fn noise(&self) -> Option<&Noise> {
+        self.noise.as_ref()
+    }
+
+    /// The simulator (trace, executed time).
+    pub(crate) fn sim(&self) -> &Sim {
+        &self.sim
+    }
+
+    /// Run until everything queued has executed.
+    pub(crate) fn finish(&mut self) {
+        self.sim.run_until_idle();
+        for l in self.sim.take_replies() {
+            self.lines.push(l.as_bytes());
+            self.lines.push(b"\n");
+        }
+    }
+
+    fn collect(&mut self) {
+        for l in self.sim.take_replies() {
+            self.lines.push(l.as_bytes());
+            self.lines.push(b"\n");
+        }
+    }
+
+    fn watch_underrun(&mut self) {
+        let moving = !self.sim.machine().stepper().is_idle();
+        if self.streaming && self.was_moving && !moving {
+            self.underruns += 1;
+        }
+        self.was_moving = moving;
+    }
+}
+
+impl Transport for SimTransport {
+    fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
+        match self.noise.as_mut() {
+            Some(n) => {
+                let noisy = n.apply(bytes);
+                self.sim.feed(&noisy);
+            }
+            None => self.sim.feed(bytes),
+        }
+        Ok(())
+    }
+
+    fn recv_line(&mut self, timeout: Duration) -> io::Result<Option<String>> {
+        self.collect();
+        if let Some(l) = self.lines.pop() {
+            return Ok(Some(l));
+        }
+        let end = self.sim.now().saturating_add(u64::try_from(timeout.as_micros()).unwrap_or(u64::MAX));
+        while self.sim.now() < end {
+            let before = self.sim.now();
+            let step = self.slice_ticks.min(end - before);
+            self.sim.run_for(step);
+            self.watch_underrun();
+            self.collect();
+            if let Some(l) = self.lines.pop() {
+                return Ok(Some(l));
+            }
+            if self.sim.now() == before {
+                // Nothing left to simulate: no reply can come any more.
+                return Ok(None);
+            }
+        }
+        Ok(None)
+    }
+
+    fn now(&self) -> Duration {
+        Duration::from_micros(self.sim.now())
+    }
+
+    fn set_streaming(&mut self, active: bool) {
+        self.streaming = active;
+    }
+
+    fn underruns(&self) -> Option<u64> {
+        Some(self.underruns)
+    }
+}

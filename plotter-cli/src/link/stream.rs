@@ -1,0 +1,480 @@
+//! Streaming planned step blocks to the firmware: flow control, go-back-N resends, progress and pause.
+//!
+//! # Flow control
+//! Every frame is answered exactly once by the firmware (`ok`, `error:` or `rs <n>`), and a frame leaves the
+//! firmware's receive buffer before it is answered. The host keeps a FIFO of the frames sent and not yet answered
+//! and never lets their total size exceed the buffer the firmware announced, so the firmware never has to drop a
+//! byte. Within that limit it sends as soon as it can, so the queue only runs dry when the link itself is too slow.
+//!
+//! # Resends
+//! Frames carry an implicit sequence number (it is part of their CRC, see `plotter_fw::protocol`). On `rs <E>` the
+//! firmware has accepted every frame before `E` and discards everything else until frame `E` arrives intact; the
+//! host rewinds to `E` and resends the stored bytes from there (go-back-N). The answers to frames that were already
+//! in flight when the rewind happened are `rs <E>` too; they are recognised by a generation counter on each FIFO
+//! entry and do not trigger another rewind.
+//!
+//! Line noise can also merge two frames (a lost `\n`) or split one, so the answer count can drift from the frame
+//! count. The FIFO then over- or under-estimates the bytes in flight; both are safe (an overflow is reported by the
+//! firmware and resent) and a stall is resolved: after a quiet period the host asks for the status report, and if
+//! the firmware is not simply waiting for queue space, everything it has not accepted (its `N:`) is resent.
+//!
+//! # Progress and the journal
+//! `ok` means *accepted* (queued). What has been *executed* is derived from periodic status reports: of the
+//! accepted frames, at most the planner queue (`Q:`) plus the stepper's own queue and the running block are still
+//! waiting, so `accepted − Q − 3` blocks are certainly done; when the machine is idle, all accepted blocks are.
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+use anyhow::Context as _;
+use plotter_fw::protocol::{self, Encoder, MAX_FRAME, RT_STATUS, Reply};
+use plotter_fw::stepper::STEPPER_QUEUE;
+use plotter_path::motion::{MotionPlan, MoveKind};
+
+use super::Transport;
+use super::session::{Session, Status};
+
+/// The plan's blocks as wire frames, numbered from `base`.
+pub(crate) struct Frames {
+    /// Encoded frames, `\n` included.
+    pub(crate) bytes: Vec<Vec<u8>>,
+    /// Sequence number of the first frame.
+    pub(crate) base: u32,
+    /// Whether the pen is up (and settled) after each frame: where a pause may stop.
+    pub(crate) safe_after: Vec<bool>,
+}
+
+impl Frames {
+    /// Encode `plan` starting at sequence number `base`.
+    pub(crate) fn encode(plan: &MotionPlan, base: u32) -> anyhow::Result<Frames> {
+        let mut enc = Encoder::new();
+        let mut buf = [0u8; MAX_FRAME];
+        let mut bytes = Vec::with_capacity(plan.blocks.len());
+        let mut safe_after = Vec::with_capacity(plan.blocks.len());
+        let mut pen_up = true;
+        for (i, b) in plan.blocks.iter().enumerate() {
+            let seq = base.wrapping_add(u32::try_from(i).context("too many blocks")?);
+            let n =
+                enc.encode(&b.block, seq, &mut buf).map_err(|e| anyhow::anyhow!("block {i}: cannot encode: {e:?}"))?;
+            bytes.push(buf[..n].to_vec());
+            match b.kind {
+                MoveKind::PenUp => pen_up = true,
+                MoveKind::PenDown => pen_up = false,
+                _ => {}
+            }
+            let next_is_settle = plan.blocks.get(i + 1).is_some_and(|n| n.kind == MoveKind::Settle);
+            safe_after.push(pen_up && !next_is_settle);
+        }
+        Ok(Frames { bytes, base, safe_after })
+    }
+
+    /// Number of frames.
+    pub(crate) fn len(&self) -> usize {
+        self.bytes.len()
+    }
+
+    /// Total encoded size.
+    pub(crate) fn total_bytes(&self) -> usize {
+        self.bytes.iter().map(Vec::len).sum()
+    }
+}
+
+/// Progress of a stream.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(crate) struct Progress {
+    /// Frames accepted by the firmware.
+    pub(crate) accepted: usize,
+    /// Frames certainly executed.
+    pub(crate) executed: usize,
+    /// The firmware's expected sequence number after the accepted frames.
+    pub(crate) seq_after_accepted: u32,
+    /// Resend requests acted on.
+    pub(crate) resends: u64,
+}
+
+/// What the user decided at a pause.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum PauseChoice {
+    /// Carry on.
+    Resume,
+    /// Stop here (the journal allows a later `--resume`).
+    Abort,
+}
+
+/// The caller's side of a stream: progress display, journal, pause requests.
+pub(crate) trait Control {
+    /// Called whenever the accepted or executed count changes.
+    fn progress(&mut self, p: &Progress);
+    /// Whether a pause was requested since the last call; `Some(true)` = immediately (feed hold), `Some(false)` = at
+    /// the next pen-up.
+    fn pause_requested(&mut self) -> Option<bool>;
+    /// The machine is paused (pen up, or held); ask what to do.
+    fn paused(&mut self, held: bool) -> PauseChoice;
+}
+
+/// Statistics of a finished stream.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct StreamStats {
+    /// Frames in the plan.
+    pub(crate) frames: usize,
+    /// Bytes of the frames (first transmission).
+    pub(crate) frame_bytes: usize,
+    /// Bytes actually written (with resends).
+    pub(crate) bytes_sent: u64,
+    /// Resend requests acted on.
+    pub(crate) resends: u64,
+    /// Times the host resynchronised from a status report after a stall.
+    pub(crate) resyncs: u64,
+    /// Transport time from the first frame to the last block executed.
+    pub(crate) elapsed: Duration,
+    /// Transport time from the first frame to the last frame accepted.
+    pub(crate) accept_elapsed: Duration,
+    /// Queue underruns, when the transport can see them.
+    pub(crate) underruns: Option<u64>,
+}
+
+/// Why a stream stopped early.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum StreamError {
+    /// The firmware refused a block (`error:`); nothing after it was executed.
+    #[error("the firmware refused block {block}: error {code}: {text}")]
+    Refused {
+        /// Frame index.
+        block: usize,
+        /// Error code.
+        code: u8,
+        /// Error text.
+        text: String,
+    },
+    /// The firmware raised an alarm.
+    #[error("alarm {code} ({text}) after {executed} executed block(s)")]
+    Alarm {
+        /// Alarm code.
+        code: u8,
+        /// Alarm text.
+        text: String,
+        /// Blocks certainly executed.
+        executed: usize,
+    },
+    /// The firmware restarted (its banner appeared).
+    #[error("the firmware restarted during the plot after {executed} executed block(s)")]
+    Restarted {
+        /// Blocks certainly executed.
+        executed: usize,
+    },
+    /// The user stopped the plot at a pause.
+    #[error("plot aborted by the user after {executed} executed block(s)")]
+    Aborted {
+        /// Blocks executed.
+        executed: usize,
+    },
+    /// The link failed.
+    #[error(transparent)]
+    Link(#[from] anyhow::Error),
+}
+
+impl From<std::io::Error> for StreamError {
+    fn from(e: std::io::Error) -> Self {
+        StreamError::Link(e.into())
+    }
+}
+
+/// Tuning of a stream.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct StreamOptions {
+    /// How long without any reply before the host checks the firmware's status.
+    pub(crate) quiet: Duration,
+    /// How often to ask for a status report (executed progress).
+    pub(crate) status_every: Duration,
+    /// Consecutive stalls without progress before giving up.
+    pub(crate) max_stalls: u32,
+}
+
+impl Default for StreamOptions {
+    fn default() -> Self {
+        StreamOptions { quiet: Duration::from_millis(500), status_every: Duration::from_millis(250), max_stalls: 20 }
+    }
+}
+
+struct InFlight {
+    len: usize,
+    generation: u64,
+}
+
+struct State {
+    next: usize,
+    accepted: usize,
+    executed: usize,
+    in_flight: VecDeque<InFlight>,
+    in_bytes: usize,
+    generation: u64,
+    resends: u64,
+    resyncs: u64,
+    bytes_sent: u64,
+    status_pending: bool,
+    resync_pending: bool,
+    resync_candidate: Option<u32>,
+    last_status_at: Duration,
+}
+
+impl State {
+    fn answered(&mut self) -> Option<InFlight> {
+        let e = self.in_flight.pop_front()?;
+        self.in_bytes -= e.len;
+        Some(e)
+    }
+
+    fn on_status(&mut self, s: &Status, base: u32, n: usize) {
+        let accepted_fw = usize::try_from(s.seq.wrapping_sub(base)).unwrap_or(usize::MAX);
+        if accepted_fw <= n {
+            let waiting = if s.is_idle() { 0 } else { s.queued + STEPPER_QUEUE + 1 };
+            self.executed = self.executed.max(accepted_fw.saturating_sub(waiting));
+        }
+    }
+}
+
+/// Stream `frames` over `session`. Returns when every frame has been executed.
+pub(crate) fn stream<T: Transport>(
+    session: &mut Session<T>,
+    frames: &Frames,
+    opts: StreamOptions,
+    control: &mut dyn Control,
+) -> Result<StreamStats, StreamError> {
+    let n = frames.len();
+    let rx = session.info.rx_bytes;
+    if let Some(big) = frames.bytes.iter().find(|f| f.len() > rx) {
+        return Err(StreamError::Link(anyhow::anyhow!(
+            "a {}-byte frame does not fit the firmware's {rx}-byte receive buffer",
+            big.len()
+        )));
+    }
+    let t0 = session.transport.now();
+    let mut st = State {
+        next: 0,
+        accepted: 0,
+        executed: 0,
+        in_flight: VecDeque::new(),
+        in_bytes: 0,
+        generation: 0,
+        resends: 0,
+        resyncs: 0,
+        bytes_sent: 0,
+        status_pending: false,
+        resync_pending: false,
+        resync_candidate: None,
+        last_status_at: t0,
+    };
+    let mut stalls = 0u32;
+    let mut pause_at: Option<usize> = None;
+    let mut garbage = 0usize;
+    let mut accept_elapsed = Duration::ZERO;
+    let mut last_reported = Progress::default();
+    session.transport.set_streaming(true);
+    let result = loop {
+        let progress = Progress {
+            accepted: st.accepted,
+            executed: st.executed,
+            seq_after_accepted: frames.base.wrapping_add(u32::try_from(st.accepted).unwrap_or(u32::MAX)),
+            resends: st.resends,
+        };
+        if progress != last_reported {
+            control.progress(&progress);
+            last_reported = progress;
+        }
+        if st.accepted == n {
+            accept_elapsed = session.transport.now() - t0;
+            break Ok(());
+        }
+        // Pause requests.
+        if pause_at.is_none()
+            && let Some(now) = control.pause_requested()
+        {
+            if now {
+                session.transport.send(&[protocol::RT_FEED_HOLD])?;
+                let choice = control.paused(true);
+                if choice == PauseChoice::Abort {
+                    break Err(StreamError::Aborted { executed: st.executed });
+                }
+                session.transport.send(&[protocol::RT_RESUME])?;
+            } else {
+                let from = st.next.saturating_sub(1);
+                pause_at = Some((from..n).find(|&i| frames.safe_after[i]).unwrap_or(n - 1));
+            }
+        }
+        if let Some(p) = pause_at
+            && st.accepted > p
+        {
+            let s = session.wait_idle(Duration::from_millis(100))?;
+            st.on_status(&s, frames.base, n);
+            st.executed = st.executed.max(st.accepted);
+            control.progress(&Progress { executed: st.executed, ..last_reported });
+            pause_at = None;
+            if control.paused(false) == PauseChoice::Abort {
+                break Err(StreamError::Aborted { executed: st.executed });
+            }
+            continue;
+        }
+        // Send what fits.
+        let limit = pause_at.map_or(n, |p| p + 1);
+        while st.next < limit && st.in_bytes + frames.bytes[st.next].len() <= rx {
+            let f = &frames.bytes[st.next];
+            session.transport.send(f)?;
+            st.in_flight.push_back(InFlight { len: f.len(), generation: st.generation });
+            st.in_bytes += f.len();
+            st.bytes_sent += u64::try_from(f.len()).unwrap_or(u64::MAX);
+            st.next += 1;
+        }
+        session.transport.set_streaming(st.next < n);
+        // Periodic status for the executed count.
+        let now = session.transport.now();
+        if !st.status_pending && now.saturating_sub(st.last_status_at) >= opts.status_every {
+            session.transport.send(&[RT_STATUS])?;
+            st.status_pending = true;
+            st.last_status_at = now;
+        }
+        let Some(line) = session.transport.recv_line(opts.quiet)? else {
+            // Quiet: ask for the status and decide whether the firmware is just busy.
+            stalls += 1;
+            if stalls > opts.max_stalls {
+                break Err(StreamError::Link(anyhow::anyhow!(
+                    "{}: the firmware stopped answering ({} of {n} blocks accepted)",
+                    session.name,
+                    st.accepted
+                )));
+            }
+            session.transport.send(&[RT_STATUS])?;
+            st.status_pending = true;
+            st.resync_pending = true;
+            continue;
+        };
+        if std::env::var_os("PLOTTER_DEBUG").is_some() {
+            eprintln!(
+                "[{:?}] next {} acc {} inb {} <- {line}",
+                session.transport.now(),
+                st.next,
+                st.accepted,
+                st.in_bytes
+            );
+        }
+        match Reply::parse(&line) {
+            Reply::Ok => {
+                stalls = 0;
+                st.resync_candidate = None;
+                st.answered();
+                st.accepted = (st.accepted + 1).min(st.next);
+            }
+            Reply::Error { code, text } => {
+                break Err(StreamError::Refused { block: st.accepted, code, text: text.to_string() });
+            }
+            Reply::Resend(e) => {
+                let entry = st.answered();
+                let idx = usize::try_from(e.wrapping_sub(frames.base)).unwrap_or(usize::MAX);
+                if idx > n || idx > st.next {
+                    break Err(StreamError::Link(anyhow::anyhow!(
+                        "{}: the firmware asks for frame {e}, which was never sent",
+                        session.name
+                    )));
+                }
+                st.accepted = idx;
+                if entry.is_none_or(|x| x.generation == st.generation) {
+                    st.next = idx;
+                    st.generation += 1;
+                    st.resends += 1;
+                }
+            }
+            Reply::Alarm { code, text } => {
+                break Err(StreamError::Alarm { code, text: text.to_string(), executed: st.executed });
+            }
+            Reply::Banner(_) => break Err(StreamError::Restarted { executed: st.executed }),
+            Reply::Status(s) => {
+                st.status_pending = false;
+                let Some(s) = Status::parse(s) else { continue };
+                st.on_status(&s, frames.base, n);
+                if st.resync_pending {
+                    st.resync_pending = false;
+                    let waiting_for_room = s.queued >= s.queue_size || s.state.starts_with("Hold");
+                    let accepted_fw = usize::try_from(s.seq.wrapping_sub(frames.base)).unwrap_or(usize::MAX);
+                    // A status taken just before the firmware accepts a waiting frame can show a free slot, so
+                    // only a second quiet report with the same number proves that nothing is held back.
+                    let confirmed = st.resync_candidate == Some(s.seq);
+                    st.resync_candidate = (!waiting_for_room).then_some(s.seq);
+                    if !waiting_for_room && confirmed && accepted_fw <= st.next {
+                        // Nothing is held back by the firmware: whatever is unanswered is lost.
+                        st.resync_candidate = None;
+                        st.in_flight.clear();
+                        st.in_bytes = 0;
+                        st.accepted = accepted_fw;
+                        st.next = accepted_fw;
+                        st.generation += 1;
+                        st.resyncs += 1;
+                    } else {
+                        stalls = 0;
+                    }
+                }
+            }
+            Reply::Info(_) => {
+                garbage += 1;
+                if garbage > 1000 && st.accepted == 0 {
+                    break Err(StreamError::Link(anyhow::anyhow!(
+                        "{}: the device answers with unrecognised lines",
+                        session.name
+                    )));
+                }
+            }
+        }
+    };
+    session.transport.set_streaming(false);
+    result?;
+    // Everything accepted: wait for the motion to finish.
+    let s = session.wait_idle(Duration::from_millis(50))?;
+    st.on_status(&s, frames.base, n);
+    st.executed = n;
+    control.progress(&Progress {
+        accepted: n,
+        executed: n,
+        seq_after_accepted: frames.base.wrapping_add(u32::try_from(n).unwrap_or(u32::MAX)),
+        resends: st.resends,
+    });
+    Ok(StreamStats {
+        frames: n,
+        frame_bytes: frames.total_bytes(),
+        bytes_sent: st.bytes_sent,
+        resends: st.resends,
+        resyncs: st.resyncs,
+        elapsed: session.transport.now() - t0,
+        accept_elapsed,
+        underruns: session.transport.underruns(),
+    })
+}
+
+/// Stream a plan after checking where the firmware's sequence counter stands.
+pub(crate) fn stream_plan<T: Transport>(
+    session: &mut Session<T>,
+    plan: &MotionPlan,
+    opts: StreamOptions,
+    control: &mut dyn Control,
+) -> Result<(Frames, StreamStats), StreamError> {
+    let s = session.status()?;
+    if s.state == "Alarm" {
+        return Err(StreamError::Link(anyhow::anyhow!("{}: the machine is in alarm; reset it first", session.name)));
+    }
+    let frames = Frames::encode(plan, s.seq)?;
+    if frames.len() == 0 {
+        return Ok((frames, StreamStats::default()));
+    }
+    let stats = stream(session, &frames, opts, control)?;
+    Ok((frames, stats))
+}
+
+/// Ignore-everything control (tests, benchmarks).
+pub(crate) struct Quiet;
+
+impl Control for Quiet {
+    fn progress(&mut self, _: &Progress) {}
+    fn pause_requested(&mut self) -> Option<bool> {
+        None
+    }
+    fn paused(&mut self, _: bool) -> PauseChoice {
+        PauseChoice::Resume
+    }
+}
