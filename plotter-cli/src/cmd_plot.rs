@@ -63,6 +63,10 @@ pub(crate) struct PlotArgs {
     /// Serial baud rate [default: the profile's].
     #[arg(long)]
     pub(crate) baud: Option<u32>,
+    /// Simulated plot only: corrupt this fraction of the bytes on the simulated link (flip a bit or drop), to
+    /// watch the resends at work.
+    #[arg(long, default_value_t = 0.0)]
+    pub(crate) sim_noise: f64,
 }
 
 /// What a plot was made from: stored in the journal so that `--resume` rebuilds exactly the same plan.
@@ -287,10 +291,9 @@ impl Control for PlotControl {
         let (a, e) = (self.original(p.accepted), self.original(p.executed));
         if let Some(j) = self.journal.as_mut()
             && self.error.is_none()
+            && let Err(err) = j.record(a, e, p.seq_after_accepted)
         {
-            if let Err(err) = j.record(a, e, p.seq_after_accepted) {
-                self.error = Some(err);
-            }
+            self.error = Some(err);
         }
     }
 
@@ -359,7 +362,10 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     let baud = args.baud.unwrap_or(profile.link.baud);
     match &args.port {
         None => {
-            let transport = SimTransport::new(cfg, Some(baud));
+            let mut transport = SimTransport::new(cfg, Some(baud));
+            if args.sim_noise > 0.0 {
+                transport = transport.with_noise(crate::link::faults::Noise::new(args.sim_noise, 1));
+            }
             let mut session = Session::connect(transport, "simulated plotter")?;
             let (plan, stats, start_busy) = plot_on(&mut session, &profile, &steps, args, None, interrupt)?;
             let sim = session.transport.sim();

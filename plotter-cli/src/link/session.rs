@@ -103,8 +103,7 @@ impl<T: Transport> Session<T> {
             }
             transport.send(b"M115\n")?;
             let mut info = None;
-            loop {
-                let Some(l) = transport.recv_line(Duration::from_secs(1))? else { break };
+            while let Some(l) = transport.recv_line(Duration::from_secs(1))? {
                 if let Some(i) = parse_m115(&l) {
                     info = Some(i);
                 } else if l == "ok" {
@@ -170,6 +169,9 @@ impl<T: Transport> Session<T> {
     pub(crate) fn wait_idle(&mut self, every: Duration) -> anyhow::Result<Status> {
         loop {
             let s = self.status()?;
+            if std::env::var_os("PLOTTER_DEBUG").is_some() {
+                eprintln!("[{:?}] wait_idle {s:?}", self.transport.now());
+            }
             if s.is_idle() {
                 return Ok(s);
             }

@@ -23,6 +23,7 @@ pub(crate) struct SimTransport {
     was_moving: bool,
     underruns: u64,
     noise: Option<Noise>,
+    wire_busy_ticks: u64,
 }
 
 impl SimTransport {
@@ -39,6 +40,7 @@ impl SimTransport {
             was_moving: false,
             underruns: 0,
             noise: None,
+            wire_busy_ticks: 0,
         }
     }
 
@@ -48,23 +50,14 @@ impl SimTransport {
         self
     }
 
-    /// The noise applied so far, if any.
-    pub(crate) fn noise(&self) -> Option<&Noise> {
-        self.noise.as_ref()
+    /// Virtual time during which bytes were waiting on the wire (the link was busy), ticks.
+    pub(crate) fn wire_busy_ticks(&self) -> u64 {
+        self.wire_busy_ticks
     }
 
     /// The simulator (trace, executed time).
     pub(crate) fn sim(&self) -> &Sim {
         &self.sim
-    }
-
-    /// Run until everything queued has executed.
-    pub(crate) fn finish(&mut self) {
-        self.sim.run_until_idle();
-        for l in self.sim.take_replies() {
-            self.lines.push(l.as_bytes());
-            self.lines.push(b"\n");
-        }
     }
 
     fn collect(&mut self) {
@@ -104,7 +97,11 @@ impl Transport for SimTransport {
         while self.sim.now() < end {
             let before = self.sim.now();
             let step = self.slice_ticks.min(end - before);
+            let wire_busy = self.sim.wire_len() > 0;
             self.sim.run_for(step);
+            if wire_busy {
+                self.wire_busy_ticks += self.sim.now() - before;
+            }
             self.watch_underrun();
             self.collect();
             if let Some(l) = self.lines.pop() {

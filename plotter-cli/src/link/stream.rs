@@ -27,6 +27,7 @@ use std::collections::VecDeque;
 use std::time::Duration;
 
 use anyhow::Context as _;
+use plotter_fw::errors::ErrorCode;
 use plotter_fw::protocol::{self, Encoder, MAX_FRAME, RT_STATUS, Reply};
 use plotter_fw::stepper::STEPPER_QUEUE;
 use plotter_path::motion::{MotionPlan, MoveKind};
@@ -125,6 +126,8 @@ pub(crate) struct StreamStats {
     pub(crate) resends: u64,
     /// Times the host resynchronised from a status report after a stall.
     pub(crate) resyncs: u64,
+    /// Frames that arrived so damaged that the firmware took them for (bad) G-code.
+    pub(crate) noise_errors: u64,
     /// Transport time from the first frame to the last block executed.
     pub(crate) elapsed: Duration,
     /// Transport time from the first frame to the last frame accepted.
@@ -196,6 +199,9 @@ impl Default for StreamOptions {
     }
 }
 
+/// Error codes that refuse a step block for what it is (rather than because it was damaged on the way).
+const REFUSALS: [u8; 3] = [ErrorCode::SoftLimit.code(), ErrorCode::Alarm.code(), ErrorCode::BadFrame.code()];
+
 struct InFlight {
     len: usize,
     generation: u64,
@@ -210,6 +216,7 @@ struct State {
     generation: u64,
     resends: u64,
     resyncs: u64,
+    noise_errors: u64,
     bytes_sent: u64,
     status_pending: bool,
     resync_pending: bool,
@@ -258,6 +265,7 @@ pub(crate) fn stream<T: Transport>(
         generation: 0,
         resends: 0,
         resyncs: 0,
+        noise_errors: 0,
         bytes_sent: 0,
         status_pending: false,
         resync_pending: false,
@@ -291,6 +299,15 @@ pub(crate) fn stream<T: Transport>(
         {
             if now {
                 session.transport.send(&[protocol::RT_FEED_HOLD])?;
+                // The firmware only resumes once the hold has come to a stop.
+                loop {
+                    let s = session.status()?;
+                    st.on_status(&s, frames.base, n);
+                    if s.state == "Hold:0" || s.is_idle() {
+                        break;
+                    }
+                    let _ = session.transport.recv_line(Duration::from_millis(20))?;
+                }
                 let choice = control.paused(true);
                 if choice == PauseChoice::Abort {
                     break Err(StreamError::Aborted { executed: st.executed });
@@ -363,8 +380,15 @@ pub(crate) fn stream<T: Transport>(
                 st.answered();
                 st.accepted = (st.accepted + 1).min(st.next);
             }
-            Reply::Error { code, text } => {
+            Reply::Error { code, text } if REFUSALS.contains(&code) => {
                 break Err(StreamError::Refused { block: st.accepted, code, text: text.to_string() });
+            }
+            Reply::Error { .. } => {
+                // Only frames are sent while streaming, so a G-code error means line noise turned a frame into
+                // something else (e.g. a cleared marker bit): that frame is lost, and the next frame's resend
+                // request (or the stall check) brings it back.
+                st.answered();
+                st.noise_errors += 1;
             }
             Reply::Resend(e) => {
                 let entry = st.answered();
@@ -392,7 +416,7 @@ pub(crate) fn stream<T: Transport>(
                 st.on_status(&s, frames.base, n);
                 if st.resync_pending {
                     st.resync_pending = false;
-                    let waiting_for_room = s.queued >= s.queue_size || s.state.starts_with("Hold");
+                    let waiting_for_room = s.queued >= s.queue_size && s.state == "Run";
                     let accepted_fw = usize::try_from(s.seq.wrapping_sub(frames.base)).unwrap_or(usize::MAX);
                     // A status taken just before the firmware accepts a waiting frame can show a free slot, so
                     // only a second quiet report with the same number proves that nothing is held back.
@@ -441,6 +465,7 @@ pub(crate) fn stream<T: Transport>(
         bytes_sent: st.bytes_sent,
         resends: st.resends,
         resyncs: st.resyncs,
+        noise_errors: st.noise_errors,
         elapsed: session.transport.now() - t0,
         accept_elapsed,
         underruns: session.transport.underruns(),
@@ -476,5 +501,159 @@ impl Control for Quiet {
     }
     fn paused(&mut self, _: bool) -> PauseChoice {
         PauseChoice::Resume
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::faults::Noise;
+    use crate::link::sim::SimTransport;
+    use plotter_fw::Axis;
+    use plotter_path::kurbo::Point;
+    use plotter_path::motion::{self, Lookahead};
+    use plotter_path::steps::drawing_to_steps;
+    use plotter_path::{Drawing, MachineProfile, Polyline};
+
+    fn spiral_plan(profile: &MachineProfile, start: [i32; 4]) -> MotionPlan {
+        let pts: Vec<Point> = (0..1500)
+            .map(|i| {
+                let t = f64::from(i) * 0.05;
+                Point::new(100.0 + (5.0 + t) * t.cos(), 100.0 + (5.0 + t) * t.sin())
+            })
+            .collect();
+        let square = |x: f64| {
+            Polyline::new(vec![
+                Point::new(x, 10.0),
+                Point::new(x + 10.0, 10.0),
+                Point::new(x + 10.0, 20.0),
+                Point::new(x, 20.0),
+                Point::new(x, 10.0),
+            ])
+        };
+        let mut paths: Vec<Polyline> = (0..40).map(|i| square(10.0 + 8.0 * f64::from(i))).collect();
+        paths.push(Polyline::new(pts));
+        let d = Drawing::single_layer("s", paths);
+        let steps = drawing_to_steps(profile, &d).unwrap();
+        motion::plan(profile, &steps, start, Lookahead::Whole).unwrap()
+    }
+
+    struct Run {
+        trace: Vec<(Axis, bool)>,
+        stats: StreamStats,
+        busy: u64,
+        plan_ticks: u64,
+        end: [i64; 4],
+        plan_end: [i32; 4],
+    }
+
+    fn run(noise: Option<Noise>, control: &mut dyn Control) -> Result<Run, StreamError> {
+        let profile = MachineProfile::default_plotter();
+        let cfg = motion::machine_config(&profile).unwrap();
+        let mut t = SimTransport::new(cfg, Some(115_200));
+        if let Some(n) = noise {
+            t = t.with_noise(n);
+        }
+        let mut s = Session::connect(t, "sim").unwrap();
+        s.home().unwrap();
+        let start = s.status().unwrap().steps;
+        let plan = spiral_plan(&profile, start);
+        let busy0 = s.transport.sim().hal().busy_ticks();
+        let steps0 = s.transport.sim().hal().steps().len();
+        let (_, stats) = stream_plan(&mut s, &plan, StreamOptions::default(), control)?;
+        let sim = s.transport.sim();
+        Ok(Run {
+            trace: sim.hal().steps()[steps0..].iter().map(|e| (e.axis, e.forward)).collect(),
+            stats,
+            busy: sim.hal().busy_ticks() - busy0,
+            plan_ticks: plan.total_ticks,
+            end: sim.physical_position(),
+            plan_end: plan.end,
+        })
+    }
+
+    #[test]
+    fn clean_run_executes_the_plan_exactly() {
+        let r = run(None, &mut Quiet).unwrap();
+        assert_eq!(r.busy, r.plan_ticks, "host-planned time is the executed time");
+        assert_eq!(r.end, r.plan_end.map(i64::from));
+        assert_eq!((r.stats.resends, r.stats.resyncs), (0, 0));
+        assert_eq!(r.stats.underruns, Some(0));
+        assert_eq!(r.stats.bytes_sent, u64::try_from(r.stats.frame_bytes).unwrap());
+    }
+
+    #[test]
+    fn noisy_link_gives_the_same_trace_with_resends() {
+        let clean = run(None, &mut Quiet).unwrap();
+        for seed in [1, 2] {
+            let noisy = run(Some(Noise::new(0.01, seed)), &mut Quiet).unwrap();
+            assert!(noisy.stats.resends > 10, "seed {seed}: {:?}", noisy.stats);
+            assert!(noisy.stats.bytes_sent > clean.stats.bytes_sent);
+            assert_eq!(noisy.trace, clean.trace, "seed {seed}");
+            assert_eq!(noisy.end, clean.end);
+            // Stalls for resends add idle time, never motion time.
+            assert_eq!(noisy.busy, clean.busy);
+        }
+    }
+
+    /// Pauses once after `at` accepted frames, then answers `choice`.
+    struct PauseOnce {
+        at: usize,
+        seen: usize,
+        asked: bool,
+        held: Option<bool>,
+        choice: PauseChoice,
+        immediately: bool,
+    }
+
+    impl Control for PauseOnce {
+        fn progress(&mut self, p: &Progress) {
+            self.seen = p.accepted;
+        }
+        fn pause_requested(&mut self) -> Option<bool> {
+            if !self.asked && self.seen >= self.at {
+                self.asked = true;
+                return Some(self.immediately);
+            }
+            None
+        }
+        fn paused(&mut self, held: bool) -> PauseChoice {
+            self.held = Some(held);
+            self.choice
+        }
+    }
+
+    #[test]
+    fn pause_at_pen_up_then_resume_or_abort() {
+        let clean = run(None, &mut Quiet).unwrap();
+        let mut c =
+            PauseOnce { at: 3, seen: 0, asked: false, held: None, choice: PauseChoice::Resume, immediately: false };
+        let r = run(None, &mut c).unwrap();
+        assert_eq!(c.held, Some(false));
+        assert_eq!(r.trace, clean.trace);
+        let mut c =
+            PauseOnce { at: 3, seen: 0, asked: false, held: None, choice: PauseChoice::Abort, immediately: false };
+        let profile = MachineProfile::default_plotter();
+        let plan = spiral_plan(&profile, [0, 0, 1600, 0]);
+        match run(None, &mut c) {
+            // The pause waits for a stroke to end: the last executed block lifted the pen (or let it settle).
+            Err(StreamError::Aborted { executed }) => {
+                assert!(executed > 3 && executed < plan.blocks.len() / 2, "{executed}");
+                let last = &plan.blocks[executed - 1];
+                let before = &plan.blocks[executed - 2];
+                assert!(
+                    last.kind == MoveKind::Settle && before.kind == MoveKind::PenUp,
+                    "{:?} {:?}",
+                    before.kind,
+                    last.kind
+                );
+            }
+            other => panic!("{:?}", other.map(|r| r.stats)),
+        }
+        let mut c =
+            PauseOnce { at: 100, seen: 0, asked: false, held: None, choice: PauseChoice::Resume, immediately: true };
+        let r = run(None, &mut c).unwrap();
+        assert_eq!(c.held, Some(true));
+        assert_eq!(r.trace, clean.trace);
     }
 }

@@ -1,0 +1,65 @@
+//! `plotter console`: type G-code lines and see the firmware's replies. A line holding only `?`, `!` or `~` sends
+//! that real-time byte (status report, feed hold, resume); `reset` sends Ctrl-X. End with Ctrl-D.
+
+use std::io::BufRead as _;
+use std::sync::mpsc;
+use std::time::Duration;
+
+use plotter_fw::protocol::{RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
+
+use crate::cmd_home::LinkArgs;
+use crate::link::Transport as _;
+
+/// What a typed line sends.
+pub(crate) fn console_bytes(line: &str) -> Vec<u8> {
+    match line.trim() {
+        "?" => vec![RT_STATUS],
+        "!" => vec![RT_FEED_HOLD],
+        "~" => vec![RT_RESUME],
+        "reset" => vec![RT_RESET],
+        other => format!("{other}\n").into_bytes(),
+    }
+}
+
+/// Run `plotter console`.
+pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
+    let mut session = args.connect()?;
+    eprintln!("type G-code; ? status, ! hold, ~ resume, reset; Ctrl-D ends");
+    let (tx, rx) = mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    loop {
+        match rx.try_recv() {
+            Ok(line) => session.transport.send(&console_bytes(&line))?,
+            Err(mpsc::TryRecvError::Disconnected) => {
+                // Show the last answers, then stop.
+                while let Some(l) = session.transport.recv_line(Duration::from_millis(300))? {
+                    println!("{l}");
+                }
+                return Ok(());
+            }
+            Err(mpsc::TryRecvError::Empty) => {}
+        }
+        if let Some(l) = session.transport.recv_line(Duration::from_millis(20))? {
+            println!("{l}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn real_time_keys() {
+        assert_eq!(console_bytes(" ? "), b"?");
+        assert_eq!(console_bytes("reset"), [0x18]);
+        assert_eq!(console_bytes("G1 X1"), b"G1 X1\n");
+    }
+}

@@ -1,0 +1,146 @@
+//! `plotter sim --pty`: the simulated firmware on a pseudo-terminal, so that `plotter plot --port /dev/pts/N` (or
+//! any serial terminal) exercises the real serial code path end to end.
+//!
+//! The pty is opened with nix's safe `openpty`; the simulator owns the master side. Bytes read from the master
+//! feed the simulator's serial line (optionally through line noise), its replies are written back. Time runs at
+//! wall-clock speed by default (a plot takes as long as on the machine) or as fast as possible with `--fast`. On
+//! Ctrl-C (SIGINT), the step trace is written to `--trace` (one line per step: the position
+//! after it, `x y z` in steps), followed by a summary line `# busy_ticks <motion time in µs> steps <count>`.
+
+use std::fs::File;
+use std::io::{Read as _, Write as _};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, bail};
+use nix::pty::openpty;
+use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
+use plotter_fw::sim::{Sim, SimOptions};
+
+use crate::cmd_plot::load_profile;
+use crate::link::faults::Noise;
+use plotter_path::motion;
+
+/// Arguments of `plotter sim`.
+#[derive(clap::Args, Debug, Clone)]
+pub(crate) struct SimArgs {
+    /// Expose the simulator on a pseudo-terminal and print its device path (the only mode so far).
+    #[arg(long)]
+    pub(crate) pty: bool,
+    /// Machine profile (TOML); the built-in XY plotter kit profile by default.
+    #[arg(long)]
+    pub(crate) profile: Option<PathBuf>,
+    /// Run as fast as possible instead of in real time.
+    #[arg(long)]
+    pub(crate) fast: bool,
+    /// Corrupt this fraction of the received bytes (flip a bit or drop the byte), to test recovery.
+    #[arg(long, default_value_t = 0.0)]
+    pub(crate) noise: f64,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) seed: u64,
+    /// Write the step trace here on exit.
+    #[arg(long)]
+    pub(crate) trace: Option<PathBuf>,
+}
+
+/// Write the simulator's step trace (see the module docs).
+pub(crate) fn write_trace(sim: &Sim, path: &Path) -> anyhow::Result<()> {
+    let mut out =
+        std::io::BufWriter::new(File::create(path).with_context(|| format!("cannot create {}", path.display()))?);
+    let mut pos = [0i64; 4];
+    for e in sim.hal().steps() {
+        pos[e.axis.index()] += if e.forward { 1 } else { -1 };
+        writeln!(out, "{} {} {}", pos[0], pos[1], pos[2])?;
+    }
+    writeln!(out, "# busy_ticks {} steps {}", sim.hal().busy_ticks(), sim.hal().steps().len())?;
+    out.flush()?;
+    Ok(())
+}
+
+/// Run `plotter sim`.
+pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
+    if !args.pty {
+        bail!(
+            "nothing to do: use `plotter sim --pty` (a simulated plot without a pty is `plotter plot` without --port)"
+        );
+    }
+    let profile = load_profile(args.profile.as_deref())?;
+    let cfg = motion::machine_config(&profile)?;
+    let mut opts = SimOptions::for_config(&cfg);
+    opts.baud = if args.fast { None } else { Some(profile.link.baud) };
+    let mut sim = Sim::with_options(cfg, opts);
+    let mut noise = (args.noise > 0.0).then(|| Noise::new(args.noise, args.seed));
+
+    let pty = openpty(None, None).context("cannot open a pseudo-terminal")?;
+    let mut tio = tcgetattr(&pty.slave).context("cannot read the pty settings")?;
+    cfmakeraw(&mut tio);
+    tcsetattr(&pty.slave, SetArg::TCSANOW, &tio).context("cannot set the pty to raw mode")?;
+    let path = nix::unistd::ttyname(&pty.slave).context("cannot name the pty")?;
+    // The client opens the slave by name; keeping our own descriptor would keep its exclusive-open flag alive
+    // after a client dies, so that a resumed client could not reopen it.
+    drop(pty.slave);
+    let mut writer = File::from(pty.master.try_clone().context("cannot duplicate the pty")?);
+    let mut reader = File::from(pty.master);
+    println!("{}", path.display());
+    std::io::stdout().flush()?;
+
+    let (tx, rx) = mpsc::channel::<Vec<u8>>();
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 4096];
+        loop {
+            match reader.read(&mut buf) {
+                Ok(0) | Err(_) => {
+                    // No client has the slave open (EIO): wait for one.
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                Ok(n) => {
+                    if tx.send(buf[..n].to_vec()).is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    });
+    let stop = Arc::new(AtomicBool::new(false));
+    let s = Arc::clone(&stop);
+    let _ = ctrlc::set_handler(move || s.store(true, Ordering::SeqCst));
+
+    let mut last = Instant::now();
+    let mut pending_out = sim.take_replies();
+    while !stop.load(Ordering::SeqCst) {
+        for l in pending_out.drain(..) {
+            // A client that is not there yet loses the line, as on a real port.
+            let _ = writer.write_all(format!("{l}\n").as_bytes());
+        }
+        let busy = sim.wire_len() > 0 || !sim.machine().is_idle() || sim.machine().has_input();
+        let wait = if busy { Duration::from_micros(200) } else { Duration::from_millis(5) };
+        match rx.recv_timeout(wait) {
+            Ok(bytes) => match noise.as_mut() {
+                Some(n) => sim.feed(&n.apply(&bytes)),
+                None => sim.feed(&bytes),
+            },
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+        let now = Instant::now();
+        let elapsed = now.duration_since(last);
+        last = now;
+        if args.fast {
+            sim.run_for(50_000);
+        } else {
+            sim.run_for(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX));
+        }
+        pending_out = sim.take_replies();
+    }
+    if let Some(t) = &args.trace {
+        write_trace(&sim, t)?;
+    }
+    if let Some(n) = &noise {
+        eprintln!("noise: {} bytes flipped, {} dropped", n.flipped, n.dropped);
+    }
+    Ok(())
+}
