@@ -289,9 +289,13 @@ impl Control for PlotControl {
         let pct = if self.total_draw > 0.0 { 100.0 * done / self.total_draw } else { 100.0 };
         self.bar.set_message(format!("pen-down {pct:.0}%  ETA {:.0}s  resends {}", secs, p.resends));
         let (a, e) = (self.original(p.accepted), self.original(p.executed));
+        // The journal pairs a block number with the sequence number after it; during a resume preamble that is
+        // the number the firmware will have once the preamble is through.
+        let pending = u32::try_from(self.preamble.saturating_sub(p.accepted)).unwrap_or(u32::MAX);
+        let seq = p.seq_after_accepted.wrapping_add(pending);
         if let Some(j) = self.journal.as_mut()
             && self.error.is_none()
-            && let Err(err) = j.record(a, e, p.seq_after_accepted)
+            && let Err(err) = j.record(a, e, seq)
         {
             self.error = Some(err);
         }
@@ -469,17 +473,16 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
     let baud = args.baud.unwrap_or(profile.link.baud);
     let mut session = Session::connect(SerialTransport::open(port, baud)?, port)?;
-    let status = session.status()?;
-    // If the firmware is still running the session the host lost, idle, with everything accepted consumed and
-    // standing where the last accepted block ends, everything accepted was executed.
-    let done = if status.is_idle()
-        && status.seq == state.seq_after_accepted
-        && state.accepted > 0
-        && status.steps == full.position_after(state.accepted - 1)
-    {
-        state.accepted
-    } else {
-        state.executed
+    // If the firmware is still running the session the host lost, let it finish what it accepted. Frames that
+    // were in flight when the host died may have been accepted after the journal's last line: the firmware's
+    // sequence number tells how many (one per block). If it then stands exactly where that many blocks end,
+    // they were all executed; otherwise (restarted, moved) only the journal's executed count is certain.
+    let status = session.wait_idle(std::time::Duration::from_millis(50))?;
+    let extra = status.seq.wrapping_sub(state.seq_after_accepted);
+    let accepted = usize::try_from(extra).ok().map(|x| state.accepted + x).filter(|&a| a <= full.blocks.len());
+    let done = match accepted {
+        Some(a) if a > 0 && status.steps == full.position_after(a - 1) => a,
+        _ => state.executed,
     };
     eprintln!("resuming at block {done} of {} ({} certainly executed)", full.blocks.len(), state.executed);
     if !args.trust_position {
@@ -487,8 +490,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     }
     let now = session.status()?.steps;
     let plan = motion::plan_resume(&profile, &steps, source.start, done, now)?;
-    let mut journal = Journal::append(journal_path, &state)?;
-    journal.record(done, done, state.seq_after_accepted)?;
+    let journal = Journal::append(journal_path, &state)?;
     let mut control = PlotControl::new(&plan, &profile, Some(journal), interrupt_flag(), args.pause_immediately);
     let result = stream::stream_plan(&mut session, &plan, StreamOptions::default(), &mut control);
     control.bar.finish_and_clear();

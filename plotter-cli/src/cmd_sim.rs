@@ -4,8 +4,8 @@
 //! The pty is opened with nix's safe `openpty`; the simulator owns the master side. Bytes read from the master
 //! feed the simulator's serial line (optionally through line noise), its replies are written back. Time runs at
 //! wall-clock speed by default (a plot takes as long as on the machine) or as fast as possible with `--fast`. On
-//! Ctrl-C (SIGINT), the step trace is written to `--trace` (one line per step: the position
-//! after it, `x y z` in steps), followed by a summary line `# busy_ticks <motion time in µs> steps <count>`.
+//! Ctrl-C (SIGINT), the step trace is written to `--trace` (one line per step: its time in µs and the position
+//! after it, `t x y z` in steps), followed by a summary line `# busy_ticks <motion time in µs> steps <count>`.
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -54,7 +54,7 @@ pub(crate) fn write_trace(sim: &Sim, path: &Path) -> anyhow::Result<()> {
     let mut pos = [0i64; 4];
     for e in sim.hal().steps() {
         pos[e.axis.index()] += if e.forward { 1 } else { -1 };
-        writeln!(out, "{} {} {}", pos[0], pos[1], pos[2])?;
+        writeln!(out, "{} {} {} {}", e.time, pos[0], pos[1], pos[2])?;
     }
     writeln!(out, "# busy_ticks {} steps {}", sim.hal().busy_ticks(), sim.hal().steps().len())?;
     out.flush()?;

@@ -160,9 +160,44 @@ impl<T: Transport> Session<T> {
         bail!("{}: no status report", self.name)
     }
 
-    /// Run the homing cycle (`G28`).
+    /// Send one G-code line numbered and checksummed (`N<n> line*<cs>`, with `n` the firmware's expected sequence
+    /// number), so that a line damaged on the way is detected and resent instead of being misread; wait for its
+    /// `ok`. Returns the report lines before it.
+    pub(crate) fn command_checked(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
+        let mut out = Vec::new();
+        let mut seq = self.status()?.seq;
+        for _attempt in 0..10 {
+            let body = format!("N{seq} {line}");
+            let cs = plotter_fw::protocol::xor_checksum(body.as_bytes());
+            self.transport.send(format!("{body}*{cs}\n").as_bytes())?;
+            let deadline = self.transport.now() + timeout;
+            loop {
+                let left = deadline.saturating_sub(self.transport.now());
+                let Some(l) = self.transport.recv_line(left.max(Duration::from_millis(1)))? else {
+                    // Lost without an answer (e.g. its line end was dropped): ask where the firmware stands.
+                    seq = self.status()?.seq;
+                    break;
+                };
+                match Reply::parse(&l) {
+                    Reply::Ok => return Ok(out),
+                    Reply::Error { code, text } => bail!("{}: {line:?} refused: error {code}: {text}", self.name),
+                    Reply::Alarm { code, text } => bail!("{}: alarm {code} ({text}) during {line:?}", self.name),
+                    Reply::Banner(_) => bail!("{}: the firmware restarted during {line:?}", self.name),
+                    Reply::Resend(n) => {
+                        seq = n;
+                        break;
+                    }
+                    Reply::Status(_) => {}
+                    Reply::Info(i) => out.push(i.to_string()),
+                }
+            }
+        }
+        bail!("{}: {line:?} could not be delivered intact after 10 attempts", self.name)
+    }
+
+    /// Run the homing cycle (`G28`, sent checked).
     pub(crate) fn home(&mut self) -> anyhow::Result<()> {
-        self.command("G28", HOMING_TIMEOUT).map(|_| ()).context("homing failed")
+        self.command_checked("G28", HOMING_TIMEOUT).map(|_| ()).context("homing failed")
     }
 
     /// Wait until the machine is idle (everything queued executed), polling the status every `every`.

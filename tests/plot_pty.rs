@@ -1,0 +1,230 @@
+//! End to end over a pseudo-terminal: `plotter sim --pty` runs the simulated firmware, `plotter plot --port` streams
+//! a drawing to it through the real serial code path, and the simulator's step trace is checked against the
+//! intended paths. Also: line noise, resume after the host is killed, and bad input.
+
+use std::io::{Read as _, Write as _};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use plotter_e2e::{SAMPLE_SVG, SimPty, Trace, plotter, plotter_bin, point_segment_distance, scratch};
+use plotter_path::steps::{StepDrawing, StepPos, drawing_to_steps};
+use plotter_path::{Drawing, MachineProfile, svg};
+
+const TOLERANCE_MM: f64 = svg::DEFAULT_TOLERANCE_MM;
+
+fn ideal() -> (MachineProfile, Drawing, StepDrawing) {
+    let profile = MachineProfile::default_plotter();
+    let opts = svg::SvgOptions { tolerance_mm: TOLERANCE_MM, ..svg::SvgOptions::default() };
+    let drawing = svg::import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", None, &opts).unwrap().drawing;
+    let steps = drawing_to_steps(&profile, &drawing).unwrap();
+    (profile, drawing, steps)
+}
+
+fn pen_threshold(p: &MachineProfile) -> i64 {
+    let mid = (p.pen.up_z_mm + p.pen.down_z_mm) / 2.0 * p.axes.z.steps_per_mm;
+    // A small positive value.
+    #[allow(clippy::cast_possible_truncation)]
+    let t = mid.round() as i64;
+    t
+}
+
+fn write_sample(dir: &Path) -> std::path::PathBuf {
+    let p = dir.join("sample.svg");
+    std::fs::write(&p, SAMPLE_SVG).unwrap();
+    p
+}
+
+fn ok(out: &std::process::Output) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "plotter failed: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
+    stdout
+}
+
+fn plot_over_pty(extra_sim: &[&str]) -> (Trace, String) {
+    let dir = scratch(&format!("pty{}", extra_sim.len()));
+    let svg = write_sample(&dir);
+    let sim = SimPty::start(&dir, &[&["--fast"], extra_sim].concat());
+    let out = plotter(&dir, &["plot", svg.to_str().unwrap(), "--port", &sim.port]);
+    let stdout = ok(&out);
+    (sim.stop(), stdout)
+}
+
+#[test]
+fn svg_plotted_over_a_pty_matches_the_intended_paths() {
+    let (profile, drawing, steps) = ideal();
+    let (trace, stdout) = plot_over_pty(&[]);
+    assert!(stdout.contains("0 resends"), "{stdout}");
+    let mut runs = trace.pen_down_runs(pen_threshold(&profile));
+    // The simulated carriage starts with the pen on the paper at the origin: homing Z first lifts it there without
+    // any XY motion. That is the only pen-down run that does not move.
+    assert_eq!(runs[0], vec![StepPos::new(0, 0)]);
+    runs.remove(0);
+    assert!(runs.iter().all(|r| r.len() > 1));
+    // Pen up on every travel move: one pen-down run per stroke, nothing drawn in between.
+    assert_eq!(runs.len(), steps.strokes.len());
+    assert_eq!(trace.mixed_xy_z_steps(), 0, "the pen never moves sideways while going up or down");
+    let spm = profile.axes.x.steps_per_mm;
+    assert_eq!(spm, profile.axes.y.steps_per_mm);
+    let half_step_mm = 0.5 / spm;
+    for ((run, stroke), path) in runs.iter().zip(&steps.strokes).zip(drawing.paths()) {
+        let verts: Vec<(f64, f64)> = stroke.positions().iter().map(|p| (f64::from(p.x), f64::from(p.y))).collect();
+        let ideal_mm: Vec<(f64, f64)> =
+            path.points.iter().map(|p| profile.page_to_machine(*p)).map(|p| (p.x, p.y)).collect();
+        assert_eq!(run.first(), Some(&stroke.start));
+        assert_eq!(run.last(), Some(&stroke.end()));
+        if path.is_closed() {
+            assert_eq!(run.first(), run.last(), "closed curves close to 0 steps");
+        }
+        for p in run {
+            let q = (f64::from(p.x), f64::from(p.y));
+            // Bresenham: within half a step of the line between the rounded vertices.
+            let d_steps = verts.windows(2).map(|w| point_segment_distance(q, w[0], w[1])).fold(f64::INFINITY, f64::min);
+            assert!(d_steps <= 0.5 + 1e-9, "{d_steps} steps off the stepped path at {p:?}");
+            // And within the flattening tolerance + half a step of the intended (flattened) path in mm.
+            let qm = (q.0 / spm, q.1 / spm);
+            let d_mm =
+                ideal_mm.windows(2).map(|w| point_segment_distance(qm, w[0], w[1])).fold(f64::INFINITY, f64::min);
+            assert!(d_mm <= TOLERANCE_MM + half_step_mm, "{d_mm} mm off the intended path at {p:?}");
+        }
+    }
+    // Final position exact: the end of the last stroke, pen up.
+    let last = steps.strokes.last().unwrap().end();
+    let up = (profile.pen.up_z_mm * profile.axes.z.steps_per_mm).round();
+    let fin = trace.positions.last().unwrap();
+    assert_eq!([fin[0], fin[1]], [i64::from(last.x), i64::from(last.y)]);
+    #[allow(clippy::cast_possible_truncation)]
+    let up = up as i64;
+    assert_eq!(fin[2], up);
+}
+
+fn resends(stdout: &str) -> u64 {
+    stdout
+        .split(',')
+        .find_map(|part| part.trim().strip_suffix(" resends").and_then(|n| n.rsplit(' ').next()?.parse().ok()))
+        .unwrap_or_else(|| panic!("no resend count in {stdout}"))
+}
+
+#[test]
+fn line_noise_gives_the_same_trace_and_reports_resends() {
+    let (clean, clean_out) = plot_over_pty(&[]);
+    assert_eq!(resends(&clean_out), 0);
+    for seed in ["3", "11"] {
+        let (noisy, out) = plot_over_pty(&["--noise", "0.01", "--seed", seed]);
+        let n = resends(&out);
+        eprintln!("seed {seed}: {n} resends");
+        assert!(n > 0, "1 % noise over ~1400 bytes must damage some frames: {out}");
+        assert_eq!(noisy.positions, clean.positions, "seed {seed}: the trace differs from the clean run");
+    }
+}
+
+fn journal_progress(path: &Path) -> Option<(usize, usize)> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let blocks = text.lines().find_map(|l| l.strip_prefix("plan "))?.split(' ').nth(1)?.parse().ok()?;
+    let accepted = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("progress "))
+        .filter_map(|l| l.split(' ').next()?.parse().ok())
+        .next_back()
+        .unwrap_or(0);
+    Some((accepted, blocks))
+}
+
+fn concat_runs(t: &Trace, threshold: i64) -> Vec<StepPos> {
+    let mut all: Vec<StepPos> = Vec::new();
+    for p in t.pen_down_runs(threshold).into_iter().flatten() {
+        if all.last() != Some(&p) {
+            all.push(p);
+        }
+    }
+    all
+}
+
+#[test]
+fn resume_after_killing_the_host_at_half() {
+    let (profile, _, _) = ideal();
+    let threshold = pen_threshold(&profile);
+    let (clean, _) = plot_over_pty(&[]);
+
+    let dir = scratch("resume");
+    let svg = write_sample(&dir);
+    let journal = dir.join("plot.journal");
+    // Real time, so that the plot takes long enough to be interrupted.
+    let sim = SimPty::start(&dir, &[]);
+    let mut host = std::process::Command::new(plotter_bin())
+        .args(["plot", svg.to_str().unwrap(), "--port", &sim.port, "--journal", journal.to_str().unwrap()])
+        .current_dir(&dir)
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    loop {
+        if let Some((a, n)) = journal_progress(&journal)
+            && a >= n / 2
+        {
+            break;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "the plot did not get to half");
+        assert!(host.try_wait().unwrap().is_none(), "the host finished before it could be killed");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    host.kill().unwrap();
+    host.wait().unwrap();
+    let (accepted, blocks) = journal_progress(&journal).unwrap();
+    assert!(accepted < blocks, "killed before the end");
+    let out = plotter(&dir, &["plot", "--resume", journal.to_str().unwrap(), "--port", &sim.port, "--trust-position"]);
+    ok(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("resuming at block"), "{stderr}");
+    let resumed = sim.stop();
+    // Every stroke drawn once, none missed: the pen-down steps are those of the uninterrupted plot.
+    assert_eq!(concat_runs(&resumed, threshold), concat_runs(&clean, threshold));
+    assert!(std::fs::read_to_string(&journal).unwrap().ends_with("complete\n"));
+}
+
+fn assert_fails(out: &std::process::Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "should fail: {needle}");
+    assert!(stderr.contains(needle), "expected {needle:?} in: {stderr}");
+}
+
+#[test]
+fn bad_gcode_and_out_of_area_moves_execute_nothing() {
+    let dir = scratch("bad");
+    std::fs::write(dir.join("unknown.gcode"), "G21\nG0 Z5\nG0 X10 Y10\nG7 X3\n").unwrap();
+    std::fs::write(dir.join("far.gcode"), "G0 Z5\nG0 X10 Y10\nG1 Z0 F100\nG1 X500 Y10\n").unwrap();
+    let sim = SimPty::start(&dir, &["--fast"]);
+    let out = plotter(&dir, &["plot", "unknown.gcode", "--port", &sim.port]);
+    assert_fails(&out, "unknown.gcode:4: unsupported command G7: unknown G code");
+    let out = plotter(&dir, &["plot", "far.gcode", "--port", &sim.port]);
+    assert_fails(&out, "outside the work area");
+    assert_fails(&out, "(500.000, 10.000) mm");
+    let trace = sim.stop();
+    assert!(trace.positions.is_empty(), "nothing may move: {} steps", trace.positions.len());
+}
+
+#[test]
+fn missing_port_and_garbage_port() {
+    let dir = scratch("ports");
+    let svg = write_sample(&dir);
+    let out = plotter(&dir, &["plot", svg.to_str().unwrap(), "--port", "/dev/no-such-plotter"]);
+    assert_fails(&out, "serial port /dev/no-such-plotter does not exist");
+
+    // A device that answers everything with noise.
+    let pty = nix::pty::openpty(None, None).unwrap();
+    let path = nix::unistd::ttyname(&pty.slave).unwrap();
+    drop(pty.slave);
+    let mut master = std::fs::File::from(pty.master);
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 256];
+        loop {
+            match master.read(&mut buf) {
+                Ok(n) if n > 0 => {
+                    let _ = master.write_all(b"\x07%garbage#1\r\n");
+                }
+                Ok(_) | Err(_) => std::thread::sleep(Duration::from_millis(10)),
+            }
+        }
+    });
+    let out = plotter(&dir, &["plot", svg.to_str().unwrap(), "--port", path.to_str().unwrap()]);
+    assert_fails(&out, "does not answer like plotter-fw");
+    assert_fails(&out, "garbage");
+}
