@@ -23,6 +23,7 @@ pub mod flatten;
 pub mod layout;
 pub mod preview;
 pub mod profile;
+pub mod stats;
 pub mod svg;
 pub mod svg_out;
 pub mod travel;
