@@ -5,6 +5,7 @@
 
 use std::time::Instant;
 
+use plotter_fw::fmath::round_i32;
 use plotter_fw::planner::{PlanBlock, link_all, plan, step_blocks};
 use plotter_fw::protocol::{Encoder, MAX_FRAME, quantize};
 use plotter_fw::sim::{Sim, SimOptions};
@@ -29,7 +30,7 @@ fn spiral_frames(c: &MachineConfig) -> (Vec<u8>, u64) {
     for i in 0..2000 {
         let a = f64::from(i) * 0.05;
         let r = 5.0 + f64::from(i) * 0.05;
-        let t = [(r * a.cos() * 200.0).round() as i32, (r * a.sin() * 200.0).round() as i32, 0, 0];
+        let t = [round_i32(r * a.cos() * 200.0), round_i32(r * a.sin() * 200.0), 0, 0];
         let steps = [t[0] - cur[0], t[1] - cur[1], 0, 0];
         cur = t;
         if let Some(b) = PlanBlock::line(c, steps, 800.0) {
@@ -66,7 +67,12 @@ fn measure(name: &str, record: bool, input: &[u8]) {
         best = best.min(t0.elapsed().as_secs_f64());
         steps = sim.hal().step_counts().iter().sum::<u64>();
     }
-    println!("{name:<40} {:>6} trace  {steps:>10} steps  {:>8.3} s  {:>8.1} M steps/s", if record { "with" } else { "no" }, best, steps as f64 / best / 1e6);
+    println!(
+        "{name:<40} {:>6} trace  {steps:>10} steps  {:>8.3} s  {:>8.1} M steps/s",
+        if record { "with" } else { "no" },
+        best,
+        steps as f64 / best / 1e6
+    );
 }
 
 fn main() {
@@ -75,7 +81,11 @@ fn main() {
     measure("one diagonal move (4M + 3M steps)", false, line);
     measure("one diagonal move (4M + 3M steps)", true, line);
     let (frames, expect) = spiral_frames(&config());
-    println!("(spiral: {} bytes of frames, {expect} steps, {:.1} bytes/block)", frames.len(), frames.len() as f64 / 2000.0);
+    println!(
+        "(spiral: {} bytes of frames, {expect} steps, {:.1} bytes/block)",
+        frames.len(),
+        frames.len() as f64 / 2000.0
+    );
     measure("2000 step-block frames (spiral)", false, &frames);
     measure("2000 step-block frames (spiral)", true, &frames);
 }

@@ -45,8 +45,22 @@ fn main() {
     let mut pins = Pins { dir: [false; NUM_AXES], steps: [0; NUM_AXES] };
     // Hard limits on X, Y, Z are checked at every event, as in the firmware.
     let mut s = Stepper::new(0, 0b0111);
-    let long = StepBlock { steps: [400_000, -250_000, 1_000, 0], entry_rate: 0, cruise_rate: 40_000, exit_rate: 0, accel: 400_000, dwell_ticks: 0 };
-    let short = StepBlock { steps: [37, 120, 0, 0], entry_rate: 3_000, cruise_rate: 4_800, exit_rate: 3_000, accel: 120_000, dwell_ticks: 0 };
+    let long = StepBlock {
+        steps: [400_000, -250_000, 1_000, 0],
+        entry_rate: 0,
+        cruise_rate: 40_000,
+        exit_rate: 0,
+        accel: 400_000,
+        dwell_ticks: 0,
+    };
+    let short = StepBlock {
+        steps: [37, 120, 0, 0],
+        entry_rate: 3_000,
+        cruise_rate: 4_800,
+        exit_rate: 3_000,
+        accel: 120_000,
+        dwell_ticks: 0,
+    };
     let mut pending = vec![long];
     pending.extend(std::iter::repeat_n(short, 20_000));
     pending.reverse();
