@@ -13,7 +13,10 @@ use plotter_fw::{Axis, TICK_HZ};
 use plotter_path::kurbo::{Line, Point};
 use plotter_path::motion::{self, Lookahead, MotionPlan};
 use plotter_path::steps::{StepDrawing, StepMapper, drawing_to_steps};
-use plotter_path::{Drawing, MachineProfile, Polyline, gcode_in, preview, svg, trajectory};
+use plotter_path::{Drawing, MachineProfile, Polyline, gcode_in, preview, trajectory};
+
+use crate::input::{InputArgs, load_drawing};
+use crate::layout_args::LayoutArgs;
 use serde::{Deserialize, Serialize};
 
 use crate::link::Transport;
@@ -36,9 +39,6 @@ pub(crate) struct PlotArgs {
     /// Machine profile (TOML); the built-in XY plotter kit profile by default.
     #[arg(long)]
     pub(crate) profile: Option<PathBuf>,
-    /// Curve flattening tolerance for SVG input, mm.
-    #[arg(long, default_value_t = svg::DEFAULT_TOLERANCE_MM)]
-    pub(crate) tolerance: f64,
     /// Do not home before plotting (the machine must already know where it is).
     #[arg(long)]
     pub(crate) no_home: bool,
@@ -67,14 +67,25 @@ pub(crate) struct PlotArgs {
     /// watch the resends at work.
     #[arg(long, default_value_t = 0.0)]
     pub(crate) sim_noise: f64,
+    #[command(flatten)]
+    pub(crate) input_args: InputArgs,
+    #[command(flatten)]
+    pub(crate) layout: LayoutArgs,
 }
 
-/// What a plot was made from: stored in the journal so that `--resume` rebuilds exactly the same plan.
+/// `plot`'s arguments on their own, to re-read the ones stored in a journal.
+#[derive(clap::Parser, Debug)]
+struct PlotOnly {
+    #[command(flatten)]
+    args: PlotArgs,
+}
+
+/// What a plot was made from: stored in the journal so that `--resume` rebuilds exactly the same plan (the
+/// `plot` arguments as given, the directory they are relative to, and where the plan started).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct PlotSource {
-    input: PathBuf,
-    profile: Option<PathBuf>,
-    tolerance: f64,
+    cwd: PathBuf,
+    args: Vec<String>,
     start: [i32; 4],
 }
 
@@ -117,36 +128,41 @@ pub(crate) fn load_profile(path: Option<&Path>) -> anyhow::Result<MachineProfile
     }
 }
 
-/// Load any supported input as steps (and the millimetre drawing for previews), printing warnings.
+/// Load any supported input as steps (and the millimetre drawing for previews), laid out as the flags say,
+/// printing warnings. A trajectory file is already in steps and is used exactly as stored unless layout flags
+/// ask for a change.
 pub(crate) fn load_steps(
     input: &Path,
     profile: &MachineProfile,
-    tolerance: f64,
+    input_args: &InputArgs,
+    layout: &LayoutArgs,
 ) -> anyhow::Result<(StepDrawing, Option<Drawing>)> {
     let shown = input.display().to_string();
-    let bytes = std::fs::read(input).with_context(|| format!("cannot read {shown}"))?;
-    let text = String::from_utf8_lossy(&bytes);
-    let drawing = match input_kind(input, &text) {
-        InputKind::Trajectory => {
-            let steps = trajectory::import(&text, &shown)?;
-            return Ok((steps, None));
-        }
-        InputKind::Svg => {
-            let opts = svg::SvgOptions { tolerance_mm: tolerance, ..svg::SvgOptions::default() };
-            let imported = svg::import_svg(&bytes, &shown, input.parent().map(Path::to_path_buf), &opts)?;
-            for w in &imported.warnings {
-                eprintln!("warning: {w}");
+    let mut drawing = if input == Path::new("-") {
+        load_drawing(input, input_args)?
+    } else {
+        let bytes = std::fs::read(input).with_context(|| format!("cannot read {shown}"))?;
+        let text = String::from_utf8_lossy(&bytes);
+        match input_kind(input, &text) {
+            InputKind::Trajectory => {
+                let steps = trajectory::import(&text, &shown)?;
+                let identity = layout.options()?.is_identity();
+                if identity {
+                    return Ok((steps, None));
+                }
+                steps.to_drawing(&StepMapper::new(profile), "trajectory")
             }
-            imported.drawing
-        }
-        InputKind::Gcode => {
-            let imported = gcode_in::import(&text, &shown, profile)?;
-            for w in &imported.warnings {
-                eprintln!("warning: {shown}: {w}");
+            InputKind::Svg => load_drawing(input, input_args)?,
+            InputKind::Gcode => {
+                let imported = gcode_in::import(&text, &shown, profile)?;
+                for w in &imported.warnings {
+                    eprintln!("warning: {shown}: {w}");
+                }
+                imported.drawing
             }
-            imported.drawing
         }
     };
+    layout.apply(&mut drawing)?;
     let steps = drawing_to_steps(profile, &drawing).with_context(|| format!("cannot convert {shown} to steps"))?;
     Ok((steps, Some(drawing)))
 }
@@ -360,7 +376,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     let input = args.input.as_deref().context("an input file is required")?;
     let profile = load_profile(args.profile.as_deref())?;
     let cfg = motion::machine_config(&profile)?;
-    let (steps, drawing) = load_steps(input, &profile, args.tolerance)?;
+    let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout)?;
     motion::check_work_area(&profile, &steps)?;
     let interrupt = interrupt_flag();
     let baud = args.baud.unwrap_or(profile.link.baud);
@@ -415,10 +431,8 @@ fn plot_on<T: Transport + 'static>(
     let journal = match journal_path {
         Some(p) => {
             let source = PlotSource {
-                input: std::fs::canonicalize(args.input.as_deref().unwrap_or(Path::new("")))
-                    .unwrap_or_else(|_| args.input.clone().unwrap_or_default()),
-                profile: args.profile.as_ref().map(|p| std::fs::canonicalize(p).unwrap_or_else(|_| p.clone())),
-                tolerance: args.tolerance,
+                cwd: std::env::current_dir().context("no current directory")?,
+                args: std::env::args().skip_while(|a| a != "plot").skip(1).collect(),
                 start,
             };
             Some(Journal::create(p, &serde_json::to_string(&source)?, plan.geometry_hash(), plan.blocks.len())?)
@@ -460,13 +474,21 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     }
     let source: PlotSource = serde_json::from_str(&state.source)
         .with_context(|| format!("{}: unreadable source line", journal_path.display()))?;
-    let profile = load_profile(source.profile.as_deref())?;
-    let (steps, _) = load_steps(&source.input, &profile, source.tolerance)?;
+    let original = <PlotOnly as clap::Parser>::try_parse_from(std::iter::once("plot".to_string()).chain(source.args))
+        .with_context(|| format!("{}: the recorded plot arguments no longer parse", journal_path.display()))?
+        .args;
+    let journal_path = std::path::absolute(journal_path)?;
+    let journal_path = journal_path.as_path();
+    std::env::set_current_dir(&source.cwd)
+        .with_context(|| format!("cannot enter {}, where the plot was started", source.cwd.display()))?;
+    let input = original.input.as_deref().context("the recorded plot has no input")?;
+    let profile = load_profile(original.profile.as_deref())?;
+    let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout)?;
     let full = motion::plan(&profile, &steps, source.start, Lookahead::Whole)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
         bail!(
             "{} no longer gives the plan recorded in {} (the input or the profile changed)",
-            source.input.display(),
+            input.display(),
             journal_path.display()
         );
     }

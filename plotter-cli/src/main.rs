@@ -1,4 +1,13 @@
 //! `plotter`: drive an XY pen plotter (or its built-in simulator) from SVGs, images and parametric curves.
+//!
+//! Each subcommand lives in its own `cmd_*.rs` file; flags shared by several commands (input, layout) are
+//! `clap::Args` structs flattened into them.
+
+mod cmd_convert;
+mod cmd_preview;
+mod cmd_stats;
+mod input;
+mod layout_args;
 
 mod cmd_bench;
 mod cmd_console;
@@ -11,8 +20,12 @@ mod link;
 use clap::{Parser, Subcommand};
 
 /// Pen-plotter controller: preview, measure, convert and plot drawings.
+///
+/// SVG rule: every visible shape is plotted along its outline — stroked paths as their centre line, fill-only
+/// shapes as the outline of the filled area. Shapes with neither fill nor stroke, and hidden elements, are skipped
+/// with a warning. Text is drawn as glyph outlines.
 #[derive(Parser)]
-#[command(name = "plotter", version, about)]
+#[command(name = "plotter", version, about, long_about)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -20,29 +33,42 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Plot a drawing on the simulated plotter (default) or a serial plotter (--port).
+    /// Render a drawing as a preview PNG
+    Preview(cmd_preview::PreviewArgs),
+    /// Print figures about a drawing (paths, segments, pen-down/up length, lifts, bounding box)
+    Stats(cmd_stats::StatsArgs),
+    /// Write the flattened, laid-out drawing as a plain SVG of polylines in mm
+    Convert(cmd_convert::ConvertArgs),
+    /// Plot a drawing on the simulated plotter (default) or a serial plotter (--port)
     Plot(cmd_plot::PlotArgs),
-    /// Run the simulated firmware on a pseudo-terminal (`--pty`) and print its device path.
+    /// Run the simulated firmware on a pseudo-terminal (`--pty`) and print its device path
     Sim(cmd_sim::SimArgs),
-    /// Home a connected plotter.
+    /// Home a connected plotter
     Home(cmd_home::LinkArgs),
-    /// Move an axis by a distance, or lift/lower the pen.
+    /// Move an axis by a distance, or lift/lower the pen
     Jog(cmd_jog::JogArgs),
-    /// Type G-code to a connected plotter and see its replies.
+    /// Type G-code to a connected plotter and see its replies
     Console(cmd_home::LinkArgs),
-    /// Benchmark the serial link on a dense drawing (simulated 115200-baud link).
+    /// Benchmark the serial link on a dense drawing (simulated 115200-baud link)
     #[command(hide = true)]
     BenchLink(cmd_bench::BenchArgs),
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() {
     let cli = Cli::parse();
-    match cli.command {
-        Command::Plot(a) => cmd_plot::run(&a),
-        Command::Sim(a) => cmd_sim::run(&a),
-        Command::Home(a) => cmd_home::run(&a),
-        Command::Jog(a) => cmd_jog::run(&a),
-        Command::Console(a) => cmd_console::run(&a),
-        Command::BenchLink(a) => cmd_bench::run(&a),
+    let result = match &cli.command {
+        Command::Preview(args) => cmd_preview::run(args),
+        Command::Stats(args) => cmd_stats::run(args),
+        Command::Convert(args) => cmd_convert::run(args),
+        Command::Plot(args) => cmd_plot::run(args),
+        Command::Sim(args) => cmd_sim::run(args),
+        Command::Home(args) => cmd_home::run(args),
+        Command::Jog(args) => cmd_jog::run(args),
+        Command::Console(args) => cmd_console::run(args),
+        Command::BenchLink(args) => cmd_bench::run(args),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
     }
 }

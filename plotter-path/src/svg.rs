@@ -13,8 +13,8 @@
 //! (0.03 µm on a 300 mm page), far below any plotter's resolution.
 //!
 //! **Arcs.** usvg turns elliptical arcs (and circles, ellipses, rounded rects) into cubic Béziers within 0.1 user
-//! units. When a user unit is large (a viewBox in millimetres drawn on a page in metres), that approximation can
-//! exceed the flattening tolerance; the importer then warns with the bound in millimetres. The chord error of a
+//! units and at most 2.7e-4 of the radius (cubics spanning ≤ 90°). Only for very large arcs can that exceed the
+//! flattening tolerance; the importer then warns with the bound in millimetres. The chord error of a
 //! curve given as an arc is therefore at most the tolerance plus usvg's 0.1 user unit.
 //!
 //! **Layers.** [`LayerBy::Group`] makes a layer of each top-level group (named by its Inkscape label, else its id);
@@ -24,7 +24,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use kurbo::{PathEl, Point};
+use kurbo::{Affine, PathEl, Point};
 use usvg::roxmltree;
 
 use crate::drawing::{Drawing, Layer, Pen, Polyline, Rgb};
@@ -175,7 +175,7 @@ pub fn import_svg(
         hidden: 0,
         dropped_subpaths: 0,
     };
-    walker.walk_root(tree.root());
+    walker.walk_root(tree.root(), root_viewbox_transform(xml.root_element()));
     if walker.hidden > 0 {
         warnings
             .push(format!("{name}: {} invisible shape(s) skipped (no fill and no stroke, or hidden)", walker.hidden));
@@ -183,15 +183,13 @@ pub fn import_svg(
     if walker.dropped_subpaths > 0 {
         warnings.push(format!("{name}: {} single-point subpath(s) skipped (nothing to draw)", walker.dropped_subpaths));
     }
-    if survey.has_arcs {
-        let worst = survey.max_user_unit_px * 0.1 * MM_PER_PX;
-        if worst > options.tolerance_mm {
-            warnings.push(format!(
-                "{name}: arcs/circles are approximated by the SVG library within 0.1 user unit = {worst:.4} mm, \
-                 more than the tolerance {:.4} mm",
-                options.tolerance_mm
-            ));
-        }
+    let arc_error_mm = arc_approximation_bound(survey.max_arc_radius) * survey.max_user_unit_px * MM_PER_PX;
+    if arc_error_mm > options.tolerance_mm {
+        warnings.push(format!(
+            "{name}: arcs/circles are approximated by the SVG library within {arc_error_mm:.4} mm, more than the \
+             tolerance {:.4} mm",
+            options.tolerance_mm
+        ));
     }
     let mut layers = walker.layers;
     layers.retain(|l| !l.paths.is_empty());
@@ -208,9 +206,10 @@ pub fn import_svg(
         }
         layers.retain(|l| options.layers.contains(&l.name));
     }
+    // The page in f64 from the document's absolute width and height when it has them, else usvg's (f32) size.
     let size = tree.size();
-    let drawing =
-        Drawing { layers, page_mm: Some((f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX)) };
+    let (w, h) = absolute_size_px(xml.root_element()).unwrap_or((f64::from(size.width()), f64::from(size.height())));
+    let drawing = Drawing { layers, page_mm: Some((w * MM_PER_PX, h * MM_PER_PX)) };
     if drawing.is_empty() {
         let detail = if warnings.is_empty() { String::new() } else { format!(" ({})", warnings.join("; ")) };
         return Err(SvgError::Empty { path: name.to_string(), detail });
@@ -223,7 +222,8 @@ struct Survey {
     labels: HashMap<String, String>,
     has_text: bool,
     text_elements: usize,
-    has_arcs: bool,
+    /// Largest radius (user units) of any arc, circle, ellipse or rounded corner; 0 when there are none.
+    max_arc_radius: f64,
     /// Largest scale from a user unit to px over the document (an upper bound from viewBox and width).
     max_user_unit_px: f64,
     warnings: Vec<String>,
@@ -235,7 +235,7 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
         labels: HashMap::new(),
         has_text: false,
         text_elements: 0,
-        has_arcs: false,
+        max_arc_radius: 0.0,
         max_user_unit_px: 1.0,
         warnings: Vec::new(),
     };
@@ -259,19 +259,25 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
         {
             s.labels.insert(id.to_string(), label.to_string());
         }
+        let number =
+            |attr: &str| node.attribute(attr).and_then(|v| v.parse::<svgtypes::Length>().ok()).map(|l| l.number);
+        let mut radius = |r: Option<f64>| s.max_arc_radius = s.max_arc_radius.max(r.unwrap_or(0.0).abs());
         match tag {
             "text" => {
                 s.has_text = true;
                 s.text_elements += 1;
             }
-            "circle" | "ellipse" => s.has_arcs = true,
-            "rect" if node.has_attribute("rx") || node.has_attribute("ry") => s.has_arcs = true,
+            "circle" => radius(number("r")),
+            "ellipse" | "rect" => {
+                radius(number("rx"));
+                radius(number("ry"));
+            }
             "path" => match node.attribute("d") {
                 None => s.warnings.push(format!("{at}: no 'd' attribute, not drawn")),
                 Some(d) => {
                     for (i, seg) in svgtypes::PathParser::from(d).enumerate() {
                         match seg {
-                            Ok(svgtypes::PathSegment::EllipticalArc { .. }) => s.has_arcs = true,
+                            Ok(svgtypes::PathSegment::EllipticalArc { rx, ry, .. }) => radius(Some(rx.max(ry))),
                             Ok(_) => {}
                             Err(e) => {
                                 s.warnings.push(format!(
@@ -305,6 +311,65 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
     s
 }
 
+/// The root viewBox transform (user units → px) computed in f64 from `width`, `height`, `viewBox` and
+/// `preserveAspectRatio`, when all are given in absolute units. usvg computes the same transform in f32; using this
+/// one keeps millimetre-based documents exact (116 mm stays 116 mm, not 115.999996).
+fn root_viewbox_transform(root: roxmltree::Node<'_, '_>) -> Option<Affine> {
+    let vb: svgtypes::ViewBox = root.attribute("viewBox")?.parse().ok()?;
+    let (w, h) = absolute_size_px(root)?;
+    if !(vb.w > 0.0 && vb.h > 0.0) {
+        return None;
+    }
+    let par: svgtypes::AspectRatio =
+        root.attribute("preserveAspectRatio").and_then(|v| v.parse().ok()).unwrap_or_default();
+    let (sx, sy) = (w / vb.w, h / vb.h);
+    use svgtypes::Align;
+    let (fx, fy) = match par.align {
+        Align::None => return Some(Affine::new([sx, 0.0, 0.0, sy, -vb.x * sx, -vb.y * sy])),
+        Align::XMinYMin => (0.0, 0.0),
+        Align::XMidYMin => (0.5, 0.0),
+        Align::XMaxYMin => (1.0, 0.0),
+        Align::XMinYMid => (0.0, 0.5),
+        Align::XMidYMid => (0.5, 0.5),
+        Align::XMaxYMid => (1.0, 0.5),
+        Align::XMinYMax => (0.0, 1.0),
+        Align::XMidYMax => (0.5, 1.0),
+        Align::XMaxYMax => (1.0, 1.0),
+    };
+    let s = if par.slice { sx.max(sy) } else { sx.min(sy) };
+    let (dx, dy) = ((w - vb.w * s) * fx, (h - vb.h * s) * fy);
+    Some(Affine::new([s, 0.0, 0.0, s, dx - vb.x * s, dy - vb.y * s]))
+}
+
+/// The root `width` and `height` in px when both are given as positive absolute lengths (not percentages).
+fn absolute_size_px(root: roxmltree::Node<'_, '_>) -> Option<(f64, f64)> {
+    let get = |a: &str| {
+        let v = root.attribute(a)?;
+        if v.trim_end().ends_with('%') {
+            return None;
+        }
+        length_px(v).filter(|l| *l > 0.0)
+    };
+    Some((get("width")?, get("height")?))
+}
+
+/// usvg's f32 transform as an f64 affine map.
+fn affine(t: &usvg::Transform) -> Affine {
+    Affine::new([t.sx, t.ky, t.kx, t.sy, t.tx, t.ty].map(f64::from))
+}
+
+/// True when the f32 transform `t` is `exact` rounded to f32 (so `exact` may replace it).
+fn rounds_to(t: &usvg::Transform, exact: Affine) -> bool {
+    affine(t).as_coeffs().iter().zip(exact.as_coeffs()).all(|(a, e)| (a - e).abs() <= 1e-6 * e.abs().max(1.0))
+}
+
+/// Upper bound (user units) of usvg's arc-to-cubic error for arcs up to `radius`: it cuts arcs into cubics of at
+/// most 90° (kurbo's `Arc::to_cubic_beziers`, at least four per turn), whose radial error is 2.7e-4 of the radius
+/// for a circle and of the larger radius for an ellipse; it never lets the error exceed 0.1 user unit.
+fn arc_approximation_bound(radius: f64) -> f64 {
+    (3e-4 * radius).min(0.1)
+}
+
 /// Length in px of an SVG length string with an absolute unit (relative units count as their bare number).
 fn length_px(text: &str) -> Option<f64> {
     let l: svgtypes::Length = text.parse().ok()?;
@@ -330,14 +395,26 @@ struct Walker<'a> {
 }
 
 impl Walker<'_> {
-    fn walk_root(&mut self, root: &usvg::Group) {
+    /// Walk the tree composing group transforms in f64; `viewbox` (exact) replaces usvg's f32 root transform.
+    fn walk_root(&mut self, mut root: &usvg::Group, viewbox: Option<Affine>) {
+        let mut t = affine(&root.transform());
+        // usvg wraps the content in anonymous groups (for the viewBox transform, for example): look through them.
+        while let [usvg::Node::Group(only)] = root.children()
+            && only.id().is_empty()
+        {
+            root = only;
+            t = match viewbox {
+                Some(exact) if t == Affine::IDENTITY && rounds_to(&root.transform(), exact) => exact,
+                _ => t * affine(&root.transform()),
+            };
+        }
         for node in root.children() {
             let layer = match (self.layer_by, node) {
                 (LayerBy::Group, usvg::Node::Group(g)) => self.group_layer_name(g),
                 (LayerBy::Group, _) => "root".to_string(),
                 _ => String::new(),
             };
-            self.walk(node, &layer);
+            self.walk(node, &layer, t);
         }
     }
 
@@ -352,21 +429,32 @@ impl Walker<'_> {
         }
     }
 
-    fn walk(&mut self, node: &usvg::Node, layer: &str) {
+    /// `t` maps the node's user units to px (its parent's absolute transform).
+    fn walk(&mut self, node: &usvg::Node, layer: &str, t: Affine) {
         match node {
             usvg::Node::Group(g) => {
+                let t = t * affine(&g.transform());
                 for child in g.children() {
-                    self.walk(child, layer);
+                    self.walk(child, layer, t);
                 }
             }
-            usvg::Node::Path(p) => self.add_path(p, layer),
-            usvg::Node::Text(t) => {
-                for child in t.flattened().children() {
-                    self.walk(child, layer);
+            usvg::Node::Path(p) => self.add_path(p, layer, t),
+            usvg::Node::Text(text) => {
+                // Glyph outlines come with usvg's own absolute transforms.
+                for child in text.flattened().children() {
+                    self.walk_text(child, layer);
                 }
             }
             // Embedded images were reported by the survey.
             usvg::Node::Image(_) => {}
+        }
+    }
+
+    fn walk_text(&mut self, node: &usvg::Node, layer: &str) {
+        match node {
+            usvg::Node::Group(g) => g.children().iter().for_each(|c| self.walk_text(c, layer)),
+            usvg::Node::Path(p) => self.add_path(p, layer, affine(&p.abs_transform())),
+            usvg::Node::Text(_) | usvg::Node::Image(_) => {}
         }
     }
 
@@ -379,7 +467,7 @@ impl Walker<'_> {
         &mut self.layers[i]
     }
 
-    fn add_path(&mut self, p: &usvg::Path, layer: &str) {
+    fn add_path(&mut self, p: &usvg::Path, layer: &str, t: Affine) {
         if !p.is_visible() {
             self.hidden += 1;
             return;
@@ -389,7 +477,7 @@ impl Walker<'_> {
             Some(usvg::Paint::Color(c)) => Rgb(c.red, c.green, c.blue),
             _ => Rgb::BLACK,
         };
-        let width_mm = p.stroke().map(|s| f64::from(s.width().get()) * MM_PER_PX * transform_scale(&p.abs_transform()));
+        let width_mm = p.stroke().map(|s| f64::from(s.width().get()) * MM_PER_PX * t.determinant().abs().sqrt());
         let key = match self.layer_by {
             LayerBy::Group => layer.to_string(),
             LayerBy::Color => color.to_hex(),
@@ -399,13 +487,8 @@ impl Walker<'_> {
         if let Some(w) = width_mm.filter(|w| *w > 0.0) {
             pen.width_mm = w;
         }
-        let t = p.abs_transform();
-        let map = move |q: usvg::tiny_skia_path::Point| -> Point {
-            let (x, y) = (f64::from(q.x), f64::from(q.y));
-            let (sx, kx, tx) = (f64::from(t.sx), f64::from(t.kx), f64::from(t.tx));
-            let (ky, sy, ty) = (f64::from(t.ky), f64::from(t.sy), f64::from(t.ty));
-            Point::new((sx * x + kx * y + tx) * MM_PER_PX, (ky * x + sy * y + ty) * MM_PER_PX)
-        };
+        let to_mm = Affine::scale(MM_PER_PX) * t;
+        let map = move |q: usvg::tiny_skia_path::Point| -> Point { to_mm * Point::new(f64::from(q.x), f64::from(q.y)) };
         let elements = p.data().segments().map(|seg| match seg {
             usvg::tiny_skia_path::PathSegment::MoveTo(a) => PathEl::MoveTo(map(a)),
             usvg::tiny_skia_path::PathSegment::LineTo(a) => PathEl::LineTo(map(a)),
@@ -418,12 +501,6 @@ impl Walker<'_> {
         let target = self.layer_mut(key, pen);
         target.paths.extend(polys.into_iter().map(Polyline::new));
     }
-}
-
-/// Geometric mean scale of a transform (for stroke widths).
-fn transform_scale(t: &usvg::Transform) -> f64 {
-    let det = f64::from(t.sx) * f64::from(t.sy) - f64::from(t.kx) * f64::from(t.ky);
-    det.abs().sqrt()
 }
 
 #[cfg(test)]

@@ -96,27 +96,28 @@ fn viewbox_with_preserve_aspect_ratio() {
 
 #[test]
 fn curves_meet_the_tolerance_and_close() {
-    // A circle of r = 100 px. usvg turns it into cubics within 0.1 user unit (here 0.1 px = 0.026 mm) before we
-    // see it; our flattening adds at most `tol` on top. The importer says so, because 0.026 mm > tol.
+    // A circle of r = 100 px. usvg turns it into quarter-circle cubics (radial error ≤ 2.7e-4 r = 0.007 mm) before we
+    // see it; our flattening adds at most `tol` on top.
     let svg = r##"<svg xmlns="http://www.w3.org/2000/svg" width="300" height="300">
         <circle cx="150" cy="150" r="100" stroke="black" fill="none"/></svg>"##;
     let tol = 0.01;
     let opts = SvgOptions { tolerance_mm: tol, ..SvgOptions::default() };
     let imported = import_svg(svg.as_bytes(), "c.svg", None, &opts).unwrap();
-    assert!(imported.warnings.iter().any(|w| w.contains("arcs/circles are approximated")), "{:?}", imported.warnings);
+    assert!(imported.warnings.is_empty(), "{:?}", imported.warnings);
     let p = imported.drawing.paths().next().unwrap();
     assert!(p.is_closed());
     let (c, r) = (px(150.0, 150.0), 100.0 * MM_PER_PX);
-    let library_bound = 0.1 * MM_PER_PX;
+    let library_bound = arc_approximation_bound(100.0) * MM_PER_PX;
     for w in p.points.windows(2) {
         // Sagitta of each chord: distance of its midpoint inside the circle.
         let sagitta = r - w[0].midpoint(w[1]).distance(c);
         assert!(sagitta <= tol + library_bound, "chord error {sagitta}");
         assert!((w[0].distance(c) - r).abs() <= library_bound);
     }
-    // The default tolerance on a px-unit drawing stays quiet: 0.026 mm < 0.05 mm.
-    let quiet = import(svg);
-    assert!(quiet.warnings.is_empty(), "{:?}", quiet.warnings);
+    // A tolerance below the library's bound is reported.
+    let opts = SvgOptions { tolerance_mm: 0.005, ..SvgOptions::default() };
+    let warned = import_svg(svg.as_bytes(), "c.svg", None, &opts).unwrap();
+    assert!(warned.warnings.iter().any(|w| w.contains("arcs/circles are approximated")), "{:?}", warned.warnings);
 }
 
 #[test]
@@ -212,4 +213,14 @@ fn bad_input_is_a_clear_error_naming_the_file() {
     let html = b"<html><body/></html>";
     let err = import_svg(html, "page.html", None, &SvgOptions::default()).unwrap_err().to_string();
     assert!(err.contains("expected <svg>"), "{err}");
+}
+
+#[test]
+fn millimetre_documents_stay_exact() {
+    // width in mm with a viewBox in mm, rotated content: the root transform is computed in f64.
+    let svg = r##"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="50mm" viewBox="0 0 100 50">
+        <g transform="translate(10 5)"><line x1="0" y1="5" x2="80" y2="35" stroke="black"/></g></svg>"##;
+    let d = import(svg).drawing;
+    assert_eq!(d.page_mm, Some((100.0, 50.0)));
+    assert_points(&d.paths().next().unwrap().points, &[Point::new(10.0, 10.0), Point::new(90.0, 40.0)], 1e-9);
 }
