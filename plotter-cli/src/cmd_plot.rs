@@ -63,6 +63,10 @@ pub(crate) struct PlotArgs {
     /// Serial baud rate [default: the profile's].
     #[arg(long)]
     pub(crate) baud: Option<u32>,
+    /// Do not plot: write the drawing, as it would be stepped, to this file — G-code (.gcode/.nc/.ngc/.g, GRBL
+    /// style, pen per the profile) or the seed plotter's trajectory format (.traj/.txt).
+    #[arg(long)]
+    pub(crate) export: Option<PathBuf>,
     /// Simulated plot only: corrupt this fraction of the bytes on the simulated link (flip a bit or drop), to
     /// watch the resends at work.
     #[arg(long, default_value_t = 0.0)]
@@ -302,8 +306,10 @@ impl Control for PlotControl {
         // Ratios of step counts for display only.
         #[allow(clippy::cast_precision_loss)]
         let secs = left as f64 / f64::from(TICK_HZ);
-        let pct = if self.total_draw > 0.0 { 100.0 * done / self.total_draw } else { 100.0 };
-        self.bar.set_message(format!("pen-down {pct:.0}%  ETA {:.0}s  resends {}", secs, p.resends));
+        self.bar.set_message(format!(
+            "pen-down {done:.0}/{:.0} mm  ETA {secs:.0} s  resends {}",
+            self.total_draw, p.resends
+        ));
         let (a, e) = (self.original(p.accepted), self.original(p.executed));
         // The journal pairs a block number with the sequence number after it; during a resume preamble that is
         // the number the firmware will have once the preamble is through.
@@ -378,6 +384,17 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     let cfg = motion::machine_config(&profile)?;
     let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout)?;
     motion::check_work_area(&profile, &steps)?;
+    if let Some(out) = &args.export {
+        let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+        let text = match ext.as_str() {
+            "gcode" | "nc" | "ngc" | "g" | "gco" => plotter_path::gcode_out::export(&profile, &steps),
+            "traj" | "trj" | "txt" => trajectory::export(&steps),
+            _ => bail!("--export {}: use a .gcode/.nc/.ngc/.g or .traj/.txt file name", out.display()),
+        };
+        std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
+        println!("{} strokes, {} moves written to {}", steps.strokes.len(), steps.move_count(), out.display());
+        return Ok(());
+    }
     let interrupt = interrupt_flag();
     let baud = args.baud.unwrap_or(profile.link.baud);
     match &args.port {
