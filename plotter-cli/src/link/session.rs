@@ -204,9 +204,6 @@ impl<T: Transport> Session<T> {
     pub(crate) fn wait_idle(&mut self, every: Duration) -> anyhow::Result<Status> {
         loop {
             let s = self.status()?;
-            if std::env::var_os("PLOTTER_DEBUG").is_some() {
-                eprintln!("[{:?}] wait_idle {s:?}", self.transport.now());
-            }
             if s.is_idle() {
                 return Ok(s);
             }

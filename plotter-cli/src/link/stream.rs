@@ -364,15 +364,6 @@ pub(crate) fn stream<T: Transport>(
             st.resync_pending = true;
             continue;
         };
-        if std::env::var_os("PLOTTER_DEBUG").is_some() {
-            eprintln!(
-                "[{:?}] next {} acc {} inb {} <- {line}",
-                session.transport.now(),
-                st.next,
-                st.accepted,
-                st.in_bytes
-            );
-        }
         match Reply::parse(&line) {
             Reply::Ok => {
                 stalls = 0;
