@@ -19,6 +19,7 @@
 //! ```
 
 pub mod drawing;
+pub mod r#gen;
 pub mod profile;
 
 pub use drawing::{Drawing, Layer, Pen, Polyline, Rgb};
