@@ -11,8 +11,8 @@
 //! Curves are computed around their own origin with Y up, as in the textbooks; the drawing flips them to page
 //! coordinates (Y down), so a Mickey's ears are on top. With `cx`/`cy` the figure's origin is put at that page
 //! position (mm) and the drawing's page size is left unknown; without them the figure is moved so its bounding box
-//! starts at (0, 0) and the page size is set to the bounding box — like an SVG whose view box hugs its content,
-//! ready for the layout stage to place on paper.
+//! starts at ([`PAGE_MARGIN_MM`], [`PAGE_MARGIN_MM`]) and the page is the bounding box plus that margin all round —
+//! like an SVG whose view box hugs its content, ready for the layout stage (`--paper a4 --fit`) to place on paper.
 //!
 //! ```
 //! let d = plotter_path::r#gen::from_spec("gen:epicycloid?q=3&r=10").unwrap();
@@ -53,6 +53,9 @@ use spec::Params;
 /// Chord tolerance (mm) used to sample an outline before a Fourier fit: fine enough that the polyline's own error
 /// is negligible next to any truncation error worth measuring.
 pub const FIT_TOLERANCE_MM: f64 = 1e-4;
+
+/// Margin (mm) around the figure on the page of a drawing generated without `cx`/`cy`.
+pub const PAGE_MARGIN_MM: f64 = 5.0;
 
 /// Default turn limit for ratios (`max_turns`).
 pub const DEFAULT_MAX_TURNS: u64 = 100;
@@ -203,9 +206,9 @@ impl Spec {
         if self.centre.is_none()
             && let Some(b) = drawing.bbox()
         {
-            let shift = Vec2::new(-b.x0, -b.y0);
+            let shift = Vec2::new(PAGE_MARGIN_MM - b.x0, PAGE_MARGIN_MM - b.y0);
             drawing.map_points(|p| p + shift);
-            drawing.page_mm = Some((b.width(), b.height()));
+            drawing.page_mm = Some((b.width() + 2.0 * PAGE_MARGIN_MM, b.height() + 2.0 * PAGE_MARGIN_MM));
         }
         Ok(drawing)
     }
@@ -387,8 +390,10 @@ mod tests {
             let d = from_spec(kind).unwrap_or_else(|e| panic!("{kind}: {e}"));
             assert!(!d.is_empty(), "{kind}");
             let b = d.bbox().unwrap();
-            assert!(b.x0.abs() < 1e-9 && b.y0.abs() < 1e-9, "{kind}: {b:?}");
-            assert_eq!(d.page_mm, Some((b.width(), b.height())));
+            let m = PAGE_MARGIN_MM;
+            assert!((b.x0 - m).abs() < 1e-9 && (b.y0 - m).abs() < 1e-9, "{kind}: {b:?}");
+            let (w, h) = d.page_mm.unwrap();
+            assert!((w - b.width() - 2.0 * m).abs() < 1e-9 && (h - b.height() - 2.0 * m).abs() < 1e-9, "{kind}");
             for p in d.paths() {
                 assert!(p.points.len() > 8, "{kind}");
             }
