@@ -90,4 +90,38 @@ mod tests {
         assert_eq!(spec_text("rose?k=3", &["a=20".into()]).unwrap(), "rose?k=3&a=20");
         assert!(spec_text("rose", &["k".into()]).is_err());
     }
+
+    fn args(kind: &str, params: &[&str], output: PathBuf) -> GenArgs {
+        GenArgs {
+            kind: Some(kind.to_string()),
+            params: params.iter().map(|p| (*p).to_string()).collect(),
+            output: Some(output),
+            list: false,
+            dpi: 96.0,
+            width_px: Some(200),
+            layout: LayoutArgs::default(),
+        }
+    }
+
+    #[test]
+    fn writes_svg_and_png() {
+        let dir = std::env::temp_dir().join(format!("plotter-cmd-gen-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let svg = dir.join("c.svg");
+        run(&args("circle", &["r=20", "tol=0.001"], svg.clone())).unwrap();
+        // The SVG reads back as one closed path on a page 40 mm wide plus the 5 mm margins.
+        let back = plotter_path::svg::load_svg(&svg, &plotter_path::svg::SvgOptions::default()).unwrap();
+        assert_eq!(back.drawing.path_count(), 1);
+        assert!(back.drawing.paths().next().unwrap().is_closed());
+        let (w, _) = back.drawing.page_mm.unwrap();
+        assert!((w - 50.0).abs() < 0.01, "{w}");
+        let png = dir.join("m.png");
+        run(&args("mickey?harmonics=8", &[], png.clone())).unwrap();
+        assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+        let e = run(&args("rose", &["k=0"], dir.join("r.svg"))).unwrap_err().to_string();
+        assert!(e.contains("rose: parameter k=\"0\""), "{e}");
+        let e = run(&args("rose", &[], dir.join("r.pdf"))).unwrap_err().to_string();
+        assert!(e.contains("should end in .svg or .png"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -81,6 +81,14 @@ pub enum GenError {
         /// What is wrong with it.
         problem: String,
     },
+    /// An outline file could not be read or holds no usable path.
+    #[error("cannot take an outline from {file}: {problem}")]
+    OutlineFile {
+        /// The file.
+        file: String,
+        /// What went wrong (the importer's message, or which path is missing).
+        problem: String,
+    },
     /// Sampling produced a non-finite coordinate (the parameters overflow `f64`).
     #[error("{kind}: curve evaluates to a non-finite point at t = {t}; parameters too large?")]
     NonFinite {

@@ -27,6 +27,7 @@ pub mod fourier;
 pub mod hausdorff;
 pub mod lissajous;
 pub mod mickey;
+pub mod outline;
 pub mod rational;
 pub mod rose;
 pub mod roulette;
@@ -41,6 +42,7 @@ pub use error::GenError;
 pub use fourier::{Epicycle, FourierSeries};
 pub use lissajous::Lissajous;
 pub use mickey::MickeyOutline;
+pub use outline::Outline;
 pub use rational::Ratio;
 pub use rose::Rose;
 pub use roulette::{Rolling, Roulette};
@@ -77,6 +79,7 @@ pub const KINDS: &[(&str, &str)] = &[
     ("mickey-outline", "size head radius [40] (the exact circle outline)"),
     ("mickey", "size [40], harmonics [32], samples [1000] (Fourier fit of mickey-outline, 1000 points)"),
     ("fourier", "of closed kind [mickey-outline] and its parameters, harmonics [32], samples [1000]"),
+    ("svg", "file, path: 1-based index [the longest closed path] — an SVG outline, for of=svg"),
     ("epicycles", "as fourier, plus at: instant 0..1 [0]; layers curve, circles, arms"),
 ];
 
@@ -98,6 +101,8 @@ pub enum Figure {
     Spiral(Spiral),
     /// The exact Mickey outline.
     MickeyOutline(MickeyOutline),
+    /// A closed outline read from a file (math orientation).
+    Outline(Outline),
     /// A Fourier fit of another (closed) figure's outline.
     Fourier {
         /// The outline fitted.
@@ -255,6 +260,18 @@ fn figure(kind: &str, p: &mut Params) -> Result<Figure, GenError> {
         }
         "spiral" => Figure::Spiral(Spiral::new(p.f64("r0", 0.0)?, p.f64("r1", 50.0)?, p.f64("turns", 10.0)?)?),
         "mickey-outline" => Figure::MickeyOutline(MickeyOutline::new(p.f64("size", 40.0)?)?),
+        "svg" => {
+            let Some(file) = p.text("file") else {
+                return Err(GenError::BadValue {
+                    kind: kind.to_string(),
+                    param: "file".to_string(),
+                    value: String::new(),
+                    problem: "the SVG file to take the outline from is required".to_string(),
+                });
+            };
+            let index = p.opt_count("path", 1, u64::MAX)?;
+            Figure::Outline(svg_outline(&file, index)?)
+        }
         "mickey" | "fourier" | "epicycles" => {
             let of_kind = if kind == "mickey" {
                 "mickey-outline".to_string()
@@ -303,6 +320,7 @@ impl Figure {
             Figure::Lissajous(c) => Box::new(*c),
             Figure::Spiral(c) => Box::new(*c),
             Figure::MickeyOutline(c) => Box::new(c.clone()),
+            Figure::Outline(c) => Box::new(c.clone()),
             Figure::Fourier { of, harmonics, samples } => Box::new(of.fit(*harmonics, *samples)?),
             Figure::Epicycles { .. } => return Ok(None),
         }))
@@ -343,6 +361,38 @@ impl Figure {
         layer.paths.push(sample(curve.as_ref(), sampling)?);
         Ok(vec![layer])
     }
+}
+
+/// The closed path number `index` (1-based, in plotting order) of the SVG `file`, or its longest closed path, in
+/// math orientation (Y flipped, so the generated drawing shows it the right way up). The file's other paths, and
+/// the importer's warnings about elements it skipped, are not used: only the one outline matters here.
+fn svg_outline(file: &str, index: Option<u64>) -> Result<Outline, GenError> {
+    let options = crate::svg::SvgOptions { tolerance_mm: FIT_TOLERANCE_MM * 10.0, ..Default::default() };
+    let imported = crate::svg::load_svg(std::path::Path::new(file), &options)
+        .map_err(|e| GenError::OutlineFile { file: file.to_string(), problem: e.to_string() })?;
+    let paths: Vec<&Polyline> = imported.drawing.paths().collect();
+    let (number, path) = match index {
+        Some(i) => {
+            let n = usize::try_from(i).unwrap_or(usize::MAX);
+            let path = paths.get(n - 1).ok_or_else(|| GenError::OutlineFile {
+                file: file.to_string(),
+                problem: format!("there is no path {i}; it has {} paths", paths.len()),
+            })?;
+            (n, *path)
+        }
+        None => paths
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.is_closed())
+            .max_by(|a, b| a.1.length().total_cmp(&b.1.length()))
+            .map(|(i, p)| (i + 1, *p))
+            .ok_or_else(|| GenError::OutlineFile {
+                file: file.to_string(),
+                problem: format!("none of its {} paths is closed", paths.len()),
+            })?,
+    };
+    let flipped = Polyline::new(path.points.iter().map(|p| Point::new(p.x, -p.y)).collect());
+    Outline::new(flipped, &format!("path {number} of {file}"))
 }
 
 /// Layers `curve`, `circles` and `arms` of the epicycle view of `series` at instant `at`.
@@ -386,7 +436,7 @@ mod tests {
 
     #[test]
     fn every_kind_generates_with_defaults() {
-        for (kind, _) in KINDS.iter().chain(&[("spirograph", "")]) {
+        for (kind, _) in KINDS.iter().chain(&[("spirograph", "")]).filter(|k| k.0 != "svg") {
             let d = from_spec(kind).unwrap_or_else(|e| panic!("{kind}: {e}"));
             assert!(!d.is_empty(), "{kind}");
             let b = d.bbox().unwrap();
@@ -462,6 +512,43 @@ mod tests {
         assert!(e.to_string().contains("open curve"), "{e}");
         let e = from_spec("fourier?of=fourier").unwrap_err();
         assert!(e.to_string().contains("plain closed curve"), "{e}");
+    }
+
+    #[test]
+    fn fourier_of_an_svg_outline() {
+        let dir = std::env::temp_dir().join(format!("plotter-gen-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("shapes.svg");
+        // An open line, a small square and a big circle (r = 30 mm): the circle is the longest closed path.
+        std::fs::write(
+            &file,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="200mm" height="200mm" viewBox="0 0 200 200">
+            <path d="M0 0 L50 50" stroke="black" fill="none"/>
+            <rect x="10" y="10" width="20" height="20" stroke="black" fill="none"/>
+            <circle cx="100" cy="100" r="30" stroke="black" fill="none"/></svg>"#,
+        )
+        .unwrap();
+        let f = file.display();
+        // A circle needs one harmonic: the fit is a circle of radius 30 (to the flattening tolerance).
+        let d = from_spec(&format!("fourier?of=svg&file={f}&harmonics=1&samples=64&cx=0&cy=0")).unwrap();
+        let path = d.paths().next().unwrap();
+        let centre = Point::new(100.0, 100.0);
+        for p in &path.points {
+            assert!((p.distance(centre) - 30.0).abs() < 0.01, "{p:?}");
+        }
+        // The square by number: its bounding box is the square's.
+        let d = from_spec(&format!("svg?file={f}&path=2&cx=0&cy=0")).unwrap();
+        let b = d.bbox().unwrap();
+        assert!((b.x0 - 10.0).abs() < 1e-9 && (b.y1 - 30.0).abs() < 1e-9, "{b:?}");
+        let e = from_spec(&format!("fourier?of=svg&file={f}&path=1")).unwrap_err().to_string();
+        assert!(e.contains("path 1 of") && e.contains("not a closed path"), "{e}");
+        let e = from_spec(&format!("fourier?of=svg&file={f}&path=9")).unwrap_err().to_string();
+        assert!(e.contains("there is no path 9; it has 3 paths"), "{e}");
+        let e = from_spec("fourier?of=svg").unwrap_err().to_string();
+        assert!(e.contains("file") && e.contains("required"), "{e}");
+        let e = from_spec("fourier?of=svg&file=/definitely/missing.svg").unwrap_err().to_string();
+        assert!(e.contains("cannot take an outline from /definitely/missing.svg"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
