@@ -15,10 +15,14 @@
 //! like an SVG whose view box hugs its content, ready for the layout stage (`--paper a4 --fit`) to place on paper.
 //!
 //! ```
-//! let d = plotter_path::r#gen::from_spec("gen:epicycloid?q=3&r=10").unwrap();
-//! let b = d.bbox().unwrap();
-//! assert!((b.width() - 100.0).abs() < 0.1); // R + 2r = 50 mm each side of the centre
-//! assert!(d.paths().next().unwrap().is_closed());
+//! use plotter_path::kurbo::Point;
+//!
+//! let d = plotter_path::r#gen::from_spec("gen:epicycloid?q=3&r=10&cx=100&cy=100").unwrap();
+//! let path = d.paths().next().unwrap();
+//! assert!(path.is_closed());
+//! // Every point lies between the fixed circle (R = q·r = 30 mm) and R + 2r = 50 mm from the centre.
+//! let centre = Point::new(100.0, 100.0);
+//! assert!(path.points.iter().all(|p| (30.0 - 1e-9..=50.0 + 1e-9).contains(&p.distance(centre))));
 //! ```
 
 pub mod circle;
@@ -433,6 +437,38 @@ fn epicycle_layers(series: &FourierSeries, at: f64, sampling: Sampling) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    fn ratio(a: u64, b: u64) -> Ratio {
+        let g = (1..=a.min(b)).rev().find(|g| a.is_multiple_of(*g) && b.is_multiple_of(*g)).unwrap_or(1);
+        Ratio { num: a / g, den: b / g }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// Every generator, with random parameters, meets the chord tolerance when sampled adaptively.
+        #[test]
+        fn generators_meet_chord_tolerance(
+            which in 0usize..6,
+            r in 1.0f64..40.0,
+            a in 1u64..9,
+            b in 1u64..5,
+            d in 0.5f64..60.0,
+            tol in 0.005f64..0.3,
+        ) {
+            let q = ratio(a, b);
+            let curve: Box<dyn Curve> = match which {
+                0 => Box::new(Roulette::cycloid(Rolling::Epi, r, q).unwrap()),
+                1 if q.num != q.den => Box::new(Roulette::cycloid(Rolling::Hypo, r, q).unwrap()),
+                2 => Box::new(Roulette::trochoid(Rolling::Epi, r, q, d).unwrap()),
+                3 if q.num != q.den => Box::new(Roulette::trochoid(Rolling::Hypo, r, q, d).unwrap()),
+                4 => Box::new(Rose::new(d, q).unwrap()),
+                _ => Box::new(Lissajous::new(r, d, u32::try_from(a).unwrap(), u32::try_from(b).unwrap(), r).unwrap()),
+            };
+            let worst = sampler::worst_chord_error(curve.as_ref(), tol);
+            prop_assert!(worst <= tol, "{}: worst chord error {} > {}", curve.name(), worst, tol);
+        }
+    }
 
     #[test]
     fn every_kind_generates_with_defaults() {

@@ -211,6 +211,22 @@ fn ratio(i: usize, n: usize) -> f64 {
     f64::from(i) / f64::from(n)
 }
 
+/// Largest distance of the curve from the chord of each segment of its adaptive sampling at `tolerance`, probing each
+/// segment's parameter interval at 64 points (the check behind the chord-tolerance property tests).
+#[cfg(test)]
+pub(crate) fn worst_chord_error(curve: &dyn Curve, tolerance: f64) -> f64 {
+    let pts = sample_with_params(curve, Sampling::Adaptive(tolerance)).unwrap();
+    let mut worst: f64 = 0.0;
+    for w in pts.windows(2) {
+        let chord = Line::new(w[0].1, w[1].1);
+        for j in 1..64 {
+            let t = w[0].0 + (w[1].0 - w[0].0) * f64::from(j) / 64.0;
+            worst = worst.max(distance_to_segment(chord, curve.point(t)));
+        }
+    }
+    worst
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -243,21 +259,6 @@ mod tests {
             let fmax = self.0.iter().map(|w| w.1.unsigned_abs()).max().unwrap_or(1).max(1);
             8 * usize::try_from(fmax).unwrap()
         }
-    }
-
-    /// Largest distance of the curve from the chord of each segment, probing each segment's parameter interval at
-    /// 64 points.
-    fn worst_chord_error(curve: &dyn Curve, tolerance: f64) -> f64 {
-        let pts = sample_with_params(curve, Sampling::Adaptive(tolerance)).unwrap();
-        let mut worst: f64 = 0.0;
-        for w in pts.windows(2) {
-            let chord = Line::new(w[0].1, w[1].1);
-            for j in 1..64 {
-                let t = w[0].0 + (w[1].0 - w[0].0) * f64::from(j) / 64.0;
-                worst = worst.max(distance_to_segment(chord, curve.point(t)));
-            }
-        }
-        worst
     }
 
     #[test]
