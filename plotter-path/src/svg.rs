@@ -206,9 +206,10 @@ pub fn import_svg(
         }
         layers.retain(|l| options.layers.contains(&l.name));
     }
+    // The page in f64 from the document's absolute width and height when it has them, else usvg's (f32) size.
     let size = tree.size();
-    let drawing =
-        Drawing { layers, page_mm: Some((f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX)) };
+    let (w, h) = absolute_size_px(xml.root_element()).unwrap_or((f64::from(size.width()), f64::from(size.height())));
+    let drawing = Drawing { layers, page_mm: Some((w * MM_PER_PX, h * MM_PER_PX)) };
     if drawing.is_empty() {
         let detail = if warnings.is_empty() { String::new() } else { format!(" ({})", warnings.join("; ")) };
         return Err(SvgError::Empty { path: name.to_string(), detail });
@@ -315,9 +316,8 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
 /// one keeps millimetre-based documents exact (116 mm stays 116 mm, not 115.999996).
 fn root_viewbox_transform(root: roxmltree::Node<'_, '_>) -> Option<Affine> {
     let vb: svgtypes::ViewBox = root.attribute("viewBox")?.parse().ok()?;
-    let (w, h) = (length_px(root.attribute("width")?)?, length_px(root.attribute("height")?)?);
-    let relative = |a: &str| root.attribute(a).is_some_and(|v| v.trim_end().ends_with('%'));
-    if relative("width") || relative("height") || !(vb.w > 0.0 && vb.h > 0.0 && w > 0.0 && h > 0.0) {
+    let (w, h) = absolute_size_px(root)?;
+    if !(vb.w > 0.0 && vb.h > 0.0) {
         return None;
     }
     let par: svgtypes::AspectRatio =
@@ -339,6 +339,18 @@ fn root_viewbox_transform(root: roxmltree::Node<'_, '_>) -> Option<Affine> {
     let s = if par.slice { sx.max(sy) } else { sx.min(sy) };
     let (dx, dy) = ((w - vb.w * s) * fx, (h - vb.h * s) * fy);
     Some(Affine::new([s, 0.0, 0.0, s, dx - vb.x * s, dy - vb.y * s]))
+}
+
+/// The root `width` and `height` in px when both are given as positive absolute lengths (not percentages).
+fn absolute_size_px(root: roxmltree::Node<'_, '_>) -> Option<(f64, f64)> {
+    let get = |a: &str| {
+        let v = root.attribute(a)?;
+        if v.trim_end().ends_with('%') {
+            return None;
+        }
+        length_px(v).filter(|l| *l > 0.0)
+    };
+    Some((get("width")?, get("height")?))
 }
 
 /// usvg's f32 transform as an f64 affine map.
