@@ -3,18 +3,18 @@
 //! Each subcommand lives in its own `cmd_*.rs` file; flags shared by several commands (input, layout) are
 //! `clap::Args` structs flattened into them.
 
-mod cmd_convert;
-mod cmd_preview;
-mod cmd_stats;
-mod input;
-mod layout_args;
-
 mod cmd_bench;
 mod cmd_console;
+mod cmd_convert;
+mod cmd_gen;
 mod cmd_home;
 mod cmd_jog;
 mod cmd_plot;
+mod cmd_preview;
 mod cmd_sim;
+mod cmd_stats;
+mod input;
+mod layout_args;
 mod link;
 
 use clap::{Parser, Subcommand};
@@ -52,6 +52,8 @@ enum Command {
     /// Benchmark the serial link on a dense drawing (simulated 115200-baud link)
     #[command(hide = true)]
     BenchLink(cmd_bench::BenchArgs),
+    /// Generate a parametric figure (roulettes, roses, Lissajous, spirals, Fourier outlines) as SVG or PNG
+    Gen(cmd_gen::GenArgs),
 }
 
 fn main() {
@@ -66,6 +68,7 @@ fn main() {
         Command::Jog(args) => cmd_jog::run(args),
         Command::Console(args) => cmd_console::run(args),
         Command::BenchLink(args) => cmd_bench::run(args),
+        Command::Gen(args) => cmd_gen::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

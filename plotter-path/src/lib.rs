@@ -26,6 +26,7 @@ pub mod layout;
 pub mod motion;
 pub mod preview;
 pub mod profile;
+pub mod r#gen;
 pub mod stats;
 pub mod steps;
 pub mod svg;
