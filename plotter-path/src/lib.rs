@@ -20,6 +20,7 @@
 
 pub mod drawing;
 pub mod profile;
+pub mod raster;
 
 pub use drawing::{Drawing, Layer, Pen, Polyline, Rgb};
 pub use kurbo;
