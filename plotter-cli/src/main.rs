@@ -6,6 +6,7 @@
 mod cmd_convert;
 mod cmd_preview;
 mod cmd_stats;
+mod cmd_trace;
 mod input;
 mod layout_args;
 
@@ -31,6 +32,8 @@ enum Command {
     Stats(cmd_stats::StatsArgs),
     /// Write the flattened, laid-out drawing as a plain SVG of polylines in mm
     Convert(cmd_convert::ConvertArgs),
+    /// Trace a PNG/JPEG image into paths (outline, centerline, edges, hatch) and write a plain SVG
+    Trace(cmd_trace::TraceCmdArgs),
 }
 
 fn main() {
@@ -39,6 +42,7 @@ fn main() {
         Command::Preview(args) => cmd_preview::run(args),
         Command::Stats(args) => cmd_stats::run(args),
         Command::Convert(args) => cmd_convert::run(args),
+        Command::Trace(args) => cmd_trace::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -380,7 +380,7 @@ pub fn photo_scene(width: usize, height: usize) -> GrayImage {
         if (bx0..bx1).contains(&p.x) && (by0..by1).contains(&p.y) {
             v = 95.0 + 25.0 * (p.x - bx0) / (bx1 - bx0);
         } else if p.y >= by0 - top && p.y < by0 && p.x >= bx0 + (by0 - p.y) && p.x < bx1 + (by0 - p.y) {
-            v = 200.0;
+            v = 242.0;
         }
         // The sphere, Lambert-shaded, anti-aliased edge.
         let d = p.distance(sc);
