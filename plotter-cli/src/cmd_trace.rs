@@ -177,3 +177,91 @@ pub(crate) fn run(args: &TraceCmdArgs) -> Result<()> {
     );
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Wrap {
+        #[command(flatten)]
+        cmd: TraceCmdArgs,
+    }
+
+    fn sample(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples").join(name)
+    }
+
+    #[test]
+    fn flags_map_to_options() {
+        let w = Wrap::try_parse_from([
+            "trace",
+            "in.png",
+            "-o",
+            "out.svg",
+            "--mode",
+            "hatch",
+            "--width",
+            "120",
+            "--threshold",
+            "100",
+            "--invert",
+            "--levels",
+            "3",
+            "--spacing",
+            "0.8",
+            "--angle",
+            "-30",
+            "--hatch-scheme",
+            "density",
+            "--paper",
+            "a4",
+        ])
+        .unwrap();
+        let o = w.cmd.trace.options();
+        assert_eq!(o.mode, Mode::Hatch);
+        assert_eq!(o.width_mm, Some(120.0));
+        assert_eq!(o.threshold, Threshold::Fixed(100));
+        assert!(o.invert);
+        assert_eq!(
+            o.hatch,
+            HatchOptions { levels: 3, spacing_mm: 0.8, angle_deg: -30.0, scheme: HatchScheme::Density }
+        );
+        assert_eq!(w.cmd.layout.paper.as_deref(), Some("a4"));
+        assert!(Wrap::try_parse_from(["trace", "in.png", "-o", "x.svg", "--threshold", "dark"]).is_err());
+        assert!(Wrap::try_parse_from(["trace", "in.png", "-o", "x.svg", "--mode", "sketch"]).is_err());
+    }
+
+    #[test]
+    fn traces_the_line_art_sample_to_svg() {
+        let out = std::env::temp_dir().join(format!("plotter-trace-test-{}.svg", std::process::id()));
+        let w = Wrap::try_parse_from([
+            "trace",
+            sample("line-art.png").to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--mode",
+            "centerline",
+            "--width",
+            "160",
+        ])
+        .unwrap();
+        run(&w.cmd).unwrap();
+        let svg = std::fs::read_to_string(&out).unwrap();
+        std::fs::remove_file(&out).ok();
+        assert!(
+            svg.contains("<svg") && svg.matches("<polyline").count() + svg.matches("<polygon").count() >= 20,
+            "{svg}"
+        );
+        assert!(is_image(&sample("line-art.png")) && is_image(&sample("photo.png")));
+        assert!(!is_image(&sample("xy-plotter.toml")));
+    }
+
+    #[test]
+    fn non_image_input_is_a_clear_error() {
+        let w = Wrap::try_parse_from(["trace", sample("xy-plotter.toml").to_str().unwrap(), "-o", "-"]).unwrap();
+        let e = run(&w.cmd).unwrap_err().to_string();
+        assert!(e.contains("xy-plotter.toml") && e.contains("not a PNG or JPEG"), "{e}");
+    }
+}
