@@ -13,6 +13,7 @@ mod cmd_plot;
 mod cmd_preview;
 mod cmd_sim;
 mod cmd_stats;
+mod cmd_trace;
 mod input;
 mod layout_args;
 mod link;
@@ -54,6 +55,8 @@ enum Command {
     BenchLink(cmd_bench::BenchArgs),
     /// Generate a parametric figure (roulettes, roses, Lissajous, spirals, Fourier outlines) as SVG or PNG
     Gen(cmd_gen::GenArgs),
+    /// Trace a PNG/JPEG image into paths (outline, centerline, edges, hatch) and write a plain SVG
+    Trace(cmd_trace::TraceCmdArgs),
 }
 
 fn main() {
@@ -69,6 +72,7 @@ fn main() {
         Command::Console(args) => cmd_console::run(args),
         Command::BenchLink(args) => cmd_bench::run(args),
         Command::Gen(args) => cmd_gen::run(args),
+        Command::Trace(args) => cmd_trace::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

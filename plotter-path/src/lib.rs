@@ -27,6 +27,7 @@ pub mod motion;
 pub mod preview;
 pub mod profile;
 pub mod r#gen;
+pub mod raster;
 pub mod stats;
 pub mod steps;
 pub mod svg;
