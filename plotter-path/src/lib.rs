@@ -19,6 +19,7 @@
 //! ```
 
 pub mod drawing;
+pub mod optimize;
 pub mod profile;
 
 pub use drawing::{Drawing, Layer, Pen, Polyline, Rgb};

@@ -189,8 +189,8 @@ pub const DEFAULT_PROFILE_TOML: &str = include_str!("../../samples/xy-plotter.to
 impl MachineProfile {
     /// Parse a profile from TOML text; `origin` names the source in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ProfileError> {
-        let profile: MachineProfile =
-            toml::from_str(text).map_err(|e| ProfileError::Parse { path: origin.to_string(), message: e.to_string() })?;
+        let profile: MachineProfile = toml::from_str(text)
+            .map_err(|e| ProfileError::Parse { path: origin.to_string(), message: e.to_string() })?;
         profile.validate(origin)?;
         Ok(profile)
     }
@@ -198,7 +198,8 @@ impl MachineProfile {
     /// Load a profile from a TOML file.
     pub fn load(path: &Path) -> Result<Self, ProfileError> {
         let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ProfileError::Read { path: shown.clone(), source })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ProfileError::Read { path: shown.clone(), source })?;
         Self::from_toml(&text, &shown)
     }
 
