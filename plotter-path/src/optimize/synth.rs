@@ -323,8 +323,8 @@ pub fn glyphs(seed: u64) -> Drawing {
 /// image tracer would emit them for a posterized photo.
 pub fn traced(seed: u64) -> Drawing {
     let mut r = SplitMix64::new(seed);
-    let field = Field::new(&mut r, 260, 3.0, 14.0);
-    drawing("traced", iso_lines(&field, &[0.25, -0.25], 1.0))
+    let field = Field::new(&mut r, 700, 2.5, 10.0);
+    drawing("traced", iso_lines(&field, &[0.3, -0.3], 1.0))
 }
 
 /// The realistic set used for the "≤ 0.80 × greedy" check: name and drawing.
