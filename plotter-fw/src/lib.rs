@@ -1,4 +1,52 @@
 //! # plotter-fw — the firmware core shared by the pen plotter and a 3D printer
 //!
-//! `#![no_std]`, no allocation. The `std` feature adds the host simulator.
+//! `#![no_std]`, no allocation; builds for `thumbv7em-none-eabihf`. The `std` feature (default) adds `sim`, the
+//! host simulator. The same code runs on both sides of the wire:
+//!
+//! - firmware: [`machine::Machine`] on a board's [`hal::Hal`] — line input ([`line_buffer`], [`gcode`]),
+//!   sequencing and resends ([`protocol`]), the planner queue ([`planner`]), the Bresenham [`stepper`], [`homing`],
+//!   [`limits`], [`realtime`] commands, the [`errors`] table;
+//! - host: the same [`planner`] over a whole drawing, [`stepper::StepBlock::duration_ticks`] for the exact
+//!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
+//!
+//! ```
+//! use plotter_fw::planner::{PlanBlock, link_all, plan, step_blocks, total_ticks};
+//! use plotter_fw::MachineConfig;
+//!
+//! let cfg = MachineConfig::xy_plotter();
+//! // Two sides of a square, 10 mm each, at 50 mm/s.
+//! let mut blocks: Vec<PlanBlock> = [[800, 0, 0, 0], [0, 800, 0, 0]]
+//!     .iter()
+//!     .filter_map(|s| PlanBlock::line(&cfg, *s, 50.0))
+//!     .collect();
+//! link_all(&mut blocks, cfg.junction_deviation_mm);
+//! plan(&mut blocks, 0.0);
+//! let ticks = total_ticks(&blocks); // exactly what the stepper will take, in µs
+//! assert!(ticks > 400_000 && ticks < 500_000);
+//! assert_eq!(step_blocks(&blocks).last().unwrap().exit_rate, 0);
+//! ```
 #![cfg_attr(not(feature = "std"), no_std)]
+
+#[cfg(test)]
+extern crate std;
+
+pub mod axis;
+pub mod config;
+pub mod errors;
+pub mod fmath;
+pub mod gcode;
+pub mod hal;
+pub mod homing;
+pub mod limits;
+pub mod line_buffer;
+pub mod machine;
+pub mod planner;
+pub mod protocol;
+pub mod realtime;
+#[cfg(feature = "std")]
+pub mod sim;
+pub mod stepper;
+
+pub use axis::{Axis, NUM_AXES};
+pub use config::MachineConfig;
+pub use stepper::{StepBlock, TICK_HZ};

@@ -19,8 +19,15 @@
 //! ```
 
 pub mod drawing;
+pub mod flatten;
+pub mod layout;
 pub mod optimize;
+pub mod preview;
 pub mod profile;
+pub mod stats;
+pub mod svg;
+pub mod svg_out;
+pub mod travel;
 
 pub use drawing::{Drawing, Layer, Pen, Polyline, Rgb};
 pub use kurbo;

@@ -1,0 +1,99 @@
+//! The `plotter` binary: preview, stats, convert, stdin/stdout, and clear errors for bad input.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+
+fn plotter() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_plotter"))
+}
+
+fn sample(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../samples").join(name)
+}
+
+fn out_dir(test: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(test);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn run(cmd: &mut Command) -> Output {
+    cmd.output().expect("run plotter")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn preview_writes_a_png() {
+    let out = out_dir("preview").join("duck.png");
+    let o = run(plotter().args(["preview"]).arg(sample("duck.svg")).arg("-o").arg(&out).arg("--travel"));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&out).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+}
+
+#[test]
+fn stats_json_has_the_documented_keys() {
+    let o = run(plotter().args(["stats", "--json"]).arg(sample("duck.svg")));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in ["paths", "segments", "pen_down_mm", "pen_up_mm", "pen_lifts", "bbox_mm"] {
+        assert!(v.get(key).is_some(), "missing {key} in {v}");
+    }
+    assert_eq!(v["paths"], 6);
+    assert_eq!(v["segments"], 71);
+    // The duck's page is 120 × 90 mm and its geometry keeps the SVG's own size.
+    assert_eq!(v["bbox_mm"], serde_json::json!([8.0, 9.0, 116.0, 82.0]));
+}
+
+#[test]
+fn convert_through_stdin_and_stdout_with_layout() {
+    let svg = std::fs::read(sample("duck.svg")).unwrap();
+    let mut child = plotter()
+        .args(["convert", "-", "-o", "-", "--paper", "a4", "--landscape", "--fit", "--margin", "20"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(&svg).unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("width=\"297mm\" height=\"210mm\""), "{text}");
+    assert_eq!(text.matches("<polygon").count() + text.matches("<polyline").count(), 6);
+}
+
+#[test]
+fn bad_inputs_fail_cleanly_naming_the_file() {
+    let dir = out_dir("bad");
+    let not_svg = dir.join("notes.svg");
+    std::fs::write(&not_svg, "just some text").unwrap();
+    let truncated = dir.join("truncated.svg");
+    std::fs::write(&truncated, "<svg xmlns=\"http://www.w3.org/2000/svg\"><line x1=\"0\" y1=\"0\"").unwrap();
+    let empty = dir.join("empty.svg");
+    std::fs::write(&empty, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"10\" height=\"10\"><g/></svg>").unwrap();
+    let missing = dir.join("missing.svg");
+    for (file, want) in [
+        (&not_svg, "not a valid SVG"),
+        (&truncated, "not a valid SVG"),
+        (&empty, "nothing to draw"),
+        (&missing, "cannot read"),
+    ] {
+        let o = run(plotter().arg("stats").arg(file));
+        assert_eq!(o.status.code(), Some(1), "{}", file.display());
+        let err = stderr(&o);
+        assert!(err.contains(&file.display().to_string()) && err.contains(want), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn layout_errors_are_reported() {
+    let o = run(plotter().args(["stats", "--paper", "b9"]).arg(sample("duck.svg")));
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("unknown paper size 'b9'"), "{}", stderr(&o));
+}

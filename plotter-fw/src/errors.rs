@@ -1,0 +1,152 @@
+//! The error and alarm tables: stable numeric codes (machine-readable) with fixed texts.
+//!
+//! A refused line is answered `error:<code> <text>`, where `<text>` starts with [`ErrorCode::text`] and may add a
+//! detail (`error:8 target outside the travel: X`). Alarms are sent unsolicited as `ALARM:<code> <text>` and latch
+//! until a reset (0x18); while latched, motion commands are refused with [`ErrorCode::Alarm`].
+//!
+//! | code | error | meaning |
+//! |-----:|-------|---------|
+//! | 1 | `ExpectedCommand` | a word without a letter, or a letter without a number |
+//! | 2 | `BadNumber` | a number that does not parse or is out of range |
+//! | 3 | `UnknownCommand` | a G or M code this firmware does not implement |
+//! | 4 | `UnsupportedWord` | a word letter not used by this firmware, or repeated |
+//! | 5 | `LineTooLong` | more than `LINE_MAX` bytes before `\n`; the line was discarded |
+//! | 6 | `RxOverflow` | the receive buffer overflowed and bytes of this line were lost |
+//! | 7 | `SoftLimit` | the target lies outside the travel; nothing moved |
+//! | 8 | `Alarm` | the machine is in alarm; send a reset first |
+//! | 9 | `InvalidValue` | a value out of its allowed range (feed ≤ 0, negative dwell, …) |
+//! | 10 | `AxisDisabled` | a word for an axis the machine does not have |
+//! | 11 | `Checksum` | an unnumbered line carried a bad checksum (numbered ones get `rs`) |
+//! | 12 | `BadFrame` | a step-block frame outside the sequenced stream, or one the stepper cannot run |
+//!
+//! | code | alarm | meaning |
+//! |-----:|-------|---------|
+//! | 1 | `HardLimit` | a switch was pressed outside homing: motion stopped, queue flushed, position unhomed |
+//! | 2 | `HomingNotFound` | homing travelled its maximum distance without reaching the switch |
+//! | 3 | `HomingNotReleased` | the switch was still pressed after the pull-off |
+
+use core::fmt;
+
+/// Why a line was refused (see the module table).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum ErrorCode {
+    /// A word without a letter or a letter without a number.
+    ExpectedCommand = 1,
+    /// A number that does not parse or is out of range.
+    BadNumber = 2,
+    /// An unimplemented G or M code.
+    UnknownCommand = 3,
+    /// A word letter not used here, or repeated.
+    UnsupportedWord = 4,
+    /// Line longer than the line buffer.
+    LineTooLong = 5,
+    /// Receive buffer overflow: bytes of this line were lost.
+    RxOverflow = 6,
+    /// Target outside the travel.
+    SoftLimit = 7,
+    /// Machine in alarm.
+    Alarm = 8,
+    /// Value out of range.
+    InvalidValue = 9,
+    /// Word for an axis the machine lacks.
+    AxisDisabled = 10,
+    /// Bad checksum on an unnumbered line.
+    Checksum = 11,
+    /// Step-block frame refused.
+    BadFrame = 12,
+}
+
+impl ErrorCode {
+    /// The numeric code.
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The fixed text.
+    pub const fn text(self) -> &'static str {
+        match self {
+            ErrorCode::ExpectedCommand => "expected a letter followed by a number",
+            ErrorCode::BadNumber => "bad number",
+            ErrorCode::UnknownCommand => "unsupported command",
+            ErrorCode::UnsupportedWord => "unsupported or repeated word",
+            ErrorCode::LineTooLong => "line too long, discarded",
+            ErrorCode::RxOverflow => "receive buffer overflow, bytes lost",
+            ErrorCode::SoftLimit => "target outside the travel",
+            ErrorCode::Alarm => "alarm active, reset required",
+            ErrorCode::InvalidValue => "value out of range",
+            ErrorCode::AxisDisabled => "axis not configured",
+            ErrorCode::Checksum => "checksum mismatch",
+            ErrorCode::BadFrame => "step block refused",
+        }
+    }
+}
+
+impl fmt::Display for ErrorCode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "error:{} {}", self.code(), self.text())
+    }
+}
+
+/// A latched alarm (see the module table).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum AlarmCode {
+    /// Switch pressed outside homing.
+    HardLimit = 1,
+    /// Homing switch never found.
+    HomingNotFound = 2,
+    /// Homing switch still pressed after pull-off.
+    HomingNotReleased = 3,
+}
+
+impl AlarmCode {
+    /// The numeric code.
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The fixed text.
+    pub const fn text(self) -> &'static str {
+        match self {
+            AlarmCode::HardLimit => "hard limit: switch pressed outside homing",
+            AlarmCode::HomingNotFound => "homing failed: switch not found",
+            AlarmCode::HomingNotReleased => "homing failed: switch still pressed after pull-off",
+        }
+    }
+}
+
+impl fmt::Display for AlarmCode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "ALARM:{} {}", self.code(), self.text())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::string::ToString;
+
+    #[test]
+    fn codes_are_stable_and_unique() {
+        let all = [
+            ErrorCode::ExpectedCommand,
+            ErrorCode::BadNumber,
+            ErrorCode::UnknownCommand,
+            ErrorCode::UnsupportedWord,
+            ErrorCode::LineTooLong,
+            ErrorCode::RxOverflow,
+            ErrorCode::SoftLimit,
+            ErrorCode::Alarm,
+            ErrorCode::InvalidValue,
+            ErrorCode::AxisDisabled,
+            ErrorCode::Checksum,
+            ErrorCode::BadFrame,
+        ];
+        for (i, e) in all.iter().enumerate() {
+            assert_eq!(usize::from(e.code()), i + 1);
+        }
+        assert_eq!(ErrorCode::SoftLimit.to_string(), "error:7 target outside the travel");
+        assert_eq!(AlarmCode::HomingNotFound.to_string(), "ALARM:2 homing failed: switch not found");
+    }
+}

@@ -1,0 +1,206 @@
+//! The homing cycle: a small state machine that queues ordinary step blocks (run by the same Bresenham stepper,
+//! with an axis lock mask that stops each axis at its switch) and checks the outcome of each.
+//!
+//! Order: Z first (then Z moves to the pen-up height), then X and Y together. Per group:
+//! 1. **seek** towards the switches at the seek rate, at most 1.5 × travel — an axis stops (is locked) the moment
+//!    its switch reads pressed; an axis that reaches the distance without it raises
+//!    [`AlarmCode::HomingNotFound`];
+//! 2. debounce dwell, **pull off** by the pull-off distance — a switch still pressed raises
+//!    [`AlarmCode::HomingNotReleased`];
+//! 3. **locate** towards the switches at the slow rate, at most 2 × pull-off + 1 step;
+//! 4. debounce dwell, **pull off** again, check the release, and set the position: this pulled-off point is
+//!    machine 0 (or the travel, for a switch at the maximum end). The switch thus trips exactly one pull-off
+//!    beyond the travel, so no move within the travel ever touches it (it would be a hard-limit alarm).
+
+use crate::axis::{Axis, NUM_AXES};
+use crate::config::MachineConfig;
+use crate::errors::AlarmCode;
+use crate::fmath::{round_i32, round_u32};
+use crate::planner::{PlanBlock, to_step_block};
+use crate::stepper::{StepBlock, TICK_HZ};
+
+/// Flag in a stepper home mask: this is a homing block (hard limits are not checked during it).
+pub const HOMING_BLOCK: u8 = 0x80;
+
+/// What the machine should do next for the cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HomingStep {
+    /// Queue this block with this stepper home mask (see [`HOMING_BLOCK`]).
+    Move(StepBlock, u8),
+    /// Set these axes' positions (steps), for the axes in the mask.
+    SetPosition(u8, [i32; NUM_AXES]),
+    /// The cycle failed.
+    Alarm(AlarmCode),
+    /// The cycle is complete; the mask names the homed axes.
+    Done(u8),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    Seek,
+    Debounce1,
+    PullOff1,
+    Locate,
+    Debounce2,
+    PullOff2,
+    SetPosition,
+    PenUp,
+    NextGroup,
+}
+
+/// One homing cycle in progress.
+#[derive(Debug, Clone, Copy)]
+pub struct HomingCycle {
+    groups: [u8; 2],
+    group: usize,
+    phase: Phase,
+    homed: u8,
+}
+
+impl HomingCycle {
+    /// A cycle for the axes in `mask` (limited axes only; 0 = all of them).
+    pub fn new(config: &MachineConfig, mask: u8) -> Self {
+        let limited = Axis::ALL.iter().filter(|a| config.axis(**a).is_limited()).fold(0, |m, a| m | a.bit());
+        let mask = if mask == 0 { limited } else { mask & limited };
+        let z = mask & Axis::Z.bit();
+        let xy = mask & (Axis::X.bit() | Axis::Y.bit() | Axis::E.bit());
+        HomingCycle { groups: [z, xy], group: 0, phase: Phase::Seek, homed: 0 }
+    }
+
+    /// Axes homed so far.
+    pub fn homed(&self) -> u8 {
+        self.homed
+    }
+
+    /// Advance once the previous step is done. `hits` = axes stopped by their switch in the last block,
+    /// `pressed` = switches pressed now, `position` = the current position in steps.
+    pub fn next(&mut self, config: &MachineConfig, hits: u8, pressed: u8, position: &[i32; NUM_AXES]) -> HomingStep {
+        loop {
+            let group = match self.groups.get(self.group) {
+                Some(&g) => g,
+                None => return HomingStep::Done(self.homed),
+            };
+            if group == 0 {
+                self.group += 1;
+                continue;
+            }
+            let h = &config.homing;
+            let debounce = StepBlock::dwell(round_u32(h.debounce_ms * (TICK_HZ as f32 / 1000.0)).max(1));
+            match self.phase {
+                Phase::Seek => {
+                    self.phase = Phase::Debounce1;
+                    return self.towards(config, group, |a| 1.5 * config.axis(a).travel_mm, h.seek_mm_s);
+                }
+                Phase::Debounce1 | Phase::Debounce2 => {
+                    if hits & group != group {
+                        return HomingStep::Alarm(AlarmCode::HomingNotFound);
+                    }
+                    self.phase = if self.phase == Phase::Debounce1 { Phase::PullOff1 } else { Phase::PullOff2 };
+                    return HomingStep::Move(debounce, HOMING_BLOCK);
+                }
+                Phase::PullOff1 | Phase::PullOff2 => {
+                    self.phase = if self.phase == Phase::PullOff1 { Phase::Locate } else { Phase::SetPosition };
+                    let rate = if self.phase == Phase::Locate { h.seek_mm_s } else { h.locate_mm_s };
+                    return self.away(config, group, h.pull_off_mm, rate);
+                }
+                Phase::Locate => {
+                    if pressed & group != 0 {
+                        return HomingStep::Alarm(AlarmCode::HomingNotReleased);
+                    }
+                    self.phase = Phase::Debounce2;
+                    let dist = |a: Axis| 2.0 * h.pull_off_mm + 1.0 / config.axis(a).steps_per_mm;
+                    return self.towards(config, group, dist, h.locate_mm_s);
+                }
+                Phase::SetPosition => {
+                    if pressed & group != 0 {
+                        return HomingStep::Alarm(AlarmCode::HomingNotReleased);
+                    }
+                    let mut pos = *position;
+                    for axis in Axis::ALL.into_iter().filter(|a| group & a.bit() != 0) {
+                        let a = config.axis(axis);
+                        pos[axis.index()] = if a.home_at_max { a.travel_steps() } else { 0 };
+                    }
+                    self.homed |= group;
+                    self.phase = if group & Axis::Z.bit() != 0 { Phase::PenUp } else { Phase::NextGroup };
+                    return HomingStep::SetPosition(group, pos);
+                }
+                Phase::PenUp => {
+                    self.phase = Phase::NextGroup;
+                    let z = config.axis(Axis::Z);
+                    let target = round_i32(f64::from(config.pen.up_z_mm) * f64::from(z.steps_per_mm));
+                    let mut steps = [0; NUM_AXES];
+                    steps[Axis::Z.index()] = target - position[Axis::Z.index()];
+                    if let Some(b) = PlanBlock::line(config, steps, z.max_feed_mm_s) {
+                        // Part of the cycle: switches of axes not homed yet may legitimately be pressed.
+                        return HomingStep::Move(to_step_block(&b, 0.0), HOMING_BLOCK);
+                    }
+                }
+                Phase::NextGroup => {
+                    self.group += 1;
+                    self.phase = Phase::Seek;
+                }
+            }
+        }
+    }
+
+    fn towards(&self, config: &MachineConfig, group: u8, dist_mm: impl Fn(Axis) -> f32, rate: f32) -> HomingStep {
+        self.block(config, group, dist_mm, rate, true)
+    }
+
+    fn away(&self, config: &MachineConfig, group: u8, dist_mm: f32, rate: f32) -> HomingStep {
+        self.block(config, group, |_| dist_mm, rate, false)
+    }
+
+    fn block(
+        &self,
+        config: &MachineConfig,
+        group: u8,
+        dist_mm: impl Fn(Axis) -> f32,
+        rate: f32,
+        towards: bool,
+    ) -> HomingStep {
+        let mut steps = [0i32; NUM_AXES];
+        for axis in Axis::ALL.into_iter().filter(|a| group & a.bit() != 0) {
+            let a = config.axis(axis);
+            let s = round_i32(f64::from(dist_mm(axis)) * f64::from(a.steps_per_mm)).max(1);
+            // Towards the switch is negative for a switch at 0, positive at the maximum end.
+            steps[axis.index()] = if a.home_at_max == towards { s } else { -s };
+        }
+        let plan = PlanBlock::line(config, steps, rate);
+        let block = plan.map_or(StepBlock::dwell(1), |p| to_step_block(&p, 0.0));
+        HomingStep::Move(block, HOMING_BLOCK | if towards { group } else { 0 })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sequence_for_z_then_xy() {
+        let c = MachineConfig::xy_plotter();
+        let mut h = HomingCycle::new(&c, 0);
+        let pos = [0; NUM_AXES];
+        // Z seek: 1.5 × 10 mm × 400 = 6000 steps towards 0, watching Z.
+        let HomingStep::Move(b, m) = h.next(&c, 0, 0, &pos) else { panic!() };
+        assert_eq!((b.steps, m), ([0, 0, -6000, 0], HOMING_BLOCK | Axis::Z.bit()));
+        // Switch found → debounce dwell of 5 ms.
+        assert_eq!(
+            h.next(&c, Axis::Z.bit(), Axis::Z.bit(), &pos),
+            HomingStep::Move(StepBlock::dwell(5000), HOMING_BLOCK)
+        );
+        let HomingStep::Move(b, m) = h.next(&c, Axis::Z.bit(), Axis::Z.bit(), &pos) else { panic!() };
+        assert_eq!((b.steps, m), ([0, 0, 800, 0], HOMING_BLOCK));
+        // Still pressed after the pull-off → alarm.
+        assert_eq!(h.next(&c, 0, Axis::Z.bit(), &pos), HomingStep::Alarm(AlarmCode::HomingNotReleased));
+    }
+
+    #[test]
+    fn not_found_alarm() {
+        let c = MachineConfig::xy_plotter();
+        let mut h = HomingCycle::new(&c, Axis::X.bit());
+        let HomingStep::Move(b, _) = h.next(&c, 0, 0, &[0; NUM_AXES]) else { panic!() };
+        assert_eq!(b.steps, [-50_400, 0, 0, 0]);
+        assert_eq!(h.next(&c, 0, 0, &[0; NUM_AXES]), HomingStep::Alarm(AlarmCode::HomingNotFound));
+    }
+}

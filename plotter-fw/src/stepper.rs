@@ -1,0 +1,844 @@
+//! The stepper: multi-axis Bresenham stepping in integer arithmetic, timed by a trapezoidal speed profile.
+//!
+//! # Blocks and events
+//! A [`StepBlock`] moves each axis by a signed number of steps. Its *step events* are the ticks of the major axis
+//! (the axis with the most steps, `n = max |Δ|` events): at every event the major axis steps, and each minor axis
+//! steps when its Bresenham error term overflows. With the error term started at `⌊n/2⌋`, after `k` events a
+//! minor axis with `|Δ| = d` has made exactly `⌊(k·d + ⌊n/2⌋)/n⌋` steps — the ideal `k·d/n` rounded — so it is
+//! never more than half a step from the ideal line and ends with exactly `d` steps (the midpoint form of
+//! Bresenham's line algorithm, generalised to several axes by giving each minor axis its own error term).
+//!
+//! # Timing (the formula the host reproduces)
+//! The block's speed plan gives the major axis an entry rate `v0`, a cruise rate `vc`, an exit rate `v1` (step
+//! events per second) and an acceleration `a` (events/s²). [`Profile::new`] turns it into a continuous trapezoid
+//! over position `x ∈ [0, n]` (in events): accelerate from `v0` up to `x_a`, cruise at the peak `vp` up to
+//! `x_d`, decelerate to `v1` at `x = n` (a triangle when `vc` is not reachable; `vp² = (2an + v0² + v1²)/2`).
+//! Event `k` fires at the time the continuous motion passes position `k`:
+//!
+//! ```text
+//! t(k) = (√(v0² + 2ak) − v0) / a                 k ≤ x_a   (accelerating)
+//! t(k) = T_a + (k − x_a) / vp                     x_a < k ≤ x_d (cruising)
+//! t(k) = T − (√(v1² + 2a(n − k)) − v1) / a       k > x_d   (decelerating, measured back from the end)
+//! T    = (vp − v0)/a + (x_d − x_a)/vp + (vp − v1)/a
+//! ```
+//!
+//! and is scheduled at `round(TICK_HZ · t(k))` timer ticks after the block start. Rounding the *absolute* time of
+//! each event (not each interval) keeps the tick grid from drifting, so a block lasts exactly
+//! `round(TICK_HZ · T)` ticks ([`StepBlock::duration_ticks`]); the next block starts at the previous block's last
+//! event. All of this is `f32` arithmetic with the deterministic [`crate::fmath::sqrt`], so the host calling
+//! [`StepBlock::duration_ticks`] gets bit-for-bit the time the firmware (or the simulator) takes: a sequence of
+//! blocks takes exactly the sum of their durations.
+//!
+//! A dwell (G4, pen settle) is a block with no steps that lasts its given number of ticks.
+
+use heapless::Deque;
+
+use crate::axis::{Axis, NUM_AXES};
+use crate::fmath::{round_u32, sqrt};
+use crate::hal::{Endstops, StepPins};
+
+/// Step timer frequency: one tick is one microsecond.
+pub const TICK_HZ: u32 = 1_000_000;
+
+/// Highest step-event rate a block may ask for (events/s): at least 4 timer ticks between events.
+pub const MAX_RATE: u32 = 250_000;
+
+/// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
+/// frozen; the planner keeps re-planning the rest.
+pub const STEPPER_QUEUE: usize = 2;
+
+/// One straight move in steps with its speed plan, or a dwell (all steps zero, `dwell_ticks` > 0).
+///
+/// Rates are step events of the major axis per second; `accel` is events/s². A block with `accel == 0` runs at
+/// `cruise_rate` throughout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StepBlock {
+    /// Signed steps per axis, indexed by [`Axis::index`].
+    pub steps: [i32; NUM_AXES],
+    /// Rate at the block start.
+    pub entry_rate: u32,
+    /// Cruise (nominal) rate; the peak of the trapezoid when reachable.
+    pub cruise_rate: u32,
+    /// Rate at the block end.
+    pub exit_rate: u32,
+    /// Acceleration.
+    pub accel: u32,
+    /// Duration of a dwell block (ignored when any axis moves).
+    pub dwell_ticks: u32,
+}
+
+impl StepBlock {
+    /// A dwell of `ticks` timer ticks.
+    pub const fn dwell(ticks: u32) -> Self {
+        StepBlock { steps: [0; NUM_AXES], entry_rate: 0, cruise_rate: 0, exit_rate: 0, accel: 0, dwell_ticks: ticks }
+    }
+
+    /// Number of step events (steps of the major axis).
+    pub fn events(&self) -> u32 {
+        self.steps.iter().map(|s| s.unsigned_abs()).max().unwrap_or(0)
+    }
+
+    /// Whether this block moves nothing and just waits.
+    pub fn is_dwell(&self) -> bool {
+        self.events() == 0
+    }
+
+    /// The speed profile the stepper executes.
+    pub fn profile(&self) -> Profile {
+        Profile::new(self.events(), self.entry_rate, self.cruise_rate, self.exit_rate, self.accel)
+    }
+
+    /// Exact execution time of this block, in timer ticks ([`TICK_HZ`]), as the stepper runs it.
+    pub fn duration_ticks(&self) -> u32 {
+        if self.is_dwell() { self.dwell_ticks } else { self.profile().duration_ticks() }
+    }
+
+    /// Mask of axes that move.
+    pub fn axis_mask(&self) -> u8 {
+        Axis::ALL.iter().filter(|a| self.steps[a.index()] != 0).fold(0, |m, a| m | a.bit())
+    }
+}
+
+/// The trapezoid of one block, precomputed for per-event evaluation (see the module docs for the formulas).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Profile {
+    n: u32,
+    v0: f32,
+    v1: f32,
+    vp: f32,
+    v0sq: f32,
+    v1sq: f32,
+    two_a: f32,
+    /// `TICK_HZ / a` (0 when `a == 0`).
+    f_over_a: f32,
+    /// `TICK_HZ / vp`.
+    f_over_vp: f32,
+    xa: f32,
+    nf: f32,
+    /// Last event index in the accelerating / cruising phase.
+    ka: u32,
+    kd: u32,
+    /// End of acceleration, ticks (unrounded).
+    ta: f32,
+    /// Total, ticks (unrounded) and rounded.
+    total: f32,
+    total_ticks: u32,
+}
+
+impl Profile {
+    /// Profile of `n` events from the plan; rates are clamped so that `v0, v1 ≤ vc`, `vc ≥ 1`, and an exit rate
+    /// that cannot be reached within `n` events is replaced by the reachable one (a well-formed plan never needs it).
+    pub fn new(n: u32, entry: u32, cruise: u32, exit: u32, accel: u32) -> Self {
+        let f = TICK_HZ as f32;
+        let vc = cruise.clamp(1, MAX_RATE) as f32;
+        let mut v0 = (entry.min(MAX_RATE) as f32).min(vc);
+        let mut v1 = (exit.min(MAX_RATE) as f32).min(vc);
+        let nf = n as f32;
+        let (vp, xa, xd, a) = if accel == 0 || n == 0 {
+            v0 = vc;
+            v1 = vc;
+            (vc, 0.0, nf, 0.0)
+        } else {
+            let a = accel as f32;
+            let two_a = 2.0 * a;
+            let xa_full = (vc * vc - v0 * v0) / two_a;
+            let xd_full = (vc * vc - v1 * v1) / two_a;
+            if xa_full + xd_full <= nf {
+                (vc, xa_full, nf - xd_full, a)
+            } else {
+                let peak_sq = (two_a * nf + v0 * v0 + v1 * v1) * 0.5;
+                if peak_sq <= v0 * v0 {
+                    // Too short to slow down to v1: decelerate over the whole block.
+                    v1 = sqrt(v0 * v0 - two_a * nf);
+                    (v0, 0.0, 0.0, a)
+                } else if peak_sq <= v1 * v1 {
+                    // Too short to speed up to v1: accelerate over the whole block.
+                    v1 = sqrt(v0 * v0 + two_a * nf);
+                    (v1, nf, nf, a)
+                } else {
+                    let vp = sqrt(peak_sq);
+                    let xa = (peak_sq - v0 * v0) / two_a;
+                    (vp, xa, xa, a)
+                }
+            }
+        };
+        let f_over_a = if a > 0.0 { f / a } else { 0.0 };
+        let f_over_vp = f / vp;
+        let ta = (vp - v0) * f_over_a;
+        let total = ta + (xd - xa) * f_over_vp + (vp - v1) * f_over_a;
+        Profile {
+            n,
+            v0,
+            v1,
+            vp,
+            v0sq: v0 * v0,
+            v1sq: v1 * v1,
+            two_a: 2.0 * a,
+            f_over_a,
+            f_over_vp,
+            xa,
+            nf,
+            ka: crate::fmath::floor_u32(xa),
+            kd: crate::fmath::floor_u32(xd),
+            ta,
+            total,
+            total_ticks: round_u32(total),
+        }
+    }
+
+    /// Number of step events.
+    pub fn events(&self) -> u32 {
+        self.n
+    }
+
+    /// Rounded time of event `k` (1..=n) after the block start, ticks. `k ≥ n` gives the block duration.
+    #[inline]
+    pub fn tick_of(&self, k: u32) -> u32 {
+        if k >= self.n {
+            return self.total_ticks;
+        }
+        let kf = k as f32;
+        let t = if k <= self.ka {
+            (sqrt(self.v0sq + self.two_a * kf) - self.v0) * self.f_over_a
+        } else if k <= self.kd {
+            self.ta + (kf - self.xa) * self.f_over_vp
+        } else {
+            self.total - (sqrt(self.v1sq + self.two_a * (self.nf - kf)) - self.v1) * self.f_over_a
+        };
+        round_u32(t)
+    }
+
+    /// Duration of the block, ticks.
+    pub fn duration_ticks(&self) -> u32 {
+        self.total_ticks
+    }
+
+    /// Peak rate reached (events/s).
+    pub fn peak_rate(&self) -> f32 {
+        self.vp
+    }
+
+    /// Exit rate actually reached (events/s): the plan's, unless it was unreachable.
+    pub fn exit_rate(&self) -> f32 {
+        self.v1
+    }
+
+    /// Instantaneous rate at position `k` (events/s), from the continuous profile.
+    pub fn rate_at(&self, k: u32) -> f32 {
+        let kf = k.min(self.n) as f32;
+        if kf <= self.xa && self.two_a > 0.0 {
+            sqrt(self.v0sq + self.two_a * kf)
+        } else if k <= self.kd || self.two_a == 0.0 {
+            self.vp
+        } else {
+            sqrt(self.v1sq + self.two_a * (self.nf - kf))
+        }
+    }
+}
+
+/// Feed-hold state of the stepper.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum HoldState {
+    Running,
+    /// Decelerating: from event `k0` (time `t0` ticks in the block), rate² `v0sq`, acceleration `a`.
+    Decelerating {
+        k0: u32,
+        t0: f32,
+        v0: f32,
+        v0sq: f32,
+        two_a: f32,
+        f_over_a: f32,
+    },
+    /// Stopped with the queue kept.
+    Stopped,
+}
+
+/// The executing block.
+#[derive(Debug, Clone, Copy)]
+struct Active {
+    block: StepBlock,
+    profile: Profile,
+    /// Events already emitted.
+    k: u32,
+    /// Event index the profile starts from (non-zero after a feed hold re-profiled the rest).
+    offset: u32,
+    n: u32,
+    delta: [u32; NUM_AXES],
+    err: [u32; NUM_AXES],
+    sign: [i32; NUM_AXES],
+    /// Tick of event `k` (from the profile start).
+    last_tick: u32,
+    /// Axes whose switch is read at each event: the home mask in a homing block, else the hard-limit mask.
+    watch: u8,
+    /// Homing: axes stopped by their switch, and those already stopped.
+    home_mask: u8,
+    locked: u8,
+}
+
+/// What stopped the stepper abnormally.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepperFault {
+    /// A switch was pressed outside homing (mask of the pressed axes).
+    HardLimit(u8),
+}
+
+/// The stepper: a queue of [`StepBlock`]s and the executing block's Bresenham state.
+#[derive(Debug)]
+pub struct Stepper {
+    queue: Deque<(StepBlock, u8), STEPPER_QUEUE>,
+    active: Option<Active>,
+    position: [i32; NUM_AXES],
+    invert: u8,
+    /// Axes checked for a hard-limit hit on each event (0 disables).
+    limit_mask: u8,
+    hold: HoldState,
+    hold_requested: bool,
+    fault: Option<StepperFault>,
+    /// Blocks finished since start.
+    completed: u32,
+    /// Result of the last homing block: axes whose switch stopped them.
+    homing_hits: u8,
+}
+
+impl Stepper {
+    /// An idle stepper at position 0. `invert` is the mask of axes with an inverted direction pin; `limit_mask` the
+    /// axes whose switch, pressed outside homing, is a hard-limit fault.
+    pub fn new(invert: u8, limit_mask: u8) -> Self {
+        Stepper {
+            queue: Deque::new(),
+            active: None,
+            position: [0; NUM_AXES],
+            invert,
+            limit_mask,
+            hold: HoldState::Running,
+            hold_requested: false,
+            fault: None,
+            completed: 0,
+            homing_hits: 0,
+        }
+    }
+
+    /// Position in steps, as counted from emitted steps.
+    pub fn position(&self) -> [i32; NUM_AXES] {
+        self.position
+    }
+
+    /// Overwrite the position (G92, homing). Only while idle.
+    pub fn set_position(&mut self, pos: [i32; NUM_AXES]) {
+        self.position = pos;
+    }
+
+    /// Set one axis's position.
+    pub fn set_axis_position(&mut self, axis: Axis, steps: i32) {
+        self.position[axis.index()] = steps;
+    }
+
+    /// Whether another block can be queued.
+    pub fn has_room(&self) -> bool {
+        !self.queue.is_full()
+    }
+
+    /// Blocks queued plus the executing one.
+    pub fn pending(&self) -> usize {
+        self.queue.len() + usize::from(self.active.is_some())
+    }
+
+    /// Nothing executing or queued.
+    pub fn is_idle(&self) -> bool {
+        self.active.is_none() && self.queue.is_empty()
+    }
+
+    /// Blocks completed since start.
+    pub fn completed(&self) -> u32 {
+        self.completed
+    }
+
+    /// Axes stopped by their switch in the last homing block.
+    pub fn homing_hits(&self) -> u8 {
+        self.homing_hits
+    }
+
+    /// The latched fault, if any.
+    pub fn fault(&self) -> Option<StepperFault> {
+        self.fault
+    }
+
+    /// Queue a block. `home_mask` is 0 for normal moves (hard limits checked); for homing blocks it carries
+    /// [`crate::homing::HOMING_BLOCK`] (no hard-limit check) plus the axes to stop when their switch reads pressed.
+    /// Returns the block back when the queue is full.
+    pub fn push(&mut self, block: StepBlock, home_mask: u8) -> Result<(), StepBlock> {
+        self.queue.push_back((block, home_mask)).map_err(|(b, _)| b)
+    }
+
+    /// If idle, start the next queued block: returns the ticks until its first event (the caller arms the timer).
+    pub fn start<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
+        if self.active.is_some() || self.fault.is_some() || self.hold != HoldState::Running {
+            return None;
+        }
+        self.load_next(hal)
+    }
+
+    /// Drop everything (reset or alarm): the executing block stops where it is.
+    pub fn abort(&mut self) {
+        self.queue.clear();
+        self.active = None;
+        self.hold = HoldState::Running;
+        self.hold_requested = false;
+    }
+
+    /// Clear a latched fault (after reset).
+    pub fn clear_fault(&mut self) {
+        self.fault = None;
+    }
+
+    /// Request a feed hold: decelerate to a stop at the block's acceleration, keeping the queue.
+    pub fn feed_hold(&mut self) {
+        if self.hold == HoldState::Running {
+            if self.active.is_none() {
+                self.hold = HoldState::Stopped;
+            } else {
+                self.hold_requested = true;
+            }
+        }
+    }
+
+    /// Whether a feed hold has brought the machine to rest.
+    pub fn is_held(&self) -> bool {
+        self.hold == HoldState::Stopped
+    }
+
+    /// Whether a feed hold is in progress or complete.
+    pub fn is_holding(&self) -> bool {
+        self.hold_requested || self.hold != HoldState::Running
+    }
+
+    /// Resume after a completed feed hold: the rest of the interrupted block and the queued blocks restart from
+    /// rest and end at rest (the caller re-plans what follows from entry speed 0). Returns ticks until the next
+    /// event, if any.
+    pub fn resume<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
+        if self.hold != HoldState::Stopped {
+            // Hold still decelerating: cancel it, the profile continues from where the hold left it is not
+            // representable, so let it finish stopping first.
+            self.hold_requested = false;
+            return None;
+        }
+        self.hold = HoldState::Running;
+        for (b, _) in self.queue.iter_mut() {
+            b.entry_rate = 0;
+            b.exit_rate = 0;
+        }
+        match &mut self.active {
+            Some(act) => {
+                let rest = act.n - act.k;
+                act.offset = act.k;
+                act.profile = Profile::new(rest, 0, act.block.cruise_rate, 0, act.block.accel);
+                act.last_tick = act.profile.tick_of(1);
+                Some(act.last_tick)
+            }
+            None => self.load_next(hal),
+        }
+    }
+
+    fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
+        let (block, home_mask) = self.queue.pop_front()?;
+        let n = block.events();
+        let profile = block.profile();
+        let mut act = Active {
+            block,
+            profile,
+            k: 0,
+            offset: 0,
+            n,
+            delta: [0; NUM_AXES],
+            err: [n / 2; NUM_AXES],
+            sign: [0; NUM_AXES],
+            last_tick: 0,
+            watch: if home_mask & crate::homing::HOMING_BLOCK != 0 { home_mask & 0x0F } else { self.limit_mask },
+            home_mask: home_mask & 0x0F,
+            locked: 0,
+        };
+        for axis in Axis::ALL {
+            let i = axis.index();
+            let s = block.steps[i];
+            if s != 0 {
+                act.delta[i] = s.unsigned_abs();
+                act.sign[i] = s.signum();
+                hal.set_dir(axis, (s < 0) ^ (self.invert & axis.bit() != 0));
+            }
+        }
+        if home_mask & 0x0F != 0 {
+            self.homing_hits = 0;
+        }
+        let first = if n == 0 { block.dwell_ticks } else { profile.tick_of(1) };
+        act.last_tick = first;
+        self.active = Some(act);
+        Some(first)
+    }
+
+    /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
+    /// held or faulted — the caller stops the timer).
+    #[inline(never)]
+    pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
+        let Some(act) = self.active.as_mut() else {
+            return self.load_next(hal);
+        };
+        if act.n == 0 {
+            // A dwell ended.
+            self.active = None;
+            self.completed = self.completed.wrapping_add(1);
+            if self.hold_requested {
+                self.hold_requested = false;
+                self.hold = HoldState::Stopped;
+                return None;
+            }
+            return self.load_next(hal);
+        }
+        if act.watch != 0 {
+            let pressed = hal.pressed() & act.watch;
+            if pressed != 0 {
+                if act.home_mask == 0 {
+                    self.fault = Some(StepperFault::HardLimit(pressed));
+                    self.abort();
+                    return None;
+                }
+                act.locked |= pressed & act.home_mask;
+                self.homing_hits = act.locked;
+                if act.locked == act.home_mask {
+                    self.active = None;
+                    self.completed = self.completed.wrapping_add(1);
+                    return self.load_next(hal);
+                }
+            }
+        }
+        act.k += 1;
+        let n = act.n;
+        for axis in Axis::ALL {
+            let i = axis.index();
+            let d = act.delta[i];
+            if d != 0 {
+                let e = act.err[i] + d;
+                if e >= n {
+                    act.err[i] = e - n;
+                    if act.locked & axis.bit() == 0 {
+                        hal.step(axis);
+                        self.position[i] += act.sign[i];
+                    }
+                } else {
+                    act.err[i] = e;
+                }
+            }
+        }
+        if act.k == n {
+            let exit_rate = act.profile.exit_rate();
+            let planned_exit = act.block.exit_rate;
+            self.active = None;
+            self.completed = self.completed.wrapping_add(1);
+            if let HoldState::Decelerating { k0, v0sq, two_a, .. } = self.hold {
+                // Carry the hold into the next block: convert the rate to its units via the planned junction.
+                let v_end_sq = v0sq - two_a * (n - k0) as f32;
+                return self.continue_hold(hal, v_end_sq, exit_rate, planned_exit);
+            }
+            if self.hold_requested {
+                self.hold_requested = false;
+                self.hold = HoldState::Stopped;
+                return None;
+            }
+            return self.load_next(hal);
+        }
+        let j = act.k - act.offset;
+        if self.hold_requested && self.hold == HoldState::Running {
+            self.hold_requested = false;
+            let v = act.profile.rate_at(j);
+            let a = act.block.accel as f32;
+            if a <= 0.0 {
+                self.hold = HoldState::Stopped;
+                return None;
+            }
+            self.hold = HoldState::Decelerating {
+                k0: act.k,
+                t0: act.last_tick as f32,
+                v0: v,
+                v0sq: v * v,
+                two_a: 2.0 * a,
+                f_over_a: TICK_HZ as f32 / a,
+            };
+        }
+        let next = match self.hold {
+            HoldState::Running => act.profile.tick_of(j + 1),
+            HoldState::Decelerating { k0, t0, v0, v0sq, two_a, f_over_a } => {
+                let rem = v0sq - two_a * (act.k + 1 - k0) as f32;
+                if rem <= 0.0 {
+                    self.hold = HoldState::Stopped;
+                    return None;
+                }
+                round_u32(t0 + (v0 - sqrt(rem)) * f_over_a)
+            }
+            HoldState::Stopped => return None,
+        };
+        let interval = next.saturating_sub(act.last_tick);
+        act.last_tick = next;
+        Some(interval)
+    }
+
+    /// A hold decelerating through a block boundary: start the next block and keep slowing down from the speed
+    /// reached (`v_end_sq`, this block's units), converted by the ratio of the planned junction rates.
+    fn continue_hold<H: StepPins>(
+        &mut self,
+        hal: &mut H,
+        v_end_sq: f32,
+        exit_rate: f32,
+        planned_exit: u32,
+    ) -> Option<u32> {
+        if v_end_sq <= 0.0 || planned_exit == 0 || exit_rate <= 0.0 {
+            self.hold = HoldState::Stopped;
+            return None;
+        }
+        let Some(&(next, _)) = self.queue.front() else {
+            self.hold = HoldState::Stopped;
+            return None;
+        };
+        if next.is_dwell() || next.accel == 0 {
+            self.hold = HoldState::Stopped;
+            return None;
+        }
+        let ratio = next.entry_rate as f32 / planned_exit as f32;
+        let v = sqrt(v_end_sq) * ratio;
+        self.hold = HoldState::Running;
+        self.load_next(hal)?;
+        let act = self.active.as_mut()?;
+        let a = act.block.accel as f32;
+        let (v0sq, two_a, f_over_a) = (v * v, 2.0 * a, TICK_HZ as f32 / a);
+        let rem = v0sq - two_a;
+        if rem <= 0.0 {
+            // Not even one more step: stop before this block's first event.
+            self.hold = HoldState::Stopped;
+            act.last_tick = 0;
+            return None;
+        }
+        self.hold = HoldState::Decelerating { k0: 0, t0: 0.0, v0: v, v0sq, two_a, f_over_a };
+        let first = round_u32((v - sqrt(rem)) * f_over_a);
+        act.last_tick = first;
+        Some(first)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Records steps per tick; no endstops.
+    #[derive(Default)]
+    struct Rec {
+        dir: [bool; NUM_AXES],
+        pos: [i64; NUM_AXES],
+        dir_changes_during_block: u32,
+        steps: [u32; NUM_AXES],
+    }
+    impl StepPins for Rec {
+        fn set_dir(&mut self, axis: Axis, level: bool) {
+            self.dir[axis.index()] = level;
+            self.dir_changes_during_block += 1;
+        }
+        fn step(&mut self, axis: Axis) {
+            let i = axis.index();
+            self.pos[i] += if self.dir[i] { -1 } else { 1 };
+            self.steps[i] += 1;
+        }
+        fn enable_motors(&mut self, _on: bool) {}
+    }
+    impl Endstops for Rec {
+        fn pressed(&mut self) -> u8 {
+            0
+        }
+    }
+
+    fn run(block: StepBlock, mut check: impl FnMut(u32, &[i64; NUM_AXES])) -> (Rec, u64) {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(block, 0).unwrap();
+        let mut t = u64::from(s.start(&mut hal).unwrap());
+        let mut k = 0;
+        while let Some(iv) = s.tick(&mut hal) {
+            k += 1;
+            check(k, &hal.pos);
+            t += u64::from(iv);
+        }
+        // The last tick returned None at the last event; `t` is the time of that last event.
+        (hal, t)
+    }
+
+    #[test]
+    fn cruise_only_block_times() {
+        let b = StepBlock {
+            steps: [100, 0, 0, 0],
+            entry_rate: 1000,
+            cruise_rate: 1000,
+            exit_rate: 1000,
+            accel: 0,
+            dwell_ticks: 0,
+        };
+        assert_eq!(b.duration_ticks(), 100_000);
+        let (hal, t) = run(b, |_, _| {});
+        assert_eq!(hal.pos[0], 100);
+        assert_eq!(t, 100_000);
+    }
+
+    #[test]
+    fn trapezoid_matches_analytic_time() {
+        // 0 → 1000 steps/s at 10000 steps/s²: 0.1 s and 50 steps each way, 900 steps cruise = 0.9 s.
+        let b = StepBlock {
+            steps: [1000, -300, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 1000,
+            exit_rate: 0,
+            accel: 10_000,
+            dwell_ticks: 0,
+        };
+        assert_eq!(b.duration_ticks(), 1_100_000);
+        let (hal, t) = run(b, |_, _| {});
+        assert_eq!(hal.pos, [1000, -300, 0, 0]);
+        assert_eq!(t, 1_100_000);
+        // First event: √(2/a) = 14.142 ms.
+        assert_eq!(b.profile().tick_of(1), 14_142);
+    }
+
+    #[test]
+    fn triangle_and_unreachable_exit() {
+        let b = StepBlock {
+            steps: [10, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 10_000,
+            exit_rate: 0,
+            accel: 1000,
+            dwell_ticks: 0,
+        };
+        let p = b.profile();
+        // Peak √(a·n) = 100; time 2·100/1000 = 0.2 s.
+        assert!((p.peak_rate() - 100.0).abs() < 1e-3);
+        assert_eq!(p.duration_ticks(), 200_000);
+        let b = StepBlock {
+            steps: [10, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 10_000,
+            exit_rate: 5000,
+            accel: 1000,
+            dwell_ticks: 0,
+        };
+        let p = b.profile();
+        assert!((p.exit_rate() - 141.42136).abs() < 1e-2);
+    }
+
+    #[test]
+    fn dwell_lasts_its_ticks() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock::dwell(5000), 0).unwrap();
+        assert_eq!(s.start(&mut hal), Some(5000));
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_idle());
+        assert_eq!(s.completed(), 1);
+    }
+
+    #[test]
+    fn inverted_dir_pin() {
+        let mut s = Stepper::new(Axis::Y.bit(), 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [0, 5, 0, 0], cruise_rate: 100, ..StepBlock::default() }, 0).unwrap();
+        s.start(&mut hal);
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(hal.pos[1], -5, "pin level inverted, physical motion reversed");
+        assert_eq!(s.position()[1], 5, "logical position unaffected");
+    }
+
+    #[test]
+    fn feed_hold_stops_and_resume_finishes_exactly() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let b = StepBlock {
+            steps: [4000, 1000, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 4000,
+            exit_rate: 0,
+            accel: 20_000,
+            dwell_ticks: 0,
+        };
+        s.push(b, 0).unwrap();
+        s.push(b, 0).unwrap();
+        s.start(&mut hal);
+        for _ in 0..2000 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        let mut during = 0;
+        while s.tick(&mut hal).is_some() {
+            during += 1;
+        }
+        assert!(s.is_held());
+        // Stopping from 4000 steps/s at 20000 steps/s² takes 400 steps.
+        assert!((395..=401).contains(&during), "{during}");
+        assert!(s.resume(&mut hal).is_some());
+        while s.tick(&mut hal).is_some() {}
+        assert!(s.is_idle());
+        assert_eq!(hal.pos, [8000, 2000, 0, 0]);
+    }
+
+    fn block_strategy() -> impl Strategy<Value = StepBlock> {
+        (proptest::array::uniform4(-3000i32..3000), 0u32..20_000, 1u32..20_000, 0u32..20_000, 0u32..200_000).prop_map(
+            |(steps, e, c, x, a)| StepBlock {
+                steps,
+                entry_rate: e,
+                cruise_rate: c,
+                exit_rate: x,
+                accel: a,
+                dwell_ticks: 0,
+            },
+        )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+        /// Exact step counts and the half-step bound at every event; executed time equals `duration_ticks`.
+        #[test]
+        fn bresenham_exact_and_within_half_step(block in block_strategy()) {
+            prop_assume!(block.events() > 0);
+            let n = f64::from(block.events());
+            let mut worst = 0.0f64;
+            let (hal, t) = run(block, |k, pos| {
+                for (p, s) in pos.iter().zip(block.steps) {
+                    let ideal = f64::from(s) * f64::from(k) / n;
+                    worst = worst.max((*p as f64 - ideal).abs());
+                }
+            });
+            prop_assert!(worst <= 0.5 + 1e-9, "deviation {worst}");
+            for i in 0..NUM_AXES {
+                prop_assert_eq!(hal.pos[i], i64::from(block.steps[i]));
+                prop_assert_eq!(hal.steps[i], block.steps[i].unsigned_abs());
+            }
+            prop_assert_eq!(t, u64::from(block.duration_ticks()));
+            // Directions are set once per block, before the first step.
+            prop_assert_eq!(hal.dir_changes_during_block, block.axis_mask().count_ones());
+        }
+
+        /// Event times never go backwards and a sequence of blocks takes the sum of their durations.
+        #[test]
+        fn sequence_time_is_sum(blocks in proptest::collection::vec(block_strategy(), 1..5)) {
+            let mut s = Stepper::new(0, 0);
+            let mut hal = Rec::default();
+            let mut expect = 0u64;
+            let mut t = 0u64;
+            let mut pending = blocks.iter().filter(|b| !b.is_dwell()).copied().collect::<std::vec::Vec<_>>();
+            pending.reverse();
+            for b in &pending { expect += u64::from(b.duration_ticks()); }
+            while let Some(b) = pending.pop() { if s.push(b, 0).is_err() { pending.push(b); break; } }
+            if let Some(first) = s.start(&mut hal) {
+                t += u64::from(first);
+                loop {
+                    while s.has_room() { match pending.pop() { Some(b) => s.push(b, 0).unwrap(), None => break } }
+                    match s.tick(&mut hal) { Some(iv) => t += u64::from(iv), None => break }
+                }
+            }
+            prop_assert_eq!(t, expect);
+        }
+    }
+}

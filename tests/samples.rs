@@ -1,0 +1,48 @@
+//! Every sample SVG imports cleanly, previews, and survives the plain-SVG export round trip unchanged.
+
+use plotter_e2e::sample;
+use plotter_path::preview::{PreviewOptions, render};
+use plotter_path::svg::{SvgOptions, import_svg, load_svg};
+use plotter_path::svg_out::to_svg_string;
+use plotter_path::{MachineProfile, layout};
+
+const SVG_SAMPLES: [&str; 3] = ["duck.svg", "transforms.svg", "layers.svg"];
+
+#[test]
+fn samples_import_without_warnings_and_fit_the_plotter() {
+    let profile = MachineProfile::default_plotter();
+    for name in SVG_SAMPLES {
+        let imported = load_svg(&sample(name), &SvgOptions::default()).unwrap();
+        assert!(imported.warnings.is_empty(), "{name}: {:?}", imported.warnings);
+        assert!(imported.drawing.path_count() > 3, "{name}");
+        layout::check_work_area(&imported.drawing, &profile).unwrap();
+        let png = render(&imported.drawing, &PreviewOptions { travel: true, ..Default::default() }).unwrap();
+        assert!(png.width() > 100 && png.height() > 100);
+    }
+}
+
+#[test]
+fn export_round_trip_preserves_geometry() {
+    for name in SVG_SAMPLES {
+        let original = load_svg(&sample(name), &SvgOptions::default()).unwrap().drawing;
+        let exported = to_svg_string(&original);
+        let again = import_svg(exported.as_bytes(), name, None, &SvgOptions::default()).unwrap();
+        assert!(again.warnings.is_empty(), "{name}: {:?}", again.warnings);
+        let again = again.drawing;
+        assert_eq!(
+            again.page_mm.map(|(w, h)| (w.round(), h.round())),
+            original.page_mm.map(|(w, h)| (w.round(), h.round()))
+        );
+        let names = |d: &plotter_path::Drawing| d.layers.iter().map(|l| l.name.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&again), names(&original), "{name}");
+        for (a, b) in original.paths().zip(again.paths()) {
+            assert_eq!(a.points.len(), b.points.len(), "{name}");
+            assert_eq!(a.is_closed(), b.is_closed(), "{name}");
+            for (p, q) in a.points.iter().zip(&b.points) {
+                // 4 decimals in the file plus f32 inside the SVG library.
+                assert!(p.distance(*q) < 1e-3, "{name}: {p:?} vs {q:?}");
+            }
+        }
+        assert_eq!(original.path_count(), again.path_count(), "{name}");
+    }
+}
