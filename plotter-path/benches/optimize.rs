@@ -5,7 +5,6 @@
 
 use std::time::{Duration, Instant};
 
-use kurbo::Point;
 use plotter_path::Drawing;
 use plotter_path::optimize::{OptimizeOptions, SeamMode, optimize, synth, travel_lower_bound};
 
@@ -46,7 +45,7 @@ fn run(d: &Drawing, converge: bool) -> Row {
 
     // The bound of the paths as ordered (after merging, as the optimizer saw them).
     let t = Instant::now();
-    let (bound_mm, _) = travel_lower_bound(&g, SeamMode::Any, Point::ZERO, None);
+    let (bound_mm, _) = travel_lower_bound(&g, SeamMode::Any, None, None);
     let bound_s = t.elapsed().as_secs_f64();
     Row {
         greedy_s,

@@ -62,6 +62,8 @@ pub(crate) struct ImproveParams {
     pub(crate) seam: SeamMode,
     /// Check the cost after every move against the claimed gain (tests only; `O(n)` per move).
     pub(crate) verify: bool,
+    /// The start position is unknown: the hop to the first path costs nothing.
+    pub(crate) free_start: bool,
 }
 
 /// What the improvement step did.
@@ -103,6 +105,7 @@ struct Tour<'a> {
     n: usize,
     depot: u32,
     wild: u32,
+    wild_start: u32,
     tour: Vec<u32>,
     pos: Vec<u32>,
     rev: Vec<bool>,
@@ -122,7 +125,6 @@ struct Tour<'a> {
     stats: ImproveStats,
     paths: &'a [Polyline],
     visits: &'a [Visit],
-    start: Point,
 }
 
 /// Improve `visits` (an order of paths drawn from `start`) in place. Returns what was done.
@@ -157,6 +159,7 @@ impl<'a> Tour<'a> {
         let n = visits.len() + 1;
         let depot = u32::try_from(visits.len()).unwrap_or(0);
         let wild = 2 * depot;
+        let wild_start = if params.free_start { wild + 1 } else { u32::MAX };
         let mut pts = Vec::with_capacity(2 * n);
         let mut closed = Vec::with_capacity(n);
         let mut seam = Vec::with_capacity(n);
@@ -188,8 +191,10 @@ impl<'a> Tour<'a> {
         for k in 0..n {
             let k32 = u32::try_from(k).unwrap_or(0);
             if k32 == depot {
-                coords.push([start.x, start.y]);
-                ids.push(2 * k32 + 1);
+                if !params.free_start {
+                    coords.push([start.x, start.y]);
+                    ids.push(2 * k32 + 1);
+                }
             } else {
                 coords.push([pts[2 * k].x, pts[2 * k].y]);
                 ids.push(2 * k32);
@@ -236,6 +241,7 @@ impl<'a> Tour<'a> {
             n,
             depot,
             wild,
+            wild_start,
             tour,
             pos,
             rev: vec![false; n],
@@ -255,7 +261,6 @@ impl<'a> Tour<'a> {
             stats: ImproveStats::default(),
             paths,
             visits,
-            start,
         }
     }
 
@@ -283,10 +288,20 @@ impl<'a> Tour<'a> {
         2 * k + 1 - u32::from(self.rev[k as usize])
     }
 
-    /// Hop cost between two ends (zero to or from the wildcard).
+    /// The depot's wildcard ends: its "in" end always, its "out" end when the start is free.
+    #[inline]
+    fn is_wild(&self, e: u32) -> bool {
+        e == self.wild || e == self.wild_start
+    }
+
+    /// Hop cost between two ends (zero to or from a wildcard).
     #[inline]
     fn c(&self, a: u32, b: u32) -> f64 {
-        if a == self.wild || b == self.wild { 0.0 } else { self.cost.cost(self.pts[a as usize], self.pts[b as usize]) }
+        if self.is_wild(a) || self.is_wild(b) {
+            0.0
+        } else {
+            self.cost.cost(self.pts[a as usize], self.pts[b as usize])
+        }
     }
 
     /// Nodes a reversal of cycle positions `i..=j` (forward) really touches (the shorter side).
@@ -380,10 +395,11 @@ impl<'a> Tour<'a> {
         let x1 = self.out_end(a);
         let x2 = self.in_end(b);
         let g1 = self.c(x1, x2);
-        if g1 > EPS && x1 != self.wild {
+        if g1 > EPS && !self.is_wild(x1) {
             let mut cands: Vec<u32> = self.nbr(x1).to_vec();
-            if self.rev[self.depot as usize] {
-                cands.push(self.wild);
+            let depot_out = self.out_end(self.depot);
+            if self.is_wild(depot_out) {
+                cands.push(depot_out);
             }
             for y in cands {
                 let cn = y / 2;
@@ -393,7 +409,7 @@ impl<'a> Tour<'a> {
                 let y1 = self.out_end(cn);
                 let d1 = self.c(x1, y1);
                 if d1 >= g1 {
-                    if y == self.wild {
+                    if self.is_wild(y) {
                         continue;
                     }
                     break;
@@ -414,10 +430,11 @@ impl<'a> Tour<'a> {
         let x1 = self.in_end(a);
         let x2 = self.out_end(p);
         let g1 = self.c(x2, x1);
-        if g1 > EPS && x1 != self.wild {
+        if g1 > EPS && !self.is_wild(x1) {
             let mut cands: Vec<u32> = self.nbr(x1).to_vec();
-            if !self.rev[self.depot as usize] {
-                cands.push(self.wild);
+            let depot_in = self.in_end(self.depot);
+            if self.is_wild(depot_in) {
+                cands.push(depot_in);
             }
             for y in cands {
                 let cn = y / 2;
@@ -427,7 +444,7 @@ impl<'a> Tour<'a> {
                 let y1 = self.in_end(cn);
                 let d1 = self.c(x1, y1);
                 if d1 >= g1 {
-                    if y == self.wild {
+                    if self.is_wild(y) {
                         continue;
                     }
                     break;
@@ -484,7 +501,7 @@ impl<'a> Tour<'a> {
                 let in_seg = |t: &Self, k: u32| (t.pos[k as usize] as usize + t.n - seg_start) % t.n < len;
                 for head in [true, false] {
                     let x = if head { self.in_end(s1) } else { self.out_end(s2) };
-                    if x == self.wild {
+                    if self.is_wild(x) {
                         continue;
                     }
                     let cands: Vec<u32> = self.nbr(x).to_vec();
@@ -560,7 +577,7 @@ impl<'a> Tour<'a> {
             return false;
         }
         let (pe, ne) = (self.out_end(self.prev(a)), self.in_end(self.next(a)));
-        let hop = |t: &Self, e: u32, q: Point| if e == t.wild { 0.0 } else { t.cost.cost(t.pts[e as usize], q) };
+        let hop = |t: &Self, e: u32, q: Point| if t.is_wild(e) { 0.0 } else { t.cost.cost(t.pts[e as usize], q) };
         let now = self.pts[2 * ai];
         let current = hop(self, pe, now) + hop(self, ne, now);
         let verts = &self.paths[self.visits[ai].path as usize].points;
@@ -670,7 +687,6 @@ impl<'a> Tour<'a> {
             let v = self.visits[k as usize];
             out.push(Visit { path: v.path, reversed: v.reversed ^ flip, seam: self.seam[k as usize] });
         }
-        debug_assert!(self.start == self.pts[2 * d as usize + 1]);
         out
     }
 }
@@ -690,6 +706,7 @@ mod tests {
             allow_reverse: true,
             seam: SeamMode::Any,
             verify,
+            free_start: false,
         }
     }
 

@@ -1,6 +1,8 @@
 //! Path optimization: draw the same strokes with as little pen-up travel as possible.
 //!
-//! Per layer (layers keep their order; each layer starts where the previous one ended, the first at `start`):
+//! Per layer (layers keep their order; each layer starts where the previous one ended, the first at `start` when
+//! one is given — otherwise the hop to the first path is free, the convention of [`crate::travel`] and `plotter
+//! stats`):
 //!
 //! 1. **Merge** ([`merge`](self) step) — open paths whose ends meet within a tolerance are joined, in either
 //!    direction, so the pen does not lift at the joint;
@@ -47,7 +49,7 @@ pub use bound::TravelBound;
 pub use cost::{CostModel, TravelTimeModel};
 pub use improve::ImproveStats;
 pub use seam::SeamMode;
-pub use travel::{drawing_travel, pen_up_length};
+pub use travel::drawing_travel;
 
 use crate::{Drawing, Polyline};
 
@@ -148,8 +150,8 @@ pub struct OptimizeOptions {
     pub time_model: Option<TravelTimeModel>,
     /// Compute the lower bound.
     pub lower_bound: bool,
-    /// Pen position before the first layer (page mm).
-    pub start: Point,
+    /// Pen position before the first layer (page mm); `None`: unknown, the hop to the first path is not counted.
+    pub start: Option<Point>,
 }
 
 impl Default for OptimizeOptions {
@@ -169,7 +171,7 @@ impl Default for OptimizeOptions {
             objective: Objective::Distance,
             time_model: None,
             lower_bound: true,
-            start: Point::ZERO,
+            start: None,
         }
     }
 }
@@ -284,7 +286,9 @@ fn check(drawing: &Drawing, opts: &OptimizeOptions) -> Result<(), OptimizeError>
     {
         return bad("seam", "corner angle must be between 0 and 180 degrees");
     }
-    if !(opts.start.x.is_finite() && opts.start.y.is_finite()) {
+    if let Some(s) = opts.start
+        && !(s.x.is_finite() && s.y.is_finite())
+    {
         return bad("start", "must be a finite point");
     }
     for (li, layer) in drawing.layers.iter().enumerate() {
@@ -300,14 +304,16 @@ fn check(drawing: &Drawing, opts: &OptimizeOptions) -> Result<(), OptimizeError>
     Ok(())
 }
 
-fn visits_cost(paths: &[Polyline], visits: &[Visit], start: Point, cost: &CostModel) -> (f64, Point) {
+fn visits_cost(paths: &[Polyline], visits: &[Visit], start: Option<Point>, cost: &CostModel) -> f64 {
     let mut at = start;
     let mut total = 0.0;
     for v in visits {
-        total += cost.cost(at, v.entry(paths));
-        at = v.exit(paths);
+        if let Some(from) = at {
+            total += cost.cost(from, v.entry(paths));
+        }
+        at = Some(v.exit(paths));
     }
-    (total, at)
+    total
 }
 
 fn add_opt(acc: &mut Option<f64>, v: Option<f64>) {
@@ -343,16 +349,16 @@ fn layer_bound_parts(paths: &[Polyline], ids: &[u32], seam: SeamMode, start: Opt
 pub fn travel_lower_bound(
     drawing: &Drawing,
     seam: SeamMode,
-    start: Point,
+    start: Option<Point>,
     time_model: Option<&TravelTimeModel>,
 ) -> (f64, Option<f64>) {
     let mut dist = 0.0;
     let mut time = time_model.map(|_| 0.0);
     for (li, layer) in drawing.layers.iter().enumerate() {
         let ids: Vec<u32> = (0..u32::try_from(layer.paths.len()).unwrap_or(0))
-            .filter(|&i| !layer.paths[i as usize].points.is_empty())
+            .filter(|&i| layer.paths[i as usize].points.len() >= 2)
             .collect();
-        let parts = layer_bound_parts(&layer.paths, &ids, seam, (li == 0).then_some(start));
+        let parts = layer_bound_parts(&layer.paths, &ids, seam, if li == 0 { start } else { None });
         dist += parts.under(&CostModel::Distance).value();
         if let (Some(t), Some(m)) = (time.as_mut(), time_model) {
             *t += parts.under(&CostModel::Time(*m)).value();
@@ -387,12 +393,13 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
             lr.joins = stats.joins;
             lr.closed_by_merge = stats.closed;
         }
+        // Paths without a segment are not drawn (see `crate::travel`); they stay, unordered, at the layer's end.
         let (ids, empties): (Vec<u32>, Vec<u32>) =
-            (0..u32::try_from(paths.len()).unwrap_or(0)).partition(|&i| !paths[i as usize].points.is_empty());
+            (0..u32::try_from(paths.len()).unwrap_or(0)).partition(|&i| paths[i as usize].points.len() >= 2);
         let input_visits: Vec<Visit> = ids.iter().map(|&id| Visit { path: id, reversed: false, seam: 0 }).collect();
         let mut visits = if opts.reorder {
-            let v = order::greedy_order(&paths, &ids, at_after, opts.seam, opts.reverse);
-            lr.pen_up_greedy_mm = Some(visits_cost(&paths, &v, at_after, &CostModel::Distance).0);
+            let v = order::greedy_order(&paths, &ids, at_after.unwrap_or(Point::ZERO), opts.seam, opts.reverse);
+            lr.pen_up_greedy_mm = Some(visits_cost(&paths, &v, at_after, &CostModel::Distance));
             v
         } else {
             input_visits.clone()
@@ -414,18 +421,18 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
                 allow_reverse: opts.reverse,
                 seam: opts.seam,
                 verify: false,
+                free_start: at_after.is_none(),
             };
-            lr.improve = improve::improve(&paths, &mut visits, at_after, &objective, params);
+            lr.improve = improve::improve(&paths, &mut visits, at_after.unwrap_or(Point::ZERO), &objective, params);
         }
         // Never worse than the input order under the objective.
-        if visits_cost(&paths, &input_visits, at_after, &objective).0
-            < visits_cost(&paths, &visits, at_after, &objective).0
+        if visits_cost(&paths, &input_visits, at_after, &objective) < visits_cost(&paths, &visits, at_after, &objective)
         {
             visits = input_visits;
             lr.kept_input_order = true;
         }
         if opts.lower_bound {
-            let start = (li == 0).then_some(opts.start);
+            let start = if li == 0 { opts.start } else { None };
             let parts = layer_bound_parts(&paths, &ids, opts.seam, start);
             lr.pen_up_lower_bound_mm = Some(parts.under(&CostModel::Distance).value());
             lr.travel_time_lower_bound_s = time_cost.map(|c| parts.under(&c).value());
@@ -457,4 +464,226 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
     }
     report.elapsed = t0.elapsed();
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Layer;
+    use proptest::prelude::*;
+
+    fn key(p: Point) -> (u64, u64) {
+        (p.x.to_bits(), p.y.to_bits())
+    }
+
+    /// A path up to drawing direction (when `reverse`) and, for closed paths, seam rotation.
+    fn canonical(path: &Polyline, reverse: bool, rotate: bool) -> Vec<(u64, u64)> {
+        let pts: Vec<(u64, u64)> = path.points.iter().map(|&p| key(p)).collect();
+        let mut forms = Vec::new();
+        if path.is_closed() && rotate {
+            let body = &pts[..pts.len() - 1];
+            for r in 0..body.len() {
+                let mut f: Vec<_> = body[r..].iter().chain(&body[..r]).copied().collect();
+                f.push(f[0]);
+                forms.push(f.clone());
+                if reverse {
+                    f.reverse();
+                    forms.push(f);
+                }
+            }
+        } else {
+            forms.push(pts.clone());
+            if reverse {
+                forms.push(pts.iter().rev().copied().collect());
+            }
+        }
+        forms.into_iter().min().unwrap_or_default()
+    }
+
+    fn segments(d: &Drawing) -> Vec<((u64, u64), (u64, u64))> {
+        let mut v: Vec<_> = d
+            .paths()
+            .flat_map(|p| p.points.windows(2))
+            .filter(|w| w[0] != w[1])
+            .map(|w| {
+                let (a, b) = (key(w[0]), key(w[1]));
+                (a.min(b), a.max(b))
+            })
+            .collect();
+        v.sort_unstable();
+        v
+    }
+
+    fn arb_path() -> impl Strategy<Value = Polyline> {
+        let pt = (0..40i32, 0..30i32).prop_map(|(x, y)| Point::new(f64::from(x) * 2.5, f64::from(y) * 2.5));
+        prop_oneof![
+            4 => prop::collection::vec(pt.clone(), 2..6).prop_map(Polyline::new),
+            2 => prop::collection::vec(pt.clone(), 3..7).prop_map(|mut v| { v.push(v[0]); Polyline::new(v) }),
+            1 => prop::collection::vec(pt, 0..2).prop_map(Polyline::new),
+        ]
+    }
+
+    fn arb_drawing() -> impl Strategy<Value = Drawing> {
+        prop::collection::vec(prop::collection::vec(arb_path(), 0..40), 1..4).prop_map(|layers| Drawing {
+            layers: layers
+                .into_iter()
+                .enumerate()
+                .map(|(i, paths)| Layer { paths, ..Layer::new(format!("l{i}")) })
+                .collect(),
+            page_mm: None,
+        })
+    }
+
+    fn arb_seam() -> impl Strategy<Value = SeamMode> {
+        prop_oneof![Just(SeamMode::Keep), Just(SeamMode::Any), Just(SeamMode::Corners { min_turn_deg: 45.0 })]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+        /// Without merging the result draws every input path once per layer, possibly reversed or with a rotated
+        /// seam, never worse than greedy, and never below the lower bound.
+        #[test]
+        fn result_is_a_permutation_with_unchanged_geometry(
+            d in arb_drawing(), reverse in any::<bool>(), seam in arb_seam(), start in any::<bool>(), seed in 0u64..4,
+        ) {
+            let opts = OptimizeOptions {
+                merge: false, reverse, seam, seed, time_budget: None,
+                start: start.then_some(Point::new(3.0, 7.0)),
+                ..OptimizeOptions::default()
+            };
+            let mut out = d.clone();
+            let report = optimize(&mut out, &opts).unwrap();
+            prop_assert_eq!(out.layers.len(), d.layers.len());
+            let rotate = seam != SeamMode::Keep;
+            for (a, b) in d.layers.iter().zip(&out.layers) {
+                prop_assert_eq!(&a.name, &b.name);
+                let mut ca: Vec<_> = a.paths.iter().map(|p| canonical(p, reverse, rotate)).collect();
+                let mut cb: Vec<_> = b.paths.iter().map(|p| canonical(p, reverse, rotate)).collect();
+                ca.sort();
+                cb.sort();
+                prop_assert_eq!(ca, cb);
+            }
+            let greedy = report.pen_up_greedy_mm.unwrap();
+            prop_assert!(report.pen_up_after_mm <= greedy + 1e-9, "{} > greedy {}", report.pen_up_after_mm, greedy);
+            prop_assert!(report.pen_up_after_mm <= report.pen_up_before_mm + 1e-9);
+            let lb = report.pen_up_lower_bound_mm.unwrap();
+            prop_assert!(lb <= report.pen_up_after_mm + 1e-9, "bound {} > result {}", lb, report.pen_up_after_mm);
+            // The report agrees with measuring the output.
+            let measured = drawing_travel(&out, opts.start, &CostModel::Distance);
+            prop_assert!((measured - report.pen_up_after_mm).abs() < 1e-6);
+            if opts.start.is_none() {
+                prop_assert!((crate::travel::pen_up_length(&out) - report.pen_up_after_mm).abs() < 1e-6);
+            }
+        }
+
+        /// With merging every input segment is still drawn exactly once; the only additions are bridges no longer
+        /// than the tolerance.
+        #[test]
+        fn merging_keeps_every_segment_and_bridges_only_small_gaps(
+            d in arb_drawing(), reverse in any::<bool>(), tol in prop_oneof![Just(0.0), Just(1.0), Just(3.0)],
+        ) {
+            let opts = OptimizeOptions { merge_tolerance_mm: tol, reverse, time_budget: None, ..OptimizeOptions::default() };
+            let mut out = d.clone();
+            let report = optimize(&mut out, &opts).unwrap();
+            let before = segments(&d);
+            let after = segments(&out);
+            // Multiset difference: after ⊇ before, the rest are short bridges.
+            let (mut i, mut extra) = (0, Vec::new());
+            for s in &after {
+                if i < before.len() && before[i] == *s {
+                    i += 1;
+                } else {
+                    extra.push(*s);
+                }
+            }
+            prop_assert_eq!(i, before.len(), "an input segment is missing");
+            for (a, b) in extra {
+                let len = Point::new(f64::from_bits(a.0), f64::from_bits(a.1))
+                    .distance(Point::new(f64::from_bits(b.0), f64::from_bits(b.1)));
+                prop_assert!(len <= tol + 1e-12, "bridge of {} mm", len);
+            }
+            let joins: usize = report.layers.iter().map(|l| l.joins).sum();
+            prop_assert_eq!(out.path_count() + joins, d.path_count());
+        }
+    }
+
+    #[test]
+    fn bad_input_names_the_place() {
+        let mut d = Drawing::single_layer("ok", vec![Polyline::new(vec![Point::ZERO, Point::new(1.0, 1.0)])]);
+        let mut bad = Layer::new("broken");
+        bad.paths.push(Polyline::new(vec![Point::ZERO, Point::new(1.0, 0.0)]));
+        bad.paths.push(Polyline::new(vec![Point::ZERO, Point::new(f64::NAN, 0.0)]));
+        d.layers.push(bad);
+        let err = optimize(&mut d.clone(), &OptimizeOptions::default()).unwrap_err();
+        assert_eq!(err, OptimizeError::NonFinite { layer: 1, name: "broken".into(), path: 1, point: 1 });
+        assert!(err.to_string().contains("(\"broken\"), path 1, point 1"), "{err}");
+        let opts = OptimizeOptions { objective: Objective::Time, ..OptimizeOptions::default() };
+        let err = optimize(&mut d, &opts).unwrap_err().to_string();
+        assert!(err.contains("objective") && err.contains("profile"), "{err}");
+        let opts = OptimizeOptions { merge_tolerance_mm: -1.0, ..OptimizeOptions::default() };
+        assert!(matches!(
+            optimize(&mut d, &opts),
+            Err(OptimizeError::InvalidOption { option: "merge_tolerance_mm", .. })
+        ));
+    }
+
+    #[test]
+    fn switches_disable_each_step() {
+        let d = synth::maze(2);
+        let n = d.path_count();
+        let none = OptimizeOptions {
+            merge: false,
+            reorder: false,
+            improve: false,
+            lower_bound: false,
+            ..OptimizeOptions::default()
+        };
+        let mut same = d.clone();
+        let r = optimize(&mut same, &none).unwrap();
+        assert_eq!(same, d);
+        assert_eq!((r.pen_up_before_mm, r.pen_up_greedy_mm, r.pen_up_lower_bound_mm), (r.pen_up_after_mm, None, None));
+        // Merge only: fewer paths, same order otherwise.
+        let mut merged = d.clone();
+        let r = optimize(&mut merged, &OptimizeOptions { merge: true, ..none.clone() }).unwrap();
+        assert!(merged.path_count() < n / 2 && r.layers[0].joins == n - merged.path_count());
+        // Improvement on the input order (no greedy) still helps and never hurts.
+        let mut improved = d.clone();
+        let r = optimize(&mut improved, &OptimizeOptions { improve: true, time_budget: None, ..none }).unwrap();
+        assert!(r.pen_up_after_mm < 0.5 * r.pen_up_before_mm, "{r:?}");
+        assert_eq!(improved.path_count(), n);
+    }
+
+    #[test]
+    fn time_objective_reports_times_and_weighs_hops() {
+        let model = TravelTimeModel::from_profile(&crate::MachineProfile::default_plotter());
+        let d = synth::glyphs(5);
+        let mut a = d.clone();
+        let opts = OptimizeOptions {
+            objective: Objective::Time,
+            time_model: Some(model),
+            time_budget: None,
+            ..OptimizeOptions::default()
+        };
+        let r = optimize(&mut a, &opts).unwrap();
+        let (before, after, lb) =
+            (r.travel_time_before_s.unwrap(), r.travel_time_after_s.unwrap(), r.travel_time_lower_bound_s.unwrap());
+        assert!(lb <= after && after < 0.7 * before, "{lb} {after} {before}");
+        // Every hop pays the lift: the bound is at least that for each path.
+        #[allow(clippy::cast_precision_loss, reason = "small count")]
+        let lifts = model.lift_drop_s * (d.path_count() - 1) as f64;
+        assert!(lb >= lifts);
+        let measured = drawing_travel(&a, None, &CostModel::Time(model));
+        assert!((measured - after).abs() < 1e-6);
+    }
+
+    #[test]
+    fn same_seed_same_drawing() {
+        let d = synth::text_like(9);
+        let opts = OptimizeOptions { time_budget: None, seed: 5, ..OptimizeOptions::default() };
+        let (mut a, mut b) = (d.clone(), d.clone());
+        optimize(&mut a, &opts).unwrap();
+        optimize(&mut b, &opts).unwrap();
+        assert_eq!(a, b);
+    }
 }
