@@ -4,6 +4,7 @@
 //! `clap::Args` structs flattened into them.
 
 mod cmd_convert;
+mod cmd_optimize;
 mod cmd_preview;
 mod cmd_stats;
 mod input;
@@ -31,6 +32,8 @@ enum Command {
     Stats(cmd_stats::StatsArgs),
     /// Write the flattened, laid-out drawing as a plain SVG of polylines in mm
     Convert(cmd_convert::ConvertArgs),
+    /// Merge, reorder and reverse paths to cut pen-up travel; write plain SVG
+    Optimize(cmd_optimize::OptimizeCmdArgs),
 }
 
 fn main() {
@@ -39,6 +42,7 @@ fn main() {
         Command::Preview(args) => cmd_preview::run(args),
         Command::Stats(args) => cmd_stats::run(args),
         Command::Convert(args) => cmd_convert::run(args),
+        Command::Optimize(args) => cmd_optimize::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -611,7 +611,7 @@ impl<'a> Tour<'a> {
         while let Some(a) = self.queue.pop_front() {
             self.queued[a as usize] = false;
             steps = steps.wrapping_add(1);
-            if steps % 64 == 0 && self.out_of_time() {
+            if steps.is_multiple_of(64) && self.out_of_time() {
                 return false;
             }
             while self.try_two_opt(a) || self.try_or_opt(a) || self.try_seam(a) {}

@@ -139,8 +139,9 @@ impl KdTree {
         }
         let node = &self.nodes[n];
         if node.left == NONE {
-            for slot in node.lo as usize..node.hi as usize {
-                if labels[slot] == label {
+            let range = node.lo as usize..node.hi as usize;
+            for (slot, &l) in range.clone().zip(&labels[range]) {
+                if l == label {
                     continue;
                 }
                 let p = self.pts[slot];
@@ -158,6 +159,96 @@ impl KdTree {
         for (child, d) in order {
             if d <= best.0 {
                 self.other_rec(child, q, label, labels, nl, best);
+            }
+        }
+    }
+}
+
+/// A [`KdTree`] whose points can be deleted, answering nearest-remaining-point queries. Every node counts its
+/// remaining points; a deletion decrements the counts on the way to the root and a query skips empty subtrees, so
+/// both stay `O(log n)`-ish even after most points are gone (the greedy ordering deletes all of them).
+#[derive(Debug, Clone)]
+pub(crate) struct ShrinkingKdTree {
+    tree: KdTree,
+    alive: Vec<u32>,
+    parent: Vec<u32>,
+    leaf_of_slot: Vec<u32>,
+    slot_of_id: Vec<u32>,
+    dead: Vec<bool>,
+}
+
+impl ShrinkingKdTree {
+    /// Build over `points`; all are present.
+    pub(crate) fn build(points: &[[f64; 2]]) -> Self {
+        let tree = KdTree::build(points);
+        let nn = tree.nodes.len();
+        let mut parent = vec![NONE; nn];
+        let mut leaf_of_slot = vec![0u32; tree.len()];
+        let mut alive = vec![0u32; nn];
+        for (n, node) in tree.nodes.iter().enumerate() {
+            let n32 = u32::try_from(n).unwrap_or(NONE);
+            alive[n] = node.hi - node.lo;
+            if node.left == NONE {
+                for slot in node.lo..node.hi {
+                    leaf_of_slot[slot as usize] = n32;
+                }
+            } else {
+                parent[node.left as usize] = n32;
+                parent[node.right as usize] = n32;
+            }
+        }
+        let mut slot_of_id = vec![0u32; tree.len()];
+        for (slot, &id) in tree.ids.iter().enumerate() {
+            slot_of_id[id as usize] = u32::try_from(slot).unwrap_or(NONE);
+        }
+        let dead = vec![false; tree.len()];
+        ShrinkingKdTree { tree, alive, parent, leaf_of_slot, slot_of_id, dead }
+    }
+
+    /// Delete the point `id` (no effect if already deleted).
+    pub(crate) fn remove(&mut self, id: u32) {
+        let slot = self.slot_of_id[id as usize] as usize;
+        if self.dead[slot] {
+            return;
+        }
+        self.dead[slot] = true;
+        let mut n = self.leaf_of_slot[slot];
+        while n != NONE {
+            self.alive[n as usize] -= 1;
+            n = self.parent[n as usize];
+        }
+    }
+
+    /// The remaining point nearest to `q`, as `(squared distance, id)`.
+    pub(crate) fn nearest(&self, q: [f64; 2]) -> Option<(f64, u32)> {
+        let mut best = (f64::INFINITY, NONE);
+        if !self.alive.is_empty() && self.alive[0] > 0 {
+            self.nearest_rec(0, q, &mut best);
+        }
+        (best.1 != NONE).then_some(best)
+    }
+
+    fn nearest_rec(&self, n: usize, q: [f64; 2], best: &mut (f64, u32)) {
+        let node = &self.tree.nodes[n];
+        if node.left == NONE {
+            for slot in node.lo as usize..node.hi as usize {
+                if self.dead[slot] {
+                    continue;
+                }
+                let p = self.tree.pts[slot];
+                let d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
+                if d2 < best.0 {
+                    *best = (d2, self.tree.ids[slot]);
+                }
+            }
+            return;
+        }
+        let (l, r) = (node.left as usize, node.right as usize);
+        let (dl, dr) = (self.tree.nodes[l].box_dist2(q), self.tree.nodes[r].box_dist2(q));
+        let order = if dl <= dr { [(l, dl), (r, dr)] } else { [(r, dr), (l, dl)] };
+        for (child, d) in order {
+            if self.alive[child] > 0 && d < best.0 {
+                self.nearest_rec(child, q, best);
             }
         }
     }
@@ -219,6 +310,27 @@ mod tests {
             let d_brute: Vec<f64> = brute[..7].iter().map(|e| e.0).collect();
             assert_eq!(d_tree, d_brute);
         }
+    }
+
+    #[test]
+    fn shrinking_tree_finds_the_nearest_remaining_point() {
+        let pts = cloud(400, 8);
+        let mut tree = ShrinkingKdTree::build(&pts);
+        let mut alive = vec![true; pts.len()];
+        let mut r = SplitMix64::new(2);
+        for step in 0..pts.len() {
+            let q = [r.unit() * 100.0, r.unit() * 50.0];
+            let got = tree.nearest(q).unwrap();
+            let want = (0..pts.len())
+                .filter(|&i| alive[i])
+                .map(|i| (pts[i][0] - q[0]).powi(2) + (pts[i][1] - q[1]).powi(2))
+                .fold(f64::INFINITY, f64::min);
+            assert_eq!(got.0, want, "step {step}");
+            alive[got.1 as usize] = false;
+            tree.remove(got.1);
+            tree.remove(got.1);
+        }
+        assert!(tree.nearest([0.0, 0.0]).is_none());
     }
 
     #[test]

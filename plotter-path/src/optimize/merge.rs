@@ -1,10 +1,12 @@
 //! Merging: open paths whose ends meet (within a tolerance, in either direction) become one longer path, so the
 //! pen stays down across the joint instead of lifting and dropping on the same spot.
 //!
-//! All open-path ends go into an R-tree (rstar). Paths are taken in input order; each one seeds a chain that is
-//! extended at its tail, then at its head, by the nearest unused end within the tolerance — the matched path is
-//! reversed when its far end is the one that meets (only when reversal is allowed). Used paths leave the tree, so
-//! every lookup is `O(log n)` and the whole merge `O(n log n)`. A chain whose two ends finally meet is closed.
+//! All open-path starts and ends go into two shrinking k-d trees. Paths are taken in input order; each one seeds a
+//! chain that is extended at its tail, then at its head, by the nearest unused end within the tolerance — the
+//! matched path is reversed when its far end is the one that meets (only when reversal is allowed). Used paths
+//! leave the trees, so every lookup is `O(log n)` and the whole merge `O(n log n)`, even when many ends meet at one
+//! point. A chain whose two ends finally meet is closed. (An rstar R-tree did the same with removals several times
+//! slower; see the benchmark notes.)
 //!
 //! Geometry: when two ends coincide exactly, the duplicate vertex is dropped; when they are only within the
 //! tolerance, the gap becomes a short pen-down bridge of at most the tolerance (that is what merging within a
@@ -13,12 +15,9 @@
 use std::collections::VecDeque;
 
 use kurbo::Point;
-use rstar::RTree;
-use rstar::primitives::GeomWithData;
 
+use super::kdtree::ShrinkingKdTree;
 use crate::Polyline;
-
-type End = GeomWithData<[f64; 2], u32>;
 
 /// What merging did to one layer.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -29,10 +28,27 @@ pub(crate) struct MergeStats {
     pub(crate) closed: usize,
 }
 
-fn end_entry(paths: &[Polyline], i: usize, which: u32) -> End {
-    let p = if which == 0 { paths[i].points[0] } else { paths[i].points[paths[i].points.len() - 1] };
-    let tag = u32::try_from(i).unwrap_or(u32::MAX) * 2 + which;
-    GeomWithData::new([p.x, p.y], tag)
+/// Start points and end points of the mergeable paths, each in a shrinking k-d tree (id = rank among mergeable).
+struct Ends {
+    trees: [ShrinkingKdTree; 2],
+    tol2: f64,
+}
+
+impl Ends {
+    /// Nearest remaining end of kind `kinds` (0 = start, 1 = end) within the tolerance of `at`: (rank, kind).
+    fn find(&self, at: Point, kinds: &[usize]) -> Option<(u32, usize)> {
+        kinds
+            .iter()
+            .filter_map(|&k| self.trees[k].nearest([at.x, at.y]).map(|(d2, id)| (d2, id, k)))
+            .filter(|&(d2, _, _)| d2 <= self.tol2)
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2)))
+            .map(|(_, id, k)| (id, k))
+    }
+
+    fn take(&mut self, rank: u32) {
+        self.trees[0].remove(rank);
+        self.trees[1].remove(rank);
+    }
 }
 
 /// Join the open paths of `paths` whose ends lie within `tolerance` mm. Returns the new path list (chains in the
@@ -40,76 +56,67 @@ fn end_entry(paths: &[Polyline], i: usize, which: u32) -> End {
 pub(crate) fn merge_paths(paths: Vec<Polyline>, tolerance: f64, allow_reverse: bool) -> (Vec<Polyline>, MergeStats) {
     let mut stats = MergeStats::default();
     let n = paths.len();
-    if u32::try_from(n.saturating_mul(2)).is_err() {
+    if u32::try_from(n).is_err() {
         return (paths, stats);
     }
     let mergeable: Vec<bool> = paths.iter().map(|p| p.points.len() >= 2 && !p.is_closed()).collect();
-    let mut entries = Vec::new();
-    for (i, _) in mergeable.iter().enumerate().filter(|(_, m)| **m) {
-        entries.push(end_entry(&paths, i, 0));
-        entries.push(end_entry(&paths, i, 1));
+    let members: Vec<usize> = (0..n).filter(|&i| mergeable[i]).collect();
+    let mut rank = vec![u32::MAX; n];
+    for (r, &i) in members.iter().enumerate() {
+        rank[i] = u32::try_from(r).unwrap_or(u32::MAX);
     }
-    let mut tree = RTree::bulk_load(entries);
-    let tol2 = tolerance * tolerance;
+    let point_of = |i: usize, k: usize| {
+        let pts = &paths[i].points;
+        let p = if k == 0 { pts[0] } else { pts[pts.len() - 1] };
+        [p.x, p.y]
+    };
+    let starts: Vec<[f64; 2]> = members.iter().map(|&i| point_of(i, 0)).collect();
+    let ends: Vec<[f64; 2]> = members.iter().map(|&i| point_of(i, 1)).collect();
+    let mut index =
+        Ends { trees: [ShrinkingKdTree::build(&starts), ShrinkingKdTree::build(&ends)], tol2: tolerance * tolerance };
+    // At the tail the next path must start there (or, reversed, end there); at the head the previous one must end
+    // there (or, reversed, start there).
+    let (tail_kinds, head_kinds): (&[usize], &[usize]) = if allow_reverse { (&[0, 1], &[1, 0]) } else { (&[0], &[1]) };
     let mut used = vec![false; n];
     let mut out = Vec::with_capacity(n);
-
-    // Remove both ends of path `i` from the tree and mark it used.
-    let take = |tree: &mut RTree<End>, used: &mut [bool], i: usize| {
-        used[i] = true;
-        tree.remove(&end_entry(&paths, i, 0));
-        tree.remove(&end_entry(&paths, i, 1));
-    };
-    // Nearest unused end within the tolerance of `at` whose kind is accepted.
-    let find = |tree: &RTree<End>, at: Point, accept: &dyn Fn(u32) -> bool| -> Option<u32> {
-        tree.nearest_neighbor_iter_with_distance_2([at.x, at.y])
-            .take_while(|(_, d2)| *d2 <= tol2)
-            .find(|(e, _)| accept(e.data & 1))
-            .map(|(e, _)| e.data)
-    };
-
     for i in 0..n {
         if used[i] {
             continue;
         }
+        used[i] = true;
         if !mergeable[i] {
-            used[i] = true;
             out.push(paths[i].clone());
             continue;
         }
-        take(&mut tree, &mut used, i);
+        index.take(rank[i]);
         let mut chain: VecDeque<Point> = paths[i].points.iter().copied().collect();
-        // Tail: the next path must start here (or, reversed, end here).
         while let Some(&tail) = chain.back() {
-            let Some(tag) = find(&tree, tail, &|k| k == 0 || allow_reverse) else { break };
-            let j = (tag / 2) as usize;
-            take(&mut tree, &mut used, j);
+            let Some((r, kind)) = index.find(tail, tail_kinds) else { break };
+            index.take(r);
+            let j = members[r as usize];
+            used[j] = true;
             let pts = &paths[j].points;
-            let forward = tag & 1 == 0;
-            let mut seq: Box<dyn Iterator<Item = Point>> =
-                if forward { Box::new(pts.iter().copied()) } else { Box::new(pts.iter().rev().copied()) };
-            if let Some(first) = seq.next()
-                && first != tail
-            {
-                chain.push_back(first);
+            let seq: Box<dyn Iterator<Item = &Point>> =
+                if kind == 0 { Box::new(pts.iter()) } else { Box::new(pts.iter().rev()) };
+            let mut seq = seq.copied().peekable();
+            if seq.peek() == Some(&tail) {
+                seq.next();
             }
             chain.extend(seq);
             stats.joins += 1;
         }
-        // Head: the previous path must end here (or, reversed, start here).
         while let Some(&head) = chain.front() {
-            let Some(tag) = find(&tree, head, &|k| k == 1 || allow_reverse) else { break };
-            let j = (tag / 2) as usize;
-            take(&mut tree, &mut used, j);
+            let Some((r, kind)) = index.find(head, head_kinds) else { break };
+            index.take(r);
+            let j = members[r as usize];
+            used[j] = true;
             let pts = &paths[j].points;
-            let ends_here = tag & 1 == 1;
-            // Walk the path backwards from the meeting end and push each vertex in front.
-            let mut seq: Box<dyn Iterator<Item = Point>> =
-                if ends_here { Box::new(pts.iter().rev().copied()) } else { Box::new(pts.iter().copied()) };
-            if let Some(first) = seq.next()
-                && first != head
-            {
-                chain.push_front(first);
+            // Walk the path away from the meeting end and push each vertex in front.
+            let seq: Box<dyn Iterator<Item = &Point>> =
+                if kind == 1 { Box::new(pts.iter().rev()) } else { Box::new(pts.iter()) };
+            let mut seq = seq.copied().peekable();
+            if seq.peek() == Some(&head) {
+                seq.next();
             }
             for p in seq {
                 chain.push_front(p);
@@ -119,7 +126,7 @@ pub(crate) fn merge_paths(paths: Vec<Polyline>, tolerance: f64, allow_reverse: b
         let mut pts: Vec<Point> = chain.into();
         if pts.len() > 2 {
             let (a, b) = (pts[0], pts[pts.len() - 1]);
-            if a != b && a.distance_squared(b) <= tol2 {
+            if a != b && a.distance_squared(b) <= index.tol2 {
                 pts.push(a);
                 stats.closed += 1;
             }

@@ -1,16 +1,17 @@
 //! Greedy nearest-neighbour ordering with reversal and seam choice.
 //!
-//! Every place where a path may be entered goes into an R-tree (rstar): both ends of an open path (only its start
-//! when reversal is off) and the seam candidates of a closed path. From the pen position the nearest entry is popped
-//! repeatedly; an entry whose path was already drawn is discarded (lazy deletion), so each entry is popped at most
-//! once and the whole order costs `O(E log E)` for `E` entries. Entering an open path at its end means drawing it
+//! Every place where a path may be entered goes into a shrinking k-d tree: both ends of an open path (only its
+//! start when reversal is off) and the seam candidates of a closed path. From the pen position the nearest
+//! remaining entry is taken, and all entries of its path are deleted; each query and deletion is `O(log E)`, so the
+//! whole order costs `O(E log E)` for `E` entries. (An R-tree with `pop_nearest_neighbor` did the same job at
+//! several times the cost, because its removals rebalance nodes; the static tree with per-node live counts never
+//! restructures.) Entering an open path at its end means drawing it
 //! reversed; entering a closed path at a vertex makes that vertex the seam.
 
 use kurbo::Point;
-use rstar::RTree;
-use rstar::primitives::GeomWithData;
 
 use super::Visit;
+use super::kdtree::ShrinkingKdTree;
 use super::seam::{SeamMode, seam_candidates};
 use crate::Polyline;
 
@@ -23,36 +24,43 @@ pub(crate) fn greedy_order(
     seam: SeamMode,
     allow_reverse: bool,
 ) -> Vec<Visit> {
-    let mut entries: Vec<GeomWithData<[f64; 2], (u32, u32)>> = Vec::with_capacity(ids.len() * 2);
+    // Entries of one path are contiguous: `first[i]..first[i + 1]` for the i-th listed path.
+    let mut coords: Vec<[f64; 2]> = Vec::with_capacity(ids.len() * 2);
+    let mut data: Vec<(u32, u32)> = Vec::with_capacity(ids.len() * 2);
+    let mut first: Vec<u32> = Vec::with_capacity(ids.len() + 1);
     let mut seams = Vec::new();
-    for &id in ids {
+    for (i, &id) in ids.iter().enumerate() {
+        first.push(u32::try_from(coords.len()).unwrap_or(u32::MAX));
+        let i32_ = u32::try_from(i).unwrap_or(u32::MAX);
         let path = &paths[id as usize];
         if path.is_closed() {
             seams.clear();
             seam_candidates(path, seam, &mut seams);
             for &v in &seams {
                 let p = path.points[v as usize];
-                entries.push(GeomWithData::new([p.x, p.y], (id, v)));
+                coords.push([p.x, p.y]);
+                data.push((i32_, v));
             }
         } else {
             let (Some(a), Some(b)) = (path.start(), path.end()) else { continue };
-            entries.push(GeomWithData::new([a.x, a.y], (id, 0)));
+            coords.push([a.x, a.y]);
+            data.push((i32_, 0));
             if allow_reverse && a != b {
-                entries.push(GeomWithData::new([b.x, b.y], (id, 1)));
+                coords.push([b.x, b.y]);
+                data.push((i32_, 1));
             }
         }
     }
-    let mut tree = RTree::bulk_load(entries);
-    let mut done = vec![false; paths.len()];
+    first.push(u32::try_from(coords.len()).unwrap_or(u32::MAX));
+    let mut tree = ShrinkingKdTree::build(&coords);
     let mut order = Vec::with_capacity(ids.len());
     let mut at = start;
-    while order.len() < ids.len() {
-        let Some(e) = tree.pop_nearest_neighbor([at.x, at.y]) else { break };
-        let (id, k) = e.data;
-        if done[id as usize] {
-            continue;
+    while let Some((_, e)) = tree.nearest([at.x, at.y]) {
+        let (i, k) = data[e as usize];
+        for other in first[i as usize]..first[i as usize + 1] {
+            tree.remove(other);
         }
-        done[id as usize] = true;
+        let id = ids[i as usize];
         let path = &paths[id as usize];
         let visit = if path.is_closed() {
             Visit { path: id, reversed: false, seam: k }
