@@ -228,7 +228,7 @@ mod tests {
         assert!(o.time_model.is_some());
         let err = parse(&["--opt-cost", "time"]).options(None).unwrap_err().to_string();
         assert!(err.contains("profile"), "{err}");
-        assert!(parse(&["--opt-budget", "-1"]).options(None).is_err());
+        assert!(parse(&["--opt-budget=-1"]).options(None).is_err());
         assert!(!parse(&["--no-optimize"]).enabled());
     }
 
