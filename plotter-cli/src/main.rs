@@ -10,6 +10,7 @@ mod cmd_gen;
 mod cmd_home;
 mod cmd_jog;
 mod cmd_plot;
+mod cmd_optimize;
 mod cmd_preview;
 mod cmd_sim;
 mod cmd_stats;
@@ -57,6 +58,8 @@ enum Command {
     Gen(cmd_gen::GenArgs),
     /// Trace a PNG/JPEG image into paths (outline, centerline, edges, hatch) and write a plain SVG
     Trace(cmd_trace::TraceCmdArgs),
+    /// Merge, reorder and reverse paths to cut pen-up travel; write plain SVG
+    Optimize(cmd_optimize::OptimizeCmdArgs),
 }
 
 fn main() {
@@ -73,6 +76,7 @@ fn main() {
         Command::BenchLink(args) => cmd_bench::run(args),
         Command::Gen(args) => cmd_gen::run(args),
         Command::Trace(args) => cmd_trace::run(args),
+        Command::Optimize(args) => cmd_optimize::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -24,6 +24,7 @@ pub mod gcode_in;
 pub mod gcode_out;
 pub mod layout;
 pub mod motion;
+pub mod optimize;
 pub mod preview;
 pub mod profile;
 pub mod r#gen;

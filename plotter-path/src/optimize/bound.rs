@@ -1,0 +1,266 @@
+//! A lower bound on the pen-up travel of any order of a layer's paths, so a report can say how far from optimal
+//! its result is at most.
+//!
+//! Contract every path to one node whose "position" is the set of places where it can be entered or left (both
+//! ends of an open path, every allowed seam vertex of a closed path), and add the start position as a node. The
+//! distance between two nodes is the smallest distance between their point sets. Any drawing order makes one hop
+//! into every path, and those hops link the nodes into a spanning path, each hop at least as long as the node
+//! distance it spans. Hence two bounds, of which the larger is reported:
+//!
+//! * **Spanning tree**: the hops form a spanning tree, so they cost at least a minimum spanning tree (the classic
+//!   MST bound of the travelling-salesman literature, here on contracted nodes);
+//! * **Nearest predecessor**: each path's incoming hop costs at least the distance to its nearest other node (the
+//!   assignment-style bound, relaxed to one nearest neighbour per path).
+//!
+//! The MST is found exactly with Borůvka's algorithm: every round, each component finds its nearest point in
+//! another component with a k-d tree that skips subtrees lying entirely inside the asking component, and all those
+//! cheapest edges are added. Ties are broken by point index so the chosen edges all belong to one MST. Rounds at
+//! least halve the component count, so the bound costs `O(E log E · log n)` for `E` points. The first round's
+//! answers are the nearest-predecessor distances.
+//!
+//! With the time cost, every length `d` is mapped through the cheapest time any hop of that length can take
+//! (monotone in `d`, so the same tree stays minimal). When the start position is not known (layers after the first,
+//! whose start depends on how earlier layers end), the first hop is only known to cost at least a zero-length hop.
+
+use kurbo::Point;
+
+use super::cost::CostModel;
+use super::kdtree::KdTree;
+
+/// Both lower bounds on one layer's pen-up cost.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TravelBound {
+    /// The spanning-tree bound.
+    pub spanning_tree: f64,
+    /// The nearest-predecessor bound.
+    pub nearest: f64,
+}
+
+impl TravelBound {
+    /// The better (larger) of the two bounds.
+    pub fn value(&self) -> f64 {
+        self.spanning_tree.max(self.nearest)
+    }
+}
+
+struct UnionFind(Vec<u32>);
+
+impl UnionFind {
+    fn find(&mut self, mut x: u32) -> u32 {
+        while self.0[x as usize] != x {
+            let up = self.0[self.0[x as usize] as usize];
+            self.0[x as usize] = up;
+            x = up;
+        }
+        x
+    }
+}
+
+/// Raw material of the bounds, independent of the cost model: the minimum spanning tree's edge lengths and each
+/// path's distance to its nearest other node (mm).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct BoundParts {
+    tree_edges: Vec<f64>,
+    nearest: Vec<f64>,
+    start_known: bool,
+}
+
+impl BoundParts {
+    /// Both bounds under `cost`.
+    pub(crate) fn under(&self, cost: &CostModel) -> TravelBound {
+        let f = |d: f64| cost.min_cost_of_length(d);
+        if self.nearest.is_empty() {
+            return TravelBound::default();
+        }
+        let tree_cost: f64 = self.tree_edges.iter().map(|&d| f(d)).sum();
+        let nn: Vec<f64> = self.nearest.iter().map(|&d| f(d)).collect();
+        let nn_sum: f64 = nn.iter().sum();
+        if self.start_known {
+            TravelBound { spanning_tree: tree_cost, nearest: nn_sum }
+        } else {
+            let worst = nn.iter().copied().fold(0.0, f64::max);
+            TravelBound { spanning_tree: tree_cost + f(0.0), nearest: nn_sum - worst + f(0.0) }
+        }
+    }
+}
+
+/// Bound material for visiting `groups` paths whose entry points are `points` (each tagged in `group` with its
+/// path, `0..groups`; every path has at least one point), from `start` if known.
+pub(crate) fn bound_parts(points: &[Point], group: &[u32], groups: usize, start: Option<Point>) -> BoundParts {
+    let start_known = start.is_some();
+    if groups == 0 {
+        return BoundParts::default();
+    }
+    let total = groups + usize::from(start.is_some());
+    let (Ok(total32), Ok(groups32)) = (u32::try_from(total), u32::try_from(groups)) else {
+        return BoundParts::default();
+    };
+    let mut coords: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
+    let mut owner: Vec<u32> = group.to_vec();
+    if let Some(s) = start {
+        coords.push([s.x, s.y]);
+        owner.push(groups32);
+    }
+    let tree = KdTree::build(&coords);
+    let slot_group: Vec<u32> = (0..tree.len()).map(|s| owner[tree.id_at(s) as usize]).collect();
+    let mut uf = UnionFind((0..total32).collect());
+    let mut labels = slot_group.clone();
+    let mut node_labels = Vec::new();
+    let mut edges: Vec<f64> = Vec::with_capacity(total);
+    let mut nearest: Vec<f64> = Vec::new();
+    let mut components = total;
+    let none = (f64::INFINITY, u32::MAX, u32::MAX);
+    let mut best = vec![none; total];
+    while components > 1 {
+        tree.node_labels(&labels, &mut node_labels);
+        best.fill(none);
+        for slot in 0..tree.len() {
+            let c = labels[slot] as usize;
+            let id = tree.id_at(slot);
+            let mut found = (best[c].0, u32::MAX);
+            tree.nearest_other(tree.point_at(slot), labels[slot], &labels, &node_labels, &mut found);
+            if found.1 != u32::MAX {
+                let key = (found.0, id.min(found.1), id.max(found.1));
+                if key.0 < best[c].0 || (key.0 == best[c].0 && (key.1, key.2) < (best[c].1, best[c].2)) {
+                    best[c] = key;
+                }
+            }
+        }
+        if nearest.is_empty() {
+            nearest = best[..groups].iter().map(|b| b.0.sqrt()).collect();
+        }
+        let mut merged_any = false;
+        for &(d2, a, b) in &best {
+            if a == u32::MAX {
+                continue;
+            }
+            let ra = uf.find(owner[a as usize]);
+            let rb = uf.find(owner[b as usize]);
+            if ra != rb {
+                uf.0[ra as usize] = rb;
+                edges.push(d2.sqrt());
+                components -= 1;
+                merged_any = true;
+            }
+        }
+        if !merged_any {
+            break;
+        }
+        for (slot, l) in labels.iter_mut().enumerate() {
+            *l = uf.find(slot_group[slot]);
+        }
+    }
+    if nearest.is_empty() {
+        // A single node: no hop between paths.
+        nearest = vec![0.0; groups];
+    }
+    BoundParts { tree_edges: edges, nearest, start_known }
+}
+
+/// Lower bound on the hop cost of visiting `groups` paths (see [`bound_parts`]) under `cost`.
+#[cfg(test)]
+fn travel_lower_bound(
+    points: &[Point],
+    group: &[u32],
+    groups: usize,
+    start: Option<Point>,
+    cost: &CostModel,
+) -> TravelBound {
+    bound_parts(points, group, groups, start).under(cost)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optimize::rng::SplitMix64;
+
+    /// Exact minimum pen-up distance by trying every order and orientation (tiny inputs only).
+    fn brute_force(segs: &[(Point, Point)], start: Point) -> f64 {
+        fn go(segs: &[(Point, Point)], used: &mut Vec<bool>, at: Point, acc: f64, best: &mut f64) {
+            if acc >= *best {
+                return;
+            }
+            if used.iter().all(|&u| u) {
+                *best = acc;
+                return;
+            }
+            for i in 0..segs.len() {
+                if used[i] {
+                    continue;
+                }
+                used[i] = true;
+                let (a, b) = segs[i];
+                go(segs, used, b, acc + at.distance(a), best);
+                go(segs, used, a, acc + at.distance(b), best);
+                used[i] = false;
+            }
+        }
+        let mut best = f64::INFINITY;
+        go(segs, &mut vec![false; segs.len()], start, 0.0, &mut best);
+        best
+    }
+
+    #[test]
+    fn bound_never_exceeds_the_optimum_and_is_tight_on_a_line() {
+        // Collinear unit segments with unit gaps: the optimum and both bounds are 1 per hop.
+        let segs: Vec<(Point, Point)> =
+            (0..5).map(|i| (Point::new(f64::from(2 * i + 1), 0.0), Point::new(f64::from(2 * i + 2), 0.0))).collect();
+        let (pts, grp) = flatten(&segs);
+        let b = travel_lower_bound(&pts, &grp, segs.len(), Some(Point::ZERO), &CostModel::Distance);
+        assert!((b.spanning_tree - 5.0).abs() < 1e-12 && (b.nearest - 5.0).abs() < 1e-12, "{b:?}");
+        assert!((brute_force(&segs, Point::ZERO) - 5.0).abs() < 1e-12);
+
+        let mut r = SplitMix64::new(11);
+        for _ in 0..40 {
+            let segs: Vec<(Point, Point)> = (0..6)
+                .map(|_| {
+                    let a = Point::new(r.unit() * 50.0, r.unit() * 50.0);
+                    (a, a + kurbo::Vec2::new(r.unit() * 10.0 - 5.0, r.unit() * 10.0 - 5.0))
+                })
+                .collect();
+            let (pts, grp) = flatten(&segs);
+            let opt = brute_force(&segs, Point::ZERO);
+            let b = travel_lower_bound(&pts, &grp, segs.len(), Some(Point::ZERO), &CostModel::Distance);
+            assert!(b.value() <= opt + 1e-9, "{b:?} > {opt}");
+            assert!(b.value() > 0.0);
+            // Without a known start the bound can only drop.
+            let free = travel_lower_bound(&pts, &grp, segs.len(), None, &CostModel::Distance);
+            assert!(free.value() <= b.value() + 1e-9);
+        }
+    }
+
+    #[test]
+    fn mst_matches_prim_on_random_points() {
+        let mut r = SplitMix64::new(4);
+        let pts: Vec<Point> = (0..300).map(|_| Point::new(r.unit() * 100.0, r.unit() * 100.0)).collect();
+        let grp: Vec<u32> = (0..300).collect();
+        let b = travel_lower_bound(&pts, &grp, 300, None, &CostModel::Distance);
+        // Prim's algorithm, O(n²).
+        let n = pts.len();
+        let mut in_tree = vec![false; n];
+        let mut dist = vec![f64::INFINITY; n];
+        dist[0] = 0.0;
+        let mut total = 0.0;
+        for _ in 0..n {
+            let u = (0..n).filter(|&i| !in_tree[i]).min_by(|&a, &b| dist[a].total_cmp(&dist[b])).unwrap();
+            in_tree[u] = true;
+            total += dist[u];
+            for v in 0..n {
+                if !in_tree[v] {
+                    dist[v] = dist[v].min(pts[u].distance(pts[v]));
+                }
+            }
+        }
+        assert!((b.spanning_tree - total).abs() < 1e-9, "{} vs {total}", b.spanning_tree);
+    }
+
+    fn flatten(segs: &[(Point, Point)]) -> (Vec<Point>, Vec<u32>) {
+        let mut pts = Vec::new();
+        let mut grp = Vec::new();
+        for (i, (a, b)) in segs.iter().enumerate() {
+            pts.extend([*a, *b]);
+            grp.extend([u32::try_from(i).unwrap(); 2]);
+        }
+        (pts, grp)
+    }
+}

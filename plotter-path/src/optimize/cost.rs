@@ -1,0 +1,196 @@
+//! What a pen-up travel move costs: its length, or the time the machine needs for it.
+//!
+//! The time model follows how a plotter actually moves between strokes. At the end of a stroke the pen lifts (a Z
+//! move plus a settle dwell), the carriage travels to the next stroke, and the pen drops (another Z move and dwell).
+//! Because the pen lifts and drops *at rest*, each travel move starts and ends at standstill: the planner cannot
+//! carry speed through a lift. So one hop of length `d` takes a stop-to-stop trapezoidal (or, when too short to reach
+//! cruise, triangular) velocity profile, the classic constant-acceleration motion model used by grbl-style planners:
+//!
+//! * `d ≥ v²/a`: accelerate to `v`, cruise, decelerate — `t = d/v + v/a`;
+//! * otherwise: accelerate half way, decelerate half way — `t = 2·√(d/a)`.
+//!
+//! `v` and `a` depend on the direction, as in grbl: the programmed travel feed is capped so that no axis exceeds its
+//! own maximum rate, and the acceleration so that no axis exceeds its own limit (`v = min(F, vₓ/|uₓ|, v_y/|u_y|)` for
+//! the unit direction `u`). Every hop also pays a fixed lift + drop cost (two Z moves and two settle dwells). The
+//! short-hop branch grows like a square root, so many tiny hops weigh more than their summed length suggests —
+//! that is the point of optimizing time instead of distance.
+
+use kurbo::Point;
+
+use crate::MachineProfile;
+
+/// Stop-to-stop time of a move of length `d` with top speed `v` and acceleration `a` (all positive).
+fn trapezoid_time(d: f64, v: f64, a: f64) -> f64 {
+    if d <= 0.0 {
+        0.0
+    } else if d * a >= v * v {
+        d / v + v / a
+    } else {
+        2.0 * (d / a).sqrt()
+    }
+}
+
+/// Pen-up travel timing derived from a machine profile. See the module docs for the motion model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TravelTimeModel {
+    /// Programmed travel feed, mm/s.
+    pub feed_mm_s: f64,
+    /// X axis maximum rate, mm/s.
+    pub max_feed_x_mm_s: f64,
+    /// Y axis maximum rate, mm/s.
+    pub max_feed_y_mm_s: f64,
+    /// X axis acceleration limit, mm/s².
+    pub accel_x_mm_s2: f64,
+    /// Y axis acceleration limit, mm/s².
+    pub accel_y_mm_s2: f64,
+    /// Fixed cost of one lift plus one drop (Z moves and settle dwells), seconds.
+    pub lift_drop_s: f64,
+}
+
+impl TravelTimeModel {
+    /// The travel model of `profile`: travel feed, XY axis limits, and the lift/drop cost from the Z axis limits,
+    /// the pen's up/down positions and its settle time.
+    pub fn from_profile(profile: &MachineProfile) -> Self {
+        let z = &profile.axes.z;
+        let stroke = (profile.pen.up_z_mm - profile.pen.down_z_mm).abs();
+        let z_move = trapezoid_time(stroke, z.max_feed_mm_s, z.max_accel_mm_s2);
+        TravelTimeModel {
+            feed_mm_s: profile.pen.travel_feed_mm_s,
+            max_feed_x_mm_s: profile.axes.x.max_feed_mm_s,
+            max_feed_y_mm_s: profile.axes.y.max_feed_mm_s,
+            accel_x_mm_s2: profile.axes.x.max_accel_mm_s2,
+            accel_y_mm_s2: profile.axes.y.max_accel_mm_s2,
+            lift_drop_s: 2.0 * z_move + 2.0 * profile.pen.settle_ms / 1000.0,
+        }
+    }
+
+    /// Time of the XY part of a hop from `a` to `b` (no lift/drop), seconds.
+    pub fn move_time(&self, a: Point, b: Point) -> f64 {
+        let dx = (b.x - a.x).abs();
+        let dy = (b.y - a.y).abs();
+        let d = dx.hypot(dy);
+        if d <= 0.0 {
+            return 0.0;
+        }
+        let (ux, uy) = (dx / d, dy / d);
+        let mut v = self.feed_mm_s;
+        let mut acc = f64::INFINITY;
+        if ux > 0.0 {
+            v = v.min(self.max_feed_x_mm_s / ux);
+            acc = acc.min(self.accel_x_mm_s2 / ux);
+        }
+        if uy > 0.0 {
+            v = v.min(self.max_feed_y_mm_s / uy);
+            acc = acc.min(self.accel_y_mm_s2 / uy);
+        }
+        trapezoid_time(d, v, acc)
+    }
+
+    /// Time of a whole hop: lift, move, drop.
+    pub fn hop_time(&self, a: Point, b: Point) -> f64 {
+        self.lift_drop_s + self.move_time(a, b)
+    }
+
+    /// A lower bound on [`hop_time`](Self::hop_time) over every direction for a hop of length `d`: the move with
+    /// the best possible speed and acceleration any direction allows (the diagonal where both axes run at their
+    /// limits). Used by the lower bound, where the direction of a hop is not known.
+    pub fn min_hop_time(&self, d: f64) -> f64 {
+        let v = self.feed_mm_s.min(self.max_feed_x_mm_s.hypot(self.max_feed_y_mm_s));
+        let a = self.accel_x_mm_s2.hypot(self.accel_y_mm_s2);
+        self.lift_drop_s + trapezoid_time(d, v, a)
+    }
+}
+
+/// The quantity the optimizer minimizes over pen-up hops.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CostModel {
+    /// Pen-up distance in millimetres.
+    Distance,
+    /// Pen-up time in seconds (travel move plus lift and drop).
+    Time(TravelTimeModel),
+}
+
+impl CostModel {
+    /// Cost of one hop from `a` to `b`. Symmetric: `cost(a, b) == cost(b, a)`.
+    #[inline]
+    pub fn cost(&self, a: Point, b: Point) -> f64 {
+        match self {
+            CostModel::Distance => (b.x - a.x).hypot(b.y - a.y),
+            CostModel::Time(m) => m.hop_time(a, b),
+        }
+    }
+
+    /// A lower bound on the cost of any hop of Euclidean length at least `d` (monotone in `d`).
+    pub fn min_cost_of_length(&self, d: f64) -> f64 {
+        match self {
+            CostModel::Distance => d,
+            CostModel::Time(m) => m.min_hop_time(d),
+        }
+    }
+
+    /// Unit of the cost, for reports.
+    pub fn unit(&self) -> &'static str {
+        match self {
+            CostModel::Distance => "mm",
+            CostModel::Time(_) => "s",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model() -> TravelTimeModel {
+        TravelTimeModel::from_profile(&MachineProfile::default_plotter())
+    }
+
+    #[test]
+    fn trapezoid_and_triangle_branches() {
+        // v = 100, a = 1000: cruise reached after 10 mm of accel + decel.
+        assert!((trapezoid_time(100.0, 100.0, 1000.0) - (1.0 + 0.1)).abs() < 1e-12);
+        // 2.5 mm: triangle, t = 2·sqrt(2.5/1000) = 0.1.
+        assert!((trapezoid_time(2.5, 100.0, 1000.0) - 0.1).abs() < 1e-12);
+        // Continuous at the switch distance v²/a = 10 mm: both give 0.2 s.
+        assert!((trapezoid_time(10.0, 100.0, 1000.0) - 0.2).abs() < 1e-12);
+        assert_eq!(trapezoid_time(0.0, 100.0, 1000.0), 0.0);
+    }
+
+    #[test]
+    fn profile_lift_drop_and_axis_moves() {
+        let m = model();
+        // Sample profile: pen stroke 4 mm on Z (25 mm/s, 500 mm/s²): v²/a = 1.25 mm < 4, so t = 4/25 + 25/500 = 0.21 s;
+        // twice, plus two 50 ms settles.
+        assert!((m.lift_drop_s - (2.0 * 0.21 + 0.1)).abs() < 1e-12, "{}", m.lift_drop_s);
+        // X move of 100 mm at 120 mm/s (travel feed), 1500 mm/s²: 100/120 + 120/1500.
+        let t = m.move_time(Point::new(0.0, 0.0), Point::new(100.0, 0.0));
+        assert!((t - (100.0 / 120.0 + 0.08)).abs() < 1e-12);
+        // Symmetric.
+        let a = Point::new(3.0, 7.0);
+        let b = Point::new(-20.0, 41.0);
+        assert_eq!(m.move_time(a, b), m.move_time(b, a));
+        assert_eq!(m.move_time(a, a), 0.0);
+    }
+
+    #[test]
+    fn time_cost_weighs_many_short_hops_more_than_their_length() {
+        let c = CostModel::Time(model());
+        let o = Point::ZERO;
+        let ten_short: f64 = 10.0 * c.cost(o, Point::new(1.0, 0.0));
+        let one_long = c.cost(o, Point::new(10.0, 0.0));
+        assert!(ten_short > 5.0 * one_long, "{ten_short} vs {one_long}");
+        assert_eq!(CostModel::Distance.cost(o, Point::new(3.0, 4.0)), 5.0);
+    }
+
+    #[test]
+    fn min_hop_time_bounds_every_direction() {
+        let m = TravelTimeModel { feed_mm_s: 500.0, max_feed_y_mm_s: 80.0, accel_y_mm_s2: 700.0, ..model() };
+        for d in [0.0, 0.3, 1.0, 5.0, 40.0, 300.0] {
+            for k in 0..64 {
+                let ang = f64::from(k) * std::f64::consts::TAU / 64.0;
+                let b = Point::new(d * ang.cos(), d * ang.sin());
+                assert!(m.min_hop_time(d) <= m.hop_time(Point::ZERO, b) + 1e-12, "d={d} k={k}");
+            }
+        }
+    }
+}

@@ -1,0 +1,689 @@
+//! Path optimization: draw the same strokes with as little pen-up travel as possible.
+//!
+//! Per layer (layers keep their order; each layer starts where the previous one ended, the first at `start` when
+//! one is given — otherwise the hop to the first path is free, the convention of [`crate::travel`] and `plotter
+//! stats`):
+//!
+//! 1. **Merge** ([`merge`](self) step) — open paths whose ends meet within a tolerance are joined, in either
+//!    direction, so the pen does not lift at the joint;
+//! 2. **Order** — greedy nearest neighbour over every place a path can be entered: either end of an open path
+//!    (entering at the end draws it reversed) and, for closed paths, any allowed seam vertex;
+//! 3. **Improve** — 2-opt and Or-opt moves with reversal, seam re-choice and seeded kicks on neighbour lists,
+//!    within a time budget;
+//! 4. **Bound** — a lower bound on the travel of any order, so the report can state the worst-case gap.
+//!
+//! The cost minimized is pen-up distance or pen-up time ([`CostModel`]). Every step can be switched off. The
+//! result draws each input path exactly once (possibly reversed, closed paths possibly starting at another vertex),
+//! so the pen-down geometry is unchanged — except that merging within a tolerance bridges the joined gaps (each at
+//! most the tolerance) with pen-down segments. Improvement never makes a layer worse than its greedy order, and a
+//! layer is left in its input order if that is cheaper than anything found.
+//!
+//! ```
+//! use plotter_path::optimize::{optimize, OptimizeOptions};
+//! use plotter_path::{Drawing, Polyline};
+//! use kurbo::Point;
+//!
+//! let seg = |a: f64, b: f64| Polyline::new(vec![Point::new(a, 0.0), Point::new(b, 0.0)]);
+//! let mut d = Drawing::single_layer("l", vec![seg(30.0, 40.0), seg(10.0, 0.0), seg(20.0, 15.0)]);
+//! let report = optimize(&mut d, &OptimizeOptions::default()).unwrap();
+//! assert!(report.pen_up_after_mm < report.pen_up_before_mm);
+//! assert!(report.pen_up_lower_bound_mm.unwrap() <= report.pen_up_after_mm);
+//! ```
+
+pub mod bound;
+pub mod cost;
+mod improve;
+mod kdtree;
+mod merge;
+mod order;
+mod rng;
+pub mod seam;
+pub mod synth;
+pub mod travel;
+
+use std::time::{Duration, Instant};
+
+use kurbo::Point;
+
+pub use bound::TravelBound;
+pub use cost::{CostModel, TravelTimeModel};
+pub use improve::ImproveStats;
+pub use seam::SeamMode;
+pub use travel::drawing_travel;
+
+use crate::{Drawing, Polyline};
+
+/// How one path is drawn: which path, in which direction, and (closed paths) from which vertex.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Visit {
+    /// Index of the path in its layer.
+    pub(crate) path: u32,
+    /// Drawn backwards.
+    pub(crate) reversed: bool,
+    /// Start vertex of a closed path (0 for open paths).
+    pub(crate) seam: u32,
+}
+
+impl Visit {
+    /// Where the pen goes down.
+    pub(crate) fn entry(&self, paths: &[Polyline]) -> Point {
+        let pts = &paths[self.path as usize].points;
+        if paths[self.path as usize].is_closed() {
+            pts[self.seam as usize]
+        } else if self.reversed {
+            pts[pts.len() - 1]
+        } else {
+            pts[0]
+        }
+    }
+
+    /// Where the pen comes up.
+    pub(crate) fn exit(&self, paths: &[Polyline]) -> Point {
+        let pts = &paths[self.path as usize].points;
+        if paths[self.path as usize].is_closed() {
+            pts[self.seam as usize]
+        } else if self.reversed {
+            pts[0]
+        } else {
+            pts[pts.len() - 1]
+        }
+    }
+
+    /// The path as drawn: reversed and/or rotated to its seam.
+    fn realize(&self, path: Polyline) -> Polyline {
+        let mut pts = path.points;
+        if path_is_closed(&pts) {
+            pts.pop();
+            pts.rotate_left(self.seam as usize);
+            pts.push(pts[0]);
+        }
+        if self.reversed {
+            pts.reverse();
+        }
+        Polyline::new(pts)
+    }
+}
+
+fn path_is_closed(pts: &[Point]) -> bool {
+    pts.len() > 2 && pts.first() == pts.last()
+}
+
+/// Which cost the improvement step minimizes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Objective {
+    /// Pen-up distance.
+    #[default]
+    Distance,
+    /// Pen-up time from [`OptimizeOptions::time_model`].
+    Time,
+}
+
+/// Switches and knobs of [`optimize`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct OptimizeOptions {
+    /// Join open paths whose ends meet.
+    pub merge: bool,
+    /// Largest gap (mm) merging bridges with a pen-down segment; 0 joins only exactly coinciding ends.
+    pub merge_tolerance_mm: f64,
+    /// Reorder paths greedily (nearest neighbour). Off: keep the input order as the starting point.
+    pub reorder: bool,
+    /// Open and closed paths may be drawn backwards.
+    pub reverse: bool,
+    /// Where closed paths may start.
+    pub seam: SeamMode,
+    /// Run 2-opt / Or-opt improvement after ordering.
+    pub improve: bool,
+    /// Wall-clock budget of the improvement over the whole drawing; `None` runs to convergence (and then the
+    /// result depends on the seed only).
+    pub time_budget: Option<Duration>,
+    /// Seed of the improvement's randomness.
+    pub seed: u64,
+    /// Random kicks after the first local optimum, per path (iterated local search; 0 disables).
+    pub kicks_per_path: f64,
+    /// Neighbour-list length per path end.
+    pub neighbours: usize,
+    /// Longest cycle reversal (in paths) a move may use; `None` picks `max(1000, 50·√n)`.
+    pub max_reversal: Option<usize>,
+    /// What to minimize.
+    pub objective: Objective,
+    /// Travel timing, for the time objective and for time figures in the report.
+    pub time_model: Option<TravelTimeModel>,
+    /// Compute the lower bound.
+    pub lower_bound: bool,
+    /// Pen position before the first layer (page mm); `None`: unknown, the hop to the first path is not counted.
+    pub start: Option<Point>,
+}
+
+impl Default for OptimizeOptions {
+    fn default() -> Self {
+        OptimizeOptions {
+            merge: true,
+            merge_tolerance_mm: 0.01,
+            reorder: true,
+            reverse: true,
+            seam: SeamMode::Any,
+            improve: true,
+            time_budget: Some(Duration::from_millis(1500)),
+            seed: 1,
+            kicks_per_path: 2.0,
+            neighbours: 8,
+            max_reversal: None,
+            objective: Objective::Distance,
+            time_model: None,
+            lower_bound: true,
+            start: None,
+        }
+    }
+}
+
+/// Invalid input to [`optimize`].
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum OptimizeError {
+    /// A vertex has a NaN or infinite coordinate.
+    #[error("layer {layer} (\"{name}\"), path {path}, point {point}: coordinate is not a finite number")]
+    NonFinite {
+        /// Layer index.
+        layer: usize,
+        /// Layer name.
+        name: String,
+        /// Path index within the layer.
+        path: usize,
+        /// Vertex index within the path.
+        point: usize,
+    },
+    /// An option is out of range.
+    #[error("optimize option {option}: {problem}")]
+    InvalidOption {
+        /// Option name.
+        option: &'static str,
+        /// What is wrong.
+        problem: &'static str,
+    },
+}
+
+/// What optimization did to one layer. Distances in mm, times in s.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LayerReport {
+    /// Layer name.
+    pub name: String,
+    /// Paths before.
+    pub paths_in: usize,
+    /// Paths after (fewer when merged).
+    pub paths_out: usize,
+    /// Joints made by merging.
+    pub joins: usize,
+    /// Chains merging closed.
+    pub closed_by_merge: usize,
+    /// Pen-up distance in the input order.
+    pub pen_up_before_mm: f64,
+    /// Pen-up distance of the greedy order (when reordering).
+    pub pen_up_greedy_mm: Option<f64>,
+    /// Pen-up distance of the result.
+    pub pen_up_after_mm: f64,
+    /// Lower bound on the pen-up distance of any order of this layer's (merged) paths.
+    pub pen_up_lower_bound_mm: Option<f64>,
+    /// Pen-up time in the input order.
+    pub travel_time_before_s: Option<f64>,
+    /// Pen-up time of the result.
+    pub travel_time_after_s: Option<f64>,
+    /// Lower bound on the pen-up time.
+    pub travel_time_lower_bound_s: Option<f64>,
+    /// The input order was cheaper than the optimized one and was kept.
+    pub kept_input_order: bool,
+    /// Improvement counters.
+    pub improve: ImproveStats,
+}
+
+/// What [`optimize`] did, per layer and in total. Distances in mm, times in s (travel only: hops plus lifts).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct OptimizeReport {
+    /// Per-layer figures.
+    pub layers: Vec<LayerReport>,
+    /// Pen-up distance in the input order.
+    pub pen_up_before_mm: f64,
+    /// Pen-up distance of the greedy order (when reordering).
+    pub pen_up_greedy_mm: Option<f64>,
+    /// Pen-up distance of the result.
+    pub pen_up_after_mm: f64,
+    /// Lower bound on the pen-up distance (sum of the layer bounds).
+    pub pen_up_lower_bound_mm: Option<f64>,
+    /// Pen-up time in the input order (with a time model).
+    pub travel_time_before_s: Option<f64>,
+    /// Pen-up time of the result (with a time model).
+    pub travel_time_after_s: Option<f64>,
+    /// Lower bound on the pen-up time (with a time model and the bound on).
+    pub travel_time_lower_bound_s: Option<f64>,
+    /// Improvement counters over all layers.
+    pub improve: ImproveStats,
+    /// Wall time spent.
+    pub elapsed: Duration,
+}
+
+impl OptimizeReport {
+    /// Result travel over the lower bound (≥ 1; how far from optimal the result is at most).
+    pub fn gap(&self) -> Option<f64> {
+        let lb = self.pen_up_lower_bound_mm?;
+        (lb > 0.0).then(|| self.pen_up_after_mm / lb)
+    }
+}
+
+fn check(drawing: &Drawing, opts: &OptimizeOptions) -> Result<(), OptimizeError> {
+    let bad = |option, problem| Err(OptimizeError::InvalidOption { option, problem });
+    if !(opts.merge_tolerance_mm.is_finite() && opts.merge_tolerance_mm >= 0.0) {
+        return bad("merge_tolerance_mm", "must be a finite number ≥ 0");
+    }
+    if !(opts.kicks_per_path.is_finite() && opts.kicks_per_path >= 0.0) {
+        return bad("kicks_per_path", "must be a finite number ≥ 0");
+    }
+    if opts.neighbours == 0 {
+        return bad("neighbours", "must be at least 1");
+    }
+    if opts.objective == Objective::Time && opts.time_model.is_none() {
+        return bad("objective", "the time objective needs a time model (a machine profile)");
+    }
+    if let SeamMode::Corners { min_turn_deg } = opts.seam
+        && !(0.0..=180.0).contains(&min_turn_deg)
+    {
+        return bad("seam", "corner angle must be between 0 and 180 degrees");
+    }
+    if let Some(s) = opts.start
+        && !(s.x.is_finite() && s.y.is_finite())
+    {
+        return bad("start", "must be a finite point");
+    }
+    for (li, layer) in drawing.layers.iter().enumerate() {
+        for (pi, path) in layer.paths.iter().enumerate() {
+            if let Some(k) = path.points.iter().position(|p| !(p.x.is_finite() && p.y.is_finite())) {
+                return Err(OptimizeError::NonFinite { layer: li, name: layer.name.clone(), path: pi, point: k });
+            }
+        }
+    }
+    if drawing.layers.iter().any(|l| u32::try_from(l.paths.len().saturating_mul(2).saturating_add(4)).is_err()) {
+        return bad("drawing", "a layer has too many paths (limit 2³¹)");
+    }
+    Ok(())
+}
+
+fn visits_cost(paths: &[Polyline], visits: &[Visit], start: Option<Point>, cost: &CostModel) -> f64 {
+    let mut at = start;
+    let mut total = 0.0;
+    for v in visits {
+        if let Some(from) = at {
+            total += cost.cost(from, v.entry(paths));
+        }
+        at = Some(v.exit(paths));
+    }
+    total
+}
+
+fn add_opt(acc: &mut Option<f64>, v: Option<f64>) {
+    if let Some(v) = v {
+        *acc = Some(acc.unwrap_or(0.0) + v);
+    }
+}
+
+/// Bound material for the paths `ids` of one layer: both ends of open paths, allowed seams of closed ones.
+fn layer_bound_parts(paths: &[Polyline], ids: &[u32], seam: SeamMode, start: Option<Point>) -> bound::BoundParts {
+    let mut pts = Vec::with_capacity(2 * ids.len());
+    let mut grp = Vec::with_capacity(2 * ids.len());
+    let mut seams = Vec::new();
+    for (g, &id) in ids.iter().enumerate() {
+        let path = &paths[id as usize];
+        let g = u32::try_from(g).unwrap_or(u32::MAX);
+        if path.is_closed() {
+            seams.clear();
+            seam::seam_candidates(path, seam, &mut seams);
+            pts.extend(seams.iter().map(|&v| path.points[v as usize]));
+            grp.extend(std::iter::repeat_n(g, seams.len()));
+        } else {
+            pts.extend([path.points[0], path.points[path.points.len() - 1]]);
+            grp.extend([g, g]);
+        }
+    }
+    bound::bound_parts(&pts, &grp, ids.len(), start)
+}
+
+/// Lower bound on the pen-up cost of drawing `drawing`'s paths as they stand (no merging) in any order, with
+/// reversal and the given seam freedom, layer by layer from `start` (see [`bound`]). Returns `(distance mm,
+/// time s)`, the time only with a model.
+pub fn travel_lower_bound(
+    drawing: &Drawing,
+    seam: SeamMode,
+    start: Option<Point>,
+    time_model: Option<&TravelTimeModel>,
+) -> (f64, Option<f64>) {
+    let mut dist = 0.0;
+    let mut time = time_model.map(|_| 0.0);
+    for (li, layer) in drawing.layers.iter().enumerate() {
+        let ids: Vec<u32> = (0..u32::try_from(layer.paths.len()).unwrap_or(0))
+            .filter(|&i| layer.paths[i as usize].points.len() >= 2)
+            .collect();
+        let parts = layer_bound_parts(&layer.paths, &ids, seam, if li == 0 { start } else { None });
+        dist += parts.under(&CostModel::Distance).value();
+        if let (Some(t), Some(m)) = (time.as_mut(), time_model) {
+            *t += parts.under(&CostModel::Time(*m)).value();
+        }
+    }
+    (dist, time)
+}
+
+/// Optimize `drawing` in place; see the module docs. Fails only on invalid options or non-finite coordinates.
+pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<OptimizeReport, OptimizeError> {
+    check(drawing, opts)?;
+    let t0 = Instant::now();
+    let deadline = opts.time_budget.map(|b| t0 + b);
+    let objective = match (opts.objective, opts.time_model) {
+        (Objective::Time, Some(m)) => CostModel::Time(m),
+        _ => CostModel::Distance,
+    };
+    let time_cost = opts.time_model.map(CostModel::Time);
+    let mut report = OptimizeReport::default();
+    let (mut at_before, mut at_after) = (opts.start, opts.start);
+    for (li, layer) in drawing.layers.iter_mut().enumerate() {
+        let mut lr = LayerReport { name: layer.name.clone(), paths_in: layer.paths.len(), ..LayerReport::default() };
+        let (before, end_before) = travel::paths_travel(&layer.paths, at_before, &CostModel::Distance);
+        lr.pen_up_before_mm = before;
+        lr.travel_time_before_s = time_cost.map(|c| travel::paths_travel(&layer.paths, at_before, &c).0);
+        at_before = end_before;
+
+        let mut paths = std::mem::take(&mut layer.paths);
+        if opts.merge {
+            let (merged, stats) = merge::merge_paths(paths, opts.merge_tolerance_mm, opts.reverse);
+            paths = merged;
+            lr.joins = stats.joins;
+            lr.closed_by_merge = stats.closed;
+        }
+        // Paths without a segment are not drawn (see `crate::travel`); they stay, unordered, at the layer's end.
+        let (ids, empties): (Vec<u32>, Vec<u32>) =
+            (0..u32::try_from(paths.len()).unwrap_or(0)).partition(|&i| paths[i as usize].points.len() >= 2);
+        let input_visits: Vec<Visit> = ids.iter().map(|&id| Visit { path: id, reversed: false, seam: 0 }).collect();
+        let mut visits = if opts.reorder {
+            let v = order::greedy_order(&paths, &ids, at_after.unwrap_or(Point::ZERO), opts.seam, opts.reverse);
+            lr.pen_up_greedy_mm = Some(visits_cost(&paths, &v, at_after, &CostModel::Distance));
+            v
+        } else {
+            input_visits.clone()
+        };
+        if opts.improve {
+            let n = visits.len();
+            #[allow(clippy::cast_precision_loss, reason = "path counts are far below 2^52")]
+            let nf = n as f64;
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "finite, ≥ 0, clamped")]
+            let kicks = (opts.kicks_per_path * nf).min(1e12) as usize;
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "finite, ≥ 0")]
+            let auto_cap = (50.0 * nf.sqrt()) as usize;
+            let params = improve::ImproveParams {
+                neighbours: opts.neighbours,
+                deadline,
+                seed: opts.seed ^ (li as u64).wrapping_mul(0x9E37_79B9),
+                kicks,
+                max_reversal: opts.max_reversal.unwrap_or(auto_cap.max(1000)),
+                allow_reverse: opts.reverse,
+                seam: opts.seam,
+                verify: false,
+                free_start: at_after.is_none(),
+            };
+            lr.improve = improve::improve(&paths, &mut visits, at_after.unwrap_or(Point::ZERO), &objective, params);
+        }
+        // Never worse than the input order under the objective.
+        if visits_cost(&paths, &input_visits, at_after, &objective) < visits_cost(&paths, &visits, at_after, &objective)
+        {
+            visits = input_visits;
+            lr.kept_input_order = true;
+        }
+        if opts.lower_bound {
+            let start = if li == 0 { opts.start } else { None };
+            let parts = layer_bound_parts(&paths, &ids, opts.seam, start);
+            lr.pen_up_lower_bound_mm = Some(parts.under(&CostModel::Distance).value());
+            lr.travel_time_lower_bound_s = time_cost.map(|c| parts.under(&c).value());
+        }
+        let mut slots: Vec<Option<Polyline>> = paths.into_iter().map(Some).collect();
+        let mut out = Vec::with_capacity(slots.len());
+        for v in &visits {
+            if let Some(p) = slots[v.path as usize].take() {
+                out.push(v.realize(p));
+            }
+        }
+        out.extend(empties.iter().filter_map(|&i| slots[i as usize].take()));
+        let (after, end_after) = travel::paths_travel(&out, at_after, &CostModel::Distance);
+        lr.pen_up_after_mm = after;
+        lr.travel_time_after_s = time_cost.map(|c| travel::paths_travel(&out, at_after, &c).0);
+        at_after = end_after;
+        lr.paths_out = out.len();
+        layer.paths = out;
+
+        report.pen_up_before_mm += lr.pen_up_before_mm;
+        report.pen_up_after_mm += lr.pen_up_after_mm;
+        add_opt(&mut report.pen_up_greedy_mm, lr.pen_up_greedy_mm);
+        add_opt(&mut report.pen_up_lower_bound_mm, lr.pen_up_lower_bound_mm);
+        add_opt(&mut report.travel_time_before_s, lr.travel_time_before_s);
+        add_opt(&mut report.travel_time_after_s, lr.travel_time_after_s);
+        add_opt(&mut report.travel_time_lower_bound_s, lr.travel_time_lower_bound_s);
+        report.improve.add(&lr.improve);
+        report.layers.push(lr);
+    }
+    report.elapsed = t0.elapsed();
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Layer;
+    use proptest::prelude::*;
+
+    fn key(p: Point) -> (u64, u64) {
+        (p.x.to_bits(), p.y.to_bits())
+    }
+
+    /// A path up to drawing direction (when `reverse`) and, for closed paths, seam rotation.
+    fn canonical(path: &Polyline, reverse: bool, rotate: bool) -> Vec<(u64, u64)> {
+        let pts: Vec<(u64, u64)> = path.points.iter().map(|&p| key(p)).collect();
+        let mut forms = Vec::new();
+        if path.is_closed() && rotate {
+            let body = &pts[..pts.len() - 1];
+            for r in 0..body.len() {
+                let mut f: Vec<_> = body[r..].iter().chain(&body[..r]).copied().collect();
+                f.push(f[0]);
+                forms.push(f.clone());
+                if reverse {
+                    f.reverse();
+                    forms.push(f);
+                }
+            }
+        } else {
+            forms.push(pts.clone());
+            if reverse {
+                forms.push(pts.iter().rev().copied().collect());
+            }
+        }
+        forms.into_iter().min().unwrap_or_default()
+    }
+
+    fn segments(d: &Drawing) -> Vec<((u64, u64), (u64, u64))> {
+        let mut v: Vec<_> = d
+            .paths()
+            .flat_map(|p| p.points.windows(2))
+            .filter(|w| w[0] != w[1])
+            .map(|w| {
+                let (a, b) = (key(w[0]), key(w[1]));
+                (a.min(b), a.max(b))
+            })
+            .collect();
+        v.sort_unstable();
+        v
+    }
+
+    fn arb_path() -> impl Strategy<Value = Polyline> {
+        let pt = (0..40i32, 0..30i32).prop_map(|(x, y)| Point::new(f64::from(x) * 2.5, f64::from(y) * 2.5));
+        prop_oneof![
+            4 => prop::collection::vec(pt.clone(), 2..6).prop_map(Polyline::new),
+            2 => prop::collection::vec(pt.clone(), 3..7).prop_map(|mut v| { v.push(v[0]); Polyline::new(v) }),
+            1 => prop::collection::vec(pt, 0..2).prop_map(Polyline::new),
+        ]
+    }
+
+    fn arb_drawing() -> impl Strategy<Value = Drawing> {
+        prop::collection::vec(prop::collection::vec(arb_path(), 0..40), 1..4).prop_map(|layers| Drawing {
+            layers: layers
+                .into_iter()
+                .enumerate()
+                .map(|(i, paths)| Layer { paths, ..Layer::new(format!("l{i}")) })
+                .collect(),
+            page_mm: None,
+        })
+    }
+
+    fn arb_seam() -> impl Strategy<Value = SeamMode> {
+        prop_oneof![Just(SeamMode::Keep), Just(SeamMode::Any), Just(SeamMode::Corners { min_turn_deg: 45.0 })]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+        /// Without merging the result draws every input path once per layer, possibly reversed or with a rotated
+        /// seam, never worse than greedy, and never below the lower bound.
+        #[test]
+        fn result_is_a_permutation_with_unchanged_geometry(
+            d in arb_drawing(), reverse in any::<bool>(), seam in arb_seam(), start in any::<bool>(), seed in 0u64..4,
+        ) {
+            let opts = OptimizeOptions {
+                merge: false, reverse, seam, seed, time_budget: None,
+                start: start.then_some(Point::new(3.0, 7.0)),
+                ..OptimizeOptions::default()
+            };
+            let mut out = d.clone();
+            let report = optimize(&mut out, &opts).unwrap();
+            prop_assert_eq!(out.layers.len(), d.layers.len());
+            let rotate = seam != SeamMode::Keep;
+            for (a, b) in d.layers.iter().zip(&out.layers) {
+                prop_assert_eq!(&a.name, &b.name);
+                let mut ca: Vec<_> = a.paths.iter().map(|p| canonical(p, reverse, rotate)).collect();
+                let mut cb: Vec<_> = b.paths.iter().map(|p| canonical(p, reverse, rotate)).collect();
+                ca.sort();
+                cb.sort();
+                prop_assert_eq!(ca, cb);
+            }
+            let greedy = report.pen_up_greedy_mm.unwrap();
+            prop_assert!(report.pen_up_after_mm <= greedy + 1e-9, "{} > greedy {}", report.pen_up_after_mm, greedy);
+            prop_assert!(report.pen_up_after_mm <= report.pen_up_before_mm + 1e-9);
+            let lb = report.pen_up_lower_bound_mm.unwrap();
+            prop_assert!(lb <= report.pen_up_after_mm + 1e-9, "bound {} > result {}", lb, report.pen_up_after_mm);
+            // The report agrees with measuring the output.
+            let measured = drawing_travel(&out, opts.start, &CostModel::Distance);
+            prop_assert!((measured - report.pen_up_after_mm).abs() < 1e-6);
+            if opts.start.is_none() {
+                prop_assert!((crate::travel::pen_up_length(&out) - report.pen_up_after_mm).abs() < 1e-6);
+            }
+        }
+
+        /// With merging every input segment is still drawn exactly once; the only additions are bridges no longer
+        /// than the tolerance.
+        #[test]
+        fn merging_keeps_every_segment_and_bridges_only_small_gaps(
+            d in arb_drawing(), reverse in any::<bool>(), tol in prop_oneof![Just(0.0), Just(1.0), Just(3.0)],
+        ) {
+            let opts = OptimizeOptions { merge_tolerance_mm: tol, reverse, time_budget: None, ..OptimizeOptions::default() };
+            let mut out = d.clone();
+            let report = optimize(&mut out, &opts).unwrap();
+            let before = segments(&d);
+            let after = segments(&out);
+            // Multiset difference: after ⊇ before, the rest are short bridges.
+            let (mut i, mut extra) = (0, Vec::new());
+            for s in &after {
+                if i < before.len() && before[i] == *s {
+                    i += 1;
+                } else {
+                    extra.push(*s);
+                }
+            }
+            prop_assert_eq!(i, before.len(), "an input segment is missing");
+            for (a, b) in extra {
+                let len = Point::new(f64::from_bits(a.0), f64::from_bits(a.1))
+                    .distance(Point::new(f64::from_bits(b.0), f64::from_bits(b.1)));
+                prop_assert!(len <= tol + 1e-12, "bridge of {} mm", len);
+            }
+            let joins: usize = report.layers.iter().map(|l| l.joins).sum();
+            prop_assert_eq!(out.path_count() + joins, d.path_count());
+        }
+    }
+
+    #[test]
+    fn bad_input_names_the_place() {
+        let mut d = Drawing::single_layer("ok", vec![Polyline::new(vec![Point::ZERO, Point::new(1.0, 1.0)])]);
+        let mut bad = Layer::new("broken");
+        bad.paths.push(Polyline::new(vec![Point::ZERO, Point::new(1.0, 0.0)]));
+        bad.paths.push(Polyline::new(vec![Point::ZERO, Point::new(f64::NAN, 0.0)]));
+        d.layers.push(bad);
+        let err = optimize(&mut d.clone(), &OptimizeOptions::default()).unwrap_err();
+        assert_eq!(err, OptimizeError::NonFinite { layer: 1, name: "broken".into(), path: 1, point: 1 });
+        assert!(err.to_string().contains("(\"broken\"), path 1, point 1"), "{err}");
+        let opts = OptimizeOptions { objective: Objective::Time, ..OptimizeOptions::default() };
+        let err = optimize(&mut d, &opts).unwrap_err().to_string();
+        assert!(err.contains("objective") && err.contains("profile"), "{err}");
+        let opts = OptimizeOptions { merge_tolerance_mm: -1.0, ..OptimizeOptions::default() };
+        assert!(matches!(
+            optimize(&mut d, &opts),
+            Err(OptimizeError::InvalidOption { option: "merge_tolerance_mm", .. })
+        ));
+    }
+
+    #[test]
+    fn switches_disable_each_step() {
+        let d = synth::maze(2);
+        let n = d.path_count();
+        let none = OptimizeOptions {
+            merge: false,
+            reorder: false,
+            improve: false,
+            lower_bound: false,
+            ..OptimizeOptions::default()
+        };
+        let mut same = d.clone();
+        let r = optimize(&mut same, &none).unwrap();
+        assert_eq!(same, d);
+        assert_eq!((r.pen_up_before_mm, r.pen_up_greedy_mm, r.pen_up_lower_bound_mm), (r.pen_up_after_mm, None, None));
+        // Merge only: fewer paths, same order otherwise.
+        let mut merged = d.clone();
+        let r = optimize(&mut merged, &OptimizeOptions { merge: true, ..none.clone() }).unwrap();
+        assert!(merged.path_count() < n / 2 && r.layers[0].joins == n - merged.path_count());
+        // Improvement on the input order (no greedy) still helps and never hurts.
+        let mut improved = d.clone();
+        let r = optimize(&mut improved, &OptimizeOptions { improve: true, time_budget: None, ..none }).unwrap();
+        assert!(r.pen_up_after_mm < 0.5 * r.pen_up_before_mm, "{r:?}");
+        assert_eq!(improved.path_count(), n);
+    }
+
+    #[test]
+    fn time_objective_reports_times_and_weighs_hops() {
+        let model = TravelTimeModel::from_profile(&crate::MachineProfile::default_plotter());
+        let d = synth::glyphs(5);
+        let mut a = d.clone();
+        let opts = OptimizeOptions {
+            objective: Objective::Time,
+            time_model: Some(model),
+            time_budget: None,
+            ..OptimizeOptions::default()
+        };
+        let r = optimize(&mut a, &opts).unwrap();
+        let (before, after, lb) =
+            (r.travel_time_before_s.unwrap(), r.travel_time_after_s.unwrap(), r.travel_time_lower_bound_s.unwrap());
+        assert!(lb <= after && after < 0.7 * before, "{lb} {after} {before}");
+        // Every hop pays the lift: the bound is at least that for each path.
+        #[allow(clippy::cast_precision_loss, reason = "small count")]
+        let lifts = model.lift_drop_s * (d.path_count() - 1) as f64;
+        assert!(lb >= lifts);
+        let measured = drawing_travel(&a, None, &CostModel::Time(model));
+        assert!((measured - after).abs() < 1e-6);
+    }
+
+    #[test]
+    fn same_seed_same_drawing() {
+        let d = synth::text_like(9);
+        let opts = OptimizeOptions { time_budget: None, seed: 5, ..OptimizeOptions::default() };
+        let (mut a, mut b) = (d.clone(), d.clone());
+        optimize(&mut a, &opts).unwrap();
+        optimize(&mut b, &opts).unwrap();
+        assert_eq!(a, b);
+    }
+}
