@@ -6,6 +6,8 @@ use anyhow::Result;
 use clap::Args;
 use plotter_path::svg_out::to_svg_string;
 
+use plotter_path::MachineProfile;
+
 use crate::input::{InputArgs, load_drawing, write_output};
 use crate::layout_args::LayoutArgs;
 
@@ -25,7 +27,7 @@ pub(crate) struct ConvertArgs {
 
 /// Run `plotter convert`.
 pub(crate) fn run(args: &ConvertArgs) -> Result<()> {
-    let mut drawing = load_drawing(&args.input, &args.input_args)?;
+    let mut drawing = load_drawing(&args.input, &args.input_args, &MachineProfile::default_plotter())?;
     args.layout.apply(&mut drawing)?;
     write_output(&args.output, to_svg_string(&drawing).as_bytes())
 }

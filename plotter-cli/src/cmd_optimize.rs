@@ -177,7 +177,7 @@ pub(crate) struct OptimizeCmdArgs {
 pub(crate) fn run(args: &OptimizeCmdArgs) -> Result<()> {
     let profile = args.profile.as_deref().map(MachineProfile::load).transpose()?;
     let options = args.optimize.options(profile.as_ref())?;
-    let mut drawing = load_drawing(&args.input, &args.input_args)?;
+    let mut drawing = load_drawing(&args.input, &args.input_args, &MachineProfile::default_plotter())?;
     args.layout.apply(&mut drawing)?;
     if args.optimize.enabled() {
         let report = optimize::optimize(&mut drawing, &options)

@@ -13,9 +13,9 @@ use plotter_fw::{Axis, TICK_HZ};
 use plotter_path::kurbo::{Line, Point};
 use plotter_path::motion::{self, Lookahead, MotionPlan};
 use plotter_path::steps::{StepDrawing, StepMapper, drawing_to_steps};
-use plotter_path::{Drawing, MachineProfile, Polyline, gcode_in, preview, trajectory};
+use plotter_path::{Drawing, MachineProfile, Polyline, preview, trajectory};
 
-use crate::input::{InputArgs, load_drawing};
+use crate::input::{InputArgs, InputKind, input_kind, load_drawing};
 use crate::layout_args::LayoutArgs;
 use serde::{Deserialize, Serialize};
 
@@ -93,37 +93,6 @@ struct PlotSource {
     start: [i32; 4],
 }
 
-/// The kinds of input files.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum InputKind {
-    /// SVG.
-    Svg,
-    /// G-code.
-    Gcode,
-    /// Seed trajectory file.
-    Trajectory,
-}
-
-/// Guess the input kind from the extension, then from the content.
-pub(crate) fn input_kind(path: &Path, text: &str) -> InputKind {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
-    match ext.as_str() {
-        "svg" => InputKind::Svg,
-        "gcode" | "nc" | "ngc" | "g" | "gco" | "tap" => InputKind::Gcode,
-        "traj" | "trj" => InputKind::Trajectory,
-        _ => {
-            let t = text.trim_start();
-            if t.starts_with('<') {
-                InputKind::Svg
-            } else if t.split_whitespace().next().is_some_and(|w| w.parse::<u64>().is_ok()) {
-                InputKind::Trajectory
-            } else {
-                InputKind::Gcode
-            }
-        }
-    }
-}
-
 /// Load the machine profile.
 pub(crate) fn load_profile(path: Option<&Path>) -> anyhow::Result<MachineProfile> {
     match path {
@@ -142,30 +111,15 @@ pub(crate) fn load_steps(
     layout: &LayoutArgs,
 ) -> anyhow::Result<(StepDrawing, Option<Drawing>)> {
     let shown = input.display().to_string();
-    let mut drawing = if input == Path::new("-") {
-        load_drawing(input, input_args)?
-    } else {
-        let bytes = std::fs::read(input).with_context(|| format!("cannot read {shown}"))?;
-        let text = String::from_utf8_lossy(&bytes);
-        match input_kind(input, &text) {
-            InputKind::Trajectory => {
-                let steps = trajectory::import(&text, &shown)?;
-                let identity = layout.options()?.is_identity();
-                if identity {
-                    return Ok((steps, None));
-                }
-                steps.to_drawing(&StepMapper::new(profile), "trajectory")
-            }
-            InputKind::Svg => load_drawing(input, input_args)?,
-            InputKind::Gcode => {
-                let imported = gcode_in::import(&text, &shown, profile)?;
-                for w in &imported.warnings {
-                    eprintln!("warning: {shown}: {w}");
-                }
-                imported.drawing
-            }
+    // A trajectory file is already in steps: keep it exactly as stored unless layout flags ask for a change.
+    if input != Path::new("-") && layout.options()?.is_identity() {
+        let head = std::fs::read(input).map(|b| b[..b.len().min(512)].to_vec()).unwrap_or_default();
+        if input_kind(input, &head) == InputKind::Trajectory {
+            let text = std::fs::read_to_string(input).with_context(|| format!("{shown}: cannot read"))?;
+            return Ok((trajectory::import(&text, &shown)?, None));
         }
-    };
+    }
+    let mut drawing = load_drawing(input, input_args, profile)?;
     layout.apply(&mut drawing)?;
     let steps = drawing_to_steps(profile, &drawing).with_context(|| format!("cannot convert {shown} to steps"))?;
     Ok((steps, Some(drawing)))
@@ -544,16 +498,3 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn input_kinds() {
-        assert_eq!(input_kind(Path::new("a.svg"), ""), InputKind::Svg);
-        assert_eq!(input_kind(Path::new("a.NGC"), ""), InputKind::Gcode);
-        assert_eq!(input_kind(Path::new("a.txt"), "3\n1\n0\n0\n"), InputKind::Trajectory);
-        assert_eq!(input_kind(Path::new("a.txt"), "G1 X1\n"), InputKind::Gcode);
-        assert_eq!(input_kind(Path::new("a"), "  <svg/>"), InputKind::Svg);
-    }
-}

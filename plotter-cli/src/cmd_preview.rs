@@ -6,6 +6,8 @@ use anyhow::Result;
 use clap::Args;
 use plotter_path::preview::{PreviewOptions, render_png};
 
+use plotter_path::MachineProfile;
+
 use crate::input::{InputArgs, load_drawing, write_output};
 use crate::layout_args::LayoutArgs;
 
@@ -34,7 +36,7 @@ pub(crate) struct PreviewArgs {
 
 /// Run `plotter preview`.
 pub(crate) fn run(args: &PreviewArgs) -> Result<()> {
-    let mut drawing = load_drawing(&args.input, &args.input_args)?;
+    let mut drawing = load_drawing(&args.input, &args.input_args, &MachineProfile::default_plotter())?;
     args.layout.apply(&mut drawing)?;
     let options = PreviewOptions { dpi: args.dpi, width_px: args.width_px, travel: args.travel, ..Default::default() };
     let png = render_png(&drawing, &options)?;

@@ -6,6 +6,8 @@ use anyhow::Result;
 use clap::Args;
 use plotter_path::stats::Stats;
 
+use plotter_path::MachineProfile;
+
 use crate::input::{InputArgs, load_drawing};
 use crate::layout_args::LayoutArgs;
 
@@ -25,7 +27,7 @@ pub(crate) struct StatsArgs {
 
 /// Run `plotter stats`.
 pub(crate) fn run(args: &StatsArgs) -> Result<()> {
-    let mut drawing = load_drawing(&args.input, &args.input_args)?;
+    let mut drawing = load_drawing(&args.input, &args.input_args, &MachineProfile::default_plotter())?;
     args.layout.apply(&mut drawing)?;
     let stats = Stats::of(&drawing);
     let names: Vec<&str> = drawing.layers.iter().map(|l| l.name.as_str()).collect();

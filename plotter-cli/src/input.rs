@@ -1,13 +1,17 @@
-//! Reading drawings from the command line: the input flags and the loader that turns a file (or `-` for stdin)
-//! into a [`Drawing`], printing every import warning to stderr.
+//! Reading drawings from the command line: the input flags, input-kind detection, and the one loader that turns
+//! any supported input — SVG, PNG/JPEG (traced), G-code, the seed plotter's trajectory file, or a generated
+//! figure `gen:KIND?param=value&...` — into a [`Drawing`] in page millimetres, printing every warning to stderr.
 
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use plotter_path::Drawing;
+use plotter_path::steps::StepMapper;
 use plotter_path::svg::{self, LayerBy, SvgOptions};
+use plotter_path::{Drawing, MachineProfile, gcode_in, r#gen, raster, trajectory};
+
+use crate::cmd_trace::TraceArgs;
 
 /// How SVG shapes are grouped into layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
@@ -21,10 +25,10 @@ pub(crate) enum LayerByArg {
     None,
 }
 
-/// Input flags shared by commands that read a drawing.
+/// Input flags shared by every command that reads a drawing.
 #[derive(Debug, Clone, Args)]
 pub(crate) struct InputArgs {
-    /// Maximum chord error when flattening curves, mm
+    /// Maximum chord error when flattening SVG curves, mm
     #[arg(long, default_value_t = svg::DEFAULT_TOLERANCE_MM, help_heading = "Input")]
     pub(crate) tolerance: f64,
     /// How SVG shapes are grouped into layers
@@ -33,6 +37,9 @@ pub(crate) struct InputArgs {
     /// Keep only these layers (names as listed by `plotter stats`), comma-separated
     #[arg(long, value_delimiter = ',', help_heading = "Input")]
     pub(crate) layers: Vec<String>,
+    /// How raster images (PNG/JPEG) are traced into paths
+    #[command(flatten)]
+    pub(crate) trace: TraceArgs,
 }
 
 impl InputArgs {
@@ -52,29 +59,112 @@ impl InputArgs {
     }
 }
 
-/// Print import warnings to stderr, prefixed so they stand out from results.
+/// The kinds of input the loader understands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum InputKind {
+    /// SVG drawing.
+    Svg,
+    /// PNG or JPEG image, traced into paths.
+    Image,
+    /// G-code (ours or another plotter tool's).
+    Gcode,
+    /// The seed plotter's trajectory file (relative motor steps).
+    Trajectory,
+    /// A generated figure, `gen:KIND?param=value&...`.
+    Generated,
+}
+
+/// Prefix of generated-figure inputs.
+pub(crate) const GEN_PREFIX: &str = "gen:";
+
+/// Decide what `path` holds: `gen:` specs by name, then the extension, then the first bytes.
+pub(crate) fn input_kind(path: &Path, head: &[u8]) -> InputKind {
+    if path.to_str().is_some_and(|p| p.starts_with(GEN_PREFIX)) {
+        return InputKind::Generated;
+    }
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    match ext.as_str() {
+        "svg" => return InputKind::Svg,
+        "png" | "jpg" | "jpeg" => return InputKind::Image,
+        "gcode" | "nc" | "ngc" | "g" | "gco" | "tap" => return InputKind::Gcode,
+        "traj" | "trj" => return InputKind::Trajectory,
+        _ => {}
+    }
+    if head.starts_with(b"\x89PNG\r\n\x1a\n") || head.starts_with(&[0xff, 0xd8, 0xff]) {
+        return InputKind::Image;
+    }
+    let text = String::from_utf8_lossy(head);
+    let t = text.trim_start_matches('\u{feff}').trim_start();
+    if t.starts_with('<') {
+        InputKind::Svg
+    } else if t.split_whitespace().next().is_some_and(|w| w.parse::<u64>().is_ok()) {
+        InputKind::Trajectory
+    } else {
+        InputKind::Gcode
+    }
+}
+
+/// Print warnings to stderr, prefixed so they stand out from results.
 pub(crate) fn warn_all(warnings: &[String]) {
     for w in warnings {
         eprintln!("warning: {w}");
     }
 }
 
-/// Load the drawing at `path` (`-` reads SVG from stdin).
-pub(crate) fn load_drawing(path: &Path, args: &InputArgs) -> Result<Drawing> {
-    let options = args.svg_options()?;
-    let imported = if path == Path::new("-") {
+/// The bytes of `path` (`-` reads stdin).
+pub(crate) fn read_input(path: &Path) -> Result<Vec<u8>> {
+    if path == Path::new("-") {
         let mut data = Vec::new();
-        std::io::stdin().read_to_end(&mut data).context("cannot read SVG from stdin")?;
-        svg::import_svg(&data, "<stdin>", None, &options)?
+        std::io::stdin().read_to_end(&mut data).context("cannot read the drawing from stdin")?;
+        Ok(data)
     } else {
-        svg::load_svg(path, &options)?
-    };
-    warn_all(&imported.warnings);
-    Ok(imported.drawing)
+        std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
+    }
+}
+
+/// Load any supported input as a drawing in page millimetres (before layout). `profile` maps machine coordinates
+/// of G-code and trajectory files back to the page.
+pub(crate) fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
+    let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
+    if let Some(spec) = path.to_str().and_then(|p| p.strip_prefix(GEN_PREFIX)) {
+        return r#gen::from_spec(spec).with_context(|| format!("cannot generate {spec}"));
+    }
+    let data = read_input(path)?;
+    let kind = input_kind(if path == Path::new("-") { Path::new("") } else { path }, &data[..data.len().min(512)]);
+    match kind {
+        InputKind::Svg => {
+            let dir = path.parent().map(Path::to_path_buf);
+            let imported = svg::import_svg(&data, &shown, dir, &args.svg_options()?)?;
+            warn_all(&imported.warnings);
+            Ok(imported.drawing)
+        }
+        InputKind::Image => {
+            let image = raster::decode_image(&data, path)?;
+            let traced = raster::trace_named(&image, &shown, &args.trace.options())?;
+            for w in &traced.warnings {
+                eprintln!("warning: {shown}: {w}");
+            }
+            Ok(traced.drawing)
+        }
+        InputKind::Gcode => {
+            let text = std::str::from_utf8(&data).with_context(|| format!("{shown}: G-code is not UTF-8 text"))?;
+            let imported = gcode_in::import(text, &shown, profile)?;
+            for w in &imported.warnings {
+                eprintln!("warning: {shown}: {w}");
+            }
+            Ok(imported.drawing)
+        }
+        InputKind::Trajectory => {
+            let text = std::str::from_utf8(&data).with_context(|| format!("{shown}: not a text file"))?;
+            let steps = trajectory::import(text, &shown)?;
+            Ok(steps.to_drawing(&StepMapper::new(profile), "trajectory"))
+        }
+        InputKind::Generated => unreachable!("generated inputs return above"),
+    }
 }
 
 /// Write `bytes` to `out` (`-` is stdout).
-pub(crate) fn write_output(out: &PathBuf, bytes: &[u8]) -> Result<()> {
+pub(crate) fn write_output(out: &Path, bytes: &[u8]) -> Result<()> {
     if out.as_os_str() == "-" {
         use std::io::Write;
         let mut stdout = std::io::stdout().lock();
@@ -84,4 +174,23 @@ pub(crate) fn write_output(out: &PathBuf, bytes: &[u8]) -> Result<()> {
         std::fs::write(out, bytes).with_context(|| format!("cannot write {}", out.display()))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_by_name_extension_and_content() {
+        assert_eq!(input_kind(Path::new("gen:rose?k=3"), b""), InputKind::Generated);
+        assert_eq!(input_kind(Path::new("a.svg"), b""), InputKind::Svg);
+        assert_eq!(input_kind(Path::new("a.JPG"), b""), InputKind::Image);
+        assert_eq!(input_kind(Path::new("a.NGC"), b""), InputKind::Gcode);
+        assert_eq!(input_kind(Path::new("a.traj"), b""), InputKind::Trajectory);
+        assert_eq!(input_kind(Path::new("a.txt"), b"3\n1\n0\n0\n"), InputKind::Trajectory);
+        assert_eq!(input_kind(Path::new("a.txt"), b"G1 X1\n"), InputKind::Gcode);
+        assert_eq!(input_kind(Path::new("a"), b"  <svg/>"), InputKind::Svg);
+        assert_eq!(input_kind(Path::new(""), b"\x89PNG\r\n\x1a\n...."), InputKind::Image);
+        assert_eq!(input_kind(Path::new("scan"), &[0xff, 0xd8, 0xff, 0xe0]), InputKind::Image);
+    }
 }
