@@ -54,7 +54,8 @@ impl Curve for Ellipse {
     }
 
     fn min_segments(&self) -> usize {
-        8
+        // An ellipse is two opposite rotations (e^{±it}); their difference turns twice per period.
+        16
     }
 }
 

@@ -243,7 +243,8 @@ impl Curve for FourierSeries {
     }
 
     fn min_segments(&self) -> usize {
-        self.harmonics().max(1).saturating_mul(8)
+        // Terms turn from −N to N times: eight intervals per cycle of the widest difference, 2N.
+        self.harmonics().max(1).saturating_mul(16)
     }
 }
 

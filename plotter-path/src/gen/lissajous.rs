@@ -72,7 +72,9 @@ impl Curve for Lissajous {
     }
 
     fn min_segments(&self) -> usize {
-        usize::try_from(self.fx.max(self.fy)).unwrap_or(1).saturating_mul(8)
+        // Each axis is a pair of opposite rotations (e^{±i·f·t}), whose difference turns 2f times per period; eight
+        // intervals per such cycle.
+        usize::try_from(self.fx.max(self.fy)).unwrap_or(1).saturating_mul(16)
     }
 }
 

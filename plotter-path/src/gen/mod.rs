@@ -445,11 +445,11 @@ mod tests {
     }
 
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(48))]
+        #![proptest_config(ProptestConfig::with_cases(512))]
         /// Every generator, with random parameters, meets the chord tolerance when sampled adaptively.
         #[test]
         fn generators_meet_chord_tolerance(
-            which in 0usize..6,
+            which in 0usize..8,
             r in 1.0f64..40.0,
             a in 1u64..9,
             b in 1u64..5,
@@ -463,6 +463,8 @@ mod tests {
                 2 => Box::new(Roulette::trochoid(Rolling::Epi, r, q, d).unwrap()),
                 3 if q.num != q.den => Box::new(Roulette::trochoid(Rolling::Hypo, r, q, d).unwrap()),
                 4 => Box::new(Rose::new(d, q).unwrap()),
+                5 => Box::new(Spiral::new(r, r + d, d / 2.0).unwrap()),
+                6 => Box::new(Figure::MickeyOutline(MickeyOutline::new(r).unwrap()).fit(usize::try_from(a * 4).unwrap(), 512).unwrap()),
                 _ => Box::new(Lissajous::new(r, d, u32::try_from(a).unwrap(), u32::try_from(b).unwrap(), r).unwrap()),
             };
             let worst = sampler::worst_chord_error(curve.as_ref(), tol);

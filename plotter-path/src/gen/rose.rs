@@ -67,10 +67,13 @@ impl Curve for Rose {
     }
 
     fn min_segments(&self) -> usize {
-        // Fastest component: frequency k + 1 = (n + d)/d over θ; (n + d)·half_turns/(2d) cycles. Eight per cycle,
-        // computed as 4·(n + d)·half_turns/d, rounded up.
-        let cycles_x8 = self.k.num.saturating_add(self.k.den).saturating_mul(self.half_turns()).saturating_mul(4);
-        let n = cycles_x8.div_ceil(self.k.den).max(8);
+        // cos(kθ)·e^{iθ} = ½e^{i(k+1)θ} + ½e^{−i(k−1)θ}: the faster rotation has frequency k + 1, their difference
+        // 2k. Over the domain (half_turns·π) that is (n + d)·h/(2d) and n·h/d cycles; eight intervals per cycle.
+        let h = self.half_turns();
+        let (n, d) = (self.k.num, self.k.den);
+        let fast_x8 = n.saturating_add(d).saturating_mul(h).saturating_mul(4).div_ceil(d);
+        let spread_x8 = n.saturating_mul(h).saturating_mul(8).div_ceil(d);
+        let n = fast_x8.max(spread_x8).max(8);
         usize::try_from(n).unwrap_or(usize::MAX)
     }
 }

@@ -145,13 +145,14 @@ impl Curve for Roulette {
     }
 
     fn min_segments(&self) -> usize {
-        // Over b turns the rolling circle spins |a ± b| times; an eighth of a spin or of a turn per interval.
+        // Over b turns the two rotations make b and a + b (epi) or b and −(a − b) (hypo) turns; eight intervals per
+        // turn of the faster one and of their difference (a for both), whichever is more.
         let (a, b) = (self.q.num, self.q.den);
-        let spins = match self.rolling {
+        let cycles = match self.rolling {
             Rolling::Epi => a.saturating_add(b),
-            Rolling::Hypo => a.abs_diff(b),
+            Rolling::Hypo => a.max(b),
         };
-        usize::try_from(spins.max(b).saturating_mul(8)).unwrap_or(usize::MAX)
+        usize::try_from(cycles.saturating_mul(8)).unwrap_or(usize::MAX)
     }
 }
 
