@@ -497,4 +497,3 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     println!("{}", summary(&plan, &stats, None));
     Ok(())
 }
-

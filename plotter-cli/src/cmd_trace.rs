@@ -126,16 +126,6 @@ impl TraceArgs {
     }
 }
 
-#[allow(dead_code)] // Reason: the hook for `preview`/`plot` image input, wired by the commands that read drawings.
-/// True when the file starts like a PNG or JPEG (so callers can route it to the tracer instead of the SVG reader).
-pub(crate) fn is_image(path: &Path) -> bool {
-    use std::io::Read;
-    let mut head = [0u8; 8];
-    let Ok(mut f) = std::fs::File::open(path) else { return false };
-    let n = f.read(&mut head).unwrap_or(0);
-    head[..n].starts_with(b"\x89PNG\r\n\x1a\n") || head[..n].starts_with(&[0xff, 0xd8, 0xff])
-}
-
 /// Trace the image at `path` with `args`, printing the tracer's warnings to stderr. `traced.drawing` is the result
 /// in mm (origin at the image's top-left corner, `page_mm` = the image size), ready for layout.
 pub(crate) fn trace_image(path: &Path, args: &TraceArgs) -> Result<raster::Traced> {
@@ -254,8 +244,6 @@ mod tests {
             svg.contains("<svg") && svg.matches("<polyline").count() + svg.matches("<polygon").count() >= 20,
             "{svg}"
         );
-        assert!(is_image(&sample("line-art.png")) && is_image(&sample("photo.png")));
-        assert!(!is_image(&sample("xy-plotter.toml")));
     }
 
     #[test]
