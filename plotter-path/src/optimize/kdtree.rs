@@ -209,6 +209,11 @@ impl ShrinkingKdTree {
         ShrinkingKdTree { tree, alive, boxes, parent, leaf_of_slot, slot_of_id, dead }
     }
 
+    /// Point ids in tree order: neighbours in space are mostly neighbours in this list.
+    pub(crate) fn ids_in_tree_order(&self) -> &[u32] {
+        &self.tree.ids
+    }
+
     /// Delete the point `id` (no effect if already deleted).
     pub(crate) fn remove(&mut self, id: u32) {
         let slot = self.slot_of_id[id as usize] as usize;
@@ -250,7 +255,13 @@ impl ShrinkingKdTree {
 
     /// The remaining point nearest to `q`, as `(squared distance, id)`.
     pub(crate) fn nearest(&self, q: [f64; 2]) -> Option<(f64, u32)> {
-        let mut best = (f64::INFINITY, NONE);
+        self.nearest_within(q, f64::INFINITY)
+    }
+
+    /// The remaining point nearest to `q` no farther than `sqrt(max_d2)`; the radius prunes the search, so a
+    /// small one makes the query nearly free.
+    pub(crate) fn nearest_within(&self, q: [f64; 2], max_d2: f64) -> Option<(f64, u32)> {
+        let mut best = (max_d2.next_up(), NONE);
         if !self.alive.is_empty() && self.alive[0] > 0 {
             self.nearest_rec(0, q, &mut best);
         }
@@ -360,6 +371,12 @@ mod tests {
             tree.remove(got.1);
         }
         assert!(tree.nearest([0.0, 0.0]).is_none());
+        let tree = ShrinkingKdTree::build(&pts);
+        let q = pts[17];
+        assert_eq!(tree.nearest_within(q, 0.0).map(|x| x.0), Some(0.0));
+        let far = [q[0] + 1000.0, q[1]];
+        assert!(tree.nearest_within(far, 100.0).is_none());
+        assert!(tree.nearest_within(far, f64::INFINITY).is_some());
     }
 
     #[test]
