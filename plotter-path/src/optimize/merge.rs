@@ -1,10 +1,11 @@
 //! Merging: open paths whose ends meet (within a tolerance, in either direction) become one longer path, so the
 //! pen stays down across the joint instead of lifting and dropping on the same spot.
 //!
-//! All open-path starts and ends go into two shrinking k-d trees. Paths are taken in the trees' spatial order (for cache
-//! locality; chains are put back at their seed's input position); each one seeds a chain that is extended at its tail, then at its head, by the nearest unused end within the tolerance — the
-//! matched path is reversed when its far end is the one that meets (only when reversal is allowed). Used paths
-//! leave the trees, so every lookup is `O(log n)` and the whole merge `O(n log n)`, even when many ends meet at one
+//! All open-path starts and ends go into two shrinking k-d trees. Paths are taken in the trees' spatial order
+//! (for cache locality; each chain is put back at its seed's input position); each one seeds a chain that is
+//! extended at its tail, then at its head, by the nearest unused end within the tolerance — the matched path is
+//! reversed when its far end is the one that meets (only when reversal is allowed). Used paths leave the trees, so
+//! every lookup is `O(log n)` and the whole merge `O(n log n)`, even when many ends meet at one
 //! point. A chain whose two ends finally meet is closed. (An rstar R-tree did the same with removals several times
 //! slower; see the benchmark notes.)
 //!

@@ -404,7 +404,11 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
         } else {
             input_visits.clone()
         };
-        if opts.improve {
+        let out_of_time = deadline.is_some_and(|d| Instant::now() >= d);
+        if opts.improve && out_of_time {
+            lr.improve.budget_exhausted = true;
+        }
+        if opts.improve && !out_of_time {
             let n = visits.len();
             #[allow(clippy::cast_precision_loss, reason = "path counts are far below 2^52")]
             let nf = n as f64;
