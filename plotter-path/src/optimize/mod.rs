@@ -457,8 +457,10 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
             };
             lr.improve = improve::improve(&paths, &mut visits, at_after.unwrap_or(Point::ZERO), &objective, params);
         }
-        // Never worse than the input order under the objective.
-        if visits_cost(&paths, &input_visits, at_after, &objective) < visits_cost(&paths, &visits, at_after, &objective)
+        // With improvement on, never worse than the input order under the objective (plain greedy stays plain).
+        if opts.improve
+            && visits_cost(&paths, &input_visits, at_after, &objective)
+                < visits_cost(&paths, &visits, at_after, &objective)
         {
             visits = input_visits;
             lr.kept_input_order = true;
