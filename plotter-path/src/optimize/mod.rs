@@ -746,6 +746,22 @@ mod tests {
         }
     }
 
+    /// The quality bar: in total over the realistic drawings, improved travel ≤ 0.80 × plain greedy, and
+    /// never above greedy on any of them. Deterministic (no time budget), so this is not a timing test.
+    #[test]
+    fn realistic_drawings_beat_greedy_by_a_fifth() {
+        let (mut greedy, mut improved) = (0.0, 0.0);
+        for (name, d) in synth::realistic_set(1) {
+            let mut out = d.clone();
+            let r = optimize(&mut out, &OptimizeOptions { time_budget: None, ..OptimizeOptions::default() }).unwrap();
+            let g = r.pen_up_greedy_mm.unwrap();
+            assert!(r.pen_up_after_mm <= g, "{name}");
+            greedy += g;
+            improved += r.pen_up_after_mm;
+        }
+        assert!(improved <= 0.80 * greedy, "{improved} vs greedy {greedy}");
+    }
+
     #[test]
     fn same_seed_same_drawing() {
         let d = synth::text_like(9);
