@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use plotter_path::Drawing;
 use plotter_path::optimize::{OptimizeOptions, SeamMode, optimize, synth, travel_lower_bound};
+use plotter_path::svg::{self, SvgOptions};
 
 /// CPU time of this thread in seconds (Linux `schedstat`), so figures stay meaningful on a loaded machine.
 fn cpu_s() -> f64 {
@@ -132,4 +133,31 @@ fn main() {
         );
     }
     println!("| **total** | | {tg:.0} | {ti:.0} | **{:.3}** | | | |", ti / tg);
+
+    println!("\n## samples/*.svg (imported with default options), default optimization\n");
+    println!("| sample | paths | input order mm | greedy mm | improved mm | bound mm | gap | wall s |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .map(|rd| {
+            rd.filter_map(Result::ok).map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "svg")).collect()
+        })
+        .unwrap_or_default();
+    files.sort();
+    for f in files {
+        let Ok(imported) = svg::load_svg(&f, &SvgOptions::default()) else { continue };
+        let d = imported.drawing;
+        let before = plotter_path::travel::pen_up_length(&d);
+        let r = run(&d, false);
+        println!(
+            "| {} | {} | {before:.1} | {:.1} | {:.1} | {:.1} | {:.3} | {:.4} |",
+            f.file_name().map(|n| n.to_string_lossy()).unwrap_or_default(),
+            d.path_count(),
+            r.greedy_mm,
+            r.default_mm,
+            r.bound_mm,
+            r.default_mm / r.bound_mm,
+            r.default_wall
+        );
+    }
 }

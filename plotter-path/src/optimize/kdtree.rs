@@ -165,12 +165,15 @@ impl KdTree {
 }
 
 /// A [`KdTree`] whose points can be deleted, answering nearest-remaining-point queries. Every node counts its
-/// remaining points; a deletion decrements the counts on the way to the root and a query skips empty subtrees, so
-/// both stay `O(log n)`-ish even after most points are gone (the greedy ordering deletes all of them).
+/// remaining points and keeps the bounding box of just those; a deletion updates counts and boxes on the way to the
+/// root (`O(depth)`), and a query skips empty subtrees and prunes on the shrunken boxes, so queries stay fast even
+/// after most points are gone (the greedy ordering deletes all of them, leaving scattered stragglers whose
+/// original boxes would otherwise look deceptively close).
 #[derive(Debug, Clone)]
 pub(crate) struct ShrinkingKdTree {
     tree: KdTree,
     alive: Vec<u32>,
+    boxes: Vec<([f64; 2], [f64; 2])>,
     parent: Vec<u32>,
     leaf_of_slot: Vec<u32>,
     slot_of_id: Vec<u32>,
@@ -202,7 +205,13 @@ impl ShrinkingKdTree {
             slot_of_id[id as usize] = u32::try_from(slot).unwrap_or(NONE);
         }
         let dead = vec![false; tree.len()];
-        ShrinkingKdTree { tree, alive, parent, leaf_of_slot, slot_of_id, dead }
+        let boxes = tree.nodes.iter().map(|n| (n.min, n.max)).collect();
+        ShrinkingKdTree { tree, alive, boxes, parent, leaf_of_slot, slot_of_id, dead }
+    }
+
+    /// Point ids in tree order: neighbours in space are mostly neighbours in this list.
+    pub(crate) fn ids_in_tree_order(&self) -> &[u32] {
+        &self.tree.ids
     }
 
     /// Delete the point `id` (no effect if already deleted).
@@ -212,16 +221,47 @@ impl ShrinkingKdTree {
             return;
         }
         self.dead[slot] = true;
-        let mut n = self.leaf_of_slot[slot];
-        while n != NONE {
-            self.alive[n as usize] -= 1;
-            n = self.parent[n as usize];
+        let empty = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        let leaf = self.leaf_of_slot[slot] as usize;
+        let node = self.tree.nodes[leaf];
+        let mut b = empty;
+        for s in node.lo as usize..node.hi as usize {
+            if !self.dead[s] {
+                let p = self.tree.pts[s];
+                b = ([b.0[0].min(p[0]), b.0[1].min(p[1])], [b.1[0].max(p[0]), b.1[1].max(p[1])]);
+            }
         }
+        self.boxes[leaf] = b;
+        self.alive[leaf] -= 1;
+        let mut n = self.parent[leaf];
+        while n != NONE {
+            let ni = n as usize;
+            self.alive[ni] -= 1;
+            let (l, r) = (self.tree.nodes[ni].left as usize, self.tree.nodes[ni].right as usize);
+            let (bl, br) = (self.boxes[l], self.boxes[r]);
+            self.boxes[ni] =
+                ([bl.0[0].min(br.0[0]), bl.0[1].min(br.0[1])], [bl.1[0].max(br.1[0]), bl.1[1].max(br.1[1])]);
+            n = self.parent[ni];
+        }
+    }
+
+    #[inline]
+    fn box_dist2(&self, n: usize, q: [f64; 2]) -> f64 {
+        let (min, max) = self.boxes[n];
+        let dx = (min[0] - q[0]).max(q[0] - max[0]).max(0.0);
+        let dy = (min[1] - q[1]).max(q[1] - max[1]).max(0.0);
+        dx * dx + dy * dy
     }
 
     /// The remaining point nearest to `q`, as `(squared distance, id)`.
     pub(crate) fn nearest(&self, q: [f64; 2]) -> Option<(f64, u32)> {
-        let mut best = (f64::INFINITY, NONE);
+        self.nearest_within(q, f64::INFINITY)
+    }
+
+    /// The remaining point nearest to `q` no farther than `sqrt(max_d2)`; the radius prunes the search, so a
+    /// small one makes the query nearly free.
+    pub(crate) fn nearest_within(&self, q: [f64; 2], max_d2: f64) -> Option<(f64, u32)> {
+        let mut best = (max_d2.next_up(), NONE);
         if !self.alive.is_empty() && self.alive[0] > 0 {
             self.nearest_rec(0, q, &mut best);
         }
@@ -244,7 +284,7 @@ impl ShrinkingKdTree {
             return;
         }
         let (l, r) = (node.left as usize, node.right as usize);
-        let (dl, dr) = (self.tree.nodes[l].box_dist2(q), self.tree.nodes[r].box_dist2(q));
+        let (dl, dr) = (self.box_dist2(l, q), self.box_dist2(r, q));
         let order = if dl <= dr { [(l, dl), (r, dr)] } else { [(r, dr), (l, dl)] };
         for (child, d) in order {
             if self.alive[child] > 0 && d < best.0 {
@@ -331,6 +371,12 @@ mod tests {
             tree.remove(got.1);
         }
         assert!(tree.nearest([0.0, 0.0]).is_none());
+        let tree = ShrinkingKdTree::build(&pts);
+        let q = pts[17];
+        assert_eq!(tree.nearest_within(q, 0.0).map(|x| x.0), Some(0.0));
+        let far = [q[0] + 1000.0, q[1]];
+        assert!(tree.nearest_within(far, 100.0).is_none());
+        assert!(tree.nearest_within(far, f64::INFINITY).is_some());
     }
 
     #[test]

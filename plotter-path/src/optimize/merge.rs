@@ -1,10 +1,11 @@
 //! Merging: open paths whose ends meet (within a tolerance, in either direction) become one longer path, so the
 //! pen stays down across the joint instead of lifting and dropping on the same spot.
 //!
-//! All open-path starts and ends go into two shrinking k-d trees. Paths are taken in input order; each one seeds a
-//! chain that is extended at its tail, then at its head, by the nearest unused end within the tolerance — the
-//! matched path is reversed when its far end is the one that meets (only when reversal is allowed). Used paths
-//! leave the trees, so every lookup is `O(log n)` and the whole merge `O(n log n)`, even when many ends meet at one
+//! All open-path starts and ends go into two shrinking k-d trees. Paths are taken in the trees' spatial order
+//! (for cache locality; each chain is put back at its seed's input position); each one seeds a chain that is
+//! extended at its tail, then at its head, by the nearest unused end within the tolerance — the matched path is
+//! reversed when its far end is the one that meets (only when reversal is allowed). Used paths leave the trees, so
+//! every lookup is `O(log n)` and the whole merge `O(n log n)`, even when many ends meet at one
 //! point. A chain whose two ends finally meet is closed. (An rstar R-tree did the same with removals several times
 //! slower; see the benchmark notes.)
 //!
@@ -39,8 +40,7 @@ impl Ends {
     fn find(&self, at: Point, kinds: &[usize]) -> Option<(u32, usize)> {
         kinds
             .iter()
-            .filter_map(|&k| self.trees[k].nearest([at.x, at.y]).map(|(d2, id)| (d2, id, k)))
-            .filter(|&(d2, _, _)| d2 <= self.tol2)
+            .filter_map(|&k| self.trees[k].nearest_within([at.x, at.y], self.tol2).map(|(d2, id)| (d2, id, k)))
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2)))
             .map(|(_, id, k)| (id, k))
     }
@@ -51,8 +51,8 @@ impl Ends {
     }
 }
 
-/// Join the open paths of `paths` whose ends lie within `tolerance` mm. Returns the new path list (chains in the
-/// order of their first member; untouched paths keep their relative order) and what was done.
+/// Join the open paths of `paths` whose ends lie within `tolerance` mm. Returns the new path list (each chain at the
+/// input position of the path it grew from; untouched paths keep their relative order) and what was done.
 pub(crate) fn merge_paths(paths: Vec<Polyline>, tolerance: f64, allow_reverse: bool) -> (Vec<Polyline>, MergeStats) {
     let mut stats = MergeStats::default();
     let n = paths.len();
@@ -78,14 +78,22 @@ pub(crate) fn merge_paths(paths: Vec<Polyline>, tolerance: f64, allow_reverse: b
     // there (or, reversed, start there).
     let (tail_kinds, head_kinds): (&[usize], &[usize]) = if allow_reverse { (&[0, 1], &[1, 0]) } else { (&[0], &[1]) };
     let mut used = vec![false; n];
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
+    let mut out: Vec<(usize, Polyline)> = Vec::with_capacity(n);
+    // Seeds in space-filling (tree) order, so consecutive lookups hit warm memory; the output is put back into
+    // input order afterwards (each chain at its seed's position).
+    let seeds: Vec<usize> = index.trees[0]
+        .ids_in_tree_order()
+        .iter()
+        .map(|&r| members[r as usize])
+        .chain((0..n).filter(|&i| !mergeable[i]))
+        .collect();
+    for i in seeds {
         if used[i] {
             continue;
         }
         used[i] = true;
         if !mergeable[i] {
-            out.push(paths[i].clone());
+            out.push((i, paths[i].clone()));
             continue;
         }
         index.take(rank[i]);
@@ -131,9 +139,10 @@ pub(crate) fn merge_paths(paths: Vec<Polyline>, tolerance: f64, allow_reverse: b
                 stats.closed += 1;
             }
         }
-        out.push(Polyline::new(pts));
+        out.push((i, Polyline::new(pts)));
     }
-    (out, stats)
+    out.sort_unstable_by_key(|e| e.0);
+    (out.into_iter().map(|e| e.1).collect(), stats)
 }
 
 #[cfg(test)]

@@ -255,6 +255,9 @@ pub struct OptimizeReport {
     pub travel_time_lower_bound_s: Option<f64>,
     /// Improvement counters over all layers.
     pub improve: ImproveStats,
+    /// Over several layers the plain greedy chain came out cheaper than the improved one (improving a layer moved
+    /// its end point to the next layer's disadvantage) and was used instead.
+    pub fell_back_to_greedy: bool,
     /// Wall time spent.
     pub elapsed: Duration,
 }
@@ -379,6 +382,12 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
     let time_cost = opts.time_model.map(CostModel::Time);
     let mut report = OptimizeReport::default();
     let (mut at_before, mut at_after) = (opts.start, opts.start);
+    // Improving a layer can move where it ends and so make the next layer dearer. To stay never worse than plain
+    // greedy over the whole drawing, a greedy-only chain runs alongside when there are several layers.
+    let track_greedy = drawing.layers.len() > 1 && opts.reorder && opts.improve;
+    let mut at_greedy = opts.start;
+    let mut greedy_layers: Vec<Vec<Polyline>> = Vec::new();
+    let (mut greedy_total, mut improved_total) = (0.0, 0.0);
     for (li, layer) in drawing.layers.iter_mut().enumerate() {
         let mut lr = LayerReport { name: layer.name.clone(), paths_in: layer.paths.len(), ..LayerReport::default() };
         let (before, end_before) = travel::paths_travel(&layer.paths, at_before, &CostModel::Distance);
@@ -398,13 +407,36 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
             (0..u32::try_from(paths.len()).unwrap_or(0)).partition(|&i| paths[i as usize].points.len() >= 2);
         let input_visits: Vec<Visit> = ids.iter().map(|&id| Visit { path: id, reversed: false, seam: 0 }).collect();
         let mut visits = if opts.reorder {
-            let v = order::greedy_order(&paths, &ids, at_after.unwrap_or(Point::ZERO), opts.seam, opts.reverse);
-            lr.pen_up_greedy_mm = Some(visits_cost(&paths, &v, at_after, &CostModel::Distance));
-            v
+            order::greedy_order(&paths, &ids, at_after.unwrap_or(Point::ZERO), opts.seam, opts.reverse)
         } else {
             input_visits.clone()
         };
-        if opts.improve {
+        if opts.reorder {
+            // The greedy chain's own figures (from where greedy's previous layer ended).
+            let own;
+            let greedy = if at_greedy == at_after {
+                &visits
+            } else {
+                own = order::greedy_order(&paths, &ids, at_greedy.unwrap_or(Point::ZERO), opts.seam, opts.reverse);
+                &own
+            };
+            lr.pen_up_greedy_mm = Some(visits_cost(&paths, greedy, at_greedy, &CostModel::Distance));
+            greedy_total += visits_cost(&paths, greedy, at_greedy, &objective);
+            if let Some(last) = greedy.last() {
+                at_greedy = Some(last.exit(&paths));
+            }
+            if track_greedy {
+                greedy_layers.push(greedy.iter().map(|v| v.realize(paths[v.path as usize].clone())).collect());
+                if let Some(g) = greedy_layers.last_mut() {
+                    g.extend(empties.iter().map(|&i| paths[i as usize].clone()));
+                }
+            }
+        }
+        let out_of_time = deadline.is_some_and(|d| Instant::now() >= d);
+        if opts.improve && out_of_time {
+            lr.improve.budget_exhausted = true;
+        }
+        if opts.improve && !out_of_time {
             let n = visits.len();
             #[allow(clippy::cast_precision_loss, reason = "path counts are far below 2^52")]
             let nf = n as f64;
@@ -425,12 +457,15 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
             };
             lr.improve = improve::improve(&paths, &mut visits, at_after.unwrap_or(Point::ZERO), &objective, params);
         }
-        // Never worse than the input order under the objective.
-        if visits_cost(&paths, &input_visits, at_after, &objective) < visits_cost(&paths, &visits, at_after, &objective)
+        // With improvement on, never worse than the input order under the objective (plain greedy stays plain).
+        if opts.improve
+            && visits_cost(&paths, &input_visits, at_after, &objective)
+                < visits_cost(&paths, &visits, at_after, &objective)
         {
             visits = input_visits;
             lr.kept_input_order = true;
         }
+        improved_total += visits_cost(&paths, &visits, at_after, &objective);
         if opts.lower_bound {
             let start = if li == 0 { opts.start } else { None };
             let parts = layer_bound_parts(&paths, &ids, opts.seam, start);
@@ -461,6 +496,25 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
         add_opt(&mut report.travel_time_lower_bound_s, lr.travel_time_lower_bound_s);
         report.improve.add(&lr.improve);
         report.layers.push(lr);
+    }
+    if track_greedy && greedy_total < improved_total {
+        // Rare: greedy's layer ends happened to suit the following layers better. Use the greedy chain.
+        report.fell_back_to_greedy = true;
+        let mut at = opts.start;
+        report.pen_up_after_mm = 0.0;
+        report.travel_time_after_s = time_cost.map(|_| 0.0);
+        for ((layer, lr), greedy) in drawing.layers.iter_mut().zip(&mut report.layers).zip(greedy_layers) {
+            layer.paths = greedy;
+            let (d, end) = travel::paths_travel(&layer.paths, at, &CostModel::Distance);
+            lr.pen_up_after_mm = d;
+            lr.travel_time_after_s = time_cost.map(|c| travel::paths_travel(&layer.paths, at, &c).0);
+            lr.paths_out = layer.paths.len();
+            at = end;
+            report.pen_up_after_mm += d;
+            if let (Some(t), Some(v)) = (report.travel_time_after_s.as_mut(), lr.travel_time_after_s) {
+                *t += v;
+            }
+        }
     }
     report.elapsed = t0.elapsed();
     Ok(report)
@@ -675,6 +729,37 @@ mod tests {
         assert!(lb >= lifts);
         let measured = drawing_travel(&a, None, &CostModel::Time(model));
         assert!((measured - after).abs() < 1e-6);
+    }
+
+    #[test]
+    fn never_worse_than_greedy_across_layers_on_the_samples() {
+        // transforms.svg once came out 4 % worse than greedy: improving layer 1 moved its end away from layer 2.
+        for name in ["duck.svg", "layers.svg", "transforms.svg"] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples").join(name);
+            let d = crate::svg::load_svg(&path, &crate::svg::SvgOptions::default()).unwrap().drawing;
+            let mut out = d.clone();
+            let r = optimize(&mut out, &OptimizeOptions { time_budget: None, ..OptimizeOptions::default() }).unwrap();
+            let greedy = r.pen_up_greedy_mm.unwrap();
+            assert!(r.pen_up_after_mm <= greedy + 1e-9, "{name}: {} > {greedy}", r.pen_up_after_mm);
+            assert!((crate::travel::pen_up_length(&out) - r.pen_up_after_mm).abs() < 1e-6, "{name}");
+            assert_eq!(out.layers.len(), d.layers.len());
+        }
+    }
+
+    /// The quality bar: in total over the realistic drawings, improved travel ≤ 0.80 × plain greedy, and
+    /// never above greedy on any of them. Deterministic (no time budget), so this is not a timing test.
+    #[test]
+    fn realistic_drawings_beat_greedy_by_a_fifth() {
+        let (mut greedy, mut improved) = (0.0, 0.0);
+        for (name, d) in synth::realistic_set(1) {
+            let mut out = d.clone();
+            let r = optimize(&mut out, &OptimizeOptions { time_budget: None, ..OptimizeOptions::default() }).unwrap();
+            let g = r.pen_up_greedy_mm.unwrap();
+            assert!(r.pen_up_after_mm <= g, "{name}");
+            greedy += g;
+            improved += r.pen_up_after_mm;
+        }
+        assert!(improved <= 0.80 * greedy, "{improved} vs greedy {greedy}");
     }
 
     #[test]
