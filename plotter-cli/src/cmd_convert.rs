@@ -1,33 +1,27 @@
-//! `plotter convert`: write the flattened, laid-out drawing as a plain SVG of polylines in millimetres.
+//! `plotter convert`: write the flattened, laid-out drawing as a plain SVG of polylines in millimetres, in the
+//! input's own order (`plotter optimize` writes it reordered).
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
+use plotter_path::MachineProfile;
 use plotter_path::svg_out::to_svg_string;
 
-use plotter_path::MachineProfile;
-
-use crate::input::{InputArgs, load_drawing, write_output};
-use crate::layout_args::LayoutArgs;
+use crate::input::{Source, write_output};
 
 /// Flatten and lay out a drawing, then write it as plain SVG polylines in mm.
 #[derive(Debug, Args)]
 pub(crate) struct ConvertArgs {
-    /// Input drawing (SVG; `-` reads stdin)
-    pub(crate) input: PathBuf,
+    #[command(flatten)]
+    pub(crate) source: Source,
     /// Output SVG (`-` writes stdout)
     #[arg(short, long)]
     pub(crate) output: PathBuf,
-    #[command(flatten)]
-    pub(crate) input_args: InputArgs,
-    #[command(flatten)]
-    pub(crate) layout: LayoutArgs,
 }
 
 /// Run `plotter convert`.
 pub(crate) fn run(args: &ConvertArgs) -> Result<()> {
-    let mut drawing = load_drawing(&args.input, &args.input_args, &MachineProfile::default_plotter())?;
-    args.layout.apply(&mut drawing)?;
+    let drawing = args.source.load(&MachineProfile::default_plotter())?;
     write_output(&args.output, to_svg_string(&drawing).as_bytes())
 }

@@ -13,8 +13,7 @@ use plotter_path::MachineProfile;
 use plotter_path::optimize::{self, Objective, OptimizeOptions, OptimizeReport, SeamMode, TravelTimeModel};
 use plotter_path::svg_out::to_svg_string;
 
-use crate::input::{InputArgs, load_drawing, write_output};
-use crate::layout_args::LayoutArgs;
+use crate::input::{Source, write_output};
 
 /// Where closed paths may start.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -117,6 +116,19 @@ impl OptimizeArgs {
     }
 }
 
+/// Optimise `drawing` in place when the flags allow (returns the report), with the flags' time budget.
+pub(crate) fn optimize_quietly(
+    drawing: &mut plotter_path::Drawing,
+    args: &OptimizeArgs,
+    profile: Option<&MachineProfile>,
+) -> Result<Option<OptimizeReport>> {
+    if !args.enabled() {
+        return Ok(None);
+    }
+    let report = optimize::optimize(drawing, &args.options(profile)?).context("cannot optimize the path order")?;
+    Ok(Some(report))
+}
+
 /// Human-readable summary of an optimization: pen-up before / greedy / after, the bound and the gap, times.
 pub(crate) fn report_text(r: &OptimizeReport) -> String {
     let paths_in: usize = r.layers.iter().map(|l| l.paths_in).sum();
@@ -157,8 +169,8 @@ pub(crate) fn report_text(r: &OptimizeReport) -> String {
 /// Optimize a drawing's path order and write it as plain SVG.
 #[derive(Debug, Args)]
 pub(crate) struct OptimizeCmdArgs {
-    /// Input drawing (SVG; `-` reads stdin)
-    pub(crate) input: PathBuf,
+    #[command(flatten)]
+    pub(crate) source: Source,
     /// Output SVG (`-` writes stdout)
     #[arg(short, long)]
     pub(crate) output: PathBuf,
@@ -166,22 +178,14 @@ pub(crate) struct OptimizeCmdArgs {
     #[arg(long)]
     pub(crate) profile: Option<PathBuf>,
     #[command(flatten)]
-    pub(crate) input_args: InputArgs,
-    #[command(flatten)]
-    pub(crate) layout: LayoutArgs,
-    #[command(flatten)]
     pub(crate) optimize: OptimizeArgs,
 }
 
 /// Run `plotter optimize`; the report goes to stderr.
 pub(crate) fn run(args: &OptimizeCmdArgs) -> Result<()> {
     let profile = args.profile.as_deref().map(MachineProfile::load).transpose()?;
-    let options = args.optimize.options(profile.as_ref())?;
-    let mut drawing = load_drawing(&args.input, &args.input_args, &MachineProfile::default_plotter())?;
-    args.layout.apply(&mut drawing)?;
-    if args.optimize.enabled() {
-        let report = optimize::optimize(&mut drawing, &options)
-            .with_context(|| format!("cannot optimize {}", args.input.display()))?;
+    let mut drawing = args.source.load(profile.as_ref().unwrap_or(&MachineProfile::default_plotter()))?;
+    if let Some(report) = optimize_quietly(&mut drawing, &args.optimize, profile.as_ref())? {
         eprintln!("{}", report_text(&report));
     }
     write_output(&args.output, to_svg_string(&drawing).as_bytes())

@@ -12,9 +12,11 @@ use plotter_fw::sim::Sim;
 use plotter_fw::{Axis, TICK_HZ};
 use plotter_path::kurbo::{Line, Point};
 use plotter_path::motion::{self, Lookahead, MotionPlan};
+use plotter_path::optimize::{self, OptimizeOptions};
 use plotter_path::steps::{StepDrawing, StepMapper, drawing_to_steps};
 use plotter_path::{Drawing, MachineProfile, Polyline, preview, trajectory};
 
+use crate::cmd_optimize::OptimizeArgs;
 use crate::input::{InputArgs, InputKind, input_kind, load_drawing};
 use crate::layout_args::LayoutArgs;
 use serde::{Deserialize, Serialize};
@@ -75,6 +77,10 @@ pub(crate) struct PlotArgs {
     pub(crate) input_args: InputArgs,
     #[command(flatten)]
     pub(crate) layout: LayoutArgs,
+    /// Path ordering. `plot` runs the optimizer to convergence (no time budget), so that a resumed plot rebuilds
+    /// exactly the same order.
+    #[command(flatten)]
+    pub(crate) optimize: OptimizeArgs,
 }
 
 /// `plot`'s arguments on their own, to re-read the ones stored in a journal.
@@ -109,6 +115,7 @@ pub(crate) fn load_steps(
     profile: &MachineProfile,
     input_args: &InputArgs,
     layout: &LayoutArgs,
+    optimize: &OptimizeArgs,
 ) -> anyhow::Result<(StepDrawing, Option<Drawing>)> {
     let shown = input.display().to_string();
     // A trajectory file is already in steps: keep it exactly as stored unless layout flags ask for a change.
@@ -121,6 +128,16 @@ pub(crate) fn load_steps(
     }
     let mut drawing = load_drawing(input, input_args, profile)?;
     layout.apply(&mut drawing)?;
+    if optimize.enabled() {
+        let options = OptimizeOptions { time_budget: None, ..optimize.options(Some(profile))? };
+        let report = optimize::optimize(&mut drawing, &options).with_context(|| format!("cannot optimize {shown}"))?;
+        eprintln!(
+            "path order: pen-up travel {:.1} mm -> {:.1} mm (lower bound {})",
+            report.pen_up_before_mm,
+            report.pen_up_after_mm,
+            report.pen_up_lower_bound_mm.map_or_else(|| "not computed".to_string(), |b| format!("{b:.1} mm"))
+        );
+    }
     let steps = drawing_to_steps(profile, &drawing).with_context(|| format!("cannot convert {shown} to steps"))?;
     Ok((steps, Some(drawing)))
 }
@@ -336,7 +353,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     let input = args.input.as_deref().context("an input file is required")?;
     let profile = load_profile(args.profile.as_deref())?;
     let cfg = motion::machine_config(&profile)?;
-    let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout)?;
+    let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize)?;
     motion::check_work_area(&profile, &steps)?;
     if let Some(out) = &args.export {
         let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
@@ -454,7 +471,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
         .with_context(|| format!("cannot enter {}, where the plot was started", source.cwd.display()))?;
     let input = original.input.as_deref().context("the recorded plot has no input")?;
     let profile = load_profile(original.profile.as_deref())?;
-    let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout)?;
+    let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize)?;
     let full = motion::plan(&profile, &steps, source.start, Lookahead::Whole)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
         bail!(

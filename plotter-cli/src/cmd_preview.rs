@@ -1,21 +1,21 @@
-//! `plotter preview`: render a drawing as a PNG (paper, strokes per layer colour, optional travel overlay).
+//! `plotter preview`: render a drawing as a PNG (paper, strokes per layer colour, optional travel overlay), in
+//! the order it would be plotted (optimised unless `--no-optimize`).
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
+use plotter_path::MachineProfile;
 use plotter_path::preview::{PreviewOptions, render_png};
 
-use plotter_path::MachineProfile;
-
-use crate::input::{InputArgs, load_drawing, write_output};
-use crate::layout_args::LayoutArgs;
+use crate::cmd_optimize::{OptimizeArgs, optimize_quietly};
+use crate::input::{Source, write_output};
 
 /// Render a drawing as a preview PNG.
 #[derive(Debug, Args)]
 pub(crate) struct PreviewArgs {
-    /// Input drawing (SVG; `-` reads stdin)
-    pub(crate) input: PathBuf,
+    #[command(flatten)]
+    pub(crate) source: Source,
     /// Output PNG (`-` writes stdout)
     #[arg(short, long)]
     pub(crate) output: PathBuf,
@@ -29,15 +29,14 @@ pub(crate) struct PreviewArgs {
     #[arg(long)]
     pub(crate) width_px: Option<u32>,
     #[command(flatten)]
-    pub(crate) input_args: InputArgs,
-    #[command(flatten)]
-    pub(crate) layout: LayoutArgs,
+    pub(crate) optimize: OptimizeArgs,
 }
 
 /// Run `plotter preview`.
 pub(crate) fn run(args: &PreviewArgs) -> Result<()> {
-    let mut drawing = load_drawing(&args.input, &args.input_args, &MachineProfile::default_plotter())?;
-    args.layout.apply(&mut drawing)?;
+    let profile = MachineProfile::default_plotter();
+    let mut drawing = args.source.load(&profile)?;
+    optimize_quietly(&mut drawing, &args.optimize, None)?;
     let options = PreviewOptions { dpi: args.dpi, width_px: args.width_px, travel: args.travel, ..Default::default() };
     let png = render_png(&drawing, &options)?;
     write_output(&args.output, &png)

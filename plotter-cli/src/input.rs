@@ -3,7 +3,7 @@
 //! figure `gen:KIND?param=value&...` — into a [`Drawing`] in page millimetres, printing every warning to stderr.
 
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
@@ -12,6 +12,7 @@ use plotter_path::svg::{self, LayerBy, SvgOptions};
 use plotter_path::{Drawing, MachineProfile, gcode_in, r#gen, raster, trajectory};
 
 use crate::cmd_trace::TraceArgs;
+use crate::layout_args::LayoutArgs;
 
 /// How SVG shapes are grouped into layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
@@ -160,6 +161,26 @@ pub(crate) fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfi
             Ok(steps.to_drawing(&StepMapper::new(profile), "trajectory"))
         }
         InputKind::Generated => unreachable!("generated inputs return above"),
+    }
+}
+
+/// What a drawing command reads: the input, how to read it, and how to lay it out on the page.
+#[derive(Debug, Clone, Args)]
+pub(crate) struct Source {
+    /// Input: SVG, PNG/JPEG (traced), G-code, trajectory file, `gen:KIND?param=value&...`, or `-` for stdin
+    pub(crate) input: PathBuf,
+    #[command(flatten)]
+    pub(crate) read: InputArgs,
+    #[command(flatten)]
+    pub(crate) layout: LayoutArgs,
+}
+
+impl Source {
+    /// Load the input and lay it out; `profile` maps G-code and trajectory files back to the page.
+    pub(crate) fn load(&self, profile: &MachineProfile) -> Result<Drawing> {
+        let mut drawing = load_drawing(&self.input, &self.read, profile)?;
+        self.layout.apply(&mut drawing)?;
+        Ok(drawing)
     }
 }
 

@@ -250,9 +250,11 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
     }
     for node in xml.descendants().filter(roxmltree::Node::is_element) {
         let tag = node.tag_name().name();
-        let pos = xml.text_pos_at(node.range().start);
-        let id = node.attribute("id").map(|i| format!(" id=\"{i}\"")).unwrap_or_default();
-        let at = format!("<{tag}{id}> at line {}", pos.row);
+        // Where the element is, for warnings only: finding the line scans the text, so it is done on demand.
+        let at = || {
+            let id = node.attribute("id").map(|i| format!(" id=\"{i}\"")).unwrap_or_default();
+            format!("<{tag}{id}> at line {}", xml.text_pos_at(node.range().start).row)
+        };
         if tag == "g"
             && let Some(label) = node.attribute((INKSCAPE, "label"))
             && let Some(id) = node.attribute("id")
@@ -273,7 +275,7 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
                 radius(number("ry"));
             }
             "path" => match node.attribute("d") {
-                None => s.warnings.push(format!("{at}: no 'd' attribute, not drawn")),
+                None => s.warnings.push(format!("{}: no 'd' attribute, not drawn", at())),
                 Some(d) => {
                     for (i, seg) in svgtypes::PathParser::from(d).enumerate() {
                         match seg {
@@ -281,7 +283,8 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
                             Ok(_) => {}
                             Err(e) => {
                                 s.warnings.push(format!(
-                                    "{at}: invalid path data after {i} segment(s) ({e}); drawn up to the error"
+                                    "{}: invalid path data after {i} segment(s) ({e}); drawn up to the error",
+                                    at()
                                 ));
                                 break;
                             }
@@ -289,9 +292,9 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
                     }
                 }
             },
-            "image" => s.warnings.push(format!("{at}: embedded raster image not traced (use `plotter trace`)")),
+            "image" => s.warnings.push(format!("{}: embedded raster image not traced (use `plotter trace`)", at())),
             "foreignObject" | "video" | "audio" | "iframe" | "canvas" => {
-                s.warnings.push(format!("{at}: element not supported, skipped"));
+                s.warnings.push(format!("{}: element not supported, skipped", at()));
             }
             _ => {}
         }
@@ -305,7 +308,7 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
             _ => false,
         };
         if degenerate {
-            s.warnings.push(format!("{at}: zero or negative size, not drawn"));
+            s.warnings.push(format!("{}: zero or negative size, not drawn", at()));
         }
     }
     s
