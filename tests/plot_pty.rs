@@ -40,11 +40,12 @@ fn ok(out: &std::process::Output) -> String {
     stdout
 }
 
-fn plot_over_pty(extra_sim: &[&str]) -> (Trace, String) {
-    let dir = scratch(&format!("pty{}", extra_sim.len()));
+/// Plot the sample over a pty; `extra_plot` are more `plot` flags.
+fn plot_over_pty(extra_sim: &[&str], extra_plot: &[&str]) -> (Trace, String) {
+    let dir = scratch(&format!("pty{}-{}", extra_sim.len(), extra_plot.len()));
     let svg = write_sample(&dir);
     let sim = SimPty::start(&dir, &[&["--fast"], extra_sim].concat());
-    let out = plotter(&dir, &["plot", svg.to_str().unwrap(), "--port", &sim.port]);
+    let out = plotter(&dir, &[&["plot", svg.to_str().unwrap(), "--port", &sim.port], extra_plot].concat());
     let stdout = ok(&out);
     (sim.stop(), stdout)
 }
@@ -52,7 +53,8 @@ fn plot_over_pty(extra_sim: &[&str]) -> (Trace, String) {
 #[test]
 fn svg_plotted_over_a_pty_matches_the_intended_paths() {
     let (profile, drawing, steps) = ideal();
-    let (trace, stdout) = plot_over_pty(&[]);
+    // In the file's own order, so the trace can be compared stroke by stroke with `ideal()`.
+    let (trace, stdout) = plot_over_pty(&[], &["--no-optimize"]);
     assert!(stdout.contains("0 resends"), "{stdout}");
     let mut runs = trace.pen_down_runs(pen_threshold(&profile));
     // The simulated carriage starts with the pen on the paper at the origin: homing Z first lifts it there without
@@ -106,10 +108,10 @@ fn resends(stdout: &str) -> u64 {
 
 #[test]
 fn line_noise_gives_the_same_trace_and_reports_resends() {
-    let (clean, clean_out) = plot_over_pty(&[]);
+    let (clean, clean_out) = plot_over_pty(&[], &[]);
     assert_eq!(resends(&clean_out), 0);
     for seed in ["3", "11"] {
-        let (noisy, out) = plot_over_pty(&["--noise", "0.01", "--seed", seed]);
+        let (noisy, out) = plot_over_pty(&["--noise", "0.01", "--seed", seed], &[]);
         let n = resends(&out);
         eprintln!("seed {seed}: {n} resends");
         assert!(n > 0, "1 % noise over ~1400 bytes must damage some frames: {out}");
@@ -143,7 +145,7 @@ fn concat_runs(t: &Trace, threshold: i64) -> Vec<StepPos> {
 fn resume_after_killing_the_host_at_half() {
     let (profile, _, _) = ideal();
     let threshold = pen_threshold(&profile);
-    let (clean, _) = plot_over_pty(&[]);
+    let (clean, _) = plot_over_pty(&[], &[]);
 
     let dir = scratch("resume");
     let svg = write_sample(&dir);
