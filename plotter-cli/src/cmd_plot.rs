@@ -341,7 +341,12 @@ fn summary(plan: &MotionPlan, stats: &StreamStats, executed_ticks: Option<u64>) 
 }
 
 fn default_beside(input: &Path, suffix: &str) -> PathBuf {
-    let stem = input.file_stem().and_then(|s| s.to_str()).unwrap_or("plot");
+    // A generated figure `gen:KIND?params` is named after its kind.
+    let generated = input.to_str().and_then(|p| p.strip_prefix(crate::input::GEN_PREFIX));
+    let stem = match generated {
+        Some(spec) => spec.split('?').next().filter(|k| !k.is_empty() && !k.contains('/')).unwrap_or("figure"),
+        None => input.file_stem().and_then(|s| s.to_str()).unwrap_or("plot"),
+    };
     PathBuf::from(format!("{stem}{suffix}"))
 }
 
