@@ -258,6 +258,8 @@ pub struct OptimizeReport {
     /// Over several layers the plain greedy chain came out cheaper than the improved one (improving a layer moved
     /// its end point to the next layer's disadvantage) and was used instead.
     pub fell_back_to_greedy: bool,
+    /// Over the whole drawing the input order was cheaper than the optimized one and was kept.
+    pub kept_input_order: bool,
     /// Wall time spent.
     pub elapsed: Duration,
 }
@@ -381,6 +383,8 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
     };
     let time_cost = opts.time_model.map(CostModel::Time);
     let mut report = OptimizeReport::default();
+    let input_layers: Option<Vec<Vec<Polyline>>> =
+        opts.improve.then(|| drawing.layers.iter().map(|l| l.paths.clone()).collect());
     let (mut at_before, mut at_after) = (opts.start, opts.start);
     // Improving a layer can move where it ends and so make the next layer dearer. To stay never worse than plain
     // greedy over the whole drawing, a greedy-only chain runs alongside when there are several layers.
@@ -500,24 +504,57 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
     if track_greedy && greedy_total < improved_total {
         // Rare: greedy's layer ends happened to suit the following layers better. Use the greedy chain.
         report.fell_back_to_greedy = true;
-        let mut at = opts.start;
-        report.pen_up_after_mm = 0.0;
-        report.travel_time_after_s = time_cost.map(|_| 0.0);
-        for ((layer, lr), greedy) in drawing.layers.iter_mut().zip(&mut report.layers).zip(greedy_layers) {
-            layer.paths = greedy;
-            let (d, end) = travel::paths_travel(&layer.paths, at, &CostModel::Distance);
-            lr.pen_up_after_mm = d;
-            lr.travel_time_after_s = time_cost.map(|c| travel::paths_travel(&layer.paths, at, &c).0);
-            lr.paths_out = layer.paths.len();
-            at = end;
-            report.pen_up_after_mm += d;
-            if let (Some(t), Some(v)) = (report.travel_time_after_s.as_mut(), lr.travel_time_after_s) {
-                *t += v;
-            }
+        adopt(drawing, &mut report, greedy_layers, opts.start, time_cost);
+    }
+    // With improvement on, never worse than the input order over the whole drawing: the per-layer guard above
+    // compares from where the previous (reordered) layer ended, which can differ from where the input's ended.
+    if let Some(input) = input_layers {
+        let current: Vec<&[Polyline]> = drawing.layers.iter().map(|l| l.paths.as_slice()).collect();
+        let original: Vec<&[Polyline]> = input.iter().map(Vec::as_slice).collect();
+        if chain_cost(&original, opts.start, &objective) < chain_cost(&current, opts.start, &objective) {
+            report.kept_input_order = true;
+            adopt(drawing, &mut report, input, opts.start, time_cost);
         }
     }
     report.elapsed = t0.elapsed();
     Ok(report)
+}
+
+/// Pen-up cost of drawing `layers` one after the other from `start`.
+fn chain_cost(layers: &[&[Polyline]], start: Option<Point>, cost: &CostModel) -> f64 {
+    let mut at = start;
+    let mut total = 0.0;
+    for paths in layers {
+        let (c, end) = travel::paths_travel(paths, at, cost);
+        total += c;
+        at = end;
+    }
+    total
+}
+
+/// Replace every layer's paths by `layers` and recompute the report's "after" figures.
+fn adopt(
+    drawing: &mut Drawing,
+    report: &mut OptimizeReport,
+    layers: Vec<Vec<Polyline>>,
+    start: Option<Point>,
+    time_cost: Option<CostModel>,
+) {
+    let mut at = start;
+    report.pen_up_after_mm = 0.0;
+    report.travel_time_after_s = time_cost.map(|_| 0.0);
+    for ((layer, lr), paths) in drawing.layers.iter_mut().zip(&mut report.layers).zip(layers) {
+        layer.paths = paths;
+        let (d, end) = travel::paths_travel(&layer.paths, at, &CostModel::Distance);
+        lr.pen_up_after_mm = d;
+        lr.travel_time_after_s = time_cost.map(|c| travel::paths_travel(&layer.paths, at, &c).0);
+        lr.paths_out = layer.paths.len();
+        at = end;
+        report.pen_up_after_mm += d;
+        if let (Some(t), Some(v)) = (report.travel_time_after_s.as_mut(), lr.travel_time_after_s) {
+            *t += v;
+        }
+    }
 }
 
 #[cfg(test)]

@@ -69,11 +69,19 @@ pub fn centerline(bitmap: &Bitmap, simplify_px: f64, min_length_px: f64) -> (Vec
         super::skeleton::remove_staircase(&mut thin);
         paths = walk(&thin);
     }
+    simplify_long_paths(paths, simplify_px, min_length_px)
+}
+
+/// Simplify every walked path at least `min_length_px` long; the shorter ones are dropped and counted in a warning.
+pub(crate) fn simplify_long_paths(
+    paths: Vec<SkeletonPath>,
+    simplify_px: f64,
+    min_length_px: f64,
+) -> (Vec<Vec<Point>>, Vec<RasterWarning>) {
     let mut dropped = 0;
     let mut out = Vec::new();
     for p in paths {
-        let len = pixel_length(&p);
-        if len < min_length_px {
+        if pixel_length(&p) < min_length_px {
             dropped += 1;
             continue;
         }

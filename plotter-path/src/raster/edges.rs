@@ -6,8 +6,8 @@
 //! pixel is drawn once. Chains shorter than the minimum length (texture noise) are dropped and counted.
 
 use super::bitmap::Bitmap;
+use super::centerline::simplify_long_paths;
 use super::error::RasterWarning;
-use super::simplify::simplify;
 use super::skeleton::{skeletonize, walk};
 use image::GrayImage;
 use kurbo::Point;
@@ -33,19 +33,7 @@ pub fn edges(
 ) -> (Vec<Vec<Point>>, Vec<RasterWarning>) {
     let mut map = edge_map(gray, canny_low, canny_high);
     skeletonize(&mut map);
-    let mut dropped = 0;
-    let mut out = Vec::new();
-    for p in walk(&map) {
-        let len: f64 = p.points.windows(2).map(|w| w[0].distance(w[1])).sum();
-        if len < min_length_px {
-            dropped += 1;
-            continue;
-        }
-        out.push(simplify(&p.points, simplify_px));
-    }
-    let warnings =
-        if dropped > 0 { vec![RasterWarning::ShortPathsDropped { count: dropped, min_length_px }] } else { vec![] };
-    (out, warnings)
+    simplify_long_paths(walk(&map), simplify_px, min_length_px)
 }
 
 #[cfg(test)]

@@ -11,16 +11,7 @@
 
 use kurbo::Point;
 
-/// Distance from `p` to the segment `a`–`b`.
-pub fn point_segment_distance(p: Point, a: Point, b: Point) -> f64 {
-    let ab = b - a;
-    let len2 = ab.hypot2();
-    if len2 == 0.0 {
-        return p.distance(a);
-    }
-    let t = ((p - a).dot(ab) / len2).clamp(0.0, 1.0);
-    p.distance(a + ab * t)
-}
+pub use crate::flatten::point_segment_distance;
 
 /// Mark in `keep` the vertices of `points[first..=last]` that RDP retains (the ends are marked by the caller).
 fn mark(points: &[Point], first: usize, last: usize, tolerance: f64, keep: &mut [bool]) {
