@@ -60,7 +60,7 @@ impl InputArgs {
     }
 }
 
-/// The kinds of input the loader understands.
+/// The kinds of input file the loader understands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum InputKind {
     /// SVG drawing.
@@ -71,18 +71,14 @@ pub(crate) enum InputKind {
     Gcode,
     /// The seed plotter's trajectory file (relative motor steps).
     Trajectory,
-    /// A generated figure, `gen:KIND?param=value&...`.
-    Generated,
 }
 
 /// Prefix of generated-figure inputs.
 pub(crate) const GEN_PREFIX: &str = "gen:";
 
-/// Decide what `path` holds: `gen:` specs by name, then the extension, then the first bytes.
+/// Decide what the file `path` holds: by its extension, else by its first bytes. (Generated figures are not
+/// files: [`load_drawing`] recognises their `gen:` prefix before reading anything.)
 pub(crate) fn input_kind(path: &Path, head: &[u8]) -> InputKind {
-    if path.to_str().is_some_and(|p| p.starts_with(GEN_PREFIX)) {
-        return InputKind::Generated;
-    }
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     match ext.as_str() {
         "svg" => return InputKind::Svg,
@@ -160,7 +156,6 @@ pub(crate) fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfi
             let steps = trajectory::import(text, &shown)?;
             Ok(steps.to_drawing(&StepMapper::new(profile), "trajectory"))
         }
-        InputKind::Generated => unreachable!("generated inputs return above"),
     }
 }
 
@@ -203,7 +198,6 @@ mod tests {
 
     #[test]
     fn kinds_by_name_extension_and_content() {
-        assert_eq!(input_kind(Path::new("gen:rose?k=3"), b""), InputKind::Generated);
         assert_eq!(input_kind(Path::new("a.svg"), b""), InputKind::Svg);
         assert_eq!(input_kind(Path::new("a.JPG"), b""), InputKind::Image);
         assert_eq!(input_kind(Path::new("a.NGC"), b""), InputKind::Gcode);

@@ -97,3 +97,37 @@ fn layout_errors_are_reported() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("unknown paper size 'b9'"), "{}", stderr(&o));
 }
+
+#[test]
+fn stats_json_reports_optimisation_and_time() {
+    let o = run(plotter().args(["stats", "--json"]).arg(sample("layers.svg")));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let f = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{k} missing in {v}"));
+    assert!(f("pen_up_lower_bound_mm") <= f("pen_up_mm_optimized"));
+    assert!(f("pen_up_mm_optimized") <= f("pen_up_mm"));
+    assert!(f("est_time_s_optimized") > 0.0 && f("est_time_s_optimized") <= f("est_time_s"));
+    // Without optimisation the optimised figures are absent, the plain estimate stays.
+    let o = run(plotter().args(["stats", "--json", "--no-optimize"]).arg(sample("layers.svg")));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["pen_up_mm_optimized"].is_null() && v["est_time_s"].as_f64().is_some(), "{v}");
+}
+
+#[test]
+fn every_input_kind_previews() {
+    let dir = out_dir("kinds");
+    let image = sample("line-art.png");
+    for (input, extra) in [
+        (image.to_str().unwrap(), &["--mode", "centerline", "--width", "120"][..]),
+        ("gen:rose?k=5&a=30", &[][..]),
+        ("gen:mickey?harmonics=8", &["--paper", "a5", "--fit"][..]),
+    ] {
+        let out = dir.join("out.png");
+        let o = run(plotter().args(["preview", input, "-o"]).arg(&out).args(extra));
+        assert!(o.status.success(), "{input}: {}", stderr(&o));
+        assert!(std::fs::read(&out).unwrap().starts_with(b"\x89PNG"));
+    }
+    let o = run(plotter().args(["stats", "gen:rose?k=0"]));
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("rose"), "{}", stderr(&o));
+}
