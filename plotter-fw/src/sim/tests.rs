@@ -217,7 +217,7 @@ fn frame_with_a_cleared_marker_bit_is_resent_not_parsed_as_gcode() {
     let frames = encode_all(&blocks);
     // A frame whose body holds a byte ≥ 0x80 besides the marker (most do: CRC and rate bytes).
     let k = (1..frames.len()).find(|&i| frames[i][1..].iter().any(|&b| b >= 0x80)).unwrap();
-    let mut sim = Sim::new(c.clone());
+    let mut sim = Sim::new(c);
     sim.take_replies();
     sim.feed(&frames[..k].concat());
     sim.run_until_idle();
