@@ -4,6 +4,10 @@
 //! detail (`error:8 target outside the travel: X`). Alarms are sent unsolicited as `ALARM:<code> <text>` and latch
 //! until a reset (0x18); while latched, motion commands are refused with [`ErrorCode::Alarm`].
 //!
+//! Damaged sequenced frames get no error code: a numbered line or step-block frame that fails its check, and
+//! during a sequenced stream any line with a byte ≥ 0x80 that is not a valid frame, is answered `rs <n>` (see
+//! [`crate::protocol`]).
+//!
 //! | code | error | meaning |
 //! |-----:|-------|---------|
 //! | 1 | `ExpectedCommand` | a word without a letter, or a letter without a number |

@@ -109,6 +109,13 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32> {
     offset_um: [i64; NUM_AXES],
     rt: u8,
     last_completed: u32,
+    /// `~` arrived while a feed hold was still decelerating: resume as soon as it has stopped.
+    resume_after_hold: bool,
+    /// The stepper's completed-block count at start or the last reset (the status report's `C:` counts from it).
+    completed_base: u32,
+    /// A sequenced stream is active: a sequenced frame was accepted or a resend requested since the last reset or
+    /// the last plain G-code line. Bytes ≥ 0x80 in a line then mean a damaged frame.
+    streaming: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -155,6 +162,9 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             offset_um: [0; NUM_AXES],
             rt: 0,
             last_completed: 0,
+            resume_after_hold: false,
+            completed_base: 0,
+            streaming: false,
         };
         m.banner();
         m
@@ -239,7 +249,10 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
 
     /// Whether a block finished or something else happened that `poll` should see.
     pub fn needs_poll(&self) -> bool {
-        self.stepper.completed() != self.last_completed || self.rt != 0 || self.stepper.fault().is_some()
+        self.stepper.completed() != self.last_completed
+            || self.rt != 0
+            || self.stepper.fault().is_some()
+            || (self.resume_after_hold && self.stepper.is_held())
     }
 
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
@@ -248,7 +261,11 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         if is_realtime(b) {
             match b {
                 RT_STATUS => self.rt |= RT_FLAG_STATUS,
-                RT_FEED_HOLD => self.stepper.feed_hold(),
+                RT_FEED_HOLD => {
+                    // The latest real-time command wins: a hold cancels a resume still waiting for the stop.
+                    self.resume_after_hold = false;
+                    self.stepper.feed_hold();
+                }
                 RT_RESUME => self.rt |= RT_FLAG_RESUME,
                 RT_RESET => {
                     self.stepper.abort();
@@ -292,6 +309,11 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.hold_replanned = true;
             self.first_entry_sqr = 0.0;
             plan(self.planner.make_contiguous(), 0.0);
+        }
+        if self.resume_after_hold && self.stepper.is_held() {
+            // A `~` received while the hold was decelerating: the hold has now stopped (and was re-planned).
+            self.resume_after_hold = false;
+            self.resume();
         }
         self.run_homing();
         loop {
@@ -345,6 +367,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
 
     fn reply_resend(&mut self) {
         self.resync = true;
+        self.streaming = true;
         let seq = self.seq;
         let _ = writeln!(Out(&mut self.hal), "rs {seq}");
     }
@@ -360,6 +383,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.homing_result = Some(Err(code));
         }
         self.homed = 0;
+        self.resume_after_hold = false;
         self.sync_target();
         if self.alarm.is_none() {
             self.alarm = Some(code);
@@ -389,6 +413,9 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.homing = None;
             self.homing_result = None;
             self.modal = Modal::DEFAULT;
+            self.resume_after_hold = false;
+            self.streaming = false;
+            self.completed_base = self.stepper.completed();
             if moving {
                 // Stopped without deceleration: steps may have been lost.
                 self.homed = 0;
@@ -398,17 +425,26 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.banner();
             return;
         }
-        if rt & RT_FLAG_RESUME != 0 && self.stepper.is_held() {
-            self.hold_replanned = false;
-            if let Some(t) = self.stepper.resume(&mut self.hal) {
-                self.timer_running = true;
-                self.hal.schedule(t);
+        if rt & RT_FLAG_RESUME != 0 {
+            if self.stepper.is_held() {
+                self.resume();
+            } else if self.stepper.is_holding() {
+                // Still decelerating: remember the resume and act once the hold has stopped (see `poll`).
+                self.resume_after_hold = true;
             }
-            self.feed_stepper();
         }
         if rt & RT_FLAG_STATUS != 0 {
             self.status_report();
         }
+    }
+
+    fn resume(&mut self) {
+        self.hold_replanned = false;
+        if let Some(t) = self.stepper.resume(&mut self.hal) {
+            self.timer_running = true;
+            self.hal.schedule(t);
+        }
+        self.feed_stepper();
     }
 
     /// Write the status report line (also sent for `?`).
@@ -417,13 +453,14 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         let pos = self.stepper.position();
         let used = self.planner.len();
         let (q, seq) = (self.queue_limit, self.seq);
+        let done = self.stepper.completed().wrapping_sub(self.completed_base);
         let mut mm = [0.0f32; NUM_AXES];
         for axis in Axis::ALL {
             mm[axis.index()] = pos[axis.index()] as f32 / self.cfg.axis(axis).steps_per_mm;
         }
         let _ = writeln!(
             Out(&mut self.hal),
-            "<{state}|MPos:{:.3},{:.3},{:.3},{:.3}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}>",
+            "<{state}|MPos:{:.3},{:.3},{:.3},{:.3}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}>",
             mm[0],
             mm[1],
             mm[2],
@@ -510,7 +547,10 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         let len = self.pending.len();
         buf[..len].copy_from_slice(&self.pending);
         let line = &buf[..len];
-        let sequenced = line.first().is_some_and(|&c| c >= 0x80 || c == b'N' || c == b'n');
+        // G-code is ASCII: during a sequenced stream, a line with a byte ≥ 0x80 is a step-block frame whose marker
+        // bit (or marker byte) was damaged on the wire, never a command to run.
+        let damaged_frame = self.streaming && line.iter().any(|&c| c >= 0x80);
+        let sequenced = damaged_frame || line.first().is_some_and(|&c| c >= 0x80 || c == b'N' || c == b'n');
         match kind {
             PendingKind::TooLong | PendingKind::Damaged if sequenced => {
                 self.reply_resend();
@@ -529,6 +569,10 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         }
         if line.first().is_some_and(|&c| c >= 0x80) {
             return self.handle_step_frame(line);
+        }
+        if damaged_frame {
+            self.reply_resend();
+            return Outcome::Done;
         }
         let env = match envelope(line) {
             Ok(e) => e,
@@ -560,6 +604,10 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             }
         };
         let Some(words) = words else { return Outcome::Done };
+        if env.number.is_none() && !env.checked {
+            // A plain, well-formed G-code line: interactive use, not a sequenced stream.
+            self.streaming = false;
+        }
         if let Some(n) = env.number {
             let m110 = words.m.contains(&110);
             if !env.checked {
@@ -585,6 +633,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         if number.is_some() {
             self.seq = self.seq.wrapping_add(1);
             self.resync = false;
+            self.streaming = true;
         }
     }
 

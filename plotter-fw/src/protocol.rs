@@ -23,6 +23,13 @@
 //! (go-back-N); later `rs <E>` with the same number are only the answers for frames already in flight. A frame is
 //! therefore executed exactly once, and never when corrupted.
 //!
+//! G-code is ASCII, so while a sequenced stream is active (a sequenced frame was accepted or a resend requested
+//! since the last reset or plain, unnumbered G-code line), a line holding any byte ≥ `0x80` that is not a valid
+//! step-block frame — e.g. one whose marker bit was flipped or whose marker byte was lost — is a damaged frame: it
+//! is answered `rs <E>` like any other bad frame, never parsed or executed as G-code. (Noise that leaves no byte
+//! ≥ `0x80` can still make a frame look like bad G-code, answered `error:`; the host treats such errors during a
+//! stream as a lost frame.)
+//!
 //! # Replies (firmware → host), one line each, every frame answered exactly once
 //! - `ok` — accepted (queued or done).
 //! - `error:<code> <text>` — refused, nothing executed; codes in [`crate::errors::ErrorCode`].

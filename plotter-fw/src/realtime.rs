@@ -5,9 +5,17 @@
 //! in the receive path ([`crate::machine::Machine::receive`]) and never reach the line buffer. Feed hold and reset
 //! act on the stepper at once; the report and the rest of the reset run in the next main-loop pass.
 //!
+//! A resume (`~`) that arrives while a feed hold is still decelerating (`Hold:1`) is remembered, and motion resumes
+//! by itself as soon as the hold has come to rest (as grbl does); a further `!` before that cancels it. A `~`
+//! while running is ignored.
+//!
 //! Status report, one line:
-//! `<State|MPos:x,y,z,e|Steps:x,y,z,e|Q:used/size|N:expected>` — state as below, machine position in mm (3
-//! decimals) and in steps, the planner queue fill, and the next expected sequence number.
+//! `<State|MPos:x,y,z,e|Steps:x,y,z,e|Q:used/size|N:expected|C:completed>` — state as below, machine position in
+//! mm (3 decimals) and in steps, the planner queue fill, the next expected sequence number, and the number of
+//! blocks the stepper has completed since start or the last reset (moves, dwells, step-block frames and homing
+//! moves alike; a zero-length move queues no block and counts nothing; wraps at 2³²). Since every accepted
+//! step-block frame becomes exactly one block, a host that reads `C` before and during a stream knows exactly how
+//! many of its frames have been executed.
 
 use core::fmt;
 

@@ -19,7 +19,8 @@ pub(crate) struct FirmwareInfo {
     pub(crate) queue_blocks: usize,
 }
 
-/// A parsed status report `<State|MPos:..|Steps:x,y,z,e|Q:used/size|N:seq>`.
+/// A parsed status report `<State|MPos:..|Steps:x,y,z,e|Q:used/size|N:seq|C:completed>` (`C:` is optional:
+/// firmwares before it report no completed-block count).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct Status {
     /// `Idle`, `Run`, `Hold:1`, `Hold:0`, `Home`, `Alarm`.
@@ -32,6 +33,8 @@ pub(crate) struct Status {
     pub(crate) queue_size: usize,
     /// Next expected sequence number.
     pub(crate) seq: u32,
+    /// Blocks the stepper has completed since the firmware started or was reset (wrapping), when reported.
+    pub(crate) completed: Option<u32>,
 }
 
 impl Status {
@@ -39,7 +42,7 @@ impl Status {
     pub(crate) fn parse(s: &str) -> Option<Status> {
         let mut parts = s.split('|');
         let state = parts.next()?.to_string();
-        let (mut steps, mut q, mut seq) = (None, None, None);
+        let (mut steps, mut q, mut seq, mut completed) = (None, None, None, None);
         for p in parts {
             if let Some(v) = p.strip_prefix("Steps:") {
                 let v: Vec<i32> = v.split(',').map(str::parse).collect::<Result<_, _>>().ok()?;
@@ -49,10 +52,12 @@ impl Status {
                 q = Some((a.parse().ok()?, b.parse().ok()?));
             } else if let Some(v) = p.strip_prefix("N:") {
                 seq = Some(v.parse().ok()?);
+            } else if let Some(v) = p.strip_prefix("C:") {
+                completed = Some(v.parse().ok()?);
             }
         }
         let (queued, queue_size) = q?;
-        Some(Status { state, steps: steps?, queued, queue_size, seq: seq? })
+        Some(Status { state, steps: steps?, queued, queue_size, seq: seq?, completed })
     }
 
     /// Whether nothing is queued or moving.
@@ -226,8 +231,11 @@ mod tests {
     fn status_and_m115_parse() {
         let s = Status::parse("Run|MPos:1.000,2.000,0.000,0.000|Steps:80,160,0,0|Q:3/32|N:17").unwrap();
         assert_eq!(s.steps, [80, 160, 0, 0]);
-        assert_eq!((s.queued, s.queue_size, s.seq), (3, 32, 17));
+        assert_eq!((s.queued, s.queue_size, s.seq, s.completed), (3, 32, 17, None));
         assert!(!s.is_idle());
+        let s = Status::parse("Run|MPos:1.000,2.000,0.000,0.000|Steps:80,160,0,0|Q:3/32|N:17|C:4294967295").unwrap();
+        assert_eq!((s.seq, s.completed), (17, Some(u32::MAX)));
+        assert_eq!(Status::parse("Run|Steps:80,160,0,0|Q:3/32|N:17|C:x"), None, "a garbled count is no report");
         assert_eq!(Status::parse("Idle|Steps:1,2"), None);
         let i = parse_m115(
             "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:0.1.0 PROTOCOL_VERSION:1 RX_BUFFER:256 QUEUE_BLOCKS:32",

@@ -19,9 +19,12 @@
 //! the firmware is not simply waiting for queue space, everything it has not accepted (its `N:`) is resent.
 //!
 //! # Progress and the journal
-//! `ok` means *accepted* (queued). What has been *executed* is derived from periodic status reports: of the
-//! accepted frames, at most the planner queue (`Q:`) plus the stepper's own queue and the running block are still
-//! waiting, so `accepted − Q − 3` blocks are certainly done; when the machine is idle, all accepted blocks are.
+//! `ok` means *accepted* (queued). What has been *executed* is derived from periodic status reports. When the
+//! firmware reports its completed-block count (`C:`) and the machine was idle when the stream began, the count
+//! since then is exactly the number of frames executed (each accepted frame is one block). Otherwise it is a lower
+//! bound: of the accepted frames, at most the planner queue (`Q:`) plus the stepper's own queue and the running
+//! block are still waiting, so `accepted − Q − 3` blocks are certainly done; when the machine is idle, all
+//! accepted blocks are.
 
 use std::collections::VecDeque;
 use std::time::Duration;
@@ -222,6 +225,8 @@ struct State {
     resync_pending: bool,
     resync_candidate: Option<u32>,
     last_status_at: Duration,
+    /// The firmware's completed-block count when the stream began (machine idle), if it reports one.
+    completed_base: Option<u32>,
 }
 
 impl State {
@@ -234,16 +239,24 @@ impl State {
     fn on_status(&mut self, s: &Status, base: u32, n: usize) {
         let accepted_fw = usize::try_from(s.seq.wrapping_sub(base)).unwrap_or(usize::MAX);
         if accepted_fw <= n {
-            let waiting = if s.is_idle() { 0 } else { s.queued + STEPPER_QUEUE + 1 };
-            self.executed = self.executed.max(accepted_fw.saturating_sub(waiting));
+            let done = match (s.completed, self.completed_base) {
+                (Some(c), Some(b)) => usize::try_from(c.wrapping_sub(b)).unwrap_or(usize::MAX).min(accepted_fw),
+                _ => {
+                    let waiting = if s.is_idle() { 0 } else { s.queued + STEPPER_QUEUE + 1 };
+                    accepted_fw.saturating_sub(waiting)
+                }
+            };
+            self.executed = self.executed.max(done);
         }
     }
 }
 
-/// Stream `frames` over `session`. Returns when every frame has been executed.
+/// Stream `frames` over `session`. Returns when every frame has been executed. `before` is a status report taken
+/// just before the stream (its completed-block count, if the machine was idle, makes the executed count exact).
 pub(crate) fn stream<T: Transport>(
     session: &mut Session<T>,
     frames: &Frames,
+    before: &Status,
     opts: StreamOptions,
     control: &mut dyn Control,
 ) -> Result<StreamStats, StreamError> {
@@ -271,6 +284,7 @@ pub(crate) fn stream<T: Transport>(
         resync_pending: false,
         resync_candidate: None,
         last_status_at: t0,
+        completed_base: before.completed.filter(|_| before.is_idle()),
     };
     let mut stalls = 0u32;
     let mut pause_at: Option<usize> = None;
@@ -376,8 +390,10 @@ pub(crate) fn stream<T: Transport>(
             }
             Reply::Error { .. } => {
                 // Only frames are sent while streaming, so a G-code error means line noise turned a frame into
-                // something else (e.g. a cleared marker bit): that frame is lost, and the next frame's resend
-                // request (or the stall check) brings it back.
+                // something else. The firmware answers `rs` for a damaged frame that still holds a byte ≥ 0x80,
+                // but a frame whose marker was cleared or dropped and whose other bytes are all below 0x80 looks
+                // like (bad) G-code: that frame is lost, and the next frame's resend request (or the stall check)
+                // brings it back.
                 st.answered();
                 st.noise_errors += 1;
             }
@@ -478,7 +494,7 @@ pub(crate) fn stream_plan<T: Transport>(
     if frames.len() == 0 {
         return Ok((frames, StreamStats::default()));
     }
-    let stats = stream(session, &frames, opts, control)?;
+    let stats = stream(session, &frames, &s, opts, control)?;
     Ok((frames, stats))
 }
 
@@ -561,6 +577,85 @@ mod tests {
             end: sim.physical_position(),
             plan_end: plan.end,
         })
+    }
+
+    fn state(completed_base: Option<u32>) -> State {
+        State {
+            next: 0,
+            accepted: 0,
+            executed: 0,
+            in_flight: VecDeque::new(),
+            in_bytes: 0,
+            generation: 0,
+            resends: 0,
+            resyncs: 0,
+            noise_errors: 0,
+            bytes_sent: 0,
+            status_pending: false,
+            resync_pending: false,
+            resync_candidate: None,
+            last_status_at: Duration::ZERO,
+            completed_base,
+        }
+    }
+
+    #[test]
+    fn executed_count_is_exact_with_the_completed_field_and_a_lower_bound_without() {
+        // 30 of 100 frames (numbered from 1000) accepted, 10 in the planner queue; the firmware has completed 19 of
+        // them since the stream began at its count 4294967290 (the count wraps).
+        let run = "Run|MPos:0,0,0,0|Steps:0,0,0,0|Q:10/32|N:1030";
+        let with_c = Status::parse(&format!("{run}|C:13")).unwrap();
+        let without_c = Status::parse(run).unwrap();
+        let mut st = state(Some(4_294_967_290));
+        st.on_status(&with_c, 1000, 100);
+        assert_eq!(st.executed, 19);
+        let mut st = state(None);
+        st.on_status(&with_c, 1000, 100);
+        assert_eq!(st.executed, 30 - 10 - STEPPER_QUEUE - 1, "no base: lower bound");
+        let mut st = state(Some(4_294_967_290));
+        st.on_status(&without_c, 1000, 100);
+        assert_eq!(st.executed, 30 - 10 - STEPPER_QUEUE - 1, "old firmware: lower bound");
+        // Never more than the firmware has accepted, never backwards.
+        let mut st = state(Some(0));
+        st.on_status(&Status::parse(&format!("{run}|C:90")).unwrap(), 1000, 100);
+        assert_eq!(st.executed, 30);
+        st.on_status(&Status::parse(&format!("{run}|C:5")).unwrap(), 1000, 100);
+        assert_eq!(st.executed, 30);
+    }
+
+    /// Records every progress report.
+    #[derive(Default)]
+    struct Record(Vec<Progress>);
+
+    impl Control for Record {
+        fn progress(&mut self, p: &Progress) {
+            self.0.push(*p);
+        }
+        fn pause_requested(&mut self) -> Option<bool> {
+            None
+        }
+        fn paused(&mut self, _: bool) -> PauseChoice {
+            PauseChoice::Resume
+        }
+    }
+
+    #[test]
+    fn executed_progress_follows_the_firmware_count_during_the_stream() {
+        let mut rec = Record::default();
+        run(None, &mut rec).unwrap();
+        // With `C:` the executed figure is exact, so while frames are still being accepted it can exceed the old
+        // lower bound (accepted − queue − stepper queue − 1) — which it never could before.
+        let profile = MachineProfile::default_plotter();
+        let q = motion::machine_config(&profile).unwrap().queue_blocks;
+        let q = usize::try_from(q).unwrap();
+        assert!(
+            rec.0.iter().any(|p| p.executed > 0
+                && p.accepted < rec.0.last().unwrap().accepted
+                && p.executed > p.accepted.saturating_sub(q + STEPPER_QUEUE + 1)),
+            "{:?}",
+            &rec.0[..rec.0.len().min(20)]
+        );
+        assert!(rec.0.windows(2).all(|w| w[0].executed <= w[1].executed && w[1].executed <= w[1].accepted));
     }
 
     #[test]

@@ -197,6 +197,76 @@ fn corrupted_step_frame_resent_and_executed_once() {
     assert_eq!(sim.hal().step_counts(), [1600, 1600, 0, 0], "each side stepped once");
 }
 
+fn encode_all(blocks: &[StepBlock]) -> Vec<Vec<u8>> {
+    let mut enc = Encoder::new();
+    blocks
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            let mut out = [0u8; MAX_FRAME];
+            let n = enc.encode(b, u32::try_from(i).unwrap(), &mut out).unwrap();
+            out[..n].to_vec()
+        })
+        .collect()
+}
+
+#[test]
+fn frame_with_a_cleared_marker_bit_is_resent_not_parsed_as_gcode() {
+    let c = cfg();
+    let blocks = host_plan(&c, &circle(24, 20.0));
+    let frames = encode_all(&blocks);
+    // A frame whose body holds a byte ≥ 0x80 besides the marker (most do: CRC and rate bytes).
+    let k = (1..frames.len()).find(|&i| frames[i][1..].iter().any(|&b| b >= 0x80)).unwrap();
+    let mut sim = Sim::new(c);
+    sim.take_replies();
+    sim.feed(&frames[..k].concat());
+    sim.run_until_idle();
+    assert_eq!(sim.take_replies(), vec!["ok"; k]);
+    let before = sim.hal().steps().len();
+    for damage in [0x80u8, 0xFF] {
+        // The marker's top bit cleared (an ASCII first byte), or the whole marker replaced by a letter.
+        let mut bad = frames[k].clone();
+        if damage == 0x80 {
+            bad[0] ^= 0x80;
+        } else {
+            bad[0] = b'G';
+        }
+        sim.feed(&bad);
+        sim.run_until_idle();
+        assert_eq!(sim.take_replies(), [format!("rs {k}")], "damage {damage:#x}");
+    }
+    // A marker byte dropped altogether.
+    sim.feed(&frames[k][1..]);
+    sim.run_until_idle();
+    assert_eq!(sim.take_replies(), [format!("rs {k}")]);
+    assert_eq!(sim.hal().steps().len(), before, "nothing executed");
+    sim.feed(&frames[k..].concat());
+    sim.run_until_idle();
+    assert_eq!(sim.take_replies(), vec!["ok"; frames.len() - k]);
+    assert_eq!(sim.machine().expected_seq(), u32::try_from(frames.len()).unwrap());
+    let total: [i32; NUM_AXES] = blocks.iter().fold([0; NUM_AXES], |t, b| core::array::from_fn(|i| t[i] + b.steps[i]));
+    assert_eq!(sim.physical_position(), total.map(i64::from), "each frame executed exactly once");
+
+    // Outside a sequenced stream (fresh, or after a plain G-code line) such a line is ordinary bad input.
+    let mut sim = Sim::new(c);
+    sim.take_replies();
+    let mut bad = frames[k].clone();
+    bad[0] ^= 0x80;
+    sim.feed(&bad);
+    sim.run_until_idle();
+    let r = sim.take_replies();
+    assert!(r.len() == 1 && r[0].starts_with("error:"), "{r:?}");
+    assert_eq!(run(&mut sim, &numbered(0, "G4 P1")), ["ok"]);
+    sim.feed(&bad);
+    sim.run_until_idle();
+    assert_eq!(sim.take_replies(), ["rs 1"], "numbered lines make a sequenced stream too");
+    assert_eq!(run(&mut sim, "G4 P1 ; plain\n"), ["ok"]);
+    sim.feed(&bad);
+    sim.run_until_idle();
+    let r = sim.take_replies();
+    assert!(r.len() == 1 && r[0].starts_with("error:"), "a plain line ends the stream: {r:?}");
+}
+
 fn homing_sim(rng: &mut StdRng) -> (Sim, [i64; NUM_AXES]) {
     let c = cfg();
     let mut opts = SimOptions::for_config(&c);
@@ -328,7 +398,97 @@ fn feed_hold_and_resume_keep_the_queue() {
     sim.feed(&[RT_STATUS]);
     sim.run_until_idle();
     let r = sim.take_replies();
-    assert_eq!(r.last().unwrap(), "<Idle|MPos:100.000,50.000,0.000,0.000|Steps:8000,4000,0,0|Q:0/32|N:0>");
+    assert_eq!(r.last().unwrap(), "<Idle|MPos:100.000,50.000,0.000,0.000|Steps:8000,4000,0,0|Q:0/32|N:0|C:2>");
+}
+
+/// Run until the machine reports `state` (at most `limit` ticks in small slices).
+fn run_until_state(sim: &mut Sim, state: MachineState, limit: u64) {
+    let end = sim.now() + limit;
+    while sim.machine().state() != state {
+        let before = sim.now();
+        sim.run_for(100);
+        assert!(sim.now() < end && sim.now() > before, "still {:?}", sim.machine().state());
+    }
+}
+
+#[test]
+fn resume_sent_while_the_hold_decelerates_acts_once_it_has_stopped() {
+    let mut sim = Sim::new(cfg());
+    sim.take_replies();
+    sim.feed(b"G1 X100 F6000\nG1 Y50\n");
+    sim.run_for(400_000);
+    sim.feed(&[RT_FEED_HOLD]);
+    sim.run_for(1_000);
+    assert_eq!(sim.machine().state(), MachineState::Holding, "still decelerating");
+    sim.feed(&[RT_RESUME]);
+    // The resume is not lost: the hold still comes to a full stop first (the step rate falls to the hold's stop),
+    // then motion carries on by itself.
+    let mut last = sim.hal().steps().len();
+    let mut gap_ticks = 0u64;
+    let mut quiet = 0u64;
+    while sim.machine().state() == MachineState::Holding {
+        sim.run_for(1_000);
+        let now = sim.hal().steps().len();
+        quiet = if now == last { quiet + 1_000 } else { 0 };
+        gap_ticks = gap_ticks.max(quiet);
+        last = now;
+    }
+    assert_eq!(sim.machine().state(), MachineState::Run, "resumed without a second `~`");
+    assert!(gap_ticks < 50_000, "no long stop: {gap_ticks}");
+    sim.run_until_idle();
+    assert_eq!(sim.machine().state(), MachineState::Idle);
+    assert_eq!(sim.physical_position(), [8000, 4000, 0, 0]);
+    assert_eq!(sim.hal().step_counts(), [8000, 4000, 0, 0], "no step lost or repeated");
+
+    // A second `!` after the early `~` cancels it: the latest real-time command wins.
+    let mut sim = Sim::new(cfg());
+    sim.take_replies();
+    sim.feed(b"G1 X100 F6000\n");
+    sim.run_for(400_000);
+    sim.feed(&[RT_FEED_HOLD]);
+    sim.run_for(1_000);
+    sim.feed(&[RT_RESUME]);
+    sim.run_for(1_000);
+    sim.feed(&[RT_FEED_HOLD]);
+    run_until_state(&mut sim, MachineState::Held, 2_000_000);
+    let held_at = sim.physical_position();
+    sim.run_for(2_000_000);
+    assert_eq!(sim.physical_position(), held_at, "held");
+    assert!(held_at[0] < 8000);
+    sim.feed(&[RT_RESUME]);
+    sim.run_until_idle();
+    assert_eq!(sim.physical_position(), [8000, 0, 0, 0]);
+}
+
+fn status(sim: &mut Sim) -> String {
+    sim.feed(&[RT_STATUS]);
+    sim.run_for(10);
+    sim.take_replies().pop().unwrap()
+}
+
+#[test]
+fn status_counts_completed_blocks_since_start_and_reset() {
+    let mut sim = Sim::new(cfg());
+    sim.take_replies();
+    assert!(status(&mut sim).ends_with("|Q:0/32|N:0|C:0>"));
+    sim.feed(b"G1 X10 F6000\nG1 Y10\nG4 P50\nG1 X0\n");
+    // Part way: the first block done, the others still queued or running.
+    while sim.machine().stepper().position()[0] < 800 {
+        sim.run_for(1_000);
+    }
+    sim.run_for(1_000);
+    let mid = status(&mut sim);
+    assert!(mid.starts_with("<Run|") && mid.ends_with("|C:1>"), "{mid}");
+    sim.run_until_idle();
+    sim.take_replies();
+    assert_eq!(status(&mut sim), "<Idle|MPos:0.000,10.000,0.000,0.000|Steps:0,800,0,0|Q:0/32|N:0|C:4>");
+    // Zero-length moves queue nothing and count nothing.
+    run(&mut sim, "G1 X0\n");
+    assert!(status(&mut sim).ends_with("|C:4>"));
+    run(&mut sim, "\u{18}");
+    assert!(status(&mut sim).ends_with("|Q:0/32|N:0|C:0>"), "counted from the reset");
+    run(&mut sim, "G1 X1 F600\n");
+    assert!(status(&mut sim).ends_with("|C:1>"));
 }
 
 #[test]
