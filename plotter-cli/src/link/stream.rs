@@ -230,6 +230,28 @@ struct State {
 }
 
 impl State {
+    /// Nothing sent yet, at link time `now`; `completed_base` is the firmware's completed-block count at the start
+    /// (when it reports one and was idle).
+    fn new(now: Duration, completed_base: Option<u32>) -> State {
+        State {
+            next: 0,
+            accepted: 0,
+            executed: 0,
+            in_flight: VecDeque::new(),
+            in_bytes: 0,
+            generation: 0,
+            resends: 0,
+            resyncs: 0,
+            noise_errors: 0,
+            bytes_sent: 0,
+            status_pending: false,
+            resync_pending: false,
+            resync_candidate: None,
+            last_status_at: now,
+            completed_base,
+        }
+    }
+
     fn answered(&mut self) -> Option<InFlight> {
         let e = self.in_flight.pop_front()?;
         self.in_bytes -= e.len;
@@ -269,23 +291,7 @@ pub(crate) fn stream<T: Transport>(
         )));
     }
     let t0 = session.transport.now();
-    let mut st = State {
-        next: 0,
-        accepted: 0,
-        executed: 0,
-        in_flight: VecDeque::new(),
-        in_bytes: 0,
-        generation: 0,
-        resends: 0,
-        resyncs: 0,
-        noise_errors: 0,
-        bytes_sent: 0,
-        status_pending: false,
-        resync_pending: false,
-        resync_candidate: None,
-        last_status_at: t0,
-        completed_base: before.completed.filter(|_| before.is_idle()),
-    };
+    let mut st = State::new(t0, before.completed.filter(|_| before.is_idle()));
     let mut stalls = 0u32;
     let mut pause_at: Option<usize> = None;
     let mut garbage = 0usize;
@@ -580,23 +586,7 @@ mod tests {
     }
 
     fn state(completed_base: Option<u32>) -> State {
-        State {
-            next: 0,
-            accepted: 0,
-            executed: 0,
-            in_flight: VecDeque::new(),
-            in_bytes: 0,
-            generation: 0,
-            resends: 0,
-            resyncs: 0,
-            noise_errors: 0,
-            bytes_sent: 0,
-            status_pending: false,
-            resync_pending: false,
-            resync_candidate: None,
-            last_status_at: Duration::ZERO,
-            completed_base,
-        }
+        State::new(Duration::ZERO, completed_base)
     }
 
     #[test]
