@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::Args;
 use plotter_path::MachineProfile;
-use plotter_path::svg_out::to_svg_string;
+use plotter_path::output::svg_out::to_svg_string;
 
 use crate::input::{Source, write_output};
 

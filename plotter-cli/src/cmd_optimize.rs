@@ -11,7 +11,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use plotter_path::MachineProfile;
 use plotter_path::optimize::{self, Objective, OptimizeOptions, OptimizeReport, SeamMode, TravelTimeModel};
-use plotter_path::svg_out::to_svg_string;
+use plotter_path::output::svg_out::to_svg_string;
 
 use crate::input::{Source, write_output};
 

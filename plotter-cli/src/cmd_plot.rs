@@ -10,11 +10,13 @@ use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_fw::sim::Sim;
 use plotter_fw::{Axis, TICK_HZ};
+use plotter_path::input::trajectory;
 use plotter_path::kurbo::{Line, Point};
-use plotter_path::motion::{self, Lookahead, MotionPlan};
+use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
+use plotter_path::motion::steps::{StepDrawing, StepMapper, drawing_to_steps};
 use plotter_path::optimize::{self, OptimizeOptions};
-use plotter_path::steps::{StepDrawing, StepMapper, drawing_to_steps};
-use plotter_path::{Drawing, MachineProfile, Polyline, preview, trajectory};
+use plotter_path::output::preview;
+use plotter_path::{Drawing, MachineProfile, Polyline};
 
 use crate::cmd_optimize::OptimizeArgs;
 use crate::input::{InputArgs, InputKind, input_kind, load_drawing};
@@ -157,7 +159,7 @@ pub(crate) fn stepped_drawing(sim: &Sim, profile: &MachineProfile) -> (Drawing, 
     let to_page = |p: &[i64; 4]| {
         let x = i32::try_from(p[0]).unwrap_or(i32::MAX);
         let y = i32::try_from(p[1]).unwrap_or(i32::MAX);
-        mapper.steps_to_page(plotter_path::steps::StepPos::new(x, y))
+        mapper.steps_to_page(plotter_path::motion::steps::StepPos::new(x, y))
     };
     // Step counts are far below 2^53, so the comparison in f64 is exact.
     #[allow(clippy::cast_precision_loss)]
@@ -237,8 +239,9 @@ impl PlotControl {
         let mut acc = 0.0;
         let mapper = StepMapper::new(profile);
         for b in &plan.blocks {
-            if b.kind == motion::MoveKind::Draw {
-                let d = mapper.steps_to_machine(plotter_path::steps::StepPos::new(b.block.steps[0], b.block.steps[1]));
+            if b.kind == plan::MoveKind::Draw {
+                let d = mapper
+                    .steps_to_machine(plotter_path::motion::steps::StepPos::new(b.block.steps[0], b.block.steps[1]));
                 acc += d.to_vec2().hypot();
             }
             draw_mm.push(acc);
@@ -357,13 +360,13 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     }
     let input = args.input.as_deref().context("an input file is required")?;
     let profile = load_profile(args.profile.as_deref())?;
-    let cfg = motion::machine_config(&profile)?;
+    let cfg = plan::machine_config(&profile)?;
     let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize)?;
-    motion::check_work_area(&profile, &steps)?;
+    plan::check_work_area(&profile, &steps)?;
     if let Some(out) = &args.export {
         let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
         let text = match ext.as_str() {
-            "gcode" | "nc" | "ngc" | "g" | "gco" => plotter_path::gcode_out::export(&profile, &steps),
+            "gcode" | "nc" | "ngc" | "g" | "gco" => plotter_path::output::gcode_out::export(&profile, &steps),
             "traj" | "trj" | "txt" => trajectory::export(&steps),
             _ => bail!("--export {}: use a .gcode/.nc/.ngc/.g or .traj/.txt file name", out.display()),
         };
@@ -420,7 +423,7 @@ fn plot_on<T: Transport + 'static>(
     }
     let status = session.status()?;
     let start = status.steps;
-    let plan = motion::plan(profile, steps, start, Lookahead::Whole)?;
+    let plan = plan::plan(profile, steps, start, Lookahead::Whole)?;
     let journal = match journal_path {
         Some(p) => {
             let source = PlotSource {
@@ -477,7 +480,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     let input = original.input.as_deref().context("the recorded plot has no input")?;
     let profile = load_profile(original.profile.as_deref())?;
     let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize)?;
-    let full = motion::plan(&profile, &steps, source.start, Lookahead::Whole)?;
+    let full = plan::plan(&profile, &steps, source.start, Lookahead::Whole)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
         bail!(
             "{} no longer gives the plan recorded in {} (the input or the profile changed)",
@@ -504,7 +507,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
         session.home()?;
     }
     let now = session.status()?.steps;
-    let plan = motion::plan_resume(&profile, &steps, source.start, done, now)?;
+    let plan = plan::plan_resume(&profile, &steps, source.start, done, now)?;
     let journal = Journal::append(journal_path, &state)?;
     let mut control = PlotControl::new(&plan, &profile, Some(journal), interrupt_flag(), args.pause_immediately);
     let result = stream::stream_plan(&mut session, &plan, StreamOptions::default(), &mut control);

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::Args;
 use plotter_path::MachineProfile;
-use plotter_path::preview::{PreviewOptions, render_png};
+use plotter_path::output::preview::{PreviewOptions, render_png};
 
 use crate::cmd_optimize::{OptimizeArgs, optimize_quietly};
 use crate::input::{Source, write_output};

@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use plotter_path::Pen;
-use plotter_path::raster::{self, HatchOptions, HatchScheme, Mode, Threshold, TraceOptions};
-use plotter_path::svg_out::to_svg_string;
+use plotter_path::input::raster::{self, HatchOptions, HatchScheme, Mode, Threshold, TraceOptions};
+use plotter_path::output::svg_out::to_svg_string;
 
 use crate::input::write_output;
 use crate::layout_args::LayoutArgs;

@@ -7,9 +7,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use plotter_path::steps::StepMapper;
-use plotter_path::svg::{self, LayerBy, SvgOptions};
-use plotter_path::{Drawing, MachineProfile, gcode_in, r#gen, raster, trajectory};
+use plotter_path::input::svg::{self, LayerBy, SvgOptions};
+use plotter_path::input::{gcode_in, r#gen, raster, trajectory};
+use plotter_path::motion::steps::StepMapper;
+use plotter_path::{Drawing, MachineProfile};
 
 use crate::cmd_trace::TraceArgs;
 use crate::layout_args::LayoutArgs;

@@ -2,8 +2,8 @@
 
 use anyhow::Result;
 use clap::{Args, ValueEnum};
+use plotter_path::geometry::layout::{self, LayoutOptions, Orientation, Paper};
 use plotter_path::kurbo::Vec2;
-use plotter_path::layout::{self, LayoutOptions, Orientation, Paper};
 
 /// Orientation as a command-line value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

@@ -33,7 +33,7 @@ use anyhow::Context as _;
 use plotter_fw::errors::ErrorCode;
 use plotter_fw::protocol::{self, Encoder, MAX_FRAME, RT_STATUS, Reply};
 use plotter_fw::stepper::STEPPER_QUEUE;
-use plotter_path::motion::{MotionPlan, MoveKind};
+use plotter_path::motion::plan::{MotionPlan, MoveKind};
 
 use super::Transport;
 use super::session::{Session, Status};
@@ -524,8 +524,8 @@ mod tests {
     use crate::link::sim::SimTransport;
     use plotter_fw::Axis;
     use plotter_path::kurbo::Point;
-    use plotter_path::motion::{self, Lookahead};
-    use plotter_path::steps::drawing_to_steps;
+    use plotter_path::motion::plan::{self, Lookahead};
+    use plotter_path::motion::steps::drawing_to_steps;
     use plotter_path::{Drawing, MachineProfile, Polyline};
 
     fn spiral_plan(profile: &MachineProfile, start: [i32; 4]) -> MotionPlan {
@@ -548,7 +548,7 @@ mod tests {
         paths.push(Polyline::new(pts));
         let d = Drawing::single_layer("s", paths);
         let steps = drawing_to_steps(profile, &d).unwrap();
-        motion::plan(profile, &steps, start, Lookahead::Whole).unwrap()
+        plan::plan(profile, &steps, start, Lookahead::Whole).unwrap()
     }
 
     struct Run {
@@ -562,7 +562,7 @@ mod tests {
 
     fn run(noise: Option<Noise>, control: &mut dyn Control) -> Result<Run, StreamError> {
         let profile = MachineProfile::default_plotter();
-        let cfg = motion::machine_config(&profile).unwrap();
+        let cfg = plan::machine_config(&profile).unwrap();
         let mut t = SimTransport::new(cfg, Some(115_200));
         if let Some(n) = noise {
             t = t.with_noise(n);
@@ -636,7 +636,7 @@ mod tests {
         // With `C:` the executed figure is exact, so while frames are still being accepted it can exceed the old
         // lower bound (accepted − queue − stepper queue − 1) — which it never could before.
         let profile = MachineProfile::default_plotter();
-        let q = motion::machine_config(&profile).unwrap().queue_blocks;
+        let q = plan::machine_config(&profile).unwrap().queue_blocks;
         let q = usize::try_from(q).unwrap();
         assert!(
             rec.0.iter().any(|p| p.executed > 0
