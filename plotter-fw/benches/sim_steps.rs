@@ -37,7 +37,7 @@ fn spiral_frames(c: &MachineConfig) -> (Vec<u8>, u64) {
             blocks.push(b);
         }
     }
-    link_all(&mut blocks, c.junction_deviation_mm);
+    link_all(&mut blocks, c);
     plan(&mut blocks, 0.0);
     let mut enc = Encoder::new();
     let mut wire = Vec::new();

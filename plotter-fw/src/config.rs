@@ -79,6 +79,10 @@ pub struct MachineConfig {
     pub axes: [AxisConfig; NUM_AXES],
     /// Junction deviation, mm (cornering model, see [`crate::planner`]).
     pub junction_deviation_mm: f32,
+    /// Largest deviation, mm, between a polyline and the smooth curve it samples for its vertices to be planned as
+    /// points of that curve (speed from the curve's radius) instead of as corners (junction deviation); 0 plans
+    /// every vertex as a corner. See [`crate::planner`].
+    pub curve_deviation_mm: f32,
     /// Homing cycle.
     pub homing: HomingConfig,
     /// Pen positions.
@@ -141,6 +145,7 @@ impl MachineConfig {
                 AxisConfig::DISABLED,
             ],
             junction_deviation_mm: 0.02,
+            curve_deviation_mm: 0.1,
             homing: HomingConfig { seek_mm_s: 40.0, locate_mm_s: 4.0, pull_off_mm: 2.0, debounce_ms: 5.0 },
             pen: PenConfig { up_z_mm: 4.0, down_z_mm: 0.0 },
             rx_buffer_bytes: 256,
@@ -187,6 +192,9 @@ impl MachineConfig {
         let err = |field, problem| Err(ConfigError { axis: None, field, problem });
         if !(self.junction_deviation_mm.is_finite() && self.junction_deviation_mm > 0.0) {
             return err("motion.junction_deviation_mm", "must be a positive number");
+        }
+        if !(self.curve_deviation_mm.is_finite() && (0.0..=10.0).contains(&self.curve_deviation_mm)) {
+            return err("motion.curve_deviation_mm", "must lie in 0..=10 mm");
         }
         let h = &self.homing;
         if !(h.seek_mm_s.is_finite() && h.seek_mm_s > 0.0 && h.locate_mm_s.is_finite() && h.locate_mm_s > 0.0) {

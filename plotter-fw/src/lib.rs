@@ -19,7 +19,7 @@
 //!     .iter()
 //!     .filter_map(|s| PlanBlock::line(&cfg, *s, 50.0))
 //!     .collect();
-//! link_all(&mut blocks, cfg.junction_deviation_mm);
+//! link_all(&mut blocks, &cfg);
 //! plan(&mut blocks, 0.0);
 //! let ticks = total_ticks(&blocks); // exactly what the stepper will take, in µs
 //! assert!(ticks > 400_000 && ticks < 500_000);

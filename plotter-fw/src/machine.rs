@@ -33,7 +33,7 @@ use crate::gcode::{MICRO, Words, envelope, parse_words};
 use crate::hal::Hal;
 use crate::homing::{HomingCycle, HomingStep};
 use crate::line_buffer::{Frame, LINE_MAX, LineAssembler, RxBuffer};
-use crate::planner::{PlanBlock, link, plan, to_step_block};
+use crate::planner::{Linker, PlanBlock, plan, to_step_block};
 use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
 use crate::realtime::MachineState;
 use crate::stepper::{StepBlock, Stepper, StepperFault, TICK_HZ};
@@ -89,6 +89,8 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32> {
     pending: heapless::Vec<u8, LINE_MAX>,
     pending_kind: Option<PendingKind>,
     planner: Deque<PlanBlock, Q>,
+    /// Cornering memory of the planner (the last blocks' geometry, for curve radii).
+    linker: Linker,
     queue_limit: usize,
     first_entry_sqr: f32,
     hold_replanned: bool,
@@ -144,6 +146,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             pending: heapless::Vec::new(),
             pending_kind: None,
             planner: Deque::new(),
+            linker: Linker::new(),
             queue_limit,
             first_entry_sqr: 0.0,
             hold_replanned: false,
@@ -377,6 +380,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         self.hal.cancel();
         self.timer_running = false;
         self.planner.clear();
+        self.linker.clear();
         self.first_entry_sqr = 0.0;
         self.homing = None;
         if self.homing_result.is_none() && matches!(code, AlarmCode::HomingNotFound | AlarmCode::HomingNotReleased) {
@@ -680,10 +684,10 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         }
     }
 
-    fn queue_block(&mut self, mut block: PlanBlock) {
-        link(self.planner.back(), &mut block, self.cfg.junction_deviation_mm);
+    fn queue_block(&mut self, block: PlanBlock) {
         // Cannot fail: callers check the fill against `queue_limit ≤ Q`.
         let _ = self.planner.push_back(block);
+        self.linker.push(self.planner.make_contiguous(), &self.cfg);
         let first = if self.stepper.is_held() { 0.0 } else { self.first_entry_sqr };
         plan(self.planner.make_contiguous(), first);
     }
@@ -865,6 +869,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         }
         let mask = Axis::ALL.iter().filter(|a| w.has(a.letter() as u8)).fold(0, |m, a| m | a.bit());
         self.homing = Some(HomingCycle::new(&self.cfg, mask));
+        self.linker.clear();
         self.run_homing();
         if self.homing_result.is_some() { self.home(w) } else { Outcome::Blocked }
     }

@@ -1,21 +1,43 @@
-//! The motion planner: trapezoidal velocity profiles with junction-deviation cornering, planned by a reverse and
-//! a forward pass over a sequence of blocks.
+//! The motion planner: trapezoidal velocity profiles with curvature-aware cornering, planned by a reverse and a
+//! forward pass over a sequence of blocks.
 //!
 //! The planner is a plain library over `&mut [PlanBlock]`, so the look-ahead is whatever slice the caller passes:
 //! the firmware passes its bounded (heapless) queue and re-plans each time a block arrives
-//! ([`crate::machine`]); the host passes a whole drawing and gets the exact speed plan and execution time
-//! ([`step_blocks`], [`total_ticks`]). One implementation, two callers.
+//! ([`crate::machine`], through a [`Linker`]); the host passes a whole drawing ([`link_all`]) and gets the exact
+//! speed plan and execution time ([`step_blocks`], [`total_ticks`]). One implementation, two callers.
 //!
 //! # Model
 //! Each block is a straight move at constant acceleration `a` up to its nominal speed. Speeds are planned in mm/s
 //! along the path, then converted to the major axis's step-event rates ([`to_step_block`]) for the stepper.
 //! - Per-axis limits: a block's nominal speed and acceleration are the largest whose projection on every axis
 //!   (`v·|u_i|`, `a·|u_i|` with `u` the unit direction) stays within that axis's maximum feed and acceleration.
-//! - Cornering (junction deviation, the model grbl's planner uses): the path is imagined to round the corner on a
+//! - Corners (junction deviation, the model grbl's planner uses): the path is imagined to round the corner on a
 //!   circle that stays within the deviation `δ` of the sharp corner; the speed at the junction is the one whose
 //!   centripetal acceleration on that circle equals `a`: `v² = a·δ·sin(θ/2)/(1 − sin(θ/2))` with θ the angle between
 //!   the reversed incoming and the outgoing direction (θ = 180° straight on: unlimited; θ = 0 reversal: stop).
 //!   Both blocks' nominal speeds cap it too.
+//! - Curves: junction deviation judges each vertex on its own, so a curve cut into many short chords would be
+//!   planned by how finely it was cut (fine chords: turns so small that the limit exceeds the curve's real
+//!   centripetal acceleration; coarse chords: slower than the curve allows). A vertex that samples a smooth curve is
+//!   instead planned at the curve's physical limit, `v² = a_n·r`: `r` the curve's radius, `a_n` the acceleration
+//!   the axes allow in the curve's normal direction. Which vertices sample a curve, and its radius, are read from
+//!   the block geometry alone, so the firmware planning raw G-code and the host planning a drawing agree:
+//!   1. *Locally smooth*: the turn is below 90° and the circle tangent to both chords at the middle of the shorter
+//!      one stays within `curve_deviation_mm` of the vertex (`m·tan(φ/4)` for turn φ and half-chord `m`; for
+//!      chords of a flattened curve that is the flattening's chord error);
+//!   2. *Radius over a span*: from the vertex, the path is followed back and forward over locally smooth vertices
+//!      for about [`CURVE_SPAN_MM`] (at most [`CURVE_SPAN_BLOCKS`] blocks, turning at most 60° from the tangent,
+//!      stopping at corners and fixed blocks); `r` is the circumradius of the two span ends and the vertex. Three
+//!      points of one circle give its radius exactly, whatever the chords between them, and points millimetres
+//!      apart keep the step rounding of short chords (±½ step) from swamping it;
+//!   3. *Consistent*: the vertex's own turn must be what that circle explains for its two chords (within a factor
+//!      2 plus the turn ±½ step of rounding can fake); a kink inside a curve fails and is a corner.
+//!
+//!   A chord between curve vertices that is itself short enough to be a chord of that curve (its sagitta on the
+//!   circle within `curve_deviation_mm`) cruises no faster than the faster of its two ends, so coarse chords do
+//!   not speed up between vertices either. The limits of a vertex depend on the [`CURVE_SPAN_BLOCKS`] blocks on
+//!   either side of it; the firmware's [`Linker`] recomputes them as blocks arrive, so once that many blocks
+//!   follow a vertex it has the very values the host computes over the whole drawing.
 //! - Reverse pass (last block to first): each entry speed is lowered to what still allows stopping at the end of
 //!   the sequence, `v_in² ≤ v_out² + 2aL`. Forward pass: each entry is lowered to what the previous block can
 //!   reach, `v_in² ≤ v_prev_in² + 2aL_prev`. The last block exits at rest, so whatever arrives later can be
@@ -28,6 +50,18 @@ use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
 use crate::fmath::{floor_u32, sqrt};
 use crate::stepper::{MAX_RATE, StepBlock};
+
+/// Path length (mm) followed on each side of a vertex to measure the radius of the curve through it.
+pub const CURVE_SPAN_MM: f32 = 2.0;
+/// Most blocks followed on each side of a vertex to measure the curve through it (bounds the firmware's work and
+/// memory: a vertex's limits are final once this many blocks follow it).
+pub const CURVE_SPAN_BLOCKS: usize = 16;
+/// The turn at a vertex is judged between chords of at least this many steps (rule 3).
+const KINK_SPAN_STEPS: f32 = 24.0;
+/// A span stops before a chord turned more than 60° from the tangent at the vertex (cos 60°).
+const SPAN_MIN_COS: f32 = 0.5;
+/// Locally smooth vertices turn by less than 90°: cos(φ/2) ≥ cos 45°.
+const SMOOTH_MIN_COS_HALF: f32 = core::f32::consts::FRAC_1_SQRT_2;
 
 /// One block in the planner: a straight move in steps with its planning data, or a fixed step plan.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -44,8 +78,10 @@ pub struct PlanBlock {
     pub nominal_speed: f32,
     /// Acceleration after per-axis limits, mm/s².
     pub acceleration: f32,
-    /// Highest entry speed² allowed by the junction with the previous block and both nominal speeds.
+    /// Highest entry speed² allowed by the junction with the previous block and both blocks' speed limits.
     pub max_entry_speed_sqr: f32,
+    /// Highest cruise speed² on a chord of a curve (from the curve's radius); `f32::INFINITY` when not limited.
+    pub curve_speed_sqr: f32,
     /// Planned entry speed², mm²/s² (the output of [`plan`]).
     pub entry_speed_sqr: f32,
     /// Step events (major-axis steps) per mm of path: converts mm/s to events/s.
@@ -54,7 +90,7 @@ pub struct PlanBlock {
 
 impl PlanBlock {
     /// A straight move by `steps` at the requested `feed_mm_s`, limited per axis by `config`. `None` when no axis
-    /// moves. The junction with the previous block is set by [`link`].
+    /// moves. The junction with the previous block is set by [`link_all`] or a [`Linker`].
     pub fn line(config: &MachineConfig, steps: [i32; NUM_AXES], feed_mm_s: f32) -> Option<PlanBlock> {
         let mut mm = [0.0f32; NUM_AXES];
         let mut len_sq = 0.0f32;
@@ -92,6 +128,7 @@ impl PlanBlock {
             nominal_speed: nominal,
             acceleration: accel,
             max_entry_speed_sqr: 0.0,
+            curve_speed_sqr: f32::INFINITY,
             entry_speed_sqr: 0.0,
             events_per_mm,
         })
@@ -107,19 +144,77 @@ impl PlanBlock {
             nominal_speed: 0.0,
             acceleration: 0.0,
             max_entry_speed_sqr: 0.0,
+            curve_speed_sqr: f32::INFINITY,
             entry_speed_sqr: 0.0,
             events_per_mm: 0.0,
         }
     }
+
+    /// The speed the block cruises at: its nominal speed, lowered on a chord of a curve.
+    pub fn cruise_speed(&self) -> f32 {
+        if self.curve_speed_sqr < self.nominal_speed * self.nominal_speed {
+            sqrt(self.curve_speed_sqr)
+        } else {
+            self.nominal_speed
+        }
+    }
 }
 
-/// Highest speed² at the junction from `prev` into `next` under junction deviation `deviation_mm` (also capped by
-/// both nominal speeds). 0 when either block is fixed.
-pub fn junction_speed_sqr(prev: &PlanBlock, next: &PlanBlock, deviation_mm: f32) -> f32 {
-    if prev.fixed.is_some() || next.fixed.is_some() {
-        return 0.0;
+/// The geometry of a block that cornering needs (what the firmware's [`Linker`] remembers of past blocks).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Seg {
+    unit: [f32; NUM_AXES],
+    len: f32,
+    accel: f32,
+    nominal: f32,
+    fixed: bool,
+}
+
+impl Seg {
+    /// The cornering geometry of `b`.
+    pub fn of(b: &PlanBlock) -> Seg {
+        Seg {
+            unit: b.unit,
+            len: b.millimeters,
+            accel: b.acceleration,
+            nominal: b.nominal_speed,
+            fixed: b.fixed.is_some(),
+        }
     }
-    let cap = (prev.nominal_speed * prev.nominal_speed).min(next.nominal_speed * next.nominal_speed);
+
+    const EMPTY: Seg = Seg { unit: [0.0; NUM_AXES], len: 0.0, accel: 0.0, nominal: 0.0, fixed: true };
+}
+
+/// The curve a vertex lies on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Curve {
+    /// Radius, mm (`f32::INFINITY` on a straight run).
+    pub radius: f32,
+    /// Speed² at which the centripetal acceleration reaches what the axes allow, mm²/s².
+    pub speed_sqr: f32,
+}
+
+/// The cornering verdict on the vertex where a block starts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Junction {
+    /// Highest speed² through the vertex from its own geometry (before the chords' curve limits).
+    pub speed_sqr: f32,
+    /// `Some` when the vertex samples a smooth curve (its speed then comes from the curve), `None` at a corner
+    /// (junction deviation), a stop or the start.
+    pub curve: Option<Curve>,
+}
+
+impl Junction {
+    const REST: Junction = Junction { speed_sqr: 0.0, curve: None };
+}
+
+fn dot(a: &[f32; NUM_AXES], b: &[f32; NUM_AXES]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Junction-deviation speed² between two moving segments (capped by both nominal speeds).
+fn deviation_speed_sqr(prev: &Seg, next: &Seg, deviation_mm: f32) -> f32 {
+    let cap = (prev.nominal * prev.nominal).min(next.nominal * next.nominal);
     // For unit vectors p, q at angle φ, |p − q| = 2·sin(φ/2); with p = −u_prev this is |u_prev + u_next|/2, which
     // (unlike going through cos θ) stays accurate for nearly reversing corners.
     let sum_sq: f32 = prev.unit.iter().zip(next.unit).map(|(a, b)| (a + b) * (a + b)).sum();
@@ -132,24 +227,308 @@ pub fn junction_speed_sqr(prev: &PlanBlock, next: &PlanBlock, deviation_mm: f32)
         // Straight on.
         return cap;
     }
-    let a = prev.acceleration.min(next.acceleration);
+    let a = prev.accel.min(next.accel);
     (a * deviation_mm * sin_half / (1.0 - sin_half)).min(cap)
 }
 
-/// Set `block.max_entry_speed_sqr` from the junction with `prev` (the block before it; `None` = start from rest).
-pub fn link(prev: Option<&PlanBlock>, block: &mut PlanBlock, deviation_mm: f32) {
-    block.max_entry_speed_sqr = match prev {
-        Some(p) => junction_speed_sqr(p, block, deviation_mm),
-        None => 0.0,
-    };
+/// Highest speed² at the junction from `prev` into `next` under junction deviation `deviation_mm` alone (also
+/// capped by both nominal speeds). 0 when either block is fixed. This is the corner rule; [`link_all`] and
+/// [`Linker`] apply it where a vertex is not part of a curve.
+pub fn junction_speed_sqr(prev: &PlanBlock, next: &PlanBlock, deviation_mm: f32) -> f32 {
+    if prev.fixed.is_some() || next.fixed.is_some() {
+        return 0.0;
+    }
+    deviation_speed_sqr(&Seg::of(prev), &Seg::of(next), deviation_mm)
 }
 
-/// Set the `max_entry_speed_sqr` of every block of a sequence starting from rest (host use, whole drawing).
-pub fn link_all(blocks: &mut [PlanBlock], deviation_mm: f32) {
-    let mut prev: Option<PlanBlock> = None;
-    for b in blocks.iter_mut() {
-        link(prev.as_ref(), b, deviation_mm);
-        prev = Some(*b);
+/// Turn halves at the vertex between `a` and `b`: (cos φ/2, sin φ/2) with φ the change of direction.
+fn half_turn(a: &Seg, b: &Seg) -> (f32, f32) {
+    let (mut s, mut d) = (0.0f32, 0.0f32);
+    for i in 0..NUM_AXES {
+        s += (a.unit[i] + b.unit[i]) * (a.unit[i] + b.unit[i]);
+        d += (b.unit[i] - a.unit[i]) * (b.unit[i] - a.unit[i]);
+    }
+    (0.5 * sqrt(s), 0.5 * sqrt(d))
+}
+
+/// Whether the vertex between moving segments `a` and `b` may belong to a smooth curve (rule 1 of the module docs).
+fn locally_smooth(a: &Seg, b: &Seg, curve_deviation_mm: f32) -> bool {
+    if a.fixed || b.fixed {
+        return false;
+    }
+    let (cos_half, sin_half) = half_turn(a, b);
+    if cos_half < SMOOTH_MIN_COS_HALF {
+        return false;
+    }
+    // Circle tangent to both chords at distance m from the vertex: its distance from the vertex is m·tan(φ/4).
+    let m = 0.5 * a.len.min(b.len);
+    m * sin_half / (1.0 + cos_half) <= curve_deviation_mm
+}
+
+/// Follow the path from vertex `j` (where `seg(j)` starts) backwards (`forward == false`, through `seg(j − 1)`,
+/// `seg(j − 2)`, …) or forwards (`seg(j)`, `seg(j + 1)`, …); returns the vector from the vertex to the span's end.
+/// The span aims at `target` mm.
+fn span<F: Fn(usize) -> Seg>(
+    seg: &F,
+    n: usize,
+    j: usize,
+    forward: bool,
+    tangent: &[f32; NUM_AXES],
+    dev: f32,
+    target: f32,
+) -> [f32; NUM_AXES] {
+    let mut v = [0.0f32; NUM_AXES];
+    let mut len = 0.0f32;
+    let sign = if forward { 1.0 } else { -1.0 };
+    let mut prev: Option<Seg> = None;
+    for count in 0..CURVE_SPAN_BLOCKS {
+        let k = if forward {
+            j + count
+        } else {
+            match j.checked_sub(count + 1) {
+                Some(k) => k,
+                None => break,
+            }
+        };
+        if k >= n {
+            break;
+        }
+        let s = seg(k);
+        if let Some(p) = prev {
+            // Crossing the vertex between `p` and `s` (in path order: s then p when going back).
+            let smooth = if forward { locally_smooth(&p, &s, dev) } else { locally_smooth(&s, &p, dev) };
+            if !smooth || dot(&s.unit, tangent) < SPAN_MIN_COS {
+                break;
+            }
+        }
+        if s.fixed {
+            break;
+        }
+        // A whole chord keeps the span end on the curve; a chord reaching far past the span (a long straight
+        // line) is cut at the span length.
+        let take = if len + s.len <= 2.0 * target { s.len } else { target - len };
+        for i in 0..NUM_AXES {
+            v[i] += sign * s.unit[i] * take;
+        }
+        len += take;
+        if len >= target {
+            break;
+        }
+        prev = Some(s);
+    }
+    v
+}
+
+/// Radius of the circle through the origin and the points `p` and `q`; `None` when they are (nearly) collinear.
+fn circumradius(p: &[f32; NUM_AXES], q: &[f32; NUM_AXES]) -> Option<f32> {
+    let pp = dot(p, p);
+    let qq = dot(q, q);
+    let mut dd = 0.0f32;
+    let mut cross_sq = 0.0f32;
+    for i in 0..NUM_AXES {
+        dd += (p[i] - q[i]) * (p[i] - q[i]);
+        for k in i + 1..NUM_AXES {
+            let c = p[i] * q[k] - p[k] * q[i];
+            cross_sq += c * c;
+        }
+    }
+    // |p × q| = |p||q|·sin(angle): below ~1e-6 rad the radius is beyond any plotter's size.
+    if cross_sq <= 1e-12 * pp * qq || pp == 0.0 || qq == 0.0 {
+        return None;
+    }
+    Some(sqrt(pp * qq * dd / (4.0 * cross_sq)))
+}
+
+/// The cornering verdict at vertex `j` (where `seg(j)` starts) of a sequence of `n` segments. Reads at most
+/// [`CURVE_SPAN_BLOCKS`] segments on either side (`seg(j − K) … seg(j + K − 1)`).
+fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineConfig) -> Junction {
+    if j == 0 || j >= n {
+        return Junction::REST;
+    }
+    let (a, b) = (seg(j - 1), seg(j));
+    if a.fixed || b.fixed {
+        return Junction::REST;
+    }
+    let corner = Junction { speed_sqr: deviation_speed_sqr(&a, &b, cfg.junction_deviation_mm), curve: None };
+    let dev = cfg.curve_deviation_mm;
+    if !locally_smooth(&a, &b, dev) {
+        return corner;
+    }
+    let nominal_sqr = (a.nominal * a.nominal).min(b.nominal * b.nominal);
+    let mut tangent = [0.0f32; NUM_AXES];
+    for i in 0..NUM_AXES {
+        tangent[i] = a.unit[i] + b.unit[i];
+    }
+    let tl = sqrt(dot(&tangent, &tangent));
+    tangent.iter_mut().for_each(|t| *t /= tl);
+    let p = span(seg, n, j, false, &tangent, dev, CURVE_SPAN_MM);
+    let q = span(seg, n, j, true, &tangent, dev, CURVE_SPAN_MM);
+    let Some(radius) = circumradius(&p, &q) else {
+        // A straight run.
+        return Junction {
+            speed_sqr: nominal_sqr,
+            curve: Some(Curve { radius: f32::INFINITY, speed_sqr: f32::INFINITY }),
+        };
+    };
+    // Rule 3: the turn at the vertex against the circle's turn. Chords of a few steps have directions too rough
+    // for that (±½ step at each end), so the turn is measured between chords at least KINK_SPAN_STEPS long,
+    // made of the vertex's neighbours; 2·sin(φ/2) ≈ φ is compared with the circle's turn over them (with a factor
+    // 2 for curvature that varies) plus what step rounding can add.
+    let mut step = 0.0f32;
+    for axis in Axis::ALL {
+        let i = axis.index();
+        if a.unit[i] != 0.0 || b.unit[i] != 0.0 {
+            step = step.max(1.0 / cfg.axis(axis).steps_per_mm);
+        }
+    }
+    let short = KINK_SPAN_STEPS * step;
+    let pa = span(seg, n, j, false, &tangent, dev, short);
+    let qb = span(seg, n, j, true, &tangent, dev, short);
+    let (la, lb) = (sqrt(dot(&pa, &pa)), sqrt(dot(&qb, &qb)));
+    let mut turn_sq = 0.0f32;
+    for i in 0..NUM_AXES {
+        // The incoming direction is −pa/|pa|.
+        let d = qb[i] / lb + pa[i] / la;
+        turn_sq += d * d;
+    }
+    let explained = (la + lb) / radius + 1.5 * step * (1.0 / la + 1.0 / lb);
+    if sqrt(turn_sq) > explained {
+        return corner;
+    }
+    // Centripetal acceleration points to the centre, along the bisector of the two span directions; each axis
+    // limits it by its own acceleration.
+    let (pl, ql) = (sqrt(dot(&p, &p)), sqrt(dot(&q, &q)));
+    let mut normal = [0.0f32; NUM_AXES];
+    for i in 0..NUM_AXES {
+        normal[i] = p[i] / pl + q[i] / ql;
+    }
+    let nl = sqrt(dot(&normal, &normal));
+    let mut accel = a.accel.min(b.accel);
+    if nl > 1e-6 {
+        accel = f32::MAX;
+        for axis in Axis::ALL {
+            let u = (normal[axis.index()] / nl).abs();
+            if u > 0.0 {
+                accel = accel.min(cfg.axis(axis).max_accel_mm_s2 / u);
+            }
+        }
+    }
+    let speed_sqr = accel * radius;
+    Junction { speed_sqr: speed_sqr.min(nominal_sqr), curve: Some(Curve { radius, speed_sqr }) }
+}
+
+/// Cruise limit (speed²) of a chord of length `len` between vertices `start` and `end` (`None`: the sequence ends
+/// there): the faster curve speed of the ends whose curve the chord belongs to (its sagitta on that circle within
+/// the curve deviation); unlimited when neither end's curve claims it.
+fn chord_speed_sqr(len: f32, start: &Junction, end: Option<&Junction>, dev: f32) -> f32 {
+    let mut cap: Option<f32> = None;
+    for c in [start.curve, end.and_then(|e| e.curve)].into_iter().flatten() {
+        if len * len <= 8.0 * dev * c.radius {
+            cap = Some(cap.map_or(c.speed_sqr, |x: f32| x.max(c.speed_sqr)));
+        }
+    }
+    cap.unwrap_or(f32::INFINITY)
+}
+
+/// Set the junction and curve limits (`max_entry_speed_sqr`, `curve_speed_sqr`) of every block of a sequence
+/// starting from rest (host use, whole drawing). `O(len · CURVE_SPAN_BLOCKS)`.
+pub fn link_all(blocks: &mut [PlanBlock], cfg: &MachineConfig) {
+    let n = blocks.len();
+    let dev = cfg.curve_deviation_mm;
+    let mut prev_j = Junction::REST;
+    let mut prev_cap = f32::INFINITY;
+    for j in 0..=n {
+        let seg = |k: usize| Seg::of(&blocks[k]);
+        let jn = junction_at(&seg, n, j, cfg);
+        if j > 0 {
+            let cap = chord_speed_sqr(blocks[j - 1].millimeters, &prev_j, (j < n).then_some(&jn), dev);
+            let b = &mut blocks[j - 1];
+            b.curve_speed_sqr = if b.fixed.is_some() { f32::INFINITY } else { cap };
+            b.max_entry_speed_sqr = prev_j.speed_sqr.min(cap).min(prev_cap);
+            prev_cap = b.curve_speed_sqr;
+        }
+        prev_j = jn;
+    }
+}
+
+/// Ring capacity of a [`Linker`]: the vertices still open (`K + 1`) and the `K` segments before the oldest.
+const LINK_RING: usize = 2 * CURVE_SPAN_BLOCKS + 2;
+
+/// The firmware's side of [`link_all`]: remembers the last blocks' geometry (also those already handed to the
+/// stepper) and, as each block arrives, recomputes the limits of the vertices whose span it extends, writing them
+/// into the planner queue. Fixed size, no allocation. Once [`CURVE_SPAN_BLOCKS`] blocks follow a block, its limits
+/// equal what [`link_all`] computes over the whole sequence.
+#[derive(Debug, Clone)]
+pub struct Linker {
+    segs: [Seg; LINK_RING],
+    junctions: [Junction; LINK_RING],
+    caps: [f32; LINK_RING],
+    len: usize,
+}
+
+impl Default for Linker {
+    fn default() -> Self {
+        Linker::new()
+    }
+}
+
+impl Linker {
+    /// An empty linker: the next block starts from rest.
+    pub const fn new() -> Linker {
+        Linker {
+            segs: [Seg::EMPTY; LINK_RING],
+            junctions: [Junction::REST; LINK_RING],
+            caps: [f32::INFINITY; LINK_RING],
+            len: 0,
+        }
+    }
+
+    /// Forget the past (after a reset or an alarm the next block starts from rest).
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// `queue`'s last block has just been appended (everything before it came through this linker, in order):
+    /// update the junction and curve limits of the blocks whose vertices it affects. Blocks that already left
+    /// `queue` are accounted for but not written.
+    pub fn push(&mut self, queue: &mut [PlanBlock], cfg: &MachineConfig) {
+        let Some(last) = queue.last() else { return };
+        if self.len == LINK_RING {
+            self.segs.copy_within(1.., 0);
+            self.junctions.copy_within(1.., 0);
+            self.caps.copy_within(1.., 0);
+            self.len -= 1;
+        }
+        let n = self.len;
+        self.segs[n] = Seg::of(last);
+        self.len += 1;
+        let len = self.len;
+        let segs = self.segs;
+        let seg = |k: usize| segs[k];
+        // Vertices whose forward span reaches the new block; ring slot 0 is the sequence start only while the
+        // ring has never been full, and is then recomputed as such.
+        let lo = (n + 1).saturating_sub(CURVE_SPAN_BLOCKS);
+        for j in lo..len {
+            self.junctions[j] = junction_at(&seg, len, j, cfg);
+        }
+        let dev = cfg.curve_deviation_mm;
+        let first = lo.saturating_sub(1);
+        for b in first..len {
+            let end = (b + 1 < len).then(|| self.junctions[b + 1]);
+            self.caps[b] = if segs[b].fixed {
+                f32::INFINITY
+            } else {
+                chord_speed_sqr(segs[b].len, &self.junctions[b], end.as_ref(), dev)
+            };
+        }
+        let qn = queue.len();
+        for b in first..len {
+            let Some(qi) = (qn + b).checked_sub(len) else { continue };
+            let before = if b == 0 { f32::INFINITY } else { self.caps[b - 1] };
+            let blk = &mut queue[qi];
+            blk.curve_speed_sqr = self.caps[b];
+            blk.max_entry_speed_sqr = self.junctions[b].speed_sqr.min(self.caps[b]).min(before);
+        }
     }
 }
 
@@ -197,10 +576,10 @@ pub fn to_step_block(block: &PlanBlock, exit_speed_sqr: f32) -> StepBlock {
     }
     let k = block.events_per_mm;
     let rate = |v: f32| floor_u32(v * k).min(MAX_RATE);
-    let cruise = rate(block.nominal_speed).max(1);
+    let cruise = rate(block.cruise_speed()).max(1);
     StepBlock {
         steps: block.steps,
-        // `sqrt` of a squared speed may land an ulp above the nominal speed: cap at cruise.
+        // `sqrt` of a squared speed may land an ulp above the cruise speed: cap at cruise.
         entry_rate: rate(sqrt(block.entry_speed_sqr)).min(cruise),
         cruise_rate: cruise,
         exit_rate: rate(sqrt(exit_speed_sqr)).min(cruise),
@@ -220,6 +599,13 @@ pub fn total_ticks(blocks: &[PlanBlock]) -> u64 {
     step_blocks(blocks).map(|b| u64::from(b.duration_ticks())).sum()
 }
 
+/// The cornering verdict at every vertex of `blocks` (vertex `i` is where `blocks[i]` starts), as [`link_all`]
+/// judges it: for diagnostics and tests.
+pub fn junctions<'a>(blocks: &'a [PlanBlock], cfg: &MachineConfig) -> impl Iterator<Item = Junction> + 'a {
+    let cfg = *cfg;
+    (0..blocks.len()).map(move |j| junction_at(&|k: usize| Seg::of(&blocks[k]), blocks.len(), j, &cfg))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,7 +623,7 @@ mod tests {
 
     fn build(c: &MachineConfig, moves: &[([i32; NUM_AXES], f32)]) -> Vec<PlanBlock> {
         let mut v: Vec<PlanBlock> = moves.iter().filter_map(|(s, f)| PlanBlock::line(c, *s, *f)).collect();
-        link_all(&mut v, c.junction_deviation_mm);
+        link_all(&mut v, c);
         plan(&mut v, 0.0);
         v
     }
@@ -275,7 +661,7 @@ mod tests {
             PlanBlock::fixed(StepBlock::dwell(1000)),
             PlanBlock::line(&c, [8000, 0, 0, 0], 100.0).unwrap(),
         ];
-        link_all(&mut v, c.junction_deviation_mm);
+        link_all(&mut v, &c);
         plan(&mut v, 0.0);
         assert_eq!(exit_speed_sqr(&v, 0), 0.0);
         assert_eq!(v[2].entry_speed_sqr, 0.0);
@@ -309,22 +695,32 @@ mod tests {
                 }
                 let entry = b.entry_speed_sqr;
                 let exit = exit_speed_sqr(&v, i);
-                let nominal_sq = b.nominal_speed * b.nominal_speed;
+                let nominal_sq = b.cruise_speed() * b.cruise_speed();
                 prop_assert!(entry <= nominal_sq * tol && exit <= nominal_sq * tol);
                 // Reachable within the block at the block's acceleration.
                 let ramp = 2.0 * b.acceleration * b.millimeters;
                 prop_assert!((exit - entry).abs() <= ramp * tol + 1e-3, "block {i}: {entry} → {exit} over {ramp}");
-                // Junction within the deviation limit.
-                prop_assert!(entry <= b.max_entry_speed_sqr * tol + 1e-6);
+                // Corners within the deviation limit; curve vertices within the centripetal limit of their curve.
+                let verdict = junctions(&v, &c).nth(i).unwrap();
                 if i > 0 {
                     let p = &v[i - 1];
                     let sum_sq: f64 = p.unit.iter().zip(b.unit).map(|(x, y)| f64::from(x + y).powi(2)).sum();
                     let sin_half = 0.5 * sum_sq.sqrt();
                     let a = f64::from(p.acceleration.min(b.acceleration));
-                    if sin_half < 0.999 {
-                        let limit = a * f64::from(c.junction_deviation_mm) * sin_half / (1.0 - sin_half);
-                        prop_assert!(f64::from(entry) <= limit * 1.001 + 1e-6, "junction {i}: {entry} > {limit}");
+                    match verdict.curve {
+                        None if sin_half < 0.999 => {
+                            let limit = a * f64::from(c.junction_deviation_mm) * sin_half / (1.0 - sin_half);
+                            prop_assert!(f64::from(entry) <= limit * 1.001 + 1e-6, "junction {i}: {entry} > {limit}");
+                        }
+                        None => {}
+                        Some(curve) => {
+                            // The centripetal acceleration v²/r stays within the larger axis limit.
+                            let amax = f64::from(c.axes[0].max_accel_mm_s2.max(c.axes[1].max_accel_mm_s2).max(c.axes[2].max_accel_mm_s2));
+                            prop_assert!(f64::from(entry) <= amax * 2f64.sqrt() * f64::from(curve.radius) * tol_f64() + 1e-6);
+                        }
                     }
+                    // Never faster than either chord's cruise speed.
+                    prop_assert!(entry <= b.cruise_speed() * b.cruise_speed() * tol && entry <= p.cruise_speed() * p.cruise_speed() * tol);
                 } else {
                     prop_assert_eq!(entry, 0.0);
                 }
@@ -353,14 +749,175 @@ mod tests {
             let c = cfg();
             let whole = build(&c, &ms);
             let mut inc: Vec<PlanBlock> = Vec::new();
+            let mut linker = Linker::new();
             for (s, f) in &ms {
-                if let Some(mut b) = PlanBlock::line(&c, *s, *f) {
-                    link(inc.last(), &mut b, c.junction_deviation_mm);
+                if let Some(b) = PlanBlock::line(&c, *s, *f) {
                     inc.push(b);
+                    linker.push(&mut inc, &c);
                     plan(&mut inc, 0.0);
                 }
             }
             prop_assert_eq!(inc, whole);
         }
+
+        /// The same over curves (many short chords, some kinks and dwells), with a queue that drops blocks from
+        /// its front as the firmware's does: every block that leaves with at least `CURVE_SPAN_BLOCKS` blocks
+        /// behind it carries exactly the whole-sequence limits.
+        #[test]
+        fn incremental_curves_equal_whole(ms in curvy_moves(), keep in (CURVE_SPAN_BLOCKS + 1)..40usize) {
+            let c = cfg();
+            let mut whole: Vec<PlanBlock> = ms.iter().map(|m| match m {
+                Some(s) => PlanBlock::line(&c, *s, 60.0).unwrap(),
+                None => PlanBlock::fixed(StepBlock::dwell(100)),
+            }).collect();
+            link_all(&mut whole, &c);
+            let mut queue: Vec<PlanBlock> = Vec::new();
+            let mut linker = Linker::new();
+            let mut left = 0usize;
+            for b in &whole {
+                let mut b = *b;
+                b.max_entry_speed_sqr = 0.0;
+                b.curve_speed_sqr = f32::INFINITY;
+                queue.push(b);
+                linker.push(&mut queue, &c);
+                if queue.len() > keep {
+                    let out = queue.remove(0);
+                    prop_assert_eq!(out.max_entry_speed_sqr, whole[left].max_entry_speed_sqr, "block {}", left);
+                    prop_assert_eq!(out.curve_speed_sqr, whole[left].curve_speed_sqr, "block {}", left);
+                    left += 1;
+                }
+            }
+            for (k, b) in queue.iter().enumerate() {
+                prop_assert_eq!(b.max_entry_speed_sqr, whole[left + k].max_entry_speed_sqr);
+                prop_assert_eq!(b.curve_speed_sqr, whole[left + k].curve_speed_sqr);
+            }
+        }
+    }
+
+    fn tol_f64() -> f64 {
+        1.0 + 1e-4
+    }
+
+    /// Arcs of random radius and chord length in steps (`None` = a dwell), joined by random kinks.
+    fn curvy_moves() -> impl Strategy<Value = Vec<Option<[i32; NUM_AXES]>>> {
+        let arc = (0.3f64..20.0, 0.02f64..1.5, 2usize..40, 0.0f64..6.3, any::<bool>(), 0u8..4);
+        proptest::collection::vec(arc, 1..8).prop_map(|arcs| {
+            let mut out = Vec::new();
+            let mut at = [0i32; 2];
+            let mut pos = [0.0f64; 2];
+            for (r, chord, n, start, ccw, kind) in arcs {
+                if kind == 0 {
+                    out.push(None);
+                }
+                let da = (chord / r).min(1.0) * if ccw { 1.0 } else { -1.0 };
+                let centre = [pos[0] - r * start.cos(), pos[1] - r * start.sin()];
+                for k in 1..=n {
+                    let a = start + da * k as f64;
+                    pos = [centre[0] + r * a.cos(), centre[1] + r * a.sin()];
+                    let t = [(pos[0] * 53.0).round() as i32, (pos[1] * 80.0).round() as i32];
+                    let s = [t[0] - at[0], t[1] - at[1], 0, 0];
+                    if s != [0, 0, 0, 0] {
+                        out.push(Some(s));
+                        at = t;
+                    }
+                }
+            }
+            out
+        })
+    }
+
+    /// Points of a circle of radius `r` (mm) cut into `n` chords, as step moves at 80 steps/mm.
+    fn circle_moves(r: f64, n: usize, turns: f64) -> Vec<([i32; NUM_AXES], f32)> {
+        let mut at = [(r * 80.0).round() as i32, 0];
+        let total = (n as f64 * turns) as usize;
+        (1..=total)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                let t = [(r * a.cos() * 80.0).round() as i32, (r * a.sin() * 80.0).round() as i32];
+                let s = [t[0] - at[0], t[1] - at[1], 0, 0];
+                at = t;
+                (s, 60.0f32)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_circle_runs_at_its_centripetal_limit_whatever_the_chords() {
+        let c = MachineConfig::xy_plotter();
+        // r = 1.5 mm: √(1500·1.5) = 47.4 mm/s, below the 60 mm/s feed. Chord errors 0.05 mm (n = 17) down to
+        // 0.002 mm (n = 60) and 0.0005 mm (n = 120: chords of 6 steps).
+        for n in [17usize, 40, 60, 120] {
+            let v = build(&c, &circle_moves(1.5, n, 2.0));
+            let js: Vec<Junction> = junctions(&v, &c).collect();
+            // Vertices away from the start and end: all on the curve, at a·r within 3 % (radius from points
+            // rounded to steps).
+            // Each axis limits the centripetal acceleration along the radius at angle α: a/max(|cos α|, |sin α|).
+            let expect = |i: usize| {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                (1500.0 * 1.5 / a.cos().abs().max(a.sin().abs())) as f32
+            };
+            for (i, j) in js.iter().enumerate().skip(n / 2).take(n) {
+                let curve = j.curve.unwrap_or_else(|| panic!("n {n}: vertex {i} judged a corner"));
+                let e = expect(i);
+                assert!((curve.speed_sqr / e - 1.0).abs() < 0.03, "n {n}, vertex {i}: {} vs {e}", curve.speed_sqr);
+                // The planned speed there is the curve speed (below the 60 mm/s feed; the circle is long enough
+                // to reach it).
+                let planned = v[i].entry_speed_sqr;
+                assert!((planned / e.min(3600.0) - 1.0).abs() < 0.03, "n {n}, vertex {i}: {planned} vs {e}");
+                // Chords cruise no faster than the faster of their ends.
+                let cruise = v[i].cruise_speed() * v[i].cruise_speed();
+                assert!(cruise <= e.max(expect(i + 1)) * 1.03, "n {n}, chord {i}: {cruise}");
+            }
+        }
+    }
+
+    #[test]
+    fn corners_stay_corners() {
+        let c = MachineConfig::xy_plotter();
+        // A square of 10 mm sides: every corner by junction deviation (90°: 72.43 mm²/s², as above).
+        let sq = [[800, 0, 0, 0], [0, 800, 0, 0], [-800, 0, 0, 0], [0, -800, 0, 0], [800, 0, 0, 0]];
+        let v = build(&c, &sq.map(|s| (s, 60.0)));
+        for (i, j) in junctions(&v, &c).enumerate().skip(1) {
+            assert_eq!(j.curve, None, "vertex {i}");
+            assert!((v[i].max_entry_speed_sqr - 72.426).abs() < 0.05);
+        }
+        // An octagon of 50 mm sides turns by 45° at each vertex: a polygon, not a circle.
+        let oct: Vec<([i32; NUM_AXES], f32)> = (0..9)
+            .map(|k| {
+                let a = std::f64::consts::FRAC_PI_4 * f64::from(k);
+                ([(4000.0 * a.cos()).round() as i32, (4000.0 * a.sin()).round() as i32, 0, 0], 60.0f32)
+            })
+            .collect();
+        let v = build(&c, &oct);
+        assert!(junctions(&v, &c).all(|j| j.curve.is_none()));
+        // A kink of 30° inside a circle of fine chords is a corner; its neighbours stay on the curve.
+        let mut m = circle_moves(5.0, 400, 0.5);
+        let mid = m.len() / 2;
+        let rot = |s: [i32; NUM_AXES], a: f64| {
+            let (x, y) = (f64::from(s[0]), f64::from(s[1]));
+            [(x * a.cos() - y * a.sin()).round() as i32, (x * a.sin() + y * a.cos()).round() as i32, 0, 0]
+        };
+        for k in mid..m.len() {
+            m[k].0 = rot(m[k].0, 30f64.to_radians());
+        }
+        let v = build(&c, &m);
+        let js: Vec<Junction> = junctions(&v, &c).collect();
+        assert_eq!(js[mid].curve, None);
+        assert!(js[mid - 20].curve.is_some() && js[mid + 20].curve.is_some());
+    }
+
+    #[test]
+    fn linker_forgets_on_clear() {
+        let c = MachineConfig::xy_plotter();
+        let mut q = Vec::new();
+        let mut l = Linker::new();
+        for (s, f) in circle_moves(3.0, 50, 0.5) {
+            q.push(PlanBlock::line(&c, s, f).unwrap());
+            l.push(&mut q, &c);
+        }
+        l.clear();
+        let mut q2 = std::vec![PlanBlock::line(&c, [80, 0, 0, 0], 60.0).unwrap()];
+        l.push(&mut q2, &c);
+        assert_eq!(q2[0].max_entry_speed_sqr, 0.0);
     }
 }

@@ -126,7 +126,7 @@ fn host_plan(c: &MachineConfig, pts: &[(f64, f64)]) -> Vec<StepBlock> {
             blocks.push(b);
         }
     }
-    link_all(&mut blocks, c.junction_deviation_mm);
+    link_all(&mut blocks, c);
     plan(&mut blocks, 0.0);
     step_blocks(&blocks).map(|b| quantize(&b)).collect()
 }

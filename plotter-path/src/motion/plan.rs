@@ -74,6 +74,7 @@ pub fn machine_config(profile: &MachineProfile) -> Result<MachineConfig, PlanErr
     let cfg = MachineConfig {
         axes: [axis(&ax.x), axis(&ax.y), axis(&ax.z), ax.e.as_ref().map_or(AxisConfig::DISABLED, axis)],
         junction_deviation_mm: f(profile.motion.junction_deviation_mm),
+        curve_deviation_mm: f(profile.motion.curve_deviation_mm),
         homing: HomingConfig {
             seek_mm_s: f(profile.homing.seek_mm_s),
             locate_mm_s: f(profile.homing.locate_mm_s),
@@ -385,7 +386,7 @@ fn finish(
     lookahead: Lookahead,
     (resumed_from, preamble): (usize, usize),
 ) -> MotionPlan {
-    planner::link_all(&mut raw, cfg.junction_deviation_mm);
+    planner::link_all(&mut raw, cfg);
     let step_blocks: Vec<StepBlock> = match lookahead {
         Lookahead::Whole => {
             planner::plan(&mut raw, 0.0);

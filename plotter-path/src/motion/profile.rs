@@ -115,14 +115,31 @@ pub struct PenProfile {
     /// Lift mechanism used in exported G-code.
     #[serde(default)]
     pub command: PenCommand,
+    /// Width of the line the pen draws, mm: path ends closer than half of it are joined, and pen-up gaps shorter
+    /// than it are drawn through with the pen down (see `plotter optimize`). Default 0.3 mm (a fineliner).
+    #[serde(default = "default_pen_width")]
+    pub width_mm: f64,
+}
+
+fn default_pen_width() -> f64 {
+    0.3
 }
 
 /// Cornering and planning settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MotionProfile {
-    /// Junction deviation, mm (grbl's cornering model).
+    /// Junction deviation, mm (grbl's cornering model, used at corners).
     pub junction_deviation_mm: f64,
+    /// Largest chord deviation, mm, at which a polyline still counts as one smooth curve, planned from its radius
+    /// (`v² = a·r`) instead of corner by corner; 0 treats every vertex as a corner. Default 0.1 mm, twice the
+    /// default flattening tolerance.
+    #[serde(default = "default_curve_deviation")]
+    pub curve_deviation_mm: f64,
+}
+
+fn default_curve_deviation() -> f64 {
+    0.1
 }
 
 /// Homing cycle settings.
@@ -269,6 +286,14 @@ impl MachineProfile {
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(bad(field, "must be zero or positive"));
+            }
+        }
+        for (field, v, max) in [
+            ("motion.curve_deviation_mm", self.motion.curve_deviation_mm, 10.0),
+            ("pen.width_mm", self.pen.width_mm, 10.0),
+        ] {
+            if !(v.is_finite() && (0.0..=max).contains(&v)) {
+                return Err(bad(field, "must lie in 0..=10 mm"));
             }
         }
         for (field, z) in [("pen.up_z_mm", self.pen.up_z_mm), ("pen.down_z_mm", self.pen.down_z_mm)] {
