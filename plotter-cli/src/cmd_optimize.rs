@@ -10,6 +10,8 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use plotter_path::MachineProfile;
+use plotter_path::kurbo::Point;
+use plotter_path::motion::plan;
 use plotter_path::optimize::{self, Objective, OptimizeOptions, OptimizeReport, SeamMode, TravelTimeModel};
 use plotter_path::output::svg_out::to_svg_string;
 
@@ -45,8 +47,19 @@ pub(crate) struct OptimizeArgs {
     #[arg(long, help_heading = "Optimization")]
     pub(crate) no_merge: bool,
     /// Join path ends closer than this, mm (gaps become short pen-down bridges; 0 = only exactly touching ends)
-    #[arg(long, default_value_t = 0.01, help_heading = "Optimization")]
-    pub(crate) merge_tolerance: f64,
+    /// [default: half the profile's pen width]
+    #[arg(long, help_heading = "Optimization")]
+    pub(crate) merge_tolerance: Option<f64>,
+    /// Keep the pen up over every gap between consecutive paths (by default gaps shorter than the pen width are
+    /// drawn through with the pen down)
+    #[arg(long, help_heading = "Optimization")]
+    pub(crate) no_bridge: bool,
+    /// End the plot with the pen back home (the order is chosen with that last travel counted)
+    #[arg(long, help_heading = "Optimization")]
+    pub(crate) return_home: bool,
+    /// Where the pen starts, page mm `X,Y` [default: the machine's home]
+    #[arg(long, value_name = "X,Y", help_heading = "Optimization")]
+    pub(crate) start_at: Option<String>,
     /// Do not reorder greedily (start the improvement from the drawing's order)
     #[arg(long, help_heading = "Optimization")]
     pub(crate) no_reorder: bool,
@@ -83,10 +96,31 @@ impl OptimizeArgs {
         !self.no_optimize
     }
 
-    /// Library options from the flags; `profile` (if any) supplies the travel-time model.
+    /// Where the pen starts (page mm): `--start-at`, else the profile's home, else unknown.
+    pub(crate) fn start(&self, profile: Option<&MachineProfile>) -> Result<Option<Point>> {
+        if let Some(text) = &self.start_at {
+            let parse = |v: &str| v.trim().parse::<f64>().ok().filter(|x| x.is_finite());
+            let (Some(x), Some(y)) = text.split_once(',').map_or((None, None), |(a, b)| (parse(a), parse(b))) else {
+                bail!("--start-at {text}: expected two numbers X,Y in page millimetres, e.g. 0,0");
+            };
+            return Ok(Some(Point::new(x, y)));
+        }
+        match profile {
+            Some(p) => Ok(Some(plan::home_on_page(p)?)),
+            None => Ok(None),
+        }
+    }
+
+    /// Library options from the flags; `profile` (if any) supplies the start (its home), the pen width (merge
+    /// tolerance and bridges) and the travel-time model.
     pub(crate) fn options(&self, profile: Option<&MachineProfile>) -> Result<OptimizeOptions> {
         if !(self.opt_budget.is_finite() && self.opt_budget >= 0.0) {
             bail!("--opt-budget must be a number of seconds ≥ 0, got {}", self.opt_budget);
+        }
+        let width = profile.map_or(plotter_path::motion::profile::DEFAULT_PEN_WIDTH_MM, |p| p.pen.width_mm);
+        let start = self.start(profile)?;
+        if self.return_home && start.is_none() {
+            bail!("--return-home needs to know where home is: give --profile or --start-at");
         }
         let time_model = profile.map(TravelTimeModel::from_profile);
         if self.opt_cost == CostArg::Time && time_model.is_none() {
@@ -94,7 +128,10 @@ impl OptimizeArgs {
         }
         Ok(OptimizeOptions {
             merge: !self.no_merge,
-            merge_tolerance_mm: self.merge_tolerance,
+            merge_tolerance_mm: self.merge_tolerance.unwrap_or(width / 2.0),
+            bridge_mm: if self.no_bridge { 0.0 } else { width },
+            start,
+            return_home: self.return_home,
             reorder: !self.no_reorder,
             reverse: !self.no_reverse,
             seam: match self.seam {
@@ -133,7 +170,11 @@ pub(crate) fn optimize_quietly(
 pub(crate) fn report_text(r: &OptimizeReport) -> String {
     let paths_in: usize = r.layers.iter().map(|l| l.paths_in).sum();
     let paths_out: usize = r.layers.iter().map(|l| l.paths_out).sum();
-    let mut s = format!("paths         {paths_in} -> {paths_out}\n");
+    let mut s = format!("paths         {paths_in} -> {paths_out}");
+    if r.bridges > 0 {
+        s += &format!(" -> {} ({} gaps drawn through with the pen down)", r.paths_out, r.bridges);
+    }
+    s += "\n";
     s += &format!("pen up        {:.2} mm -> {:.2} mm", r.pen_up_before_mm, r.pen_up_after_mm);
     if r.pen_up_before_mm > 0.0 {
         s += &format!(" ({:.1} %)", 100.0 * r.pen_up_after_mm / r.pen_up_before_mm);
@@ -183,9 +224,12 @@ pub(crate) struct OptimizeCmdArgs {
 
 /// Run `plotter optimize`; the report goes to stderr.
 pub(crate) fn run(args: &OptimizeCmdArgs) -> Result<()> {
-    let profile = args.profile.as_deref().map(MachineProfile::load).transpose()?;
-    let mut drawing = args.source.load(profile.as_ref().unwrap_or(&MachineProfile::default_plotter()))?;
-    if let Some(report) = optimize_quietly(&mut drawing, &args.optimize, profile.as_ref())? {
+    let profile = match args.profile.as_deref() {
+        Some(p) => MachineProfile::load(p)?,
+        None => MachineProfile::default_plotter(),
+    };
+    let mut drawing = args.source.load(&profile)?;
+    if let Some(report) = optimize_quietly(&mut drawing, &args.optimize, Some(&profile))? {
         eprintln!("{}", report_text(&report));
     }
     write_output(&args.output, to_svg_string(&drawing).as_bytes())
@@ -209,7 +253,16 @@ mod tests {
     #[test]
     fn flags_map_to_options() {
         let o = parse(&[]).options(None).unwrap();
-        assert_eq!(o, OptimizeOptions::default());
+        // Without a machine: default pen width (merge within half of it, bridge gaps below it), no known start.
+        assert_eq!(o, OptimizeOptions { merge_tolerance_mm: 0.15, bridge_mm: 0.3, ..OptimizeOptions::default() });
+        let p = MachineProfile::default_plotter();
+        let o = parse(&["--return-home"]).options(Some(&p)).unwrap();
+        assert_eq!(o.start, Some(Point::new(0.0, 0.0)));
+        assert!(o.return_home);
+        let o = parse(&["--start-at", "10,20.5", "--no-bridge", "--merge-tolerance", "0.05"]).options(None).unwrap();
+        assert_eq!((o.start, o.bridge_mm, o.merge_tolerance_mm), (Some(Point::new(10.0, 20.5)), 0.0, 0.05));
+        assert!(parse(&["--start-at", "10"]).options(None).unwrap_err().to_string().contains("X,Y"));
+        assert!(parse(&["--return-home"]).options(None).is_err());
         let o = parse(&[
             "--no-merge",
             "--no-reverse",

@@ -387,6 +387,9 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             let sim = session.transport.sim();
             let executed = sim.hal().busy_ticks() - start_busy;
             println!("{}", summary(&plan, &stats, Some(executed)));
+            if let Some(d) = &drawing {
+                print_lower_bound(&profile, &steps, d, &plan, args)?;
+            }
             let (stepped, travel) = stepped_drawing(sim, &profile);
             let mut stepped = stepped;
             stepped.page_mm = drawing.as_ref().and_then(|d| d.page_mm);
@@ -408,6 +411,30 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     }
 }
 
+/// Print the plot-time lower bound next to the planned time (see [`plotter_path::motion::bound`]).
+fn print_lower_bound(
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    drawing: &Drawing,
+    plan: &MotionPlan,
+    args: &PlotArgs,
+) -> anyhow::Result<()> {
+    let start = args.optimize.start(Some(profile))?;
+    let seam = args.optimize.options(Some(profile))?.seam;
+    let (travel_lb, _) = optimize::travel_lower_bound(drawing, seam, start, None);
+    let b = plotter_path::motion::bound::plot_time_lower_bound(profile, steps, travel_lb)?;
+    println!(
+        "lower bound {:.3} s (pen down {:.1} s, {} lifts {:.1} s, travel {:.1} s): planned time is {:.1} % above it",
+        b.total_s(),
+        b.draw_s,
+        steps.strokes.len(),
+        b.lifts_s,
+        b.travel_s,
+        100.0 * (plan.seconds() / b.total_s() - 1.0)
+    );
+    Ok(())
+}
+
 /// Home (unless told not to), plan from the reported position, stream. Returns the plan, the stream statistics
 /// and the simulator's busy time before the plot (0 for a serial port).
 fn plot_on<T: Transport + 'static>(
@@ -423,7 +450,7 @@ fn plot_on<T: Transport + 'static>(
     }
     let status = session.status()?;
     let start = status.steps;
-    let plan = plan::plan(profile, steps, start, Lookahead::Whole)?;
+    let plan = plan::plan_returning(profile, steps, start, Lookahead::Whole, args.optimize.return_home)?;
     let journal = match journal_path {
         Some(p) => {
             let source = PlotSource {
@@ -480,7 +507,8 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     let input = original.input.as_deref().context("the recorded plot has no input")?;
     let profile = load_profile(original.profile.as_deref())?;
     let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize)?;
-    let full = plan::plan(&profile, &steps, source.start, Lookahead::Whole)?;
+    let back = original.optimize.return_home;
+    let full = plan::plan_returning(&profile, &steps, source.start, Lookahead::Whole, back)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
         bail!(
             "{} no longer gives the plan recorded in {} (the input or the profile changed)",
@@ -507,7 +535,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
         session.home()?;
     }
     let now = session.status()?.steps;
-    let plan = plan::plan_resume(&profile, &steps, source.start, done, now)?;
+    let plan = plan::plan_resume(&profile, &steps, source.start, done, now, back)?;
     let journal = Journal::append(journal_path, &state)?;
     let mut control = PlotControl::new(&plan, &profile, Some(journal), interrupt_flag(), args.pause_immediately);
     let result = stream::stream_plan(&mut session, &plan, StreamOptions::default(), &mut control);

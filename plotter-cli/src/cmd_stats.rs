@@ -6,8 +6,10 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
+use plotter_path::motion::bound::{TimeBound, plot_time_lower_bound};
 use plotter_path::motion::plan::{self, Lookahead};
 use plotter_path::motion::steps::drawing_to_steps;
+use plotter_path::optimize::{CostModel, drawing_travel, travel_lower_bound};
 use plotter_path::output::stats::Stats;
 use plotter_path::{Drawing, MachineProfile};
 
@@ -21,7 +23,8 @@ pub(crate) struct StatsArgs {
     #[command(flatten)]
     pub(crate) source: Source,
     /// Print JSON (keys: layers, paths, segments, pen_down_mm, pen_up_mm, pen_lifts, bbox_mm, layer_names,
-    /// pen_up_mm_optimized, pen_up_lower_bound_mm, est_time_s, est_time_s_optimized)
+    /// pen_up_mm_from_home, pen_up_mm_optimized, pen_up_lower_bound_mm, pen_lifts_optimized, est_time_s,
+    /// est_time_lower_bound_s, est_time_s_optimized, est_time_lower_bound_s_optimized)
     #[arg(long)]
     pub(crate) json: bool,
     /// Machine profile for the time estimate (TOML) [default: the built-in XY plotter kit]
@@ -31,11 +34,18 @@ pub(crate) struct StatsArgs {
     pub(crate) optimize: OptimizeArgs,
 }
 
-/// Plot time of `drawing` as planned by the firmware's planner over the whole drawing, from the homed position.
-fn estimate_seconds(profile: &MachineProfile, drawing: &Drawing) -> Result<f64> {
+/// Plot time of `drawing` as planned by the firmware's planner over the whole drawing, from the homed position
+/// (back home at the end with `return_home`), and a lower bound on it given the drawing's travel lower bound.
+fn estimate_seconds(
+    profile: &MachineProfile,
+    drawing: &Drawing,
+    return_home: bool,
+    travel_lb_mm: f64,
+) -> Result<(f64, TimeBound)> {
     let steps = drawing_to_steps(profile, drawing)?;
-    let plan = plan::plan(profile, &steps, plan::homed_position(profile)?, Lookahead::Whole)?;
-    Ok(plan.seconds())
+    let plan = plan::plan_returning(profile, &steps, plan::homed_position(profile)?, Lookahead::Whole, return_home)?;
+    let bound = plot_time_lower_bound(profile, &steps, travel_lb_mm)?;
+    Ok((plan.seconds(), bound))
 }
 
 /// Run `plotter stats`.
@@ -44,39 +54,69 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
     let drawing = args.source.load(&profile)?;
     let stats = Stats::of(&drawing);
     let names: Vec<&str> = drawing.layers.iter().map(|l| l.name.as_str()).collect();
-    let estimate = |d: &Drawing| match estimate_seconds(&profile, d) {
-        Ok(s) => Some(s),
-        Err(e) => {
-            eprintln!("warning: no time estimate on profile '{}': {e:#}", profile.name);
-            None
+    let options = args.optimize.options(Some(&profile))?;
+    let back = args.optimize.return_home;
+    // The legs a plot makes: from home to the first path, between paths, and back home when asked.
+    let legs = |d: &Drawing| {
+        let mut mm = drawing_travel(d, options.start, &CostModel::Distance);
+        let last = d.paths().filter(|p| p.points.len() >= 2).last().and_then(|p| p.end());
+        if let (true, Some(e), Some(h)) = (back, last, options.start) {
+            mm += e.distance(h);
+        }
+        mm
+    };
+    let estimate = |d: &Drawing| {
+        let (lb, _) = travel_lower_bound(d, options.seam, options.start, None);
+        match estimate_seconds(&profile, d, back, lb) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                eprintln!("warning: no time estimate on profile '{}': {e:#}", profile.name);
+                None
+            }
         }
     };
-    let est_time_s = estimate(&drawing);
+    let pen_up_from_home = legs(&drawing);
+    let est = estimate(&drawing);
     let mut optimized = drawing.clone();
     let report = optimize_quietly(&mut optimized, &args.optimize, Some(&profile))?;
-    let est_time_s_optimized = report.as_ref().and_then(|_| est_time_s.and_then(|_| estimate(&optimized)));
+    let est_optimized = report.as_ref().and_then(|_| est.and_then(|_| estimate(&optimized)));
+    let pen_up_optimized = report.as_ref().map(|_| legs(&optimized));
     if args.json {
         let mut value = serde_json::to_value(&stats)?;
         value["layer_names"] = serde_json::json!(names);
-        value["pen_up_mm_optimized"] = serde_json::json!(report.as_ref().map(|r| r.pen_up_after_mm));
+        value["pen_up_mm_from_home"] = serde_json::json!(pen_up_from_home);
+        value["pen_up_mm_optimized"] = serde_json::json!(pen_up_optimized);
         value["pen_up_lower_bound_mm"] = serde_json::json!(report.as_ref().and_then(|r| r.pen_up_lower_bound_mm));
-        value["est_time_s"] = serde_json::json!(est_time_s);
-        value["est_time_s_optimized"] = serde_json::json!(est_time_s_optimized);
+        value["pen_lifts_optimized"] = serde_json::json!(report.as_ref().map(|r| r.paths_out));
+        value["est_time_s"] = serde_json::json!(est.map(|e| e.0));
+        value["est_time_lower_bound_s"] = serde_json::json!(est.map(|e| e.1.total_s()));
+        value["est_time_s_optimized"] = serde_json::json!(est_optimized.map(|e| e.0));
+        value["est_time_lower_bound_s_optimized"] = serde_json::json!(est_optimized.map(|e| e.1.total_s()));
         println!("{}", serde_json::to_string_pretty(&value)?);
         return Ok(());
     }
     println!("{stats}");
+    println!(
+        "pen up, home  {pen_up_from_home:.2} mm (with the travel from home{})",
+        if back { " and back" } else { "" }
+    );
     println!("layer names   {}", names.join(", "));
-    if let Some(t) = est_time_s {
-        println!("plot time     {} (profile '{}')", clock(t), profile.name);
+    if let Some((t, b)) = est {
+        println!("plot time     {} (profile '{}'), lower bound {}", clock(t), profile.name, clock(b.total_s()));
     }
     if let Some(r) = &report {
-        print!("optimized     pen up {:.2} mm", r.pen_up_after_mm);
+        print!("optimized     pen up {:.2} mm", pen_up_optimized.unwrap_or(r.pen_up_after_mm));
         if let Some(lb) = r.pen_up_lower_bound_mm {
             print!(", lower bound {lb:.2} mm");
         }
-        if let Some(t) = est_time_s_optimized {
-            print!(", plot time {}", clock(t));
+        print!(", {} pen lifts", r.paths_out);
+        if let Some((t, b)) = est_optimized {
+            print!(
+                ", plot time {}, lower bound {} ({:.1} % above)",
+                clock(t),
+                clock(b.total_s()),
+                100.0 * (t / b.total_s() - 1.0)
+            );
         }
         println!();
     }

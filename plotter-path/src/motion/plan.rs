@@ -223,6 +223,12 @@ pub fn homed_position(profile: &MachineProfile) -> Result<MachinePos, PlanError>
     Ok([end(&profile.axes.x), end(&profile.axes.y), up, 0])
 }
 
+/// Where the pen is after homing, in page millimetres (where a plot's first travel starts).
+pub fn home_on_page(profile: &MachineProfile) -> Result<kurbo::Point, PlanError> {
+    let h = homed_position(profile)?;
+    Ok(StepMapper::new(profile).steps_to_page(StepPos::new(h[0], h[1])))
+}
+
 /// Check that every stroke point is inside the work area (0..=travel on X and Y, in steps).
 pub fn check_work_area(profile: &MachineProfile, steps: &StepDrawing) -> Result<(), PlanError> {
     let mapper = StepMapper::new(profile);
@@ -247,7 +253,7 @@ pub fn check_work_area(profile: &MachineProfile, steps: &StepDrawing) -> Result<
 }
 
 /// Settle dwell in ticks.
-fn settle_ticks(profile: &MachineProfile) -> u32 {
+pub(crate) fn settle_ticks(profile: &MachineProfile) -> u32 {
     let t = (profile.pen.settle_ms * 1000.0).round();
     // Clamped into the u32 range first.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -294,6 +300,7 @@ fn build_blocks<'c>(
     cfg: &'c MachineConfig,
     steps: &StepDrawing,
     start: MachinePos,
+    return_home: bool,
 ) -> Result<RawPlan<'c>, PlanError> {
     // Feeds are f32 in the firmware; values are physical speeds.
     #[allow(clippy::cast_possible_truncation)]
@@ -318,6 +325,10 @@ fn build_blocks<'c>(
         }
         raw.pen(up, MoveKind::PenUp, si);
     }
+    if return_home {
+        let last = steps.strokes.len().saturating_sub(1);
+        raw.line_to(StepPos::new(start[0], start[1]), travel, MoveKind::Travel, last);
+    }
     Ok(raw)
 }
 
@@ -329,9 +340,20 @@ pub fn plan(
     start: MachinePos,
     lookahead: Lookahead,
 ) -> Result<MotionPlan, PlanError> {
+    plan_returning(profile, steps, start, lookahead, false)
+}
+
+/// [`plan`], and with `return_home` a last pen-up travel back to `start`'s X and Y.
+pub fn plan_returning(
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    start: MachinePos,
+    lookahead: Lookahead,
+    return_home: bool,
+) -> Result<MotionPlan, PlanError> {
     let cfg = machine_config(profile)?;
     check_work_area(profile, steps)?;
-    let raw = build_blocks(profile, &cfg, steps, start)?;
+    let raw = build_blocks(profile, &cfg, steps, start, return_home)?;
     Ok(finish(profile, &cfg, raw.blocks, raw.meta, start, lookahead, (0, 0)))
 }
 
@@ -345,10 +367,11 @@ pub fn plan_resume(
     original_start: MachinePos,
     done: usize,
     now: MachinePos,
+    return_home: bool,
 ) -> Result<MotionPlan, PlanError> {
     let cfg = machine_config(profile)?;
     check_work_area(profile, steps)?;
-    let full = build_blocks(profile, &cfg, steps, original_start)?;
+    let full = build_blocks(profile, &cfg, steps, original_start, return_home)?;
     let done = done.min(full.blocks.len());
     let mut target = original_start;
     for b in &full.blocks[..done] {
@@ -537,7 +560,7 @@ mod tests {
         let full = plan(&p, &steps, start, Lookahead::Whole).unwrap();
         assert_eq!((full.resumed_from, full.preamble), (0, 0));
         // Resume in the middle of the first square's drawing (block 4 is its second Draw), pen found down at 0,0.
-        let r = plan_resume(&p, &steps, start, 4, [0, 0, 0, 0]).unwrap();
+        let r = plan_resume(&p, &steps, start, 4, [0, 0, 0, 0], false).unwrap();
         use MoveKind::*;
         let kinds: Vec<MoveKind> = r.blocks[..r.preamble].iter().map(|b| b.kind).collect();
         assert_eq!(kinds, [PenUp, Settle, Travel, PenDown, Settle]);
@@ -549,7 +572,7 @@ mod tests {
         assert_eq!(r.original_index(r.preamble), Some(4));
         assert_eq!(r.original_index(0), None);
         // Resuming at a pen-up point from the pen-up height needs no pen moves.
-        let r = plan_resume(&p, &steps, start, 9, start).unwrap();
+        let r = plan_resume(&p, &steps, start, 9, start, false).unwrap();
         assert_eq!(r.blocks[..r.preamble].iter().map(|b| b.kind).collect::<Vec<_>>(), [Travel]);
         assert_ne!(full.geometry_hash(), r.geometry_hash());
         assert_eq!(full.geometry_hash(), plan(&p, &steps, start, Lookahead::Window(4)).unwrap().geometry_hash());

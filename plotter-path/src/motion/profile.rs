@@ -121,8 +121,11 @@ pub struct PenProfile {
     pub width_mm: f64,
 }
 
+/// Pen width assumed when a profile does not give one, mm.
+pub const DEFAULT_PEN_WIDTH_MM: f64 = 0.3;
+
 fn default_pen_width() -> f64 {
-    0.3
+    DEFAULT_PEN_WIDTH_MM
 }
 
 /// Cornering and planning settings.

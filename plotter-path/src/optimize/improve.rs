@@ -64,6 +64,8 @@ pub(crate) struct ImproveParams {
     pub(crate) verify: bool,
     /// The start position is unknown: the hop to the first path costs nothing.
     pub(crate) free_start: bool,
+    /// The route must end here (the hop from the last path to it counts); `None`: it may end anywhere.
+    pub(crate) end: Option<Point>,
 }
 
 /// What the improvement step did.
@@ -158,7 +160,7 @@ impl<'a> Tour<'a> {
     ) -> Self {
         let n = visits.len() + 1;
         let depot = u32::try_from(visits.len()).unwrap_or(0);
-        let wild = 2 * depot;
+        let wild = if params.end.is_some() { u32::MAX - 1 } else { 2 * depot };
         let wild_start = if params.free_start { wild + 1 } else { u32::MAX };
         let mut pts = Vec::with_capacity(2 * n);
         let mut closed = Vec::with_capacity(n);
@@ -177,8 +179,8 @@ impl<'a> Tour<'a> {
                 seam_candidates(path, params.seam, &mut seam_list);
             }
         }
-        // Depot: side 0 (in) is the wildcard, side 1 (out) the start position.
-        pts.push(start);
+        // Depot: side 0 (in) is the wildcard (or the required end), side 1 (out) the start position.
+        pts.push(params.end.unwrap_or(start));
         pts.push(start);
         closed.push(false);
         seam.push(0);
@@ -194,6 +196,10 @@ impl<'a> Tour<'a> {
                 if !params.free_start {
                     coords.push([start.x, start.y]);
                     ids.push(2 * k32 + 1);
+                }
+                if let Some(e) = params.end {
+                    coords.push([e.x, e.y]);
+                    ids.push(2 * k32);
                 }
             } else {
                 coords.push([pts[2 * k].x, pts[2 * k].y]);
@@ -707,6 +713,7 @@ mod tests {
             seam: SeamMode::Any,
             verify,
             free_start: false,
+            end: None,
         }
     }
 

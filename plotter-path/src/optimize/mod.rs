@@ -152,6 +152,13 @@ pub struct OptimizeOptions {
     pub lower_bound: bool,
     /// Pen position before the first layer (page mm); `None`: unknown, the hop to the first path is not counted.
     pub start: Option<Point>,
+    /// The plot ends with the pen back at `start` (needs `start`): the order is chosen with that last hop counted,
+    /// and the report's pen-up figures include it.
+    pub return_home: bool,
+    /// After ordering, a pen-up hop shorter than this (mm) between consecutive paths of a layer is drawn with the
+    /// pen down, joining the two paths (0 = never): a pen a little wider than the gap covers it anyway, and each
+    /// saved lift is two Z moves and two settle dwells.
+    pub bridge_mm: f64,
 }
 
 impl Default for OptimizeOptions {
@@ -172,6 +179,8 @@ impl Default for OptimizeOptions {
             time_model: None,
             lower_bound: true,
             start: None,
+            return_home: false,
+            bridge_mm: 0.0,
         }
     }
 }
@@ -232,6 +241,8 @@ pub struct LayerReport {
     pub kept_input_order: bool,
     /// Improvement counters.
     pub improve: ImproveStats,
+    /// Pen-up hops drawn through with the pen down ([`OptimizeOptions::bridge_mm`]).
+    pub bridges: usize,
 }
 
 /// What [`optimize`] did, per layer and in total. Distances in mm, times in s (travel only: hops plus lifts).
@@ -260,6 +271,10 @@ pub struct OptimizeReport {
     pub fell_back_to_greedy: bool,
     /// Over the whole drawing the input order was cheaper than the optimized one and was kept.
     pub kept_input_order: bool,
+    /// Pen-up hops drawn through with the pen down ([`OptimizeOptions::bridge_mm`]).
+    pub bridges: usize,
+    /// Paths (pen lifts) after optimization.
+    pub paths_out: usize,
     /// Wall time spent.
     pub elapsed: Duration,
 }
@@ -276,6 +291,12 @@ fn check(drawing: &Drawing, opts: &OptimizeOptions) -> Result<(), OptimizeError>
     let bad = |option, problem| Err(OptimizeError::InvalidOption { option, problem });
     if !(opts.merge_tolerance_mm.is_finite() && opts.merge_tolerance_mm >= 0.0) {
         return bad("merge_tolerance_mm", "must be a finite number ≥ 0");
+    }
+    if !(opts.bridge_mm.is_finite() && opts.bridge_mm >= 0.0) {
+        return bad("bridge_mm", "must be a finite number ≥ 0");
+    }
+    if opts.return_home && opts.start.is_none() {
+        return bad("return_home", "needs a start position");
     }
     if !(opts.kicks_per_path.is_finite() && opts.kicks_per_path >= 0.0) {
         return bad("kicks_per_path", "must be a finite number ≥ 0");
@@ -310,6 +331,17 @@ fn check(drawing: &Drawing, opts: &OptimizeOptions) -> Result<(), OptimizeError>
 }
 
 fn visits_cost(paths: &[Polyline], visits: &[Visit], start: Option<Point>, cost: &CostModel) -> f64 {
+    visits_cost_to(paths, visits, start, None, cost)
+}
+
+/// [`visits_cost`] plus the hop from the last exit to `end` when given.
+fn visits_cost_to(
+    paths: &[Polyline],
+    visits: &[Visit],
+    start: Option<Point>,
+    end: Option<Point>,
+    cost: &CostModel,
+) -> f64 {
     let mut at = start;
     let mut total = 0.0;
     for v in visits {
@@ -317,6 +349,9 @@ fn visits_cost(paths: &[Polyline], visits: &[Visit], start: Option<Point>, cost:
             total += cost.cost(from, v.entry(paths));
         }
         at = Some(v.exit(paths));
+    }
+    if let (Some(from), Some(to)) = (at, end) {
+        total += cost.cost(from, to);
     }
     total
 }
@@ -392,7 +427,10 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
     let mut at_greedy = opts.start;
     let mut greedy_layers: Vec<Vec<Polyline>> = Vec::new();
     let (mut greedy_total, mut improved_total) = (0.0, 0.0);
+    let last_layer = drawing.layers.len().saturating_sub(1);
+    let home = opts.start.filter(|_| opts.return_home);
     for (li, layer) in drawing.layers.iter_mut().enumerate() {
+        let end = if li == last_layer { home } else { None };
         let mut lr = LayerReport { name: layer.name.clone(), paths_in: layer.paths.len(), ..LayerReport::default() };
         let (before, end_before) = travel::paths_travel(&layer.paths, at_before, &CostModel::Distance);
         lr.pen_up_before_mm = before;
@@ -425,7 +463,7 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
                 &own
             };
             lr.pen_up_greedy_mm = Some(visits_cost(&paths, greedy, at_greedy, &CostModel::Distance));
-            greedy_total += visits_cost(&paths, greedy, at_greedy, &objective);
+            greedy_total += visits_cost_to(&paths, greedy, at_greedy, end, &objective);
             if let Some(last) = greedy.last() {
                 at_greedy = Some(last.exit(&paths));
             }
@@ -458,18 +496,19 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
                 seam: opts.seam,
                 verify: false,
                 free_start: at_after.is_none(),
+                end,
             };
             lr.improve = improve::improve(&paths, &mut visits, at_after.unwrap_or(Point::ZERO), &objective, params);
         }
         // With improvement on, never worse than the input order under the objective (plain greedy stays plain).
         if opts.improve
-            && visits_cost(&paths, &input_visits, at_after, &objective)
-                < visits_cost(&paths, &visits, at_after, &objective)
+            && visits_cost_to(&paths, &input_visits, at_after, end, &objective)
+                < visits_cost_to(&paths, &visits, at_after, end, &objective)
         {
             visits = input_visits;
             lr.kept_input_order = true;
         }
-        improved_total += visits_cost(&paths, &visits, at_after, &objective);
+        improved_total += visits_cost_to(&paths, &visits, at_after, end, &objective);
         if opts.lower_bound {
             let start = if li == 0 { opts.start } else { None };
             let parts = layer_bound_parts(&paths, &ids, opts.seam, start);
@@ -511,17 +550,38 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
     if let Some(input) = input_layers {
         let current: Vec<&[Polyline]> = drawing.layers.iter().map(|l| l.paths.as_slice()).collect();
         let original: Vec<&[Polyline]> = input.iter().map(Vec::as_slice).collect();
-        if chain_cost(&original, opts.start, &objective) < chain_cost(&current, opts.start, &objective) {
+        if chain_cost(&original, opts.start, home, &objective) < chain_cost(&current, opts.start, home, &objective) {
             report.kept_input_order = true;
             adopt(drawing, &mut report, input, opts.start, time_cost);
         }
     }
+    if opts.bridge_mm > 0.0 {
+        let mut bridged = Vec::with_capacity(drawing.layers.len());
+        for (layer, lr) in drawing.layers.iter_mut().zip(&mut report.layers) {
+            let (paths, joins) = bridge_paths(std::mem::take(&mut layer.paths), opts.bridge_mm);
+            lr.bridges = joins;
+            report.bridges += joins;
+            bridged.push(paths);
+        }
+        adopt(drawing, &mut report, bridged, opts.start, time_cost);
+    }
+    if let Some(h) = home {
+        // The return hop belongs to the plot's pen-up travel.
+        let last = drawing.paths().filter(|p| p.points.len() >= 2).last().and_then(Polyline::end);
+        if let Some(e) = last {
+            report.pen_up_after_mm += e.distance(h);
+            if let (Some(t), Some(c)) = (report.travel_time_after_s.as_mut(), time_cost) {
+                *t += c.cost(e, h);
+            }
+        }
+    }
+    report.paths_out = drawing.paths().filter(|p| p.points.len() >= 2).count();
     report.elapsed = t0.elapsed();
     Ok(report)
 }
 
-/// Pen-up cost of drawing `layers` one after the other from `start`.
-fn chain_cost(layers: &[&[Polyline]], start: Option<Point>, cost: &CostModel) -> f64 {
+/// Pen-up cost of drawing `layers` one after the other from `start` (and back to `home` when given).
+fn chain_cost(layers: &[&[Polyline]], start: Option<Point>, home: Option<Point>, cost: &CostModel) -> f64 {
     let mut at = start;
     let mut total = 0.0;
     for paths in layers {
@@ -529,7 +589,36 @@ fn chain_cost(layers: &[&[Polyline]], start: Option<Point>, cost: &CostModel) ->
         total += c;
         at = end;
     }
+    if let (Some(a), Some(h)) = (at, home) {
+        total += cost.cost(a, h);
+    }
     total
+}
+
+/// Join consecutive drawn paths of `paths` whose gap (end of one to start of the next) is shorter than `max_gap`:
+/// the gap is drawn with the pen down. Returns the paths and the number of joins.
+fn bridge_paths(paths: Vec<Polyline>, max_gap: f64) -> (Vec<Polyline>, usize) {
+    let mut out: Vec<Polyline> = Vec::with_capacity(paths.len());
+    let mut undrawn = Vec::new();
+    let mut joins = 0;
+    for p in paths {
+        if p.points.len() < 2 {
+            undrawn.push(p);
+            continue;
+        }
+        if let Some(prev) = out.last_mut()
+            && let (Some(a), Some(b)) = (prev.end(), p.start())
+            && a.distance(b) < max_gap
+        {
+            let skip = usize::from(a == b);
+            prev.points.extend(p.points.into_iter().skip(skip));
+            joins += 1;
+            continue;
+        }
+        out.push(p);
+    }
+    out.extend(undrawn);
+    (out, joins)
 }
 
 /// Replace every layer's paths by `layers` and recompute the report's "after" figures.

@@ -1,0 +1,180 @@
+//! A lower bound on a plot's time, reported next to the planned time so one sees how far from the machine's limit
+//! a plot is.
+//!
+//! For a drawing whose strokes are each drawn with one pen-down (in any order, any direction) the plan takes at
+//! least the sum of three parts, each bounded on its own:
+//!
+//! * **Pen down**: every stroke starts at rest (after the pen's settle dwell) and ends at no more than the
+//!   junction speed of the 90° corner into the pen lift (junction deviation with the largest acceleration any
+//!   direction allows, an over-estimate). Where a stroke
+//!   turns by more than 90° it is a corner for the planner, whose speed there is at most junction deviation's
+//!   (computed here with the largest acceleration any direction allows, so it over-estimates); a reversal stops.
+//!   Each piece between such vertices takes at least the fastest one-dimensional motion over its length that
+//!   starts and ends within those speeds, never exceeds the draw feed and accelerates at most at
+//!   `√(a_x² + a_y²)` (the largest acceleration the per-axis limits allow along any direction).
+//! * **Pen lifts**: one drop and one lift per stroke, each a settle dwell and a Z move that ends at rest (the
+//!   dwell) and starts no faster than the 90° corner from the XY move allows.
+//! * **Travel**: the pen-up hops cover at least the travel lower bound (see [`crate::optimize::bound`]), at no
+//!   more than the travel feed.
+//!
+//! Curvature limits inside strokes and the direction limits of the feed are left out (each only adds time), so the
+//! bound is valid whatever the order; the gap between it and the plan is what any order and planner could gain.
+
+use crate::MachineProfile;
+use crate::motion::plan::{PlanError, machine_config};
+use crate::motion::steps::StepDrawing;
+
+/// The parts of a plot-time lower bound, seconds.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct TimeBound {
+    /// Pen-down drawing.
+    pub draw_s: f64,
+    /// Pen drops and lifts with their settle dwells.
+    pub lifts_s: f64,
+    /// Pen-up travel.
+    pub travel_s: f64,
+}
+
+impl TimeBound {
+    /// The whole bound.
+    pub fn total_s(&self) -> f64 {
+        self.draw_s + self.lifts_s + self.travel_s
+    }
+}
+
+/// Fastest motion over `len` starting at ≤ `v0`, ending at ≤ `v1`, top speed `v`, acceleration `a`.
+fn min_time(len: f64, v0: f64, v1: f64, v: f64, a: f64) -> f64 {
+    if len <= 0.0 {
+        return 0.0;
+    }
+    // Entry and exit speeds the length can connect.
+    let v0 = v0.min(v).min((v1 * v1 + 2.0 * a * len).sqrt());
+    let v1 = v1.min(v).min((v0 * v0 + 2.0 * a * len).sqrt());
+    let peak = ((2.0 * a * len + v0 * v0 + v1 * v1) / 2.0).sqrt().min(v);
+    let d_acc = (peak * peak - v0 * v0) / (2.0 * a);
+    let d_dec = (peak * peak - v1 * v1) / (2.0 * a);
+    let cruise = (len - d_acc - d_dec).max(0.0);
+    (peak - v0) / a + (peak - v1) / a + cruise / v
+}
+
+/// Lower bound on the time to plot `steps` (strokes as the plan draws them) whose pen-up travel is at least
+/// `travel_lb_mm`. See the module docs.
+pub fn plot_time_lower_bound(
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    travel_lb_mm: f64,
+) -> Result<TimeBound, PlanError> {
+    // Only to refuse a profile the planner refuses.
+    machine_config(profile)?;
+    let (ax, ay) = (profile.axes.x.max_accel_mm_s2, profile.axes.y.max_accel_mm_s2);
+    let accel = ax.hypot(ay);
+    let (sx, sy) = (profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm);
+    let draw = profile.pen.draw_feed_mm_s;
+    let travel = profile.pen.travel_feed_mm_s;
+    let deviation = profile.motion.junction_deviation_mm;
+    let mut bound = TimeBound::default();
+    // One drop and one lift per stroke: the settle dwell and a Z move entered at most at the 90° corner speed.
+    let z = &profile.axes.z;
+    let dz_mm = (profile.pen.up_z_mm - profile.pen.down_z_mm).abs();
+    let corner = |a: f64| {
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        (a * deviation * s / (1.0 - s)).sqrt()
+    };
+    let z_move = min_time(dz_mm, corner(z.max_accel_mm_s2), 0.0, z.max_feed_mm_s, z.max_accel_mm_s2);
+    let settle = f64::from(crate::motion::plan::settle_ticks(profile)) / f64::from(plotter_fw::TICK_HZ);
+    let cycle_s = 2.0 * (z_move + settle);
+    let v_lift = corner(accel);
+    let mut strokes = 0usize;
+    let mut hops = 0usize;
+    for s in &steps.strokes {
+        hops += 1;
+        let segs: Vec<(f64, f64)> =
+            s.moves.iter().filter(|d| !d.is_zero()).map(|d| (f64::from(d.dx) / sx, f64::from(d.dy) / sy)).collect();
+        if segs.is_empty() {
+            continue;
+        }
+        strokes += 1;
+        let mut piece = 0.0;
+        let mut v_in = 0.0;
+        for (k, &(dx, dy)) in segs.iter().enumerate() {
+            piece += dx.hypot(dy);
+            let Some(&(nx, ny)) = segs.get(k + 1) else { break };
+            let (l0, l1) = (dx.hypot(dy), nx.hypot(ny));
+            let cos = (dx * nx + dy * ny) / (l0 * l1);
+            if cos < 0.0 {
+                // Turn above 90°: junction deviation's speed with the largest acceleration (sin(θ/2) for θ the
+                // angle between the reversed incoming and the outgoing direction).
+                let sin_half = ((1.0 + cos) / 2.0).sqrt();
+                let v_c = if sin_half < 1e-4 { 0.0 } else { (accel * deviation * sin_half / (1.0 - sin_half)).sqrt() };
+                bound.draw_s += min_time(piece, v_in, v_c, draw, accel);
+                piece = 0.0;
+                v_in = v_c;
+            }
+        }
+        bound.draw_s += min_time(piece, v_in, v_lift, draw, accel);
+    }
+    #[allow(clippy::cast_precision_loss, reason = "stroke counts are far below 2^52")]
+    {
+        bound.lifts_s = strokes as f64 * cycle_s;
+        // Endpoints rounded to steps move each hop by at most a step diagonal at either end.
+        let slack = hops as f64 * 2.0 * (1.0 / sx).hypot(1.0 / sy);
+        bound.travel_s = (travel_lb_mm - slack).max(0.0) / travel;
+    }
+    Ok(bound)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::plan::{Lookahead, homed_position, plan};
+    use crate::motion::steps::{StepDelta, StepPos, StepStroke};
+
+    #[test]
+    fn one_dimensional_minimum_times() {
+        // 100 mm at 60 mm/s, 1500 mm/s²: ramps of 1.2 mm each, 0.04 s each; 97.6 mm cruise → 1.6667 + 0.04.
+        assert!((min_time(100.0, 0.0, 0.0, 60.0, 1500.0) - (100.0 / 60.0 + 0.04)).abs() < 1e-12);
+        // Too short to reach the feed: triangle, 2·√(L/a).
+        assert!((min_time(1.0, 0.0, 0.0, 60.0, 1500.0) - 2.0 * (1.0f64 / 1500.0).sqrt()).abs() < 1e-12);
+        // Entering at full speed and leaving at rest: only the deceleration ramp.
+        assert!((min_time(100.0, 60.0, 0.0, 60.0, 1500.0) - (100.0 / 60.0 + 0.02)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_bound_is_below_the_plan_and_tight_on_a_long_line() {
+        let p = MachineProfile::default_plotter();
+        // One 100 mm line from (10, 10) mm, reached from home by a 10·√2 mm hop.
+        let steps = StepDrawing {
+            strokes: vec![StepStroke { start: StepPos::new(800, 800), moves: vec![StepDelta { dx: 8000, dy: 0 }] }],
+        };
+        let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        let b = plot_time_lower_bound(&p, &steps, 200f64.sqrt()).unwrap();
+        assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
+        // Drawing along X: the plan accelerates at 1500 mm/s² (X alone), the bound at 1500·√2, and may leave at
+        // the 90° corner speed into the lift, √(a·δ·√½/(1 − √½)).
+        let a = 1500f64.hypot(1500.0);
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let v_lift = (a * 0.02 * s / (1.0 - s)).sqrt();
+        assert!((b.draw_s - min_time(100.0, 0.0, v_lift, 60.0, a)).abs() < 1e-9, "{b:?}");
+        assert!((b.draw_s - (100.0 / 60.0 + 60.0 / a / 2.0 + (60.0 - v_lift).powi(2) / (2.0 * a * 60.0))).abs() < 1e-9);
+        // Lifts: two 50 ms dwells and two 4 mm Z moves, each at least 4/25 + (25 − v)²/(2·500·25) with v the Z
+        // corner speed √(500·0.02·√½/(1 − √½)) entering it, plus the 25/500/2 s ramp down.
+        let vz = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
+        let zm = 4.0 / 25.0 + (25.0 - vz).powi(2) / (2.0 * 500.0 * 25.0) + 25.0 / 500.0 / 2.0;
+        assert!((b.lifts_s - 2.0 * (0.05 + zm)).abs() < 1e-9, "{b:?}");
+        // Travel: the bound's length at the travel feed.
+        assert!((b.travel_s - (200f64.sqrt() - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0)) / 120.0).abs() < 1e-9);
+        // A zig-zag stops at each reversal: three 10 mm legs take three rest-to-rest motions.
+        let zig = StepDrawing {
+            strokes: vec![StepStroke {
+                start: StepPos::new(800, 800),
+                moves: vec![StepDelta { dx: 800, dy: 0 }, StepDelta { dx: -800, dy: 0 }, StepDelta { dx: 800, dy: 0 }],
+            }],
+        };
+        let b = plot_time_lower_bound(&p, &zig, 0.0).unwrap();
+        assert!(
+            (b.draw_s - 2.0 * min_time(10.0, 0.0, 0.0, 60.0, a) - min_time(10.0, 0.0, v_lift, 60.0, a)).abs() < 1e-9
+        );
+        let planned = plan(&p, &zig, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        assert!(b.total_s() <= planned.seconds());
+    }
+}
