@@ -100,7 +100,7 @@ function fillLayers(s) {
     tr.querySelector('.vis').checked = chosen.visible !== false;
     tr.querySelector('.name').textContent = l.name + ' (' + l.paths + ' paths)';
     tr.querySelector('.color').value = chosen.color || l.color;
-    tr.querySelector('.width').value = chosen.width_mm || l.width_mm;
+    tr.querySelector('.width').value = +(chosen.width_mm || l.width_mm).toFixed(3);
     tr.querySelectorAll('input').forEach((i) => { i.onchange = sendSettings; });
     return tr;
   });

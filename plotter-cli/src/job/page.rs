@@ -4,9 +4,9 @@
 //!
 //! Coordinates are page millimetres rounded to a micrometre: far below a pen's width, and it keeps the JSON small.
 
+use plotter_path::Drawing;
 use plotter_path::geometry::travel::pen_up_moves;
 use plotter_path::kurbo::{Line, Point};
-use plotter_path::Drawing;
 use serde::Serialize;
 
 /// A drawing for display.
@@ -77,7 +77,8 @@ pub fn view_with_travel(drawing: &Drawing, travel: &[Line]) -> PageView {
                 .filter(|p| p.points.len() >= 2)
                 .map(|p| {
                     let length_mm = p.length();
-                    let view = PathView { points: p.points.iter().map(|&q| pt(q)).collect(), start_mm: done, length_mm };
+                    let view =
+                        PathView { points: p.points.iter().map(|&q| pt(q)).collect(), start_mm: done, length_mm };
                     done += length_mm;
                     view
                 })

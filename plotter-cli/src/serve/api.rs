@@ -6,6 +6,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use axum::Json;
+use axum::Router;
 use axum::body::Bytes;
 use axum::extract::rejection::BytesRejection;
 use axum::extract::{DefaultBodyLimit, Query, Request, State};
@@ -14,7 +15,6 @@ use axum::middleware::{self, Next};
 use axum::response::sse::{KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
-use axum::Router;
 use futures_util::stream::{self, Stream};
 use plotter_host::input::{InputArgs, decode_drawing};
 use plotter_host::job::page::view;
@@ -473,7 +473,10 @@ async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) ->
     layout_args(&s)?.options().map_err(|e| bad(format!("{e:#}")))?;
     let retrace = {
         let mut i = shared.lock();
-        let retrace = i.loaded.as_ref().is_some_and(|l| l.input.trace.mode != input_args(&s).map(|a| a.trace.mode).unwrap_or_default());
+        let retrace = i
+            .loaded
+            .as_ref()
+            .is_some_and(|l| l.input.trace.mode != input_args(&s).map(|a| a.trace.mode).unwrap_or_default());
         i.settings = s.clone();
         retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.profile.clone()))).flatten()
     };
@@ -563,7 +566,9 @@ async fn plot(State(shared): State<Arc<Shared>>) -> ApiResult {
     ready(&shared)?;
     let prepared = {
         let i = shared.lock();
-        i.prepared.clone().ok_or_else(|| conflict(i.prepare_error.clone().unwrap_or_else(|| "load a drawing first".into())))?
+        i.prepared
+            .clone()
+            .ok_or_else(|| conflict(i.prepare_error.clone().unwrap_or_else(|| "load a drawing first".into())))?
     };
     if prepared.estimate_s.is_none() {
         return Err(conflict(prepared.warnings.join("; ")));

@@ -33,7 +33,9 @@ pub(crate) enum Refusal {
 impl std::fmt::Display for Refusal {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Refusal::Host(h) => write!(f, "refused: Host {h:?} is not this server (open the address plotter serve printed)"),
+            Refusal::Host(h) => {
+                write!(f, "refused: Host {h:?} is not this server (open the address plotter serve printed)")
+            }
             Refusal::Origin(o) => write!(f, "refused: requests from {o:?} are not accepted (cross-site request)"),
         }
     }

@@ -88,9 +88,11 @@ async fn wait_state(c: &Client, what: &str, f: impl Fn(&Value) -> bool) -> Value
 async fn the_page_and_its_assets_are_served_from_the_binary() {
     let (_, router) = test_app(1 << 20, 10.0);
     let c = Client::new(&router);
-    for (path, kind, needle) in
-        [("/", "text/html", "id=\"preview\""), ("/app.js", "text/javascript", "EventSource"), ("/style.css", "text/css", "#preview")]
-    {
+    for (path, kind, needle) in [
+        ("/", "text/html", "id=\"preview\""),
+        ("/app.js", "text/javascript", "EventSource"),
+        ("/style.css", "text/css", "#preview"),
+    ] {
         let res = router.clone().oneshot(c.request("GET", path).body(Body::empty()).unwrap()).await.unwrap();
         assert_eq!(res.status(), StatusCode::OK, "{path}");
         assert!(res.headers()[header::CONTENT_TYPE].to_str().unwrap().starts_with(kind), "{path}");
@@ -157,7 +159,10 @@ async fn an_upload_over_the_limit_gets_a_clear_error() {
     let (s, v) = c.upload("duck.svg", DUCK).await;
     assert_eq!(s, StatusCode::PAYLOAD_TOO_LARGE, "{v}");
     let e = v["error"].as_str().unwrap();
-    assert!(e.contains("duck.svg is too large") && e.contains("limited to 0.0 MB") && e.contains("--max-upload-mb"), "{e}");
+    assert!(
+        e.contains("duck.svg is too large") && e.contains("limited to 0.0 MB") && e.contains("--max-upload-mb"),
+        "{e}"
+    );
     // Without a declared length (a chunked body), the cut-off body gets the same message.
     let chunks = futures_util::stream::iter(vec![Ok::<_, std::io::Error>(DUCK.to_vec())]);
     let req = c.request("POST", "/api/drawing?name=duck.svg").body(Body::from_stream(chunks)).unwrap();
@@ -255,7 +260,10 @@ async fn plot_on_the_simulator_pause_resume_and_finish() {
     let (_, before) = c.get("/api/state").await;
     let x0 = before["machine"]["position"][0].as_i64().unwrap();
     c.post("/api/jog", json!({ "axis": "x", "mm": 10.0 })).await;
-    let after = wait_state(&c, "jogged", |s| s["machine"]["activity"] == "idle" && s["machine"]["position"][0].as_i64() != Some(x0)).await;
+    let after = wait_state(&c, "jogged", |s| {
+        s["machine"]["activity"] == "idle" && s["machine"]["position"][0].as_i64() != Some(x0)
+    })
+    .await;
     let steps_per_mm = plotter_path::MachineProfile::default_plotter().axes.x.steps_per_mm;
     assert_eq!(after["machine"]["position"][0].as_i64().unwrap() - x0, (10.0 * steps_per_mm).round() as i64);
     // Plot, pause at the next pen-up, resume, finish.

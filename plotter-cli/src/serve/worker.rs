@@ -131,7 +131,8 @@ impl Worker {
         Ok(match port {
             None => {
                 let name = format!("simulated plotter ({} x real time)", self.shared.config.sim_speed);
-                let transport = PacedSim::new(SimTransport::new(cfg, Some(self.profile.link.baud)), self.shared.config.sim_speed);
+                let transport =
+                    PacedSim::new(SimTransport::new(cfg, Some(self.profile.link.baud)), self.shared.config.sim_speed);
                 (Link::Sim(Session::connect(transport, "simulated plotter")?), name)
             }
             Some(p) => {
@@ -211,9 +212,9 @@ impl Worker {
         };
         let mut events = WebEvents { shared: Arc::clone(&shared), last_sent: None, prompt_id: 0 };
         let profile = &self.profile;
-        let result = plan::check_work_area(profile, &prepared.steps).map_err(anyhow::Error::from).and_then(|()| {
-            on_session!(link, s => job::plot(s, profile, &prepared.steps, true, None, &mut events))
-        });
+        let result = plan::check_work_area(profile, &prepared.steps)
+            .map_err(anyhow::Error::from)
+            .and_then(|()| on_session!(link, s => job::plot(s, profile, &prepared.steps, true, None, &mut events)));
         events.flush();
         match result {
             Ok(outcome) => {
