@@ -167,12 +167,10 @@ async fn events(
     let s = stream::unfold((Some(first), rx, shared, lease), |(first, mut rx, shared, lease)| async move {
         let event = match first {
             Some(e) => e,
-            None => loop {
-                match rx.recv().await {
-                    Ok(e) => break e,
-                    Err(RecvError::Lagged(_)) => break Event::new("state", &shared.snapshot()),
-                    Err(RecvError::Closed) => return None,
-                }
+            None => match rx.recv().await {
+                Ok(e) => e,
+                Err(RecvError::Lagged(_)) => Event::new("state", &shared.snapshot()),
+                Err(RecvError::Closed) => return None,
             },
         };
         let sse = axum::response::sse::Event::default().event(event.name).data(event.data);

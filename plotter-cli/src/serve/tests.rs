@@ -265,7 +265,8 @@ async fn plot_on_the_simulator_pause_resume_and_finish() {
     })
     .await;
     let steps_per_mm = plotter_path::MachineProfile::default_plotter().axes.x.steps_per_mm;
-    assert_eq!(after["machine"]["position"][0].as_i64().unwrap() - x0, (10.0 * steps_per_mm).round() as i64);
+    let moved = after["machine"]["position"][0].as_i64().unwrap() - x0;
+    assert_eq!(moved as f64, (10.0 * steps_per_mm).round());
     // Plot, pause at the next pen-up, resume, finish.
     let (s, v) = c.post("/api/plot", json!({})).await;
     assert_eq!(s, StatusCode::OK, "{v}");

@@ -44,10 +44,10 @@ pub(crate) enum Command {
     Plot(Arc<Prepared>),
 }
 
-/// The open link.
+/// The open link (boxed: the simulator is large, and the link moves only when it opens).
 enum Link {
-    Sim(Session<PacedSim>),
-    Serial(Session<SerialTransport>),
+    Sim(Box<Session<PacedSim>>),
+    Serial(Box<Session<SerialTransport>>),
 }
 
 /// Run `$body` with `$s` bound to the session, whichever the transport.
@@ -133,12 +133,12 @@ impl Worker {
                 let name = format!("simulated plotter ({} x real time)", self.shared.config.sim_speed);
                 let transport =
                     PacedSim::new(SimTransport::new(cfg, Some(self.profile.link.baud)), self.shared.config.sim_speed);
-                (Link::Sim(Session::connect(transport, "simulated plotter")?), name)
+                (Link::Sim(Box::new(Session::connect(transport, "simulated plotter")?)), name)
             }
             Some(p) => {
                 let s = Session::connect(SerialTransport::open(p, self.profile.link.baud)?, p)?;
                 let name = format!("{p} (plotter-fw {})", s.info.version);
-                (Link::Serial(s), name)
+                (Link::Serial(Box::new(s)), name)
             }
         })
     }
@@ -212,9 +212,9 @@ impl Worker {
         };
         let mut events = WebEvents { shared: Arc::clone(&shared), last_sent: None, prompt_id: 0 };
         let profile = &self.profile;
-        let result = plan::check_work_area(profile, &prepared.steps)
-            .map_err(anyhow::Error::from)
-            .and_then(|()| on_session!(link, s => job::plot(s, profile, &prepared.steps, true, None, &mut events)));
+        let result = plan::check_work_area(profile, &prepared.steps).map_err(anyhow::Error::from).and_then(
+            |()| on_session!(link, s => job::plot(&mut **s, profile, &prepared.steps, true, None, &mut events)),
+        );
         events.flush();
         match result {
             Ok(outcome) => {
