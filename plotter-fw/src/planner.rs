@@ -307,8 +307,8 @@ fn span<F: Fn(usize) -> Seg>(
         // A whole chord keeps the span end on the curve; a chord reaching far past the span (a long straight
         // line) is cut at the span length.
         let take = if len + s.len <= 2.0 * target { s.len } else { target - len };
-        for i in 0..NUM_AXES {
-            v[i] += sign * s.unit[i] * take;
+        for (vi, u) in v.iter_mut().zip(s.unit) {
+            *vi += sign * u * take;
         }
         len += take;
         if len >= target {
@@ -356,8 +356,8 @@ fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineCo
     }
     let nominal_sqr = (a.nominal * a.nominal).min(b.nominal * b.nominal);
     let mut tangent = [0.0f32; NUM_AXES];
-    for i in 0..NUM_AXES {
-        tangent[i] = a.unit[i] + b.unit[i];
+    for (t, (x, y)) in tangent.iter_mut().zip(a.unit.iter().zip(b.unit)) {
+        *t = x + y;
     }
     let tl = sqrt(dot(&tangent, &tangent));
     tangent.iter_mut().for_each(|t| *t /= tl);
@@ -513,13 +513,10 @@ impl Linker {
         }
         let dev = cfg.curve_deviation_mm;
         let first = lo.saturating_sub(1);
-        for b in first..len {
+        for (b, sb) in segs.iter().enumerate().take(len).skip(first) {
             let end = (b + 1 < len).then(|| self.junctions[b + 1]);
-            self.caps[b] = if segs[b].fixed {
-                f32::INFINITY
-            } else {
-                chord_speed_sqr(segs[b].len, &self.junctions[b], end.as_ref(), dev)
-            };
+            self.caps[b] =
+                if sb.fixed { f32::INFINITY } else { chord_speed_sqr(sb.len, &self.junctions[b], end.as_ref(), dev) };
         }
         let qn = queue.len();
         for b in first..len {
@@ -607,6 +604,12 @@ pub fn junctions<'a>(blocks: &'a [PlanBlock], cfg: &MachineConfig) -> impl Itera
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_precision_loss,
+    reason = "test geometry: small finite values in mm and steps"
+)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
@@ -899,8 +902,8 @@ mod tests {
             let (x, y) = (f64::from(s[0]), f64::from(s[1]));
             [(x * a.cos() - y * a.sin()).round() as i32, (x * a.sin() + y * a.cos()).round() as i32, 0, 0]
         };
-        for k in mid..m.len() {
-            m[k].0 = rot(m[k].0, 60f64.to_radians());
+        for mv in m.iter_mut().skip(mid) {
+            mv.0 = rot(mv.0, 60f64.to_radians());
         }
         let v = build(&c, &m);
         let js: Vec<Junction> = junctions(&v, &c).collect();
