@@ -11,7 +11,8 @@
 //!
 //! Geometry: when two ends coincide exactly, the duplicate vertex is dropped; when they are only within the
 //! tolerance, the gap becomes a short pen-down bridge of at most the tolerance (that is what merging within a
-//! tolerance means). Closed paths and paths with fewer than two points are left as they are.
+//! tolerance means). A closed path joins through its seam vertex (both its ends); paths with fewer than two points
+//! are left as they are.
 
 use std::collections::VecDeque;
 
@@ -59,7 +60,9 @@ pub(crate) fn merge_paths(paths: Vec<Polyline>, tolerance: f64, allow_reverse: b
     if u32::try_from(n).is_err() {
         return (paths, stats);
     }
-    let mergeable: Vec<bool> = paths.iter().map(|p| p.points.len() >= 2 && !p.is_closed()).collect();
+    // A closed path takes part through its seam (its first and last point), as vpype's `linemerge` does: a path
+    // ending where a loop starts is drawn on around the loop without a lift.
+    let mergeable: Vec<bool> = paths.iter().map(|p| p.points.len() >= 2).collect();
     let members: Vec<usize> = (0..n).filter(|&i| mergeable[i]).collect();
     let mut rank = vec![u32::MAX; n];
     for (r, &i) in members.iter().enumerate() {
@@ -188,16 +191,23 @@ mod tests {
     }
 
     #[test]
-    fn closed_and_degenerate_paths_are_kept_in_place() {
+    fn degenerate_paths_are_kept_in_place_and_loops_join_at_their_seam() {
         let paths = vec![
             pl(&[(0.0, 0.0)]),
             pl(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 0.0)]),
             pl(&[(1.0, 1.0), (2.0, 2.0)]),
             Polyline::default(),
         ];
+        // Nothing meets the loop's seam (0, 0) but the single point, which is not a path to draw.
         let (out, stats) = merge_paths(paths.clone(), 0.5, true);
         assert_eq!(stats.joins, 0);
         assert_eq!(out, paths);
+        // A stroke ending at the seam is drawn on around the loop: one path of 5 points, 3 + 1 + 1 + √2 mm long.
+        let paths = vec![pl(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 0.0)]), pl(&[(-3.0, 0.0), (0.0, 0.0)])];
+        let (out, stats) = merge_paths(paths, 0.0, true);
+        assert_eq!((out.len(), stats.joins), (1, 1));
+        assert_eq!(out[0].points.len(), 5);
+        assert!((out[0].length() - (3.0 + 2.0 + 2f64.sqrt())).abs() < 1e-12);
     }
 
     #[test]
