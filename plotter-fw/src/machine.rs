@@ -45,7 +45,6 @@ pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 const RT_FLAG_STATUS: u8 = 1;
 const RT_FLAG_RESUME: u8 = 2;
 const RT_FLAG_RESET: u8 = 4;
-const RT_FLAG_ESTOP: u8 = 8;
 
 /// Result of handling one frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -91,6 +90,8 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     heaters: T,
     thermal: Thermal,
     estop: EmergencyParser,
+    /// `M112` was received; `poll` latches the alarm.
+    estop_pending: bool,
     cfg: MachineConfig,
     rx: RxBuffer<RX>,
     asm: LineAssembler,
@@ -158,6 +159,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             heaters,
             thermal,
             estop: EmergencyParser::new(),
+            estop_pending: false,
             cfg,
             rx: RxBuffer::new(),
             asm: LineAssembler::new(),
@@ -294,6 +296,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             || self.stepper.fault().is_some()
             || (self.resume_after_hold && self.stepper.is_held())
             || self.thermal.due(self.hal.now())
+            || self.estop_pending
     }
 
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
@@ -305,7 +308,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.stepper.abort();
             self.hal.cancel();
             self.timer_running = false;
-            self.rt |= RT_FLAG_ESTOP;
+            self.estop_pending = true;
         }
         if is_realtime(b) {
             match b {
@@ -424,8 +427,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// The heaters' period (PID, safety checks) and a pending emergency stop.
     fn service_thermal(&mut self) {
-        if self.rt & RT_FLAG_ESTOP != 0 {
-            self.rt &= !RT_FLAG_ESTOP;
+        if core::mem::take(&mut self.estop_pending) {
             self.raise_alarm(AlarmCode::EmergencyStop);
         }
         let now = self.hal.now();

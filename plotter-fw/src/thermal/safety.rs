@@ -5,8 +5,8 @@
 //! |-------|------------|--------------|
 //! | MINTEMP | a reading below `min_c`, or an open thermistor | one thermal period after the reading |
 //! | MAXTEMP | a reading above `max_c`, or a shorted thermistor | one thermal period after the reading |
-//! | heating failed | heater on (target above the temperature) and the temperature has not risen by `heat_rise_c` over `heat_period_s` | `heat_period_s` + one period after heating stopped working |
-//! | thermal runaway | the temperature has stayed below `target − hold_band_c` for `hold_period_s` after it had reached the target | `hold_period_s` + one period after it left the band |
+//! | heating failed | heater on (target above the temperature) and the temperature has not risen by `heat_rise_c` over `heat_period_s` | 2 × `heat_period_s` + one period after heating stopped working (the lagging sensor may still pass the first check) |
+//! | thermal runaway | the temperature has stayed below `target − hold_band_c` for `hold_period_s` after it had reached the target | `hold_period_s` + one period after the reading left the band for good |
 //! | sensor timeout | no fresh reading from the ADC for `watchdog_s` | `watchdog_s` + one period after the last reading |
 //!
 //! MINTEMP, MAXTEMP and the watchdog watch every configured heater all the time (also with the heater off: a broken
