@@ -101,6 +101,7 @@ pub struct SimHal {
     dir: [bool; NUM_AXES],
     invert: u8,
     phys: [i64; NUM_AXES],
+    phys_max: [i64; NUM_AXES],
     switches: [Option<Switch>; NUM_AXES],
     record: bool,
     steps: Vec<StepEvent>,
@@ -126,6 +127,7 @@ impl SimHal {
             dir: [false; NUM_AXES],
             invert,
             phys: opts.start,
+            phys_max: opts.start,
             switches: opts.switches,
             record: opts.record_steps,
             steps: Vec::new(),
@@ -141,6 +143,12 @@ impl SimHal {
     /// Physical position, steps.
     pub fn physical_position(&self) -> [i64; NUM_AXES] {
         self.phys
+    }
+
+    /// Highest physical position reached per axis, steps (for the extruder: the filament pushed out, since
+    /// retracted filament is pushed out again before any more leaves the nozzle).
+    pub fn max_position(&self) -> [i64; NUM_AXES] {
+        self.phys_max
     }
 
     /// Every step so far (empty when recording is off).
@@ -181,6 +189,7 @@ impl StepPins for SimHal {
         let i = axis.index();
         let forward = !self.dir[i];
         self.phys[i] += if forward { 1 } else { -1 };
+        self.phys_max[i] = self.phys_max[i].max(self.phys[i]);
         self.step_counts[i] += 1;
         if self.record {
             self.steps.push(StepEvent { time: self.now, axis, forward });

@@ -3,6 +3,7 @@
 
 pub(crate) mod faults;
 pub(crate) mod journal;
+pub(crate) mod print;
 pub(crate) mod serial;
 pub(crate) mod session;
 pub(crate) mod sim;

@@ -57,8 +57,10 @@ pub enum PrintOp {
         /// Source line.
         line: usize,
     },
-    /// Home all axes (`G28`).
+    /// Home (`G28`): the axes in `axes` (bits X=1, Y=2, Z=4; 0 = all).
     Home {
+        /// Axis mask.
+        axes: u8,
         /// Source line.
         line: usize,
     },
@@ -91,8 +93,12 @@ pub struct PrintProgram {
     pub warnings: Vec<GcodeWarning>,
     /// Number of layers.
     pub layers: usize,
-    /// Net extrusion (sum of all E moves, retractions negative), mm.
+    /// Filament pushed out of the nozzle, mm: the highest net E position reached (a retraction pulls filament
+    /// back into the nozzle, its prime pushes the same filament out again), which is what slicers report as
+    /// "filament used".
     pub extruded_mm: f64,
+    /// Net E at the end (sum of all E moves, retractions negative), mm.
+    pub net_e_mm: f64,
     /// The slicer's own figures from the comments.
     pub slicer: SlicerFigures,
 }
@@ -119,7 +125,8 @@ struct Player<'a> {
     ended: bool,
     ops: Vec<PrintOp>,
     warnings: Vec<GcodeWarning>,
-    extruded: f64,
+    net_e: f64,
+    high_e: f64,
 }
 
 /// Parse `; estimated printing time (normal mode) = 1d 2h 3m 4s` style durations.
@@ -283,15 +290,18 @@ impl Player<'_> {
                 910 => (self.absolute, self.e_relative) = (false, true),
                 170 | 940 | 400 | 490 | 540 => {}
                 280 => {
-                    if any_axis {
-                        self.warn(line, "G28 with axis words: all axes are homed");
+                    if axes[3].is_some() {
+                        self.warn(line, "G28 E: the extruder has no home, ignored");
                     }
                     if ws.iter().any(|w| matches!(w.letter, 'W' | 'O' | 'R')) {
                         self.warn(line, "G28 options ignored");
                     }
-                    self.push(line, PrintOp::Home { line })?;
-                    self.pos[..3].copy_from_slice(&self.homed_pos[..3]);
-                    self.offset[..3].fill(0.0);
+                    let mask = (0..3).filter(|k| axes[*k].is_some()).fold(0u8, |m, k| m | 1 << k);
+                    self.push(line, PrintOp::Home { axes: mask, line })?;
+                    for k in (0..3).filter(|k| mask == 0 || mask & 1 << k != 0) {
+                        self.pos[k] = self.homed_pos[k];
+                        self.offset[k] = 0.0;
+                    }
                     return Ok(());
                 }
                 920 => {
@@ -369,7 +379,8 @@ impl Player<'_> {
             self.layer += 1;
             self.layer_z = to[2];
         }
-        self.extruded += de;
+        self.net_e += de;
+        self.high_e = self.high_e.max(self.net_e);
         if to != self.pos {
             self.push(line, PrintOp::Move { to, feed_mm_s: feed, layer: self.layer, line })?;
         }
@@ -562,14 +573,22 @@ pub fn import_print(text: &str, origin: &str, profile: &MachineProfile) -> Resul
         ended: false,
         ops: Vec::new(),
         warnings: Vec::new(),
-        extruded: 0.0,
+        net_e: 0.0,
+        high_e: 0.0,
     };
     let mut slicer = SlicerFigures::default();
     for (idx, raw) in text.lines().enumerate() {
         slicer_comment(raw, &mut slicer);
         p.run_line(idx + 1, raw)?;
     }
-    Ok(PrintProgram { ops: p.ops, warnings: p.warnings, layers: p.layer, extruded_mm: p.extruded, slicer })
+    Ok(PrintProgram {
+        ops: p.ops,
+        warnings: p.warnings,
+        layers: p.layer,
+        extruded_mm: p.high_e,
+        net_e_mm: p.net_e,
+        slicer,
+    })
 }
 
 #[cfg(test)]
@@ -598,11 +617,17 @@ mod tests {
         assert_eq!(m[6][3], 4.5);
         assert!((m[7][3] - 3.7).abs() < 1e-12);
         assert!((m[8][3] - 4.2).abs() < 1e-12 && m[8][0] == 25.0);
-        assert!((p.extruded_mm - 4.2).abs() < 1e-12);
+        // Net 4.2 mm; the highest point was 4.5 mm (before the 0.8 mm retraction at the end of line 13).
+        assert!((p.net_e_mm - 4.2).abs() < 1e-12);
+        assert!((p.extruded_mm - 4.5).abs() < 1e-12);
         assert_eq!(p.layers, 2);
         assert!(p.warnings.is_empty(), "{:?}", p.warnings);
         // Homing comes first, then Z at pen-up height (3 mm) is the start of the Z0.2 move.
-        assert_eq!(p.ops[0], PrintOp::Home { line: 1 });
+        assert_eq!(p.ops[0], PrintOp::Home { axes: 0, line: 1 });
+        // End-of-print "G28 X0": X only, Z stays where it is.
+        let p = import_print("G28\nG1 Z20 F600\nG28 X0\nG1 Y5\n", "t.gcode", &printer()).unwrap();
+        assert_eq!(p.ops[2], PrintOp::Home { axes: 1, line: 3 });
+        assert_eq!(moves(&p)[1], [0.0, 5.0, 20.0, 0.0]);
     }
 
     #[test]

@@ -101,6 +101,29 @@ impl PrintPlan {
     }
 }
 
+/// The plan's items as the bytes sent on the wire, numbered from sequence number `base`: step blocks as frames,
+/// lines as `N<seq> <text>*<checksum>` (one sequence for both, so resends work the same for either).
+pub fn wire_items(plan: &PrintPlan, base: u32) -> Result<Vec<Vec<u8>>, String> {
+    let mut enc = protocol::Encoder::new();
+    let mut buf = [0u8; protocol::MAX_FRAME];
+    let mut out = Vec::with_capacity(plan.items.len());
+    for (i, item) in plan.items.iter().enumerate() {
+        let seq = base.wrapping_add(u32::try_from(i).map_err(|_| "too many items".to_string())?);
+        match item {
+            PrintItem::Block { block, .. } => {
+                let n = enc.encode(block, seq, &mut buf).map_err(|e| format!("item {i}: cannot encode: {e:?}"))?;
+                out.push(buf[..n].to_vec());
+            }
+            PrintItem::Line { text, .. } => {
+                let body = format!("N{seq} {text}");
+                let cs = protocol::xor_checksum(body.as_bytes());
+                out.push(format!("{body}*{cs}\n").into_bytes());
+            }
+        }
+    }
+    Ok(out)
+}
+
 struct Planner<'c> {
     cfg: &'c MachineConfig,
     items: Vec<PrintItem>,
@@ -198,10 +221,20 @@ pub fn plan_print(profile: &MachineProfile, program: &PrintProgram) -> Result<Pr
                 }
             }
             PrintOp::Sync { .. } => p.flush(),
-            PrintOp::Home { line } => {
-                p.line(PrintItem::Line { text: "G28".into(), wait: true, line: *line, layer }, true);
-                // X/Y/Z at the homed position; E is not homed and keeps counting.
-                pos[..3].copy_from_slice(&homed[..3]);
+            PrintOp::Home { axes, line } => {
+                let mut text = String::from("G28");
+                for (k, letter) in ['X', 'Y', 'Z'].iter().enumerate() {
+                    if axes & 1 << k != 0 {
+                        text.push(' ');
+                        text.push(*letter);
+                        text.push('0');
+                    }
+                }
+                p.line(PrintItem::Line { text, wait: true, line: *line, layer }, true);
+                // The homed axes at their homed position; E is not homed and keeps counting.
+                for k in (0..3).filter(|k| *axes == 0 || axes & 1 << k != 0) {
+                    pos[k] = homed[k];
+                }
             }
             PrintOp::Command { text, wait, line } => {
                 p.line(PrintItem::Line { text: text.clone(), wait: *wait, line: *line, layer }, *wait);
