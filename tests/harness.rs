@@ -180,3 +180,40 @@ pub fn point_segment_distance(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f6
     let (cx, cy) = (a.0 + t * dx, a.1 + t * dy);
     (p.0 - cx).hypot(p.1 - cy)
 }
+
+/// An axis-aligned cube of edge `size` mm with its minimum corner at the origin, as ASCII STL: 12 triangles, each
+/// wound counter-clockwise seen from outside with its outward unit normal (the STL convention slicers expect).
+pub fn cube_stl(size: f64) -> String {
+    // Corners by bits: x = bit 0, y = bit 1, z = bit 2.
+    let corner = |i: usize| {
+        let bit = |b: usize| if i & (1 << b) != 0 { size } else { 0.0 };
+        [bit(0), bit(1), bit(2)]
+    };
+    // Each face: outward normal and its four corners counter-clockwise seen from outside.
+    let faces: [([f64; 3], [usize; 4]); 6] = [
+        ([0.0, 0.0, -1.0], [0, 2, 3, 1]),
+        ([0.0, 0.0, 1.0], [4, 5, 7, 6]),
+        ([0.0, -1.0, 0.0], [0, 1, 5, 4]),
+        ([0.0, 1.0, 0.0], [2, 6, 7, 3]),
+        ([-1.0, 0.0, 0.0], [0, 4, 6, 2]),
+        ([1.0, 0.0, 0.0], [1, 3, 7, 5]),
+    ];
+    let mut out = String::from("solid cube\n");
+    for (n, q) in faces {
+        for tri in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            out.push_str(&format!(" facet normal {} {} {}\n  outer loop\n", n[0], n[1], n[2]));
+            for v in tri {
+                let p = corner(v);
+                out.push_str(&format!("   vertex {} {} {}\n", p[0], p[1], p[2]));
+            }
+            out.push_str("  endloop\n endfacet\n");
+        }
+    }
+    out.push_str("endsolid cube\n");
+    out
+}
+
+/// The G-code fixture sliced by PrusaSlicer from [`cube_stl`]`(20.0)` (see `tests/print_slicer.rs`).
+pub fn fixture(name: &str) -> PathBuf {
+    workspace_root().join("tests").join("fixtures").join(name)
+}
