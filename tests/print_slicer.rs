@@ -97,7 +97,8 @@ fn cube_stl_is_a_closed_20mm_cube() {
         area += len / 2.0;
         // Divergence theorem: V = Σ (p0 · (p1 × p2)) / 6.
         let p = t;
-        volume += (p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
+        volume += (p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1])
+            - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
             + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]))
             / 6.0;
     }
@@ -181,12 +182,15 @@ fn prusaslicer_cube_plays_to_the_end() {
             }
         }
     }
+    // Positions on a 235 mm bed: far inside i64.
+    #[allow(clippy::cast_possible_truncation)]
+    let steps = |mm: f64, spm: f64| (mm * spm).round() as i64;
     let x_homed = text.lines().any(|l| l.starts_with("G28 X0"));
     let phys = sim.physical_position();
-    let expect_x = if x_homed { 0 } else { (last[0] * 80.0).round() as i64 };
+    let expect_x = if x_homed { 0 } else { steps(last[0], 80.0) };
     assert_eq!(phys[0], expect_x);
-    assert_eq!(phys[1], (last[1] * 80.0).round() as i64);
-    assert_eq!(phys[2], (last[2] * 400.0).round() as i64);
+    assert_eq!(phys[1], steps(last[1], 80.0));
+    assert_eq!(phys[2], steps(last[2], 400.0));
 
     // Time: the stepper ran exactly the planned motion plus the two homing cycles (measured on their own from the
     // same physical positions).

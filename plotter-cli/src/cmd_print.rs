@@ -74,7 +74,11 @@ fn hms(secs: f64) -> String {
     // Print times are far below u64::MAX seconds; negative or NaN shows as 0.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let s = secs.max(0.0).round() as u64;
-    if s >= 3600 { format!("{}h {:02}m {:02}s", s / 3600, s / 60 % 60, s % 60) } else { format!("{}m {:02}s", s / 60, s % 60) }
+    if s >= 3600 {
+        format!("{}h {:02}m {:02}s", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}m {:02}s", s / 60, s % 60)
+    }
 }
 
 /// The simulator with the faults it should suffer.
@@ -152,7 +156,11 @@ pub(crate) fn run(args: &PrintArgs) -> anyhow::Result<()> {
         program.extruded_mm,
         hms(ours)
     );
-    let target = if std::io::stderr().is_terminal() { ProgressDrawTarget::stderr_with_hz(5) } else { ProgressDrawTarget::hidden() };
+    let target = if std::io::stderr().is_terminal() {
+        ProgressDrawTarget::stderr_with_hz(5)
+    } else {
+        ProgressDrawTarget::hidden()
+    };
     let bar = ProgressBar::with_draw_target(Some(u64::try_from(plan.items.len()).unwrap_or(u64::MAX)), target);
     if let Ok(style) = ProgressStyle::with_template("{bar:25} {percent:>3}%  {msg}") {
         bar.set_style(style.progress_chars("█▉ "));

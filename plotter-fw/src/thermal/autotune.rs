@@ -106,7 +106,8 @@ impl Autotune {
                 let a = (peak - self.trough) / 2.0;
                 let tu = (high + low) as f32 / 1e6;
                 if a > HYSTERESIS_C && tu > 0.0 {
-                    let ku = 4.0 * self.d / (core::f32::consts::PI * crate::fmath::sqrt(a * a - HYSTERESIS_C * HYSTERESIS_C));
+                    let ku = 4.0 * self.d
+                        / (core::f32::consts::PI * crate::fmath::sqrt(a * a - HYSTERESIS_C * HYSTERESIS_C));
                     let kp = 0.6 * ku;
                     self.sum[0] += kp;
                     self.sum[1] += 2.0 * kp / tu;

@@ -24,7 +24,11 @@ pub struct PidGains {
 impl PidGains {
     /// Whether all gains are finite and non-negative, with a positive Kp.
     pub fn is_valid(&self) -> bool {
-        self.kp.is_finite() && self.kp > 0.0 && self.ki.is_finite() && self.ki >= 0.0 && self.kd.is_finite()
+        self.kp.is_finite()
+            && self.kp > 0.0
+            && self.ki.is_finite()
+            && self.ki >= 0.0
+            && self.kd.is_finite()
             && self.kd >= 0.0
     }
 }

@@ -552,12 +552,7 @@ pub fn import_print(text: &str, origin: &str, profile: &MachineProfile) -> Resul
         message: e.to_string(),
     })?;
     let spm = [profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm, profile.axes.z.steps_per_mm];
-    let homed_pos = [
-        f64::from(homed[0]) / spm[0],
-        f64::from(homed[1]) / spm[1],
-        f64::from(homed[2]) / spm[2],
-        0.0,
-    ];
+    let homed_pos = [f64::from(homed[0]) / spm[0], f64::from(homed[1]) / spm[1], f64::from(homed[2]) / spm[2], 0.0];
     let mut p = Player {
         origin,
         mm_per_unit: 1.0,
@@ -639,7 +634,9 @@ mod tests {
         let cmds: Vec<(&str, bool)> = p
             .ops
             .iter()
-            .filter_map(|o| if let PrintOp::Command { text, wait, .. } = o { Some((text.as_str(), *wait)) } else { None })
+            .filter_map(
+                |o| if let PrintOp::Command { text, wait, .. } = o { Some((text.as_str(), *wait)) } else { None },
+            )
             .collect();
         assert_eq!(
             cmds,

@@ -170,7 +170,14 @@ pub fn plan_print(profile: &MachineProfile, program: &PrintProgram) -> Result<Pr
     };
     let homed = homed_position(profile).map_err(|e| PrintPlanError::Profile(e.to_string()))?;
     let axes = [profile.axes.x, profile.axes.y, profile.axes.z, e_axis];
-    let mut p = Planner { cfg: &cfg, items: Vec::new(), run: Vec::new(), run_layers: Vec::new(), run_lines: Vec::new(), total: 0 };
+    let mut p = Planner {
+        cfg: &cfg,
+        items: Vec::new(),
+        run: Vec::new(),
+        run_layers: Vec::new(),
+        run_lines: Vec::new(),
+        total: 0,
+    };
     let mut pos: MachinePos = homed;
     let mut e_steps: i64 = 0;
     let mut layer = 0;
