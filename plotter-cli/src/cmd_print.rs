@@ -15,7 +15,6 @@ use std::path::PathBuf;
 use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_fw::sim::thermal::SimFault;
-use plotter_fw::sim::{Sim, SimOptions};
 use plotter_fw::thermal::Heater;
 use plotter_fw::{Axis, TICK_HZ};
 use plotter_path::input::gcode_print::import_print;
@@ -23,12 +22,10 @@ use plotter_path::motion::heaters::thermal_config;
 use plotter_path::motion::plan;
 use plotter_path::motion::print_plan::plan_print;
 
-use crate::cmd_plot::load_profile;
-use crate::link::Transport;
-use crate::link::print::{PrintControl, PrintProgress, stream_print};
-use crate::link::serial::SerialTransport;
-use crate::link::session::Session;
-use crate::link::sim::SimTransport;
+use plotter_host::job::load::load_profile;
+use plotter_host::link::print::{PrintControl, PrintProgress, PrinterSim, ScheduledFault, stream_print};
+use plotter_host::link::serial::SerialTransport;
+use plotter_host::link::session::Session;
 
 /// Arguments of `plotter print`.
 #[derive(clap::Args, Debug, Clone)]
@@ -78,37 +75,6 @@ fn hms(secs: f64) -> String {
         format!("{}h {:02}m {:02}s", s / 3600, s / 60 % 60, s % 60)
     } else {
         format!("{}m {:02}s", s / 60, s % 60)
-    }
-}
-
-/// The simulator with the faults it should suffer.
-struct FaultySim {
-    inner: SimTransport,
-    faults: Vec<(Heater, SimFault, u64)>,
-}
-
-impl Transport for FaultySim {
-    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        self.inner.send(bytes)
-    }
-    fn recv_line(&mut self, timeout: std::time::Duration) -> std::io::Result<Option<String>> {
-        let now = self.inner.sim().now();
-        let sim = self.inner.sim_mut();
-        self.faults.retain(|(h, f, at)| {
-            if *at <= now {
-                sim.heaters_mut().inject(*h, Some(*f));
-                false
-            } else {
-                true
-            }
-        });
-        // Never run past the next fault.
-        let until_fault = self.faults.iter().map(|f| f.2.saturating_sub(now)).min().unwrap_or(u64::MAX);
-        let cap = std::time::Duration::from_micros(until_fault.max(1));
-        self.inner.recv_line(timeout.min(cap))
-    }
-    fn now(&self) -> std::time::Duration {
-        self.inner.now()
     }
 }
 
@@ -169,25 +135,23 @@ pub(crate) fn run(args: &PrintArgs) -> anyhow::Result<()> {
     let baud = args.baud.unwrap_or(profile.link.baud);
     match &args.port {
         None => {
-            let opts = SimOptions { thermal, record_steps: false, ..SimOptions::for_config(&cfg) };
-            let inner = SimTransport::from_sim(Sim::with_options(cfg, opts), None);
             let faults = args
                 .fault
                 .iter()
-                .map(|(h, f, s)| {
+                .map(|(heater, fault, s)| {
                     // Seconds to µs, far inside u64.
                     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-                    let at = (s * 1e6).round() as u64;
-                    (*h, *f, at)
+                    let at_us = (s * 1e6).round() as u64;
+                    ScheduledFault { heater: *heater, fault: *fault, at_us }
                 })
                 .collect();
-            let transport = FaultySim { inner, faults };
+            let transport = PrinterSim::new(cfg, thermal, faults);
             let mut session = Session::connect(transport, "simulated printer")?;
-            let busy_before = session.transport.inner.sim().hal().busy_ticks();
+            let busy_before = session.transport.sim().hal().busy_ticks();
             let result = stream_print(&mut session, &plan, &mut display);
             display.bar.finish_and_clear();
             let stats = result?;
-            let sim = session.transport.inner.sim();
+            let sim = session.transport.sim();
             // Step counts of a print are far inside f64's mantissa.
             #[allow(clippy::cast_precision_loss)]
             let e_mm = sim.hal().max_position()[Axis::E.index()] as f64 / f64::from(cfg.axis(Axis::E).steps_per_mm);

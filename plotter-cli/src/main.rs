@@ -16,9 +16,6 @@ mod cmd_print;
 mod cmd_sim;
 mod cmd_stats;
 mod cmd_trace;
-mod input;
-mod layout_args;
-mod link;
 
 use clap::{Parser, Subcommand};
 

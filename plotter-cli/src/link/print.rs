@@ -15,31 +15,93 @@ use std::collections::VecDeque;
 use std::time::Duration;
 
 use anyhow::{Context as _, bail};
+use plotter_fw::MachineConfig;
 use plotter_fw::protocol::{RT_STATUS, Reply};
+use plotter_fw::sim::thermal::SimFault;
+use plotter_fw::sim::{Sim, SimOptions};
+use plotter_fw::thermal::{Heater, ThermalConfig};
 use plotter_path::motion::print_plan::{PrintItem, PrintPlan, wire_items};
 
 use super::Transport;
 use super::session::{COMMAND_TIMEOUT, Session, Status};
+use super::sim::SimTransport;
+
+/// A fault to inject into the simulated printer: `fault` on `heater` at `at_us` of virtual time (µs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScheduledFault {
+    /// The heater.
+    pub heater: Heater,
+    /// What breaks.
+    pub fault: SimFault,
+    /// When, µs of virtual time.
+    pub at_us: u64,
+}
+
+/// The simulated printer (firmware, steppers, heaters on their thermal model) behind the [`Transport`] trait, with
+/// faults injected at their scheduled times.
+pub struct PrinterSim {
+    inner: SimTransport,
+    faults: Vec<ScheduledFault>,
+}
+
+impl PrinterSim {
+    /// A printer for `cfg` with the heaters of `thermal`; bytes arrive as fast as the firmware takes them.
+    pub fn new(cfg: MachineConfig, thermal: ThermalConfig, faults: Vec<ScheduledFault>) -> Self {
+        let opts = SimOptions { thermal, record_steps: false, ..SimOptions::for_config(&cfg) };
+        PrinterSim { inner: SimTransport::from_sim(Sim::with_options(cfg, opts), None), faults }
+    }
+
+    /// The simulator (positions, stepper time, heaters).
+    pub fn sim(&self) -> &Sim {
+        self.inner.sim()
+    }
+}
+
+impl Transport for PrinterSim {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.inner.send(bytes)
+    }
+
+    fn recv_line(&mut self, timeout: Duration) -> std::io::Result<Option<String>> {
+        let now = self.inner.sim().now();
+        let sim = self.inner.sim_mut();
+        self.faults.retain(|f| {
+            if f.at_us <= now {
+                sim.heaters_mut().inject(f.heater, Some(f.fault));
+                false
+            } else {
+                true
+            }
+        });
+        // Never run past the next fault.
+        let until = self.faults.iter().map(|f| f.at_us.saturating_sub(now)).min().unwrap_or(u64::MAX);
+        self.inner.recv_line(timeout.min(Duration::from_micros(until.max(1))))
+    }
+
+    fn now(&self) -> Duration {
+        self.inner.now()
+    }
+}
 
 /// What the display shows.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct PrintProgress {
+pub struct PrintProgress {
     /// Items accepted by the firmware.
-    pub(crate) accepted: usize,
+    pub accepted: usize,
     /// Items in the plan.
-    pub(crate) items: usize,
+    pub items: usize,
     /// Layer of the latest accepted block.
-    pub(crate) layer: usize,
+    pub layer: usize,
     /// Planned motion time not yet accepted, ticks.
-    pub(crate) remaining_ticks: u64,
+    pub remaining_ticks: u64,
     /// The latest temperature report (`T:… /… B:… /…`).
-    pub(crate) temperatures: Option<String>,
+    pub temperatures: Option<String>,
     /// The command the firmware is waiting on, if any.
-    pub(crate) waiting: Option<String>,
+    pub waiting: Option<String>,
 }
 
 /// The caller's side: display and notes.
-pub(crate) trait PrintControl {
+pub trait PrintControl {
     /// Progress changed (accepted count, temperatures or waiting state).
     fn progress(&mut self, p: &PrintProgress);
     /// Something to tell the user (a refused line, a firmware message).
@@ -48,22 +110,22 @@ pub(crate) trait PrintControl {
 
 /// Figures of a finished print.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct PrintStats {
+pub struct PrintStats {
     /// Transport time from the first item to idle (heating and homing included).
-    pub(crate) elapsed: Duration,
+    pub elapsed: Duration,
     /// Items resent after `rs`.
-    pub(crate) resent: u64,
+    pub resent: u64,
     /// Lines the firmware refused.
-    pub(crate) refused: usize,
+    pub refused: usize,
     /// The last temperature report.
-    pub(crate) temperatures: Option<String>,
+    pub temperatures: Option<String>,
 }
 
 /// Quiet time after which the firmware is taken to be gone (it reports temperatures every second).
 const SILENCE: Duration = Duration::from_secs(30);
 
 /// Stream `plan` over `session`; `control` gets the progress.
-pub(crate) fn stream_print<T: Transport>(
+pub fn stream_print<T: Transport>(
     session: &mut Session<T>,
     plan: &PrintPlan,
     control: &mut dyn PrintControl,
