@@ -14,23 +14,34 @@ use plotter_fw::machine::Machine;
 
 /// The board's one machine, installed at start-up.
 pub struct Shared<H: Hal> {
-    cell: Mutex<RefCell<Option<Machine<H>>>>,
+    cell: Mutex<RefCell<Slot<Machine<H>>>>,
+}
+
+/// `Option` with a forced tag layout: the empty state is a zero tag and nothing else, so a `static` of it goes
+/// to `.bss` (zeroed at start-up) instead of storing the whole machine's initial bytes in flash as `.data`.
+#[repr(u8)]
+enum Slot<T> {
+    Empty = 0,
+    Full(T),
 }
 
 impl<H: Hal> Shared<H> {
     /// Empty (a `static` initialiser).
     pub const fn new() -> Self {
-        Shared { cell: Mutex::new(RefCell::new(None)) }
+        Shared { cell: Mutex::new(RefCell::new(Slot::Empty)) }
     }
 
     /// Install the machine (after the banner was written by [`Machine::new`]).
     pub fn install(&self, m: Machine<H>) {
-        critical_section::with(|cs| *self.cell.borrow_ref_mut(cs) = Some(m));
+        critical_section::with(|cs| *self.cell.borrow_ref_mut(cs) = Slot::Full(m));
     }
 
     /// Run `f` on the machine, if installed.
     pub fn with<R>(&self, f: impl FnOnce(&mut Machine<H>) -> R) -> Option<R> {
-        critical_section::with(|cs| self.cell.borrow_ref_mut(cs).as_mut().map(f))
+        critical_section::with(|cs| match &mut *self.cell.borrow_ref_mut(cs) {
+            Slot::Full(m) => Some(f(m)),
+            Slot::Empty => None,
+        })
     }
 
     /// UART receive interrupt: one byte.
