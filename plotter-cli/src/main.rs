@@ -18,6 +18,7 @@ mod cmd_trace;
 mod input;
 mod layout_args;
 mod link;
+mod sim_qemu;
 
 use clap::{Parser, Subcommand};
 
@@ -43,7 +44,8 @@ enum Command {
     Convert(cmd_convert::ConvertArgs),
     /// Plot a drawing on the simulated plotter (default) or a serial plotter (--port)
     Plot(cmd_plot::PlotArgs),
-    /// Run the simulated firmware on a pseudo-terminal (`--pty`) and print its device path
+    /// Run the simulated firmware (`--pty`) or the firmware image under QEMU (`--qemu`) on a pseudo-terminal and
+    /// print its device path
     Sim(cmd_sim::SimArgs),
     /// Home a connected plotter
     Home(cmd_home::LinkArgs),

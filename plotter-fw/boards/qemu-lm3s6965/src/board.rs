@@ -19,7 +19,7 @@ use plotter_fw::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer};
 use plotter_fw::{Axis, TICK_HZ};
 
 use crate::pins;
-use crate::regs::{self, gpio, sysctl, timer0, uart, wdt};
+use crate::regs::{self, gpio, sysctl, timer0, timer1, uart, wdt};
 
 /// Core clock, Hz (RCC: 200 MHz PLL ÷ 4).
 pub(crate) const SYSCLK_HZ: u32 = 50_000_000;
@@ -71,9 +71,9 @@ pub(crate) fn init(syst: &mut cortex_m::peripheral::SYST) -> ResetCause {
     };
     // 8 MHz crystal, PLL on (400 MHz / 2), SYSDIV = 3 → 50 MHz. QEMU derives the clock from SYSDIV alone.
     regs::write(sysctl::RCC, (3 << 23) | (1 << 22) | (0xE << 6));
-    // Clock gates: watchdog; UART0, timer 0; GPIO B, D, E.
+    // Clock gates: watchdog; UART0, timers 0 and 1; GPIO B, D, E.
     regs::write(sysctl::RCGC0, 1 << 3);
-    regs::write(sysctl::RCGC1, (1 << 0) | (1 << 16));
+    regs::write(sysctl::RCGC1, (1 << 0) | (1 << 16) | (1 << 17));
     regs::write(sysctl::RCGC2, (1 << 1) | (1 << 3) | (1 << 4));
 
     // Step/dir outputs low; drivers disabled until start-up is done ([`enable_drivers`]). (GPIODATA only
@@ -106,6 +106,15 @@ pub(crate) fn init(syst: &mut cortex_m::peripheral::SYST) -> ResetCause {
     regs::write(timer0::TAMR, timer0::TAMR_ONE_SHOT);
     regs::write(timer0::IMR, timer0::TIMEOUT);
 
+    // Timer 1A: 1 kHz periodic endstop sampling, so the debounce filter sees the switches between step events
+    // too (moves that do not watch them, idle time).
+    regs::write(timer1::CTL, 0);
+    regs::write(timer1::CFG, 0);
+    regs::write(timer1::TAMR, timer1::TAMR_PERIODIC);
+    regs::write(timer1::TAILR, SYSCLK_HZ / 1_000);
+    regs::write(timer1::IMR, timer0::TIMEOUT);
+    regs::write(timer1::CTL, timer0::CTL_TAEN);
+
     // SysTick: free-running on the core clock, an exception per wrap.
     syst.set_clock_source(cortex_m::peripheral::syst::SystClkSource::Core);
     syst.set_reload(SYSTICK_RELOAD);
@@ -135,6 +144,11 @@ pub(crate) fn emergency_stop() {
     regs::write(timer0::CTL, 0);
     regs::gpio_write(pins::ENABLE_PORT, pins::ENABLE, pins::ENABLE);
     regs::gpio_write(pins::STEP_PORT, pins::ALL_STEP, 0);
+}
+
+/// Acknowledge the sampling timer's interrupt.
+pub(crate) fn ack_sample_timer() {
+    regs::write(timer1::ICR, timer0::TIMEOUT);
 }
 
 /// Acknowledge the step timer's interrupt.
@@ -191,11 +205,19 @@ impl StepPins for QemuHal {
     }
 }
 
+impl QemuHal {
+    /// Feed the debounce filter a reading of the endstop pins (the 1 kHz sampling tick and every read).
+    pub(crate) fn sample_endstops(&mut self) -> u8 {
+        let raw = pins::endstops_pressed(regs::gpio_read(pins::ENDSTOP_PORT));
+        let now = self.now();
+        self.debounce.update(raw, now)
+    }
+}
+
 impl Endstops for QemuHal {
     #[inline]
     fn pressed(&mut self) -> u8 {
-        let raw = pins::endstops_pressed(regs::gpio_read(pins::ENDSTOP_PORT));
-        self.debounce.update(raw, self.now())
+        self.sample_endstops()
     }
 }
 

@@ -70,6 +70,7 @@ fn main() -> ! {
     unsafe {
         NVIC::unmask(Interrupt::UART0);
         NVIC::unmask(Interrupt::TIMER_0A);
+        NVIC::unmask(Interrupt::TIMER_1A);
         NVIC::unmask(Interrupt::WATCHDOG_TIMER_0);
     }
     loop {
@@ -96,6 +97,12 @@ fn UART0() {
 fn TIMER_0A() {
     board::ack_step_timer();
     MACHINE.on_timer();
+}
+
+#[interrupt]
+fn TIMER_1A() {
+    board::ack_sample_timer();
+    MACHINE.with(|m| m.hal_mut().sample_endstops());
 }
 
 #[interrupt]

@@ -64,6 +64,18 @@ pub(crate) mod timer0 {
     pub(crate) const CTL_TAEN: u32 = 1;
 }
 
+/// General-purpose timer 1, a 1 kHz periodic tick that samples the endstops (timer A).
+pub(crate) mod timer1 {
+    pub(crate) const BASE: usize = 0x4003_1000;
+    pub(crate) const CFG: usize = BASE;
+    pub(crate) const TAMR: usize = BASE + 0x04;
+    pub(crate) const CTL: usize = BASE + 0x0C;
+    pub(crate) const IMR: usize = BASE + 0x18;
+    pub(crate) const ICR: usize = BASE + 0x24;
+    pub(crate) const TAILR: usize = BASE + 0x28;
+    pub(crate) const TAMR_PERIODIC: u32 = 2;
+}
+
 /// Watchdog timer 0: interrupt at the first time-out, reset at the second.
 pub(crate) mod wdt {
     pub(crate) const BASE: usize = 0x4000_0000;
