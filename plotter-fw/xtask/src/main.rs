@@ -5,6 +5,7 @@
 //! cargo xtask firmware --board nucleo-l476rg   # target/firmware/nucleo-l476rg.{elf,bin} + size report
 //! cargo xtask firmware --board qemu-lm3s6965   # the emulated CI board (plotter sim --qemu runs it)
 //! cargo xtask firmware --all                   # both
+//! cargo xtask firmware --board nucleo-l476rg --features servo-pen   # pen lift by a hobby servo
 //! cargo xtask boards                           # list the boards
 //! ```
 //!
@@ -30,14 +31,24 @@ fn target_dir() -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), PathBuf::from)
 }
 
-const USAGE: &str = "usage: cargo xtask firmware --board NAME | --all\n       cargo xtask boards";
+const USAGE: &str =
+    "usage: cargo xtask firmware (--board NAME | --all) [--features F]\n       cargo xtask boards";
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("firmware") => {
-            let rest = &args[1..];
-            let chosen: Vec<Board> = match rest {
+            let mut rest: Vec<String> = args[1..].to_vec();
+            let features = match rest.iter().position(|a| a == "--features") {
+                Some(i) if i + 1 < rest.len() => {
+                    let f = rest.remove(i + 1);
+                    rest.remove(i);
+                    Some(f)
+                }
+                Some(_) => bail!("--features needs a value, e.g. --features servo-pen"),
+                None => None,
+            };
+            let chosen: Vec<Board> = match rest.as_slice() {
                 [flag, name] if flag == "--board" => vec![boards::find(name).with_context(|| {
                     let names: Vec<&str> = boards::BOARDS.iter().map(|b| b.name).collect();
                     format!("unknown board {name:?}; boards: {}", names.join(", "))
@@ -46,7 +57,7 @@ fn main() -> anyhow::Result<()> {
                 _ => bail!("{USAGE}"),
             };
             for b in chosen {
-                firmware(&b)?;
+                firmware(&b, features.as_deref())?;
             }
             Ok(())
         }
@@ -61,12 +72,16 @@ fn main() -> anyhow::Result<()> {
 }
 
 /// Build one board image, write `.elf` and `.bin` under `target/firmware/`, print the size report.
-fn firmware(b: &Board) -> anyhow::Result<()> {
+fn firmware(b: &Board, features: Option<&str>) -> anyhow::Result<()> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let boards_dir = root().join("plotter-fw").join("boards");
     let build_dir = target_dir().join("boards");
-    let status = Command::new(&cargo)
-        .args(["build", "--release", "--locked", "-p", b.name, "--target", b.target])
+    let mut cmd = Command::new(&cargo);
+    cmd.args(["build", "--release", "--locked", "-p", b.name, "--target", b.target]);
+    if let Some(f) = features {
+        cmd.args(["--features", f]);
+    }
+    let status = cmd
         .arg("--manifest-path")
         .arg(boards_dir.join("Cargo.toml"))
         .arg("--target-dir")
