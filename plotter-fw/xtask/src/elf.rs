@@ -137,7 +137,7 @@ mod tests {
     /// A hand-assembled ELF32 image: two PT_LOAD segments (code at 0x0800_0000, data initialisers at
     /// 0x0800_0010 for 0x2000_0000) and sections `.text`, `.data`, `.bss` plus the name table.
     fn tiny() -> Vec<u8> {
-        let mut f = vec![0u8; 0x200];
+        let mut f = vec![0u8; 0x240];
         f[..4].copy_from_slice(b"\x7fELF");
         f[4] = 1;
         f[5] = 1;
@@ -161,7 +161,7 @@ mod tests {
         f[0x80..0x88].copy_from_slice(&[1, 2, 3, 4, 5, 6, 7, 8]);
         f[0x90..0x94].copy_from_slice(&[9, 9, 9, 9]);
         let names = b"\0.text\0.data\0.bss\0.shstrtab\0";
-        f[0x1A0..0x1A0 + names.len()].copy_from_slice(names);
+        f[0x1D0..0x1D0 + names.len()].copy_from_slice(names);
         // Sections: null, .text, .data, .bss, .shstrtab.
         let sec = |f: &mut Vec<u8>, i: usize, name: u32, ty: u32, flags: u32, addr: u32, off: u32, size: u32| {
             let at = 0x100 + i * 40;
@@ -175,7 +175,7 @@ mod tests {
         sec(&mut f, 1, 1, 1, SHF_ALLOC | 4, 0x0800_0000, 0x80, 8);
         sec(&mut f, 2, 7, 1, SHF_ALLOC | 1, 0x2000_0000, 0x90, 4);
         sec(&mut f, 3, 13, SHT_NOBITS, SHF_ALLOC | 1, 0x2000_0004, 0, 100);
-        sec(&mut f, 4, 18, 3, 0, 0, 0x1A0, u32::try_from(names.len()).unwrap());
+        sec(&mut f, 4, 18, 3, 0, 0, 0x1D0, u32::try_from(names.len()).unwrap());
         f
     }
 

@@ -6,6 +6,7 @@
 //! cargo xtask firmware --board qemu-lm3s6965   # the emulated CI board (plotter sim --qemu runs it)
 //! cargo xtask firmware --all                   # both
 //! cargo xtask firmware --board nucleo-l476rg --features servo-pen   # pen lift by a hobby servo
+//! cargo xtask tick-cost                        # cycles of the stepper interrupt on a Cortex-M4F (QEMU)
 //! cargo xtask boards                           # list the boards
 //! ```
 //!
@@ -14,6 +15,7 @@
 
 mod boards;
 mod elf;
+mod tick_cost;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -32,7 +34,7 @@ fn target_dir() -> PathBuf {
 }
 
 const USAGE: &str =
-    "usage: cargo xtask firmware (--board NAME | --all) [--features F]\n       cargo xtask boards";
+    "usage: cargo xtask firmware (--board NAME | --all) [--features F]\n       cargo xtask tick-cost\n       cargo xtask boards";
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -61,6 +63,10 @@ fn main() -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Some("tick-cost") => {
+            let elf = build(BENCH, None)?;
+            tick_cost::run(&elf)
+        }
         Some("boards") => {
             for b in boards::BOARDS {
                 println!("{:<16} {:<24} {}", b.name, b.target, b.about);
@@ -71,13 +77,16 @@ fn main() -> anyhow::Result<()> {
     }
 }
 
-/// Build one board image, write `.elf` and `.bin` under `target/firmware/`, print the size report.
-fn firmware(b: &Board, features: Option<&str>) -> anyhow::Result<()> {
+/// The tick bench image (see `tick_cost`).
+const BENCH: (&str, &str) = ("tick-bench", "thumbv7em-none-eabihf");
+
+/// Build a crate of the boards workspace for `target`; returns the ELF's path.
+fn build((name, target): (&str, &str), features: Option<&str>) -> anyhow::Result<PathBuf> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let boards_dir = root().join("plotter-fw").join("boards");
     let build_dir = target_dir().join("boards");
     let mut cmd = Command::new(&cargo);
-    cmd.args(["build", "--release", "--locked", "-p", b.name, "--target", b.target]);
+    cmd.args(["build", "--release", "--locked", "-p", name, "--target", target]);
     if let Some(f) = features {
         cmd.args(["--features", f]);
     }
@@ -90,13 +99,14 @@ fn firmware(b: &Board, features: Option<&str>) -> anyhow::Result<()> {
         .status()
         .with_context(|| format!("cannot run {cargo}"))?;
     if !status.success() {
-        bail!(
-            "building {} failed (is the target installed? `rustup target add {}`)",
-            b.name,
-            b.target
-        );
+        bail!("building {name} failed (is the target installed? `rustup target add {target}`)");
     }
-    let built = build_dir.join(b.target).join("release").join(b.name);
+    Ok(build_dir.join(target).join("release").join(name))
+}
+
+/// Build one board image, write `.elf` and `.bin` under `target/firmware/`, print the size report.
+fn firmware(b: &Board, features: Option<&str>) -> anyhow::Result<()> {
+    let built = build((b.name, b.target), features)?;
     let out_dir = target_dir().join("firmware");
     std::fs::create_dir_all(&out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
     let elf_path = out_dir.join(format!("{}.elf", b.name));

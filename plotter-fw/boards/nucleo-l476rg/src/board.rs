@@ -173,8 +173,8 @@ pub(crate) fn enable_drivers() {
 pub(crate) fn emergency_stop() {
     regs::write(tim::TIM2 + tim::DIER, 0);
     set(pins::ENABLE);
-    for p in pins::STEP {
-        reset(p);
+    for p in &pins::STEP {
+        reset(*p);
     }
     if cfg!(feature = "servo-pen") {
         regs::write(tim::TIM3 + tim::CCR3, u32::from(pins::SERVO_UP_US));
@@ -190,8 +190,8 @@ pub(crate) fn tim2_events() -> bool {
         TIM2_WRAPS.fetch_add(1, Ordering::Relaxed);
     }
     if sr & tim::CC2 != 0 {
-        for p in pins::STEP {
-            reset(p);
+        for p in &pins::STEP {
+            reset(*p);
         }
         regs::modify(t + tim::DIER, tim::CC2, 0);
     }
