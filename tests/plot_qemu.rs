@@ -216,7 +216,14 @@ fn bad_input_over_the_uart_behaves_as_in_the_simulator() {
     }
     let mut enc = Encoder::new();
     let mut frame = [0u8; MAX_FRAME];
-    let block = StepBlock { steps: [400, 160, 0, 0], entry_rate: 0, cruise_rate: 4_000, exit_rate: 0, accel: 40_000, dwell_ticks: 0 };
+    let block = StepBlock {
+        steps: [400, 160, 0, 0],
+        entry_rate: 0,
+        cruise_rate: 4_000,
+        exit_rate: 0,
+        accel: 40_000,
+        dwell_ticks: 0,
+    };
     let n = enc.encode(&block, 0, &mut frame).unwrap();
     let good = frame[..n].to_vec();
     // Damage the CRC: the byte before the terminator (kept below 0x80 and off the escape/marker values).

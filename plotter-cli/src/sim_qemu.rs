@@ -162,7 +162,8 @@ impl Qmp {
                         bail!("qemu-system-arm exited ({status}) before its control socket opened");
                     }
                     if Instant::now() > deadline {
-                        return Err(e).with_context(|| format!("cannot reach QEMU's control socket {}", path.display()));
+                        return Err(e)
+                            .with_context(|| format!("cannot reach QEMU's control socket {}", path.display()));
                     }
                     std::thread::sleep(Duration::from_millis(20));
                 }

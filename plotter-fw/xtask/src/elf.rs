@@ -78,7 +78,11 @@ impl<'a> Elf<'a> {
             if u32_at(data, at)? != PT_LOAD {
                 continue;
             }
-            let seg = Segment { offset: u32_at(data, at + 4)?, paddr: u32_at(data, at + 12)?, filesz: u32_at(data, at + 16)? };
+            let seg = Segment {
+                offset: u32_at(data, at + 4)?,
+                paddr: u32_at(data, at + 12)?,
+                filesz: u32_at(data, at + 16)?,
+            };
             if seg.filesz > 0 {
                 segments.push(seg);
             }

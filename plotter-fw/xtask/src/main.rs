@@ -33,8 +33,7 @@ fn target_dir() -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), PathBuf::from)
 }
 
-const USAGE: &str =
-    "usage: cargo xtask firmware (--board NAME | --all) [--features F]\n       cargo xtask tick-cost\n       cargo xtask boards";
+const USAGE: &str = "usage: cargo xtask firmware (--board NAME | --all) [--features F]\n       cargo xtask tick-cost\n       cargo xtask boards";
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();

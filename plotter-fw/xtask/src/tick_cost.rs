@@ -228,7 +228,11 @@ fn measure(log: impl BufRead) -> anyhow::Result<Figures> {
             (None, "bench_pulse_end") => open = Some((true, vec![pc])),
             (Some((pulse, blocks)), "bench_tick_done") => {
                 let c = path_cycles(blocks, &code)?;
-                if *pulse { pulses.push(c) } else { ticks.push(c) }
+                if *pulse {
+                    pulses.push(c)
+                } else {
+                    ticks.push(c)
+                }
                 open = None;
             }
             (Some((_, blocks)), _) => blocks.push(pc),

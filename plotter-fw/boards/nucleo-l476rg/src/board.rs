@@ -131,7 +131,7 @@ pub(crate) fn init() {
     // Addresses are 32-bit on this chip.
     #[allow(clippy::cast_possible_truncation, reason = "a Cortex-M address fits u32")]
     regs::write(dma1::CMAR6, core::ptr::addr_of!(RX_DMA) as usize as u32);
-    regs::write(dma1::CNDTR6, RX_RING as u32);
+    regs::write(dma1::CNDTR6, u32::try_from(RX_RING).unwrap_or(0));
     regs::write(dma1::CCR6, dma1::CCR_RX_CIRC);
     regs::write(usart2::ICR, usart2::ICR_ERRORS_IDLE);
     regs::write(usart2::CR1, usart2::CR1_UE | usart2::CR1_RE | usart2::CR1_TE | usart2::CR1_IDLEIE);
@@ -250,7 +250,12 @@ impl NucleoHal {
                 steps(cfg.pen.up_z_mm),
             )
         });
-        NucleoHal { deadline: Deadline::new(), debounce: Debouncer::new(DEBOUNCE_TICKS), tx: heapless::Deque::new(), servo }
+        NucleoHal {
+            deadline: Deadline::new(),
+            debounce: Debouncer::new(DEBOUNCE_TICKS),
+            tx: heapless::Deque::new(),
+            servo,
+        }
     }
 
     /// Feed the debounce filter a reading of the switches (SysTick at 1 kHz, and every read).
@@ -279,7 +284,11 @@ impl StepPins for NucleoHal {
     #[inline]
     fn set_dir(&mut self, axis: Axis, level: bool) {
         let p = pins::DIR[axis.index()];
-        if level { set(p) } else { reset(p) }
+        if level {
+            set(p)
+        } else {
+            reset(p)
+        }
         if axis == Axis::Z
             && let Some(s) = self.servo.as_mut()
         {

@@ -50,7 +50,8 @@ pub(crate) const DIR: [Pin; NUM_AXES] = [pin(GPIOB, 4), pin(GPIOB, 10), pin(GPIO
 /// Drivers' enable (active low).
 pub(crate) const ENABLE: Pin = pin(GPIOA, 9);
 /// Endstops X Y Z (E has none), active low with pull-ups.
-pub(crate) const ENDSTOP: [Option<Pin>; NUM_AXES] = [Some(pin(GPIOC, 7)), Some(pin(GPIOB, 6)), Some(pin(GPIOA, 7)), None];
+pub(crate) const ENDSTOP: [Option<Pin>; NUM_AXES] =
+    [Some(pin(GPIOC, 7)), Some(pin(GPIOB, 6)), Some(pin(GPIOA, 7)), None];
 /// Pen servo on TIM3 CH3 (alternate function 2).
 #[cfg_attr(not(feature = "servo-pen"), allow(dead_code, reason = "used with the servo-pen feature"))]
 pub(crate) const SERVO: Pin = pin(GPIOB, 0);
