@@ -216,11 +216,19 @@ impl RawPort {
 /// (`CI` set): a failure, since CI installs it.
 pub fn qemu_available(test: &str) -> bool {
     let found = Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !found {
-        assert!(std::env::var_os("CI").is_none(), "{test}: qemu-system-arm is missing in CI (.ci/run installs it)");
-        eprintln!("SKIP {test}: qemu-system-arm is not installed (apt-get install qemu-system-arm)");
-    }
-    found
+    // The image builds for thumbv7m-none-eabi; without rustup, assume the toolchain has it.
+    let target = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map_or(true, |o| String::from_utf8_lossy(&o.stdout).lines().any(|l| l.trim() == "thumbv7m-none-eabi"));
+    let missing = match (found, target) {
+        (true, true) => return true,
+        (false, _) => "qemu-system-arm is not installed (apt-get install qemu-system-arm)",
+        (true, false) => "the thumbv7m-none-eabi target is not installed (rustup target add thumbv7m-none-eabi)",
+    };
+    assert!(std::env::var_os("CI").is_none(), "{test}: {missing}; CI installs it (.ci/run)");
+    eprintln!("SKIP {test}: {missing}");
+    false
 }
 
 /// A simulator step trace: the position (steps) after every step event. Steps of several axes in the same timer
