@@ -7,8 +7,8 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use plotter_e2e::{SAMPLE_SVG, SimPty, Trace, plotter, plotter_bin, point_segment_distance, scratch};
-use plotter_path::steps::{StepDrawing, StepPos, drawing_to_steps};
-use plotter_path::{Drawing, MachineProfile, svg};
+use plotter_path::motion::steps::{StepDrawing, StepPos, drawing_to_steps};
+use plotter_path::{Drawing, MachineProfile, input::svg};
 
 const TOLERANCE_MM: f64 = svg::DEFAULT_TOLERANCE_MM;
 

@@ -19,10 +19,10 @@ use plotter_fw::MachineConfig;
 use plotter_fw::protocol::{Encoder, MAX_FRAME};
 use plotter_fw::sim::Sim;
 use plotter_fw::stepper::StepBlock;
-use plotter_path::layout::{self, LayoutOptions};
-use plotter_path::motion::{self, Lookahead};
-use plotter_path::steps::drawing_to_steps;
-use plotter_path::{MachineProfile, svg};
+use plotter_path::geometry::layout::{self, LayoutOptions};
+use plotter_path::motion::plan::{self, Lookahead};
+use plotter_path::motion::steps::drawing_to_steps;
+use plotter_path::{MachineProfile, input::svg};
 
 const SCALE: f64 = 0.3;
 const QUIET: Duration = Duration::from_millis(400);
@@ -114,7 +114,7 @@ fn duck_on_the_emulated_board_steps_exactly_the_plan() {
     let mut drawing = svg::import_svg(&bytes, "duck.svg", None, &opts).unwrap().drawing;
     layout::apply(&mut drawing, &LayoutOptions { scale: Some(SCALE), ..LayoutOptions::default() }).unwrap();
     let steps = drawing_to_steps(&profile, &drawing).unwrap();
-    let plan = motion::plan(&profile, &steps, [0, 0, 1600, 0], Lookahead::Whole).unwrap();
+    let plan = plan::plan(&profile, &steps, [0, 0, 1600, 0], Lookahead::Whole).unwrap();
     let mut planned = [0u64; 3];
     for b in &plan.blocks {
         for (i, p) in planned.iter_mut().enumerate() {

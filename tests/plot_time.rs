@@ -4,12 +4,12 @@
 use plotter_e2e::SAMPLE_SVG;
 use plotter_fw::protocol::{Encoder, MAX_FRAME};
 use plotter_fw::sim::Sim;
-use plotter_path::motion::{self, Lookahead, MotionPlan};
-use plotter_path::steps::drawing_to_steps;
-use plotter_path::{MachineProfile, svg};
+use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
+use plotter_path::motion::steps::drawing_to_steps;
+use plotter_path::{MachineProfile, input::svg};
 
 fn run_on_sim(profile: &MachineProfile, plan_for: impl Fn([i32; 4]) -> MotionPlan) -> (MotionPlan, Sim, u64) {
-    let cfg = motion::machine_config(profile).unwrap();
+    let cfg = plan::machine_config(profile).unwrap();
     let mut sim = Sim::new(cfg);
     sim.feed(b"G28\n");
     sim.run_until_idle();
@@ -41,7 +41,7 @@ fn host_time_equals_executed_time() {
         let steps = drawing_to_steps(&profile, &drawing).unwrap();
         for look in [Lookahead::Whole, Lookahead::Window(16)] {
             let (plan, sim, executed) =
-                run_on_sim(&profile, |start| motion::plan(&profile, &steps, start, look).unwrap());
+                run_on_sim(&profile, |start| plan::plan(&profile, &steps, start, look).unwrap());
             // Required: within 0.1 %; by construction the two are the same arithmetic, so they agree to the tick.
             let host = plan.total_ticks;
             let diff = host.abs_diff(executed);

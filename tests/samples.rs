@@ -1,10 +1,10 @@
 //! Every sample SVG imports cleanly, previews, and survives the plain-SVG export round trip unchanged.
 
 use plotter_e2e::sample;
-use plotter_path::preview::{PreviewOptions, render};
-use plotter_path::svg::{SvgOptions, import_svg, load_svg};
-use plotter_path::svg_out::to_svg_string;
-use plotter_path::{MachineProfile, layout};
+use plotter_path::input::svg::{SvgOptions, import_svg, load_svg};
+use plotter_path::output::preview::{PreviewOptions, render};
+use plotter_path::output::svg_out::to_svg_string;
+use plotter_path::{MachineProfile, geometry::layout};
 
 const SVG_SAMPLES: [&str; 3] = ["duck.svg", "transforms.svg", "layers.svg"];
 

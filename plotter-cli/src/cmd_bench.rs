@@ -8,13 +8,13 @@ use std::time::Instant;
 
 use plotter_fw::TICK_HZ;
 use plotter_path::kurbo::Point;
-use plotter_path::motion::{self, Lookahead};
-use plotter_path::steps::drawing_to_steps;
+use plotter_path::motion::plan::{self, Lookahead};
+use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::{Drawing, MachineProfile, Polyline};
 
-use crate::link::session::Session;
-use crate::link::sim::SimTransport;
-use crate::link::stream::{self, Quiet, StreamOptions};
+use plotter_host::link::session::Session;
+use plotter_host::link::sim::SimTransport;
+use plotter_host::link::stream::{self, Quiet, StreamOptions};
 
 /// Arguments of `plotter bench-link`.
 #[derive(clap::Args, Debug, Clone)]
@@ -74,14 +74,14 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let segments: usize = paths.iter().map(Polyline::segment_count).sum();
     let drawing = Drawing::single_layer("epicycloids", paths);
     let steps = drawing_to_steps(&profile, &drawing)?;
-    let cfg = motion::machine_config(&profile)?;
+    let cfg = plan::machine_config(&profile)?;
     let mut session = Session::connect(SimTransport::new(cfg, Some(args.baud)), "simulated plotter")?;
     session.home()?;
     let start = session.status()?.steps;
     let t = Instant::now();
-    let whole = motion::plan(&profile, &steps, start, Lookahead::Whole)?;
+    let whole = plan::plan(&profile, &steps, start, Lookahead::Whole)?;
     let plan_wall = t.elapsed();
-    let window = motion::plan(&profile, &steps, start, Lookahead::Window(16))?;
+    let window = plan::plan(&profile, &steps, start, Lookahead::Window(16))?;
     let busy0 = session.transport.sim().hal().busy_ticks();
     let wire0 = session.transport.wire_busy_ticks();
     let t = Instant::now();
@@ -127,7 +127,7 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use plotter_path::flatten::point_segment_distance;
+    use plotter_path::geometry::flatten::point_segment_distance;
 
     #[test]
     fn epicycloid_is_closed_and_within_tolerance() {

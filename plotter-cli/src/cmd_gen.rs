@@ -5,12 +5,12 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use plotter_path::r#gen::{COMMON_PARAMS, KINDS, Spec};
-use plotter_path::preview::{PreviewOptions, render_png};
-use plotter_path::svg_out::to_svg_string;
+use plotter_path::input::r#gen::{COMMON_PARAMS, KINDS, Spec};
+use plotter_path::output::preview::{PreviewOptions, render_png};
+use plotter_path::output::svg_out::to_svg_string;
 
-use crate::input::write_output;
-use crate::layout_args::LayoutArgs;
+use plotter_host::input::write_output;
+use plotter_host::options::layout::LayoutArgs;
 
 /// Generate a parametric figure as SVG or PNG.
 ///
@@ -110,7 +110,7 @@ mod tests {
         let svg = dir.join("c.svg");
         run(&args("circle", &["r=20", "tol=0.001"], svg.clone())).unwrap();
         // The SVG reads back as one closed path on a page 40 mm wide plus the 5 mm margins.
-        let back = plotter_path::svg::load_svg(&svg, &plotter_path::svg::SvgOptions::default()).unwrap();
+        let back = plotter_path::input::svg::load_svg(&svg, &plotter_path::input::svg::SvgOptions::default()).unwrap();
         assert_eq!(back.drawing.path_count(), 1);
         assert!(back.drawing.paths().next().unwrap().is_closed());
         let (w, _) = back.drawing.page_mm.unwrap();

@@ -20,9 +20,9 @@ use nix::pty::openpty;
 use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use plotter_fw::sim::{Sim, SimOptions};
 
-use crate::cmd_plot::load_profile;
-use crate::link::faults::Noise;
-use plotter_path::motion;
+use plotter_host::job::load::load_profile;
+use plotter_host::link::faults::Noise;
+use plotter_path::motion::plan;
 
 /// Arguments of `plotter sim`.
 #[derive(clap::Args, Debug, Clone)]
@@ -85,7 +85,7 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         );
     }
     let profile = load_profile(args.profile.as_deref())?;
-    let cfg = motion::machine_config(&profile)?;
+    let cfg = plan::machine_config(&profile)?;
     let mut opts = SimOptions::for_config(&cfg);
     opts.baud = if args.fast { None } else { Some(profile.link.baud) };
     let mut sim = Sim::with_options(cfg, opts);

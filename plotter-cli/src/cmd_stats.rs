@@ -6,14 +6,14 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use plotter_path::motion::{self, Lookahead};
-use plotter_path::stats::Stats;
-use plotter_path::steps::drawing_to_steps;
+use plotter_path::motion::plan::{self, Lookahead};
+use plotter_path::motion::steps::drawing_to_steps;
+use plotter_path::output::stats::Stats;
 use plotter_path::{Drawing, MachineProfile};
 
-use crate::cmd_optimize::{OptimizeArgs, optimize_quietly};
-use crate::cmd_plot::load_profile;
-use crate::input::Source;
+use plotter_host::input::Source;
+use plotter_host::job::load::load_profile;
+use plotter_host::options::optimize::{OptimizeArgs, optimize_quietly};
 
 /// Print figures about a drawing.
 #[derive(Debug, Args)]
@@ -34,7 +34,7 @@ pub(crate) struct StatsArgs {
 /// Plot time of `drawing` as planned by the firmware's planner over the whole drawing, from the homed position.
 fn estimate_seconds(profile: &MachineProfile, drawing: &Drawing) -> Result<f64> {
     let steps = drawing_to_steps(profile, drawing)?;
-    let plan = motion::plan(profile, &steps, motion::homed_position(profile)?, Lookahead::Whole)?;
+    let plan = plan::plan(profile, &steps, plan::homed_position(profile)?, Lookahead::Whole)?;
     Ok(plan.seconds())
 }
 

@@ -7,7 +7,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use plotter_path::r#gen::{FourierSeries, MickeyOutline, Sampling, from_spec, sample};
+use plotter_path::input::r#gen::{FourierSeries, MickeyOutline, Sampling, from_spec, sample};
 
 const SPECS: &[&str] = &[
     "epicycloid?q=3&r=10",

@@ -7,8 +7,8 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use plotter_path::stats::Stats;
-use plotter_path::svg::{SvgOptions, import_svg};
+use plotter_path::input::svg::{SvgOptions, import_svg};
+use plotter_path::output::stats::Stats;
 
 /// A deterministic large drawing: a 300 × 200 grid of cells, each with one shape.
 fn large_svg(paths: usize) -> String {

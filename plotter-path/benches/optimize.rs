@@ -6,8 +6,8 @@
 use std::time::Instant;
 
 use plotter_path::Drawing;
+use plotter_path::input::svg::{self, SvgOptions};
 use plotter_path::optimize::{OptimizeOptions, SeamMode, optimize, synth, travel_lower_bound};
-use plotter_path::svg::{self, SvgOptions};
 
 /// CPU time of this thread in seconds (Linux `schedstat`), so figures stay meaningful on a loaded machine.
 fn cpu_s() -> f64 {
@@ -147,7 +147,7 @@ fn main() {
     for f in files {
         let Ok(imported) = svg::load_svg(&f, &SvgOptions::default()) else { continue };
         let d = imported.drawing;
-        let before = plotter_path::travel::pen_up_length(&d);
+        let before = plotter_path::geometry::travel::pen_up_length(&d);
         let r = run(&d, false);
         println!(
             "| {} | {} | {before:.1} | {:.1} | {:.1} | {:.1} | {:.3} | {:.4} |",

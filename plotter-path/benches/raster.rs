@@ -11,8 +11,8 @@ use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use image::DynamicImage;
+use plotter_path::input::raster::{self, Mode, TraceOptions, synth};
 use plotter_path::kurbo::Point;
-use plotter_path::raster::{self, Mode, TraceOptions, synth};
 
 fn photo() -> DynamicImage {
     DynamicImage::ImageLuma8(synth::photo_scene(1000, 1000))

@@ -3,10 +3,10 @@
 //! - `samples/line-art.png`: 640 × 400 anti-aliased black strokes (stroke-font word, circle, spiral, wave, star);
 //! - `samples/photo.png`: 480 × 360 photo-like gray scene (lit sphere, shadow, box, graded floor and wall).
 //!
-//! Both are computed from geometry in `plotter_path::raster::synth`; nothing is copied from elsewhere.
+//! Both are computed from geometry in `plotter_path::input::raster::synth`; nothing is copied from elsewhere.
 //! Run: `cargo run -p plotter-path --example make_raster_samples [OUT_DIR]` (default `samples/`).
 
-use plotter_path::raster::synth;
+use plotter_path::input::raster::synth;
 use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -1,7 +1,7 @@
 //! Path optimization: draw the same strokes with as little pen-up travel as possible.
 //!
 //! Per layer (layers keep their order; each layer starts where the previous one ended, the first at `start` when
-//! one is given — otherwise the hop to the first path is free, the convention of [`crate::travel`] and `plotter
+//! one is given — otherwise the hop to the first path is free, the convention of [`crate::geometry::travel`] and `plotter
 //! stats`):
 //!
 //! 1. **Merge** ([`merge`](self) step) — open paths whose ends meet within a tolerance are joined, in either
@@ -406,7 +406,7 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
             lr.joins = stats.joins;
             lr.closed_by_merge = stats.closed;
         }
-        // Paths without a segment are not drawn (see `crate::travel`); they stay, unordered, at the layer's end.
+        // Paths without a segment are not drawn (see `crate::geometry::travel`); they stay, unordered, at the layer's end.
         let (ids, empties): (Vec<u32>, Vec<u32>) =
             (0..u32::try_from(paths.len()).unwrap_or(0)).partition(|&i| paths[i as usize].points.len() >= 2);
         let input_visits: Vec<Visit> = ids.iter().map(|&id| Visit { path: id, reversed: false, seam: 0 }).collect();
@@ -664,7 +664,7 @@ mod tests {
             let measured = drawing_travel(&out, opts.start, &CostModel::Distance);
             prop_assert!((measured - report.pen_up_after_mm).abs() < 1e-6);
             if opts.start.is_none() {
-                prop_assert!((crate::travel::pen_up_length(&out) - report.pen_up_after_mm).abs() < 1e-6);
+                prop_assert!((crate::geometry::travel::pen_up_length(&out) - report.pen_up_after_mm).abs() < 1e-6);
             }
         }
 
@@ -773,12 +773,12 @@ mod tests {
         // transforms.svg once came out 4 % worse than greedy: improving layer 1 moved its end away from layer 2.
         for name in ["duck.svg", "layers.svg", "transforms.svg"] {
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples").join(name);
-            let d = crate::svg::load_svg(&path, &crate::svg::SvgOptions::default()).unwrap().drawing;
+            let d = crate::input::svg::load_svg(&path, &crate::input::svg::SvgOptions::default()).unwrap().drawing;
             let mut out = d.clone();
             let r = optimize(&mut out, &OptimizeOptions { time_budget: None, ..OptimizeOptions::default() }).unwrap();
             let greedy = r.pen_up_greedy_mm.unwrap();
             assert!(r.pen_up_after_mm <= greedy + 1e-9, "{name}: {} > {greedy}", r.pen_up_after_mm);
-            assert!((crate::travel::pen_up_length(&out) - r.pen_up_after_mm).abs() < 1e-6, "{name}");
+            assert!((crate::geometry::travel::pen_up_length(&out) - r.pen_up_after_mm).abs() < 1e-6, "{name}");
             assert_eq!(out.layers.len(), d.layers.len());
         }
     }

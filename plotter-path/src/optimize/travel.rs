@@ -1,5 +1,5 @@
 //! Pen-up travel of a drawing in its current order under a [`CostModel`]: one hop into every drawn path (at least
-//! one segment) from the previous path's end, across layer boundaries too. As in [`crate::travel`] (what `plotter
+//! one segment) from the previous path's end, across layer boundaries too. As in [`crate::geometry::travel`] (what `plotter
 //! stats` reports), the hop to the first path is only counted when a start position is given, and the return to
 //! home never is.
 
@@ -57,7 +57,7 @@ mod tests {
         // Without a start, the same figure as `plotter stats`.
         let free = drawing_travel(&d, None, &CostModel::Distance);
         assert!((free - 4.0).abs() < 1e-12, "{free}");
-        assert!((free - crate::travel::pen_up_length(&d)).abs() < 1e-12);
+        assert!((free - crate::geometry::travel::pen_up_length(&d)).abs() < 1e-12);
         let (t, end) = paths_travel(&d.layers[0].paths, Some(Point::new(3.0, 4.0)), &CostModel::Distance);
         assert_eq!((t, end), (0.0, Some(Point::new(10.0, 4.0))));
     }

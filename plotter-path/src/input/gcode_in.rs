@@ -1,0 +1,645 @@
+//! Import of plotter G-code (ours or from third-party tools) into a [`Drawing`].
+//!
+//! The program is interpreted in two passes. The first runs the modal state machine — units (`G20`/`G21`),
+//! distance mode (`G90`/`G91`), arc centre mode (`G90.1`/`G91.1`), coordinate offsets (`G92`, `G92.1`), motion mode
+//! (`G0`/`G1`/`G2`/`G3`) — and records every XY segment in machine millimetres together with the Z height, the
+//! spindle/servo state (`M3`/`M4` on, `M5` off) and whether it was a rapid. Arcs (`G2` clockwise, `G3`
+//! counter-clockwise, by `I`/`J` centre or `R` radius, helical Z allowed) are flattened into chords whose sagitta
+//! stays within [`ARC_TOLERANCE_MM`] (the chord of angle θ on radius r deviates by r·(1 − cos θ/2)).
+//!
+//! The second pass decides how the file lifts its pen, because plotter tools disagree:
+//! 1. if the XY moves happen at two or more Z heights, the pen is down below the midpoint of the lowest and highest
+//!    of them (`Z` lift, the usual GRBL plotter convention and our own export);
+//! 2. otherwise, if the file uses `M3`/`M4`/`M5`, the pen is down while the spindle output is on (servo lift);
+//! 3. otherwise feed moves (`G1`/`G2`/`G3`) draw and rapids (`G0`) travel, with a warning saying so.
+//!
+//! Consecutive pen-down segments become one polyline; machine coordinates go back to page coordinates through the
+//! profile. Commands that do not change the drawing (feeds, dwells, motor enables, temperatures, fan, messages) are
+//! accepted; anything that would change the geometry and is not understood (another plane, other axes, unknown G or
+//! M codes) is an error naming the line; things dropped on purpose (tool changes, extrusion, program pauses) are
+//! warnings with their first line and repeat count.
+
+use kurbo::Point;
+
+use crate::{Drawing, MachineProfile, Polyline};
+
+/// Maximum chord error when flattening arcs, millimetres.
+pub const ARC_TOLERANCE_MM: f64 = 0.005;
+
+/// Most chords one arc may become (guards against absurd radii).
+const MAX_ARC_CHORDS: f64 = 200_000.0;
+
+/// Errors importing G-code.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GcodeError {
+    /// A command this importer does not understand and cannot safely skip.
+    #[error("{origin}:{line}: unsupported command {word}: {why}")]
+    Unsupported {
+        /// File name.
+        origin: String,
+        /// 1-based line number.
+        line: usize,
+        /// The word, e.g. `G18`.
+        word: String,
+        /// Why it cannot be skipped.
+        why: &'static str,
+    },
+    /// The line does not parse or is inconsistent.
+    #[error("{origin}:{line}: {message}")]
+    Malformed {
+        /// File name.
+        origin: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Something the importer skipped or assumed; the drawing is still usable.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GcodeWarning {
+    /// First line (1-based) where it happened, 0 when it concerns the whole file.
+    pub line: usize,
+    /// How many times it happened.
+    pub count: usize,
+    /// What was skipped or assumed.
+    pub message: String,
+}
+
+impl std::fmt::Display for GcodeWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.line > 0 {
+            write!(f, "line {}: ", self.line)?;
+        }
+        write!(f, "{}", self.message)?;
+        if self.count > 1 { write!(f, " ({} times)", self.count) } else { Ok(()) }
+    }
+}
+
+/// How the imported file lifts its pen (decided by the second pass).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PenDetection {
+    /// Pen down while Z is below this height (machine mm).
+    ZBelow(f64),
+    /// Pen down while the spindle (servo) output is on.
+    Spindle,
+    /// Feed moves draw, rapids travel.
+    FeedMoves,
+}
+
+/// The result of an import.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImportedGcode {
+    /// The pen-down strokes in page coordinates, one layer.
+    pub drawing: Drawing,
+    /// How the pen was detected.
+    pub pen: PenDetection,
+    /// Everything skipped or assumed.
+    pub warnings: Vec<GcodeWarning>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Segment {
+    from: Point,
+    to: Point,
+    z: f64,
+    spindle: bool,
+    rapid: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Motion {
+    Rapid,
+    Linear,
+    Cw,
+    Ccw,
+}
+
+struct Machine<'a> {
+    origin: &'a str,
+    mm_per_unit: f64,
+    absolute: bool,
+    arc_center_absolute: bool,
+    motion: Option<Motion>,
+    /// Machine position (mm).
+    pos: [f64; 3],
+    /// Work = machine − offset (G92).
+    offset: [f64; 3],
+    spindle: bool,
+    used_spindle: bool,
+    ended: bool,
+    segments: Vec<Segment>,
+    warnings: Vec<GcodeWarning>,
+}
+
+/// One parsed word: letter and value with its source text.
+#[derive(Debug, Clone, Copy)]
+struct Word<'t> {
+    letter: char,
+    value: f64,
+    text: &'t str,
+}
+
+fn strip_comments(line: &str) -> String {
+    let mut out = String::with_capacity(line.len());
+    let mut in_paren = false;
+    for c in line.chars() {
+        match c {
+            '(' => in_paren = true,
+            ')' if in_paren => in_paren = false,
+            ';' if !in_paren => break,
+            '*' if !in_paren => break, // checksum follows
+            _ if !in_paren => out.push(c),
+            _ => {}
+        }
+    }
+    out
+}
+
+fn words<'t>(code: &'t str, origin: &str, line: usize) -> Result<Vec<Word<'t>>, GcodeError> {
+    let bytes = code.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < bytes.len() {
+        let c = bytes[i];
+        if c.is_ascii_whitespace() {
+            i += 1;
+            continue;
+        }
+        if !c.is_ascii_alphabetic() {
+            return Err(GcodeError::Malformed {
+                origin: origin.into(),
+                line,
+                message: format!("unexpected character {:?}", char::from(c)),
+            });
+        }
+        let start = i;
+        i += 1;
+        while i < bytes.len() && bytes[i].is_ascii_whitespace() {
+            i += 1;
+        }
+        let num_start = i;
+        while i < bytes.len() && (bytes[i].is_ascii_digit() || matches!(bytes[i], b'+' | b'-' | b'.')) {
+            i += 1;
+        }
+        let num = &code[num_start..i];
+        let value = num.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| GcodeError::Malformed {
+            origin: origin.into(),
+            line,
+            message: format!("{} needs a number, found {:?}", char::from(c).to_ascii_uppercase(), num),
+        })?;
+        out.push(Word { letter: char::from(c).to_ascii_uppercase(), value, text: code[start..i].trim() });
+    }
+    Ok(out)
+}
+
+impl Machine<'_> {
+    fn warn(&mut self, line: usize, message: impl Into<String>) {
+        let message = message.into();
+        if let Some(w) = self.warnings.iter_mut().find(|w| w.message == message) {
+            w.count += 1;
+        } else {
+            self.warnings.push(GcodeWarning { line, count: 1, message });
+        }
+    }
+
+    fn malformed(&self, line: usize, message: impl Into<String>) -> GcodeError {
+        GcodeError::Malformed { origin: self.origin.into(), line, message: message.into() }
+    }
+
+    fn unsupported(&self, line: usize, word: &str, why: &'static str) -> GcodeError {
+        GcodeError::Unsupported { origin: self.origin.into(), line, word: word.to_uppercase(), why }
+    }
+
+    fn run_line(&mut self, line: usize, raw: &str) -> Result<(), GcodeError> {
+        let code = strip_comments(raw);
+        let code = code.trim();
+        if code.is_empty() || code == "%" {
+            return Ok(());
+        }
+        let ws = words(code, self.origin, line)?;
+        if self.ended {
+            if ws.iter().any(|w| !matches!(w.letter, 'N')) {
+                self.warn(line, "commands after the program end (M2/M30) ignored");
+            }
+            return Ok(());
+        }
+        let mut axes: [Option<f64>; 3] = [None; 3];
+        let (mut i, mut j, mut r) = (None, None, None);
+        let mut g92 = false;
+        let mut g28 = false;
+        let spindle_before = self.spindle;
+        for w in &ws {
+            match w.letter {
+                'G' => {
+                    let code10 = (w.value * 10.0).round();
+                    match code10 {
+                        0.0 => self.motion = Some(Motion::Rapid),
+                        10.0 => self.motion = Some(Motion::Linear),
+                        20.0 => self.motion = Some(Motion::Cw),
+                        30.0 => self.motion = Some(Motion::Ccw),
+                        200.0 => self.mm_per_unit = 25.4,
+                        210.0 => self.mm_per_unit = 1.0,
+                        900.0 => self.absolute = true,
+                        910.0 => self.absolute = false,
+                        901.0 => self.arc_center_absolute = true,
+                        911.0 => self.arc_center_absolute = false,
+                        920.0 => g92 = true,
+                        921.0 => self.offset = [0.0; 3],
+                        280.0 => g28 = true,
+                        // Dwell, XY plane, feed per minute, path modes, cancel offsets/cycles, first work system.
+                        40.0 | 170.0 | 940.0 | 610.0 | 640.0 | 400.0 | 490.0 | 800.0 | 540.0 => {}
+                        180.0 | 190.0 => {
+                            return Err(self.unsupported(line, w.text, "only the XY plane (G17) is drawn"));
+                        }
+                        _ => return Err(self.unsupported(line, w.text, "unknown G code")),
+                    }
+                }
+                'M' => match (w.value * 10.0).round() {
+                    30.0 | 40.0 => {
+                        self.spindle = true;
+                        self.used_spindle = true;
+                    }
+                    50.0 => {
+                        self.spindle = false;
+                        self.used_spindle = true;
+                    }
+                    20.0 | 300.0 => self.ended = true,
+                    0.0 | 10.0 => self.warn(line, "program pause (M0/M1) ignored"),
+                    60.0 => self.warn(line, "tool change ignored: the drawing is one layer"),
+                    // Motors, extrusion modes, temperatures, fans, messages, feed/flow overrides, sync, reports.
+                    v if [
+                        170.0, 180.0, 840.0, 820.0, 830.0, 1040.0, 1090.0, 1400.0, 1900.0, 1060.0, 1070.0, 1170.0,
+                    ]
+                    .contains(&v)
+                        || [2200.0, 2210.0, 4000.0, 1140.0, 1150.0, 70.0, 80.0, 90.0].contains(&v) => {}
+                    _ => return Err(self.unsupported(line, w.text, "unknown M code")),
+                },
+                'X' => axes[0] = Some(w.value),
+                'Y' => axes[1] = Some(w.value),
+                'Z' => axes[2] = Some(w.value),
+                'I' => i = Some(w.value),
+                'J' => j = Some(w.value),
+                'R' => r = Some(w.value),
+                'K' => return Err(self.unsupported(line, w.text, "arcs outside the XY plane are not drawn")),
+                'E' => self.warn(line, "extruder (E) values ignored"),
+                'T' => self.warn(line, "tool selection ignored: the drawing is one layer"),
+                'F' | 'S' | 'P' | 'N' => {}
+                'A' | 'B' | 'C' | 'U' | 'V' | 'W' => {
+                    return Err(self.unsupported(line, w.text, "only the X, Y and Z axes exist"));
+                }
+                _ => return Err(self.unsupported(line, w.text, "unknown word")),
+            }
+        }
+        if self.spindle != spindle_before {
+            let at = Point::new(self.pos[0], self.pos[1]);
+            let seg = Segment { from: at, to: at, z: self.pos[2], spindle: self.spindle, rapid: true };
+            self.segments.push(seg);
+        }
+        let any_axis = axes.iter().any(Option::is_some);
+        if g92 {
+            if !any_axis {
+                return Err(self.malformed(line, "G92 needs at least one axis value"));
+            }
+            for (k, v) in axes.iter().enumerate() {
+                if let Some(v) = v {
+                    self.offset[k] = self.pos[k] - v * self.mm_per_unit;
+                }
+            }
+            return Ok(());
+        }
+        if g28 {
+            // Homing: the pen travels (lifted) to the machine origin.
+            self.warn(line, "G28 taken as a pen-up move to the machine origin");
+            let from = Point::new(self.pos[0], self.pos[1]);
+            self.segments.push(Segment { from, to: Point::ZERO, z: f64::NAN, spindle: false, rapid: true });
+            self.pos[0] = 0.0;
+            self.pos[1] = 0.0;
+            return Ok(());
+        }
+        let has_arc_words = i.is_some() || j.is_some() || r.is_some();
+        if !any_axis && !has_arc_words {
+            return Ok(());
+        }
+        let Some(motion) = self.motion else {
+            return Err(self.malformed(line, "axis words without a motion command (G0/G1/G2/G3)"));
+        };
+        if has_arc_words && !matches!(motion, Motion::Cw | Motion::Ccw) {
+            return Err(self.malformed(line, "I/J/R given without an arc motion (G2/G3)"));
+        }
+        let mut target = self.pos;
+        for (k, v) in axes.iter().enumerate() {
+            if let Some(v) = v {
+                target[k] = if self.absolute {
+                    v * self.mm_per_unit + self.offset[k]
+                } else {
+                    target[k] + v * self.mm_per_unit
+                };
+            }
+        }
+        let from = Point::new(self.pos[0], self.pos[1]);
+        let to = Point::new(target[0], target[1]);
+        match motion {
+            Motion::Rapid | Motion::Linear => {
+                // Z-only moves are kept as zero-length segments: they mark pen lifts between touching strokes.
+                if from != to || target[2] != self.pos[2] {
+                    let seg = Segment { from, to, z: target[2], spindle: self.spindle, rapid: motion == Motion::Rapid };
+                    self.segments.push(seg);
+                }
+            }
+            Motion::Cw | Motion::Ccw => self.arc(line, motion == Motion::Cw, from, to, target[2], (i, j, r))?,
+        }
+        self.pos = target;
+        Ok(())
+    }
+
+    fn arc(
+        &mut self,
+        line: usize,
+        cw: bool,
+        from: Point,
+        to: Point,
+        z: f64,
+        (i, j, r): (Option<f64>, Option<f64>, Option<f64>),
+    ) -> Result<(), GcodeError> {
+        let u = self.mm_per_unit;
+        let center = if let Some(r) = r {
+            if i.is_some() || j.is_some() {
+                return Err(self.malformed(line, "an arc takes either R or I/J, not both"));
+            }
+            let r_mm = r * u;
+            let chord = to - from;
+            let d = chord.hypot();
+            if d == 0.0 {
+                return Err(self.malformed(line, "an R-form arc cannot start and end at the same point"));
+            }
+            let half = d / 2.0;
+            let h2 = r_mm * r_mm - half * half;
+            if h2 < -(ARC_TOLERANCE_MM * r_mm.abs()).max(1e-9) {
+                return Err(self.malformed(line, format!("arc radius {r} is smaller than half the chord")));
+            }
+            let h = h2.max(0.0).sqrt();
+            // Centre to the right of the chord for a clockwise minor arc (Y up); G3 or a negative R flips it.
+            let right = kurbo::Vec2::new(chord.y, -chord.x) / d;
+            let sign = if cw == (r_mm >= 0.0) { 1.0 } else { -1.0 };
+            from.midpoint(to) + right * (h * sign)
+        } else {
+            let (ci, cj) = (i.unwrap_or(0.0) * u, j.unwrap_or(0.0) * u);
+            if self.arc_center_absolute {
+                Point::new(ci + self.offset[0], cj + self.offset[1])
+            } else {
+                Point::new(from.x + ci, from.y + cj)
+            }
+        };
+        let r0 = (from - center).hypot();
+        let r1 = (to - center).hypot();
+        if r0 == 0.0 {
+            return Err(self.malformed(line, "arc centre is on its start point"));
+        }
+        if (r0 - r1).abs() > (0.005f64).max(0.001 * r0) {
+            return Err(self.malformed(
+                line,
+                format!("arc end is not on the circle (radius {r0:.4} mm at the start, {r1:.4} mm at the end)"),
+            ));
+        }
+        let a0 = (from.y - center.y).atan2(from.x - center.x);
+        let a1 = (to.y - center.y).atan2(to.x - center.x);
+        let tau = std::f64::consts::TAU;
+        let mut sweep = a1 - a0;
+        if cw {
+            while sweep >= 0.0 {
+                sweep -= tau;
+            }
+            // Same start and end: a full turn (sweep is -2π), a tiny negative sweep stays as is.
+        } else {
+            while sweep <= 0.0 {
+                sweep += tau;
+            }
+        }
+        if sweep.abs() > tau {
+            sweep = sweep.signum() * tau;
+        }
+        let max_step = if r0 > ARC_TOLERANCE_MM { 2.0 * (1.0 - ARC_TOLERANCE_MM / r0).acos() } else { tau };
+        let n = (sweep.abs() / max_step).ceil().clamp(1.0, MAX_ARC_CHORDS);
+        // n is in [1, MAX_ARC_CHORDS], so the conversion is exact.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let n_chords = n as u32;
+        let mut prev = from;
+        for k in 1..=n_chords {
+            let p = if k == n_chords {
+                to
+            } else {
+                let a = a0 + sweep * f64::from(k) / n;
+                Point::new(center.x + r0 * a.cos(), center.y + r0 * a.sin())
+            };
+            if p != prev {
+                self.segments.push(Segment { from: prev, to: p, z, spindle: self.spindle, rapid: false });
+            }
+            prev = p;
+        }
+        Ok(())
+    }
+}
+
+/// Import G-code text (`origin` names it in errors); machine coordinates are mapped to page coordinates through
+/// `profile`.
+pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<ImportedGcode, GcodeError> {
+    let mut m = Machine {
+        origin,
+        mm_per_unit: 1.0,
+        absolute: true,
+        arc_center_absolute: false,
+        motion: None,
+        pos: [0.0; 3],
+        offset: [0.0; 3],
+        spindle: false,
+        used_spindle: false,
+        ended: false,
+        segments: Vec::new(),
+        warnings: Vec::new(),
+    };
+    for (idx, raw) in text.lines().enumerate() {
+        m.run_line(idx + 1, raw)?;
+    }
+    // Pass 2: how is the pen lifted?
+    let zs = m.segments.iter().map(|s| s.z).filter(|z| z.is_finite());
+    let (zmin, zmax) = zs.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| (lo.min(z), hi.max(z)));
+    let pen = if zmax - zmin > 1e-6 {
+        PenDetection::ZBelow((zmin + zmax) / 2.0)
+    } else if m.used_spindle {
+        PenDetection::Spindle
+    } else {
+        if !m.segments.is_empty() {
+            m.warn(0, "no pen lift found (no Z changes, no M3/M5): G1/G2/G3 moves draw, G0 moves travel");
+        }
+        PenDetection::FeedMoves
+    };
+    let down = |s: &Segment| match pen {
+        PenDetection::ZBelow(t) => s.z < t,
+        PenDetection::Spindle => s.spindle,
+        PenDetection::FeedMoves => !s.rapid,
+    };
+    let mut paths: Vec<Polyline> = Vec::new();
+    let mut current: Vec<Point> = Vec::new();
+    for s in &m.segments {
+        if s.from == s.to {
+            // A pen event without XY motion: a lift ends the stroke, anything else changes nothing.
+            if !down(s) && pen != PenDetection::FeedMoves && current.len() > 1 {
+                paths.push(Polyline::new(std::mem::take(&mut current)));
+            }
+            if !down(s) && pen != PenDetection::FeedMoves {
+                current.clear();
+            }
+            continue;
+        }
+        if !down(s) {
+            if current.len() > 1 {
+                paths.push(Polyline::new(std::mem::take(&mut current)));
+            }
+            current.clear();
+            continue;
+        }
+        let (a, b) = (profile.machine_to_page(s.from), profile.machine_to_page(s.to));
+        if current.last() != Some(&a) {
+            if current.len() > 1 {
+                paths.push(Polyline::new(std::mem::take(&mut current)));
+            }
+            current.clear();
+            current.push(a);
+        }
+        current.push(b);
+    }
+    if current.len() > 1 {
+        paths.push(Polyline::new(current));
+    }
+    let name = std::path::Path::new(origin).file_stem().and_then(|s| s.to_str()).unwrap_or("gcode").to_string();
+    Ok(ImportedGcode { drawing: Drawing::single_layer(name, paths), pen, warnings: m.warnings })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::profile::PenCommand;
+    use crate::motion::steps::drawing_to_steps;
+    use crate::output::gcode_out;
+    use proptest::prelude::*;
+
+    fn profile() -> MachineProfile {
+        MachineProfile::default_plotter()
+    }
+
+    fn imp(text: &str) -> ImportedGcode {
+        import(text, "t.gcode", &profile()).unwrap()
+    }
+
+    fn err(text: &str) -> String {
+        import(text, "t.gcode", &profile()).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn z_lift_with_units_relative_and_g92() {
+        let g = "G21 G90\nG0 Z5\nG0 X10 Y10\nG1 Z-1 F100\nG91\nG1 X10\nG1 Y10 ; comment\nG90\nG0 Z5\n\
+                 G20\nG0 X1 Y1\nG1 Z0\nG1 X2 (inch)\nG21\nG0 Z5\nG92 X0 Y0\nG1 Z-1\nG1 X5 Y0\n";
+        let r = imp(g);
+        assert_eq!(r.pen, PenDetection::ZBelow(2.0));
+        let paths: Vec<Vec<Point>> = r.drawing.paths().map(|p| p.points.clone()).collect();
+        assert_eq!(paths.len(), 3);
+        assert_eq!(paths[0], vec![Point::new(10.0, 10.0), Point::new(20.0, 10.0), Point::new(20.0, 20.0)]);
+        assert_eq!(paths[1], vec![Point::new(25.4, 25.4), Point::new(50.8, 25.4)]);
+        // G92 X0 Y0 at (50.8, 25.4): X5 in work coordinates is 55.8 on the machine.
+        assert_eq!(paths[2], vec![Point::new(50.8, 25.4), Point::new(55.8, 25.4)]);
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+
+    #[test]
+    fn servo_lift_and_checksums() {
+        let g = "N1 G0 X1 Y1*57\nN2 M3 S90\nN3 G1 X2 Y1\nN4 M5\nN5 G0 X5\nM3\nG1 Y5\nM5\n";
+        let r = imp(g);
+        assert_eq!(r.pen, PenDetection::Spindle);
+        let paths: Vec<Vec<Point>> = r.drawing.paths().map(|p| p.points.clone()).collect();
+        assert_eq!(
+            paths,
+            vec![vec![Point::new(1.0, 1.0), Point::new(2.0, 1.0)], vec![Point::new(5.0, 1.0), Point::new(5.0, 5.0)]]
+        );
+    }
+
+    #[test]
+    fn laser_style_feed_moves_with_a_warning() {
+        let r = imp("G0 X1 Y1\nG1 X3 Y1\nG0 X0 Y0\n");
+        assert_eq!(r.pen, PenDetection::FeedMoves);
+        assert_eq!(r.drawing.path_count(), 1);
+        assert_eq!(r.warnings.len(), 1);
+        assert!(r.warnings[0].message.contains("no pen lift"));
+    }
+
+    #[test]
+    fn arcs_stay_within_tolerance_and_end_exactly() {
+        // Full CCW circle of radius 10 around (20, 20) by I/J, then a CW half circle by R.
+        let r = imp("G0 Z1\nG0 X30 Y20\nG1 Z0\nG3 X30 Y20 I-10 J0\nG2 X10 Y20 R10\nG0 Z1\n");
+        let paths: Vec<&Polyline> = r.drawing.paths().collect();
+        assert_eq!(paths.len(), 1);
+        let pts = &paths[0].points;
+        assert_eq!(*pts.last().unwrap(), Point::new(10.0, 20.0));
+        for w in pts.windows(2) {
+            let mid = w[0].midpoint(w[1]);
+            let d = mid.distance(Point::new(20.0, 20.0));
+            // Midpoints of chords sit inside the circle by at most the tolerance (the R arc uses the same circle).
+            assert!((10.0 - d) <= ARC_TOLERANCE_MM + 1e-9 && d <= 10.0 + 1e-9, "{d}");
+        }
+        // The full circle passes through (20, 30) and the CW half circle from (30,20) to (10,20) through (20, 10).
+        let near = |q: Point| pts.iter().any(|p| p.distance(q) < 0.2);
+        assert!(near(Point::new(20.0, 30.0)) && near(Point::new(20.0, 10.0)));
+        let turn: f64 = pts.windows(2).map(|w| w[0].distance(w[1])).sum();
+        let expect = 2.0 * std::f64::consts::PI * 10.0 * 1.5;
+        assert!(turn < expect && expect - turn < 0.03, "{turn} vs {expect}");
+    }
+
+    #[test]
+    fn bad_input_is_named_by_line() {
+        assert_eq!(err("G0 X1\nG1 Y2\nG18\n"), "t.gcode:3: unsupported command G18: only the XY plane (G17) is drawn");
+        assert!(err("G1 X1\nM999\n").starts_with("t.gcode:2: unsupported command M999"));
+        assert!(err("G1 X1\nG7\n").contains(":2: unsupported command G7: unknown G code"));
+        assert!(err("X10\n").contains(":1: axis words without a motion command"));
+        assert!(err("G1 X1 A5\n").contains("A5"));
+        assert!(err("G1 X\n").contains(":1: X needs a number"));
+        assert!(err("G1 X1 #\n").contains("unexpected character"));
+        assert!(err("G2 X10 Y0 R2\n").contains("smaller than half the chord"));
+        assert!(err("G2 X10 Y0 I3 J0\n").contains("not on the circle"));
+        assert!(err("G92\n").contains("G92 needs"));
+        assert!(err("G1 X1 I2\n").contains("without an arc motion"));
+    }
+
+    #[test]
+    fn harmless_commands_pass_and_dropped_ones_warn() {
+        let r = imp("M17\nM106 S255\nG4 P1\nT1\nM6\nG0 Z2\nG1 X1 Y0 E0.5\nG1 Z0\nG1 X2 E1\nG1 X3 E1.5\nM30\nG1 X9\n");
+        let msgs: Vec<String> = r.warnings.iter().map(ToString::to_string).collect();
+        assert!(msgs.iter().any(|m| m.starts_with("line 4: tool selection")), "{msgs:?}");
+        assert!(msgs.iter().any(|m| m.starts_with("line 7: extruder (E) values ignored (3 times)")), "{msgs:?}");
+        assert!(msgs.iter().any(|m| m.starts_with("line 12: commands after the program end")), "{msgs:?}");
+        assert_eq!(r.drawing.path_count(), 1);
+        assert_eq!(r.drawing.paths().next().unwrap().end(), Some(Point::new(3.0, 0.0)));
+    }
+
+    fn arb_paths() -> impl Strategy<Value = Vec<Polyline>> {
+        let pt = (0.0f64..400.0, 0.0f64..290.0).prop_map(|(x, y)| Point::new(x, y));
+        prop::collection::vec(prop::collection::vec(pt, 2..20).prop_map(Polyline::new), 1..10)
+    }
+
+    proptest! {
+        #[test]
+        fn export_then_import_gives_the_same_steps(paths in arb_paths(), servo in any::<bool>(), flip in any::<bool>()) {
+            let mut p = profile();
+            if servo { p.pen.command = PenCommand::Servo; }
+            if flip { p.page_origin = crate::motion::profile::PageOrigin::BottomLeft; }
+            let steps = drawing_to_steps(&p, &Drawing::single_layer("a", paths)).unwrap();
+            // Strokes whose every point rounds to the same step carry no motion and come back as nothing.
+            let mut expected = steps.clone();
+            expected.strokes.retain(|s| !s.moves.is_empty());
+            let back = import(&gcode_out::export(&p, &steps), "rt", &p).unwrap();
+            prop_assert!(back.warnings.is_empty());
+            let again = drawing_to_steps(&p, &back.drawing).unwrap();
+            prop_assert_eq!(again, expected);
+        }
+    }
+}

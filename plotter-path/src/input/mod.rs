@@ -1,0 +1,8 @@
+//! Inputs: everything that becomes a [`crate::Drawing`] — SVG files, G-code from other tools, the seed trajectory
+//! format, raster images traced into paths, and parametric figures.
+
+pub mod gcode_in;
+pub mod r#gen;
+pub mod raster;
+pub mod svg;
+pub mod trajectory;

@@ -1,0 +1,401 @@
+//! Hatch mode: gray tones as parallel hatch lines clipped exactly to gray-level regions.
+//!
+//! The tone range is split into `levels` bands. Level `i` (0 = lightest) covers every pixel darker than
+//! `255 · (N − i) / (N + 1)`, so the regions nest: each darker level lies inside the lighter ones and adds hatching
+//! on top of them. Per level a family of parallel lines is added:
+//!
+//! - [`HatchScheme::Directions`]: level 0 hatches at the base angle, level 1 adds the perpendicular direction
+//!   (cross-hatch), levels 2 and 3 the two diagonals; levels beyond four repeat the directions shifted by half the
+//!   spacing (halving it).
+//! - [`HatchScheme::Density`]: every level uses the base angle; each level fills in between the previous lines, so
+//!   level `i` is drawn at spacing `s / 2^i`.
+//!
+//! Each region's boundary comes from [`trace_contours`] (no simplification, so the region is the bitmap's own
+//! shape). Clipping is exact for polygons with the even-odd rule: in a frame rotated so the lines are horizontal,
+//! every boundary edge is intersected with the lines whose offset falls in its half-open span `[v_min, v_max)`
+//! (so a vertex on a line is counted once), the crossings on each line are sorted, and consecutive pairs are the
+//! inside spans. Lines alternate direction (boustrophedon) so the pen travels little between them.
+
+use super::bitmap::Bitmap;
+use super::contour::trace_contours;
+use super::error::RasterError;
+use image::GrayImage;
+use kurbo::Point;
+use std::fmt;
+use std::str::FromStr;
+
+/// How darker levels add hatching.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum HatchScheme {
+    /// Each level adds a new direction (then repeats them, offset by half the spacing).
+    #[default]
+    Directions,
+    /// Each level halves the spacing of a single direction.
+    Density,
+}
+
+impl FromStr for HatchScheme {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "directions" | "cross" => Ok(HatchScheme::Directions),
+            "density" => Ok(HatchScheme::Density),
+            _ => Err(format!("unknown hatch scheme `{s}` (expected directions or density)")),
+        }
+    }
+}
+
+impl fmt::Display for HatchScheme {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            HatchScheme::Directions => "directions",
+            HatchScheme::Density => "density",
+        })
+    }
+}
+
+/// Hatch settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HatchOptions {
+    /// Number of gray levels that get hatching (1–8).
+    pub levels: u8,
+    /// Line spacing of one level's family, in mm.
+    pub spacing_mm: f64,
+    /// Base direction in degrees, counter-clockwise from the +X axis as seen on the page.
+    pub angle_deg: f64,
+    /// How darker levels add lines.
+    pub scheme: HatchScheme,
+}
+
+impl Default for HatchOptions {
+    fn default() -> Self {
+        HatchOptions { levels: 4, spacing_mm: 1.0, angle_deg: 45.0, scheme: HatchScheme::Directions }
+    }
+}
+
+impl HatchOptions {
+    /// Range checks.
+    pub fn validate(&self) -> Result<(), RasterError> {
+        if !(1..=8).contains(&self.levels) {
+            return Err(RasterError::InvalidOption {
+                name: "--levels",
+                value: self.levels.to_string(),
+                reason: "must be 1 to 8",
+            });
+        }
+        if !(self.spacing_mm.is_finite() && self.spacing_mm > 0.0) {
+            return Err(RasterError::InvalidOption {
+                name: "--spacing",
+                value: self.spacing_mm.to_string(),
+                reason: "must be a positive number of mm",
+            });
+        }
+        if !self.angle_deg.is_finite() {
+            return Err(RasterError::InvalidOption {
+                name: "--angle",
+                value: self.angle_deg.to_string(),
+                reason: "must be a finite number of degrees",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// One family of parallel lines: direction and offsets `v = phase + k · period` across it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LineFamily {
+    /// Direction of the lines in radians (page angle: counter-clockwise as seen, i.e. Y up).
+    pub angle: f64,
+    /// Distance between neighbouring lines, in pixels.
+    pub period: f64,
+    /// Offset of line 0 across the lines, in pixels.
+    pub phase: f64,
+}
+
+impl LineFamily {
+    /// Unit direction along the lines and unit normal across them, in pixel coordinates (Y down).
+    pub fn frame(&self) -> ((f64, f64), (f64, f64)) {
+        let (s, c) = self.angle.sin_cos();
+        // Page angle is counter-clockwise as seen, so Y (down) flips the sine.
+        ((c, -s), (s, c))
+    }
+
+    /// Offset across the lines of `p`.
+    pub fn offset(&self, p: Point) -> f64 {
+        let (_, n) = self.frame();
+        p.x * n.0 + p.y * n.1
+    }
+}
+
+/// One hatch level: its region, its line families and the clipped segments.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HatchLevel {
+    /// Pixels with luma below this value (after the optional inversion) belong to the level.
+    pub cut: u8,
+    /// The region's boundary loops (pixel coordinates, closed, even-odd).
+    pub region: Vec<Vec<Point>>,
+    /// The line families this level adds.
+    pub families: Vec<LineFamily>,
+    /// The hatch segments, in drawing order.
+    pub segments: Vec<(Point, Point)>,
+    /// Region loops smaller than the minimum area that were dropped.
+    pub specks_dropped: usize,
+}
+
+/// The families level `i` adds.
+pub fn level_families(i: usize, opts: &HatchOptions, spacing_px: f64) -> Vec<LineFamily> {
+    let base = opts.angle_deg.to_radians();
+    match opts.scheme {
+        HatchScheme::Directions => {
+            let turn = [0.0, 90.0, -45.0, 45.0][i % 4];
+            let phase = if (i / 4) % 2 == 1 { spacing_px / 2.0 } else { 0.0 };
+            vec![LineFamily { angle: base + f64::to_radians(turn), period: spacing_px, phase }]
+        }
+        HatchScheme::Density => {
+            if i == 0 {
+                return vec![LineFamily { angle: base, period: spacing_px, phase: 0.0 }];
+            }
+            // Level i adds the odd multiples of s / 2^i.
+            let parts = 1u32 << i.min(16);
+            (0..parts / 2)
+                .map(|j| LineFamily {
+                    angle: base,
+                    period: spacing_px,
+                    phase: spacing_px * f64::from(2 * j + 1) / f64::from(parts),
+                })
+                .collect()
+        }
+    }
+}
+
+/// Hatch `gray` (luma; with `invert` the light tones are hatched instead). `spacing_px` is the family spacing in
+/// pixels; region loops under `min_area_px` are dropped.
+pub fn hatch(
+    gray: &GrayImage,
+    opts: &HatchOptions,
+    spacing_px: f64,
+    invert: bool,
+    min_area_px: f64,
+) -> Vec<HatchLevel> {
+    let (w, h) = (gray.width() as usize, gray.height() as usize);
+    let raw = gray.as_raw();
+    let n = usize::from(opts.levels.max(1));
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let cut = u8::try_from((255 * (n - i)) / (n + 1)).unwrap_or(255);
+        let mask = Bitmap::from_fn(w, h, |x, y| {
+            let v = raw[y * w + x];
+            let v = if invert { 255 - v } else { v };
+            v < cut
+        });
+        let mut specks_dropped = 0;
+        let mut region = Vec::new();
+        for c in trace_contours(&mask) {
+            if c.signed_area.abs() < min_area_px {
+                specks_dropped += 1;
+            } else {
+                region.push(c.closed_points());
+            }
+        }
+        let families = level_families(i, opts, spacing_px);
+        let mut segments = Vec::new();
+        for f in &families {
+            segments.extend(clip_lines(&region, f));
+        }
+        out.push(HatchLevel { cut, region, families, segments, specks_dropped });
+    }
+    out
+}
+
+/// The parts of the lines of `family` inside the even-odd region bounded by the closed `loops`.
+pub fn clip_lines(loops: &[Vec<Point>], family: &LineFamily) -> Vec<(Point, Point)> {
+    let (d, n) = family.frame();
+    let to_uv = |p: Point| (p.x * d.0 + p.y * d.1, p.x * n.0 + p.y * n.1);
+    let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in loops.iter().flatten() {
+        let v = to_uv(*p).1;
+        vmin = vmin.min(v);
+        vmax = vmax.max(v);
+    }
+    if vmin > vmax || family.period <= 0.0 {
+        return Vec::new();
+    }
+    let k0 = ((vmin - family.phase) / family.period).floor();
+    let lines = ((vmax - family.phase) / family.period).floor() - k0 + 1.0;
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // lines ≥ 1, bounded by image size / period
+    let mut crossings: Vec<Vec<f64>> = vec![Vec::new(); lines.max(1.0) as usize];
+    for pl in loops {
+        for e in pl.windows(2) {
+            let ((ua, va), (ub, vb)) = (to_uv(e[0]), to_uv(e[1]));
+            if va == vb {
+                continue;
+            }
+            let (lo, hi) = (va.min(vb), va.max(vb));
+            let mut k = ((lo - family.phase) / family.period).ceil();
+            loop {
+                let v = family.phase + k * family.period;
+                if v >= hi {
+                    break;
+                }
+                if v >= lo {
+                    let u = ua + (v - va) / (vb - va) * (ub - ua);
+                    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // k ≥ k0 by construction
+                    let slot = (k - k0) as usize;
+                    if let Some(c) = crossings.get_mut(slot) {
+                        c.push(u);
+                    }
+                }
+                k += 1.0;
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for (j, mut us) in crossings.into_iter().enumerate() {
+        if us.len() < 2 {
+            continue;
+        }
+        us.sort_by(f64::total_cmp);
+        #[allow(clippy::cast_precision_loss)] // line counts are small
+        let v = family.phase + (k0 + j as f64) * family.period;
+        let at = |u: f64| Point::new(u * d.0 + v * n.0, u * d.1 + v * n.1);
+        let mut spans: Vec<(Point, Point)> =
+            us.chunks_exact(2).filter(|c| c[1] > c[0]).map(|c| (at(c[0]), at(c[1]))).collect();
+        if j % 2 == 1 {
+            spans.reverse();
+            for s in &mut spans {
+                *s = (s.1, s.0);
+            }
+        }
+        out.extend(spans);
+    }
+    out
+}
+
+/// Even-odd point-in-polygon test over closed loops (used by tests and available to callers that need it).
+pub fn inside_even_odd(loops: &[Vec<Point>], p: Point) -> bool {
+    let mut inside = false;
+    for pl in loops {
+        for e in pl.windows(2) {
+            let (a, b) = (e[0], e[1]);
+            if (a.y > p.y) != (b.y > p.y) {
+                let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+                if p.x < x {
+                    inside = !inside;
+                }
+            }
+        }
+    }
+    inside
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::raster::simplify::point_segment_distance;
+    use image::Luma;
+    use proptest::prelude::*;
+
+    fn boundary_distance(loops: &[Vec<Point>], p: Point) -> f64 {
+        loops
+            .iter()
+            .flat_map(|l| l.windows(2).map(move |e| point_segment_distance(p, e[0], e[1])))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn black_square_gets_every_level_with_exact_counts() {
+        // A 40×40 black square from (10,10) to (50,50); lines at spacing 4 px, horizontal.
+        let g = GrayImage::from_fn(60, 60, |x, y| {
+            Luma([if (10..50).contains(&x) && (10..50).contains(&y) { 0 } else { 255 }])
+        });
+        let opts = HatchOptions { levels: 2, spacing_mm: 4.0, angle_deg: 0.0, scheme: HatchScheme::Directions };
+        let levels = hatch(&g, &opts, 4.0, false, 0.0);
+        assert_eq!(levels.len(), 2);
+        // Horizontal lines y = 12, 16, ..., 48 cross the square (boundary at y = 10 and 50): 10 lines.
+        assert_eq!(levels[0].segments.len(), 10);
+        for (a, b) in &levels[0].segments {
+            assert_eq!(a.y, b.y);
+            assert!((a.x - b.x).abs() == 40.0, "{a:?} {b:?}");
+        }
+        // Level 1 is vertical at the same spacing.
+        assert_eq!(levels[1].segments.len(), 10);
+        assert!(levels[1].segments.iter().all(|(a, b)| (a.x - b.x).abs() < 1e-9));
+        // Boustrophedon: consecutive lines run in opposite directions.
+        let s = &levels[0].segments;
+        assert!((s[0].1.x - s[0].0.x) * (s[1].1.x - s[1].0.x) < 0.0);
+    }
+
+    #[test]
+    fn density_scheme_halves_the_spacing() {
+        let g = GrayImage::from_pixel(64, 64, Luma([0]));
+        let opts = HatchOptions { levels: 3, spacing_mm: 8.0, angle_deg: 0.0, scheme: HatchScheme::Density };
+        let levels = hatch(&g, &opts, 8.0, false, 0.0);
+        let mut ys: Vec<f64> = levels.iter().flat_map(|l| l.segments.iter().map(|s| s.0.y)).collect();
+        ys.sort_by(f64::total_cmp);
+        ys.dedup();
+        // The union of three levels is spaced 2 px apart.
+        for w in ys.windows(2) {
+            assert!((w[1] - w[0] - 2.0).abs() < 1e-9, "{ys:?}");
+        }
+    }
+
+    #[test]
+    fn gray_levels_nest() {
+        // A horizontal gradient: darker levels cover less.
+        let g = GrayImage::from_fn(100, 20, |x, _| Luma([u8::try_from(x * 255 / 99).unwrap()]));
+        let opts = HatchOptions { levels: 4, spacing_mm: 2.0, angle_deg: 90.0, scheme: HatchScheme::Directions };
+        let levels = hatch(&g, &opts, 2.0, false, 0.0);
+        let widths: Vec<f64> =
+            levels.iter().map(|l| crate::input::raster::signed_area(&l.region[0][1..]).abs()).collect();
+        assert!(widths.windows(2).all(|w| w[0] > w[1]), "{widths:?}");
+        // Inverting shades the light end instead.
+        let inv = hatch(&g, &opts, 2.0, true, 0.0);
+        let x_of = |l: &HatchLevel| l.region[0].iter().map(|p| p.x).sum::<f64>() / l.region[0].len() as f64;
+        assert!(x_of(&inv[0]) > x_of(&levels[0]));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        #[test]
+        fn segments_lie_inside_their_region_at_the_requested_spacing(
+            cells in prop::collection::vec(0u8..=255, 64),
+            angle in -180.0f64..180.0,
+            spacing in 1.5f64..9.0,
+            levels in 1u8..=5,
+            density in any::<bool>(),
+        ) {
+            // An 8×8 random tone grid blown up to 48×48 pixels gives blocky regions with holes and corners.
+            let g = GrayImage::from_fn(48, 48, |x, y| Luma([cells[(y / 6 * 8 + x / 6) as usize]]));
+            let scheme = if density { HatchScheme::Density } else { HatchScheme::Directions };
+            let opts = HatchOptions { levels, spacing_mm: spacing, angle_deg: angle, scheme };
+            for level in hatch(&g, &opts, spacing, false, 0.0) {
+                for &(a, b) in &level.segments {
+                    // Ends on the region's boundary.
+                    prop_assert!(boundary_distance(&level.region, a) < 1e-6);
+                    prop_assert!(boundary_distance(&level.region, b) < 1e-6);
+                    // Inside (or on the boundary) all along.
+                    for t in 1..16 {
+                        let p = a.lerp(b, f64::from(t) / 16.0);
+                        prop_assert!(
+                            inside_even_odd(&level.region, p) || boundary_distance(&level.region, p) < 1e-6,
+                            "{:?} outside its region", p
+                        );
+                    }
+                    // On one of the level's lines: same offset at both ends, a whole number of periods from a phase.
+                    let fam = level.families.iter().find(|f| {
+                        let (va, vb) = (f.offset(a), f.offset(b));
+                        let k = (va - f.phase) / f.period;
+                        (va - vb).abs() < 1e-6 && (k - k.round()).abs() < 1e-6
+                            && ((b - a).normalize().dot(kurbo::Vec2::new(f.frame().0.0, f.frame().0.1)).abs() - 1.0).abs() < 1e-6
+                    });
+                    prop_assert!(fam.is_some(), "segment {:?}-{:?} is on none of the level's lines", a, b);
+                }
+                // Spacing: every family's period is the requested spacing.
+                for f in &level.families {
+                    prop_assert!((f.period - spacing).abs() < 1e-12);
+                }
+            }
+        }
+    }
+}

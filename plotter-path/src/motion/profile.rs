@@ -1,0 +1,316 @@
+//! Machine profiles (TOML): what the plotter is — steps per mm, travel, speed and acceleration limits, pen lift,
+//! homing, link settings — and the one place where page coordinates map to machine coordinates.
+//!
+//! Page coordinates are millimetres with the origin at the top-left of the page and Y pointing down (as in SVG).
+//! Machine coordinates are millimetres from the homed origin. [`MachineProfile::page_to_machine`] is the only
+//! conversion between the two; nothing else in the pipeline flips or offsets axes.
+
+use std::path::Path;
+
+use kurbo::{Point, Rect};
+use serde::{Deserialize, Serialize};
+
+/// Errors loading a machine profile.
+#[derive(Debug, thiserror::Error)]
+pub enum ProfileError {
+    /// The file could not be read.
+    #[error("cannot read machine profile {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The TOML did not parse or did not match the schema.
+    #[error("invalid machine profile {path}: {message}")]
+    Parse {
+        /// The file.
+        path: String,
+        /// Parser message, with line and column.
+        message: String,
+    },
+    /// A value is out of range.
+    #[error("invalid machine profile {path}: {field}: {problem}")]
+    Invalid {
+        /// The file.
+        path: String,
+        /// Dotted field name.
+        field: String,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+/// Limits and scaling of one axis.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisProfile {
+    /// Full steps × microsteps per millimetre of travel.
+    pub steps_per_mm: f64,
+    /// Usable travel from the homed origin, millimetres.
+    pub travel_mm: f64,
+    /// Maximum feed, mm/s.
+    pub max_feed_mm_s: f64,
+    /// Maximum acceleration, mm/s².
+    pub max_accel_mm_s2: f64,
+    /// Invert the direction pin.
+    #[serde(default)]
+    pub invert_dir: bool,
+    /// Which end of the axis holds the homing switch.
+    #[serde(default)]
+    pub home: HomeEnd,
+}
+
+/// The end of an axis where its homing switch sits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HomeEnd {
+    /// The switch is at position 0; homing moves towards negative.
+    #[default]
+    Min,
+    /// The switch is at `travel_mm`; homing moves towards positive.
+    Max,
+}
+
+/// The machine's axes. X and Y draw; Z lifts the pen; E exists for the 3D-printer profile.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axes {
+    /// Horizontal axis.
+    pub x: AxisProfile,
+    /// Vertical (page) axis.
+    pub y: AxisProfile,
+    /// Pen lift axis.
+    pub z: AxisProfile,
+    /// Extruder, printers only.
+    #[serde(default)]
+    pub e: Option<AxisProfile>,
+}
+
+/// How the pen is lifted and lowered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PenCommand {
+    /// Pen as Z moves (`G0 Z<up>` / `G1 Z<down>`).
+    #[default]
+    Z,
+    /// Servo pen: `M3 S<down>` / `M5` as on GRBL-based servo plotters.
+    Servo,
+}
+
+/// Pen lift and drawing speeds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PenProfile {
+    /// Z position (mm) with the pen up.
+    pub up_z_mm: f64,
+    /// Z position (mm) with the pen on the paper.
+    pub down_z_mm: f64,
+    /// Dwell after each lift or drop, milliseconds.
+    pub settle_ms: f64,
+    /// Feed while drawing, mm/s.
+    pub draw_feed_mm_s: f64,
+    /// Feed of pen-up travel, mm/s.
+    pub travel_feed_mm_s: f64,
+    /// Lift mechanism used in exported G-code.
+    #[serde(default)]
+    pub command: PenCommand,
+}
+
+/// Cornering and planning settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionProfile {
+    /// Junction deviation, mm (grbl's cornering model).
+    pub junction_deviation_mm: f64,
+}
+
+/// Homing cycle settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomingProfile {
+    /// Fast seek rate, mm/s.
+    pub seek_mm_s: f64,
+    /// Slow locate rate, mm/s.
+    pub locate_mm_s: f64,
+    /// Pull-off distance after each switch contact, mm.
+    pub pull_off_mm: f64,
+    /// Switch debounce, milliseconds.
+    pub debounce_ms: f64,
+}
+
+/// Serial link and firmware buffer sizes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkProfile {
+    /// Baud rate.
+    pub baud: u32,
+    /// Firmware receive buffer, bytes (the host never has more in flight).
+    pub rx_buffer_bytes: u32,
+    /// Firmware planner queue length, blocks.
+    pub queue_blocks: u32,
+}
+
+/// The corner of the machine's work area that page (0, 0) — the page's top-left — maps to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PageOrigin {
+    /// Machine Y grows in the page's down direction (most XY plotter kits homing at the far-left corner).
+    #[default]
+    TopLeft,
+    /// Machine Y grows upwards (3D printers, AxiDraw-like frames seen from the other side).
+    BottomLeft,
+}
+
+/// A complete machine description, loaded from TOML.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineProfile {
+    /// Human name, shown by the CLI.
+    pub name: String,
+    /// Where the page's top-left lands on the machine.
+    #[serde(default)]
+    pub page_origin: PageOrigin,
+    /// Axis limits.
+    pub axes: Axes,
+    /// Pen lift and speeds.
+    pub pen: PenProfile,
+    /// Planner settings.
+    pub motion: MotionProfile,
+    /// Homing cycle.
+    pub homing: HomingProfile,
+    /// Serial link.
+    pub link: LinkProfile,
+}
+
+/// The XY plotter kit profile shipped as `samples/xy-plotter.toml`, compiled in as the default.
+pub const DEFAULT_PROFILE_TOML: &str = include_str!("../../../samples/xy-plotter.toml");
+
+impl MachineProfile {
+    /// Parse a profile from TOML text; `origin` names the source in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self, ProfileError> {
+        let profile: MachineProfile = toml::from_str(text)
+            .map_err(|e| ProfileError::Parse { path: origin.to_string(), message: e.to_string() })?;
+        profile.validate(origin)?;
+        Ok(profile)
+    }
+
+    /// Load a profile from a TOML file.
+    pub fn load(path: &Path) -> Result<Self, ProfileError> {
+        let shown = path.display().to_string();
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ProfileError::Read { path: shown.clone(), source })?;
+        Self::from_toml(&text, &shown)
+    }
+
+    /// The built-in XY plotter kit profile.
+    pub fn default_plotter() -> Self {
+        // The embedded sample is checked by a unit test, so this cannot fail at run time.
+        Self::from_toml(DEFAULT_PROFILE_TOML, "built-in xy-plotter profile").unwrap_or_else(|e| unreachable!("{e}"))
+    }
+
+    /// The drawable area in page coordinates (mm): the X and Y travel from the page origin.
+    pub fn work_area(&self) -> Rect {
+        Rect::new(0.0, 0.0, self.axes.x.travel_mm, self.axes.y.travel_mm)
+    }
+
+    /// Map a page point (mm, origin top-left, Y down) to machine coordinates (mm from the homed origin).
+    pub fn page_to_machine(&self, p: Point) -> Point {
+        match self.page_origin {
+            PageOrigin::TopLeft => p,
+            PageOrigin::BottomLeft => Point::new(p.x, self.axes.y.travel_mm - p.y),
+        }
+    }
+
+    /// Inverse of [`page_to_machine`](Self::page_to_machine).
+    pub fn machine_to_page(&self, p: Point) -> Point {
+        // The mapping is an involution for both origins.
+        self.page_to_machine(p)
+    }
+
+    fn validate(&self, origin: &str) -> Result<(), ProfileError> {
+        let bad = |field: &str, problem: &str| ProfileError::Invalid {
+            path: origin.to_string(),
+            field: field.to_string(),
+            problem: problem.to_string(),
+        };
+        let axes = [("x", Some(self.axes.x)), ("y", Some(self.axes.y)), ("z", Some(self.axes.z)), ("e", self.axes.e)];
+        for (name, axis) in axes {
+            let Some(a) = axis else { continue };
+            for (field, v) in [
+                ("steps_per_mm", a.steps_per_mm),
+                ("max_feed_mm_s", a.max_feed_mm_s),
+                ("max_accel_mm_s2", a.max_accel_mm_s2),
+            ] {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(bad(&format!("axes.{name}.{field}"), "must be a positive number"));
+                }
+            }
+            if !(a.travel_mm.is_finite() && a.travel_mm >= 0.0) {
+                return Err(bad(&format!("axes.{name}.travel_mm"), "must be zero or positive"));
+            }
+        }
+        let positive = [
+            ("pen.draw_feed_mm_s", self.pen.draw_feed_mm_s),
+            ("pen.travel_feed_mm_s", self.pen.travel_feed_mm_s),
+            ("motion.junction_deviation_mm", self.motion.junction_deviation_mm),
+            ("homing.seek_mm_s", self.homing.seek_mm_s),
+            ("homing.locate_mm_s", self.homing.locate_mm_s),
+        ];
+        for (field, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(field, "must be a positive number"));
+            }
+        }
+        for (field, v) in [
+            ("pen.settle_ms", self.pen.settle_ms),
+            ("homing.pull_off_mm", self.homing.pull_off_mm),
+            ("homing.debounce_ms", self.homing.debounce_ms),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(field, "must be zero or positive"));
+            }
+        }
+        for (field, z) in [("pen.up_z_mm", self.pen.up_z_mm), ("pen.down_z_mm", self.pen.down_z_mm)] {
+            if !(z.is_finite() && (0.0..=self.axes.z.travel_mm).contains(&z)) {
+                return Err(bad(field, "must lie within the Z travel"));
+            }
+        }
+        if self.link.baud == 0 || self.link.rx_buffer_bytes < 64 || self.link.queue_blocks == 0 {
+            return Err(bad("link", "baud and queue_blocks must be positive, rx_buffer_bytes at least 64"));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn built_in_profile_parses() {
+        let p = MachineProfile::default_plotter();
+        assert!(p.work_area().width() > 100.0);
+        assert!(p.pen.up_z_mm > p.pen.down_z_mm);
+    }
+
+    #[test]
+    fn printer_sample_parses_and_flips_y() {
+        let text = include_str!("../../../samples/printer.toml");
+        let p = MachineProfile::from_toml(text, "printer.toml").unwrap();
+        assert_eq!(p.page_origin, PageOrigin::BottomLeft);
+        let m = p.page_to_machine(Point::new(10.0, 20.0));
+        assert_eq!(m, Point::new(10.0, p.axes.y.travel_mm - 20.0));
+        assert_eq!(p.machine_to_page(m), Point::new(10.0, 20.0));
+        assert!(p.axes.e.is_some());
+    }
+
+    #[test]
+    fn errors_name_the_field_and_file() {
+        let text = DEFAULT_PROFILE_TOML.replace("junction_deviation_mm = 0.02", "junction_deviation_mm = -1.0");
+        let err = MachineProfile::from_toml(&text, "mine.toml").unwrap_err().to_string();
+        assert!(err.contains("mine.toml") && err.contains("motion.junction_deviation_mm"), "{err}");
+        let err = MachineProfile::from_toml("name = 3", "x.toml").unwrap_err().to_string();
+        assert!(err.contains("x.toml"), "{err}");
+    }
+}

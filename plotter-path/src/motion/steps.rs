@@ -1,0 +1,324 @@
+//! Drift-free conversion of millimetre drawings to integer motor steps.
+//!
+//! Every absolute point (page mm) goes through the profile's page → machine mapping
+//! ([`MachineProfile::page_to_machine`]) and is rounded to the nearest integer step **once**; the relative moves sent
+//! to the machine are differences of consecutive rounded points. Summing the relative moves of a path therefore gives
+//! exactly the rounded absolute end point, and a closed curve (first point == last point) returns to its first step
+//! exactly. Rounding every *relative* move instead lets the rounding errors accumulate along the path (the seed
+//! plotter's shrunken drawings came from that).
+//!
+//! The result, a [`StepDrawing`], is what the trajectory file, the G-code export and the motion plan are built from.
+
+use kurbo::Point;
+
+use crate::{Drawing, MachineProfile, Polyline};
+
+/// Largest step coordinate accepted: ±2³⁰ keeps every difference of two coordinates inside `i32`.
+pub const MAX_STEP_COORD: i32 = 1 << 30;
+
+/// Errors converting millimetres to steps.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StepError {
+    /// A coordinate is NaN or infinite.
+    #[error("layer {layer}, path {path}, point {point}: coordinate is not a finite number")]
+    NonFinite {
+        /// Layer index (0-based).
+        layer: usize,
+        /// Path index within the layer (0-based).
+        path: usize,
+        /// Point index within the path (0-based).
+        point: usize,
+    },
+    /// A coordinate maps to a step count beyond [`MAX_STEP_COORD`].
+    #[error("layer {layer}, path {path}, point {point}: ({x:.3}, {y:.3}) mm is too far from the origin to step")]
+    OutOfRange {
+        /// Layer index (0-based).
+        layer: usize,
+        /// Path index within the layer (0-based).
+        path: usize,
+        /// Point index within the path (0-based).
+        point: usize,
+        /// Page X, mm.
+        x: f64,
+        /// Page Y, mm.
+        y: f64,
+    },
+}
+
+/// An absolute machine position in integer steps (X, Y; Z is handled by the pen).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct StepPos {
+    /// X steps from the homed origin.
+    pub x: i32,
+    /// Y steps from the homed origin.
+    pub y: i32,
+}
+
+impl StepPos {
+    /// A position.
+    pub const fn new(x: i32, y: i32) -> Self {
+        StepPos { x, y }
+    }
+
+    /// The relative move from `self` to `to`. Coordinates are within ±[`MAX_STEP_COORD`], so it cannot overflow.
+    pub fn delta_to(self, to: StepPos) -> StepDelta {
+        StepDelta { dx: to.x - self.x, dy: to.y - self.y }
+    }
+
+    /// `self` moved by `d`.
+    pub fn offset(self, d: StepDelta) -> StepPos {
+        StepPos { x: self.x.saturating_add(d.dx), y: self.y.saturating_add(d.dy) }
+    }
+}
+
+/// A relative move in integer steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct StepDelta {
+    /// X steps (signed).
+    pub dx: i32,
+    /// Y steps (signed).
+    pub dy: i32,
+}
+
+impl StepDelta {
+    /// True when neither axis moves.
+    pub fn is_zero(self) -> bool {
+        self.dx == 0 && self.dy == 0
+    }
+}
+
+/// Page millimetres ⇄ machine steps for one profile: the page → machine mapping followed by steps/mm scaling.
+#[derive(Debug, Clone)]
+pub struct StepMapper {
+    profile: MachineProfile,
+}
+
+impl StepMapper {
+    /// The mapper of `profile`.
+    pub fn new(profile: &MachineProfile) -> Self {
+        StepMapper { profile: profile.clone() }
+    }
+
+    /// Steps per mm on X and Y.
+    pub fn steps_per_mm(&self) -> (f64, f64) {
+        (self.profile.axes.x.steps_per_mm, self.profile.axes.y.steps_per_mm)
+    }
+
+    /// Round a page point to the nearest machine step position, or `None` when it is not finite or out of range.
+    pub fn try_page_to_steps(&self, p: Point) -> Option<StepPos> {
+        let m = self.profile.page_to_machine(p);
+        let (sx, sy) = self.steps_per_mm();
+        Some(StepPos { x: round_steps(m.x * sx)?, y: round_steps(m.y * sy)? })
+    }
+
+    /// Machine millimetres of a step position (exact quantized position).
+    pub fn steps_to_machine(&self, s: StepPos) -> Point {
+        let (sx, sy) = self.steps_per_mm();
+        Point::new(f64::from(s.x) / sx, f64::from(s.y) / sy)
+    }
+
+    /// Page millimetres of a step position.
+    pub fn steps_to_page(&self, s: StepPos) -> Point {
+        self.profile.machine_to_page(self.steps_to_machine(s))
+    }
+
+    /// Steps of a machine Z height (mm), rounded once.
+    pub fn z_steps(&self, z_mm: f64) -> Option<i32> {
+        round_steps(z_mm * self.profile.axes.z.steps_per_mm)
+    }
+}
+
+/// Round a step count to the nearest integer (ties away from zero), `None` when not finite or beyond the range.
+pub fn round_steps(v: f64) -> Option<i32> {
+    let r = v.round();
+    if !r.is_finite() || r.abs() > f64::from(MAX_STEP_COORD) {
+        return None;
+    }
+    // The range was checked just above, so the conversion is exact.
+    #[allow(clippy::cast_possible_truncation)]
+    Some(r as i32)
+}
+
+/// One pen-down stroke in steps: an absolute start and the relative moves that follow it.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct StepStroke {
+    /// Where the pen goes down.
+    pub start: StepPos,
+    /// Relative moves drawn from `start`; moves that round to zero steps are dropped (they carry no motion).
+    pub moves: Vec<StepDelta>,
+}
+
+impl StepStroke {
+    /// The absolute end of the stroke (the start plus every move).
+    pub fn end(&self) -> StepPos {
+        self.moves.iter().fold(self.start, |p, d| p.offset(*d))
+    }
+
+    /// The absolute positions visited: the start, then after each move.
+    pub fn positions(&self) -> Vec<StepPos> {
+        let mut out = Vec::with_capacity(self.moves.len() + 1);
+        let mut p = self.start;
+        out.push(p);
+        for d in &self.moves {
+            p = p.offset(*d);
+            out.push(p);
+        }
+        out
+    }
+}
+
+/// A whole drawing in steps: strokes in plotting order (layer by layer).
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct StepDrawing {
+    /// The pen-down strokes.
+    pub strokes: Vec<StepStroke>,
+}
+
+impl StepDrawing {
+    /// Total number of pen-down moves.
+    pub fn move_count(&self) -> usize {
+        self.strokes.iter().map(|s| s.moves.len()).sum()
+    }
+
+    /// Convert back to a single-layer millimetre drawing (page coordinates) through `mapper`.
+    pub fn to_drawing(&self, mapper: &StepMapper, layer_name: &str) -> Drawing {
+        let paths = self
+            .strokes
+            .iter()
+            .map(|s| Polyline::new(s.positions().into_iter().map(|p| mapper.steps_to_page(p)).collect()))
+            .collect();
+        Drawing::single_layer(layer_name, paths)
+    }
+}
+
+/// Convert one polyline: every point rounded once, zero moves dropped. `layer`/`path` only label errors.
+/// Returns `None` for an empty polyline.
+pub fn polyline_to_steps(
+    mapper: &StepMapper,
+    poly: &Polyline,
+    layer: usize,
+    path: usize,
+) -> Result<Option<StepStroke>, StepError> {
+    let mut abs = Vec::with_capacity(poly.points.len());
+    for (i, p) in poly.points.iter().enumerate() {
+        if !(p.x.is_finite() && p.y.is_finite()) {
+            return Err(StepError::NonFinite { layer, path, point: i });
+        }
+        let s = mapper.try_page_to_steps(*p).ok_or(StepError::OutOfRange { layer, path, point: i, x: p.x, y: p.y })?;
+        abs.push(s);
+    }
+    let Some(&start) = abs.first() else { return Ok(None) };
+    let moves = abs.windows(2).map(|w| w[0].delta_to(w[1])).filter(|d| !d.is_zero()).collect();
+    Ok(Some(StepStroke { start, moves }))
+}
+
+/// Convert a whole drawing (all layers, in order) to steps with `profile`'s mapping.
+pub fn drawing_to_steps(profile: &MachineProfile, drawing: &Drawing) -> Result<StepDrawing, StepError> {
+    let mapper = StepMapper::new(profile);
+    let mut strokes = Vec::with_capacity(drawing.path_count());
+    for (li, layer) in drawing.layers.iter().enumerate() {
+        for (pi, poly) in layer.paths.iter().enumerate() {
+            if let Some(s) = polyline_to_steps(&mapper, poly, li, pi)? {
+                strokes.push(s);
+            }
+        }
+    }
+    Ok(StepDrawing { strokes })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::profile::PageOrigin;
+    use proptest::prelude::*;
+
+    fn profile() -> MachineProfile {
+        MachineProfile::default_plotter()
+    }
+
+    #[test]
+    fn rounds_once_not_per_move() {
+        // 100 moves of 0.01 mm at 80 steps/mm: each is 0.8 steps. Rounding each relative move would give 1 step
+        // per move (100 steps); rounding absolute points gives the true 80.
+        let pts: Vec<Point> = (0..=100).map(|i| Point::new(f64::from(i) * 0.01, 0.0)).collect();
+        let s = polyline_to_steps(&StepMapper::new(&profile()), &Polyline::new(pts), 0, 0).unwrap().unwrap();
+        assert_eq!(s.end(), StepPos::new(80, 0));
+        let total: i32 = s.moves.iter().map(|d| d.dx).sum();
+        assert_eq!(total, 80);
+        // Moves that round to nothing are dropped, none is zero.
+        assert!(s.moves.iter().all(|d| !d.is_zero()));
+        assert_eq!(s.moves.len(), 80);
+    }
+
+    #[test]
+    fn bottom_left_origin_flips_y() {
+        let mut p = profile();
+        p.page_origin = PageOrigin::BottomLeft;
+        let m = StepMapper::new(&p);
+        let s = m.try_page_to_steps(Point::new(1.0, 0.0)).unwrap();
+        assert_eq!(s, StepPos::new(80, round_steps(p.axes.y.travel_mm * 80.0).unwrap()));
+        assert_eq!(m.steps_to_page(s), Point::new(1.0, 0.0));
+    }
+
+    #[test]
+    fn bad_points_name_their_place() {
+        let mut d = Drawing::single_layer("a", vec![Polyline::new(vec![Point::new(0.0, 0.0)])]);
+        d.layers[0].paths.push(Polyline::new(vec![Point::new(0.0, 0.0), Point::new(f64::NAN, 1.0)]));
+        assert_eq!(drawing_to_steps(&profile(), &d), Err(StepError::NonFinite { layer: 0, path: 1, point: 1 }));
+        d.layers[0].paths[1].points[1] = Point::new(1e12, 0.0);
+        let e = drawing_to_steps(&profile(), &d).unwrap_err();
+        assert!(matches!(e, StepError::OutOfRange { layer: 0, path: 1, point: 1, .. }), "{e}");
+        assert!(e.to_string().contains("path 1, point 1"));
+    }
+
+    #[test]
+    fn empty_paths_are_skipped_dots_kept() {
+        let d = Drawing::single_layer("a", vec![Polyline::new(vec![]), Polyline::new(vec![Point::new(2.0, 3.0)])]);
+        let s = drawing_to_steps(&profile(), &d).unwrap();
+        assert_eq!(s.strokes, vec![StepStroke { start: StepPos::new(160, 240), moves: vec![] }]);
+    }
+
+    fn arb_point() -> impl Strategy<Value = Point> {
+        (-50.0f64..400.0, -50.0f64..300.0).prop_map(|(x, y)| Point::new(x, y))
+    }
+
+    proptest! {
+        #[test]
+        fn sums_equal_rounded_absolute_end(
+            pts in prop::collection::vec(arb_point(), 1..200),
+            spm in 3.0f64..250.0,
+            flip in any::<bool>(),
+        ) {
+            let mut p = profile();
+            p.axes.x.steps_per_mm = spm;
+            p.axes.y.steps_per_mm = spm * 1.37;
+            if flip { p.page_origin = PageOrigin::BottomLeft; }
+            let m = StepMapper::new(&p);
+            let s = polyline_to_steps(&m, &Polyline::new(pts.clone()), 0, 0).unwrap().unwrap();
+            let expect_end = m.try_page_to_steps(*pts.last().unwrap()).unwrap();
+            let sx: i64 = s.moves.iter().map(|d| i64::from(d.dx)).sum();
+            let sy: i64 = s.moves.iter().map(|d| i64::from(d.dy)).sum();
+            prop_assert_eq!(i64::from(s.start.x) + sx, i64::from(expect_end.x));
+            prop_assert_eq!(i64::from(s.start.y) + sy, i64::from(expect_end.y));
+            // Every visited position is within half a step of its ideal point.
+            for pos in s.positions() {
+                let ideal = pts.iter().map(|q| p.page_to_machine(*q)).map(|q| (q.x * spm, q.y * spm * 1.37));
+                prop_assert!(ideal.clone().any(|(ix, iy)| (f64::from(pos.x) - ix).abs() <= 0.5
+                    && (f64::from(pos.y) - iy).abs() <= 0.5));
+            }
+        }
+
+        #[test]
+        fn closed_curves_return_exactly(
+            pts in prop::collection::vec(arb_point(), 2..300),
+            spm in 3.0f64..250.0,
+        ) {
+            let mut pts = pts;
+            pts.push(pts[0]);
+            let mut p = profile();
+            p.axes.x.steps_per_mm = spm;
+            let s = polyline_to_steps(&StepMapper::new(&p), &Polyline::new(pts), 0, 0).unwrap().unwrap();
+            prop_assert_eq!(s.end(), s.start);
+        }
+    }
+}

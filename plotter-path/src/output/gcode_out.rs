@@ -1,0 +1,158 @@
+//! GRBL-compatible G-code export of a drawing.
+//!
+//! The program is millimetres (`G21`), absolute (`G90`), machine coordinates (the page → machine mapping is already
+//! applied by [`crate::motion::steps`]). Pen-up travel is `G0`, drawing is `G1` at the profile's drawing feed. The pen is
+//! lifted and lowered either as Z moves (`G0 Z<up>` / `G1 Z<down>`, the default) or, for servo pen lifts
+//! ([`PenCommand::Servo`] in the profile), as `M3 S`[`SERVO_DOWN_S`] / `M5`, as GRBL-based servo plotters expect.
+//! Each lift and drop is followed by a `G4` dwell of the profile's settle time when it is non-zero.
+//!
+//! Coordinates are written from the step-rounded positions, with enough decimals that the firmware's own rounding
+//! (`round(mm × steps/mm)`) lands on exactly the same step: the G-code path and the step-block path draw the same
+//! steps.
+
+use std::fmt::Write as _;
+
+use crate::MachineProfile;
+use crate::motion::profile::PenCommand;
+use crate::motion::steps::{StepDrawing, StepMapper};
+
+/// Spindle value sent with `M3` to lower a servo pen (GRBL's default full spindle range, `$30=1000`).
+pub const SERVO_DOWN_S: u32 = 1000;
+
+/// Format a millimetre value with at most `decimals` decimals, trailing zeros removed (`-0` printed as `0`).
+pub fn fmt_mm(v: f64, decimals: usize) -> String {
+    let mut s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        while s.ends_with('0') {
+            s.pop();
+        }
+        if s.ends_with('.') {
+            s.pop();
+        }
+    }
+    if s == "-0" { "0".to_string() } else { s }
+}
+
+/// Decimals needed so that `round(printed × steps_per_mm)` recovers every step count: the printing error
+/// (½·10⁻ᵈ mm) must stay well under half a step.
+fn decimals_for(steps_per_mm: f64) -> usize {
+    let mut d = 3;
+    while d < 9 && 0.5 * 10f64.powi(-i32::try_from(d).unwrap_or(9)) * steps_per_mm > 0.005 {
+        d += 1;
+    }
+    d
+}
+
+/// Write `steps` as a G-code program for `profile`'s machine.
+pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
+    let mapper = StepMapper::new(profile);
+    let (sx, sy) = mapper.steps_per_mm();
+    let (dx, dy) = (decimals_for(sx), decimals_for(sy));
+    let dz = decimals_for(profile.axes.z.steps_per_mm);
+    let pen = &profile.pen;
+    let settle = if pen.settle_ms > 0.0 { Some(fmt_mm(pen.settle_ms / 1000.0, 4)) } else { None };
+    let per_min = |mm_s: f64| fmt_mm(mm_s * 60.0, 1);
+    let (up, down) = match pen.command {
+        PenCommand::Z => (
+            format!("G0 Z{}", fmt_mm(pen.up_z_mm, dz)),
+            format!("G1 Z{} F{}", fmt_mm(pen.down_z_mm, dz), per_min(profile.axes.z.max_feed_mm_s)),
+        ),
+        PenCommand::Servo => ("M5".to_string(), format!("M3 S{SERVO_DOWN_S}")),
+    };
+    let mut out = String::new();
+    let _ = writeln!(out, "; {} — {} stroke(s)", profile.name, steps.strokes.len());
+    let _ = writeln!(out, "G21 ; millimetres\nG90 ; absolute coordinates");
+    let lift = |out: &mut String, cmd: &str| {
+        let _ = writeln!(out, "{cmd}");
+        if let Some(s) = &settle {
+            let _ = writeln!(out, "G4 P{s}");
+        }
+    };
+    lift(&mut out, &up);
+    let (travel_f, draw_f) = (per_min(pen.travel_feed_mm_s), per_min(pen.draw_feed_mm_s));
+    for stroke in &steps.strokes {
+        let p = mapper.steps_to_machine(stroke.start);
+        let _ = writeln!(out, "G0 X{} Y{} F{travel_f}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+        lift(&mut out, &down);
+        let mut first = true;
+        for pos in stroke.positions().into_iter().skip(1) {
+            let p = mapper.steps_to_machine(pos);
+            if first {
+                let _ = writeln!(out, "G1 X{} Y{} F{draw_f}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+                first = false;
+            } else {
+                let _ = writeln!(out, "G1 X{} Y{}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+            }
+        }
+        lift(&mut out, &up);
+    }
+    let _ = writeln!(out, "M2");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::steps::{StepDelta, StepPos, StepStroke};
+
+    fn square() -> StepDrawing {
+        StepDrawing {
+            strokes: vec![StepStroke {
+                start: StepPos::new(80, 8),
+                moves: vec![
+                    StepDelta { dx: 800, dy: 0 },
+                    StepDelta { dx: 0, dy: 801 },
+                    StepDelta { dx: -800, dy: -801 },
+                ],
+            }],
+        }
+    }
+
+    #[test]
+    fn z_pen_program_is_exact() {
+        let p = MachineProfile::default_plotter();
+        let g = export(&p, &square());
+        let body: Vec<&str> = g.lines().skip(1).collect();
+        assert_eq!(
+            body,
+            [
+                "G21 ; millimetres",
+                "G90 ; absolute coordinates",
+                "G0 Z4",
+                "G4 P0.05",
+                "G0 X1 Y0.1 F7200",
+                "G1 Z0 F1500",
+                "G4 P0.05",
+                "G1 X11 Y0.1 F3600",
+                "G1 X11 Y10.1125",
+                "G1 X1 Y0.1",
+                "G0 Z4",
+                "G4 P0.05",
+                "M2",
+            ]
+        );
+    }
+
+    #[test]
+    fn servo_pen_uses_m3_m5_without_dwell() {
+        let mut p = MachineProfile::default_plotter();
+        p.pen.command = PenCommand::Servo;
+        p.pen.settle_ms = 0.0;
+        let g = export(&p, &square());
+        assert!(g.contains("\nM3 S1000\n") && g.contains("\nM5\n"), "{g}");
+        assert!(!g.contains('Z') && !g.contains("G4"), "{g}");
+    }
+
+    #[test]
+    fn printed_coordinates_round_back_to_the_same_steps() {
+        for spm in [80.0, 78.74, 100.0 / 3.0, 157.48, 6400.0] {
+            let d = decimals_for(spm);
+            for steps in [-12345i32, -1, 0, 1, 7, 33333, 1_000_001] {
+                let printed: f64 = fmt_mm(f64::from(steps) / spm, d).parse().unwrap();
+                assert_eq!((printed * spm).round(), f64::from(steps), "spm {spm} steps {steps}");
+            }
+        }
+        assert_eq!(fmt_mm(-0.00001, 3), "0");
+        assert_eq!(fmt_mm(2.5, 3), "2.5");
+    }
+}

@@ -1,0 +1,147 @@
+//! Plain-SVG export: the flattened, laid-out drawing as polylines in millimetres.
+//!
+//! The output is deliberately simple so that other plotter tools (vpype, Inkscape, AxiDraw software) read it
+//! unchanged: `width`/`height` in `mm`, a `viewBox` in millimetres (1 user unit = 1 mm), one Inkscape layer group
+//! per layer (stroke colour and width from the layer's pen, no fill), open paths as `<polyline>` and closed paths
+//! as `<polygon>` (without the repeated last point, which the polygon closes again on import).
+
+use std::fmt::Write as _;
+use std::io::{self, Write};
+
+use kurbo::Point;
+
+use crate::geometry::drawing::{Drawing, Polyline};
+
+/// Number of decimals written for coordinates (0.1 µm: far below any plotter's resolution).
+pub const DECIMALS: usize = 4;
+
+/// Write `value` with at most [`DECIMALS`] decimals and no trailing zeros.
+pub(crate) fn push_number(out: &mut String, value: f64) {
+    let start = out.len();
+    // Writing into a String cannot fail.
+    let _ = write!(out, "{value:.DECIMALS$}");
+    if out[start..].contains('.') {
+        let trimmed = out.trim_end_matches('0').trim_end_matches('.').len();
+        out.truncate(trimmed);
+    }
+    if &out[start..] == "-0" {
+        out.truncate(start);
+        out.push('0');
+    }
+}
+
+fn push_points(out: &mut String, points: &[Point]) {
+    for (i, p) in points.iter().enumerate() {
+        if i > 0 {
+            out.push(' ');
+        }
+        push_number(out, p.x);
+        out.push(',');
+        push_number(out, p.y);
+    }
+}
+
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// The page size written: the drawing's page if known, else the bounding box's far corner (origin kept at 0,0).
+fn page_size(drawing: &Drawing) -> (f64, f64) {
+    if let Some(page) = drawing.page_mm {
+        return page;
+    }
+    match drawing.bbox() {
+        Some(b) => (b.x1.max(1.0), b.y1.max(1.0)),
+        None => (1.0, 1.0),
+    }
+}
+
+fn push_path(out: &mut String, path: &Polyline) {
+    if path.points.len() < 2 {
+        return;
+    }
+    if path.is_closed() {
+        out.push_str("    <polygon points=\"");
+        push_points(out, &path.points[..path.points.len() - 1]);
+    } else {
+        out.push_str("    <polyline points=\"");
+        push_points(out, &path.points);
+    }
+    out.push_str("\"/>\n");
+}
+
+/// Render `drawing` as a plain SVG document.
+pub fn to_svg_string(drawing: &Drawing) -> String {
+    let (w, h) = page_size(drawing);
+    let mut out = String::with_capacity(256 + drawing.paths().map(|p| p.points.len() * 20).sum::<usize>());
+    out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    out.push_str("<svg xmlns=\"http://www.w3.org/2000/svg\" ");
+    out.push_str("xmlns:inkscape=\"http://www.inkscape.org/namespaces/inkscape\" width=\"");
+    push_number(&mut out, w);
+    out.push_str("mm\" height=\"");
+    push_number(&mut out, h);
+    out.push_str("mm\" viewBox=\"0 0 ");
+    push_number(&mut out, w);
+    out.push(' ');
+    push_number(&mut out, h);
+    out.push_str("\">\n");
+    for (i, layer) in drawing.layers.iter().enumerate() {
+        let _ = write!(
+            out,
+            "  <g id=\"layer{}\" inkscape:groupmode=\"layer\" inkscape:label=\"{}\" fill=\"none\" stroke=\"{}\" \
+             stroke-width=\"",
+            i + 1,
+            escape(&layer.name),
+            layer.pen.color.to_hex()
+        );
+        push_number(&mut out, layer.pen.width_mm);
+        out.push_str("\" stroke-linecap=\"round\" stroke-linejoin=\"round\">\n");
+        for path in &layer.paths {
+            push_path(&mut out, path);
+        }
+        out.push_str("  </g>\n");
+    }
+    out.push_str("</svg>\n");
+    out
+}
+
+/// Write `drawing` as a plain SVG document to `w`.
+pub fn write_svg(drawing: &Drawing, mut w: impl Write) -> io::Result<()> {
+    w.write_all(to_svg_string(drawing).as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::drawing::{Layer, Rgb};
+
+    #[test]
+    fn numbers_are_short_and_exact_enough() {
+        let mut s = String::new();
+        for v in [1.0, 0.5, -0.00001, 12.345678, -3.1] {
+            push_number(&mut s, v);
+            s.push(' ');
+        }
+        assert_eq!(s, "1 0.5 0 12.3457 -3.1 ");
+    }
+
+    #[test]
+    fn writes_layers_polylines_and_polygons() {
+        let mut layer = Layer::new("outline & fill");
+        layer.pen.color = Rgb(255, 0, 0);
+        layer.paths.push(Polyline::new(vec![Point::new(0.0, 0.0), Point::new(10.0, 0.5)]));
+        layer.paths.push(Polyline::new(vec![
+            Point::new(1.0, 1.0),
+            Point::new(2.0, 1.0),
+            Point::new(2.0, 2.0),
+            Point::new(1.0, 1.0),
+        ]));
+        let d = Drawing { layers: vec![layer], page_mm: Some((210.0, 297.0)) };
+        let svg = to_svg_string(&d);
+        assert!(svg.contains("width=\"210mm\" height=\"297mm\" viewBox=\"0 0 210 297\""), "{svg}");
+        assert!(svg.contains("inkscape:label=\"outline &amp; fill\""));
+        assert!(svg.contains("stroke=\"#ff0000\""));
+        assert!(svg.contains("<polyline points=\"0,0 10,0.5\"/>"));
+        assert!(svg.contains("<polygon points=\"1,1 2,1 2,2\"/>"));
+    }
+}
