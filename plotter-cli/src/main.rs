@@ -18,6 +18,7 @@ mod cmd_sim;
 mod cmd_stats;
 mod cmd_trace;
 mod serve;
+mod sim_qemu;
 
 use clap::{Parser, Subcommand};
 
@@ -45,7 +46,8 @@ enum Command {
     Plot(cmd_plot::PlotArgs),
     /// Print slicer G-code (PrusaSlicer/Cura, Marlin flavour) on the simulated printer (default) or a serial one
     Print(cmd_print::PrintArgs),
-    /// Run the simulated firmware on a pseudo-terminal (`--pty`) and print its device path
+    /// Run the simulated firmware (`--pty`) or the firmware image under QEMU (`--qemu`) on a pseudo-terminal and
+    /// print its device path
     Sim(cmd_sim::SimArgs),
     /// Home a connected plotter
     Home(cmd_home::LinkArgs),
