@@ -5,7 +5,7 @@
 //!
 //! - firmware: [`machine::Machine`] on a board's [`hal::Hal`] — line input ([`line_buffer`], [`gcode`]),
 //!   sequencing and resends ([`protocol`]), the planner queue ([`planner`]), the Bresenham [`stepper`], [`homing`],
-//!   [`limits`], [`realtime`] commands, the [`errors`] table;
+//!   [`limits`], checked number [`range`]s, [`realtime`] commands, the [`errors`] table;
 //! - host: the same [`planner`] over a whole drawing, [`stepper::StepBlock::duration_ticks`] for the exact
 //!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
 //!
@@ -42,6 +42,7 @@ pub mod line_buffer;
 pub mod machine;
 pub mod planner;
 pub mod protocol;
+pub mod range;
 pub mod realtime;
 #[cfg(feature = "std")]
 pub mod sim;

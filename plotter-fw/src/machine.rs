@@ -28,7 +28,6 @@ use heapless::Deque;
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
 use crate::errors::{AlarmCode, ErrorCode};
-use crate::fmath::round_i32;
 use crate::gcode::{MICRO, Words, envelope, parse_words};
 use crate::hal::Hal;
 use crate::homing::{HomingCycle, HomingStep};
@@ -661,6 +660,10 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         for (t, s) in target.iter_mut().zip(block.steps) {
             *t = t.saturating_add(s);
         }
+        if !crate::range::position_ok(&target) {
+            self.reply_error(ErrorCode::OutOfRange, format_args!(": {}", crate::range::MoveRange::Position.text()));
+            return Outcome::Done;
+        }
         if let Some(axis) = crate::limits::violation(&self.cfg, self.homed, &target) {
             self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
             return Outcome::Done;
@@ -688,8 +691,13 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         plan(self.planner.make_contiguous(), first);
     }
 
-    fn to_um(&self, value: i64) -> i64 {
-        if self.modal.inches { (value * 254 + value.signum() * 5) / 10 } else { value }
+    /// A G-code length in millionths of the current unit → millionths of a mm; `None` on overflow.
+    fn to_um(&self, value: i64) -> Option<i64> {
+        if self.modal.inches { crate::range::inches_to_um(value) } else { Some(value) }
+    }
+
+    fn reply_out_of_range(&mut self, what: &str) {
+        self.reply_error(ErrorCode::OutOfRange, format_args!(": {what}"));
     }
 
     fn execute(&mut self, w: &Words) -> Outcome {
@@ -732,6 +740,19 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.reply_error(ErrorCode::InvalidValue, format_args!(": F must be positive"));
             return Outcome::Done;
         }
+        // Values that cannot be represented in the unit this line asks for, checked before any state changes.
+        let inches = w.g.iter().rev().find_map(|g| match g {
+            20 => Some(true),
+            21 => Some(false),
+            _ => None,
+        });
+        let inches = inches.unwrap_or(self.modal.inches);
+        for letter in *b"XYZEF" {
+            if inches && w.get(letter).is_some_and(|v| crate::range::inches_to_um(v).is_none()) {
+                self.reply_out_of_range(core::str::from_utf8(&[letter]).unwrap_or("?"));
+                return Outcome::Done;
+            }
+        }
         // Blocking conditions, checked before any state changes.
         let needs_slot = motion.is_some() || other_g == Some(4) || (has_axis && other_g.is_none());
         let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18);
@@ -760,7 +781,8 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             }
         }
         if let Some(f) = w.get(b'F') {
-            let f_um_min = self.to_um(f);
+            // Checked above for the line's unit.
+            let f_um_min = self.to_um(f).unwrap_or(i64::MAX);
             self.modal.feed_mm_s = f_um_min as f32 / 1e6 / 60.0;
         }
         if let Some(m) = motion {
@@ -780,13 +802,20 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
                 }
             }
             Some(92) => {
+                let mut offset = self.offset_um;
                 for axis in Axis::ALL {
                     let i = axis.index();
-                    let given = w.get(axis.letter() as u8).map(|v| self.to_um(v));
+                    // Checked above for the line's unit.
+                    let given = w.get(axis.letter() as u8).map(|v| self.to_um(v).unwrap_or(0));
                     if let Some(v) = given.or(if has_axis { None } else { Some(0) }) {
-                        self.offset_um[i] = self.target_um[i] - v;
+                        let Some(o) = self.target_um[i].checked_sub(v) else {
+                            self.reply_out_of_range("G92 offset");
+                            return Outcome::Done;
+                        };
+                        offset[i] = o;
                     }
                 }
+                self.offset_um = offset;
             }
             _ => {
                 if has_axis {
@@ -816,19 +845,27 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
     }
 
     fn linear_move(&mut self, w: &Words) -> Outcome {
+        // Every step is checked (see `crate::range`): an unrepresentable target is refused, never wrapped or
+        // saturated, so a move's direction is always the commanded one.
         let mut target_um = self.target_um;
+        let mut target = self.target_steps;
         for axis in Axis::ALL {
             let i = axis.index();
             if let Some(v) = w.get(axis.letter() as u8) {
-                let v = self.to_um(v);
-                target_um[i] = if self.modal.absolute { v + self.offset_um[i] } else { target_um[i] + v };
+                let um = self.to_um(v).and_then(|v| {
+                    if self.modal.absolute { v.checked_add(self.offset_um[i]) } else { target_um[i].checked_add(v) }
+                });
+                let steps = um.and_then(|um| crate::range::um_to_steps(um, self.cfg.axis(axis).steps_per_mm));
+                let (Some(um), Some(steps)) = (um, steps) else {
+                    self.reply_error(
+                        ErrorCode::OutOfRange,
+                        format_args!(": {} {}", axis.letter(), crate::range::MoveRange::Position.text()),
+                    );
+                    return Outcome::Done;
+                };
+                target_um[i] = um;
+                target[i] = steps;
             }
-        }
-        let mut target = [0i32; NUM_AXES];
-        for axis in Axis::ALL {
-            let i = axis.index();
-            let spm = f64::from(self.cfg.axis(axis).steps_per_mm);
-            target[i] = round_i32(target_um[i] as f64 * spm / 1e6);
         }
         if let Some(axis) = crate::limits::violation(&self.cfg, self.homed, &target) {
             self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
@@ -842,10 +879,19 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.reply_error(ErrorCode::InvalidValue, format_args!(": no feed rate (F) set for G1"));
             return Outcome::Done;
         };
+        // Both targets lie within ±2^30 steps, so the difference fits.
         let steps: [i32; NUM_AXES] = core::array::from_fn(|i| target[i] - self.target_steps[i]);
+        let block = PlanBlock::line(&self.cfg, steps, feed);
+        if let Some(b) = &block {
+            let rate = crate::fmath::floor_u32(b.nominal_speed * b.events_per_mm);
+            if let Err(e) = crate::range::check_move(&steps, rate) {
+                self.reply_out_of_range(e.text());
+                return Outcome::Done;
+            }
+        }
         self.target_um = target_um;
         self.target_steps = target;
-        if let Some(b) = PlanBlock::line(&self.cfg, steps, feed) {
+        if let Some(b) = block {
             self.queue_block(b);
         }
         self.reply_ok();

@@ -383,4 +383,6 @@ impl Sim {
 }
 
 #[cfg(test)]
+mod numbers;
+#[cfg(test)]
 mod tests;
