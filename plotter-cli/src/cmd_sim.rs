@@ -20,8 +20,8 @@ use nix::pty::openpty;
 use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use plotter_fw::sim::{Sim, SimOptions};
 
-use crate::cmd_plot::load_profile;
-use crate::link::faults::Noise;
+use plotter_host::job::load::load_profile;
+use plotter_host::link::faults::Noise;
 use plotter_path::motion::plan;
 
 /// Arguments of `plotter sim`.

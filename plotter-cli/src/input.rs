@@ -12,12 +12,12 @@ use plotter_path::input::{gcode_in, r#gen, raster, trajectory};
 use plotter_path::motion::steps::StepMapper;
 use plotter_path::{Drawing, MachineProfile};
 
-use crate::cmd_trace::TraceArgs;
-use crate::layout_args::LayoutArgs;
+use crate::options::layout::LayoutArgs;
+use crate::options::trace::TraceArgs;
 
 /// How SVG shapes are grouped into layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
-pub(crate) enum LayerByArg {
+pub enum LayerByArg {
     /// One layer per top-level group (Inkscape layer label, else group id)
     #[default]
     Group,
@@ -29,19 +29,19 @@ pub(crate) enum LayerByArg {
 
 /// Input flags shared by every command that reads a drawing.
 #[derive(Debug, Clone, Args)]
-pub(crate) struct InputArgs {
+pub struct InputArgs {
     /// Maximum chord error when flattening SVG curves, mm
     #[arg(long, default_value_t = svg::DEFAULT_TOLERANCE_MM, help_heading = "Input")]
-    pub(crate) tolerance: f64,
+    pub tolerance: f64,
     /// How SVG shapes are grouped into layers
     #[arg(long, value_enum, default_value_t = LayerByArg::Group, help_heading = "Input")]
-    pub(crate) layer_by: LayerByArg,
+    pub layer_by: LayerByArg,
     /// Keep only these layers (names as listed by `plotter stats`), comma-separated
     #[arg(long, value_delimiter = ',', help_heading = "Input")]
-    pub(crate) layers: Vec<String>,
+    pub layers: Vec<String>,
     /// How raster images (PNG/JPEG) are traced into paths
     #[command(flatten)]
-    pub(crate) trace: TraceArgs,
+    pub trace: TraceArgs,
 }
 
 impl InputArgs {
@@ -63,7 +63,7 @@ impl InputArgs {
 
 /// The kinds of input file the loader understands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum InputKind {
+pub enum InputKind {
     /// SVG drawing.
     Svg,
     /// PNG or JPEG image, traced into paths.
@@ -75,11 +75,11 @@ pub(crate) enum InputKind {
 }
 
 /// Prefix of generated-figure inputs.
-pub(crate) const GEN_PREFIX: &str = "gen:";
+pub const GEN_PREFIX: &str = "gen:";
 
 /// Decide what the file `path` holds: by its extension, else by its first bytes. (Generated figures are not
 /// files: [`load_drawing`] recognises their `gen:` prefix before reading anything.)
-pub(crate) fn input_kind(path: &Path, head: &[u8]) -> InputKind {
+pub fn input_kind(path: &Path, head: &[u8]) -> InputKind {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     match ext.as_str() {
         "svg" => return InputKind::Svg,
@@ -103,14 +103,14 @@ pub(crate) fn input_kind(path: &Path, head: &[u8]) -> InputKind {
 }
 
 /// Print warnings to stderr, prefixed so they stand out from results.
-pub(crate) fn warn_all(warnings: &[String]) {
+pub fn warn_all(warnings: &[String]) {
     for w in warnings {
         eprintln!("warning: {w}");
     }
 }
 
 /// The bytes of `path` (`-` reads stdin).
-pub(crate) fn read_input(path: &Path) -> Result<Vec<u8>> {
+pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     if path == Path::new("-") {
         let mut data = Vec::new();
         std::io::stdin().read_to_end(&mut data).context("cannot read the drawing from stdin")?;
@@ -122,7 +122,7 @@ pub(crate) fn read_input(path: &Path) -> Result<Vec<u8>> {
 
 /// Load any supported input as a drawing in page millimetres (before layout). `profile` maps machine coordinates
 /// of G-code and trajectory files back to the page.
-pub(crate) fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
+pub fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
     let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
     let drawing = load_unchecked(path, &shown, args, profile)?;
     // Every input passes the size limits before any later stage works on it.
@@ -170,18 +170,20 @@ fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineP
 
 /// What a drawing command reads: the input, how to read it, and how to lay it out on the page.
 #[derive(Debug, Clone, Args)]
-pub(crate) struct Source {
+pub struct Source {
     /// Input: SVG, PNG/JPEG (traced), G-code, trajectory file, `gen:KIND?param=value&...`, or `-` for stdin
-    pub(crate) input: PathBuf,
+    pub input: PathBuf,
+    /// Input flags.
     #[command(flatten)]
-    pub(crate) read: InputArgs,
+    pub read: InputArgs,
+    /// Layout flags.
     #[command(flatten)]
-    pub(crate) layout: LayoutArgs,
+    pub layout: LayoutArgs,
 }
 
 impl Source {
     /// Load the input and lay it out; `profile` maps G-code and trajectory files back to the page.
-    pub(crate) fn load(&self, profile: &MachineProfile) -> Result<Drawing> {
+    pub fn load(&self, profile: &MachineProfile) -> Result<Drawing> {
         let mut drawing = load_drawing(&self.input, &self.read, profile)?;
         self.layout.apply(&mut drawing)?;
         Ok(drawing)
@@ -189,7 +191,7 @@ impl Source {
 }
 
 /// Write `bytes` to `out` (`-` is stdout).
-pub(crate) fn write_output(out: &Path, bytes: &[u8]) -> Result<()> {
+pub fn write_output(out: &Path, bytes: &[u8]) -> Result<()> {
     if out.as_os_str() == "-" {
         use std::io::Write;
         let mut stdout = std::io::stdout().lock();

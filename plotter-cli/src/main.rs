@@ -15,9 +15,6 @@ mod cmd_preview;
 mod cmd_sim;
 mod cmd_stats;
 mod cmd_trace;
-mod input;
-mod layout_args;
-mod link;
 
 use clap::{Parser, Subcommand};
 
