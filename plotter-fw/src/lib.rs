@@ -4,7 +4,7 @@
 //! host simulator. The same code runs on both sides of the wire:
 //!
 //! - firmware: [`machine::Machine`] on a board's [`hal::Hal`] — line input ([`line_buffer`], [`gcode`]),
-//!   sequencing and resends ([`protocol`]), the planner queue ([`planner`]), the Bresenham [`stepper`], [`homing`],
+//!   sequencing and resends ([`protocol`]), framed replies and real-time commands ([`framing`]), the planner queue ([`planner`]), the Bresenham [`stepper`], [`homing`],
 //!   [`limits`], checked number [`range`]s, [`realtime`] commands, the [`errors`] table;
 //! - host: the same [`planner`] over a whole drawing, [`stepper::StepBlock::duration_ticks`] for the exact
 //!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
@@ -34,6 +34,7 @@ pub mod axis;
 pub mod config;
 pub mod errors;
 pub mod fmath;
+pub mod framing;
 pub mod gcode;
 pub mod hal;
 pub mod homing;

@@ -28,6 +28,7 @@ use heapless::Deque;
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
 use crate::errors::{AlarmCode, ErrorCode};
+use crate::framing::{self, M_FRAMED, RtMatcher};
 use crate::gcode::{MICRO, Words, envelope, parse_words};
 use crate::hal::Hal;
 use crate::homing::{HomingCycle, HomingStep};
@@ -115,6 +116,11 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32> {
     /// A sequenced stream is active: a sequenced frame was accepted or a resend requested since the last reset or
     /// the last plain G-code line. Bytes ≥ 0x80 in a line then mean a damaged frame.
     streaming: bool,
+    /// Framed mode ([`crate::framing`]): CRC-framed replies, four-byte real-time commands, sequenced input only.
+    framed: bool,
+    rt_matcher: RtMatcher,
+    /// The sequence number of the frame or line being answered (framed `ok`/`error:` carry it).
+    answering: u32,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -164,6 +170,9 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             resume_after_hold: false,
             completed_base: 0,
             streaming: false,
+            framed: false,
+            rt_matcher: RtMatcher::new(),
+            answering: 0,
         };
         m.banner();
         m
@@ -257,7 +266,30 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
     /// (a byte that does not fit is counted and reported, see [`RxBuffer`]). Counting against the announced size.
     pub fn receive(&mut self, b: u8) {
+        if self.framed {
+            // Only a complete four-byte sequence is a command; everything else is data (see `crate::framing`).
+            let mut matcher = core::mem::take(&mut self.rt_matcher);
+            let cmd = matcher.feed(b, |d| self.receive_data(d));
+            self.rt_matcher = matcher;
+            if let Some(c) = cmd {
+                self.realtime(c);
+            }
+            return;
+        }
         if is_realtime(b) {
+            self.realtime(b);
+            return;
+        }
+        self.receive_data(b);
+    }
+
+    /// Whether framed mode is on ([`crate::framing`]).
+    pub fn is_framed(&self) -> bool {
+        self.framed
+    }
+
+    fn realtime(&mut self, b: u8) {
+        {
             match b {
                 RT_STATUS => self.rt |= RT_FLAG_STATUS,
                 RT_FEED_HOLD => {
@@ -274,8 +306,10 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
                 }
                 _ => {}
             }
-            return;
         }
+    }
+
+    fn receive_data(&mut self, b: u8) {
         if self.rx.len() >= self.rx_size() {
             // Over the announced size: recorded as a loss, exactly like a full ring.
             self.rx.mark_loss();
@@ -356,19 +390,28 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         );
     }
 
+    /// One reply line: plain, or framed with number `n` in framed mode.
+    fn reply(&mut self, n: u32, text: fmt::Arguments<'_>) {
+        if self.framed {
+            let _ = framing::write_reply(Out(&mut self.hal), n, text);
+        } else {
+            let _ = writeln!(Out(&mut self.hal), "{text}");
+        }
+    }
+
     fn reply_ok(&mut self) {
-        self.hal.write(b"ok\n");
+        self.reply(self.answering, format_args!("ok"));
     }
 
     fn reply_error(&mut self, code: ErrorCode, detail: fmt::Arguments<'_>) {
-        let _ = writeln!(Out(&mut self.hal), "error:{} {}{}", code.code(), code.text(), detail);
+        self.reply(self.answering, format_args!("error:{} {}{}", code.code(), code.text(), detail));
     }
 
     fn reply_resend(&mut self) {
         self.resync = true;
         self.streaming = true;
         let seq = self.seq;
-        let _ = writeln!(Out(&mut self.hal), "rs {seq}");
+        self.reply(seq, format_args!("rs {seq}"));
     }
 
     fn raise_alarm(&mut self, code: AlarmCode) {
@@ -386,7 +429,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         self.sync_target();
         if self.alarm.is_none() {
             self.alarm = Some(code);
-            let _ = writeln!(Out(&mut self.hal), "{code}");
+            self.reply(self.seq, format_args!("{code}"));
         }
     }
 
@@ -414,6 +457,8 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.modal = Modal::DEFAULT;
             self.resume_after_hold = false;
             self.streaming = false;
+            self.framed = false;
+            self.rt_matcher.clear();
             self.completed_base = self.stepper.completed();
             if moving {
                 // Stopped without deceleration: steps may have been lost.
@@ -457,17 +502,12 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         for axis in Axis::ALL {
             mm[axis.index()] = pos[axis.index()] as f32 / self.cfg.axis(axis).steps_per_mm;
         }
-        let _ = writeln!(
-            Out(&mut self.hal),
-            "<{state}|MPos:{:.3},{:.3},{:.3},{:.3}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}>",
-            mm[0],
-            mm[1],
-            mm[2],
-            mm[3],
-            pos[0],
-            pos[1],
-            pos[2],
-            pos[3]
+        self.reply(
+            seq,
+            format_args!(
+                "<{state}|MPos:{:.3},{:.3},{:.3},{:.3}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}>",
+                mm[0], mm[1], mm[2], mm[3], pos[0], pos[1], pos[2], pos[3]
+            ),
         );
     }
 
@@ -549,7 +589,19 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         // G-code is ASCII: during a sequenced stream, a line with a byte ≥ 0x80 is a step-block frame whose marker
         // bit (or marker byte) was damaged on the wire, never a command to run.
         let damaged_frame = self.streaming && line.iter().any(|&c| c >= 0x80);
-        let sequenced = damaged_frame || line.first().is_some_and(|&c| c >= 0x80 || c == b'N' || c == b'n');
+        let sequenced =
+            self.framed || damaged_frame || line.first().is_some_and(|&c| c >= 0x80 || c == b'N' || c == b'n');
+        self.answering = self.seq;
+        if self.framed && kind == PendingKind::Line && !line.first().is_some_and(|&c| c >= 0x80) {
+            // Framed mode takes sequenced input only: anything else is a damaged frame.
+            match envelope(line) {
+                Ok(e) if e.checked && e.number.is_some() => self.answering = e.number.unwrap_or(self.seq),
+                _ => {
+                    self.reply_resend();
+                    return Outcome::Done;
+                }
+            }
+        }
         match kind {
             PendingKind::TooLong | PendingKind::Damaged if sequenced => {
                 self.reply_resend();
@@ -730,7 +782,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             }
         }
         for &m in &w.m {
-            if !matches!(m, 2 | 17 | 18 | 30 | 110 | 114 | 115) {
+            if !matches!(m, 2 | 17 | 18 | 30 | 110 | 114 | 115 | M_FRAMED) {
                 self.reply_error(ErrorCode::UnknownCommand, format_args!(": M{m}"));
                 return Outcome::Done;
             }
@@ -827,6 +879,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             match m {
                 2 | 30 => self.modal = Modal { feed_mm_s: self.modal.feed_mm_s, ..Modal::DEFAULT },
                 17 => self.hal.enable_motors(true),
+                M_FRAMED => self.framed = w.get(b'S').is_some_and(|s| s != 0),
                 18 => self.hal.enable_motors(false),
                 114 => self.report_position(),
                 115 => {

@@ -383,6 +383,8 @@ impl Sim {
 }
 
 #[cfg(test)]
+mod framed;
+#[cfg(test)]
 mod numbers;
 #[cfg(test)]
 mod tests;
