@@ -592,7 +592,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         let sequenced =
             self.framed || damaged_frame || line.first().is_some_and(|&c| c >= 0x80 || c == b'N' || c == b'n');
         self.answering = self.seq;
-        if self.framed && kind == PendingKind::Line && !line.first().is_some_and(|&c| c >= 0x80) {
+        if self.framed && kind == PendingKind::Line && line.first().is_none_or(|&c| c < 0x80) {
             // Framed mode takes sequenced input only: anything else is a damaged frame.
             match envelope(line) {
                 Ok(e) if e.checked && e.number.is_some() => self.answering = e.number.unwrap_or(self.seq),
