@@ -884,10 +884,13 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
                 114 => self.report_position(),
                 115 => {
                     let (rx, q) = (self.rx_size(), self.queue_limit);
-                    let _ = writeln!(
-                        Out(&mut self.hal),
-                        "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:{VERSION} PROTOCOL_VERSION:{PROTOCOL_VERSION} \
-                         RX_BUFFER:{rx} QUEUE_BLOCKS:{q} LINE_MAX:{LINE_MAX} TICK_HZ:{TICK_HZ}"
+                    // Framed in framed mode: the host takes its buffer sizes from it.
+                    self.reply(
+                        self.answering,
+                        format_args!(
+                            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:{VERSION} PROTOCOL_VERSION:{PROTOCOL_VERSION} \
+                             RX_BUFFER:{rx} QUEUE_BLOCKS:{q} LINE_MAX:{LINE_MAX} TICK_HZ:{TICK_HZ}"
+                        ),
                     );
                 }
                 _ => {}
