@@ -198,13 +198,10 @@ impl<T: Transport> Session<T> {
                     }
                     continue;
                 }
-                match Reply::parse(&l) {
-                    Reply::Resend(n) => {
-                        seq = n;
-                        continue 'attempt;
-                    }
-                    // (An unnumbered-checksum error: our `N` was damaged on the way. Settled below.)
-                    _ => {}
+                // (Anything else, e.g. an unnumbered-checksum error when our `N` was damaged, is settled below.)
+                if let Reply::Resend(n) = Reply::parse(&l) {
+                    seq = n;
+                    continue 'attempt;
                 }
             }
             self.framed = true;
