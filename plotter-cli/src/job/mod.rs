@@ -7,6 +7,8 @@
 //! [`JobOutcome`] or an error that says how to continue.
 
 pub mod load;
+pub mod page;
+pub mod prepare;
 pub mod progress;
 pub mod stepped;
 
