@@ -95,7 +95,8 @@ pub fn resume<T: Transport + 'static>(
     // they were all executed; otherwise (restarted, moved) only the journal's executed count is certain.
     session.enter_framed()?;
     let status = session.wait_idle(std::time::Duration::from_millis(50))?;
-    let extra = status.seq.wrapping_sub(state.seq_after_accepted);
+    // (Numbered lines this session sent itself took sequence numbers too: they are no blocks.)
+    let extra = status.seq.wrapping_sub(state.seq_after_accepted).wrapping_sub(session.own_lines);
     let accepted = usize::try_from(extra).ok().map(|x| state.accepted + x).filter(|&a| a <= full.blocks.len());
     let done = match accepted {
         Some(a) if a > 0 && status.steps == full.position_after(a - 1) => a,

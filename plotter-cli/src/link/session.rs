@@ -89,6 +89,9 @@ pub struct Session<T: Transport> {
     pub name: String,
     /// Framed mode is on (see `plotter_fw::framing`): replies are verified, real-time commands are sequences.
     pub framed: bool,
+    /// Numbered lines this session had accepted (each takes one of the firmware's sequence numbers; a resume must
+    /// not count them as blocks of the interrupted plot).
+    pub own_lines: u32,
 }
 
 /// How long to wait for the answer to a plain command (the homing cycle can take a while on a large machine).
@@ -118,12 +121,22 @@ impl<T: Transport> Session<T> {
         // Plain replies are unchecked, so the firmware's description only counts when two answers agree (line noise
         // could change a digit of a buffer size); framed mode later reads it again, verified.
         let mut previous: Option<FirmwareInfo> = None;
+        let mut framed_seen = false;
         for attempt in 0..40 {
+            if framed_seen {
+                // A firmware left in framed mode by an earlier host (which may have died mid-plot): continue in
+                // framed mode and read its description the verified way.
+                let info = FirmwareInfo { version: String::new(), rx_bytes: 64, queue_blocks: 1, protocol: 2 };
+                let mut s = Session { transport, info, name: name.to_string(), framed: true, own_lines: 0 };
+                s.verify_info()?;
+                return Ok(s);
+            }
             if attempt >= 3 && heard.is_empty() && previous.is_none() {
                 break;
             }
             // Drain whatever answers the flush (or a banner) produced.
             while let Some(l) = transport.recv_line(Duration::from_millis(150))? {
+                framed_seen |= framing::parse_reply(&l).is_some();
                 if heard.len() < 8 && !l.is_empty() && !l.starts_with("plotter-fw ") && Reply::parse(&l) != Reply::Ok {
                     heard.push(l);
                 }
@@ -131,12 +144,19 @@ impl<T: Transport> Session<T> {
             transport.send(b"M115\n")?;
             let mut info = None;
             while let Some(l) = transport.recv_line(Duration::from_secs(1))? {
+                framed_seen |= framing::parse_reply(&l).is_some();
                 if let Some(i) = parse_m115(&l) {
                     info = Some(i);
                 } else if l == "ok" {
                     if let Some(info) = info.take() {
                         if previous.as_ref() == Some(&info) {
-                            return Ok(Session { transport, info, name: name.to_string(), framed: false });
+                            return Ok(Session {
+                                transport,
+                                info,
+                                name: name.to_string(),
+                                framed: false,
+                                own_lines: 0,
+                            });
                         }
                         previous = Some(info);
                         break;
@@ -194,6 +214,7 @@ impl<T: Transport> Session<T> {
                 if let Some((n, text)) = framing::parse_reply(&l) {
                     if n == seq && text == "ok" {
                         self.framed = true;
+                        self.own_lines += 1;
                         return self.verify_info();
                     }
                     continue;
@@ -206,6 +227,7 @@ impl<T: Transport> Session<T> {
             }
             self.framed = true;
             if self.status().is_ok() {
+                self.own_lines += 1;
                 return self.verify_info();
             }
             self.framed = false;
@@ -338,6 +360,7 @@ impl<T: Transport> Session<T> {
                     // was executed and only its `ok` was lost — never send it twice.
                     let now = self.status()?.seq;
                     if now == seq.wrapping_add(1) {
+                        self.own_lines += 1;
                         return Ok(out);
                     }
                     seq = now;
@@ -348,7 +371,10 @@ impl<T: Transport> Session<T> {
                     continue;
                 }
                 match Reply::parse(&l) {
-                    Reply::Ok => return Ok(out),
+                    Reply::Ok => {
+                        self.own_lines += 1;
+                        return Ok(out);
+                    }
                     Reply::Error { code, .. } if code == plotter_fw::errors::ErrorCode::Checksum.code() => {
                         // Our line lost its `N` on the way: ask where the firmware stands and send it again.
                         seq = self.status()?.seq;
