@@ -3,6 +3,7 @@
 
 pub mod faults;
 pub mod journal;
+pub mod print;
 pub mod serial;
 pub mod session;
 pub mod sim;

@@ -46,6 +46,27 @@ impl SimTransport {
         }
     }
 
+    /// Around an existing simulator (e.g. a printer with heaters); `baud` as in [`SimTransport::new`].
+    pub fn from_sim(sim: Sim, baud: Option<u32>) -> Self {
+        let slice_ticks = baud.map_or(100, |b| (u64::from(TICK_HZ) * 10).div_ceil(u64::from(b.max(1))));
+        SimTransport {
+            sim,
+            lines: LineSplitter::default(),
+            slice_ticks,
+            streaming: false,
+            was_moving: false,
+            underruns: 0,
+            noise: None,
+            reply_noise: None,
+            wire_busy_ticks: 0,
+        }
+    }
+
+    /// The simulator, mutably (fault injection).
+    pub fn sim_mut(&mut self) -> &mut Sim {
+        &mut self.sim
+    }
+
     /// Corrupt the bytes sent to the firmware with `noise`.
     pub fn with_noise(mut self, noise: Noise) -> Self {
         self.noise = Some(noise);
