@@ -425,6 +425,10 @@ impl Sim {
 }
 
 #[cfg(test)]
+mod framed;
+#[cfg(test)]
+mod numbers;
+#[cfg(test)]
 mod printer_tests;
 #[cfg(test)]
 mod tests;

@@ -58,6 +58,8 @@ pub fn plot<T: Transport + 'static>(
     journal: Option<JournalSpec<'_>>,
     events: &mut dyn PlotEvents,
 ) -> anyhow::Result<JobOutcome> {
+    // Framed mode for everything the plot acts on: verified replies, real-time commands noise cannot forge.
+    session.enter_framed()?;
     if home {
         session.home()?;
     }
@@ -91,8 +93,10 @@ pub fn resume<T: Transport + 'static>(
     // were in flight when the host died may have been accepted after the journal's last line: the firmware's
     // sequence number tells how many (one per block). If it then stands exactly where that many blocks end,
     // they were all executed; otherwise (restarted, moved) only the journal's executed count is certain.
+    session.enter_framed()?;
     let status = session.wait_idle(std::time::Duration::from_millis(50))?;
-    let extra = status.seq.wrapping_sub(state.seq_after_accepted);
+    // (Numbered lines this session sent itself took sequence numbers too: they are no blocks.)
+    let extra = status.seq.wrapping_sub(state.seq_after_accepted).wrapping_sub(session.own_lines);
     let accepted = usize::try_from(extra).ok().map(|x| state.accepted + x).filter(|&a| a <= full.blocks.len());
     let done = match accepted {
         Some(a) if a > 0 && status.steps == full.position_after(a - 1) => a,
@@ -121,13 +125,26 @@ fn stream_with<T: Transport + 'static>(
 ) -> anyhow::Result<StreamStats> {
     let mut tracker = Tracker::new(plan, profile, journal, events);
     let result = stream::stream_plan(session, plan, StreamOptions::default(), &mut tracker);
-    if let Some(e) = tracker.error.take() {
-        return Err(e);
+    let failed = tracker.error.is_some() || result.is_err();
+    if failed {
+        // Every abort path leaves the pen up when the firmware still answers (the journal stays for a resume).
+        let lifted = session.stop_and_lift(profile.pen.up_z_mm);
+        let note = match lifted {
+            Ok(()) => String::new(),
+            Err(e) => format!("\n(could not lift the pen: {e})"),
+        };
+        if let Some(e) = tracker.error.take() {
+            return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) });
+        }
+        if let Err(e) = result {
+            return Err(anyhow::anyhow!("{}{note}", explain(e, journal_path)));
+        }
     }
     let (_, stats) = result.map_err(|e| explain(e, journal_path))?;
     if let Some(j) = tracker.journal.as_mut() {
         j.complete()?;
     }
+    session.leave_framed()?;
     Ok(stats)
 }
 
