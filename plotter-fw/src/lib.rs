@@ -34,6 +34,7 @@ extern crate std;
 
 pub mod axis;
 pub mod config;
+pub mod decimal;
 pub mod errors;
 pub mod fmath;
 pub mod framing;

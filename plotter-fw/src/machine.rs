@@ -27,6 +27,7 @@ use heapless::Deque;
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
+use crate::decimal::Decimal;
 use crate::errors::{AlarmCode, ErrorCode};
 use crate::framing::{self, M_FRAMED, RtMatcher};
 use crate::gcode::{MICRO, Words, envelope, parse_words};
@@ -592,8 +593,15 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         self.reply(
             seq,
             format_args!(
-                "<{state}|MPos:{:.3},{:.3},{:.3},{:.3}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}>",
-                mm[0], mm[1], mm[2], mm[3], pos[0], pos[1], pos[2], pos[3]
+                "<{state}|MPos:{},{},{},{}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}>",
+                Decimal::new(mm[0], 3),
+                Decimal::new(mm[1], 3),
+                Decimal::new(mm[2], 3),
+                Decimal::new(mm[3], 3),
+                pos[0],
+                pos[1],
+                pos[2],
+                pos[3]
             ),
         );
     }
@@ -1069,11 +1077,11 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         let p = self.stepper.position();
         let _ = writeln!(
             Out(&mut self.hal),
-            "X:{:.3} Y:{:.3} Z:{:.3} E:{:.3} Count X:{} Y:{} Z:{} E:{}",
-            work[0],
-            work[1],
-            work[2],
-            work[3],
+            "X:{} Y:{} Z:{} E:{} Count X:{} Y:{} Z:{} E:{}",
+            Decimal::new(work[0], 3),
+            Decimal::new(work[1], 3),
+            Decimal::new(work[2], 3),
+            Decimal::new(work[3], 3),
             p[0],
             p[1],
             p[2],
