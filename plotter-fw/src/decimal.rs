@@ -38,7 +38,7 @@ impl fmt::Display for Decimal {
         #[allow(clippy::cast_precision_loss)]
         let s = v.abs() * scale as f64;
         // A reading beyond 2^63 / 10^6 is nothing a reply ever holds: printed as infinite rather than wrapped.
-        if !(s < 9.0e18) {
+        if s.is_infinite() || s >= 9.0e18 {
             return f.write_str("inf");
         }
         // In range and non-negative (checked above): truncation is the floor.
