@@ -1,6 +1,7 @@
 //! Motion: machine profiles, the host motion plan (the firmware's own planner over the whole drawing) and
 //! drift-free step conversion.
 
+pub mod pens;
 pub mod plan;
 pub mod profile;
 pub mod steps;
