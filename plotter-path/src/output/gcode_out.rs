@@ -40,7 +40,7 @@ pub fn fmt_mm(v: f64, decimals: usize) -> String {
 
 /// Decimals needed so that `round(printed × steps_per_mm)` recovers every step count: the printing error
 /// (½·10⁻ᵈ mm) must stay well under half a step.
-fn decimals_for(steps_per_mm: f64) -> usize {
+pub fn decimals_for(steps_per_mm: f64) -> usize {
     let mut d = 3;
     while d < 9 && 0.5 * 10f64.powi(-i32::try_from(d).unwrap_or(9)) * steps_per_mm > 0.005 {
         d += 1;

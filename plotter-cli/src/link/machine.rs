@@ -1,0 +1,178 @@
+//! The machine a plot job drives, whatever its firmware: ours (step blocks in CRC frames,
+//! [`crate::link::session::Session`]) or GRBL (G-code with character counting,
+//! [`crate::link::grbl::session::GrblSession`]). The job ([`crate::job`]) only talks to [`PlotMachine`], so pen
+//! changes, pauses, the journal and resume work the same on both.
+
+use std::time::Duration;
+
+use plotter_path::motion::plan::{MachinePos, MotionPlan};
+
+use super::Transport;
+use super::grbl::session::GrblSession;
+use super::session::Session;
+use super::sim::SimTransport;
+use super::stream::{self, Control, StreamError, StreamOptions, StreamStats};
+use crate::link::journal::JournalState;
+
+/// Which firmware a port speaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Firmware {
+    /// Tell by the start-up banner (or `$I`, when the banner was missed).
+    #[default]
+    Auto,
+    /// This project's firmware (plotter-fw).
+    Ours,
+    /// GRBL 1.1, grblHAL, FluidNC.
+    Grbl,
+}
+
+/// What a plot job needs from a machine.
+pub trait PlotMachine {
+    /// Where it is connected (for messages).
+    fn name(&self) -> &str;
+    /// Which firmware it runs.
+    fn firmware(&self) -> Firmware;
+    /// Run the homing cycle; afterwards the machine stands at the profile's homed position.
+    fn home(&mut self) -> anyhow::Result<()>;
+    /// The current position, steps of the plot's coordinates.
+    fn position(&mut self) -> anyhow::Result<MachinePos>;
+    /// Stream `plan` (which starts where the machine stands); returns when it has been executed.
+    fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError>;
+    /// After the host lost a plot: the first block of `full` (the original plan) not certainly executed, given
+    /// the journal's `state`. Waits until the machine has finished what it still holds.
+    fn resume_point(&mut self, state: &JournalState, full: &MotionPlan) -> anyhow::Result<usize>;
+    /// The in-process simulator's executed motion time so far, ticks (0 on a port).
+    fn busy_ticks(&self) -> u64 {
+        0
+    }
+    /// Whether the machine is in an alarm that needs the user's decision (`$X` on GRBL).
+    fn alarm_pending(&mut self) -> anyhow::Result<Option<String>> {
+        Ok(None)
+    }
+    /// Clear the alarm after the user agreed.
+    fn unlock(&mut self) -> anyhow::Result<()> {
+        Ok(())
+    }
+    /// Whether `home` runs a real homing cycle (else it only declares the current position as home).
+    fn can_home(&self) -> bool {
+        true
+    }
+}
+
+impl<T: Transport + 'static> PlotMachine for Session<T> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn firmware(&self) -> Firmware {
+        Firmware::Ours
+    }
+
+    fn home(&mut self) -> anyhow::Result<()> {
+        Session::home(self)
+    }
+
+    fn position(&mut self) -> anyhow::Result<MachinePos> {
+        Ok(self.status()?.steps)
+    }
+
+    fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
+        stream::stream_plan(self, plan, StreamOptions::default(), control).map(|(_, s)| s)
+    }
+
+    fn resume_point(&mut self, state: &JournalState, full: &MotionPlan) -> anyhow::Result<usize> {
+        // If the firmware is still running the session the host lost, let it finish what it accepted. Frames that
+        // were in flight when the host died may have been accepted after the journal's last line: the firmware's
+        // sequence number tells how many (one per block). If it then stands exactly where that many blocks end,
+        // they were all executed; otherwise (restarted, moved) only the journal's executed count is certain.
+        let status = self.wait_idle(Duration::from_millis(50))?;
+        let extra = status.seq.wrapping_sub(state.seq_after_accepted);
+        let accepted = usize::try_from(extra).ok().map(|x| state.accepted + x).filter(|&a| a <= full.blocks.len());
+        Ok(match accepted {
+            Some(a) if a > 0 && status.steps == full.position_after(a - 1) => a,
+            _ => state.executed,
+        })
+    }
+
+    fn busy_ticks(&self) -> u64 {
+        (&self.transport as &dyn std::any::Any)
+            .downcast_ref::<SimTransport>()
+            .map_or(0, |s| s.sim().hal().busy_ticks())
+    }
+}
+
+impl<T: Transport + 'static> PlotMachine for GrblSession<T> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn firmware(&self) -> Firmware {
+        Firmware::Grbl
+    }
+
+    fn home(&mut self) -> anyhow::Result<()> {
+        GrblSession::home(self)
+    }
+
+    fn position(&mut self) -> anyhow::Result<MachinePos> {
+        GrblSession::position(self)
+    }
+
+    fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
+        GrblSession::stream(self, plan, control)
+    }
+
+    fn resume_point(&mut self, state: &JournalState, full: &MotionPlan) -> anyhow::Result<usize> {
+        GrblSession::resume_point(self, state.executed, state.accepted, full)
+    }
+
+    fn busy_ticks(&self) -> u64 {
+        (&self.transport as &dyn std::any::Any)
+            .downcast_ref::<crate::link::grbl::emulator_transport::EmulatorTransport>()
+            .map_or(0, |t| t.emulator().backend().hal().busy_ticks())
+    }
+
+    fn alarm_pending(&mut self) -> anyhow::Result<Option<String>> {
+        if !self.in_alarm()? {
+            return Ok(None);
+        }
+        let why = self.messages.last().cloned().unwrap_or_else(|| "alarm".into());
+        Ok(Some(format!("{} is in alarm ({why})", self.name)))
+    }
+
+    fn unlock(&mut self) -> anyhow::Result<()> {
+        GrblSession::unlock(self)
+    }
+
+    fn can_home(&self) -> bool {
+        self.settings.homing_enabled()
+    }
+}
+
+/// Which firmware answers on `transport`: a start-up banner (`Grbl 1.1x ['$' for help]` or `plotter-fw …`)
+/// decides; when none arrives (the port did not reset the board), `$I` does — GRBL answers `[VER:…]`, our
+/// firmware an error. Nothing is reset or moved.
+pub fn detect<T: Transport>(transport: &mut T) -> anyhow::Result<Firmware> {
+    let name_of = |l: &str| {
+        if l.starts_with("Grbl ") || l.starts_with("[VER:") {
+            Some(Firmware::Grbl)
+        } else if l.starts_with("plotter-fw ") || l.starts_with("FIRMWARE_NAME:plotter-fw") {
+            Some(Firmware::Ours)
+        } else {
+            None
+        }
+    };
+    while let Some(l) = transport.recv_line(Duration::from_millis(300))? {
+        if let Some(f) = name_of(&l) {
+            return Ok(f);
+        }
+    }
+    transport.send(b"$I\n")?;
+    let mut found = Firmware::Ours;
+    while let Some(l) = transport.recv_line(Duration::from_millis(500))? {
+        if let Some(f) = name_of(&l) {
+            found = f;
+        }
+    }
+    Ok(found)
+}
