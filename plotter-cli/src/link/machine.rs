@@ -176,3 +176,72 @@ pub fn detect<T: Transport>(transport: &mut T) -> anyhow::Result<Firmware> {
     }
     Ok(found)
 }
+
+/// A connected machine of either firmware.
+pub enum Connected<T: Transport> {
+    /// This project's firmware.
+    Ours(Session<T>),
+    /// A GRBL controller.
+    Grbl(GrblSession<T>),
+}
+
+impl<T: Transport + 'static> Connected<T> {
+    /// Connect over `transport` (named `name`) to `firmware` (detected when [`Firmware::Auto`]); the profile
+    /// is what GRBL's settings are checked against and what its program is written for.
+    pub fn connect(
+        mut transport: T,
+        name: &str,
+        firmware: Firmware,
+        profile: &plotter_path::MachineProfile,
+    ) -> anyhow::Result<Self> {
+        let firmware = match firmware {
+            Firmware::Auto => detect(&mut transport)?,
+            f => f,
+        };
+        Ok(match firmware {
+            Firmware::Grbl => Connected::Grbl(GrblSession::connect(transport, name, profile)?),
+            _ => Connected::Ours(Session::connect(transport, name)?),
+        })
+    }
+
+    /// The machine, for the plot job.
+    pub fn machine(&mut self) -> &mut dyn PlotMachine {
+        match self {
+            Connected::Ours(s) => s,
+            Connected::Grbl(g) => g,
+        }
+    }
+
+    /// The byte pipe (console).
+    pub fn transport(&mut self) -> &mut T {
+        match self {
+            Connected::Ours(s) => &mut s.transport,
+            Connected::Grbl(g) => &mut g.transport,
+        }
+    }
+
+    /// One line saying what is connected.
+    pub fn describe(&self) -> String {
+        match self {
+            Connected::Ours(s) => format!(
+                "plotter-fw {} on {} (rx {} bytes, queue {} blocks)",
+                s.info.version, s.name, s.info.rx_bytes, s.info.queue_blocks
+            ),
+            Connected::Grbl(g) => format!(
+                "GRBL {} on {} (rx {} bytes, homing {})",
+                g.version,
+                g.name,
+                g.rx_bytes,
+                if g.settings.homing_enabled() { "on" } else { "off ($22=0)" }
+            ),
+        }
+    }
+
+    /// Send one G-code line and wait for its `ok`; returns the report lines.
+    pub fn command(&mut self, line: &str) -> anyhow::Result<Vec<String>> {
+        match self {
+            Connected::Ours(s) => s.command(line, super::session::COMMAND_TIMEOUT),
+            Connected::Grbl(g) => g.command(line, super::grbl::session::COMMAND_TIMEOUT),
+        }
+    }
+}
