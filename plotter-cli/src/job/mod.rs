@@ -281,3 +281,155 @@ fn explain(e: StreamError, journal: Option<&Path>) -> anyhow::Error {
     };
     anyhow::anyhow!("{e}{hint}")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::job::progress::JobProgress;
+    use crate::link::grbl::emulator::{Faults, GrblEmulator};
+    use crate::link::grbl::emulator_transport::EmulatorTransport;
+    use crate::link::grbl::session::GrblSession;
+    use crate::link::grbl::settings::GrblSettings;
+    use crate::link::session::Session;
+    use crate::link::sim::SimTransport;
+    use plotter_path::kurbo::Point;
+    use plotter_path::motion::steps::drawing_to_steps;
+    use plotter_path::{Drawing, Layer, Polyline, Rgb};
+
+    /// Three layers, black / red / blue, one 10 mm square each, at x = 20, 50, 80 mm.
+    fn three_pens(profile: &MachineProfile) -> StepDrawing {
+        let square = |x: f64| {
+            Polyline::new(vec![
+                Point::new(x, 40.0),
+                Point::new(x + 10.0, 40.0),
+                Point::new(x + 10.0, 50.0),
+                Point::new(x, 50.0),
+                Point::new(x, 40.0),
+            ])
+        };
+        let mut d = Drawing::default();
+        for (i, (name, color)) in [("black", Rgb::BLACK), ("red", Rgb(255, 0, 0)), ("blue", Rgb(0, 0, 255))].into_iter().enumerate() {
+            let mut l = Layer::new(name);
+            l.pen.color = color;
+            l.paths = vec![square(20.0 + 30.0 * f64::from(u32::try_from(i).unwrap()))];
+            d.layers.push(l);
+        }
+        drawing_to_steps(profile, &d).unwrap()
+    }
+
+    /// Answers pen changes from a script and records them, and where the carriage was at each.
+    struct Script {
+        answers: Vec<PenChangeChoice>,
+        seen: Vec<PenChangeRequest>,
+    }
+
+    impl PlotEvents for Script {
+        fn progress(&mut self, _: &JobProgress) {}
+        fn pen_change_mode(&self) -> PenChangeMode {
+            PenChangeMode::Pause
+        }
+        fn pen_change(&mut self, c: &PenChangeRequest) -> PenChangeChoice {
+            self.seen.push(c.clone());
+            if self.answers.is_empty() { PenChangeChoice::Continue } else { self.answers.remove(0) }
+        }
+        fn unlock_alarm(&mut self, _: &str) -> bool {
+            true
+        }
+    }
+
+    fn grbl() -> GrblSession<EmulatorTransport> {
+        let profile = MachineProfile::default_plotter();
+        let cfg = plan::machine_config(&profile).unwrap();
+        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
+        GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap()
+    }
+
+    /// Pen-down runs (XY step positions while Z is below the middle) of a step trace that move in XY (homing Z
+    /// dips the pen where the carriage stands).
+    fn pen_down_runs(sim: &plotter_fw::sim::Sim) -> Vec<Vec<(i64, i64)>> {
+        let mut pos = sim.hal().physical_position();
+        for e in sim.hal().steps().iter().rev() {
+            pos[e.axis.index()] -= if e.forward { 1 } else { -1 };
+        }
+        let mut runs = Vec::new();
+        let mut cur: Vec<(i64, i64)> = Vec::new();
+        for e in sim.hal().steps() {
+            pos[e.axis.index()] += if e.forward { 1 } else { -1 };
+            if pos[2] < 800 {
+                cur.push((pos[0], pos[1]));
+            } else if !cur.is_empty() {
+                runs.push(std::mem::take(&mut cur));
+            }
+        }
+        runs.retain(|r| r.iter().any(|p| *p != r[0]));
+        runs
+    }
+
+    #[test]
+    fn grbl_plot_stops_twice_parked_and_ends_exactly() {
+        let profile = MachineProfile::default_plotter();
+        let steps = three_pens(&profile);
+        let mut m = grbl();
+        let mut ev = Script { answers: vec![], seen: vec![] };
+        let out = plot(&mut m, &profile, &steps, true, None, &mut ev).unwrap();
+        assert_eq!(out.pen_stops, 2);
+        let names: Vec<&str> = ev.seen.iter().map(|c| c.pen.name.as_str()).collect();
+        assert_eq!(names, ["red fineliner 0.5", "blue brush pen"]);
+        assert_eq!(ev.seen[1].previous.as_ref().map(|p| p.name.as_str()), Some("red fineliner 0.5"));
+        assert_eq!(ev.seen[0].park_mm, (0.0, 0.0), "the kit has no [park]: the home corner");
+        let emu = m.transport.emulator();
+        let p = emu.backend().machine().stepper().position();
+        // The blue square closes at (80, 40) mm = (6400, 3200) steps, pen up.
+        assert_eq!([p[0], p[1], p[2]], [6400, 3200, 1600]);
+        assert!(emu.stats().peak_rx <= 127 && emu.stats().overflow_bytes == 0);
+        // Three pen-down runs, one square each, and the carriage visited the park corner pen up in between.
+        let runs = pen_down_runs(emu.backend());
+        assert_eq!(runs.len(), 3, "three squares");
+        let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
+        assert_eq!(firsts, [(1600, 3200), (4000, 3200), (6400, 3200)]);
+    }
+
+    #[test]
+    fn skip_and_stop_then_resume_from_the_journal() {
+        let profile = MachineProfile::default_plotter();
+        let steps = three_pens(&profile);
+        // Skip the red layer: two squares drawn, one pen stop left (for blue).
+        let mut m = Session::connect(SimTransport::new(plan::machine_config(&profile).unwrap(), None), "sim").unwrap();
+        let mut ev = Script { answers: vec![PenChangeChoice::SkipLayer], seen: vec![] };
+        let out = plot(&mut m, &profile, &steps, true, None, &mut ev).unwrap();
+        assert_eq!((out.pen_stops, out.skipped.clone()), (2, vec!["red".to_string()]));
+        let runs = pen_down_runs(m.transport.sim());
+        let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
+        assert_eq!(firsts, [(1600, 3200), (6400, 3200)]);
+
+        // Stop at the first change on GRBL: the journal says where; resume draws red and blue.
+        let dir = std::env::temp_dir().join(format!("plotter-pen-journal-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let jp = dir.join("three.journal");
+        let mut g = grbl();
+        let source = |start: [i32; 4]| Ok(format!("{start:?}"));
+        let spec = JournalSpec { path: &jp, source: &source };
+        let mut ev = Script { answers: vec![PenChangeChoice::Stop], seen: vec![] };
+        let e = plot(&mut g, &profile, &steps, true, Some(spec), &mut ev).unwrap_err().to_string();
+        assert!(e.contains("stopped at the pen change before layer \"red\"") && e.contains("--resume"), "{e}");
+        let state = crate::link::journal::load(&jp).unwrap();
+        let full = plan::plan(&profile, &steps, plan::homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
+        assert_eq!(state.executed, full.pen_changes[0].block, "everything before the change was executed");
+        assert!(!state.complete);
+        let mut ev = Script { answers: vec![], seen: vec![] };
+        let start = plan::homed_position(&profile).unwrap();
+        let out = resume(&mut g, &profile, &steps, start, &state, &jp, false, &mut ev).unwrap();
+        // Asked for red first (resuming), then for blue.
+        let names: Vec<&str> = ev.seen.iter().map(|c| c.layer_name.as_str()).collect();
+        assert_eq!(names, ["red", "blue"]);
+        assert!(ev.seen[0].previous.is_none());
+        assert_eq!(out.pen_stops, 2);
+        assert!(crate::link::journal::load(&jp).unwrap().complete);
+        let p = g.transport.emulator().backend().machine().stepper().position();
+        assert_eq!([p[0], p[1], p[2]], [6400, 3200, 1600]);
+        let runs = pen_down_runs(g.transport.emulator().backend());
+        let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
+        assert_eq!(firsts, [(1600, 3200), (4000, 3200), (6400, 3200)], "black before the stop, red and blue after");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -460,7 +460,7 @@ impl<T: Transport> GrblSession<T> {
                 }
                 GrblLine::Error(code) => {
                     let bad = st.acked;
-                    let stopped = self.stop_after_error(&mut st, &ends);
+                    let stopped = self.stop_after_error(&mut st, plan.start, &ends);
                     let mut msg = format!(
                         "{}: GRBL refused line {} of {n} ({:?}): {}; the plot stopped after {} executed block(s)",
                         self.name,
@@ -573,7 +573,7 @@ impl<T: Transport> GrblSession<T> {
 
     /// After an `error:`: GRBL skips the refused line and would run the following ones, so hold, note where the
     /// machine stopped, and soft-reset to drop the rest.
-    fn stop_after_error(&mut self, st: &mut GrblStream, ends: &[MachinePos]) -> anyhow::Result<()> {
+    fn stop_after_error(&mut self, st: &mut GrblStream, start: MachinePos, ends: &[MachinePos]) -> anyhow::Result<()> {
         self.transport.send(&[RT_FEED_HOLD]).map_err(|e| transport_error(&self.name, e))?;
         let deadline = self.transport.now() + COMMAND_TIMEOUT;
         loop {
@@ -583,9 +583,14 @@ impl<T: Transport> GrblSession<T> {
                 // Only the lines before the refused one are the plan; find where it stopped among them.
                 let bad = st.acked;
                 let mut done = st.executed;
-                for (i, e) in ends.iter().enumerate().take(bad).skip(st.executed) {
-                    if self.same(e, &pos) {
+                for i in st.executed..bad {
+                    let a = if i == 0 { start } else { ends[i - 1] };
+                    if self.same(&ends[i], &pos) {
                         done = i + 1;
+                    } else if on_segment(&pos, &a, &ends[i]) {
+                        // Held in the middle of block i.
+                        done = i;
+                        break;
                     }
                 }
                 st.executed = done;
@@ -650,4 +655,153 @@ fn on_segment(p: &MachinePos, a: &MachinePos, b: &MachinePos) -> bool {
     }
     let dist2: f64 = d.iter().zip(&q).map(|(x, y)| (y - t * x).powi(2)).sum();
     dist2 <= 1.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::grbl::emulator::{Faults, GrblEmulator, RX_USABLE};
+    use crate::link::grbl::emulator_transport::EmulatorTransport;
+    use crate::link::grbl::settings::GrblSettings;
+    use plotter_path::kurbo::Point;
+    use plotter_path::motion::plan::{Lookahead, homed_position, plan as make_plan};
+    use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
+    use plotter_path::{Drawing, Polyline};
+
+    /// Ten 10 mm squares and a circle of 2 mm chords: every segment takes far longer to draw (≥ 2 mm at 60 mm/s
+    /// = 33 ms) than its line takes on a 115200-baud wire (< 2 ms), so a fast-enough link never starves.
+    fn drawing() -> StepDrawing {
+        let square = |x: f64| {
+            Polyline::new(vec![
+                Point::new(x, 10.0),
+                Point::new(x + 10.0, 10.0),
+                Point::new(x + 10.0, 20.0),
+                Point::new(x, 20.0),
+                Point::new(x, 10.0),
+            ])
+        };
+        let mut paths: Vec<Polyline> = (0..10).map(|i| square(10.0 + 15.0 * f64::from(i))).collect();
+        let circle: Vec<Point> = (0..=94)
+            .map(|i| {
+                let a = f64::from(i) * std::f64::consts::TAU / 94.0;
+                Point::new(100.0 + 30.0 * a.cos(), 80.0 + 30.0 * a.sin())
+            })
+            .collect();
+        paths.push(Polyline::new(circle));
+        drawing_to_steps(&MachineProfile::default_plotter(), &Drawing::single_layer("d", paths)).unwrap()
+    }
+
+    fn session(faults: Faults) -> GrblSession<EmulatorTransport> {
+        let profile = MachineProfile::default_plotter();
+        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
+        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), faults);
+        GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap()
+    }
+
+    /// Records progress reports.
+    #[derive(Default)]
+    struct Record(Vec<Progress>);
+
+    impl Control for Record {
+        fn progress(&mut self, p: &Progress) {
+            self.0.push(*p);
+        }
+        fn pause_requested(&mut self) -> Option<bool> {
+            None
+        }
+        fn paused(&mut self, _: bool) -> PauseChoice {
+            PauseChoice::Resume
+        }
+    }
+
+    #[test]
+    fn connect_reads_version_buffer_and_settings() {
+        let s = session(Faults::default());
+        assert_eq!((s.version.as_str(), s.rx_bytes), ("1.1h", 128));
+        assert_eq!(s.settings.get(100), Some(80.0));
+        assert!(s.settings.homing_enabled());
+        assert!(s.messages.iter().any(|m| m.contains("to unlock")), "{:?}", s.messages);
+    }
+
+    #[test]
+    fn streams_within_the_buffer_without_starving_and_ends_exactly() {
+        let mut s = session(Faults::default());
+        s.home().unwrap();
+        let profile = MachineProfile::default_plotter();
+        let home = homed_position(&profile).unwrap();
+        assert_eq!(s.position().unwrap(), home);
+        let steps = drawing();
+        let plan = make_plan(&profile, &steps, home, Lookahead::Whole).unwrap();
+        let mut rec = Record::default();
+        let stats = s.stream(&plan, &mut rec).unwrap();
+        let emu = s.transport.emulator();
+        assert_eq!(emu.stats().overflow_bytes, 0);
+        assert!(emu.stats().peak_rx <= RX_USABLE && s.peak_in_flight <= RX_USABLE, "{}", s.peak_in_flight);
+        assert!(s.peak_in_flight > 100, "the buffer is used: {}", s.peak_in_flight);
+        assert_eq!(stats.underruns, Some(0), "the planner never starved");
+        assert_eq!(stats.frames, plan.blocks.len());
+        // The last stroke is the circle: it ends where it began, at (130, 80) mm = (10400, 6400) steps, pen up
+        // (4 mm × 400 steps/mm).
+        let end = steps.strokes.last().unwrap().end();
+        assert_eq!((end.x, end.y), (10_400, 6_400));
+        let p = emu.backend().machine().stepper().position();
+        assert_eq!([p[0], p[1], p[2]], [10_400, 6_400, 1_600]);
+        assert_eq!(emu.backend().physical_position()[..3], [10_400, 6_400, 1_600]);
+        // Executed progress comes from the reported position: it runs behind the acknowledged lines and is
+        // exact at the end.
+        assert!(rec.0.windows(2).all(|w| w[0].executed <= w[1].executed && w[1].executed <= w[1].accepted));
+        assert!(rec.0.iter().any(|p| p.executed > 0 && p.executed < p.accepted), "position-based progress");
+        assert_eq!(rec.0.last().map(|p| (p.accepted, p.executed)), Some((plan.blocks.len(), plan.blocks.len())));
+    }
+
+    fn plan_for(s: &mut GrblSession<EmulatorTransport>) -> MotionPlan {
+        s.home().unwrap();
+        let profile = MachineProfile::default_plotter();
+        make_plan(&profile, &drawing(), s.position().unwrap(), Lookahead::Whole).unwrap()
+    }
+
+    #[test]
+    fn an_alarm_stops_the_stream_with_its_meaning() {
+        let mut s = session(Faults { hard_limit_after_lines: Some(60), ..Faults::default() });
+        let plan = plan_for(&mut s);
+        let mut rec = Record::default();
+        match s.stream(&plan, &mut rec) {
+            Err(StreamError::Alarm { code: 1, text, executed }) => {
+                assert!(text.contains("hard limit") && text.contains("homes again"), "{text}");
+                // 3 set-up lines, so 57 plan lines were acknowledged; fewer were certainly executed.
+                assert!(executed <= 57, "{executed}");
+            }
+            other => panic!("{:?}", other.map(|s| s.frames)),
+        }
+    }
+
+    #[test]
+    fn a_refused_line_stops_the_plot_and_names_the_error() {
+        // Line 3 (G21, G90, G92) + 40 = plan line 40.
+        let mut s = session(Faults { error_on_line: Some((43, 33)), ..Faults::default() });
+        let plan = plan_for(&mut s);
+        let e = s.stream(&plan, &mut Record::default()).unwrap_err().to_string();
+        assert!(e.contains("refused line 40 of") && e.contains("error:33 (invalid motion target)"), "{e}");
+        // The machine was held and reset: nothing after the refused line ran.
+        let p = s.transport.emulator().backend().machine().stepper().position();
+        assert!(e.contains("stopped after"), "{e}");
+        assert!(s.transport.emulator().motion_idle());
+        let executed: usize = e.split("stopped after ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+        assert!(executed <= 39 && executed > 20, "{executed}");
+        // The hold stopped inside block `executed` (or at its end): blocks before it are done, it is not.
+        let (a, b) = (plan.position_after(executed - 1), plan.position_after(executed));
+        let q = [p[0], p[1], p[2], 0];
+        assert!(on_segment(&q, &a, &b) && q != b, "{q:?} on {a:?}..{b:?}");
+    }
+
+    #[test]
+    fn a_vanished_port_is_a_clear_error() {
+        let profile = MachineProfile::default_plotter();
+        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
+        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
+        let mut s = GrblSession::connect(EmulatorTransport::new(emu).vanish_after(1500), "/dev/ttyUSB0", &profile).unwrap();
+        let plan = plan_for(&mut s);
+        let e = s.stream(&plan, &mut Record::default()).unwrap_err().to_string();
+        assert!(e.contains("lost the connection to /dev/ttyUSB0") && e.contains("unplugged"), "{e}");
+    }
 }
