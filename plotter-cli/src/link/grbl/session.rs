@@ -306,6 +306,10 @@ impl<T: Transport> GrblSession<T> {
     /// ends, for the last such k from the journal's executed count up to a buffer's worth past the accepted
     /// one, blocks before k are done; otherwise only the journal's executed count is certain.
     pub fn resume_point(&mut self, executed: usize, accepted: usize, full: &MotionPlan) -> anyhow::Result<usize> {
+        if self.in_alarm()? {
+            // Stopped by an alarm: where it stopped is not known, only the journal's executed count is certain.
+            return Ok(executed);
+        }
         let s = self.wait_idle()?;
         if self.offset.is_none() && s.mpos.is_some() {
             // The plot's G92 offset survives as long as the controller was not reset.
