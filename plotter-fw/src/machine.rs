@@ -116,7 +116,14 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32> {
     /// A sequenced stream is active: a sequenced frame was accepted or a resend requested since the last reset or
     /// the last plain G-code line. Bytes ≥ 0x80 in a line then mean a damaged frame.
     streaming: bool,
+    /// Servo pen: the angle `M5` lifts to (set with `M5 S<angle>`).
+    servo_up_deg: f32,
+    /// `M0`/`M1` program pause (a pen change in a raw G-code stream): nothing more runs until `~`.
+    program_paused: bool,
 }
+
+/// The servo angle `M5` lifts the pen to until `M5 S<angle>` sets another.
+pub const SERVO_UP_DEFAULT_DEG: f32 = 90.0;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum PendingKind {
@@ -165,6 +172,8 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             resume_after_hold: false,
             completed_base: 0,
             streaming: false,
+            servo_up_deg: SERVO_UP_DEFAULT_DEG,
+            program_paused: false,
         };
         m.banner();
         m
@@ -231,7 +240,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             MachineState::Alarm
         } else if self.homing.is_some() {
             MachineState::Homing
-        } else if self.stepper.is_held() {
+        } else if self.stepper.is_held() || self.program_paused {
             MachineState::Held
         } else if self.stepper.is_holding() {
             MachineState::Holding
@@ -415,6 +424,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.modal = Modal::DEFAULT;
             self.resume_after_hold = false;
             self.streaming = false;
+            self.program_paused = false;
             self.completed_base = self.stepper.completed();
             if moving {
                 // Stopped without deceleration: steps may have been lost.
@@ -426,7 +436,9 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             return;
         }
         if rt & RT_FLAG_RESUME != 0 {
-            if self.stepper.is_held() {
+            if self.program_paused {
+                self.program_paused = false;
+            } else if self.stepper.is_held() {
                 self.resume();
             } else if self.stepper.is_holding() {
                 // Still decelerating: remember the resume and act once the hold has stopped (see `poll`).
@@ -693,6 +705,10 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
     }
 
     fn execute(&mut self, w: &Words) -> Outcome {
+        if self.program_paused {
+            // `M0`/`M1`: wait for `~`.
+            return Outcome::Blocked;
+        }
         // Validate axis words first.
         for axis in Axis::ALL {
             if w.has(axis.letter() as u8) && !self.cfg.axis(axis).enabled {
@@ -722,7 +738,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             }
         }
         for &m in &w.m {
-            if !matches!(m, 2 | 17 | 18 | 30 | 110 | 114 | 115) {
+            if !matches!(m, 0 | 1 | 2 | 3 | 4 | 5 | 17 | 18 | 30 | 110 | 114 | 115) {
                 self.reply_error(ErrorCode::UnknownCommand, format_args!(": M{m}"));
                 return Outcome::Done;
             }
@@ -734,7 +750,18 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         }
         // Blocking conditions, checked before any state changes.
         let needs_slot = motion.is_some() || other_g == Some(4) || (has_axis && other_g.is_none());
-        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18);
+        // The servo pen and program pauses act between moves, so they wait for the queue to empty.
+        let pen_or_pause = w.m.iter().any(|m| matches!(m, 0 | 1 | 3 | 4 | 5));
+        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18) || pen_or_pause;
+        let servo_s = w.get(b'S').map(|s| s as f64 / 1e6);
+        if w.m.iter().any(|m| matches!(m, 3 | 4)) && servo_s.is_none_or(|a| !(0.0..=180.0).contains(&a)) {
+            self.reply_error(ErrorCode::InvalidValue, format_args!(": M3 needs S<angle> from 0 to 180"));
+            return Outcome::Done;
+        }
+        if w.m.contains(&5) && servo_s.is_some_and(|a| !(0.0..=180.0).contains(&a)) {
+            self.reply_error(ErrorCode::InvalidValue, format_args!(": S must be an angle from 0 to 180"));
+            return Outcome::Done;
+        }
         let moves = needs_slot || other_g == Some(28);
         if moves && self.alarm.is_some() && self.homing_result.is_none() {
             self.reply_error(ErrorCode::Alarm, format_args!(""));
@@ -797,6 +824,17 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         for &m in &w.m {
             match m {
                 2 | 30 => self.modal = Modal { feed_mm_s: self.modal.feed_mm_s, ..Modal::DEFAULT },
+                0 | 1 => self.program_paused = true,
+                // Angles are 0..=180 (checked above): exact enough in f32.
+                #[allow(clippy::cast_possible_truncation)]
+                3 | 4 => self.hal.set_servo(servo_s.unwrap_or(0.0) as f32),
+                #[allow(clippy::cast_possible_truncation)]
+                5 => {
+                    if let Some(a) = servo_s {
+                        self.servo_up_deg = a as f32;
+                    }
+                    self.hal.set_servo(self.servo_up_deg);
+                }
                 17 => self.hal.enable_motors(true),
                 18 => self.hal.enable_motors(false),
                 114 => self.report_position(),
