@@ -163,7 +163,11 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
     );
     println!("| queue underruns | {} | {} |", stats.underruns.unwrap_or(0), gstats.underruns.unwrap_or(0));
     println!("| executed motion time | {:.3} s | {:.3} s |", secs(executed), secs(gexec));
-    println!("| plot wall time on the link | {:.3} s | {:.3} s |", stats.elapsed.as_secs_f64(), gstats.elapsed.as_secs_f64());
+    println!(
+        "| plot wall time on the link | {:.3} s | {:.3} s |",
+        stats.elapsed.as_secs_f64(),
+        gstats.elapsed.as_secs_f64()
+    );
     println!(
         "| most bytes in flight | ≤ {} (announced) | {} of 128 (peak buffer {}, overflow {}) |",
         session.info.rx_bytes, grbl.peak_in_flight, emu_stats.peak_rx, emu_stats.overflow_bytes

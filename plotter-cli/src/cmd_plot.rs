@@ -202,7 +202,10 @@ impl PlotEvents for Terminal {
             let from = c.previous.as_ref().map(|p| format!(" (replacing {})", p.label())).unwrap_or_default();
             eprintln!(
                 "\npen change {}/{}: {whence}; load pen {}{from} for layer {:?}",
-                c.number, c.total, c.pen.label(), c.layer_name
+                c.number,
+                c.total,
+                c.pen.label(),
+                c.layer_name
             );
             loop {
                 match ask("[Enter] continue, [s] skip this layer, [q] stop (the journal keeps the plot): ") {

@@ -65,7 +65,9 @@ fn parse_fault(spec: &str) -> anyhow::Result<Faults> {
     let bad = || anyhow::anyhow!("--grbl-fault {spec:?}: use hard-limit@N or error@N:CODE");
     let (kind, at) = spec.split_once('@').ok_or_else(bad)?;
     match kind {
-        "hard-limit" => Ok(Faults { hard_limit_after_lines: Some(at.parse().map_err(|_| bad())?), ..Faults::default() }),
+        "hard-limit" => {
+            Ok(Faults { hard_limit_after_lines: Some(at.parse().map_err(|_| bad())?), ..Faults::default() })
+        }
         "error" => {
             let (n, code) = at.split_once(':').ok_or_else(bad)?;
             let n = n.parse().map_err(|_| bad())?;

@@ -128,34 +128,52 @@ pub fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> 
         return r#gen::from_spec(spec).with_context(|| format!("cannot generate {spec}"));
     }
     let data = read_input(path)?;
-    let kind = input_kind(if path == Path::new("-") { Path::new("") } else { path }, &data[..data.len().min(512)]);
-    match kind {
+    let decoded = decode_drawing(&data, path, &shown, path.parent().map(Path::to_path_buf), args, profile)?;
+    warn_all(&decoded.warnings);
+    Ok(decoded.drawing)
+}
+
+/// A drawing decoded from bytes, with the warnings met on the way (each names the input).
+#[derive(Debug, Clone)]
+pub struct Decoded {
+    /// The drawing in page millimetres (before layout).
+    pub drawing: Drawing,
+    /// Warnings, ready to show.
+    pub warnings: Vec<String>,
+}
+
+/// Decode the bytes of an input file: `name` (its file name) decides the kind together with the first bytes,
+/// `shown` names it in messages, and `resources_dir` (if any) resolves an SVG's relative references — a front end
+/// that receives bytes from elsewhere passes `None`, so no path of the sender's choosing is looked up.
+pub fn decode_drawing(
+    data: &[u8],
+    name: &Path,
+    shown: &str,
+    resources_dir: Option<PathBuf>,
+    args: &InputArgs,
+    profile: &MachineProfile,
+) -> Result<Decoded> {
+    match input_kind(name, &data[..data.len().min(512)]) {
         InputKind::Svg => {
-            let dir = path.parent().map(Path::to_path_buf);
-            let imported = svg::import_svg(&data, &shown, dir, &args.svg_options()?)?;
-            warn_all(&imported.warnings);
-            Ok(imported.drawing)
+            let imported = svg::import_svg(data, shown, resources_dir, &args.svg_options()?)?;
+            Ok(Decoded { drawing: imported.drawing, warnings: imported.warnings })
         }
         InputKind::Image => {
-            let image = raster::decode_image(&data, path)?;
-            let traced = raster::trace_named(&image, &shown, &args.trace.options())?;
-            for w in &traced.warnings {
-                eprintln!("warning: {shown}: {w}");
-            }
-            Ok(traced.drawing)
+            let image = raster::decode_image(data, name)?;
+            let traced = raster::trace_named(&image, shown, &args.trace.options())?;
+            let warnings = traced.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
+            Ok(Decoded { drawing: traced.drawing, warnings })
         }
         InputKind::Gcode => {
-            let text = std::str::from_utf8(&data).with_context(|| format!("{shown}: G-code is not UTF-8 text"))?;
-            let imported = gcode_in::import(text, &shown, profile)?;
-            for w in &imported.warnings {
-                eprintln!("warning: {shown}: {w}");
-            }
-            Ok(imported.drawing)
+            let text = std::str::from_utf8(data).with_context(|| format!("{shown}: G-code is not UTF-8 text"))?;
+            let imported = gcode_in::import(text, shown, profile)?;
+            let warnings = imported.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
+            Ok(Decoded { drawing: imported.drawing, warnings })
         }
         InputKind::Trajectory => {
-            let text = std::str::from_utf8(&data).with_context(|| format!("{shown}: not a text file"))?;
-            let steps = trajectory::import(text, &shown)?;
-            Ok(steps.to_drawing(&StepMapper::new(profile), "trajectory"))
+            let text = std::str::from_utf8(data).with_context(|| format!("{shown}: not a text file"))?;
+            let steps = trajectory::import(text, shown)?;
+            Ok(Decoded { drawing: steps.to_drawing(&StepMapper::new(profile), "trajectory"), warnings: Vec::new() })
         }
     }
 }

@@ -12,9 +12,11 @@ mod cmd_jog;
 mod cmd_optimize;
 mod cmd_plot;
 mod cmd_preview;
+mod cmd_serve;
 mod cmd_sim;
 mod cmd_stats;
 mod cmd_trace;
+mod serve;
 
 use clap::{Parser, Subcommand};
 
@@ -57,6 +59,8 @@ enum Command {
     Trace(cmd_trace::TraceCmdArgs),
     /// Merge, reorder and reverse paths to cut pen-up travel; write plain SVG
     Optimize(cmd_optimize::OptimizeCmdArgs),
+    /// Run the local web app: drop a drawing on the page, plot it, watch it (http://127.0.0.1:8040/)
+    Serve(cmd_serve::ServeArgs),
 }
 
 fn main() {
@@ -74,6 +78,7 @@ fn main() {
         Command::Gen(args) => cmd_gen::run(args),
         Command::Trace(args) => cmd_trace::run(args),
         Command::Optimize(args) => cmd_optimize::run(args),
+        Command::Serve(args) => cmd_serve::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -7,6 +7,8 @@
 //! [`JobOutcome`] or an error that says how to continue.
 
 pub mod load;
+pub mod page;
+pub mod prepare;
 pub mod progress;
 pub mod stepped;
 
@@ -50,7 +52,11 @@ pub struct JournalSpec<'a> {
 
 /// Settle an alarm before a plot: homing clears it when the plot homes on a machine that can; otherwise the
 /// user decides whether to unlock.
-fn settle_alarm<M: PlotMachine + ?Sized>(machine: &mut M, home: bool, events: &mut dyn PlotEvents) -> anyhow::Result<()> {
+fn settle_alarm<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    home: bool,
+    events: &mut dyn PlotEvents,
+) -> anyhow::Result<()> {
     if let Some(what) = machine.alarm_pending()? {
         if home && machine.can_home() {
             return Ok(());
@@ -119,7 +125,8 @@ pub fn resume<M: PlotMachine + ?Sized>(
     let first = PenChange {
         block: done,
         layer: layer_pen.map_or(0, |c| c.layer),
-        layer_name: layer_pen.map_or_else(|| steps.layers.first().map(|l| l.name.clone()).unwrap_or_default(), |c| c.layer_name.clone()),
+        layer_name: layer_pen
+            .map_or_else(|| steps.layers.first().map(|l| l.name.clone()).unwrap_or_default(), |c| c.layer_name.clone()),
         pen: layer_pen.map_or_else(|| full.first_pen.clone(), |c| c.pen.clone()),
         previous: full.first_pen.clone(),
     };
@@ -308,7 +315,9 @@ mod tests {
             ])
         };
         let mut d = Drawing::default();
-        for (i, (name, color)) in [("black", Rgb::BLACK), ("red", Rgb(255, 0, 0)), ("blue", Rgb(0, 0, 255))].into_iter().enumerate() {
+        for (i, (name, color)) in
+            [("black", Rgb::BLACK), ("red", Rgb(255, 0, 0)), ("blue", Rgb(0, 0, 255))].into_iter().enumerate()
+        {
             let mut l = Layer::new(name);
             l.pen.color = color;
             l.paths = vec![square(20.0 + 30.0 * f64::from(u32::try_from(i).unwrap()))];
@@ -340,7 +349,8 @@ mod tests {
     fn grbl() -> GrblSession<EmulatorTransport> {
         let profile = MachineProfile::default_plotter();
         let cfg = plan::machine_config(&profile).unwrap();
-        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
+        let emu =
+            GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
         GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap()
     }
 

@@ -95,9 +95,7 @@ impl<T: Transport + 'static> PlotMachine for Session<T> {
     }
 
     fn busy_ticks(&self) -> u64 {
-        (&self.transport as &dyn std::any::Any)
-            .downcast_ref::<SimTransport>()
-            .map_or(0, |s| s.sim().hal().busy_ticks())
+        (&self.transport as &dyn std::any::Any).downcast_ref::<SimTransport>().map_or(0, |s| s.sim().hal().busy_ticks())
     }
 }
 

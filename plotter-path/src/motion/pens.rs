@@ -58,9 +58,7 @@ pub fn parse_hex_color(s: &str) -> Option<Rgb> {
 /// Resolve the pen of a layer named `name` drawn with `pen`.
 pub fn resolve(profile: &MachineProfile, name: &str, pen: &Pen) -> LayerPen {
     let by_name = profile.pens.iter().position(|p| p.name.trim().eq_ignore_ascii_case(name.trim()));
-    let by_color = || {
-        profile.pens.iter().position(|p| p.color.as_deref().and_then(parse_hex_color) == Some(pen.color))
-    };
+    let by_color = || profile.pens.iter().position(|p| p.color.as_deref().and_then(parse_hex_color) == Some(pen.color));
     let defaults = &profile.pen;
     match by_name.or_else(by_color) {
         Some(i) => {

@@ -267,8 +267,14 @@ pub fn plan_travel(profile: &MachineProfile, from: MachinePos, to: StepPos) -> R
     let (up, _) = pen_steps(profile)?;
     #[allow(clippy::cast_possible_truncation)]
     let travel = profile.pen.travel_feed_mm_s as f32;
-    let mut raw =
-        RawPlan { cfg: &cfg, blocks: Vec::new(), meta: Vec::new(), pos: from, settle: settle_ticks(profile), changes: Vec::new() };
+    let mut raw = RawPlan {
+        cfg: &cfg,
+        blocks: Vec::new(),
+        meta: Vec::new(),
+        pos: from,
+        settle: settle_ticks(profile),
+        changes: Vec::new(),
+    };
     if from[2] != up {
         raw.pen(up, MoveKind::PenUp, 0);
     }
@@ -606,8 +612,10 @@ mod tests {
     #[test]
     fn outside_the_work_area_is_refused() {
         let p = profile();
-        let steps =
-            StepDrawing::from_strokes(vec![StepStroke { start: StepPos::new(8, 8), moves: vec![StepDelta { dx: -9, dy: 0 }] }]);
+        let steps = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(8, 8),
+            moves: vec![StepDelta { dx: -9, dy: 0 }],
+        }]);
         let e = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap_err();
         assert!(matches!(e, PlanError::OutsideWorkArea { stroke: 0, point: 1, .. }), "{e}");
         assert!(e.to_string().contains("(-0.013, 0.100) mm"), "{e}");
@@ -677,7 +685,11 @@ mod tests {
             draw_feed_mm_s: Some(30.0),
         }];
         let mut d = Drawing::single_layer("black", vec![square(10.0, 10.0, 5.0)]);
-        let layers = [("red", crate::Rgb(255, 0, 0), 30.0), ("red2", crate::Rgb(255, 0, 0), 50.0), ("k", crate::Rgb::BLACK, 70.0)];
+        let layers = [
+            ("red", crate::Rgb(255, 0, 0), 30.0),
+            ("red2", crate::Rgb(255, 0, 0), 50.0),
+            ("k", crate::Rgb::BLACK, 70.0),
+        ];
         for (name, color, x) in layers {
             let mut l = crate::Layer::new(name);
             l.pen.color = color;

@@ -331,7 +331,8 @@ impl MachineProfile {
                 return Err(bad(field, "must lie within the Z travel"));
             }
         }
-        for (field, a) in [("pen.servo_up_deg", self.pen.servo_up_deg), ("pen.servo_down_deg", self.pen.servo_down_deg)] {
+        for (field, a) in [("pen.servo_up_deg", self.pen.servo_up_deg), ("pen.servo_down_deg", self.pen.servo_down_deg)]
+        {
             if !(a.is_finite() && (0.0..=180.0).contains(&a)) {
                 return Err(bad(field, "must be an angle from 0 to 180 degrees"));
             }

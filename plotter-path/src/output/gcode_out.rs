@@ -194,10 +194,7 @@ mod tests {
         let stops: Vec<&str> = g.lines().filter(|l| l.starts_with("M0")).collect();
         assert_eq!(
             stops,
-            [
-                "M0 ; pen change: load b (#ff0000) for layer \"b\"",
-                "M0 ; pen change: load d (#000000) for layer \"d\""
-            ]
+            ["M0 ; pen change: load b (#ff0000) for layer \"b\"", "M0 ; pen change: load d (#000000) for layer \"d\""]
         );
         // Each stop comes after the lift (and its dwell) and the park move.
         let lines: Vec<&str> = g.lines().collect();

@@ -343,7 +343,8 @@ impl GrblEmulator {
     }
 
     fn soft_reset(&mut self) {
-        let moving = !self.backend.machine().stepper().is_idle() || self.backend.machine().state() == MachineState::Homing;
+        let moving =
+            !self.backend.machine().stepper().is_idle() || self.backend.machine().state() == MachineState::Homing;
         if moving {
             self.out.push("ALARM:3".into());
             self.alarm = Some(3);

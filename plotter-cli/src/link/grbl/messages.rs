@@ -194,7 +194,9 @@ pub fn alarm_meaning(code: u8) -> (&'static str, bool) {
         6 => ("homing fail: the homing cycle was reset", false),
         7 => ("homing fail: the safety door was opened during homing", false),
         8 => ("homing fail: the pull-off did not clear the limit switch (check pull-off $27 and wiring)", false),
-        9 => ("homing fail: no limit switch found within the search distance (check max travel $13x and wiring)", false),
+        9 => {
+            ("homing fail: no limit switch found within the search distance (check max travel $13x and wiring)", false)
+        }
         _ => ("unknown alarm", false),
     }
 }

@@ -108,11 +108,8 @@ pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
 pub fn declare_position(profile: &MachineProfile, pos: [i32; 4]) -> String {
     let ax = &profile.axes;
     let (sx, sy, sz) = (ax.x.steps_per_mm, ax.y.steps_per_mm, ax.z.steps_per_mm);
-    let mut l = format!(
-        "G92 X{} Y{}",
-        fmt_mm(mm(pos[0], sx), decimals_for(sx)),
-        fmt_mm(mm(pos[1], sy), decimals_for(sy))
-    );
+    let mut l =
+        format!("G92 X{} Y{}", fmt_mm(mm(pos[0], sx), decimals_for(sx)), fmt_mm(mm(pos[1], sy), decimals_for(sy)));
     if profile.pen.command != PenCommand::Servo {
         let _ = write!(l, " Z{}", fmt_mm(mm(pos[2], sz), decimals_for(sz)));
     }

@@ -230,11 +230,8 @@ impl<T: Transport> GrblSession<T> {
         self.command(&declare_position(&self.profile, pos), COMMAND_TIMEOUT)?;
         let s = self.wait_idle()?;
         let reported = s.mpos.or(s.wpos).context("status without a position")?;
-        let spm = [
-            self.profile.axes.x.steps_per_mm,
-            self.profile.axes.y.steps_per_mm,
-            self.profile.axes.z.steps_per_mm,
-        ];
+        let spm =
+            [self.profile.axes.x.steps_per_mm, self.profile.axes.y.steps_per_mm, self.profile.axes.z.steps_per_mm];
         self.offset = Some(core::array::from_fn(|i| reported[i] - f64::from(pos[i]) / spm[i]));
         Ok(())
     }
@@ -523,7 +520,14 @@ impl<T: Transport> GrblSession<T> {
     /// Blocks certainly executed given a status report at `pos`: an idle machine with nothing in flight has done
     /// everything acknowledged; otherwise the first block between the last executed and the last acknowledged
     /// one whose segment holds the position is the one running (or, if the position is its end, done).
-    fn executed_at(&self, pos: &MachinePos, s: &GrblStatus, st: &GrblStream, plan: &MotionPlan, ends: &[MachinePos]) -> usize {
+    fn executed_at(
+        &self,
+        pos: &MachinePos,
+        s: &GrblStatus,
+        st: &GrblStream,
+        plan: &MotionPlan,
+        ends: &[MachinePos],
+    ) -> usize {
         if s.is_idle() && st.in_flight.is_empty() {
             return st.acked;
         }
@@ -617,7 +621,9 @@ impl<T: Transport> GrblSession<T> {
             if let GrblLine::Banner(_) = GrblLine::parse(&l) {
                 self.offset = None;
                 // Let the banner's follow-up messages arrive.
-                while let Some(l) = self.transport.recv_line(Duration::from_millis(100)).map_err(|e| transport_error(&self.name, e))? {
+                while let Some(l) =
+                    self.transport.recv_line(Duration::from_millis(100)).map_err(|e| transport_error(&self.name, e))?
+                {
                     if let GrblLine::Msg(m) = GrblLine::parse(&l) {
                         self.messages.push(m);
                     }
@@ -802,8 +808,10 @@ mod tests {
     fn a_vanished_port_is_a_clear_error() {
         let profile = MachineProfile::default_plotter();
         let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
-        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
-        let mut s = GrblSession::connect(EmulatorTransport::new(emu).vanish_after(1500), "/dev/ttyUSB0", &profile).unwrap();
+        let emu =
+            GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
+        let mut s =
+            GrblSession::connect(EmulatorTransport::new(emu).vanish_after(1500), "/dev/ttyUSB0", &profile).unwrap();
         let plan = plan_for(&mut s);
         let e = s.stream(&plan, &mut Record::default()).unwrap_err().to_string();
         assert!(e.contains("lost the connection to /dev/ttyUSB0") && e.contains("unplugged"), "{e}");

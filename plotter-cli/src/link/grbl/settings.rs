@@ -59,7 +59,11 @@ pub struct Mismatch {
 
 impl std::fmt::Display for Mismatch {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "${}={} on the machine, the profile says {}: {}", self.key, self.machine, self.profile, self.consequence)
+        write!(
+            f,
+            "${}={} on the machine, the profile says {}: {}",
+            self.key, self.machine, self.profile, self.consequence
+        )
     }
 }
 
@@ -177,7 +181,9 @@ impl GrblSettings {
                     key: k,
                     machine: m,
                     profile: a.max_feed_mm_s * 60.0,
-                    consequence: format!("the machine limits {name} to a lower rate, so the plot takes longer than estimated"),
+                    consequence: format!(
+                        "the machine limits {name} to a lower rate, so the plot takes longer than estimated"
+                    ),
                 });
             }
             let k = key_for(key::ACCEL, i);
@@ -188,7 +194,9 @@ impl GrblSettings {
                     key: k,
                     machine: m,
                     profile: a.max_accel_mm_s2,
-                    consequence: format!("{name} accelerates more slowly than planned, so the plot takes longer than estimated"),
+                    consequence: format!(
+                        "{name} accelerates more slowly than planned, so the plot takes longer than estimated"
+                    ),
                 });
             }
             let k = key_for(key::MAX_TRAVEL, i);
@@ -199,7 +207,9 @@ impl GrblSettings {
                     key: k,
                     machine: m,
                     profile: a.travel_mm,
-                    consequence: format!("{name} travel is shorter than the profile's: a drawing near the edge raises a soft-limit alarm"),
+                    consequence: format!(
+                        "{name} travel is shorter than the profile's: a drawing near the edge raises a soft-limit alarm"
+                    ),
                 });
             }
         }
