@@ -34,18 +34,6 @@ pub fn servo_pulse_us(angle_deg: f32) -> u16 {
     us
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn servo_pulse_widths() {
-        assert_eq!([servo_pulse_us(0.0), servo_pulse_us(90.0), servo_pulse_us(180.0)], [1000, 1500, 2000]);
-        assert_eq!([servo_pulse_us(-5.0), servo_pulse_us(400.0), servo_pulse_us(f32::NAN)], [1000, 2000, 1000]);
-        assert_eq!(servo_pulse_us(45.0), 1250);
-    }
-}
-
 /// Endstop (limit/homing switch) inputs.
 pub trait Endstops {
     /// Bit mask of pressed switches, bit `axis.bit()` per axis.
@@ -77,3 +65,15 @@ pub trait Clock {
 pub trait Hal: StepPins + Endstops + StepTimer + SerialOut + Clock {}
 
 impl<T: StepPins + Endstops + StepTimer + SerialOut + Clock> Hal for T {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn servo_pulse_widths() {
+        assert_eq!([servo_pulse_us(0.0), servo_pulse_us(90.0), servo_pulse_us(180.0)], [1000, 1500, 2000]);
+        assert_eq!([servo_pulse_us(-5.0), servo_pulse_us(400.0), servo_pulse_us(f32::NAN)], [1000, 2000, 1000]);
+        assert_eq!(servo_pulse_us(45.0), 1250);
+    }
+}

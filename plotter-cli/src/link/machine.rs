@@ -176,6 +176,8 @@ pub fn detect<T: Transport>(transport: &mut T) -> anyhow::Result<Firmware> {
 }
 
 /// A connected machine of either firmware.
+// One per connection: the size difference between the variants does not matter.
+#[allow(clippy::large_enum_variant)]
 pub enum Connected<T: Transport> {
     /// This project's firmware.
     Ours(Session<T>),

@@ -280,6 +280,10 @@ impl GrblEmulator {
 
     /// Whether motion is stopped (planner empty, stepper idle), whatever else waits.
     pub fn motion_idle(&self) -> bool {
+        self.backend_motion_idle()
+    }
+
+    fn backend_motion_idle(&self) -> bool {
         self.backend.machine().stepper().is_idle() && self.backend.machine().state() == MachineState::Idle
     }
 
@@ -587,17 +591,16 @@ impl GrblEmulator {
                 self.status_wanted = false;
                 self.status_report();
             }
+            let motion_idle = self.backend_motion_idle();
             if let Some(cur) = self.current.as_mut() {
                 match &mut cur.waiting {
-                    Waiting::Backend { lines, sent } => {
-                        if !*sent {
-                            if let Some(l) = lines.pop_front() {
-                                self.backend.feed(format!("{l}\n").as_bytes());
-                                *sent = true;
-                                self.backend.run_for(0);
-                                continue;
-                            }
+                    Waiting::Backend { lines, sent } if !*sent && !lines.is_empty() => {
+                        if let Some(l) = lines.pop_front() {
+                            self.backend.feed(format!("{l}\n").as_bytes());
                         }
+                        *sent = true;
+                        self.backend.run_for(0);
+                        continue;
                     }
                     Waiting::Homing { sent } | Waiting::Offset { sent, .. } if !*sent => {
                         *sent = true;
@@ -609,20 +612,16 @@ impl GrblEmulator {
                         self.backend.run_for(0);
                         continue;
                     }
-                    Waiting::Pause => {
-                        if self.motion_idle() {
-                            self.paused = true;
-                            self.answer("ok".into());
-                            continue;
-                        }
+                    Waiting::Pause if motion_idle => {
+                        self.paused = true;
+                        self.answer("ok".into());
+                        continue;
                     }
-                    Waiting::End => {
-                        if self.motion_idle() {
-                            self.feed_set = false;
-                            self.answer("ok".into());
-                            self.out.push("[MSG:Pgm End]".into());
-                            continue;
-                        }
+                    Waiting::End if motion_idle => {
+                        self.feed_set = false;
+                        self.answer("ok".into());
+                        self.out.push("[MSG:Pgm End]".into());
+                        continue;
                     }
                     _ => {}
                 }

@@ -158,9 +158,8 @@ impl GrblSettings {
     pub fn compare(&self, profile: &MachineProfile) -> Vec<Mismatch> {
         let mut out = Vec::new();
         let axes = if profile.pen.command == PenCommand::Servo { 2 } else { 3 };
-        for i in 0..axes {
+        for (i, &name) in AXES.iter().enumerate().take(axes) {
             let a = axis(profile, i);
-            let name = AXES[i];
             let k = key_for(key::STEPS_PER_MM, i);
             if let Some(m) = self.get(k)
                 && differs(m, a.steps_per_mm)
