@@ -403,11 +403,14 @@ mod tests {
              draw_feed_mm_s = 30.0\n"
         );
         let p = MachineProfile::from_toml(&text, "pens.toml").unwrap();
-        assert_eq!(p.pens.len(), 1);
-        assert_eq!(p.pens[0].draw_feed_mm_s, Some(30.0));
+        // The kit's three pens, then this one.
+        assert_eq!(p.pens.len(), 4);
+        assert_eq!(p.pens[2].draw_feed_mm_s, Some(30.0), "the blue brush pen draws slower");
+        assert_eq!((p.pens[3].name.as_str(), p.pens[3].draw_feed_mm_s), ("red", Some(30.0)));
         assert_eq!(p.park, Some(ParkProfile { x_mm: 5.0, y_mm: 280.0 }));
-        let err = MachineProfile::from_toml(&text.replace("#ff0000", "red"), "pens.toml").unwrap_err().to_string();
-        assert!(err.contains("pens[0] (red).color") && err.contains("#rrggbb"), "{err}");
+        let bad = text.replace("color = \"#ff0000\"\ndraw", "color = \"red\"\ndraw");
+        let err = MachineProfile::from_toml(&bad, "pens.toml").unwrap_err().to_string();
+        assert!(err.contains("pens[3] (red).color") && err.contains("#rrggbb"), "{err}");
         let err = MachineProfile::from_toml(&text.replace("y_mm = 280.0", "y_mm = 300.0"), "p.toml").unwrap_err();
         assert!(err.to_string().contains("park"), "{err}");
     }

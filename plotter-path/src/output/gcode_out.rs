@@ -3,7 +3,8 @@
 //! The program is millimetres (`G21`), absolute (`G90`), machine coordinates (the page → machine mapping is already
 //! applied by [`crate::motion::steps`]). Pen-up travel is `G0`, drawing is `G1` at the profile's drawing feed. The pen is
 //! lifted and lowered either as Z moves (`G0 Z<up>` / `G1 Z<down>`, the default) or, for servo pen lifts
-//! ([`PenCommand::Servo`] in the profile), as `M3 S`[`SERVO_DOWN_S`] / `M5`, as GRBL-based servo plotters expect.
+//! ([`PenCommand::Servo`] in the profile), as `M3 S<angle>` / `M5` (the pen's down angle in degrees, as this
+//! project's firmware and GRBL servo-pen builds with `$30=180` take it).
 //! Each lift and drop is followed by a `G4` dwell of the profile's settle time when it is non-zero.
 //!
 //! Between layers drawn with different pens ([`crate::motion::pens`]) the program parks the carriage (pen up)
@@ -20,9 +21,6 @@ use crate::MachineProfile;
 use crate::motion::plan::{layer_pens, park_position};
 use crate::motion::profile::PenCommand;
 use crate::motion::steps::{StepDrawing, StepMapper};
-
-/// Spindle value sent with `M3` to lower a servo pen (GRBL's default full spindle range, `$30=1000`).
-pub const SERVO_DOWN_S: u32 = 1000;
 
 /// Format a millimetre value with at most `decimals` decimals, trailing zeros removed (`-0` printed as `0`).
 pub fn fmt_mm(v: f64, decimals: usize) -> String {
@@ -68,7 +66,6 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
             PenCommand::Z => {
                 format!("G1 Z{} F{}", fmt_mm(p.down_z_mm, dz), per_min(profile.axes.z.max_feed_mm_s))
             }
-            PenCommand::Servo if profile.pens.is_empty() => format!("M3 S{SERVO_DOWN_S}"),
             PenCommand::Servo => format!("M3 S{}", fmt_mm(p.servo_down_deg, 1)),
         })
         .collect();
@@ -168,7 +165,7 @@ mod tests {
         p.pen.command = PenCommand::Servo;
         p.pen.settle_ms = 0.0;
         let g = export(&p, &square());
-        assert!(g.contains("\nM3 S1000\n") && g.contains("\nM5\n"), "{g}");
+        assert!(g.contains("\nM3 S30\n") && g.contains("\nM5\n"), "{g}");
         assert!(!g.contains('Z') && !g.contains("G4"), "{g}");
     }
 
@@ -177,6 +174,8 @@ mod tests {
         use crate::motion::steps::StepLayer;
         use crate::{Pen, Rgb};
         let mut p = MachineProfile::default_plotter();
+        // No pen table: each colour is its own pen, named after its layer.
+        p.pens.clear();
         p.park = Some(crate::motion::profile::ParkProfile { x_mm: 2.0, y_mm: 3.0 });
         let stroke = |x: i32| StepStroke { start: StepPos::new(x, 8), moves: vec![StepDelta { dx: 80, dy: 0 }] };
         let layer = |name: &str, color: Rgb, first_stroke: usize| StepLayer {
