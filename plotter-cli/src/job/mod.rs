@@ -80,6 +80,9 @@ pub fn plot<M: PlotMachine + ?Sized>(
     events: &mut dyn PlotEvents,
 ) -> anyhow::Result<JobOutcome> {
     settle_alarm(machine, home, events)?;
+    // Our firmware: framed mode for everything the plot acts on (verified replies, real-time commands noise
+    // cannot forge).
+    machine.begin()?;
     if home {
         machine.home()?;
     }
@@ -111,6 +114,7 @@ pub fn resume<M: PlotMachine + ?Sized>(
     events: &mut dyn PlotEvents,
 ) -> anyhow::Result<JobOutcome> {
     let full = plan::plan(profile, steps, start, Lookahead::Whole)?;
+    machine.begin()?;
     let done = machine.resume_point(state, &full)?;
     eprintln!("resuming at block {done} of {} ({} certainly executed)", full.blocks.len(), state.executed);
     settle_alarm(machine, !trust_position, events)?;
@@ -154,6 +158,7 @@ fn add(total: &mut StreamStats, s: &StreamStats) {
     total.resends += s.resends;
     total.resyncs += s.resyncs;
     total.noise_errors += s.noise_errors;
+    total.damaged_replies += s.damaged_replies;
     total.elapsed += s.elapsed;
     total.accept_elapsed += s.accept_elapsed;
     total.underruns = match (total.underruns, s.underruns) {
@@ -239,8 +244,20 @@ impl Run<'_> {
             let mut tracker = Tracker::new(&part, self.profile, journal.take(), events);
             let result = machine.stream(&part, &mut tracker);
             journal = tracker.journal.take();
-            if let Some(e) = tracker.error.take() {
-                return Err(e);
+            let journal_error = tracker.error.take();
+            if journal_error.is_some() || result.is_err() {
+                // Every abort path leaves the pen up when the machine still answers (the journal stays for a
+                // resume).
+                let note = match machine.stop_and_lift(self.profile) {
+                    Ok(()) => String::new(),
+                    Err(e) => format!("\n(could not lift the pen: {e})"),
+                };
+                if let Some(e) = journal_error {
+                    return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) });
+                }
+                if let Err(e) = result {
+                    return Err(anyhow::anyhow!("{}{note}", explain(e, self.journal_path)));
+                }
             }
             let s = result.map_err(|e| explain(e, self.journal_path))?;
             add(&mut stats, &s);
@@ -252,6 +269,7 @@ impl Run<'_> {
         if let Some(j) = journal.as_mut() {
             j.complete()?;
         }
+        machine.end()?;
         Ok(JobOutcome { plan, stats, busy_before, pen_stops, skipped })
     }
 

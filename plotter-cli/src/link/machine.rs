@@ -57,6 +57,18 @@ pub trait PlotMachine {
     fn can_home(&self) -> bool {
         true
     }
+    /// Prepare for a plot (our firmware: enter framed mode).
+    fn begin(&mut self) -> anyhow::Result<()> {
+        Ok(())
+    }
+    /// A plot finished (our firmware: leave framed mode).
+    fn end(&mut self) -> anyhow::Result<()> {
+        Ok(())
+    }
+    /// After a failed or aborted stream: stop what is queued and lift the pen, if the machine still answers.
+    fn stop_and_lift(&mut self, _profile: &plotter_path::MachineProfile) -> anyhow::Result<()> {
+        Ok(())
+    }
 }
 
 impl<T: Transport + 'static> PlotMachine for Session<T> {
@@ -85,8 +97,10 @@ impl<T: Transport + 'static> PlotMachine for Session<T> {
         // were in flight when the host died may have been accepted after the journal's last line: the firmware's
         // sequence number tells how many (one per block). If it then stands exactly where that many blocks end,
         // they were all executed; otherwise (restarted, moved) only the journal's executed count is certain.
+        self.enter_framed()?;
         let status = self.wait_idle(Duration::from_millis(50))?;
-        let extra = status.seq.wrapping_sub(state.seq_after_accepted);
+        // (Numbered lines this session sent itself took sequence numbers too: they are no blocks.)
+        let extra = status.seq.wrapping_sub(state.seq_after_accepted).wrapping_sub(self.own_lines);
         let accepted = usize::try_from(extra).ok().map(|x| state.accepted + x).filter(|&a| a <= full.blocks.len());
         Ok(match accepted {
             Some(a) if a > 0 && status.steps == full.position_after(a - 1) => a,

@@ -6,6 +6,7 @@ pub mod faults;
 pub mod grbl;
 pub mod journal;
 pub mod machine;
+pub mod print;
 pub mod serial;
 pub mod session;
 pub mod sim;

@@ -36,7 +36,7 @@ fn count(replies: &[String], what: &str) -> usize {
 fn banner_announces_buffers() {
     let mut sim = Sim::new(cfg());
     let r = sim.take_replies();
-    assert_eq!(r, ["plotter-fw 0.1.0 proto 1 rx 256 queue 32 line 96 seq 0"]);
+    assert_eq!(r, ["plotter-fw 0.1.0 proto 2 rx 256 queue 32 line 96 seq 0"]);
 }
 
 /// The seed's square, relative version: pen down, four sides, pen up.
@@ -325,7 +325,7 @@ fn homing_alarms() {
     assert!(1000 - sim.physical_position()[1] <= 35_640);
     // Reset clears the alarm.
     let r = run(&mut sim, "\u{18}");
-    assert_eq!(r, ["plotter-fw 0.1.0 proto 1 rx 256 queue 32 line 96 seq 0"]);
+    assert_eq!(r, ["plotter-fw 0.1.0 proto 2 rx 256 queue 32 line 96 seq 0"]);
     assert_eq!(sim.machine().alarm(), None);
 
     // A switch that never releases (stuck far beyond the travel on X).
@@ -499,7 +499,7 @@ fn reports_and_errors() {
     assert_eq!(
         r,
         [
-            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:0.1.0 PROTOCOL_VERSION:1 RX_BUFFER:256 QUEUE_BLOCKS:32 LINE_MAX:96 TICK_HZ:1000000",
+            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:0.1.0 PROTOCOL_VERSION:2 RX_BUFFER:256 QUEUE_BLOCKS:32 LINE_MAX:96 TICK_HZ:1000000",
             "ok",
             "ok",
             "X:10.000 Y:0.000 Z:0.000 E:0.000 Count X:0 Y:0 Z:0 E:0",

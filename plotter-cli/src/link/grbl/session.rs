@@ -511,6 +511,7 @@ impl<T: Transport> GrblSession<T> {
             resends: 0,
             resyncs: 0,
             noise_errors: 0,
+            damaged_replies: 0,
             elapsed: self.transport.now() - t0,
             accept_elapsed,
             underruns: self.transport.underruns(),
