@@ -111,6 +111,18 @@ impl<T: Transport + 'static> PlotMachine for Session<T> {
     fn busy_ticks(&self) -> u64 {
         (&self.transport as &dyn std::any::Any).downcast_ref::<SimTransport>().map_or(0, |s| s.sim().hal().busy_ticks())
     }
+
+    fn begin(&mut self) -> anyhow::Result<()> {
+        self.enter_framed()
+    }
+
+    fn end(&mut self) -> anyhow::Result<()> {
+        self.leave_framed()
+    }
+
+    fn stop_and_lift(&mut self, profile: &plotter_path::MachineProfile) -> anyhow::Result<()> {
+        Session::stop_and_lift(self, profile.pen.up_z_mm)
+    }
 }
 
 impl<T: Transport + 'static> PlotMachine for GrblSession<T> {
