@@ -126,12 +126,19 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     /// A sequenced stream is active: a sequenced frame was accepted or a resend requested since the last reset or
     /// the last plain G-code line. Bytes ≥ 0x80 in a line then mean a damaged frame.
     streaming: bool,
+    /// Servo pen: the angle `M5` lifts to (set with `M5 S<angle>`).
+    servo_up_deg: f32,
+    /// `M0`/`M1` program pause (a pen change in a raw G-code stream): nothing more runs until `~`.
+    program_paused: bool,
     /// Framed mode ([`crate::framing`]): CRC-framed replies, four-byte real-time commands, sequenced input only.
     framed: bool,
     rt_matcher: RtMatcher,
     /// The sequence number of the frame or line being answered (framed `ok`/`error:` carry it).
     answering: u32,
 }
+
+/// The servo angle `M5` lifts the pen to until `M5 S<angle>` sets another.
+pub const SERVO_UP_DEFAULT_DEG: f32 = 90.0;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum PendingKind {
@@ -193,6 +200,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             resume_after_hold: false,
             completed_base: 0,
             streaming: false,
+            servo_up_deg: SERVO_UP_DEFAULT_DEG,
+            program_paused: false,
             framed: false,
             rt_matcher: RtMatcher::new(),
             answering: 0,
@@ -282,7 +291,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             MachineState::Alarm
         } else if self.homing.is_some() {
             MachineState::Homing
-        } else if self.stepper.is_held() {
+        } else if self.stepper.is_held() || self.program_paused {
             MachineState::Held
         } else if self.stepper.is_holding() {
             MachineState::Holding
@@ -545,6 +554,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.modal = Modal::DEFAULT;
             self.resume_after_hold = false;
             self.streaming = false;
+            self.program_paused = false;
             self.framed = false;
             self.rt_matcher.clear();
             self.completed_base = self.stepper.completed();
@@ -558,7 +568,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             return;
         }
         if rt & RT_FLAG_RESUME != 0 {
-            if self.stepper.is_held() {
+            if self.program_paused {
+                self.program_paused = false;
+            } else if self.stepper.is_held() {
                 self.resume();
             } else if self.stepper.is_holding() {
                 // Still decelerating: remember the resume and act once the hold has stopped (see `poll`).
@@ -848,6 +860,10 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn execute(&mut self, w: &Words) -> Outcome {
+        if self.program_paused {
+            // `M0`/`M1`: wait for `~`.
+            return Outcome::Blocked;
+        }
         if let Some(out) = self.thermal_command(w) {
             return out;
         }
@@ -880,7 +896,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             }
         }
         for &m in &w.m {
-            if !matches!(m, 2 | 17 | 18 | 30 | 82 | 83 | 84 | 110 | 114 | 115 | M_FRAMED) {
+            if !matches!(m, 0 | 1 | 2 | 3 | 4 | 5 | 17 | 18 | 30 | 82 | 83 | 84 | 110 | 114 | 115 | M_FRAMED) {
                 self.reply_error(ErrorCode::UnknownCommand, format_args!(": M{m}"));
                 return Outcome::Done;
             }
@@ -905,7 +921,18 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         }
         // Blocking conditions, checked before any state changes.
         let needs_slot = motion.is_some() || other_g == Some(4) || (has_axis && other_g.is_none());
-        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18) || w.m.contains(&84);
+        // The servo pen and program pauses act between moves, so they wait for the queue to empty.
+        let pen_or_pause = w.m.iter().any(|m| matches!(m, 0 | 1 | 3 | 4 | 5));
+        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18) || w.m.contains(&84) || pen_or_pause;
+        let servo_s = w.get(b'S').map(|s| s as f64 / 1e6);
+        if w.m.iter().any(|m| matches!(m, 3 | 4)) && servo_s.is_none_or(|a| !(0.0..=180.0).contains(&a)) {
+            self.reply_error(ErrorCode::InvalidValue, format_args!(": M3 needs S<angle> from 0 to 180"));
+            return Outcome::Done;
+        }
+        if w.m.contains(&5) && servo_s.is_some_and(|a| !(0.0..=180.0).contains(&a)) {
+            self.reply_error(ErrorCode::InvalidValue, format_args!(": S must be an angle from 0 to 180"));
+            return Outcome::Done;
+        }
         let moves = needs_slot || other_g == Some(28);
         if moves && self.alarm.is_some() && self.homing_result.is_none() {
             self.reply_error(ErrorCode::Alarm, format_args!(""));
@@ -976,6 +1003,17 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         for &m in &w.m {
             match m {
                 2 | 30 => self.modal = Modal { feed_mm_s: self.modal.feed_mm_s, ..Modal::DEFAULT },
+                0 | 1 => self.program_paused = true,
+                // Angles are 0..=180 (checked above): exact enough in f32.
+                #[allow(clippy::cast_possible_truncation)]
+                3 | 4 => self.hal.set_servo(servo_s.unwrap_or(0.0) as f32),
+                #[allow(clippy::cast_possible_truncation)]
+                5 => {
+                    if let Some(a) = servo_s {
+                        self.servo_up_deg = a as f32;
+                    }
+                    self.hal.set_servo(self.servo_up_deg);
+                }
                 17 => self.hal.enable_motors(true),
                 M_FRAMED => self.framed = w.get(b'S').is_some_and(|s| s != 0),
                 18 | 84 => self.hal.enable_motors(false),

@@ -537,3 +537,34 @@ fn overflow_is_reported_not_silent() {
     // 32 blocks in the planner, 2 in the stepper, 1 line waiting for room, 28 whole lines in the 256-byte buffer.
     assert_eq!(count(&r, "ok"), 32 + 2 + 1 + 28);
 }
+
+#[test]
+fn servo_pen_m3_m5_drive_the_servo_after_the_queue_empties() {
+    let mut sim = Sim::new(cfg());
+    let r = run(&mut sim, "G1 X10 F600\nM3 S30\nG4 P100\nM5\nM5 S120\nM3\nM3 S200\n");
+    // Five ok, then the two M3 without a valid angle refused.
+    assert_eq!(count(&r, "ok"), 5, "{r:?}");
+    assert_eq!(r.iter().filter(|l| l.starts_with("error:9")).count(), 2, "{r:?}");
+    let servo = sim.hal().servo_trace().to_vec();
+    let angles: Vec<(f32, u16)> = servo.iter().map(|s| (s.1, s.2)).collect();
+    assert_eq!(angles, [(30.0, 1167), (90.0, 1500), (120.0, 1667)]);
+    // M3 waited for the 10 mm move (800 steps at 10 mm/s: at least 1 s), and M5 for the 100 ms dwell after it.
+    assert!(servo[0].0 >= 1_000_000, "{}", servo[0].0);
+    assert!(servo[1].0 >= servo[0].0 + 100_000);
+    assert_eq!(sim.physical_position()[0], 800);
+}
+
+#[test]
+fn m0_pauses_a_gcode_stream_until_resume() {
+    let mut sim = Sim::new(cfg());
+    let r = run(&mut sim, "G1 X5 F600\nM0\nG1 X10\n");
+    assert_eq!(count(&r, "ok"), 2, "the line after M0 waits: {r:?}");
+    assert_eq!(sim.physical_position()[0], 400);
+    sim.feed(b"?");
+    sim.run_until_idle();
+    assert!(sim.take_replies().iter().any(|l| l.starts_with("<Hold:0|")), "paused shows as a stopped hold");
+    sim.feed(b"~");
+    sim.run_until_idle();
+    assert_eq!(count(&sim.take_replies(), "ok"), 1);
+    assert_eq!(sim.physical_position()[0], 800);
+}
