@@ -12,11 +12,13 @@ mod cmd_jog;
 mod cmd_optimize;
 mod cmd_plot;
 mod cmd_preview;
+mod cmd_print;
 mod cmd_serve;
 mod cmd_sim;
 mod cmd_stats;
 mod cmd_trace;
 mod serve;
+mod sim_qemu;
 
 use clap::{Parser, Subcommand};
 
@@ -42,7 +44,10 @@ enum Command {
     Convert(cmd_convert::ConvertArgs),
     /// Plot a drawing on the simulated plotter (default) or a serial plotter (--port)
     Plot(cmd_plot::PlotArgs),
-    /// Run the simulated firmware on a pseudo-terminal (`--pty`) and print its device path
+    /// Print slicer G-code (PrusaSlicer/Cura, Marlin flavour) on the simulated printer (default) or a serial one
+    Print(cmd_print::PrintArgs),
+    /// Run the simulated firmware (`--pty`) or the firmware image under QEMU (`--qemu`) on a pseudo-terminal and
+    /// print its device path
     Sim(cmd_sim::SimArgs),
     /// Home a connected plotter
     Home(cmd_home::LinkArgs),
@@ -70,6 +75,7 @@ fn main() {
         Command::Stats(args) => cmd_stats::run(args),
         Command::Convert(args) => cmd_convert::run(args),
         Command::Plot(args) => cmd_plot::run(args),
+        Command::Print(args) => cmd_print::run(args),
         Command::Sim(args) => cmd_sim::run(args),
         Command::Home(args) => cmd_home::run(args),
         Command::Jog(args) => cmd_jog::run(args),

@@ -7,8 +7,14 @@
 //! Wiring on a board: the UART receive interrupt passes each byte to [`crate::machine::Machine::receive`], the step
 //! timer interrupt calls [`crate::machine::Machine::on_timer`], and the main loop calls
 //! [`crate::machine::Machine::poll`].
+//!
+//! Heaters are not part of [`Hal`]: a printer board hands its heater outputs and thermistor inputs to
+//! [`crate::machine::Machine::with_heaters`] as a separate [`Heaters`] value, and a board without heaters (every
+//! plotter) uses [`crate::machine::Machine::new`], which plugs in [`NoHeaters`] — so plotter boards implement
+//! nothing for them.
 
 use crate::axis::Axis;
+use crate::thermal::Heater;
 
 /// Step and direction outputs, one pair per axis, plus the drivers' enable line.
 pub trait StepPins {
@@ -19,6 +25,19 @@ pub trait StepPins {
     fn step(&mut self, axis: Axis);
     /// Energise (`true`, M17) or release (`false`, M18) the motor drivers.
     fn enable_motors(&mut self, on: bool);
+    /// Drive the pen-lift hobby servo to `angle_deg` (0–180°, `M3 S<angle>` / `M5`): a 50 Hz PWM whose pulse is
+    /// [`servo_pulse_us`] wide. Boards without a servo keep this default, which does nothing.
+    fn set_servo(&mut self, _angle_deg: f32) {}
+}
+
+/// The pulse width (µs) of a hobby servo's 50 Hz signal for `angle_deg`: 1000 µs at 0° to 2000 µs at 180°
+/// (the common convention; clamped to that range).
+pub fn servo_pulse_us(angle_deg: f32) -> u16 {
+    let a = if angle_deg.is_nan() { 0.0 } else { angle_deg.clamp(0.0, 180.0) };
+    // 1000..=2000 after the clamp.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let us = (1000.0 + a * (1000.0 / 180.0) + 0.5) as u16;
+    us
 }
 
 /// Endstop (limit/homing switch) inputs.
@@ -52,3 +71,42 @@ pub trait Clock {
 pub trait Hal: StepPins + Endstops + StepTimer + SerialOut + Clock {}
 
 impl<T: StepPins + Endstops + StepTimer + SerialOut + Clock> Hal for T {}
+
+/// Heater outputs (PWM), thermistor inputs (ADC) and the part-cooling fan of a printer board. Every method has a
+/// "nothing wired" default, so a board implements only what it has.
+pub trait Heaters {
+    /// Set the PWM duty of `heater`, 0 (off) to 255 (always on). Called once per thermal period for every
+    /// configured heater, and with 0 at once on any alarm or emergency stop.
+    fn set_heater(&mut self, heater: Heater, duty: u8) {
+        let _ = (heater, duty);
+    }
+    /// The latest thermistor conversion of `heater` in ADC counts (full scale as configured, see
+    /// [`crate::thermal::thermistor::Thermistor::adc_max`]), or `None` when no fresh conversion is ready. The
+    /// core's watchdog trips when no fresh reading comes for too long.
+    fn read_thermistor(&mut self, heater: Heater) -> Option<u16> {
+        let _ = heater;
+        None
+    }
+    /// Set the part-cooling fan duty, 0–255.
+    fn set_fan(&mut self, duty: u8) {
+        let _ = duty;
+    }
+}
+
+/// A board without heaters (plotters): every [`Heaters`] method is the default.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct NoHeaters;
+
+impl Heaters for NoHeaters {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn servo_pulse_widths() {
+        assert_eq!([servo_pulse_us(0.0), servo_pulse_us(90.0), servo_pulse_us(180.0)], [1000, 1500, 2000]);
+        assert_eq!([servo_pulse_us(-5.0), servo_pulse_us(400.0), servo_pulse_us(f32::NAN)], [1000, 2000, 1000]);
+        assert_eq!(servo_pulse_us(45.0), 1250);
+    }
+}

@@ -23,6 +23,7 @@ pub struct SimTransport {
     was_moving: bool,
     underruns: u64,
     noise: Option<Noise>,
+    reply_noise: Option<Noise>,
     wire_busy_ticks: u64,
 }
 
@@ -40,14 +41,47 @@ impl SimTransport {
             was_moving: false,
             underruns: 0,
             noise: None,
+            reply_noise: None,
             wire_busy_ticks: 0,
         }
+    }
+
+    /// Around an existing simulator (e.g. a printer with heaters); `baud` as in [`SimTransport::new`].
+    pub fn from_sim(sim: Sim, baud: Option<u32>) -> Self {
+        let slice_ticks = baud.map_or(100, |b| (u64::from(TICK_HZ) * 10).div_ceil(u64::from(b.max(1))));
+        SimTransport {
+            sim,
+            lines: LineSplitter::default(),
+            slice_ticks,
+            streaming: false,
+            was_moving: false,
+            underruns: 0,
+            noise: None,
+            reply_noise: None,
+            wire_busy_ticks: 0,
+        }
+    }
+
+    /// The simulator, mutably (fault injection).
+    pub fn sim_mut(&mut self) -> &mut Sim {
+        &mut self.sim
     }
 
     /// Corrupt the bytes sent to the firmware with `noise`.
     pub fn with_noise(mut self, noise: Noise) -> Self {
         self.noise = Some(noise);
         self
+    }
+
+    /// Corrupt the firmware's replies with `noise` (line ends included, so lines can merge or split).
+    pub fn with_reply_noise(mut self, noise: Noise) -> Self {
+        self.reply_noise = Some(noise);
+        self
+    }
+
+    /// The noise on each direction (to the firmware, from the firmware), for reports.
+    pub fn noise(&self) -> (Option<&Noise>, Option<&Noise>) {
+        (self.noise.as_ref(), self.reply_noise.as_ref())
     }
 
     /// Virtual time during which bytes were waiting on the wire (the link was busy), ticks.
@@ -62,8 +96,18 @@ impl SimTransport {
 
     fn collect(&mut self) {
         for l in self.sim.take_replies() {
-            self.lines.push(l.as_bytes());
-            self.lines.push(b"\n");
+            match self.reply_noise.as_mut() {
+                Some(n) => {
+                    let mut bytes = l.into_bytes();
+                    bytes.push(b'\n');
+                    let noisy = n.apply(&bytes);
+                    self.lines.push(&noisy);
+                }
+                None => {
+                    self.lines.push(l.as_bytes());
+                    self.lines.push(b"\n");
+                }
+            }
         }
     }
 

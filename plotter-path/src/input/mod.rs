@@ -2,7 +2,11 @@
 //! format, raster images traced into paths, and parametric figures.
 
 pub mod gcode_in;
+pub mod gcode_print;
 pub mod r#gen;
 pub mod raster;
 pub mod svg;
 pub mod trajectory;
+
+#[cfg(test)]
+mod fuzz;

@@ -143,9 +143,10 @@ mod tests {
     fn the_bound_is_below_the_plan_and_tight_on_a_long_line() {
         let p = MachineProfile::default_plotter();
         // One 100 mm line from (10, 10) mm, reached from home by a 10·√2 mm hop.
-        let steps = StepDrawing {
-            strokes: vec![StepStroke { start: StepPos::new(800, 800), moves: vec![StepDelta { dx: 8000, dy: 0 }] }],
-        };
+        let steps = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(800, 800),
+            moves: vec![StepDelta { dx: 8000, dy: 0 }],
+        }]);
         let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         let b = plot_time_lower_bound(&p, &steps, 200f64.sqrt()).unwrap();
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
@@ -164,12 +165,10 @@ mod tests {
         // Travel: the bound's length at the travel feed.
         assert!((b.travel_s - (200f64.sqrt() - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0)) / 120.0).abs() < 1e-9);
         // A zig-zag stops at each reversal: three 10 mm legs take three rest-to-rest motions.
-        let zig = StepDrawing {
-            strokes: vec![StepStroke {
-                start: StepPos::new(800, 800),
-                moves: vec![StepDelta { dx: 800, dy: 0 }, StepDelta { dx: -800, dy: 0 }, StepDelta { dx: 800, dy: 0 }],
-            }],
-        };
+        let zig = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(800, 800),
+            moves: vec![StepDelta { dx: 800, dy: 0 }, StepDelta { dx: -800, dy: 0 }, StepDelta { dx: 800, dy: 0 }],
+        }]);
         let b = plot_time_lower_bound(&p, &zig, 0.0).unwrap();
         assert!(
             (b.draw_s - 2.0 * min_time(10.0, 0.0, 0.0, 60.0, a) - min_time(10.0, 0.0, v_lift, 60.0, a)).abs() < 1e-9

@@ -2,6 +2,9 @@
 //! drift-free step conversion.
 
 pub mod bound;
+pub mod heaters;
+pub mod pens;
 pub mod plan;
+pub mod print_plan;
 pub mod profile;
 pub mod steps;
