@@ -136,7 +136,7 @@ struct Planner<'c> {
 
 impl Planner<'_> {
     fn flush(&mut self) {
-        planner::link_all(&mut self.run, &self.cfg);
+        planner::link_all(&mut self.run, self.cfg);
         planner::plan(&mut self.run, 0.0);
         let mut lines = std::mem::take(&mut self.run_lines).into_iter().peekable();
         for (i, sb) in planner::step_blocks(&self.run).enumerate() {
