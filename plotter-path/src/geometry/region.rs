@@ -69,6 +69,21 @@ impl Region {
         Region::from_shapes(raw.simplify_shape(rule.overlay()))
     }
 
+    /// The union of many regions in one pass (their normalised contours filled non-zero).
+    pub fn union_all(regions: impl IntoIterator<Item = Region>) -> Region {
+        let mut shapes: Vec<Shape> = Vec::new();
+        let mut count = 0;
+        for r in regions {
+            count += 1;
+            shapes.extend(r.shapes);
+        }
+        if count <= 1 || shapes.is_empty() {
+            return Region::from_shapes(shapes);
+        }
+        let contours: Vec<Contour> = shapes.into_iter().flatten().collect();
+        Region::from_shapes(contours.simplify_shape(OverlayFill::NonZero))
+    }
+
     /// An axis-aligned rectangle.
     pub fn rect(r: Rect) -> Region {
         if !(r.width() > 0.0 && r.height() > 0.0) {

@@ -174,7 +174,14 @@ fn layers_from_inkscape_labels_and_colours() {
       <g id="detail"><line x1="0" y1="10" x2="10" y2="10" stroke="#0000ff"/></g>
       <line x1="0" y1="20" x2="10" y2="20" stroke="#ff0000"/>
     </svg>"##;
-    let by_group = import(svg).drawing;
+    // Auto: the one Inkscape layer, and everything outside it (a plain group and a line) in `root`.
+    let auto = import(svg).drawing;
+    let names: Vec<&str> = auto.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Outline", "root"]);
+    assert_eq!(auto.layers[0].paths.len(), 2);
+    assert_eq!(auto.layers[1].paths.len(), 2);
+    let opts = SvgOptions { layer_by: LayerBy::Group, ..SvgOptions::default() };
+    let by_group = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap().drawing;
     let names: Vec<&str> = by_group.layers.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["Outline", "detail", "root"]);
     assert_eq!(by_group.layers[0].paths.len(), 2);
@@ -186,11 +193,11 @@ fn layers_from_inkscape_labels_and_colours() {
     assert_eq!(by_color.layers[0].paths.len(), 2);
     assert_eq!(by_color.layers[1].pen.color, Rgb(0, 0, 255));
 
-    let opts = SvgOptions { layers: vec!["detail".into()], ..SvgOptions::default() };
+    let opts = SvgOptions { layers: vec!["detail".into()], layer_by: LayerBy::Group, ..SvgOptions::default() };
     let only = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap().drawing;
     assert_eq!(only.layers.len(), 1);
     assert_eq!(only.layers[0].name, "detail");
-    let opts = SvgOptions { layers: vec!["nope".into()], ..SvgOptions::default() };
+    let opts = SvgOptions { layers: vec!["nope".into()], layer_by: LayerBy::Group, ..SvgOptions::default() };
     let err = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap_err().to_string();
     assert!(err.contains("no layer named 'nope'") && err.contains("Outline, detail, root"), "{err}");
 }
