@@ -360,7 +360,7 @@ fn off_page(items: &mut [walk::Item], (w, h): (f64, f64), crop: bool) -> Option<
             lines.iter().flat_map(|l| l.windows(2)).map(|s| s[0].distance(s[1])).sum()
         };
         let out_len = len(&cut(item.lines.clone(), &[&region], Keep::Outside));
-        if out_len <= 1e-6 {
+        if out_len <= 1e-3 {
             continue;
         }
         length += out_len;

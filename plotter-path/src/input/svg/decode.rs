@@ -197,7 +197,8 @@ mod tests {
         assert!(decode_xml(latin).unwrap().contains("café"));
         let cyr = b"<?xml version='1.0' encoding='windows-1251'?><svg id=\"\xc6\"/>";
         assert!(decode_xml(cyr).unwrap().contains('Ж'));
-        let utf16: Vec<u8> = [0xff, 0xfe].into_iter().chain("<svg id=\"é\"/>".encode_utf16().flat_map(u16::to_le_bytes)).collect();
+        let utf16: Vec<u8> =
+            [0xff, 0xfe].into_iter().chain("<svg id=\"é\"/>".encode_utf16().flat_map(u16::to_le_bytes)).collect();
         assert_eq!(decode_xml(&utf16).unwrap(), "<svg id=\"é\"/>");
         let utf16be: Vec<u8> = "<?xml version=\"1.0\"?><svg/>".encode_utf16().flat_map(u16::to_be_bytes).collect();
         assert_eq!(decode_xml(&utf16be).unwrap(), "<?xml version=\"1.0\"?><svg/>");

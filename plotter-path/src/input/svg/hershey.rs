@@ -46,13 +46,14 @@ pub struct HersheyFont {
 impl HersheyFont {
     /// Find and load the default font from [`FONT_DIRS`].
     pub fn load_default() -> Result<HersheyFont, String> {
-        let path = FONT_DIRS.iter().map(|d| Path::new(d).join(DEFAULT_FONT)).find(|p| p.is_file()).ok_or_else(|| {
-            format!(
-                "single-stroke text needs the Hershey fonts: {DEFAULT_FONT} was not found in {} (install Debian's \
+        let path =
+            FONT_DIRS.iter().map(|d| Path::new(d).join(DEFAULT_FONT)).find(|p| p.is_file()).ok_or_else(|| {
+                format!(
+                    "single-stroke text needs the Hershey fonts: {DEFAULT_FONT} was not found in {} (install Debian's \
                  hershey-fonts-data)",
-                FONT_DIRS.join(", ")
-            )
-        })?;
+                    FONT_DIRS.join(", ")
+                )
+            })?;
         HersheyFont::load(&path)
     }
 
@@ -159,7 +160,10 @@ mod tests {
         assert_eq!(i.strokes, vec![vec![Point::new(0.0, -12.0), Point::new(0.0, 9.0)]]);
         let bang = font.glyph('!');
         // The stem, and the dot as a zero-length stroke (a pen dab).
-        assert_eq!(bang.strokes, vec![vec![Point::new(0.0, -12.0), Point::new(0.0, 2.0)], vec![Point::new(0.0, 8.0); 2]]);
+        assert_eq!(
+            bang.strokes,
+            vec![vec![Point::new(0.0, -12.0), Point::new(0.0, 2.0)], vec![Point::new(0.0, 8.0); 2]]
+        );
         assert_eq!(font.glyph('é'), font.glyph('?'));
         assert!(HersheyFont::parse("12345  3MW").unwrap_err().contains("ends early"));
         assert!(HersheyFont::parse("12345 xxMWRR").unwrap_err().contains("vertex count"));
