@@ -596,7 +596,8 @@ fn embedded_png_is_traced_in_place() {
     let d = import_with(&svg, &opts).drawing;
     assert_len(&d, 40.0 - 4.0 + 4.0 * 0.5f64.sqrt());
     let b = d.bbox().unwrap();
-    assert!((b.x0 - 35.0).abs() < 1e-6 && (b.y0 - 45.0).abs() < 1e-6 && (b.x1 - 45.0).abs() < 1e-6, "{b:?}");
+    // usvg's image transform is f32: a few µm of rounding.
+    assert!((b.x0 - 35.0).abs() < 1e-5 && (b.y0 - 45.0).abs() < 1e-5 && (b.x1 - 45.0).abs() < 1e-5, "{b:?}");
 }
 
 #[test]
