@@ -17,7 +17,11 @@ fn main() {
     match load_svg(std::path::Path::new(path), &options) {
         Ok(imported) => {
             let segments: usize = imported.drawing.paths().map(|p| p.segment_count()).sum();
-            println!("{path}: {} paths, {segments} segments, {:.3} s", imported.drawing.path_count(), t0.elapsed().as_secs_f64());
+            println!(
+                "{path}: {} paths, {segments} segments, {:.3} s",
+                imported.drawing.path_count(),
+                t0.elapsed().as_secs_f64()
+            );
         }
         Err(e) => println!("{path}: error after {:.3} s: {e}", t0.elapsed().as_secs_f64()),
     }

@@ -283,13 +283,18 @@ mod tests {
             vec![
                 Polyline::with_pen(vec![Point::new(10.0, 20.0), Point::new(90.0, 20.0)], red),
                 Polyline::with_pen(vec![Point::new(10.0, 60.0), Point::new(90.0, 60.0)], green),
-                Polyline::with_pen(vec![Point::new(10.0, 80.0), Point::new(90.0, 80.0)], Pen { color: Rgb(255, 255, 255), width_mm: 1.0 }),
+                Polyline::with_pen(
+                    vec![Point::new(10.0, 80.0), Point::new(90.0, 80.0)],
+                    Pen { color: Rgb(255, 255, 255), width_mm: 1.0 },
+                ),
             ],
         );
         d.page_mm = Some((100.0, 100.0));
         // 254 dpi → 10 px per mm; the view starts 2 mm before the page.
         let opts = PreviewOptions { dpi: 254.0, ..PreviewOptions::default() };
         let p = render(&d, &opts).unwrap();
+        // Page positions well inside the image: small positive values.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let at = |x: f64, y: f64| pixel(&p, ((x + 2.0) * 10.0) as u32, ((y + 2.0) * 10.0) as u32);
         assert_eq!(at(50.0, 20.0), (255, 0, 0));
         assert_eq!(at(50.0, 60.0), (0, 160, 0));

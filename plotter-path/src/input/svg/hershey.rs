@@ -100,12 +100,20 @@ impl HersheyFont {
         Ok(HersheyFont { glyphs })
     }
 
-    /// The glyph for `c`; characters outside printable ASCII get `?`.
+    /// The glyph for `c`; accented Latin letters are drawn as their base letter (the fonts are ASCII only), other
+    /// characters outside printable ASCII get `?`.
     pub fn glyph(&self, c: char) -> &Glyph {
-        let code = u32::from(c);
+        let code = u32::from(fold_latin(c));
         let index = if (32..=126).contains(&code) { code - 32 } else { u32::from('?') - 32 };
         &self.glyphs[usize::try_from(index).unwrap_or(0)]
     }
+}
+
+/// The base letter of a Latin-1 accented letter (`é` → `e`), else `c` itself.
+fn fold_latin(c: char) -> char {
+    const FROM: &str = "ÀÁÂÃÄÅÇÈÉÊËÌÍÎÏÑÒÓÔÕÖØÙÚÛÜÝàáâãäåçèéêëìíîïñòóôõöøùúûüýÿ";
+    const TO: &str = "AAAAAACEEEEIIIINOOOOOOUUUUYaaaaaaceeeeiiiinoooooouuuuyy";
+    FROM.chars().position(|f| f == c).and_then(|i| TO.chars().nth(i)).unwrap_or(c)
 }
 
 fn parse_glyph(data: &str, pairs: usize, line: usize) -> Result<Glyph, String> {
@@ -164,7 +172,8 @@ mod tests {
             bang.strokes,
             vec![vec![Point::new(0.0, -12.0), Point::new(0.0, 2.0)], vec![Point::new(0.0, 8.0); 2]]
         );
-        assert_eq!(font.glyph('é'), font.glyph('?'));
+        assert_eq!(font.glyph('€'), font.glyph('?'));
+        assert_eq!(font.glyph('Ì'), font.glyph('I'));
         assert!(HersheyFont::parse("12345  3MW").unwrap_err().contains("ends early"));
         assert!(HersheyFont::parse("12345 xxMWRR").unwrap_err().contains("vertex count"));
     }

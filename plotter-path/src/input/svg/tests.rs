@@ -306,8 +306,8 @@ fn each_encoding_reads() {
         ("UTF-16BE", utf16be),
     ];
     for (what, bytes) in cases {
-        let imported = import_svg(&bytes, "enc.svg", None, &SvgOptions::default())
-            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        let imported =
+            import_svg(&bytes, "enc.svg", None, &SvgOptions::default()).unwrap_or_else(|e| panic!("{what}: {e}"));
         assert_len(&imported.drawing, 30.0);
     }
 }
@@ -478,11 +478,11 @@ fn hatch_of_a_square() {
     assert_len(&d, 80.0 + 400.0 + 19.0);
     assert_eq!(d.path_count(), 2, "outline + one zig-zag");
     // A hole (even-odd) is left empty: 10 × 10 hole at (15, 15.5) removes 10 lines × 10 mm.
-    let holed = mm_doc(
-        r#"<path fill-rule="evenodd" fill="black" d="M10 10.5 h20 v20 h-20 Z M15 15.5 h10 v10 h-10 Z"/>"#,
-    );
-    let d = import_with(&holed, &SvgOptions { hatch: Some(FillHatch { link: false, ..hatch }), ..SvgOptions::default() })
-        .drawing;
+    let holed =
+        mm_doc(r#"<path fill-rule="evenodd" fill="black" d="M10 10.5 h20 v20 h-20 Z M15 15.5 h10 v10 h-10 Z"/>"#);
+    let d =
+        import_with(&holed, &SvgOptions { hatch: Some(FillHatch { link: false, ..hatch }), ..SvgOptions::default() })
+            .drawing;
     assert_len(&d, 80.0 + 40.0 + 400.0 - 100.0);
 }
 

@@ -165,7 +165,7 @@ impl<'a> Walker<'a> {
             self.skipped.transparent += count_shapes(g);
             return;
         }
-        ctx.t = ctx.t * affine(&g.transform());
+        ctx.t *= affine(&g.transform());
         if let Some(cp) = g.clip_path() {
             let r = self.clip_region(cp, ctx.t);
             ctx.clips.push(std::rc::Rc::new(r));
@@ -248,7 +248,7 @@ impl<'a> Walker<'a> {
             width_mm = f64::from(s.width().get()) * scale_mm;
             let dashed = s.dasharray().map(|da| {
                 // tiny-skia flattens curves while measuring to 0.5 / res_scale path units: ask for tolerance/4 mm.
-                let res = (0.5 * scale_mm / (self.options.tolerance_mm / 4.0)) as f32;
+                let res = narrow(0.5 * scale_mm / (self.options.tolerance_mm / 4.0));
                 tiny_skia_path::StrokeDash::new(da.to_vec(), s.dashoffset())
                     .map(|dash| p.data().dash(&dash, res.max(1.0)))
             });
@@ -260,7 +260,7 @@ impl<'a> Walker<'a> {
             };
             if let Some(pen) = self.options.fill_strokes
                 && width_mm > pen * 1.5
-                && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), (scale_mm / pen) as f32 * 4.0)
+                && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), narrow(scale_mm / pen * 4.0))
             {
                 let area = self.area(&outline, ctx.t, FillRule::NonZero);
                 let angle_deg = self.options.hatch.map_or(45.0, |h| h.angle_deg);
@@ -519,6 +519,12 @@ impl<'a> Walker<'a> {
         let layer = self.item_layer(ctx, pen.color);
         self.items.push(Item { layer, pen, lines, occluder: None, element });
     }
+}
+
+/// f64 → f32 for tiny-skia's resolution scales (any precision loss only changes how finely curves are measured).
+#[allow(clippy::cast_possible_truncation)]
+fn narrow(v: f64) -> f32 {
+    v as f32
 }
 
 /// Shapes in a subtree (for the count of skipped transparent shapes).
