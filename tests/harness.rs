@@ -89,6 +89,29 @@ impl SimPty {
         SimPty { child: Some(child), port: line.trim().to_string(), trace }
     }
 
+    /// Start `plotter sim --qemu` (the firmware image on the emulated board); the trace goes to `dir`. The image
+    /// is built first if needed.
+    pub fn start_qemu(dir: &Path) -> SimPty {
+        let trace = dir.join("trace-qemu.txt");
+        let mut child = Command::new(plotter_bin())
+            .args(["sim", "--qemu", "--trace"])
+            .arg(&trace)
+            .current_dir(dir)
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("plotter sim --qemu starts");
+        let mut line = String::new();
+        let stdout = child.stdout.take().expect("stdout");
+        BufReader::new(stdout).read_line(&mut line).expect("sim prints its port");
+        assert!(line.starts_with("/dev/"), "plotter sim --qemu printed {line:?} instead of a pty path");
+        SimPty { child: Some(child), port: line.trim().to_string(), trace }
+    }
+
+    /// The trace file (written as the steps happen by `sim --qemu`; on exit by `sim --pty`).
+    pub fn trace_path(&self) -> &Path {
+        &self.trace
+    }
+
     /// Stop the simulator (SIGINT) and read its step trace.
     pub fn stop(mut self) -> Trace {
         let mut child = self.child.take().expect("running");
@@ -103,10 +126,109 @@ impl SimPty {
 impl Drop for SimPty {
     fn drop(&mut self) {
         if let Some(mut c) = self.child.take() {
+            // SIGINT first, so that `sim --qemu` takes its emulator down with it; then make sure.
+            if let Ok(pid) = i32::try_from(c.id()) {
+                let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), nix::sys::signal::Signal::SIGINT);
+                for _ in 0..100 {
+                    if c.try_wait().ok().flatten().is_some() {
+                        return;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                }
+            }
             let _ = c.kill();
             let _ = c.wait();
         }
     }
+}
+
+/// A serial device opened raw by the test itself (to type at the firmware like a terminal would).
+pub struct RawPort {
+    file: std::fs::File,
+    pending: Vec<u8>,
+}
+
+impl RawPort {
+    /// Open `path` in raw mode with 100 ms read time-outs.
+    pub fn open(path: &str) -> RawPort {
+        use nix::sys::termios::{SetArg, SpecialCharacterIndices, cfmakeraw, tcgetattr, tcsetattr};
+        let file = std::fs::OpenOptions::new().read(true).write(true).open(path).expect("open the port");
+        let mut tio = tcgetattr(&file).expect("termios");
+        cfmakeraw(&mut tio);
+        tio.control_chars[SpecialCharacterIndices::VMIN as usize] = 0;
+        tio.control_chars[SpecialCharacterIndices::VTIME as usize] = 1;
+        tcsetattr(&file, SetArg::TCSANOW, &tio).expect("raw mode");
+        RawPort { file, pending: Vec::new() }
+    }
+
+    /// Send bytes.
+    pub fn send(&mut self, bytes: &[u8]) {
+        use std::io::Write as _;
+        self.file.write_all(bytes).expect("write to the port");
+    }
+
+    /// Lines received until nothing more arrives for `quiet` (or `limit` has passed).
+    pub fn lines_until_quiet(&mut self, quiet: std::time::Duration, limit: std::time::Duration) -> Vec<String> {
+        use std::io::Read as _;
+        let start = std::time::Instant::now();
+        let mut last = start;
+        let mut buf = [0u8; 1024];
+        while last.elapsed() < quiet && start.elapsed() < limit {
+            if let Ok(n) = self.file.read(&mut buf)
+                && n > 0
+            {
+                self.pending.extend_from_slice(&buf[..n]);
+                last = std::time::Instant::now();
+            }
+        }
+        self.take_lines()
+    }
+
+    /// Lines received until one satisfies `done` (included), or `limit` passes (then the test fails).
+    pub fn lines_until(&mut self, done: impl Fn(&str) -> bool, limit: std::time::Duration) -> Vec<String> {
+        use std::io::Read as _;
+        let start = std::time::Instant::now();
+        let mut out = Vec::new();
+        let mut buf = [0u8; 1024];
+        loop {
+            out.extend(self.take_lines());
+            if out.iter().any(|l| done(l)) {
+                return out;
+            }
+            assert!(start.elapsed() < limit, "no expected line within {limit:?}; got {out:?}");
+            if let Ok(n) = self.file.read(&mut buf) {
+                self.pending.extend_from_slice(&buf[..n]);
+            }
+        }
+    }
+
+    fn take_lines(&mut self) -> Vec<String> {
+        let mut out = Vec::new();
+        while let Some(i) = self.pending.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.pending.drain(..=i).collect();
+            out.push(String::from_utf8_lossy(&line[..line.len() - 1]).trim_end_matches('\r').to_string());
+        }
+        out
+    }
+}
+
+/// Whether `qemu-system-arm` can run here. Absent outside CI: the caller skips with a message; absent in CI
+/// (`CI` set): a failure, since CI installs it.
+pub fn qemu_available(test: &str) -> bool {
+    let found = Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
+    // The image builds for thumbv7m-none-eabi; without rustup, assume the toolchain has it.
+    let target = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map_or(true, |o| String::from_utf8_lossy(&o.stdout).lines().any(|l| l.trim() == "thumbv7m-none-eabi"));
+    let missing = match (found, target) {
+        (true, true) => return true,
+        (false, _) => "qemu-system-arm is not installed (apt-get install qemu-system-arm)",
+        (true, false) => "the thumbv7m-none-eabi target is not installed (rustup target add thumbv7m-none-eabi)",
+    };
+    assert!(std::env::var_os("CI").is_none(), "{test}: {missing}; CI installs it (.ci/run)");
+    eprintln!("SKIP {test}: {missing}");
+    false
 }
 
 /// A simulator step trace: the position (steps) after every step event. Steps of several axes in the same timer
@@ -179,4 +301,41 @@ pub fn point_segment_distance(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f6
     let t = if len2 > 0.0 { (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
     let (cx, cy) = (a.0 + t * dx, a.1 + t * dy);
     (p.0 - cx).hypot(p.1 - cy)
+}
+
+/// An axis-aligned cube of edge `size` mm with its minimum corner at the origin, as ASCII STL: 12 triangles, each
+/// wound counter-clockwise seen from outside with its outward unit normal (the STL convention slicers expect).
+pub fn cube_stl(size: f64) -> String {
+    // Corners by bits: x = bit 0, y = bit 1, z = bit 2.
+    let corner = |i: usize| {
+        let bit = |b: usize| if i & (1 << b) != 0 { size } else { 0.0 };
+        [bit(0), bit(1), bit(2)]
+    };
+    // Each face: outward normal and its four corners counter-clockwise seen from outside.
+    let faces: [([f64; 3], [usize; 4]); 6] = [
+        ([0.0, 0.0, -1.0], [0, 2, 3, 1]),
+        ([0.0, 0.0, 1.0], [4, 5, 7, 6]),
+        ([0.0, -1.0, 0.0], [0, 1, 5, 4]),
+        ([0.0, 1.0, 0.0], [2, 6, 7, 3]),
+        ([-1.0, 0.0, 0.0], [0, 4, 6, 2]),
+        ([1.0, 0.0, 0.0], [1, 3, 7, 5]),
+    ];
+    let mut out = String::from("solid cube\n");
+    for (n, q) in faces {
+        for tri in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            out.push_str(&format!(" facet normal {} {} {}\n  outer loop\n", n[0], n[1], n[2]));
+            for v in tri {
+                let p = corner(v);
+                out.push_str(&format!("   vertex {} {} {}\n", p[0], p[1], p[2]));
+            }
+            out.push_str("  endloop\n endfacet\n");
+        }
+    }
+    out.push_str("endsolid cube\n");
+    out
+}
+
+/// The G-code fixture sliced by PrusaSlicer from [`cube_stl`]`(20.0)` (see `tests/print_slicer.rs`).
+pub fn fixture(name: &str) -> PathBuf {
+    workspace_root().join("tests").join("fixtures").join(name)
 }

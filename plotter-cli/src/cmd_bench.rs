@@ -12,9 +12,9 @@ use plotter_path::motion::plan::{self, Lookahead};
 use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::{Drawing, MachineProfile, Polyline};
 
-use crate::link::session::Session;
-use crate::link::sim::SimTransport;
-use crate::link::stream::{self, Quiet, StreamOptions};
+use plotter_host::link::session::Session;
+use plotter_host::link::sim::SimTransport;
+use plotter_host::link::stream::{self, Quiet, StreamOptions};
 
 /// Arguments of `plotter bench-link`.
 #[derive(clap::Args, Debug, Clone)]

@@ -8,7 +8,7 @@ use std::time::Duration;
 use plotter_fw::protocol::{RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
 
 use crate::cmd_home::LinkArgs;
-use crate::link::Transport as _;
+use plotter_host::link::Transport as _;
 
 /// What a typed line sends.
 pub(crate) fn console_bytes(line: &str) -> Vec<u8> {

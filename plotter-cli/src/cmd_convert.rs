@@ -8,7 +8,7 @@ use clap::Args;
 use plotter_path::MachineProfile;
 use plotter_path::output::svg_out::to_svg_string;
 
-use crate::input::{Source, write_output};
+use plotter_host::input::{Source, write_output};
 
 /// Flatten and lay out a drawing, then write it as plain SVG polylines in mm.
 #[derive(Debug, Args)]

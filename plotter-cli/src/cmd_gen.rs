@@ -9,8 +9,8 @@ use plotter_path::input::r#gen::{COMMON_PARAMS, KINDS, Spec};
 use plotter_path::output::preview::{PreviewOptions, render_png};
 use plotter_path::output::svg_out::to_svg_string;
 
-use crate::input::write_output;
-use crate::layout_args::LayoutArgs;
+use plotter_host::input::write_output;
+use plotter_host::options::layout::LayoutArgs;
 
 /// Generate a parametric figure as SVG or PNG.
 ///

@@ -2,9 +2,9 @@
 
 use std::path::PathBuf;
 
-use crate::cmd_plot::load_profile;
-use crate::link::serial::SerialTransport;
-use crate::link::session::Session;
+use plotter_host::job::load::load_profile;
+use plotter_host::link::serial::SerialTransport;
+use plotter_host::link::session::Session;
 
 /// How to reach a plotter (shared by `home`, `jog` and `console`).
 #[derive(clap::Args, Debug, Clone)]

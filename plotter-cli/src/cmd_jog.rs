@@ -1,8 +1,8 @@
 //! `plotter jog`: move one axis by a distance, or lift/lower the pen, on a connected plotter.
 
 use crate::cmd_home::LinkArgs;
-use crate::cmd_plot::load_profile;
-use crate::link::session::COMMAND_TIMEOUT;
+use plotter_host::job::load::load_profile;
+use plotter_host::link::session::COMMAND_TIMEOUT;
 
 /// What to move.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]

@@ -8,8 +8,8 @@ use clap::Args;
 use plotter_path::MachineProfile;
 use plotter_path::output::preview::{PreviewOptions, render_png};
 
-use crate::cmd_optimize::{OptimizeArgs, optimize_quietly};
-use crate::input::{Source, write_output};
+use plotter_host::input::{Source, write_output};
+use plotter_host::options::optimize::{OptimizeArgs, optimize_quietly};
 
 /// Render a drawing as a preview PNG.
 #[derive(Debug, Args)]

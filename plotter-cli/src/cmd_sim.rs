@@ -20,16 +20,24 @@ use nix::pty::openpty;
 use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use plotter_fw::sim::{Sim, SimOptions};
 
-use crate::cmd_plot::load_profile;
-use crate::link::faults::Noise;
+use plotter_host::job::load::load_profile;
+use plotter_host::link::faults::Noise;
 use plotter_path::motion::plan;
 
 /// Arguments of `plotter sim`.
 #[derive(clap::Args, Debug, Clone)]
 pub(crate) struct SimArgs {
-    /// Expose the simulator on a pseudo-terminal and print its device path (the only mode so far).
-    #[arg(long)]
+    /// Expose the simulator on a pseudo-terminal and print its device path.
+    #[arg(long, conflicts_with = "qemu")]
     pub(crate) pty: bool,
+    /// Run the real firmware image on an emulated microcontroller (qemu-system-arm, the `qemu-lm3s6965` board)
+    /// with its UART on a pseudo-terminal, and print the device path; steps are counted from QEMU's GPIO trace
+    /// and the endstops are driven from outside the firmware.
+    #[arg(long, conflicts_with_all = ["fast", "noise"])]
+    pub(crate) qemu: bool,
+    /// With --qemu: the firmware image to run [default: built with `cargo xtask firmware`].
+    #[arg(long, requires = "qemu")]
+    pub(crate) image: Option<PathBuf>,
     /// Machine profile (TOML); the built-in XY plotter kit profile by default.
     #[arg(long)]
     pub(crate) profile: Option<PathBuf>,
@@ -63,15 +71,25 @@ pub(crate) fn write_trace(sim: &Sim, path: &Path) -> anyhow::Result<()> {
 
 /// Run `plotter sim`.
 pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
+    if args.qemu {
+        if args.profile.is_some() {
+            bail!("--profile: the QEMU image carries the built-in XY plotter kit configuration; drop --profile");
+        }
+        let cfg = plotter_fw::MachineConfig::xy_plotter();
+        return crate::sim_qemu::run(&cfg, args.image.as_deref(), args.trace.as_deref());
+    }
     if !args.pty {
         bail!(
-            "nothing to do: use `plotter sim --pty` (a simulated plot without a pty is `plotter plot` without --port)"
+            "nothing to do: use `plotter sim --pty` or `plotter sim --qemu` (a simulated plot without a pty is \
+             `plotter plot` without --port)"
         );
     }
     let profile = load_profile(args.profile.as_deref())?;
     let cfg = plan::machine_config(&profile)?;
     let mut opts = SimOptions::for_config(&cfg);
     opts.baud = if args.fast { None } else { Some(profile.link.baud) };
+    // A printer profile's heaters run on the thermal model (plotters have none).
+    opts.thermal = plotter_path::motion::heaters::thermal_config(&profile).map_err(anyhow::Error::msg)?;
     let mut sim = Sim::with_options(cfg, opts);
     let mut noise = (args.noise > 0.0).then(|| Noise::new(args.noise, args.seed));
 

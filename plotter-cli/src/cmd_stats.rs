@@ -11,9 +11,9 @@ use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::output::stats::Stats;
 use plotter_path::{Drawing, MachineProfile};
 
-use crate::cmd_optimize::{OptimizeArgs, optimize_quietly};
-use crate::cmd_plot::load_profile;
-use crate::input::Source;
+use plotter_host::input::Source;
+use plotter_host::job::load::load_profile;
+use plotter_host::options::optimize::{OptimizeArgs, optimize_quietly};
 
 /// Print figures about a drawing.
 #[derive(Debug, Args)]

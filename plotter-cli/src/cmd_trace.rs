@@ -1,140 +1,16 @@
 //! `plotter trace`: turn a PNG/JPEG into plottable paths (outline, centerline, edges or hatch) and write them as a
 //! plain SVG in mm.
-//!
-//! [`TraceArgs`] holds every tracing flag as a `clap::Args` struct so that `preview`, `plot` and friends can
-//! `#[command(flatten)]` it and load images with [`load_image_drawing`].
+//! The tracing flags themselves are [`TraceArgs`], shared with every command that loads images.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Result;
-use clap::{Args, ValueEnum};
-use plotter_path::Pen;
-use plotter_path::input::raster::{self, HatchOptions, HatchScheme, Mode, Threshold, TraceOptions};
+use clap::Args;
+use plotter_host::options::trace::{TraceArgs, trace_image};
 use plotter_path::output::svg_out::to_svg_string;
 
-use crate::input::write_output;
-use crate::layout_args::LayoutArgs;
-
-/// Tracing mode as a command-line value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
-pub(crate) enum ModeArg {
-    /// Closed outlines of the ink regions (with holes)
-    #[default]
-    Outline,
-    /// One stroke along the middle of each line (line art)
-    Centerline,
-    /// Canny edges chained into polylines (photos)
-    Edges,
-    /// Hatch shading of the gray tones
-    Hatch,
-}
-
-/// How darker hatch levels add lines.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
-pub(crate) enum SchemeArg {
-    /// Each level adds a direction (cross-hatching)
-    #[default]
-    Directions,
-    /// Each level halves the spacing
-    Density,
-}
-
-/// Image tracing flags (used by `trace`, and by any command that accepts PNG/JPEG input).
-#[derive(Debug, Clone, Args)]
-pub(crate) struct TraceArgs {
-    /// What to extract from the image
-    #[arg(long, value_enum, default_value_t = ModeArg::Outline, help_heading = "Image tracing")]
-    pub(crate) mode: ModeArg,
-    /// Drawing width in mm (the image is resampled to width / pitch pixels); default: one pitch per image pixel
-    #[arg(long, help_heading = "Image tracing")]
-    pub(crate) width: Option<f64>,
-    /// Pixel pitch in mm (default: the pen width)
-    #[arg(long, help_heading = "Image tracing")]
-    pub(crate) pitch: Option<f64>,
-    /// Pen width in mm
-    #[arg(long, default_value_t = Pen::default().width_mm, help_heading = "Image tracing")]
-    pub(crate) pen_width: f64,
-    /// Ink threshold: `otsu` or a luma 0-255 (pixels darker than it are ink)
-    #[arg(long, default_value = "otsu", help_heading = "Image tracing")]
-    pub(crate) threshold: Threshold,
-    /// Swap ink and paper (light drawing on dark background; hatch shades light tones)
-    #[arg(long, help_heading = "Image tracing")]
-    pub(crate) invert: bool,
-    /// Gaussian blur sigma in pixels before thresholding (0 = off)
-    #[arg(long, default_value_t = 0.0, help_heading = "Image tracing")]
-    pub(crate) blur: f32,
-    /// Path simplification tolerance in pixels (Ramer-Douglas-Peucker; 0 = off)
-    #[arg(long, default_value_t = TraceOptions::default().simplify_px, help_heading = "Image tracing")]
-    pub(crate) simplify: f64,
-    /// Drop regions and holes smaller than this, square pixels
-    #[arg(long, default_value_t = TraceOptions::default().min_area_px, help_heading = "Image tracing")]
-    pub(crate) min_area: f64,
-    /// Drop strokes and edge chains shorter than this, pixels
-    #[arg(long, default_value_t = TraceOptions::default().min_length_px, help_heading = "Image tracing")]
-    pub(crate) min_length: f64,
-    /// Canny low hysteresis threshold (edges mode)
-    #[arg(long, default_value_t = TraceOptions::default().canny_low, help_heading = "Image tracing")]
-    pub(crate) canny_low: f32,
-    /// Canny high hysteresis threshold (edges mode)
-    #[arg(long, default_value_t = TraceOptions::default().canny_high, help_heading = "Image tracing")]
-    pub(crate) canny_high: f32,
-    /// Number of hatched gray levels, 1-8 (hatch mode)
-    #[arg(long, default_value_t = HatchOptions::default().levels, help_heading = "Image tracing")]
-    pub(crate) levels: u8,
-    /// Hatch line spacing in mm (hatch mode)
-    #[arg(long, default_value_t = HatchOptions::default().spacing_mm, help_heading = "Image tracing")]
-    pub(crate) spacing: f64,
-    /// Hatch base angle in degrees, counter-clockwise (hatch mode)
-    #[arg(long, default_value_t = HatchOptions::default().angle_deg, allow_negative_numbers = true, help_heading = "Image tracing")]
-    pub(crate) angle: f64,
-    /// How darker hatch levels add lines (hatch mode)
-    #[arg(long, value_enum, default_value_t = SchemeArg::Directions, help_heading = "Image tracing")]
-    pub(crate) hatch_scheme: SchemeArg,
-}
-
-impl TraceArgs {
-    /// The library options these flags mean.
-    pub(crate) fn options(&self) -> TraceOptions {
-        TraceOptions {
-            mode: match self.mode {
-                ModeArg::Outline => Mode::Outline,
-                ModeArg::Centerline => Mode::Centerline,
-                ModeArg::Edges => Mode::Edges,
-                ModeArg::Hatch => Mode::Hatch,
-            },
-            width_mm: self.width,
-            pitch_mm: self.pitch,
-            pen: Pen { width_mm: self.pen_width, ..Pen::default() },
-            blur_px: self.blur,
-            threshold: self.threshold,
-            invert: self.invert,
-            simplify_px: self.simplify,
-            min_area_px: self.min_area,
-            min_length_px: self.min_length,
-            canny_low: self.canny_low,
-            canny_high: self.canny_high,
-            hatch: HatchOptions {
-                levels: self.levels,
-                spacing_mm: self.spacing,
-                angle_deg: self.angle,
-                scheme: match self.hatch_scheme {
-                    SchemeArg::Directions => HatchScheme::Directions,
-                    SchemeArg::Density => HatchScheme::Density,
-                },
-            },
-        }
-    }
-}
-
-/// Trace the image at `path` with `args`, printing the tracer's warnings to stderr. `traced.drawing` is the result
-/// in mm (origin at the image's top-left corner, `page_mm` = the image size), ready for layout.
-pub(crate) fn trace_image(path: &Path, args: &TraceArgs) -> Result<raster::Traced> {
-    let traced = raster::trace_file(path, &args.options())?;
-    for w in &traced.warnings {
-        eprintln!("warning: {}: {w}", path.display());
-    }
-    Ok(traced)
-}
+use plotter_host::input::write_output;
+use plotter_host::options::layout::LayoutArgs;
 
 /// Trace a raster image into paths and write them as a plain SVG.
 #[derive(Debug, Args)]
@@ -172,6 +48,8 @@ pub(crate) fn run(args: &TraceCmdArgs) -> Result<()> {
 mod tests {
     use super::*;
     use clap::Parser;
+    use plotter_path::input::raster::{HatchOptions, HatchScheme, Mode, Threshold};
+    use std::path::Path;
 
     #[derive(Parser)]
     struct Wrap {

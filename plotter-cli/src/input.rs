@@ -14,12 +14,12 @@ use plotter_path::input::{gcode_in, r#gen, raster, trajectory};
 use plotter_path::motion::steps::StepMapper;
 use plotter_path::{Drawing, MachineProfile};
 
-use crate::cmd_trace::TraceArgs;
-use crate::layout_args::LayoutArgs;
+use crate::options::layout::LayoutArgs;
+use crate::options::trace::TraceArgs;
 
 /// How SVG shapes are grouped into layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
-pub(crate) enum LayerByArg {
+pub enum LayerByArg {
     /// Inkscape layers when the document has any, else one layer
     #[default]
     Auto,
@@ -33,7 +33,7 @@ pub(crate) enum LayerByArg {
 
 /// How SVG text is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
-pub(crate) enum TextArg {
+pub enum TextArg {
     /// The font's glyph outlines
     #[default]
     Outlines,
@@ -43,7 +43,7 @@ pub(crate) enum TextArg {
 
 /// What happens to embedded SVG images.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
-pub(crate) enum ImagesArg {
+pub enum ImagesArg {
     /// Not drawn (with a warning)
     #[default]
     Skip,
@@ -59,40 +59,40 @@ pub(crate) enum ImagesArg {
 
 /// Input flags shared by every command that reads a drawing.
 #[derive(Debug, Clone, Args)]
-pub(crate) struct InputArgs {
+pub struct InputArgs {
     /// Maximum chord error when flattening SVG curves, mm
     #[arg(long, default_value_t = svg::DEFAULT_TOLERANCE_MM, help_heading = "Input")]
-    pub(crate) tolerance: f64,
+    pub tolerance: f64,
     /// How SVG shapes are grouped into layers (pens)
     #[arg(long, value_enum, default_value_t = LayerByArg::Auto, help_heading = "Input")]
-    pub(crate) layer_by: LayerByArg,
+    pub layer_by: LayerByArg,
     /// Keep only these layers (names as listed by `plotter stats`), comma-separated
     #[arg(long, value_delimiter = ',', help_heading = "Input")]
-    pub(crate) layers: Vec<String>,
+    pub layers: Vec<String>,
     /// Plot SVG outlines in full, also where an opaque fill painted later hides them
     #[arg(long, help_heading = "Input")]
-    pub(crate) no_occlusion: bool,
+    pub no_occlusion: bool,
     /// Shade every filled SVG area with parallel lines this far apart, mm (direction: --angle)
     #[arg(long, value_name = "SPACING_MM", help_heading = "Input")]
-    pub(crate) hatch: Option<f64>,
+    pub hatch: Option<f64>,
     /// With --hatch: add a second family of lines at right angles
     #[arg(long, requires = "hatch", help_heading = "Input")]
-    pub(crate) cross_hatch: bool,
+    pub cross_hatch: bool,
     /// Fill SVG strokes wider than the pen (--pen-width) with parallel passes
     #[arg(long, help_heading = "Input")]
-    pub(crate) fill_strokes: bool,
+    pub fill_strokes: bool,
     /// How SVG text is drawn
     #[arg(long, value_enum, default_value_t = TextArg::Outlines, help_heading = "Input")]
-    pub(crate) text: TextArg,
+    pub text: TextArg,
     /// Trace embedded SVG <image>s with this tracing mode (the image tracing flags apply)
     #[arg(long, value_enum, default_value_t = ImagesArg::Skip, help_heading = "Input")]
-    pub(crate) images: ImagesArg,
+    pub images: ImagesArg,
     /// Cut SVG geometry at the page edge (it is reported either way)
     #[arg(long, help_heading = "Input")]
-    pub(crate) crop: bool,
+    pub crop: bool,
     /// How raster images (PNG/JPEG) are traced into paths
     #[command(flatten)]
-    pub(crate) trace: TraceArgs,
+    pub trace: TraceArgs,
 }
 
 impl InputArgs {
@@ -130,9 +130,7 @@ impl InputArgs {
                     ImagesArg::Edges => Some(Mode::Edges),
                     ImagesArg::Hatch => Some(Mode::Hatch),
                 };
-                mode.map(|mode| ImageTrace {
-                    trace: plotter_path::input::raster::TraceOptions { mode, ..self.trace.options() },
-                })
+                mode.map(|mode| ImageTrace { trace: raster::TraceOptions { mode, ..self.trace.options() } })
             },
             crop: self.crop,
             ..SvgOptions::default()
@@ -142,7 +140,7 @@ impl InputArgs {
 
 /// The kinds of input file the loader understands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum InputKind {
+pub enum InputKind {
     /// SVG drawing.
     Svg,
     /// PNG or JPEG image, traced into paths.
@@ -154,12 +152,12 @@ pub(crate) enum InputKind {
 }
 
 /// Prefix of generated-figure inputs.
-pub(crate) const GEN_PREFIX: &str = "gen:";
+pub const GEN_PREFIX: &str = "gen:";
 
 /// Decide what the file `path` holds: by its first bytes where they say it for sure (gzip → compressed SVG,
 /// PNG/JPEG signatures, an XML start in UTF-8 or UTF-16), else by its extension, else by its text. (Generated
 /// figures are not files: [`load_drawing`] recognises their `gen:` prefix before reading anything.)
-pub(crate) fn input_kind(path: &Path, head: &[u8]) -> InputKind {
+pub fn input_kind(path: &Path, head: &[u8]) -> InputKind {
     if head.starts_with(&[0x1f, 0x8b]) {
         return InputKind::Svg;
     }
@@ -192,14 +190,14 @@ pub(crate) fn input_kind(path: &Path, head: &[u8]) -> InputKind {
 }
 
 /// Print warnings to stderr, prefixed so they stand out from results.
-pub(crate) fn warn_all(warnings: &[String]) {
+pub fn warn_all(warnings: &[String]) {
     for w in warnings {
         eprintln!("warning: {w}");
     }
 }
 
 /// The bytes of `path` (`-` reads stdin).
-pub(crate) fn read_input(path: &Path) -> Result<Vec<u8>> {
+pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     if path == Path::new("-") {
         let mut data = Vec::new();
         std::io::stdin().read_to_end(&mut data).context("cannot read the drawing from stdin")?;
@@ -211,58 +209,78 @@ pub(crate) fn read_input(path: &Path) -> Result<Vec<u8>> {
 
 /// Load any supported input as a drawing in page millimetres (before layout). `profile` maps machine coordinates
 /// of G-code and trajectory files back to the page.
-pub(crate) fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
+pub fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
     let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
     if let Some(spec) = path.to_str().and_then(|p| p.strip_prefix(GEN_PREFIX)) {
         return r#gen::from_spec(spec).with_context(|| format!("cannot generate {spec}"));
     }
     let data = read_input(path)?;
-    let kind = input_kind(if path == Path::new("-") { Path::new("") } else { path }, &data[..data.len().min(512)]);
-    match kind {
+    let decoded = decode_drawing(&data, path, &shown, path.parent().map(Path::to_path_buf), args, profile)?;
+    warn_all(&decoded.warnings);
+    Ok(decoded.drawing)
+}
+
+/// A drawing decoded from bytes, with the warnings met on the way (each names the input).
+#[derive(Debug, Clone)]
+pub struct Decoded {
+    /// The drawing in page millimetres (before layout).
+    pub drawing: Drawing,
+    /// Warnings, ready to show.
+    pub warnings: Vec<String>,
+}
+
+/// Decode the bytes of an input file: `name` (its file name) decides the kind together with the first bytes,
+/// `shown` names it in messages, and `resources_dir` (if any) resolves an SVG's relative references — a front end
+/// that receives bytes from elsewhere passes `None`, so no path of the sender's choosing is looked up.
+pub fn decode_drawing(
+    data: &[u8],
+    name: &Path,
+    shown: &str,
+    resources_dir: Option<PathBuf>,
+    args: &InputArgs,
+    profile: &MachineProfile,
+) -> Result<Decoded> {
+    match input_kind(name, &data[..data.len().min(512)]) {
         InputKind::Svg => {
-            let dir = path.parent().map(Path::to_path_buf);
-            let imported = svg::import_svg(&data, &shown, dir, &args.svg_options()?)?;
-            warn_all(&imported.warnings);
-            Ok(imported.drawing)
+            let imported = svg::import_svg(data, shown, resources_dir, &args.svg_options()?)?;
+            Ok(Decoded { drawing: imported.drawing, warnings: imported.warnings })
         }
         InputKind::Image => {
-            let image = raster::decode_image(&data, path)?;
-            let traced = raster::trace_named(&image, &shown, &args.trace.options())?;
-            for w in &traced.warnings {
-                eprintln!("warning: {shown}: {w}");
-            }
-            Ok(traced.drawing)
+            let image = raster::decode_image(data, name)?;
+            let traced = raster::trace_named(&image, shown, &args.trace.options())?;
+            let warnings = traced.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
+            Ok(Decoded { drawing: traced.drawing, warnings })
         }
         InputKind::Gcode => {
-            let text = std::str::from_utf8(&data).with_context(|| format!("{shown}: G-code is not UTF-8 text"))?;
-            let imported = gcode_in::import(text, &shown, profile)?;
-            for w in &imported.warnings {
-                eprintln!("warning: {shown}: {w}");
-            }
-            Ok(imported.drawing)
+            let text = std::str::from_utf8(data).with_context(|| format!("{shown}: G-code is not UTF-8 text"))?;
+            let imported = gcode_in::import(text, shown, profile)?;
+            let warnings = imported.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
+            Ok(Decoded { drawing: imported.drawing, warnings })
         }
         InputKind::Trajectory => {
-            let text = std::str::from_utf8(&data).with_context(|| format!("{shown}: not a text file"))?;
-            let steps = trajectory::import(text, &shown)?;
-            Ok(steps.to_drawing(&StepMapper::new(profile), "trajectory"))
+            let text = std::str::from_utf8(data).with_context(|| format!("{shown}: not a text file"))?;
+            let steps = trajectory::import(text, shown)?;
+            Ok(Decoded { drawing: steps.to_drawing(&StepMapper::new(profile), "trajectory"), warnings: Vec::new() })
         }
     }
 }
 
 /// What a drawing command reads: the input, how to read it, and how to lay it out on the page.
 #[derive(Debug, Clone, Args)]
-pub(crate) struct Source {
+pub struct Source {
     /// Input: SVG, PNG/JPEG (traced), G-code, trajectory file, `gen:KIND?param=value&...`, or `-` for stdin
-    pub(crate) input: PathBuf,
+    pub input: PathBuf,
+    /// Input flags.
     #[command(flatten)]
-    pub(crate) read: InputArgs,
+    pub read: InputArgs,
+    /// Layout flags.
     #[command(flatten)]
-    pub(crate) layout: LayoutArgs,
+    pub layout: LayoutArgs,
 }
 
 impl Source {
     /// Load the input and lay it out; `profile` maps G-code and trajectory files back to the page.
-    pub(crate) fn load(&self, profile: &MachineProfile) -> Result<Drawing> {
+    pub fn load(&self, profile: &MachineProfile) -> Result<Drawing> {
         let mut drawing = load_drawing(&self.input, &self.read, profile)?;
         self.layout.apply(&mut drawing)?;
         Ok(drawing)
@@ -270,7 +288,7 @@ impl Source {
 }
 
 /// Write `bytes` to `out` (`-` is stdout).
-pub(crate) fn write_output(out: &Path, bytes: &[u8]) -> Result<()> {
+pub fn write_output(out: &Path, bytes: &[u8]) -> Result<()> {
     if out.as_os_str() == "-" {
         use std::io::Write;
         let mut stdout = std::io::stdout().lock();

@@ -12,12 +12,13 @@ mod cmd_jog;
 mod cmd_optimize;
 mod cmd_plot;
 mod cmd_preview;
+mod cmd_print;
+mod cmd_serve;
 mod cmd_sim;
 mod cmd_stats;
 mod cmd_trace;
-mod input;
-mod layout_args;
-mod link;
+mod serve;
+mod sim_qemu;
 
 use clap::{Parser, Subcommand};
 
@@ -43,7 +44,10 @@ enum Command {
     Convert(cmd_convert::ConvertArgs),
     /// Plot a drawing on the simulated plotter (default) or a serial plotter (--port)
     Plot(cmd_plot::PlotArgs),
-    /// Run the simulated firmware on a pseudo-terminal (`--pty`) and print its device path
+    /// Print slicer G-code (PrusaSlicer/Cura, Marlin flavour) on the simulated printer (default) or a serial one
+    Print(cmd_print::PrintArgs),
+    /// Run the simulated firmware (`--pty`) or the firmware image under QEMU (`--qemu`) on a pseudo-terminal and
+    /// print its device path
     Sim(cmd_sim::SimArgs),
     /// Home a connected plotter
     Home(cmd_home::LinkArgs),
@@ -60,6 +64,8 @@ enum Command {
     Trace(cmd_trace::TraceCmdArgs),
     /// Merge, reorder and reverse paths to cut pen-up travel; write plain SVG
     Optimize(cmd_optimize::OptimizeCmdArgs),
+    /// Run the local web app: drop a drawing on the page, plot it, watch it (http://127.0.0.1:8040/)
+    Serve(cmd_serve::ServeArgs),
 }
 
 fn main() {
@@ -69,6 +75,7 @@ fn main() {
         Command::Stats(args) => cmd_stats::run(args),
         Command::Convert(args) => cmd_convert::run(args),
         Command::Plot(args) => cmd_plot::run(args),
+        Command::Print(args) => cmd_print::run(args),
         Command::Sim(args) => cmd_sim::run(args),
         Command::Home(args) => cmd_home::run(args),
         Command::Jog(args) => cmd_jog::run(args),
@@ -77,6 +84,7 @@ fn main() {
         Command::Gen(args) => cmd_gen::run(args),
         Command::Trace(args) => cmd_trace::run(args),
         Command::Optimize(args) => cmd_optimize::run(args),
+        Command::Serve(args) => cmd_serve::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

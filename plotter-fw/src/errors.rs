@@ -28,8 +28,13 @@
 //! | 1 | `HardLimit` | a switch was pressed outside homing: motion stopped, queue flushed, position unhomed |
 //! | 2 | `HomingNotFound` | homing travelled its maximum distance without reaching the switch |
 //! | 3 | `HomingNotReleased` | the switch was still pressed after the pull-off |
+//! | 4 | `EmergencyStop` | `M112`: heaters off, motion stopped, motors off |
+//! | 5–9 | `Thermal` | a thermal safety check tripped (5 MINTEMP, 6 MAXTEMP, 7 heating failed, 8 thermal runaway, 9 sensor timeout); the text names the sensor; heaters off, motion stopped, motors off |
 
 use core::fmt;
+
+use crate::thermal::ThermalAlarm;
+use crate::thermal::safety::Fault;
 
 /// Why a line was refused (see the module table).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,35 +99,67 @@ impl fmt::Display for ErrorCode {
 
 /// A latched alarm (see the module table).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u8)]
 pub enum AlarmCode {
     /// Switch pressed outside homing.
-    HardLimit = 1,
+    HardLimit,
     /// Homing switch never found.
-    HomingNotFound = 2,
+    HomingNotFound,
     /// Homing switch still pressed after pull-off.
-    HomingNotReleased = 3,
+    HomingNotReleased,
+    /// `M112`.
+    EmergencyStop,
+    /// A thermal safety check tripped.
+    Thermal(ThermalAlarm),
 }
 
 impl AlarmCode {
     /// The numeric code.
     pub const fn code(self) -> u8 {
-        self as u8
+        match self {
+            AlarmCode::HardLimit => 1,
+            AlarmCode::HomingNotFound => 2,
+            AlarmCode::HomingNotReleased => 3,
+            AlarmCode::EmergencyStop => 4,
+            AlarmCode::Thermal(t) => match t.fault {
+                Fault::MinTemp => 5,
+                Fault::MaxTemp => 6,
+                Fault::HeatingFailed => 7,
+                Fault::Runaway => 8,
+                Fault::SensorTimeout => 9,
+            },
+        }
     }
 
-    /// The fixed text.
+    /// The fixed text (for a thermal alarm, without the sensor: see `Display`).
     pub const fn text(self) -> &'static str {
         match self {
             AlarmCode::HardLimit => "hard limit: switch pressed outside homing",
             AlarmCode::HomingNotFound => "homing failed: switch not found",
             AlarmCode::HomingNotReleased => "homing failed: switch still pressed after pull-off",
+            AlarmCode::EmergencyStop => "emergency stop (M112): heaters off, motors off",
+            AlarmCode::Thermal(t) => match t.fault {
+                Fault::MinTemp => "MINTEMP: reading below the minimum or thermistor open",
+                Fault::MaxTemp => "MAXTEMP: reading above the maximum or thermistor shorted",
+                Fault::HeatingFailed => "heating failed: temperature not rising with the heater on",
+                Fault::Runaway => "thermal runaway: temperature fell away from the target while holding",
+                Fault::SensorTimeout => "sensor timeout: no fresh temperature reading",
+            },
         }
+    }
+
+    /// Whether the alarm also switched the heaters and motors off (thermal alarms and the emergency stop).
+    pub const fn is_shutdown(self) -> bool {
+        matches!(self, AlarmCode::EmergencyStop | AlarmCode::Thermal(_))
     }
 }
 
 impl fmt::Display for AlarmCode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "ALARM:{} {}", self.code(), self.text())
+        write!(f, "ALARM:{} {}", self.code(), self.text())?;
+        if let AlarmCode::Thermal(t) = self {
+            write!(f, " ({}; heaters off, motors off)", t.heater.name())?;
+        }
+        Ok(())
     }
 }
 
@@ -152,5 +189,12 @@ mod tests {
         }
         assert_eq!(ErrorCode::SoftLimit.to_string(), "error:7 target outside the travel");
         assert_eq!(AlarmCode::HomingNotFound.to_string(), "ALARM:2 homing failed: switch not found");
+        let t = AlarmCode::Thermal(ThermalAlarm { heater: crate::thermal::Heater::Bed, fault: Fault::Runaway });
+        assert_eq!(t.code(), 8);
+        assert_eq!(
+            t.to_string(),
+            "ALARM:8 thermal runaway: temperature fell away from the target while holding (bed sensor B; heaters \
+             off, motors off)"
+        );
     }
 }

@@ -7,8 +7,14 @@
 //! Wiring on a board: the UART receive interrupt passes each byte to [`crate::machine::Machine::receive`], the step
 //! timer interrupt calls [`crate::machine::Machine::on_timer`], and the main loop calls
 //! [`crate::machine::Machine::poll`].
+//!
+//! Heaters are not part of [`Hal`]: a printer board hands its heater outputs and thermistor inputs to
+//! [`crate::machine::Machine::with_heaters`] as a separate [`Heaters`] value, and a board without heaters (every
+//! plotter) uses [`crate::machine::Machine::new`], which plugs in [`NoHeaters`] — so plotter boards implement
+//! nothing for them.
 
 use crate::axis::Axis;
+use crate::thermal::Heater;
 
 /// Step and direction outputs, one pair per axis, plus the drivers' enable line.
 pub trait StepPins {
@@ -52,3 +58,30 @@ pub trait Clock {
 pub trait Hal: StepPins + Endstops + StepTimer + SerialOut + Clock {}
 
 impl<T: StepPins + Endstops + StepTimer + SerialOut + Clock> Hal for T {}
+
+/// Heater outputs (PWM), thermistor inputs (ADC) and the part-cooling fan of a printer board. Every method has a
+/// "nothing wired" default, so a board implements only what it has.
+pub trait Heaters {
+    /// Set the PWM duty of `heater`, 0 (off) to 255 (always on). Called once per thermal period for every
+    /// configured heater, and with 0 at once on any alarm or emergency stop.
+    fn set_heater(&mut self, heater: Heater, duty: u8) {
+        let _ = (heater, duty);
+    }
+    /// The latest thermistor conversion of `heater` in ADC counts (full scale as configured, see
+    /// [`crate::thermal::thermistor::Thermistor::adc_max`]), or `None` when no fresh conversion is ready. The
+    /// core's watchdog trips when no fresh reading comes for too long.
+    fn read_thermistor(&mut self, heater: Heater) -> Option<u16> {
+        let _ = heater;
+        None
+    }
+    /// Set the part-cooling fan duty, 0–255.
+    fn set_fan(&mut self, duty: u8) {
+        let _ = duty;
+    }
+}
+
+/// A board without heaters (plotters): every [`Heaters`] method is the default.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct NoHeaters;
+
+impl Heaters for NoHeaters {}

@@ -5,7 +5,8 @@
 //!
 //! - firmware: [`machine::Machine`] on a board's [`hal::Hal`] — line input ([`line_buffer`], [`gcode`]),
 //!   sequencing and resends ([`protocol`]), the planner queue ([`planner`]), the Bresenham [`stepper`], [`homing`],
-//!   [`limits`], [`realtime`] commands, the [`errors`] table;
+//!   [`limits`], [`realtime`] commands, the [`errors`] table, and the printer's heaters ([`thermal`]: PID,
+//!   autotune, thermal-runaway protection);
 //! - host: the same [`planner`] over a whole drawing, [`stepper::StepBlock::duration_ticks`] for the exact
 //!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
 //!
@@ -46,6 +47,7 @@ pub mod realtime;
 #[cfg(feature = "std")]
 pub mod sim;
 pub mod stepper;
+pub mod thermal;
 
 pub use axis::{Axis, NUM_AXES};
 pub use config::MachineConfig;

@@ -30,13 +30,14 @@ use crate::config::MachineConfig;
 use crate::errors::{AlarmCode, ErrorCode};
 use crate::fmath::round_i32;
 use crate::gcode::{MICRO, Words, envelope, parse_words};
-use crate::hal::Hal;
+use crate::hal::{Hal, Heaters, NoHeaters};
 use crate::homing::{HomingCycle, HomingStep};
 use crate::line_buffer::{Frame, LINE_MAX, LineAssembler, RxBuffer};
 use crate::planner::{PlanBlock, link, plan, to_step_block};
 use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
 use crate::realtime::MachineState;
 use crate::stepper::{StepBlock, Stepper, StepperFault, TICK_HZ};
+use crate::thermal::{Cmd, EmergencyParser, Thermal, ThermalConfig};
 
 /// Firmware version reported in the banner and M115.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -63,10 +64,12 @@ struct Modal {
     motion: u16,
     /// Feed for G1, mm/s (0 = not set yet).
     feed_mm_s: f32,
+    /// E words are relative (M83, or G91 until M82).
+    e_relative: bool,
 }
 
 impl Modal {
-    const DEFAULT: Modal = Modal { absolute: true, inches: false, motion: 0, feed_mm_s: 0.0 };
+    const DEFAULT: Modal = Modal { absolute: true, inches: false, motion: 0, feed_mm_s: 0.0, e_relative: false };
 }
 
 /// Writes formatted text to the serial port.
@@ -80,9 +83,15 @@ impl<H: Hal> fmt::Write for Out<'_, H> {
 }
 
 /// The firmware. `RX` is the receive buffer capacity (bytes), `Q` the planner queue capacity (blocks); the sizes
-/// announced to the host are the configured ones, clamped to these.
-pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32> {
+/// announced to the host are the configured ones, clamped to these. `T` is the printer's heater I/O
+/// ([`NoHeaters`] on plotters).
+pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heaters = NoHeaters> {
     hal: H,
+    heaters: T,
+    thermal: Thermal,
+    estop: EmergencyParser,
+    /// `M112` was received; `poll` latches the alarm.
+    estop_pending: bool,
     cfg: MachineConfig,
     rx: RxBuffer<RX>,
     asm: LineAssembler,
@@ -125,10 +134,18 @@ enum PendingKind {
     Damaged,
 }
 
-impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
+impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q, NoHeaters> {
     /// Start the firmware on `hal` with `cfg` (validate it first with [`MachineConfig::validate`]); sends the
-    /// banner.
+    /// banner. No heaters (a plotter).
     pub fn new(hal: H, cfg: MachineConfig) -> Self {
+        Self::with_heaters(hal, cfg, NoHeaters, ThermalConfig::NONE)
+    }
+}
+
+impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
+    /// Start the firmware of a printer: `heaters` drives the heater outputs and reads the thermistors configured
+    /// in `thermal` (validate both configurations first); sends the banner.
+    pub fn with_heaters(hal: H, cfg: MachineConfig, heaters: T, thermal: ThermalConfig) -> Self {
         let invert = Axis::ALL.iter().filter(|a| cfg.axis(**a).invert_dir).fold(0, |m, a| m | a.bit());
         let limits = if cfg.hard_limits {
             Axis::ALL.iter().filter(|a| cfg.axis(**a).is_limited()).fold(0, |m, a| m | a.bit())
@@ -136,8 +153,13 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             0
         };
         let queue_limit = usize::try_from(cfg.queue_blocks).unwrap_or(Q).clamp(1, Q);
+        let thermal = Thermal::new(thermal, hal.now());
         let mut m = Machine {
             hal,
+            heaters,
+            thermal,
+            estop: EmergencyParser::new(),
+            estop_pending: false,
             cfg,
             rx: RxBuffer::new(),
             asm: LineAssembler::new(),
@@ -178,6 +200,26 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
     /// The board, mutably (simulator access to pins and clock).
     pub fn hal_mut(&mut self) -> &mut H {
         &mut self.hal
+    }
+
+    /// The heater I/O.
+    pub fn heaters(&self) -> &T {
+        &self.heaters
+    }
+
+    /// The heater I/O, mutably (simulator access to the thermal model).
+    pub fn heaters_mut(&mut self) -> &mut T {
+        &mut self.heaters
+    }
+
+    /// The heater controller (temperatures, targets, duties).
+    pub fn thermal(&self) -> &Thermal {
+        &self.thermal
+    }
+
+    /// When the main loop must run next for the heaters (ticks); `None` without heaters.
+    pub fn thermal_deadline(&self) -> Option<u64> {
+        self.thermal.next_deadline()
     }
 
     /// The configuration.
@@ -253,11 +295,21 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             || self.rt != 0
             || self.stepper.fault().is_some()
             || (self.resume_after_hold && self.stepper.is_held())
+            || self.thermal.due(self.hal.now())
+            || self.estop_pending
     }
 
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
     /// (a byte that does not fit is counted and reported, see [`RxBuffer`]). Counting against the announced size.
     pub fn receive(&mut self, b: u8) {
+        if self.estop.feed(b) {
+            // M112: act now, not when the line's turn comes.
+            self.thermal.shutdown(&mut self.heaters);
+            self.stepper.abort();
+            self.hal.cancel();
+            self.timer_running = false;
+            self.estop_pending = true;
+        }
         if is_realtime(b) {
             match b {
                 RT_STATUS => self.rt |= RT_FLAG_STATUS,
@@ -315,6 +367,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             self.resume_after_hold = false;
             self.resume();
         }
+        self.service_thermal();
         self.run_homing();
         loop {
             if self.pending_kind.is_none() && !self.next_frame() {
@@ -372,7 +425,41 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         let _ = writeln!(Out(&mut self.hal), "rs {seq}");
     }
 
+    /// The heaters' period (PID, safety checks) and a pending emergency stop.
+    fn service_thermal(&mut self) {
+        if core::mem::take(&mut self.estop_pending) {
+            self.raise_alarm(AlarmCode::EmergencyStop);
+        }
+        let now = self.hal.now();
+        if let Some(alarm) = self.thermal.tick(&mut self.heaters, now, &mut Out(&mut self.hal)) {
+            self.raise_alarm(AlarmCode::Thermal(alarm));
+        }
+    }
+
+    /// A temperature, fan or emergency-stop command (see [`crate::thermal`]); `None` when `w` is none of these.
+    fn thermal_command(&mut self, w: &Words) -> Option<Outcome> {
+        if !w.m.iter().any(|&m| crate::thermal::handles(m)) {
+            return None;
+        }
+        let now = self.hal.now();
+        let alarm = self.alarm.is_some();
+        match self.thermal.command(w, now, &mut self.heaters, &mut Out(&mut self.hal), alarm) {
+            Cmd::Ok => self.reply_ok(),
+            Cmd::Blocked => return Some(Outcome::Blocked),
+            Cmd::Error(code, detail) => self.reply_error(code, format_args!("{detail}")),
+            Cmd::EmergencyStop => {
+                self.raise_alarm(AlarmCode::EmergencyStop);
+                self.reply_ok();
+            }
+        }
+        Some(Outcome::Done)
+    }
+
     fn raise_alarm(&mut self, code: AlarmCode) {
+        if code.is_shutdown() {
+            self.thermal.shutdown(&mut self.heaters);
+            self.hal.enable_motors(false);
+        }
         self.stepper.abort();
         self.hal.cancel();
         self.timer_running = false;
@@ -693,6 +780,9 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
     }
 
     fn execute(&mut self, w: &Words) -> Outcome {
+        if let Some(out) = self.thermal_command(w) {
+            return out;
+        }
         // Validate axis words first.
         for axis in Axis::ALL {
             if w.has(axis.letter() as u8) && !self.cfg.axis(axis).enabled {
@@ -722,7 +812,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             }
         }
         for &m in &w.m {
-            if !matches!(m, 2 | 17 | 18 | 30 | 110 | 114 | 115) {
+            if !matches!(m, 2 | 17 | 18 | 30 | 82 | 83 | 84 | 110 | 114 | 115) {
                 self.reply_error(ErrorCode::UnknownCommand, format_args!(": M{m}"));
                 return Outcome::Done;
             }
@@ -734,7 +824,7 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
         }
         // Blocking conditions, checked before any state changes.
         let needs_slot = motion.is_some() || other_g == Some(4) || (has_axis && other_g.is_none());
-        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18);
+        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18) || w.m.contains(&84);
         let moves = needs_slot || other_g == Some(28);
         if moves && self.alarm.is_some() && self.homing_result.is_none() {
             self.reply_error(ErrorCode::Alarm, format_args!(""));
@@ -754,8 +844,8 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             match g {
                 20 => self.modal.inches = true,
                 21 => self.modal.inches = false,
-                90 => self.modal.absolute = true,
-                91 => self.modal.absolute = false,
+                90 => (self.modal.absolute, self.modal.e_relative) = (true, false),
+                91 => (self.modal.absolute, self.modal.e_relative) = (false, true),
                 _ => {}
             }
         }
@@ -798,7 +888,9 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             match m {
                 2 | 30 => self.modal = Modal { feed_mm_s: self.modal.feed_mm_s, ..Modal::DEFAULT },
                 17 => self.hal.enable_motors(true),
-                18 => self.hal.enable_motors(false),
+                18 | 84 => self.hal.enable_motors(false),
+                82 => self.modal.e_relative = false,
+                83 => self.modal.e_relative = true,
                 114 => self.report_position(),
                 115 => {
                     let (rx, q) = (self.rx_size(), self.queue_limit);
@@ -821,7 +913,8 @@ impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q> {
             let i = axis.index();
             if let Some(v) = w.get(axis.letter() as u8) {
                 let v = self.to_um(v);
-                target_um[i] = if self.modal.absolute { v + self.offset_um[i] } else { target_um[i] + v };
+                let absolute = if axis == Axis::E { !self.modal.e_relative } else { self.modal.absolute };
+                target_um[i] = if absolute { v + self.offset_um[i] } else { target_um[i] + v };
             }
         }
         let mut target = [0i32; NUM_AXES];

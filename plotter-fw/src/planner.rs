@@ -21,6 +21,12 @@
 //!   reach, `v_in² ≤ v_prev_in² + 2aL_prev`. The last block exits at rest, so whatever arrives later can be
 //!   appended safely; the first block's entry is fixed (it is what the machine is doing).
 //!
+//! - Extrusion (the printer's E axis) rides along: a move's length and feed are those of its X/Y/Z path, as in
+//!   printer firmwares and slicers (`G1 X10 E0.5 F1800` moves the nozzle at 30 mm/s and the extruder in
+//!   proportion), so `u_E = ΔE / L_xyz` may exceed 1 and E's own feed and acceleration limits cap the block like
+//!   any other axis's. An E-only move (retraction, prime) has its E length as its length. Cornering looks at the
+//!   X/Y/Z direction only; a junction between an E-only move and a nozzle move is taken as a right angle.
+//!
 //! A block with a fixed step plan (a dwell or a host-planned step block) is executed as-is and is a stop boundary
 //! for planning: the move before it ends at rest and the move after it starts at rest.
 
@@ -61,7 +67,13 @@ impl PlanBlock {
         for axis in Axis::ALL {
             let i = axis.index();
             mm[i] = steps[i] as f32 / config.axis(axis).steps_per_mm;
-            len_sq += mm[i] * mm[i];
+            if axis != Axis::E {
+                len_sq += mm[i] * mm[i];
+            }
+        }
+        if len_sq == 0.0 {
+            // E-only: its own length.
+            len_sq = mm[Axis::E.index()] * mm[Axis::E.index()];
         }
         let events = steps.iter().map(|s| s.unsigned_abs()).max().unwrap_or(0);
         if events == 0 {
@@ -122,7 +134,8 @@ pub fn junction_speed_sqr(prev: &PlanBlock, next: &PlanBlock, deviation_mm: f32)
     let cap = (prev.nominal_speed * prev.nominal_speed).min(next.nominal_speed * next.nominal_speed);
     // For unit vectors p, q at angle φ, |p − q| = 2·sin(φ/2); with p = −u_prev this is |u_prev + u_next|/2, which
     // (unlike going through cos θ) stays accurate for nearly reversing corners.
-    let sum_sq: f32 = prev.unit.iter().zip(next.unit).map(|(a, b)| (a + b) * (a + b)).sum();
+    let (p, q) = (path_direction(prev), path_direction(next));
+    let sum_sq: f32 = p.iter().zip(q).map(|(a, b)| (a + b) * (a + b)).sum();
     let sin_half = 0.5 * sqrt(sum_sq);
     if sin_half < 1e-4 {
         // Reversal.
@@ -134,6 +147,16 @@ pub fn junction_speed_sqr(prev: &PlanBlock, next: &PlanBlock, deviation_mm: f32)
     }
     let a = prev.acceleration.min(next.acceleration);
     (a * deviation_mm * sin_half / (1.0 - sin_half)).min(cap)
+}
+
+/// The unit direction cornering sees: X/Y/Z for a nozzle move (E dropped), E for an E-only move.
+fn path_direction(b: &PlanBlock) -> [f32; NUM_AXES] {
+    let e = Axis::E.index();
+    let mut d = b.unit;
+    if d.iter().enumerate().any(|(i, v)| i != e && *v != 0.0) {
+        d[e] = 0.0;
+    }
+    d
 }
 
 /// Set `block.max_entry_speed_sqr` from the junction with `prev` (the block before it; `None` = start from rest).
@@ -282,6 +305,50 @@ mod tests {
         let sb: Vec<_> = step_blocks(&v).collect();
         assert_eq!(sb[1], StepBlock::dwell(1000));
         assert_eq!(sb[0].duration_ticks() + 1000 + sb[2].duration_ticks(), u32::try_from(total_ticks(&v)).unwrap());
+    }
+
+    #[test]
+    fn extrusion_follows_the_xyz_path() {
+        let mut c = MachineConfig::xy_plotter();
+        c.axes[3] = crate::config::AxisConfig {
+            enabled: true,
+            steps_per_mm: 100.0,
+            travel_mm: 0.0,
+            max_feed_mm_s: 20.0,
+            max_accel_mm_s2: 1000.0,
+            invert_dir: false,
+            home_at_max: false,
+        };
+        // 10 mm of X with 0.5 mm of E at 50 mm/s: length 10 mm, E at 2.5 mm/s (within its 20 mm/s).
+        let b = PlanBlock::line(&c, [800, 0, 0, 50], 50.0).unwrap();
+        assert!((b.millimeters - 10.0).abs() < 1e-6 && (b.nominal_speed - 50.0).abs() < 1e-4);
+        assert!((b.unit[3] - 0.05).abs() < 1e-7);
+        // E's acceleration cap: a·0.05 ≤ 1000 allows 20000 > X's 1500, so X limits.
+        assert!((b.acceleration - 1500.0).abs() < 1e-3);
+        // 10 mm X with 5 mm E: E at 50·0.5 = 25 mm/s > 20 → the path slows to 40 mm/s.
+        let b = PlanBlock::line(&c, [800, 0, 0, 500], 50.0).unwrap();
+        assert!((b.nominal_speed - 40.0).abs() < 1e-3, "{}", b.nominal_speed);
+        // Retraction: E only, 2 mm at 35 mm/s requested → capped at E's 20 mm/s; 2 mm long.
+        let r = PlanBlock::line(&c, [0, 0, 0, -200], 35.0).unwrap();
+        assert!((r.millimeters - 2.0).abs() < 1e-6 && (r.nominal_speed - 20.0).abs() < 1e-4);
+        // 2 mm at 20 mm/s with 1000 mm/s²: ramps of 20/1000 s each way over 0.2 mm each, 1.6 mm cruise.
+        // t = 2·0.02 + 1.6/20 = 0.12 s.
+        let mut v = std::vec![r];
+        link_all(&mut v, c.junction_deviation_mm);
+        plan(&mut v, 0.0);
+        let t = total_ticks(&v);
+        assert!((t as f64 - 120_000.0).abs() < 20.0, "{t}");
+        // Collinear X moves with different E ratios corner as straight on (E ignored in the junction).
+        let a = PlanBlock::line(&c, [800, 0, 0, 40], 50.0).unwrap();
+        let mut b2 = PlanBlock::line(&c, [800, 0, 0, 80], 50.0).unwrap();
+        link(Some(&a), &mut b2, c.junction_deviation_mm);
+        assert_eq!(b2.max_entry_speed_sqr, 50.0 * 50.0);
+        // Retraction after a nozzle move: a right angle.
+        let mut r2 = PlanBlock::line(&c, [0, 0, 0, -200], 20.0).unwrap();
+        link(Some(&a), &mut r2, c.junction_deviation_mm);
+        let right_angle = 1000.0 * c.junction_deviation_mm * core::f32::consts::FRAC_1_SQRT_2
+            / (1.0 - core::f32::consts::FRAC_1_SQRT_2);
+        assert!((r2.max_entry_speed_sqr - right_angle).abs() < 1e-3, "{}", r2.max_entry_speed_sqr);
     }
 
     fn moves() -> impl Strategy<Value = Vec<([i32; NUM_AXES], f32)>> {

@@ -30,6 +30,14 @@ use crate::fmath::round_i32;
 use crate::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer};
 use crate::machine::Machine;
 use crate::stepper::TICK_HZ;
+use crate::thermal::ThermalConfig;
+
+pub mod thermal;
+
+use thermal::SimHeaters;
+
+/// The firmware as the simulator runs it.
+pub type SimMachine = Machine<SimHal, 1024, 64, SimHeaters>;
 
 /// One recorded step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -63,6 +71,8 @@ pub struct SimOptions {
     pub switches: [Option<Switch>; NUM_AXES],
     /// Record every step (off: only counts and the pen trace are kept).
     pub record_steps: bool,
+    /// The printer's heaters, simulated by [`thermal`] ([`ThermalConfig::NONE`] for a plotter).
+    pub thermal: ThermalConfig,
 }
 
 impl SimOptions {
@@ -78,7 +88,7 @@ impl SimOptions {
                 switches[axis.index()] = Some(Switch { position, at_max: a.home_at_max });
             }
         }
-        SimOptions { baud: None, start: [0; NUM_AXES], switches, record_steps: true }
+        SimOptions { baud: None, start: [0; NUM_AXES], switches, record_steps: true, thermal: ThermalConfig::NONE }
     }
 }
 
@@ -91,6 +101,7 @@ pub struct SimHal {
     dir: [bool; NUM_AXES],
     invert: u8,
     phys: [i64; NUM_AXES],
+    phys_max: [i64; NUM_AXES],
     switches: [Option<Switch>; NUM_AXES],
     record: bool,
     steps: Vec<StepEvent>,
@@ -116,6 +127,7 @@ impl SimHal {
             dir: [false; NUM_AXES],
             invert,
             phys: opts.start,
+            phys_max: opts.start,
             switches: opts.switches,
             record: opts.record_steps,
             steps: Vec::new(),
@@ -131,6 +143,12 @@ impl SimHal {
     /// Physical position, steps.
     pub fn physical_position(&self) -> [i64; NUM_AXES] {
         self.phys
+    }
+
+    /// Highest physical position reached per axis, steps (for the extruder: the filament pushed out, since
+    /// retracted filament is pushed out again before any more leaves the nozzle).
+    pub fn max_position(&self) -> [i64; NUM_AXES] {
+        self.phys_max
     }
 
     /// Every step so far (empty when recording is off).
@@ -171,6 +189,7 @@ impl StepPins for SimHal {
         let i = axis.index();
         let forward = !self.dir[i];
         self.phys[i] += if forward { 1 } else { -1 };
+        self.phys_max[i] = self.phys_max[i].max(self.phys[i]);
         self.step_counts[i] += 1;
         if self.record {
             self.steps.push(StepEvent { time: self.now, axis, forward });
@@ -231,7 +250,7 @@ impl Clock for SimHal {
 
 /// The firmware on a simulated board. See the module docs.
 pub struct Sim {
-    machine: Machine<SimHal, 1024, 64>,
+    machine: SimMachine,
     wire: VecDeque<u8>,
     byte_ticks: Option<u64>,
     next_byte_at: u64,
@@ -249,7 +268,9 @@ impl Sim {
     pub fn with_options(cfg: MachineConfig, opts: SimOptions) -> Self {
         let hal = SimHal::new(&cfg, &opts);
         let byte_ticks = opts.baud.map(|b| (u64::from(TICK_HZ) * 10).div_ceil(u64::from(b.max(1))));
-        Sim { machine: Machine::new(hal, cfg), wire: VecDeque::new(), byte_ticks, next_byte_at: 0, replies: Vec::new() }
+        let heaters = SimHeaters::new(&opts.thermal);
+        let machine = Machine::with_heaters(hal, cfg, heaters, opts.thermal);
+        Sim { machine, wire: VecDeque::new(), byte_ticks, next_byte_at: 0, replies: Vec::new() }
     }
 
     /// Queue bytes on the serial line towards the firmware.
@@ -280,8 +301,25 @@ impl Sim {
     }
 
     /// The firmware.
-    pub fn machine(&self) -> &Machine<SimHal, 1024, 64> {
+    pub fn machine(&self) -> &SimMachine {
         &self.machine
+    }
+
+    /// The simulated heaters (temperatures, duties, fault injection).
+    pub fn heaters(&self) -> &SimHeaters {
+        self.machine.heaters()
+    }
+
+    /// The simulated heaters, mutably (inject faults, change models).
+    pub fn heaters_mut(&mut self) -> &mut SimHeaters {
+        self.machine.heaters_mut()
+    }
+
+    /// The main loop, with the heater models brought up to now first.
+    fn poll(&mut self) {
+        let now = self.now();
+        self.machine.heaters_mut().advance_to(now);
+        self.machine.poll();
     }
 
     /// The board (trace, physical position).
@@ -333,7 +371,7 @@ impl Sim {
         loop {
             let delivered = self.deliver();
             if delivered || self.machine.needs_poll() {
-                self.machine.poll();
+                self.poll();
                 // Polling may free receive space (flow-controlled wire) or queue work.
                 if self.byte_ticks.is_none() && !self.wire.is_empty() && self.machine.rx_free() > 0 {
                     continue;
@@ -344,14 +382,18 @@ impl Sim {
                 _ => None,
             };
             let timer_at = self.machine.hal().timer_at;
-            let next = match (timer_at, byte_at) {
-                (Some(a), Some(b)) => a.min(b),
-                (Some(a), None) | (None, Some(a)) => a,
-                (None, None) => {
+            // The heaters' period wakes the main loop while something is under way (motion, a line waiting, e.g.
+            // for a temperature) or for a bounded run; an idle machine holding its temperature does not keep
+            // `run_until_idle` going for ever.
+            let busy = end != u64::MAX || self.machine.has_input() || !self.machine.stepper().is_idle();
+            let thermal_at = self.machine.thermal_deadline().filter(|_| busy).map(|t| t.max(self.now()));
+            let next = match [timer_at, byte_at, thermal_at].into_iter().flatten().min() {
+                Some(t) => t,
+                None => {
                     if self.machine.has_input() && !self.machine.needs_poll() {
                         // Input waiting but nothing to wake the machine: poll once more, then give up.
                         let before = self.machine.rx_free();
-                        self.machine.poll();
+                        self.poll();
                         if self.machine.hal().timer_at.is_some() || self.machine.rx_free() != before {
                             continue;
                         }
@@ -366,7 +408,7 @@ impl Sim {
             self.machine.hal_mut().now = next;
             if timer_at == Some(next) {
                 // Hot loop: timer events until something needs the main loop or a byte is due.
-                let limit = byte_at.unwrap_or(u64::MAX).min(end);
+                let limit = byte_at.unwrap_or(u64::MAX).min(end).min(thermal_at.unwrap_or(u64::MAX));
                 loop {
                     self.machine.on_timer();
                     if self.machine.needs_poll() {
@@ -382,5 +424,7 @@ impl Sim {
     }
 }
 
+#[cfg(test)]
+mod printer_tests;
 #[cfg(test)]
 mod tests;

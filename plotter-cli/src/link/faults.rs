@@ -9,19 +9,19 @@ use plotter_fw::protocol::is_realtime;
 
 /// Byte corruption at a fixed rate.
 #[derive(Debug, Clone)]
-pub(crate) struct Noise {
+pub struct Noise {
     state: u64,
     /// Probability per byte, in 1/2³² units.
     threshold: u64,
     /// Bytes flipped so far.
-    pub(crate) flipped: u64,
+    pub flipped: u64,
     /// Bytes dropped so far.
-    pub(crate) dropped: u64,
+    pub dropped: u64,
 }
 
 impl Noise {
     /// Corrupt each byte with probability `rate` (0..=1); half of the faults flip a bit, half drop the byte.
-    pub(crate) fn new(rate: f64, seed: u64) -> Self {
+    pub fn new(rate: f64, seed: u64) -> Self {
         let scaled = (rate.clamp(0.0, 1.0) * 4_294_967_296.0).round();
         // Clamped to [0, 2^32] just above.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -39,7 +39,7 @@ impl Noise {
     }
 
     /// Apply the noise to `bytes`.
-    pub(crate) fn apply(&mut self, bytes: &[u8]) -> Vec<u8> {
+    pub fn apply(&mut self, bytes: &[u8]) -> Vec<u8> {
         let mut out = Vec::with_capacity(bytes.len());
         for &b in bytes {
             let r = self.next();

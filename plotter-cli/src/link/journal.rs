@@ -22,25 +22,25 @@ use anyhow::{Context as _, bail};
 
 /// What a journal file says.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct JournalState {
+pub struct JournalState {
     /// The plot's source description (JSON written by the caller).
-    pub(crate) source: String,
+    pub source: String,
     /// Geometry hash of the original plan.
-    pub(crate) plan_hash: u64,
+    pub plan_hash: u64,
     /// Blocks in the original plan.
-    pub(crate) blocks: usize,
+    pub blocks: usize,
     /// Blocks accepted by the firmware.
-    pub(crate) accepted: usize,
+    pub accepted: usize,
     /// Blocks certainly executed.
-    pub(crate) executed: usize,
+    pub executed: usize,
     /// The firmware's sequence number once it has taken every accepted block.
-    pub(crate) seq_after_accepted: u32,
+    pub seq_after_accepted: u32,
     /// The plot finished.
-    pub(crate) complete: bool,
+    pub complete: bool,
 }
 
 /// An open journal being written.
-pub(crate) struct Journal {
+pub struct Journal {
     file: File,
     path: PathBuf,
     last: (usize, usize, u32),
@@ -48,7 +48,7 @@ pub(crate) struct Journal {
 
 impl Journal {
     /// Start a new journal at `path` (replacing an old one).
-    pub(crate) fn create(path: &Path, source: &str, plan_hash: u64, blocks: usize) -> anyhow::Result<Journal> {
+    pub fn create(path: &Path, source: &str, plan_hash: u64, blocks: usize) -> anyhow::Result<Journal> {
         let mut file = File::create(path).with_context(|| format!("cannot create journal {}", path.display()))?;
         writeln!(file, "plotter-journal 1\nsource {source}\nplan {plan_hash:016x} {blocks}")?;
         file.flush()?;
@@ -56,7 +56,7 @@ impl Journal {
     }
 
     /// Continue an existing journal (after a resume); a torn last line is cut off first.
-    pub(crate) fn append(path: &Path, state: &JournalState) -> anyhow::Result<Journal> {
+    pub fn append(path: &Path, state: &JournalState) -> anyhow::Result<Journal> {
         let text = std::fs::read(path).with_context(|| format!("cannot read journal {}", path.display()))?;
         let keep = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
         let file = OpenOptions::new()
@@ -68,7 +68,7 @@ impl Journal {
     }
 
     /// Record progress (in original block numbers); unchanged values are not written again.
-    pub(crate) fn record(&mut self, accepted: usize, executed: usize, seq_after_accepted: u32) -> anyhow::Result<()> {
+    pub fn record(&mut self, accepted: usize, executed: usize, seq_after_accepted: u32) -> anyhow::Result<()> {
         let now = (accepted, executed, seq_after_accepted);
         if now != self.last {
             writeln!(self.file, "progress {accepted} {executed} {seq_after_accepted}")
@@ -80,7 +80,7 @@ impl Journal {
     }
 
     /// Mark the plot complete.
-    pub(crate) fn complete(&mut self) -> anyhow::Result<()> {
+    pub fn complete(&mut self) -> anyhow::Result<()> {
         writeln!(self.file, "complete")?;
         self.file.flush()?;
         Ok(())
@@ -88,7 +88,7 @@ impl Journal {
 }
 
 /// Read a journal file.
-pub(crate) fn load(path: &Path) -> anyhow::Result<JournalState> {
+pub fn load(path: &Path) -> anyhow::Result<JournalState> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read journal {}", path.display()))?;
     let shown = path.display();
     // Only lines terminated by '\n' count: the last one may be torn.

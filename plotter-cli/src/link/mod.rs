@@ -1,18 +1,19 @@
 //! The host side of the link to the firmware: byte transports (a serial port, or the simulator in-process), the
 //! session (handshake, homing, status), block streaming with flow control and resends, and the resume journal.
 
-pub(crate) mod faults;
-pub(crate) mod journal;
-pub(crate) mod serial;
-pub(crate) mod session;
-pub(crate) mod sim;
-pub(crate) mod stream;
+pub mod faults;
+pub mod journal;
+pub mod print;
+pub mod serial;
+pub mod session;
+pub mod sim;
+pub mod stream;
 
 use std::io;
 use std::time::Duration;
 
 /// A byte pipe to the firmware, with line-oriented reading of its replies.
-pub(crate) trait Transport {
+pub trait Transport {
     /// Write all of `bytes` towards the firmware.
     fn send(&mut self, bytes: &[u8]) -> io::Result<()>;
 
@@ -52,14 +53,14 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
 
 /// Splits a byte stream into lines (`\n`-terminated, `\r` dropped, invalid UTF-8 replaced).
 #[derive(Debug, Default)]
-pub(crate) struct LineSplitter {
+pub struct LineSplitter {
     buf: Vec<u8>,
     lines: std::collections::VecDeque<String>,
 }
 
 impl LineSplitter {
     /// Add received bytes.
-    pub(crate) fn push(&mut self, bytes: &[u8]) {
+    pub fn push(&mut self, bytes: &[u8]) {
         for &b in bytes {
             match b {
                 b'\n' => {
@@ -79,7 +80,7 @@ impl LineSplitter {
     }
 
     /// The next complete line.
-    pub(crate) fn pop(&mut self) -> Option<String> {
+    pub fn pop(&mut self) -> Option<String> {
         self.lines.pop_front()
     }
 }

@@ -8,7 +8,7 @@ use anyhow::Context as _;
 use super::{LineSplitter, Transport};
 
 /// A serial port, read with short timeouts and split into reply lines.
-pub(crate) struct SerialTransport {
+pub struct SerialTransport {
     port: Box<dyn serialport::SerialPort>,
     lines: LineSplitter,
     start: Instant,
@@ -16,7 +16,7 @@ pub(crate) struct SerialTransport {
 
 impl SerialTransport {
     /// Open `path` at `baud` (8N1, no flow control).
-    pub(crate) fn open(path: &str, baud: u32) -> anyhow::Result<Self> {
+    pub fn open(path: &str, baud: u32) -> anyhow::Result<Self> {
         if !std::path::Path::new(path).exists() {
             anyhow::bail!(
                 "serial port {path} does not exist (is the plotter connected, or `plotter sim --pty` running?)"

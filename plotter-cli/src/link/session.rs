@@ -10,36 +10,36 @@ use super::Transport;
 
 /// What the firmware says about itself.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct FirmwareInfo {
+pub struct FirmwareInfo {
     /// Firmware version.
-    pub(crate) version: String,
+    pub version: String,
     /// Receive buffer, bytes: the most the host may have in flight.
-    pub(crate) rx_bytes: usize,
+    pub rx_bytes: usize,
     /// Planner queue length, blocks.
-    pub(crate) queue_blocks: usize,
+    pub queue_blocks: usize,
 }
 
 /// A parsed status report `<State|MPos:..|Steps:x,y,z,e|Q:used/size|N:seq|C:completed>` (`C:` is optional:
 /// firmwares before it report no completed-block count).
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct Status {
+pub struct Status {
     /// `Idle`, `Run`, `Hold:1`, `Hold:0`, `Home`, `Alarm`.
-    pub(crate) state: String,
+    pub state: String,
     /// Position in steps.
-    pub(crate) steps: [i32; 4],
+    pub steps: [i32; 4],
     /// Blocks in the planner queue.
-    pub(crate) queued: usize,
+    pub queued: usize,
     /// Planner queue size.
-    pub(crate) queue_size: usize,
+    pub queue_size: usize,
     /// Next expected sequence number.
-    pub(crate) seq: u32,
+    pub seq: u32,
     /// Blocks the stepper has completed since the firmware started or was reset (wrapping), when reported.
-    pub(crate) completed: Option<u32>,
+    pub completed: Option<u32>,
 }
 
 impl Status {
     /// Parse the inside of `<...>`.
-    pub(crate) fn parse(s: &str) -> Option<Status> {
+    pub fn parse(s: &str) -> Option<Status> {
         let mut parts = s.split('|');
         let state = parts.next()?.to_string();
         let (mut steps, mut q, mut seq, mut completed) = (None, None, None, None);
@@ -61,25 +61,25 @@ impl Status {
     }
 
     /// Whether nothing is queued or moving.
-    pub(crate) fn is_idle(&self) -> bool {
+    pub fn is_idle(&self) -> bool {
         self.state == "Idle"
     }
 }
 
 /// An open session.
-pub(crate) struct Session<T: Transport> {
+pub struct Session<T: Transport> {
     /// The byte pipe.
-    pub(crate) transport: T,
+    pub transport: T,
     /// From the handshake.
-    pub(crate) info: FirmwareInfo,
+    pub info: FirmwareInfo,
     /// Where the session is connected (for messages).
-    pub(crate) name: String,
+    pub name: String,
 }
 
 /// How long to wait for the answer to a plain command (the homing cycle can take a while on a large machine).
-pub(crate) const COMMAND_TIMEOUT: Duration = Duration::from_secs(5);
+pub const COMMAND_TIMEOUT: Duration = Duration::from_secs(5);
 /// How long a homing cycle may take.
-pub(crate) const HOMING_TIMEOUT: Duration = Duration::from_secs(180);
+pub const HOMING_TIMEOUT: Duration = Duration::from_secs(180);
 
 fn parse_m115(line: &str) -> Option<FirmwareInfo> {
     if !line.starts_with("FIRMWARE_NAME:plotter-fw") {
@@ -96,7 +96,7 @@ fn parse_m115(line: &str) -> Option<FirmwareInfo> {
 impl<T: Transport> Session<T> {
     /// Handshake: flush any half-received line, ask `M115` (up to three times, for boards that reset when the port
     /// opens), read the buffer sizes. A device that never answers like plotter-fw is an error naming what it sent.
-    pub(crate) fn connect(mut transport: T, name: &str) -> anyhow::Result<Self> {
+    pub fn connect(mut transport: T, name: &str) -> anyhow::Result<Self> {
         let mut heard: Vec<String> = Vec::new();
         transport.send(b"\n").with_context(|| format!("cannot write to {name}"))?;
         for _attempt in 0..3 {
@@ -129,7 +129,7 @@ impl<T: Transport> Session<T> {
 
     /// Send one G-code line (unsequenced) and wait for its `ok`; returns the report lines before it. `error:` and
     /// alarms are errors.
-    pub(crate) fn command(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
+    pub fn command(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
         self.transport.send(format!("{line}\n").as_bytes())?;
         let mut out = Vec::new();
         let deadline = self.transport.now() + timeout;
@@ -153,7 +153,7 @@ impl<T: Transport> Session<T> {
     }
 
     /// Ask for a status report and wait for it.
-    pub(crate) fn status(&mut self) -> anyhow::Result<Status> {
+    pub fn status(&mut self) -> anyhow::Result<Status> {
         for _ in 0..3 {
             self.transport.send(&[RT_STATUS])?;
             while let Some(l) = self.transport.recv_line(Duration::from_millis(500))? {
@@ -168,7 +168,7 @@ impl<T: Transport> Session<T> {
     /// Send one G-code line numbered and checksummed (`N<n> line*<cs>`, with `n` the firmware's expected sequence
     /// number), so that a line damaged on the way is detected and resent instead of being misread; wait for its
     /// `ok`. Returns the report lines before it.
-    pub(crate) fn command_checked(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
+    pub fn command_checked(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
         let mut out = Vec::new();
         let mut seq = self.status()?.seq;
         for _attempt in 0..10 {
@@ -201,12 +201,12 @@ impl<T: Transport> Session<T> {
     }
 
     /// Run the homing cycle (`G28`, sent checked).
-    pub(crate) fn home(&mut self) -> anyhow::Result<()> {
+    pub fn home(&mut self) -> anyhow::Result<()> {
         self.command_checked("G28", HOMING_TIMEOUT).map(|_| ()).context("homing failed")
     }
 
     /// Wait until the machine is idle (everything queued executed), polling the status every `every`.
-    pub(crate) fn wait_idle(&mut self, every: Duration) -> anyhow::Result<Status> {
+    pub fn wait_idle(&mut self, every: Duration) -> anyhow::Result<Status> {
         loop {
             let s = self.status()?;
             if s.is_idle() {

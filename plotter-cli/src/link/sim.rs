@@ -15,7 +15,7 @@ use super::faults::Noise;
 use super::{LineSplitter, Transport};
 
 /// The in-process simulated plotter.
-pub(crate) struct SimTransport {
+pub struct SimTransport {
     sim: Sim,
     lines: LineSplitter,
     slice_ticks: u64,
@@ -28,7 +28,7 @@ pub(crate) struct SimTransport {
 
 impl SimTransport {
     /// A simulator for `cfg`; `baud` = `None` delivers bytes as fast as the firmware's buffer takes them.
-    pub(crate) fn new(cfg: MachineConfig, baud: Option<u32>) -> Self {
+    pub fn new(cfg: MachineConfig, baud: Option<u32>) -> Self {
         let mut opts = SimOptions::for_config(&cfg);
         opts.baud = baud;
         let slice_ticks = baud.map_or(100, |b| (u64::from(TICK_HZ) * 10).div_ceil(u64::from(b.max(1))));
@@ -44,19 +44,39 @@ impl SimTransport {
         }
     }
 
+    /// Around an existing simulator (e.g. a printer with heaters); `baud` as in [`SimTransport::new`].
+    pub fn from_sim(sim: Sim, baud: Option<u32>) -> Self {
+        let slice_ticks = baud.map_or(100, |b| (u64::from(TICK_HZ) * 10).div_ceil(u64::from(b.max(1))));
+        SimTransport {
+            sim,
+            lines: LineSplitter::default(),
+            slice_ticks,
+            streaming: false,
+            was_moving: false,
+            underruns: 0,
+            noise: None,
+            wire_busy_ticks: 0,
+        }
+    }
+
+    /// The simulator, mutably (fault injection).
+    pub fn sim_mut(&mut self) -> &mut Sim {
+        &mut self.sim
+    }
+
     /// Corrupt the bytes sent to the firmware with `noise`.
-    pub(crate) fn with_noise(mut self, noise: Noise) -> Self {
+    pub fn with_noise(mut self, noise: Noise) -> Self {
         self.noise = Some(noise);
         self
     }
 
     /// Virtual time during which bytes were waiting on the wire (the link was busy), ticks.
-    pub(crate) fn wire_busy_ticks(&self) -> u64 {
+    pub fn wire_busy_ticks(&self) -> u64 {
         self.wire_busy_ticks
     }
 
     /// The simulator (trace, executed time).
-    pub(crate) fn sim(&self) -> &Sim {
+    pub fn sim(&self) -> &Sim {
         &self.sim
     }
 

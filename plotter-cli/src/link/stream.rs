@@ -39,18 +39,18 @@ use super::Transport;
 use super::session::{Session, Status};
 
 /// The plan's blocks as wire frames, numbered from `base`.
-pub(crate) struct Frames {
+pub struct Frames {
     /// Encoded frames, `\n` included.
-    pub(crate) bytes: Vec<Vec<u8>>,
+    pub bytes: Vec<Vec<u8>>,
     /// Sequence number of the first frame.
-    pub(crate) base: u32,
+    pub base: u32,
     /// Whether the pen is up (and settled) after each frame: where a pause may stop.
-    pub(crate) safe_after: Vec<bool>,
+    pub safe_after: Vec<bool>,
 }
 
 impl Frames {
     /// Encode `plan` starting at sequence number `base`.
-    pub(crate) fn encode(plan: &MotionPlan, base: u32) -> anyhow::Result<Frames> {
+    pub fn encode(plan: &MotionPlan, base: u32) -> anyhow::Result<Frames> {
         let mut enc = Encoder::new();
         let mut buf = [0u8; MAX_FRAME];
         let mut bytes = Vec::with_capacity(plan.blocks.len());
@@ -73,32 +73,37 @@ impl Frames {
     }
 
     /// Number of frames.
-    pub(crate) fn len(&self) -> usize {
+    pub fn len(&self) -> usize {
         self.bytes.len()
     }
 
+    /// Whether there are no frames.
+    pub fn is_empty(&self) -> bool {
+        self.bytes.is_empty()
+    }
+
     /// Total encoded size.
-    pub(crate) fn total_bytes(&self) -> usize {
+    pub fn total_bytes(&self) -> usize {
         self.bytes.iter().map(Vec::len).sum()
     }
 }
 
 /// Progress of a stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub(crate) struct Progress {
+pub struct Progress {
     /// Frames accepted by the firmware.
-    pub(crate) accepted: usize,
+    pub accepted: usize,
     /// Frames certainly executed.
-    pub(crate) executed: usize,
+    pub executed: usize,
     /// The firmware's expected sequence number after the accepted frames.
-    pub(crate) seq_after_accepted: u32,
+    pub seq_after_accepted: u32,
     /// Resend requests acted on.
-    pub(crate) resends: u64,
+    pub resends: u64,
 }
 
 /// What the user decided at a pause.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum PauseChoice {
+pub enum PauseChoice {
     /// Carry on.
     Resume,
     /// Stop here (the journal allows a later `--resume`).
@@ -106,7 +111,7 @@ pub(crate) enum PauseChoice {
 }
 
 /// The caller's side of a stream: progress display, journal, pause requests.
-pub(crate) trait Control {
+pub trait Control {
     /// Called whenever the accepted or executed count changes.
     fn progress(&mut self, p: &Progress);
     /// Whether a pause was requested since the last call; `Some(true)` = immediately (feed hold), `Some(false)` = at
@@ -118,30 +123,30 @@ pub(crate) trait Control {
 
 /// Statistics of a finished stream.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub(crate) struct StreamStats {
+pub struct StreamStats {
     /// Frames in the plan.
-    pub(crate) frames: usize,
+    pub frames: usize,
     /// Bytes of the frames (first transmission).
-    pub(crate) frame_bytes: usize,
+    pub frame_bytes: usize,
     /// Bytes actually written (with resends).
-    pub(crate) bytes_sent: u64,
+    pub bytes_sent: u64,
     /// Resend requests acted on.
-    pub(crate) resends: u64,
+    pub resends: u64,
     /// Times the host resynchronised from a status report after a stall.
-    pub(crate) resyncs: u64,
+    pub resyncs: u64,
     /// Frames that arrived so damaged that the firmware took them for (bad) G-code.
-    pub(crate) noise_errors: u64,
+    pub noise_errors: u64,
     /// Transport time from the first frame to the last block executed.
-    pub(crate) elapsed: Duration,
+    pub elapsed: Duration,
     /// Transport time from the first frame to the last frame accepted.
-    pub(crate) accept_elapsed: Duration,
+    pub accept_elapsed: Duration,
     /// Queue underruns, when the transport can see them.
-    pub(crate) underruns: Option<u64>,
+    pub underruns: Option<u64>,
 }
 
 /// Why a stream stopped early.
 #[derive(Debug, thiserror::Error)]
-pub(crate) enum StreamError {
+pub enum StreamError {
     /// The firmware refused a block (`error:`); nothing after it was executed.
     #[error("the firmware refused block {block}: error {code}: {text}")]
     Refused {
@@ -187,13 +192,13 @@ impl From<std::io::Error> for StreamError {
 
 /// Tuning of a stream.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct StreamOptions {
+pub struct StreamOptions {
     /// How long without any reply before the host checks the firmware's status.
-    pub(crate) quiet: Duration,
+    pub quiet: Duration,
     /// How often to ask for a status report (executed progress).
-    pub(crate) status_every: Duration,
+    pub status_every: Duration,
     /// Consecutive stalls without progress before giving up.
-    pub(crate) max_stalls: u32,
+    pub max_stalls: u32,
 }
 
 impl Default for StreamOptions {
@@ -275,7 +280,7 @@ impl State {
 
 /// Stream `frames` over `session`. Returns when every frame has been executed. `before` is a status report taken
 /// just before the stream (its completed-block count, if the machine was idle, makes the executed count exact).
-pub(crate) fn stream<T: Transport>(
+pub fn stream<T: Transport>(
     session: &mut Session<T>,
     frames: &Frames,
     before: &Status,
@@ -486,7 +491,7 @@ pub(crate) fn stream<T: Transport>(
 }
 
 /// Stream a plan after checking where the firmware's sequence counter stands.
-pub(crate) fn stream_plan<T: Transport>(
+pub fn stream_plan<T: Transport>(
     session: &mut Session<T>,
     plan: &MotionPlan,
     opts: StreamOptions,
@@ -497,7 +502,7 @@ pub(crate) fn stream_plan<T: Transport>(
         return Err(StreamError::Link(anyhow::anyhow!("{}: the machine is in alarm; reset it first", session.name)));
     }
     let frames = Frames::encode(plan, s.seq)?;
-    if frames.len() == 0 {
+    if frames.is_empty() {
         return Ok((frames, StreamStats::default()));
     }
     let stats = stream(session, &frames, &s, opts, control)?;
@@ -505,7 +510,7 @@ pub(crate) fn stream_plan<T: Transport>(
 }
 
 /// Ignore-everything control (tests, benchmarks).
-pub(crate) struct Quiet;
+pub struct Quiet;
 
 impl Control for Quiet {
     fn progress(&mut self, _: &Progress) {}

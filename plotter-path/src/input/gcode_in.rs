@@ -18,6 +18,10 @@
 //! accepted; anything that would change the geometry and is not understood (another plane, other axes, unknown G or
 //! M codes) is an error naming the line; things dropped on purpose (tool changes, extrusion, program pauses) are
 //! warnings with their first line and repeat count.
+//!
+//! This import makes a *drawing*. Extrusion has no place in one: with a plotter profile E words are dropped with a
+//! warning; with a printer profile (one with an E axis) the warning says that `plotter print` keeps them — the
+//! printing playback is [`super::gcode_print`], which interprets the same G-code with E planned alongside X/Y/Z.
 
 use kurbo::Point;
 
@@ -118,6 +122,8 @@ enum Motion {
 
 struct Machine<'a> {
     origin: &'a str,
+    /// The profile has an extruder: E is kept for `plotter print` ([`super::gcode_print`]).
+    printer: bool,
     mm_per_unit: f64,
     absolute: bool,
     arc_center_absolute: bool,
@@ -135,13 +141,13 @@ struct Machine<'a> {
 
 /// One parsed word: letter and value with its source text.
 #[derive(Debug, Clone, Copy)]
-struct Word<'t> {
-    letter: char,
-    value: f64,
-    text: &'t str,
+pub(crate) struct Word<'t> {
+    pub(crate) letter: char,
+    pub(crate) value: f64,
+    pub(crate) text: &'t str,
 }
 
-fn strip_comments(line: &str) -> String {
+pub(crate) fn strip_comments(line: &str) -> String {
     let mut out = String::with_capacity(line.len());
     let mut in_paren = false;
     for c in line.chars() {
@@ -157,7 +163,7 @@ fn strip_comments(line: &str) -> String {
     out
 }
 
-fn words<'t>(code: &'t str, origin: &str, line: usize) -> Result<Vec<Word<'t>>, GcodeError> {
+pub(crate) fn words<'t>(code: &'t str, origin: &str, line: usize) -> Result<Vec<Word<'t>>, GcodeError> {
     let bytes = code.as_bytes();
     let mut out = Vec::new();
     let mut i = 0;
@@ -283,6 +289,9 @@ impl Machine<'_> {
                 'J' => j = Some(w.value),
                 'R' => r = Some(w.value),
                 'K' => return Err(self.unsupported(line, w.text, "arcs outside the XY plane are not drawn")),
+                'E' if self.printer => {
+                    self.warn(line, "extruder (E) values are not part of a drawing (`plotter print` plays them)");
+                }
                 'E' => self.warn(line, "extruder (E) values ignored"),
                 'T' => self.warn(line, "tool selection ignored: the drawing is one layer"),
                 'F' | 'S' | 'P' | 'N' => {}
@@ -447,6 +456,7 @@ impl Machine<'_> {
 pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<ImportedGcode, GcodeError> {
     let mut m = Machine {
         origin,
+        printer: profile.axes.e.is_some(),
         mm_per_unit: 1.0,
         absolute: true,
         arc_center_absolute: false,

@@ -2,6 +2,7 @@
 //! format, raster images traced into paths, and parametric figures.
 
 pub mod gcode_in;
+pub mod gcode_print;
 pub mod r#gen;
 pub mod raster;
 pub mod svg;

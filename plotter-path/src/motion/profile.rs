@@ -181,6 +181,9 @@ pub struct MachineProfile {
     pub homing: HomingProfile,
     /// Serial link.
     pub link: LinkProfile,
+    /// Heaters and fan (printers only; see [`crate::motion::heaters`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heaters: Option<crate::motion::heaters::HeatersProfile>,
 }
 
 /// The XY plotter kit profile shipped as `samples/xy-plotter.toml`, compiled in as the default.
@@ -278,6 +281,15 @@ impl MachineProfile {
         }
         if self.link.baud == 0 || self.link.rx_buffer_bytes < 64 || self.link.queue_blocks == 0 {
             return Err(bad("link", "baud and queue_blocks must be positive, rx_buffer_bytes at least 64"));
+        }
+        if let Some(h) = &self.heaters {
+            if self.axes.e.is_none() {
+                return Err(bad("heaters", "heaters need an extruder axis (axes.e)"));
+            }
+            if let Err(e) = h.to_config() {
+                let (field, problem) = e.split_once(": ").unwrap_or(("heaters", e.as_str()));
+                return Err(bad(field, problem));
+            }
         }
         Ok(())
     }

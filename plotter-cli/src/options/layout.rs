@@ -7,7 +7,7 @@ use plotter_path::kurbo::Vec2;
 
 /// Orientation as a command-line value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub(crate) enum OrientationArg {
+pub enum OrientationArg {
     /// Taller than wide.
     Portrait,
     /// Wider than tall.
@@ -16,34 +16,34 @@ pub(crate) enum OrientationArg {
 
 /// Layout flags. Applied in a fixed order: rotate, paper, scale or fit, centre, translate.
 #[derive(Debug, Clone, Args, Default)]
-pub(crate) struct LayoutArgs {
+pub struct LayoutArgs {
     /// Paper: a3, a4, a5, letter, or WIDTHxHEIGHT in mm (e.g. 300x200)
     #[arg(long, help_heading = "Layout")]
-    pub(crate) paper: Option<String>,
+    pub paper: Option<String>,
     /// Paper orientation (named papers default to portrait)
     #[arg(long, value_enum, help_heading = "Layout")]
-    pub(crate) orientation: Option<OrientationArg>,
+    pub orientation: Option<OrientationArg>,
     /// Shorthand for --orientation landscape
     #[arg(long, conflicts_with = "orientation", help_heading = "Layout")]
-    pub(crate) landscape: bool,
+    pub landscape: bool,
     /// Margin on every side, mm (used by --fit and --center)
     #[arg(long, default_value_t = 10.0, help_heading = "Layout")]
-    pub(crate) margin: f64,
+    pub margin: f64,
     /// Scale to the largest size fitting inside the margins, keeping the aspect ratio (implies --center)
     #[arg(long, help_heading = "Layout")]
-    pub(crate) fit: bool,
+    pub fit: bool,
     /// Centre the drawing on the page
     #[arg(long, help_heading = "Layout")]
-    pub(crate) center: bool,
+    pub center: bool,
     /// Rotate by 90° clockwise this many times (negative: counter-clockwise)
     #[arg(long, default_value_t = 0, allow_negative_numbers = true, help_heading = "Layout")]
-    pub(crate) rotate: i32,
+    pub rotate: i32,
     /// Scale by this factor about the drawing's top-left corner
     #[arg(long, conflicts_with = "fit", help_heading = "Layout")]
-    pub(crate) scale: Option<f64>,
+    pub scale: Option<f64>,
     /// Move by DX,DY mm after everything else (e.g. --translate 10,-5)
     #[arg(long, value_parser = parse_offset, allow_hyphen_values = true, help_heading = "Layout")]
-    pub(crate) translate: Option<Vec2>,
+    pub translate: Option<Vec2>,
 }
 
 fn parse_offset(s: &str) -> Result<Vec2, String> {
@@ -54,7 +54,7 @@ fn parse_offset(s: &str) -> Result<Vec2, String> {
 
 impl LayoutArgs {
     /// The library options these flags mean.
-    pub(crate) fn options(&self) -> Result<LayoutOptions> {
+    pub fn options(&self) -> Result<LayoutOptions> {
         let paper = self.paper.as_deref().map(str::parse::<Paper>).transpose()?;
         let orientation = if self.landscape {
             Some(Orientation::Landscape)
@@ -77,7 +77,7 @@ impl LayoutArgs {
     }
 
     /// Lay `drawing` out in place.
-    pub(crate) fn apply(&self, drawing: &mut plotter_path::Drawing) -> Result<()> {
+    pub fn apply(&self, drawing: &mut plotter_path::Drawing) -> Result<()> {
         layout::apply(drawing, &self.options()?)?;
         Ok(())
     }

@@ -1,0 +1,139 @@
+//! Progress of a running plot: the figures a front end shows (blocks, pen-down millimetres, time left) and the
+//! journal that lets an interrupted plot resume, kept in step with what the firmware reports.
+
+use plotter_fw::TICK_HZ;
+use plotter_path::MachineProfile;
+use plotter_path::motion::plan::{MotionPlan, MoveKind};
+use plotter_path::motion::steps::{StepMapper, StepPos};
+
+use crate::link::journal::Journal;
+use crate::link::stream::{Control, PauseChoice, Progress};
+
+/// What a front end is told as the plot advances.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JobProgress {
+    /// Blocks of this run's plan certainly executed by the machine.
+    pub executed: usize,
+    /// Blocks accepted by the firmware (queued or executed).
+    pub accepted: usize,
+    /// Blocks in this run's plan.
+    pub total: usize,
+    /// Pen-down millimetres drawn so far (of this run's plan).
+    pub draw_done_mm: f64,
+    /// Pen-down millimetres of this run's plan.
+    pub draw_total_mm: f64,
+    /// Planned time left, seconds.
+    pub eta_s: f64,
+    /// Resend requests acted on so far.
+    pub resends: u64,
+}
+
+/// A front end's side of a plot job: it sees progress and decides about pauses.
+pub trait PlotEvents {
+    /// The plot advanced.
+    fn progress(&mut self, p: &JobProgress);
+    /// Whether a pause was requested since the last call; `Some(true)` = at once (feed hold, pen stays where it
+    /// is), `Some(false)` = at the next pen-up.
+    fn pause_requested(&mut self) -> Option<bool> {
+        None
+    }
+    /// The machine is paused (`held`: feed hold, else pen up); resume or abort?
+    fn paused(&mut self, _held: bool) -> PauseChoice {
+        PauseChoice::Abort
+    }
+}
+
+/// Turns the stream's raw progress into [`JobProgress`] for the front end and keeps the journal up to date.
+pub(crate) struct Tracker<'a> {
+    events: &'a mut dyn PlotEvents,
+    pub(crate) journal: Option<Journal>,
+    /// Cumulative pen-down mm after each block.
+    draw_mm: Vec<f64>,
+    /// Remaining planned time after each block, ticks.
+    remaining: Vec<u64>,
+    total_draw: f64,
+    resumed_from: usize,
+    preamble: usize,
+    /// The first journal error: the plot stops on it (a plot whose journal cannot be written cannot resume).
+    pub(crate) error: Option<anyhow::Error>,
+}
+
+impl<'a> Tracker<'a> {
+    /// A tracker for `plan`, reporting to `events` and recording in `journal`.
+    pub(crate) fn new(
+        plan: &MotionPlan,
+        profile: &MachineProfile,
+        journal: Option<Journal>,
+        events: &'a mut dyn PlotEvents,
+    ) -> Self {
+        let n = plan.blocks.len();
+        let mut draw_mm = Vec::with_capacity(n);
+        let mut acc = 0.0;
+        let mapper = StepMapper::new(profile);
+        for b in &plan.blocks {
+            if b.kind == MoveKind::Draw {
+                acc += mapper.steps_to_machine(StepPos::new(b.block.steps[0], b.block.steps[1])).to_vec2().hypot();
+            }
+            draw_mm.push(acc);
+        }
+        let mut remaining = vec![0u64; n];
+        let mut r = 0u64;
+        for (i, b) in plan.blocks.iter().enumerate().rev() {
+            remaining[i] = r;
+            r += u64::from(b.block.duration_ticks());
+        }
+        Tracker {
+            events,
+            journal,
+            draw_mm,
+            remaining,
+            total_draw: acc,
+            resumed_from: plan.resumed_from,
+            preamble: plan.preamble,
+            error: None,
+        }
+    }
+
+    /// Block number in the original (un-resumed) plan of the `frames`-th frame of this run.
+    fn original(&self, frames: usize) -> usize {
+        self.resumed_from + frames.saturating_sub(self.preamble)
+    }
+}
+
+impl Control for Tracker<'_> {
+    fn progress(&mut self, p: &Progress) {
+        let i = p.executed.saturating_sub(1);
+        let left = if p.executed == 0 { self.remaining.first().copied() } else { self.remaining.get(i).copied() };
+        // Tick counts far below 2^53: exact in f64.
+        #[allow(clippy::cast_precision_loss)]
+        let eta_s = left.unwrap_or(0) as f64 / f64::from(TICK_HZ);
+        self.events.progress(&JobProgress {
+            executed: p.executed,
+            accepted: p.accepted,
+            total: self.draw_mm.len(),
+            draw_done_mm: if p.executed == 0 { 0.0 } else { self.draw_mm.get(i).copied().unwrap_or(self.total_draw) },
+            draw_total_mm: self.total_draw,
+            eta_s,
+            resends: p.resends,
+        });
+        let (a, e) = (self.original(p.accepted), self.original(p.executed));
+        // The journal pairs a block number with the sequence number after it; during a resume preamble that is
+        // the number the firmware will have once the preamble is through.
+        let pending = u32::try_from(self.preamble.saturating_sub(p.accepted)).unwrap_or(u32::MAX);
+        let seq = p.seq_after_accepted.wrapping_add(pending);
+        if let Some(j) = self.journal.as_mut()
+            && self.error.is_none()
+            && let Err(err) = j.record(a, e, seq)
+        {
+            self.error = Some(err);
+        }
+    }
+
+    fn pause_requested(&mut self) -> Option<bool> {
+        self.events.pause_requested()
+    }
+
+    fn paused(&mut self, held: bool) -> PauseChoice {
+        self.events.paused(held)
+    }
+}

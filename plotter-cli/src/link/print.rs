@@ -1,0 +1,258 @@
+//! Streaming a planned print ([`PrintPlan`]) to the firmware: step-block frames and G-code lines in one numbered
+//! sequence, with the same flow control as plots (never more unanswered bytes than the firmware's receive buffer).
+//!
+//! - Every item is answered once (`ok`, `error:` or `rs <n>`). Heating waits (`M109`, `M190`) and autotune
+//!   (`M303`) are answered when done, so the stream simply pauses behind them; the firmware reports temperatures
+//!   every second meanwhile (and during the print, after the `M155 S1` sent first).
+//! - `rs <n>` (a damaged item): the host stops sending, collects the answers of everything still in flight, and
+//!   resends from item `n` (go-back-N).
+//! - An `error:` on a line (a command the firmware refused) is reported and the print goes on; an alarm (a thermal
+//!   trip, an emergency stop, a limit) ends the print with the firmware's alarm text, which names the sensor.
+//! - Progress is the layer of the latest block the firmware accepted (its queue holds well under a second of
+//!   motion); at the end the host waits until the machine is idle.
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+use anyhow::{Context as _, bail};
+use plotter_fw::MachineConfig;
+use plotter_fw::protocol::{RT_STATUS, Reply};
+use plotter_fw::sim::thermal::SimFault;
+use plotter_fw::sim::{Sim, SimOptions};
+use plotter_fw::thermal::{Heater, ThermalConfig};
+use plotter_path::motion::print_plan::{PrintItem, PrintPlan, wire_items};
+
+use super::Transport;
+use super::session::{COMMAND_TIMEOUT, Session, Status};
+use super::sim::SimTransport;
+
+/// A fault to inject into the simulated printer: `fault` on `heater` at `at_us` of virtual time (µs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScheduledFault {
+    /// The heater.
+    pub heater: Heater,
+    /// What breaks.
+    pub fault: SimFault,
+    /// When, µs of virtual time.
+    pub at_us: u64,
+}
+
+/// The simulated printer (firmware, steppers, heaters on their thermal model) behind the [`Transport`] trait, with
+/// faults injected at their scheduled times.
+pub struct PrinterSim {
+    inner: SimTransport,
+    faults: Vec<ScheduledFault>,
+}
+
+impl PrinterSim {
+    /// A printer for `cfg` with the heaters of `thermal`; bytes arrive as fast as the firmware takes them.
+    pub fn new(cfg: MachineConfig, thermal: ThermalConfig, faults: Vec<ScheduledFault>) -> Self {
+        let opts = SimOptions { thermal, record_steps: false, ..SimOptions::for_config(&cfg) };
+        PrinterSim { inner: SimTransport::from_sim(Sim::with_options(cfg, opts), None), faults }
+    }
+
+    /// The simulator (positions, stepper time, heaters).
+    pub fn sim(&self) -> &Sim {
+        self.inner.sim()
+    }
+}
+
+impl Transport for PrinterSim {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.inner.send(bytes)
+    }
+
+    fn recv_line(&mut self, timeout: Duration) -> std::io::Result<Option<String>> {
+        let now = self.inner.sim().now();
+        let sim = self.inner.sim_mut();
+        self.faults.retain(|f| {
+            if f.at_us <= now {
+                sim.heaters_mut().inject(f.heater, Some(f.fault));
+                false
+            } else {
+                true
+            }
+        });
+        // Never run past the next fault.
+        let until = self.faults.iter().map(|f| f.at_us.saturating_sub(now)).min().unwrap_or(u64::MAX);
+        self.inner.recv_line(timeout.min(Duration::from_micros(until.max(1))))
+    }
+
+    fn now(&self) -> Duration {
+        self.inner.now()
+    }
+}
+
+/// What the display shows.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PrintProgress {
+    /// Items accepted by the firmware.
+    pub accepted: usize,
+    /// Items in the plan.
+    pub items: usize,
+    /// Layer of the latest accepted block.
+    pub layer: usize,
+    /// Planned motion time not yet accepted, ticks.
+    pub remaining_ticks: u64,
+    /// The latest temperature report (`T:… /… B:… /…`).
+    pub temperatures: Option<String>,
+    /// The command the firmware is waiting on, if any.
+    pub waiting: Option<String>,
+}
+
+/// The caller's side: display and notes.
+pub trait PrintControl {
+    /// Progress changed (accepted count, temperatures or waiting state).
+    fn progress(&mut self, p: &PrintProgress);
+    /// Something to tell the user (a refused line, a firmware message).
+    fn note(&mut self, message: &str);
+}
+
+/// Figures of a finished print.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PrintStats {
+    /// Transport time from the first item to idle (heating and homing included).
+    pub elapsed: Duration,
+    /// Items resent after `rs`.
+    pub resent: u64,
+    /// Lines the firmware refused.
+    pub refused: usize,
+    /// The last temperature report.
+    pub temperatures: Option<String>,
+}
+
+/// Quiet time after which the firmware is taken to be gone (it reports temperatures every second).
+const SILENCE: Duration = Duration::from_secs(30);
+
+/// Stream `plan` over `session`; `control` gets the progress.
+pub fn stream_print<T: Transport>(
+    session: &mut Session<T>,
+    plan: &PrintPlan,
+    control: &mut dyn PrintControl,
+) -> anyhow::Result<PrintStats> {
+    session.command_checked("M155 S1", COMMAND_TIMEOUT).context("cannot switch on the temperature reports")?;
+    let base = session.status()?.seq;
+    let wire = wire_items(plan, base).map_err(|e| anyhow::anyhow!(e))?;
+    let rx = session.info.rx_bytes;
+    let n = wire.len();
+    // Planned time after each item.
+    let mut remaining = vec![0u64; n + 1];
+    for i in (0..n).rev() {
+        let t = match &plan.items[i] {
+            PrintItem::Block { block, .. } => u64::from(block.duration_ticks()),
+            PrintItem::Line { .. } => 0,
+        };
+        remaining[i] = remaining[i + 1] + t;
+    }
+    let t = &mut session.transport;
+    let start = t.now();
+    let mut progress = PrintProgress { items: n, remaining_ticks: remaining[0], ..PrintProgress::default() };
+    let mut stats = PrintStats::default();
+    let mut inflight: VecDeque<usize> = VecDeque::new();
+    let mut inflight_bytes = 0usize;
+    let mut next = 0usize;
+    let mut rewind: Option<usize> = None;
+    let mut last_heard = t.now();
+    let mut last_status = t.now();
+    let mut done_sending = false;
+    loop {
+        if rewind.is_none() {
+            while next < n && inflight_bytes + wire[next].len() <= rx {
+                t.send(&wire[next])?;
+                inflight.push_back(next);
+                inflight_bytes += wire[next].len();
+                next += 1;
+            }
+        }
+        if next == n && inflight.is_empty() && !done_sending {
+            done_sending = true;
+            t.send(&[RT_STATUS])?;
+            last_status = t.now();
+        }
+        if t.now().saturating_sub(last_status) >= Duration::from_millis(500) {
+            t.send(&[RT_STATUS])?;
+            last_status = t.now();
+        }
+        let Some(line) = t.recv_line(Duration::from_millis(200))? else {
+            if t.now().saturating_sub(last_heard) > SILENCE {
+                bail!("the firmware went quiet for {} s (item {} of {n})", SILENCE.as_secs(), progress.accepted);
+            }
+            continue;
+        };
+        last_heard = t.now();
+        match Reply::parse(&line) {
+            Reply::Ok | Reply::Error { .. } | Reply::Resend(_) => {
+                let Some(item) = inflight.pop_front() else {
+                    // An answer to something sent outside the stream (e.g. a stray line): nothing to account.
+                    continue;
+                };
+                inflight_bytes -= wire[item].len();
+                match Reply::parse(&line) {
+                    Reply::Ok if rewind.is_none() => {
+                        progress.accepted = item + 1;
+                        progress.remaining_ticks = remaining[item + 1];
+                        progress.waiting = None;
+                        if let PrintItem::Block { layer, .. } = &plan.items[item] {
+                            progress.layer = *layer;
+                        }
+                    }
+                    Reply::Error { code, text } if rewind.is_none() => {
+                        progress.accepted = item + 1;
+                        stats.refused += 1;
+                        let what = match &plan.items[item] {
+                            PrintItem::Line { text, line, .. } => format!("line {line} ({text})"),
+                            PrintItem::Block { .. } => format!("block {item}"),
+                        };
+                        control.note(&format!("{what} refused: error {code}: {text}"));
+                    }
+                    Reply::Resend(seq) => {
+                        let at = usize::try_from(seq.wrapping_sub(base)).unwrap_or(usize::MAX);
+                        if at > n {
+                            bail!("the firmware asked for item {seq}, outside this print");
+                        }
+                        rewind = Some(rewind.map_or(at, |r| r.min(at)));
+                    }
+                    _ => {}
+                }
+                if let Some(at) = rewind
+                    && inflight.is_empty()
+                {
+                    stats.resent += u64::try_from(next - at).unwrap_or(0);
+                    next = at;
+                    rewind = None;
+                    done_sending = false;
+                }
+                // The head of the stream is a wait: say so.
+                if let Some(&head) = inflight.front()
+                    && let PrintItem::Line { text, wait: true, .. } = &plan.items[head]
+                {
+                    progress.waiting = Some(text.clone());
+                }
+                control.progress(&progress);
+            }
+            Reply::Alarm { code, text } => bail!("printer alarm {code}: {text}"),
+            Reply::Banner(_) => bail!("the firmware restarted during the print"),
+            Reply::Status(s) => {
+                if let Some(st) = Status::parse(s) {
+                    if st.state == "Alarm" {
+                        bail!("the printer is in alarm");
+                    }
+                    if done_sending && st.is_idle() {
+                        break;
+                    }
+                }
+            }
+            Reply::Info(i) => {
+                if i.starts_with("T:") || i.starts_with("B:") {
+                    progress.temperatures = Some(i.to_string());
+                    stats.temperatures = Some(i.to_string());
+                    control.progress(&progress);
+                } else if !i.is_empty() {
+                    control.note(i);
+                }
+            }
+        }
+    }
+    stats.elapsed = t.now().saturating_sub(start);
+    Ok(stats)
+}

@@ -1,0 +1,123 @@
+//! Path-optimization options shared by every front end: the flags `plot`, `preview`, `stats` and `optimize`
+//! flatten into their own arguments, [`OptimizeArgs::options`] turns them into library options.
+
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use plotter_path::MachineProfile;
+use plotter_path::optimize::{self, Objective, OptimizeOptions, OptimizeReport, SeamMode, TravelTimeModel};
+
+/// Where closed paths may start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SeamArg {
+    /// Keep each closed path's own start vertex
+    Keep,
+    /// Any vertex
+    Any,
+    /// Only sharp corners (see --seam-angle); smooth loops may start anywhere
+    Corners,
+}
+
+/// What the optimizer minimizes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CostArg {
+    /// Pen-up distance
+    Distance,
+    /// Pen-up time from the machine profile (acceleration-limited moves plus pen lift/drop)
+    Time,
+}
+
+/// Path-optimization flags shared by `optimize`, `plot`, `preview` and `stats`.
+#[derive(Debug, Clone, Args)]
+pub struct OptimizeArgs {
+    /// Skip path optimization entirely (keep the drawing's order)
+    #[arg(long, help_heading = "Optimization")]
+    pub no_optimize: bool,
+    /// Do not join paths whose ends meet
+    #[arg(long, help_heading = "Optimization")]
+    pub no_merge: bool,
+    /// Join path ends closer than this, mm (gaps become short pen-down bridges; 0 = only exactly touching ends)
+    #[arg(long, default_value_t = 0.01, help_heading = "Optimization")]
+    pub merge_tolerance: f64,
+    /// Do not reorder greedily (start the improvement from the drawing's order)
+    #[arg(long, help_heading = "Optimization")]
+    pub no_reorder: bool,
+    /// Never draw a path backwards
+    #[arg(long, help_heading = "Optimization")]
+    pub no_reverse: bool,
+    /// Where closed paths may start
+    #[arg(long, value_enum, default_value_t = SeamArg::Any, help_heading = "Optimization")]
+    pub seam: SeamArg,
+    /// Minimum turn, degrees, of a vertex to count as a corner for --seam corners
+    #[arg(long, default_value_t = 60.0, help_heading = "Optimization")]
+    pub seam_angle: f64,
+    /// Skip the 2-opt / Or-opt improvement (greedy order only)
+    #[arg(long, help_heading = "Optimization")]
+    pub no_improve: bool,
+    /// Time budget of the improvement, seconds (0 = run until no move improves; the result then depends only on
+    /// the seed)
+    #[arg(long, default_value_t = 1.5, help_heading = "Optimization")]
+    pub opt_budget: f64,
+    /// Seed of the improvement's random choices
+    #[arg(long, default_value_t = 1, help_heading = "Optimization")]
+    pub opt_seed: u64,
+    /// Random kicks per path after the first local optimum (0 = none)
+    #[arg(long, default_value_t = 2.0, help_heading = "Optimization")]
+    pub opt_kicks: f64,
+    /// What to minimize (time needs a machine profile)
+    #[arg(long, value_enum, default_value_t = CostArg::Distance, help_heading = "Optimization")]
+    pub opt_cost: CostArg,
+}
+
+impl OptimizeArgs {
+    /// Whether the optimization step runs at all.
+    pub fn enabled(&self) -> bool {
+        !self.no_optimize
+    }
+
+    /// Library options from the flags; `profile` (if any) supplies the travel-time model.
+    pub fn options(&self, profile: Option<&MachineProfile>) -> Result<OptimizeOptions> {
+        if !(self.opt_budget.is_finite() && self.opt_budget >= 0.0) {
+            bail!("--opt-budget must be a number of seconds ≥ 0, got {}", self.opt_budget);
+        }
+        let time_model = profile.map(TravelTimeModel::from_profile);
+        if self.opt_cost == CostArg::Time && time_model.is_none() {
+            bail!("--opt-cost time needs a machine profile (--profile FILE)");
+        }
+        Ok(OptimizeOptions {
+            merge: !self.no_merge,
+            merge_tolerance_mm: self.merge_tolerance,
+            reorder: !self.no_reorder,
+            reverse: !self.no_reverse,
+            seam: match self.seam {
+                SeamArg::Keep => SeamMode::Keep,
+                SeamArg::Any => SeamMode::Any,
+                SeamArg::Corners => SeamMode::Corners { min_turn_deg: self.seam_angle },
+            },
+            improve: !self.no_improve,
+            time_budget: (self.opt_budget > 0.0).then(|| Duration::from_secs_f64(self.opt_budget)),
+            seed: self.opt_seed,
+            kicks_per_path: self.opt_kicks,
+            objective: match self.opt_cost {
+                CostArg::Distance => Objective::Distance,
+                CostArg::Time => Objective::Time,
+            },
+            time_model,
+            ..OptimizeOptions::default()
+        })
+    }
+}
+
+/// Optimise `drawing` in place when the flags allow (returns the report), with the flags' time budget.
+pub fn optimize_quietly(
+    drawing: &mut plotter_path::Drawing,
+    args: &OptimizeArgs,
+    profile: Option<&MachineProfile>,
+) -> Result<Option<OptimizeReport>> {
+    if !args.enabled() {
+        return Ok(None);
+    }
+    let report = optimize::optimize(drawing, &args.options(profile)?).context("cannot optimize the path order")?;
+    Ok(Some(report))
+}

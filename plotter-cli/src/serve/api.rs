@@ -1,0 +1,682 @@
+//! The HTTP API and the page's assets. Every request passes [`guard`] (Host/Origin, and the controller's token
+//! for anything that changes state); handlers answer JSON, errors as `{ "error": "..." }` with a status that says
+//! what kind of problem it is.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use axum::Json;
+use axum::Router;
+use axum::body::Bytes;
+use axum::extract::rejection::BytesRejection;
+use axum::extract::{DefaultBodyLimit, Query, Request, State};
+use axum::http::{HeaderMap, Method, StatusCode, header};
+use axum::middleware::{self, Next};
+use axum::response::sse::{KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use futures_util::stream::{self, Stream};
+use plotter_host::input::{InputArgs, decode_drawing};
+use plotter_host::job::page::view;
+use plotter_host::job::prepare::{LayerChoice, prepare};
+use plotter_host::options::layout::{LayoutArgs, OrientationArg};
+use plotter_host::options::optimize::OptimizeArgs;
+use plotter_host::options::trace::ModeArg;
+use plotter_path::input::r#gen;
+use plotter_path::{MachineProfile, Pen, Rgb};
+use serde::Deserialize;
+use serde_json::json;
+use tokio::sync::broadcast::error::RecvError;
+
+use super::events::Event;
+use super::safety::{self, TOKEN_HEADER};
+use super::state::{Loaded, Settings, Shared, Source};
+use super::worker::Command;
+use crate::cmd_jog::JogTarget;
+
+/// The page.
+const INDEX_HTML: &str = include_str!("../../assets/index.html");
+/// Its script.
+const APP_JS: &str = include_str!("../../assets/app.js");
+/// Its style sheet.
+const STYLE_CSS: &str = include_str!("../../assets/style.css");
+
+/// An error answer.
+pub(crate) struct ApiError(StatusCode, String);
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        (self.0, Json(json!({ "error": self.1 }))).into_response()
+    }
+}
+
+fn bad(message: impl Into<String>) -> ApiError {
+    ApiError(StatusCode::BAD_REQUEST, message.into())
+}
+
+fn conflict(message: impl Into<String>) -> ApiError {
+    ApiError(StatusCode::CONFLICT, message.into())
+}
+
+type ApiResult = Result<Response, ApiError>;
+
+fn ok() -> ApiResult {
+    Ok(Json(json!({ "ok": true })).into_response())
+}
+
+/// The router for `shared`.
+pub(crate) fn router(shared: Arc<Shared>) -> Router {
+    // Bodies of uploads may be as large as the limit; other JSON bodies are small.
+    let upload_limit = DefaultBodyLimit::max(shared.config.max_upload);
+    Router::new()
+        .route("/", get(|| async { ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], INDEX_HTML) }))
+        .route("/app.js", get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], APP_JS) }))
+        .route("/style.css", get(|| async { ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE_CSS) }))
+        .route("/api/state", get(state))
+        .route("/api/events", get(events))
+        .route("/api/view", get(drawing_view))
+        .route("/api/stepped", get(stepped_view))
+        .route("/api/ports", get(ports))
+        .route("/api/control/claim", post(claim))
+        .route("/api/control/release", post(release))
+        .route("/api/drawing", post(upload).layer(upload_limit))
+        .route("/api/profile/upload", post(upload_profile).layer(upload_limit))
+        .route("/api/gen", post(generate))
+        .route("/api/settings", post(settings))
+        .route("/api/profile", post(choose_profile))
+        .route("/api/connect", post(connect))
+        .route("/api/disconnect", post(disconnect))
+        .route("/api/plot", post(plot))
+        .route("/api/pause", post(pause))
+        .route("/api/resume", post(resume))
+        .route("/api/cancel", post(cancel))
+        .route("/api/prompt", post(answer))
+        .route("/api/home", post(home))
+        .route("/api/jog", post(jog))
+        .route("/api/pen", post(pen))
+        .route("/api/console", post(console))
+        .layer(DefaultBodyLimit::max(64 * 1024))
+        .layer(middleware::from_fn_with_state(Arc::clone(&shared), guard))
+        .with_state(shared)
+}
+
+/// Refuse foreign Host/Origin, and changes from anyone but the controller.
+async fn guard(State(shared): State<Arc<Shared>>, req: Request, next: Next) -> Response {
+    if let Err(refusal) = safety::check_request(req.headers(), shared.config.local) {
+        return ApiError(StatusCode::FORBIDDEN, refusal.to_string()).into_response();
+    }
+    let reads = matches!(*req.method(), Method::GET | Method::HEAD);
+    if !reads && req.uri().path() != "/api/control/claim" {
+        let token = req.headers().get(TOKEN_HEADER).and_then(|t| t.to_str().ok());
+        let controller = shared.lock().controller.clone();
+        if controller.is_none() || token != controller.as_deref() {
+            let message = if controller.is_none() {
+                "take control first (nobody controls the plotter)"
+            } else {
+                "another page controls the plotter; this one is read-only"
+            };
+            return ApiError(StatusCode::FORBIDDEN, message.into()).into_response();
+        }
+    }
+    next.run(req).await
+}
+
+async fn state(State(shared): State<Arc<Shared>>) -> Response {
+    Json(shared.snapshot()).into_response()
+}
+
+#[derive(Deserialize)]
+struct EventsQuery {
+    token: Option<String>,
+}
+
+/// Gives up control when the controller's event stream ends.
+struct ControlLease {
+    shared: Arc<Shared>,
+    token: String,
+}
+
+impl Drop for ControlLease {
+    fn drop(&mut self) {
+        let released = {
+            let mut i = self.shared.lock();
+            let ours = i.controller.as_deref() == Some(self.token.as_str());
+            if ours {
+                i.controller = None;
+            }
+            ours
+        };
+        if released {
+            self.shared.publish();
+        }
+    }
+}
+
+/// Server-sent events: the state first, then everything the hub sends. With the controller's token the stream
+/// holds control: when it closes, control is released.
+async fn events(
+    State(shared): State<Arc<Shared>>,
+    Query(q): Query<EventsQuery>,
+) -> Sse<impl Stream<Item = Result<axum::response::sse::Event, std::convert::Infallible>>> {
+    let lease = q
+        .token
+        .filter(|t| shared.lock().controller.as_deref() == Some(t.as_str()))
+        .map(|token| ControlLease { shared: Arc::clone(&shared), token });
+    let rx = shared.hub.subscribe();
+    let first = Event::new("state", &shared.snapshot());
+    let s = stream::unfold((Some(first), rx, shared, lease), |(first, mut rx, shared, lease)| async move {
+        let event = match first {
+            Some(e) => e,
+            None => match rx.recv().await {
+                Ok(e) => e,
+                Err(RecvError::Lagged(_)) => Event::new("state", &shared.snapshot()),
+                Err(RecvError::Closed) => return None,
+            },
+        };
+        let sse = axum::response::sse::Event::default().event(event.name).data(event.data);
+        Some((Ok(sse), (None, rx, shared, lease)))
+    });
+    Sse::new(s).keep_alive(KeepAlive::default())
+}
+
+async fn drawing_view(State(shared): State<Arc<Shared>>) -> ApiResult {
+    let prepared = shared.lock().prepared.clone();
+    let p = prepared.ok_or_else(|| ApiError(StatusCode::NOT_FOUND, "no drawing loaded".into()))?;
+    Ok(Json(view(&p.drawing)).into_response())
+}
+
+async fn stepped_view(State(shared): State<Arc<Shared>>) -> ApiResult {
+    let stepped = shared.lock().stepped.clone();
+    let s = stepped.ok_or_else(|| ApiError(StatusCode::NOT_FOUND, "no simulated plot yet".into()))?;
+    Ok(Json(&*s).into_response())
+}
+
+/// The serial ports a page may connect to: those the system lists and those named on the command line.
+pub(crate) fn port_names(shared: &Shared) -> Vec<String> {
+    let mut names: Vec<String> =
+        serialport::available_ports().unwrap_or_default().into_iter().map(|p| p.port_name).collect();
+    for p in &shared.config.extra_ports {
+        if !names.contains(p) {
+            names.push(p.clone());
+        }
+    }
+    names
+}
+
+async fn ports(State(shared): State<Arc<Shared>>) -> Response {
+    let names = tokio::task::spawn_blocking(move || port_names(&shared)).await.unwrap_or_default();
+    Json(json!({ "ports": names })).into_response()
+}
+
+async fn claim(State(shared): State<Arc<Shared>>, headers: HeaderMap) -> ApiResult {
+    let token = {
+        let mut i = shared.lock();
+        let held = headers.get(TOKEN_HEADER).and_then(|t| t.to_str().ok());
+        match &i.controller {
+            Some(c) if Some(c.as_str()) == held => c.clone(),
+            Some(_) => return Err(conflict("another page controls the plotter; this one is read-only")),
+            None => {
+                let t = safety::new_token();
+                i.controller = Some(t.clone());
+                t
+            }
+        }
+    };
+    shared.publish();
+    Ok(Json(json!({ "token": token })).into_response())
+}
+
+async fn release(State(shared): State<Arc<Shared>>) -> ApiResult {
+    shared.lock().controller = None;
+    shared.publish();
+    ok()
+}
+
+#[derive(Deserialize)]
+struct UploadQuery {
+    name: String,
+}
+
+fn too_large(what: &str, size: Option<usize>, limit: usize) -> ApiError {
+    let mb = |b: usize| {
+        // Display only.
+        #[allow(clippy::cast_precision_loss)]
+        let v = b as f64 / 1_048_576.0;
+        v
+    };
+    let size = size.map_or_else(String::new, |s| format!(" ({:.1} MB)", mb(s)));
+    ApiError(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        format!(
+            "{what} is too large{size}: uploads are limited to {:.1} MB (start the server with --max-upload-mb to \
+             change it)",
+            mb(limit)
+        ),
+    )
+}
+
+/// Check the declared size before reading, and map a body cut at the limit to the same message.
+fn upload_body(
+    what: &str,
+    headers: &HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+    limit: usize,
+) -> Result<Bytes, ApiError> {
+    let declared = headers.get(header::CONTENT_LENGTH).and_then(|v| v.to_str().ok()).and_then(|v| v.parse().ok());
+    if declared.is_some_and(|n: usize| n > limit) {
+        return Err(too_large(what, declared, limit));
+    }
+    match body {
+        Ok(b) => Ok(b),
+        Err(e) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => Err(too_large(what, None, limit)),
+        Err(e) => Err(bad(format!("cannot read {what}: {}", e.body_text()))),
+    }
+}
+
+/// A file name from the client, used only to tell the kind and in messages: its last component, printable.
+fn clean_name(name: &str) -> Result<String, ApiError> {
+    let base = name.rsplit(['/', '\\']).next().unwrap_or("").trim();
+    if base.is_empty() || base.len() > 200 || base.chars().any(char::is_control) {
+        return Err(bad(format!("unusable file name {name:?}")));
+    }
+    Ok(base.to_string())
+}
+
+fn input_args(settings: &Settings) -> Result<InputArgs, ApiError> {
+    #[derive(clap::Parser)]
+    struct W {
+        #[command(flatten)]
+        input: InputArgs,
+    }
+    let mut args = <W as clap::Parser>::try_parse_from(["serve"]).map_err(|e| bad(e.to_string()))?.input;
+    args.trace.mode = match settings.trace.as_str() {
+        "" | "outline" => ModeArg::Outline,
+        "centerline" => ModeArg::Centerline,
+        "edges" => ModeArg::Edges,
+        "hatch" => ModeArg::Hatch,
+        other => return Err(bad(format!("unknown tracing mode {other:?} (outline, centerline, edges, hatch)"))),
+    };
+    Ok(args)
+}
+
+fn layout_args(s: &Settings) -> Result<LayoutArgs, ApiError> {
+    Ok(LayoutArgs {
+        paper: Some(s.paper.trim().to_string()).filter(|p| !p.is_empty()),
+        orientation: match s.orientation.as_str() {
+            "" => None,
+            "portrait" => Some(OrientationArg::Portrait),
+            "landscape" => Some(OrientationArg::Landscape),
+            other => return Err(bad(format!("unknown orientation {other:?} (portrait, landscape)"))),
+        },
+        margin: s.margin,
+        fit: s.fit,
+        center: s.center,
+        rotate: s.rotate,
+        ..LayoutArgs::default()
+    })
+}
+
+fn optimize_args(s: &Settings) -> Result<OptimizeArgs, ApiError> {
+    #[derive(clap::Parser)]
+    struct W {
+        #[command(flatten)]
+        o: OptimizeArgs,
+    }
+    let mut args = <W as clap::Parser>::try_parse_from(["serve"]).map_err(|e| bad(e.to_string()))?.o;
+    args.no_optimize = !s.optimize;
+    Ok(args)
+}
+
+fn parse_color(c: &str) -> Result<Option<Rgb>, ApiError> {
+    if c.is_empty() {
+        return Ok(None);
+    }
+    let hex = c.strip_prefix('#').filter(|h| h.len() == 6 && h.chars().all(|ch| ch.is_ascii_hexdigit()));
+    let hex = hex.ok_or_else(|| bad(format!("pen colour {c:?} is not #rrggbb")))?;
+    let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).unwrap_or(0);
+    Ok(Some(Rgb(byte(0), byte(2), byte(4))))
+}
+
+fn layer_choices(s: &Settings, decoded: &plotter_path::Drawing) -> Result<Vec<LayerChoice>, ApiError> {
+    s.layers
+        .iter()
+        .map(|l| {
+            let own = decoded.layers.iter().find(|d| d.name == l.name).map(|d| d.pen).unwrap_or_default();
+            let color = parse_color(&l.color)?;
+            if !(l.width_mm.is_finite() && l.width_mm >= 0.0 && l.width_mm <= 20.0) {
+                return Err(bad(format!("pen width {} mm of layer '{}' is not in 0..20", l.width_mm, l.name)));
+            }
+            let pen = (color.is_some() || l.width_mm > 0.0).then(|| Pen {
+                color: color.unwrap_or(own.color),
+                width_mm: if l.width_mm > 0.0 { l.width_mm } else { own.width_mm },
+            });
+            Ok(LayerChoice { name: l.name.clone(), visible: l.visible, pen })
+        })
+        .collect()
+}
+
+/// Decode `source` with `settings`, off the async threads.
+async fn decode(source: Source, settings: &Settings, profile: MachineProfile) -> Result<Loaded, ApiError> {
+    let input = input_args(settings)?;
+    tokio::task::spawn_blocking(move || {
+        let (name, decoded) = match &source {
+            Source::Upload { name, bytes } => {
+                let decoded = decode_drawing(bytes, Path::new(name), name, None, &input, &profile);
+                (name.clone(), decoded.map_err(|e| bad(format!("{e:#}")))?)
+            }
+            Source::Gen(spec) => {
+                let drawing = r#gen::from_spec(spec).map_err(|e| bad(format!("cannot generate {spec}: {e}")))?;
+                let decoded = plotter_host::input::Decoded { drawing, warnings: Vec::new() };
+                (format!("gen:{spec}"), decoded)
+            }
+        };
+        Ok(Loaded { source, name, decoded, input })
+    })
+    .await
+    .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
+}
+
+/// Re-prepare the loaded drawing with the current settings and profile; publish.
+async fn reprepare(shared: &Arc<Shared>) -> ApiResult {
+    let (drawing, settings, profile) = {
+        let i = shared.lock();
+        let Some(l) = &i.loaded else { return ok() };
+        (l.decoded.drawing.clone(), i.settings.clone(), i.profile.clone())
+    };
+    let layers = layer_choices(&settings, &drawing)?;
+    let layout = layout_args(&settings)?;
+    let optimize = optimize_args(&settings)?;
+    let result = tokio::task::spawn_blocking(move || prepare(drawing, &profile, &layers, &layout, &optimize))
+        .await
+        .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?;
+    let answer = {
+        let mut i = shared.lock();
+        i.view_version += 1;
+        match result {
+            Ok(p) => {
+                let warnings = p.warnings.clone();
+                i.prepared = Some(Arc::new(p));
+                i.prepare_error = None;
+                Ok(Json(json!({ "ok": true, "warnings": warnings })).into_response())
+            }
+            Err(e) => {
+                let message = format!("{e:#}");
+                i.prepared = None;
+                i.prepare_error = Some(message.clone());
+                Err(bad(message))
+            }
+        }
+    };
+    shared.publish();
+    answer
+}
+
+fn refuse_while_plotting(shared: &Shared) -> Result<(), ApiError> {
+    match shared.lock().machine.activity {
+        "plotting" | "paused" => Err(conflict("a plot is running: cancel it first")),
+        _ => Ok(()),
+    }
+}
+
+async fn load(shared: &Arc<Shared>, source: Source) -> ApiResult {
+    refuse_while_plotting(shared)?;
+    let (mut settings, profile) = {
+        let i = shared.lock();
+        (i.settings.clone(), i.profile.clone())
+    };
+    let loaded = decode(source, &settings, profile).await?;
+    let warnings = loaded.decoded.warnings.clone();
+    // A new drawing starts with its own layers and pens.
+    settings.layers.clear();
+    {
+        let mut i = shared.lock();
+        i.loaded = Some(loaded);
+        i.settings = settings;
+    }
+    for w in &warnings {
+        shared.hub.log("info", format!("warning: {w}"));
+    }
+    reprepare(shared).await
+}
+
+async fn upload(
+    State(shared): State<Arc<Shared>>,
+    Query(q): Query<UploadQuery>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult {
+    let name = clean_name(&q.name)?;
+    let bytes = upload_body(&name, &headers, body, shared.config.max_upload)?;
+    if bytes.is_empty() {
+        return Err(bad(format!("{name} is empty")));
+    }
+    load(&shared, Source::Upload { name, bytes: Arc::new(bytes.to_vec()) }).await
+}
+
+#[derive(Deserialize)]
+struct GenBody {
+    spec: String,
+}
+
+async fn generate(State(shared): State<Arc<Shared>>, Json(b): Json<GenBody>) -> ApiResult {
+    let spec = b.spec.trim();
+    let spec = spec.strip_prefix(plotter_host::input::GEN_PREFIX).unwrap_or(spec);
+    load(&shared, Source::Gen(spec.to_string())).await
+}
+
+async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) -> ApiResult {
+    refuse_while_plotting(&shared)?;
+    // Check before storing, so a bad value never sticks.
+    input_args(&s)?;
+    layout_args(&s)?.options().map_err(|e| bad(format!("{e:#}")))?;
+    let retrace = {
+        let mut i = shared.lock();
+        let retrace = i
+            .loaded
+            .as_ref()
+            .is_some_and(|l| l.input.trace.mode != input_args(&s).map(|a| a.trace.mode).unwrap_or_default());
+        i.settings = s.clone();
+        retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.profile.clone()))).flatten()
+    };
+    if let Some((source, profile)) = retrace {
+        let loaded = decode(source, &s, profile).await?;
+        shared.lock().loaded = Some(loaded);
+    }
+    reprepare(&shared).await
+}
+
+#[derive(Deserialize)]
+struct ProfileBody {
+    name: String,
+}
+
+async fn choose_profile(State(shared): State<Arc<Shared>>, Json(b): Json<ProfileBody>) -> ApiResult {
+    refuse_while_plotting(&shared)?;
+    let profile = shared
+        .profiles()
+        .into_iter()
+        .find(|p| p.name == b.name)
+        .ok_or_else(|| bad(format!("no machine profile named {:?}", b.name)))?;
+    shared.lock().profile = profile;
+    reprepare(&shared).await
+}
+
+async fn upload_profile(
+    State(shared): State<Arc<Shared>>,
+    Query(q): Query<UploadQuery>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult {
+    refuse_while_plotting(&shared)?;
+    let name = clean_name(&q.name)?;
+    let bytes = upload_body(&name, &headers, body, shared.config.max_upload)?;
+    let text = std::str::from_utf8(&bytes).map_err(|_| bad(format!("{name}: a machine profile is UTF-8 TOML text")))?;
+    let profile = MachineProfile::from_toml(text, &name).map_err(|e| bad(e.to_string()))?;
+    plotter_path::motion::plan::machine_config(&profile).map_err(|e| bad(format!("{name}: {e}")))?;
+    {
+        let mut i = shared.lock();
+        i.uploaded_profile = Some(profile.clone());
+        i.profile = profile;
+    }
+    reprepare(&shared).await
+}
+
+#[derive(Deserialize)]
+struct ConnectBody {
+    /// `sim`, or one of the listed serial ports.
+    target: String,
+}
+
+async fn connect(State(shared): State<Arc<Shared>>, Json(b): Json<ConnectBody>) -> ApiResult {
+    refuse_while_plotting(&shared)?;
+    let port = if b.target == "sim" {
+        None
+    } else {
+        // Only a port the server itself lists: never a path of the client's choosing.
+        let s = Arc::clone(&shared);
+        let names = tokio::task::spawn_blocking(move || port_names(&s)).await.unwrap_or_default();
+        if !names.contains(&b.target) {
+            return Err(bad(format!("{:?} is not a listed serial port (see GET /api/ports)", b.target)));
+        }
+        Some(b.target)
+    };
+    let profile = Box::new(shared.lock().profile.clone());
+    shared.command(Command::Connect(port, profile)).map_err(conflict)?;
+    ok()
+}
+
+async fn disconnect(State(shared): State<Arc<Shared>>) -> ApiResult {
+    refuse_while_plotting(&shared)?;
+    shared.command(Command::Disconnect).map_err(conflict)?;
+    ok()
+}
+
+/// Machine commands need a connection and no running plot.
+fn ready(shared: &Shared) -> Result<(), ApiError> {
+    refuse_while_plotting(shared)?;
+    if shared.lock().machine.connected.is_none() {
+        return Err(conflict("not connected: connect to the simulator or a serial port first"));
+    }
+    Ok(())
+}
+
+async fn plot(State(shared): State<Arc<Shared>>) -> ApiResult {
+    ready(&shared)?;
+    let prepared = {
+        let i = shared.lock();
+        i.prepared
+            .clone()
+            .ok_or_else(|| conflict(i.prepare_error.clone().unwrap_or_else(|| "load a drawing first".into())))?
+    };
+    if prepared.estimate_s.is_none() {
+        return Err(conflict(prepared.warnings.join("; ")));
+    }
+    // Mark it at once, so a second press is refused before the worker picks it up.
+    shared.lock().machine.activity = "plotting";
+    shared.command(Command::Plot(prepared)).map_err(conflict)?;
+    ok()
+}
+
+#[derive(Deserialize, Default)]
+#[serde(default)]
+struct PauseBody {
+    /// Feed hold at once (else at the next pen-up).
+    now: bool,
+}
+
+async fn pause(State(shared): State<Arc<Shared>>, body: Option<Json<PauseBody>>) -> ApiResult {
+    if shared.lock().machine.activity != "plotting" {
+        return Err(conflict("no plot is running"));
+    }
+    let now = body.map(|b| b.0.now).unwrap_or_default();
+    shared.control.update(|s| s.pause = Some(now));
+    ok()
+}
+
+/// Answer the pending prompt of `kind` with `answer`.
+fn answer_prompt(shared: &Shared, id: Option<u64>, answer: &str) -> ApiResult {
+    let prompt = shared.lock().prompt.clone().ok_or_else(|| conflict("nothing is waiting for an answer"))?;
+    if id.is_some_and(|i| i != prompt.id) {
+        return Err(conflict(format!("prompt {} is no longer open", id.unwrap_or_default())));
+    }
+    if !prompt.choices.contains(&answer) {
+        return Err(bad(format!("{answer:?} is not an answer to this prompt ({})", prompt.choices.join(", "))));
+    }
+    shared.control.update(|s| s.answer = Some((prompt.id, answer.to_string())));
+    ok()
+}
+
+async fn resume(State(shared): State<Arc<Shared>>) -> ApiResult {
+    answer_prompt(&shared, None, "resume")
+}
+
+async fn cancel(State(shared): State<Arc<Shared>>) -> ApiResult {
+    if !matches!(shared.lock().machine.activity, "plotting" | "paused") {
+        return Err(conflict("no plot is running"));
+    }
+    shared.control.update(|s| s.cancel = true);
+    ok()
+}
+
+#[derive(Deserialize)]
+struct AnswerBody {
+    id: u64,
+    answer: String,
+}
+
+async fn answer(State(shared): State<Arc<Shared>>, Json(b): Json<AnswerBody>) -> ApiResult {
+    answer_prompt(&shared, Some(b.id), &b.answer)
+}
+
+async fn home(State(shared): State<Arc<Shared>>) -> ApiResult {
+    ready(&shared)?;
+    shared.command(Command::Home).map_err(conflict)?;
+    ok()
+}
+
+#[derive(Deserialize)]
+struct JogBody {
+    axis: String,
+    mm: f64,
+}
+
+async fn jog(State(shared): State<Arc<Shared>>, Json(b): Json<JogBody>) -> ApiResult {
+    ready(&shared)?;
+    let target = match b.axis.as_str() {
+        "x" => JogTarget::X,
+        "y" => JogTarget::Y,
+        "z" => JogTarget::Z,
+        other => return Err(bad(format!("unknown axis {other:?} (x, y, z)"))),
+    };
+    if !(b.mm.is_finite() && b.mm.abs() <= 1000.0) {
+        return Err(bad(format!("jog distance {} mm is not in -1000..1000", b.mm)));
+    }
+    shared.command(Command::Jog(target, Some(b.mm))).map_err(conflict)?;
+    ok()
+}
+
+#[derive(Deserialize)]
+struct PenBody {
+    down: bool,
+}
+
+async fn pen(State(shared): State<Arc<Shared>>, Json(b): Json<PenBody>) -> ApiResult {
+    ready(&shared)?;
+    shared.command(Command::Jog(if b.down { JogTarget::Down } else { JogTarget::Up }, None)).map_err(conflict)?;
+    ok()
+}
+
+#[derive(Deserialize)]
+struct ConsoleBody {
+    line: String,
+}
+
+async fn console(State(shared): State<Arc<Shared>>, Json(b): Json<ConsoleBody>) -> ApiResult {
+    ready(&shared)?;
+    let line = b.line.trim();
+    if line.is_empty() || line.len() > 256 || line.chars().any(char::is_control) {
+        return Err(bad("a console line is 1-256 printable characters"));
+    }
+    shared.command(Command::Console(line.to_string())).map_err(conflict)?;
+    ok()
+}

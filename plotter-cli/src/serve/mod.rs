@@ -1,0 +1,45 @@
+//! `plotter serve`: the local web app. An HTTP server (axum on tokio) with the page's assets compiled into the
+//! binary, a JSON API and a server-sent event stream, in front of the same host library the CLI uses.
+//!
+//! - [`api`]: routes, the Host/Origin/controller guard, handlers;
+//! - [`events`]: the event channel to the pages;
+//! - [`state`]: the shared state and what a page is sent;
+//! - [`safety`]: Host/Origin checks and control tokens;
+//! - [`worker`]: the thread that owns the link to the machine and runs plots;
+//! - [`paced`]: the simulator paced to the wall clock.
+//!
+//! The HTTP side never blocks on the machine: it sends commands to the worker and the worker reports through
+//! events, so a long plot, a homing cycle or a slow serial port never holds up a page.
+
+pub(crate) mod api;
+pub(crate) mod events;
+pub(crate) mod paced;
+pub(crate) mod safety;
+pub(crate) mod state;
+pub(crate) mod worker;
+
+use std::sync::Arc;
+
+use state::{Config, Shared};
+
+/// Start the machine worker and build the app for `config`.
+pub(crate) fn app(config: Config) -> (Arc<Shared>, axum::Router) {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let shared = Arc::new(Shared::new(config, tx));
+    let worker_shared = Arc::clone(&shared);
+    std::thread::Builder::new()
+        .name("machine".into())
+        .spawn(move || worker::run(worker_shared, rx))
+        .map_or_else(|e| eprintln!("error: cannot start the machine worker: {e}"), |_| ());
+    let router = api::router(Arc::clone(&shared));
+    (shared, router)
+}
+
+/// Serve on `listener` until the process ends.
+pub(crate) async fn serve(listener: tokio::net::TcpListener, config: Config) -> std::io::Result<()> {
+    let (_shared, router) = app(config);
+    axum::serve(listener, router).await
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,156 @@
+//! Who may talk to the server, and who may drive the machine.
+//!
+//! # Host and Origin
+//! A page on another site can make a browser send requests to `127.0.0.1`: cross-site form posts and `fetch`es
+//! (the `Origin` header names the other site), and DNS rebinding, where the attacker's own host name is made to
+//! resolve to 127.0.0.1 so the browser thinks the page is same-origin (the `Host` header then holds the attacker's
+//! name). So every request must carry a `Host` that is this server's own authority — an IP literal or `localhost`,
+//! with the port it listens on; names are refused, since a rebinding attack needs one — and, when an `Origin` is
+//! sent, it must be `http://` plus that same `Host`.
+//!
+//! # One controller
+//! Many pages may watch; one drives. A page claims control and gets a random token; every request that changes
+//! something must carry it in the `X-Plotter-Token` header. Control is given up when that page's event stream
+//! closes (the tab is closed) or on request; then another page may claim it.
+
+use std::hash::{BuildHasher as _, Hasher as _};
+use std::net::{IpAddr, SocketAddr};
+
+use axum::http::{HeaderMap, header};
+
+/// The header that carries the controller's token.
+pub(crate) const TOKEN_HEADER: &str = "x-plotter-token";
+
+/// Why a request is refused.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum Refusal {
+    /// No or a foreign `Host`.
+    Host(String),
+    /// A foreign `Origin`.
+    Origin(String),
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Refusal::Host(h) => {
+                write!(f, "refused: Host {h:?} is not this server (open the address plotter serve printed)")
+            }
+            Refusal::Origin(o) => write!(f, "refused: requests from {o:?} are not accepted (cross-site request)"),
+        }
+    }
+}
+
+/// Whether `host` (a `Host` header value) names this server listening on `local`: `localhost` or an IP literal,
+/// with `local`'s port. A wildcard listen address (0.0.0.0, ::) accepts any IP literal, since the server then
+/// answers on every interface; a specific one accepts itself and loopback.
+pub(crate) fn host_is_ours(host: &str, local: SocketAddr) -> bool {
+    let Some((name, port)) = split_authority(host) else { return false };
+    if port != local.port() {
+        return false;
+    }
+    if name.eq_ignore_ascii_case("localhost") {
+        return true;
+    }
+    let Ok(ip) = name.parse::<IpAddr>() else { return false };
+    local.ip().is_unspecified() || ip == local.ip() || ip.is_loopback()
+}
+
+/// `name:port` or `[v6]:port` → (name, port). A `Host` without a port is refused: browsers always send it for a
+/// non-default port, and we never listen on port 80.
+fn split_authority(host: &str) -> Option<(&str, u16)> {
+    let (name, port) = host.rsplit_once(':')?;
+    let name = name.strip_prefix('[').and_then(|n| n.strip_suffix(']')).unwrap_or(name);
+    Some((name, port.parse().ok()?))
+}
+
+/// Check a request's `Host` and `Origin` headers for the server listening on `local`.
+pub(crate) fn check_request(headers: &HeaderMap, local: SocketAddr) -> Result<(), Refusal> {
+    let host = headers.get(header::HOST).and_then(|h| h.to_str().ok()).unwrap_or("");
+    if !host_is_ours(host, local) {
+        return Err(Refusal::Host(host.to_string()));
+    }
+    if let Some(origin) = headers.get(header::ORIGIN) {
+        let origin = origin.to_str().unwrap_or("");
+        if origin.strip_prefix("http://") != Some(host) {
+            return Err(Refusal::Origin(origin.to_string()));
+        }
+    }
+    Ok(())
+}
+
+/// A fresh random token: 128 bits from the standard library's randomly keyed hasher (seeded from the operating
+/// system's random source once per process, then a counter and the clock).
+pub(crate) fn new_token() -> String {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let word = || {
+        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+        h.write_u64(COUNTER.fetch_add(1, Ordering::Relaxed));
+        h.write_u128(std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default().as_nanos());
+        h.finish()
+    };
+    format!("{:016x}{:016x}", word(), word())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use axum::http::HeaderValue;
+
+    fn headers(host: &str, origin: Option<&str>) -> HeaderMap {
+        let mut h = HeaderMap::new();
+        h.insert(header::HOST, HeaderValue::from_str(host).unwrap());
+        if let Some(o) = origin {
+            h.insert(header::ORIGIN, HeaderValue::from_str(o).unwrap());
+        }
+        h
+    }
+
+    #[test]
+    fn loopback_server_accepts_only_its_own_authority() {
+        let local: SocketAddr = "127.0.0.1:8040".parse().unwrap();
+        for ok in ["127.0.0.1:8040", "localhost:8040", "LOCALHOST:8040", "[::1]:8040"] {
+            assert!(host_is_ours(ok, local), "{ok}");
+        }
+        for bad in ["evil.example:8040", "127.0.0.1:8041", "127.0.0.1", "", "192.168.1.5:8040", "[::1]", "a:b:c"] {
+            assert!(!host_is_ours(bad, local), "{bad}");
+        }
+    }
+
+    #[test]
+    fn wildcard_listener_accepts_ip_literals_but_never_names() {
+        let local: SocketAddr = "0.0.0.0:9000".parse().unwrap();
+        assert!(host_is_ours("192.168.1.5:9000", local));
+        assert!(!host_is_ours("plotter.attacker.example:9000", local));
+        let specific: SocketAddr = "10.1.2.3:9000".parse().unwrap();
+        assert!(host_is_ours("10.1.2.3:9000", specific));
+        assert!(!host_is_ours("10.1.2.4:9000", specific));
+    }
+
+    #[test]
+    fn origin_must_match_the_host() {
+        let local: SocketAddr = "127.0.0.1:8040".parse().unwrap();
+        assert_eq!(check_request(&headers("127.0.0.1:8040", None), local), Ok(()));
+        assert_eq!(check_request(&headers("127.0.0.1:8040", Some("http://127.0.0.1:8040")), local), Ok(()));
+        assert_eq!(
+            check_request(&headers("127.0.0.1:8040", Some("http://evil.example")), local),
+            Err(Refusal::Origin("http://evil.example".into()))
+        );
+        // Same host, other scheme or another loopback spelling: still not the page we served.
+        assert!(check_request(&headers("127.0.0.1:8040", Some("https://127.0.0.1:8040")), local).is_err());
+        assert!(check_request(&headers("127.0.0.1:8040", Some("http://localhost:8040")), local).is_err());
+        assert!(check_request(&headers("127.0.0.1:8040", Some("null")), local).is_err());
+        assert_eq!(
+            check_request(&headers("rebind.example:8040", None), local),
+            Err(Refusal::Host("rebind.example:8040".into()))
+        );
+    }
+
+    #[test]
+    fn tokens_are_distinct_and_long() {
+        let (a, b) = (new_token(), new_token());
+        assert_eq!(a.len(), 32);
+        assert_ne!(a, b);
+    }
+}

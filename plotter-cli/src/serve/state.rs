@@ -1,0 +1,372 @@
+//! The server's shared state: the drawing and its settings, the prepared plot, the machine's state as the worker
+//! reports it, who controls, and the snapshot every page is sent.
+
+use std::net::SocketAddr;
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, mpsc};
+
+use plotter_host::input::{Decoded, InputArgs};
+use plotter_host::job::page::PageView;
+use plotter_host::job::prepare::Prepared;
+use plotter_path::MachineProfile;
+use serde::{Deserialize, Serialize};
+
+use super::events::{Event, Hub, ProgressEvent, Prompt};
+use super::worker::Command;
+
+/// Fixed at start-up by `plotter serve`'s flags.
+#[derive(Clone)]
+pub(crate) struct Config {
+    /// The address the server listens on (Host checks use it).
+    pub(crate) local: SocketAddr,
+    /// Largest upload, bytes.
+    pub(crate) max_upload: usize,
+    /// Simulator pace, × real time.
+    pub(crate) sim_speed: f64,
+    /// Serial devices named on the command line (offered besides the detected ports).
+    pub(crate) extra_ports: Vec<String>,
+    /// Machine profiles on offer: the built-in kit first, then those named on the command line.
+    pub(crate) profiles: Vec<MachineProfile>,
+}
+
+/// Layout, layer and ordering settings as the page sends them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub(crate) struct Settings {
+    /// `a3`, `a4`, `a5`, `letter`, `WxH` (mm), or empty for the drawing's own page.
+    pub(crate) paper: String,
+    /// `portrait`, `landscape`, or empty (named papers default to portrait).
+    pub(crate) orientation: String,
+    /// Margin, mm.
+    pub(crate) margin: f64,
+    /// Fit inside the margins.
+    pub(crate) fit: bool,
+    /// Centre on the page.
+    pub(crate) center: bool,
+    /// Quarter turns clockwise.
+    pub(crate) rotate: i32,
+    /// Path ordering on.
+    pub(crate) optimize: bool,
+    /// Raster tracing mode: `outline`, `centerline`, `edges`, `hatch`.
+    pub(crate) trace: String,
+    /// Per-layer choices.
+    pub(crate) layers: Vec<LayerSetting>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            paper: String::new(),
+            orientation: String::new(),
+            margin: 10.0,
+            fit: false,
+            center: false,
+            rotate: 0,
+            optimize: true,
+            trace: "outline".into(),
+            layers: Vec::new(),
+        }
+    }
+}
+
+/// One layer's setting.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct LayerSetting {
+    /// Layer name.
+    pub(crate) name: String,
+    /// Plotted or not.
+    pub(crate) visible: bool,
+    /// Pen colour `#rrggbb` (empty: the drawing's own).
+    #[serde(default)]
+    pub(crate) color: String,
+    /// Pen width, mm (0: the drawing's own).
+    #[serde(default)]
+    pub(crate) width_mm: f64,
+}
+
+/// Where the drawing came from.
+#[derive(Clone)]
+pub(crate) enum Source {
+    /// An uploaded file: its name (for kind detection and messages only) and bytes.
+    Upload { name: String, bytes: Arc<Vec<u8>> },
+    /// A generated figure's spec (after `gen:`).
+    Gen(String),
+}
+
+/// The decoded drawing and the input options it was decoded with.
+pub(crate) struct Loaded {
+    /// Where it came from.
+    pub(crate) source: Source,
+    /// Shown name.
+    pub(crate) name: String,
+    /// Decoded drawing and warnings.
+    pub(crate) decoded: Decoded,
+    /// Input options used (re-decoded when the tracing mode changes).
+    pub(crate) input: InputArgs,
+}
+
+/// What the machine is doing, as the worker reports it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub(crate) struct MachineState {
+    /// What it is connected to (`None`: not connected).
+    pub(crate) connected: Option<String>,
+    /// `idle`, `busy` (a command), `plotting`, `paused`, `connecting`.
+    pub(crate) activity: &'static str,
+    /// Position in steps, last known.
+    pub(crate) position: Option<[i32; 4]>,
+    /// Last error.
+    pub(crate) error: Option<String>,
+}
+
+/// Everything mutable.
+pub(crate) struct Inner {
+    /// The controller's token.
+    pub(crate) controller: Option<String>,
+    /// The drawing.
+    pub(crate) loaded: Option<Loaded>,
+    /// Current settings.
+    pub(crate) settings: Settings,
+    /// The drawing ready to plot (and a counter the page watches to refetch the view).
+    pub(crate) prepared: Option<Arc<Prepared>>,
+    /// Why there is no prepared drawing.
+    pub(crate) prepare_error: Option<String>,
+    /// Bumped whenever `prepared` changes.
+    pub(crate) view_version: u64,
+    /// The chosen machine profile (index in the config's list, or an uploaded one).
+    pub(crate) profile: MachineProfile,
+    /// An uploaded profile, offered after the configured ones.
+    pub(crate) uploaded_profile: Option<MachineProfile>,
+    /// The machine.
+    pub(crate) machine: MachineState,
+    /// The last plot's progress.
+    pub(crate) progress: Option<ProgressEvent>,
+    /// The question the job waits on.
+    pub(crate) prompt: Option<Prompt>,
+    /// The as-stepped drawing of the last simulated plot.
+    pub(crate) stepped: Option<Arc<PageView>>,
+    /// Bumped whenever `stepped` changes.
+    pub(crate) stepped_version: u64,
+}
+
+/// Requests from the HTTP side to a running plot, and answers to its prompts.
+#[derive(Default)]
+pub(crate) struct PlotControl {
+    state: Mutex<ControlState>,
+    changed: Condvar,
+}
+
+/// See [`PlotControl`].
+#[derive(Default)]
+pub(crate) struct ControlState {
+    /// A pause was asked: `Some(true)` at once, `Some(false)` at the next pen-up.
+    pub(crate) pause: Option<bool>,
+    /// Cancel the plot.
+    pub(crate) cancel: bool,
+    /// An answer to prompt `id`.
+    pub(crate) answer: Option<(u64, String)>,
+}
+
+impl PlotControl {
+    /// Change the state and wake the worker.
+    pub(crate) fn update(&self, f: impl FnOnce(&mut ControlState)) {
+        f(&mut self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner));
+        self.changed.notify_all();
+    }
+
+    /// Wait until `f` gives an answer.
+    pub(crate) fn wait_for<R>(&self, mut f: impl FnMut(&mut ControlState) -> Option<R>) -> R {
+        let mut state = self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        loop {
+            if let Some(r) = f(&mut state) {
+                return r;
+            }
+            state = self.changed.wait(state).unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+    }
+
+    /// Forget requests from a previous plot.
+    pub(crate) fn reset(&self) {
+        self.update(|s| *s = ControlState::default());
+    }
+}
+
+/// Shared by every handler and the machine worker.
+pub(crate) struct Shared {
+    /// Start-up configuration.
+    pub(crate) config: Config,
+    /// Event channel to the pages.
+    pub(crate) hub: Hub,
+    /// Mutable state.
+    inner: Mutex<Inner>,
+    /// Commands to the machine worker.
+    pub(crate) worker: Mutex<mpsc::Sender<Command>>,
+    /// Requests to a running plot.
+    pub(crate) control: PlotControl,
+}
+
+impl Shared {
+    /// New state; `worker` receives machine commands.
+    pub(crate) fn new(config: Config, worker: mpsc::Sender<Command>) -> Shared {
+        let profile = config.profiles.first().cloned().unwrap_or_else(MachineProfile::default_plotter);
+        Shared {
+            config,
+            hub: Hub::new(),
+            inner: Mutex::new(Inner {
+                controller: None,
+                loaded: None,
+                settings: Settings::default(),
+                prepared: None,
+                prepare_error: None,
+                view_version: 0,
+                profile,
+                uploaded_profile: None,
+                machine: MachineState { connected: None, activity: "idle", position: None, error: None },
+                progress: None,
+                prompt: None,
+                stepped: None,
+                stepped_version: 0,
+            }),
+            worker: Mutex::new(worker),
+            control: PlotControl::default(),
+        }
+    }
+
+    /// Lock the mutable state (a panicked holder leaves it usable: every update is a plain assignment).
+    pub(crate) fn lock(&self) -> MutexGuard<'_, Inner> {
+        self.inner.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Send every page the current state.
+    pub(crate) fn publish(&self) {
+        let snapshot = self.snapshot();
+        self.hub.send(Event::new("state", &snapshot));
+    }
+
+    /// Send a command to the machine worker.
+    pub(crate) fn command(&self, c: Command) -> Result<(), String> {
+        self.worker
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .send(c)
+            .map_err(|_| "the machine worker has stopped".to_string())
+    }
+
+    /// The profiles on offer (configured, then an uploaded one).
+    pub(crate) fn profiles(&self) -> Vec<MachineProfile> {
+        let mut all = self.config.profiles.clone();
+        all.extend(self.lock().uploaded_profile.clone());
+        all
+    }
+
+    /// The state every page sees.
+    pub(crate) fn snapshot(&self) -> Snapshot {
+        let profiles: Vec<String> = self.profiles().into_iter().map(|p| p.name).collect();
+        let i = self.lock();
+        Snapshot {
+            controlled: i.controller.is_some(),
+            drawing: i.loaded.as_ref().map(|l| DrawingInfo {
+                name: l.name.clone(),
+                layers: l
+                    .decoded
+                    .drawing
+                    .layers
+                    .iter()
+                    .map(|layer| LayerInfo {
+                        name: layer.name.clone(),
+                        color: layer.pen.color.to_hex(),
+                        width_mm: layer.pen.width_mm,
+                        paths: layer.paths.iter().filter(|p| p.points.len() >= 2).count(),
+                    })
+                    .collect(),
+                warnings: l.decoded.warnings.clone(),
+            }),
+            settings: i.settings.clone(),
+            prepared: i.prepared.as_ref().map(|p| PreparedInfo {
+                stats: serde_json::to_value(&p.stats).unwrap_or_default(),
+                estimate_s: p.estimate_s,
+                pen_up_before_mm: p.optimize.as_ref().map(|r| r.pen_up_before_mm),
+                pen_up_after_mm: p.optimize.as_ref().map(|r| r.pen_up_after_mm),
+                warnings: p.warnings.clone(),
+            }),
+            prepare_error: i.prepare_error.clone(),
+            view_version: i.view_version,
+            profile: i.profile.name.clone(),
+            profiles,
+            machine: i.machine.clone(),
+            progress: i.progress,
+            prompt: i.prompt.clone(),
+            stepped_version: i.stepped.as_ref().map(|_| i.stepped_version),
+            max_upload: self.config.max_upload,
+        }
+    }
+}
+
+/// The state a page is sent (`GET /api/state`, and the `state` event).
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct Snapshot {
+    /// Whether some page controls the machine.
+    pub(crate) controlled: bool,
+    /// The loaded drawing.
+    pub(crate) drawing: Option<DrawingInfo>,
+    /// Current settings.
+    pub(crate) settings: Settings,
+    /// The prepared plot's figures.
+    pub(crate) prepared: Option<PreparedInfo>,
+    /// Why nothing is prepared.
+    pub(crate) prepare_error: Option<String>,
+    /// Refetch `GET /api/view` when this changes.
+    pub(crate) view_version: u64,
+    /// The chosen profile's name.
+    pub(crate) profile: String,
+    /// Profiles on offer.
+    pub(crate) profiles: Vec<String>,
+    /// The machine.
+    pub(crate) machine: MachineState,
+    /// The last plot's progress.
+    pub(crate) progress: Option<ProgressEvent>,
+    /// The question the job waits on.
+    pub(crate) prompt: Option<Prompt>,
+    /// `GET /api/stepped` has an as-stepped drawing of this version.
+    pub(crate) stepped_version: Option<u64>,
+    /// Upload limit, bytes.
+    pub(crate) max_upload: usize,
+}
+
+/// The loaded drawing, for the layer list.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct DrawingInfo {
+    /// Shown name.
+    pub(crate) name: String,
+    /// Its layers as decoded.
+    pub(crate) layers: Vec<LayerInfo>,
+    /// Decoding warnings.
+    pub(crate) warnings: Vec<String>,
+}
+
+/// One decoded layer.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct LayerInfo {
+    /// Name.
+    pub(crate) name: String,
+    /// Its own pen colour.
+    pub(crate) color: String,
+    /// Its own pen width, mm.
+    pub(crate) width_mm: f64,
+    /// Paths with something to draw.
+    pub(crate) paths: usize,
+}
+
+/// Figures of the prepared plot.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct PreparedInfo {
+    /// `plotter stats` figures.
+    pub(crate) stats: serde_json::Value,
+    /// Planned time, seconds.
+    pub(crate) estimate_s: Option<f64>,
+    /// Pen-up travel before ordering, mm.
+    pub(crate) pen_up_before_mm: Option<f64>,
+    /// Pen-up travel after ordering, mm.
+    pub(crate) pen_up_after_mm: Option<f64>,
+    /// Layer and work-area warnings.
+    pub(crate) warnings: Vec<String>,
+}

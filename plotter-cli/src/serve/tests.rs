@@ -1,0 +1,300 @@
+//! HTTP API tests, in-process through the router (`tower::ServiceExt::oneshot`), with the machine worker running
+//! the paced simulator.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use axum::Router;
+use axum::body::{Body, to_bytes};
+use axum::http::{Request, StatusCode, header};
+use serde_json::{Value, json};
+use tower::ServiceExt as _;
+
+use super::state::{Config, Shared};
+
+const HOST: &str = "127.0.0.1:8040";
+const DUCK: &[u8] = include_bytes!("../../../samples/duck.svg");
+
+fn test_app(max_upload: usize, sim_speed: f64) -> (Arc<Shared>, Router) {
+    super::app(Config {
+        local: HOST.parse().unwrap(),
+        max_upload,
+        sim_speed,
+        extra_ports: Vec::new(),
+        profiles: vec![plotter_path::MachineProfile::default_plotter()],
+    })
+}
+
+struct Client {
+    router: Router,
+    token: Option<String>,
+}
+
+impl Client {
+    fn new(router: &Router) -> Client {
+        Client { router: router.clone(), token: None }
+    }
+
+    async fn send(&self, req: Request<Body>) -> (StatusCode, Value) {
+        let res = self.router.clone().oneshot(req).await.unwrap();
+        let status = res.status();
+        let bytes = to_bytes(res.into_body(), 1 << 24).await.unwrap();
+        (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null))
+    }
+
+    fn request(&self, method: &str, uri: &str) -> axum::http::request::Builder {
+        let b = Request::builder().method(method).uri(uri).header(header::HOST, HOST);
+        match &self.token {
+            Some(t) => b.header("x-plotter-token", t),
+            None => b,
+        }
+    }
+
+    async fn get(&self, uri: &str) -> (StatusCode, Value) {
+        self.send(self.request("GET", uri).body(Body::empty()).unwrap()).await
+    }
+
+    async fn post(&self, uri: &str, body: Value) -> (StatusCode, Value) {
+        let req = self.request("POST", uri).header(header::CONTENT_TYPE, "application/json");
+        self.send(req.body(Body::from(body.to_string())).unwrap()).await
+    }
+
+    async fn upload(&self, name: &str, bytes: &[u8]) -> (StatusCode, Value) {
+        let uri = format!("/api/drawing?name={name}");
+        self.send(self.request("POST", &uri).body(Body::from(bytes.to_vec())).unwrap()).await
+    }
+
+    async fn claim(&mut self) {
+        let (s, v) = self.post("/api/control/claim", json!({})).await;
+        assert_eq!(s, StatusCode::OK, "{v}");
+        self.token = Some(v["token"].as_str().unwrap().to_string());
+    }
+}
+
+/// Poll the state until `f` holds (bounded: fails after 60 s).
+async fn wait_state(c: &Client, what: &str, f: impl Fn(&Value) -> bool) -> Value {
+    let t0 = Instant::now();
+    loop {
+        let (_, s) = c.get("/api/state").await;
+        if f(&s) {
+            return s;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "timed out waiting for {what}; state {s}");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+#[tokio::test]
+async fn the_page_and_its_assets_are_served_from_the_binary() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let c = Client::new(&router);
+    for (path, kind, needle) in [
+        ("/", "text/html", "id=\"preview\""),
+        ("/app.js", "text/javascript", "EventSource"),
+        ("/style.css", "text/css", "#preview"),
+    ] {
+        let res = router.clone().oneshot(c.request("GET", path).body(Body::empty()).unwrap()).await.unwrap();
+        assert_eq!(res.status(), StatusCode::OK, "{path}");
+        assert!(res.headers()[header::CONTENT_TYPE].to_str().unwrap().starts_with(kind), "{path}");
+        let body = to_bytes(res.into_body(), 1 << 20).await.unwrap();
+        assert!(String::from_utf8_lossy(&body).contains(needle), "{path}");
+    }
+}
+
+#[tokio::test]
+async fn foreign_host_or_origin_is_refused() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let c = Client::new(&router);
+    // DNS rebinding: the attacker's name resolving to 127.0.0.1.
+    let req = Request::get("/api/state").header(header::HOST, "rebind.attacker.example:8040").body(Body::empty());
+    let (s, v) = c.send(req.unwrap()).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    assert!(v["error"].as_str().unwrap().contains("Host \"rebind.attacker.example:8040\""), "{v}");
+    // A cross-site POST: right Host, another site's Origin. Refused before anything else is looked at.
+    let req = c.request("POST", "/api/control/claim").header(header::ORIGIN, "http://evil.example").body(Body::empty());
+    let (s, v) = c.send(req.unwrap()).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    assert!(v["error"].as_str().unwrap().contains("cross-site"), "{v}");
+    // No Host at all.
+    let (s, _) = c.send(Request::get("/").body(Body::empty()).unwrap()).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    // The same request from our own page is fine.
+    let req = c.request("POST", "/api/control/claim").header(header::ORIGIN, format!("http://{HOST}"));
+    let (s, _) = c.send(req.body(Body::empty()).unwrap()).await;
+    assert_eq!(s, StatusCode::OK);
+}
+
+#[tokio::test]
+async fn one_controller_at_a_time_others_read_only() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut a = Client::new(&router);
+    let mut b = Client::new(&router);
+    // Nobody controls yet: changes are refused until control is taken.
+    let (s, v) = a.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::FORBIDDEN, "{v}");
+    a.claim().await;
+    let (s, v) = b.post("/api/control/claim", json!({})).await;
+    assert_eq!(s, StatusCode::CONFLICT, "{v}");
+    // A wrong token is as good as none.
+    b.token = Some("0".repeat(32));
+    let (s, v) = b.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+    assert!(v["error"].as_str().unwrap().contains("read-only"), "{v}");
+    // Reading is open to all.
+    let (s, v) = b.get("/api/state").await;
+    assert_eq!((s, v["controlled"].clone()), (StatusCode::OK, json!(true)));
+    // Once released, the other page may take over; the first one's token is then worthless.
+    let (s, _) = a.post("/api/control/release", json!({})).await;
+    assert_eq!(s, StatusCode::OK);
+    b.claim().await;
+    let (s, _) = a.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::FORBIDDEN);
+}
+
+#[tokio::test]
+async fn an_upload_over_the_limit_gets_a_clear_error() {
+    let (_, router) = test_app(1000, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, v) = c.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::PAYLOAD_TOO_LARGE, "{v}");
+    let e = v["error"].as_str().unwrap();
+    assert!(
+        e.contains("duck.svg is too large") && e.contains("limited to 0.0 MB") && e.contains("--max-upload-mb"),
+        "{e}"
+    );
+    // Without a declared length (a chunked body), the cut-off body gets the same message.
+    let chunks = futures_util::stream::iter(vec![Ok::<_, std::io::Error>(DUCK.to_vec())]);
+    let req = c.request("POST", "/api/drawing?name=duck.svg").body(Body::from_stream(chunks)).unwrap();
+    let (s, v) = c.send(req).await;
+    assert_eq!(s, StatusCode::PAYLOAD_TOO_LARGE, "{v}");
+    assert!(v["error"].as_str().unwrap().contains("too large"), "{v}");
+}
+
+#[tokio::test]
+async fn upload_gives_layers_figures_estimate_and_a_vector_view() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    // A path in the name is reduced to the file name: it only tells the kind.
+    let (s, v) = c.upload("..%2F..%2Fetc%2Fduck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert_eq!(st["drawing"]["name"], "duck.svg");
+    assert_eq!(st["drawing"]["layers"][0]["name"], "root");
+    // samples/duck.svg: 6 paths; the figures `plotter stats samples/duck.svg` prints: 565.50 mm pen-down, pen-up
+    // 191.86 mm in file order, 92.37 mm ordered, plot time 14.8 s ordered.
+    let p = &st["prepared"];
+    assert_eq!(p["stats"]["paths"], 6);
+    assert!((p["stats"]["pen_down_mm"].as_f64().unwrap() - 565.50).abs() < 0.01, "{p}");
+    assert!((p["pen_up_before_mm"].as_f64().unwrap() - 191.86).abs() < 0.01, "{p}");
+    assert!((p["pen_up_after_mm"].as_f64().unwrap() - 92.37).abs() < 0.01, "{p}");
+    assert!((p["estimate_s"].as_f64().unwrap() - 14.8).abs() < 0.05, "{p}");
+    let (s, view) = c.get("/api/view").await;
+    assert_eq!(s, StatusCode::OK);
+    let paths = view["layers"][0]["paths"].as_array().unwrap();
+    assert_eq!(paths.len(), 6);
+    assert_eq!(view["page_mm"], json!([120.0, 90.0]));
+    assert_eq!(view["travel"].as_array().unwrap().len(), 5);
+    // Without ordering: file order, and the eye (a 6-sided polygon, 7 points) second.
+    let (s, v) = c.post("/api/settings", json!({ "optimize": false })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, view) = c.get("/api/view").await;
+    assert_eq!(view["layers"][0]["paths"][1]["points"].as_array().unwrap().len(), 7);
+    assert_eq!(view["layers"][0]["paths"][1]["points"][0], json!([61.0, 17.0]));
+    // Hiding the only layer leaves nothing to plot, said plainly.
+    let hide = json!({ "layers": [{ "name": "root", "visible": false }] });
+    let (s, v) = c.post("/api/settings", hide).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(v["error"].as_str().unwrap().contains("nothing to plot"), "{v}");
+    // A bad setting is refused and names itself.
+    let (s, v) = c.post("/api/settings", json!({ "paper": "b52" })).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(v["error"].as_str().unwrap().contains("b52"), "{v}");
+    // Undecodable input names the file.
+    let (s, v) = c.upload("broken.svg", b"<svg><g></svg>").await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(v["error"].as_str().unwrap().contains("broken.svg"), "{v}");
+}
+
+#[tokio::test]
+async fn generated_figures_load_too() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, v) = c.post("/api/gen", json!({ "spec": "gen:rose?k=5" })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert_eq!(st["drawing"]["name"], "gen:rose?k=5");
+    let (s, v) = c.post("/api/gen", json!({ "spec": "gen:nonsense" })).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(v["error"].as_str().unwrap().contains("nonsense"), "{v}");
+}
+
+#[tokio::test]
+async fn only_listed_ports_can_be_opened() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, v) = c.post("/api/connect", json!({ "target": "/etc/passwd" })).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(v["error"].as_str().unwrap().contains("not a listed serial port"), "{v}");
+    let (s, v) = c.post("/api/plot", json!({})).await;
+    assert_eq!(s, StatusCode::CONFLICT);
+    assert!(v["error"].as_str().unwrap().contains("not connected"), "{v}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn plot_on_the_simulator_pause_resume_and_finish() {
+    let (_, router) = test_app(1 << 20, 50.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, v) = c.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    c.post("/api/connect", json!({ "target": "sim" })).await;
+    wait_state(&c, "connected", |s| s["machine"]["connected"].is_string() && s["machine"]["activity"] == "idle").await;
+    // Jog and pen commands reach the machine and move it: 10 mm at 80 steps/mm.
+    let (s, v) = c.post("/api/home", json!({})).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    wait_state(&c, "homed", |s| s["machine"]["activity"] == "idle").await;
+    let (_, before) = c.get("/api/state").await;
+    let x0 = before["machine"]["position"][0].as_i64().unwrap();
+    c.post("/api/jog", json!({ "axis": "x", "mm": 10.0 })).await;
+    let after = wait_state(&c, "jogged", |s| {
+        s["machine"]["activity"] == "idle" && s["machine"]["position"][0].as_i64() != Some(x0)
+    })
+    .await;
+    let steps_per_mm = plotter_path::MachineProfile::default_plotter().axes.x.steps_per_mm;
+    let moved = after["machine"]["position"][0].as_i64().unwrap() - x0;
+    assert_eq!(moved as f64, (10.0 * steps_per_mm).round());
+    // Plot, pause at the next pen-up, resume, finish.
+    let (s, v) = c.post("/api/plot", json!({})).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (s, _) = c.post("/api/plot", json!({})).await;
+    assert_eq!(s, StatusCode::CONFLICT, "a second plot while one runs");
+    wait_state(&c, "some progress", |s| s["progress"]["executed"].as_u64().unwrap_or(0) > 0).await;
+    let (s, v) = c.post("/api/pause", json!({ "now": false })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let paused = wait_state(&c, "the pause prompt", |s| s["prompt"]["kind"] == "pause").await;
+    assert_eq!(paused["machine"]["activity"], "paused");
+    assert_eq!(paused["prompt"]["choices"], json!(["resume", "cancel"]));
+    let (s, _) = c.post("/api/prompt", json!({ "id": paused["prompt"]["id"], "answer": "skip" })).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "not one of the choices");
+    let (s, v) = c.post("/api/resume", json!({})).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let done = wait_state(&c, "the end", |s| s["machine"]["activity"] == "idle" && s["stepped_version"].is_u64()).await;
+    let p = &done["progress"];
+    assert_eq!(p["executed"], p["total"]);
+    assert_eq!(p["percent"], 100.0);
+    assert!((p["draw_done_mm"].as_f64().unwrap() - 565.5).abs() < 1.0, "{p}");
+    // The as-stepped drawing covers the duck's box (x 8..116, y 9..82 mm in samples/duck.svg) within a step, and
+    // its staircase is at least as long as the straight pen-down length and at most sqrt(2) times it.
+    let (s, stepped) = c.get("/api/stepped").await;
+    assert_eq!(s, StatusCode::OK);
+    let bbox: Vec<f64> = stepped["bbox_mm"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    for (got, want) in bbox.iter().zip([8.0, 9.0, 116.0, 82.0]) {
+        assert!((got - want).abs() <= 1.0 / steps_per_mm, "as-stepped box {bbox:?}");
+    }
+    let drawn: f64 = stepped["draw_mm"].as_f64().unwrap();
+    assert!(drawn >= 565.0 && drawn <= 565.5 * 2f64.sqrt(), "as-stepped pen-down {drawn} mm");
+}

@@ -1,0 +1,342 @@
+//! The machine worker: one thread owns the link to the plotter (a serial port, or the simulator paced to the wall
+//! clock) and runs what the HTTP side asks — connect, home, jog, console lines, and plots through
+//! [`plotter_host::job::plot`] — reporting to every page through the event hub. A plot's pause, resume and cancel
+//! requests and prompt answers reach it through [`super::state::PlotControl`], which [`WebEvents`] reads.
+
+use std::sync::Arc;
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+use plotter_host::job::page::view_with_travel;
+use plotter_host::job::prepare::Prepared;
+use plotter_host::job::progress::{JobProgress, PlotEvents};
+use plotter_host::job::stepped::stepped_drawing;
+use plotter_host::job::{self};
+use plotter_host::link::Transport as _;
+use plotter_host::link::serial::SerialTransport;
+use plotter_host::link::session::{COMMAND_TIMEOUT, Session};
+use plotter_host::link::sim::SimTransport;
+use plotter_host::link::stream::PauseChoice;
+use plotter_path::MachineProfile;
+use plotter_path::motion::plan;
+use serde::Serialize;
+
+use super::events::{Event, ProgressEvent, Prompt};
+use super::paced::PacedSim;
+use super::state::Shared;
+use crate::cmd_console::console_bytes;
+use crate::cmd_home::LinkArgs;
+use crate::cmd_jog::{JogArgs, JogTarget, jog_lines};
+
+/// What the worker is asked to do.
+pub(crate) enum Command {
+    /// Connect to the simulator (`None`) or a serial device, with a profile.
+    Connect(Option<String>, Box<MachineProfile>),
+    /// Close the link.
+    Disconnect,
+    /// Home.
+    Home,
+    /// Move an axis (x, y, z) by mm, or lift/lower the pen.
+    Jog(JogTarget, Option<f64>),
+    /// Send a console line.
+    Console(String),
+    /// Plot.
+    Plot(Arc<Prepared>),
+}
+
+/// The open link (boxed: the simulator is large, and the link moves only when it opens).
+enum Link {
+    Sim(Box<Session<PacedSim>>),
+    Serial(Box<Session<SerialTransport>>),
+}
+
+/// Run `$body` with `$s` bound to the session, whichever the transport.
+macro_rules! on_session {
+    ($link:expr, $s:ident => $body:expr) => {
+        match $link {
+            Link::Sim($s) => $body,
+            Link::Serial($s) => $body,
+        }
+    };
+}
+
+/// The worker's own state.
+struct Worker {
+    shared: Arc<Shared>,
+    link: Option<Link>,
+    profile: MachineProfile,
+}
+
+/// Run the worker until every sender is gone.
+pub(crate) fn run(shared: Arc<Shared>, commands: Receiver<Command>) {
+    let mut w = Worker { shared, link: None, profile: MachineProfile::default_plotter() };
+    while let Ok(c) = commands.recv() {
+        w.handle(c);
+    }
+}
+
+impl Worker {
+    fn set_activity(&self, activity: &'static str) {
+        self.shared.lock().machine.activity = activity;
+        self.shared.publish();
+    }
+
+    fn fail(&self, what: &str, e: &anyhow::Error) {
+        let message = format!("{what}: {e:#}");
+        self.shared.hub.log("error", message.clone());
+        self.shared.lock().machine.error = Some(message);
+    }
+
+    fn handle(&mut self, c: Command) {
+        self.shared.lock().machine.error = None;
+        match c {
+            Command::Connect(port, profile) => {
+                self.link = None;
+                self.set_activity("connecting");
+                self.profile = *profile;
+                match self.connect(port.as_deref()) {
+                    Ok((link, name)) => {
+                        self.shared.hub.log("info", format!("connected to {name}"));
+                        self.link = Some(link);
+                        self.shared.lock().machine.connected = Some(name);
+                    }
+                    Err(e) => {
+                        self.shared.lock().machine.connected = None;
+                        self.fail("cannot connect", &e);
+                    }
+                }
+            }
+            Command::Disconnect => {
+                self.link = None;
+                self.shared.lock().machine.connected = None;
+                self.shared.hub.log("info", "disconnected");
+            }
+            Command::Plot(prepared) => {
+                self.set_activity("plotting");
+                self.plot(&prepared);
+            }
+            other => {
+                self.set_activity("busy");
+                if let Err(e) = self.machine_command(other) {
+                    self.fail("command failed", &e);
+                }
+            }
+        }
+        self.refresh_position();
+        self.set_activity("idle");
+    }
+
+    fn connect(&self, port: Option<&str>) -> anyhow::Result<(Link, String)> {
+        let cfg = plan::machine_config(&self.profile)?;
+        Ok(match port {
+            None => {
+                let name = format!("simulated plotter ({} x real time)", self.shared.config.sim_speed);
+                let transport =
+                    PacedSim::new(SimTransport::new(cfg, Some(self.profile.link.baud)), self.shared.config.sim_speed);
+                (Link::Sim(Box::new(Session::connect(transport, "simulated plotter")?)), name)
+            }
+            Some(p) => {
+                let s = Session::connect(SerialTransport::open(p, self.profile.link.baud)?, p)?;
+                let name = format!("{p} (plotter-fw {})", s.info.version);
+                (Link::Serial(Box::new(s)), name)
+            }
+        })
+    }
+
+    fn refresh_position(&mut self) {
+        let Some(link) = self.link.as_mut() else { return };
+        if let Ok(s) = on_session!(link, s => s.status()) {
+            self.shared.lock().machine.position = Some(s.steps);
+        }
+    }
+
+    fn machine_command(&mut self, c: Command) -> anyhow::Result<()> {
+        let profile = self.profile.clone();
+        let hub = self.shared.hub.clone();
+        let link = self.link.as_mut().ok_or_else(|| anyhow::anyhow!("not connected: connect to a plotter first"))?;
+        match c {
+            Command::Home => {
+                hub.log("out", "G28");
+                on_session!(link, s => s.home())?;
+                hub.log("info", "homed");
+            }
+            Command::Jog(target, distance) => {
+                let args = JogArgs {
+                    link: LinkArgs { port: String::new(), profile: None, baud: None },
+                    target,
+                    distance,
+                    feed: None,
+                };
+                let lines = jog_lines(&args, &profile)?;
+                let mut result = Ok(());
+                for l in &lines {
+                    hub.log("out", l.clone());
+                    if let Err(e) = on_session!(link, s => s.command(l, COMMAND_TIMEOUT)) {
+                        result = Err(e);
+                        break;
+                    }
+                }
+                // Always back to absolute mode, even after a refused move.
+                let _ = on_session!(link, s => s.command("G90", COMMAND_TIMEOUT));
+                result?;
+                on_session!(link, s => s.wait_idle(Duration::from_millis(50)))?;
+            }
+            Command::Console(line) => {
+                hub.log("out", line.clone());
+                on_session!(link, s => s.transport.send(&console_bytes(&line)))?;
+                // Show the answers until the machine has been quiet for a moment.
+                let deadline = Instant::now() + Duration::from_secs(5);
+                while Instant::now() < deadline {
+                    match on_session!(link, s => s.transport.recv_line(Duration::from_millis(300)))? {
+                        Some(l) => hub.log("in", l),
+                        None => break,
+                    }
+                }
+            }
+            Command::Connect(..) | Command::Disconnect | Command::Plot(_) => {}
+        }
+        Ok(())
+    }
+
+    fn plot(&mut self, prepared: &Prepared) {
+        let shared = Arc::clone(&self.shared);
+        shared.control.reset();
+        {
+            let mut i = shared.lock();
+            i.progress = None;
+            i.prompt = None;
+        }
+        let Some(link) = self.link.as_mut() else {
+            self.done(false, "not connected: connect to a plotter first".into(), false);
+            return;
+        };
+        let mut events = WebEvents { shared: Arc::clone(&shared), last_sent: None, prompt_id: 0 };
+        let profile = &self.profile;
+        let result = plan::check_work_area(profile, &prepared.steps).map_err(anyhow::Error::from).and_then(
+            |()| on_session!(link, s => job::plot(&mut **s, profile, &prepared.steps, true, None, &mut events)),
+        );
+        events.flush();
+        match result {
+            Ok(outcome) => {
+                let mut stepped = false;
+                if let Link::Sim(s) = link {
+                    let (mut drawing, travel) = stepped_drawing(s.transport.inner().sim(), profile);
+                    drawing.page_mm = prepared.drawing.page_mm;
+                    let mut i = shared.lock();
+                    i.stepped = Some(Arc::new(view_with_travel(&drawing, &travel)));
+                    i.stepped_version += 1;
+                    stepped = true;
+                }
+                let message = format!(
+                    "done: {} blocks, {:.1} mm pen-down, {:.1} mm travel, planned {:.1} s, {} resends",
+                    outcome.plan.blocks.len(),
+                    outcome.plan.draw_mm,
+                    outcome.plan.travel_mm,
+                    outcome.plan.seconds(),
+                    outcome.stats.resends
+                );
+                self.done(true, message, stepped);
+            }
+            Err(e) => self.done(false, format!("plot stopped: {e:#}"), false),
+        }
+    }
+
+    fn done(&self, ok: bool, message: String, stepped: bool) {
+        #[derive(Serialize)]
+        struct Done {
+            ok: bool,
+            message: String,
+            stepped: bool,
+        }
+        self.shared.lock().prompt = None;
+        self.shared.hub.log(if ok { "info" } else { "error" }, message.clone());
+        self.shared.hub.send(Event::new("done", &Done { ok, message, stepped }));
+    }
+}
+
+/// The page's side of a plot: progress to every page, pause and cancel from the controlling one.
+struct WebEvents {
+    shared: Arc<Shared>,
+    last_sent: Option<(Instant, ProgressEvent)>,
+    prompt_id: u64,
+}
+
+/// At most this many progress events a second (the last one is always sent).
+const PROGRESS_INTERVAL: Duration = Duration::from_millis(100);
+
+impl WebEvents {
+    fn send(&mut self, p: ProgressEvent) {
+        self.shared.lock().progress = Some(p);
+        self.shared.hub.send(Event::new("progress", &p));
+        self.last_sent = Some((Instant::now(), p));
+    }
+
+    /// Send the latest progress if throttling held it back.
+    fn flush(&mut self) {
+        let latest = self.shared.lock().progress;
+        if let (Some(p), Some((_, sent))) = (latest, self.last_sent)
+            && p != sent
+        {
+            self.send(p);
+        }
+    }
+
+    fn ask(&mut self, kind: &'static str, message: String, choices: Vec<&'static str>) -> String {
+        self.prompt_id += 1;
+        let id = self.prompt_id;
+        let prompt = Prompt { id, kind, message, choices: choices.clone() };
+        self.shared.lock().prompt = Some(prompt.clone());
+        self.shared.publish();
+        self.shared.hub.send(Event::new("prompt", &prompt));
+        let answer = self.shared.control.wait_for(|s| {
+            if s.cancel {
+                return Some("cancel".to_string());
+            }
+            match s.answer.take() {
+                Some((i, a)) if i == id => Some(a),
+                _ => None,
+            }
+        });
+        self.shared.lock().prompt = None;
+        answer
+    }
+}
+
+impl PlotEvents for WebEvents {
+    fn progress(&mut self, p: &JobProgress) {
+        // Counts far below 2^53: exact in f64.
+        #[allow(clippy::cast_precision_loss)]
+        let percent = if p.total == 0 { 100.0 } else { 100.0 * p.executed as f64 / p.total as f64 };
+        let event = ProgressEvent {
+            executed: p.executed,
+            total: p.total,
+            draw_done_mm: p.draw_done_mm,
+            draw_total_mm: p.draw_total_mm,
+            eta_s: p.eta_s,
+            percent,
+            resends: p.resends,
+        };
+        let due = self.last_sent.is_none_or(|(t, _)| t.elapsed() >= PROGRESS_INTERVAL) || p.executed == p.total;
+        if due {
+            self.send(event);
+        } else {
+            self.shared.lock().progress = Some(event);
+        }
+    }
+
+    fn pause_requested(&mut self) -> Option<bool> {
+        let mut request = None;
+        self.shared.control.update(|s| request = if s.cancel { Some(true) } else { s.pause.take() });
+        request
+    }
+
+    fn paused(&mut self, held: bool) -> PauseChoice {
+        self.flush();
+        self.shared.lock().machine.activity = "paused";
+        let what = if held { "feed hold (the pen stays where it stopped)" } else { "paused with the pen up" };
+        let answer = self.ask("pause", format!("{what}: resume or cancel?"), vec!["resume", "cancel"]);
+        self.shared.lock().machine.activity = "plotting";
+        self.shared.publish();
+        if answer == "resume" { PauseChoice::Resume } else { PauseChoice::Abort }
+    }
+}

@@ -1,0 +1,683 @@
+//! Slicer G-code for a printer profile, played back: the moves with their extrusion (X, Y, Z, E in machine
+//! millimetres), and the heater, fan and homing commands in order. This is what `plotter print` plans and streams
+//! ([`crate::motion::print_plan`]).
+//!
+//! The flavour is Marlin's, as PrusaSlicer and Cura write it:
+//! - moves: `G0`/`G1` (both at the modal feed, as Marlin does), `G2`/`G3` arcs in the XY plane (I/J or R, the
+//!   extrusion spread evenly over the chords), `G4` dwell, `G20`/`G21`, `G90`/`G91`, `M82`/`M83` (E absolute /
+//!   relative; `G90`/`G91` set E too, as in Marlin), `G92` (any axis, E included);
+//! - sent to the firmware: `G28` (homing), `M104`/`M109`/`M140`/`M190` (targets and waits, `S` or `R`), `M106`/`M107`
+//!   (fan), `M105`, `M155`, `M84`/`M18`/`M17` (motors), `M301`/`M303`/`M304` (PID), `M112`;
+//! - accepted and ignored with a warning (counted per command, never a failure): progress and messages (`M73`,
+//!   `M117`, `M486`), linear advance (`M900`), machine limits (`M201`, `M203`, `M204`, `M205` — the profile's limits
+//!   apply), feed/flow overrides (`M220`, `M221`), firmware checks (`M115`, `M862.x`), bed levelling (`G29`, `G80`),
+//!   firmware retraction (`G10`/`G11`), pauses, tool changes, beeps, and any other M code;
+//! - `M400` (wait for moves) becomes a stop in the plan.
+//!
+//! Unknown G codes and malformed words are errors naming the line: they could change the geometry.
+//!
+//! Layers: a layer starts at the first extruding move at a Z above the previous layer's. The slicer's own figures
+//! are read from its comments when present: `; estimated printing time (normal mode) = 1h 2m 3s` (PrusaSlicer),
+//! `;TIME:3723` (Cura), `; filament used [mm] = 1234.56` (PrusaSlicer), `;Filament used: 1.23456m` (Cura).
+
+use super::gcode_in::{GcodeError, GcodeWarning, strip_comments, words};
+use crate::MachineProfile;
+
+/// Maximum chord error when flattening arcs, millimetres.
+const ARC_TOLERANCE_MM: f64 = 0.005;
+/// Most chords one arc may become.
+const MAX_ARC_CHORDS: f64 = 100_000.0;
+/// Most operations one file may produce (bounds memory: about 100 bytes each).
+pub const MAX_OPS: usize = 20_000_000;
+
+/// One step of the print.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PrintOp {
+    /// A straight move to `to` (machine mm: X, Y, Z, E) at `feed_mm_s` along the X/Y/Z path (E-only moves: along
+    /// E); infinite = the machine's maximum.
+    Move {
+        /// Target, machine millimetres.
+        to: [f64; 4],
+        /// Feed, mm/s.
+        feed_mm_s: f64,
+        /// Layer (0 before the first layer starts).
+        layer: usize,
+        /// Source line.
+        line: usize,
+    },
+    /// Dwell, milliseconds.
+    Dwell {
+        /// Duration, ms.
+        ms: f64,
+        /// Source line.
+        line: usize,
+    },
+    /// Wait until all moves are done (`M400`).
+    Sync {
+        /// Source line.
+        line: usize,
+    },
+    /// Home (`G28`): the axes in `axes` (bits X=1, Y=2, Z=4; 0 = all).
+    Home {
+        /// Axis mask.
+        axes: u8,
+        /// Source line.
+        line: usize,
+    },
+    /// A firmware command sent as written (canonical form, e.g. `M109 S210`).
+    Command {
+        /// The command.
+        text: String,
+        /// The firmware holds the stream until it is done (a heating wait, autotune, motors off).
+        wait: bool,
+        /// Source line.
+        line: usize,
+    },
+}
+
+/// What the slicer says about its file.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SlicerFigures {
+    /// Estimated print time, s.
+    pub estimate_s: Option<f64>,
+    /// Filament used, mm.
+    pub filament_mm: Option<f64>,
+}
+
+/// A print, ready to plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrintProgram {
+    /// The operations in order.
+    pub ops: Vec<PrintOp>,
+    /// Everything ignored or assumed, with first line and count.
+    pub warnings: Vec<GcodeWarning>,
+    /// Number of layers.
+    pub layers: usize,
+    /// Filament pushed out of the nozzle, mm: the highest net E position reached (a retraction pulls filament
+    /// back into the nozzle, its prime pushes the same filament out again), which is what slicers report as
+    /// "filament used".
+    pub extruded_mm: f64,
+    /// Net E at the end (sum of all E moves, retractions negative), mm.
+    pub net_e_mm: f64,
+    /// The slicer's own figures from the comments.
+    pub slicer: SlicerFigures,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Motion {
+    Linear,
+    Cw,
+    Ccw,
+}
+
+struct Player<'a> {
+    origin: &'a str,
+    mm_per_unit: f64,
+    absolute: bool,
+    e_relative: bool,
+    motion: Option<Motion>,
+    feed_mm_s: f64,
+    pos: [f64; 4],
+    offset: [f64; 4],
+    homed_pos: [f64; 4],
+    layer: usize,
+    layer_z: f64,
+    ended: bool,
+    ops: Vec<PrintOp>,
+    warnings: Vec<GcodeWarning>,
+    net_e: f64,
+    high_e: f64,
+}
+
+/// Parse `; estimated printing time (normal mode) = 1d 2h 3m 4s` style durations.
+fn parse_duration(s: &str) -> Option<f64> {
+    let mut total = 0.0;
+    let mut any = false;
+    for part in s.split_whitespace() {
+        let (num, unit) = part.split_at(part.find(|c: char| c.is_ascii_alphabetic())?);
+        let v: f64 = num.parse().ok()?;
+        total += v * match unit {
+            "d" => 86_400.0,
+            "h" => 3600.0,
+            "m" => 60.0,
+            "s" => 1.0,
+            _ => return None,
+        };
+        any = true;
+    }
+    any.then_some(total)
+}
+
+fn slicer_comment(raw: &str, figures: &mut SlicerFigures) {
+    let Some(c) = raw.trim_start().strip_prefix(';') else { return };
+    let c = c.trim();
+    if let Some(v) = c.strip_prefix("estimated printing time (normal mode) =") {
+        figures.estimate_s = figures.estimate_s.or(parse_duration(v.trim()));
+    } else if let Some(v) = c.strip_prefix("TIME:") {
+        figures.estimate_s = figures.estimate_s.or(v.trim().parse().ok());
+    } else if let Some(v) = c.strip_prefix("filament used [mm] =") {
+        // Several extruders are comma-separated; sum them.
+        let sum: Option<f64> = v.split(',').map(|x| x.trim().parse::<f64>().ok()).sum();
+        figures.filament_mm = figures.filament_mm.or(sum);
+    } else if let Some(v) = c.strip_prefix("Filament used:") {
+        let m: Option<f64> = v.split(',').map(|x| x.trim().trim_end_matches('m').parse::<f64>().ok()).sum();
+        figures.filament_mm = figures.filament_mm.or(m.map(|m| m * 1000.0));
+    }
+}
+
+/// A G/M code times ten (`G92.1` → 921), saturating far outside the codes in use.
+fn code10(v: f64) -> i64 {
+    // Clamped to a small range first, so the conversion is exact.
+    #[allow(clippy::cast_possible_truncation)]
+    let c = (v * 10.0).round().clamp(-1e6, 1e6) as i64;
+    c
+}
+
+impl Player<'_> {
+    fn warn(&mut self, line: usize, message: impl Into<String>) {
+        let message = message.into();
+        if let Some(w) = self.warnings.iter_mut().find(|w| w.message == message) {
+            w.count += 1;
+        } else {
+            self.warnings.push(GcodeWarning { line, count: 1, message });
+        }
+    }
+
+    fn malformed(&self, line: usize, message: impl Into<String>) -> GcodeError {
+        GcodeError::Malformed { origin: self.origin.into(), line, message: message.into() }
+    }
+
+    fn push(&mut self, line: usize, op: PrintOp) -> Result<(), GcodeError> {
+        if self.ops.len() >= MAX_OPS {
+            return Err(self.malformed(line, format!("more than {MAX_OPS} moves and commands")));
+        }
+        self.ops.push(op);
+        Ok(())
+    }
+
+    fn run_line(&mut self, line: usize, raw: &str) -> Result<(), GcodeError> {
+        let code = strip_comments(raw);
+        let code = code.trim();
+        if code.is_empty() || code == "%" {
+            return Ok(());
+        }
+        let ws = match words(code, self.origin, line) {
+            Ok(ws) => ws,
+            Err(e) => {
+                // Printer-specific M codes carry free text (`M117 Hello`, `M862.3 P "MK3S"`): ignore those lines
+                // with a warning; anything else that does not parse is an error.
+                let upper = code.to_ascii_uppercase();
+                let body = upper.trim_start_matches(|c: char| c == 'N' || c.is_ascii_digit() || c == ' ');
+                let head: String = body.chars().take_while(|c| *c == 'M' || c.is_ascii_digit() || *c == '.').collect();
+                let sent = ["M104", "M109", "M140", "M190", "M106", "M107", "M105", "M155", "M301", "M303", "M304"];
+                if head.starts_with('M') && head.len() > 1 && !sent.contains(&head.as_str()) {
+                    self.warn(line, format!("{head}: not supported, ignored"));
+                    return Ok(());
+                }
+                return Err(e);
+            }
+        };
+        if self.ended {
+            self.warn(line, "commands after the program end (M2/M30) ignored");
+            return Ok(());
+        }
+        let mut axes: [Option<f64>; 4] = [None; 4];
+        let (mut i, mut j, mut r) = (None, None, None);
+        let (mut s, mut p) = (None, None);
+        let mut g: Option<(f64, &str)> = None;
+        let mut m: Option<(f64, &str)> = None;
+        for w in &ws {
+            match w.letter {
+                'G' if g.is_none() => g = Some((w.value, w.text)),
+                'M' if m.is_none() && g.is_none() => m = Some((w.value, w.text)),
+                'G' | 'M' => return Err(self.malformed(line, "one G or M command per line, please")),
+                'X' => axes[0] = Some(w.value),
+                'Y' => axes[1] = Some(w.value),
+                'Z' => axes[2] = Some(w.value),
+                'E' => axes[3] = Some(w.value),
+                'F' => {
+                    if w.value <= 0.0 {
+                        return Err(self.malformed(line, "F must be positive"));
+                    }
+                    self.feed_mm_s = w.value * self.mm_per_unit / 60.0;
+                }
+                'I' => i = Some(w.value),
+                'J' => j = Some(w.value),
+                'R' => r = Some(w.value),
+                'S' => s = Some(w.value),
+                'P' => p = Some(w.value),
+                'N' => {}
+                'T' if m.is_some() => {}
+                'T' => {
+                    if w.value != 0.0 {
+                        self.warn(line, "tool change ignored: one extruder");
+                    }
+                    return Ok(());
+                }
+                _ if m.is_some() => {}
+                _ => {
+                    return Err(GcodeError::Unsupported {
+                        origin: self.origin.into(),
+                        line,
+                        word: w.text.to_uppercase(),
+                        why: "unknown word",
+                    });
+                }
+            }
+        }
+        if let Some((v, text)) = m {
+            return self.m_code(line, v, text, code, &ws);
+        }
+        let any_axis = axes.iter().any(Option::is_some);
+        if let Some((v, text)) = g {
+            match code10(v) {
+                0 | 10 => self.motion = Some(Motion::Linear),
+                20 => self.motion = Some(Motion::Cw),
+                30 => self.motion = Some(Motion::Ccw),
+                40 => {
+                    let ms = p.or(s.map(|s| s * 1000.0)).unwrap_or(0.0);
+                    if !(0.0..=3_600_000.0).contains(&ms) {
+                        return Err(self.malformed(line, "G4 dwell out of range (0..=3600 s)"));
+                    }
+                    if ms > 0.0 {
+                        self.push(line, PrintOp::Dwell { ms, line })?;
+                    }
+                    return Ok(());
+                }
+                200 => self.mm_per_unit = 25.4,
+                210 => self.mm_per_unit = 1.0,
+                900 => (self.absolute, self.e_relative) = (true, false),
+                910 => (self.absolute, self.e_relative) = (false, true),
+                170 | 940 | 400 | 490 | 540 => {}
+                280 => {
+                    if axes[3].is_some() {
+                        self.warn(line, "G28 E: the extruder has no home, ignored");
+                    }
+                    if ws.iter().any(|w| matches!(w.letter, 'W' | 'O' | 'R')) {
+                        self.warn(line, "G28 options ignored");
+                    }
+                    let mask = (0..3).filter(|k| axes[*k].is_some()).fold(0u8, |m, k| m | 1 << k);
+                    self.push(line, PrintOp::Home { axes: mask, line })?;
+                    for k in (0..3).filter(|k| mask == 0 || mask & 1 << k != 0) {
+                        self.pos[k] = self.homed_pos[k];
+                        self.offset[k] = 0.0;
+                    }
+                    return Ok(());
+                }
+                920 => {
+                    if !any_axis {
+                        self.warn(line, "G92 without axes ignored");
+                    }
+                    for (k, v) in axes.iter().enumerate() {
+                        if let Some(v) = v {
+                            self.offset[k] = self.pos[k] - v * self.unit(k);
+                        }
+                    }
+                    return Ok(());
+                }
+                100 | 110 => {
+                    self.warn(line, format!("{}: firmware retraction not supported, ignored", text.to_uppercase()));
+                    return Ok(());
+                }
+                290 | 800 => {
+                    self.warn(line, format!("{}: bed levelling ignored", text.to_uppercase()));
+                    return Ok(());
+                }
+                180 | 190 => {
+                    return Err(GcodeError::Unsupported {
+                        origin: self.origin.into(),
+                        line,
+                        word: text.to_uppercase(),
+                        why: "only the XY plane (G17) is supported",
+                    });
+                }
+                _ => {
+                    return Err(GcodeError::Unsupported {
+                        origin: self.origin.into(),
+                        line,
+                        word: text.to_uppercase(),
+                        why: "unknown G code",
+                    });
+                }
+            }
+        }
+        let has_arc = i.is_some() || j.is_some() || r.is_some();
+        if !any_axis && !has_arc {
+            return Ok(());
+        }
+        let Some(motion) = self.motion else {
+            return Err(self.malformed(line, "axis words without a motion command (G0/G1/G2/G3)"));
+        };
+        let mut target = self.pos;
+        for (k, v) in axes.iter().enumerate() {
+            if let Some(v) = v {
+                let absolute = if k == 3 { !self.e_relative } else { self.absolute };
+                target[k] = if absolute { v * self.unit(k) + self.offset[k] } else { target[k] + v * self.unit(k) };
+            }
+        }
+        if !target.iter().all(|v| v.is_finite() && v.abs() < 1e7) {
+            return Err(self.malformed(line, "position out of range"));
+        }
+        let feed = if self.feed_mm_s > 0.0 { self.feed_mm_s } else { f64::INFINITY };
+        match motion {
+            Motion::Linear => self.move_to(line, target, feed)?,
+            Motion::Cw | Motion::Ccw => self.arc(line, motion == Motion::Cw, target, feed, (i, j, r))?,
+        }
+        Ok(())
+    }
+
+    fn unit(&self, axis: usize) -> f64 {
+        // E is in the same units as the axes (G20 makes it inches too, as in Marlin).
+        let _ = axis;
+        self.mm_per_unit
+    }
+
+    fn move_to(&mut self, line: usize, to: [f64; 4], feed: f64) -> Result<(), GcodeError> {
+        let de = to[3] - self.pos[3];
+        let xy_moves = to[0] != self.pos[0] || to[1] != self.pos[1];
+        if de > 0.0 && xy_moves && to[2] > self.layer_z + 1e-6 {
+            self.layer += 1;
+            self.layer_z = to[2];
+        }
+        self.net_e += de;
+        self.high_e = self.high_e.max(self.net_e);
+        if to != self.pos {
+            self.push(line, PrintOp::Move { to, feed_mm_s: feed, layer: self.layer, line })?;
+        }
+        self.pos = to;
+        Ok(())
+    }
+
+    fn arc(
+        &mut self,
+        line: usize,
+        cw: bool,
+        to: [f64; 4],
+        feed: f64,
+        (i, j, r): (Option<f64>, Option<f64>, Option<f64>),
+    ) -> Result<(), GcodeError> {
+        let u = self.mm_per_unit;
+        let (fx, fy) = (self.pos[0], self.pos[1]);
+        let (center_x, center_y) = if let Some(r) = r {
+            let r = r * u;
+            let (dx, dy) = (to[0] - fx, to[1] - fy);
+            let d = dx.hypot(dy);
+            if d == 0.0 || (r.abs() < d / 2.0 - ARC_TOLERANCE_MM) {
+                return Err(self.malformed(line, "R arc: radius smaller than half the chord, or no chord"));
+            }
+            let h = (r * r - d * d / 4.0).max(0.0).sqrt();
+            let sign = if cw == (r >= 0.0) { 1.0 } else { -1.0 };
+            ((fx + to[0]) / 2.0 + dy / d * h * sign, (fy + to[1]) / 2.0 - dx / d * h * sign)
+        } else {
+            (fx + i.unwrap_or(0.0) * u, fy + j.unwrap_or(0.0) * u)
+        };
+        let r0 = (fx - center_x).hypot(fy - center_y);
+        let r1 = (to[0] - center_x).hypot(to[1] - center_y);
+        if r0 == 0.0 || (r0 - r1).abs() > 0.005f64.max(0.001 * r0) {
+            return Err(self.malformed(line, "arc end is not on the circle"));
+        }
+        let a0 = (fy - center_y).atan2(fx - center_x);
+        let a1 = (to[1] - center_y).atan2(to[0] - center_x);
+        let tau = std::f64::consts::TAU;
+        let mut sweep = a1 - a0;
+        if cw {
+            while sweep >= 0.0 {
+                sweep -= tau;
+            }
+        } else {
+            while sweep <= 0.0 {
+                sweep += tau;
+            }
+        }
+        let max_step = if r0 > ARC_TOLERANCE_MM { 2.0 * (1.0 - ARC_TOLERANCE_MM / r0).acos() } else { tau };
+        let n = (sweep.abs() / max_step).ceil().clamp(1.0, MAX_ARC_CHORDS);
+        // n is in [1, MAX_ARC_CHORDS].
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let n_chords = n as u32;
+        let from = self.pos;
+        for k in 1..=n_chords {
+            let f = f64::from(k) / n;
+            let p = if k == n_chords {
+                to
+            } else {
+                let a = a0 + sweep * f;
+                [
+                    center_x + r0 * a.cos(),
+                    center_y + r0 * a.sin(),
+                    from[2] + (to[2] - from[2]) * f,
+                    from[3] + (to[3] - from[3]) * f,
+                ]
+            };
+            self.move_to(line, p, feed)?;
+        }
+        Ok(())
+    }
+
+    fn m_code(
+        &mut self,
+        line: usize,
+        v: f64,
+        text: &str,
+        code: &str,
+        ws: &[super::gcode_in::Word<'_>],
+    ) -> Result<(), GcodeError> {
+        let upper = text.to_uppercase();
+        let send = |wait: bool, keep: &[char]| {
+            let mut t = upper.clone();
+            for w in ws.iter().filter(|w| keep.contains(&w.letter)) {
+                t.push(' ');
+                t.push_str(&w.text.to_uppercase().replace(' ', ""));
+            }
+            PrintOp::Command { text: t, wait, line }
+        };
+        if v.fract() != 0.0 {
+            // M862.1 and friends (Prusa printer checks).
+            self.warn(line, format!("{upper}: printer check ignored"));
+            return Ok(());
+        }
+        let op = match code10(v) / 10 {
+            82 => {
+                self.e_relative = false;
+                return Ok(());
+            }
+            83 => {
+                self.e_relative = true;
+                return Ok(());
+            }
+            400 => PrintOp::Sync { line },
+            104 | 140 | 106 | 155 | 301 | 304 => send(false, &['S', 'R', 'P', 'I', 'D']),
+            105 => send(false, &[]),
+            107 => send(false, &[]),
+            109 | 190 => send(true, &['S', 'R']),
+            303 => send(true, &['E', 'S', 'C', 'U']),
+            17 => send(false, &[]),
+            18 | 84 => {
+                if ws.iter().any(|w| matches!(w.letter, 'S' | 'X' | 'Y' | 'Z' | 'E')) {
+                    self.warn(line, format!("{upper} arguments ignored: all motors are switched off"));
+                }
+                send(true, &[])
+            }
+            112 => send(false, &[]),
+            2 | 30 => {
+                self.ended = true;
+                return Ok(());
+            }
+            0 | 1 => {
+                self.warn(line, "program pause (M0/M1) ignored");
+                return Ok(());
+            }
+            73 | 117 | 486 => {
+                self.warn(line, format!("{upper}: progress/message ignored"));
+                return Ok(());
+            }
+            900 => {
+                self.warn(line, "M900: linear advance ignored");
+                return Ok(());
+            }
+            201 | 203 | 204 | 205 | 566 => {
+                self.warn(line, format!("{upper}: machine limits ignored, the profile's limits apply"));
+                return Ok(());
+            }
+            220 | 221 => {
+                let pct = ws.iter().find(|w| w.letter == 'S').map_or(100.0, |w| w.value);
+                if pct != 100.0 {
+                    self.warn(line, format!("{upper} S{pct}: feed/flow override ignored, printing at 100 %"));
+                } else {
+                    self.warn(line, format!("{upper}: override at 100 % ignored"));
+                }
+                return Ok(());
+            }
+            _ => {
+                self.warn(line, format!("{upper}: not supported, ignored ({code})"));
+                return Ok(());
+            }
+        };
+        self.push(line, op)
+    }
+}
+
+/// Interpret slicer G-code for `profile` (which must have an extruder, `axes.e`). `origin` names the text in
+/// errors.
+pub fn import_print(text: &str, origin: &str, profile: &MachineProfile) -> Result<PrintProgram, GcodeError> {
+    if profile.axes.e.is_none() {
+        return Err(GcodeError::Malformed {
+            origin: origin.into(),
+            line: 0,
+            message: format!("profile {:?} has no extruder (axes.e): it cannot print", profile.name),
+        });
+    }
+    let homed = crate::motion::plan::homed_position(profile).map_err(|e| GcodeError::Malformed {
+        origin: origin.into(),
+        line: 0,
+        message: e.to_string(),
+    })?;
+    let spm = [profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm, profile.axes.z.steps_per_mm];
+    let homed_pos = [f64::from(homed[0]) / spm[0], f64::from(homed[1]) / spm[1], f64::from(homed[2]) / spm[2], 0.0];
+    let mut p = Player {
+        origin,
+        mm_per_unit: 1.0,
+        absolute: true,
+        e_relative: false,
+        motion: None,
+        feed_mm_s: 0.0,
+        pos: homed_pos,
+        offset: [0.0; 4],
+        homed_pos,
+        layer: 0,
+        layer_z: f64::NEG_INFINITY,
+        ended: false,
+        ops: Vec::new(),
+        warnings: Vec::new(),
+        net_e: 0.0,
+        high_e: 0.0,
+    };
+    let mut slicer = SlicerFigures::default();
+    for (idx, raw) in text.lines().enumerate() {
+        slicer_comment(raw, &mut slicer);
+        p.run_line(idx + 1, raw)?;
+    }
+    Ok(PrintProgram {
+        ops: p.ops,
+        warnings: p.warnings,
+        layers: p.layer,
+        extruded_mm: p.high_e,
+        net_e_mm: p.net_e,
+        slicer,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn printer() -> MachineProfile {
+        MachineProfile::from_toml(include_str!("../../../samples/printer.toml"), "printer.toml").unwrap()
+    }
+
+    fn moves(p: &PrintProgram) -> Vec<[f64; 4]> {
+        p.ops.iter().filter_map(|o| if let PrintOp::Move { to, .. } = o { Some(*to) } else { None }).collect()
+    }
+
+    #[test]
+    fn extrusion_modes_and_layers() {
+        let g = "G28\nG90\nM83\nG1 Z0.2 F600\nG1 X10 Y10 E1.5 F1200\nG1 E-0.8 F2100\nG1 Z0.4\nG1 E0.8\n\
+                 G1 X20 E1\nG92 E0\nM82\nG1 X30 E2\nG1 E1.2\nG91\nG1 X-5 E0.5\n";
+        let p = import_print(g, "t.gcode", &printer()).unwrap();
+        let m = moves(&p);
+        assert_eq!(m[0], [0.0, 0.0, 0.2, 0.0]);
+        assert_eq!(m[1], [10.0, 10.0, 0.2, 1.5]);
+        assert!((m[2][3] - 0.7).abs() < 1e-12);
+        assert_eq!(m[5], [20.0, 10.0, 0.4, 2.5]);
+        // G92 E0 at 2.5: absolute E2 is machine 4.5; then E1.2 → 3.7 (a retraction); G91 makes E relative.
+        assert_eq!(m[6][3], 4.5);
+        assert!((m[7][3] - 3.7).abs() < 1e-12);
+        assert!((m[8][3] - 4.2).abs() < 1e-12 && m[8][0] == 25.0);
+        // Net 4.2 mm; the highest point was 4.5 mm (before the 0.8 mm retraction at the end of line 13).
+        assert!((p.net_e_mm - 4.2).abs() < 1e-12);
+        assert!((p.extruded_mm - 4.5).abs() < 1e-12);
+        assert_eq!(p.layers, 2);
+        assert!(p.warnings.is_empty(), "{:?}", p.warnings);
+        // Homing comes first, then Z at pen-up height (3 mm) is the start of the Z0.2 move.
+        assert_eq!(p.ops[0], PrintOp::Home { axes: 0, line: 1 });
+        // End-of-print "G28 X0": X only, Z stays where it is.
+        let p = import_print("G28\nG1 Z20 F600\nG28 X0\nG1 Y5\n", "t.gcode", &printer()).unwrap();
+        assert_eq!(p.ops[2], PrintOp::Home { axes: 1, line: 3 });
+        assert_eq!(moves(&p)[1], [0.0, 5.0, 20.0, 0.0]);
+    }
+
+    #[test]
+    fn heater_commands_and_slicer_noise() {
+        let g = "; estimated printing time (normal mode) = 1h 2m 3s\n; filament used [mm] = 1234.56\n\
+                 M73 P0 R10\nM201 X1000 Y1000\nM203 X200\nM204 P1000\nM205 X8\nM900 K0\nM104 S210 T0\n\
+                 M140 S60\nM190 S60\nM109 S210\nM106 S255\nM107\nM221 S95\nT0\nM862.3 P \"MK3S\"\nM117 Printing...\nM84\n";
+        let p = import_print(g, "t.gcode", &printer()).unwrap();
+        let cmds: Vec<(&str, bool)> = p
+            .ops
+            .iter()
+            .filter_map(
+                |o| if let PrintOp::Command { text, wait, .. } = o { Some((text.as_str(), *wait)) } else { None },
+            )
+            .collect();
+        assert_eq!(
+            cmds,
+            [
+                ("M104 S210", false),
+                ("M140 S60", false),
+                ("M190 S60", true),
+                ("M109 S210", true),
+                ("M106 S255", false),
+                ("M107", false),
+                ("M84", true)
+            ]
+        );
+        assert_eq!(p.slicer.estimate_s, Some(3723.0));
+        assert_eq!(p.slicer.filament_mm, Some(1234.56));
+        let w: Vec<String> = p.warnings.iter().map(ToString::to_string).collect();
+        for needle in ["M73", "M201", "M203", "M204", "M205", "M900", "M221 S95", "M862.3", "M117"] {
+            assert!(w.iter().any(|x| x.contains(needle)), "{needle} in {w:?}");
+        }
+    }
+
+    #[test]
+    fn arcs_spread_extrusion_and_errors_name_lines() {
+        let p = import_print("G28\nG1 X10 Y0 Z1 F600\nG2 X0 Y10 I-10 J0 E3\n", "a.gcode", &printer()).unwrap();
+        let m = moves(&p);
+        let last = m.last().unwrap();
+        assert_eq!(*last, [0.0, 10.0, 1.0, 3.0]);
+        // A quarter circle (clockwise the long way: 270°): E rises evenly with the angle.
+        let n = m.len() - 1;
+        assert!(n > 10);
+        // m[k] is chord k (m[0] is the G1).
+        let mid = m[n / 2];
+        assert!((mid[3] - 3.0 * (n / 2) as f64 / n as f64).abs() < 1e-9);
+        for q in &m[1..] {
+            assert!(((q[0] - 0.0).hypot(q[1]) - 10.0).abs() < 1e-9);
+        }
+        let e = import_print("G1 X1\nG18\n", "b.gcode", &printer()).unwrap_err().to_string();
+        assert!(e.contains("b.gcode:2") && e.contains("G18"), "{e}");
+        let e = import_print("G1 X1 Q2\n", "b.gcode", &printer()).unwrap_err().to_string();
+        assert!(e.contains("b.gcode:1"), "{e}");
+        let e = import_print("G1 X1\n", "c.gcode", &MachineProfile::default_plotter()).unwrap_err().to_string();
+        assert!(e.contains("no extruder"), "{e}");
+    }
+}
