@@ -48,6 +48,19 @@ type Shape = Vec<Contour>;
 pub struct Region {
     shapes: Vec<Shape>,
     bbox: Option<Rect>,
+    /// Every contour edge, and for each horizontal band of the bounding box the edges reaching into it: lets
+    /// [`Region::classify`] test a polyline against the boundary without looking at every edge.
+    edges: Vec<[f64; 4]>,
+    bands: Vec<Vec<u32>>,
+}
+
+/// Where a polyline lies relative to a region.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Class {
+    Outside,
+    Inside,
+    /// Crosses or touches the boundary: only a real cut can tell.
+    Crosses,
 }
 
 fn bbox_of(shapes: &[Shape]) -> Option<Rect> {
@@ -96,7 +109,88 @@ impl Region {
     fn from_shapes(shapes: Vec<Shape>) -> Region {
         let shapes: Vec<Shape> = shapes.into_iter().filter(|s| s.first().is_some_and(|c| c.len() >= 3)).collect();
         let bbox = bbox_of(&shapes);
-        Region { shapes, bbox }
+        let edges: Vec<[f64; 4]> = shapes
+            .iter()
+            .flatten()
+            .flat_map(|c| {
+                (0..c.len()).map(move |i| {
+                    let (a, b) = (c[i], c[(i + 1) % c.len()]);
+                    [a[0], a[1], b[0], b[1]]
+                })
+            })
+            .collect();
+        let mut region = Region { shapes, bbox, edges, bands: Vec::new() };
+        if let Some(b) = bbox {
+            // About √E bands (at most 1024): each holds few edges, and a band lookup is one division.
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let n = ((region.edges.len() as f64).sqrt().ceil() as usize).clamp(1, 1024);
+            region.bands = vec![Vec::new(); n];
+            for (k, e) in region.edges.iter().enumerate() {
+                let (lo, hi) = region.band_range(e[1].min(e[3]), e[1].max(e[3]), b);
+                for band in &mut region.bands[lo..=hi] {
+                    band.push(u32::try_from(k).expect("fewer than 2³² edges"));
+                }
+            }
+        }
+        region
+    }
+
+    fn band_range(&self, y0: f64, y1: f64, b: Rect) -> (usize, usize) {
+        let n = self.bands.len();
+        let h = b.height().max(1e-12) / n as f64;
+        // Clamped to 0..n-1 before the cast.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let at = |y: f64| (((y - b.y0) / h).floor().max(0.0) as usize).min(n - 1);
+        (at(y0), at(y1))
+    }
+
+    /// Whether `line` lies wholly outside, wholly inside, or meets the boundary (touching counts as meeting).
+    fn classify(&self, line: &[Point]) -> Class {
+        let Some(b) = self.bbox else { return Class::Outside };
+        let lb = polyline_bbox(line).expect("lines have points");
+        if lb.x1 < b.x0 || lb.x0 > b.x1 || lb.y1 < b.y0 || lb.y0 > b.y1 {
+            return Class::Outside;
+        }
+        for w in line.windows(2) {
+            let (p, q) = (w[0], w[1]);
+            if p.y.max(q.y) < b.y0 || p.y.min(q.y) > b.y1 {
+                continue;
+            }
+            let (lo, hi) = self.band_range(p.y.min(q.y), p.y.max(q.y), b);
+            for band in &self.bands[lo..=hi] {
+                for &k in band {
+                    let e = self.edges[k as usize];
+                    if segments_meet(p, q, Point::new(e[0], e[1]), Point::new(e[2], e[3])) {
+                        return Class::Crosses;
+                    }
+                }
+            }
+        }
+        // No contact with the boundary: the whole line is on the side of its first point.
+        if self.winding_banded(line[0]) != 0 { Class::Inside } else { Class::Outside }
+    }
+
+    /// [`Region::winding`] using only the edges of `p`'s band.
+    fn winding_banded(&self, p: Point) -> i32 {
+        let Some(b) = self.bbox else { return 0 };
+        if p.y < b.y0 || p.y > b.y1 || p.x < b.x0 || p.x > b.x1 {
+            return 0;
+        }
+        let (band, _) = self.band_range(p.y, p.y, b);
+        let mut w = 0;
+        for &k in &self.bands[band] {
+            let e = self.edges[k as usize];
+            let (a, c) = ([e[0], e[1]], [e[2], e[3]]);
+            let cross = (c[0] - a[0]) * (p.y - a[1]) - (p.x - a[0]) * (c[1] - a[1]);
+            if a[1] <= p.y {
+                if c[1] > p.y && cross > 0.0 {
+                    w += 1;
+                }
+            } else if c[1] <= p.y && cross < 0.0 {
+                w -= 1;
+            }
+        }
+        w
     }
 
     /// True when the region covers no area.
@@ -189,6 +283,22 @@ impl Region {
     }
 }
 
+/// True when segments `p`–`q` and `a`–`b` intersect or touch (collinear overlaps included).
+fn segments_meet(p: Point, q: Point, a: Point, b: Point) -> bool {
+    if p.x.max(q.x) < a.x.min(b.x)
+        || a.x.max(b.x) < p.x.min(q.x)
+        || p.y.max(q.y) < a.y.min(b.y)
+        || a.y.max(b.y) < p.y.min(q.y)
+    {
+        return false;
+    }
+    let orient = |u: Point, v: Point, w: Point| (v - u).cross(w - u);
+    let (d1, d2) = (orient(a, b, p), orient(a, b, q));
+    let (d3, d4) = (orient(p, q, a), orient(p, q, b));
+    // The bounding boxes overlap, so a zero orientation means contact or collinear overlap: report it.
+    (d1 * d2 <= 0.0) && (d3 * d4 <= 0.0)
+}
+
 fn overlaps(a: Option<Rect>, b: Option<Rect>) -> bool {
     match (a, b) {
         (Some(a), Some(b)) => a.x0 <= b.x1 && b.x0 <= a.x1 && a.y0 <= b.y1 && b.y0 <= a.y1,
@@ -218,20 +328,31 @@ pub fn cut(lines: Vec<Vec<Point>>, regions: &[&Region], keep: Keep) -> Vec<Vec<P
     if regions.is_empty() {
         return if keep == Keep::Inside { Vec::new() } else { lines };
     }
-    let area = regions.iter().filter_map(|r| r.bbox).reduce(|a, b| a.union(b));
     let mut out = Vec::new();
     let mut todo: Vec<Vec<[f64; 2]>> = Vec::new();
     for line in lines {
         if line.len() < 2 {
             continue;
         }
-        if !overlaps(polyline_bbox(&line), area) {
-            if keep == Keep::Outside {
+        // Lines that do not meet any boundary are decided without a cut (and stay bit for bit as they were).
+        let mut inside_any = false;
+        let mut crosses = false;
+        for r in &regions {
+            match r.classify(&line) {
+                Class::Inside => inside_any = true,
+                Class::Crosses => crosses = true,
+                Class::Outside => {}
+            }
+        }
+        if inside_any {
+            if keep == Keep::Inside {
                 out.push(line);
             }
-            continue;
+        } else if crosses {
+            todo.push(line.iter().map(|p| [p.x, p.y]).collect());
+        } else if keep == Keep::Outside {
+            out.push(line);
         }
-        todo.push(line.iter().map(|p| [p.x, p.y]).collect());
     }
     if todo.is_empty() {
         return out;
