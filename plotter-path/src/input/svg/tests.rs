@@ -712,3 +712,20 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn wide_strokes_filled_with_pen_wide_passes() {
+    // A 10 mm line at y = 5.25, 2 mm wide (butt caps): its ink is the rectangle x 0..10, y 4.25..6.25. With a
+    // 0.5 mm pen and passes at angle 0, the passes lie on y = 4.5, 5.0, 5.5, 6.0 (4 × 10 mm), linked by 3 × 0.5 mm,
+    // plus the 10 mm centre line: 51.5 mm.
+    let svg = mm_doc(r#"<line x1="0" y1="5.25" x2="10" y2="5.25" stroke="black" stroke-width="2"/>"#);
+    let opts = SvgOptions {
+        fill_strokes: Some(0.5),
+        hatch: Some(FillHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false, link: true }),
+        ..SvgOptions::default()
+    };
+    assert_len(&import_with(&svg, &opts).drawing, 51.5);
+    // Strokes no wider than 1.5 pens are left as their centre line.
+    let thin = svg.replace(r#"stroke-width="2""#, r#"stroke-width="0.7""#);
+    assert_len(&import_with(&thin, &opts).drawing, 10.0);
+}
