@@ -89,6 +89,13 @@ impl SimPty {
         SimPty { child: Some(child), port: line.trim().to_string(), trace }
     }
 
+    /// A figure from a summary line `# <line> … <key> <value> …`.
+    pub fn figure(trace: &Trace, line: &str, key: &str) -> Option<i64> {
+        let l = trace.comments.iter().find(|c| c.starts_with(line))?;
+        let words: Vec<&str> = l.split_whitespace().collect();
+        words.windows(2).find(|w| w[0] == key).and_then(|w| w[1].parse().ok())
+    }
+
     /// Start `plotter sim --qemu` (the firmware image on the emulated board); the trace goes to `dir`. The image
     /// is built first if needed.
     pub fn start_qemu(dir: &Path) -> SimPty {
@@ -240,6 +247,8 @@ pub struct Trace {
     pub positions: Vec<[i64; 3]>,
     /// Motion time the step timer ran, µs.
     pub busy_ticks: u64,
+    /// Other summary lines (`# …`, without the `# `), e.g. the GRBL emulator's figures.
+    pub comments: Vec<String>,
 }
 
 impl Trace {
@@ -249,9 +258,14 @@ impl Trace {
         let mut positions = Vec::new();
         let mut busy_ticks = 0;
         let mut last_time = None;
+        let mut comments = Vec::new();
         for l in text.lines() {
             if let Some(rest) = l.strip_prefix("# busy_ticks ") {
                 busy_ticks = rest.split_whitespace().next().and_then(|v| v.parse().ok()).expect("busy ticks");
+                continue;
+            }
+            if let Some(rest) = l.strip_prefix("# ") {
+                comments.push(rest.to_string());
                 continue;
             }
             let v: Vec<i64> = l.split_whitespace().map(|t| t.parse().expect("integer")).collect();
@@ -263,7 +277,7 @@ impl Trace {
             }
             last_time = Some(v[0]);
         }
-        Trace { positions, busy_ticks }
+        Trace { positions, busy_ticks, comments }
     }
 
     /// The pen-down runs: maximal sequences of XY positions visited while Z is below `z_threshold` (steps),

@@ -6,7 +6,7 @@ use plotter_path::output::preview::{PreviewOptions, render};
 use plotter_path::output::svg_out::to_svg_string;
 use plotter_path::{MachineProfile, geometry::layout};
 
-const SVG_SAMPLES: [&str; 3] = ["duck.svg", "transforms.svg", "layers.svg"];
+const SVG_SAMPLES: [&str; 4] = ["duck.svg", "transforms.svg", "layers.svg", "three-pens.svg"];
 
 #[test]
 fn samples_import_without_warnings_and_fit_the_plotter() {
@@ -45,4 +45,21 @@ fn export_round_trip_preserves_geometry() {
         }
         assert_eq!(original.path_count(), again.path_count(), "{name}");
     }
+}
+
+#[test]
+fn three_pens_sample_changes_pen_twice() {
+    use plotter_path::motion::plan::{Lookahead, homed_position, plan};
+    use plotter_path::motion::steps::drawing_to_steps;
+    let profile = MachineProfile::default_plotter();
+    let d = load_svg(&sample("three-pens.svg"), &SvgOptions::default()).unwrap().drawing;
+    let layers: Vec<(&str, String)> = d.layers.iter().map(|l| (l.name.as_str(), l.pen.color.to_hex())).collect();
+    assert_eq!(layers, [("black", "#000000".into()), ("red", "#ff0000".into()), ("blue", "#0000ff".into())]);
+    let steps = drawing_to_steps(&profile, &d).unwrap();
+    let p = plan(&profile, &steps, homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
+    let pens: Vec<&str> = p.pen_changes.iter().map(|c| c.pen.name.as_str()).collect();
+    assert_eq!(pens, ["red fineliner 0.5", "blue brush pen"]);
+    assert_eq!(p.first_pen.name, "black fineliner 0.3");
+    let g = plotter_path::output::gcode_out::export(&profile, &steps);
+    assert_eq!(g.lines().filter(|l| l.starts_with("M0 ; pen change: load")).count(), 2);
 }

@@ -1,7 +1,9 @@
 //! `plotter bench-link` (hidden): the link benchmark. A dense drawing — epicycloids flattened at 0.01 mm, thousands
 //! of short segments — is planned and streamed to the simulated firmware over a simulated 115200-baud link (byte
 //! timing exact), and the table reports the sustained block rate of the link, bytes per block, queue underruns, and
-//! the plot time with the whole-drawing look-ahead against the same planner limited to a 16-block window.
+//! the plot time with the whole-drawing look-ahead against the same planner limited to a 16-block window. The same
+//! plan is then streamed as G-code to the GRBL emulator over the same simulated link (character counting into
+//! its 128-byte buffer, its 16-block planner), for lines/s and underruns against our step blocks.
 
 use std::f64::consts::TAU;
 use std::time::Instant;
@@ -12,6 +14,9 @@ use plotter_path::motion::plan::{self, Lookahead};
 use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::{Drawing, MachineProfile, Polyline};
 
+use plotter_host::link::grbl::emulator::GrblEmulator;
+use plotter_host::link::grbl::emulator_transport::EmulatorTransport;
+use plotter_host::link::grbl::session::GrblSession;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
 use plotter_host::link::stream::{self, Quiet, StreamOptions};
@@ -121,6 +126,53 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
     println!("| executed time (simulator) | {:.3} s |", secs(executed));
     println!("| host plan time (wall) | {:.1} ms |", plan_wall.as_secs_f64() * 1e3);
     println!("| simulation wall time | {:.2} s |", sim_wall.as_secs_f64());
+
+    // The same drawing as G-code to the GRBL emulator.
+    let emu = GrblEmulator::new(&profile, Some(args.baud))?;
+    let mut grbl = GrblSession::connect(EmulatorTransport::new(emu), "GRBL emulator", &profile)?;
+    grbl.home()?;
+    let start = grbl.position()?;
+    let gplan = plan::plan(&profile, &steps, start, Lookahead::Whole)?;
+    let busy0 = grbl.transport.emulator().backend().hal().busy_ticks();
+    let t = Instant::now();
+    let gstats = grbl.stream(&gplan, &mut Quiet)?;
+    let gwall = t.elapsed();
+    let gexec = grbl.transport.emulator().backend().hal().busy_ticks() - busy0;
+    #[allow(clippy::cast_precision_loss)]
+    let (lines, gbytes) = (gstats.frames as f64, gstats.frame_bytes as f64);
+    let emu_stats = grbl.transport.emulator().stats();
+    println!();
+    println!("| same drawing, {} baud | our firmware (step blocks) | GRBL 1.1 emulator (G-code) |", args.baud);
+    println!("|---|---|---|");
+    println!("| blocks / lines | {} | {} |", stats.frames, gstats.frames);
+    println!("| bytes per block / line | {:.2} | {:.2} |", bytes / frames, gbytes / lines);
+    println!(
+        "| link capacity | {:.0} blocks/s | {:.0} lines/s |",
+        f64::from(args.baud) / 10.0 / (bytes / frames),
+        f64::from(args.baud) / 10.0 / (gbytes / lines)
+    );
+    println!(
+        "| sustained over the plot | {:.0} blocks/s | {:.0} lines/s |",
+        frames / secs(executed).max(1e-9),
+        lines / secs(gexec).max(1e-9)
+    );
+    println!(
+        "| all accepted after | {:.3} s | {:.3} s |",
+        stats.accept_elapsed.as_secs_f64(),
+        gstats.accept_elapsed.as_secs_f64()
+    );
+    println!("| queue underruns | {} | {} |", stats.underruns.unwrap_or(0), gstats.underruns.unwrap_or(0));
+    println!("| executed motion time | {:.3} s | {:.3} s |", secs(executed), secs(gexec));
+    println!(
+        "| plot wall time on the link | {:.3} s | {:.3} s |",
+        stats.elapsed.as_secs_f64(),
+        gstats.elapsed.as_secs_f64()
+    );
+    println!(
+        "| most bytes in flight | ≤ {} (announced) | {} of 128 (peak buffer {}, overflow {}) |",
+        session.info.rx_bytes, grbl.peak_in_flight, emu_stats.peak_rx, emu_stats.overflow_bytes
+    );
+    println!("| simulation wall time | {:.2} s | {:.2} s |", sim_wall.as_secs_f64(), gwall.as_secs_f64());
     Ok(())
 }
 

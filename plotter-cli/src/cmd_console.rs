@@ -1,5 +1,7 @@
-//! `plotter console`: type G-code lines and see the firmware's replies. A line holding only `?`, `!` or `~` sends
-//! that real-time byte (status report, feed hold, resume); `reset` sends Ctrl-X. End with Ctrl-D.
+//! `plotter console`: type G-code lines and see the firmware's replies (our firmware or GRBL: the real-time bytes
+//! are the same). A line holding only `?`, `!` or `~` sends that real-time byte (status report, feed hold,
+//! resume); `reset` sends Ctrl-X. On GRBL, `error:N` and `ALARM:N` replies are followed by their meaning. End with
+//! Ctrl-D.
 
 use std::io::BufRead as _;
 use std::sync::mpsc;
@@ -9,6 +11,20 @@ use plotter_fw::protocol::{RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
 
 use crate::cmd_home::LinkArgs;
 use plotter_host::link::Transport as _;
+use plotter_host::link::grbl::messages::{GrblLine, describe_alarm, describe_error};
+use plotter_host::link::machine::Connected;
+
+/// A reply as shown: GRBL's numeric codes get their meaning.
+fn shown(line: &str, grbl: bool) -> String {
+    if !grbl {
+        return line.to_string();
+    }
+    match GrblLine::parse(line) {
+        GrblLine::Error(c) => describe_error(c),
+        GrblLine::Alarm(c) => describe_alarm(c),
+        _ => line.to_string(),
+    }
+}
 
 /// What a typed line sends.
 pub(crate) fn console_bytes(line: &str) -> Vec<u8> {
@@ -23,7 +39,9 @@ pub(crate) fn console_bytes(line: &str) -> Vec<u8> {
 
 /// Run `plotter console`.
 pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
-    let mut session = args.connect()?;
+    let (_, mut c) = args.connect()?;
+    let grbl = matches!(c, Connected::Grbl(_));
+    let session = c.transport();
     eprintln!("type G-code; ? status, ! hold, ~ resume, reset; Ctrl-D ends");
     let (tx, rx) = mpsc::channel::<String>();
     std::thread::spawn(move || {
@@ -36,18 +54,18 @@ pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
     });
     loop {
         match rx.try_recv() {
-            Ok(line) => session.transport.send(&console_bytes(&line))?,
+            Ok(line) => session.send(&console_bytes(&line))?,
             Err(mpsc::TryRecvError::Disconnected) => {
                 // Show the last answers, then stop.
-                while let Some(l) = session.transport.recv_line(Duration::from_millis(300))? {
-                    println!("{l}");
+                while let Some(l) = session.recv_line(Duration::from_millis(300))? {
+                    println!("{}", shown(&l, grbl));
                 }
                 return Ok(());
             }
             Err(mpsc::TryRecvError::Empty) => {}
         }
-        if let Some(l) = session.transport.recv_line(Duration::from_millis(20))? {
-            println!("{l}");
+        if let Some(l) = session.recv_line(Duration::from_millis(20))? {
+            println!("{}", shown(&l, grbl));
         }
     }
 }
@@ -61,5 +79,7 @@ mod tests {
         assert_eq!(console_bytes(" ? "), b"?");
         assert_eq!(console_bytes("reset"), [0x18]);
         assert_eq!(console_bytes("G1 X1"), b"G1 X1\n");
+        assert_eq!(shown("error:22", true), "error:22 (no feed rate set)");
+        assert_eq!(shown("error:22", false), "error:22");
     }
 }

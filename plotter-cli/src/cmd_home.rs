@@ -1,10 +1,11 @@
-//! `plotter home`: run the homing cycle on a connected plotter and report where it is.
+//! `plotter home`: run the homing cycle on a connected plotter (our firmware or GRBL) and report where it is.
 
 use std::path::PathBuf;
 
 use plotter_host::job::load::load_profile;
+use plotter_host::link::machine::{Connected, Firmware};
 use plotter_host::link::serial::SerialTransport;
-use plotter_host::link::session::Session;
+use plotter_path::MachineProfile;
 
 /// How to reach a plotter (shared by `home`, `jog` and `console`).
 #[derive(clap::Args, Debug, Clone)]
@@ -18,27 +19,44 @@ pub(crate) struct LinkArgs {
     /// Baud rate [default: the profile's].
     #[arg(long)]
     pub(crate) baud: Option<u32>,
+    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), or auto (told by its start-up banner).
+    #[arg(long, value_enum, default_value_t = Firmware::Auto)]
+    pub(crate) firmware: Firmware,
+}
+
+/// Open `port` and connect to `firmware`; prints what answered.
+pub(crate) fn open(
+    port: &str,
+    baud: u32,
+    firmware: Firmware,
+    profile: &MachineProfile,
+) -> anyhow::Result<Connected<SerialTransport>> {
+    let transport = SerialTransport::open(port, baud)?;
+    let c = Connected::connect(transport, port, firmware, profile)?;
+    eprintln!("connected to {}", c.describe());
+    Ok(c)
 }
 
 impl LinkArgs {
-    /// Open the port and handshake.
-    pub(crate) fn connect(&self) -> anyhow::Result<Session<SerialTransport>> {
+    /// The profile and the open connection.
+    pub(crate) fn connect(&self) -> anyhow::Result<(MachineProfile, Connected<SerialTransport>)> {
         let profile = load_profile(self.profile.as_deref())?;
-        let transport = SerialTransport::open(&self.port, self.baud.unwrap_or(profile.link.baud))?;
-        let session = Session::connect(transport, &self.port)?;
-        eprintln!(
-            "connected to plotter-fw {} on {} (rx {} bytes, queue {} blocks)",
-            session.info.version, self.port, session.info.rx_bytes, session.info.queue_blocks
-        );
-        Ok(session)
+        let c = open(&self.port, self.baud.unwrap_or(profile.link.baud), self.firmware, &profile)?;
+        Ok((profile, c))
     }
 }
 
 /// Run `plotter home`.
 pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
-    let mut session = args.connect()?;
-    session.home()?;
-    let s = session.status()?;
-    println!("homed; position {:?} steps ({})", s.steps, s.state);
+    let (_, mut c) = args.connect()?;
+    let m = c.machine();
+    if let Some(what) = m.alarm_pending()?
+        && !m.can_home()
+    {
+        anyhow::bail!("{what}; homing is disabled, unlock it with `plotter console` ($X) once it is safe");
+    }
+    m.home()?;
+    let p = m.position()?;
+    println!("homed; position {p:?} steps");
     Ok(())
 }

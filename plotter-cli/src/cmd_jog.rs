@@ -1,8 +1,8 @@
 //! `plotter jog`: move one axis by a distance, or lift/lower the pen, on a connected plotter.
 
 use crate::cmd_home::LinkArgs;
-use plotter_host::job::load::load_profile;
-use plotter_host::link::session::COMMAND_TIMEOUT;
+use plotter_host::link::machine::{Connected, Firmware};
+use plotter_path::motion::profile::PenCommand;
 
 /// What to move.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -34,13 +34,39 @@ pub(crate) struct JogArgs {
     pub(crate) feed: Option<f64>,
 }
 
-/// The G-code lines of a jog.
-pub(crate) fn jog_lines(args: &JogArgs, profile: &plotter_path::MachineProfile) -> anyhow::Result<Vec<String>> {
+/// The G-code lines of a jog for `firmware`. GRBL jogs axes with `$J=` (its jog command, refused outside the
+/// travel instead of raising an alarm) and moves a servo pen with `M3 S<angle>` / `M5`.
+pub(crate) fn jog_lines(
+    args: &JogArgs,
+    profile: &plotter_path::MachineProfile,
+    firmware: Firmware,
+) -> anyhow::Result<Vec<String>> {
     let feed_min = args.feed.unwrap_or(profile.pen.travel_feed_mm_s) * 60.0;
     if !(feed_min.is_finite() && feed_min > 0.0) {
         anyhow::bail!("--feed must be a positive number");
     }
     let z_feed = profile.axes.z.max_feed_mm_s * 60.0;
+    let servo = profile.pen.command == PenCommand::Servo;
+    if servo && matches!(args.target, JogTarget::Up | JogTarget::Down) {
+        return Ok(vec![match args.target {
+            JogTarget::Up => "M5".into(),
+            _ => format!("M3 S{}", profile.pen.servo_down_deg),
+        }]);
+    }
+    if firmware == Firmware::Grbl
+        && let Some(letter) = match args.target {
+            JogTarget::X => Some('X'),
+            JogTarget::Y => Some('Y'),
+            JogTarget::Z => Some('Z'),
+            _ => None,
+        }
+    {
+        let d = args.distance.ok_or_else(|| anyhow::anyhow!("jog {:?} needs a distance in mm", args.target))?;
+        if !d.is_finite() {
+            anyhow::bail!("the distance must be a number");
+        }
+        return Ok(vec![format!("$J=G91 {letter}{d:.4} F{feed_min:.1}")]);
+    }
     Ok(match args.target {
         JogTarget::Up => vec!["G90".into(), format!("G1 Z{:.4} F{z_feed:.1}", profile.pen.up_z_mm)],
         JogTarget::Down => vec!["G90".into(), format!("G1 Z{:.4} F{z_feed:.1}", profile.pen.down_z_mm)],
@@ -61,21 +87,30 @@ pub(crate) fn jog_lines(args: &JogArgs, profile: &plotter_path::MachineProfile) 
 
 /// Run `plotter jog`.
 pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
-    let profile = load_profile(args.link.profile.as_deref())?;
-    let lines = jog_lines(args, &profile)?;
-    let mut session = args.link.connect()?;
+    let (profile, mut c) = args.link.connect()?;
+    let firmware = if matches!(c, Connected::Grbl(_)) { Firmware::Grbl } else { Firmware::Ours };
+    let lines = jog_lines(args, &profile, firmware)?;
     let mut result = Ok(());
     for l in &lines {
-        if let Err(e) = session.command(l, COMMAND_TIMEOUT) {
+        if let Err(e) = c.command(l) {
             result = Err(e);
             break;
         }
     }
     // Always return to absolute mode, even after a refused move.
-    let _ = session.command("G90", COMMAND_TIMEOUT);
+    let _ = c.command("G90");
     result?;
-    let s = session.wait_idle(std::time::Duration::from_millis(50))?;
-    println!("position {:?} steps", s.steps);
+    match &mut c {
+        Connected::Ours(s) => {
+            let st = s.wait_idle(std::time::Duration::from_millis(50))?;
+            println!("position {:?} steps", st.steps);
+        }
+        Connected::Grbl(g) => {
+            let st = g.wait_idle()?;
+            let pos = st.mpos.map(|p| format!("MPos {p:?}")).or(st.wpos.map(|p| format!("WPos {p:?}")));
+            println!("position {} mm", pos.unwrap_or_default());
+        }
+    }
     Ok(())
 }
 
@@ -84,14 +119,26 @@ mod tests {
     use super::*;
 
     fn args(target: JogTarget, distance: Option<f64>) -> JogArgs {
-        JogArgs { link: LinkArgs { port: "p".into(), profile: None, baud: None }, target, distance, feed: Some(10.0) }
+        JogArgs {
+            link: LinkArgs { port: "p".into(), profile: None, baud: None, firmware: Firmware::Auto },
+            target,
+            distance,
+            feed: Some(10.0),
+        }
     }
 
     #[test]
     fn jog_gcode() {
         let p = plotter_path::MachineProfile::default_plotter();
-        assert_eq!(jog_lines(&args(JogTarget::X, Some(-2.5)), &p).unwrap(), ["G91", "G1 X-2.5000 F600.0", "G90"]);
-        assert_eq!(jog_lines(&args(JogTarget::Up, None), &p).unwrap(), ["G90", "G1 Z4.0000 F1500.0"]);
-        assert!(jog_lines(&args(JogTarget::Y, None), &p).unwrap_err().to_string().contains("needs a distance"));
+        let ours = Firmware::Ours;
+        assert_eq!(jog_lines(&args(JogTarget::X, Some(-2.5)), &p, ours).unwrap(), ["G91", "G1 X-2.5000 F600.0", "G90"]);
+        assert_eq!(jog_lines(&args(JogTarget::Up, None), &p, ours).unwrap(), ["G90", "G1 Z4.0000 F1500.0"]);
+        assert!(jog_lines(&args(JogTarget::Y, None), &p, ours).unwrap_err().to_string().contains("needs a distance"));
+        let grbl = Firmware::Grbl;
+        assert_eq!(jog_lines(&args(JogTarget::Y, Some(3.0)), &p, grbl).unwrap(), ["$J=G91 Y3.0000 F600.0"]);
+        let mut servo = p.clone();
+        servo.pen.command = PenCommand::Servo;
+        assert_eq!(jog_lines(&args(JogTarget::Down, None), &servo, grbl).unwrap(), ["M3 S30"]);
+        assert_eq!(jog_lines(&args(JogTarget::Up, None), &servo, ours).unwrap(), ["M5"]);
     }
 }

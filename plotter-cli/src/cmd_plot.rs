@@ -1,5 +1,7 @@
 //! `plotter plot`: load a drawing (SVG, G-code or trajectory file), plan it with the firmware's planner, and run it
-//! on the built-in simulated plotter (default, writes the as-stepped preview) or stream it to a serial device.
+//! on the built-in simulated plotter (default, writes the as-stepped preview) or stream it to a serial device
+//! running our firmware or GRBL. Between layers drawn with different pens the plot parks and asks for the pen
+//! (Enter continue, `s` skip the layer, `q` stop and keep the journal).
 
 use std::io::{BufRead as _, IsTerminal as _, Write as _};
 use std::path::{Path, PathBuf};
@@ -11,17 +13,20 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_fw::TICK_HZ;
 use plotter_host::input::InputArgs;
 use plotter_host::job::load::{load_profile, load_steps};
-use plotter_host::job::progress::{JobProgress, PlotEvents};
+use plotter_host::job::progress::{JobProgress, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self, JobOutcome, JournalSpec};
 use plotter_host::link::journal;
+use plotter_host::link::machine::{Connected, Firmware};
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
 use plotter_host::link::stream::PauseChoice;
 use plotter_host::options::layout::LayoutArgs;
 use plotter_host::options::optimize::OptimizeArgs;
+use plotter_path::MachineProfile;
 use plotter_path::input::trajectory;
+use plotter_path::motion::pens::LayerPen;
 use plotter_path::motion::plan;
 use plotter_path::output::preview;
 use serde::{Deserialize, Serialize};
@@ -63,6 +68,17 @@ pub(crate) struct PlotArgs {
     /// Serial baud rate [default: the profile's].
     #[arg(long)]
     pub(crate) baud: Option<u32>,
+    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), or auto (told by its start-up banner).
+    #[arg(long, value_enum, default_value_t = Firmware::Auto)]
+    pub(crate) firmware: Firmware,
+    /// Between layers drawn with different pens: park with the pen up and wait for the new pen (pause), or plot
+    /// straight through (none).
+    #[arg(long, value_enum, default_value_t = PenChangeMode::Pause)]
+    pub(crate) pen_change: PenChangeMode,
+    /// GRBL: take steps/mm, maximum rates, accelerations and travel from the machine's `$$` settings instead of
+    /// the profile (the pen settings still come from the profile).
+    #[arg(long)]
+    pub(crate) profile_from_machine: bool,
     /// Do not plot: write the drawing, as it would be stepped, to this file — G-code (.gcode/.nc/.ngc/.g, GRBL
     /// style, pen per the profile) or the seed plotter's trajectory format (.traj/.txt).
     #[arg(long)]
@@ -111,10 +127,22 @@ struct Terminal {
     bar: ProgressBar,
     interrupt: Arc<AtomicBool>,
     immediately: bool,
+    pen_change: PenChangeMode,
+}
+
+/// One answer line from the user (`None` at the end of input).
+fn ask(prompt: &str) -> Option<String> {
+    eprint!("{prompt}");
+    let _ = std::io::stderr().flush();
+    let mut line = String::new();
+    match std::io::stdin().lock().read_line(&mut line) {
+        Ok(n) if n > 0 => Some(line.trim().to_string()),
+        _ => None,
+    }
 }
 
 impl Terminal {
-    fn new(interrupt: Arc<AtomicBool>, immediately: bool) -> Self {
+    fn new(interrupt: Arc<AtomicBool>, immediately: bool, pen_change: PenChangeMode) -> Self {
         let target = if std::io::stderr().is_terminal() {
             ProgressDrawTarget::stderr_with_hz(5)
         } else {
@@ -126,7 +154,7 @@ impl Terminal {
         {
             bar.set_style(style);
         }
-        Terminal { bar, interrupt, immediately }
+        Terminal { bar, interrupt, immediately, pen_change }
     }
 }
 
@@ -146,20 +174,74 @@ impl PlotEvents for Terminal {
 
     fn paused(&mut self, held: bool) -> PauseChoice {
         let what = if held { "feed hold (pen where it stopped)" } else { "paused with the pen up" };
+        self.bar.suspend(|| match ask(&format!("\n{what}: [r]esume or [a]bort? ")) {
+            Some(l) if l.starts_with(['r', 'R']) => PauseChoice::Resume,
+            _ => PauseChoice::Abort,
+        })
+    }
+
+    fn pen_change_mode(&self) -> PenChangeMode {
+        self.pen_change
+    }
+
+    fn plot_started(&mut self, first_pen: &LayerPen, pen_changes: usize) {
+        if pen_changes > 0 && self.pen_change == PenChangeMode::Pause {
+            self.bar.suspend(|| {
+                eprintln!("this plot uses {} pens: start with {}", pen_changes + 1, first_pen.label());
+            });
+        }
+    }
+
+    fn pen_change(&mut self, c: &PenChangeRequest) -> PenChangeChoice {
         self.bar.suspend(|| {
-            eprint!("\n{what}: [r]esume or [a]bort? ");
-            let _ = std::io::stderr().flush();
-            let mut line = String::new();
-            match std::io::stdin().lock().read_line(&mut line) {
-                Ok(n) if n > 0 && line.trim_start().starts_with(['r', 'R']) => PauseChoice::Resume,
-                _ => PauseChoice::Abort,
+            let whence = if c.park_mm.0.is_finite() {
+                format!("parked at X{:.1} Y{:.1} with the pen up", c.park_mm.0, c.park_mm.1)
+            } else {
+                "before the plot continues".to_string()
+            };
+            let from = c.previous.as_ref().map(|p| format!(" (replacing {})", p.label())).unwrap_or_default();
+            eprintln!(
+                "\npen change {}/{}: {whence}; load pen {}{from} for layer {:?}",
+                c.number,
+                c.total,
+                c.pen.label(),
+                c.layer_name
+            );
+            loop {
+                match ask("[Enter] continue, [s] skip this layer, [q] stop (the journal keeps the plot): ") {
+                    Some(l) if l.is_empty() => return PenChangeChoice::Continue,
+                    Some(l) if l.eq_ignore_ascii_case("s") => return PenChangeChoice::SkipLayer,
+                    Some(l) if l.eq_ignore_ascii_case("q") => return PenChangeChoice::Stop,
+                    Some(l) => eprintln!("{l:?}: answer with Enter, s or q"),
+                    None => {
+                        eprintln!("no answer (input closed): stopping");
+                        return PenChangeChoice::Stop;
+                    }
+                }
             }
+        })
+    }
+
+    fn unlock_alarm(&mut self, what: &str) -> bool {
+        self.bar.suspend(|| {
+            eprintln!("{what}");
+            matches!(ask("unlock it ($X)? The position may be wrong after some alarms. [y/N] "), Some(l) if l.eq_ignore_ascii_case("y"))
         })
     }
 }
 
 /// Human summary of a finished plot.
 fn summary(outcome: &JobOutcome, executed_ticks: Option<u64>) -> String {
+    let stops = if outcome.pen_stops > 0 {
+        let skipped = if outcome.skipped.is_empty() {
+            String::new()
+        } else {
+            format!(", skipped {}", outcome.skipped.iter().map(|l| format!("{l:?}")).collect::<Vec<_>>().join(", "))
+        };
+        format!("\npen changes: {}{skipped}", outcome.pen_stops)
+    } else {
+        String::new()
+    };
     let (plan, stats) = (&outcome.plan, &outcome.stats);
     // Display only.
     #[allow(clippy::cast_precision_loss)]
@@ -184,7 +266,31 @@ fn summary(outcome: &JobOutcome, executed_ticks: Option<u64>) -> String {
     if let Some(u) = stats.underruns {
         s += &format!(", {u} queue underruns");
     }
-    s
+    s + &stops
+}
+
+/// Connect to the port, check GRBL's settings against `profile` (or build the profile from them).
+fn connect(args: &PlotArgs, port: &str, profile: &mut MachineProfile) -> anyhow::Result<Connected<SerialTransport>> {
+    let baud = args.baud.unwrap_or(profile.link.baud);
+    let mut c = crate::cmd_home::open(port, baud, args.firmware, profile)?;
+    match &mut c {
+        Connected::Grbl(g) => {
+            if args.profile_from_machine {
+                *profile = g.settings.to_profile(profile)?;
+                eprintln!("profile from the machine's settings: {}", profile.name);
+            } else {
+                for m in g.settings.compare(profile) {
+                    eprintln!("warning: GRBL setting {m} (or plot with --profile-from-machine)");
+                }
+            }
+            g.profile = profile.clone();
+        }
+        Connected::Ours(_) if args.profile_from_machine => {
+            bail!("--profile-from-machine needs a GRBL controller (plotter-fw takes its settings from the profile)")
+        }
+        Connected::Ours(_) => {}
+    }
+    Ok(c)
 }
 
 fn default_beside(input: &Path, suffix: &str) -> PathBuf {
@@ -203,7 +309,15 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         return resume(args, j);
     }
     let input = args.input.as_deref().context("an input file is required")?;
-    let profile = load_profile(args.profile.as_deref())?;
+    let mut profile = load_profile(args.profile.as_deref())?;
+    if args.export.is_none() && args.port.is_none() && args.profile_from_machine {
+        bail!("--profile-from-machine needs --port (a GRBL controller to read the settings from)");
+    }
+    // A GRBL controller may supply the profile, so connect before converting the drawing.
+    let mut connected = match (&args.port, &args.export) {
+        (Some(port), None) => Some(connect(args, port, &mut profile)?),
+        _ => None,
+    };
     let cfg = plan::machine_config(&profile)?;
     let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize)?;
     plan::check_work_area(&profile, &steps)?;
@@ -218,9 +332,9 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         println!("{} strokes, {} moves written to {}", steps.strokes.len(), steps.move_count(), out.display());
         return Ok(());
     }
-    let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately);
+    let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately, args.pen_change);
     let baud = args.baud.unwrap_or(profile.link.baud);
-    match &args.port {
+    match connected.as_mut() {
         None => {
             let mut transport = SimTransport::new(cfg, Some(baud));
             if args.sim_noise > 0.0 {
@@ -242,9 +356,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             println!("as-stepped preview: {}", out.display());
             Ok(())
         }
-        Some(port) => {
-            let transport = SerialTransport::open(port, baud)?;
-            let mut session = Session::connect(transport, port)?;
+        Some(c) => {
             let journal_path = args.journal.clone().unwrap_or_else(|| default_beside(input, ".journal"));
             let source = |start: [i32; 4]| -> anyhow::Result<String> {
                 let source = PlotSource {
@@ -255,9 +367,13 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
                 Ok(serde_json::to_string(&source)?)
             };
             let spec = JournalSpec { path: &journal_path, source: &source };
-            let outcome = job::plot(&mut session, &profile, &steps, !args.no_home, Some(spec), &mut terminal);
+            let outcome = job::plot(c.machine(), &profile, &steps, !args.no_home, Some(spec), &mut terminal);
             terminal.bar.finish_and_clear();
-            println!("{}", summary(&outcome?, None));
+            let outcome = outcome?;
+            println!("{}", summary(&outcome, None));
+            if let Connected::Grbl(g) = c {
+                println!("GRBL: at most {} bytes in flight (receive buffer {} bytes)", g.peak_in_flight, g.rx_bytes);
+            }
             Ok(())
         }
     }
@@ -279,7 +395,10 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     std::env::set_current_dir(&source.cwd)
         .with_context(|| format!("cannot enter {}, where the plot was started", source.cwd.display()))?;
     let input = original.input.as_deref().context("the recorded plot has no input")?;
-    let profile = load_profile(original.profile.as_deref())?;
+    let mut profile = load_profile(original.profile.as_deref())?;
+    let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
+    let link = PlotArgs { baud: args.baud.or(original.baud), firmware: original.firmware, ..original.clone() };
+    let mut c = connect(&link, port, &mut profile)?;
     let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize)?;
     let full = plan::plan(&profile, &steps, source.start, plan::Lookahead::Whole)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
@@ -289,12 +408,9 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
             journal_path.display()
         );
     }
-    let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
-    let baud = args.baud.unwrap_or(profile.link.baud);
-    let mut session = Session::connect(SerialTransport::open(port, baud)?, port)?;
-    let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately);
+    let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately, original.pen_change);
     let outcome = job::resume(
-        &mut session,
+        c.machine(),
         &profile,
         &steps,
         source.start,

@@ -38,6 +38,9 @@ pub(crate) fn run(args: &PreviewArgs) -> Result<()> {
     let mut drawing = args.source.load(&profile)?;
     optimize_quietly(&mut drawing, &args.optimize, None)?;
     let options = PreviewOptions { dpi: args.dpi, width_px: args.width_px, travel: args.travel, ..Default::default() };
+    if let Some(note) = plotter_path::output::preview::reduction_note(&drawing, &options) {
+        eprintln!("note: {note}");
+    }
     let png = render_png(&drawing, &options)?;
     write_output(&args.output, &png)
 }

@@ -6,6 +6,11 @@
 //! wall-clock speed by default (a plot takes as long as on the machine) or as fast as possible with `--fast`. On
 //! Ctrl-C (SIGINT), the step trace is written to `--trace` (one line per step: its time in µs and the position
 //! after it, `t x y z` in steps), followed by a summary line `# busy_ticks <motion time in µs> steps <count>`.
+//!
+//! With `--grbl` the pty serves the project's GRBL 1.1 emulator ([`plotter_host::link::grbl::emulator`])
+//! instead, set up from the profile; its trace adds `# grbl peak_rx <bytes> overflow <bytes> lines <n> errors
+//! <n>` and `# position x y z` (steps). `--grbl-fault` injects `hard-limit@N` (an `ALARM:1` after N lines) or
+//! `error@N:CODE` (line N answered `error:CODE`).
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -22,6 +27,8 @@ use plotter_fw::sim::{Sim, SimOptions};
 
 use plotter_host::job::load::load_profile;
 use plotter_host::link::faults::Noise;
+use plotter_host::link::grbl::emulator::{Faults, GrblEmulator};
+use plotter_host::link::grbl::settings::GrblSettings;
 use plotter_path::motion::plan;
 
 /// Arguments of `plotter sim`.
@@ -53,6 +60,71 @@ pub(crate) struct SimArgs {
     /// Write the step trace here on exit.
     #[arg(long)]
     pub(crate) trace: Option<PathBuf>,
+    /// Emulate a GRBL 1.1 controller instead of our firmware.
+    #[arg(long)]
+    pub(crate) grbl: bool,
+    /// GRBL emulator fault for tests: `hard-limit@N` or `error@N:CODE`.
+    #[arg(long, requires = "grbl")]
+    pub(crate) grbl_fault: Option<String>,
+}
+
+/// Parse `--grbl-fault`.
+fn parse_fault(spec: &str) -> anyhow::Result<Faults> {
+    let bad = || anyhow::anyhow!("--grbl-fault {spec:?}: use hard-limit@N or error@N:CODE");
+    let (kind, at) = spec.split_once('@').ok_or_else(bad)?;
+    match kind {
+        "hard-limit" => {
+            Ok(Faults { hard_limit_after_lines: Some(at.parse().map_err(|_| bad())?), ..Faults::default() })
+        }
+        "error" => {
+            let (n, code) = at.split_once(':').ok_or_else(bad)?;
+            let n = n.parse().map_err(|_| bad())?;
+            let code = code.parse().map_err(|_| bad())?;
+            Ok(Faults { error_on_line: Some((n, code)), ..Faults::default() })
+        }
+        _ => Err(bad()),
+    }
+}
+
+/// The simulated machine behind the pty: our firmware or the GRBL emulator.
+enum Backend {
+    Ours(Box<Sim>),
+    Grbl(Box<GrblEmulator>),
+}
+
+impl Backend {
+    fn feed(&mut self, bytes: &[u8]) {
+        match self {
+            Backend::Ours(s) => s.feed(bytes),
+            Backend::Grbl(g) => g.feed(bytes),
+        }
+    }
+    fn take_replies(&mut self) -> Vec<String> {
+        match self {
+            Backend::Ours(s) => s.take_replies(),
+            Backend::Grbl(g) => g.take_replies(),
+        }
+    }
+    fn busy(&self) -> bool {
+        match self {
+            Backend::Ours(s) => s.wire_len() > 0 || !s.machine().is_idle() || s.machine().has_input(),
+            Backend::Grbl(g) => !g.is_idle(),
+        }
+    }
+    fn run_for(&mut self, ticks: u64) {
+        match self {
+            Backend::Ours(s) => {
+                s.run_for(ticks);
+            }
+            Backend::Grbl(g) => g.run_for(ticks),
+        }
+    }
+    fn sim(&self) -> &Sim {
+        match self {
+            Backend::Ours(s) => s,
+            Backend::Grbl(g) => g.backend(),
+        }
+    }
 }
 
 /// Write the simulator's step trace (see the module docs).
@@ -86,11 +158,17 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
     }
     let profile = load_profile(args.profile.as_deref())?;
     let cfg = plan::machine_config(&profile)?;
-    let mut opts = SimOptions::for_config(&cfg);
-    opts.baud = if args.fast { None } else { Some(profile.link.baud) };
-    // A printer profile's heaters run on the thermal model (plotters have none).
-    opts.thermal = plotter_path::motion::heaters::thermal_config(&profile).map_err(anyhow::Error::msg)?;
-    let mut sim = Sim::with_options(cfg, opts);
+    let mut sim = if args.grbl {
+        let faults = args.grbl_fault.as_deref().map(parse_fault).transpose()?.unwrap_or_default();
+        // The pty delivers bytes at the speed the client writes them; the emulator's buffer counts them.
+        Backend::Grbl(Box::new(GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), None, faults)))
+    } else {
+        let mut opts = SimOptions::for_config(&cfg);
+        opts.baud = if args.fast { None } else { Some(profile.link.baud) };
+        // A printer profile's heaters run on the thermal model (plotters have none).
+        opts.thermal = plotter_path::motion::heaters::thermal_config(&profile).map_err(anyhow::Error::msg)?;
+        Backend::Ours(Box::new(Sim::with_options(cfg, opts)))
+    };
     let mut noise = (args.noise > 0.0).then(|| Noise::new(args.noise, args.seed));
 
     let pty = openpty(None, None).context("cannot open a pseudo-terminal")?;
@@ -134,7 +212,7 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
             // A client that is not there yet loses the line, as on a real port.
             let _ = writer.write_all(format!("{l}\n").as_bytes());
         }
-        let busy = sim.wire_len() > 0 || !sim.machine().is_idle() || sim.machine().has_input();
+        let busy = sim.busy();
         let wait = if busy { Duration::from_micros(200) } else { Duration::from_millis(5) };
         match rx.recv_timeout(wait) {
             Ok(bytes) => match noise.as_mut() {
@@ -148,14 +226,24 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         let elapsed = now.duration_since(last);
         last = now;
         if args.fast {
-            sim.run_for(50_000);
+            sim.run_for(if args.grbl { 5_000 } else { 50_000 });
         } else {
             sim.run_for(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX));
         }
         pending_out = sim.take_replies();
     }
     if let Some(t) = &args.trace {
-        write_trace(&sim, t)?;
+        write_trace(sim.sim(), t)?;
+        if let Backend::Grbl(g) = &sim {
+            let st = g.stats();
+            let p = g.backend().machine().stepper().position();
+            let mut f = std::fs::OpenOptions::new().append(true).open(t)?;
+            writeln!(
+                f,
+                "# grbl peak_rx {} overflow {} lines {} errors {}\n# position {} {} {}",
+                st.peak_rx, st.overflow_bytes, st.lines, st.errors, p[0], p[1], p[2]
+            )?;
+        }
     }
     if let Some(n) = &noise {
         eprintln!("noise: {} bytes flipped, {} dropped", n.flipped, n.dropped);

@@ -211,6 +211,14 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
 /// of G-code and trajectory files back to the page.
 pub fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
     let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
+    let drawing = load_unchecked(path, &shown, args, profile)?;
+    // Every input passes the size limits before any later stage works on it.
+    plotter_path::geometry::limits::check_drawing(&drawing, &shown)?;
+    Ok(drawing)
+}
+
+fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
+    let shown = shown.to_string();
     if let Some(spec) = path.to_str().and_then(|p| p.strip_prefix(GEN_PREFIX)) {
         return r#gen::from_spec(spec).with_context(|| format!("cannot generate {spec}"));
     }

@@ -22,6 +22,7 @@
 //! | 10 | `AxisDisabled` | a word for an axis the machine does not have |
 //! | 11 | `Checksum` | an unnumbered line carried a bad checksum (numbered ones get `rs`) |
 //! | 12 | `BadFrame` | a step-block frame outside the sequenced stream, or one the stepper cannot run |
+//! | 13 | `OutOfRange` | a number or target beyond what the machine can represent (see [`crate::range`]); nothing moved |
 //!
 //! | code | alarm | meaning |
 //! |-----:|-------|---------|
@@ -64,6 +65,8 @@ pub enum ErrorCode {
     Checksum = 11,
     /// Step-block frame refused.
     BadFrame = 12,
+    /// A number or target the machine cannot represent.
+    OutOfRange = 13,
 }
 
 impl ErrorCode {
@@ -87,6 +90,7 @@ impl ErrorCode {
             ErrorCode::AxisDisabled => "axis not configured",
             ErrorCode::Checksum => "checksum mismatch",
             ErrorCode::BadFrame => "step block refused",
+            ErrorCode::OutOfRange => "number out of range",
         }
     }
 }
@@ -183,6 +187,7 @@ mod tests {
             ErrorCode::AxisDisabled,
             ErrorCode::Checksum,
             ErrorCode::BadFrame,
+            ErrorCode::OutOfRange,
         ];
         for (i, e) in all.iter().enumerate() {
             assert_eq!(usize::from(e.code()), i + 1);

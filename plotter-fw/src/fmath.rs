@@ -60,8 +60,25 @@ pub fn floor_u32(x: f32) -> u32 {
     r
 }
 
+/// `x` limited to `lo..=hi` (`lo ≤ hi`); NaN gives `lo`.
+///
+/// Unlike `f32::clamp` it carries no assertion whose message formats floats, which would link `core`'s float
+/// formatting (about 10 KiB) into every board image; and a NaN (a failed computation) lands on the safe end.
+#[inline]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    x.max(lo).min(hi)
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn clamp_limits_and_sends_nan_to_the_low_end() {
+        assert_eq!(super::clamp(5.0, 0.0, 2.0), 2.0);
+        assert_eq!(super::clamp(-1.0, 0.0, 2.0), 0.0);
+        assert_eq!(super::clamp(1.5, 0.0, 2.0), 1.5);
+        assert_eq!(super::clamp(f32::NAN, 0.5, 2.0), 0.5);
+    }
+
     use super::*;
     use proptest::prelude::*;
 

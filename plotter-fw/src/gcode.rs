@@ -65,6 +65,9 @@ fn trim_start(s: &[u8]) -> &[u8] {
 }
 
 /// The words of one line: G and M codes in order, every other letter at most once.
+///
+/// An axis letter without a number (`G28 X`: home X only, as in grbl and Marlin) is accepted on a line with `G28`
+/// only; it is present ([`Words::has`]) but has no value ([`Words::get`]).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Words {
     /// G codes (integer codes only).
@@ -72,19 +75,23 @@ pub struct Words {
     /// M codes.
     pub m: heapless::Vec<u16, MAX_CODES>,
     present: u32,
+    bare: u32,
     values: [i64; 26],
 }
 
+/// Letters that may stand without a number (axis flags of `G28`).
+const BARE_LETTERS: &[u8] = b"XYZE";
+
 impl Words {
-    /// Value of `letter` (uppercase) in millionths, when present.
+    /// Value of `letter` (uppercase) in millionths, when present with a number.
     pub fn get(&self, letter: u8) -> Option<i64> {
         let i = usize::from(letter.checked_sub(b'A')?);
-        (i < 26 && self.present & (1 << i) != 0).then(|| self.values[i])
+        (i < 26 && (self.present & !self.bare) & (1 << i) != 0).then(|| self.values[i])
     }
 
-    /// Whether `letter` is present.
+    /// Whether `letter` is present (with or without a number).
     pub fn has(&self, letter: u8) -> bool {
-        self.get(letter).is_some()
+        letter.checked_sub(b'A').is_some_and(|i| i < 26 && self.present & (1 << i) != 0)
     }
 
     /// Mask of present letters other than G and M (bit `letter - 'A'`).
@@ -156,6 +163,7 @@ pub fn parse_micro(s: &[u8]) -> Option<(i64, usize)> {
 /// `(...)` is an inline comment. Letters are case-insensitive.
 pub fn parse_words(body: &[u8]) -> Result<Words, ParseError> {
     let mut w = Words::default();
+    let mut bare_column = None;
     let mut i = 0;
     while i < body.len() {
         let c = body[i];
@@ -184,11 +192,26 @@ pub fn parse_words(body: &[u8]) -> Result<Words, ParseError> {
         while body.get(j).is_some_and(|c| *c == b' ') {
             j += 1;
         }
+        let number = body.get(j).is_some_and(|c| c.is_ascii_digit() || b"+-.".contains(c));
+        if !number && BARE_LETTERS.contains(&letter) {
+            // A bare axis letter (checked against G28 once the whole line is read).
+            let bit = 1u32 << (letter - b'A');
+            if w.present & bit != 0 {
+                return Err(ParseError { code: ErrorCode::UnsupportedWord, column: i });
+            }
+            w.present |= bit;
+            w.bare |= bit;
+            bare_column.get_or_insert(i + 1);
+            i = j;
+            continue;
+        }
         let (value, used) = parse_micro(&body[j..]).ok_or(ParseError {
-            code: if body.get(j).is_some_and(|c| c.is_ascii_digit() || b"+-.".contains(c)) {
-                ErrorCode::BadNumber
-            } else {
+            code: if !number {
                 ErrorCode::ExpectedCommand
+            } else if too_many_digits(&body[j..]) {
+                ErrorCode::OutOfRange
+            } else {
+                ErrorCode::BadNumber
             },
             column: j,
         })?;
@@ -212,7 +235,18 @@ pub fn parse_words(body: &[u8]) -> Result<Words, ParseError> {
         }
         i = j + used;
     }
+    if let Some(column) = bare_column
+        && !w.g.contains(&28)
+    {
+        return Err(ParseError { code: ErrorCode::ExpectedCommand, column });
+    }
     Ok(w)
+}
+
+/// Whether `s` starts with a number whose integer part has more digits than [`parse_micro`] takes.
+fn too_many_digits(s: &[u8]) -> bool {
+    let s = s.strip_prefix(b"-").or_else(|| s.strip_prefix(b"+")).unwrap_or(s);
+    s.iter().take_while(|c| c.is_ascii_digit()).count() > 12
 }
 
 #[cfg(test)]
@@ -254,10 +288,27 @@ mod tests {
         assert!(!w.has(b'Z'));
         assert_eq!(parse_words(b"G1 X1 X2").unwrap_err().code, ErrorCode::UnsupportedWord);
         assert_eq!(parse_words(b"G1 X").unwrap_err(), ParseError { code: ErrorCode::ExpectedCommand, column: 4 });
+        assert_eq!(parse_words(b"G0 X Y1").unwrap_err(), ParseError { code: ErrorCode::ExpectedCommand, column: 4 });
+        assert_eq!(parse_words(b"G1 X1234567890123").unwrap_err().code, ErrorCode::OutOfRange);
+        assert_eq!(parse_words(b"G1 X-123456789012.5").unwrap().get(b'X'), Some(-123_456_789_012_500_000));
         assert_eq!(parse_words(b"G1 X1.2.3").unwrap_err().code, ErrorCode::ExpectedCommand);
         assert_eq!(parse_words(b"G1 X--1").unwrap_err().code, ErrorCode::BadNumber);
         assert_eq!(parse_words(b"G38.2").unwrap_err().code, ErrorCode::UnknownCommand);
         assert_eq!(parse_words(b"#1").unwrap_err().code, ErrorCode::ExpectedCommand);
+    }
+
+    #[test]
+    fn bare_axis_letters_only_with_g28() {
+        let w = parse_words(b"G28 X").unwrap();
+        assert!(w.has(b'X') && !w.has(b'Y'));
+        assert_eq!(w.get(b'X'), None);
+        let w = parse_words(b"g28 y z").unwrap();
+        assert!(w.has(b'Y') && w.has(b'Z') && !w.has(b'X'));
+        let w = parse_words(b"X G28").unwrap();
+        assert!(w.has(b'X'));
+        assert_eq!(parse_words(b"G28 X X").unwrap_err().code, ErrorCode::UnsupportedWord);
+        assert_eq!(parse_words(b"G28 F").unwrap_err().code, ErrorCode::ExpectedCommand, "only axis letters");
+        assert_eq!(parse_words(b"G28 X5").unwrap().get(b'X'), Some(5_000_000));
     }
 
     proptest! {

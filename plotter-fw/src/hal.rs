@@ -25,6 +25,19 @@ pub trait StepPins {
     fn step(&mut self, axis: Axis);
     /// Energise (`true`, M17) or release (`false`, M18) the motor drivers.
     fn enable_motors(&mut self, on: bool);
+    /// Drive the pen-lift hobby servo to `angle_deg` (0–180°, `M3 S<angle>` / `M5`): a 50 Hz PWM whose pulse is
+    /// [`servo_pulse_us`] wide. Boards without a servo keep this default, which does nothing.
+    fn set_servo(&mut self, _angle_deg: f32) {}
+}
+
+/// The pulse width (µs) of a hobby servo's 50 Hz signal for `angle_deg`: 1000 µs at 0° to 2000 µs at 180°
+/// (the common convention; clamped to that range).
+pub fn servo_pulse_us(angle_deg: f32) -> u16 {
+    let a = if angle_deg.is_nan() { 0.0 } else { angle_deg.clamp(0.0, 180.0) };
+    // 1000..=2000 after the clamp.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let us = (1000.0 + a * (1000.0 / 180.0) + 0.5) as u16;
+    us
 }
 
 /// Endstop (limit/homing switch) inputs.
@@ -85,3 +98,15 @@ pub trait Heaters {
 pub struct NoHeaters;
 
 impl Heaters for NoHeaters {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn servo_pulse_widths() {
+        assert_eq!([servo_pulse_us(0.0), servo_pulse_us(90.0), servo_pulse_us(180.0)], [1000, 1500, 2000]);
+        assert_eq!([servo_pulse_us(-5.0), servo_pulse_us(400.0), servo_pulse_us(f32::NAN)], [1000, 2000, 1000]);
+        assert_eq!(servo_pulse_us(45.0), 1250);
+    }
+}

@@ -4,9 +4,10 @@
 //! host simulator. The same code runs on both sides of the wire:
 //!
 //! - firmware: [`machine::Machine`] on a board's [`hal::Hal`] — line input ([`line_buffer`], [`gcode`]),
-//!   sequencing and resends ([`protocol`]), the planner queue ([`planner`]), the Bresenham [`stepper`], [`homing`],
-//!   [`limits`], [`realtime`] commands, the [`errors`] table, and the printer's heaters ([`thermal`]: PID,
-//!   autotune, thermal-runaway protection);
+//!   sequencing and resends ([`protocol`]), framed replies and real-time commands ([`framing`]), the planner
+//!   queue ([`planner`]), the Bresenham [`stepper`], [`homing`], [`limits`], checked number [`range`]s,
+//!   [`realtime`] commands, the [`errors`] table, and the printer's heaters ([`thermal`]: PID, autotune,
+//!   thermal-runaway protection);
 //! - host: the same [`planner`] over a whole drawing, [`stepper::StepBlock::duration_ticks`] for the exact
 //!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
 //!
@@ -33,8 +34,10 @@ extern crate std;
 
 pub mod axis;
 pub mod config;
+pub mod decimal;
 pub mod errors;
 pub mod fmath;
+pub mod framing;
 pub mod gcode;
 pub mod hal;
 pub mod homing;
@@ -43,6 +46,7 @@ pub mod line_buffer;
 pub mod machine;
 pub mod planner;
 pub mod protocol;
+pub mod range;
 pub mod realtime;
 #[cfg(feature = "std")]
 pub mod sim;

@@ -27,8 +27,9 @@ use heapless::Deque;
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
+use crate::decimal::Decimal;
 use crate::errors::{AlarmCode, ErrorCode};
-use crate::fmath::round_i32;
+use crate::framing::{self, M_FRAMED, RtMatcher};
 use crate::gcode::{MICRO, Words, envelope, parse_words};
 use crate::hal::{Hal, Heaters, NoHeaters};
 use crate::homing::{HomingCycle, HomingStep};
@@ -125,7 +126,19 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     /// A sequenced stream is active: a sequenced frame was accepted or a resend requested since the last reset or
     /// the last plain G-code line. Bytes ≥ 0x80 in a line then mean a damaged frame.
     streaming: bool,
+    /// Servo pen: the angle `M5` lifts to (set with `M5 S<angle>`).
+    servo_up_deg: f32,
+    /// `M0`/`M1` program pause (a pen change in a raw G-code stream): nothing more runs until `~`.
+    program_paused: bool,
+    /// Framed mode ([`crate::framing`]): CRC-framed replies, four-byte real-time commands, sequenced input only.
+    framed: bool,
+    rt_matcher: RtMatcher,
+    /// The sequence number of the frame or line being answered (framed `ok`/`error:` carry it).
+    answering: u32,
 }
+
+/// The servo angle `M5` lifts the pen to until `M5 S<angle>` sets another.
+pub const SERVO_UP_DEFAULT_DEG: f32 = 90.0;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum PendingKind {
@@ -187,6 +200,11 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             resume_after_hold: false,
             completed_base: 0,
             streaming: false,
+            servo_up_deg: SERVO_UP_DEFAULT_DEG,
+            program_paused: false,
+            framed: false,
+            rt_matcher: RtMatcher::new(),
+            answering: 0,
         };
         m.banner();
         m
@@ -273,7 +291,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             MachineState::Alarm
         } else if self.homing.is_some() {
             MachineState::Homing
-        } else if self.stepper.is_held() {
+        } else if self.stepper.is_held() || self.program_paused {
             MachineState::Held
         } else if self.stepper.is_holding() {
             MachineState::Holding
@@ -310,7 +328,30 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.timer_running = false;
             self.estop_pending = true;
         }
+        if self.framed {
+            // Only a complete four-byte sequence is a command; everything else is data (see `crate::framing`).
+            let mut matcher = core::mem::take(&mut self.rt_matcher);
+            let cmd = matcher.feed(b, |d| self.receive_data(d));
+            self.rt_matcher = matcher;
+            if let Some(c) = cmd {
+                self.realtime(c);
+            }
+            return;
+        }
         if is_realtime(b) {
+            self.realtime(b);
+            return;
+        }
+        self.receive_data(b);
+    }
+
+    /// Whether framed mode is on ([`crate::framing`]).
+    pub fn is_framed(&self) -> bool {
+        self.framed
+    }
+
+    fn realtime(&mut self, b: u8) {
+        {
             match b {
                 RT_STATUS => self.rt |= RT_FLAG_STATUS,
                 RT_FEED_HOLD => {
@@ -327,8 +368,10 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 }
                 _ => {}
             }
-            return;
         }
+    }
+
+    fn receive_data(&mut self, b: u8) {
         if self.rx.len() >= self.rx_size() {
             // Over the announced size: recorded as a loss, exactly like a full ring.
             self.rx.mark_loss();
@@ -410,19 +453,28 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         );
     }
 
+    /// One reply line: plain, or framed with number `n` in framed mode.
+    fn reply(&mut self, n: u32, text: fmt::Arguments<'_>) {
+        if self.framed {
+            let _ = framing::write_reply(Out(&mut self.hal), n, text);
+        } else {
+            let _ = writeln!(Out(&mut self.hal), "{text}");
+        }
+    }
+
     fn reply_ok(&mut self) {
-        self.hal.write(b"ok\n");
+        self.reply(self.answering, format_args!("ok"));
     }
 
     fn reply_error(&mut self, code: ErrorCode, detail: fmt::Arguments<'_>) {
-        let _ = writeln!(Out(&mut self.hal), "error:{} {}{}", code.code(), code.text(), detail);
+        self.reply(self.answering, format_args!("error:{} {}{}", code.code(), code.text(), detail));
     }
 
     fn reply_resend(&mut self) {
         self.resync = true;
         self.streaming = true;
         let seq = self.seq;
-        let _ = writeln!(Out(&mut self.hal), "rs {seq}");
+        self.reply(seq, format_args!("rs {seq}"));
     }
 
     /// The heaters' period (PID, safety checks) and a pending emergency stop.
@@ -474,7 +526,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         self.sync_target();
         if self.alarm.is_none() {
             self.alarm = Some(code);
-            let _ = writeln!(Out(&mut self.hal), "{code}");
+            self.reply(self.seq, format_args!("{code}"));
         }
     }
 
@@ -502,6 +554,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.modal = Modal::DEFAULT;
             self.resume_after_hold = false;
             self.streaming = false;
+            self.program_paused = false;
+            self.framed = false;
+            self.rt_matcher.clear();
             self.completed_base = self.stepper.completed();
             if moving {
                 // Stopped without deceleration: steps may have been lost.
@@ -513,7 +568,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             return;
         }
         if rt & RT_FLAG_RESUME != 0 {
-            if self.stepper.is_held() {
+            if self.program_paused {
+                self.program_paused = false;
+            } else if self.stepper.is_held() {
                 self.resume();
             } else if self.stepper.is_holding() {
                 // Still decelerating: remember the resume and act once the hold has stopped (see `poll`).
@@ -545,17 +602,19 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         for axis in Axis::ALL {
             mm[axis.index()] = pos[axis.index()] as f32 / self.cfg.axis(axis).steps_per_mm;
         }
-        let _ = writeln!(
-            Out(&mut self.hal),
-            "<{state}|MPos:{:.3},{:.3},{:.3},{:.3}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}>",
-            mm[0],
-            mm[1],
-            mm[2],
-            mm[3],
-            pos[0],
-            pos[1],
-            pos[2],
-            pos[3]
+        self.reply(
+            seq,
+            format_args!(
+                "<{state}|MPos:{},{},{},{}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}>",
+                Decimal::new(mm[0], 3),
+                Decimal::new(mm[1], 3),
+                Decimal::new(mm[2], 3),
+                Decimal::new(mm[3], 3),
+                pos[0],
+                pos[1],
+                pos[2],
+                pos[3]
+            ),
         );
     }
 
@@ -637,7 +696,19 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         // G-code is ASCII: during a sequenced stream, a line with a byte ≥ 0x80 is a step-block frame whose marker
         // bit (or marker byte) was damaged on the wire, never a command to run.
         let damaged_frame = self.streaming && line.iter().any(|&c| c >= 0x80);
-        let sequenced = damaged_frame || line.first().is_some_and(|&c| c >= 0x80 || c == b'N' || c == b'n');
+        let sequenced =
+            self.framed || damaged_frame || line.first().is_some_and(|&c| c >= 0x80 || c == b'N' || c == b'n');
+        self.answering = self.seq;
+        if self.framed && kind == PendingKind::Line && line.first().is_none_or(|&c| c < 0x80) {
+            // Framed mode takes sequenced input only: anything else is a damaged frame.
+            match envelope(line) {
+                Ok(e) if e.checked && e.number.is_some() => self.answering = e.number.unwrap_or(self.seq),
+                _ => {
+                    self.reply_resend();
+                    return Outcome::Done;
+                }
+            }
+        }
         match kind {
             PendingKind::TooLong | PendingKind::Damaged if sequenced => {
                 self.reply_resend();
@@ -748,6 +819,10 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         for (t, s) in target.iter_mut().zip(block.steps) {
             *t = t.saturating_add(s);
         }
+        if !crate::range::position_ok(&target) {
+            self.reply_error(ErrorCode::OutOfRange, format_args!(": {}", crate::range::MoveRange::Position.text()));
+            return Outcome::Done;
+        }
         if let Some(axis) = crate::limits::violation(&self.cfg, self.homed, &target) {
             self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
             return Outcome::Done;
@@ -775,11 +850,20 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         plan(self.planner.make_contiguous(), first);
     }
 
-    fn to_um(&self, value: i64) -> i64 {
-        if self.modal.inches { (value * 254 + value.signum() * 5) / 10 } else { value }
+    /// A G-code length in millionths of the current unit → millionths of a mm; `None` on overflow.
+    fn to_um(&self, value: i64) -> Option<i64> {
+        if self.modal.inches { crate::range::inches_to_um(value) } else { Some(value) }
+    }
+
+    fn reply_out_of_range(&mut self, what: &str) {
+        self.reply_error(ErrorCode::OutOfRange, format_args!(": {what}"));
     }
 
     fn execute(&mut self, w: &Words) -> Outcome {
+        if self.program_paused {
+            // `M0`/`M1`: wait for `~`.
+            return Outcome::Blocked;
+        }
         if let Some(out) = self.thermal_command(w) {
             return out;
         }
@@ -812,7 +896,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             }
         }
         for &m in &w.m {
-            if !matches!(m, 2 | 17 | 18 | 30 | 82 | 83 | 84 | 110 | 114 | 115) {
+            if !matches!(m, 0 | 1 | 2 | 3 | 4 | 5 | 17 | 18 | 30 | 82 | 83 | 84 | 110 | 114 | 115 | M_FRAMED) {
                 self.reply_error(ErrorCode::UnknownCommand, format_args!(": M{m}"));
                 return Outcome::Done;
             }
@@ -822,9 +906,33 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.reply_error(ErrorCode::InvalidValue, format_args!(": F must be positive"));
             return Outcome::Done;
         }
+        // Values that cannot be represented in the unit this line asks for, checked before any state changes.
+        let inches = w.g.iter().rev().find_map(|g| match g {
+            20 => Some(true),
+            21 => Some(false),
+            _ => None,
+        });
+        let inches = inches.unwrap_or(self.modal.inches);
+        for letter in *b"XYZEF" {
+            if inches && w.get(letter).is_some_and(|v| crate::range::inches_to_um(v).is_none()) {
+                self.reply_out_of_range(core::str::from_utf8(&[letter]).unwrap_or("?"));
+                return Outcome::Done;
+            }
+        }
         // Blocking conditions, checked before any state changes.
         let needs_slot = motion.is_some() || other_g == Some(4) || (has_axis && other_g.is_none());
-        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18) || w.m.contains(&84);
+        // The servo pen and program pauses act between moves, so they wait for the queue to empty.
+        let pen_or_pause = w.m.iter().any(|m| matches!(m, 0 | 1 | 3 | 4 | 5));
+        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18) || w.m.contains(&84) || pen_or_pause;
+        let servo_s = w.get(b'S').map(|s| s as f64 / 1e6);
+        if w.m.iter().any(|m| matches!(m, 3 | 4)) && servo_s.is_none_or(|a| !(0.0..=180.0).contains(&a)) {
+            self.reply_error(ErrorCode::InvalidValue, format_args!(": M3 needs S<angle> from 0 to 180"));
+            return Outcome::Done;
+        }
+        if w.m.contains(&5) && servo_s.is_some_and(|a| !(0.0..=180.0).contains(&a)) {
+            self.reply_error(ErrorCode::InvalidValue, format_args!(": S must be an angle from 0 to 180"));
+            return Outcome::Done;
+        }
         let moves = needs_slot || other_g == Some(28);
         if moves && self.alarm.is_some() && self.homing_result.is_none() {
             self.reply_error(ErrorCode::Alarm, format_args!(""));
@@ -850,7 +958,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             }
         }
         if let Some(f) = w.get(b'F') {
-            let f_um_min = self.to_um(f);
+            // Checked above for the line's unit.
+            let f_um_min = self.to_um(f).unwrap_or(i64::MAX);
             self.modal.feed_mm_s = f_um_min as f32 / 1e6 / 60.0;
         }
         if let Some(m) = motion {
@@ -870,13 +979,20 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 }
             }
             Some(92) => {
+                let mut offset = self.offset_um;
                 for axis in Axis::ALL {
                     let i = axis.index();
-                    let given = w.get(axis.letter() as u8).map(|v| self.to_um(v));
+                    // Checked above for the line's unit.
+                    let given = w.get(axis.letter() as u8).map(|v| self.to_um(v).unwrap_or(0));
                     if let Some(v) = given.or(if has_axis { None } else { Some(0) }) {
-                        self.offset_um[i] = self.target_um[i] - v;
+                        let Some(o) = self.target_um[i].checked_sub(v) else {
+                            self.reply_out_of_range("G92 offset");
+                            return Outcome::Done;
+                        };
+                        offset[i] = o;
                     }
                 }
+                self.offset_um = offset;
             }
             _ => {
                 if has_axis {
@@ -887,17 +1003,32 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         for &m in &w.m {
             match m {
                 2 | 30 => self.modal = Modal { feed_mm_s: self.modal.feed_mm_s, ..Modal::DEFAULT },
+                0 | 1 => self.program_paused = true,
+                // Angles are 0..=180 (checked above): exact enough in f32.
+                #[allow(clippy::cast_possible_truncation)]
+                3 | 4 => self.hal.set_servo(servo_s.unwrap_or(0.0) as f32),
+                #[allow(clippy::cast_possible_truncation)]
+                5 => {
+                    if let Some(a) = servo_s {
+                        self.servo_up_deg = a as f32;
+                    }
+                    self.hal.set_servo(self.servo_up_deg);
+                }
                 17 => self.hal.enable_motors(true),
+                M_FRAMED => self.framed = w.get(b'S').is_some_and(|s| s != 0),
                 18 | 84 => self.hal.enable_motors(false),
                 82 => self.modal.e_relative = false,
                 83 => self.modal.e_relative = true,
                 114 => self.report_position(),
                 115 => {
                     let (rx, q) = (self.rx_size(), self.queue_limit);
-                    let _ = writeln!(
-                        Out(&mut self.hal),
-                        "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:{VERSION} PROTOCOL_VERSION:{PROTOCOL_VERSION} \
-                         RX_BUFFER:{rx} QUEUE_BLOCKS:{q} LINE_MAX:{LINE_MAX} TICK_HZ:{TICK_HZ}"
+                    // Framed in framed mode: the host takes its buffer sizes from it.
+                    self.reply(
+                        self.answering,
+                        format_args!(
+                            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:{VERSION} PROTOCOL_VERSION:{PROTOCOL_VERSION} \
+                             RX_BUFFER:{rx} QUEUE_BLOCKS:{q} LINE_MAX:{LINE_MAX} TICK_HZ:{TICK_HZ}"
+                        ),
                     );
                 }
                 _ => {}
@@ -908,20 +1039,28 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn linear_move(&mut self, w: &Words) -> Outcome {
+        // Every step is checked (see `crate::range`): an unrepresentable target is refused, never wrapped or
+        // saturated, so a move's direction is always the commanded one.
         let mut target_um = self.target_um;
+        let mut target = self.target_steps;
         for axis in Axis::ALL {
             let i = axis.index();
             if let Some(v) = w.get(axis.letter() as u8) {
-                let v = self.to_um(v);
-                let absolute = if axis == Axis::E { !self.modal.e_relative } else { self.modal.absolute };
-                target_um[i] = if absolute { v + self.offset_um[i] } else { target_um[i] + v };
+                let um = self.to_um(v).and_then(|v| {
+                    let absolute = if axis == Axis::E { !self.modal.e_relative } else { self.modal.absolute };
+                    if absolute { v.checked_add(self.offset_um[i]) } else { target_um[i].checked_add(v) }
+                });
+                let steps = um.and_then(|um| crate::range::um_to_steps(um, self.cfg.axis(axis).steps_per_mm));
+                let (Some(um), Some(steps)) = (um, steps) else {
+                    self.reply_error(
+                        ErrorCode::OutOfRange,
+                        format_args!(": {} {}", axis.letter(), crate::range::MoveRange::Position.text()),
+                    );
+                    return Outcome::Done;
+                };
+                target_um[i] = um;
+                target[i] = steps;
             }
-        }
-        let mut target = [0i32; NUM_AXES];
-        for axis in Axis::ALL {
-            let i = axis.index();
-            let spm = f64::from(self.cfg.axis(axis).steps_per_mm);
-            target[i] = round_i32(target_um[i] as f64 * spm / 1e6);
         }
         if let Some(axis) = crate::limits::violation(&self.cfg, self.homed, &target) {
             self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
@@ -935,10 +1074,19 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.reply_error(ErrorCode::InvalidValue, format_args!(": no feed rate (F) set for G1"));
             return Outcome::Done;
         };
+        // Both targets lie within ±2^30 steps, so the difference fits.
         let steps: [i32; NUM_AXES] = core::array::from_fn(|i| target[i] - self.target_steps[i]);
+        let block = PlanBlock::line(&self.cfg, steps, feed);
+        if let Some(b) = &block {
+            let rate = crate::fmath::floor_u32(b.nominal_speed * b.events_per_mm);
+            if let Err(e) = crate::range::check_move(&steps, rate) {
+                self.reply_out_of_range(e.text());
+                return Outcome::Done;
+            }
+        }
         self.target_um = target_um;
         self.target_steps = target;
-        if let Some(b) = PlanBlock::line(&self.cfg, steps, feed) {
+        if let Some(b) = block {
             self.queue_block(b);
         }
         self.reply_ok();
@@ -967,11 +1115,11 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         let p = self.stepper.position();
         let _ = writeln!(
             Out(&mut self.hal),
-            "X:{:.3} Y:{:.3} Z:{:.3} E:{:.3} Count X:{} Y:{} Z:{} E:{}",
-            work[0],
-            work[1],
-            work[2],
-            work[3],
+            "X:{} Y:{} Z:{} E:{} Count X:{} Y:{} Z:{} E:{}",
+            Decimal::new(work[0], 3),
+            Decimal::new(work[1], 3),
+            Decimal::new(work[2], 3),
+            Decimal::new(work[3], 3),
             p[0],
             p[1],
             p[2],

@@ -31,6 +31,8 @@
 //! stream as a lost frame.)
 //!
 //! # Replies (firmware → host), one line each, every frame answered exactly once
+//! (In framed mode, which a streaming host turns on, every reply carries a number and a CRC-32 and real-time
+//! commands are four-byte sequences: see [`crate::framing`].)
 //! - `ok` — accepted (queued or done).
 //! - `error:<code> <text>` — refused, nothing executed; codes in [`crate::errors::ErrorCode`].
 //! - `rs <n>` — resend from number `n`.
@@ -76,8 +78,8 @@ pub const RT_RESUME: u8 = b'~';
 pub const RT_RESET: u8 = 0x18;
 /// Escape byte inside step-block frames.
 pub const ESC: u8 = 0x1B;
-/// Protocol version announced in the banner and M115.
-pub const PROTOCOL_VERSION: u32 = 1;
+/// Protocol version announced in the banner and M115 (2: framed mode, [`crate::framing`]).
+pub const PROTOCOL_VERSION: u32 = 2;
 /// Longest step-block frame on the wire, including `\n` (everything escaped).
 pub const MAX_FRAME: usize = 1 + 2 * (PAYLOAD_MAX + 2) + 1;
 /// Largest rate a frame can carry (events/s).

@@ -110,6 +110,8 @@ pub struct SimHal {
     pen_down: bool,
     pen: Vec<(u64, bool)>,
     motors_on: bool,
+    /// Servo commands: time, angle, pulse width (µs).
+    servo: Vec<(u64, f32, u16)>,
     out: Vec<u8>,
 }
 
@@ -136,6 +138,7 @@ impl SimHal {
             pen_down,
             pen: std::vec![(0, pen_down)],
             motors_on: true,
+            servo: Vec::new(),
             out: Vec::new(),
         }
     }
@@ -176,6 +179,11 @@ impl SimHal {
     pub fn motors_on(&self) -> bool {
         self.motors_on
     }
+
+    /// Every servo command with its time (ticks), angle (degrees) and the pulse width (µs) of its 50 Hz signal.
+    pub fn servo_trace(&self) -> &[(u64, f32, u16)] {
+        &self.servo
+    }
 }
 
 impl StepPins for SimHal {
@@ -201,6 +209,10 @@ impl StepPins for SimHal {
                 self.pen.push((self.now, down));
             }
         }
+    }
+
+    fn set_servo(&mut self, angle_deg: f32) {
+        self.servo.push((self.now, angle_deg, crate::hal::servo_pulse_us(angle_deg)));
     }
 
     fn enable_motors(&mut self, on: bool) {
@@ -424,6 +436,10 @@ impl Sim {
     }
 }
 
+#[cfg(test)]
+mod framed;
+#[cfg(test)]
+mod numbers;
 #[cfg(test)]
 mod printer_tests;
 #[cfg(test)]

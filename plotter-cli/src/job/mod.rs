@@ -15,26 +15,28 @@ pub mod stepped;
 use std::path::Path;
 
 use plotter_path::MachineProfile;
-use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
+use plotter_path::motion::plan::{self, Lookahead, MachinePos, MotionPlan, MoveKind, PenChange};
 use plotter_path::motion::steps::StepDrawing;
 
-use crate::link::Transport;
 use crate::link::journal::{Journal, JournalState};
-use crate::link::session::Session;
-use crate::link::sim::SimTransport;
-use crate::link::stream::{self, StreamError, StreamOptions, StreamStats};
-use progress::{PlotEvents, Tracker};
+use crate::link::machine::PlotMachine;
+use crate::link::stream::{Quiet, StreamError, StreamStats};
+use progress::{PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents, Tracker};
 
 /// A finished plot.
 #[derive(Debug)]
 pub struct JobOutcome {
-    /// The plan that was streamed.
+    /// The plan that was streamed (the whole plot, or what a resume had left).
     pub plan: MotionPlan,
-    /// Link figures.
+    /// Link figures (summed over the parts between pen changes).
     pub stats: StreamStats,
     /// The in-process simulator's busy time before the plot started, ticks (0 on a serial port): the executed
     /// plot time is the simulator's busy time afterwards minus this.
     pub busy_before: u64,
+    /// Pen changes the plot stopped for.
+    pub pen_stops: usize,
+    /// Layers skipped at a pen change (by their names).
+    pub skipped: Vec<String>,
 }
 
 /// Where the journal goes and what it records as the plot's source. The record is opaque to the job: the front
@@ -48,36 +50,61 @@ pub struct JournalSpec<'a> {
     pub source: &'a dyn Fn([i32; 4]) -> anyhow::Result<String>,
 }
 
+/// Settle an alarm before a plot: homing clears it when the plot homes on a machine that can; otherwise the
+/// user decides whether to unlock.
+fn settle_alarm<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    home: bool,
+    events: &mut dyn PlotEvents,
+) -> anyhow::Result<()> {
+    if let Some(what) = machine.alarm_pending()? {
+        if home && machine.can_home() {
+            return Ok(());
+        }
+        if !events.unlock_alarm(&what) {
+            anyhow::bail!("{what}; not unlocked (home the machine, or unlock it once it is safe)");
+        }
+        machine.unlock()?;
+    }
+    Ok(())
+}
+
 /// Home (when `home`), plan `steps` from the position the machine reports, and stream the plan, reporting to
-/// `events` and recording in the journal (if any).
-pub fn plot<T: Transport + 'static>(
-    session: &mut Session<T>,
+/// `events`, stopping for pen changes when the front end asks for them, and recording in the journal (if any).
+pub fn plot<M: PlotMachine + ?Sized>(
+    machine: &mut M,
     profile: &MachineProfile,
     steps: &StepDrawing,
     home: bool,
     journal: Option<JournalSpec<'_>>,
     events: &mut dyn PlotEvents,
 ) -> anyhow::Result<JobOutcome> {
+    settle_alarm(machine, home, events)?;
+    // Our firmware: framed mode for everything the plot acts on (verified replies, real-time commands noise
+    // cannot forge).
+    machine.begin()?;
     if home {
-        session.home()?;
+        machine.home()?;
     }
-    let start = session.status()?.steps;
+    let start = machine.position()?;
     let plan = plan::plan(profile, steps, start, Lookahead::Whole)?;
     let journal_file = match journal {
         Some(j) => Some(Journal::create(j.path, &(j.source)(start)?, plan.geometry_hash(), plan.blocks.len())?),
         None => None,
     };
-    let busy_before = busy_ticks(session);
-    let stats = stream_with(session, &plan, profile, journal_file, journal.map(|j| j.path), events)?;
-    Ok(JobOutcome { plan, stats, busy_before })
+    events.plot_started(&plan.first_pen, plan.pen_changes.len());
+    let busy_before = machine.busy_ticks();
+    let run = Run { profile, steps, start, full: &plan.clone(), journal_path: journal.map(|j| j.path) };
+    run.stream(machine, plan, journal_file, busy_before, None, events)
 }
 
 /// Resume the plot recorded in the journal at `journal_path` (already loaded as `state`, and checked by the caller
 /// to describe `steps` planned from `start`): let the firmware finish what it still holds, find the first block
-/// not certainly executed, home unless `trust_position`, and stream the rest. Prints the resume point.
+/// not certainly executed, home unless `trust_position`, and stream the rest (asking for the pen of the layer it
+/// continues with, when the drawing has several). Prints the resume point.
 #[allow(clippy::too_many_arguments)]
-pub fn resume<T: Transport + 'static>(
-    session: &mut Session<T>,
+pub fn resume<M: PlotMachine + ?Sized>(
+    machine: &mut M,
     profile: &MachineProfile,
     steps: &StepDrawing,
     start: [i32; 4],
@@ -87,53 +114,188 @@ pub fn resume<T: Transport + 'static>(
     events: &mut dyn PlotEvents,
 ) -> anyhow::Result<JobOutcome> {
     let full = plan::plan(profile, steps, start, Lookahead::Whole)?;
-    // If the firmware is still running the session the host lost, let it finish what it accepted. Frames that
-    // were in flight when the host died may have been accepted after the journal's last line: the firmware's
-    // sequence number tells how many (one per block). If it then stands exactly where that many blocks end,
-    // they were all executed; otherwise (restarted, moved) only the journal's executed count is certain.
-    let status = session.wait_idle(std::time::Duration::from_millis(50))?;
-    let extra = status.seq.wrapping_sub(state.seq_after_accepted);
-    let accepted = usize::try_from(extra).ok().map(|x| state.accepted + x).filter(|&a| a <= full.blocks.len());
-    let done = match accepted {
-        Some(a) if a > 0 && status.steps == full.position_after(a - 1) => a,
-        _ => state.executed,
-    };
+    machine.begin()?;
+    let done = machine.resume_point(state, &full)?;
     eprintln!("resuming at block {done} of {} ({} certainly executed)", full.blocks.len(), state.executed);
+    settle_alarm(machine, !trust_position, events)?;
     if !trust_position {
-        session.home()?;
+        machine.home()?;
     }
-    let now = session.status()?.steps;
-    let plan = plan::plan_resume(profile, steps, start, done, now)?;
     let journal = Journal::append(journal_path, state)?;
-    let busy_before = busy_ticks(session);
-    let stats = stream_with(session, &plan, profile, Some(journal), Some(journal_path), events)?;
-    Ok(JobOutcome { plan, stats, busy_before })
+    let busy_before = machine.busy_ticks();
+    let run = Run { profile, steps, start, full: &full, journal_path: Some(journal_path) };
+    // The pen of the layer the plot continues with.
+    let layer_pen = full.pen_changes.iter().rev().find(|c| c.block <= done);
+    let first = PenChange {
+        block: done,
+        layer: layer_pen.map_or(0, |c| c.layer),
+        layer_name: layer_pen
+            .map_or_else(|| steps.layers.first().map(|l| l.name.clone()).unwrap_or_default(), |c| c.layer_name.clone()),
+        pen: layer_pen.map_or_else(|| full.first_pen.clone(), |c| c.pen.clone()),
+        previous: full.first_pen.clone(),
+    };
+    let ask_first = (!full.pen_changes.is_empty()).then_some(first);
+    let now = machine.position()?;
+    let plan = plan::plan_resume(profile, steps, start, done, now)?;
+    run.stream(machine, plan, Some(journal), busy_before, ask_first, events)
 }
 
-/// Stream `plan` with a tracker around `events`; mark the journal complete at the end.
-fn stream_with<T: Transport + 'static>(
-    session: &mut Session<T>,
-    plan: &MotionPlan,
-    profile: &MachineProfile,
-    journal: Option<Journal>,
-    journal_path: Option<&Path>,
-    events: &mut dyn PlotEvents,
-) -> anyhow::Result<StreamStats> {
-    let mut tracker = Tracker::new(plan, profile, journal, events);
-    let result = stream::stream_plan(session, plan, StreamOptions::default(), &mut tracker);
-    if let Some(e) = tracker.error.take() {
-        return Err(e);
-    }
-    let (_, stats) = result.map_err(|e| explain(e, journal_path))?;
-    if let Some(j) = tracker.journal.as_mut() {
-        j.complete()?;
-    }
-    Ok(stats)
+/// A plot being streamed, part by part between pen changes.
+struct Run<'a> {
+    profile: &'a MachineProfile,
+    steps: &'a StepDrawing,
+    /// Where the original plan started.
+    start: MachinePos,
+    /// The original plan.
+    full: &'a MotionPlan,
+    journal_path: Option<&'a Path>,
 }
 
-/// The simulator's executed motion time so far, when the transport is the in-process simulator.
-fn busy_ticks<T: Transport + 'static>(session: &Session<T>) -> u64 {
-    (&session.transport as &dyn std::any::Any).downcast_ref::<SimTransport>().map_or(0, |s| s.sim().hal().busy_ticks())
+fn add(total: &mut StreamStats, s: &StreamStats) {
+    total.frames += s.frames;
+    total.frame_bytes += s.frame_bytes;
+    total.bytes_sent += s.bytes_sent;
+    total.resends += s.resends;
+    total.resyncs += s.resyncs;
+    total.noise_errors += s.noise_errors;
+    total.damaged_replies += s.damaged_replies;
+    total.elapsed += s.elapsed;
+    total.accept_elapsed += s.accept_elapsed;
+    total.underruns = match (total.underruns, s.underruns) {
+        (Some(a), Some(b)) => Some(a + b),
+        (a, b) => a.or(b),
+    };
+}
+
+impl Run<'_> {
+    /// Stream `plan` (the whole plot or a resume), stopping at each pen change when the front end wants it;
+    /// `ask_first` is a pen change to ask for before anything moves (a resumed multi-pen plot).
+    fn stream<M: PlotMachine + ?Sized>(
+        &self,
+        machine: &mut M,
+        plan: MotionPlan,
+        mut journal: Option<Journal>,
+        busy_before: u64,
+        ask_first: Option<PenChange>,
+        events: &mut dyn PlotEvents,
+    ) -> anyhow::Result<JobOutcome> {
+        let pause = events.pen_change_mode() == PenChangeMode::Pause;
+        let total_changes = plan.pen_changes.len();
+        let mut stats = StreamStats::default();
+        let mut current = plan.clone();
+        let (mut pen_stops, mut skipped) = (0, Vec::new());
+        let mut pending = if pause { ask_first.map(|c| (c, true)) } else { None };
+        loop {
+            if let Some((change, resumed)) = pending.take() {
+                pen_stops += 1;
+                let number = plan.pen_changes.iter().position(|c| c.block == change.block).map_or(0, |i| i + 1);
+                let park = if resumed { None } else { Some(self.park(machine)?) };
+                let req = PenChangeRequest {
+                    layer: change.layer,
+                    layer_name: change.layer_name.clone(),
+                    pen: change.pen.clone(),
+                    previous: (!resumed).then(|| change.previous.clone()),
+                    number,
+                    total: total_changes,
+                    park_mm: park.unwrap_or((f64::NAN, f64::NAN)),
+                };
+                let mut from = change.block;
+                match events.pen_change(&req) {
+                    PenChangeChoice::Continue => {}
+                    PenChangeChoice::SkipLayer => {
+                        skipped.push(change.layer_name.clone());
+                        match plan.pen_changes.iter().find(|c| c.block > change.block) {
+                            Some(next) => {
+                                pending = Some((next.clone(), false));
+                                continue;
+                            }
+                            None => from = self.full.blocks.len(),
+                        }
+                    }
+                    PenChangeChoice::Stop => {
+                        let hint = self
+                            .journal_path
+                            .map(|j| format!("\ncontinue with: plotter plot --resume {} --port <device>", j.display()))
+                            .unwrap_or_default();
+                        anyhow::bail!(
+                            "stopped at the pen change before layer {:?} (pen {}){hint}",
+                            change.layer_name,
+                            change.pen.label()
+                        );
+                    }
+                }
+                if from >= self.full.blocks.len() {
+                    break;
+                }
+                if !resumed && self.full.blocks[from].kind == MoveKind::Travel {
+                    // The carriage is parked: travel from there straight to the layer's first stroke.
+                    from += 1;
+                }
+                let now = machine.position()?;
+                current = plan::plan_resume(self.profile, self.steps, self.start, from, now)?;
+            }
+            // Stream up to the next pen change (or to the end).
+            let next =
+                if pause { current.pen_changes.iter().find(|c| c.block > current.resumed_from).cloned() } else { None };
+            let part = match &next {
+                Some(c) => truncated(&current, c.block - current.resumed_from + current.preamble),
+                None => current.clone(),
+            };
+            let mut tracker = Tracker::new(&part, self.profile, journal.take(), events);
+            let result = machine.stream(&part, &mut tracker);
+            journal = tracker.journal.take();
+            let journal_error = tracker.error.take();
+            if journal_error.is_some() || result.is_err() {
+                // Every abort path leaves the pen up when the machine still answers (the journal stays for a
+                // resume).
+                let note = match machine.stop_and_lift(self.profile) {
+                    Ok(()) => String::new(),
+                    Err(e) => format!("\n(could not lift the pen: {e})"),
+                };
+                if let Some(e) = journal_error {
+                    return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) });
+                }
+                if let Err(e) = result {
+                    return Err(anyhow::anyhow!("{}{note}", explain(e, self.journal_path)));
+                }
+            }
+            let s = result.map_err(|e| explain(e, self.journal_path))?;
+            add(&mut stats, &s);
+            match next {
+                Some(c) => pending = Some((c, false)),
+                None => break,
+            }
+        }
+        if let Some(j) = journal.as_mut() {
+            j.complete()?;
+        }
+        machine.end()?;
+        Ok(JobOutcome { plan, stats, busy_before, pen_stops, skipped })
+    }
+
+    /// Move to the park position with the pen up; returns it (machine mm).
+    fn park<M: PlotMachine + ?Sized>(&self, machine: &mut M) -> anyhow::Result<(f64, f64)> {
+        let to = plan::park_position(self.profile)?;
+        let now = machine.position()?;
+        let travel = plan::plan_travel(self.profile, now, to)?;
+        if !travel.blocks.is_empty() {
+            machine.stream(&travel, &mut Quiet).map_err(|e| anyhow::anyhow!("cannot park for the pen change: {e}"))?;
+        }
+        let m = plotter_path::motion::steps::StepMapper::new(self.profile).steps_to_machine(to);
+        Ok((m.x, m.y))
+    }
+}
+
+/// The first `len` blocks of `plan` (a part that ends with the pen up, before a pen change).
+fn truncated(plan: &MotionPlan, len: usize) -> MotionPlan {
+    let mut p = plan.clone();
+    p.blocks.truncate(len);
+    p.end = p.position_after(len.saturating_sub(1));
+    if len == 0 {
+        p.end = p.start;
+    }
+    p.total_ticks = p.blocks.iter().map(|b| u64::from(b.block.duration_ticks())).sum();
+    p
 }
 
 /// A stream error, with how to continue when a journal was kept.
@@ -143,4 +305,159 @@ fn explain(e: StreamError, journal: Option<&Path>) -> anyhow::Error {
         (_, Some(j)) => format!("\ncontinue with: plotter plot --resume {} --port <device>", j.display()),
     };
     anyhow::anyhow!("{e}{hint}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::job::progress::JobProgress;
+    use crate::link::grbl::emulator::{Faults, GrblEmulator};
+    use crate::link::grbl::emulator_transport::EmulatorTransport;
+    use crate::link::grbl::session::GrblSession;
+    use crate::link::grbl::settings::GrblSettings;
+    use crate::link::session::Session;
+    use crate::link::sim::SimTransport;
+    use plotter_path::kurbo::Point;
+    use plotter_path::motion::steps::drawing_to_steps;
+    use plotter_path::{Drawing, Layer, Polyline, Rgb};
+
+    /// Three layers, black / red / blue, one 10 mm square each, at x = 20, 50, 80 mm.
+    fn three_pens(profile: &MachineProfile) -> StepDrawing {
+        let square = |x: f64| {
+            Polyline::new(vec![
+                Point::new(x, 40.0),
+                Point::new(x + 10.0, 40.0),
+                Point::new(x + 10.0, 50.0),
+                Point::new(x, 50.0),
+                Point::new(x, 40.0),
+            ])
+        };
+        let mut d = Drawing::default();
+        for (i, (name, color)) in
+            [("black", Rgb::BLACK), ("red", Rgb(255, 0, 0)), ("blue", Rgb(0, 0, 255))].into_iter().enumerate()
+        {
+            let mut l = Layer::new(name);
+            l.pen.color = color;
+            l.paths = vec![square(20.0 + 30.0 * f64::from(u32::try_from(i).unwrap()))];
+            d.layers.push(l);
+        }
+        drawing_to_steps(profile, &d).unwrap()
+    }
+
+    /// Answers pen changes from a script and records them, and where the carriage was at each.
+    struct Script {
+        answers: Vec<PenChangeChoice>,
+        seen: Vec<PenChangeRequest>,
+    }
+
+    impl PlotEvents for Script {
+        fn progress(&mut self, _: &JobProgress) {}
+        fn pen_change_mode(&self) -> PenChangeMode {
+            PenChangeMode::Pause
+        }
+        fn pen_change(&mut self, c: &PenChangeRequest) -> PenChangeChoice {
+            self.seen.push(c.clone());
+            if self.answers.is_empty() { PenChangeChoice::Continue } else { self.answers.remove(0) }
+        }
+        fn unlock_alarm(&mut self, _: &str) -> bool {
+            true
+        }
+    }
+
+    fn grbl() -> GrblSession<EmulatorTransport> {
+        let profile = MachineProfile::default_plotter();
+        let cfg = plan::machine_config(&profile).unwrap();
+        let emu =
+            GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
+        GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap()
+    }
+
+    /// Pen-down runs (XY step positions while Z is below the middle) of a step trace that move in XY (homing Z
+    /// dips the pen where the carriage stands).
+    fn pen_down_runs(sim: &plotter_fw::sim::Sim) -> Vec<Vec<(i64, i64)>> {
+        let mut pos = sim.hal().physical_position();
+        for e in sim.hal().steps().iter().rev() {
+            pos[e.axis.index()] -= if e.forward { 1 } else { -1 };
+        }
+        let mut runs = Vec::new();
+        let mut cur: Vec<(i64, i64)> = Vec::new();
+        for e in sim.hal().steps() {
+            pos[e.axis.index()] += if e.forward { 1 } else { -1 };
+            if pos[2] < 800 {
+                cur.push((pos[0], pos[1]));
+            } else if !cur.is_empty() {
+                runs.push(std::mem::take(&mut cur));
+            }
+        }
+        runs.retain(|r| r.iter().any(|p| *p != r[0]));
+        runs
+    }
+
+    #[test]
+    fn grbl_plot_stops_twice_parked_and_ends_exactly() {
+        let profile = MachineProfile::default_plotter();
+        let steps = three_pens(&profile);
+        let mut m = grbl();
+        let mut ev = Script { answers: vec![], seen: vec![] };
+        let out = plot(&mut m, &profile, &steps, true, None, &mut ev).unwrap();
+        assert_eq!(out.pen_stops, 2);
+        let names: Vec<&str> = ev.seen.iter().map(|c| c.pen.name.as_str()).collect();
+        assert_eq!(names, ["red fineliner 0.5", "blue brush pen"]);
+        assert_eq!(ev.seen[1].previous.as_ref().map(|p| p.name.as_str()), Some("red fineliner 0.5"));
+        assert_eq!(ev.seen[0].park_mm, (0.0, 0.0), "the kit has no [park]: the home corner");
+        let emu = m.transport.emulator();
+        let p = emu.backend().machine().stepper().position();
+        // The blue square closes at (80, 40) mm = (6400, 3200) steps, pen up.
+        assert_eq!([p[0], p[1], p[2]], [6400, 3200, 1600]);
+        assert!(emu.stats().peak_rx <= 127 && emu.stats().overflow_bytes == 0);
+        // Three pen-down runs, one square each, and the carriage visited the park corner pen up in between.
+        let runs = pen_down_runs(emu.backend());
+        assert_eq!(runs.len(), 3, "three squares");
+        let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
+        assert_eq!(firsts, [(1600, 3200), (4000, 3200), (6400, 3200)]);
+    }
+
+    #[test]
+    fn skip_and_stop_then_resume_from_the_journal() {
+        let profile = MachineProfile::default_plotter();
+        let steps = three_pens(&profile);
+        // Skip the red layer: two squares drawn, one pen stop left (for blue).
+        let mut m = Session::connect(SimTransport::new(plan::machine_config(&profile).unwrap(), None), "sim").unwrap();
+        let mut ev = Script { answers: vec![PenChangeChoice::SkipLayer], seen: vec![] };
+        let out = plot(&mut m, &profile, &steps, true, None, &mut ev).unwrap();
+        assert_eq!((out.pen_stops, out.skipped.clone()), (2, vec!["red".to_string()]));
+        let runs = pen_down_runs(m.transport.sim());
+        let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
+        assert_eq!(firsts, [(1600, 3200), (6400, 3200)]);
+
+        // Stop at the first change on GRBL: the journal says where; resume draws red and blue.
+        let dir = std::env::temp_dir().join(format!("plotter-pen-journal-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let jp = dir.join("three.journal");
+        let mut g = grbl();
+        let source = |start: [i32; 4]| Ok(format!("{start:?}"));
+        let spec = JournalSpec { path: &jp, source: &source };
+        let mut ev = Script { answers: vec![PenChangeChoice::Stop], seen: vec![] };
+        let e = plot(&mut g, &profile, &steps, true, Some(spec), &mut ev).unwrap_err().to_string();
+        assert!(e.contains("stopped at the pen change before layer \"red\"") && e.contains("--resume"), "{e}");
+        let state = crate::link::journal::load(&jp).unwrap();
+        let full = plan::plan(&profile, &steps, plan::homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
+        assert_eq!(state.executed, full.pen_changes[0].block, "everything before the change was executed");
+        assert!(!state.complete);
+        let mut ev = Script { answers: vec![], seen: vec![] };
+        let start = plan::homed_position(&profile).unwrap();
+        let out = resume(&mut g, &profile, &steps, start, &state, &jp, false, &mut ev).unwrap();
+        // Asked for red first (resuming), then for blue.
+        let names: Vec<&str> = ev.seen.iter().map(|c| c.layer_name.as_str()).collect();
+        assert_eq!(names, ["red", "blue"]);
+        assert!(ev.seen[0].previous.is_none());
+        assert_eq!(out.pen_stops, 2);
+        assert!(crate::link::journal::load(&jp).unwrap().complete);
+        let p = g.transport.emulator().backend().machine().stepper().position();
+        assert_eq!([p[0], p[1], p[2]], [6400, 3200, 1600]);
+        let runs = pen_down_runs(g.transport.emulator().backend());
+        let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
+        assert_eq!(firsts, [(1600, 3200), (4000, 3200), (6400, 3200)], "black before the stop, red and blue after");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -6,8 +6,50 @@ use plotter_path::MachineProfile;
 use plotter_path::motion::plan::{MotionPlan, MoveKind};
 use plotter_path::motion::steps::{StepMapper, StepPos};
 
+use plotter_path::motion::pens::LayerPen;
+
 use crate::link::journal::Journal;
 use crate::link::stream::{Control, PauseChoice, Progress};
+
+/// Whether the plot stops between layers drawn with different pens.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum PenChangeMode {
+    /// Park with the pen up and wait for the user at every pen change.
+    Pause,
+    /// Plot straight through (one pen, or a machine with a tool changer of its own).
+    #[default]
+    None,
+}
+
+/// A pen change the plot is waiting for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PenChangeRequest {
+    /// Index of the layer about to be drawn.
+    pub layer: usize,
+    /// Its name.
+    pub layer_name: String,
+    /// The pen to load.
+    pub pen: LayerPen,
+    /// The pen in the machine before (none when a resumed plot starts).
+    pub previous: Option<LayerPen>,
+    /// 1-based number of this change, of `total`.
+    pub number: usize,
+    /// Pen changes in the plot.
+    pub total: usize,
+    /// Where the carriage waits, machine mm (X, Y).
+    pub park_mm: (f64, f64),
+}
+
+/// What the user decided at a pen change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PenChangeChoice {
+    /// The pen is loaded: draw the layer.
+    Continue,
+    /// Skip the layer (every layer up to the next pen change) and go on with the next pen change.
+    SkipLayer,
+    /// Stop here and keep the journal: `--resume` continues with this layer.
+    Stop,
+}
 
 /// What a front end is told as the plot advances.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,6 +82,21 @@ pub trait PlotEvents {
     /// The machine is paused (`held`: feed hold, else pen up); resume or abort?
     fn paused(&mut self, _held: bool) -> PauseChoice {
         PauseChoice::Abort
+    }
+    /// Whether the plot stops for pen changes (the default front end plots straight through).
+    fn pen_change_mode(&self) -> PenChangeMode {
+        PenChangeMode::None
+    }
+    /// The plot stands parked with the pen up, waiting for the user to load `change.pen`.
+    fn pen_change(&mut self, _change: &PenChangeRequest) -> PenChangeChoice {
+        PenChangeChoice::Continue
+    }
+    /// The plot starts with `first_pen` and has `pen_changes` pen changes ahead.
+    fn plot_started(&mut self, _first_pen: &LayerPen, _pen_changes: usize) {}
+    /// The machine reports an alarm (`what`); may it be unlocked (`$X` on GRBL)? The position may be wrong
+    /// after some alarms, so the default is no.
+    fn unlock_alarm(&mut self, _what: &str) -> bool {
+        false
     }
 }
 

@@ -4,8 +4,10 @@
 //! A corrupted byte is never turned into one of the real-time command bytes (`?`, `!`, `~`, Ctrl-X): those act
 //! outside the framing by design (a reset or feed hold cannot wait for a checksum), so noise that forges one is a
 //! different failure (a spurious hold or reset) from the one this harness measures (damaged frames and resends).
+//! Stray real-time bytes are injected separately, at their own rate ([`Noise::with_realtime`]): in framed mode the
+//! firmware must take them for data, never for commands.
 
-use plotter_fw::protocol::is_realtime;
+use plotter_fw::protocol::{RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
 
 /// Byte corruption at a fixed rate.
 #[derive(Debug, Clone)]
@@ -17,16 +19,38 @@ pub struct Noise {
     pub flipped: u64,
     /// Bytes dropped so far.
     pub dropped: u64,
+    /// Probability of a stray real-time byte after each byte, in 1/2³² units.
+    realtime_threshold: u64,
+    /// Real-time bytes injected so far.
+    pub injected: u64,
+}
+
+fn threshold(rate: f64) -> u64 {
+    let scaled = (rate.clamp(0.0, 1.0) * 4_294_967_296.0).round();
+    // Clamped to [0, 2^32] just above.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let t = scaled as u64;
+    t
 }
 
 impl Noise {
     /// Corrupt each byte with probability `rate` (0..=1); half of the faults flip a bit, half drop the byte.
     pub fn new(rate: f64, seed: u64) -> Self {
-        let scaled = (rate.clamp(0.0, 1.0) * 4_294_967_296.0).round();
-        // Clamped to [0, 2^32] just above.
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let threshold = scaled as u64;
-        Noise { state: seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1, threshold, flipped: 0, dropped: 0 }
+        Noise {
+            state: seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1,
+            threshold: threshold(rate),
+            flipped: 0,
+            dropped: 0,
+            realtime_threshold: 0,
+            injected: 0,
+        }
+    }
+
+    /// Also insert a stray real-time byte (`?`, `!`, `~` or Ctrl-X, at random) after each byte with probability
+    /// `rate`.
+    pub fn with_realtime(mut self, rate: f64) -> Self {
+        self.realtime_threshold = threshold(rate);
+        self
     }
 
     fn next(&mut self) -> u64 {
@@ -42,6 +66,15 @@ impl Noise {
     pub fn apply(&mut self, bytes: &[u8]) -> Vec<u8> {
         let mut out = Vec::with_capacity(bytes.len());
         for &b in bytes {
+            if self.realtime_threshold > 0 {
+                let r = self.next();
+                if (r >> 32) < self.realtime_threshold {
+                    self.injected += 1;
+                    out.push(
+                        [RT_STATUS, RT_FEED_HOLD, RT_RESUME, RT_RESET][usize::from(u8::try_from(r & 3).unwrap_or(0))],
+                    );
+                }
+            }
             let r = self.next();
             if (r >> 32) >= self.threshold {
                 out.push(b);

@@ -1,8 +1,11 @@
 //! The host side of the link to the firmware: byte transports (a serial port, or the simulator in-process), the
-//! session (handshake, homing, status), block streaming with flow control and resends, and the resume journal.
+//! session (handshake, homing, status), block streaming with flow control and resends, and the resume journal;
+//! GRBL as a second firmware dialect ([`grbl`]), and the machine interface the plot job drives ([`machine`]).
 
 pub mod faults;
+pub mod grbl;
 pub mod journal;
+pub mod machine;
 pub mod print;
 pub mod serial;
 pub mod session;

@@ -4,6 +4,7 @@
 use std::time::Duration;
 
 use anyhow::{Context as _, bail};
+use plotter_fw::framing::{self, rt_sequence};
 use plotter_fw::protocol::{RT_STATUS, Reply};
 
 use super::Transport;
@@ -17,6 +18,18 @@ pub struct FirmwareInfo {
     pub rx_bytes: usize,
     /// Planner queue length, blocks.
     pub queue_blocks: usize,
+    /// Protocol version (2 and later have framed mode, see `plotter_fw::framing`).
+    pub protocol: u32,
+}
+
+/// One line received from the firmware.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Incoming {
+    /// A reply to act on: a framed line whose CRC verified (with its number), or any line in plain mode (no
+    /// number), or a plain start banner in framed mode (a reset ends framed mode).
+    Reply(Option<u32>, String),
+    /// In framed mode, a line that does not verify: damaged on the way, never acted on.
+    Damaged(String),
 }
 
 /// A parsed status report `<State|MPos:..|Steps:x,y,z,e|Q:used/size|N:seq|C:completed>` (`C:` is optional:
@@ -74,6 +87,11 @@ pub struct Session<T: Transport> {
     pub info: FirmwareInfo,
     /// Where the session is connected (for messages).
     pub name: String,
+    /// Framed mode is on (see `plotter_fw::framing`): replies are verified, real-time commands are sequences.
+    pub framed: bool,
+    /// Numbered lines this session had accepted (each takes one of the firmware's sequence numbers; a resume must
+    /// not count them as blocks of the interrupted plot).
+    pub own_lines: u32,
 }
 
 /// How long to wait for the answer to a plain command (the homing cycle can take a while on a large machine).
@@ -90,6 +108,7 @@ fn parse_m115(line: &str) -> Option<FirmwareInfo> {
         version: field("FIRMWARE_VERSION:")?,
         rx_bytes: field("RX_BUFFER:")?.parse().ok()?,
         queue_blocks: field("QUEUE_BLOCKS:")?.parse().ok()?,
+        protocol: field("PROTOCOL_VERSION:")?.parse().ok()?,
     })
 }
 
@@ -99,9 +118,25 @@ impl<T: Transport> Session<T> {
     pub fn connect(mut transport: T, name: &str) -> anyhow::Result<Self> {
         let mut heard: Vec<String> = Vec::new();
         transport.send(b"\n").with_context(|| format!("cannot write to {name}"))?;
-        for _attempt in 0..3 {
+        // Plain replies are unchecked, so the firmware's description only counts when two answers agree (line noise
+        // could change a digit of a buffer size); framed mode later reads it again, verified.
+        let mut previous: Option<FirmwareInfo> = None;
+        let mut framed_seen = false;
+        for attempt in 0..40 {
+            if framed_seen {
+                // A firmware left in framed mode by an earlier host (which may have died mid-plot): continue in
+                // framed mode and read its description the verified way.
+                let info = FirmwareInfo { version: String::new(), rx_bytes: 64, queue_blocks: 1, protocol: 2 };
+                let mut s = Session { transport, info, name: name.to_string(), framed: true, own_lines: 0 };
+                s.verify_info()?;
+                return Ok(s);
+            }
+            if attempt >= 3 && heard.is_empty() && previous.is_none() {
+                break;
+            }
             // Drain whatever answers the flush (or a banner) produced.
             while let Some(l) = transport.recv_line(Duration::from_millis(150))? {
+                framed_seen |= framing::parse_reply(&l).is_some();
                 if heard.len() < 8 && !l.is_empty() && !l.starts_with("plotter-fw ") && Reply::parse(&l) != Reply::Ok {
                     heard.push(l);
                 }
@@ -109,11 +144,22 @@ impl<T: Transport> Session<T> {
             transport.send(b"M115\n")?;
             let mut info = None;
             while let Some(l) = transport.recv_line(Duration::from_secs(1))? {
+                framed_seen |= framing::parse_reply(&l).is_some();
                 if let Some(i) = parse_m115(&l) {
                     info = Some(i);
                 } else if l == "ok" {
                     if let Some(info) = info.take() {
-                        return Ok(Session { transport, info, name: name.to_string() });
+                        if previous.as_ref() == Some(&info) {
+                            return Ok(Session {
+                                transport,
+                                info,
+                                name: name.to_string(),
+                                framed: false,
+                                own_lines: 0,
+                            });
+                        }
+                        previous = Some(info);
+                        break;
                     }
                 } else if heard.len() < 8 && !l.starts_with("plotter-fw ") {
                     heard.push(l);
@@ -125,6 +171,119 @@ impl<T: Transport> Session<T> {
         }
         let shown: Vec<String> = heard.iter().take(3).map(|l| format!("{l:?}")).collect();
         bail!("{name} does not answer like plotter-fw (M115 got no firmware info); it sent: {}", shown.join(", "))
+    }
+
+    /// The next line from the firmware within `timeout` (see [`Incoming`]).
+    pub fn recv(&mut self, timeout: Duration) -> std::io::Result<Option<Incoming>> {
+        let Some(l) = self.transport.recv_line(timeout)? else { return Ok(None) };
+        if !self.framed {
+            return Ok(Some(Incoming::Reply(None, l)));
+        }
+        if let Some((n, text)) = framing::parse_reply(&l) {
+            return Ok(Some(Incoming::Reply(Some(n), text.to_string())));
+        }
+        if matches!(Reply::parse(&l), Reply::Banner(b) if b.split_whitespace().count() >= 11) {
+            // The firmware restarted (a reset ends framed mode): its banner is plain.
+            self.framed = false;
+            return Ok(Some(Incoming::Reply(None, l)));
+        }
+        Ok(Some(Incoming::Damaged(l)))
+    }
+
+    /// Send the real-time command `cmd`: one byte in plain mode, its four-byte sequence in framed mode.
+    pub fn send_realtime(&mut self, cmd: u8) -> std::io::Result<()> {
+        if self.framed { self.transport.send(&rt_sequence(cmd)) } else { self.transport.send(&[cmd]) }
+    }
+
+    /// Switch framed mode on (firmwares with protocol 2 and later; older ones stay plain). Sent checked.
+    pub fn enter_framed(&mut self) -> anyhow::Result<()> {
+        if self.framed || self.info.protocol < 2 {
+            return Ok(());
+        }
+        // The answer to the switch is already framed; a damaged exchange is settled by asking for the status the
+        // framed way (only a framed firmware answers it with a verified report).
+        let mut seq = self.status()?.seq;
+        'attempt: for _attempt in 0..10 {
+            let body = format!("N{seq} M{} S1", framing::M_FRAMED);
+            let cs = plotter_fw::protocol::xor_checksum(body.as_bytes());
+            self.transport.send(format!("{body}*{cs}\n").as_bytes())?;
+            let deadline = self.transport.now() + COMMAND_TIMEOUT;
+            loop {
+                let left = deadline.saturating_sub(self.transport.now());
+                let Some(l) = self.transport.recv_line(left.max(Duration::from_millis(1)))? else { break };
+                if let Some((n, text)) = framing::parse_reply(&l) {
+                    if n == seq && text == "ok" {
+                        self.framed = true;
+                        self.own_lines += 1;
+                        return self.verify_info();
+                    }
+                    continue;
+                }
+                // (Anything else, e.g. an unnumbered-checksum error when our `N` was damaged, is settled below.)
+                if let Reply::Resend(n) = Reply::parse(&l) {
+                    seq = n;
+                    continue 'attempt;
+                }
+            }
+            self.framed = true;
+            if self.status().is_ok() {
+                self.own_lines += 1;
+                return self.verify_info();
+            }
+            self.framed = false;
+            seq = self.status()?.seq;
+        }
+        bail!("{}: could not switch to framed mode", self.name)
+    }
+
+    /// In framed mode, read the firmware's description again, verified this time.
+    fn verify_info(&mut self) -> anyhow::Result<()> {
+        for _ in 0..30 {
+            let lines = self.command_checked("M115", COMMAND_TIMEOUT)?;
+            if let Some(info) = lines.iter().find_map(|l| parse_m115(l)) {
+                self.info = info;
+                return Ok(());
+            }
+        }
+        bail!("{}: no intact firmware description in framed mode", self.name)
+    }
+
+    /// Switch framed mode off again (for consoles and other senders after us).
+    pub fn leave_framed(&mut self) -> anyhow::Result<()> {
+        if !self.framed {
+            return Ok(());
+        }
+        // The answer to the switch is plain already; when it is lost, a plain status settles whether the switch
+        // happened (a framed firmware does not answer a lone `?`).
+        let mut seq = self.status()?.seq;
+        for _attempt in 0..10 {
+            let body = format!("N{seq} M{} S0", framing::M_FRAMED);
+            let cs = plotter_fw::protocol::xor_checksum(body.as_bytes());
+            self.transport.send(format!("{body}*{cs}\n").as_bytes())?;
+            self.framed = false;
+            let deadline = self.transport.now() + COMMAND_TIMEOUT;
+            while let Some(l) =
+                self.transport.recv_line(deadline.saturating_sub(self.transport.now()).max(Duration::from_millis(1)))?
+            {
+                if l == "ok" {
+                    return Ok(());
+                }
+            }
+            // Unclear: a framed firmware answers a framed status request (the line was lost: again), a plain one a
+            // plain request.
+            self.framed = true;
+            if let Ok(st) = self.status() {
+                seq = st.seq;
+                continue;
+            }
+            self.framed = false;
+            if self.status().is_ok() {
+                // Flush the halves of the framed requests a plain firmware took for data.
+                self.transport.send(b"\n")?;
+                return Ok(());
+            }
+        }
+        bail!("{}: could not leave framed mode", self.name)
     }
 
     /// Send one G-code line (unsequenced) and wait for its `ok`; returns the report lines before it. `error:` and
@@ -153,16 +312,29 @@ impl<T: Transport> Session<T> {
     }
 
     /// Ask for a status report and wait for it.
+    /// In framed mode only a verified report counts: a damaged one is asked for again (up to 10 times).
     pub fn status(&mut self) -> anyhow::Result<Status> {
-        for _ in 0..3 {
-            self.transport.send(&[RT_STATUS])?;
-            while let Some(l) = self.transport.recv_line(Duration::from_millis(500))? {
+        let mut damaged = 0;
+        for _ in 0..30 {
+            self.send_realtime(RT_STATUS)?;
+            while let Some(l) = self.recv(Duration::from_millis(500))? {
+                let Incoming::Reply(_, l) = l else {
+                    damaged += 1;
+                    continue;
+                };
                 if let Reply::Status(s) = Reply::parse(&l) {
-                    return Status::parse(s).with_context(|| format!("{}: unreadable status report <{s}>", self.name));
+                    match Status::parse(s) {
+                        Some(st) => return Ok(st),
+                        None if self.framed => bail!("{}: unreadable status report <{s}>", self.name),
+                        None => damaged += 1,
+                    }
+                }
+                if matches!(Reply::parse(&l), Reply::Banner(_)) {
+                    bail!("{}: the firmware restarted", self.name);
                 }
             }
         }
-        bail!("{}: no status report", self.name)
+        bail!("{}: no readable status report ({damaged} damaged lines)", self.name)
     }
 
     /// Send one G-code line numbered and checksummed (`N<n> line*<cs>`, with `n` the firmware's expected sequence
@@ -178,13 +350,36 @@ impl<T: Transport> Session<T> {
             let deadline = self.transport.now() + timeout;
             loop {
                 let left = deadline.saturating_sub(self.transport.now());
-                let Some(l) = self.transport.recv_line(left.max(Duration::from_millis(1)))? else {
-                    // Lost without an answer (e.g. its line end was dropped): ask where the firmware stands.
-                    seq = self.status()?.seq;
+                let got = self.recv(left.max(Duration::from_millis(1)))?;
+                let Some(Incoming::Reply(n, l)) = got else {
+                    if got.is_some() {
+                        // Damaged: perhaps our answer. Wait on; the status below settles it.
+                        continue;
+                    }
+                    // No (readable) answer: ask where the firmware stands. If it has taken our number, the line
+                    // was executed and only its `ok` was lost — never send it twice.
+                    let now = self.status()?.seq;
+                    if now == seq.wrapping_add(1) {
+                        self.own_lines += 1;
+                        return Ok(out);
+                    }
+                    seq = now;
                     break;
                 };
+                if n.is_some_and(|n| n != seq) {
+                    // A framed answer about another line (a late reply): not ours.
+                    continue;
+                }
                 match Reply::parse(&l) {
-                    Reply::Ok => return Ok(out),
+                    Reply::Ok => {
+                        self.own_lines += 1;
+                        return Ok(out);
+                    }
+                    Reply::Error { code, .. } if code == plotter_fw::errors::ErrorCode::Checksum.code() => {
+                        // Our line lost its `N` on the way: ask where the firmware stands and send it again.
+                        seq = self.status()?.seq;
+                        break;
+                    }
                     Reply::Error { code, text } => bail!("{}: {line:?} refused: error {code}: {text}", self.name),
                     Reply::Alarm { code, text } => bail!("{}: alarm {code} ({text}) during {line:?}", self.name),
                     Reply::Banner(_) => bail!("{}: the firmware restarted during {line:?}", self.name),
@@ -198,6 +393,29 @@ impl<T: Transport> Session<T> {
             }
         }
         bail!("{}: {line:?} could not be delivered intact after 10 attempts", self.name)
+    }
+
+    /// Stop everything and raise the pen, for abort paths: a reset (the queue is dropped, the carriage stops where it
+    /// is; framed mode ends), then `G0 Z<up_z_mm>` in machine coordinates. Fails when the firmware does not answer.
+    pub fn stop_and_lift(&mut self, up_z_mm: f64) -> anyhow::Result<()> {
+        self.send_realtime(plotter_fw::protocol::RT_RESET)?;
+        let deadline = self.transport.now() + Duration::from_secs(3);
+        loop {
+            let left = deadline.saturating_sub(self.transport.now());
+            if left.is_zero() {
+                bail!("{}: no banner after the reset", self.name);
+            }
+            if let Some(Incoming::Reply(_, l)) = self.recv(left)?
+                && matches!(Reply::parse(&l), Reply::Banner(_))
+            {
+                break;
+            }
+        }
+        self.framed = false;
+        self.command(&format!("G90 G0 Z{up_z_mm:.3}"), COMMAND_TIMEOUT)?;
+        // Wait for the lift to finish.
+        self.wait_idle(Duration::from_millis(50))?;
+        Ok(())
     }
 
     /// Run the homing cycle (`G28`, sent checked).

@@ -23,6 +23,7 @@ pub struct SimTransport {
     was_moving: bool,
     underruns: u64,
     noise: Option<Noise>,
+    reply_noise: Option<Noise>,
     wire_busy_ticks: u64,
 }
 
@@ -40,6 +41,7 @@ impl SimTransport {
             was_moving: false,
             underruns: 0,
             noise: None,
+            reply_noise: None,
             wire_busy_ticks: 0,
         }
     }
@@ -55,6 +57,7 @@ impl SimTransport {
             was_moving: false,
             underruns: 0,
             noise: None,
+            reply_noise: None,
             wire_busy_ticks: 0,
         }
     }
@@ -70,6 +73,17 @@ impl SimTransport {
         self
     }
 
+    /// Corrupt the firmware's replies with `noise` (line ends included, so lines can merge or split).
+    pub fn with_reply_noise(mut self, noise: Noise) -> Self {
+        self.reply_noise = Some(noise);
+        self
+    }
+
+    /// The noise on each direction (to the firmware, from the firmware), for reports.
+    pub fn noise(&self) -> (Option<&Noise>, Option<&Noise>) {
+        (self.noise.as_ref(), self.reply_noise.as_ref())
+    }
+
     /// Virtual time during which bytes were waiting on the wire (the link was busy), ticks.
     pub fn wire_busy_ticks(&self) -> u64 {
         self.wire_busy_ticks
@@ -82,8 +96,18 @@ impl SimTransport {
 
     fn collect(&mut self) {
         for l in self.sim.take_replies() {
-            self.lines.push(l.as_bytes());
-            self.lines.push(b"\n");
+            match self.reply_noise.as_mut() {
+                Some(n) => {
+                    let mut bytes = l.into_bytes();
+                    bytes.push(b'\n');
+                    let noisy = n.apply(&bytes);
+                    self.lines.push(&noisy);
+                }
+                None => {
+                    self.lines.push(l.as_bytes());
+                    self.lines.push(b"\n");
+                }
+            }
         }
     }
 

@@ -36,7 +36,7 @@ use plotter_fw::stepper::STEPPER_QUEUE;
 use plotter_path::motion::plan::{MotionPlan, MoveKind};
 
 use super::Transport;
-use super::session::{Session, Status};
+use super::session::{Incoming, Session, Status};
 
 /// The plan's blocks as wire frames, numbered from `base`.
 pub struct Frames {
@@ -136,6 +136,8 @@ pub struct StreamStats {
     pub resyncs: u64,
     /// Frames that arrived so damaged that the firmware took them for (bad) G-code.
     pub noise_errors: u64,
+    /// Reply lines that failed their check (framed mode) and were ignored.
+    pub damaged_replies: u64,
     /// Transport time from the first frame to the last block executed.
     pub elapsed: Duration,
     /// Transport time from the first frame to the last frame accepted.
@@ -199,11 +201,19 @@ pub struct StreamOptions {
     pub status_every: Duration,
     /// Consecutive stalls without progress before giving up.
     pub max_stalls: u32,
+    /// The overall watchdog: no frame accepted and no block executed for this long, in any state, stops the
+    /// stream with a message naming the state ([`stream_plan`] raises it to twice the plan's longest block).
+    pub watchdog: Duration,
 }
 
 impl Default for StreamOptions {
     fn default() -> Self {
-        StreamOptions { quiet: Duration::from_millis(500), status_every: Duration::from_millis(250), max_stalls: 20 }
+        StreamOptions {
+            quiet: Duration::from_millis(500),
+            status_every: Duration::from_millis(250),
+            max_stalls: 20,
+            watchdog: Duration::from_secs(30),
+        }
     }
 }
 
@@ -213,6 +223,8 @@ const REFUSALS: [u8; 3] = [ErrorCode::SoftLimit.code(), ErrorCode::Alarm.code(),
 struct InFlight {
     len: usize,
     generation: u64,
+    /// Frame index.
+    index: usize,
 }
 
 struct State {
@@ -225,6 +237,7 @@ struct State {
     resends: u64,
     resyncs: u64,
     noise_errors: u64,
+    damaged_replies: u64,
     bytes_sent: u64,
     status_pending: bool,
     resync_pending: bool,
@@ -248,6 +261,7 @@ impl State {
             resends: 0,
             resyncs: 0,
             noise_errors: 0,
+            damaged_replies: 0,
             bytes_sent: 0,
             status_pending: false,
             resync_pending: false,
@@ -261,6 +275,41 @@ impl State {
         let e = self.in_flight.pop_front()?;
         self.in_bytes -= e.len;
         Some(e)
+    }
+
+    /// A framed `ok` names its frame: every frame sent before it has been answered too (answers come in order),
+    /// whether or not their own answers arrived intact.
+    fn answered_through(&mut self, index: usize) {
+        if self.in_flight.iter().any(|e| e.index == index) {
+            while let Some(e) = self.answered() {
+                if e.index == index {
+                    break;
+                }
+            }
+        } else {
+            self.answered();
+        }
+    }
+
+    /// What the stream is doing, for the watchdog's message.
+    fn phase(&self, n: usize, rx: usize, frames: &Frames, fw_state: Option<&str>) -> String {
+        let host = if self.accepted == n {
+            "waiting for the last blocks to execute".to_string()
+        } else if self.next < n && self.in_bytes + frames.bytes[self.next].len() > rx {
+            format!("waiting for the firmware to take frames ({} bytes in flight)", self.in_bytes)
+        } else if self.accepted < self.next {
+            format!("waiting for acknowledgements of frames {}..{}", self.accepted, self.next)
+        } else {
+            "sending".to_string()
+        };
+        let fw = match fw_state {
+            Some("Hold:0" | "Hold:1") => "; the firmware reports a feed hold",
+            Some("Alarm") => "; the firmware reports an alarm",
+            Some("Idle") => "; the firmware reports Idle",
+            Some(_) => "; the firmware reports Run",
+            None => "; no readable status report",
+        };
+        format!("{host}{fw}")
     }
 
     fn on_status(&mut self, s: &Status, base: u32, n: usize) {
@@ -302,6 +351,8 @@ pub fn stream<T: Transport>(
     let mut garbage = 0usize;
     let mut accept_elapsed = Duration::ZERO;
     let mut last_reported = Progress::default();
+    let mut last_progress_at = t0;
+    let mut fw_state: Option<String> = Some(before.state.clone());
     session.transport.set_streaming(true);
     let result = loop {
         let progress = Progress {
@@ -311,8 +362,21 @@ pub fn stream<T: Transport>(
             resends: st.resends,
         };
         if progress != last_reported {
+            if (progress.accepted, progress.executed) != (last_reported.accepted, last_reported.executed) {
+                last_progress_at = session.transport.now();
+            }
             control.progress(&progress);
             last_reported = progress;
+        }
+        if session.transport.now().saturating_sub(last_progress_at) > opts.watchdog {
+            break Err(StreamError::Link(anyhow::anyhow!(
+                "{}: no progress for {:.0} s while {} ({} of {n} blocks accepted, {} executed)",
+                session.name,
+                opts.watchdog.as_secs_f64(),
+                st.phase(n, rx, frames, fw_state.as_deref()),
+                st.accepted,
+                st.executed
+            )));
         }
         if st.accepted == n {
             accept_elapsed = session.transport.now() - t0;
@@ -323,7 +387,7 @@ pub fn stream<T: Transport>(
             && let Some(now) = control.pause_requested()
         {
             if now {
-                session.transport.send(&[protocol::RT_FEED_HOLD])?;
+                session.send_realtime(protocol::RT_FEED_HOLD)?;
                 // The firmware only resumes once the hold has come to a stop.
                 loop {
                     let s = session.status()?;
@@ -337,7 +401,7 @@ pub fn stream<T: Transport>(
                 if choice == PauseChoice::Abort {
                     break Err(StreamError::Aborted { executed: st.executed });
                 }
-                session.transport.send(&[protocol::RT_RESUME])?;
+                session.send_realtime(protocol::RT_RESUME)?;
             } else {
                 let from = st.next.saturating_sub(1);
                 pause_at = Some((from..n).find(|&i| frames.safe_after[i]).unwrap_or(n - 1));
@@ -361,7 +425,7 @@ pub fn stream<T: Transport>(
         while st.next < limit && st.in_bytes + frames.bytes[st.next].len() <= rx {
             let f = &frames.bytes[st.next];
             session.transport.send(f)?;
-            st.in_flight.push_back(InFlight { len: f.len(), generation: st.generation });
+            st.in_flight.push_back(InFlight { len: f.len(), generation: st.generation, index: st.next });
             st.in_bytes += f.len();
             st.bytes_sent += u64::try_from(f.len()).unwrap_or(u64::MAX);
             st.next += 1;
@@ -369,12 +433,14 @@ pub fn stream<T: Transport>(
         session.transport.set_streaming(st.next < n);
         // Periodic status for the executed count.
         let now = session.transport.now();
-        if !st.status_pending && now.saturating_sub(st.last_status_at) >= opts.status_every {
-            session.transport.send(&[RT_STATUS])?;
+        // (A report lost to noise is asked for again after the quiet period.)
+        let since = now.saturating_sub(st.last_status_at);
+        if since >= opts.status_every && (!st.status_pending || since >= opts.quiet) {
+            session.send_realtime(RT_STATUS)?;
             st.status_pending = true;
             st.last_status_at = now;
         }
-        let Some(line) = session.transport.recv_line(opts.quiet)? else {
+        let Some(incoming) = session.recv(opts.quiet)? else {
             // Quiet: ask for the status and decide whether the firmware is just busy.
             stalls += 1;
             if stalls > opts.max_stalls {
@@ -384,20 +450,40 @@ pub fn stream<T: Transport>(
                     st.accepted
                 )));
             }
-            session.transport.send(&[RT_STATUS])?;
+            session.send_realtime(RT_STATUS)?;
             st.status_pending = true;
             st.resync_pending = true;
+            st.last_status_at = session.transport.now();
             continue;
         };
+        let (number, line) = match incoming {
+            Incoming::Reply(number, line) => (number, line),
+            Incoming::Damaged(_) => {
+                // Never acted on: a lost `ok` is made good by the next one, a lost `rs` by the next `rs`, a lost
+                // status by asking again.
+                st.damaged_replies += 1;
+                continue;
+            }
+        };
+        // A framed `ok`/`error:` names its frame.
+        let frame = number.and_then(|x| usize::try_from(x.wrapping_sub(frames.base)).ok()).filter(|&i| i < n);
         match Reply::parse(&line) {
             Reply::Ok => {
                 stalls = 0;
                 st.resync_candidate = None;
-                st.answered();
-                st.accepted = (st.accepted + 1).min(st.next);
+                match frame {
+                    Some(i) => {
+                        st.answered_through(i);
+                        st.accepted = st.accepted.max(i + 1).min(st.next);
+                    }
+                    None => {
+                        st.answered();
+                        st.accepted = (st.accepted + 1).min(st.next);
+                    }
+                }
             }
             Reply::Error { code, text } if REFUSALS.contains(&code) => {
-                break Err(StreamError::Refused { block: st.accepted, code, text: text.to_string() });
+                break Err(StreamError::Refused { block: frame.unwrap_or(st.accepted), code, text: text.to_string() });
             }
             Reply::Error { .. } => {
                 // Only frames are sent while streaming, so a G-code error means line noise turned a frame into
@@ -431,6 +517,7 @@ pub fn stream<T: Transport>(
             Reply::Status(s) => {
                 st.status_pending = false;
                 let Some(s) = Status::parse(s) else { continue };
+                fw_state = Some(s.state.clone());
                 st.on_status(&s, frames.base, n);
                 if st.resync_pending {
                     st.resync_pending = false;
@@ -467,16 +554,43 @@ pub fn stream<T: Transport>(
     };
     session.transport.set_streaming(false);
     result?;
-    // Everything accepted: wait for the motion to finish.
-    let s = session.wait_idle(Duration::from_millis(50))?;
-    st.on_status(&s, frames.base, n);
-    st.executed = n;
-    control.progress(&Progress {
-        accepted: n,
-        executed: n,
-        seq_after_accepted: frames.base.wrapping_add(u32::try_from(n).unwrap_or(u32::MAX)),
-        resends: st.resends,
-    });
+    // Everything accepted: follow the execution to the very last block, so the journal does too.
+    let seq_after = frames.base.wrapping_add(u32::try_from(n).unwrap_or(u32::MAX));
+    loop {
+        let s = session.status()?;
+        if s.state == "Alarm" {
+            return Err(StreamError::Alarm { code: 0, text: "reported in the status".into(), executed: st.executed });
+        }
+        let before = st.executed;
+        st.on_status(&s, frames.base, n);
+        if s.is_idle() {
+            st.executed = n;
+        }
+        let now = session.transport.now();
+        if st.executed != before {
+            last_progress_at = now;
+            control.progress(&Progress {
+                accepted: n,
+                executed: st.executed,
+                seq_after_accepted: seq_after,
+                resends: st.resends,
+            });
+        }
+        if st.executed == n {
+            break;
+        }
+        if now.saturating_sub(last_progress_at) > opts.watchdog {
+            return Err(StreamError::Link(anyhow::anyhow!(
+                "{}: no progress for {:.0} s while {} ({} of {n} blocks executed)",
+                session.name,
+                opts.watchdog.as_secs_f64(),
+                st.phase(n, rx, frames, Some(&s.state)),
+                st.executed
+            )));
+        }
+        // Let time pass (virtual for the simulator: receiving advances it).
+        let _ = session.recv(Duration::from_millis(50))?;
+    }
     Ok(StreamStats {
         frames: n,
         frame_bytes: frames.total_bytes(),
@@ -484,6 +598,7 @@ pub fn stream<T: Transport>(
         resends: st.resends,
         resyncs: st.resyncs,
         noise_errors: st.noise_errors,
+        damaged_replies: st.damaged_replies,
         elapsed: session.transport.now() - t0,
         accept_elapsed,
         underruns: session.transport.underruns(),
@@ -505,6 +620,10 @@ pub fn stream_plan<T: Transport>(
     if frames.is_empty() {
         return Ok((frames, StreamStats::default()));
     }
+    // The watchdog must outlast the longest block.
+    let longest = plan.blocks.iter().map(|b| u64::from(b.block.duration_ticks())).max().unwrap_or(0);
+    let longest = Duration::from_micros(longest * 1_000_000 / u64::from(plotter_fw::TICK_HZ));
+    let opts = StreamOptions { watchdog: opts.watchdog.max(2 * longest), ..opts };
     let stats = stream(session, &frames, &s, opts, control)?;
     Ok((frames, stats))
 }

@@ -13,6 +13,7 @@ use plotter_host::job::progress::{JobProgress, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self};
 use plotter_host::link::Transport as _;
+use plotter_host::link::machine::Firmware;
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::session::{COMMAND_TIMEOUT, Session};
 use plotter_host::link::sim::SimTransport;
@@ -162,12 +163,12 @@ impl Worker {
             }
             Command::Jog(target, distance) => {
                 let args = JogArgs {
-                    link: LinkArgs { port: String::new(), profile: None, baud: None },
+                    link: LinkArgs { port: String::new(), profile: None, baud: None, firmware: Firmware::Ours },
                     target,
                     distance,
                     feed: None,
                 };
-                let lines = jog_lines(&args, &profile)?;
+                let lines = jog_lines(&args, &profile, Firmware::Ours)?;
                 let mut result = Ok(());
                 for l in &lines {
                     hub.log("out", l.clone());

@@ -36,7 +36,7 @@ fn count(replies: &[String], what: &str) -> usize {
 fn banner_announces_buffers() {
     let mut sim = Sim::new(cfg());
     let r = sim.take_replies();
-    assert_eq!(r, ["plotter-fw 0.1.0 proto 1 rx 256 queue 32 line 96 seq 0"]);
+    assert_eq!(r, ["plotter-fw 0.1.0 proto 2 rx 256 queue 32 line 96 seq 0"]);
 }
 
 /// The seed's square, relative version: pen down, four sides, pen up.
@@ -325,7 +325,7 @@ fn homing_alarms() {
     assert!(1000 - sim.physical_position()[1] <= 35_640);
     // Reset clears the alarm.
     let r = run(&mut sim, "\u{18}");
-    assert_eq!(r, ["plotter-fw 0.1.0 proto 1 rx 256 queue 32 line 96 seq 0"]);
+    assert_eq!(r, ["plotter-fw 0.1.0 proto 2 rx 256 queue 32 line 96 seq 0"]);
     assert_eq!(sim.machine().alarm(), None);
 
     // A switch that never releases (stuck far beyond the travel on X).
@@ -499,7 +499,7 @@ fn reports_and_errors() {
     assert_eq!(
         r,
         [
-            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:0.1.0 PROTOCOL_VERSION:1 RX_BUFFER:256 QUEUE_BLOCKS:32 LINE_MAX:96 TICK_HZ:1000000",
+            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:0.1.0 PROTOCOL_VERSION:2 RX_BUFFER:256 QUEUE_BLOCKS:32 LINE_MAX:96 TICK_HZ:1000000",
             "ok",
             "ok",
             "X:10.000 Y:0.000 Z:0.000 E:0.000 Count X:0 Y:0 Z:0 E:0",
@@ -536,4 +536,35 @@ fn overflow_is_reported_not_silent() {
     assert_eq!(r.iter().filter(|l| l.starts_with("error:6 receive buffer overflow, bytes lost: ")).count(), 1, "{r:?}");
     // 32 blocks in the planner, 2 in the stepper, 1 line waiting for room, 28 whole lines in the 256-byte buffer.
     assert_eq!(count(&r, "ok"), 32 + 2 + 1 + 28);
+}
+
+#[test]
+fn servo_pen_m3_m5_drive_the_servo_after_the_queue_empties() {
+    let mut sim = Sim::new(cfg());
+    let r = run(&mut sim, "G1 X10 F600\nM3 S30\nG4 P100\nM5\nM5 S120\nM3\nM3 S200\n");
+    // Five ok, then the two M3 without a valid angle refused.
+    assert_eq!(count(&r, "ok"), 5, "{r:?}");
+    assert_eq!(r.iter().filter(|l| l.starts_with("error:9")).count(), 2, "{r:?}");
+    let servo = sim.hal().servo_trace().to_vec();
+    let angles: Vec<(f32, u16)> = servo.iter().map(|s| (s.1, s.2)).collect();
+    assert_eq!(angles, [(30.0, 1167), (90.0, 1500), (120.0, 1667)]);
+    // M3 waited for the 10 mm move (800 steps at 10 mm/s: at least 1 s), and M5 for the 100 ms dwell after it.
+    assert!(servo[0].0 >= 1_000_000, "{}", servo[0].0);
+    assert!(servo[1].0 >= servo[0].0 + 100_000);
+    assert_eq!(sim.physical_position()[0], 800);
+}
+
+#[test]
+fn m0_pauses_a_gcode_stream_until_resume() {
+    let mut sim = Sim::new(cfg());
+    let r = run(&mut sim, "G1 X5 F600\nM0\nG1 X10\n");
+    assert_eq!(count(&r, "ok"), 2, "the line after M0 waits: {r:?}");
+    assert_eq!(sim.physical_position()[0], 400);
+    sim.feed(b"?");
+    sim.run_until_idle();
+    assert!(sim.take_replies().iter().any(|l| l.starts_with("<Hold:0|")), "paused shows as a stopped hold");
+    sim.feed(b"~");
+    sim.run_until_idle();
+    assert_eq!(count(&sim.take_replies(), "ok"), 1);
+    assert_eq!(sim.physical_position()[0], 800);
 }

@@ -129,7 +129,7 @@ impl Autotune {
             self.last_peak = Some(self.peak);
             if let (Some(high), true) = (self.high_ticks, self.offs >= 2) {
                 let (h, l) = (high as f32, low as f32);
-                self.bias = (self.bias + self.d * (h - l) / (h + l)).clamp(0.1 * self.max, 0.9 * self.max);
+                self.bias = crate::fmath::clamp(self.bias + self.d * (h - l) / (h + l), 0.1 * self.max, 0.9 * self.max);
                 self.d = self.bias.min(self.max - self.bias);
             }
             self.trough = temp;

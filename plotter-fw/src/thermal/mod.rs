@@ -35,6 +35,7 @@ pub mod thermistor;
 
 use core::fmt::{self, Write};
 
+use crate::decimal::Decimal;
 use crate::errors::ErrorCode;
 use crate::gcode::{MICRO, Words};
 use crate::hal::Heaters;
@@ -467,7 +468,7 @@ impl Thermal {
                     }
                 }
             }
-            let duty = crate::fmath::round_u32(duty.clamp(0.0, f32::from(cfg.max_duty)));
+            let duty = crate::fmath::round_u32(crate::fmath::clamp(duty, 0.0, f32::from(cfg.max_duty)));
             let duty = u8::try_from(duty).unwrap_or(cfg.max_duty);
             c.duty = duty;
             io.set_heater(h, duty);
@@ -517,10 +518,10 @@ impl Thermal {
             let sep = if first { "" } else { " " };
             first = false;
             let _ = match c.reading {
-                Some(Reading::Open) => write!(out, "{sep}{label}:open /{:.2}", c.target),
-                Some(Reading::Short) => write!(out, "{sep}{label}:short /{:.2}", c.target),
-                _ if !c.temp.is_finite() => write!(out, "{sep}{label}:none /{:.2}", c.target),
-                _ => write!(out, "{sep}{label}:{:.2} /{:.2}", c.temp, c.target),
+                Some(Reading::Open) => write!(out, "{sep}{label}:open /{}", Decimal::new(c.target, 2)),
+                Some(Reading::Short) => write!(out, "{sep}{label}:short /{}", Decimal::new(c.target, 2)),
+                _ if !c.temp.is_finite() => write!(out, "{sep}{label}:none /{}", Decimal::new(c.target, 2)),
+                _ => write!(out, "{sep}{label}:{} /{}", Decimal::new(c.temp, 2), Decimal::new(c.target, 2)),
             };
         }
         for h in Heater::ALL {
@@ -619,7 +620,14 @@ impl Thermal {
                 }
                 let mut g = self.ch[h.index()].gains;
                 if !(w.has(b'P') || w.has(b'I') || w.has(b'D')) {
-                    let _ = writeln!(out, "{} Kp:{:.3} Ki:{:.4} Kd:{:.3}", pid_label(h), g.kp, g.ki, g.kd);
+                    let _ = writeln!(
+                        out,
+                        "{} Kp:{} Ki:{} Kd:{}",
+                        pid_label(h),
+                        Decimal::new(g.kp, 3),
+                        Decimal::new(g.ki, 4),
+                        Decimal::new(g.kd, 3)
+                    );
                     return Cmd::Ok;
                 }
                 g.kp = w.get(b'P').map_or(g.kp, celsius);
@@ -680,7 +688,14 @@ impl Thermal {
             self.waiting = false;
             return match result {
                 Ok(g) => {
-                    let _ = writeln!(out, "PID autotune {} Kp:{:.3} Ki:{:.4} Kd:{:.3}", pid_label(h), g.kp, g.ki, g.kd);
+                    let _ = writeln!(
+                        out,
+                        "PID autotune {} Kp:{} Ki:{} Kd:{}",
+                        pid_label(h),
+                        Decimal::new(g.kp, 3),
+                        Decimal::new(g.ki, 4),
+                        Decimal::new(g.kd, 3)
+                    );
                     Cmd::Ok
                 }
                 Err(why) => {

@@ -71,9 +71,9 @@ impl Pid {
         let pushing_up = unsat >= max && e > 0.0;
         let pushing_down = unsat <= 0.0 && e < 0.0;
         if !pushing_up && !pushing_down {
-            self.integral = (self.integral + g.ki * e * dt_s).clamp(0.0, max);
+            self.integral = crate::fmath::clamp(self.integral + g.ki * e * dt_s, 0.0, max);
         }
-        (p + self.integral + self.d_filtered).clamp(0.0, max)
+        crate::fmath::clamp(p + self.integral + self.d_filtered, 0.0, max)
     }
 }
 

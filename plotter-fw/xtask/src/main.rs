@@ -85,7 +85,7 @@ fn build((name, target): (&str, &str), features: Option<&str>) -> anyhow::Result
     let boards_dir = root().join("plotter-fw").join("boards");
     let build_dir = target_dir().join("boards");
     let mut cmd = Command::new(&cargo);
-    cmd.args(["build", "--release", "--locked", "-p", name, "--target", target]);
+    cmd.args(["build", "--release", "-p", name, "--target", target]);
     if let Some(f) = features {
         cmd.args(["--features", f]);
     }

@@ -11,10 +11,18 @@
 //! Elliptical arcs use the same argument on the parametric ellipse `c + R(φ)(rx cos θ, ry sin θ)`, whose second
 //! derivative has norm ≤ `max(rx, ry)`.
 //!
+//! Bounded work: a curve with a control point beyond [`crate::geometry::limits::MAX_COORD_MM`] (or not finite)
+//! becomes a single chord — such a drawing is refused by [`crate::geometry::limits::check_drawing`], and flattening
+//! a curve of 10²⁰ mm finely would exhaust memory first — and once one path has more than
+//! [`crate::geometry::limits::MAX_POINTS`] points, its remaining curves become single chords too (the drawing is
+//! then refused for its point count). Within the limits, the tolerance bound always holds.
+//!
 //! Uniform parameter steps cost a few more points than curvature-adaptive subdivision on very uneven curves, but
 //! they are branch-free, need no recursion and run at tens of millions of segments per second.
 
 use kurbo::{Arc, CubicBez, ParamCurve, PathEl, Point, QuadBez, Vec2};
+
+use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS, point_ok};
 
 /// Smallest accepted tolerance, mm. Below this, coordinates in f32 SVG data carry more error than the bound.
 pub const MIN_TOLERANCE: f64 = 1e-6;
@@ -38,6 +46,9 @@ fn pieces_for(max_second_derivative: f64, tolerance: f64) -> usize {
 
 /// Number of equal-parameter pieces that keep `c` within `tolerance` of its chords.
 pub fn cubic_pieces(c: &CubicBez, tolerance: f64) -> usize {
+    if ![c.p0, c.p1, c.p2, c.p3].into_iter().all(point_ok) {
+        return 1;
+    }
     let d1 = (c.p0.to_vec2() - 2.0 * c.p1.to_vec2() + c.p2.to_vec2()).hypot();
     let d2 = (c.p1.to_vec2() - 2.0 * c.p2.to_vec2() + c.p3.to_vec2()).hypot();
     pieces_for(6.0 * d1.max(d2), tolerance)
@@ -45,6 +56,9 @@ pub fn cubic_pieces(c: &CubicBez, tolerance: f64) -> usize {
 
 /// Number of equal-parameter pieces that keep `q` within `tolerance` of its chords.
 pub fn quad_pieces(q: &QuadBez, tolerance: f64) -> usize {
+    if ![q.p0, q.p1, q.p2].into_iter().all(point_ok) {
+        return 1;
+    }
     let d = (q.p0.to_vec2() - 2.0 * q.p1.to_vec2() + q.p2.to_vec2()).hypot();
     pieces_for(2.0 * d, tolerance)
 }
@@ -81,6 +95,9 @@ pub fn flatten_quad(q: &QuadBez, tolerance: f64, out: &mut Vec<Point>) {
 pub fn arc_pieces(arc: &Arc, tolerance: f64) -> usize {
     let r = arc.radii.x.abs().max(arc.radii.y.abs());
     let sweep = arc.sweep_angle.abs();
+    if !(point_ok(arc.center) && r <= MAX_COORD_MM && sweep.is_finite()) {
+        return 1;
+    }
     pieces_for(r * sweep * sweep, tolerance)
 }
 
@@ -113,8 +130,11 @@ pub fn flatten_path(elements: impl IntoIterator<Item = PathEl>, tolerance: f64) 
     let mut dropped = 0usize;
     let mut current: Vec<Point> = Vec::new();
     let mut start = Point::ZERO;
-    let mut finish = |current: &mut Vec<Point>, out: &mut Vec<Vec<Point>>| {
+    // Points in finished polylines (the running count keeps the whole call under MAX_POINTS, see the module docs).
+    let mut done = 0usize;
+    let mut finish = |current: &mut Vec<Point>, out: &mut Vec<Vec<Point>>, done: &mut usize| {
         if current.len() >= 2 {
+            *done += current.len();
             out.push(std::mem::take(current));
         } else if !current.is_empty() {
             dropped += 1;
@@ -124,7 +144,7 @@ pub fn flatten_path(elements: impl IntoIterator<Item = PathEl>, tolerance: f64) 
     for el in elements {
         match el {
             PathEl::MoveTo(p) => {
-                finish(&mut current, &mut out);
+                finish(&mut current, &mut out, &mut done);
                 current.push(p);
                 start = p;
             }
@@ -139,25 +159,38 @@ pub fn flatten_path(elements: impl IntoIterator<Item = PathEl>, tolerance: f64) 
                 if current.is_empty() {
                     current.push(p0);
                 }
-                flatten_quad(&QuadBez::new(p0, p1, p2), tolerance, &mut current);
+                if over_budget(done, &current) {
+                    current.push(p2);
+                } else {
+                    flatten_quad(&QuadBez::new(p0, p1, p2), tolerance, &mut current);
+                }
             }
             PathEl::CurveTo(p1, p2, p3) => {
                 let p0 = *current.last().unwrap_or(&start);
                 if current.is_empty() {
                     current.push(p0);
                 }
-                flatten_cubic(&CubicBez::new(p0, p1, p2, p3), tolerance, &mut current);
+                if over_budget(done, &current) {
+                    current.push(p3);
+                } else {
+                    flatten_cubic(&CubicBez::new(p0, p1, p2, p3), tolerance, &mut current);
+                }
             }
             PathEl::ClosePath => {
                 if current.len() >= 2 && current.last() != Some(&start) {
                     current.push(start);
                 }
-                finish(&mut current, &mut out);
+                finish(&mut current, &mut out, &mut done);
             }
         }
     }
-    finish(&mut current, &mut out);
+    finish(&mut current, &mut out, &mut done);
     (out, dropped)
+}
+
+/// Whether the points emitted so far exceed [`MAX_POINTS`] (then curves become chords: the drawing is refused).
+fn over_budget(done: usize, current: &[Point]) -> bool {
+    done + current.len() > MAX_POINTS
 }
 
 /// Distance from `p` to the segment `a`–`b`.
@@ -194,6 +227,36 @@ mod tests {
             prop_assert!(err <= tolerance * (1.0 + 1e-9), "chord {i}/{n}: error {err} > {tolerance}");
         }
         Ok(())
+    }
+
+    #[test]
+    fn absurd_curves_flatten_to_chords_in_bounded_work() {
+        // The circle of r = 1e20 (four cubics, as SVG converters emit it): one chord per curve, so the
+        // drawing reaches the limit check (which refuses it) instead of exhausting memory.
+        let r = 1e20;
+        let k = 0.552_284_749_831 * r;
+        let c = Point::new(50.0, 50.0);
+        let els = [
+            PathEl::MoveTo(c + Vec2::new(r, 0.0)),
+            PathEl::CurveTo(c + Vec2::new(r, k), c + Vec2::new(k, r), c + Vec2::new(0.0, r)),
+            PathEl::CurveTo(c + Vec2::new(-k, r), c + Vec2::new(-r, k), c + Vec2::new(-r, 0.0)),
+            PathEl::QuadTo(c + Vec2::new(-r, -r), c + Vec2::new(0.0, -r)),
+            PathEl::CurveTo(c + Vec2::new(k, -r), c + Vec2::new(r, -k), c + Vec2::new(r, 0.0)),
+            PathEl::ClosePath,
+        ];
+        let (polys, _) = flatten_path(els, 0.05);
+        assert_eq!(polys[0].len(), 5);
+        let arc = Arc::new(c, Vec2::new(r, r), 0.0, 6.0, 0.0);
+        assert_eq!(arc_pieces(&arc, 0.05), 1);
+        // At the limit (1 km) a full circle still flattens within tolerance, with a bounded number of chords.
+        let q =
+            CubicBez::new(Point::new(1e6, 0.0), Point::new(1e6, 0.55e6), Point::new(0.55e6, 1e6), Point::new(0.0, 1e6));
+        let n = cubic_pieces(&q, 0.05);
+        assert!(n > 1 && n < 10_000, "{n}");
+        assert_eq!(
+            cubic_pieces(&CubicBez::new(Point::ZERO, Point::new(f64::NAN, 0.0), Point::ZERO, Point::ZERO), 0.05),
+            1
+        );
     }
 
     fn pt() -> impl Strategy<Value = Point> {

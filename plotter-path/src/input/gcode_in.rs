@@ -22,9 +22,14 @@
 //! This import makes a *drawing*. Extrusion has no place in one: with a plotter profile E words are dropped with a
 //! warning; with a printer profile (one with an E axis) the warning says that `plotter print` keeps them — the
 //! printing playback is [`super::gcode_print`], which interprets the same G-code with E planned alongside X/Y/Z.
+//!
+//! Bounded work: every target and arc centre must lie within ±[`MAX_COORD_MM`] and the file may produce at most
+//! [`MAX_POINTS`] segments (see [`crate::geometry::limits`]); beyond either, the import stops with an error naming
+//! the line.
 
 use kurbo::Point;
 
+use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS};
 use crate::{Drawing, MachineProfile, Polyline};
 
 /// Maximum chord error when flattening arcs, millimetres.
@@ -347,6 +352,19 @@ impl Machine<'_> {
                 };
             }
         }
+        if let Some(k) = target.iter().position(|v| v.is_nan() || v.abs() > MAX_COORD_MM) {
+            return Err(self.malformed(
+                line,
+                format!(
+                    "{} target {} mm is beyond ±{MAX_COORD_MM} mm (1 km); check the units",
+                    ['X', 'Y', 'Z'][k],
+                    target[k]
+                ),
+            ));
+        }
+        if self.segments.len() >= MAX_POINTS {
+            return Err(self.malformed(line, format!("more than {MAX_POINTS} moves: the limit that bounds memory")));
+        }
         let from = Point::new(self.pos[0], self.pos[1]);
         let to = Point::new(target[0], target[1]);
         match motion {
@@ -401,6 +419,12 @@ impl Machine<'_> {
                 Point::new(from.x + ci, from.y + cj)
             }
         };
+        if !(center.x.abs() <= MAX_COORD_MM && center.y.abs() <= MAX_COORD_MM) {
+            return Err(self.malformed(
+                line,
+                format!("arc centre ({}, {}) mm is beyond ±{MAX_COORD_MM} mm (1 km)", center.x, center.y),
+            ));
+        }
         let r0 = (from - center).hypot();
         let r1 = (to - center).hypot();
         if r0 == 0.0 {
@@ -431,6 +455,11 @@ impl Machine<'_> {
         }
         let max_step = if r0 > ARC_TOLERANCE_MM { 2.0 * (1.0 - ARC_TOLERANCE_MM / r0).acos() } else { tau };
         let n = (sweep.abs() / max_step).ceil().clamp(1.0, MAX_ARC_CHORDS);
+        // n ≤ MAX_ARC_CHORDS: exact in f64.
+        #[allow(clippy::cast_precision_loss)]
+        if self.segments.len() as f64 + n > MAX_POINTS as f64 {
+            return Err(self.malformed(line, format!("more than {MAX_POINTS} moves: the limit that bounds memory")));
+        }
         // n is in [1, MAX_ARC_CHORDS], so the conversion is exact.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let n_chords = n as u32;
@@ -606,6 +635,24 @@ mod tests {
     }
 
     #[test]
+    fn absurd_numbers_are_errors_not_hangs() {
+        // The reproducer: X = 3.4e38 (written out; `3.4e38` would read as X3.4 and an E word).
+        let huge = format!("G0 Z1\nG1 Z0\nG1 X{:.1} Y10 F1000\nG1 X10 Y10\n", 3.4e38);
+        let e = err(&huge);
+        assert!(e.starts_with("t.gcode:3: X target 34") && e.contains("beyond ±1000000 mm"), "{e}");
+        assert!(err("G20\nG1 Y99999999\n").starts_with("t.gcode:2: Y target 2539999974.6"));
+        assert!(err("G92 X-999999999\nG90 G1 X1\n").starts_with("t.gcode:2: X target"));
+        assert!(err("G0 X0 Y0\nG2 X1 Y0 R1000000000\n").contains(":2: arc centre"));
+        // Full circles of 1 km radius need 31 416 chords each: the move limit stops the import, in bounded time.
+        let mut many = String::from("G0 X0 Y0\nG1 Z0\n");
+        for _ in 0..200 {
+            many.push_str("G2 X0 Y0 I999999 J0\n");
+        }
+        let e = err(&many);
+        assert!(e.contains(&format!("more than {MAX_POINTS} moves")), "{e}");
+    }
+
+    #[test]
     fn bad_input_is_named_by_line() {
         assert_eq!(err("G0 X1\nG1 Y2\nG18\n"), "t.gcode:3: unsupported command G18: only the XY plane (G17) is drawn");
         assert!(err("G1 X1\nM999\n").starts_with("t.gcode:2: unsupported command M999"));
@@ -649,7 +696,7 @@ mod tests {
             let back = import(&gcode_out::export(&p, &steps), "rt", &p).unwrap();
             prop_assert!(back.warnings.is_empty());
             let again = drawing_to_steps(&p, &back.drawing).unwrap();
-            prop_assert_eq!(again, expected);
+            prop_assert_eq!(again.strokes, expected.strokes);
         }
     }
 }

@@ -7,3 +7,6 @@ pub mod r#gen;
 pub mod raster;
 pub mod svg;
 pub mod trajectory;
+
+#[cfg(test)]
+mod fuzz;

@@ -210,7 +210,7 @@ pub fn import(text: &str, origin: &str) -> Result<StepDrawing, TrajectoryError> 
     if let Some((line, _)) = lines.next_tokens() {
         return Err(TrajectoryError::Trailing { origin: o(), line, traces });
     }
-    Ok(StepDrawing { strokes })
+    Ok(StepDrawing::from_strokes(strokes))
 }
 
 #[cfg(test)]
@@ -227,6 +227,7 @@ mod tests {
                 },
                 StepStroke { start: StepPos::new(0, 0), moves: vec![] },
             ],
+            layers: vec![],
         }
     }
 
@@ -275,7 +276,7 @@ mod tests {
             .prop_map(|(dx, dy)| StepDelta { dx, dy });
         let stroke = ((-9000i32..9000, -9000i32..9000), prop::collection::vec(delta, 0..30))
             .prop_map(|((x, y), moves)| StepStroke { start: StepPos::new(x, y), moves });
-        prop::collection::vec(stroke, 0..20).prop_map(|strokes| StepDrawing { strokes })
+        prop::collection::vec(stroke, 0..20).prop_map(StepDrawing::from_strokes)
     }
 
     proptest! {

@@ -2,6 +2,7 @@
 //! drift-free step conversion.
 
 pub mod heaters;
+pub mod pens;
 pub mod plan;
 pub mod print_plan;
 pub mod profile;

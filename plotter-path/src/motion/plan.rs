@@ -21,6 +21,7 @@ use plotter_fw::protocol;
 use plotter_fw::{Axis, MachineConfig, NUM_AXES, StepBlock, TICK_HZ};
 
 use crate::MachineProfile;
+use crate::motion::pens::{self, LayerPen};
 use crate::motion::profile::{AxisProfile, HomeEnd};
 use crate::motion::steps::{StepDrawing, StepMapper, StepPos};
 
@@ -116,6 +117,23 @@ pub struct PlannedBlock {
     pub stroke: usize,
 }
 
+/// A pen change between two layers: the plot stops with the pen up before block `block` (the travel to the new
+/// layer's first stroke) so that the user can load `pen`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PenChange {
+    /// Index (in the original plan's numbering) of the first block drawn with the new pen: the travel to the
+    /// layer's first stroke (or its pen drop when no travel is needed).
+    pub block: usize,
+    /// Index of the new layer in [`StepDrawing::layers`].
+    pub layer: usize,
+    /// The layer's name.
+    pub layer_name: String,
+    /// The pen to load.
+    pub pen: LayerPen,
+    /// The pen loaded before.
+    pub previous: LayerPen,
+}
+
 /// A machine position in steps, all axes.
 pub type MachinePos = [i32; NUM_AXES];
 
@@ -148,6 +166,10 @@ pub struct MotionPlan {
     /// For a resumed plan: the number of leading blocks that bring the pen back (not part of the original plan).
     /// `blocks[preamble + i]` is block `resumed_from + i` of the original plan.
     pub preamble: usize,
+    /// The pen the first layer is drawn with.
+    pub first_pen: LayerPen,
+    /// Pen changes between layers with different pens, numbered in the original plan (also in a resumed plan).
+    pub pen_changes: Vec<PenChange>,
 }
 
 impl MotionPlan {
@@ -200,13 +222,65 @@ impl MotionPlan {
 
 /// The machine's pen Z positions in steps.
 fn pen_steps(profile: &MachineProfile) -> Result<(i32, i32), PlanError> {
+    pen_steps_at(profile, profile.pen.down_z_mm)
+}
+
+/// The pen-up Z and the pen-down Z `down_mm` in steps.
+fn pen_steps_at(profile: &MachineProfile, down_mm: f64) -> Result<(i32, i32), PlanError> {
     let m = StepMapper::new(profile);
     let up = m.z_steps(profile.pen.up_z_mm).ok_or(PlanError::PenHeights)?;
-    let down = m.z_steps(profile.pen.down_z_mm).ok_or(PlanError::PenHeights)?;
+    let down = m.z_steps(down_mm).ok_or(PlanError::PenHeights)?;
     if up == down {
         return Err(PlanError::PenHeights);
     }
     Ok((up, down))
+}
+
+/// The resolved pen of every layer of `steps` (one default layer when it has none).
+pub fn layer_pens(profile: &MachineProfile, steps: &StepDrawing) -> Vec<LayerPen> {
+    if steps.layers.is_empty() {
+        return vec![pens::resolve(profile, "", &crate::Pen::default())];
+    }
+    steps.layers.iter().map(|l| pens::resolve(profile, &l.name, &l.pen)).collect()
+}
+
+/// The park position for pen changes (steps, X and Y): the profile's `[park]`, else the homed corner.
+pub fn park_position(profile: &MachineProfile) -> Result<StepPos, PlanError> {
+    match profile.park {
+        Some(p) => {
+            let m = StepMapper::new(profile);
+            let (sx, sy) = m.steps_per_mm();
+            let r = |v: f64| crate::motion::steps::round_steps(v).ok_or(PlanError::Config("park: out of range".into()));
+            Ok(StepPos::new(r(p.x_mm * sx)?, r(p.y_mm * sy)?))
+        }
+        None => {
+            let h = homed_position(profile)?;
+            Ok(StepPos::new(h[0], h[1]))
+        }
+    }
+}
+
+/// A plan of one pen-up travel from `from` to `to` (XY) at the travel feed, lifting the pen first when it is not
+/// at the pen-up height: what parks the carriage for a pen change.
+pub fn plan_travel(profile: &MachineProfile, from: MachinePos, to: StepPos) -> Result<MotionPlan, PlanError> {
+    let cfg = machine_config(profile)?;
+    let (up, _) = pen_steps(profile)?;
+    #[allow(clippy::cast_possible_truncation)]
+    let travel = profile.pen.travel_feed_mm_s as f32;
+    let mut raw = RawPlan {
+        cfg: &cfg,
+        blocks: Vec::new(),
+        meta: Vec::new(),
+        pos: from,
+        settle: settle_ticks(profile),
+        changes: Vec::new(),
+    };
+    if from[2] != up {
+        raw.pen(up, MoveKind::PenUp, 0);
+    }
+    raw.line_to(to, travel, MoveKind::Travel, 0);
+    let first = pens::resolve(profile, "", &crate::Pen::default());
+    Ok(finish(profile, &cfg, raw.blocks, raw.meta, from, Lookahead::Whole, (0, 0), first, Vec::new()))
 }
 
 /// The position after homing: X and Y at their switch end, Z at the pen-up height.
@@ -261,6 +335,7 @@ struct RawPlan<'c> {
     meta: Vec<(MoveKind, usize)>,
     pos: MachinePos,
     settle: u32,
+    changes: Vec<PenChange>,
 }
 
 impl RawPlan<'_> {
@@ -296,8 +371,11 @@ fn build_blocks<'c>(
 ) -> Result<RawPlan<'c>, PlanError> {
     // Feeds are f32 in the firmware; values are physical speeds.
     #[allow(clippy::cast_possible_truncation)]
-    let (draw, travel) = (profile.pen.draw_feed_mm_s as f32, profile.pen.travel_feed_mm_s as f32);
-    let (up, down) = pen_steps(profile)?;
+    let f32_of = |v: f64| v as f32;
+    let travel = f32_of(profile.pen.travel_feed_mm_s);
+    let (up, _) = pen_steps(profile)?;
+    let pens = layer_pens(profile, steps);
+    let downs = pens.iter().map(|p| pen_steps_at(profile, p.down_z_mm).map(|s| s.1)).collect::<Result<Vec<_>, _>>()?;
     let capacity = steps.move_count() + 6 * steps.strokes.len() + 2;
     let mut raw = RawPlan {
         cfg,
@@ -305,9 +383,25 @@ fn build_blocks<'c>(
         meta: Vec::with_capacity(capacity),
         pos: start,
         settle: settle_ticks(profile),
+        changes: Vec::new(),
     };
     raw.pen(up, MoveKind::PenUp, 0);
+    let mut layer = 0;
     for (si, stroke) in steps.strokes.iter().enumerate() {
+        let l = steps.layer_of(si);
+        if l != layer {
+            if !pens[l].same_pen(&pens[layer]) {
+                raw.changes.push(PenChange {
+                    block: raw.blocks.len(),
+                    layer: l,
+                    layer_name: steps.layers.get(l).map(|x| x.name.clone()).unwrap_or_default(),
+                    pen: pens[l].clone(),
+                    previous: pens[layer].clone(),
+                });
+            }
+            layer = l;
+        }
+        let (down, draw) = (downs[l], f32_of(pens[l].draw_feed_mm_s));
         raw.line_to(stroke.start, travel, MoveKind::Travel, si);
         raw.pen(down, MoveKind::PenDown, si);
         let mut at = stroke.start;
@@ -331,7 +425,8 @@ pub fn plan(
     let cfg = machine_config(profile)?;
     check_work_area(profile, steps)?;
     let raw = build_blocks(profile, &cfg, steps, start)?;
-    Ok(finish(profile, &cfg, raw.blocks, raw.meta, start, lookahead, (0, 0)))
+    let first = layer_pens(profile, steps).swap_remove(0);
+    Ok(finish(profile, &cfg, raw.blocks, raw.meta, start, lookahead, (0, 0), first, raw.changes))
 }
 
 /// Plan the rest of a drawing after its first `done` blocks (as numbered by [`plan`] from `original_start`) were
@@ -359,7 +454,14 @@ pub fn plan_resume(
     let stroke = full.meta.get(done).map_or(0, |m| m.1);
     #[allow(clippy::cast_possible_truncation)]
     let travel = profile.pen.travel_feed_mm_s as f32;
-    let mut pre = RawPlan { cfg: &cfg, blocks: Vec::new(), meta: Vec::new(), pos: now, settle: settle_ticks(profile) };
+    let mut pre = RawPlan {
+        cfg: &cfg,
+        blocks: Vec::new(),
+        meta: Vec::new(),
+        pos: now,
+        settle: settle_ticks(profile),
+        changes: Vec::new(),
+    };
     if now[2] != up {
         pre.pen(up, MoveKind::PenUp, stroke);
     }
@@ -372,10 +474,12 @@ pub fn plan_resume(
     let mut meta = pre.meta;
     blocks.extend_from_slice(&full.blocks[done..]);
     meta.extend_from_slice(&full.meta[done..]);
-    Ok(finish(profile, &cfg, blocks, meta, now, Lookahead::Whole, (done, preamble)))
+    let first = layer_pens(profile, steps).swap_remove(0);
+    Ok(finish(profile, &cfg, blocks, meta, now, Lookahead::Whole, (done, preamble), first, full.changes))
 }
 
 /// Link, plan and quantize a raw block sequence.
+#[allow(clippy::too_many_arguments)]
 fn finish(
     profile: &MachineProfile,
     cfg: &MachineConfig,
@@ -384,6 +488,8 @@ fn finish(
     start: MachinePos,
     lookahead: Lookahead,
     (resumed_from, preamble): (usize, usize),
+    first_pen: LayerPen,
+    pen_changes: Vec<PenChange>,
 ) -> MotionPlan {
     planner::link_all(&mut raw, cfg.junction_deviation_mm);
     let step_blocks: Vec<StepBlock> = match lookahead {
@@ -416,7 +522,18 @@ fn finish(
             _ => {}
         }
     }
-    MotionPlan { blocks, start, end, total_ticks: total, draw_mm, travel_mm, resumed_from, preamble }
+    MotionPlan {
+        blocks,
+        start,
+        end,
+        total_ticks: total,
+        draw_mm,
+        travel_mm,
+        resumed_from,
+        preamble,
+        first_pen,
+        pen_changes,
+    }
 }
 
 /// Plan each block seeing at most `w` blocks (itself included): the block's speed plan is taken from planning the
@@ -486,7 +603,7 @@ mod tests {
     #[test]
     fn starting_with_the_pen_down_lifts_it_first() {
         let p = profile();
-        let steps = StepDrawing { strokes: vec![StepStroke { start: StepPos::new(8, 8), moves: vec![] }] };
+        let steps = StepDrawing::from_strokes(vec![StepStroke { start: StepPos::new(8, 8), moves: vec![] }]);
         let plan = plan(&p, &steps, [0, 0, 0, 0], Lookahead::Whole).unwrap();
         assert_eq!(plan.blocks[0].kind, MoveKind::PenUp);
         assert_eq!(plan.blocks[0].block.steps, [0, 0, 1600, 0]);
@@ -495,9 +612,10 @@ mod tests {
     #[test]
     fn outside_the_work_area_is_refused() {
         let p = profile();
-        let steps = StepDrawing {
-            strokes: vec![StepStroke { start: StepPos::new(8, 8), moves: vec![StepDelta { dx: -9, dy: 0 }] }],
-        };
+        let steps = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(8, 8),
+            moves: vec![StepDelta { dx: -9, dy: 0 }],
+        }]);
         let e = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap_err();
         assert!(matches!(e, PlanError::OutsideWorkArea { stroke: 0, point: 1, .. }), "{e}");
         assert!(e.to_string().contains("(-0.013, 0.100) mm"), "{e}");
@@ -552,6 +670,52 @@ mod tests {
         assert_eq!(r.blocks[..r.preamble].iter().map(|b| b.kind).collect::<Vec<_>>(), [Travel]);
         assert_ne!(full.geometry_hash(), r.geometry_hash());
         assert_eq!(full.geometry_hash(), plan(&p, &steps, start, Lookahead::Window(4)).unwrap().geometry_hash());
+    }
+
+    #[test]
+    fn pen_changes_sit_before_the_travel_to_a_layer_with_another_pen() {
+        use crate::motion::profile::PenSpec;
+        let mut p = profile();
+        p.pens = vec![PenSpec {
+            name: "red".into(),
+            color: Some("#ff0000".into()),
+            width_mm: None,
+            down_z_mm: Some(1.0),
+            servo_down_deg: None,
+            draw_feed_mm_s: Some(30.0),
+        }];
+        let mut d = Drawing::single_layer("black", vec![square(10.0, 10.0, 5.0)]);
+        let layers = [
+            ("red", crate::Rgb(255, 0, 0), 30.0),
+            ("red2", crate::Rgb(255, 0, 0), 50.0),
+            ("k", crate::Rgb::BLACK, 70.0),
+        ];
+        for (name, color, x) in layers {
+            let mut l = crate::Layer::new(name);
+            l.pen.color = color;
+            l.paths = vec![square(x, 10.0, 5.0)];
+            d.layers.push(l);
+        }
+        let steps = drawing_to_steps(&p, &d).unwrap();
+        let start = homed_position(&p).unwrap();
+        let plan = plan(&p, &steps, start, Lookahead::Whole).unwrap();
+        // Layers of 9 blocks each (travel, drop, settle, 4 draws, lift, settle): black, red, red (same pen), black.
+        let blocks: Vec<usize> = plan.pen_changes.iter().map(|c| c.block).collect();
+        assert_eq!(blocks, [9, 27]);
+        assert!(plan.pen_changes.iter().all(|c| plan.blocks[c.block].kind == MoveKind::Travel));
+        assert_eq!(plan.pen_changes[0].pen.name, "red");
+        assert_eq!(plan.pen_changes[1].previous.name, "red");
+        assert_eq!(plan.pen_changes[1].layer_name, "k");
+        assert_eq!(plan.first_pen.name, "black");
+        // The red pen drops to 1 mm (400 steps/mm: 1200 steps below the 4 mm pen-up) and draws at 30 mm/s: a 5 mm
+        // side takes longer than the black pen's at 60 mm/s.
+        assert_eq!(plan.blocks[10].block.steps, [0, 0, -1200, 0]);
+        assert_eq!(plan.blocks[1].block.steps, [0, 0, -1600, 0]);
+        let side = |i: usize| plan.blocks[i].block.duration_ticks();
+        assert!(side(12) > side(3), "{} vs {}", side(12), side(3));
+        // A resumed plan keeps the original numbering of the pen changes.
+        let r = plan_resume(&p, &steps, start, 12, start).unwrap();
+        assert_eq!(r.pen_changes, plan.pen_changes);
     }
 
     #[test]

@@ -112,9 +112,58 @@ pub struct PenProfile {
     pub draw_feed_mm_s: f64,
     /// Feed of pen-up travel, mm/s.
     pub travel_feed_mm_s: f64,
-    /// Lift mechanism used in exported G-code.
+    /// Lift mechanism: a Z axis, or a hobby servo (`M3 S<angle>` / `M5`) that needs `settle_ms` to reach its angle.
     #[serde(default)]
     pub command: PenCommand,
+    /// Servo pens: the angle (degrees, 0..=180) holding the pen up.
+    #[serde(default = "default_servo_up")]
+    pub servo_up_deg: f64,
+    /// Servo pens: the angle (degrees, 0..=180) putting the pen on the paper.
+    #[serde(default = "default_servo_down")]
+    pub servo_down_deg: f64,
+}
+
+fn default_servo_up() -> f64 {
+    90.0
+}
+
+fn default_servo_down() -> f64 {
+    30.0
+}
+
+/// One pen of the profile's pen table (`[[pens]]`). A layer is drawn with the pen whose `name` equals the layer's
+/// name (case-insensitive) or, failing that, whose `color` equals the layer's stroke colour; the optional values
+/// override the profile's `[pen]` defaults while that pen is loaded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PenSpec {
+    /// What the user is asked to load ("fine black", "red 0.5").
+    pub name: String,
+    /// Ink colour as `#rrggbb`.
+    #[serde(default)]
+    pub color: Option<String>,
+    /// Nib width, mm.
+    #[serde(default)]
+    pub width_mm: Option<f64>,
+    /// Pen-down Z for this pen, mm (Z pens).
+    #[serde(default)]
+    pub down_z_mm: Option<f64>,
+    /// Pen-down servo angle for this pen, degrees (servo pens).
+    #[serde(default)]
+    pub servo_down_deg: Option<f64>,
+    /// Drawing feed with this pen, mm/s.
+    #[serde(default)]
+    pub draw_feed_mm_s: Option<f64>,
+}
+
+/// Where the carriage waits during a pen change (machine millimetres).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParkProfile {
+    /// Machine X, mm.
+    pub x_mm: f64,
+    /// Machine Y, mm.
+    pub y_mm: f64,
 }
 
 /// Cornering and planning settings.
@@ -181,6 +230,12 @@ pub struct MachineProfile {
     pub homing: HomingProfile,
     /// Serial link.
     pub link: LinkProfile,
+    /// Pen table (`[[pens]]`), empty when the profile names no pens: each layer colour is then its own pen.
+    #[serde(default)]
+    pub pens: Vec<PenSpec>,
+    /// Pen-change park position; the homed corner when absent.
+    #[serde(default)]
+    pub park: Option<ParkProfile>,
     /// Heaters and fan (printers only; see [`crate::motion::heaters`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heaters: Option<crate::motion::heaters::HeatersProfile>,
@@ -279,6 +334,42 @@ impl MachineProfile {
                 return Err(bad(field, "must lie within the Z travel"));
             }
         }
+        for (field, a) in [("pen.servo_up_deg", self.pen.servo_up_deg), ("pen.servo_down_deg", self.pen.servo_down_deg)]
+        {
+            if !(a.is_finite() && (0.0..=180.0).contains(&a)) {
+                return Err(bad(field, "must be an angle from 0 to 180 degrees"));
+            }
+        }
+        for (i, pen) in self.pens.iter().enumerate() {
+            let f = |name: &str| format!("pens[{i}] ({}).{name}", pen.name);
+            if pen.name.trim().is_empty() {
+                return Err(bad(&format!("pens[{i}].name"), "must not be empty"));
+            }
+            if let Some(c) = &pen.color
+                && crate::motion::pens::parse_hex_color(c).is_none()
+            {
+                return Err(bad(&f("color"), "must be #rrggbb"));
+            }
+            for (name, v) in [("width_mm", pen.width_mm), ("draw_feed_mm_s", pen.draw_feed_mm_s)] {
+                if v.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
+                    return Err(bad(&f(name), "must be a positive number"));
+                }
+            }
+            if pen.down_z_mm.is_some_and(|z| !(z.is_finite() && (0.0..=self.axes.z.travel_mm).contains(&z))) {
+                return Err(bad(&f("down_z_mm"), "must lie within the Z travel"));
+            }
+            if pen.servo_down_deg.is_some_and(|a| !(a.is_finite() && (0.0..=180.0).contains(&a))) {
+                return Err(bad(&f("servo_down_deg"), "must be an angle from 0 to 180 degrees"));
+            }
+        }
+        if let Some(park) = self.park
+            && !(park.x_mm.is_finite()
+                && park.y_mm.is_finite()
+                && (0.0..=self.axes.x.travel_mm).contains(&park.x_mm)
+                && (0.0..=self.axes.y.travel_mm).contains(&park.y_mm))
+        {
+            return Err(bad("park", "must lie within the X and Y travel"));
+        }
         if self.link.baud == 0 || self.link.rx_buffer_bytes < 64 || self.link.queue_blocks == 0 {
             return Err(bad("link", "baud and queue_blocks must be positive, rx_buffer_bytes at least 64"));
         }
@@ -315,6 +406,25 @@ mod tests {
         assert_eq!(m, Point::new(10.0, p.axes.y.travel_mm - 20.0));
         assert_eq!(p.machine_to_page(m), Point::new(10.0, 20.0));
         assert!(p.axes.e.is_some());
+    }
+
+    #[test]
+    fn pen_table_and_park_parse_and_are_checked() {
+        let text = format!(
+            "{DEFAULT_PROFILE_TOML}\n[park]\nx_mm = 5.0\ny_mm = 280.0\n\n[[pens]]\nname = \"red\"\ncolor = \"#ff0000\"\n\
+             draw_feed_mm_s = 30.0\n"
+        );
+        let p = MachineProfile::from_toml(&text, "pens.toml").unwrap();
+        // The kit's three pens, then this one.
+        assert_eq!(p.pens.len(), 4);
+        assert_eq!(p.pens[2].draw_feed_mm_s, Some(30.0), "the blue brush pen draws slower");
+        assert_eq!((p.pens[3].name.as_str(), p.pens[3].draw_feed_mm_s), ("red", Some(30.0)));
+        assert_eq!(p.park, Some(ParkProfile { x_mm: 5.0, y_mm: 280.0 }));
+        let bad = text.replace("color = \"#ff0000\"\ndraw", "color = \"red\"\ndraw");
+        let err = MachineProfile::from_toml(&bad, "pens.toml").unwrap_err().to_string();
+        assert!(err.contains("pens[3] (red).color") && err.contains("#rrggbb"), "{err}");
+        let err = MachineProfile::from_toml(&text.replace("y_mm = 280.0", "y_mm = 300.0"), "p.toml").unwrap_err();
+        assert!(err.to_string().contains("park"), "{err}");
     }
 
     #[test]

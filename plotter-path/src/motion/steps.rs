@@ -11,7 +11,7 @@
 
 use kurbo::Point;
 
-use crate::{Drawing, MachineProfile, Polyline};
+use crate::{Drawing, MachineProfile, Pen, Polyline};
 
 /// Largest step coordinate accepted: ±2³⁰ keeps every difference of two coordinates inside `i32`.
 pub const MAX_STEP_COORD: i32 = 1 << 30;
@@ -167,14 +167,39 @@ impl StepStroke {
     }
 }
 
+/// Where a layer begins in a [`StepDrawing`], and its pen: layer boundaries survive into steps (and the plan) so
+/// that the plot can stop for a pen change between layers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepLayer {
+    /// The layer's name.
+    pub name: String,
+    /// The layer's pen (colour, width) from the input.
+    pub pen: Pen,
+    /// Index of the layer's first stroke in [`StepDrawing::strokes`].
+    pub first_stroke: usize,
+}
+
 /// A whole drawing in steps: strokes in plotting order (layer by layer).
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct StepDrawing {
     /// The pen-down strokes.
     pub strokes: Vec<StepStroke>,
+    /// The layers holding at least one stroke, in order, by their first stroke (ascending, the first at 0). Empty
+    /// for inputs without layers (trajectory files): one layer with the default pen.
+    pub layers: Vec<StepLayer>,
 }
 
 impl StepDrawing {
+    /// A drawing of `strokes` in one unnamed layer.
+    pub fn from_strokes(strokes: Vec<StepStroke>) -> Self {
+        StepDrawing { strokes, layers: Vec::new() }
+    }
+
+    /// Index in [`Self::layers`] of the layer holding stroke `stroke` (0 when there are no layers).
+    pub fn layer_of(&self, stroke: usize) -> usize {
+        self.layers.partition_point(|l| l.first_stroke <= stroke).saturating_sub(1)
+    }
+
     /// Total number of pen-down moves.
     pub fn move_count(&self) -> usize {
         self.strokes.iter().map(|s| s.moves.len()).sum()
@@ -216,14 +241,19 @@ pub fn polyline_to_steps(
 pub fn drawing_to_steps(profile: &MachineProfile, drawing: &Drawing) -> Result<StepDrawing, StepError> {
     let mapper = StepMapper::new(profile);
     let mut strokes = Vec::with_capacity(drawing.path_count());
+    let mut layers = Vec::new();
     for (li, layer) in drawing.layers.iter().enumerate() {
+        let first_stroke = strokes.len();
         for (pi, poly) in layer.paths.iter().enumerate() {
             if let Some(s) = polyline_to_steps(&mapper, poly, li, pi)? {
                 strokes.push(s);
             }
         }
+        if strokes.len() > first_stroke {
+            layers.push(StepLayer { name: layer.name.clone(), pen: layer.pen, first_stroke });
+        }
     }
-    Ok(StepDrawing { strokes })
+    Ok(StepDrawing { strokes, layers })
 }
 
 #[cfg(test)]
@@ -276,6 +306,23 @@ mod tests {
         let d = Drawing::single_layer("a", vec![Polyline::new(vec![]), Polyline::new(vec![Point::new(2.0, 3.0)])]);
         let s = drawing_to_steps(&profile(), &d).unwrap();
         assert_eq!(s.strokes, vec![StepStroke { start: StepPos::new(160, 240), moves: vec![] }]);
+    }
+
+    #[test]
+    fn layer_boundaries_survive_and_empty_layers_drop() {
+        let dot = |x: f64| Polyline::new(vec![Point::new(x, 1.0), Point::new(x + 1.0, 1.0)]);
+        let mut d = Drawing::single_layer("a", vec![dot(1.0), dot(3.0)]);
+        d.layers.push(crate::Layer::new("empty"));
+        let mut c = crate::Layer::new("c");
+        c.pen.color = crate::Rgb(255, 0, 0);
+        c.paths = vec![dot(5.0)];
+        d.layers.push(c);
+        let s = drawing_to_steps(&profile(), &d).unwrap();
+        let names: Vec<(&str, usize)> = s.layers.iter().map(|l| (l.name.as_str(), l.first_stroke)).collect();
+        assert_eq!(names, [("a", 0), ("c", 2)]);
+        assert_eq!(s.layers[1].pen.color, crate::Rgb(255, 0, 0));
+        assert_eq!([s.layer_of(0), s.layer_of(1), s.layer_of(2)], [0, 0, 1]);
+        assert_eq!(StepDrawing::from_strokes(s.strokes.clone()).layer_of(2), 0);
     }
 
     fn arb_point() -> impl Strategy<Value = Point> {

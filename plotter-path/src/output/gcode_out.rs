@@ -3,8 +3,13 @@
 //! The program is millimetres (`G21`), absolute (`G90`), machine coordinates (the page → machine mapping is already
 //! applied by [`crate::motion::steps`]). Pen-up travel is `G0`, drawing is `G1` at the profile's drawing feed. The pen is
 //! lifted and lowered either as Z moves (`G0 Z<up>` / `G1 Z<down>`, the default) or, for servo pen lifts
-//! ([`PenCommand::Servo`] in the profile), as `M3 S`[`SERVO_DOWN_S`] / `M5`, as GRBL-based servo plotters expect.
+//! ([`PenCommand::Servo`] in the profile), as `M3 S<angle>` / `M5` (the pen's down angle in degrees, as this
+//! project's firmware and GRBL servo-pen builds with `$30=180` take it).
 //! Each lift and drop is followed by a `G4` dwell of the profile's settle time when it is non-zero.
+//!
+//! Between layers drawn with different pens ([`crate::motion::pens`]) the program parks the carriage (pen up)
+//! and stops with `M0` and a comment naming the pen to load; cycle start (`~` on GRBL) continues. Each layer is
+//! drawn with its pen's down height (or servo angle) and drawing feed.
 //!
 //! Coordinates are written from the step-rounded positions, with enough decimals that the firmware's own rounding
 //! (`round(mm × steps/mm)`) lands on exactly the same step: the G-code path and the step-block path draw the same
@@ -13,11 +18,9 @@
 use std::fmt::Write as _;
 
 use crate::MachineProfile;
+use crate::motion::plan::{layer_pens, park_position};
 use crate::motion::profile::PenCommand;
 use crate::motion::steps::{StepDrawing, StepMapper};
-
-/// Spindle value sent with `M3` to lower a servo pen (GRBL's default full spindle range, `$30=1000`).
-pub const SERVO_DOWN_S: u32 = 1000;
 
 /// Format a millimetre value with at most `decimals` decimals, trailing zeros removed (`-0` printed as `0`).
 pub fn fmt_mm(v: f64, decimals: usize) -> String {
@@ -35,7 +38,7 @@ pub fn fmt_mm(v: f64, decimals: usize) -> String {
 
 /// Decimals needed so that `round(printed × steps_per_mm)` recovers every step count: the printing error
 /// (½·10⁻ᵈ mm) must stay well under half a step.
-fn decimals_for(steps_per_mm: f64) -> usize {
+pub fn decimals_for(steps_per_mm: f64) -> usize {
     let mut d = 3;
     while d < 9 && 0.5 * 10f64.powi(-i32::try_from(d).unwrap_or(9)) * steps_per_mm > 0.005 {
         d += 1;
@@ -52,13 +55,22 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
     let pen = &profile.pen;
     let settle = if pen.settle_ms > 0.0 { Some(fmt_mm(pen.settle_ms / 1000.0, 4)) } else { None };
     let per_min = |mm_s: f64| fmt_mm(mm_s * 60.0, 1);
-    let (up, down) = match pen.command {
-        PenCommand::Z => (
-            format!("G0 Z{}", fmt_mm(pen.up_z_mm, dz)),
-            format!("G1 Z{} F{}", fmt_mm(pen.down_z_mm, dz), per_min(profile.axes.z.max_feed_mm_s)),
-        ),
-        PenCommand::Servo => ("M5".to_string(), format!("M3 S{SERVO_DOWN_S}")),
+    let up = match pen.command {
+        PenCommand::Z => format!("G0 Z{}", fmt_mm(pen.up_z_mm, dz)),
+        PenCommand::Servo => "M5".to_string(),
     };
+    let pens = layer_pens(profile, steps);
+    let downs: Vec<String> = pens
+        .iter()
+        .map(|p| match pen.command {
+            PenCommand::Z => {
+                format!("G1 Z{} F{}", fmt_mm(p.down_z_mm, dz), per_min(profile.axes.z.max_feed_mm_s))
+            }
+            PenCommand::Servo => format!("M3 S{}", fmt_mm(p.servo_down_deg, 1)),
+        })
+        .collect();
+    // Without a park position the pen change waits above the homed corner.
+    let park = park_position(profile).ok().map(|s| mapper.steps_to_machine(s));
     let mut out = String::new();
     let _ = writeln!(out, "; {} — {} stroke(s)", profile.name, steps.strokes.len());
     let _ = writeln!(out, "G21 ; millimetres\nG90 ; absolute coordinates");
@@ -69,11 +81,24 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
         }
     };
     lift(&mut out, &up);
-    let (travel_f, draw_f) = (per_min(pen.travel_feed_mm_s), per_min(pen.draw_feed_mm_s));
-    for stroke in &steps.strokes {
+    let travel_f = per_min(pen.travel_feed_mm_s);
+    let mut layer = 0;
+    for (si, stroke) in steps.strokes.iter().enumerate() {
+        let l = steps.layer_of(si);
+        if l != layer {
+            if !pens[l].same_pen(&pens[layer]) {
+                if let Some(p) = park {
+                    let _ = writeln!(out, "G0 X{} Y{} F{travel_f}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+                }
+                let name = steps.layers.get(l).map_or("", |x| x.name.as_str());
+                let _ = writeln!(out, "M0 ; pen change: load {} for layer {name:?}", pens[l].label());
+            }
+            layer = l;
+        }
+        let draw_f = per_min(pens[l].draw_feed_mm_s);
         let p = mapper.steps_to_machine(stroke.start);
         let _ = writeln!(out, "G0 X{} Y{} F{travel_f}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
-        lift(&mut out, &down);
+        lift(&mut out, &downs[l]);
         let mut first = true;
         for pos in stroke.positions().into_iter().skip(1) {
             let p = mapper.steps_to_machine(pos);
@@ -105,6 +130,7 @@ mod tests {
                     StepDelta { dx: -800, dy: -801 },
                 ],
             }],
+            layers: vec![],
         }
     }
 
@@ -139,8 +165,41 @@ mod tests {
         p.pen.command = PenCommand::Servo;
         p.pen.settle_ms = 0.0;
         let g = export(&p, &square());
-        assert!(g.contains("\nM3 S1000\n") && g.contains("\nM5\n"), "{g}");
+        assert!(g.contains("\nM3 S30\n") && g.contains("\nM5\n"), "{g}");
         assert!(!g.contains('Z') && !g.contains("G4"), "{g}");
+    }
+
+    #[test]
+    fn pen_changes_park_and_stop_with_m0() {
+        use crate::motion::steps::StepLayer;
+        use crate::{Pen, Rgb};
+        let mut p = MachineProfile::default_plotter();
+        // No pen table: each colour is its own pen, named after its layer.
+        p.pens.clear();
+        p.park = Some(crate::motion::profile::ParkProfile { x_mm: 2.0, y_mm: 3.0 });
+        let stroke = |x: i32| StepStroke { start: StepPos::new(x, 8), moves: vec![StepDelta { dx: 80, dy: 0 }] };
+        let layer = |name: &str, color: Rgb, first_stroke: usize| StepLayer {
+            name: name.into(),
+            pen: Pen { color, width_mm: 0.3 },
+            first_stroke,
+        };
+        let red = Rgb(255, 0, 0);
+        let d = StepDrawing {
+            strokes: vec![stroke(0), stroke(160), stroke(320), stroke(480)],
+            // black, red, red (same pen: no stop), black.
+            layers: vec![layer("a", Rgb::BLACK, 0), layer("b", red, 1), layer("c", red, 2), layer("d", Rgb::BLACK, 3)],
+        };
+        let g = export(&p, &d);
+        let stops: Vec<&str> = g.lines().filter(|l| l.starts_with("M0")).collect();
+        assert_eq!(
+            stops,
+            ["M0 ; pen change: load b (#ff0000) for layer \"b\"", "M0 ; pen change: load d (#000000) for layer \"d\""]
+        );
+        // Each stop comes after the lift (and its dwell) and the park move.
+        let lines: Vec<&str> = g.lines().collect();
+        let i = lines.iter().position(|l| l.starts_with("M0")).unwrap();
+        assert_eq!(&lines[i - 3..i], ["G0 Z4", "G4 P0.05", "G0 X2 Y3 F7200"]);
+        assert_eq!(lines[i + 1], "G0 X2 Y0.1 F7200", "then the travel to the red layer's first stroke");
     }
 
     #[test]

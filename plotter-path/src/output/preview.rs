@@ -5,6 +5,15 @@
 //! The same renderer serves every stage: the ideal paths of a drawing, a generated figure, and the "as-stepped"
 //! preview that the plot command builds from the simulator's step trace (pass those polylines as a drawing and
 //! the recorded pen-up moves as `travel`).
+//!
+//! # Bounded memory and time
+//! The image is at most [`MAX_SIDE_PX`] per side and [`MAX_PIXELS`] in all (256 MB of RGBA): a larger request
+//! (a big drawing at a high DPI, or absurd coordinates) is rendered at the largest resolution that fits, and
+//! [`reduction_note`] says so for the caller to show. Polylines are thinned to a quarter pixel before they reach
+//! the rasteriser (invisible on the image) and stroked in chunks, so a trace with millions of points — an
+//! as-stepped preview has one per motor step — costs memory in proportion to the image, not to the point count.
+//! Stroke widths are clamped to the view (a pen wider than the whole image paints it all anyway; tiny-skia panics
+//! on some huge widths), and drawings beyond [`crate::geometry::limits`] are refused.
 
 use std::path::Path;
 
@@ -12,22 +21,35 @@ use kurbo::{Line, Rect};
 use tiny_skia::{Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Stroke, StrokeDash, Transform};
 
 use crate::geometry::drawing::{Drawing, Rgb};
+use crate::geometry::limits::{self, LimitError};
 use crate::geometry::travel::pen_up_moves;
 
-/// Largest accepted image side in pixels (a 20000² RGBA image is 1.6 GB; beyond that is a mistake).
+/// Largest image side in pixels.
 pub const MAX_SIDE_PX: u32 = 20_000;
+
+/// Most pixels in one image (4 bytes each: 256 MB).
+pub const MAX_PIXELS: f64 = 64.0 * 1024.0 * 1024.0;
+
+/// Most points in one rasterised path (tiny-skia's stroker needs several hundred bytes per point).
+const CHUNK_POINTS: usize = 16_384;
+
+/// Thinning distance, pixels: a point closer than this to the last kept one is skipped.
+const THIN_PX: f64 = 0.25;
 
 /// Errors rendering or saving a preview.
 #[derive(Debug, thiserror::Error)]
 pub enum PreviewError {
-    /// The requested image is empty or too large.
-    #[error("preview size {width}×{height} px is outside 1..={MAX_SIDE_PX} px per side; lower --dpi or --width-px")]
+    /// The requested image is empty (or its size is not a number).
+    #[error("preview size {width}×{height} px is empty; raise --dpi or --width-px")]
     Size {
         /// Requested width, px.
         width: f64,
         /// Requested height, px.
         height: f64,
     },
+    /// The drawing exceeds the size limits.
+    #[error(transparent)]
+    Limit(#[from] LimitError),
     /// PNG encoding or writing failed.
     #[error("cannot write preview {path}: {message}")]
     Write {
@@ -88,6 +110,37 @@ fn color(c: Rgb, alpha: u8) -> Color {
     Color::from_rgba8(c.0, c.1, c.2, alpha)
 }
 
+/// Requested size (px) and scale (px per mm) of the preview of `view`, before any reduction.
+fn requested(view: Rect, options: &PreviewOptions) -> (f64, f64, f64) {
+    let scale = match options.width_px {
+        Some(w) => f64::from(w) / view.width(),
+        None => options.dpi / 25.4,
+    };
+    ((view.width() * scale).round(), (view.height() * scale).round(), scale)
+}
+
+/// The factor (≤ 1) by which a requested `w`×`h` image must shrink to fit [`MAX_SIDE_PX`] and [`MAX_PIXELS`].
+fn reduction(w: f64, h: f64) -> f64 {
+    let side = f64::from(MAX_SIDE_PX) / w.max(h);
+    let area = (MAX_PIXELS / (w * h)).sqrt();
+    side.min(area).min(1.0)
+}
+
+/// When the preview of `drawing` is rendered below the requested resolution (to cap its memory), a note saying
+/// so, for the caller to show.
+pub fn reduction_note(drawing: &Drawing, options: &PreviewOptions) -> Option<String> {
+    let (w, h, _) = requested(view_rect(drawing), options);
+    let f = reduction(w, h);
+    (f < 1.0 && f.is_finite()).then(|| {
+        format!(
+            "the {w:.0}×{h:.0} px preview asked for exceeds {MAX_SIDE_PX} px per side or {:.0} Mpx; rendered at {:.0}×{:.0} px",
+            MAX_PIXELS / 1e6,
+            (w * f).round().max(1.0),
+            (h * f).round().max(1.0)
+        )
+    })
+}
+
 /// Render `drawing` with the travel implied by its order (when `options.travel` is set).
 pub fn render(drawing: &Drawing, options: &PreviewOptions) -> Result<Pixmap, PreviewError> {
     let travel = if options.travel { pen_up_moves(drawing) } else { Vec::new() };
@@ -100,16 +153,26 @@ pub fn render_with_travel(
     travel: &[Line],
     options: &PreviewOptions,
 ) -> Result<Pixmap, PreviewError> {
+    limits::check_drawing(drawing, "preview")?;
+    if let Some(l) = travel.iter().find(|l| !(limits::point_ok(l.p0) && limits::point_ok(l.p1))) {
+        let p = if limits::point_ok(l.p0) { l.p1 } else { l.p0 };
+        return Err(LimitError::Coordinate {
+            origin: "preview".into(),
+            layer: "travel".into(),
+            path: 0,
+            point: 0,
+            x: p.x,
+            y: p.y,
+        }
+        .into());
+    }
     let view = view_rect(drawing);
-    let scale = match options.width_px {
-        Some(w) => f64::from(w) / view.width(),
-        None => options.dpi / 25.4,
-    };
-    let (w, h) = ((view.width() * scale).round(), (view.height() * scale).round());
-    let max = f64::from(MAX_SIDE_PX);
-    if !(w >= 1.0 && h >= 1.0 && w <= max && h <= max) {
+    let (w, h, scale) = requested(view, options);
+    if !(w >= 1.0 && h >= 1.0) {
         return Err(PreviewError::Size { width: w, height: h });
     }
+    let f = reduction(w, h);
+    let (w, h, scale) = ((w * f).round().max(1.0), (h * f).round().max(1.0), scale * f);
     // Both sides were checked to lie in 1..=MAX_SIDE_PX.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let mut pixmap = Pixmap::new(w as u32, h as u32).ok_or(PreviewError::Size { width: w, height: h })?;
@@ -132,8 +195,11 @@ pub fn render_with_travel(
         pixmap.stroke_path(&paper, &paint, &stroke, transform, None);
     }
 
+    // A pen wider than the view's diagonal covers it all: clamp (tiny-skia panics on some huge widths).
+    let widest = view.width().hypot(view.height());
+    let thin = THIN_PX / px_per_mm;
     for layer in &drawing.layers {
-        // Consecutive paths with the same pen are stroked together.
+        // Consecutive paths with the same pen are stroked together, each group with its own colour and width.
         let mut start = 0;
         while start < layer.paths.len() {
             let pen = layer.paths[start].pen.unwrap_or(layer.pen);
@@ -141,73 +207,115 @@ pub fn render_with_travel(
             while end < layer.paths.len() && layer.paths[end].pen.unwrap_or(layer.pen) == pen {
                 end += 1;
             }
-            stroke_paths(&mut pixmap, &layer.paths[start..end], pen, options, px_per_mm, transform);
+            let mut paint = Paint::default();
+            paint.set_color(color(visible_on_paper(pen.color), 255));
+            paint.anti_alias = true;
+            let width_mm = pen.width_mm.min(options.max_stroke_mm).max(options.min_stroke_px / px_per_mm);
+            let width_mm = if width_mm.is_finite() { width_mm.min(widest) } else { widest };
+            let stroke = Stroke {
+                width: narrow(width_mm),
+                line_cap: LineCap::Round,
+                line_join: LineJoin::Round,
+                ..Stroke::default()
+            };
+            stroke_group(&mut pixmap, &layer.paths[start..end], &paint, &stroke, transform, thin);
             start = end;
         }
     }
 
     if options.travel && !travel.is_empty() {
-        let mut pb = PathBuilder::new();
+        let mut paint = Paint::default();
+        paint.set_color(color(options.travel_color, 200));
+        paint.anti_alias = true;
+        let unit = 1.0 / px_per_mm;
+        let stroke = Stroke {
+            width: narrow(unit * 0.8),
+            dash: StrokeDash::new(vec![narrow(unit * 5.0), narrow(unit * 3.0)], 0.0),
+            ..Stroke::default()
+        };
+        let mut chunk = Chunk::default();
         for l in travel {
-            pb.move_to(narrow(l.p0.x), narrow(l.p0.y));
-            pb.line_to(narrow(l.p1.x), narrow(l.p1.y));
+            chunk.pb.move_to(narrow(l.p0.x), narrow(l.p0.y));
+            chunk.pb.line_to(narrow(l.p1.x), narrow(l.p1.y));
+            chunk.points += 2;
+            if chunk.points >= CHUNK_POINTS {
+                chunk.flush(&mut pixmap, &paint, &stroke, transform);
+            }
         }
-        if let Some(shape) = pb.finish() {
-            let mut paint = Paint::default();
-            paint.set_color(color(options.travel_color, 200));
-            paint.anti_alias = true;
-            let unit = 1.0 / px_per_mm;
-            let stroke = Stroke {
-                width: narrow(unit * 0.8),
-                dash: StrokeDash::new(vec![narrow(unit * 5.0), narrow(unit * 3.0)], 0.0),
-                ..Stroke::default()
-            };
-            pixmap.stroke_path(&shape, &paint, &stroke, transform, None);
-        }
+        chunk.flush(&mut pixmap, &paint, &stroke, transform);
     }
     Ok(pixmap)
 }
 
-/// Draw `paths` with `pen`: its colour (darkened to grey when it would vanish on white paper) and its width
-/// clamped to `min_stroke_px` .. `max_stroke_mm`, so hairlines show and wide SVG strokes do not turn text into blobs.
-fn stroke_paths(
+/// Stroke `paths` with one paint and stroke, in chunks of at most [`CHUNK_POINTS`] points, thinning vertices
+/// closer than `thin` mm (a fraction of a pixel).
+fn stroke_group(
     pixmap: &mut Pixmap,
     paths: &[crate::geometry::drawing::Polyline],
-    pen: crate::geometry::drawing::Pen,
-    options: &PreviewOptions,
-    px_per_mm: f64,
+    paint: &Paint<'_>,
+    stroke: &Stroke,
     transform: Transform,
+    thin: f64,
 ) {
-    let mut pb = PathBuilder::new();
+    let mut chunk = Chunk::default();
     for path in paths {
         let mut pts = path.points.iter();
-        let Some(first) = pts.next() else { continue };
-        pb.move_to(narrow(first.x), narrow(first.y));
+        let Some(&first) = pts.next() else { continue };
+        chunk.pb.move_to(narrow(first.x), narrow(first.y));
+        chunk.points += 1;
+        let mut last = first;
         if path.points.len() == 1 {
             // A dot: a zero-length segment still shows with round caps.
-            pb.line_to(narrow(first.x), narrow(first.y));
+            chunk.pb.line_to(narrow(first.x), narrow(first.y));
         }
-        for p in pts {
-            pb.line_to(narrow(p.x), narrow(p.y));
+        let n = path.points.len();
+        let mut split = false;
+        for (i, &p) in pts.enumerate() {
+            // Thin to a fraction of a pixel; the last point is always kept.
+            if i + 2 < n && p.distance(last) < thin {
+                continue;
+            }
+            chunk.pb.line_to(narrow(p.x), narrow(p.y));
+            chunk.points += 1;
+            last = p;
+            if chunk.points >= CHUNK_POINTS && i + 2 < n {
+                // Continue the same polyline in a new path from this point.
+                chunk.flush(pixmap, paint, stroke, transform);
+                chunk.pb.move_to(narrow(p.x), narrow(p.y));
+                split = true;
+            }
         }
-        if path.is_closed() {
-            pb.close();
+        // (A split closed path ends on its first point anyway; with round joins and caps it looks the same.)
+        if path.is_closed() && !split {
+            chunk.pb.close();
+        }
+        if chunk.points >= CHUNK_POINTS {
+            chunk.flush(pixmap, paint, stroke, transform);
         }
     }
-    let Some(shape) = pb.finish() else { return };
-    let mut paint = Paint::default();
-    paint.set_color(color(visible_on_paper(pen.color), 255));
-    paint.anti_alias = true;
-    let width_mm = pen.width_mm.min(options.max_stroke_mm).max(options.min_stroke_px / px_per_mm);
-    let stroke =
-        Stroke { width: narrow(width_mm), line_cap: LineCap::Round, line_join: LineJoin::Round, ..Stroke::default() };
-    pixmap.stroke_path(&shape, &paint, &stroke, transform, None);
+    chunk.flush(pixmap, paint, stroke, transform);
 }
 
 /// Colours too light to see on the paper (luminance above 0.85: white, pale yellow) are shown as grey.
 fn visible_on_paper(c: Rgb) -> Rgb {
     let lum = 0.2126 * f64::from(c.0) + 0.7152 * f64::from(c.1) + 0.0722 * f64::from(c.2);
     if lum > 0.85 * 255.0 { Rgb(170, 170, 170) } else { c }
+}
+
+/// A path being built for the rasteriser, flushed every [`CHUNK_POINTS`] points.
+#[derive(Default)]
+struct Chunk {
+    pb: PathBuilder,
+    points: usize,
+}
+
+impl Chunk {
+    fn flush(&mut self, pixmap: &mut Pixmap, paint: &Paint<'_>, stroke: &Stroke, transform: Transform) {
+        if let Some(shape) = std::mem::take(&mut self.pb).finish() {
+            pixmap.stroke_path(&shape, paint, stroke, transform, None);
+        }
+        self.points = 0;
+    }
 }
 
 /// f64 → f32 for drawing coordinates (precision loss is far below a pixel).
@@ -306,9 +414,81 @@ mod tests {
     }
 
     #[test]
-    fn absurd_sizes_are_errors() {
+    fn large_requests_render_at_reduced_resolution_with_a_note() {
+        // 10 m × 1 cm at 600 dpi is 236 225 × 236 px: reduced to 20 000 px wide.
         let d = Drawing { page_mm: Some((10_000.0, 10.0)), ..Drawing::default() };
-        let err = render(&d, &PreviewOptions { dpi: 600.0, ..PreviewOptions::default() }).unwrap_err();
-        assert!(err.to_string().contains("--dpi"));
+        let opts = PreviewOptions { dpi: 600.0, ..PreviewOptions::default() };
+        let p = render(&d, &opts).unwrap();
+        assert_eq!(p.width(), MAX_SIDE_PX);
+        let note = reduction_note(&d, &opts).unwrap();
+        assert!(note.contains("rendered at 20000×"), "{note}");
+        // A square page at a high DPI: the pixel budget, not the side, limits it (√(64 Mi) = 8192 px).
+        let d = Drawing { page_mm: Some((1000.0, 1000.0)), ..Drawing::default() };
+        let p = render(&d, &opts).unwrap();
+        assert_eq!((p.width(), p.height()), (8192, 8192));
+        assert_eq!(reduction_note(&d, &PreviewOptions::default()), None, "96 dpi fits");
+        let err = render(&d, &PreviewOptions { dpi: 0.0, ..PreviewOptions::default() }).unwrap_err();
+        assert!(err.to_string().contains("--dpi"), "{err}");
+    }
+
+    #[test]
+    fn huge_stroke_widths_and_coordinates_do_not_panic() {
+        // tiny-skia 0.12 panicked (scan/path.rs, alpha_runs.rs) for widths from about 1e9 mm.
+        for w in [1e5, 1e9, 1e12, 1e15, 3e38, f64::INFINITY, f64::NAN] {
+            let mut d =
+                Drawing::single_layer("l", vec![Polyline::new(vec![Point::new(10.0, 10.0), Point::new(90.0, 90.0)])]);
+            d.page_mm = Some((100.0, 100.0));
+            d.layers[0].pen.width_mm = w;
+            let p = render(&d, &PreviewOptions::default()).unwrap();
+            assert_eq!(pixel(&p, 200, 200), (0, 0, 0), "width {w}: all ink");
+        }
+        let d = Drawing::single_layer("l", vec![Polyline::new(vec![Point::ZERO, Point::new(3.4e38, 10.0)])]);
+        assert!(matches!(render(&d, &PreviewOptions::default()), Err(PreviewError::Limit(_))));
+    }
+
+    #[test]
+    fn a_million_point_trace_renders_in_bounded_memory_like_the_plain_one() {
+        // A staircase of 0.0125 mm steps (one point per motor step) along a 200 mm diagonal, twice: once as it is,
+        // once with every point — the images agree, and the thinned one never builds a 300k-point path.
+        let n = 16_000usize;
+        let mut stairs = Vec::with_capacity(2 * n + 1);
+        let s = 0.0125;
+        for i in 0..n {
+            let v = i as f64 * s;
+            stairs.push(Point::new(10.0 + v, 10.0 + v));
+            stairs.push(Point::new(10.0 + v + s, 10.0 + v));
+        }
+        stairs.push(Point::new(10.0 + n as f64 * s, 10.0 + n as f64 * s));
+        let mut d = Drawing::single_layer("l", vec![Polyline::new(stairs)]);
+        d.page_mm = Some((220.0, 220.0));
+        let mut straight =
+            Drawing::single_layer("l", vec![Polyline::new(vec![Point::new(10.0, 10.0), Point::new(210.0, 210.0)])]);
+        straight.page_mm = d.page_mm;
+        let (a, b) =
+            (render(&d, &PreviewOptions::default()).unwrap(), render(&straight, &PreviewOptions::default()).unwrap());
+        let differ = a.pixels().iter().zip(b.pixels()).filter(|(x, y)| x.red().abs_diff(y.red()) > 64).count();
+        assert!(differ < 50, "{differ} pixels differ");
+        // Chunking keeps a long polyline continuous: a 100 000-point circle has no gap on the image.
+        let circle: Vec<Point> = (0..=100_000)
+            .map(|i| {
+                let t = std::f64::consts::TAU * i as f64 / 100_000.0;
+                Point::new(110.0 + 100.0 * t.cos(), 110.0 + 100.0 * t.sin())
+            })
+            .collect();
+        let mut c = Drawing::single_layer("l", vec![Polyline::new(circle)]);
+        c.page_mm = d.page_mm;
+        // 10 px/mm: thinned to 0.025 mm, about 25 000 points remain, more than one chunk.
+        let p = render(&c, &PreviewOptions { dpi: 254.0, min_stroke_px: 2.0, ..PreviewOptions::default() }).unwrap();
+        // 4.4 mm border: every column the circle spans has ink near the circle, above and below.
+        for x in (200..=2000).step_by(7) {
+            let cx = f64::from(x) / 10.0 - 110.0;
+            for sign in [-1.0, 1.0] {
+                let y = 110.0 + sign * (100.0f64 * 100.0 - cx * cx).sqrt();
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "test pixel coordinates")]
+                let py = ((y + 4.4) * 10.0).round() as u32;
+                let inked = (py.saturating_sub(3)..=py + 3).any(|yy| pixel(&p, x + 44, yy).0 < 160);
+                assert!(inked, "gap at x = {x} px, y = {py} px");
+            }
+        }
     }
 }

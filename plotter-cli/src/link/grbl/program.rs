@@ -1,0 +1,190 @@
+//! A motion plan as a GRBL G-code program: one line per planned block, so that "lines acknowledged" and "blocks
+//! accepted" are the same count (the journal records either).
+//!
+//! Positions are absolute millimetres in the plot's work coordinates (the sender declares them with `G92` after
+//! homing), printed from the plan's exact step positions with enough decimals that GRBL's own rounding
+//! (`round(mm × steps/mm)`) lands on the same step, so the machine ends exactly where the plan ends. Travel and
+//! drawing are `G1` at the profile's travel feed and the pen's drawing feed (F in mm/min, written when it
+//! changes); the pen is a Z move at the Z axis's maximum rate, or `M3 S<angle>` / `M5` for a servo pen; a settle
+//! dwell is `G4 P<seconds>`.
+
+use std::fmt::Write as _;
+
+use plotter_fw::TICK_HZ;
+use plotter_path::MachineProfile;
+use plotter_path::motion::plan::{MotionPlan, MoveKind};
+use plotter_path::motion::profile::PenCommand;
+use plotter_path::output::gcode_out::{decimals_for, fmt_mm};
+
+/// The program of a plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Program {
+    /// One line per plan block, without line end.
+    pub lines: Vec<String>,
+    /// Whether the pen is up (and settled) after each line: where a pause at the next pen-up may stop.
+    pub safe_after: Vec<bool>,
+}
+
+/// Millimetres of a step count.
+fn mm(steps: i32, spm: f64) -> f64 {
+    f64::from(steps) / spm
+}
+
+/// Write `plan` (which starts at `plan.start`, in steps of the plot's work coordinates) as G-code lines.
+pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
+    let ax = &profile.axes;
+    let (sx, sy, sz) = (ax.x.steps_per_mm, ax.y.steps_per_mm, ax.z.steps_per_mm);
+    let (dx, dy, dz) = (decimals_for(sx), decimals_for(sy), decimals_for(sz));
+    let servo = profile.pen.command == PenCommand::Servo;
+    let per_min = |mm_s: f64| fmt_mm(mm_s * 60.0, 1);
+    let z_feed = per_min(ax.z.max_feed_mm_s);
+    let travel_feed = per_min(profile.pen.travel_feed_mm_s);
+    let mut pos = plan.start;
+    let mut feed = String::new();
+    let mut pen = &plan.first_pen;
+    let mut changes = plan.pen_changes.iter().peekable();
+    let mut lines = Vec::with_capacity(plan.blocks.len());
+    let mut safe_after = Vec::with_capacity(plan.blocks.len());
+    let mut pen_up = true;
+    for (i, b) in plan.blocks.iter().enumerate() {
+        if let Some(orig) = plan.original_index(i) {
+            while let Some(c) = changes.next_if(|c| c.block <= orig) {
+                pen = &c.pen;
+            }
+        } else if let Some(c) = plan.pen_changes.iter().rev().find(|c| c.block <= plan.resumed_from) {
+            // A resume preamble lowers the pen of the layer being resumed.
+            pen = &c.pen;
+        }
+        for (p, s) in pos.iter_mut().zip(b.block.steps) {
+            *p += s;
+        }
+        let mut line = String::new();
+        let xy = |line: &mut String| {
+            let _ = write!(line, "X{} Y{}", fmt_mm(mm(pos[0], sx), dx), fmt_mm(mm(pos[1], sy), dy));
+        };
+        let mut with_feed = |line: &mut String, f: &str| {
+            if feed != f {
+                let _ = write!(line, " F{f}");
+                feed = f.to_string();
+            }
+        };
+        match b.kind {
+            MoveKind::Travel | MoveKind::Draw => {
+                line.push_str("G1 ");
+                xy(&mut line);
+                let f = if b.kind == MoveKind::Travel { travel_feed.clone() } else { per_min(pen.draw_feed_mm_s) };
+                with_feed(&mut line, &f);
+            }
+            MoveKind::PenUp | MoveKind::PenDown if servo => {
+                if b.kind == MoveKind::PenUp {
+                    line.push_str("M5");
+                } else {
+                    let _ = write!(line, "M3 S{}", fmt_mm(pen.servo_down_deg, 1));
+                }
+            }
+            MoveKind::PenUp | MoveKind::PenDown => {
+                let _ = write!(line, "G1 Z{}", fmt_mm(mm(pos[2], sz), dz));
+                with_feed(&mut line, &z_feed);
+            }
+            MoveKind::Settle => {
+                let ticks = b.block.duration_ticks();
+                let _ = write!(line, "G4 P{}", fmt_mm(f64::from(ticks) / f64::from(TICK_HZ), 3));
+            }
+        }
+        match b.kind {
+            MoveKind::PenUp => pen_up = true,
+            MoveKind::PenDown => pen_up = false,
+            _ => {}
+        }
+        let next_is_settle = plan.blocks.get(i + 1).is_some_and(|n| n.kind == MoveKind::Settle);
+        safe_after.push(pen_up && !next_is_settle);
+        lines.push(line);
+    }
+    Program { lines, safe_after }
+}
+
+/// The `G92` line declaring that the machine stands at `pos` (steps of the plot's coordinates); Z is left out for
+/// a servo pen.
+pub fn declare_position(profile: &MachineProfile, pos: [i32; 4]) -> String {
+    let ax = &profile.axes;
+    let (sx, sy, sz) = (ax.x.steps_per_mm, ax.y.steps_per_mm, ax.z.steps_per_mm);
+    let mut l =
+        format!("G92 X{} Y{}", fmt_mm(mm(pos[0], sx), decimals_for(sx)), fmt_mm(mm(pos[1], sy), decimals_for(sy)));
+    if profile.pen.command != PenCommand::Servo {
+        let _ = write!(l, " Z{}", fmt_mm(mm(pos[2], sz), decimals_for(sz)));
+    }
+    l
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use plotter_path::kurbo::Point;
+    use plotter_path::motion::plan::{Lookahead, homed_position, plan};
+    use plotter_path::motion::steps::drawing_to_steps;
+    use plotter_path::{Drawing, Layer, Polyline, Rgb};
+
+    fn two_layers() -> Drawing {
+        let mut d = Drawing::single_layer(
+            "black",
+            vec![Polyline::new(vec![Point::new(10.0, 10.0), Point::new(12.5, 10.0), Point::new(12.5, 11.0125)])],
+        );
+        let mut red = Layer::new("red");
+        red.pen.color = Rgb(255, 0, 0);
+        red.paths = vec![Polyline::new(vec![Point::new(20.0, 10.0), Point::new(21.0, 10.0)])];
+        d.layers.push(red);
+        d
+    }
+
+    #[test]
+    fn one_line_per_block_with_exact_positions() {
+        let mut p = MachineProfile::default_plotter();
+        p.pens = vec![plotter_path::motion::profile::PenSpec {
+            name: "red".into(),
+            color: Some("#ff0000".into()),
+            width_mm: None,
+            down_z_mm: Some(1.0),
+            servo_down_deg: None,
+            draw_feed_mm_s: Some(10.0),
+        }];
+        let steps = drawing_to_steps(&p, &two_layers()).unwrap();
+        let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        let prog = program(&p, &plan);
+        assert_eq!(prog.lines.len(), plan.blocks.len());
+        assert_eq!(
+            prog.lines,
+            [
+                "G1 X10 Y10 F7200",
+                "G1 Z0 F1500",
+                "G4 P0.05",
+                "G1 X12.5 Y10 F3600",
+                "G1 X12.5 Y11.0125",
+                "G1 Z4 F1500",
+                "G4 P0.05",
+                "G1 X20 Y10 F7200",
+                "G1 Z1 F1500",
+                "G4 P0.05",
+                "G1 X21 Y10 F600",
+                "G1 Z4 F1500",
+                "G4 P0.05",
+            ]
+        );
+        let safe: Vec<usize> = prog.safe_after.iter().enumerate().filter(|(_, s)| **s).map(|(i, _)| i).collect();
+        assert_eq!(safe, [0, 6, 7, 12]);
+        assert_eq!(declare_position(&p, [0, 80, 1600, 0]), "G92 X0 Y1 Z4");
+    }
+
+    #[test]
+    fn servo_pens_use_m3_m5() {
+        let mut p = MachineProfile::default_plotter();
+        p.pen.command = PenCommand::Servo;
+        p.pen.servo_down_deg = 25.0;
+        let steps = drawing_to_steps(&p, &two_layers()).unwrap();
+        let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        let prog = program(&p, &plan);
+        assert_eq!(prog.lines[1], "M3 S25");
+        assert_eq!(prog.lines[5], "M5");
+        assert!(!prog.lines.iter().any(|l| l.contains('Z')));
+        assert_eq!(declare_position(&p, [8, 0, 1600, 0]), "G92 X0.1 Y0");
+    }
+}

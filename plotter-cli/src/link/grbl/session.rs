@@ -1,0 +1,820 @@
+//! A session with a GRBL 1.1 controller: connect (banner or `$I`), read `$$`, home (`$H`) or unlock (`$X`),
+//! declare the plot's coordinates (`G92`), status, and stream a plan with character counting.
+//!
+//! # Coordinates
+//! The plot works in the profile's machine coordinates (the homed corner is 0, see
+//! [`plotter_path::motion::plan::homed_position`]). After homing (`$H` when `$22=1`; otherwise the carriage is
+//! taken to stand at the homed corner) the sender declares that position with `G92`, so every line is written in
+//! the plot's own coordinates whatever GRBL's machine space is. Positions read back from status reports are
+//! converted through the offset measured right after the declaration (or from `$#` when the plot did not home).
+//!
+//! # Flow control
+//! Character counting, as GRBL's interface documentation describes: the host keeps the lengths of the lines it
+//! sent and has not seen answered, and sends the next line only if the total stays within the receive buffer
+//! (`[OPT:…,…,RX]` from `$I`, 128 bytes by default, less the ring's one empty slot). Every line is answered once
+//! (`ok` or `error:`), in order, so each answer frees the oldest line's bytes.
+//!
+//! # Progress
+//! `ok` means queued. What has been executed comes from the `?` status report (polled at 5 Hz, the rate GRBL's
+//! documentation recommends as the upper limit): the reported position is located on the plan's blocks between
+//! the last executed one and the last acknowledged one; an idle machine has executed everything acknowledged.
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+use anyhow::{Context as _, bail};
+use plotter_path::MachineProfile;
+use plotter_path::motion::plan::{MachinePos, MotionPlan};
+use plotter_path::motion::profile::PenCommand;
+
+use super::messages::{
+    GrblLine, GrblStatus, RT_CYCLE_START, RT_FEED_HOLD, RT_RESET, RT_STATUS, alarm_meaning, describe_alarm,
+    describe_error,
+};
+use super::program::{declare_position, program};
+use super::settings::GrblSettings;
+use crate::link::Transport;
+use crate::link::stream::{Control, PauseChoice, Progress, StreamError, StreamStats};
+
+/// How long a plain command may take.
+pub const COMMAND_TIMEOUT: Duration = Duration::from_secs(10);
+/// How long a homing cycle may take.
+pub const HOMING_TIMEOUT: Duration = Duration::from_secs(180);
+/// Status polling period while streaming.
+pub const STATUS_EVERY: Duration = Duration::from_millis(200);
+/// No status answer for this long while streaming: the controller is gone.
+pub const SILENCE: Duration = Duration::from_secs(5);
+
+/// An open session with a GRBL controller.
+pub struct GrblSession<T: Transport> {
+    /// The byte pipe.
+    pub transport: T,
+    /// Where it is connected (for messages).
+    pub name: String,
+    /// GRBL version (`1.1h`).
+    pub version: String,
+    /// Receive buffer size, bytes.
+    pub rx_bytes: usize,
+    /// The `$$` settings.
+    pub settings: GrblSettings,
+    /// The machine profile the plot uses.
+    pub profile: MachineProfile,
+    /// Reported position (MPos or WPos, mm) of the plot's origin, once known.
+    offset: Option<[f64; 3]>,
+    /// `[MSG:…]` lines received, for display.
+    pub messages: Vec<String>,
+    /// Most bytes in flight during the last stream.
+    pub peak_in_flight: usize,
+}
+
+fn transport_error(name: &str, e: std::io::Error) -> anyhow::Error {
+    anyhow::anyhow!("lost the connection to {name}: {e} (was the device unplugged or the emulator stopped?)")
+}
+
+/// Step position (XYZ) of millimetres.
+fn to_steps(profile: &MachineProfile, mm: [f64; 3]) -> [i32; 3] {
+    let spm = [profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm, profile.axes.z.steps_per_mm];
+    core::array::from_fn(|i| plotter_path::motion::steps::round_steps(mm[i] * spm[i]).unwrap_or(i32::MAX))
+}
+
+impl<T: Transport> GrblSession<T> {
+    /// Connect: drain what the controller sends (a start-up banner), ask `$I` for the version and buffer size,
+    /// read `$$`. A device that does not answer like GRBL is an error naming what it sent.
+    pub fn connect(mut transport: T, name: &str, profile: &MachineProfile) -> anyhow::Result<Self> {
+        let mut heard = Vec::new();
+        let mut version = None;
+        let mut messages = Vec::new();
+        while let Some(l) = transport.recv_line(Duration::from_millis(300)).map_err(|e| transport_error(name, e))? {
+            match GrblLine::parse(&l) {
+                GrblLine::Banner(v) => version = Some(v),
+                GrblLine::Msg(m) => messages.push(m),
+                _ if !l.is_empty() && heard.len() < 5 => heard.push(l),
+                _ => {}
+            }
+        }
+        let mut s = GrblSession {
+            transport,
+            name: name.to_string(),
+            version: version.unwrap_or_default(),
+            rx_bytes: 128,
+            settings: GrblSettings::default(),
+            profile: profile.clone(),
+            offset: None,
+            messages,
+            peak_in_flight: 0,
+        };
+        let info = match s.command("$I", COMMAND_TIMEOUT) {
+            Ok(info) => info,
+            Err(e) => {
+                let shown: Vec<String> = heard.iter().take(3).map(|l| format!("{l:?}")).collect();
+                bail!("{name} does not answer like GRBL ($I: {e:#}); it sent: {}", shown.join(", "));
+            }
+        };
+        for l in &info {
+            if let Some(v) = l.strip_prefix("VER:") {
+                s.version = v.split(':').next().unwrap_or(v).split('.').take(2).collect::<Vec<_>>().join(".");
+            }
+            if let Some(o) = l.strip_prefix("OPT:")
+                && let Some(rx) = o.split(',').nth(2).and_then(|x| x.trim().parse::<usize>().ok())
+                && rx >= 32
+            {
+                s.rx_bytes = rx;
+            }
+        }
+        s.settings = s.read_settings()?;
+        Ok(s)
+    }
+
+    /// Read `$$`.
+    pub fn read_settings(&mut self) -> anyhow::Result<GrblSettings> {
+        let mut settings = GrblSettings::default();
+        self.transport.send(b"$$\n").map_err(|e| transport_error(&self.name, e))?;
+        let deadline = self.transport.now() + COMMAND_TIMEOUT;
+        loop {
+            let Some(l) = self.recv(deadline)? else { bail!("{}: no answer to $$", self.name) };
+            match GrblLine::parse(&l) {
+                GrblLine::Setting(k, v) => {
+                    settings.values.insert(k, v);
+                }
+                GrblLine::Ok => return Ok(settings),
+                GrblLine::Error(c) => bail!("{}: $$ refused: {}", self.name, describe_error(c)),
+                GrblLine::Alarm(c) => bail!("{}: {}", self.name, describe_alarm(c)),
+                GrblLine::Msg(m) => self.messages.push(m),
+                _ => {}
+            }
+        }
+    }
+
+    fn recv(&mut self, deadline: Duration) -> anyhow::Result<Option<String>> {
+        let left = deadline.saturating_sub(self.transport.now()).max(Duration::from_millis(1));
+        self.transport.recv_line(left).map_err(|e| transport_error(&self.name, e))
+    }
+
+    /// Send one line and wait for its `ok`; returns the feedback lines (`[…]` without brackets) before it.
+    pub fn command(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
+        self.transport.send(format!("{line}\n").as_bytes()).map_err(|e| transport_error(&self.name, e))?;
+        let deadline = self.transport.now() + timeout;
+        let mut out = Vec::new();
+        loop {
+            let Some(l) = self.recv(deadline)? else {
+                if self.transport.now() >= deadline {
+                    bail!("{}: no answer to {line:?} within {:.0} s", self.name, timeout.as_secs_f64());
+                }
+                continue;
+            };
+            match GrblLine::parse(&l) {
+                GrblLine::Ok => return Ok(out),
+                GrblLine::Error(c) => bail!("{}: {line:?} refused: {}", self.name, describe_error(c)),
+                GrblLine::Alarm(c) => bail!("{}: {} during {line:?}", self.name, describe_alarm(c)),
+                GrblLine::Banner(_) => bail!("{}: the controller restarted during {line:?}", self.name),
+                GrblLine::Msg(m) => {
+                    out.push(format!("MSG:{m}"));
+                    self.messages.push(m);
+                }
+                GrblLine::Feedback(f) => out.push(f),
+                GrblLine::Setting(..) => out.push(l),
+                GrblLine::Status(_) | GrblLine::Other(_) => {}
+            }
+        }
+    }
+
+    /// Ask for a status report and wait for it.
+    pub fn status(&mut self) -> anyhow::Result<GrblStatus> {
+        for _ in 0..3 {
+            self.transport.send(&[RT_STATUS]).map_err(|e| transport_error(&self.name, e))?;
+            let deadline = self.transport.now() + Duration::from_millis(1000);
+            while let Some(l) = self.recv(deadline)? {
+                match GrblLine::parse(&l) {
+                    GrblLine::Status(s) => return Ok(s),
+                    GrblLine::Alarm(c) => bail!("{}: {}", self.name, describe_alarm(c)),
+                    GrblLine::Msg(m) => self.messages.push(m),
+                    _ => {}
+                }
+                if self.transport.now() >= deadline {
+                    break;
+                }
+            }
+        }
+        bail!("{}: no status report", self.name)
+    }
+
+    /// Whether the controller is in an alarm state.
+    pub fn in_alarm(&mut self) -> anyhow::Result<bool> {
+        Ok(self.status()?.state == "Alarm")
+    }
+
+    /// Unlock an alarm with `$X` (only after the user agreed: the position may be wrong).
+    pub fn unlock(&mut self) -> anyhow::Result<()> {
+        self.command("$X", COMMAND_TIMEOUT).map(|_| ())
+    }
+
+    /// Home with `$H` when homing is enabled (`$22=1`); without it, say that the current position is taken as
+    /// the homed corner. Then declare the homed position as the plot's coordinates.
+    pub fn home(&mut self) -> anyhow::Result<()> {
+        if self.settings.homing_enabled() {
+            self.command("$H", HOMING_TIMEOUT).context("homing ($H) failed")?;
+        } else {
+            eprintln!(
+                "{}: homing is disabled on the controller ($22=0); the current position is taken as the home corner",
+                self.name
+            );
+        }
+        let home = plotter_path::motion::plan::homed_position(&self.profile)?;
+        self.declare(home)
+    }
+
+    /// Declare that the machine stands at `pos` (steps of the plot's coordinates), with `G92`.
+    pub fn declare(&mut self, pos: MachinePos) -> anyhow::Result<()> {
+        self.command("G21", COMMAND_TIMEOUT)?;
+        self.command("G90", COMMAND_TIMEOUT)?;
+        self.command(&declare_position(&self.profile, pos), COMMAND_TIMEOUT)?;
+        let s = self.wait_idle()?;
+        let reported = s.mpos.or(s.wpos).context("status without a position")?;
+        let spm =
+            [self.profile.axes.x.steps_per_mm, self.profile.axes.y.steps_per_mm, self.profile.axes.z.steps_per_mm];
+        self.offset = Some(core::array::from_fn(|i| reported[i] - f64::from(pos[i]) / spm[i]));
+        Ok(())
+    }
+
+    /// The reported position's offset from the plot's coordinates, from `$#` when not declared in this session
+    /// (`G54` + `G92`, plus the tool length offset on Z, for an `MPos` report; none for `WPos`).
+    fn offset(&mut self, s: &GrblStatus) -> anyhow::Result<[f64; 3]> {
+        if let Some(o) = self.offset {
+            return Ok(o);
+        }
+        if s.mpos.is_none() {
+            self.offset = Some([0.0; 3]);
+            return Ok([0.0; 3]);
+        }
+        let lines = self.command("$#", COMMAND_TIMEOUT)?;
+        let get = |key: &str| -> [f64; 3] {
+            lines
+                .iter()
+                .find_map(|l| l.strip_prefix(key))
+                .and_then(|v| {
+                    let v: Vec<f64> = v.split([',', ':']).take(3).filter_map(|x| x.parse().ok()).collect();
+                    <[f64; 3]>::try_from(v).ok()
+                })
+                .unwrap_or([0.0; 3])
+        };
+        let (g54, g92) = (get("G54:"), get("G92:"));
+        let tlo: f64 = lines.iter().find_map(|l| l.strip_prefix("TLO:")).and_then(|v| v.parse().ok()).unwrap_or(0.0);
+        let o = [g54[0] + g92[0], g54[1] + g92[1], g54[2] + g92[2] + tlo];
+        self.offset = Some(o);
+        Ok(o)
+    }
+
+    /// The position of a status report in steps of the plot's coordinates (E = 0).
+    pub fn position_of(&mut self, s: &GrblStatus) -> anyhow::Result<MachinePos> {
+        let r = s.mpos.or(s.wpos).context("status without a position")?;
+        let o = self.offset(s)?;
+        let p = to_steps(&self.profile, core::array::from_fn(|i| r[i] - o[i]));
+        Ok([p[0], p[1], p[2], 0])
+    }
+
+    /// Current position in steps of the plot's coordinates.
+    pub fn position(&mut self) -> anyhow::Result<MachinePos> {
+        let s = self.status()?;
+        self.position_of(&s)
+    }
+
+    /// Poll the status until the machine is idle.
+    pub fn wait_idle(&mut self) -> anyhow::Result<GrblStatus> {
+        loop {
+            let s = self.status()?;
+            if s.is_idle() {
+                return Ok(s);
+            }
+            if s.state == "Alarm" {
+                bail!("{}: the machine is in alarm", self.name);
+            }
+            let _ = self.transport.recv_line(Duration::from_millis(50)).map_err(|e| transport_error(&self.name, e))?;
+        }
+    }
+
+    /// Whether two positions are the same for the plot (Z ignored for a servo pen).
+    fn same(&self, a: &MachinePos, b: &MachinePos) -> bool {
+        let axes = if self.profile.pen.command == PenCommand::Servo { 2 } else { 3 };
+        a[..axes] == b[..axes]
+    }
+
+    /// After the host lost a session: the first block of `full` not certainly executed. GRBL runs whatever it
+    /// had accepted (and what was still in its buffer), so when the idle machine stands exactly where block k
+    /// ends, for the last such k from the journal's executed count up to a buffer's worth past the accepted
+    /// one, blocks before k are done; otherwise only the journal's executed count is certain.
+    pub fn resume_point(&mut self, executed: usize, accepted: usize, full: &MotionPlan) -> anyhow::Result<usize> {
+        if self.in_alarm()? {
+            // Stopped by an alarm: where it stopped is not known, only the journal's executed count is certain.
+            return Ok(executed);
+        }
+        let s = self.wait_idle()?;
+        if self.offset.is_none() && s.mpos.is_some() {
+            // The plot's G92 offset survives as long as the controller was not reset.
+            let _ = self.offset(&s)?;
+        }
+        let pos = self.position_of(&s)?;
+        let hi = (accepted + self.rx_bytes / 4).min(full.blocks.len());
+        let mut p = full.start;
+        let mut best = None;
+        for (k, b) in full.blocks.iter().enumerate().take(hi) {
+            for (x, d) in p.iter_mut().zip(b.block.steps) {
+                *x += d;
+            }
+            if k + 1 >= executed && self.same(&p, &pos) {
+                best = Some(k + 1);
+            }
+        }
+        Ok(best.unwrap_or(executed).max(executed))
+    }
+
+    /// Stream `plan` (whose start is where the machine stands) line by line with character counting. Returns
+    /// when every line has been executed.
+    pub fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
+        let prog = program(&self.profile, plan);
+        let n = prog.lines.len();
+        let bytes: Vec<Vec<u8>> = prog.lines.iter().map(|l| format!("{l}\n").into_bytes()).collect();
+        let limit = self.rx_bytes.saturating_sub(1);
+        if let Some((i, b)) = bytes.iter().enumerate().find(|(_, b)| b.len() > limit.min(80)) {
+            return Err(StreamError::Link(anyhow::anyhow!("line {i} is {} bytes, too long for GRBL", b.len())));
+        }
+        // Position after each block (steps).
+        let mut ends = Vec::with_capacity(n);
+        let mut p = plan.start;
+        for b in &plan.blocks {
+            for (x, d) in p.iter_mut().zip(b.block.steps) {
+                *x += d;
+            }
+            ends.push(p);
+        }
+        let t0 = self.transport.now();
+        let mut st = GrblStream {
+            next: 0,
+            acked: 0,
+            executed: 0,
+            in_flight: VecDeque::new(),
+            in_bytes: 0,
+            bytes_sent: 0,
+            last_status_at: t0,
+            last_heard: t0,
+            status_pending: false,
+        };
+        self.peak_in_flight = 0;
+        let mut pause_at: Option<usize> = None;
+        let mut last_reported = None;
+        let mut accept_elapsed = Duration::ZERO;
+        self.transport.set_streaming(true);
+        let result: Result<(), StreamError> = loop {
+            let progress = Progress {
+                accepted: st.acked,
+                executed: st.executed,
+                seq_after_accepted: u32::try_from(st.acked).unwrap_or(u32::MAX),
+                resends: 0,
+            };
+            if last_reported != Some(progress) {
+                control.progress(&progress);
+                last_reported = Some(progress);
+            }
+            if st.acked == n {
+                accept_elapsed = self.transport.now() - t0;
+                break Ok(());
+            }
+            if pause_at.is_none()
+                && let Some(now) = control.pause_requested()
+            {
+                if now {
+                    match self.hold(&mut st, plan, &ends, control) {
+                        Ok(true) => {}
+                        Ok(false) => break Err(StreamError::Aborted { executed: st.executed }),
+                        Err(e) => break Err(e),
+                    }
+                } else {
+                    let from = st.next.saturating_sub(1);
+                    pause_at = Some((from..n).find(|&i| prog.safe_after[i]).unwrap_or(n - 1));
+                }
+            }
+            if let Some(p) = pause_at
+                && st.acked > p
+            {
+                if let Err(e) = self.wait_idle() {
+                    break Err(StreamError::Link(e));
+                }
+                st.executed = st.acked;
+                control.progress(&Progress { executed: st.executed, ..progress });
+                pause_at = None;
+                if control.paused(false) == PauseChoice::Abort {
+                    break Err(StreamError::Aborted { executed: st.executed });
+                }
+                continue;
+            }
+            let upto = pause_at.map_or(n, |p| p + 1);
+            let mut send_error = None;
+            while st.next < upto && st.in_bytes + bytes[st.next].len() <= limit {
+                let b = &bytes[st.next];
+                if let Err(e) = self.transport.send(b) {
+                    send_error = Some(e);
+                    break;
+                }
+                st.in_flight.push_back(b.len());
+                st.in_bytes += b.len();
+                st.bytes_sent += u64::try_from(b.len()).unwrap_or(u64::MAX);
+                st.next += 1;
+                self.peak_in_flight = self.peak_in_flight.max(st.in_bytes);
+            }
+            if let Some(e) = send_error {
+                break Err(StreamError::Link(transport_error(&self.name, e)));
+            }
+            self.transport.set_streaming(st.next < n);
+            let now = self.transport.now();
+            if !st.status_pending && now.saturating_sub(st.last_status_at) >= STATUS_EVERY {
+                if let Err(e) = self.transport.send(&[RT_STATUS]) {
+                    break Err(StreamError::Link(transport_error(&self.name, e)));
+                }
+                st.status_pending = true;
+                st.last_status_at = now;
+            }
+            let line = match self.transport.recv_line(STATUS_EVERY) {
+                Ok(l) => l,
+                Err(e) => break Err(StreamError::Link(transport_error(&self.name, e))),
+            };
+            let now = self.transport.now();
+            let Some(line) = line else {
+                if now.saturating_sub(st.last_heard) > SILENCE {
+                    break Err(StreamError::Link(anyhow::anyhow!(
+                        "{}: the controller stopped answering ({} of {n} lines acknowledged)",
+                        self.name,
+                        st.acked
+                    )));
+                }
+                if now.saturating_sub(st.last_status_at) > SILENCE / 2 {
+                    // A status request lost on the way: ask again.
+                    st.status_pending = false;
+                }
+                continue;
+            };
+            st.last_heard = now;
+            match GrblLine::parse(&line) {
+                GrblLine::Ok => {
+                    if let Some(len) = st.in_flight.pop_front() {
+                        st.in_bytes -= len;
+                        st.acked += 1;
+                    }
+                }
+                GrblLine::Error(code) => {
+                    let bad = st.acked;
+                    let stopped = self.stop_after_error(&mut st, plan.start, &ends);
+                    let mut msg = format!(
+                        "{}: GRBL refused line {} of {n} ({:?}): {}; the plot stopped after {} executed block(s)",
+                        self.name,
+                        bad + 1,
+                        prog.lines[bad],
+                        describe_error(code),
+                        st.executed
+                    );
+                    if let Err(e) = stopped {
+                        msg += &format!(" ({e:#})");
+                    }
+                    break Err(StreamError::Link(anyhow::anyhow!(msg)));
+                }
+                GrblLine::Alarm(code) => {
+                    let (text, kept) = alarm_meaning(code);
+                    let mut text = text.to_string();
+                    if !kept {
+                        text += "; a resume homes again";
+                    }
+                    break Err(StreamError::Alarm { code, text, executed: st.executed });
+                }
+                GrblLine::Banner(_) => break Err(StreamError::Restarted { executed: st.executed }),
+                GrblLine::Status(s) => {
+                    st.status_pending = false;
+                    if let Ok(pos) = self.position_of(&s) {
+                        st.executed = st.executed.max(self.executed_at(&pos, &s, &st, plan, &ends));
+                    }
+                }
+                GrblLine::Msg(m) => self.messages.push(m),
+                GrblLine::Feedback(_) | GrblLine::Setting(..) | GrblLine::Other(_) => {}
+            }
+        };
+        self.transport.set_streaming(false);
+        result?;
+        self.wait_idle().map_err(StreamError::Link)?;
+        st.executed = n;
+        control.progress(&Progress {
+            accepted: n,
+            executed: n,
+            seq_after_accepted: u32::try_from(n).unwrap_or(u32::MAX),
+            resends: 0,
+        });
+        Ok(StreamStats {
+            frames: n,
+            frame_bytes: bytes.iter().map(Vec::len).sum(),
+            bytes_sent: st.bytes_sent,
+            resends: 0,
+            resyncs: 0,
+            noise_errors: 0,
+            damaged_replies: 0,
+            elapsed: self.transport.now() - t0,
+            accept_elapsed,
+            underruns: self.transport.underruns(),
+        })
+    }
+
+    /// Blocks certainly executed given a status report at `pos`: an idle machine with nothing in flight has done
+    /// everything acknowledged; otherwise the first block between the last executed and the last acknowledged
+    /// one whose segment holds the position is the one running (or, if the position is its end, done).
+    fn executed_at(
+        &self,
+        pos: &MachinePos,
+        s: &GrblStatus,
+        st: &GrblStream,
+        plan: &MotionPlan,
+        ends: &[MachinePos],
+    ) -> usize {
+        if s.is_idle() && st.in_flight.is_empty() {
+            return st.acked;
+        }
+        for i in st.executed..st.acked {
+            let a = if i == 0 { plan.start } else { ends[i - 1] };
+            let b = ends[i];
+            if self.same(&a, &b) {
+                // A dwell (or a pen move for a servo): not certainly over.
+                if self.same(pos, &a) {
+                    return i;
+                }
+                continue;
+            }
+            if self.same(pos, &b) {
+                return i + 1;
+            }
+            if on_segment(pos, &a, &b) {
+                return i;
+            }
+        }
+        st.executed
+    }
+
+    /// Feed hold now: wait for the stop, ask the user; resume with `~` (true) or abort with a soft reset, which
+    /// keeps the position of a stopped machine (false).
+    fn hold(
+        &mut self,
+        st: &mut GrblStream,
+        plan: &MotionPlan,
+        ends: &[MachinePos],
+        control: &mut dyn Control,
+    ) -> Result<bool, StreamError> {
+        self.transport.send(&[RT_FEED_HOLD]).map_err(|e| StreamError::Link(transport_error(&self.name, e)))?;
+        loop {
+            let s = self.status().map_err(StreamError::Link)?;
+            if let Ok(pos) = self.position_of(&s) {
+                st.executed = st.executed.max(self.executed_at(&pos, &s, st, plan, ends));
+            }
+            if s.is_held() || s.is_idle() {
+                break;
+            }
+            let _ = self.transport.recv_line(Duration::from_millis(20));
+        }
+        if control.paused(true) == PauseChoice::Abort {
+            self.reset().map_err(StreamError::Link)?;
+            return Ok(false);
+        }
+        self.transport.send(&[RT_CYCLE_START]).map_err(|e| StreamError::Link(transport_error(&self.name, e)))?;
+        Ok(true)
+    }
+
+    /// After an `error:`: GRBL skips the refused line and would run the following ones, so hold, note where the
+    /// machine stopped, and soft-reset to drop the rest.
+    fn stop_after_error(&mut self, st: &mut GrblStream, start: MachinePos, ends: &[MachinePos]) -> anyhow::Result<()> {
+        self.transport.send(&[RT_FEED_HOLD]).map_err(|e| transport_error(&self.name, e))?;
+        let deadline = self.transport.now() + COMMAND_TIMEOUT;
+        loop {
+            let s = self.status()?;
+            if s.is_held() || s.is_idle() {
+                let pos = self.position_of(&s)?;
+                // Only the lines before the refused one are the plan; find where it stopped among them.
+                let bad = st.acked;
+                let mut done = st.executed;
+                for i in st.executed..bad {
+                    let a = if i == 0 { start } else { ends[i - 1] };
+                    if self.same(&ends[i], &pos) {
+                        done = i + 1;
+                    } else if on_segment(&pos, &a, &ends[i]) {
+                        // Held in the middle of block i.
+                        done = i;
+                        break;
+                    }
+                }
+                st.executed = done;
+                break;
+            }
+            if self.transport.now() >= deadline {
+                bail!("the machine did not stop");
+            }
+            let _ = self.transport.recv_line(Duration::from_millis(20));
+        }
+        self.reset()
+    }
+
+    /// Soft reset (Ctrl-X) and wait for the banner; GRBL drops its buffers (and G92 offsets, which are
+    /// re-measured from `$#` afterwards).
+    pub fn reset(&mut self) -> anyhow::Result<()> {
+        self.transport.send(&[RT_RESET]).map_err(|e| transport_error(&self.name, e))?;
+        let deadline = self.transport.now() + COMMAND_TIMEOUT;
+        while let Some(l) = self.recv(deadline)? {
+            if let GrblLine::Banner(_) = GrblLine::parse(&l) {
+                self.offset = None;
+                // Let the banner's follow-up messages arrive.
+                while let Some(l) =
+                    self.transport.recv_line(Duration::from_millis(100)).map_err(|e| transport_error(&self.name, e))?
+                {
+                    if let GrblLine::Msg(m) = GrblLine::parse(&l) {
+                        self.messages.push(m);
+                    }
+                }
+                return Ok(());
+            }
+            if self.transport.now() >= deadline {
+                break;
+            }
+        }
+        bail!("{}: no banner after the soft reset", self.name)
+    }
+}
+
+/// Streaming state.
+struct GrblStream {
+    next: usize,
+    acked: usize,
+    executed: usize,
+    in_flight: VecDeque<usize>,
+    in_bytes: usize,
+    bytes_sent: u64,
+    last_status_at: Duration,
+    last_heard: Duration,
+    status_pending: bool,
+}
+
+/// Whether `p` lies on the segment `a`–`b` (within one step of it, between its ends).
+fn on_segment(p: &MachinePos, a: &MachinePos, b: &MachinePos) -> bool {
+    let d: [f64; 3] = core::array::from_fn(|i| f64::from(b[i] - a[i]));
+    let q: [f64; 3] = core::array::from_fn(|i| f64::from(p[i] - a[i]));
+    let len2: f64 = d.iter().map(|x| x * x).sum();
+    if len2 == 0.0 {
+        return q.iter().all(|x| *x == 0.0);
+    }
+    let t = d.iter().zip(&q).map(|(x, y)| x * y).sum::<f64>() / len2;
+    if !(0.0..=1.0).contains(&t) {
+        return false;
+    }
+    let dist2: f64 = d.iter().zip(&q).map(|(x, y)| (y - t * x).powi(2)).sum();
+    dist2 <= 1.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::grbl::emulator::{Faults, GrblEmulator, RX_USABLE};
+    use crate::link::grbl::emulator_transport::EmulatorTransport;
+    use crate::link::grbl::settings::GrblSettings;
+    use plotter_path::kurbo::Point;
+    use plotter_path::motion::plan::{Lookahead, homed_position, plan as make_plan};
+    use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
+    use plotter_path::{Drawing, Polyline};
+
+    /// Ten 10 mm squares and a circle of 2 mm chords: every segment takes far longer to draw (≥ 2 mm at 60 mm/s
+    /// = 33 ms) than its line takes on a 115200-baud wire (< 2 ms), so a fast-enough link never starves.
+    fn drawing() -> StepDrawing {
+        let square = |x: f64| {
+            Polyline::new(vec![
+                Point::new(x, 10.0),
+                Point::new(x + 10.0, 10.0),
+                Point::new(x + 10.0, 20.0),
+                Point::new(x, 20.0),
+                Point::new(x, 10.0),
+            ])
+        };
+        let mut paths: Vec<Polyline> = (0..10).map(|i| square(10.0 + 15.0 * f64::from(i))).collect();
+        let circle: Vec<Point> = (0..=94)
+            .map(|i| {
+                let a = f64::from(i) * std::f64::consts::TAU / 94.0;
+                Point::new(100.0 + 30.0 * a.cos(), 80.0 + 30.0 * a.sin())
+            })
+            .collect();
+        paths.push(Polyline::new(circle));
+        drawing_to_steps(&MachineProfile::default_plotter(), &Drawing::single_layer("d", paths)).unwrap()
+    }
+
+    fn session(faults: Faults) -> GrblSession<EmulatorTransport> {
+        let profile = MachineProfile::default_plotter();
+        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
+        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), faults);
+        GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap()
+    }
+
+    /// Records progress reports.
+    #[derive(Default)]
+    struct Record(Vec<Progress>);
+
+    impl Control for Record {
+        fn progress(&mut self, p: &Progress) {
+            self.0.push(*p);
+        }
+        fn pause_requested(&mut self) -> Option<bool> {
+            None
+        }
+        fn paused(&mut self, _: bool) -> PauseChoice {
+            PauseChoice::Resume
+        }
+    }
+
+    #[test]
+    fn connect_reads_version_buffer_and_settings() {
+        let s = session(Faults::default());
+        assert_eq!((s.version.as_str(), s.rx_bytes), ("1.1h", 128));
+        assert_eq!(s.settings.get(100), Some(80.0));
+        assert!(s.settings.homing_enabled());
+        assert!(s.messages.iter().any(|m| m.contains("to unlock")), "{:?}", s.messages);
+    }
+
+    #[test]
+    fn streams_within_the_buffer_without_starving_and_ends_exactly() {
+        let mut s = session(Faults::default());
+        s.home().unwrap();
+        let profile = MachineProfile::default_plotter();
+        let home = homed_position(&profile).unwrap();
+        assert_eq!(s.position().unwrap(), home);
+        let steps = drawing();
+        let plan = make_plan(&profile, &steps, home, Lookahead::Whole).unwrap();
+        let mut rec = Record::default();
+        let stats = s.stream(&plan, &mut rec).unwrap();
+        let emu = s.transport.emulator();
+        assert_eq!(emu.stats().overflow_bytes, 0);
+        assert!(emu.stats().peak_rx <= RX_USABLE && s.peak_in_flight <= RX_USABLE, "{}", s.peak_in_flight);
+        assert!(s.peak_in_flight > 100, "the buffer is used: {}", s.peak_in_flight);
+        assert_eq!(stats.underruns, Some(0), "the planner never starved");
+        assert_eq!(stats.frames, plan.blocks.len());
+        // The last stroke is the circle: it ends where it began, at (130, 80) mm = (10400, 6400) steps, pen up
+        // (4 mm × 400 steps/mm).
+        let end = steps.strokes.last().unwrap().end();
+        assert_eq!((end.x, end.y), (10_400, 6_400));
+        let p = emu.backend().machine().stepper().position();
+        assert_eq!([p[0], p[1], p[2]], [10_400, 6_400, 1_600]);
+        assert_eq!(emu.backend().physical_position()[..3], [10_400, 6_400, 1_600]);
+        // Executed progress comes from the reported position: it runs behind the acknowledged lines and is
+        // exact at the end.
+        assert!(rec.0.windows(2).all(|w| w[0].executed <= w[1].executed && w[1].executed <= w[1].accepted));
+        assert!(rec.0.iter().any(|p| p.executed > 0 && p.executed < p.accepted), "position-based progress");
+        assert_eq!(rec.0.last().map(|p| (p.accepted, p.executed)), Some((plan.blocks.len(), plan.blocks.len())));
+    }
+
+    fn plan_for(s: &mut GrblSession<EmulatorTransport>) -> MotionPlan {
+        s.home().unwrap();
+        let profile = MachineProfile::default_plotter();
+        make_plan(&profile, &drawing(), s.position().unwrap(), Lookahead::Whole).unwrap()
+    }
+
+    #[test]
+    fn an_alarm_stops_the_stream_with_its_meaning() {
+        let mut s = session(Faults { hard_limit_after_lines: Some(60), ..Faults::default() });
+        let plan = plan_for(&mut s);
+        let mut rec = Record::default();
+        match s.stream(&plan, &mut rec) {
+            Err(StreamError::Alarm { code: 1, text, executed }) => {
+                assert!(text.contains("hard limit") && text.contains("homes again"), "{text}");
+                // 3 set-up lines, so 57 plan lines were acknowledged; fewer were certainly executed.
+                assert!(executed <= 57, "{executed}");
+            }
+            other => panic!("{:?}", other.map(|s| s.frames)),
+        }
+    }
+
+    #[test]
+    fn a_refused_line_stops_the_plot_and_names_the_error() {
+        // Line 3 (G21, G90, G92) + 40 = plan line 40.
+        let mut s = session(Faults { error_on_line: Some((43, 33)), ..Faults::default() });
+        let plan = plan_for(&mut s);
+        let e = s.stream(&plan, &mut Record::default()).unwrap_err().to_string();
+        assert!(e.contains("refused line 40 of") && e.contains("error:33 (invalid motion target)"), "{e}");
+        // The machine was held and reset: nothing after the refused line ran.
+        let p = s.transport.emulator().backend().machine().stepper().position();
+        assert!(e.contains("stopped after"), "{e}");
+        assert!(s.transport.emulator().motion_idle());
+        let executed: usize = e.split("stopped after ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+        assert!(executed <= 39 && executed > 20, "{executed}");
+        // The hold stopped inside block `executed` (or at its end): blocks before it are done, it is not.
+        let (a, b) = (plan.position_after(executed - 1), plan.position_after(executed));
+        let q = [p[0], p[1], p[2], 0];
+        assert!(on_segment(&q, &a, &b) && q != b, "{q:?} on {a:?}..{b:?}");
+    }
+
+    #[test]
+    fn a_vanished_port_is_a_clear_error() {
+        let profile = MachineProfile::default_plotter();
+        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
+        let emu =
+            GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
+        let mut s =
+            GrblSession::connect(EmulatorTransport::new(emu).vanish_after(1500), "/dev/ttyUSB0", &profile).unwrap();
+        let plan = plan_for(&mut s);
+        let e = s.stream(&plan, &mut Record::default()).unwrap_err().to_string();
+        assert!(e.contains("lost the connection to /dev/ttyUSB0") && e.contains("unplugged"), "{e}");
+    }
+}

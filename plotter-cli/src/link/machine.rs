@@ -1,0 +1,273 @@
+//! The machine a plot job drives, whatever its firmware: ours (step blocks in CRC frames,
+//! [`crate::link::session::Session`]) or GRBL (G-code with character counting,
+//! [`crate::link::grbl::session::GrblSession`]). The job ([`crate::job`]) only talks to [`PlotMachine`], so pen
+//! changes, pauses, the journal and resume work the same on both.
+
+use std::time::Duration;
+
+use plotter_path::motion::plan::{MachinePos, MotionPlan};
+
+use super::Transport;
+use super::grbl::session::GrblSession;
+use super::session::Session;
+use super::sim::SimTransport;
+use super::stream::{self, Control, StreamError, StreamOptions, StreamStats};
+use crate::link::journal::JournalState;
+
+/// Which firmware a port speaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Firmware {
+    /// Tell by the start-up banner (or `$I`, when the banner was missed).
+    #[default]
+    Auto,
+    /// This project's firmware (plotter-fw).
+    Ours,
+    /// GRBL 1.1, grblHAL, FluidNC.
+    Grbl,
+}
+
+/// What a plot job needs from a machine.
+pub trait PlotMachine {
+    /// Where it is connected (for messages).
+    fn name(&self) -> &str;
+    /// Which firmware it runs.
+    fn firmware(&self) -> Firmware;
+    /// Run the homing cycle; afterwards the machine stands at the profile's homed position.
+    fn home(&mut self) -> anyhow::Result<()>;
+    /// The current position, steps of the plot's coordinates.
+    fn position(&mut self) -> anyhow::Result<MachinePos>;
+    /// Stream `plan` (which starts where the machine stands); returns when it has been executed.
+    fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError>;
+    /// After the host lost a plot: the first block of `full` (the original plan) not certainly executed, given
+    /// the journal's `state`. Waits until the machine has finished what it still holds.
+    fn resume_point(&mut self, state: &JournalState, full: &MotionPlan) -> anyhow::Result<usize>;
+    /// The in-process simulator's executed motion time so far, ticks (0 on a port).
+    fn busy_ticks(&self) -> u64 {
+        0
+    }
+    /// Whether the machine is in an alarm that needs the user's decision (`$X` on GRBL).
+    fn alarm_pending(&mut self) -> anyhow::Result<Option<String>> {
+        Ok(None)
+    }
+    /// Clear the alarm after the user agreed.
+    fn unlock(&mut self) -> anyhow::Result<()> {
+        Ok(())
+    }
+    /// Whether `home` runs a real homing cycle (else it only declares the current position as home).
+    fn can_home(&self) -> bool {
+        true
+    }
+    /// Prepare for a plot (our firmware: enter framed mode).
+    fn begin(&mut self) -> anyhow::Result<()> {
+        Ok(())
+    }
+    /// A plot finished (our firmware: leave framed mode).
+    fn end(&mut self) -> anyhow::Result<()> {
+        Ok(())
+    }
+    /// After a failed or aborted stream: stop what is queued and lift the pen, if the machine still answers.
+    fn stop_and_lift(&mut self, _profile: &plotter_path::MachineProfile) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
+impl<T: Transport + 'static> PlotMachine for Session<T> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn firmware(&self) -> Firmware {
+        Firmware::Ours
+    }
+
+    fn home(&mut self) -> anyhow::Result<()> {
+        Session::home(self)
+    }
+
+    fn position(&mut self) -> anyhow::Result<MachinePos> {
+        Ok(self.status()?.steps)
+    }
+
+    fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
+        stream::stream_plan(self, plan, StreamOptions::default(), control).map(|(_, s)| s)
+    }
+
+    fn resume_point(&mut self, state: &JournalState, full: &MotionPlan) -> anyhow::Result<usize> {
+        // If the firmware is still running the session the host lost, let it finish what it accepted. Frames that
+        // were in flight when the host died may have been accepted after the journal's last line: the firmware's
+        // sequence number tells how many (one per block). If it then stands exactly where that many blocks end,
+        // they were all executed; otherwise (restarted, moved) only the journal's executed count is certain.
+        self.enter_framed()?;
+        let status = self.wait_idle(Duration::from_millis(50))?;
+        // (Numbered lines this session sent itself took sequence numbers too: they are no blocks.)
+        let extra = status.seq.wrapping_sub(state.seq_after_accepted).wrapping_sub(self.own_lines);
+        let accepted = usize::try_from(extra).ok().map(|x| state.accepted + x).filter(|&a| a <= full.blocks.len());
+        Ok(match accepted {
+            Some(a) if a > 0 && status.steps == full.position_after(a - 1) => a,
+            _ => state.executed,
+        })
+    }
+
+    fn busy_ticks(&self) -> u64 {
+        (&self.transport as &dyn std::any::Any).downcast_ref::<SimTransport>().map_or(0, |s| s.sim().hal().busy_ticks())
+    }
+
+    fn begin(&mut self) -> anyhow::Result<()> {
+        self.enter_framed()
+    }
+
+    fn end(&mut self) -> anyhow::Result<()> {
+        self.leave_framed()
+    }
+
+    fn stop_and_lift(&mut self, profile: &plotter_path::MachineProfile) -> anyhow::Result<()> {
+        Session::stop_and_lift(self, profile.pen.up_z_mm)
+    }
+}
+
+impl<T: Transport + 'static> PlotMachine for GrblSession<T> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn firmware(&self) -> Firmware {
+        Firmware::Grbl
+    }
+
+    fn home(&mut self) -> anyhow::Result<()> {
+        GrblSession::home(self)
+    }
+
+    fn position(&mut self) -> anyhow::Result<MachinePos> {
+        GrblSession::position(self)
+    }
+
+    fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
+        GrblSession::stream(self, plan, control)
+    }
+
+    fn resume_point(&mut self, state: &JournalState, full: &MotionPlan) -> anyhow::Result<usize> {
+        GrblSession::resume_point(self, state.executed, state.accepted, full)
+    }
+
+    fn busy_ticks(&self) -> u64 {
+        (&self.transport as &dyn std::any::Any)
+            .downcast_ref::<crate::link::grbl::emulator_transport::EmulatorTransport>()
+            .map_or(0, |t| t.emulator().backend().hal().busy_ticks())
+    }
+
+    fn alarm_pending(&mut self) -> anyhow::Result<Option<String>> {
+        if !self.in_alarm()? {
+            return Ok(None);
+        }
+        let why = self.messages.last().cloned().unwrap_or_else(|| "alarm".into());
+        Ok(Some(format!("{} is in alarm ({why})", self.name)))
+    }
+
+    fn unlock(&mut self) -> anyhow::Result<()> {
+        GrblSession::unlock(self)
+    }
+
+    fn can_home(&self) -> bool {
+        self.settings.homing_enabled()
+    }
+}
+
+/// Which firmware answers on `transport`: a start-up banner (`Grbl 1.1x ['$' for help]` or `plotter-fw …`)
+/// decides; when none arrives (the port did not reset the board), `$I` does — GRBL answers `[VER:…]`, our
+/// firmware an error. Nothing is reset or moved.
+pub fn detect<T: Transport>(transport: &mut T) -> anyhow::Result<Firmware> {
+    let name_of = |l: &str| {
+        if l.starts_with("Grbl ") || l.starts_with("[VER:") {
+            Some(Firmware::Grbl)
+        } else if l.starts_with("plotter-fw ") || l.starts_with("FIRMWARE_NAME:plotter-fw") {
+            Some(Firmware::Ours)
+        } else {
+            None
+        }
+    };
+    while let Some(l) = transport.recv_line(Duration::from_millis(300))? {
+        if let Some(f) = name_of(&l) {
+            return Ok(f);
+        }
+    }
+    transport.send(b"$I\n")?;
+    let mut found = Firmware::Ours;
+    while let Some(l) = transport.recv_line(Duration::from_millis(500))? {
+        if let Some(f) = name_of(&l) {
+            found = f;
+        }
+    }
+    Ok(found)
+}
+
+/// A connected machine of either firmware.
+// One per connection: the size difference between the variants does not matter.
+#[allow(clippy::large_enum_variant)]
+pub enum Connected<T: Transport> {
+    /// This project's firmware.
+    Ours(Session<T>),
+    /// A GRBL controller.
+    Grbl(GrblSession<T>),
+}
+
+impl<T: Transport + 'static> Connected<T> {
+    /// Connect over `transport` (named `name`) to `firmware` (detected when [`Firmware::Auto`]); the profile
+    /// is what GRBL's settings are checked against and what its program is written for.
+    pub fn connect(
+        mut transport: T,
+        name: &str,
+        firmware: Firmware,
+        profile: &plotter_path::MachineProfile,
+    ) -> anyhow::Result<Self> {
+        let firmware = match firmware {
+            Firmware::Auto => detect(&mut transport)?,
+            f => f,
+        };
+        Ok(match firmware {
+            Firmware::Grbl => Connected::Grbl(GrblSession::connect(transport, name, profile)?),
+            _ => Connected::Ours(Session::connect(transport, name)?),
+        })
+    }
+
+    /// The machine, for the plot job.
+    pub fn machine(&mut self) -> &mut dyn PlotMachine {
+        match self {
+            Connected::Ours(s) => s,
+            Connected::Grbl(g) => g,
+        }
+    }
+
+    /// The byte pipe (console).
+    pub fn transport(&mut self) -> &mut T {
+        match self {
+            Connected::Ours(s) => &mut s.transport,
+            Connected::Grbl(g) => &mut g.transport,
+        }
+    }
+
+    /// One line saying what is connected.
+    pub fn describe(&self) -> String {
+        match self {
+            Connected::Ours(s) => format!(
+                "plotter-fw {} on {} (rx {} bytes, queue {} blocks)",
+                s.info.version, s.name, s.info.rx_bytes, s.info.queue_blocks
+            ),
+            Connected::Grbl(g) => format!(
+                "GRBL {} on {} (rx {} bytes, homing {})",
+                g.version,
+                g.name,
+                g.rx_bytes,
+                if g.settings.homing_enabled() { "on" } else { "off ($22=0)" }
+            ),
+        }
+    }
+
+    /// Send one G-code line and wait for its `ok`; returns the report lines.
+    pub fn command(&mut self, line: &str) -> anyhow::Result<Vec<String>> {
+        match self {
+            Connected::Ours(s) => s.command(line, super::session::COMMAND_TIMEOUT),
+            Connected::Grbl(g) => g.command(line, super::grbl::session::COMMAND_TIMEOUT),
+        }
+    }
+}

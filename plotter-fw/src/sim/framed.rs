@@ -1,0 +1,110 @@
+//! Framed mode through the simulator: numbered, CRC-checked replies; sequenced input only; four-byte real-time
+//! commands that single damaged bytes cannot forge.
+
+use std::string::String;
+use std::vec::Vec;
+
+use super::*;
+use crate::framing::{parse_reply, rt_sequence};
+use crate::protocol::{Encoder, MAX_FRAME, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, xor_checksum};
+use crate::realtime::MachineState;
+use crate::stepper::StepBlock;
+
+fn numbered(n: u32, body: &str) -> String {
+    let line = std::format!("N{n} {body}");
+    std::format!("{line}*{}\n", xor_checksum(line.as_bytes()))
+}
+
+fn run(sim: &mut Sim, bytes: &[u8]) -> Vec<String> {
+    sim.feed(bytes);
+    sim.run_until_idle();
+    sim.take_replies()
+}
+
+/// Every line must verify; returns (number, text) pairs.
+fn framed(lines: &[String]) -> Vec<(u32, String)> {
+    lines
+        .iter()
+        .map(|l| {
+            let (n, t) = parse_reply(l).unwrap_or_else(|| panic!("not a valid framed reply: {l:?}"));
+            (n, String::from(t))
+        })
+        .collect()
+}
+
+fn framed_sim() -> Sim {
+    let mut sim = Sim::new(MachineConfig::xy_plotter());
+    sim.take_replies();
+    let r = run(&mut sim, numbered(0, "M990 S1").as_bytes());
+    assert_eq!(framed(&r), [(0, String::from("ok"))]);
+    assert!(sim.machine().is_framed());
+    sim
+}
+
+fn block(dx: i32) -> StepBlock {
+    StepBlock { steps: [dx, 0, 0, 0], entry_rate: 0, cruise_rate: 2000, exit_rate: 0, accel: 20_000, dwell_ticks: 0 }
+}
+
+#[test]
+fn replies_are_numbered_and_checked() {
+    let mut sim = framed_sim();
+    let mut enc = Encoder::new();
+    let mut out = [0u8; MAX_FRAME];
+    let mut bytes = Vec::new();
+    for seq in 1..4 {
+        let n = enc.encode(&block(400), seq, &mut out).unwrap();
+        bytes.extend(&out[..n]);
+    }
+    // A frame out of order (number 9): rs with the expected number.
+    let n = enc.encode(&block(400), 9, &mut out).unwrap();
+    bytes.extend(&out[..n]);
+    let r = framed(&run(&mut sim, &bytes));
+    assert_eq!(r, [(1, "ok".into()), (2, "ok".into()), (3, "ok".into()), (4, "rs 4".into())]);
+    let r = framed(&run(&mut sim, &rt_sequence(RT_STATUS)));
+    assert_eq!(r, [(4, "<Idle|MPos:15.000,0.000,0.000,0.000|Steps:1200,0,0,0|Q:0/32|N:4|C:3>".into())]);
+    // Plain G-code is not taken in framed mode: answered as a damaged frame.
+    let r = framed(&run(&mut sim, b"G0 X0\n"));
+    assert_eq!(r, [(4, "rs 4".into())]);
+    assert_eq!(sim.physical_position()[0], 1200);
+    // A soft-limit refusal names its frame.
+    run(&mut sim, numbered(4, "G28").as_bytes());
+    let n = enc.encode(&block(-400), 5, &mut out).unwrap();
+    let r = framed(&run(&mut sim, &out[..n]));
+    assert_eq!(r, [(5, "error:7 target outside the travel: X".into())]);
+    // Back to plain mode.
+    let r = run(&mut sim, numbered(6, "M990 S0").as_bytes());
+    assert_eq!(r, ["ok"]);
+    assert!(!sim.machine().is_framed());
+}
+
+#[test]
+fn lone_realtime_bytes_are_data_and_sequences_act() {
+    let mut sim = framed_sim();
+    let r = run(&mut sim, numbered(1, "G1 X100 F3000").as_bytes());
+    assert_eq!(framed(&r), [(1, "ok".into())]);
+    // Nothing acts on `!`, `?`, `~` or one Ctrl-X alone: the bytes make a damaged line (answered rs).
+    sim.feed(numbered(2, "G1 X200").as_bytes());
+    sim.run_for(100_000);
+    sim.take_replies();
+    sim.feed(b"!?\x18~\n");
+    sim.run_for(50_000);
+    assert_eq!(sim.machine().state(), MachineState::Run);
+    assert_eq!(framed(&sim.take_replies()), [(3, "rs 3".into())]);
+    // The four-byte hold does act.
+    sim.feed(&rt_sequence(RT_FEED_HOLD));
+    sim.run_for(1_000_000);
+    assert_eq!(sim.machine().state(), MachineState::Held);
+    sim.feed(&rt_sequence(RT_RESUME));
+    sim.run_until_idle();
+    assert_eq!(sim.physical_position()[0], 16_000);
+    // A framed reset leaves framed mode; its banner is plain.
+    let r = run(&mut sim, &rt_sequence(RT_RESET));
+    assert_eq!(r, ["plotter-fw 0.1.0 proto 2 rx 256 queue 32 line 96 seq 0"]);
+    assert!(!sim.machine().is_framed());
+    // The console's escape hatch: three plain Ctrl-X.
+    let mut sim = framed_sim();
+    let r = run(&mut sim, &[RT_RESET]);
+    assert!(r.iter().all(|l| !l.starts_with("plotter-fw")), "{r:?}");
+    let r = run(&mut sim, &[RT_RESET, RT_RESET]);
+    assert!(r.iter().any(|l| l.starts_with("plotter-fw")), "{r:?}");
+}

@@ -1,0 +1,152 @@
+//! Which pen draws which layer, and where the plot stops for a pen change.
+//!
+//! A layer carries its pen (colour and width from the input, its name from the Inkscape layer or colour). The
+//! profile's pen table (`[[pens]]`, [`crate::motion::profile::PenSpec`]) names the physical pens: a layer is drawn
+//! with the table pen whose name equals the layer's name (case-insensitive), else the one whose colour equals the
+//! layer's colour. Without a match (or without a table) the layer's colour is its pen, with the profile's `[pen]`
+//! values. Two consecutive layers need a pen change exactly when they resolve to different pens.
+
+use crate::motion::profile::MachineProfile;
+use crate::{Pen, Rgb};
+
+/// The pen a layer is drawn with, resolved against the profile.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LayerPen {
+    /// Index in the profile's pen table, `None` when the layer matched no table pen.
+    pub table: Option<usize>,
+    /// What the user is asked to load: the table pen's name, else the layer's name and colour.
+    pub name: String,
+    /// Ink colour.
+    pub color: Rgb,
+    /// Nib width, mm.
+    pub width_mm: f64,
+    /// Pen-down Z, mm (Z pens).
+    pub down_z_mm: f64,
+    /// Pen-down servo angle, degrees (servo pens).
+    pub servo_down_deg: f64,
+    /// Drawing feed, mm/s.
+    pub draw_feed_mm_s: f64,
+}
+
+impl LayerPen {
+    /// Whether `other` is the same physical pen (same table entry, or the same colour when neither is in the
+    /// table).
+    pub fn same_pen(&self, other: &LayerPen) -> bool {
+        match (self.table, other.table) {
+            (Some(a), Some(b)) => a == b,
+            (None, None) => self.color == other.color,
+            _ => false,
+        }
+    }
+
+    /// `name (#rrggbb)`, as shown to the user.
+    pub fn label(&self) -> String {
+        format!("{} ({})", self.name, self.color.to_hex())
+    }
+}
+
+/// Parse `#rrggbb` (or `rrggbb`).
+pub fn parse_hex_color(s: &str) -> Option<Rgb> {
+    let h = s.trim().strip_prefix('#').unwrap_or(s.trim());
+    if h.len() != 6 || !h.is_ascii() {
+        return None;
+    }
+    let byte = |i: usize| u8::from_str_radix(&h[i..i + 2], 16).ok();
+    Some(Rgb(byte(0)?, byte(2)?, byte(4)?))
+}
+
+/// Resolve the pen of a layer named `name` drawn with `pen`.
+pub fn resolve(profile: &MachineProfile, name: &str, pen: &Pen) -> LayerPen {
+    let by_name = profile.pens.iter().position(|p| p.name.trim().eq_ignore_ascii_case(name.trim()));
+    let by_color = || profile.pens.iter().position(|p| p.color.as_deref().and_then(parse_hex_color) == Some(pen.color));
+    let defaults = &profile.pen;
+    match by_name.or_else(by_color) {
+        Some(i) => {
+            let t = &profile.pens[i];
+            LayerPen {
+                table: Some(i),
+                name: t.name.clone(),
+                color: t.color.as_deref().and_then(parse_hex_color).unwrap_or(pen.color),
+                width_mm: t.width_mm.unwrap_or(pen.width_mm),
+                down_z_mm: t.down_z_mm.unwrap_or(defaults.down_z_mm),
+                servo_down_deg: t.servo_down_deg.unwrap_or(defaults.servo_down_deg),
+                draw_feed_mm_s: t.draw_feed_mm_s.unwrap_or(defaults.draw_feed_mm_s),
+            }
+        }
+        None => LayerPen {
+            table: None,
+            name: if name.is_empty() { pen.color.to_hex() } else { name.to_string() },
+            color: pen.color,
+            width_mm: pen.width_mm,
+            down_z_mm: defaults.down_z_mm,
+            servo_down_deg: defaults.servo_down_deg,
+            draw_feed_mm_s: defaults.draw_feed_mm_s,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::profile::PenSpec;
+
+    fn profile_with_pens() -> MachineProfile {
+        let mut p = MachineProfile::default_plotter();
+        p.pens = vec![
+            PenSpec {
+                name: "Fine black".into(),
+                color: Some("#000000".into()),
+                width_mm: Some(0.1),
+                down_z_mm: Some(0.5),
+                servo_down_deg: None,
+                draw_feed_mm_s: Some(20.0),
+            },
+            PenSpec {
+                name: "red".into(),
+                color: Some("#ff0000".into()),
+                width_mm: None,
+                down_z_mm: None,
+                servo_down_deg: Some(10.0),
+                draw_feed_mm_s: None,
+            },
+        ];
+        p
+    }
+
+    #[test]
+    fn layers_match_by_name_then_colour() {
+        let p = profile_with_pens();
+        let red = Pen { color: Rgb(255, 0, 0), width_mm: 0.4 };
+        // The name wins over the colour.
+        let l = resolve(&p, "FINE BLACK", &red);
+        assert_eq!((l.table, l.down_z_mm, l.draw_feed_mm_s, l.width_mm), (Some(0), 0.5, 20.0, 0.1));
+        let l = resolve(&p, "outline", &red);
+        assert_eq!((l.table, l.name.as_str(), l.servo_down_deg), (Some(1), "red", 10.0));
+        assert_eq!((l.down_z_mm, l.draw_feed_mm_s, l.width_mm), (0.0, 60.0, 0.4), "profile defaults, layer width");
+        let l = resolve(&p, "sky", &Pen { color: Rgb(0, 0, 255), width_mm: 0.3 });
+        assert_eq!((l.table, l.name.as_str()), (None, "sky"));
+        assert_eq!(l.label(), "sky (#0000ff)");
+    }
+
+    #[test]
+    fn same_pen_compares_table_entries_or_colours() {
+        let p = MachineProfile::default_plotter();
+        let a = resolve(&p, "a", &Pen { color: Rgb(1, 2, 3), width_mm: 0.3 });
+        let b = resolve(&p, "b", &Pen { color: Rgb(1, 2, 3), width_mm: 0.5 });
+        let c = resolve(&p, "a", &Pen { color: Rgb(1, 2, 4), width_mm: 0.3 });
+        assert!(a.same_pen(&b) && !a.same_pen(&c));
+        let q = profile_with_pens();
+        let x = resolve(&q, "red", &Pen::default());
+        let y = resolve(&q, "z", &Pen { color: Rgb(255, 0, 0), width_mm: 0.3 });
+        assert!(x.same_pen(&y));
+        assert!(!x.same_pen(&resolve(&q, "z", &Pen::default())), "table pen 0 (black) differs from red");
+    }
+
+    #[test]
+    fn hex_colours() {
+        assert_eq!(parse_hex_color("#FF8000"), Some(Rgb(255, 128, 0)));
+        assert_eq!(parse_hex_color("00ff00"), Some(Rgb(0, 255, 0)));
+        assert_eq!(parse_hex_color("#fff"), None);
+        assert_eq!(parse_hex_color("#gg0000"), None);
+    }
+}

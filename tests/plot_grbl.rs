@@ -1,0 +1,128 @@
+//! End to end with GRBL: `plotter sim --pty --grbl` serves the project's GRBL 1.1 emulator on a pseudo-terminal,
+//! and `plotter plot samples/three-pens.svg --port <pty> --firmware grbl` streams the three-pen sample to it in a
+//! scripted session that answers the two pen-change prompts. The emulator's trace tells how full its 128-byte
+//! receive buffer ever got, where the carriage went, and where it ended.
+
+use std::io::{Read as _, Write as _};
+use std::process::{Command, Stdio};
+
+use plotter_e2e::{SimPty, plotter, plotter_bin, sample, scratch};
+
+const PROMPT: &str = "[Enter] continue, [s] skip this layer, [q] stop";
+
+/// Run `plotter` with `args`, answering each pen-change prompt with `answers` in turn (a line each); returns the
+/// exit status, stdout, stderr and the number of prompts seen.
+fn scripted(dir: &std::path::Path, args: &[&str], answers: &[&str]) -> (bool, String, String, usize) {
+    let mut child = Command::new(plotter_bin())
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("plotter runs");
+    let mut stdin = child.stdin.take().expect("stdin");
+    let mut stderr = child.stderr.take().expect("stderr");
+    let mut stdout = child.stdout.take().expect("stdout");
+    let out_thread = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stdout.read_to_string(&mut s);
+        s
+    });
+    let mut err = String::new();
+    let mut prompts = 0;
+    let mut buf = [0u8; 256];
+    loop {
+        let n = stderr.read(&mut buf).expect("read stderr");
+        if n == 0 {
+            break;
+        }
+        err.push_str(&String::from_utf8_lossy(&buf[..n]));
+        // Answer each prompt once it has been shown (the plot is parked and waiting then).
+        while err.matches(PROMPT).count() > prompts {
+            let answer = answers.get(prompts).copied().unwrap_or("q");
+            stdin.write_all(format!("{answer}\n").as_bytes()).expect("answer");
+            stdin.flush().expect("flush");
+            prompts += 1;
+        }
+    }
+    drop(stdin);
+    let status = child.wait().expect("plotter exits");
+    (status.success(), out_thread.join().expect("stdout"), err, prompts)
+}
+
+#[test]
+fn three_pens_over_a_grbl_pty_with_two_pen_changes() {
+    let dir = scratch("grbl-three-pens");
+    let sim = SimPty::start(&dir, &["--grbl", "--fast"]);
+    let svg = sample("three-pens.svg");
+    let args = ["plot", svg.to_str().unwrap(), "--port", &sim.port, "--firmware", "grbl", "--no-optimize"];
+    let (ok, stdout, stderr, prompts) = scripted(&dir, &args, &["", ""]);
+    assert!(ok, "plot failed:\n{stderr}\n{stdout}");
+    assert_eq!(prompts, 2, "{stderr}");
+    assert!(stderr.contains("connected to GRBL 1.1h"), "{stderr}");
+    assert!(stderr.contains("load pen red fineliner 0.5 (#ff0000)") && stderr.contains("load pen blue brush pen"));
+    assert!(stdout.contains("pen changes: 2"), "{stdout}");
+    let trace = sim.stop();
+    // Never more than the receive buffer in flight, nothing lost.
+    let peak = SimPty::figure(&trace, "grbl", "peak_rx").expect("peak");
+    assert!(peak > 64 && peak <= 128, "{peak}");
+    assert_eq!(SimPty::figure(&trace, "grbl", "overflow"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "grbl", "errors"), Some(0));
+    // In file order the last stroke is the blue wave, ending at (85, 50) mm = (6800, 4000) steps at 80 steps/mm,
+    // pen up at 4 mm × 400 steps/mm.
+    let pos: Vec<i64> = ["position"]
+        .iter()
+        .flat_map(|_| trace.comments.iter().find(|c| c.starts_with("position")))
+        .flat_map(|c| c.split_whitespace().skip(1).map(|v| v.parse::<i64>().expect("int")))
+        .collect();
+    assert_eq!(pos, [6800, 4000, 1600]);
+    assert_eq!(trace.positions.last().copied(), Some([6800, 4000, 1600]));
+    // Seven strokes (frame, horizon; circle, three rays; wave), and the carriage parked at the home corner with
+    // the pen up between the layers: after the black horizon (2nd run) and after the last red ray (6th run).
+    let runs = trace.pen_down_runs(800);
+    let moving: Vec<_> = runs.iter().filter(|r| r.iter().any(|p| *p != r[0])).collect();
+    assert_eq!(moving.len(), 7, "{}", moving.len());
+    let parked = trace.positions.iter().enumerate().filter(|(_, p)| p[0] == 0 && p[1] == 0 && p[2] == 1600);
+    let first_draw = trace.positions.iter().position(|p| p[2] < 800 && (p[0], p[1]) != (0, 0)).expect("draws");
+    let park_visits = parked.filter(|(i, _)| *i > first_draw).map(|(i, _)| i).collect::<Vec<_>>();
+    let separate = park_visits.windows(2).filter(|w| w[1] != w[0] + 1).count() + usize::from(!park_visits.is_empty());
+    assert_eq!(separate, 2, "two separate stays at the park position after drawing began");
+}
+
+#[test]
+fn grbl_alarm_mid_plot_leaves_a_journal_that_resumes() {
+    let dir = scratch("grbl-alarm");
+    let svg = sample("three-pens.svg");
+    let sim = SimPty::start(&dir, &["--grbl", "--fast", "--grbl-fault", "hard-limit@40"]);
+    let journal = dir.join("three.journal");
+    let args = [
+        "plot",
+        svg.to_str().unwrap(),
+        "--port",
+        &sim.port,
+        "--firmware",
+        "grbl",
+        "--pen-change",
+        "none",
+        "--journal",
+        journal.to_str().unwrap(),
+    ];
+    let out = plotter(&dir, &args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("alarm 1 (hard limit switch triggered") && err.contains("--resume"), "{err}");
+    let text = std::fs::read_to_string(&journal).expect("journal written");
+    assert!(text.contains("progress") && !text.contains("complete"), "{text}");
+    // The machine needs a reset after a hard limit; then the resume homes again and finishes.
+    let mut port = std::fs::OpenOptions::new().write(true).open(&sim.port).expect("pty");
+    port.write_all(&[0x18]).expect("reset");
+    drop(port);
+    let out = plotter(&dir, &["plot", "--resume", journal.to_str().unwrap(), "--port", &sim.port]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("resuming at block"), "{err}");
+    assert!(std::fs::read_to_string(&journal).unwrap().contains("complete"));
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "grbl", "overflow"), Some(0));
+}
