@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
-use plotter_path::input::svg::{self, LayerBy, SvgOptions};
+use plotter_path::geometry::hatch::FillHatch;
+use plotter_path::input::raster::Mode;
+use plotter_path::input::svg::{self, ImageTrace, LayerBy, SvgOptions, TextMode};
 use plotter_path::input::{gcode_in, r#gen, raster, trajectory};
 use plotter_path::motion::steps::StepMapper;
 use plotter_path::{Drawing, MachineProfile};
@@ -18,13 +20,41 @@ use crate::options::trace::TraceArgs;
 /// How SVG shapes are grouped into layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
 pub enum LayerByArg {
-    /// One layer per top-level group (Inkscape layer label, else group id)
+    /// Inkscape layers when the document has any, else one layer
     #[default]
+    Auto,
+    /// One layer per top-level group (Inkscape label, else group id)
     Group,
     /// One layer per stroke colour
     Color,
     /// Everything in one layer
     None,
+}
+
+/// How SVG text is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
+pub enum TextArg {
+    /// The font's glyph outlines
+    #[default]
+    Outlines,
+    /// One line per stroke (Hershey font)
+    SingleStroke,
+}
+
+/// What happens to embedded SVG images.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
+pub enum ImagesArg {
+    /// Not drawn (with a warning)
+    #[default]
+    Skip,
+    /// Outlines of the ink regions
+    Outline,
+    /// Centre lines of line art
+    Centerline,
+    /// Canny edges
+    Edges,
+    /// Hatch shading of the gray tones
+    Hatch,
 }
 
 /// Input flags shared by every command that reads a drawing.
@@ -33,12 +63,33 @@ pub struct InputArgs {
     /// Maximum chord error when flattening SVG curves, mm
     #[arg(long, default_value_t = svg::DEFAULT_TOLERANCE_MM, help_heading = "Input")]
     pub tolerance: f64,
-    /// How SVG shapes are grouped into layers
-    #[arg(long, value_enum, default_value_t = LayerByArg::Group, help_heading = "Input")]
+    /// How SVG shapes are grouped into layers (pens)
+    #[arg(long, value_enum, default_value_t = LayerByArg::Auto, help_heading = "Input")]
     pub layer_by: LayerByArg,
     /// Keep only these layers (names as listed by `plotter stats`), comma-separated
     #[arg(long, value_delimiter = ',', help_heading = "Input")]
     pub layers: Vec<String>,
+    /// Plot SVG outlines in full, also where an opaque fill painted later hides them
+    #[arg(long, help_heading = "Input")]
+    pub no_occlusion: bool,
+    /// Shade every filled SVG area with parallel lines this far apart, mm (direction: --angle)
+    #[arg(long, value_name = "SPACING_MM", help_heading = "Input")]
+    pub hatch: Option<f64>,
+    /// With --hatch: add a second family of lines at right angles
+    #[arg(long, requires = "hatch", help_heading = "Input")]
+    pub cross_hatch: bool,
+    /// Fill SVG strokes wider than the pen (--pen-width) with parallel passes
+    #[arg(long, help_heading = "Input")]
+    pub fill_strokes: bool,
+    /// How SVG text is drawn
+    #[arg(long, value_enum, default_value_t = TextArg::Outlines, help_heading = "Input")]
+    pub text: TextArg,
+    /// Trace embedded SVG <image>s with this tracing mode (the image tracing flags apply)
+    #[arg(long, value_enum, default_value_t = ImagesArg::Skip, help_heading = "Input")]
+    pub images: ImagesArg,
+    /// Cut SVG geometry at the page edge (it is reported either way)
+    #[arg(long, help_heading = "Input")]
+    pub crop: bool,
     /// How raster images (PNG/JPEG) are traced into paths
     #[command(flatten)]
     pub trace: TraceArgs,
@@ -52,11 +103,37 @@ impl InputArgs {
         Ok(SvgOptions {
             tolerance_mm: self.tolerance,
             layer_by: match self.layer_by {
+                LayerByArg::Auto => LayerBy::Auto,
                 LayerByArg::Group => LayerBy::Group,
                 LayerByArg::Color => LayerBy::Color,
                 LayerByArg::None => LayerBy::None,
             },
             layers: self.layers.clone(),
+            occlusion: !self.no_occlusion,
+            hatch: match self.hatch {
+                Some(s) if !(s.is_finite() && s > 0.0) => bail!("--hatch must be a positive spacing in mm, got {s}"),
+                Some(s) => {
+                    Some(FillHatch { spacing_mm: s, angle_deg: self.trace.angle, cross: self.cross_hatch, link: true })
+                }
+                None => None,
+            },
+            fill_strokes: self.fill_strokes.then_some(self.trace.pen_width),
+            text: match self.text {
+                TextArg::Outlines => TextMode::Outlines,
+                TextArg::SingleStroke => TextMode::SingleStroke,
+            },
+            images: {
+                let mode = match self.images {
+                    ImagesArg::Skip => None,
+                    ImagesArg::Outline => Some(Mode::Outline),
+                    ImagesArg::Centerline => Some(Mode::Centerline),
+                    ImagesArg::Edges => Some(Mode::Edges),
+                    ImagesArg::Hatch => Some(Mode::Hatch),
+                };
+                mode.map(|mode| ImageTrace { trace: raster::TraceOptions { mode, ..self.trace.options() } })
+            },
+            crop: self.crop,
+            ..SvgOptions::default()
         })
     }
 }
@@ -77,22 +154,32 @@ pub enum InputKind {
 /// Prefix of generated-figure inputs.
 pub const GEN_PREFIX: &str = "gen:";
 
-/// Decide what the file `path` holds: by its extension, else by its first bytes. (Generated figures are not
-/// files: [`load_drawing`] recognises their `gen:` prefix before reading anything.)
+/// Decide what the file `path` holds: by its first bytes where they say it for sure (gzip → compressed SVG,
+/// PNG/JPEG signatures, an XML start in UTF-8 or UTF-16), else by its extension, else by its text. (Generated
+/// figures are not files: [`load_drawing`] recognises their `gen:` prefix before reading anything.)
 pub fn input_kind(path: &Path, head: &[u8]) -> InputKind {
+    if head.starts_with(&[0x1f, 0x8b]) {
+        return InputKind::Svg;
+    }
+    if head.starts_with(b"\x89PNG\r\n\x1a\n") || head.starts_with(&[0xff, 0xd8, 0xff]) {
+        return InputKind::Image;
+    }
+    if head.starts_with(&[0xff, 0xfe]) || head.starts_with(&[0xfe, 0xff]) {
+        return InputKind::Svg;
+    }
+    let text = String::from_utf8_lossy(head);
+    let t = text.trim_start_matches('\u{feff}').trim_start();
+    if t.starts_with("<?xml") || t.starts_with("<svg") || t.starts_with("<!DOCTYPE") || t.starts_with("<!--") {
+        return InputKind::Svg;
+    }
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     match ext.as_str() {
-        "svg" => return InputKind::Svg,
+        "svg" | "svgz" => return InputKind::Svg,
         "png" | "jpg" | "jpeg" => return InputKind::Image,
         "gcode" | "nc" | "ngc" | "g" | "gco" | "tap" => return InputKind::Gcode,
         "traj" | "trj" => return InputKind::Trajectory,
         _ => {}
     }
-    if head.starts_with(b"\x89PNG\r\n\x1a\n") || head.starts_with(&[0xff, 0xd8, 0xff]) {
-        return InputKind::Image;
-    }
-    let text = String::from_utf8_lossy(head);
-    let t = text.trim_start_matches('\u{feff}').trim_start();
     if t.starts_with('<') {
         InputKind::Svg
     } else if t.split_whitespace().next().is_some_and(|w| w.parse::<u64>().is_ok()) {
@@ -236,5 +323,12 @@ mod tests {
         assert_eq!(input_kind(Path::new("a"), b"  <svg/>"), InputKind::Svg);
         assert_eq!(input_kind(Path::new(""), b"\x89PNG\r\n\x1a\n...."), InputKind::Image);
         assert_eq!(input_kind(Path::new("scan"), &[0xff, 0xd8, 0xff, 0xe0]), InputKind::Image);
+        // Content wins over a misleading name: gzip bytes are a compressed SVG, an XML start is SVG.
+        assert_eq!(input_kind(Path::new("a.gcode"), &[0x1f, 0x8b, 8, 0]), InputKind::Svg);
+        assert_eq!(input_kind(Path::new("a.svgz"), b""), InputKind::Svg);
+        assert_eq!(input_kind(Path::new("a.txt"), b"<?xml version=\"1.0\"?><svg/>"), InputKind::Svg);
+        assert_eq!(input_kind(Path::new("a.png"), b"\xef\xbb\xbf<svg/>"), InputKind::Svg);
+        assert_eq!(input_kind(Path::new("a.svg"), b"\x89PNG\r\n\x1a\n"), InputKind::Image);
+        assert_eq!(input_kind(Path::new("x"), &[0xff, 0xfe, b'<', 0]), InputKind::Svg);
     }
 }

@@ -1,6 +1,8 @@
 //! Import + flatten throughput on a generated SVG with 60 000 paths (lines, quadratics, cubics, arcs, polygons).
 //!
-//! Run: `cargo bench -p plotter-path --bench import`. Prints paths/s and segments/s after criterion's timing.
+//! Run: `cargo bench -p plotter-path --bench import`. Prints paths/s and segments/s after criterion's timing, with
+//! hidden-line removal off and on, and on a variant where every circle and triangle has an opaque fill (so
+//! occlusion has work to do: 24 000 occluders, each overlapping its neighbours' outlines).
 
 use std::fmt::Write;
 use std::hint::black_box;
@@ -10,8 +12,10 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use plotter_path::input::svg::{SvgOptions, import_svg};
 use plotter_path::output::stats::Stats;
 
-/// A deterministic large drawing: a 300 × 200 grid of cells, each with one shape.
-fn large_svg(paths: usize) -> String {
+/// A deterministic large drawing: a 300 × 200 grid of cells, each with one shape; with `filled`, circles (grown to
+/// overlap their neighbours) and triangles get an opaque fill.
+fn large_svg(paths: usize, filled: bool) -> String {
+    let (fill, r) = if filled { ("#88aacc", 0.9) } else { ("none", 0.6) };
     let mut s =
         String::from(r#"<svg xmlns="http://www.w3.org/2000/svg" width="400mm" height="300mm" viewBox="0 0 400 300">"#);
     s.push('\n');
@@ -35,10 +39,10 @@ fn large_svg(paths: usize) -> String {
                 x + 1.0,
                 x + 1.2
             ),
-            2 => writeln!(s, r#"<circle cx="{}" cy="{}" r="0.6" stroke="black" fill="none"/>"#, x + 0.6, y + 0.6),
+            2 => writeln!(s, r#"<circle cx="{}" cy="{}" r="{r}" stroke="black" fill="{fill}"/>"#, x + 0.6, y + 0.6),
             3 => writeln!(
                 s,
-                r#"<polygon points="{x},{y} {},{y} {},{}" stroke="black" fill="none"/>"#,
+                r#"<polygon points="{x},{y} {},{y} {},{}" stroke="black" fill="{fill}"/>"#,
                 x + 1.0,
                 x + 0.5,
                 y + 1.0
@@ -52,8 +56,8 @@ fn large_svg(paths: usize) -> String {
 
 fn bench(c: &mut Criterion) {
     let paths = 60_000;
-    let svg = large_svg(paths);
-    let options = SvgOptions { tolerance_mm: 0.01, ..SvgOptions::default() };
+    let svg = large_svg(paths, false);
+    let options = SvgOptions { tolerance_mm: 0.01, occlusion: false, ..SvgOptions::default() };
     let first = import_svg(svg.as_bytes(), "bench.svg", None, &options).expect("bench SVG imports");
     let stats = Stats::of(&first.drawing);
     let mut group = c.benchmark_group("import");
@@ -64,20 +68,28 @@ fn bench(c: &mut Criterion) {
     });
     group.finish();
 
-    let runs = 5;
-    let start = Instant::now();
-    for _ in 0..runs {
-        black_box(import_svg(svg.as_bytes(), "bench.svg", None, &options).unwrap());
+    let filled = large_svg(paths, true);
+    let on = SvgOptions { occlusion: true, ..options.clone() };
+    for (what, doc, opts) in
+        [("occlusion off", &svg, &options), ("occlusion on", &svg, &on), ("occlusion on, filled", &filled, &on)]
+    {
+        let runs = 3;
+        let first = import_svg(doc.as_bytes(), "bench.svg", None, opts).expect("bench SVG imports");
+        let stats = Stats::of(&first.drawing);
+        let start = Instant::now();
+        for _ in 0..runs {
+            black_box(import_svg(doc.as_bytes(), "bench.svg", None, opts).unwrap());
+        }
+        let per_run = start.elapsed().as_secs_f64() / f64::from(runs);
+        println!(
+            "import+flatten ({what}): {} paths, {} segments in {:.1} ms → {:.0} paths/s, {:.2} M segments/s",
+            stats.paths,
+            stats.segments,
+            per_run * 1e3,
+            stats.paths as f64 / per_run,
+            stats.segments as f64 / per_run / 1e6
+        );
     }
-    let per_run = start.elapsed().as_secs_f64() / f64::from(runs);
-    println!(
-        "import+flatten: {} paths, {} segments in {:.1} ms → {:.0} paths/s, {:.2} M segments/s",
-        stats.paths,
-        stats.segments,
-        per_run * 1e3,
-        stats.paths as f64 / per_run,
-        stats.segments as f64 / per_run / 1e6
-    );
 }
 
 criterion_group!(benches, bench);

@@ -181,7 +181,7 @@ async fn upload_gives_layers_figures_estimate_and_a_vector_view() {
     assert_eq!(s, StatusCode::OK, "{v}");
     let (_, st) = c.get("/api/state").await;
     assert_eq!(st["drawing"]["name"], "duck.svg");
-    assert_eq!(st["drawing"]["layers"][0]["name"], "root");
+    assert_eq!(st["drawing"]["layers"][0]["name"], "drawing");
     // samples/duck.svg: 6 paths; the figures `plotter stats samples/duck.svg` prints: 565.50 mm pen-down, pen-up
     // 191.86 mm between paths in file order (248.32 mm with the 56.46 mm travel from home to the first path, which
     // the optimizer's figures count since it orders from home), 150.78 mm ordered from home, plot time 14.8 s.
@@ -204,7 +204,7 @@ async fn upload_gives_layers_figures_estimate_and_a_vector_view() {
     assert_eq!(view["layers"][0]["paths"][1]["points"].as_array().unwrap().len(), 7);
     assert_eq!(view["layers"][0]["paths"][1]["points"][0], json!([61.0, 17.0]));
     // Hiding the only layer leaves nothing to plot, said plainly.
-    let hide = json!({ "layers": [{ "name": "root", "visible": false }] });
+    let hide = json!({ "layers": [{ "name": "drawing", "visible": false }] });
     let (s, v) = c.post("/api/settings", hide).await;
     assert_eq!(s, StatusCode::BAD_REQUEST);
     assert!(v["error"].as_str().unwrap().contains("nothing to plot"), "{v}");

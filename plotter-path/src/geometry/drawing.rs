@@ -41,12 +41,20 @@ impl Default for Pen {
 pub struct Polyline {
     /// The vertices, in drawing order.
     pub points: Vec<Point>,
+    /// The colour and stroke width this path has in its source, when the source gives each path its own (an SVG
+    /// layer holds paths of many colours). Previews draw with it; `None` means the layer's pen.
+    pub pen: Option<Pen>,
 }
 
 impl Polyline {
     /// A polyline through `points`.
     pub fn new(points: Vec<Point>) -> Self {
-        Polyline { points }
+        Polyline { points, pen: None }
+    }
+
+    /// A polyline through `points` drawn in its source with `pen`.
+    pub fn with_pen(points: Vec<Point>, pen: Pen) -> Self {
+        Polyline { points, pen: Some(pen) }
     }
 
     /// True when the path returns to its start (first point equals last point exactly) and has a body.

@@ -1,11 +1,20 @@
 //! SVG import through usvg: every shape, nested transforms, viewBox and preserveAspectRatio, physical units,
 //! `<use>`, hidden elements, and text as glyph outlines — flattened to millimetre polylines with a proven chord
-//! bound (see [`crate::geometry::flatten`]).
+//! bound (see [`crate::geometry::flatten`]) — and cut so the plot shows what a browser shows.
 //!
-//! **What is plotted.** Every visible path is plotted along its outline: a stroked path as its centre line, a
-//! fill-only path as the outline of its filled area (the pen traces the boundary; filling with hatching is a
-//! separate step). Paths with neither fill nor stroke are invisible in any viewer and are skipped with a warning,
-//! as are `display:none`/`visibility:hidden` elements. Embedded raster `<image>`s are not traced (warned).
+//! **Reading.** Anything a browser opens: gzip-compressed files (`.svgz`, or gzip bytes under any name), any
+//! declared encoding or byte order mark, and DOCTYPEs with internal entities, with bounded entity expansion and
+//! node count (see [`decode`]).
+//!
+//! **What is plotted** (the reference is the SVG rendered by a browser or resvg; see [`walk`] for the details):
+//! a stroked path along its centre line (dashes as separate pen-down dashes); a fill-only path along the outline
+//! of its filled area, unless it is filled with the paper's colour (then it only hides what lies under it);
+//! with [`SvgOptions::hatch`], every filled area is also shaded with parallel lines. Everything is cut to its
+//! clip paths, masks (their opaque area) and nested viewports; with [`SvgOptions::occlusion`] (on by default) the
+//! parts of lines under an opaque fill painted later are removed ([`occlude`]). Skipped with a warning: paths
+//! with neither fill nor stroke, `display:none`/`visibility:hidden`, fully transparent shapes. Geometry outside
+//! the page is reported, and cut at the page edge with [`SvgOptions::crop`]. Embedded raster `<image>`s are
+//! traced through the raster pipeline when [`SvgOptions::images`] asks for it, else skipped with a warning.
 //!
 //! **Units.** usvg resolves units at 96 px per inch (1 px = 1/96 in, 1 mm = 96/25.4 px) and folds the root
 //! viewBox/preserveAspectRatio into the transforms, so this importer only converts px to mm. usvg keeps geometry
@@ -17,18 +26,28 @@
 //! flattening tolerance; the importer then warns with the bound in millimetres. The chord error of a
 //! curve given as an arc is therefore at most the tolerance plus usvg's 0.1 user unit.
 //!
-//! **Layers.** [`LayerBy::Group`] makes a layer of each top-level group (named by its Inkscape label, else its id);
-//! shapes outside any top-level group form a layer named `root`. [`LayerBy::Color`] makes one layer per stroke
-//! colour (fill colour for fill-only paths). [`LayerBy::None`] puts everything in one layer.
+//! **Layers are pens.** [`LayerBy::Auto`] (the default): one layer per Inkscape layer
+//! (`inkscape:groupmode="layer"`, named by its label) when the document has any — shapes outside every layer go
+//! to a layer named `root` — otherwise the whole drawing is one layer. [`LayerBy::Group`] makes a layer of each
+//! top-level `<g>` (vpype's convention; other top-level content goes to `root`). [`LayerBy::Color`] makes one
+//! layer per stroke colour as usvg normalises it (`red` and `#ff0000` are one pen; fill colour for fill-only
+//! paths). [`LayerBy::None`] puts everything in one layer. Nothing but a layer element makes a layer.
+
+pub mod decode;
+pub mod hershey;
+mod occlude;
+mod walk;
 
 use std::collections::HashMap;
 use std::path::Path;
 
-use kurbo::{Affine, PathEl, Point};
+use kurbo::{Affine, Point, Rect};
 use usvg::roxmltree;
 
-use crate::geometry::drawing::{Drawing, Layer, Pen, Polyline, Rgb};
-use crate::geometry::flatten::flatten_path;
+use crate::geometry::drawing::{Drawing, Layer, Polyline, Rgb};
+use crate::geometry::hatch::FillHatch;
+use crate::geometry::region::{Keep, Region, cut};
+use crate::input::raster::TraceOptions;
 
 /// Millimetres per CSS pixel (1/96 in).
 pub const MM_PER_PX: f64 = 25.4 / 96.0;
@@ -78,16 +97,35 @@ pub enum SvgError {
     },
 }
 
-/// How paths are grouped into layers.
+/// How paths are grouped into layers (pens).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LayerBy {
-    /// One layer per top-level group (Inkscape layers by label).
+    /// Inkscape layers when the document has any, else one layer.
     #[default]
+    Auto,
+    /// One layer per top-level `<g>` (Inkscape label, else id).
     Group,
-    /// One layer per stroke colour.
+    /// One layer per normalised stroke colour.
     Color,
     /// Everything in one layer.
     None,
+}
+
+/// How `<text>` is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TextMode {
+    /// The outlines of the font's glyphs (needs a system font, e.g. Debian's fonts-dejavu-core).
+    #[default]
+    Outlines,
+    /// One line per stroke with a Hershey font (needs Debian's hershey-fonts-data).
+    SingleStroke,
+}
+
+/// How embedded raster images are traced (`--images`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageTrace {
+    /// The raster tracer's settings; the pixel pitch is set from the image's size on the page.
+    pub trace: TraceOptions,
 }
 
 /// Import settings.
@@ -99,11 +137,36 @@ pub struct SvgOptions {
     pub layer_by: LayerBy,
     /// Keep only these layers (by name); empty keeps all.
     pub layers: Vec<String>,
+    /// Remove the parts of lines hidden under opaque fills painted later.
+    pub occlusion: bool,
+    /// Shade filled areas with parallel lines.
+    pub hatch: Option<FillHatch>,
+    /// Fill strokes wider than this pen width (mm) with parallel passes.
+    pub fill_strokes: Option<f64>,
+    /// How text is drawn.
+    pub text: TextMode,
+    /// Trace embedded raster images; `None` skips them with a warning.
+    pub images: Option<ImageTrace>,
+    /// Cut everything at the page edge.
+    pub crop: bool,
+    /// The paper's colour: opaque fill-only shapes of this colour hide what is under them and draw nothing.
+    pub paper_color: Rgb,
 }
 
 impl Default for SvgOptions {
     fn default() -> Self {
-        SvgOptions { tolerance_mm: DEFAULT_TOLERANCE_MM, layer_by: LayerBy::Group, layers: Vec::new() }
+        SvgOptions {
+            tolerance_mm: DEFAULT_TOLERANCE_MM,
+            layer_by: LayerBy::Auto,
+            layers: Vec::new(),
+            occlusion: true,
+            hatch: None,
+            fill_strokes: None,
+            text: TextMode::Outlines,
+            images: None,
+            crop: false,
+            paper_color: Rgb(255, 255, 255),
+        }
     }
 }
 
@@ -124,7 +187,8 @@ pub fn load_svg(path: &Path, options: &SvgOptions) -> Result<Imported, SvgError>
     import_svg(&data, &shown, dir, options)
 }
 
-/// Import SVG bytes; `name` is used in messages, `resources_dir` resolves relative references.
+/// Import SVG bytes (plain or gzip-compressed); `name` is used in messages, `resources_dir` resolves relative
+/// references.
 pub fn import_svg(
     data: &[u8],
     name: &str,
@@ -132,13 +196,22 @@ pub fn import_svg(
     options: &SvgOptions,
 ) -> Result<Imported, SvgError> {
     let parse_err = |message: String| SvgError::Parse { path: name.to_string(), message };
-    let text = std::str::from_utf8(data).map_err(|e| parse_err(format!("not UTF-8 text ({e})")))?;
-    let xml = roxmltree::Document::parse(text).map_err(|e| parse_err(e.to_string()))?;
+    let inflated;
+    let data = if decode::is_gzip(data) {
+        inflated = decode::gunzip(data).map_err(parse_err)?;
+        inflated.as_slice()
+    } else {
+        data
+    };
+    let text = decode::decode_xml(data).map_err(parse_err)?;
+    decode::check_entities(&text).map_err(parse_err)?;
+    let parsing = roxmltree::ParsingOptions { allow_dtd: true, nodes_limit: decode::MAX_NODES, ..Default::default() };
+    let xml = roxmltree::Document::parse_with_options(&text, parsing).map_err(|e| parse_err(e.to_string()))?;
     if xml.root_element().tag_name().name() != "svg" {
         return Err(parse_err(format!("root element is <{}>, expected <svg>", xml.root_element().tag_name().name())));
     }
-    let survey = survey(&xml);
-    let mut warnings = survey.warnings;
+    let survey = survey(&xml, options.images.is_none());
+    let mut warnings = survey.warnings.clone();
 
     let mut opt = usvg::Options { resources_dir, ..usvg::Options::default() };
     if survey.has_text {
@@ -166,22 +239,40 @@ pub fn import_svg(
     }
     let tree = usvg::Tree::from_xmltree(&xml, &opt).map_err(|e| parse_err(e.to_string()))?;
 
-    let mut walker = Walker {
-        tolerance: options.tolerance_mm,
-        layer_by: options.layer_by,
-        labels: &survey.labels,
-        layers: Vec::new(),
-        index: HashMap::new(),
-        hidden: 0,
-        dropped_subpaths: 0,
+    let empty = HashMap::new();
+    let layer_groups = match options.layer_by {
+        LayerBy::Auto => &survey.inkscape_layers,
+        LayerBy::Group => &survey.top_groups,
+        LayerBy::Color | LayerBy::None => &empty,
     };
-    walker.walk_root(tree.root(), root_viewbox_transform(xml.root_element()));
-    if walker.hidden > 0 {
+    let mut walker = walk::Walker::new(options, layer_groups, name);
+    let (root, t) = content_root(tree.root(), root_viewbox_transform(xml.root_element()));
+    walker.walk_root(root, t);
+    warnings.append(&mut walker.warnings);
+    let skipped = &walker.skipped;
+    if skipped.hidden > 0 {
         warnings
-            .push(format!("{name}: {} invisible shape(s) skipped (no fill and no stroke, or hidden)", walker.hidden));
+            .push(format!("{name}: {} invisible shape(s) skipped (no fill and no stroke, or hidden)", skipped.hidden));
     }
-    if walker.dropped_subpaths > 0 {
-        warnings.push(format!("{name}: {} single-point subpath(s) skipped (nothing to draw)", walker.dropped_subpaths));
+    if skipped.transparent > 0 {
+        warnings.push(format!("{name}: {} fully transparent shape(s) skipped (opacity 0)", skipped.transparent));
+    }
+    if skipped.dropped_subpaths > 0 {
+        warnings
+            .push(format!("{name}: {} single-point subpath(s) skipped (nothing to draw)", skipped.dropped_subpaths));
+    }
+    if skipped.partial_masks > 0 {
+        warnings.push(format!(
+            "{name}: {} mask(s) are partly transparent (grey, gradient or translucent): cut where they are at least              half opaque",
+            skipped.partial_masks
+        ));
+    }
+    if skipped.hatch_refused > 0 {
+        warnings.push(format!(
+            "{name}: {} area(s) not hatched: more than {} lines at this spacing",
+            skipped.hatch_refused,
+            crate::geometry::hatch::MAX_LINES
+        ));
     }
     let arc_error_mm = arc_approximation_bound(survey.max_arc_radius) * survey.max_user_unit_px * MM_PER_PX;
     if arc_error_mm > options.tolerance_mm {
@@ -191,7 +282,28 @@ pub fn import_svg(
             options.tolerance_mm
         ));
     }
-    let mut layers = walker.layers;
+    let layer_names = std::mem::take(&mut walker.layer_names);
+    let mut items = std::mem::take(&mut walker.items);
+    if options.occlusion {
+        occlude::occlude(&mut items);
+    }
+    // The page in f64 from the document's absolute width and height when it has them, else usvg's (f32) size.
+    let size = tree.size();
+    let (w, h) = absolute_size_px(xml.root_element()).unwrap_or((f64::from(size.width()), f64::from(size.height())));
+    let page_mm = (w * MM_PER_PX, h * MM_PER_PX);
+    if let Some(w) = off_page(&mut items, page_mm, options.crop) {
+        warnings.push(format!("{name}: {w}"));
+    }
+    let mut layers: Vec<Layer> = layer_names.into_iter().map(Layer::new).collect();
+    let mut has_pen = vec![false; layers.len()];
+    for item in items {
+        let layer = &mut layers[item.layer];
+        if !has_pen[item.layer] {
+            layer.pen = item.pen;
+            has_pen[item.layer] = true;
+        }
+        layer.paths.extend(item.lines.into_iter().map(|l| Polyline::with_pen(l, item.pen)));
+    }
     layers.retain(|l| !l.paths.is_empty());
     if !options.layers.is_empty() {
         let available: Vec<String> = layers.iter().map(|l| l.name.clone()).collect();
@@ -206,10 +318,7 @@ pub fn import_svg(
         }
         layers.retain(|l| options.layers.contains(&l.name));
     }
-    // The page in f64 from the document's absolute width and height when it has them, else usvg's (f32) size.
-    let size = tree.size();
-    let (w, h) = absolute_size_px(xml.root_element()).unwrap_or((f64::from(size.width()), f64::from(size.height())));
-    let drawing = Drawing { layers, page_mm: Some((w * MM_PER_PX, h * MM_PER_PX)) };
+    let drawing = Drawing { layers, page_mm: Some(page_mm) };
     if drawing.is_empty() {
         let detail = if warnings.is_empty() { String::new() } else { format!(" ({})", warnings.join("; ")) };
         return Err(SvgError::Empty { path: name.to_string(), detail });
@@ -217,9 +326,72 @@ pub fn import_svg(
     Ok(Imported { drawing, warnings })
 }
 
+/// The content below usvg's anonymous wrapper groups (viewBox transform and the like), with the transform to px.
+/// `viewbox` (exact, f64) replaces usvg's f32 root transform when they agree.
+fn content_root(mut root: &usvg::Group, viewbox: Option<Affine>) -> (&usvg::Group, Affine) {
+    let affine = |t: &usvg::Transform| Affine::new([t.sx, t.ky, t.kx, t.sy, t.tx, t.ty].map(f64::from));
+    let mut t = affine(&root.transform());
+    while let [usvg::Node::Group(only)] = root.children()
+        && only.id().is_empty()
+        && only.clip_path().is_none()
+        && only.mask().is_none()
+        && only.opacity().get() >= 1.0
+    {
+        root = only;
+        t = match viewbox {
+            Some(exact) if t == Affine::IDENTITY && rounds_to(&root.transform(), exact) => exact,
+            _ => t * affine(&root.transform()),
+        };
+    }
+    (root, t)
+}
+
+/// Report (and with `crop`, cut) the lines outside the page.
+fn off_page(items: &mut [walk::Item], (w, h): (f64, f64), crop: bool) -> Option<String> {
+    let page = Rect::new(0.0, 0.0, w, h);
+    let region = Region::rect(page);
+    let (mut length, mut elements) = (0.0, Vec::new());
+    for item in items.iter_mut() {
+        let outside = item.lines.iter().flatten().any(|p| p.x < 0.0 || p.y < 0.0 || p.x > w || p.y > h);
+        if !outside {
+            continue;
+        }
+        let len = |lines: &[Vec<Point>]| -> f64 {
+            lines.iter().flat_map(|l| l.windows(2)).map(|s| s[0].distance(s[1])).sum()
+        };
+        let out_len = len(&cut(item.lines.clone(), &[&region], Keep::Outside));
+        if out_len <= 1e-3 {
+            continue;
+        }
+        length += out_len;
+        elements.push(item.element.clone());
+        if crop {
+            item.lines = cut(std::mem::take(&mut item.lines), &[&region], Keep::Inside);
+        }
+    }
+    if elements.is_empty() {
+        return None;
+    }
+    let n = elements.len();
+    elements.dedup();
+    let mut shown: Vec<String> = elements.iter().take(5).cloned().collect();
+    if elements.len() > 5 {
+        shown.push("…".into());
+    }
+    let what = if crop { "were cut at the page edge (--crop)" } else { "lie outside the page; --crop cuts them there" };
+    Some(format!(
+        "{length:.1} mm of pen-down lines in {n} element(s) ({}) {what} ({w:.1} × {h:.1} mm)",
+        shown.join(", ")
+    ))
+}
+
 /// What a pass over the XML learns before usvg runs: layer labels, text, arcs, and elements usvg would drop.
+#[derive(Clone)]
 struct Survey {
-    labels: HashMap<String, String>,
+    /// Inkscape layers (`inkscape:groupmode="layer"`): id → label (else id).
+    inkscape_layers: HashMap<String, String>,
+    /// Top-level `<g>` elements: id → Inkscape label (else id).
+    top_groups: HashMap<String, String>,
     has_text: bool,
     text_elements: usize,
     /// Largest radius (user units) of any arc, circle, ellipse or rounded corner; 0 when there are none.
@@ -229,10 +401,11 @@ struct Survey {
     warnings: Vec<String>,
 }
 
-fn survey(xml: &roxmltree::Document<'_>) -> Survey {
+fn survey(xml: &roxmltree::Document<'_>, skip_images: bool) -> Survey {
     const INKSCAPE: &str = "http://www.inkscape.org/namespaces/inkscape";
     let mut s = Survey {
-        labels: HashMap::new(),
+        inkscape_layers: HashMap::new(),
+        top_groups: HashMap::new(),
         has_text: false,
         text_elements: 0,
         max_arc_radius: 0.0,
@@ -256,10 +429,15 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
             format!("<{tag}{id}> at line {}", xml.text_pos_at(node.range().start).row)
         };
         if tag == "g"
-            && let Some(label) = node.attribute((INKSCAPE, "label"))
             && let Some(id) = node.attribute("id")
         {
-            s.labels.insert(id.to_string(), label.to_string());
+            let label = node.attribute((INKSCAPE, "label")).unwrap_or(id).to_string();
+            if node.attribute((INKSCAPE, "groupmode")) == Some("layer") {
+                s.inkscape_layers.insert(id.to_string(), label.clone());
+            }
+            if node.parent_element() == Some(root) {
+                s.top_groups.insert(id.to_string(), label);
+            }
         }
         let number =
             |attr: &str| node.attribute(attr).and_then(|v| v.parse::<svgtypes::Length>().ok()).map(|l| l.number);
@@ -292,7 +470,9 @@ fn survey(xml: &roxmltree::Document<'_>) -> Survey {
                     }
                 }
             },
-            "image" => s.warnings.push(format!("{}: embedded raster image not traced (use `plotter trace`)", at())),
+            "image" if skip_images => {
+                s.warnings.push(format!("{}: embedded raster image not traced (use --images MODE)", at()));
+            }
             "foreignObject" | "video" | "audio" | "iframe" | "canvas" => {
                 s.warnings.push(format!("{}: element not supported, skipped", at()));
             }
@@ -385,125 +565,6 @@ fn length_px(text: &str) -> Option<f64> {
         _ => 1.0,
     };
     Some(l.number * per_unit)
-}
-
-struct Walker<'a> {
-    tolerance: f64,
-    layer_by: LayerBy,
-    labels: &'a HashMap<String, String>,
-    layers: Vec<Layer>,
-    index: HashMap<String, usize>,
-    hidden: usize,
-    dropped_subpaths: usize,
-}
-
-impl Walker<'_> {
-    /// Walk the tree composing group transforms in f64; `viewbox` (exact) replaces usvg's f32 root transform.
-    fn walk_root(&mut self, mut root: &usvg::Group, viewbox: Option<Affine>) {
-        let mut t = affine(&root.transform());
-        // usvg wraps the content in anonymous groups (for the viewBox transform, for example): look through them.
-        while let [usvg::Node::Group(only)] = root.children()
-            && only.id().is_empty()
-        {
-            root = only;
-            t = match viewbox {
-                Some(exact) if t == Affine::IDENTITY && rounds_to(&root.transform(), exact) => exact,
-                _ => t * affine(&root.transform()),
-            };
-        }
-        for node in root.children() {
-            let layer = match (self.layer_by, node) {
-                (LayerBy::Group, usvg::Node::Group(g)) => self.group_layer_name(g),
-                (LayerBy::Group, _) => "root".to_string(),
-                _ => String::new(),
-            };
-            self.walk(node, &layer, t);
-        }
-    }
-
-    fn group_layer_name(&self, g: &usvg::Group) -> String {
-        let id = g.id();
-        if let Some(label) = self.labels.get(id) {
-            label.clone()
-        } else if !id.is_empty() {
-            id.to_string()
-        } else {
-            format!("layer {}", self.layers.len() + 1)
-        }
-    }
-
-    /// `t` maps the node's user units to px (its parent's absolute transform).
-    fn walk(&mut self, node: &usvg::Node, layer: &str, t: Affine) {
-        match node {
-            usvg::Node::Group(g) => {
-                let t = t * affine(&g.transform());
-                for child in g.children() {
-                    self.walk(child, layer, t);
-                }
-            }
-            usvg::Node::Path(p) => self.add_path(p, layer, t),
-            usvg::Node::Text(text) => {
-                // Glyph outlines come with usvg's own absolute transforms.
-                for child in text.flattened().children() {
-                    self.walk_text(child, layer);
-                }
-            }
-            // Embedded images were reported by the survey.
-            usvg::Node::Image(_) => {}
-        }
-    }
-
-    fn walk_text(&mut self, node: &usvg::Node, layer: &str) {
-        match node {
-            usvg::Node::Group(g) => g.children().iter().for_each(|c| self.walk_text(c, layer)),
-            usvg::Node::Path(p) => self.add_path(p, layer, affine(&p.abs_transform())),
-            usvg::Node::Text(_) | usvg::Node::Image(_) => {}
-        }
-    }
-
-    fn layer_mut(&mut self, key: String, pen: Pen) -> &mut Layer {
-        let next = self.layers.len();
-        let i = *self.index.entry(key.clone()).or_insert(next);
-        if i == next {
-            self.layers.push(Layer { name: key, pen, paths: Vec::new() });
-        }
-        &mut self.layers[i]
-    }
-
-    fn add_path(&mut self, p: &usvg::Path, layer: &str, t: Affine) {
-        if !p.is_visible() {
-            self.hidden += 1;
-            return;
-        }
-        let paint = p.stroke().map(usvg::Stroke::paint).or_else(|| p.fill().map(usvg::Fill::paint));
-        let color = match paint {
-            Some(usvg::Paint::Color(c)) => Rgb(c.red, c.green, c.blue),
-            _ => Rgb::BLACK,
-        };
-        let width_mm = p.stroke().map(|s| f64::from(s.width().get()) * MM_PER_PX * t.determinant().abs().sqrt());
-        let key = match self.layer_by {
-            LayerBy::Group => layer.to_string(),
-            LayerBy::Color => color.to_hex(),
-            LayerBy::None => "drawing".to_string(),
-        };
-        let mut pen = Pen { color, ..Pen::default() };
-        if let Some(w) = width_mm.filter(|w| *w > 0.0) {
-            pen.width_mm = w;
-        }
-        let to_mm = Affine::scale(MM_PER_PX) * t;
-        let map = move |q: usvg::tiny_skia_path::Point| -> Point { to_mm * Point::new(f64::from(q.x), f64::from(q.y)) };
-        let elements = p.data().segments().map(|seg| match seg {
-            usvg::tiny_skia_path::PathSegment::MoveTo(a) => PathEl::MoveTo(map(a)),
-            usvg::tiny_skia_path::PathSegment::LineTo(a) => PathEl::LineTo(map(a)),
-            usvg::tiny_skia_path::PathSegment::QuadTo(a, b) => PathEl::QuadTo(map(a), map(b)),
-            usvg::tiny_skia_path::PathSegment::CubicTo(a, b, c) => PathEl::CurveTo(map(a), map(b), map(c)),
-            usvg::tiny_skia_path::PathSegment::Close => PathEl::ClosePath,
-        });
-        let (polys, dropped) = flatten_path(elements, self.tolerance);
-        self.dropped_subpaths += dropped;
-        let target = self.layer_mut(key, pen);
-        target.paths.extend(polys.into_iter().map(Polyline::new));
-    }
 }
 
 #[cfg(test)]

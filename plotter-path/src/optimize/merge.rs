@@ -142,7 +142,7 @@ pub(crate) fn merge_paths(paths: Vec<Polyline>, tolerance: f64, allow_reverse: b
                 stats.closed += 1;
             }
         }
-        out.push((i, Polyline::new(pts)));
+        out.push((i, Polyline { points: pts, pen: paths[i].pen }));
     }
     out.sort_unstable_by_key(|e| e.0);
     (out.into_iter().map(|e| e.1).collect(), stats)

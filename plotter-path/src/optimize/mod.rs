@@ -100,7 +100,7 @@ impl Visit {
         if self.reversed {
             pts.reverse();
         }
-        Polyline::new(pts)
+        Polyline { points: pts, pen: path.pen }
     }
 }
 

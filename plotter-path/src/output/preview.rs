@@ -1,4 +1,5 @@
-//! Preview PNGs rendered with tiny-skia: the paper outline, pen-down strokes in each layer's colour, and
+//! Preview PNGs rendered with tiny-skia: the paper outline, pen-down strokes in each path's own colour and width
+//! (or its layer's pen), and
 //! optionally the pen-up travel as a thin dashed overlay.
 //!
 //! The same renderer serves every stage: the ideal paths of a drawing, a generated figure, and the "as-stepped"
@@ -74,6 +75,8 @@ pub struct PreviewOptions {
     pub paper: bool,
     /// Minimum stroke width on the image, pixels (so fine pens stay visible at low DPI).
     pub min_stroke_px: f64,
+    /// Maximum stroke width, mm (an SVG's wide strokes would otherwise hide the lines the pen draws).
+    pub max_stroke_mm: f64,
 }
 
 impl Default for PreviewOptions {
@@ -85,6 +88,7 @@ impl Default for PreviewOptions {
             travel_color: Rgb(230, 40, 90),
             paper: true,
             min_stroke_px: 1.0,
+            max_stroke_mm: 1.0,
         }
     }
 }
@@ -195,54 +199,28 @@ pub fn render_with_travel(
     let widest = view.width().hypot(view.height());
     let thin = THIN_PX / px_per_mm;
     for layer in &drawing.layers {
-        let mut paint = Paint::default();
-        paint.set_color(color(layer.pen.color, 255));
-        paint.anti_alias = true;
-        let width_mm = layer.pen.width_mm.max(options.min_stroke_px / px_per_mm);
-        let width_mm = if width_mm.is_finite() { width_mm.min(widest) } else { widest };
-        let stroke = Stroke {
-            width: narrow(width_mm),
-            line_cap: LineCap::Round,
-            line_join: LineJoin::Round,
-            ..Stroke::default()
-        };
-        let mut chunk = Chunk::default();
-        for path in &layer.paths {
-            let mut pts = path.points.iter();
-            let Some(&first) = pts.next() else { continue };
-            chunk.pb.move_to(narrow(first.x), narrow(first.y));
-            chunk.points += 1;
-            let mut last = first;
-            if path.points.len() == 1 {
-                // A dot: a zero-length segment still shows with round caps.
-                chunk.pb.line_to(narrow(first.x), narrow(first.y));
+        // Consecutive paths with the same pen are stroked together, each group with its own colour and width.
+        let mut start = 0;
+        while start < layer.paths.len() {
+            let pen = layer.paths[start].pen.unwrap_or(layer.pen);
+            let mut end = start + 1;
+            while end < layer.paths.len() && layer.paths[end].pen.unwrap_or(layer.pen) == pen {
+                end += 1;
             }
-            let n = path.points.len();
-            let mut split = false;
-            for (i, &p) in pts.enumerate() {
-                // Thin to a fraction of a pixel; the last point is always kept.
-                if i + 2 < n && p.distance(last) < thin {
-                    continue;
-                }
-                chunk.pb.line_to(narrow(p.x), narrow(p.y));
-                chunk.points += 1;
-                last = p;
-                if chunk.points >= CHUNK_POINTS && i + 2 < n {
-                    // Continue the same polyline in a new path from this point.
-                    chunk.flush(&mut pixmap, &paint, &stroke, transform);
-                    chunk.pb.move_to(narrow(p.x), narrow(p.y));
-                    split = true;
-                }
-            }
-            // (A split closed path ends on its first point anyway; with round joins and caps it looks the same.)
-            if path.is_closed() && !split {
-                chunk.pb.close();
-            }
-            if chunk.points >= CHUNK_POINTS {
-                chunk.flush(&mut pixmap, &paint, &stroke, transform);
-            }
+            let mut paint = Paint::default();
+            paint.set_color(color(visible_on_paper(pen.color), 255));
+            paint.anti_alias = true;
+            let width_mm = pen.width_mm.min(options.max_stroke_mm).max(options.min_stroke_px / px_per_mm);
+            let width_mm = if width_mm.is_finite() { width_mm.min(widest) } else { widest };
+            let stroke = Stroke {
+                width: narrow(width_mm),
+                line_cap: LineCap::Round,
+                line_join: LineJoin::Round,
+                ..Stroke::default()
+            };
+            stroke_group(&mut pixmap, &layer.paths[start..end], &paint, &stroke, transform, thin);
+            start = end;
         }
-        chunk.flush(&mut pixmap, &paint, &stroke, transform);
     }
 
     if options.travel && !travel.is_empty() {
@@ -267,6 +245,61 @@ pub fn render_with_travel(
         chunk.flush(&mut pixmap, &paint, &stroke, transform);
     }
     Ok(pixmap)
+}
+
+/// Stroke `paths` with one paint and stroke, in chunks of at most [`CHUNK_POINTS`] points, thinning vertices
+/// closer than `thin` mm (a fraction of a pixel).
+fn stroke_group(
+    pixmap: &mut Pixmap,
+    paths: &[crate::geometry::drawing::Polyline],
+    paint: &Paint<'_>,
+    stroke: &Stroke,
+    transform: Transform,
+    thin: f64,
+) {
+    let mut chunk = Chunk::default();
+    for path in paths {
+        let mut pts = path.points.iter();
+        let Some(&first) = pts.next() else { continue };
+        chunk.pb.move_to(narrow(first.x), narrow(first.y));
+        chunk.points += 1;
+        let mut last = first;
+        if path.points.len() == 1 {
+            // A dot: a zero-length segment still shows with round caps.
+            chunk.pb.line_to(narrow(first.x), narrow(first.y));
+        }
+        let n = path.points.len();
+        let mut split = false;
+        for (i, &p) in pts.enumerate() {
+            // Thin to a fraction of a pixel; the last point is always kept.
+            if i + 2 < n && p.distance(last) < thin {
+                continue;
+            }
+            chunk.pb.line_to(narrow(p.x), narrow(p.y));
+            chunk.points += 1;
+            last = p;
+            if chunk.points >= CHUNK_POINTS && i + 2 < n {
+                // Continue the same polyline in a new path from this point.
+                chunk.flush(pixmap, paint, stroke, transform);
+                chunk.pb.move_to(narrow(p.x), narrow(p.y));
+                split = true;
+            }
+        }
+        // (A split closed path ends on its first point anyway; with round joins and caps it looks the same.)
+        if path.is_closed() && !split {
+            chunk.pb.close();
+        }
+        if chunk.points >= CHUNK_POINTS {
+            chunk.flush(pixmap, paint, stroke, transform);
+        }
+    }
+    chunk.flush(pixmap, paint, stroke, transform);
+}
+
+/// Colours too light to see on the paper (luminance above 0.85: white, pale yellow) are shown as grey.
+fn visible_on_paper(c: Rgb) -> Rgb {
+    let lum = 0.2126 * f64::from(c.0) + 0.7152 * f64::from(c.1) + 0.0722 * f64::from(c.2);
+    if lum > 0.85 * 255.0 { Rgb(170, 170, 170) } else { c }
 }
 
 /// A path being built for the rasteriser, flushed every [`CHUNK_POINTS`] points.
@@ -315,7 +348,7 @@ pub fn save_pixmap(pixmap: &Pixmap, path: &Path) -> Result<(), PreviewError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::drawing::Polyline;
+    use crate::geometry::drawing::{Pen, Polyline};
     use kurbo::Point;
 
     fn pixel(p: &Pixmap, x: u32, y: u32) -> (u8, u8, u8) {
@@ -347,6 +380,37 @@ mod tests {
             u16::from(r) > u16::from(g) + 40
         });
         assert!(tinted, "travel overlay drawn");
+    }
+
+    #[test]
+    fn each_path_has_its_own_colour_and_a_clamped_width() {
+        let red = Pen { color: Rgb(255, 0, 0), width_mm: 4.4 };
+        let green = Pen { color: Rgb(0, 160, 0), width_mm: 0.3 };
+        let mut d = Drawing::single_layer(
+            "l",
+            vec![
+                Polyline::with_pen(vec![Point::new(10.0, 20.0), Point::new(90.0, 20.0)], red),
+                Polyline::with_pen(vec![Point::new(10.0, 60.0), Point::new(90.0, 60.0)], green),
+                Polyline::with_pen(
+                    vec![Point::new(10.0, 80.0), Point::new(90.0, 80.0)],
+                    Pen { color: Rgb(255, 255, 255), width_mm: 1.0 },
+                ),
+            ],
+        );
+        d.page_mm = Some((100.0, 100.0));
+        // 254 dpi → 10 px per mm; the view starts 2 mm before the page.
+        let opts = PreviewOptions { dpi: 254.0, ..PreviewOptions::default() };
+        let p = render(&d, &opts).unwrap();
+        // Page positions well inside the image: small positive values.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let at = |x: f64, y: f64| pixel(&p, ((x + 2.0) * 10.0) as u32, ((y + 2.0) * 10.0) as u32);
+        assert_eq!(at(50.0, 20.0), (255, 0, 0));
+        assert_eq!(at(50.0, 60.0), (0, 160, 0));
+        // 4.4 mm is clamped to 1 mm: 0.8 mm off the line is paper, not red.
+        assert_eq!(at(50.0, 20.8), (246, 246, 240));
+        assert_eq!(at(50.0, 20.3), (255, 0, 0));
+        // White ink is shown grey so it does not vanish.
+        assert_eq!(at(50.0, 80.0), (170, 170, 170));
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Golden and behaviour tests of the SVG importer.
 
 use super::*;
+use crate::geometry::drawing::Pen;
 
 fn import(svg: &str) -> Imported {
     import_svg(svg.as_bytes(), "test.svg", None, &SvgOptions::default()).unwrap()
@@ -174,7 +175,14 @@ fn layers_from_inkscape_labels_and_colours() {
       <g id="detail"><line x1="0" y1="10" x2="10" y2="10" stroke="#0000ff"/></g>
       <line x1="0" y1="20" x2="10" y2="20" stroke="#ff0000"/>
     </svg>"##;
-    let by_group = import(svg).drawing;
+    // Auto: the one Inkscape layer, and everything outside it (a plain group and a line) in `root`.
+    let auto = import(svg).drawing;
+    let names: Vec<&str> = auto.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Outline", "root"]);
+    assert_eq!(auto.layers[0].paths.len(), 2);
+    assert_eq!(auto.layers[1].paths.len(), 2);
+    let opts = SvgOptions { layer_by: LayerBy::Group, ..SvgOptions::default() };
+    let by_group = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap().drawing;
     let names: Vec<&str> = by_group.layers.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["Outline", "detail", "root"]);
     assert_eq!(by_group.layers[0].paths.len(), 2);
@@ -186,11 +194,11 @@ fn layers_from_inkscape_labels_and_colours() {
     assert_eq!(by_color.layers[0].paths.len(), 2);
     assert_eq!(by_color.layers[1].pen.color, Rgb(0, 0, 255));
 
-    let opts = SvgOptions { layers: vec!["detail".into()], ..SvgOptions::default() };
+    let opts = SvgOptions { layers: vec!["detail".into()], layer_by: LayerBy::Group, ..SvgOptions::default() };
     let only = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap().drawing;
     assert_eq!(only.layers.len(), 1);
     assert_eq!(only.layers[0].name, "detail");
-    let opts = SvgOptions { layers: vec!["nope".into()], ..SvgOptions::default() };
+    let opts = SvgOptions { layers: vec!["nope".into()], layer_by: LayerBy::Group, ..SvgOptions::default() };
     let err = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap_err().to_string();
     assert!(err.contains("no layer named 'nope'") && err.contains("Outline, detail, root"), "{err}");
 }
@@ -223,4 +231,501 @@ fn millimetre_documents_stay_exact() {
     let d = import(svg).drawing;
     assert_eq!(d.page_mm, Some((100.0, 50.0)));
     assert_points(&d.paths().next().unwrap().points, &[Point::new(10.0, 10.0), Point::new(90.0, 40.0)], 1e-9);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Real-world SVG: reading, layers, clips, masks, occlusion, dashes, opacity, page, hatch, text, images.
+// Documents use width/height in mm with a matching viewBox, so one user unit is one millimetre and every expected
+// length below is computed by hand in mm.
+
+/// A 100 × 100 mm page around `body`.
+fn mm_doc(body: &str) -> String {
+    format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink"
+            xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"
+            width="100mm" height="100mm" viewBox="0 0 100 100">{body}</svg>"##
+    )
+}
+
+fn import_with(svg: &str, options: &SvgOptions) -> Imported {
+    import_svg(svg.as_bytes(), "t.svg", None, options).unwrap()
+}
+
+/// Total pen-down length, mm.
+fn pen_down(d: &Drawing) -> f64 {
+    d.paths().map(Polyline::length).sum()
+}
+
+fn assert_len(d: &Drawing, expected: f64) {
+    let got = pen_down(d);
+    assert!((got - expected).abs() < 1e-3, "pen-down {got} mm, expected {expected} mm");
+}
+
+#[test]
+fn doctype_with_internal_entities() {
+    let svg = r##"<?xml version="1.0"?>
+<!DOCTYPE svg PUBLIC "-//W3C//DTD SVG 1.1//EN" "http://www.w3.org/Graphics/SVG/1.1/DTD/svg11.dtd" [
+  <!ENTITY ns_svg "http://www.w3.org/2000/svg">
+  <!ENTITY len "60">
+]>
+<svg xmlns="&ns_svg;" width="100mm" height="100mm" viewBox="0 0 100 100">
+  <line x1="10" y1="10" x2="&len;" y2="10" stroke="black"/>
+</svg>"##;
+    // 60 − 10 = 50 mm.
+    assert_len(&import(svg).drawing, 50.0);
+    let mut laughs = String::from("<?xml version=\"1.0\"?><!DOCTYPE svg [<!ENTITY a \"aaaaaaaaaa\">");
+    let mut prev = "a".to_string();
+    for i in 0..9 {
+        laughs.push_str(&format!("<!ENTITY a{i} \"{}\">", format!("&{prev};").repeat(10)));
+        prev = format!("a{i}");
+    }
+    laughs.push_str(&format!("]><svg xmlns=\"http://www.w3.org/2000/svg\"><text>&{prev};</text></svg>"));
+    let err = import_svg(laughs.as_bytes(), "laughs.svg", None, &SvgOptions::default()).unwrap_err().to_string();
+    assert!(err.starts_with("laughs.svg") && err.contains("billion laughs"), "{err}");
+}
+
+#[test]
+fn each_encoding_reads() {
+    // A 30 mm line with a non-ASCII id, written in each encoding.
+    let body = |decl: &str| {
+        format!(
+            r##"<?xml version="1.0" encoding="{decl}"?><svg xmlns="http://www.w3.org/2000/svg" width="100mm"
+            height="100mm" viewBox="0 0 100 100"><line id="café" x1="0" y1="5" x2="30" y2="5" stroke="black"/></svg>"##
+        )
+    };
+    let latin1 = |s: &str| s.chars().map(|c| u8::try_from(u32::from(c)).unwrap()).collect::<Vec<u8>>();
+    let utf16le: Vec<u8> =
+        [0xff, 0xfe].into_iter().chain(body("UTF-16").encode_utf16().flat_map(u16::to_le_bytes)).collect();
+    let utf16be: Vec<u8> =
+        [0xfe, 0xff].into_iter().chain(body("UTF-16").encode_utf16().flat_map(u16::to_be_bytes)).collect();
+    let cases: [(&str, Vec<u8>); 5] = [
+        ("ISO-8859-1", latin1(&body("ISO-8859-1"))),
+        ("ISO-8859-15", latin1(&body("ISO-8859-15"))),
+        ("windows-1252", latin1(&body("windows-1252"))),
+        ("UTF-16LE", utf16le),
+        ("UTF-16BE", utf16be),
+    ];
+    for (what, bytes) in cases {
+        let imported =
+            import_svg(&bytes, "enc.svg", None, &SvgOptions::default()).unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_len(&imported.drawing, 30.0);
+    }
+}
+
+#[test]
+fn gzip_compressed_svg() {
+    use std::io::Write;
+    let svg = mm_doc(r#"<line x1="0" y1="5" x2="40" y2="5" stroke="black"/>"#);
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    gz.write_all(svg.as_bytes()).unwrap();
+    let bytes = gz.finish().unwrap();
+    assert_len(&import_svg(&bytes, "a.svgz", None, &SvgOptions::default()).unwrap().drawing, 40.0);
+    let err = import_svg(&bytes[..bytes.len() / 2], "b.svgz", None, &SvgOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("gzip"), "{err}");
+}
+
+#[test]
+fn inkscape_layers_versus_plain_groups() {
+    // Two Inkscape layers (20 + 10 mm, and 30 mm), each holding plain groups: two pens.
+    let layered = mm_doc(
+        r##"<g id="layer1" inkscape:groupmode="layer" inkscape:label="Ink">
+              <g id="g1"><line x1="0" y1="0" x2="20" y2="0" stroke="red"/></g>
+              <g id="g2"><line x1="0" y1="5" x2="10" y2="5" stroke="blue"/></g></g>
+            <g id="layer2" inkscape:groupmode="layer" inkscape:label="Pencil">
+              <line x1="0" y1="9" x2="30" y2="9" stroke="black"/></g>"##,
+    );
+    let d = import(&layered).drawing;
+    let names: Vec<&str> = d.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Ink", "Pencil"]);
+    assert!((d.layers[0].paths.iter().map(Polyline::length).sum::<f64>() - 30.0).abs() < 1e-6);
+    assert!((d.layers[1].paths.iter().map(Polyline::length).sum::<f64>() - 30.0).abs() < 1e-6);
+    // The same without layer marks: 3 plain groups, a top-level <use> and a marker are one pen in auto mode.
+    let plain = mm_doc(
+        r##"<defs><marker id="m" markerWidth="4" markerHeight="4" refX="0" refY="0">
+              <line x1="0" y1="0" x2="2" y2="0" stroke="black"/></marker>
+              <line id="tick" x1="0" y1="0" x2="5" y2="0" stroke="black"/></defs>
+            <g id="a"><line x1="0" y1="0" x2="20" y2="0" stroke="red"/></g>
+            <g id="b"><line x1="0" y1="5" x2="10" y2="5" stroke="blue"/></g>
+            <g id="c"><line x1="0" y1="9" x2="30" y2="9" stroke="black" marker-end="url(#m)"/></g>
+            <use xlink:href="#tick" y="20"/>"##,
+    );
+    let d = import(&plain).drawing;
+    assert_eq!(d.layers.len(), 1);
+    // 20 + 10 + 30 + the marker's 2 mm (stroke width 1 scales markers by 1) + the 5 mm <use>.
+    assert_len(&d, 67.0);
+    let groups = import_with(&plain, &SvgOptions { layer_by: LayerBy::Group, ..SvgOptions::default() }).drawing;
+    let names: Vec<&str> = groups.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["a", "b", "c", "root"], "the <use> is not a layer of its own");
+}
+
+#[test]
+fn colour_layers_normalise_colour_names() {
+    let svg = mm_doc(
+        r##"<line x1="0" y1="0" x2="10" y2="0" stroke="red"/>
+            <line x1="0" y1="5" x2="10" y2="5" stroke="#ff0000"/>
+            <line x1="0" y1="9" x2="10" y2="9" stroke="rgb(255,0,0)"/>
+            <line x1="0" y1="12" x2="10" y2="12" stroke="#00f"/>"##,
+    );
+    let d = import_with(&svg, &SvgOptions { layer_by: LayerBy::Color, ..SvgOptions::default() }).drawing;
+    let names: Vec<&str> = d.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["#ff0000", "#0000ff"]);
+    assert_eq!(d.layers[0].paths.len(), 3);
+}
+
+#[test]
+fn clip_paths_cut_exactly() {
+    let line = r#"<line x1="-10" y1="50" x2="110" y2="50" stroke="black"/>"#;
+    // A rectangle clip x 20..80: 60 mm of the line stay.
+    let simple = mm_doc(&format!(
+        r#"<clipPath id="c"><rect x="20" y="0" width="60" height="100"/></clipPath><g clip-path="url(#c)">{line}</g>"#
+    ));
+    assert_len(&import(&simple).drawing, 60.0);
+    // Nested: the clip path itself clipped to x 50..100 → 50..80 = 30 mm.
+    let nested = mm_doc(&format!(
+        r#"<clipPath id="outer"><rect x="50" y="0" width="50" height="100"/></clipPath>
+           <clipPath id="c" clip-path="url(#outer)"><rect x="20" y="0" width="60" height="100"/></clipPath>
+           <g clip-path="url(#c)">{line}</g>"#
+    ));
+    assert_len(&import(&nested).drawing, 30.0);
+    // clip-rule evenodd: two nested squares make a frame; x 10..90 minus 30..70 = 80 − 40 = 40 mm.
+    let frame = |rule: &str| {
+        mm_doc(&format!(
+            r#"<clipPath id="c"><path clip-rule="{rule}" d="M10 10 H90 V90 H10 Z M30 30 H70 V70 H30 Z"/></clipPath>
+               <g clip-path="url(#c)">{line}</g>"#
+        ))
+    };
+    assert_len(&import(&frame("evenodd")).drawing, 40.0);
+    assert_len(&import(&frame("nonzero")).drawing, 80.0);
+    // objectBoundingBox units: the left half of a 100 × 100 square's outline = 100 (left) + 50 + 50 = 200 mm.
+    let obb = mm_doc(
+        r#"<clipPath id="c" clipPathUnits="objectBoundingBox"><rect x="0" y="0" width="0.5" height="1"/></clipPath>
+           <rect x="0" y="0" width="100" height="100" fill="none" stroke="black" clip-path="url(#c)"/>"#,
+    );
+    assert_len(&import(&obb).drawing, 200.0);
+}
+
+#[test]
+fn nested_svg_viewport_clips() {
+    // Inner viewport at (10, 10), 50 × 50 mm: a 120 mm line across it keeps 50 mm.
+    let svg = mm_doc(
+        r#"<svg x="10" y="10" width="50" height="50" viewBox="0 0 50 50">
+             <line x1="-20" y1="25" x2="100" y2="25" stroke="black"/></svg>"#,
+    );
+    let d = import(&svg).drawing;
+    assert_len(&d, 50.0);
+    let b = d.bbox().unwrap();
+    assert!((b.x0 - 10.0).abs() < 1e-6 && (b.x1 - 60.0).abs() < 1e-6 && (b.y0 - 35.0).abs() < 1e-6, "{b:?}");
+}
+
+#[test]
+fn masks_cut_to_their_opaque_area() {
+    let line = r#"<line x1="0" y1="50" x2="100" y2="50" stroke="black"/>"#;
+    // White rect x 20..80 with a black square x 40..50 painted over it: 60 − 10 = 50 mm.
+    let svg = mm_doc(&format!(
+        r#"<mask id="m" maskUnits="userSpaceOnUse" x="0" y="0" width="100" height="100">
+             <rect x="20" y="0" width="60" height="100" fill="white"/>
+             <rect x="40" y="40" width="10" height="20" fill="black"/></mask>
+           <g mask="url(#m)">{line}</g>"#
+    ));
+    let imported = import(&svg);
+    assert_len(&imported.drawing, 50.0);
+    assert!(imported.warnings.is_empty(), "{:?}", imported.warnings);
+    // A grey mask is cut at half opacity and reported.
+    let grey = mm_doc(&format!(
+        r##"<mask id="m" maskUnits="userSpaceOnUse" x="0" y="0" width="100" height="100">
+             <rect x="20" y="0" width="60" height="100" fill="#c0c0c0"/></mask><g mask="url(#m)">{line}</g>"##
+    ));
+    let imported = import(&grey);
+    assert_len(&imported.drawing, 60.0);
+    assert!(imported.warnings.iter().any(|w| w.contains("partly transparent")), "{:?}", imported.warnings);
+}
+
+#[test]
+fn occlusion_of_two_overlapping_rectangles() {
+    // A: 0..40 outline (fill white), B: 20..60 filled red with an outline, painted after A.
+    // A's perimeter 160 mm loses its right edge y 20..40 and bottom edge x 20..40 under B: 160 − 40 = 120.
+    // B's perimeter 160 stays. Total 280 mm; without occlusion 320 mm.
+    let svg = mm_doc(
+        r#"<rect x="0" y="0" width="40" height="40" fill="none" stroke="black"/>
+           <rect x="20" y="20" width="40" height="40" fill="red" stroke="black"/>"#,
+    );
+    assert_len(&import(&svg).drawing, 280.0);
+    assert_len(&import_with(&svg, &SvgOptions { occlusion: false, ..SvgOptions::default() }).drawing, 320.0);
+    // A translucent fill hides nothing.
+    let translucent = svg.replace(r#"fill="red""#, r#"fill="red" fill-opacity="0.5""#);
+    assert_len(&import(&translucent).drawing, 320.0);
+}
+
+#[test]
+fn white_fill_only_shape_masks_a_line_and_is_not_drawn() {
+    // A 100 mm line under a white 40 mm wide rectangle: 60 mm stay, the rectangle draws nothing.
+    let svg = mm_doc(
+        r#"<line x1="0" y1="50" x2="100" y2="50" stroke="black"/>
+           <rect x="30" y="0" width="40" height="100" fill="white"/>"#,
+    );
+    let d = import(&svg).drawing;
+    assert_len(&d, 60.0);
+    assert_eq!(d.path_count(), 2);
+}
+
+#[test]
+fn hatch_of_a_square() {
+    // Square 20 × 20 at (10, 10.5): horizontal hatch at 1 mm spacing on lines y = 11 … 30 (20 lines of 20 mm),
+    // linked into one zig-zag by 19 connectors of 1 mm along the sides, plus the 80 mm outline: 499 mm.
+    let svg = mm_doc(r#"<rect x="10" y="10.5" width="20" height="20" fill="black"/>"#);
+    let hatch = FillHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false, link: true };
+    let d = import_with(&svg, &SvgOptions { hatch: Some(hatch), ..SvgOptions::default() }).drawing;
+    assert_len(&d, 80.0 + 400.0 + 19.0);
+    assert_eq!(d.path_count(), 2, "outline + one zig-zag");
+    // A hole (even-odd) is left empty: 10 × 10 hole at (15, 15.5) removes 10 lines × 10 mm.
+    let holed =
+        mm_doc(r#"<path fill-rule="evenodd" fill="black" d="M10 10.5 h20 v20 h-20 Z M15 15.5 h10 v10 h-10 Z"/>"#);
+    let d =
+        import_with(&holed, &SvgOptions { hatch: Some(FillHatch { link: false, ..hatch }), ..SvgOptions::default() })
+            .drawing;
+    assert_len(&d, 80.0 + 40.0 + 400.0 - 100.0);
+}
+
+#[test]
+fn dashes_are_separate_strokes() {
+    // 100 mm, dasharray 10 5: dashes at 0, 15, …, 90 → 7 dashes, 70 mm.
+    let svg = mm_doc(r#"<line x1="0" y1="5" x2="100" y2="5" stroke="black" stroke-dasharray="10 5"/>"#);
+    let d = import(&svg).drawing;
+    assert_eq!(d.path_count(), 7);
+    assert_len(&d, 70.0);
+    // Offset 5: dash 0..5, then 10..20, 25..35, 40..50, 55..65, 70..80, 85..95: 5 + 6 × 10 = 65 mm.
+    let offset = svg.replace(r#"stroke-dasharray="10 5""#, r#"stroke-dasharray="10 5" stroke-dashoffset="5""#);
+    let d = import(&offset).drawing;
+    assert_eq!(d.path_count(), 7);
+    assert_len(&d, 65.0);
+}
+
+#[test]
+fn fully_transparent_shapes_are_skipped_with_a_warning() {
+    let svg = mm_doc(
+        r#"<line x1="0" y1="5" x2="10" y2="5" stroke="black" opacity="0"/>
+           <rect x="0" y="10" width="10" height="10" fill="black" fill-opacity="0"/>
+           <g opacity="0"><line x1="0" y1="30" x2="50" y2="30" stroke="black"/></g>
+           <rect x="50" y="50" width="10" height="10" fill="black" stroke="black" stroke-opacity="0"/>
+           <line x1="0" y1="90" x2="25" y2="90" stroke="black"/>"#,
+    );
+    let imported = import(&svg);
+    // Only the last line (25) and the filled square's outline (40; its stroke is transparent) are drawn.
+    assert_len(&imported.drawing, 65.0);
+    assert!(imported.warnings.iter().any(|w| w.contains("3 fully transparent shape(s)")), "{:?}", imported.warnings);
+}
+
+#[test]
+fn off_page_geometry_is_reported_and_cropped() {
+    let svg = mm_doc(r#"<line id="long" x1="50" y1="50" x2="150" y2="50" stroke="black"/>"#);
+    let imported = import(&svg);
+    assert_len(&imported.drawing, 100.0);
+    let w = imported.warnings.join("\n");
+    assert!(w.contains("50.0 mm of pen-down lines in 1 element(s) (<path id=\"long\">)"), "{w}");
+    let cropped = import_with(&svg, &SvgOptions { crop: true, ..SvgOptions::default() });
+    assert_len(&cropped.drawing, 50.0);
+}
+
+#[test]
+fn single_stroke_text() {
+    // Hershey Roman Simplex "L": stem from y −12 to 9 (21 units) and foot from x −6 to 6 (12 units), 33 units.
+    // font-size 32 mm = 32 Hershey units per em, so one unit is 1 mm: 33 mm of pen-down lines in 2 strokes.
+    let svg = mm_doc(r#"<text x="10" y="50" font-family="sans-serif" font-size="32">L</text>"#);
+    let opts = SvgOptions { text: TextMode::SingleStroke, ..SvgOptions::default() };
+    let result = import_svg(svg.as_bytes(), "t.svg", None, &opts);
+    let mut db = usvg::fontdb::Database::new();
+    db.load_system_fonts();
+    if db.is_empty() {
+        return; // no font to lay text out with: covered by text_becomes_glyph_outlines_or_warns_without_fonts
+    }
+    let imported = result.unwrap();
+    if hershey::HersheyFont::load_default().is_err() {
+        assert!(imported.warnings.iter().any(|w| w.contains("hershey-fonts-data")), "{:?}", imported.warnings);
+        return;
+    }
+    assert_eq!(imported.drawing.path_count(), 2);
+    assert_len(&imported.drawing, 33.0);
+    // The baseline sits at y = 50, the cap line 21 mm above; the glyph's left bound (x = −10) is at the origin
+    // x = 10, so the stem (x = −6) is at 14 mm and the foot ends at 14 + 12 = 26 mm.
+    let b = imported.drawing.bbox().unwrap();
+    assert!((b.y1 - 50.0).abs() < 1e-3 && (b.y0 - 29.0).abs() < 1e-3, "{b:?}");
+    assert!((b.x0 - 14.0).abs() < 1e-3 && (b.x1 - 26.0).abs() < 1e-3, "{b:?}");
+}
+
+/// Standard base64 (for data URIs in tests).
+fn base64(data: &[u8]) -> String {
+    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in data.chunks(3) {
+        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for i in 0..4 {
+            if i <= chunk.len() {
+                out.push(char::from(T[((n >> (18 - 6 * i)) & 63) as usize]));
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn embedded_png_is_traced_in_place() {
+    // 20 × 20 px white PNG with a black 10 × 10 px square at (5, 5), shown 20 × 20 mm at (30, 40): one pixel is
+    // 1 mm. The outline tracer runs between pixel centres, so the square's edges lie on its pixel edges (x 35..45,
+    // y 45..55) and each corner is cut by the diagonal between the midpoints next to it: 40 mm of edges lose
+    // 4 × 1 mm and gain 4 × √½ mm.
+    let img = image::GrayImage::from_fn(20, 20, |x, y| {
+        image::Luma([if (5..15).contains(&x) && (5..15).contains(&y) { 0 } else { 255 }])
+    });
+    let mut png = Vec::new();
+    image::DynamicImage::ImageLuma8(img)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let svg = mm_doc(&format!(
+        r#"<image x="30" y="40" width="20" height="20" xlink:href="data:image/png;base64,{}"/>"#,
+        base64(&png)
+    ));
+    let skipped = import_svg(svg.as_bytes(), "i.svg", None, &SvgOptions::default()).unwrap_err().to_string();
+    assert!(skipped.contains("embedded raster image not traced"), "{skipped}");
+    let opts = SvgOptions {
+        images: Some(ImageTrace { trace: crate::input::raster::TraceOptions::default() }),
+        ..SvgOptions::default()
+    };
+    let d = import_with(&svg, &opts).drawing;
+    assert_len(&d, 40.0 - 4.0 + 4.0 * 0.5f64.sqrt());
+    let b = d.bbox().unwrap();
+    // usvg's image transform is f32: a few µm of rounding.
+    assert!((b.x0 - 35.0).abs() < 1e-5 && (b.y0 - 45.0).abs() < 1e-5 && (b.x1 - 45.0).abs() < 1e-5, "{b:?}");
+}
+
+#[test]
+fn paths_carry_their_own_colour_and_width() {
+    let svg = mm_doc(
+        r#"<line x1="0" y1="5" x2="10" y2="5" stroke="red" stroke-width="2"/>
+           <line x1="0" y1="9" x2="10" y2="9" stroke="blue" stroke-width="0.5"/>"#,
+    );
+    let d = import(&svg).drawing;
+    let pens: Vec<Pen> = d.paths().map(|p| p.pen.unwrap()).collect();
+    assert_eq!(pens[0], Pen { color: Rgb(255, 0, 0), width_mm: 2.0 });
+    assert_eq!(pens[1], Pen { color: Rgb(0, 0, 255), width_mm: 0.5 });
+}
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Even-odd point-in-polygon on the original polygon (independent of the region code).
+    fn inside(poly: &[(f64, f64)], p: Point) -> bool {
+        let mut c = false;
+        for i in 0..poly.len() {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            if (a.1 > p.y) != (b.1 > p.y) && p.x < a.0 + (p.y - a.1) * (b.0 - a.0) / (b.1 - a.1) {
+                c = !c;
+            }
+        }
+        c
+    }
+
+    fn dist_to_polygon(poly: &[(f64, f64)], p: Point) -> f64 {
+        (0..poly.len())
+            .map(|i| {
+                let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+                let seg = kurbo::Line::new(a, b);
+                kurbo::ParamCurveNearest::nearest(&seg, p, 1e-12).distance_sq.sqrt()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    fn star() -> impl Strategy<Value = Vec<(f64, f64)>> {
+        (prop::collection::vec(5.0..45.0f64, 5..12), 30.0..70.0f64, 30.0..70.0f64).prop_map(|(radii, cx, cy)| {
+            let n = radii.len() as f64;
+            radii
+                .iter()
+                .enumerate()
+                .map(|(i, r)| {
+                    let a = i as f64 / n * std::f64::consts::TAU;
+                    (cx + r * a.cos(), cy + r * a.sin())
+                })
+                .collect()
+        })
+    }
+
+    fn lines() -> impl Strategy<Value = Vec<[(f64, f64); 2]>> {
+        prop::collection::vec(((0.0..100.0f64, 0.0..100.0f64), (0.0..100.0f64, 0.0..100.0f64)), 1..6)
+            .prop_map(|v| v.into_iter().map(|(a, b)| [a, b]).collect())
+    }
+
+    fn poly_attr(poly: &[(f64, f64)]) -> String {
+        poly.iter().map(|(x, y)| format!("{x},{y}")).collect::<Vec<_>>().join(" ")
+    }
+
+    fn line_elems(ls: &[[(f64, f64); 2]]) -> String {
+        ls.iter()
+            .map(|[a, b]| format!(r#"<line x1="{}" y1="{}" x2="{}" y2="{}" stroke="black"/>"#, a.0, a.1, b.0, b.1))
+            .collect()
+    }
+
+    /// usvg keeps coordinates in f32: allow its rounding (1e-5 mm at 100 mm) plus the cut's grid.
+    const EPS: f64 = 1e-4;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn no_clipped_point_lies_outside_its_clip(poly in star(), ls in lines()) {
+            let svg = mm_doc(&format!(
+                r#"<clipPath id="c"><polygon points="{}"/></clipPath><g clip-path="url(#c)">{}</g>"#,
+                poly_attr(&poly), line_elems(&ls)
+            ));
+            let Ok(imported) = import_svg(svg.as_bytes(), "p.svg", None, &SvgOptions::default()) else {
+                return Ok(()); // every line missed the clip: nothing to draw
+            };
+            for path in imported.drawing.paths() {
+                for w in path.points.windows(2) {
+                    for p in [w[0], w[1], w[0].midpoint(w[1])] {
+                        prop_assert!(inside(&poly, p) || dist_to_polygon(&poly, p) < EPS, "{p:?} outside the clip");
+                    }
+                }
+            }
+        }
+
+        #[test]
+        fn no_pen_down_point_strictly_inside_a_later_opaque_fill(poly in star(), ls in lines()) {
+            let svg = mm_doc(&format!(r#"{}<polygon points="{}" fill="green"/>"#, line_elems(&ls), poly_attr(&poly)));
+            let imported = import_svg(svg.as_bytes(), "p.svg", None, &SvgOptions::default()).unwrap();
+            // The polygon's own outline is the last path; every earlier one was a line under it.
+            let paths: Vec<&Polyline> = imported.drawing.paths().collect();
+            let polygon_len: f64 = (0..poly.len())
+                .map(|i| Point::from(poly[i]).distance(Point::from(poly[(i + 1) % poly.len()])))
+                .sum();
+            let (lines_part, outline) = paths.split_at(paths.len() - 1);
+            prop_assert!((outline[0].length() - polygon_len).abs() < 1e-3);
+            for path in lines_part {
+                for w in path.points.windows(2) {
+                    for p in [w[0], w[1], w[0].midpoint(w[1])] {
+                        prop_assert!(!inside(&poly, p) || dist_to_polygon(&poly, p) < EPS, "{p:?} is hidden");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn wide_strokes_filled_with_pen_wide_passes() {
+    // A 10 mm line at y = 5.25, 2 mm wide (butt caps): its ink is the rectangle x 0..10, y 4.25..6.25. With a
+    // 0.5 mm pen and passes at angle 0, the passes lie on y = 4.5, 5.0, 5.5, 6.0 (4 × 10 mm), linked by 3 × 0.5 mm,
+    // plus the 10 mm centre line: 51.5 mm.
+    let svg = mm_doc(r#"<line x1="0" y1="5.25" x2="10" y2="5.25" stroke="black" stroke-width="2"/>"#);
+    let opts = SvgOptions {
+        fill_strokes: Some(0.5),
+        hatch: Some(FillHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false, link: true }),
+        ..SvgOptions::default()
+    };
+    assert_len(&import_with(&svg, &opts).drawing, 51.5);
+    // Strokes no wider than 1.5 pens are left as their centre line.
+    let thin = svg.replace(r#"stroke-width="2""#, r#"stroke-width="0.7""#);
+    assert_len(&import_with(&thin, &opts).drawing, 10.0);
 }

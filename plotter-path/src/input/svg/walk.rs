@@ -1,0 +1,539 @@
+//! The walk over usvg's tree in paint order: every visible shape becomes an [`Item`] — the pen lines it puts on
+//! paper (stroke centre lines, dashed where the stroke is dashed; outlines of fills; hatching), cut to the clip
+//! paths, masks and nested viewports above it, and the opaque area it covers (for hidden-line removal).
+//!
+//! **Clips.** usvg resolves `clipPathUnits`, `clip-rule` (as the clip children's fill rule) and turns nested
+//! `<svg>` viewports and sliced images into rectangular clip paths on groups. A clip path's area is the union of
+//! its children (each a [`Region`] under its own rule, intersected with the child's own clip path), intersected
+//! with the clip path's own `clip-path`, all mapped to page millimetres with the group's transform, as resvg draws
+//! them. **Masks** become the area where the mask is at least half opaque: mask children are painted in order,
+//! each adding its area when its luminance (or alpha, for `mask-type="alpha"`) times its opacity is ≥ 0.5 and
+//! removing it otherwise; the result is cut to the mask's rectangle and its own nested mask. A mask with values
+//! strictly between 0 and 1 (grey, gradients, partial opacity) is reported, since a pen has no half tones.
+//!
+//! **Opacity.** The opacity of the enclosing groups multiplies each paint's own. A shape whose fill and stroke are
+//! both fully transparent is skipped (counted for a warning); a fill is an occluder only when it is fully opaque
+//! (a colour, or a gradient whose stops are all opaque, at opacity 1). A fill-only shape in the paper's colour
+//! draws nothing: it only hides what lies under it.
+
+use std::collections::HashMap;
+
+use kurbo::{Affine, PathEl, Point};
+use usvg::tiny_skia_path;
+
+use super::hershey::{self, HersheyFont};
+use super::{LayerBy, MM_PER_PX, SvgOptions, TextMode};
+use crate::geometry::drawing::{Pen, Rgb};
+use crate::geometry::flatten::flatten_path;
+use crate::geometry::hatch::{FillHatch, hatch};
+use crate::geometry::region::{FillRule, Keep, Region, cut};
+use crate::input::raster;
+
+/// One painted shape, in paint order.
+#[derive(Debug, Clone)]
+pub(super) struct Item {
+    /// Index into [`Walker::layer_names`].
+    pub(super) layer: usize,
+    /// Colour and stroke width, for previews.
+    pub(super) pen: Pen,
+    /// Pen-down lines in page millimetres, already cut to the clips above the shape.
+    pub(super) lines: Vec<Vec<Point>>,
+    /// The opaque area the shape's fill covers (cut to its clips), if any.
+    pub(super) occluder: Option<Region>,
+    /// The element, for messages: `<path id="x">` or `<path>`.
+    pub(super) element: String,
+}
+
+/// Counts of what was skipped, for warnings.
+#[derive(Debug, Default)]
+pub(super) struct Skipped {
+    pub(super) hidden: usize,
+    pub(super) transparent: usize,
+    pub(super) dropped_subpaths: usize,
+    pub(super) partial_masks: usize,
+    pub(super) clip_text: usize,
+    pub(super) hatch_refused: usize,
+}
+
+/// Where the walk is: the transform to CSS px, the clip areas to cut by, the opacity, the layer.
+#[derive(Clone)]
+struct Ctx {
+    t: Affine,
+    clips: Vec<std::rc::Rc<Region>>,
+    opacity: f32,
+    layer: Option<usize>,
+}
+
+pub(super) struct Walker<'a> {
+    pub(super) options: &'a SvgOptions,
+    /// Inkscape layer (or top-level group) ids → layer names.
+    pub(super) layer_groups: &'a HashMap<String, String>,
+    pub(super) layer_names: Vec<String>,
+    index: HashMap<String, usize>,
+    pub(super) items: Vec<Item>,
+    pub(super) skipped: Skipped,
+    pub(super) warnings: Vec<String>,
+    font: Option<Result<HersheyFont, String>>,
+    name: &'a str,
+}
+
+fn affine(t: &usvg::Transform) -> Affine {
+    Affine::new([t.sx, t.ky, t.kx, t.sy, t.tx, t.ty].map(f64::from))
+}
+
+fn rgb(c: usvg::Color) -> Rgb {
+    Rgb(c.red, c.green, c.blue)
+}
+
+/// The paint's colour (a gradient's first stop; black for patterns) and whether it is fully opaque.
+fn paint_color(p: &usvg::Paint) -> (Rgb, bool) {
+    let stops = |s: &[usvg::Stop]| {
+        let first = s.first().map_or(Rgb::BLACK, |s| rgb(s.color()));
+        (first, !s.is_empty() && s.iter().all(|s| s.opacity().get() >= 1.0))
+    };
+    match p {
+        usvg::Paint::Color(c) => (rgb(*c), true),
+        usvg::Paint::LinearGradient(g) => stops(g.stops()),
+        usvg::Paint::RadialGradient(g) => stops(g.stops()),
+        usvg::Paint::Pattern(_) => (Rgb::BLACK, false),
+    }
+}
+
+/// Luminance of an sRGB colour, 0..1 (the coefficients of the SVG mask luminance).
+fn luminance(c: Rgb) -> f32 {
+    (0.2125 * f32::from(c.0) + 0.7154 * f32::from(c.1) + 0.0721 * f32::from(c.2)) / 255.0
+}
+
+fn describe(tag: &str, id: &str) -> String {
+    if id.is_empty() { format!("<{tag}>") } else { format!("<{tag} id=\"{id}\">") }
+}
+
+impl<'a> Walker<'a> {
+    pub(super) fn new(options: &'a SvgOptions, layer_groups: &'a HashMap<String, String>, name: &'a str) -> Self {
+        Walker {
+            options,
+            layer_groups,
+            layer_names: Vec::new(),
+            index: HashMap::new(),
+            items: Vec::new(),
+            skipped: Skipped::default(),
+            warnings: Vec::new(),
+            font: None,
+            name,
+        }
+    }
+
+    fn layer_index(&mut self, key: &str) -> usize {
+        if let Some(i) = self.index.get(key) {
+            return *i;
+        }
+        self.layer_names.push(key.to_owned());
+        self.index.insert(key.to_owned(), self.layer_names.len() - 1);
+        self.layer_names.len() - 1
+    }
+
+    /// Walk the root's children with `t` (user units → px).
+    pub(super) fn walk_root(&mut self, root: &usvg::Group, t: Affine) {
+        let ctx = Ctx { t, clips: Vec::new(), opacity: 1.0, layer: None };
+        for node in root.children() {
+            self.walk(node, &ctx);
+        }
+    }
+
+    fn walk(&mut self, node: &usvg::Node, ctx: &Ctx) {
+        match node {
+            usvg::Node::Group(g) => self.walk_group(g, ctx),
+            usvg::Node::Path(p) => self.add_path(p, ctx, "path"),
+            usvg::Node::Text(text) => match self.options.text {
+                TextMode::Outlines => self.walk_group(text.flattened(), ctx),
+                TextMode::SingleStroke => self.single_stroke(text, ctx),
+            },
+            usvg::Node::Image(image) => self.add_image(image, ctx),
+        }
+    }
+
+    fn walk_group(&mut self, g: &usvg::Group, ctx: &Ctx) {
+        let mut ctx = ctx.clone();
+        if ctx.layer.is_none()
+            && let Some(name) = self.layer_groups.get(g.id())
+        {
+            let name = name.clone();
+            ctx.layer = Some(self.layer_index(&name));
+        }
+        ctx.opacity *= g.opacity().get();
+        if ctx.opacity <= 0.0 {
+            self.skipped.transparent += count_shapes(g);
+            return;
+        }
+        ctx.t *= affine(&g.transform());
+        if let Some(cp) = g.clip_path() {
+            let r = self.clip_region(cp, ctx.t);
+            ctx.clips.push(std::rc::Rc::new(r));
+        }
+        if let Some(mask) = g.mask() {
+            let r = self.mask_region(mask, ctx.t);
+            ctx.clips.push(std::rc::Rc::new(r));
+        }
+        for child in g.children() {
+            self.walk(child, &ctx);
+        }
+    }
+
+    /// The layer an item goes to.
+    fn item_layer(&mut self, ctx: &Ctx, color: Rgb) -> usize {
+        match self.options.layer_by {
+            LayerBy::Color => self.layer_index(&color.to_hex()),
+            LayerBy::None => self.layer_index("drawing"),
+            LayerBy::Auto | LayerBy::Group => match ctx.layer {
+                Some(i) => i,
+                None if self.options.layer_by == LayerBy::Auto && self.layer_groups.is_empty() => {
+                    self.layer_index("drawing")
+                }
+                None => self.layer_index("root"),
+            },
+        }
+    }
+
+    /// Flatten usvg path data under `t` (px) into mm polylines.
+    fn flatten(&mut self, data: &tiny_skia_path::Path, t: Affine) -> Vec<Vec<Point>> {
+        let to_mm = Affine::scale(MM_PER_PX) * t;
+        let map = move |q: tiny_skia_path::Point| -> Point { to_mm * Point::new(f64::from(q.x), f64::from(q.y)) };
+        let elements = data.segments().map(|seg| match seg {
+            tiny_skia_path::PathSegment::MoveTo(a) => PathEl::MoveTo(map(a)),
+            tiny_skia_path::PathSegment::LineTo(a) => PathEl::LineTo(map(a)),
+            tiny_skia_path::PathSegment::QuadTo(a, b) => PathEl::QuadTo(map(a), map(b)),
+            tiny_skia_path::PathSegment::CubicTo(a, b, c) => PathEl::CurveTo(map(a), map(b), map(c)),
+            tiny_skia_path::PathSegment::Close => PathEl::ClosePath,
+        });
+        let (polys, dropped) = flatten_path(elements, self.options.tolerance_mm);
+        self.skipped.dropped_subpaths += dropped;
+        polys
+    }
+
+    /// Flatten for an area: every subpath counts, implicitly closed.
+    fn area(&mut self, data: &tiny_skia_path::Path, t: Affine, rule: FillRule) -> Region {
+        let before = self.skipped.dropped_subpaths;
+        let polys = self.flatten(data, t);
+        self.skipped.dropped_subpaths = before;
+        Region::from_contours(polys.iter().map(Vec::as_slice), rule)
+    }
+
+    fn cut_to_clips(lines: Vec<Vec<Point>>, clips: &[std::rc::Rc<Region>]) -> Vec<Vec<Point>> {
+        clips.iter().fold(lines, |lines, c| if lines.is_empty() { lines } else { cut(lines, &[c], Keep::Inside) })
+    }
+
+    fn add_path(&mut self, p: &usvg::Path, ctx: &Ctx, tag: &str) {
+        if !p.is_visible() {
+            self.skipped.hidden += 1;
+            return;
+        }
+        let fill = p.fill().map(|f| {
+            let (color, opaque) = paint_color(f.paint());
+            let alpha = f.opacity().get() * ctx.opacity;
+            (color, opaque && alpha >= 1.0, alpha > 0.0, f.rule())
+        });
+        let stroke = p.stroke().filter(|s| s.opacity().get() * ctx.opacity > 0.0);
+        let fill_visible = fill.is_some_and(|f| f.2);
+        if stroke.is_none() && !fill_visible {
+            self.skipped.transparent += 1;
+            return;
+        }
+        let rule = |r: usvg::FillRule| if r == usvg::FillRule::EvenOdd { FillRule::EvenOdd } else { FillRule::NonZero };
+        let mut lines = Vec::new();
+        let scale_mm = MM_PER_PX * ctx.t.determinant().abs().sqrt();
+        let color;
+        let mut width_mm = Pen::default().width_mm;
+        if let Some(s) = stroke {
+            color = paint_color(s.paint()).0;
+            width_mm = f64::from(s.width().get()) * scale_mm;
+            let dashed = s.dasharray().map(|da| {
+                // tiny-skia flattens curves while measuring to 0.5 / res_scale path units: ask for tolerance/4 mm.
+                let res = narrow(0.5 * scale_mm / (self.options.tolerance_mm / 4.0));
+                tiny_skia_path::StrokeDash::new(da.to_vec(), s.dashoffset())
+                    .map(|dash| p.data().dash(&dash, res.max(1.0)))
+            });
+            lines = match dashed {
+                // An invalid dash array (all zero, negative) draws solid, as in browsers.
+                None | Some(None) => self.flatten(p.data(), ctx.t),
+                Some(Some(Some(d))) => self.flatten(&d, ctx.t),
+                Some(Some(None)) => Vec::new(),
+            };
+            if let Some(pen) = self.options.fill_strokes
+                && width_mm > pen * 1.5
+                && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), narrow(scale_mm / pen * 4.0))
+            {
+                let area = self.area(&outline, ctx.t, FillRule::NonZero);
+                let angle_deg = self.options.hatch.map_or(45.0, |h| h.angle_deg);
+                let passes = FillHatch { spacing_mm: pen, angle_deg, cross: false, link: true };
+                match hatch(&area, &passes) {
+                    Some(h) => lines.extend(h),
+                    None => self.skipped.hatch_refused += 1,
+                }
+            }
+        } else {
+            color = fill.map_or(Rgb::BLACK, |f| f.0);
+        }
+        let mut occluder = None;
+        if let Some((fill_color, opaque, visible, r)) = fill
+            && visible
+        {
+            let paper = opaque && fill_color == self.options.paper_color;
+            let needs_area = opaque || self.options.hatch.is_some();
+            let area = needs_area.then(|| self.area(p.data(), ctx.t, rule(r)));
+            if !paper {
+                if stroke.is_none() {
+                    lines = self.flatten(p.data(), ctx.t);
+                }
+                if let (Some(h), Some(a)) = (&self.options.hatch, &area) {
+                    match hatch(a, h) {
+                        Some(l) => lines.extend(l),
+                        None => self.skipped.hatch_refused += 1,
+                    }
+                }
+            }
+            if opaque && self.options.occlusion {
+                let mut a = area.unwrap_or_default();
+                for c in &ctx.clips {
+                    a = a.intersect(c);
+                }
+                occluder = Some(a);
+            }
+        }
+        let lines = Self::cut_to_clips(lines, &ctx.clips);
+        let layer = self.item_layer(ctx, color);
+        let pen = Pen { color, width_mm };
+        self.items.push(Item { layer, pen, lines, occluder, element: describe(tag, p.id()) });
+    }
+
+    /// The area a clip path lets through, in mm, for content under `t` (px).
+    fn clip_region(&mut self, cp: &usvg::ClipPath, t: Affine) -> Region {
+        let mut region = self.clip_children(cp.root(), t * affine(&cp.transform()));
+        if let Some(inner) = cp.clip_path() {
+            region = region.intersect(&self.clip_region(inner, t));
+        }
+        region
+    }
+
+    fn clip_children(&mut self, g: &usvg::Group, t: Affine) -> Region {
+        let mut parts = Vec::new();
+        for child in g.children() {
+            match child {
+                usvg::Node::Path(p) if p.is_visible() => {
+                    let rule = p.fill().map_or(usvg::FillRule::NonZero, usvg::Fill::rule);
+                    let rule = if rule == usvg::FillRule::EvenOdd { FillRule::EvenOdd } else { FillRule::NonZero };
+                    parts.push(self.area(p.data(), t, rule));
+                }
+                usvg::Node::Path(_) => {}
+                usvg::Node::Group(cg) => {
+                    let ct = t * affine(&cg.transform());
+                    let mut r = self.clip_children(cg, ct);
+                    if let Some(cp) = cg.clip_path() {
+                        r = r.intersect(&self.clip_region(cp, ct));
+                    }
+                    parts.push(r);
+                }
+                usvg::Node::Text(text) => {
+                    let r = self.clip_children(text.flattened(), t);
+                    if r.is_empty() {
+                        self.skipped.clip_text += 1;
+                    }
+                    parts.push(r);
+                }
+                usvg::Node::Image(_) => {}
+            }
+        }
+        Region::union_all(parts)
+    }
+
+    /// The area where a mask is at least half opaque, in mm.
+    fn mask_region(&mut self, mask: &usvg::Mask, t: Affine) -> Region {
+        let r = mask.rect();
+        let to_mm = Affine::scale(MM_PER_PX) * t;
+        let corners = [(r.left(), r.top()), (r.right(), r.top()), (r.right(), r.bottom()), (r.left(), r.bottom())]
+            .map(|(x, y)| to_mm * Point::new(f64::from(x), f64::from(y)));
+        let rect = Region::from_contours([corners.as_slice()], FillRule::NonZero);
+        let mut content = Region::default();
+        let mut partial = false;
+        self.mask_paint(mask.root(), t, mask.kind(), 1.0, &mut content, &mut partial);
+        if partial {
+            self.skipped.partial_masks += 1;
+        }
+        let mut region = rect.intersect(&content);
+        if let Some(inner) = mask.mask() {
+            region = region.intersect(&self.mask_region(inner, t));
+        }
+        region
+    }
+
+    fn mask_paint(
+        &mut self,
+        g: &usvg::Group,
+        t: Affine,
+        kind: usvg::MaskType,
+        opacity: f32,
+        content: &mut Region,
+        partial: &mut bool,
+    ) {
+        for child in g.children() {
+            match child {
+                usvg::Node::Group(cg) => {
+                    let o = opacity * cg.opacity().get();
+                    let ct = t * affine(&cg.transform());
+                    if let Some(cp) = cg.clip_path() {
+                        // A clipped group inside a mask: paint it into its own area, then keep what the clip allows.
+                        let mut inner = Region::default();
+                        self.mask_paint(cg, ct, kind, o, &mut inner, partial);
+                        let clip = self.clip_region(cp, ct);
+                        *content = content.union(&inner.intersect(&clip));
+                    } else {
+                        self.mask_paint(cg, ct, kind, o, content, partial);
+                    }
+                }
+                usvg::Node::Path(p) if p.is_visible() => {
+                    let Some(f) = p.fill() else { continue };
+                    let (c, opaque) = paint_color(f.paint());
+                    let alpha = f.opacity().get() * opacity;
+                    let value = match kind {
+                        usvg::MaskType::Luminance => luminance(c) * alpha,
+                        usvg::MaskType::Alpha => alpha,
+                    };
+                    if !opaque || (value > 0.0 && value < 1.0) {
+                        *partial = true;
+                    }
+                    let rule = if f.rule() == usvg::FillRule::EvenOdd { FillRule::EvenOdd } else { FillRule::NonZero };
+                    let area = self.area(p.data(), t, rule);
+                    if value >= 0.5 {
+                        *content = content.union(&area);
+                    } else if alpha >= 0.5 {
+                        // A dark, opaque shape paints the mask transparent where it lies.
+                        *content = content.difference(&area);
+                    }
+                }
+                usvg::Node::Path(_) => {}
+                usvg::Node::Text(text) => self.mask_paint(text.flattened(), t, kind, opacity, content, partial),
+                usvg::Node::Image(_) => *partial = true,
+            }
+        }
+    }
+
+    /// `--text single-stroke`: each glyph usvg laid out is replaced by the Hershey glyph of its character, placed
+    /// at the glyph's origin, scaled to the span's font size and turned with the glyph's transform.
+    fn single_stroke(&mut self, text: &usvg::Text, ctx: &Ctx) {
+        if self.font.is_none() {
+            self.font = Some(HersheyFont::load_default());
+        }
+        let font = match self.font.as_ref().expect("loaded above") {
+            Ok(f) => f.clone(),
+            Err(e) => {
+                let msg = format!("{}: {e}; text drawn as glyph outlines", self.name);
+                if !self.warnings.contains(&msg) {
+                    self.warnings.push(msg);
+                }
+                self.walk_group(text.flattened(), ctx);
+                return;
+            }
+        };
+        let to_mm = Affine::scale(MM_PER_PX) * ctx.t;
+        for span in text.layouted() {
+            if !span.visible {
+                continue;
+            }
+            let paint = span.stroke.as_ref().map(usvg::Stroke::paint).or(span.fill.as_ref().map(usvg::Fill::paint));
+            let color = paint.map_or(Rgb::BLACK, |p| paint_color(p).0);
+            let size = f64::from(span.font_size.get());
+            let mut lines = Vec::new();
+            for glyph in &span.positioned_glyphs {
+                let m = affine(&glyph.transform());
+                // The glyph transform scales font units to the font size; undo that scale, keep position and turn.
+                let s = m.determinant().abs().sqrt();
+                if s <= 0.0 || !s.is_finite() {
+                    continue;
+                }
+                let place = to_mm * m * Affine::scale(size / (hershey::UNITS_PER_EM * s));
+                for c in glyph.text.chars().filter(|c| !c.is_whitespace()).take(1) {
+                    let g = font.glyph(c);
+                    for stroke in &g.strokes {
+                        lines.push(
+                            stroke
+                                .iter()
+                                .map(|q| place * Point::new(q.x - g.left, q.y - hershey::BASELINE))
+                                .collect::<Vec<Point>>(),
+                        );
+                    }
+                }
+            }
+            let lines = Self::cut_to_clips(lines, &ctx.clips);
+            let layer = self.item_layer(ctx, color);
+            let pen = Pen { color, width_mm: Pen::default().width_mm };
+            self.items.push(Item { layer, pen, lines, occluder: None, element: describe("text", text.id()) });
+        }
+    }
+
+    /// `--images MODE`: trace an embedded PNG/JPEG through the raster pipeline, placed by the image's transform.
+    fn add_image(&mut self, image: &usvg::Image, ctx: &Ctx) {
+        let element = describe("image", image.id());
+        let Some(mode) = self.options.images.as_ref() else { return };
+        if !image.is_visible() {
+            self.skipped.hidden += 1;
+            return;
+        }
+        let bytes = match image.kind() {
+            usvg::ImageKind::PNG(d) | usvg::ImageKind::JPEG(d) => d.clone(),
+            other => {
+                self.warnings.push(format!("{}: {element}: {other:?} images are not traced", self.name));
+                return;
+            }
+        };
+        let decoded = match image::load_from_memory(&bytes) {
+            Ok(i) => i,
+            Err(e) => {
+                self.warnings.push(format!("{}: {element}: cannot decode the image ({e})", self.name));
+                return;
+            }
+        };
+        // The image's own transform maps its pixels to the canvas (aspect ratio applied by usvg); usvg's
+        // abs_transform already contains the root viewBox in f32, which is accurate to 1e-7 here.
+        let m = affine(&image.abs_transform());
+        let to_mm = Affine::scale(MM_PER_PX) * m;
+        let pixel_mm = to_mm.determinant().abs().sqrt();
+        let opts = raster::TraceOptions { pitch_mm: Some(pixel_mm), width_mm: None, ..mode.trace.clone() };
+        let traced = match raster::trace_named(&decoded, &element, &opts) {
+            Ok(t) => t,
+            Err(e) => {
+                self.warnings.push(format!("{}: {element}: {e}", self.name));
+                return;
+            }
+        };
+        for w in &traced.warnings {
+            self.warnings.push(format!("{}: {element}: {w}", self.name));
+        }
+        // Working pixels (possibly downscaled) back to the image's pixels.
+        let back = f64::from(decoded.width()) / (f64::from(traced.size_px.0) * traced.pixel_mm);
+        let lines: Vec<Vec<Point>> = traced
+            .drawing
+            .paths()
+            .map(|p| p.points.iter().map(|q| to_mm * Point::new(q.x * back, q.y * back)).collect())
+            .collect();
+        let lines = Self::cut_to_clips(lines, &ctx.clips);
+        let pen = raster::TraceOptions::default().pen;
+        let layer = self.item_layer(ctx, pen.color);
+        self.items.push(Item { layer, pen, lines, occluder: None, element });
+    }
+}
+
+/// f64 → f32 for tiny-skia's resolution scales (any precision loss only changes how finely curves are measured).
+#[allow(clippy::cast_possible_truncation)]
+fn narrow(v: f64) -> f32 {
+    v as f32
+}
+
+/// Shapes in a subtree (for the count of skipped transparent shapes).
+fn count_shapes(g: &usvg::Group) -> usize {
+    g.children()
+        .iter()
+        .map(|c| match c {
+            usvg::Node::Group(g) => count_shapes(g),
+            _ => 1,
+        })
+        .sum()
+}
