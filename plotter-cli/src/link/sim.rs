@@ -32,18 +32,7 @@ impl SimTransport {
     pub fn new(cfg: MachineConfig, baud: Option<u32>) -> Self {
         let mut opts = SimOptions::for_config(&cfg);
         opts.baud = baud;
-        let slice_ticks = baud.map_or(100, |b| (u64::from(TICK_HZ) * 10).div_ceil(u64::from(b.max(1))));
-        SimTransport {
-            sim: Sim::with_options(cfg, opts),
-            lines: LineSplitter::default(),
-            slice_ticks,
-            streaming: false,
-            was_moving: false,
-            underruns: 0,
-            noise: None,
-            reply_noise: None,
-            wire_busy_ticks: 0,
-        }
+        Self::from_sim(Sim::with_options(cfg, opts), baud)
     }
 
     /// Around an existing simulator (e.g. a printer with heaters); `baud` as in [`SimTransport::new`].
