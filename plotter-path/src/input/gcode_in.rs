@@ -205,14 +205,18 @@ pub(crate) fn words<'t>(code: &'t str, origin: &str, line: usize) -> Result<Vec<
     Ok(out)
 }
 
+/// Add a warning, or count one more occurrence of the same message (reported with its first line).
+pub(crate) fn record_warning(warnings: &mut Vec<GcodeWarning>, line: usize, message: String) {
+    if let Some(w) = warnings.iter_mut().find(|w| w.message == message) {
+        w.count += 1;
+    } else {
+        warnings.push(GcodeWarning { line, count: 1, message });
+    }
+}
+
 impl Machine<'_> {
     fn warn(&mut self, line: usize, message: impl Into<String>) {
-        let message = message.into();
-        if let Some(w) = self.warnings.iter_mut().find(|w| w.message == message) {
-            w.count += 1;
-        } else {
-            self.warnings.push(GcodeWarning { line, count: 1, message });
-        }
+        record_warning(&mut self.warnings, line, message.into());
     }
 
     fn malformed(&self, line: usize, message: impl Into<String>) -> GcodeError {

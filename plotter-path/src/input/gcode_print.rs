@@ -20,7 +20,7 @@
 //! are read from its comments when present: `; estimated printing time (normal mode) = 1h 2m 3s` (PrusaSlicer),
 //! `;TIME:3723` (Cura), `; filament used [mm] = 1234.56` (PrusaSlicer), `;Filament used: 1.23456m` (Cura).
 
-use super::gcode_in::{GcodeError, GcodeWarning, strip_comments, words};
+use super::gcode_in::{GcodeError, GcodeWarning, record_warning, strip_comments, words};
 use crate::MachineProfile;
 
 /// Maximum chord error when flattening arcs, millimetres.
@@ -175,12 +175,7 @@ fn code10(v: f64) -> i64 {
 
 impl Player<'_> {
     fn warn(&mut self, line: usize, message: impl Into<String>) {
-        let message = message.into();
-        if let Some(w) = self.warnings.iter_mut().find(|w| w.message == message) {
-            w.count += 1;
-        } else {
-            self.warnings.push(GcodeWarning { line, count: 1, message });
-        }
+        record_warning(&mut self.warnings, line, message.into());
     }
 
     fn malformed(&self, line: usize, message: impl Into<String>) -> GcodeError {
