@@ -84,6 +84,19 @@ impl FaultRecord {
         }
     }
 
+    /// Store a panic's location and plain-text message in the record at `rec`. The message's arguments are not
+    /// formatted: that would link every `Debug` impl a panic message can name (float formatting among them,
+    /// about 10 KiB of flash).
+    ///
+    /// # Safety
+    /// As for [`FaultRecord::store`].
+    pub unsafe fn store_panic(rec: *mut FaultRecord, info: &core::panic::PanicInfo<'_>) {
+        let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
+        let message = info.message().as_str().unwrap_or("(formatted message)");
+        // SAFETY: forwarded from the caller.
+        unsafe { FaultRecord::store(rec, format_args!("panic at {file}:{line}: {message}")) };
+    }
+
     /// Take the stored reason, if a valid one is there, and clear the record.
     ///
     /// # Safety

@@ -157,11 +157,7 @@ unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
 fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
     cortex_m::interrupt::disable();
     board::emergency_stop();
-    // The location and a plain-text message only: formatting the message's arguments would link every `Debug`
-    // impl a panic message can name (float formatting among them, ~10 KiB of flash).
-    let (file, line) = info.location().map_or(("?", 0), |l| (l.file(), l.line()));
-    let message = info.message().as_str().unwrap_or("(formatted message)");
     // SAFETY: see `fault_record`; interrupts are off.
-    unsafe { FaultRecord::store(fault_record(), format_args!("panic at {file}:{line}: {message}")) };
+    unsafe { FaultRecord::store_panic(fault_record(), info) };
     cortex_m::peripheral::SCB::sys_reset()
 }
