@@ -642,7 +642,7 @@ impl Control for Quiet {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::link::faults::Noise;
     use crate::link::sim::SimTransport;
@@ -737,9 +737,9 @@ mod tests {
         assert_eq!(st.executed, 30);
     }
 
-    /// Records every progress report.
+    /// Records every progress report (the GRBL session's tests use it too).
     #[derive(Default)]
-    struct Record(Vec<Progress>);
+    pub(crate) struct Record(pub(crate) Vec<Progress>);
 
     impl Control for Record {
         fn progress(&mut self, p: &Progress) {

@@ -674,6 +674,7 @@ mod tests {
     use crate::link::grbl::emulator::{Faults, GrblEmulator, RX_USABLE};
     use crate::link::grbl::emulator_transport::EmulatorTransport;
     use crate::link::grbl::settings::GrblSettings;
+    use crate::link::stream::tests::Record;
     use plotter_path::kurbo::Point;
     use plotter_path::motion::plan::{Lookahead, homed_position, plan as make_plan};
     use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
@@ -707,22 +708,6 @@ mod tests {
         let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
         let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), faults);
         GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap()
-    }
-
-    /// Records progress reports.
-    #[derive(Default)]
-    struct Record(Vec<Progress>);
-
-    impl Control for Record {
-        fn progress(&mut self, p: &Progress) {
-            self.0.push(*p);
-        }
-        fn pause_requested(&mut self) -> Option<bool> {
-            None
-        }
-        fn paused(&mut self, _: bool) -> PauseChoice {
-            PauseChoice::Resume
-        }
     }
 
     #[test]
