@@ -3,14 +3,16 @@
 //! The output is deliberately simple so that other plotter tools (vpype, Inkscape, AxiDraw software) read it
 //! unchanged: `width`/`height` in `mm`, a `viewBox` in millimetres (1 user unit = 1 mm), one Inkscape layer group
 //! per layer (stroke colour and width from the layer's pen, no fill), open paths as `<polyline>` and closed paths
-//! as `<polygon>` (without the repeated last point, which the polygon closes again on import).
+//! as `<polygon>` (without the repeated last point, which the polygon closes again on import). A path whose own
+//! colour or width (from its source) differs from its layer's pen carries them as its own `stroke` attributes, so
+//! the file looks like its source.
 
 use std::fmt::Write as _;
 use std::io::{self, Write};
 
 use kurbo::Point;
 
-use crate::geometry::drawing::{Drawing, Polyline};
+use crate::geometry::drawing::{Drawing, Pen, Polyline};
 
 /// Number of decimals written for coordinates (0.1 µm: far below any plotter's resolution).
 pub const DECIMALS: usize = 4;
@@ -56,7 +58,7 @@ fn page_size(drawing: &Drawing) -> (f64, f64) {
     }
 }
 
-fn push_path(out: &mut String, path: &Polyline) {
+fn push_path(out: &mut String, path: &Polyline, layer_pen: &Pen) {
     if path.points.len() < 2 {
         return;
     }
@@ -67,7 +69,18 @@ fn push_path(out: &mut String, path: &Polyline) {
         out.push_str("    <polyline points=\"");
         push_points(out, &path.points);
     }
-    out.push_str("\"/>\n");
+    out.push('"');
+    if let Some(pen) = path.pen {
+        if pen.color != layer_pen.color {
+            let _ = write!(out, " stroke=\"{}\"", pen.color.to_hex());
+        }
+        if (pen.width_mm - layer_pen.width_mm).abs() > 0.5e-4 {
+            out.push_str(" stroke-width=\"");
+            push_number(out, pen.width_mm);
+            out.push('"');
+        }
+    }
+    out.push_str("/>\n");
 }
 
 /// Render `drawing` as a plain SVG document.
@@ -97,7 +110,7 @@ pub fn to_svg_string(drawing: &Drawing) -> String {
         push_number(&mut out, layer.pen.width_mm);
         out.push_str("\" stroke-linecap=\"round\" stroke-linejoin=\"round\">\n");
         for path in &layer.paths {
-            push_path(&mut out, path);
+            push_path(&mut out, path, &layer.pen);
         }
         out.push_str("  </g>\n");
     }
@@ -143,5 +156,30 @@ mod tests {
         assert!(svg.contains("stroke=\"#ff0000\""));
         assert!(svg.contains("<polyline points=\"0,0 10,0.5\"/>"));
         assert!(svg.contains("<polygon points=\"1,1 2,1 2,2\"/>"));
+    }
+
+    #[test]
+    fn paths_keep_their_own_stroke_where_it_differs_from_the_layer() {
+        let mut layer = Layer::new("mixed");
+        layer.pen = Pen { color: Rgb(0, 0, 0), width_mm: 0.3 };
+        let line = vec![Point::new(0.0, 0.0), Point::new(1.0, 0.0)];
+        let pens = [
+            Pen { color: Rgb(0, 0, 0), width_mm: 0.3 },
+            Pen { color: Rgb(0, 128, 255), width_mm: 0.3 },
+            Pen { color: Rgb(0, 0, 0), width_mm: 1.25 },
+        ];
+        for pen in pens {
+            layer.paths.push(Polyline::with_pen(line.clone(), pen));
+        }
+        let svg = to_svg_string(&Drawing { layers: vec![layer], page_mm: None });
+        let lines: Vec<&str> = svg.lines().filter(|l| l.contains("<polyline")).collect();
+        assert_eq!(
+            lines,
+            [
+                "    <polyline points=\"0,0 1,0\"/>",
+                "    <polyline points=\"0,0 1,0\" stroke=\"#0080ff\"/>",
+                "    <polyline points=\"0,0 1,0\" stroke-width=\"1.25\"/>",
+            ]
+        );
     }
 }
