@@ -96,7 +96,7 @@ pub struct InputArgs {
 }
 
 impl InputArgs {
-    fn svg_options(&self) -> Result<SvgOptions> {
+    fn svg_options(&self, profile: &MachineProfile) -> Result<SvgOptions> {
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             bail!("--tolerance must be a positive number of mm, got {}", self.tolerance);
         }
@@ -133,6 +133,8 @@ impl InputArgs {
                 mode.map(|mode| ImageTrace { trace: raster::TraceOptions { mode, ..self.trace.options() } })
             },
             crop: self.crop,
+            pen_width_mm: profile.pen.width_mm,
+            pens: profile.pens.clone(),
             ..SvgOptions::default()
         })
     }
@@ -250,7 +252,7 @@ pub fn decode_drawing(
 ) -> Result<Decoded> {
     match input_kind(name, &data[..data.len().min(512)]) {
         InputKind::Svg => {
-            let imported = svg::import_svg(data, shown, resources_dir, &args.svg_options()?)?;
+            let imported = svg::import_svg(data, shown, resources_dir, &args.svg_options(profile)?)?;
             Ok(Decoded { drawing: imported.drawing, warnings: imported.warnings })
         }
         InputKind::Image => {

@@ -151,6 +151,13 @@ pub struct SvgOptions {
     pub crop: bool,
     /// The paper's colour: opaque fill-only shapes of this colour hide what is under them and draw nothing.
     pub paper_color: Rgb,
+    /// The pen's width, mm: opaque strokes wider than four times this hide what lies under them, as fills do
+    /// (thinner ones would only nick the lines they cross).
+    pub pen_width_mm: f64,
+    /// The profile's pen table: a layer whose pen (matched by name, then colour, see
+    /// [`crate::motion::pens::table_index`]) has a `hatch` gets its fills shaded, unless [`SvgOptions::hatch`]
+    /// sets one hatch for all.
+    pub pens: Vec<crate::motion::profile::PenSpec>,
 }
 
 impl Default for SvgOptions {
@@ -166,6 +173,8 @@ impl Default for SvgOptions {
             images: None,
             crop: false,
             paper_color: Rgb(255, 255, 255),
+            pen_width_mm: crate::geometry::drawing::Pen::default().width_mm,
+            pens: Vec::new(),
         }
     }
 }
@@ -263,7 +272,7 @@ pub fn import_svg(
     }
     if skipped.partial_masks > 0 {
         warnings.push(format!(
-            "{name}: {} mask(s) are partly transparent (grey, gradient or translucent): cut where they are at least              half opaque",
+            "{name}: {} mask(s) are partly transparent (grey, gradient or translucent): cut where they are at least half opaque",
             skipped.partial_masks
         ));
     }

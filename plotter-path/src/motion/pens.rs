@@ -6,7 +6,7 @@
 //! layer's colour. Without a match (or without a table) the layer's colour is its pen, with the profile's `[pen]`
 //! values. Two consecutive layers need a pen change exactly when they resolve to different pens.
 
-use crate::motion::profile::MachineProfile;
+use crate::motion::profile::{MachineProfile, PenSpec};
 use crate::{Pen, Rgb};
 
 /// The pen a layer is drawn with, resolved against the profile.
@@ -55,12 +55,17 @@ pub fn parse_hex_color(s: &str) -> Option<Rgb> {
     Some(Rgb(byte(0)?, byte(2)?, byte(4)?))
 }
 
+/// The pen-table entry for a layer named `name` whose colour is `color`: the pen of that name
+/// (case-insensitive), else the pen of that colour.
+pub fn table_index(pens: &[PenSpec], name: &str, color: Rgb) -> Option<usize> {
+    let by_name = pens.iter().position(|p| p.name.trim().eq_ignore_ascii_case(name.trim()));
+    by_name.or_else(|| pens.iter().position(|p| p.color.as_deref().and_then(parse_hex_color) == Some(color)))
+}
+
 /// Resolve the pen of a layer named `name` drawn with `pen`.
 pub fn resolve(profile: &MachineProfile, name: &str, pen: &Pen) -> LayerPen {
-    let by_name = profile.pens.iter().position(|p| p.name.trim().eq_ignore_ascii_case(name.trim()));
-    let by_color = || profile.pens.iter().position(|p| p.color.as_deref().and_then(parse_hex_color) == Some(pen.color));
     let defaults = &profile.pen;
-    match by_name.or_else(by_color) {
+    match table_index(&profile.pens, name, pen.color) {
         Some(i) => {
             let t = &profile.pens[i];
             LayerPen {
@@ -88,7 +93,6 @@ pub fn resolve(profile: &MachineProfile, name: &str, pen: &Pen) -> LayerPen {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::profile::PenSpec;
 
     fn profile_with_pens() -> MachineProfile {
         let mut p = MachineProfile::default_plotter();
@@ -100,6 +104,7 @@ mod tests {
                 down_z_mm: Some(0.5),
                 servo_down_deg: None,
                 draw_feed_mm_s: Some(20.0),
+                hatch: None,
             },
             PenSpec {
                 name: "red".into(),
@@ -108,6 +113,7 @@ mod tests {
                 down_z_mm: None,
                 servo_down_deg: Some(10.0),
                 draw_feed_mm_s: None,
+                hatch: None,
             },
         ];
         p

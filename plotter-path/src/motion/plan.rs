@@ -707,6 +707,7 @@ mod tests {
             down_z_mm: Some(1.0),
             servo_down_deg: None,
             draw_feed_mm_s: Some(30.0),
+            hatch: None,
         }];
         let mut d = Drawing::single_layer("black", vec![square(10.0, 10.0, 5.0)]);
         let layers = [

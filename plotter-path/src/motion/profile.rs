@@ -165,6 +165,40 @@ pub struct PenSpec {
     /// Drawing feed with this pen, mm/s.
     #[serde(default)]
     pub draw_feed_mm_s: Option<f64>,
+    /// Shade the filled areas of SVG layers drawn with this pen (`hatch = { spacing_mm = 0.8 }`); `--hatch`
+    /// overrides it for every layer.
+    #[serde(default)]
+    pub hatch: Option<PenHatch>,
+}
+
+/// Hatching of a pen's filled areas, from the pen table.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PenHatch {
+    /// Distance between neighbouring lines, mm.
+    pub spacing_mm: f64,
+    /// Line direction, degrees counter-clockwise from +X on the page.
+    #[serde(default = "PenHatch::default_angle")]
+    pub angle_deg: f64,
+    /// Add a second family of lines at right angles.
+    #[serde(default)]
+    pub cross: bool,
+}
+
+impl PenHatch {
+    fn default_angle() -> f64 {
+        45.0
+    }
+
+    /// The hatch settings for filled areas (lines linked into zig-zags where that saves lifts).
+    pub fn fill_hatch(&self) -> crate::geometry::hatch::FillHatch {
+        crate::geometry::hatch::FillHatch {
+            spacing_mm: self.spacing_mm,
+            angle_deg: self.angle_deg,
+            cross: self.cross,
+            link: true,
+        }
+    }
 }
 
 /// Where the carriage waits during a pen change (machine millimetres).
@@ -389,6 +423,14 @@ impl MachineProfile {
             if pen.servo_down_deg.is_some_and(|a| !(a.is_finite() && (0.0..=180.0).contains(&a))) {
                 return Err(bad(&f("servo_down_deg"), "must be an angle from 0 to 180 degrees"));
             }
+            if let Some(h) = pen.hatch {
+                if !(h.spacing_mm.is_finite() && (0.01..=100.0).contains(&h.spacing_mm)) {
+                    return Err(bad(&f("hatch.spacing_mm"), "must lie in 0.01..=100 mm"));
+                }
+                if !h.angle_deg.is_finite() {
+                    return Err(bad(&f("hatch.angle_deg"), "must be a finite number of degrees"));
+                }
+            }
         }
         if let Some(park) = self.park
             && !(park.x_mm.is_finite()
@@ -417,6 +459,21 @@ impl MachineProfile {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pen_hatch_parses_with_defaults_and_is_checked() {
+        let text = format!("{DEFAULT_PROFILE_TOML}\n[[pens]]\nname = \"gel\"\nhatch = {{ spacing_mm = 0.5 }}\n");
+        let p = MachineProfile::from_toml(&text, "h.toml").unwrap();
+        let h = p.pens.last().unwrap().hatch.unwrap();
+        assert_eq!((h.spacing_mm, h.angle_deg, h.cross), (0.5, 45.0, false));
+        assert_eq!(
+            h.fill_hatch(),
+            crate::geometry::hatch::FillHatch { spacing_mm: 0.5, angle_deg: 45.0, cross: false, link: true }
+        );
+        let bad = text.replace("spacing_mm = 0.5", "spacing_mm = 0");
+        let err = MachineProfile::from_toml(&bad, "h.toml").unwrap_err().to_string();
+        assert!(err.contains("pens[3] (gel).hatch.spacing_mm") && err.contains("0.01..=100 mm"), "{err}");
+    }
 
     #[test]
     fn built_in_profile_parses() {

@@ -146,6 +146,7 @@ mod tests {
             down_z_mm: Some(1.0),
             servo_down_deg: None,
             draw_feed_mm_s: Some(10.0),
+            hatch: None,
         }];
         let steps = drawing_to_steps(&p, &two_layers()).unwrap();
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();

@@ -469,6 +469,80 @@ fn white_fill_only_shape_masks_a_line_and_is_not_drawn() {
 }
 
 #[test]
+fn wide_opaque_stroke_hides_what_lies_under_it() {
+    // A 100 mm line at y = 50 under a vertical 10 mm wide black stroke x = 50, y 0..100 (butt caps: the outline
+    // is the rectangle x 45..55): the line keeps 45 + 45 mm, the stroke's centre line 100 mm stays. Total 190 mm.
+    let svg = mm_doc(
+        r#"<line x1="0" y1="50" x2="100" y2="50" stroke="black" stroke-width="0.3"/>
+           <line x1="50" y1="0" x2="50" y2="100" stroke="black" stroke-width="10"/>"#,
+    );
+    let d = import(&svg).drawing;
+    assert_len(&d, 190.0);
+    assert_eq!(d.path_count(), 3);
+    assert_len(&import_with(&svg, &SvgOptions { occlusion: false, ..SvgOptions::default() }).drawing, 200.0);
+    // Not wider than four pen widths (1.2 mm with the 0.3 mm pen), or translucent, it hides nothing.
+    assert_len(&import(&svg.replace(r#"stroke-width="10""#, r#"stroke-width="1.1""#)).drawing, 200.0);
+    assert_len(
+        &import(&svg.replace(r#"stroke-width="10""#, r#"stroke-width="10" stroke-opacity="0.9""#)).drawing,
+        200.0,
+    );
+    // A wider pen raises the bar: 10 mm is less than four 3 mm pens.
+    assert_len(&import_with(&svg, &SvgOptions { pen_width_mm: 3.0, ..SvgOptions::default() }).drawing, 200.0);
+}
+
+#[test]
+fn a_gradient_is_paper_only_when_every_stop_is_the_paper_colour() {
+    // The 100 mm line under a 40 mm wide fill-only rectangle painted with a gradient.
+    let doc = |stops: &str| {
+        mm_doc(&format!(
+            r#"<defs><linearGradient id="g">{stops}</linearGradient></defs>
+               <line x1="0" y1="50" x2="100" y2="50" stroke="black"/>
+               <rect x="30" y="0" width="40" height="100" fill="url(#g)"/>"#
+        ))
+    };
+    // White to white: paper. It hides 40 mm of the line and draws nothing.
+    let white = doc(r##"<stop offset="0" stop-color="white"/><stop offset="1" stop-color="#ffffff"/>"##);
+    assert_len(&import(&white).drawing, 60.0);
+    // White to black: visible ink. It hides the same 40 mm and is outlined (2 × 40 + 2 × 100 = 280 mm).
+    let shaded = doc(r#"<stop offset="0" stop-color="white"/><stop offset="1" stop-color="black"/>"#);
+    assert_len(&import(&shaded).drawing, 60.0 + 280.0);
+}
+
+#[test]
+fn pens_with_a_hatch_shade_their_layers_fills() {
+    // Two 20 × 20 squares: red at (10, 10.5), blue at (50, 10.5). Only the red pen has a hatch (1 mm, 0°):
+    // 20 lines of 20 mm linked by 19 × 1 mm, as in `hatch_of_a_square`, plus both 80 mm outlines.
+    let svg = mm_doc(
+        r#"<rect x="10" y="10.5" width="20" height="20" fill="red"/>
+           <rect x="50" y="10.5" width="20" height="20" fill="blue"/>"#,
+    );
+    let pen = |name: &str, color: &str, hatch| crate::motion::profile::PenSpec {
+        name: name.into(),
+        color: Some(color.into()),
+        width_mm: None,
+        down_z_mm: None,
+        servo_down_deg: None,
+        draw_feed_mm_s: None,
+        hatch,
+    };
+    let red_hatch = crate::motion::profile::PenHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false };
+    let options = SvgOptions {
+        layer_by: LayerBy::Color,
+        pens: vec![pen("red gel", "#ff0000", Some(red_hatch)), pen("blue", "#0000ff", None)],
+        ..SvgOptions::default()
+    };
+    let d = import_with(&svg, &options).drawing;
+    let layer = |name: &str| d.layers.iter().find(|l| l.name == name).unwrap();
+    assert_len(&Drawing { layers: vec![layer("#ff0000").clone()], page_mm: None }, 80.0 + 400.0 + 19.0);
+    assert_len(&Drawing { layers: vec![layer("#0000ff").clone()], page_mm: None }, 80.0);
+    // `--hatch` sets one hatch for every layer and wins over the table.
+    let all = FillHatch { spacing_mm: 2.0, angle_deg: 0.0, cross: false, link: false };
+    let d = import_with(&svg, &SvgOptions { hatch: Some(all), ..options }).drawing;
+    // 2 mm spacing: lines y = 12, 14 … 30 (10 lines of 20 mm) per square, unlinked.
+    assert_len(&d, 2.0 * (80.0 + 200.0));
+}
+
+#[test]
 fn hatch_of_a_square() {
     // Square 20 × 20 at (10, 10.5): horizontal hatch at 1 mm spacing on lines y = 11 … 30 (20 lines of 20 mm),
     // linked into one zig-zag by 19 connectors of 1 mm along the sides, plus the 80 mm outline: 499 mm.

@@ -14,7 +14,11 @@
 //! **Opacity.** The opacity of the enclosing groups multiplies each paint's own. A shape whose fill and stroke are
 //! both fully transparent is skipped (counted for a warning); a fill is an occluder only when it is fully opaque
 //! (a colour, or a gradient whose stops are all opaque, at opacity 1). A fill-only shape in the paper's colour
-//! draws nothing: it only hides what lies under it.
+//! (a plain colour, or a gradient all of whose stops are that colour) draws nothing: it only hides what lies
+//! under it. An opaque stroke wider than four pen widths hides what lies under its outline too (a thick border
+//! over text); thinner strokes do not: every crossing would cut a gap into the line beneath that is hardly wider
+//! than the pen's own blot there, costing two lifts for nothing visible (a mm-unit drawing's default 1 mm stroke
+//! is such a line).
 
 use std::collections::HashMap;
 
@@ -28,6 +32,9 @@ use crate::geometry::flatten::flatten_path;
 use crate::geometry::hatch::{FillHatch, hatch};
 use crate::geometry::region::{FillRule, Keep, Region, cut};
 use crate::input::raster;
+
+/// Opaque strokes wider than this many pen widths hide what lies under them.
+const WIDE_STROKE_PENS: f64 = 4.0;
 
 /// One painted shape, in paint order.
 #[derive(Debug, Clone)]
@@ -83,6 +90,17 @@ fn affine(t: &usvg::Transform) -> Affine {
 
 fn rgb(c: usvg::Color) -> Rgb {
     Rgb(c.red, c.green, c.blue)
+}
+
+/// Whether the paint is `color` all over (a plain colour, or a gradient whose every stop is that colour).
+fn paint_is(p: &usvg::Paint, color: Rgb) -> bool {
+    let stops = |s: &[usvg::Stop]| !s.is_empty() && s.iter().all(|s| rgb(s.color()) == color);
+    match p {
+        usvg::Paint::Color(c) => rgb(*c) == color,
+        usvg::Paint::LinearGradient(g) => stops(g.stops()),
+        usvg::Paint::RadialGradient(g) => stops(g.stops()),
+        usvg::Paint::Pattern(_) => false,
+    }
 }
 
 /// The paint's colour (a gradient's first stop; black for patterns) and whether it is fully opaque.
@@ -194,6 +212,16 @@ impl<'a> Walker<'a> {
         }
     }
 
+    /// How the fills of an item in `layer` drawn in `color` are hatched: `--hatch` for all, else the hatch of the
+    /// layer's pen in the profile's pen table.
+    fn fill_hatch(&self, layer: usize, color: Rgb) -> Option<FillHatch> {
+        self.options.hatch.or_else(|| {
+            let name = &self.layer_names[layer];
+            let pen = crate::motion::pens::table_index(&self.options.pens, name, color)?;
+            self.options.pens[pen].hatch.map(|h| h.fill_hatch())
+        })
+    }
+
     /// Flatten usvg path data under `t` (px) into mm polylines.
     fn flatten(&mut self, data: &tiny_skia_path::Path, t: Affine) -> Vec<Vec<Point>> {
         let to_mm = Affine::scale(MM_PER_PX) * t;
@@ -230,7 +258,8 @@ impl<'a> Walker<'a> {
         let fill = p.fill().map(|f| {
             let (color, opaque) = paint_color(f.paint());
             let alpha = f.opacity().get() * ctx.opacity;
-            (color, opaque && alpha >= 1.0, alpha > 0.0, f.rule())
+            let paper = paint_is(f.paint(), self.options.paper_color);
+            (color, opaque && alpha >= 1.0, alpha > 0.0, f.rule(), paper)
         });
         let stroke = p.stroke().filter(|s| s.opacity().get() * ctx.opacity > 0.0);
         let fill_visible = fill.is_some_and(|f| f.2);
@@ -243,6 +272,7 @@ impl<'a> Walker<'a> {
         let scale_mm = MM_PER_PX * ctx.t.determinant().abs().sqrt();
         let color;
         let mut width_mm = Pen::default().width_mm;
+        let mut stroke_area = None;
         if let Some(s) = stroke {
             color = paint_color(s.paint()).0;
             width_mm = f64::from(s.width().get()) * scale_mm;
@@ -270,21 +300,32 @@ impl<'a> Walker<'a> {
                     None => self.skipped.hatch_refused += 1,
                 }
             }
+            // A wide opaque stroke hides what lies under it, as a fill does.
+            let opaque = paint_color(s.paint()).1 && s.opacity().get() * ctx.opacity >= 1.0;
+            if self.options.occlusion
+                && opaque
+                && width_mm > WIDE_STROKE_PENS * self.options.pen_width_mm
+                && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), narrow(scale_mm / self.options.tolerance_mm))
+            {
+                stroke_area = Some(self.area(&outline, ctx.t, FillRule::NonZero));
+            }
         } else {
             color = fill.map_or(Rgb::BLACK, |f| f.0);
         }
+        let layer = self.item_layer(ctx, color);
         let mut occluder = None;
-        if let Some((fill_color, opaque, visible, r)) = fill
+        if let Some((_, opaque, visible, r, paper)) = fill
             && visible
         {
-            let paper = opaque && fill_color == self.options.paper_color;
-            let needs_area = opaque || self.options.hatch.is_some();
+            let paper = opaque && paper;
+            let fill_hatch = self.fill_hatch(layer, color);
+            let needs_area = opaque || fill_hatch.is_some();
             let area = needs_area.then(|| self.area(p.data(), ctx.t, rule(r)));
             if !paper {
                 if stroke.is_none() {
                     lines = self.flatten(p.data(), ctx.t);
                 }
-                if let (Some(h), Some(a)) = (&self.options.hatch, &area) {
+                if let (Some(h), Some(a)) = (&fill_hatch, &area) {
                     match hatch(a, h) {
                         Some(l) => lines.extend(l),
                         None => self.skipped.hatch_refused += 1,
@@ -292,15 +333,22 @@ impl<'a> Walker<'a> {
                 }
             }
             if opaque && self.options.occlusion {
-                let mut a = area.unwrap_or_default();
-                for c in &ctx.clips {
-                    a = a.intersect(c);
-                }
-                occluder = Some(a);
+                occluder = area;
             }
         }
+        if let Some(s) = stroke_area {
+            occluder = Some(match occluder {
+                Some(f) => f.union(&s),
+                None => s,
+            });
+        }
+        let occluder = occluder.map(|mut a| {
+            for c in &ctx.clips {
+                a = a.intersect(c);
+            }
+            a
+        });
         let lines = Self::cut_to_clips(lines, &ctx.clips);
-        let layer = self.item_layer(ctx, color);
         let pen = Pen { color, width_mm };
         self.items.push(Item { layer, pen, lines, occluder, element: describe(tag, p.id()) });
     }
