@@ -13,7 +13,8 @@
 //! clip paths, masks (their opaque area) and nested viewports; with [`SvgOptions::occlusion`] (on by default) the
 //! parts of lines under an opaque fill painted later are removed ([`occlude`]). Skipped with a warning: paths
 //! with neither fill nor stroke, `display:none`/`visibility:hidden`, fully transparent shapes. Geometry outside
-//! the page is reported, and cut at the page edge with [`SvgOptions::crop`]. Embedded raster `<image>`s are
+//! the page is reported, and cut at the page edge with [`SvgOptions::crop`]; lines reaching beyond ±1 km are cut
+//! there with a warning ([`bounds`]). Embedded raster `<image>`s are
 //! traced through the raster pipeline when [`SvgOptions::images`] asks for it, else skipped with a warning.
 //!
 //! **Units.** usvg resolves units at 96 px per inch (1 px = 1/96 in, 1 mm = 96/25.4 px) and folds the root
@@ -33,6 +34,7 @@
 //! layer per stroke colour as usvg normalises it (`red` and `#ff0000` are one pen; fill colour for fill-only
 //! paths). [`LayerBy::None`] puts everything in one layer. Nothing but a layer element makes a layer.
 
+mod bounds;
 pub mod decode;
 pub mod hershey;
 mod occlude;
@@ -213,6 +215,13 @@ pub fn import_svg(
         data
     };
     let text = decode::decode_xml(data).map_err(parse_err)?;
+    if text.trim().is_empty() {
+        return Err(parse_err(format!(
+            "the file is empty ({} bytes{})",
+            data.len(),
+            if data.is_empty() { "" } else { ", all white space" }
+        )));
+    }
     decode::check_entities(&text).map_err(parse_err)?;
     let parsing = roxmltree::ParsingOptions { allow_dtd: true, nodes_limit: decode::MAX_NODES, ..Default::default() };
     let xml = roxmltree::Document::parse_with_options(&text, parsing).map_err(|e| parse_err(e.to_string()))?;
@@ -293,6 +302,9 @@ pub fn import_svg(
     }
     let layer_names = std::mem::take(&mut walker.layer_names);
     let mut items = std::mem::take(&mut walker.items);
+    if let Some(w) = bounds::cut_far(&mut items) {
+        warnings.push(format!("{name}: {w}"));
+    }
     if options.occlusion {
         occlude::occlude(&mut items);
     }

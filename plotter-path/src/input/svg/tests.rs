@@ -803,3 +803,29 @@ fn wide_strokes_filled_with_pen_wide_passes() {
     let thin = svg.replace(r#"stroke-width="2""#, r#"stroke-width="0.7""#);
     assert_len(&import_with(&thin, &opts).drawing, 10.0);
 }
+
+#[test]
+fn far_geometry_is_cut_at_one_km_and_the_rest_kept() {
+    // A stray segment from (10, 0) mm to 10¹² mm east beside a 40 mm line: the stray part keeps 10 → 10⁶ mm.
+    let svg = mm_doc(
+        r#"<path id="stray" d="M10 0 L1e12 0" stroke="black"/>
+           <line x1="0" y1="50" x2="40" y2="50" stroke="black"/>"#,
+    );
+    let imported = import(&svg);
+    assert_len(&imported.drawing, 40.0 + (1.0e6 - 10.0));
+    let w = imported.warnings.iter().find(|w| w.contains("1 km")).expect("a warning");
+    assert!(w.contains(r#"1 element(s) (<path id="stray">)"#), "{w}");
+    // With --crop it is then cut at the page too: 90 mm of the stray line stay.
+    let cropped = import_with(&svg, &SvgOptions { crop: true, ..SvgOptions::default() });
+    assert_len(&cropped.drawing, 40.0 + 90.0);
+}
+
+#[test]
+fn an_empty_file_says_so() {
+    for (data, expected) in
+        [("", "the file is empty (0 bytes)"), ("  \n\t", "the file is empty (4 bytes, all white space)")]
+    {
+        let e = import_svg(data.as_bytes(), "e.svg", None, &SvgOptions::default()).unwrap_err().to_string();
+        assert!(e.starts_with("e.svg: ") && e.contains(expected), "{e}");
+    }
+}

@@ -1,0 +1,155 @@
+//! Geometry far beyond any page: the parts of pen lines outside ±[`MAX_COORD_MM`] (1 km) on either axis are cut
+//! off at import, with a warning naming the elements, instead of rejecting the whole file. Clip art sometimes
+//! carries a stray point at 10¹² user units (a broken export) next to a perfectly good drawing; a browser shows the
+//! drawing, so the importer keeps it. Lines are clipped segment by segment to the square (Liang–Barsky), so a
+//! segment from the page to a far point keeps its part inside the square, exactly.
+
+use kurbo::Point;
+
+use super::walk::Item;
+use crate::geometry::limits::MAX_COORD_MM;
+
+/// The part of segment `a`–`b` inside the square |x|, |y| ≤ `m`, as parameters `(t0, t1)` along it, if any.
+fn clip_segment(a: Point, b: Point, m: f64) -> Option<(f64, f64)> {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let (mut t0, mut t1) = (0.0_f64, 1.0_f64);
+    // Each edge as p·t ≤ q.
+    for (p, q) in [(-dx, a.x + m), (dx, m - a.x), (-dy, a.y + m), (dy, m - a.y)] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+        }
+    }
+    (t0 <= t1).then_some((t0, t1))
+}
+
+/// The point at `t` along `a`–`b`: the ends exactly, and points of the edge on it (rounding aside).
+fn at(a: Point, b: Point, t: f64, m: f64) -> Point {
+    if t <= 0.0 {
+        return a;
+    }
+    if t >= 1.0 {
+        return b;
+    }
+    let snap = |v: f64| if (v.abs() - m).abs() <= m * 1e-12 { m.copysign(v) } else { v };
+    let p = a.lerp(b, t);
+    Point::new(snap(p.x), snap(p.y))
+}
+
+/// Clip one polyline to the square |x|, |y| ≤ `m`; `None` when it lies inside already.
+fn clip_polyline(line: &[Point], m: f64) -> Option<Vec<Vec<Point>>> {
+    let inside = |p: &Point| p.x.abs() <= m && p.y.abs() <= m;
+    if line.iter().all(inside) {
+        return None;
+    }
+    let mut out: Vec<Vec<Point>> = Vec::new();
+    let mut current: Vec<Point> = Vec::new();
+    for w in line.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let Some((t0, t1)) = clip_segment(a, b, m) else {
+            if current.len() >= 2 {
+                out.push(std::mem::take(&mut current));
+            }
+            current.clear();
+            continue;
+        };
+        let (p, q) = (at(a, b, t0, m), at(a, b, t1, m));
+        if current.last() != Some(&p) {
+            if current.len() >= 2 {
+                out.push(std::mem::take(&mut current));
+            }
+            current = vec![p];
+        }
+        current.push(q);
+        if t1 < 1.0 {
+            out.push(std::mem::take(&mut current));
+        }
+    }
+    if current.len() >= 2 {
+        out.push(current);
+    }
+    out.retain(|l| l.windows(2).any(|w| w[0] != w[1]));
+    Some(out)
+}
+
+/// Cut every item's lines to ±1 km; returns a warning naming the elements that lost lines, if any did.
+pub(super) fn cut_far(items: &mut [Item]) -> Option<String> {
+    let mut elements: Vec<String> = Vec::new();
+    for item in items.iter_mut() {
+        let mut changed = false;
+        let mut kept = Vec::with_capacity(item.lines.len());
+        for line in std::mem::take(&mut item.lines) {
+            match clip_polyline(&line, MAX_COORD_MM) {
+                None => kept.push(line),
+                Some(parts) => {
+                    changed = true;
+                    kept.extend(parts);
+                }
+            }
+        }
+        item.lines = kept;
+        if changed && !elements.contains(&item.element) {
+            elements.push(item.element.clone());
+        }
+    }
+    if elements.is_empty() {
+        return None;
+    }
+    let n = elements.len();
+    let mut shown: Vec<String> = elements.into_iter().take(5).collect();
+    if n > 5 {
+        shown.push("…".into());
+    }
+    Some(format!(
+        "{n} element(s) ({}) reach beyond ±{MAX_COORD_MM} mm (1 km): cut there, the rest is kept — check the units \
+         or the scale",
+        shown.join(", ")
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(x: f64, y: f64) -> Point {
+        Point::new(x, y)
+    }
+
+    #[test]
+    fn a_segment_to_a_far_point_keeps_its_part_inside() {
+        // From (0, 0) to (4, 2) against the square of half-side 1: leaves through x = 1 at t = 1/4, y = 0.5.
+        assert_eq!(clip_segment(p(0.0, 0.0), p(4.0, 2.0), 1.0), Some((0.0, 0.25)));
+        // Crossing the whole square along y = 0.5: enters at x = -1 (t = 1/4 of -3..5), leaves at x = 1 (t = 1/2).
+        assert_eq!(clip_segment(p(-3.0, 0.5), p(5.0, 0.5), 1.0), Some((0.25, 0.5)));
+        // Entirely outside, parallel to an edge.
+        assert_eq!(clip_segment(p(2.0, -5.0), p(2.0, 5.0), 1.0), None);
+        // Missing the corner.
+        assert_eq!(clip_segment(p(0.0, 3.0), p(3.0, 0.0), 1.0), None);
+    }
+
+    #[test]
+    fn polylines_split_where_they_leave_and_come_back() {
+        let m = 10.0;
+        assert_eq!(clip_polyline(&[p(0.0, 0.0), p(5.0, 5.0)], m), None);
+        // In, out to x = 30, back in: two pieces, each ending on the edge x = 10.
+        let parts = clip_polyline(&[p(0.0, 0.0), p(30.0, 0.0), p(0.0, 5.0)], m).unwrap();
+        assert_eq!(parts.len(), 2);
+        assert_eq!(parts[0], vec![p(0.0, 0.0), p(10.0, 0.0)]);
+        assert_eq!(parts[1].len(), 2);
+        assert!((parts[1][0].x - 10.0).abs() < 1e-12 && (parts[1][0].y - 10.0 / 3.0).abs() < 1e-12);
+        assert_eq!(parts[1][1], p(0.0, 5.0));
+        // Wholly outside: nothing left.
+        assert_eq!(clip_polyline(&[p(20.0, 0.0), p(30.0, 0.0)], m), Some(vec![]));
+        // A huge coordinate next to a good one keeps the good segment through the first point whole.
+        let parts = clip_polyline(&[p(1.0, 1.0), p(2.0, 1.0), p(1e12, 1.0)], m).unwrap();
+        assert_eq!(parts, vec![vec![p(1.0, 1.0), p(2.0, 1.0), p(10.0, 1.0)]]);
+    }
+}
