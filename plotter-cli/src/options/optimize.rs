@@ -24,9 +24,12 @@ pub enum SeamArg {
 /// What the optimizer minimizes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CostArg {
+    /// Pen-up time when a machine profile is known (as `time`), else pen-up distance
+    Auto,
     /// Pen-up distance
     Distance,
-    /// Pen-up time from the machine profile (acceleration-limited moves plus pen lift/drop)
+    /// Pen-up time from the machine profile: each hop's stop-to-stop move at the travel feed and acceleration,
+    /// plus the pen lift and drop with their settles
     Time,
 }
 
@@ -78,8 +81,8 @@ pub struct OptimizeArgs {
     /// Random kicks per path after the first local optimum (0 = none)
     #[arg(long, default_value_t = 2.0, help_heading = "Optimization")]
     pub opt_kicks: f64,
-    /// What to minimize (time needs a machine profile)
-    #[arg(long, value_enum, default_value_t = CostArg::Distance, help_heading = "Optimization")]
+    /// What to minimize (time needs a machine profile; auto is time when one is known)
+    #[arg(long, value_enum, default_value_t = CostArg::Auto, help_heading = "Optimization")]
     pub opt_cost: CostArg,
 }
 
@@ -116,9 +119,11 @@ impl OptimizeArgs {
             bail!("--return-home needs to know where home is: give --profile or --start-at");
         }
         let time_model = profile.map(TravelTimeModel::from_profile);
-        if self.opt_cost == CostArg::Time && time_model.is_none() {
-            bail!("--opt-cost time needs a machine profile (--profile FILE)");
-        }
+        let objective = match (self.opt_cost, time_model) {
+            (CostArg::Time, None) => bail!("--opt-cost time needs a machine profile (--profile FILE)"),
+            (CostArg::Time | CostArg::Auto, Some(_)) => Objective::Time,
+            (CostArg::Distance, _) | (CostArg::Auto, None) => Objective::Distance,
+        };
         Ok(OptimizeOptions {
             merge: !self.no_merge,
             merge_tolerance_mm: self.merge_tolerance.unwrap_or(width / 2.0),
@@ -136,10 +141,7 @@ impl OptimizeArgs {
             time_budget: (self.opt_budget > 0.0).then(|| Duration::from_secs_f64(self.opt_budget)),
             seed: self.opt_seed,
             kicks_per_path: self.opt_kicks,
-            objective: match self.opt_cost {
-                CostArg::Distance => Objective::Distance,
-                CostArg::Time => Objective::Time,
-            },
+            objective,
             time_model,
             ..OptimizeOptions::default()
         })
