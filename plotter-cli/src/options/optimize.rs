@@ -94,12 +94,21 @@ impl OptimizeArgs {
 
     /// Where the pen starts (page mm): `--start-at`, else the profile's home, else unknown.
     pub fn start(&self, profile: Option<&MachineProfile>) -> Result<Option<Point>> {
+        self.start_from(profile, None)
+    }
+
+    /// Where the pen starts (page mm): `--start-at`, else `pen_at` (where a machine that is not homed reports
+    /// the pen), else the profile's home, else unknown.
+    pub fn start_from(&self, profile: Option<&MachineProfile>, pen_at: Option<Point>) -> Result<Option<Point>> {
         if let Some(text) = &self.start_at {
             let parse = |v: &str| v.trim().parse::<f64>().ok().filter(|x| x.is_finite());
             let (Some(x), Some(y)) = text.split_once(',').map_or((None, None), |(a, b)| (parse(a), parse(b))) else {
                 bail!("--start-at {text}: expected two numbers X,Y in page millimetres, e.g. 0,0");
             };
             return Ok(Some(Point::new(x, y)));
+        }
+        if pen_at.is_some() {
+            return Ok(pen_at);
         }
         match profile {
             Some(p) => Ok(Some(plan::home_on_page(p)?)),
@@ -110,11 +119,17 @@ impl OptimizeArgs {
     /// Library options from the flags; `profile` (if any) supplies the start (its home), the pen width (merge
     /// tolerance and bridges) and the travel-time model.
     pub fn options(&self, profile: Option<&MachineProfile>) -> Result<OptimizeOptions> {
+        self.options_from(profile, None)
+    }
+
+    /// [`options`](Self::options) with the order starting at `pen_at` (page mm) instead of home, unless
+    /// `--start-at` says otherwise: for a plot on a machine that is not homed first.
+    pub fn options_from(&self, profile: Option<&MachineProfile>, pen_at: Option<Point>) -> Result<OptimizeOptions> {
         if !(self.opt_budget.is_finite() && self.opt_budget >= 0.0) {
             bail!("--opt-budget must be a number of seconds ≥ 0, got {}", self.opt_budget);
         }
         let width = profile.map_or(plotter_path::motion::profile::DEFAULT_PEN_WIDTH_MM, |p| p.pen.width_mm);
-        let start = self.start(profile)?;
+        let start = self.start_from(profile, pen_at)?;
         if self.return_home && start.is_none() {
             bail!("--return-home needs to know where home is: give --profile or --start-at");
         }
