@@ -17,11 +17,12 @@
 #
 # Usage: plotter-cli/scripts/bench-vpype.sh [--json] [N]      (after cargo build --release -p plotter-cli)
 #   --json      print one JSON object (per-file rows and the totals) instead of the table
+#   PLOTTER     our binary [default: target/release/plotter]; the figures are simulated times, whatever the build
 #   PLOT_ARGS   extra arguments for our `plotter plot` (e.g. PLOT_ARGS="--opt-cost distance"), split on spaces
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
-plotter="$root/target/release/plotter"
+plotter="${PLOTTER:-$root/target/release/plotter}"
 cfg="$here/vpype-plotter.toml"
 json=0
 if [ "${1:-}" = "--json" ]; then json=1; shift; fi
@@ -48,7 +49,7 @@ say() { if [ "$json" = 0 ]; then echo "$@"; fi; }
 sum_o=0; sum_v=0; sum_b=0; count=0; slower=0; worst=0; worst_name=""
 clips=0
 for f in "${inputs[@]}"; do
-  name="$(basename "$f")"
+  case "$f" in gen:*) name="$f" ;; *) name="$(basename "$f")" ;; esac
   case "$f" in gen:*) ;; *) [ "$clips" -ge "$n" ] && continue ;; esac
   flat="$work/flat.svg"
   if ! "$plotter" convert "$f" -o "$flat" --paper a4 --fit --margin 10 2>/dev/null; then
