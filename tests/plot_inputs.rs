@@ -35,9 +35,11 @@ fn exports_step_exactly_like_the_svg() {
     let from_svg = summary(&["plot", "s.svg"]);
     stdout_of(&plotter(&dir, &["plot", "s.svg", "--export", "s.gcode"]));
     stdout_of(&plotter(&dir, &["plot", "s.svg", "--export", "s.traj"]));
-    assert_eq!(summary(&["plot", "s.gcode"]), from_svg);
-    assert_eq!(summary(&["plot", "s.traj"]), from_svg);
+    // Both files are reordered by default; played as they stand they step exactly like the SVG. (Reordering them
+    // again is not a fixed point under the time cost: the search restarts from greedy and may land elsewhere.)
+    assert_eq!(summary(&["plot", "s.gcode", "--no-optimize"]), from_svg);
+    assert_eq!(summary(&["plot", "s.traj", "--no-optimize"]), from_svg);
     // G-code → trajectory gives the same file as SVG → trajectory.
-    stdout_of(&plotter(&dir, &["plot", "s.gcode", "--export", "s2.traj"]));
+    stdout_of(&plotter(&dir, &["plot", "s.gcode", "--no-optimize", "--export", "s2.traj"]));
     assert_eq!(std::fs::read(dir.join("s.traj")).unwrap(), std::fs::read(dir.join("s2.traj")).unwrap());
 }

@@ -13,43 +13,55 @@
 # openclipart-svg, not a CI dependency) until N (default 24) of them plot on both sides — files our importer refuses
 # (e.g. a DTD) are listed as skipped — plus generated figures. Our side reads the SVG as one layer, like vpype's
 # --single-layer, so both may join and order all paths together.
-# Needs vpype 1.15 with vpype-gcode on PATH (pip install "vpype==1.15.*" vpype-gcode).
+# Needs vpype 1.15 with vpype-gcode on PATH (pip install "vpype==1.15.*" vpype-gcode), or VPYPE=/path/to/vpype.
 #
-# Usage: plotter-cli/scripts/bench-vpype.sh [N]      (after cargo build --release -p plotter-cli)
+# Usage: plotter-cli/scripts/bench-vpype.sh [--json] [N]      (after cargo build --release -p plotter-cli)
+#   --json      print one JSON object (per-file rows and the totals) instead of the table
+#   PLOTTER     our binary [default: target/release/plotter]; the figures are simulated times, whatever the build
+#   PLOT_ARGS   extra arguments for our `plotter plot` (e.g. PLOT_ARGS="--opt-cost distance"), split on spaces
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
-plotter="$root/target/release/plotter"
+plotter="${PLOTTER:-$root/target/release/plotter}"
 cfg="$here/vpype-plotter.toml"
+json=0
+if [ "${1:-}" = "--json" ]; then json=1; shift; fi
 n="${1:-24}"
+vpype="${VPYPE:-vpype}"
+read -r -a plot_args <<<"${PLOT_ARGS:-}"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-command -v vpype >/dev/null || { echo "vpype not found on PATH" >&2; exit 1; }
+command -v "$vpype" >/dev/null || { echo "vpype not found (put it on PATH or set VPYPE)" >&2; exit 1; }
 [ -x "$plotter" ] || { echo "build first: cargo build --release -p plotter-cli" >&2; exit 1; }
 
 inputs=()
 while IFS= read -r f; do inputs+=("$f"); done < <(
   find /usr/share/openclipart/svg -name '*.svg' -size +4k -size -150k 2>/dev/null | LC_ALL=C sort | awk 'NR % 7 == 1')
-gens=('gen:spirograph?r=36&q=105/36&d=30' 'gen:epicycloid?q=3&r=15' 'gen:mickey?harmonics=32&points=1000' 'gen:rose?n=5&d=3' 'gen:lissajous?a=3&b=4')
+gens=('gen:spirograph?r=36&q=105/36&d=30' 'gen:epicycloid?q=3&r=15' 'gen:mickey?harmonics=32&points=1000' 'gen:rose?k=5/3' 'gen:lissajous?fx=3&fy=4')
 inputs+=("${gens[@]}")
 
 executed() { sed -n 's/.*executed \([0-9.]*\) s.*/\1/p' "$1"; }
-printf '%-48s %9s %9s %7s %9s %6s %6s\n' input ours_s vpype_s ratio bound_s lifts vlifts
-sum_o=0; sum_v=0; sum_b=0; count=0; slower=0
+# Table rows go to stdout, or with --json into rows.jsonl.
+say() { if [ "$json" = 0 ]; then echo "$@"; fi; }
+[ "$json" = 1 ] || printf '%-48s %9s %9s %7s %9s %6s %6s\n' input ours_s vpype_s ratio bound_s lifts vlifts
+: >"$work/rows.jsonl"
+: >"$work/skipped.txt"
+sum_o=0; sum_v=0; sum_b=0; count=0; slower=0; worst=0; worst_name=""
 clips=0
 for f in "${inputs[@]}"; do
-  name="$(basename "$f")"
+  case "$f" in gen:*) name="$f" ;; *) name="$(basename "$f")" ;; esac
   case "$f" in gen:*) ;; *) [ "$clips" -ge "$n" ] && continue ;; esac
   flat="$work/flat.svg"
   if ! "$plotter" convert "$f" -o "$flat" --paper a4 --fit --margin 10 2>/dev/null; then
-    echo "skip $name (our importer refused it)"; continue
+    say "skip $name (our importer refused it)"; echo "$name" >>"$work/skipped.txt"; continue
   fi
-  if ! "$plotter" plot "$flat" --layer-by none --preview "$work/o.png" >"$work/o.txt" 2>"$work/o.err"; then
-    echo "skip $name (plot failed: $(head -c 200 "$work/o.err"))"; continue
+  if ! "$plotter" plot "$flat" --layer-by none --preview "$work/o.png" "${plot_args[@]}" >"$work/o.txt" 2>"$work/o.err"
+  then
+    say "skip $name (plot failed: $(head -c 200 "$work/o.err"))"; echo "$name" >>"$work/skipped.txt"; continue
   fi
-  if ! vpype -c "$cfg" read --single-layer "$flat" linemerge linesort --two-opt gwrite -p xy_plotter "$work/v.gcode" \
+  if ! "$vpype" -c "$cfg" read --single-layer "$flat" linemerge linesort --two-opt gwrite -p xy_plotter "$work/v.gcode" \
       >/dev/null 2>&1; then
-    echo "skip $name (vpype failed)"; continue
+    say "skip $name (vpype failed)"; echo "$name" >>"$work/skipped.txt"; continue
   fi
   "$plotter" plot "$work/v.gcode" --no-optimize --preview "$work/v.png" >"$work/v.txt" 2>"$work/v.err"
   o="$(executed "$work/o.txt")"; v="$(executed "$work/v.txt")"
@@ -58,7 +70,13 @@ for f in "${inputs[@]}"; do
   vl="$(grep -c '^G1 Z0' "$work/v.gcode" || true)"
   ol="$(sed -n 's/.*, \([0-9]*\) lifts.*/\1/p' "$work/o.txt")"
   ratio="$(awk -v o="$o" -v v="$v" 'BEGIN{printf "%.3f", o/v}')"
-  printf '%-48s %9.2f %9.2f %7s %9.2f %6s %6s\n' "${name:0:48}" "$o" "$v" "$ratio" "$b" "$ol" "$vl"
+  if [ "$json" = 1 ]; then
+    printf '{"input":"%s","ours_s":%s,"vpype_s":%s,"ratio":%s,"lower_bound_s":%s,"lifts":%s,"vpype_lifts":%s}\n' \
+      "${name//\"/\\\"}" "$o" "$v" "$ratio" "$b" "${ol:-null}" "${vl:-null}" >>"$work/rows.jsonl"
+  else
+    printf '%-48s %9.2f %9.2f %7s %9.2f %6s %6s\n' "${name:0:48}" "$o" "$v" "$ratio" "$b" "$ol" "$vl"
+  fi
+  if awk -v r="$ratio" -v w="$worst" 'BEGIN{exit !(r > w)}'; then worst="$ratio"; worst_name="$name"; fi
   sum_o="$(awk -v a="$sum_o" -v b="$o" 'BEGIN{print a+b}')"
   sum_v="$(awk -v a="$sum_v" -v b="$v" 'BEGIN{print a+b}')"
   sum_b="$(awk -v a="$sum_b" -v b="$b" 'BEGIN{print a+b}')"
@@ -66,6 +84,18 @@ for f in "${inputs[@]}"; do
   case "$f" in gen:*) ;; *) clips=$((clips + 1)) ;; esac
   if awk -v o="$o" -v v="$v" 'BEGIN{exit !(o > v)}'; then slower=$((slower + 1)); fi
 done
-awk -v o="$sum_o" -v v="$sum_v" -v b="$sum_b" -v c="$count" -v s="$slower" 'BEGIN{
-  printf "\n%d drawings: ours %.1f s, vpype order %.1f s, ratio %.3f; lower bound %.1f s (ours %.1f %% above); slower on %d\n",
-    c, o, v, o / v, b, 100 * (o / b - 1), s }'
+if [ "$json" = 1 ]; then
+  rows="$(paste -sd, "$work/rows.jsonl")"
+  skipped="$(sed 's/"/\\"/g; s/.*/"&"/' "$work/skipped.txt" | paste -sd,)"
+  # Strings go through the environment: awk -v would interpret their backslashes.
+  WN="${worst_name//\"/\\\"}" ROWS="$rows" SKIPPED="$skipped" ARGS="${PLOT_ARGS:-}" \
+  awk -v o="$sum_o" -v v="$sum_v" -v b="$sum_b" -v c="$count" -v s="$slower" -v w="$worst" 'BEGIN{
+    printf "{\"drawings\":%d,\"ours_s\":%.3f,\"vpype_s\":%.3f,\"ratio\":%.4f,\"lower_bound_s\":%.3f,", c, o, v, o / v, b
+    printf "\"above_bound_pct\":%.2f,\"slower_on\":%d,\"worst_ratio\":%s,", 100 * (o / b - 1), s, w
+    printf "\"worst_input\":\"%s\",\"plot_args\":\"%s\",", ENVIRON["WN"], ENVIRON["ARGS"]
+    printf "\"skipped\":[%s],\"rows\":[%s]}\n", ENVIRON["SKIPPED"], ENVIRON["ROWS"] }'
+else
+  awk -v o="$sum_o" -v v="$sum_v" -v b="$sum_b" -v c="$count" -v s="$slower" -v w="$worst" -v wn="$worst_name" 'BEGIN{
+    printf "\n%d drawings: ours %.1f s, vpype order %.1f s, ratio %.3f; lower bound %.1f s (ours %.1f %% above); slower on %d; worst %s (%s)\n",
+      c, o, v, o / v, b, 100 * (o / b - 1), s, w, wn }'
+fi

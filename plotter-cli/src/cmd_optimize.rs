@@ -135,6 +135,10 @@ mod tests {
         assert!(o.time_model.is_some());
         let err = parse(&["--opt-cost", "time"]).options(None).unwrap_err().to_string();
         assert!(err.contains("profile"), "{err}");
+        // auto: time with a machine profile, distance without; distance on request.
+        assert_eq!(parse(&[]).options(Some(&p)).unwrap().objective, Objective::Time);
+        assert_eq!(parse(&[]).options(None).unwrap().objective, Objective::Distance);
+        assert_eq!(parse(&["--opt-cost", "distance"]).options(Some(&p)).unwrap().objective, Objective::Distance);
         assert!(parse(&["--opt-budget=-1"]).options(None).is_err());
         assert!(!parse(&["--no-optimize"]).enabled());
     }

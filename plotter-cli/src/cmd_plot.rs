@@ -12,7 +12,7 @@ use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_fw::TICK_HZ;
 use plotter_host::input::InputArgs;
-use plotter_host::job::load::{load_profile, load_steps};
+use plotter_host::job::load::{load_profile, load_steps, pen_on_page};
 use plotter_host::job::progress::{JobProgress, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self, JobOutcome, JournalSpec};
@@ -303,18 +303,18 @@ fn default_beside(input: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(format!("{stem}{suffix}"))
 }
 
-/// Print the plot-time lower bound next to the planned time (see [`plotter_path::motion::bound`]).
+/// Print the plot-time lower bound next to the planned time, and both split into drawing, travel and lifts (see
+/// [`plotter_path::motion::bound`]); the order's travel bound is taken from `start`, where the order started.
 fn print_lower_bound(
     profile: &plotter_path::MachineProfile,
     steps: &plotter_path::motion::steps::StepDrawing,
     drawing: &plotter_path::Drawing,
     plan: &plotter_path::motion::plan::MotionPlan,
     args: &PlotArgs,
+    start: Option<plotter_path::kurbo::Point>,
 ) -> anyhow::Result<()> {
-    let start = args.optimize.start(Some(profile))?;
     let seam = args.optimize.options(Some(profile))?.seam;
-    let (travel_lb, _) = plotter_path::optimize::travel_lower_bound(drawing, seam, start, None);
-    let b = plotter_path::motion::bound::plot_time_lower_bound(profile, steps, travel_lb)?;
+    let b = plotter_path::motion::bound::drawing_time_lower_bound(profile, steps, drawing, seam, start)?;
     println!(
         "lower bound {:.3} s (pen down {:.1} s, {} lifts {:.1} s, travel {:.1} s): planned time is {:.1} % above it",
         b.total_s(),
@@ -324,6 +324,7 @@ fn print_lower_bound(
         b.travel_s,
         100.0 * (plan.seconds() / b.total_s() - 1.0)
     );
+    println!("{}", crate::time_parts::line(&plan.breakdown(), &b));
     Ok(())
 }
 
@@ -343,7 +344,25 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         _ => None,
     };
     let cfg = plan::machine_config(&profile)?;
-    let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize)?;
+    let baud = args.baud.unwrap_or(profile.link.baud);
+    // The simulated plotter is connected before the drawing is ordered too, like a real one.
+    let mut simulated = match (&connected, &args.export) {
+        (None, None) => {
+            let mut transport = SimTransport::new(cfg, Some(baud));
+            if args.sim_noise > 0.0 {
+                transport = transport.with_noise(plotter_host::link::faults::Noise::new(args.sim_noise, 1));
+            }
+            Some(Session::connect(transport, "simulated plotter")?)
+        }
+        _ => None,
+    };
+    // Without homing, the order starts where the machine reports the pen, not at home.
+    let pen_at = match (args.no_home, connected.as_mut(), simulated.as_mut()) {
+        (true, Some(c), _) => Some(pen_on_page(c.machine(), &profile)?),
+        (true, None, Some(s)) => Some(pen_on_page(s, &profile)?),
+        _ => None,
+    };
+    let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize, pen_at)?;
     plan::check_work_area(&profile, &steps)?;
     if let Some(out) = &args.export {
         let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
@@ -357,14 +376,9 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately, args.pen_change);
-    let baud = args.baud.unwrap_or(profile.link.baud);
     match connected.as_mut() {
         None => {
-            let mut transport = SimTransport::new(cfg, Some(baud));
-            if args.sim_noise > 0.0 {
-                transport = transport.with_noise(plotter_host::link::faults::Noise::new(args.sim_noise, 1));
-            }
-            let mut session = Session::connect(transport, "simulated plotter")?;
+            let mut session = simulated.context("the simulated plotter is not connected")?;
             let outcome = job::plot(
                 &mut session,
                 &profile,
@@ -380,7 +394,8 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             let executed = sim.hal().busy_ticks() - outcome.busy_before;
             println!("{}", summary(&outcome, Some(executed)));
             if let Some(d) = &drawing {
-                print_lower_bound(&profile, &steps, d, &outcome.plan, args)?;
+                let start = args.optimize.start_from(Some(&profile), pen_at)?;
+                print_lower_bound(&profile, &steps, d, &outcome.plan, args, start)?;
             }
             let (mut stepped, travel) = stepped_drawing(sim, &profile);
             stepped.page_mm = drawing.as_ref().and_then(|d| d.page_mm);
@@ -435,7 +450,12 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
     let link = PlotArgs { baud: args.baud.or(original.baud), firmware: original.firmware, ..original.clone() };
     let mut c = connect(&link, port, &mut profile)?;
-    let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize)?;
+    // The order started where the original plot's plan did when that plot did not home.
+    let pen_at = original.no_home.then(|| {
+        plotter_path::motion::steps::StepMapper::new(&profile)
+            .steps_to_page(plotter_path::motion::steps::StepPos::new(source.start[0], source.start[1]))
+    });
+    let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize, pen_at)?;
     let back = original.optimize.return_home;
     let full = plan::plan_returning(&profile, &steps, source.start, plan::Lookahead::Whole, back)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {

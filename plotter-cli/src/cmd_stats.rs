@@ -6,10 +6,11 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use plotter_path::motion::bound::{TimeBound, plot_time_lower_bound};
-use plotter_path::motion::plan::{self, Lookahead};
+use plotter_path::kurbo::Point;
+use plotter_path::motion::bound::{TimeBound, drawing_time_lower_bound};
+use plotter_path::motion::plan::{self, Lookahead, PlanBreakdown};
 use plotter_path::motion::steps::drawing_to_steps;
-use plotter_path::optimize::{CostModel, drawing_travel, travel_lower_bound};
+use plotter_path::optimize::{CostModel, SeamMode, drawing_travel};
 use plotter_path::output::stats::Stats;
 use plotter_path::{Drawing, MachineProfile};
 
@@ -24,7 +25,8 @@ pub(crate) struct StatsArgs {
     pub(crate) source: Source,
     /// Print JSON (keys: layers, paths, segments, pen_down_mm, pen_up_mm, pen_lifts, bbox_mm, layer_names,
     /// pen_up_mm_from_home, pen_up_mm_optimized, pen_up_lower_bound_mm, pen_lifts_optimized, est_time_s,
-    /// est_time_lower_bound_s, est_time_s_optimized, est_time_lower_bound_s_optimized)
+    /// est_time_lower_bound_s, est_time_s_optimized, est_time_lower_bound_s_optimized, and est_time_parts /
+    /// est_time_parts_optimized: draw_s, travel_s, lifts_s and their *_lower_bound_s)
     #[arg(long)]
     pub(crate) json: bool,
     /// Machine profile for the time estimate (TOML) [default: the built-in XY plotter kit]
@@ -35,17 +37,19 @@ pub(crate) struct StatsArgs {
 }
 
 /// Plot time of `drawing` as planned by the firmware's planner over the whole drawing, from the homed position
-/// (back home at the end with `return_home`), and a lower bound on it given the drawing's travel lower bound.
-fn estimate_seconds(
+/// (back home at the end with `return_home`), split into its parts, and a lower bound on it for any order of the
+/// drawing's paths from `start`.
+fn estimate(
     profile: &MachineProfile,
     drawing: &Drawing,
     return_home: bool,
-    travel_lb_mm: f64,
-) -> Result<(f64, TimeBound)> {
+    seam: SeamMode,
+    start: Option<Point>,
+) -> Result<(f64, PlanBreakdown, TimeBound)> {
     let steps = drawing_to_steps(profile, drawing)?;
     let plan = plan::plan_returning(profile, &steps, plan::homed_position(profile)?, Lookahead::Whole, return_home)?;
-    let bound = plot_time_lower_bound(profile, &steps, travel_lb_mm)?;
-    Ok((plan.seconds(), bound))
+    let bound = drawing_time_lower_bound(profile, &steps, drawing, seam, start)?;
+    Ok((plan.seconds(), plan.breakdown(), bound))
 }
 
 /// Run `plotter stats`.
@@ -65,14 +69,11 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         }
         mm
     };
-    let estimate = |d: &Drawing| {
-        let (lb, _) = travel_lower_bound(d, options.seam, options.start, None);
-        match estimate_seconds(&profile, d, back, lb) {
-            Ok(s) => Some(s),
-            Err(e) => {
-                eprintln!("warning: no time estimate on profile '{}': {e:#}", profile.name);
-                None
-            }
+    let estimate = |d: &Drawing| match estimate(&profile, d, back, options.seam, options.start) {
+        Ok(s) => Some(s),
+        Err(e) => {
+            eprintln!("warning: no time estimate on profile '{}': {e:#}", profile.name);
+            None
         }
     };
     let pen_up_from_home = legs(&drawing);
@@ -89,9 +90,18 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         value["pen_up_lower_bound_mm"] = serde_json::json!(report.as_ref().and_then(|r| r.pen_up_lower_bound_mm));
         value["pen_lifts_optimized"] = serde_json::json!(report.as_ref().map(|r| r.paths_out));
         value["est_time_s"] = serde_json::json!(est.map(|e| e.0));
-        value["est_time_lower_bound_s"] = serde_json::json!(est.map(|e| e.1.total_s()));
+        value["est_time_lower_bound_s"] = serde_json::json!(est.map(|e| e.2.total_s()));
         value["est_time_s_optimized"] = serde_json::json!(est_optimized.map(|e| e.0));
-        value["est_time_lower_bound_s_optimized"] = serde_json::json!(est_optimized.map(|e| e.1.total_s()));
+        value["est_time_lower_bound_s_optimized"] = serde_json::json!(est_optimized.map(|e| e.2.total_s()));
+        let parts = |e: &(f64, PlanBreakdown, TimeBound)| {
+            serde_json::json!({
+                "draw_s": e.1.draw_s(), "travel_s": e.1.travel_s(), "lifts_s": e.1.lift_s(),
+                "draw_lower_bound_s": e.2.draw_s, "travel_lower_bound_s": e.2.travel_s,
+                "lifts_lower_bound_s": e.2.lifts_s,
+            })
+        };
+        value["est_time_parts"] = serde_json::json!(est.as_ref().map(parts));
+        value["est_time_parts_optimized"] = serde_json::json!(est_optimized.as_ref().map(parts));
         println!("{}", serde_json::to_string_pretty(&value)?);
         return Ok(());
     }
@@ -101,8 +111,9 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         if back { " and back" } else { "" }
     );
     println!("layer names   {}", names.join(", "));
-    if let Some((t, b)) = est {
-        println!("plot time     {} (profile '{}'), lower bound {}", clock(t), profile.name, clock(b.total_s()));
+    if let Some((t, parts, b)) = &est {
+        println!("plot time     {} (profile '{}'), lower bound {}", clock(*t), profile.name, clock(b.total_s()));
+        println!("              {}", crate::time_parts::line(parts, b));
     }
     if let Some(r) = &report {
         print!("optimized     pen up {:.2} mm", pen_up_optimized.unwrap_or(r.pen_up_after_mm));
@@ -110,15 +121,18 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
             print!(", lower bound {lb:.2} mm");
         }
         print!(", {} pen lifts", r.paths_out);
-        if let Some((t, b)) = est_optimized {
+        if let Some((t, _, b)) = &est_optimized {
             print!(
                 ", plot time {}, lower bound {} ({:.1} % above)",
-                clock(t),
+                clock(*t),
                 clock(b.total_s()),
                 100.0 * (t / b.total_s() - 1.0)
             );
         }
         println!();
+        if let Some((_, parts, b)) = &est_optimized {
+            println!("              {}", crate::time_parts::line(parts, b));
+        }
     }
     Ok(())
 }

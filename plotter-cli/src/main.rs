@@ -19,6 +19,7 @@ mod cmd_stats;
 mod cmd_trace;
 mod serve;
 mod sim_qemu;
+mod time_parts;
 
 use clap::{Parser, Subcommand};
 

@@ -4,11 +4,13 @@ use std::path::Path;
 
 use anyhow::Context as _;
 use plotter_path::input::trajectory;
-use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
+use plotter_path::kurbo::Point;
+use plotter_path::motion::steps::{StepDrawing, StepMapper, StepPos, drawing_to_steps};
 use plotter_path::optimize::{self, OptimizeOptions};
 use plotter_path::{Drawing, MachineProfile};
 
 use crate::input::{InputArgs, InputKind, input_kind, load_drawing};
+use crate::link::machine::PlotMachine;
 use crate::options::layout::LayoutArgs;
 use crate::options::optimize::OptimizeArgs;
 
@@ -20,16 +22,24 @@ pub fn load_profile(path: Option<&Path>) -> anyhow::Result<MachineProfile> {
     }
 }
 
+/// Where `machine` reports its pen, page mm (the firmware's status, mapped through the profile).
+pub fn pen_on_page(machine: &mut dyn PlotMachine, profile: &MachineProfile) -> anyhow::Result<Point> {
+    let at = machine.position().context("cannot read the machine's position")?;
+    Ok(StepMapper::new(profile).steps_to_page(StepPos::new(at[0], at[1])))
+}
+
 /// Load any supported input as steps (and the millimetre drawing for previews), laid out as the options say,
 /// printing warnings. A trajectory file is already in steps and is used exactly as stored unless the layout
 /// options ask for a change. The optimizer runs to convergence (no time budget), so that a resumed plot rebuilds
-/// exactly the same order.
+/// exactly the same order. The order starts at `pen_at` (page mm) when given — where a machine that is not homed
+/// before the plot reports the pen ([`pen_on_page`]) — else at home (or `--start-at`).
 pub fn load_steps(
     input: &Path,
     profile: &MachineProfile,
     input_args: &InputArgs,
     layout: &LayoutArgs,
     optimize: &OptimizeArgs,
+    pen_at: Option<Point>,
 ) -> anyhow::Result<(StepDrawing, Option<Drawing>)> {
     let shown = input.display().to_string();
     if input != Path::new("-") && layout.options()?.is_identity() {
@@ -42,7 +52,7 @@ pub fn load_steps(
     let mut drawing = load_drawing(input, input_args, profile)?;
     layout.apply(&mut drawing)?;
     if optimize.enabled() {
-        let options = OptimizeOptions { time_budget: None, ..optimize.options(Some(profile))? };
+        let options = OptimizeOptions { time_budget: None, ..optimize.options_from(Some(profile), pen_at)? };
         let report = optimize::optimize(&mut drawing, &options).with_context(|| format!("cannot optimize {shown}"))?;
         eprintln!(
             "path order: pen-up travel {:.1} mm -> {:.1} mm (lower bound {})",
@@ -53,4 +63,64 @@ pub fn load_steps(
     }
     let steps = drawing_to_steps(profile, &drawing).with_context(|| format!("cannot convert {shown} to steps"))?;
     Ok((steps, Some(drawing)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::session::Session;
+    use crate::link::sim::SimTransport;
+    use clap::Parser;
+    use plotter_path::motion::plan;
+    use plotter_path::optimize::{CostModel, drawing_travel};
+    use std::time::Duration;
+
+    #[derive(Parser)]
+    struct Wrap {
+        #[command(flatten)]
+        input: InputArgs,
+        #[command(flatten)]
+        layout: LayoutArgs,
+        #[command(flatten)]
+        optimize: OptimizeArgs,
+    }
+
+    /// Two 20 mm lines, A from (10, 10) to (30, 10) and B from (80, 50) to (100, 50) (page mm). From home (0, 0)
+    /// the best order is A then B: 10·√2 + √(50² + 40²) = 14.142 + 64.031 = 78.173 mm of pen-up travel. From
+    /// (100, 50) it is B backwards (no hop), then A from (30, 10): 64.031 mm; starting with A would cost
+    /// √(70² + 40²) = 80.623 mm before anything is drawn.
+    #[test]
+    fn without_homing_the_order_starts_where_the_machine_reports_the_pen() {
+        let profile = MachineProfile::default_plotter();
+        let dir = std::env::temp_dir().join(format!("plotter-load-pen-at-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let svg = dir.join("two.svg");
+        std::fs::write(
+            &svg,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="210mm" height="297mm" viewBox="0 0 210 297">
+<path d="M10 10 H30" stroke="black" fill="none"/><path d="M80 50 H100" stroke="black" fill="none"/></svg>"#,
+        )
+        .unwrap();
+        let w = Wrap::try_parse_from(["t"]).unwrap();
+        // The simulated plotter, homed, then moved to (100, 50) mm as a previous plot might have left it.
+        let cfg = plan::machine_config(&profile).unwrap();
+        let mut session = Session::connect(SimTransport::new(cfg, None), "sim").unwrap();
+        session.home().unwrap();
+        session.command_checked("G0 X100 Y50", Duration::from_secs(5)).unwrap();
+        session.wait_idle(Duration::from_millis(1)).unwrap();
+        let pen = pen_on_page(&mut session, &profile).unwrap();
+        assert_eq!(pen, Point::new(100.0, 50.0));
+
+        let (steps, drawing) = load_steps(&svg, &profile, &w.input, &w.layout, &w.optimize, Some(pen)).unwrap();
+        let d = drawing.unwrap();
+        assert_eq!(steps.strokes[0].start, StepPos::new(8000, 4000), "B first, entered at (100, 50)");
+        let travel = drawing_travel(&d, Some(pen), &CostModel::Distance);
+        assert!((travel - 4100f64.sqrt()).abs() < 1e-4, "{travel}");
+
+        let (steps, drawing) = load_steps(&svg, &profile, &w.input, &w.layout, &w.optimize, None).unwrap();
+        assert_eq!(steps.strokes[0].start, StepPos::new(800, 800), "A first, entered at (10, 10)");
+        let travel = drawing_travel(&drawing.unwrap(), Some(Point::ZERO), &CostModel::Distance);
+        assert!((travel - (200f64.sqrt() + 4100f64.sqrt())).abs() < 1e-4, "{travel}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

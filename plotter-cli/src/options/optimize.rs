@@ -24,9 +24,12 @@ pub enum SeamArg {
 /// What the optimizer minimizes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CostArg {
+    /// Pen-up time when a machine profile is known (as `time`), else pen-up distance
+    Auto,
     /// Pen-up distance
     Distance,
-    /// Pen-up time from the machine profile (acceleration-limited moves plus pen lift/drop)
+    /// Pen-up time from the machine profile: each hop's stop-to-stop move at the travel feed and acceleration,
+    /// plus the pen lift and drop with their settles
     Time,
 }
 
@@ -78,8 +81,8 @@ pub struct OptimizeArgs {
     /// Random kicks per path after the first local optimum (0 = none)
     #[arg(long, default_value_t = 2.0, help_heading = "Optimization")]
     pub opt_kicks: f64,
-    /// What to minimize (time needs a machine profile)
-    #[arg(long, value_enum, default_value_t = CostArg::Distance, help_heading = "Optimization")]
+    /// What to minimize (time needs a machine profile; auto is time when one is known)
+    #[arg(long, value_enum, default_value_t = CostArg::Auto, help_heading = "Optimization")]
     pub opt_cost: CostArg,
 }
 
@@ -91,12 +94,21 @@ impl OptimizeArgs {
 
     /// Where the pen starts (page mm): `--start-at`, else the profile's home, else unknown.
     pub fn start(&self, profile: Option<&MachineProfile>) -> Result<Option<Point>> {
+        self.start_from(profile, None)
+    }
+
+    /// Where the pen starts (page mm): `--start-at`, else `pen_at` (where a machine that is not homed reports
+    /// the pen), else the profile's home, else unknown.
+    pub fn start_from(&self, profile: Option<&MachineProfile>, pen_at: Option<Point>) -> Result<Option<Point>> {
         if let Some(text) = &self.start_at {
             let parse = |v: &str| v.trim().parse::<f64>().ok().filter(|x| x.is_finite());
             let (Some(x), Some(y)) = text.split_once(',').map_or((None, None), |(a, b)| (parse(a), parse(b))) else {
                 bail!("--start-at {text}: expected two numbers X,Y in page millimetres, e.g. 0,0");
             };
             return Ok(Some(Point::new(x, y)));
+        }
+        if pen_at.is_some() {
+            return Ok(pen_at);
         }
         match profile {
             Some(p) => Ok(Some(plan::home_on_page(p)?)),
@@ -107,18 +119,26 @@ impl OptimizeArgs {
     /// Library options from the flags; `profile` (if any) supplies the start (its home), the pen width (merge
     /// tolerance and bridges) and the travel-time model.
     pub fn options(&self, profile: Option<&MachineProfile>) -> Result<OptimizeOptions> {
+        self.options_from(profile, None)
+    }
+
+    /// [`options`](Self::options) with the order starting at `pen_at` (page mm) instead of home, unless
+    /// `--start-at` says otherwise: for a plot on a machine that is not homed first.
+    pub fn options_from(&self, profile: Option<&MachineProfile>, pen_at: Option<Point>) -> Result<OptimizeOptions> {
         if !(self.opt_budget.is_finite() && self.opt_budget >= 0.0) {
             bail!("--opt-budget must be a number of seconds ≥ 0, got {}", self.opt_budget);
         }
         let width = profile.map_or(plotter_path::motion::profile::DEFAULT_PEN_WIDTH_MM, |p| p.pen.width_mm);
-        let start = self.start(profile)?;
+        let start = self.start_from(profile, pen_at)?;
         if self.return_home && start.is_none() {
             bail!("--return-home needs to know where home is: give --profile or --start-at");
         }
         let time_model = profile.map(TravelTimeModel::from_profile);
-        if self.opt_cost == CostArg::Time && time_model.is_none() {
-            bail!("--opt-cost time needs a machine profile (--profile FILE)");
-        }
+        let objective = match (self.opt_cost, time_model) {
+            (CostArg::Time, None) => bail!("--opt-cost time needs a machine profile (--profile FILE)"),
+            (CostArg::Time | CostArg::Auto, Some(_)) => Objective::Time,
+            (CostArg::Distance, _) | (CostArg::Auto, None) => Objective::Distance,
+        };
         Ok(OptimizeOptions {
             merge: !self.no_merge,
             merge_tolerance_mm: self.merge_tolerance.unwrap_or(width / 2.0),
@@ -136,10 +156,7 @@ impl OptimizeArgs {
             time_budget: (self.opt_budget > 0.0).then(|| Duration::from_secs_f64(self.opt_budget)),
             seed: self.opt_seed,
             kicks_per_path: self.opt_kicks,
-            objective: match self.opt_cost {
-                CostArg::Distance => Objective::Distance,
-                CostArg::Time => Objective::Time,
-            },
+            objective,
             time_model,
             ..OptimizeOptions::default()
         })

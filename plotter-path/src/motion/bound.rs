@@ -14,8 +14,9 @@
 //!   `√(a_x² + a_y²)` (the largest acceleration the per-axis limits allow along any direction).
 //! * **Pen lifts**: one drop and one lift per stroke, each a settle dwell and a Z move that ends at rest (the
 //!   dwell) and starts no faster than the 90° corner from the XY move allows.
-//! * **Travel**: the pen-up hops cover at least the travel lower bound (see [`crate::optimize::bound`]), at no
-//!   more than the travel feed.
+//! * **Travel**: the pen-up hops span at least the travel lower bound's tree (see [`crate::optimize::bound`]),
+//!   each hop on its own: from rest, at no more than the travel feed, into the pen drop's corner
+//!   ([`min_hop_seconds`]).
 //!
 //! Curvature limits inside strokes and the direction limits of the feed are left out (each only adds time), so the
 //! bound is valid whatever the order; the gap between it and the plan is what any order and planner could gain.
@@ -57,12 +58,33 @@ fn min_time(len: f64, v0: f64, v1: f64, v: f64, a: f64) -> f64 {
     (peak - v0) / a + (peak - v1) / a + cruise / v
 }
 
-/// Lower bound on the time to plot `steps` (strokes as the plan draws them) whose pen-up travel is at least
-/// `travel_lb_mm`. See the module docs.
+/// The 90° junction speed of junction deviation `deviation` at acceleration `a`: the fastest a move may enter or
+/// leave a perpendicular one (XY travel into a pen drop, a stroke into the lift).
+fn corner_speed(a: f64, deviation: f64) -> f64 {
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    (a * deviation * s / (1.0 - s)).sqrt()
+}
+
+/// The least time a pen-up hop of at least `d` mm can take on `profile`, seconds (no lift): it starts at rest (after
+/// the lift's settle), reaches at most the travel feed, accelerates at most `√(a_x² + a_y²)`, and ends no faster
+/// than the 90° corner into the pen drop. Its endpoints were rounded to steps, which may shorten it by up to two
+/// step diagonals. Non-decreasing in `d`, so it maps a travel lower bound's hop lengths to a time bound
+/// ([`crate::optimize::travel_lower_bound_mapped`]).
+pub fn min_hop_seconds(profile: &MachineProfile) -> impl Fn(f64) -> f64 + use<> {
+    let accel = profile.axes.x.max_accel_mm_s2.hypot(profile.axes.y.max_accel_mm_s2);
+    let v_end = corner_speed(accel, profile.motion.junction_deviation_mm);
+    let feed = profile.pen.travel_feed_mm_s;
+    let slack = 2.0 * (1.0 / profile.axes.x.steps_per_mm).hypot(1.0 / profile.axes.y.steps_per_mm);
+    move |d: f64| min_time((d - slack).max(0.0), 0.0, v_end, feed, accel)
+}
+
+/// Lower bound on the time to plot `steps` (strokes as the plan draws them) whose pen-up hops take at least
+/// `travel_lb_s` (e.g. [`crate::optimize::travel_lower_bound_mapped`] with [`min_hop_seconds`]). See the module
+/// docs.
 pub fn plot_time_lower_bound(
     profile: &MachineProfile,
     steps: &StepDrawing,
-    travel_lb_mm: f64,
+    travel_lb_s: f64,
 ) -> Result<TimeBound, PlanError> {
     // Only to refuse a profile the planner refuses.
     machine_config(profile)?;
@@ -70,24 +92,18 @@ pub fn plot_time_lower_bound(
     let accel = ax.hypot(ay);
     let (sx, sy) = (profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm);
     let draw = profile.pen.draw_feed_mm_s;
-    let travel = profile.pen.travel_feed_mm_s;
     let deviation = profile.motion.junction_deviation_mm;
     let mut bound = TimeBound::default();
     // One drop and one lift per stroke: the settle dwell and a Z move entered at most at the 90° corner speed.
     let z = &profile.axes.z;
     let dz_mm = (profile.pen.up_z_mm - profile.pen.down_z_mm).abs();
-    let corner = |a: f64| {
-        let s = std::f64::consts::FRAC_1_SQRT_2;
-        (a * deviation * s / (1.0 - s)).sqrt()
-    };
+    let corner = |a: f64| corner_speed(a, deviation);
     let z_move = min_time(dz_mm, corner(z.max_accel_mm_s2), 0.0, z.max_feed_mm_s, z.max_accel_mm_s2);
     let settle = f64::from(crate::motion::plan::settle_ticks(profile)) / f64::from(plotter_fw::TICK_HZ);
     let cycle_s = 2.0 * (z_move + settle);
     let v_lift = corner(accel);
     let mut strokes = 0usize;
-    let mut hops = 0usize;
     for s in &steps.strokes {
-        hops += 1;
         let segs: Vec<(f64, f64)> =
             s.moves.iter().filter(|d| !d.is_zero()).map(|d| (f64::from(d.dx) / sx, f64::from(d.dy) / sy)).collect();
         if segs.is_empty() {
@@ -116,11 +132,22 @@ pub fn plot_time_lower_bound(
     #[allow(clippy::cast_precision_loss, reason = "stroke counts are far below 2^52")]
     {
         bound.lifts_s = strokes as f64 * cycle_s;
-        // Endpoints rounded to steps move each hop by at most a step diagonal at either end.
-        let slack = hops as f64 * 2.0 * (1.0 / sx).hypot(1.0 / sy);
-        bound.travel_s = (travel_lb_mm - slack).max(0.0) / travel;
     }
+    bound.travel_s = travel_lb_s;
     Ok(bound)
+}
+
+/// [`plot_time_lower_bound`] of `steps` (the step form of `drawing`) with the travel bound of `drawing`'s paths in
+/// any order from `start`, each hop charged [`min_hop_seconds`].
+pub fn drawing_time_lower_bound(
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    drawing: &crate::Drawing,
+    seam: crate::optimize::SeamMode,
+    start: Option<kurbo::Point>,
+) -> Result<TimeBound, PlanError> {
+    let travel = crate::optimize::travel_lower_bound_mapped(drawing, seam, start, &min_hop_seconds(profile));
+    plot_time_lower_bound(profile, steps, travel)
 }
 
 #[cfg(test)]
@@ -140,6 +167,27 @@ mod tests {
     }
 
     #[test]
+    fn min_hop_by_hand() {
+        let p = MachineProfile::default_plotter();
+        let hop = min_hop_seconds(&p);
+        // a = 1500·√2, the corner speed into the drop v₁ = √(a·0.02·√½/(1 − √½)), the slack two step diagonals.
+        let a = 1500f64.hypot(1500.0);
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let v1 = (a * 0.02 * s / (1.0 - s)).sqrt();
+        let slack = 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0);
+        // 100 mm: ramp up to 120 (120²/2a), ramp down to v₁, cruise the rest.
+        let len = 100.0 - slack;
+        let up = 120.0 * 120.0 / (2.0 * a);
+        let down = (120.0 * 120.0 - v1 * v1) / (2.0 * a);
+        let t = 120.0 / a + (120.0 - v1) / a + (len - up - down) / 120.0;
+        assert!((hop(100.0) - t).abs() < 1e-9, "{} vs {t}", hop(100.0));
+        // Shorter than the slack: nothing is certain.
+        assert_eq!(hop(slack / 2.0), 0.0);
+        // Monotone.
+        assert!(hop(1.0) < hop(2.0) && hop(2.0) < hop(100.0));
+    }
+
+    #[test]
     fn the_bound_is_below_the_plan_and_tight_on_a_long_line() {
         let p = MachineProfile::default_plotter();
         // One 100 mm line from (10, 10) mm, reached from home by a 10·√2 mm hop.
@@ -148,7 +196,7 @@ mod tests {
             moves: vec![StepDelta { dx: 8000, dy: 0 }],
         }]);
         let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
-        let b = plot_time_lower_bound(&p, &steps, 200f64.sqrt()).unwrap();
+        let b = plot_time_lower_bound(&p, &steps, 0.1).unwrap();
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
         // Drawing along X: the plan accelerates at 1500 mm/s² (X alone), the bound at 1500·√2, and may leave at
         // the 90° corner speed into the lift, √(a·δ·√½/(1 − √½)).
@@ -162,14 +210,15 @@ mod tests {
         let vz = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
         let zm = 4.0 / 25.0 + (25.0 - vz).powi(2) / (2.0 * 500.0 * 25.0) + 25.0 / 500.0 / 2.0;
         assert!((b.lifts_s - 2.0 * (0.05 + zm)).abs() < 1e-9, "{b:?}");
-        // Travel: the bound's length at the travel feed.
-        assert!((b.travel_s - (200f64.sqrt() - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0)) / 120.0).abs() < 1e-9);
+        // Travel: handed in as it is.
+        assert_eq!(b.travel_s, 0.1);
         // A zig-zag stops at each reversal: three 10 mm legs take three rest-to-rest motions.
         let zig = StepDrawing::from_strokes(vec![StepStroke {
             start: StepPos::new(800, 800),
             moves: vec![StepDelta { dx: 800, dy: 0 }, StepDelta { dx: -800, dy: 0 }, StepDelta { dx: 800, dy: 0 }],
         }]);
         let b = plot_time_lower_bound(&p, &zig, 0.0).unwrap();
+        assert_eq!(b.travel_s, 0.0);
         assert!(
             (b.draw_s - 2.0 * min_time(10.0, 0.0, 0.0, 60.0, a) - min_time(10.0, 0.0, v_lift, 60.0, a)).abs() < 1e-9
         );

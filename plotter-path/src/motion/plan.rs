@@ -147,6 +147,46 @@ pub enum Lookahead {
     Window(usize),
 }
 
+/// Where a plan's time goes, in ticks ([`TICK_HZ`]): the parts add up to [`MotionPlan::total_ticks`] exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PlanBreakdown {
+    /// Pen-down drawing moves.
+    pub draw_ticks: u64,
+    /// Pen-up XY travel moves.
+    pub travel_ticks: u64,
+    /// Pen lifts and drops (Z moves) with their settle dwells.
+    pub lift_ticks: u64,
+}
+
+impl PlanBreakdown {
+    fn secs(ticks: u64) -> f64 {
+        // u64 ticks of a plot fit f64's 53-bit mantissa for any realistic duration.
+        #[allow(clippy::cast_precision_loss)]
+        let t = ticks as f64;
+        t / f64::from(TICK_HZ)
+    }
+
+    /// Pen-down drawing time, seconds.
+    pub fn draw_s(&self) -> f64 {
+        Self::secs(self.draw_ticks)
+    }
+
+    /// Pen-up travel time, seconds.
+    pub fn travel_s(&self) -> f64 {
+        Self::secs(self.travel_ticks)
+    }
+
+    /// Lift, drop and settle time, seconds.
+    pub fn lift_s(&self) -> f64 {
+        Self::secs(self.lift_ticks)
+    }
+
+    /// The whole, ticks.
+    pub fn total_ticks(&self) -> u64 {
+        self.draw_ticks + self.travel_ticks + self.lift_ticks
+    }
+}
+
 /// The result of planning: blocks, exact time, positions.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MotionPlan {
@@ -185,6 +225,20 @@ impl MotionPlan {
     /// Exact execution time of the blocks from `from` on (ticks).
     pub fn ticks_from(&self, from: usize) -> u64 {
         self.blocks.iter().skip(from).map(|b| u64::from(b.block.duration_ticks())).sum()
+    }
+
+    /// Where the time goes: drawing, travel, and lifts with their settles (see [`PlanBreakdown`]).
+    pub fn breakdown(&self) -> PlanBreakdown {
+        let mut b = PlanBreakdown::default();
+        for p in &self.blocks {
+            let t = u64::from(p.block.duration_ticks());
+            match p.kind {
+                MoveKind::Draw => b.draw_ticks += t,
+                MoveKind::Travel => b.travel_ticks += t,
+                MoveKind::PenUp | MoveKind::PenDown | MoveKind::Settle => b.lift_ticks += t,
+            }
+        }
+        b
     }
 
     /// Index in the original plan of `blocks[i]`, `None` for a resume preamble block.
@@ -622,6 +676,27 @@ mod tests {
         for (i, b) in plan.blocks.iter().enumerate() {
             enc.encode(&b.block, u32::try_from(i).unwrap(), &mut buf).unwrap();
         }
+    }
+
+    #[test]
+    fn breakdown_of_two_lines_by_hand() {
+        // A near-zero junction deviation makes every XY/Z junction a stop, so each move is a rest-to-rest
+        // trapezoid t = d/v + v/a (long enough to reach v: d ≥ v²/a).
+        let mut p = profile();
+        p.motion.junction_deviation_mm = 1e-6;
+        let line = |a: (f64, f64), b: (f64, f64)| Polyline::new(vec![Point::new(a.0, a.1), Point::new(b.0, b.1)]);
+        let d = Drawing::single_layer("a", vec![line((0.0, 10.0), (30.0, 10.0)), line((30.0, 20.0), (0.0, 20.0))]);
+        let steps = drawing_to_steps(&p, &d).unwrap();
+        let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        let b = plan.breakdown();
+        assert_eq!(b.total_ticks(), plan.total_ticks);
+        // Travel: two 10 mm hops along Y at 120 mm/s, 1500 mm/s²: 2 · (10/120 + 120/1500) = 0.326667 s.
+        assert!((b.travel_s() - 2.0 * (10.0 / 120.0 + 0.08)).abs() < 1e-3, "{b:?}");
+        // Drawing: two 30 mm lines along X at 60 mm/s: 2 · (30/60 + 60/1500) = 1.08 s.
+        assert!((b.draw_s() - 2.0 * (0.5 + 0.04)).abs() < 1e-3, "{b:?}");
+        // Lifts: two drops and two lifts, each 4 mm of Z at 25 mm/s, 500 mm/s² (4/25 + 25/500 = 0.21 s) and a
+        // 50 ms settle: 4 · 0.26 = 1.04 s.
+        assert!((b.lift_s() - 4.0 * 0.26).abs() < 1e-3, "{b:?}");
     }
 
     #[test]

@@ -68,7 +68,12 @@ pub(crate) struct BoundParts {
 impl BoundParts {
     /// Both bounds under `cost`.
     pub(crate) fn under(&self, cost: &CostModel) -> TravelBound {
-        let f = |d: f64| cost.min_cost_of_length(d);
+        self.mapped(&|d| cost.min_cost_of_length(d))
+    }
+
+    /// Both bounds with every hop of length `d` costing `f(d)`, for any `f` that is non-decreasing and ≥ 0 (the
+    /// cheapest any hop of length ≥ `d` can be).
+    pub(crate) fn mapped(&self, f: &dyn Fn(f64) -> f64) -> TravelBound {
         if self.nearest.is_empty() {
             return TravelBound::default();
         }

@@ -173,6 +173,21 @@ mod tests {
     }
 
     #[test]
+    fn hop_time_by_hand_on_the_kit_profile() {
+        // Kit profile: travel 120 mm/s, X and Y 1500 mm/s² (and fast enough axes), lift + drop 0.52 s.
+        let m = model();
+        let o = Point::ZERO;
+        // Along X, cruise needs v²/a = 9.6 mm. 5 mm is a triangle: 2·√(5/1500) = 0.115470 s.
+        assert!((m.hop_time(o, Point::new(5.0, 0.0)) - (0.52 + 2.0 * (5.0f64 / 1500.0).sqrt())).abs() < 1e-12);
+        // 60 mm is a trapezoid: 60/120 + 120/1500 = 0.58 s.
+        assert!((m.hop_time(o, Point::new(0.0, 60.0)) - (0.52 + 0.58)).abs() < 1e-12);
+        // A 3-4-5 hop (direction 0.6, 0.8): the feed stays 120 (X runs 72, Y 96 mm/s, both under 150); the
+        // acceleration along it is the smaller of 1500/0.6 and 1500/0.8 = 1875. v²/a = 7.68 > 5 → triangle.
+        let d = m.move_time(o, Point::new(3.0, 4.0));
+        assert!((d - 2.0 * (5.0f64 / 1875.0).sqrt()).abs() < 1e-12, "{d}");
+    }
+
+    #[test]
     fn time_cost_weighs_many_short_hops_more_than_their_length() {
         let c = CostModel::Time(model());
         let o = Point::ZERO;

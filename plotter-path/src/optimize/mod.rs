@@ -394,17 +394,39 @@ pub fn travel_lower_bound(
 ) -> (f64, Option<f64>) {
     let mut dist = 0.0;
     let mut time = time_model.map(|_| 0.0);
-    for (li, layer) in drawing.layers.iter().enumerate() {
-        let ids: Vec<u32> = (0..u32::try_from(layer.paths.len()).unwrap_or(0))
-            .filter(|&i| layer.paths[i as usize].points.len() >= 2)
-            .collect();
-        let parts = layer_bound_parts(&layer.paths, &ids, seam, if li == 0 { start } else { None });
+    for parts in drawing_bound_parts(drawing, seam, start) {
         dist += parts.under(&CostModel::Distance).value();
         if let (Some(t), Some(m)) = (time.as_mut(), time_model) {
             *t += parts.under(&CostModel::Time(*m)).value();
         }
     }
     (dist, time)
+}
+
+/// Lower bound on the pen-up cost of `drawing` (as [`travel_lower_bound`]) when a hop of length `d` costs at least
+/// `min_hop(d)`; `min_hop` must be non-decreasing and ≥ 0. Lets the plot-time bound charge every hop its own
+/// acceleration-limited time instead of dividing the summed length by the feed.
+pub fn travel_lower_bound_mapped(
+    drawing: &Drawing,
+    seam: SeamMode,
+    start: Option<Point>,
+    min_hop: &dyn Fn(f64) -> f64,
+) -> f64 {
+    drawing_bound_parts(drawing, seam, start).map(|parts| parts.mapped(min_hop).value()).sum()
+}
+
+/// Bound material of every layer of `drawing` as it stands, the first from `start`.
+fn drawing_bound_parts(
+    drawing: &Drawing,
+    seam: SeamMode,
+    start: Option<Point>,
+) -> impl Iterator<Item = bound::BoundParts> + '_ {
+    drawing.layers.iter().enumerate().map(move |(li, layer)| {
+        let ids: Vec<u32> = (0..u32::try_from(layer.paths.len()).unwrap_or(0))
+            .filter(|&i| layer.paths[i as usize].points.len() >= 2)
+            .collect();
+        layer_bound_parts(&layer.paths, &ids, seam, if li == 0 { start } else { None })
+    })
 }
 
 /// Optimize `drawing` in place; see the module docs. Fails only on invalid options or non-finite coordinates.
