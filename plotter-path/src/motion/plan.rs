@@ -83,7 +83,12 @@ pub fn machine_config(profile: &MachineProfile) -> Result<MachineConfig, PlanErr
             pull_off_mm: f(profile.homing.pull_off_mm),
             debounce_ms: f(profile.homing.debounce_ms),
         },
-        pen: PenConfig { up_z_mm: f(profile.pen.up_z_mm), down_z_mm: f(profile.pen.down_z_mm) },
+        pen: PenConfig {
+            up_z_mm: f(profile.pen.up_z_mm),
+            down_z_mm: f(profile.pen.down_z_mm),
+            servo_up_deg: f(profile.pen.servo_up_deg),
+            servo_down_deg: f(profile.pen.servo_down_deg),
+        },
         rx_buffer_bytes: profile.link.rx_buffer_bytes,
         queue_blocks: profile.link.queue_blocks,
         soft_limits: true,
