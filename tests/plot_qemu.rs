@@ -223,6 +223,7 @@ fn bad_input_over_the_uart_behaves_as_in_the_simulator() {
         exit_rate: 0,
         accel: 40_000,
         dwell_ticks: 0,
+        servo: None,
     };
     let n = enc.encode(&block, 0, &mut frame).unwrap();
     let good = frame[..n].to_vec();

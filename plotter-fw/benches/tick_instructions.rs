@@ -52,6 +52,7 @@ fn main() {
         exit_rate: 0,
         accel: 400_000,
         dwell_ticks: 0,
+        servo: None,
     };
     let short = StepBlock {
         steps: [37, 120, 0, 0],
@@ -60,6 +61,7 @@ fn main() {
         exit_rate: 3_000,
         accel: 120_000,
         dwell_ticks: 0,
+        servo: None,
     };
     let mut pending = vec![long];
     pending.extend(std::iter::repeat_n(short, 20_000));

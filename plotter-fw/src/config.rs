@@ -70,6 +70,10 @@ pub struct PenConfig {
     pub up_z_mm: f32,
     /// Z with the pen on the paper, mm.
     pub down_z_mm: f32,
+    /// Servo pens: the angle (degrees, 0..=180) holding the pen up — where `M5` and a fault leave it.
+    pub servo_up_deg: f32,
+    /// Servo pens: the angle (degrees, 0..=180) putting the pen on the paper.
+    pub servo_down_deg: f32,
 }
 
 /// Everything the firmware needs to know about the machine.
@@ -147,7 +151,7 @@ impl MachineConfig {
             junction_deviation_mm: 0.02,
             curve_deviation_mm: 0.1,
             homing: HomingConfig { seek_mm_s: 40.0, locate_mm_s: 4.0, pull_off_mm: 2.0, debounce_ms: 5.0 },
-            pen: PenConfig { up_z_mm: 4.0, down_z_mm: 0.0 },
+            pen: PenConfig { up_z_mm: 4.0, down_z_mm: 0.0, servo_up_deg: 90.0, servo_down_deg: 30.0 },
             rx_buffer_bytes: 256,
             queue_blocks: 32,
             soft_limits: true,
@@ -210,6 +214,12 @@ impl MachineConfig {
         for (field, v) in [("pen.up_z_mm", self.pen.up_z_mm), ("pen.down_z_mm", self.pen.down_z_mm)] {
             if z.enabled && !(v.is_finite() && v >= 0.0 && (z.travel_mm == 0.0 || v <= z.travel_mm)) {
                 return err(field, "must lie within the Z travel");
+            }
+        }
+        for (field, a) in [("pen.servo_up_deg", self.pen.servo_up_deg), ("pen.servo_down_deg", self.pen.servo_down_deg)]
+        {
+            if !(a.is_finite() && (0.0..=180.0).contains(&a)) {
+                return err(field, "must be an angle from 0 to 180 degrees");
             }
         }
         if self.rx_buffer_bytes < 64 || self.queue_blocks == 0 {

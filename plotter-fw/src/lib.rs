@@ -55,4 +55,4 @@ pub mod thermal;
 
 pub use axis::{Axis, NUM_AXES};
 pub use config::MachineConfig;
-pub use stepper::{StepBlock, TICK_HZ};
+pub use stepper::{SERVO_TENTHS_MAX, StepBlock, TICK_HZ};

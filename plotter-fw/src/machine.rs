@@ -139,9 +139,6 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     answering: u32,
 }
 
-/// The servo angle `M5` lifts the pen to until `M5 S<angle>` sets another.
-pub const SERVO_UP_DEFAULT_DEG: f32 = 90.0;
-
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum PendingKind {
     Line,
@@ -203,7 +200,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             resume_after_hold: false,
             completed_base: 0,
             streaming: false,
-            servo_up_deg: SERVO_UP_DEFAULT_DEG,
+            servo_up_deg: cfg.pen.servo_up_deg,
             program_paused: false,
             framed: false,
             rt_matcher: RtMatcher::new(),

@@ -605,6 +605,7 @@ pub fn to_step_block(block: &PlanBlock, exit_speed_sqr: f32) -> StepBlock {
         exit_rate: rate(sqrt(exit_speed_sqr)).min(cruise),
         accel: rate(block.acceleration).max(1),
         dwell_ticks: 0,
+        servo: None,
     }
 }
 

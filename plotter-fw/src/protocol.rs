@@ -52,7 +52,8 @@
 //!          w = 0/1/2/3) · cruise rate (12) · entry rate (12, code 2 only) · exit rate (12, code 2 only) ·
 //!          acceleration (24, when a = 1)
 //!          rate codes: 0 = zero, 1 = same as cruise, 2 = explicit
-//!          mask = 0 is a dwell: codes, w and a must be 0 and the payload is codes · dwell ticks (24)
+//!          mask = 0 is a dwell: codes and a must be 0; w = 0 is a plain dwell, payload codes · dwell ticks (24);
+//!          w = 1 is a servo-pen block, payload codes · angle (12, tenths of a degree, ≤ 1800) · settle ticks (24)
 //! crc      2 bytes, CRC-16/CCITT (poly 0x1021, init 0xFFFF) over E as 4 bytes little-endian, the marker and
 //!          the payload bytes, big-endian
 //! escape   after the marker, each byte of payload+crc that is `\n`, a real-time byte or ESC (0x1B) is sent as
@@ -66,7 +67,7 @@
 //! (entry, cruise and exit all different) 12 bytes including `\n`; a new acceleration adds 3 bytes.
 
 use crate::axis::{Axis, NUM_AXES};
-use crate::stepper::StepBlock;
+use crate::stepper::{SERVO_TENTHS_MAX, StepBlock};
 
 /// Real-time byte: status report.
 pub const RT_STATUS: u8 = b'?';
@@ -78,8 +79,9 @@ pub const RT_RESUME: u8 = b'~';
 pub const RT_RESET: u8 = 0x18;
 /// Escape byte inside step-block frames.
 pub const ESC: u8 = 0x1B;
-/// Protocol version announced in the banner and M115 (2: framed mode, [`crate::framing`]).
-pub const PROTOCOL_VERSION: u32 = 2;
+/// Protocol version announced in the banner and M115 (2: framed mode, [`crate::framing`]; 3: servo-pen step
+/// blocks).
+pub const PROTOCOL_VERSION: u32 = 3;
 /// Longest step-block frame on the wire, including `\n` (everything escaped).
 pub const MAX_FRAME: usize = 1 + 2 * (PAYLOAD_MAX + 2) + 1;
 /// Largest rate a frame can carry (events/s).
@@ -145,7 +147,7 @@ fn rate_value(code: u32) -> u32 {
 /// must be computed on the quantized block.
 pub fn quantize(block: &StepBlock) -> StepBlock {
     if block.is_dwell() {
-        return StepBlock::dwell(block.dwell_ticks.min(DWELL_MAX));
+        return StepBlock { servo: block.servo, ..StepBlock::dwell(block.dwell_ticks.min(DWELL_MAX)) };
     }
     let cruise = quantize_rate(block.cruise_rate.max(1));
     StepBlock {
@@ -155,6 +157,7 @@ pub fn quantize(block: &StepBlock) -> StepBlock {
         exit_rate: quantize_rate(block.exit_rate.min(cruise)),
         accel: block.accel.min(ACCEL_MAX),
         dwell_ticks: 0,
+        servo: None,
     }
 }
 
@@ -169,6 +172,8 @@ pub enum EncodeError {
     Steps,
     /// Dwell above [`DWELL_MAX`].
     Dwell,
+    /// Servo angle above [`SERVO_TENTHS_MAX`].
+    Servo,
 }
 
 /// Why a received frame was rejected (the firmware asks for a resend in every case).
@@ -249,8 +254,16 @@ impl Encoder {
             if block.dwell_ticks > DWELL_MAX {
                 return Err(EncodeError::Dwell);
             }
-            marker = 0x80;
             w.put(0, 4);
+            if let Some(tenths) = block.servo {
+                if tenths > SERVO_TENTHS_MAX {
+                    return Err(EncodeError::Servo);
+                }
+                marker = 0x82;
+                w.put(u32::from(tenths), 12);
+            } else {
+                marker = 0x80;
+            }
             w.put(block.dwell_ticks, 24);
         } else {
             let cruise = rate_code(block.cruise_rate).filter(|_| block.cruise_rate > 0).ok_or(EncodeError::Rate)?;
@@ -369,10 +382,18 @@ impl Decoder {
         let ecode = r.get(2)?;
         let xcode = r.get(2)?;
         let block = if mask == 0 {
-            if class != 0 || accel_flag || ecode != 0 || xcode != 0 {
+            if class > 1 || accel_flag || ecode != 0 || xcode != 0 {
                 return Err(DecodeError::Malformed);
             }
-            StepBlock::dwell(r.get(24)?)
+            if class == 1 {
+                let tenths = u16::try_from(r.get(12)?).map_err(|_| DecodeError::Malformed)?;
+                if tenths > SERVO_TENTHS_MAX {
+                    return Err(DecodeError::Malformed);
+                }
+                StepBlock::servo(tenths, r.get(24)?)
+            } else {
+                StepBlock::dwell(r.get(24)?)
+            }
         } else {
             let width = WIDTHS[class];
             let mut steps = [0i32; NUM_AXES];
@@ -399,7 +420,15 @@ impl Decoder {
             if cruise == 0 {
                 return Err(DecodeError::Malformed);
             }
-            StepBlock { steps, entry_rate: entry, cruise_rate: cruise, exit_rate: exit, accel, dwell_ticks: 0 }
+            StepBlock {
+                steps,
+                entry_rate: entry,
+                cruise_rate: cruise,
+                exit_rate: exit,
+                accel,
+                dwell_ticks: 0,
+                servo: None,
+            }
         };
         // Exactly the bytes the fields need, padding zero.
         if r.bits.div_ceil(8) != payload.len() || r.get(u32::try_from(payload.len() * 8 - r.bits).unwrap_or(8))? != 0 {
@@ -487,6 +516,7 @@ mod tests {
             exit_rate: 3000,
             accel: 120_000,
             dwell_ticks: 0,
+            servo: None,
         };
         assert_eq!(enc(&mut e, &quantize(&first), 0).len(), 13, "9 payload bytes with the acceleration");
         let cruising = StepBlock {
@@ -496,6 +526,7 @@ mod tests {
             exit_rate: 4800,
             accel: 120_000,
             dwell_ticks: 0,
+            servo: None,
         };
         let f = enc(&mut e, &cruising, 1);
         assert_eq!(f.len(), 9, "5 payload bytes, no escapes here");
@@ -506,11 +537,21 @@ mod tests {
             exit_rate: 2345,
             accel: 120_000,
             dwell_ticks: 0,
+            servo: None,
         });
         let f = enc(&mut e, &curve, 2);
         assert_eq!(f.len(), 12, "8 payload bytes, no escapes here");
         let dwell = enc(&mut e, &StepBlock::dwell(50_000), 3);
         assert_eq!(dwell.len(), 8);
+        // Marker, 5 payload bytes (4 + 12 + 24 bits), CRC, `\n`.
+        let servo = enc(&mut e, &StepBlock::servo(900, 150_000), 4);
+        assert_eq!((servo.len(), servo[0]), (9, 0x82));
+        // 90.0° = 900 = 0x384 and 150 000 = 0x0249F0 after the four zero code bits: 0000 0011 1000 0100 0000 0010
+        // 0100 1001 1111 0000.
+        assert_eq!(servo[1..6], [0x03, 0x84, 0x02, 0x49, 0xF0]);
+        assert_eq!(Decoder::new().decode(&servo[..8], 4), Ok(StepBlock::servo(900, 150_000)));
+        let mut too_far = [0u8; MAX_FRAME];
+        assert_eq!(e.encode(&StepBlock::servo(1801, 1), 5, &mut too_far), Err(EncodeError::Servo));
     }
 
     #[test]
@@ -538,14 +579,24 @@ mod tests {
 
     fn block() -> impl Strategy<Value = StepBlock> {
         let steps = proptest::array::uniform4(prop_oneof![Just(0i32), -40i32..40, -9_000_000i32..9_000_000]);
-        (steps, 0u32..70_000, 1u32..70_000, 0u32..70_000, prop_oneof![Just(0u32), 1u32..20_000_000], 0u32..20_000_000)
-            .prop_map(|(steps, e, c, x, a, d)| StepBlock {
+        let servo = prop_oneof![Just(None), (0u16..=1900).prop_map(Some)];
+        (
+            steps,
+            0u32..70_000,
+            1u32..70_000,
+            0u32..70_000,
+            prop_oneof![Just(0u32), 1u32..20_000_000],
+            0u32..20_000_000,
+            servo,
+        )
+            .prop_map(|(steps, e, c, x, a, d, servo)| StepBlock {
                 steps,
                 entry_rate: e,
                 cruise_rate: c,
                 exit_rate: x,
                 accel: a,
                 dwell_ticks: if steps == [0; 4] { d } else { 0 },
+                servo: if steps == [0; 4] { servo } else { None },
             })
     }
 
@@ -567,7 +618,7 @@ mod tests {
                         prop_assert!(frame[0] >= 0x80);
                         prop_assert_eq!(d.decode(&frame[..n - 1], seq), Ok(q));
                     }
-                    Err(err) => prop_assert!(matches!(err, EncodeError::Steps | EncodeError::Accel | EncodeError::Dwell), "{err:?}"),
+                    Err(err) => prop_assert!(matches!(err, EncodeError::Steps | EncodeError::Accel | EncodeError::Dwell | EncodeError::Servo), "{err:?}"),
                 }
             }
         }

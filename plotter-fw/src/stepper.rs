@@ -29,7 +29,9 @@
 //! [`StepBlock::duration_ticks`] gets bit-for-bit the time the firmware (or the simulator) takes: a sequence of
 //! blocks takes exactly the sum of their durations.
 //!
-//! A dwell (G4, pen settle) is a block with no steps that lasts its given number of ticks.
+//! A dwell (G4, pen settle) is a block with no steps that lasts its given number of ticks. A servo block is a dwell
+//! that first drives the pen servo ([`StepPins::set_servo`]) to its angle: the settle time is its dwell, so the
+//! pen moves exactly between the moves around it, in the stepper's own time line.
 
 use heapless::Deque;
 
@@ -40,6 +42,9 @@ use crate::hal::{Endstops, StepPins};
 /// Step timer frequency: one tick is one microsecond.
 pub const TICK_HZ: u32 = 1_000_000;
 
+/// Largest servo angle a block carries, tenths of a degree (180°).
+pub const SERVO_TENTHS_MAX: u16 = 1800;
+
 /// Highest step-event rate a block may ask for (events/s): at least 4 timer ticks between events.
 pub const MAX_RATE: u32 = 250_000;
 
@@ -47,7 +52,8 @@ pub const MAX_RATE: u32 = 250_000;
 /// frozen; the planner keeps re-planning the rest.
 pub const STEPPER_QUEUE: usize = 2;
 
-/// One straight move in steps with its speed plan, or a dwell (all steps zero, `dwell_ticks` > 0).
+/// One straight move in steps with its speed plan, or a dwell (all steps zero, `dwell_ticks` > 0), or a servo-pen
+/// block (a dwell with a servo angle).
 ///
 /// Rates are step events of the major axis per second; `accel` is events/s². A block with `accel == 0` runs at
 /// `cruise_rate` throughout.
@@ -65,12 +71,28 @@ pub struct StepBlock {
     pub accel: u32,
     /// Duration of a dwell block (ignored when any axis moves).
     pub dwell_ticks: u32,
+    /// A servo-pen block (no steps): the pen servo is driven to this angle, in tenths of a degree
+    /// (0..=[`SERVO_TENTHS_MAX`]), when the block starts, and the block then lasts `dwell_ticks` (the settle time).
+    pub servo: Option<u16>,
 }
 
 impl StepBlock {
     /// A dwell of `ticks` timer ticks.
     pub const fn dwell(ticks: u32) -> Self {
-        StepBlock { steps: [0; NUM_AXES], entry_rate: 0, cruise_rate: 0, exit_rate: 0, accel: 0, dwell_ticks: ticks }
+        StepBlock {
+            steps: [0; NUM_AXES],
+            entry_rate: 0,
+            cruise_rate: 0,
+            exit_rate: 0,
+            accel: 0,
+            dwell_ticks: ticks,
+            servo: None,
+        }
+    }
+
+    /// A servo-pen block: drive the pen servo to `tenths` of a degree, then wait `settle_ticks` timer ticks.
+    pub const fn servo(tenths: u16, settle_ticks: u32) -> Self {
+        StepBlock { servo: Some(tenths), ..StepBlock::dwell(settle_ticks) }
     }
 
     /// Number of step events (steps of the major axis).
@@ -88,9 +110,10 @@ impl StepBlock {
         Profile::new(self.events(), self.entry_rate, self.cruise_rate, self.exit_rate, self.accel)
     }
 
-    /// Exact execution time of this block, in timer ticks ([`TICK_HZ`]), as the stepper runs it.
+    /// Exact execution time of this block, in timer ticks ([`TICK_HZ`]), as the stepper runs it (a dwell takes at
+    /// least one tick).
     pub fn duration_ticks(&self) -> u32 {
-        if self.is_dwell() { self.dwell_ticks } else { self.profile().duration_ticks() }
+        if self.is_dwell() { self.dwell_ticks.max(1) } else { self.profile().duration_ticks() }
     }
 
     /// Mask of axes that move.
@@ -469,7 +492,11 @@ impl Stepper {
         if home_mask & 0x0F != 0 {
             self.homing_hits = 0;
         }
-        let first = if n == 0 { block.dwell_ticks } else { profile.tick_of(1) };
+        if let Some(tenths) = block.servo {
+            hal.set_servo(f32::from(tenths) / 10.0);
+        }
+        // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
+        let first = if n == 0 { block.dwell_ticks.max(1) } else { profile.tick_of(1) };
         act.last_tick = first;
         self.active = Some(act);
         Some(first)
@@ -677,6 +704,7 @@ mod tests {
             exit_rate: 1000,
             accel: 0,
             dwell_ticks: 0,
+            servo: None,
         };
         assert_eq!(b.duration_ticks(), 100_000);
         let (hal, t) = run(b, |_, _| {});
@@ -694,6 +722,7 @@ mod tests {
             exit_rate: 0,
             accel: 10_000,
             dwell_ticks: 0,
+            servo: None,
         };
         assert_eq!(b.duration_ticks(), 1_100_000);
         let (hal, t) = run(b, |_, _| {});
@@ -712,6 +741,7 @@ mod tests {
             exit_rate: 0,
             accel: 1000,
             dwell_ticks: 0,
+            servo: None,
         };
         let p = b.profile();
         // Peak √(a·n) = 100; time 2·100/1000 = 0.2 s.
@@ -724,6 +754,7 @@ mod tests {
             exit_rate: 5000,
             accel: 1000,
             dwell_ticks: 0,
+            servo: None,
         };
         let p = b.profile();
         assert!((p.exit_rate() - 141.42136).abs() < 1e-2);
@@ -762,6 +793,7 @@ mod tests {
             exit_rate: 0,
             accel: 20_000,
             dwell_ticks: 0,
+            servo: None,
         };
         s.push(b, 0).unwrap();
         s.push(b, 0).unwrap();
@@ -792,6 +824,7 @@ mod tests {
                 exit_rate: x,
                 accel: a,
                 dwell_ticks: 0,
+                servo: None,
             },
         )
     }

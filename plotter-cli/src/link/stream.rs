@@ -36,7 +36,7 @@ use plotter_fw::stepper::STEPPER_QUEUE;
 use plotter_path::motion::plan::{MotionPlan, MoveKind};
 
 use super::Transport;
-use super::session::{Incoming, Session, Status};
+use super::session::{FirmwareInfo, Incoming, Session, Status};
 
 /// The plan's blocks as wire frames, numbered from `base`.
 pub struct Frames {
@@ -612,6 +612,7 @@ pub fn stream_plan<T: Transport>(
     opts: StreamOptions,
     control: &mut dyn Control,
 ) -> Result<(Frames, StreamStats), StreamError> {
+    check_servo_support(&session.info, plan, &session.name)?;
     let s = session.status()?;
     if s.state == "Alarm" {
         return Err(StreamError::Link(anyhow::anyhow!("{}: the machine is in alarm; reset it first", session.name)));
@@ -626,6 +627,23 @@ pub fn stream_plan<T: Transport>(
     let opts = StreamOptions { watchdog: opts.watchdog.max(2 * longest), ..opts };
     let stats = stream(session, &frames, &s, opts, control)?;
     Ok((frames, stats))
+}
+
+/// First protocol version whose step blocks can drive a servo pen.
+pub const SERVO_PROTOCOL: u32 = 3;
+
+/// Refuse a plan with servo-pen blocks for a firmware older than [`SERVO_PROTOCOL`] (it would take them for plain
+/// dwells and draw with the pen never lowered).
+pub fn check_servo_support(info: &FirmwareInfo, plan: &MotionPlan, name: &str) -> Result<(), StreamError> {
+    if info.protocol < SERVO_PROTOCOL && plan.blocks.iter().any(|b| b.block.servo.is_some()) {
+        return Err(StreamError::Link(anyhow::anyhow!(
+            "{name}: the profile lifts the pen with a servo, which needs step-block protocol {SERVO_PROTOCOL}, but the \
+             firmware speaks protocol {} (version {}); update the firmware or plot with a Z-axis pen profile",
+            info.protocol,
+            info.version
+        )));
+    }
+    Ok(())
 }
 
 /// Ignore-everything control (tests, benchmarks).
@@ -711,6 +729,24 @@ pub(crate) mod tests {
 
     fn state(completed_base: Option<u32>) -> State {
         State::new(Duration::ZERO, completed_base)
+    }
+
+    #[test]
+    fn servo_plans_need_protocol_3() {
+        let mut servo = MachineProfile::default_plotter();
+        servo.pen.command = plotter_path::motion::profile::PenCommand::Servo;
+        let d = Drawing::single_layer("s", vec![Polyline::new(vec![Point::new(10.0, 10.0), Point::new(20.0, 10.0)])]);
+        let steps = drawing_to_steps(&servo, &d).unwrap();
+        let p = plan::plan(&servo, &steps, plan::homed_position(&servo).unwrap(), Lookahead::Whole).unwrap();
+        let info = |protocol| FirmwareInfo { version: "0.1.0".into(), rx_bytes: 256, queue_blocks: 32, protocol };
+        let e = check_servo_support(&info(2), &p, "/dev/ttyACM0").unwrap_err().to_string();
+        assert!(e.contains("/dev/ttyACM0") && e.contains("protocol 3") && e.contains("protocol 2"), "{e}");
+        assert!(check_servo_support(&info(3), &p, "sim").is_ok());
+        // A Z-pen plan streams to the older firmware.
+        let z = MachineProfile::default_plotter();
+        let zp =
+            plan::plan(&z, &drawing_to_steps(&z, &d).unwrap(), plan::homed_position(&z).unwrap(), Lookahead::Whole);
+        assert!(check_servo_support(&info(2), &zp.unwrap(), "sim").is_ok());
     }
 
     #[test]

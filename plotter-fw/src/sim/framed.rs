@@ -42,7 +42,15 @@ fn framed_sim() -> Sim {
 }
 
 fn block(dx: i32) -> StepBlock {
-    StepBlock { steps: [dx, 0, 0, 0], entry_rate: 0, cruise_rate: 2000, exit_rate: 0, accel: 20_000, dwell_ticks: 0 }
+    StepBlock {
+        steps: [dx, 0, 0, 0],
+        entry_rate: 0,
+        cruise_rate: 2000,
+        exit_rate: 0,
+        accel: 20_000,
+        dwell_ticks: 0,
+        servo: None,
+    }
 }
 
 #[test]
@@ -99,7 +107,7 @@ fn lone_realtime_bytes_are_data_and_sequences_act() {
     assert_eq!(sim.physical_position()[0], 16_000);
     // A framed reset leaves framed mode; its banner is plain.
     let r = run(&mut sim, &rt_sequence(RT_RESET));
-    assert_eq!(r, ["plotter-fw 0.1.0 proto 2 rx 256 queue 32 line 96 seq 0"]);
+    assert_eq!(r, ["plotter-fw 0.1.0 proto 3 rx 256 queue 32 line 96 seq 0"]);
     assert!(!sim.machine().is_framed());
     // The console's escape hatch: three plain Ctrl-X.
     let mut sim = framed_sim();

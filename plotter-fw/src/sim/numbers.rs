@@ -146,6 +146,7 @@ fn step_frame_beyond_the_position_range_is_refused() {
         exit_rate: 0,
         accel: 1000,
         dwell_ticks: 0,
+        servo: None,
     };
     for seq in 0..9 {
         let n = enc.encode(&b, seq, &mut out).unwrap();
@@ -393,7 +394,7 @@ proptest! {
             "[GMNXYZEFPS0-9. *;()-]{0,40}\n".prop_map(String::into_bytes),
             (proptest::array::uniform4(-9_000_000i32..9_000_000), 1u32..70_000, any::<u32>(), any::<usize>(), any::<u8>())
                 .prop_map(|(steps, rate, seq, pos, flip)| {
-                    let b = crate::stepper::StepBlock { steps, entry_rate: 0, cruise_rate: rate, exit_rate: 0, accel: 5000, dwell_ticks: 0 };
+                    let b = crate::stepper::StepBlock { steps, entry_rate: 0, cruise_rate: rate, exit_rate: 0, accel: 5000, dwell_ticks: 0, servo: None };
                     let mut out = [0u8; crate::protocol::MAX_FRAME];
                     let mut enc = crate::protocol::Encoder::new();
                     let n = enc.encode(&crate::protocol::quantize(&b), seq % 4, &mut out).unwrap_or(0);

@@ -36,7 +36,7 @@ fn count(replies: &[String], what: &str) -> usize {
 fn banner_announces_buffers() {
     let mut sim = Sim::new(cfg());
     let r = sim.take_replies();
-    assert_eq!(r, ["plotter-fw 0.1.0 proto 2 rx 256 queue 32 line 96 seq 0"]);
+    assert_eq!(r, ["plotter-fw 0.1.0 proto 3 rx 256 queue 32 line 96 seq 0"]);
 }
 
 /// The seed's square, relative version: pen down, four sides, pen up.
@@ -325,7 +325,7 @@ fn homing_alarms() {
     assert!(1000 - sim.physical_position()[1] <= 35_640);
     // Reset clears the alarm.
     let r = run(&mut sim, "\u{18}");
-    assert_eq!(r, ["plotter-fw 0.1.0 proto 2 rx 256 queue 32 line 96 seq 0"]);
+    assert_eq!(r, ["plotter-fw 0.1.0 proto 3 rx 256 queue 32 line 96 seq 0"]);
     assert_eq!(sim.machine().alarm(), None);
 
     // A switch that never releases (stuck far beyond the travel on X).
@@ -499,7 +499,7 @@ fn reports_and_errors() {
     assert_eq!(
         r,
         [
-            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:0.1.0 PROTOCOL_VERSION:2 RX_BUFFER:256 QUEUE_BLOCKS:32 LINE_MAX:96 TICK_HZ:1000000",
+            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:0.1.0 PROTOCOL_VERSION:3 RX_BUFFER:256 QUEUE_BLOCKS:32 LINE_MAX:96 TICK_HZ:1000000",
             "ok",
             "ok",
             "X:10.000 Y:0.000 Z:0.000 E:0.000 Count X:0 Y:0 Z:0 E:0",
@@ -552,6 +552,33 @@ fn servo_pen_m3_m5_drive_the_servo_after_the_queue_empties() {
     assert!(servo[0].0 >= 1_000_000, "{}", servo[0].0);
     assert!(servo[1].0 >= servo[0].0 + 100_000);
     assert_eq!(sim.physical_position()[0], 800);
+}
+
+#[test]
+fn servo_frames_drive_the_servo_in_the_stepper_time_line() {
+    let move_x = StepBlock {
+        steps: [400, 0, 0, 0],
+        entry_rate: 2000,
+        cruise_rate: 2000,
+        exit_rate: 2000,
+        accel: 0,
+        dwell_ticks: 0,
+        servo: None,
+    };
+    // Pen down to 30.0°, settle 150 ms, 400 steps at 2000/s (200 ms), pen up to 95.5°, settle 150 ms.
+    let blocks = [StepBlock::servo(300, 150_000), move_x, StepBlock::servo(955, 150_000)];
+    let wire: Vec<u8> = encode_all(&blocks).concat();
+    let mut sim = Sim::new(cfg());
+    sim.take_replies();
+    sim.feed(&wire);
+    sim.run_until_idle();
+    assert_eq!(count(&sim.take_replies(), "ok"), 3);
+    // 1000 µs + 30/180 · 1000 µs = 1166.7 → 1167; 1000 + 95.5/180 · 1000 = 1530.6 → 1531.
+    let servo = sim.hal().servo_trace().to_vec();
+    let start = servo[0].0;
+    assert_eq!(servo, [(start, 30.0, 1167), (start + 350_000, 95.5, 1531)]);
+    assert_eq!(sim.hal().step_counts(), [400, 0, 0, 0], "no Z steps");
+    assert_eq!(sim.hal().busy_ticks(), 500_000);
 }
 
 #[test]

@@ -30,7 +30,8 @@
 use kurbo::Point;
 
 use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS};
-use crate::{Drawing, MachineProfile, Polyline};
+use crate::motion::pens::parse_hex_color;
+use crate::{Drawing, Layer, MachineProfile, Polyline};
 
 /// Maximum chord error when flattening arcs, millimetres.
 pub const ARC_TOLERANCE_MM: f64 = 0.005;
@@ -100,7 +101,8 @@ pub enum PenDetection {
 /// The result of an import.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImportedGcode {
-    /// The pen-down strokes in page coordinates, one layer.
+    /// The pen-down strokes in page coordinates: one layer, plus one more after each `M0`/`M1` pause (a pen change),
+    /// named from that line's comment.
     pub drawing: Drawing,
     /// How the pen was detected.
     pub pen: PenDetection,
@@ -141,7 +143,41 @@ struct Machine<'a> {
     used_spindle: bool,
     ended: bool,
     segments: Vec<Segment>,
+    /// Layer breaks from `M0`/`M1` pauses: the layer starts with segment `.0`.
+    layer_starts: Vec<(usize, Layer)>,
     warnings: Vec<GcodeWarning>,
+}
+
+/// The comment of a G-code line (the text in parentheses, or after `;`), trimmed; `None` when it has none.
+fn comment_of(line: &str) -> Option<&str> {
+    let c = match (line.find('('), line.find(';')) {
+        (Some(p), s) if s.is_none_or(|s| p < s) => {
+            let rest = &line[p + 1..];
+            &rest[..rest.find(')').unwrap_or(rest.len())]
+        }
+        (_, Some(s)) => &line[s + 1..],
+        _ => return None,
+    };
+    Some(c.trim()).filter(|c| !c.is_empty())
+}
+
+/// The layer that an `M0`/`M1` pause (a pen change) starts, named from the line's comment: our own export's
+/// `M0 ; pen change: load red fineliner 0.5 (#ff0000) for layer "red"` gives layer `red` with that colour, and
+/// other tools' `M0 (pen: red)` gives layer `red`; without a comment the layer is called `pen <n>`.
+fn pause_layer(raw: &str, n: usize) -> Layer {
+    let comment = comment_of(raw).unwrap_or("");
+    let name = if let Some((_, quoted)) = comment.split_once("for layer \"") {
+        quoted.split('"').next().unwrap_or(quoted).to_string()
+    } else {
+        let lower = comment.to_ascii_lowercase();
+        let prefix = ["pen change:", "pen:", "change pen:", "tool:"].iter().find(|p| lower.starts_with(*p));
+        prefix.map_or(comment, |p| &comment[p.len()..]).trim().to_string()
+    };
+    let mut layer = Layer::new(if name.is_empty() { format!("pen {n}") } else { name });
+    if let Some(color) = comment.match_indices('#').find_map(|(i, _)| comment.get(i..i + 7).and_then(parse_hex_color)) {
+        layer.pen.color = color;
+    }
+    layer
 }
 
 /// One parsed word: letter and value with its source text.
@@ -281,7 +317,10 @@ impl Machine<'_> {
                         self.used_spindle = true;
                     }
                     20.0 | 300.0 => self.ended = true,
-                    0.0 | 10.0 => self.warn(line, "program pause (M0/M1) ignored"),
+                    0.0 | 10.0 => {
+                        let layer = pause_layer(raw, self.layer_starts.len() + 2);
+                        self.layer_starts.push((self.segments.len(), layer));
+                    }
                     60.0 => self.warn(line, "tool change ignored: the drawing is one layer"),
                     // Motors, extrusion modes, temperatures, fans, messages, feed/flow overrides, sync, reports.
                     v if [
@@ -500,6 +539,7 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
         used_spindle: false,
         ended: false,
         segments: Vec::new(),
+        layer_starts: Vec::new(),
         warnings: Vec::new(),
     };
     for (idx, raw) in text.lines().enumerate() {
@@ -523,9 +563,23 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
         PenDetection::Spindle => s.spindle,
         PenDetection::FeedMoves => !s.rapid,
     };
+    let name = std::path::Path::new(origin).file_stem().and_then(|s| s.to_str()).unwrap_or("gcode").to_string();
+    let mut layers = vec![Layer::new(name.clone())];
+    let mut breaks = std::mem::take(&mut m.layer_starts).into_iter().peekable();
     let mut paths: Vec<Polyline> = Vec::new();
     let mut current: Vec<Point> = Vec::new();
-    for s in &m.segments {
+    for (k, s) in m.segments.iter().enumerate() {
+        while let Some((_, layer)) = breaks.next_if(|b| b.0 <= k) {
+            // A pause (pen change) ends the stroke and the layer.
+            if current.len() > 1 {
+                paths.push(Polyline::new(std::mem::take(&mut current)));
+            }
+            current.clear();
+            if let Some(l) = layers.last_mut() {
+                l.paths.append(&mut paths);
+            }
+            layers.push(layer);
+        }
         if s.from == s.to {
             // A pen event without XY motion: a lift ends the stroke, anything else changes nothing.
             if !down(s) && pen != PenDetection::FeedMoves && current.len() > 1 {
@@ -556,8 +610,15 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
     if current.len() > 1 {
         paths.push(Polyline::new(current));
     }
-    let name = std::path::Path::new(origin).file_stem().and_then(|s| s.to_str()).unwrap_or("gcode").to_string();
-    Ok(ImportedGcode { drawing: Drawing::single_layer(name, paths), pen, warnings: m.warnings })
+    if let Some(l) = layers.last_mut() {
+        l.paths.append(&mut paths);
+    }
+    // Pauses after the last stroke, or before the first, leave empty layers behind.
+    layers.retain(|l| !l.paths.is_empty());
+    if layers.is_empty() {
+        layers.push(Layer::new(name));
+    }
+    Ok(ImportedGcode { drawing: Drawing { layers, page_mm: None }, pen, warnings: m.warnings })
 }
 
 #[cfg(test)]
@@ -593,6 +654,58 @@ mod tests {
         // G92 X0 Y0 at (50.8, 25.4): X5 in work coordinates is 55.8 on the machine.
         assert_eq!(paths[2], vec![Point::new(50.8, 25.4), Point::new(55.8, 25.4)]);
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+
+    #[test]
+    fn m0_and_m1_start_layers_named_by_their_comments() {
+        let g = "G0 X1 Y1\nM3\nG1 X2 Y1\nM5\nM0 (pen: red)\nG0 X5 Y5\nM3\nG1 X6 Y5\nG1 X6 Y6\nM5\n\
+                 M1 ; second pen\nM0\nG0 X1 Y9\nM3\nG1 X2 Y9\nM5\nM0 (pen: green)\n";
+        let r = imp(g);
+        let layers: Vec<(&str, Vec<Vec<Point>>)> = r
+            .drawing
+            .layers
+            .iter()
+            .map(|l| (l.name.as_str(), l.paths.iter().map(|p| p.points.clone()).collect()))
+            .collect();
+        // "second pen" (M1, nothing drawn before the next pause) and "green" (nothing after it) stay empty and go.
+        let p = Point::new;
+        assert_eq!(
+            layers,
+            [
+                ("t", vec![vec![p(1.0, 1.0), p(2.0, 1.0)]]),
+                ("red", vec![vec![p(5.0, 5.0), p(6.0, 5.0), p(6.0, 6.0)]]),
+                ("pen 4", vec![vec![p(1.0, 9.0), p(2.0, 9.0)]]),
+            ]
+        );
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+
+    #[test]
+    fn our_multi_pen_export_reimports_with_its_pen_changes() {
+        let mut p = profile();
+        p.pens.clear();
+        let line = |y: f64| Polyline::new(vec![Point::new(10.0, y), Point::new(30.0, y)]);
+        let layer = |name: &str, color: crate::Rgb, ys: &[f64]| {
+            let mut l = Layer::new(name);
+            l.pen.color = color;
+            l.paths = ys.iter().map(|y| line(*y)).collect();
+            l
+        };
+        let red = crate::Rgb(255, 0, 0);
+        let d = Drawing {
+            layers: vec![
+                layer("a", crate::Rgb::BLACK, &[10.0]),
+                layer("b", red, &[20.0, 30.0]),
+                layer("c", red, &[40.0]),
+            ],
+            page_mm: None,
+        };
+        let g = gcode_out::export(&p, &drawing_to_steps(&p, &d).unwrap());
+        // b and c share a pen, so the export stops once, before b: the re-import has b's and c's lines in one layer.
+        let r = import(&g, "three.gcode", &p).unwrap();
+        let got: Vec<(&str, crate::Rgb, usize)> =
+            r.drawing.layers.iter().map(|l| (l.name.as_str(), l.pen.color, l.paths.len())).collect();
+        assert_eq!(got, [("three", crate::Rgb::BLACK, 1), ("b", red, 3)]);
     }
 
     #[test]

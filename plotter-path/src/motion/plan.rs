@@ -2,7 +2,8 @@
 //!
 //! Sequence per stroke: pen-up travel (XY at the travel feed) to the stroke start, pen drop (a Z move to the
 //! pen-down height) and its settle dwell, the pen-down moves at the drawing feed, pen lift (Z to the pen-up height)
-//! and its settle dwell. Every move becomes a [`PlanBlock`] of the firmware's own planner
+//! and its settle dwell. A servo pen (`pen.command = "servo"`) moves no axis: each drop and lift is one servo block
+//! ([`StepBlock::servo`]: the angle, then the settle time as its dwell) and Z never steps. Every move becomes a [`PlanBlock`] of the firmware's own planner
 //! ([`plotter_fw::planner`]: per-axis limits, junction deviation, reverse/forward passes), planned here over the
 //! **whole drawing** at once — the host has unlimited look-ahead, the firmware only its queue. Dwells are fixed
 //! blocks and therefore stop points, so the pen never moves sideways while it is settling.
@@ -22,7 +23,7 @@ use plotter_fw::{Axis, MachineConfig, NUM_AXES, StepBlock, TICK_HZ};
 
 use crate::MachineProfile;
 use crate::motion::pens::{self, LayerPen};
-use crate::motion::profile::{AxisProfile, HomeEnd};
+use crate::motion::profile::{AxisProfile, HomeEnd, PenCommand};
 use crate::motion::steps::{StepDrawing, StepMapper, StepPos};
 
 /// Errors planning a drawing.
@@ -82,7 +83,12 @@ pub fn machine_config(profile: &MachineProfile) -> Result<MachineConfig, PlanErr
             pull_off_mm: f(profile.homing.pull_off_mm),
             debounce_ms: f(profile.homing.debounce_ms),
         },
-        pen: PenConfig { up_z_mm: f(profile.pen.up_z_mm), down_z_mm: f(profile.pen.down_z_mm) },
+        pen: PenConfig {
+            up_z_mm: f(profile.pen.up_z_mm),
+            down_z_mm: f(profile.pen.down_z_mm),
+            servo_up_deg: f(profile.pen.servo_up_deg),
+            servo_down_deg: f(profile.pen.servo_down_deg),
+        },
         rx_buffer_bytes: profile.link.rx_buffer_bytes,
         queue_blocks: profile.link.queue_blocks,
         soft_limits: true,
@@ -275,6 +281,40 @@ impl MotionPlan {
     }
 }
 
+/// Where a pen block puts the pen: a Z height (steps) or a servo angle (tenths of a degree).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PenAt {
+    /// Z axis at this step position.
+    Z(i32),
+    /// Servo at this angle, tenths of a degree.
+    Servo(u16),
+}
+
+/// A servo angle (degrees, validated 0..=180 by the profile) in tenths of a degree.
+fn servo_tenths(deg: f64) -> u16 {
+    // Clamped to 0..=1800 first.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let t = (deg * 10.0).round().clamp(0.0, f64::from(plotter_fw::SERVO_TENTHS_MAX)) as u16;
+    t
+}
+
+/// Whether `profile` lifts its pen with a servo.
+pub fn uses_servo(profile: &MachineProfile) -> bool {
+    profile.pen.command == PenCommand::Servo
+}
+
+/// The pen-up position and the pen-down position of every layer pen.
+fn pen_targets(profile: &MachineProfile, pens: &[LayerPen]) -> Result<(PenAt, Vec<PenAt>), PlanError> {
+    if uses_servo(profile) {
+        let downs = pens.iter().map(|p| PenAt::Servo(servo_tenths(p.servo_down_deg))).collect();
+        return Ok((PenAt::Servo(servo_tenths(profile.pen.servo_up_deg)), downs));
+    }
+    let (up, _) = pen_steps(profile)?;
+    let downs =
+        pens.iter().map(|p| pen_steps_at(profile, p.down_z_mm).map(|s| PenAt::Z(s.1))).collect::<Result<_, _>>()?;
+    Ok((PenAt::Z(up), downs))
+}
+
 /// The machine's pen Z positions in steps.
 fn pen_steps(profile: &MachineProfile) -> Result<(i32, i32), PlanError> {
     pen_steps_at(profile, profile.pen.down_z_mm)
@@ -319,7 +359,7 @@ pub fn park_position(profile: &MachineProfile) -> Result<StepPos, PlanError> {
 /// at the pen-up height: what parks the carriage for a pen change.
 pub fn plan_travel(profile: &MachineProfile, from: MachinePos, to: StepPos) -> Result<MotionPlan, PlanError> {
     let cfg = machine_config(profile)?;
-    let (up, _) = pen_steps(profile)?;
+    let (up, _) = pen_targets(profile, &[])?;
     #[allow(clippy::cast_possible_truncation)]
     let travel = profile.pen.travel_feed_mm_s as f32;
     let mut raw = RawPlan {
@@ -330,7 +370,8 @@ pub fn plan_travel(profile: &MachineProfile, from: MachinePos, to: StepPos) -> R
         settle: settle_ticks(profile),
         changes: Vec::new(),
     };
-    if from[2] != up {
+    // A servo's angle is not part of the position: lift it to be sure.
+    if !raw.at(up) {
         raw.pen(up, MoveKind::PenUp, 0);
     }
     raw.line_to(to, travel, MoveKind::Travel, 0);
@@ -410,13 +451,26 @@ impl RawPlan<'_> {
         true
     }
 
-    /// Z to `z` at the Z axis's maximum feed, then the settle dwell.
-    fn pen(&mut self, z: i32, kind: MoveKind, stroke: usize) {
-        let feed = self.cfg.axis(Axis::Z).max_feed_mm_s;
-        if self.push([0, 0, z - self.pos[2], 0], feed, kind, stroke) && self.settle > 0 {
-            self.blocks.push(PlanBlock::fixed(StepBlock::dwell(self.settle)));
-            self.meta.push((MoveKind::Settle, stroke));
+    /// Z to `z` at the Z axis's maximum feed, then the settle dwell; or one servo block (angle and settle).
+    fn pen(&mut self, to: PenAt, kind: MoveKind, stroke: usize) {
+        match to {
+            PenAt::Z(z) => {
+                let feed = self.cfg.axis(Axis::Z).max_feed_mm_s;
+                if self.push([0, 0, z - self.pos[2], 0], feed, kind, stroke) && self.settle > 0 {
+                    self.blocks.push(PlanBlock::fixed(StepBlock::dwell(self.settle)));
+                    self.meta.push((MoveKind::Settle, stroke));
+                }
+            }
+            PenAt::Servo(tenths) => {
+                self.blocks.push(PlanBlock::fixed(StepBlock::servo(tenths, self.settle)));
+                self.meta.push((kind, stroke));
+            }
         }
+    }
+
+    /// Whether the pen is known to be at `to` (a Z height reached; never for a servo, whose angle is not tracked).
+    fn at(&self, to: PenAt) -> bool {
+        to == PenAt::Z(self.pos[2])
     }
 
     fn line_to(&mut self, to: StepPos, feed: f32, kind: MoveKind, stroke: usize) {
@@ -435,9 +489,8 @@ fn build_blocks<'c>(
     #[allow(clippy::cast_possible_truncation)]
     let f32_of = |v: f64| v as f32;
     let travel = f32_of(profile.pen.travel_feed_mm_s);
-    let (up, _) = pen_steps(profile)?;
     let pens = layer_pens(profile, steps);
-    let downs = pens.iter().map(|p| pen_steps_at(profile, p.down_z_mm).map(|s| s.1)).collect::<Result<Vec<_>, _>>()?;
+    let (up, downs) = pen_targets(profile, &pens)?;
     let capacity = steps.move_count() + 6 * steps.strokes.len() + 2;
     let mut raw = RawPlan {
         cfg,
@@ -528,8 +581,16 @@ pub fn plan_resume(
             *t += s;
         }
     }
-    let (up, _) = pen_steps(profile)?;
+    let pens = layer_pens(profile, steps);
+    let (up, downs) = pen_targets(profile, &pens)?;
     let stroke = full.meta.get(done).map_or(0, |m| m.1);
+    // The pen at block `done`: as the last pen block before it left it.
+    let pen_down = full.meta[..done].iter().rev().find(|m| matches!(m.0, MoveKind::PenUp | MoveKind::PenDown));
+    let resume_pen = match (up, pen_down) {
+        (PenAt::Z(_), _) => PenAt::Z(target[2]),
+        (PenAt::Servo(_), Some((MoveKind::PenDown, s))) => downs[steps.layer_of(*s)],
+        (PenAt::Servo(_), _) => up,
+    };
     #[allow(clippy::cast_possible_truncation)]
     let travel = profile.pen.travel_feed_mm_s as f32;
     let mut pre = RawPlan {
@@ -540,12 +601,12 @@ pub fn plan_resume(
         settle: settle_ticks(profile),
         changes: Vec::new(),
     };
-    if now[2] != up {
+    if !pre.at(up) {
         pre.pen(up, MoveKind::PenUp, stroke);
     }
     pre.line_to(StepPos::new(target[0], target[1]), travel, MoveKind::Travel, stroke);
-    if target[2] != up {
-        pre.pen(target[2], MoveKind::PenDown, stroke);
+    if resume_pen != up {
+        pre.pen(resume_pen, MoveKind::PenDown, stroke);
     }
     let preamble = pre.blocks.len();
     let mut blocks = pre.blocks;

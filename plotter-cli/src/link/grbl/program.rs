@@ -5,8 +5,9 @@
 //! homing), printed from the plan's exact step positions with enough decimals that GRBL's own rounding
 //! (`round(mm × steps/mm)`) lands on the same step, so the machine ends exactly where the plan ends. Travel and
 //! drawing are `G1` at the profile's travel feed and the pen's drawing feed (F in mm/min, written when it
-//! changes); the pen is a Z move at the Z axis's maximum rate, or `M3 S<angle>` / `M5` for a servo pen; a settle
-//! dwell is `G4 P<seconds>`.
+//! changes); the pen is a Z move at the Z axis's maximum rate, or `M3 S<angle>` / `M5` for a servo pen (with its
+//! settle dwell on the same line, `M5 G4 P0.15`, as the plan's servo block carries both); a settle dwell is
+//! `G4 P<seconds>`.
 
 use std::fmt::Write as _;
 
@@ -28,6 +29,11 @@ pub struct Program {
 /// Millimetres of a step count.
 fn mm(steps: i32, spm: f64) -> f64 {
     f64::from(steps) / spm
+}
+
+/// A dwell of `ticks` as GRBL's `P` (seconds, to the millisecond).
+fn seconds(ticks: u32) -> String {
+    fmt_mm(f64::from(ticks) / f64::from(TICK_HZ), 3)
 }
 
 /// Write `plan` (which starts at `plan.start`, in steps of the plot's work coordinates) as G-code lines.
@@ -79,7 +85,12 @@ pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
                 if b.kind == MoveKind::PenUp {
                     line.push_str("M5");
                 } else {
-                    let _ = write!(line, "M3 S{}", fmt_mm(pen.servo_down_deg, 1));
+                    let deg = b.block.servo.map_or(pen.servo_down_deg, |t| f64::from(t) / 10.0);
+                    let _ = write!(line, "M3 S{}", fmt_mm(deg, 1));
+                }
+                // A servo block carries its settle time: GRBL runs the spindle word, then the dwell, of one line.
+                if b.block.servo.is_some() {
+                    let _ = write!(line, " G4 P{}", seconds(b.block.duration_ticks()));
                 }
             }
             MoveKind::PenUp | MoveKind::PenDown => {
@@ -87,8 +98,7 @@ pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
                 with_feed(&mut line, &z_feed);
             }
             MoveKind::Settle => {
-                let ticks = b.block.duration_ticks();
-                let _ = write!(line, "G4 P{}", fmt_mm(f64::from(ticks) / f64::from(TICK_HZ), 3));
+                let _ = write!(line, "G4 P{}", seconds(b.block.duration_ticks()));
             }
         }
         match b.kind {
@@ -183,9 +193,22 @@ mod tests {
         let steps = drawing_to_steps(&p, &two_layers()).unwrap();
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         let prog = program(&p, &plan);
-        assert_eq!(prog.lines[1], "M3 S25");
-        assert_eq!(prog.lines[5], "M5");
-        assert!(!prog.lines.iter().any(|l| l.contains('Z')));
+        // The servo blocks carry the 50 ms settle; the plot starts by lifting the pen (its angle is not known).
+        assert_eq!(
+            prog.lines,
+            [
+                "M5 G4 P0.05",
+                "G1 X10 Y10 F7200",
+                "M3 S25 G4 P0.05",
+                "G1 X12.5 Y10 F3600",
+                "G1 X12.5 Y11.0125",
+                "M5 G4 P0.05",
+                "G1 X20 Y10 F7200",
+                "M3 S25 G4 P0.05",
+                "G1 X21 Y10 F3600",
+                "M5 G4 P0.05",
+            ]
+        );
         assert_eq!(declare_position(&p, [8, 0, 1600, 0]), "G92 X0.1 Y0");
     }
 }

@@ -11,7 +11,9 @@
 //!   through a 512-byte ring drained by the transmit-empty interrupt.
 //! - **Endstops**: pull-up inputs, filtered by [`plotter_board::debounce`], sampled at 1 kHz by SysTick and at
 //!   every read.
-//! - **Pen servo** (feature `servo-pen`): TIM3 CH3 PWM at 50 Hz following the Z steps ([`plotter_board::servo`]).
+//! - **Pen servo** (feature `servo-pen`): TIM3 CH3 PWM at 50 Hz, driven to the angle of each `M3`/`M5` and servo
+//!   step block (protocol 3), and following the Z steps of a Z-lift profile ([`plotter_board::servo`]) between the
+//!   configured `pen.servo_down_deg` and `pen.servo_up_deg` pulses.
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -19,7 +21,7 @@ use plotter_board::deadline::Deadline;
 use plotter_board::debounce::Debouncer;
 use plotter_board::note::ResetCause;
 use plotter_board::servo::{ServoConfig, ServoPen};
-use plotter_fw::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer};
+use plotter_fw::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer, servo_pulse_us};
 use plotter_fw::{Axis, MachineConfig};
 
 use crate::pins::{self, Pin};
@@ -36,6 +38,8 @@ const RX_RING: usize = 256;
 
 /// TIM2 overflows since start.
 static TIM2_WRAPS: AtomicU32 = AtomicU32::new(0);
+/// The pen-up servo pulse, µs, from the configuration's `pen.servo_up_deg` (the fault path lifts the pen to it).
+static SERVO_UP_PULSE: AtomicU32 = AtomicU32::new(0);
 
 /// The DMA's receive ring. Written by the DMA controller, read by [`drain_rx`].
 static mut RX_DMA: [u8; RX_RING] = [0; RX_RING];
@@ -138,13 +142,13 @@ pub(crate) fn init() {
 
     #[cfg(feature = "servo-pen")]
     {
-        // TIM3 CH3 on PB0 (AF2): 1 MHz, 20 ms period, PWM mode 1 with preload; pen up to begin with.
+        // TIM3 CH3 on PB0 (AF2): 1 MHz, 20 ms period, PWM mode 1 with preload; no pulse until `NucleoHal::new`
+        // sets the configured pen-up angle's.
         regs::modify(pins::GPIOB + gpio::AFRL, 0xF << (4 * pins::SERVO.n), 2 << (4 * pins::SERVO.n));
         mode(pins::SERVO, 2);
         let t = tim::TIM3;
         regs::write(t + tim::PSC, SYSCLK_HZ / 1_000_000 - 1);
         regs::write(t + tim::ARR, 19_999);
-        regs::write(t + tim::CCR3, u32::from(pins::SERVO_UP_US));
         regs::write(t + tim::CCMR2, (0b110 << 4) | (1 << 3));
         regs::write(t + tim::CCER, 1 << 8);
         regs::write(t + tim::EGR, 1);
@@ -177,7 +181,7 @@ pub(crate) fn emergency_stop() {
         reset(*p);
     }
     if cfg!(feature = "servo-pen") {
-        regs::write(tim::TIM3 + tim::CCR3, u32::from(pins::SERVO_UP_US));
+        regs::write(tim::TIM3 + tim::CCR3, SERVO_UP_PULSE.load(Ordering::Relaxed));
     }
 }
 
@@ -237,14 +241,17 @@ impl NucleoHal {
     /// After [`init`]. With the `servo-pen` feature the pen servo follows Z between the configured heights.
     pub(crate) fn new(cfg: &MachineConfig) -> Self {
         let servo = cfg!(feature = "servo-pen").then(|| {
+            let up_us = servo_pulse_us(cfg.pen.servo_up_deg);
+            SERVO_UP_PULSE.store(u32::from(up_us), Ordering::Relaxed);
+            regs::write(tim::TIM3 + tim::CCR3, u32::from(up_us));
             let spm = cfg.axis(Axis::Z).steps_per_mm;
             let steps = |mm: f32| plotter_fw::fmath::round_i32(f64::from(mm) * f64::from(spm));
             ServoPen::new(
                 ServoConfig {
                     down_z: steps(cfg.pen.down_z_mm),
                     up_z: steps(cfg.pen.up_z_mm),
-                    down_us: pins::SERVO_DOWN_US,
-                    up_us: pins::SERVO_UP_US,
+                    down_us: servo_pulse_us(cfg.pen.servo_down_deg),
+                    up_us,
                     forward_level: cfg.axis(Axis::Z).invert_dir,
                 },
                 steps(cfg.pen.up_z_mm),
@@ -313,6 +320,13 @@ impl StepPins for NucleoHal {
 
     fn enable_motors(&mut self, on: bool) {
         if on { reset(pins::ENABLE) } else { set(pins::ENABLE) }
+    }
+
+    /// `M3`/`M5` and servo step blocks: the pulse of the angle sent.
+    fn set_servo(&mut self, angle_deg: f32) {
+        if self.servo.is_some() {
+            regs::write(tim::TIM3 + tim::CCR3, u32::from(servo_pulse_us(angle_deg)));
+        }
     }
 }
 

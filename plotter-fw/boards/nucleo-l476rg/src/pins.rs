@@ -56,10 +56,5 @@ pub(crate) const ENDSTOP: [Option<Pin>; NUM_AXES] =
 #[cfg_attr(not(feature = "servo-pen"), allow(dead_code, reason = "used with the servo-pen feature"))]
 pub(crate) const SERVO: Pin = pin(GPIOB, 0);
 
-/// Servo pulse widths, µs: pen down and pen up.
-pub(crate) const SERVO_DOWN_US: u16 = 1_000;
-/// Pen-up pulse.
-pub(crate) const SERVO_UP_US: u16 = 2_000;
-
 /// Host serial speed (8N1). Faster rates: change here and in the machine profile's `link.baud`.
 pub(crate) const BAUD: u32 = 115_200;
