@@ -13,7 +13,8 @@
 //!   starts and ends within those speeds, never exceeds the draw feed and accelerates at most at
 //!   `√(a_x² + a_y²)` (the largest acceleration the per-axis limits allow along any direction).
 //! * **Pen lifts**: one drop and one lift per stroke, each a settle dwell and a Z move that ends at rest (the
-//!   dwell) and starts no faster than the 90° corner from the XY move allows.
+//!   dwell) and starts no faster than the 90° corner from the XY move allows. A servo pen's drop or lift is its
+//!   settle dwell alone, and the drawing before it ends at rest (the servo block is a stop).
 //! * **Travel**: the pen-up hops span at least the travel lower bound's tree (see [`crate::optimize::bound`]),
 //!   each hop on its own: from rest, at no more than the travel feed, into the pen drop's corner
 //!   ([`min_hop_seconds`]).
@@ -227,5 +228,23 @@ mod tests {
         );
         let planned = plan(&p, &zig, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         assert!(b.total_s() <= planned.seconds());
+    }
+
+    #[test]
+    fn a_servo_pen_stops_drawing_and_lifts_in_its_settle_time() {
+        let mut p = MachineProfile::default_plotter();
+        p.pen.command = crate::motion::profile::PenCommand::Servo;
+        p.pen.settle_ms = 150.0;
+        let steps = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(800, 800),
+            moves: vec![StepDelta { dx: 8000, dy: 0 }],
+        }]);
+        let b = plot_time_lower_bound(&p, &steps, min_hop_seconds(&p)(200f64.sqrt())).unwrap();
+        // The servo block is a stop: the 100 mm line runs rest to rest; a drop and a lift of 150 ms each.
+        let a = 1500f64.hypot(1500.0);
+        assert!((b.draw_s - (100.0 / 60.0 + 60.0 / a)).abs() < 1e-9, "{b:?}");
+        assert!((b.lifts_s - 0.3).abs() < 1e-12, "{b:?}");
+        let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
     }
 }

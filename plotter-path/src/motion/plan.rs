@@ -833,6 +833,40 @@ mod tests {
     }
 
     #[test]
+    fn servo_pens_plan_servo_blocks_and_resume_with_them() {
+        let mut p = profile();
+        p.pen.command = PenCommand::Servo;
+        p.pen.settle_ms = 120.0;
+        let d = Drawing::single_layer("a", vec![square(10.0, 10.0, 5.0), square(30.0, 10.0, 5.0)]);
+        let steps = drawing_to_steps(&p, &d).unwrap();
+        let start = homed_position(&p).unwrap();
+        let full = plan(&p, &steps, start, Lookahead::Whole).unwrap();
+        use MoveKind::*;
+        let up = Some(StepBlock::servo(900, 120_000));
+        let down = Some(StepBlock::servo(300, 120_000));
+        let shape: Vec<(MoveKind, Option<StepBlock>)> =
+            full.blocks.iter().map(|b| (b.kind, b.block.servo.map(|_| b.block))).collect();
+        let square_blocks = [(Travel, None), (PenDown, down), (Draw, None), (Draw, None), (Draw, None), (Draw, None)];
+        let mut expected = vec![(PenUp, up)];
+        for _ in 0..2 {
+            expected.extend(square_blocks);
+            expected.push((PenUp, up));
+        }
+        assert_eq!(shape, expected);
+        assert!(full.blocks.iter().all(|b| b.block.steps[2] == 0), "no Z steps");
+        // Resumed on the first square's second side (block 4): lift, travel back, lower to the pen's angle.
+        let r = plan_resume(&p, &steps, start, 4, [0, 0, start[2], 0], false).unwrap();
+        let pre: Vec<(MoveKind, Option<u16>)> =
+            r.blocks[..r.preamble].iter().map(|b| (b.kind, b.block.servo)).collect();
+        assert_eq!(pre, [(PenUp, Some(900)), (Travel, None), (PenDown, Some(300))]);
+        assert_eq!(r.position_after(r.preamble - 1), full.position_after(3));
+        // Resumed at the travel to the second square (pen up): the servo is lifted anyway, its angle being unknown.
+        let r = plan_resume(&p, &steps, start, 8, start, false).unwrap();
+        let pre: Vec<MoveKind> = r.blocks[..r.preamble].iter().map(|b| b.kind).collect();
+        assert_eq!(pre, [PenUp, Travel]);
+    }
+
+    #[test]
     fn pen_changes_sit_before_the_travel_to_a_layer_with_another_pen() {
         use crate::motion::profile::PenSpec;
         let mut p = profile();
