@@ -6,7 +6,7 @@
 //! - firmware: [`machine::Machine`] on a board's [`hal::Hal`] — line input ([`line_buffer`], [`gcode`]),
 //!   sequencing and resends ([`protocol`]), framed replies and real-time commands ([`framing`]), the planner
 //!   queue ([`planner`]), the Bresenham [`stepper`], [`homing`], [`limits`], checked number [`range`]s,
-//!   [`realtime`] commands, the [`errors`] table, and the printer's heaters ([`thermal`]: PID, autotune,
+//!   [`realtime`] commands, completion [`report`]s, the [`errors`] table, and the printer's heaters ([`thermal`]: PID, autotune,
 //!   thermal-runaway protection);
 //! - host: the same [`planner`] over a whole drawing, [`stepper::StepBlock::duration_ticks`] for the exact
 //!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
@@ -48,6 +48,7 @@ pub mod planner;
 pub mod protocol;
 pub mod range;
 pub mod realtime;
+pub mod report;
 #[cfg(feature = "std")]
 pub mod sim;
 pub mod stepper;

@@ -37,6 +37,7 @@ use crate::line_buffer::{Frame, LINE_MAX, LineAssembler, RxBuffer};
 use crate::planner::{Linker, PlanBlock, plan, to_step_block};
 use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
 use crate::realtime::MachineState;
+use crate::report::CompletionReporter;
 use crate::stepper::{StepBlock, Stepper, StepperFault, TICK_HZ};
 use crate::thermal::{Cmd, EmergencyParser, Thermal, ThermalConfig};
 
@@ -137,6 +138,8 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     rt_matcher: RtMatcher,
     /// The sequence number of the frame or line being answered (framed `ok`/`error:` carry it).
     answering: u32,
+    /// When to send the next completion report (framed mode, [`crate::report`]).
+    reporter: CompletionReporter,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -205,6 +208,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             framed: false,
             rt_matcher: RtMatcher::new(),
             answering: 0,
+            reporter: CompletionReporter::new(0),
         };
         m.banner();
         m
@@ -315,6 +319,27 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             || (self.resume_after_hold && self.stepper.is_held())
             || self.thermal.due(self.hal.now())
             || self.estop_pending
+            || self.completion_due()
+    }
+
+    /// Nothing left to run: planner queue and stepper empty.
+    fn drained(&self) -> bool {
+        self.stepper.is_idle() && self.planner.is_empty()
+    }
+
+    /// Whether a completion report should go out now ([`crate::report`]; framed mode only).
+    fn completion_due(&self) -> bool {
+        self.framed && self.reporter.due(self.stepper.completed(), self.hal.now(), self.drained())
+    }
+
+    /// Send the completion report when one is due.
+    fn report_completion(&mut self) {
+        if self.completion_due() {
+            let completed = self.stepper.completed();
+            let (done, seq) = (completed.wrapping_sub(self.completed_base), self.seq);
+            self.reply(seq, format_args!("C:{done}"));
+            self.reporter.sent(completed, self.hal.now());
+        }
     }
 
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
@@ -425,6 +450,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.run_homing();
         }
         self.feed_stepper();
+        self.report_completion();
     }
 
     fn next_frame(&mut self) -> bool {
@@ -1016,7 +1042,10 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                     self.hal.set_servo(self.servo_up_deg);
                 }
                 17 => self.hal.enable_motors(true),
-                M_FRAMED => self.framed = w.get(b'S').is_some_and(|s| s != 0),
+                M_FRAMED => {
+                    self.framed = w.get(b'S').is_some_and(|s| s != 0);
+                    self.reporter.restart(self.stepper.completed());
+                }
                 18 | 84 => self.hal.enable_motors(false),
                 82 => self.modal.e_relative = false,
                 83 => self.modal.e_relative = true,

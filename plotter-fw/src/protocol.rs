@@ -38,7 +38,8 @@
 //! - `rs <n>` — resend from number `n`.
 //! - Unsolicited: `ALARM:<code> <text>` ([`crate::errors::AlarmCode`]), the status report `<...>` for `?`, the
 //!   start banner `plotter-fw <version> proto <p> rx <bytes> queue <blocks> line <max> seq <E>` (also sent on
-//!   reset), and `M114`/`M115` report lines, which precede that command's `ok`.
+//!   reset), `M114`/`M115` report lines, which precede that command's `ok`, and in framed mode the completion
+//!   report `C:<count>` ([`crate::report`]).
 //!
 //! Flow control: the banner announces the receive buffer size; the host keeps at most that many bytes of
 //! unanswered frames in flight. The firmware reports any byte it had to drop (`error:` for the damaged line).
@@ -466,6 +467,8 @@ pub enum Reply<'a> {
     Banner(&'a str),
     /// A status report `<...>` (without the brackets).
     Status(&'a str),
+    /// `C:<count>`: a completion report (framed mode, see [`crate::report`]).
+    Completed(u32),
     /// Any other line (M114/M115 reports).
     Info(&'a str),
 }
@@ -485,6 +488,8 @@ impl<'a> Reply<'a> {
             Reply::Alarm { code, text }
         } else if let Some(n) = line.strip_prefix("rs ").and_then(|n| n.parse().ok()) {
             Reply::Resend(n)
+        } else if let Some(n) = line.strip_prefix("C:").and_then(|n| n.parse().ok()) {
+            Reply::Completed(n)
         } else if line.starts_with("plotter-fw ") {
             Reply::Banner(line)
         } else if let Some(s) = line.strip_prefix('<').and_then(|s| s.strip_suffix('>')) {
@@ -575,6 +580,8 @@ mod tests {
         assert_eq!(Reply::parse("<Idle|Q:0/32>"), Reply::Status("Idle|Q:0/32"));
         assert!(matches!(Reply::parse("plotter-fw 0.1.0 proto 1"), Reply::Banner(_)));
         assert_eq!(Reply::parse("X:1.000"), Reply::Info("X:1.000"));
+        assert_eq!(Reply::parse("C:4294967295"), Reply::Completed(u32::MAX));
+        assert_eq!(Reply::parse("C:x"), Reply::Info("C:x"));
     }
 
     fn block() -> impl Strategy<Value = StepBlock> {

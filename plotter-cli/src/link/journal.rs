@@ -1,6 +1,9 @@
 //! The resume journal: which blocks of a plot the firmware has accepted and executed, written as the plot runs.
 //!
-//! A small append-only text file, flushed after every line so that it survives the host being killed:
+//! A small append-only text file. Every line is handed to the operating system with one `write` as it happens (so
+//! it survives the host process being killed), and a background thread makes it durable with `fdatasync` (so it
+//! survives a power loss too) without the stream ever waiting for the disk: the syncer folds all lines written
+//! since its last sync into the next one.
 //!
 //! ```text
 //! plotter-journal 1
@@ -17,6 +20,8 @@
 use std::fs::{File, OpenOptions};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Condvar, Mutex};
+use std::thread::JoinHandle;
 
 use anyhow::{Context as _, bail};
 
@@ -44,15 +49,80 @@ pub struct Journal {
     file: File,
     path: PathBuf,
     last: (usize, usize, u32),
+    syncer: Syncer,
+}
+
+/// What the journal and its syncer thread share: lines written and not yet synced; the journal is closing.
+#[derive(Default)]
+struct SyncState {
+    dirty: bool,
+    closing: bool,
+}
+
+/// The background thread that makes written lines durable (see the module docs).
+struct Syncer {
+    shared: Arc<(Mutex<SyncState>, Condvar)>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Syncer {
+    fn start(file: &File, path: &Path) -> anyhow::Result<Syncer> {
+        let file = file.try_clone().with_context(|| format!("cannot open journal {} twice", path.display()))?;
+        let shared = Arc::new((Mutex::new(SyncState::default()), Condvar::new()));
+        let theirs = Arc::clone(&shared);
+        let thread = std::thread::Builder::new()
+            .name("journal-sync".into())
+            .spawn(move || {
+                let (lock, wake) = &*theirs;
+                loop {
+                    let mut st = lock.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                    while !st.dirty && !st.closing {
+                        st = wake.wait(st).unwrap_or_else(std::sync::PoisonError::into_inner);
+                    }
+                    let (dirty, closing) = (st.dirty, st.closing);
+                    st.dirty = false;
+                    drop(st);
+                    if dirty {
+                        // A failed sync leaves the lines in the page cache: still good against a killed host.
+                        let _ = file.sync_data();
+                    }
+                    if closing {
+                        return;
+                    }
+                }
+            })
+            .context("cannot start the journal's sync thread")?;
+        Ok(Syncer { shared, thread: Some(thread) })
+    }
+
+    /// New lines were written: sync them soon.
+    fn poke(&self) {
+        let (lock, wake) = &*self.shared;
+        lock.lock().unwrap_or_else(std::sync::PoisonError::into_inner).dirty = true;
+        wake.notify_one();
+    }
+}
+
+impl Drop for Syncer {
+    /// The last lines are synced before the journal is closed.
+    fn drop(&mut self) {
+        let (lock, wake) = &*self.shared;
+        lock.lock().unwrap_or_else(std::sync::PoisonError::into_inner).closing = true;
+        wake.notify_one();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
 }
 
 impl Journal {
     /// Start a new journal at `path` (replacing an old one).
     pub fn create(path: &Path, source: &str, plan_hash: u64, blocks: usize) -> anyhow::Result<Journal> {
         let mut file = File::create(path).with_context(|| format!("cannot create journal {}", path.display()))?;
-        writeln!(file, "plotter-journal 1\nsource {source}\nplan {plan_hash:016x} {blocks}")?;
-        file.flush()?;
-        Ok(Journal { file, path: path.to_path_buf(), last: (0, 0, 0) })
+        file.write_all(format!("plotter-journal 1\nsource {source}\nplan {plan_hash:016x} {blocks}\n").as_bytes())?;
+        file.sync_data().with_context(|| format!("cannot sync journal {}", path.display()))?;
+        let syncer = Syncer::start(&file, path)?;
+        Ok(Journal { file, path: path.to_path_buf(), last: (0, 0, 0), syncer })
     }
 
     /// Continue an existing journal (after a resume); a torn last line is cut off first.
@@ -64,25 +134,33 @@ impl Journal {
             .open(path)
             .with_context(|| format!("cannot open journal {}", path.display()))?;
         file.set_len(u64::try_from(keep).unwrap_or(u64::MAX))?;
-        Ok(Journal { file, path: path.to_path_buf(), last: (state.accepted, state.executed, state.seq_after_accepted) })
+        let syncer = Syncer::start(&file, path)?;
+        Ok(Journal {
+            file,
+            path: path.to_path_buf(),
+            last: (state.accepted, state.executed, state.seq_after_accepted),
+            syncer,
+        })
     }
 
-    /// Record progress (in original block numbers); unchanged values are not written again.
+    /// Record progress (in original block numbers); unchanged values are not written again. The line is written
+    /// at once (one `write`), made durable in the background.
     pub fn record(&mut self, accepted: usize, executed: usize, seq_after_accepted: u32) -> anyhow::Result<()> {
         let now = (accepted, executed, seq_after_accepted);
         if now != self.last {
-            writeln!(self.file, "progress {accepted} {executed} {seq_after_accepted}")
-                .and_then(|()| self.file.flush())
+            self.file
+                .write_all(format!("progress {accepted} {executed} {seq_after_accepted}\n").as_bytes())
                 .with_context(|| format!("cannot write journal {}", self.path.display()))?;
+            self.syncer.poke();
             self.last = now;
         }
         Ok(())
     }
 
-    /// Mark the plot complete.
+    /// Mark the plot complete (synced before returning).
     pub fn complete(&mut self) -> anyhow::Result<()> {
-        writeln!(self.file, "complete")?;
-        self.file.flush()?;
+        self.file.write_all(b"complete\n")?;
+        self.file.sync_data().with_context(|| format!("cannot sync journal {}", self.path.display()))?;
         Ok(())
     }
 }

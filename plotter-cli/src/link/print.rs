@@ -232,6 +232,8 @@ pub fn stream_print<T: Transport>(
             }
             Reply::Alarm { code, text } => bail!("printer alarm {code}: {text}"),
             Reply::Banner(_) => bail!("the firmware restarted during the print"),
+            // Completion reports (framed mode) count blocks; the print follows its lines' answers instead.
+            Reply::Completed(_) => {}
             Reply::Status(s) => {
                 if let Some(st) = Status::parse(s) {
                     if st.state == "Alarm" {

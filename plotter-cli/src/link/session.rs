@@ -305,7 +305,7 @@ impl<T: Transport> Session<T> {
                 Reply::Error { code, text } => bail!("{}: {line:?} refused: error {code}: {text}", self.name),
                 Reply::Alarm { code, text } => bail!("{}: alarm {code} ({text}) during {line:?}", self.name),
                 Reply::Banner(_) => bail!("{}: the firmware restarted during {line:?}", self.name),
-                Reply::Status(_) | Reply::Resend(_) => {}
+                Reply::Status(_) | Reply::Resend(_) | Reply::Completed(_) => {}
                 Reply::Info(i) => out.push(i.to_string()),
             }
         }
@@ -387,7 +387,7 @@ impl<T: Transport> Session<T> {
                         seq = n;
                         break;
                     }
-                    Reply::Status(_) => {}
+                    Reply::Status(_) | Reply::Completed(_) => {}
                     Reply::Info(i) => out.push(i.to_string()),
                 }
             }

@@ -19,12 +19,15 @@
 //! the firmware is not simply waiting for queue space, everything it has not accepted (its `N:`) is resent.
 //!
 //! # Progress and the journal
-//! `ok` means *accepted* (queued). What has been *executed* is derived from periodic status reports. When the
-//! firmware reports its completed-block count (`C:`) and the machine was idle when the stream began, the count
-//! since then is exactly the number of frames executed (each accepted frame is one block). Otherwise it is a lower
-//! bound: of the accepted frames, at most the planner queue (`Q:`) plus the stepper's own queue and the running
-//! block are still waiting, so `accepted − Q − 3` blocks are certainly done; when the machine is idle, all
-//! accepted blocks are.
+//! `ok` means *accepted* (queued). What has been *executed* follows the firmware's completed-block count: in framed
+//! mode the firmware sends a verified completion report `C:<count>` as blocks complete (at most every 5 ms, the
+//! last one at once, see `plotter_fw::report`), and the periodic status report carries the same count as a backup.
+//! When the machine was idle as the stream began, the count since then is exactly the number of frames executed
+//! (each accepted frame is one block), up to the very last block, so after a power loss the journal is behind by
+//! at most the block that was running (and what completed in the last report's few milliseconds). Without the
+//! count (older firmwares) the status gives a lower bound: of the accepted frames, at most the planner queue
+//! (`Q:`) plus the stepper's own queue and the running block are still waiting, so `accepted − Q − 3` blocks are
+//! certainly done; when the machine is idle, all accepted blocks are.
 
 use std::collections::VecDeque;
 use std::time::Duration;
@@ -325,6 +328,17 @@ impl State {
             self.executed = self.executed.max(done);
         }
     }
+
+    /// A verified completion report: `completed` blocks done since the firmware started, `seq` its expected
+    /// number at the time. A count beyond the frames it had accepted cannot be about this stream and is ignored.
+    fn on_completed(&mut self, seq: u32, completed: u32, base: u32, n: usize) {
+        let Some(b) = self.completed_base else { return };
+        let accepted_fw = usize::try_from(seq.wrapping_sub(base)).unwrap_or(usize::MAX);
+        let done = usize::try_from(completed.wrapping_sub(b)).unwrap_or(usize::MAX);
+        if accepted_fw <= n && done <= accepted_fw {
+            self.executed = self.executed.max(done);
+        }
+    }
 }
 
 /// Stream `frames` over `session`. Returns when every frame has been executed. `before` is a status report taken
@@ -514,6 +528,11 @@ pub fn stream<T: Transport>(
                 break Err(StreamError::Alarm { code, text: text.to_string(), executed: st.executed });
             }
             Reply::Banner(_) => break Err(StreamError::Restarted { executed: st.executed }),
+            Reply::Completed(c) => {
+                if let Some(seq) = number {
+                    st.on_completed(seq, c, frames.base, n);
+                }
+            }
             Reply::Status(s) => {
                 st.status_pending = false;
                 let Some(s) = Status::parse(s) else { continue };
@@ -554,20 +573,15 @@ pub fn stream<T: Transport>(
     };
     session.transport.set_streaming(false);
     result?;
-    // Everything accepted: follow the execution to the very last block, so the journal does too.
+    // Everything accepted: follow the execution to the very last block (the completion reports, with the status
+    // as a backup), so the journal does too.
     let seq_after = frames.base.wrapping_add(u32::try_from(n).unwrap_or(u32::MAX));
+    st.status_pending = false;
+    let mut reported = st.executed;
     loop {
-        let s = session.status()?;
-        if s.state == "Alarm" {
-            return Err(StreamError::Alarm { code: 0, text: "reported in the status".into(), executed: st.executed });
-        }
-        let before = st.executed;
-        st.on_status(&s, frames.base, n);
-        if s.is_idle() {
-            st.executed = n;
-        }
         let now = session.transport.now();
-        if st.executed != before {
+        if st.executed != reported {
+            reported = st.executed;
             last_progress_at = now;
             control.progress(&Progress {
                 accepted: n,
@@ -584,12 +598,53 @@ pub fn stream<T: Transport>(
                 "{}: no progress for {:.0} s while {} ({} of {n} blocks executed)",
                 session.name,
                 opts.watchdog.as_secs_f64(),
-                st.phase(n, rx, frames, Some(&s.state)),
+                st.phase(n, rx, frames, fw_state.as_deref()),
                 st.executed
             )));
         }
-        // Let time pass (virtual for the simulator: receiving advances it).
-        let _ = session.recv(Duration::from_millis(50))?;
+        let since = now.saturating_sub(st.last_status_at);
+        if since >= opts.status_every && (!st.status_pending || since >= opts.quiet) {
+            session.send_realtime(RT_STATUS)?;
+            st.status_pending = true;
+            st.last_status_at = now;
+        }
+        // (Virtual time passes for the simulator while receiving, unless it has nothing left to do.)
+        let Some(incoming) = session.recv(opts.status_every)? else {
+            // Quiet: ask now (a firmware without completion reports says it is idle only when asked).
+            session.send_realtime(RT_STATUS)?;
+            st.status_pending = true;
+            st.last_status_at = session.transport.now();
+            continue;
+        };
+        let Incoming::Reply(number, line) = incoming else { continue };
+        match Reply::parse(&line) {
+            Reply::Completed(c) => {
+                if let Some(seq) = number {
+                    st.on_completed(seq, c, frames.base, n);
+                }
+            }
+            Reply::Status(s) => {
+                st.status_pending = false;
+                let Some(s) = Status::parse(s) else { continue };
+                if s.state == "Alarm" {
+                    return Err(StreamError::Alarm {
+                        code: 0,
+                        text: "reported in the status".into(),
+                        executed: st.executed,
+                    });
+                }
+                st.on_status(&s, frames.base, n);
+                if s.is_idle() {
+                    st.executed = n;
+                }
+                fw_state = Some(s.state);
+            }
+            Reply::Alarm { code, text } => {
+                return Err(StreamError::Alarm { code, text: text.to_string(), executed: st.executed });
+            }
+            Reply::Banner(_) => return Err(StreamError::Restarted { executed: st.executed }),
+            _ => {}
+        }
     }
     Ok(StreamStats {
         frames: n,

@@ -67,7 +67,20 @@ fn replies_are_numbered_and_checked() {
     let n = enc.encode(&block(400), 9, &mut out).unwrap();
     bytes.extend(&out[..n]);
     let r = framed(&run(&mut sim, &bytes));
-    assert_eq!(r, [(1, "ok".into()), (2, "ok".into()), (3, "ok".into()), (4, "rs 4".into())]);
+    // Then, as the blocks complete (each 400 steps at ≤ 2000 steps/s: ≥ 200 ms apart, far more than the 5 ms
+    // between reports), a completion report for each, numbered with the expected number 4.
+    assert_eq!(
+        r,
+        [
+            (1, "ok".into()),
+            (2, "ok".into()),
+            (3, "ok".into()),
+            (4, "rs 4".into()),
+            (4, "C:1".into()),
+            (4, "C:2".into()),
+            (4, "C:3".into())
+        ]
+    );
     let r = framed(&run(&mut sim, &rt_sequence(RT_STATUS)));
     assert_eq!(r, [(4, "<Idle|MPos:15.000,0.000,0.000,0.000|Steps:1200,0,0,0|Q:0/32|N:4|C:3>".into())]);
     // Plain G-code is not taken in framed mode: answered as a damaged frame.
@@ -89,7 +102,7 @@ fn replies_are_numbered_and_checked() {
 fn lone_realtime_bytes_are_data_and_sequences_act() {
     let mut sim = framed_sim();
     let r = run(&mut sim, numbered(1, "G1 X100 F3000").as_bytes());
-    assert_eq!(framed(&r), [(1, "ok".into())]);
+    assert_eq!(framed(&r), [(1, "ok".into()), (2, "C:1".into())]);
     // Nothing acts on `!`, `?`, `~` or one Ctrl-X alone: the bytes make a damaged line (answered rs).
     sim.feed(numbered(2, "G1 X200").as_bytes());
     sim.run_for(100_000);
@@ -105,6 +118,7 @@ fn lone_realtime_bytes_are_data_and_sequences_act() {
     sim.feed(&rt_sequence(RT_RESUME));
     sim.run_until_idle();
     assert_eq!(sim.physical_position()[0], 16_000);
+    assert_eq!(framed(&sim.take_replies()), [(3, "C:2".into())], "the second move's completion");
     // A framed reset leaves framed mode; its banner is plain.
     let r = run(&mut sim, &rt_sequence(RT_RESET));
     assert_eq!(r, ["plotter-fw 0.1.0 proto 3 rx 256 queue 32 line 96 seq 0"]);
