@@ -1,6 +1,6 @@
 //! The link under line noise in both directions, with stray real-time bytes, on the in-process simulator: the
 //! sample plot finishes with exactly the clean run's step trace; a flipped digit in a status reply changes
-//! nothing; after a power loss (host and firmware restarted together) a resume redraws at most one block.
+//! nothing. (Power loss and resume: `power_loss.rs`.)
 
 use std::time::Duration;
 

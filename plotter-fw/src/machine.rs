@@ -140,6 +140,10 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     answering: u32,
     /// When to send the next completion report (framed mode, [`crate::report`]).
     reporter: CompletionReporter,
+    /// A step block was refused (its sequence number and error code): every later frame is refused too, so nothing
+    /// after a hole in the plot runs, until a reset, a homing cycle or framed mode switched on again. The status
+    /// report carries it as `R:<n>,<code>`.
+    refused: Option<(u32, u8)>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -209,6 +213,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             rt_matcher: RtMatcher::new(),
             answering: 0,
             reporter: CompletionReporter::new(0),
+            refused: None,
         };
         m.banner();
         m
@@ -585,6 +590,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.framed = false;
             self.rt_matcher.clear();
             self.completed_base = self.stepper.completed();
+            self.refused = None;
             if moving {
                 // Stopped without deceleration: steps may have been lost.
                 self.homed = 0;
@@ -629,10 +635,12 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         for axis in Axis::ALL {
             mm[axis.index()] = pos[axis.index()] as f32 / self.cfg.axis(axis).steps_per_mm;
         }
+        let (rn, rc) = self.refused.unwrap_or((0, 0));
+        let refused = Refused(self.refused.is_some(), rn, rc);
         self.reply(
             seq,
             format_args!(
-                "<{state}|MPos:{},{},{},{}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}>",
+                "<{state}|MPos:{},{},{},{}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}{refused}>",
                 Decimal::new(mm[0], 3),
                 Decimal::new(mm[1], 3),
                 Decimal::new(mm[2], 3),
@@ -705,6 +713,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 }
                 HomingStep::Done(mask) => {
                     self.homed |= mask;
+                    self.refused = None;
                     self.homing = None;
                     self.homing_result = Some(Ok(()));
                     self.sync_target();
@@ -841,16 +850,23 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             return Outcome::Blocked;
         }
         self.decoder = trial;
+        let number = self.seq;
         self.commit_seq(Some(0));
+        if let Some((n, _)) = self.refused {
+            self.reply_error(ErrorCode::BadFrame, format_args!(": block {n} was refused"));
+            return Outcome::Done;
+        }
         let mut target = self.target_steps;
         for (t, s) in target.iter_mut().zip(block.steps) {
             *t = t.saturating_add(s);
         }
         if !crate::range::position_ok(&target) {
+            self.refused = Some((number, ErrorCode::OutOfRange.code()));
             self.reply_error(ErrorCode::OutOfRange, format_args!(": {}", crate::range::MoveRange::Position.text()));
             return Outcome::Done;
         }
         if let Some(axis) = crate::limits::violation(&self.cfg, self.homed, &target) {
+            self.refused = Some((number, ErrorCode::SoftLimit.code()));
             self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
             return Outcome::Done;
         }
@@ -1045,6 +1061,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 M_FRAMED => {
                     self.framed = w.get(b'S').is_some_and(|s| s != 0);
                     self.reporter.restart(self.stepper.completed());
+                    self.refused = None;
                 }
                 18 | 84 => self.hal.enable_motors(false),
                 82 => self.modal.e_relative = false,
@@ -1165,6 +1182,15 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Micrometre scale of the G-code parser, for callers converting positions.
     pub const MICRO: i64 = MICRO;
+}
+
+/// The status report's `|R:<n>,<code>` field (nothing when no block was refused).
+struct Refused(bool, u32, u8);
+
+impl fmt::Display for Refused {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.0 { write!(f, "|R:{},{}", self.1, self.2) } else { Ok(()) }
+    }
 }
 
 fn round_i64(x: f64) -> i64 {

@@ -34,7 +34,10 @@
 //! (In framed mode, which a streaming host turns on, every reply carries a number and a CRC-32 and real-time
 //! commands are four-byte sequences: see [`crate::framing`].)
 //! - `ok` — accepted (queued or done).
-//! - `error:<code> <text>` — refused, nothing executed; codes in [`crate::errors::ErrorCode`].
+//! - `error:<code> <text>` — refused, nothing executed; codes in [`crate::errors::ErrorCode`]. A step block refused
+//!   for its content (outside the travel, out of range) makes every later step block refused too
+//!   (`error:12 … block <n> was refused`) until a reset, a homing cycle or `M990 S1`, so nothing after a hole in
+//!   the plot runs; meanwhile the status report ends with `|R:<n>,<code>` (the refused block's number and code).
 //! - `rs <n>` — resend from number `n`.
 //! - Unsolicited: `ALARM:<code> <text>` ([`crate::errors::AlarmCode`]), the status report `<...>` for `?`, the
 //!   start banner `plotter-fw <version> proto <p> rx <bytes> queue <blocks> line <max> seq <E>` (also sent on

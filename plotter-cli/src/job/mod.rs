@@ -248,7 +248,7 @@ impl Run<'_> {
                 None => current.clone(),
             };
             let mut tracker = Tracker::new(&part, self.profile, journal.take(), events);
-            let result = machine.stream(&part, &mut tracker);
+            let result = machine.stream(&part, &mut tracker).map_err(|e| locate_refusal(e, &part, self.profile));
             journal = tracker.journal.take();
             let journal_error = tracker.error.take();
             if journal_error.is_some() || result.is_err() {
@@ -302,6 +302,22 @@ fn truncated(plan: &MotionPlan, len: usize) -> MotionPlan {
     }
     p.total_ticks = p.blocks.iter().map(|b| u64::from(b.block.duration_ticks())).sum();
     p
+}
+
+/// A refused block named as in the original plan (block number) and where it ends (machine mm), so the user can
+/// tell which part of the drawing lies outside the machine.
+fn locate_refusal(e: StreamError, part: &MotionPlan, profile: &MachineProfile) -> StreamError {
+    match e {
+        StreamError::Refused { block, code, text } if block < part.blocks.len() => {
+            let end = part.position_after(block);
+            let mm = plotter_path::motion::steps::StepMapper::new(profile)
+                .steps_to_machine(plotter_path::motion::steps::StepPos::new(end[0], end[1]));
+            let original = (part.resumed_from + block).saturating_sub(part.preamble);
+            let text = format!("{text} (the block ends at X {:.3} mm, Y {:.3} mm)", mm.x, mm.y);
+            StreamError::Refused { block: original, code, text }
+        }
+        e => e,
+    }
 }
 
 /// A stream error, with how to continue when a journal was kept.
@@ -421,6 +437,32 @@ mod tests {
         assert_eq!(runs.len(), 3, "three squares");
         let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
         assert_eq!(firsts, [(1600, 3200), (4000, 3200), (6400, 3200)]);
+    }
+
+    #[test]
+    fn a_refused_block_stops_the_plot_and_is_named_with_its_end() {
+        // The firmware's X travel is 50 mm, the profile's 420 mm: the line from (10, 10) to (100, 10) mm passes the
+        // host's checks and is refused by the firmware (soft limit, error 7) at its end, X 100 mm, Y 10 mm.
+        let profile = MachineProfile::default_plotter();
+        let mut cfg = plan::machine_config(&profile).unwrap();
+        cfg.axes[0].travel_mm = 50.0;
+        let mut s = Session::connect(SimTransport::new(cfg, Some(115_200)), "sim").unwrap();
+        let d = Drawing::single_layer(
+            "l",
+            vec![plotter_path::Polyline::new(vec![
+                plotter_path::kurbo::Point::new(10.0, 10.0),
+                plotter_path::kurbo::Point::new(100.0, 10.0),
+            ])],
+        );
+        let steps = drawing_to_steps(&profile, &d).unwrap();
+        let mut events = Script { answers: vec![], seen: vec![] };
+        let err = plot(&mut s, &profile, &steps, true, false, None, &mut events).unwrap_err().to_string();
+        // Blocks: travel to the start (0), pen down (1), settle (2), the line (3).
+        assert!(err.contains("refused block 3: error 7"), "{err}");
+        assert!(err.contains("ends at X 100.000 mm, Y 10.000 mm"), "{err}");
+        // Nothing beyond X 50 mm (4000 steps) was drawn, and the pen was lifted.
+        let phys = s.transport.sim().physical_position();
+        assert!(phys[0] <= 4000 && phys[2] > 800, "{phys:?}");
     }
 
     #[test]

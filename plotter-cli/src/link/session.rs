@@ -33,7 +33,8 @@ pub enum Incoming {
 }
 
 /// A parsed status report `<State|MPos:..|Steps:x,y,z,e|Q:used/size|N:seq|C:completed>` (`C:` is optional:
-/// firmwares before it report no completed-block count).
+/// firmwares before it report no completed-block count; a trailing `|R:<n>,<code>` after a refused step block is
+/// not needed here: the refusal's own `error:` stops the stream).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Status {
     /// `Idle`, `Run`, `Hold:1`, `Hold:0`, `Home`, `Alarm`.

@@ -92,8 +92,20 @@ fn replies_are_numbered_and_checked() {
     let n = enc.encode(&block(-400), 5, &mut out).unwrap();
     let r = framed(&run(&mut sim, &out[..n]));
     assert_eq!(r, [(5, "error:7 target outside the travel: X".into())]);
+    // Every later frame is refused too (nothing after the hole runs), and the status names the refused block.
+    let n = enc.encode(&block(400), 6, &mut out).unwrap();
+    let r = framed(&run(&mut sim, &out[..n]));
+    assert_eq!(r, [(6, "error:12 step block refused: block 5 was refused".into())]);
+    let r = framed(&run(&mut sim, &rt_sequence(RT_STATUS)));
+    // (Homed: X and Y at 0, the pen up at Z 4 mm; 3 blocks and 13 homing moves completed.)
+    assert_eq!(r, [(7, "<Idle|MPos:0.000,0.000,4.000,0.000|Steps:0,0,1600,0|Q:0/32|N:7|C:16|R:5,7>".into())]);
+    // Homing clears it.
+    run(&mut sim, numbered(7, "G28").as_bytes());
+    let n = enc.encode(&block(400), 8, &mut out).unwrap();
+    let r = framed(&run(&mut sim, &out[..n]));
+    assert_eq!(r[0], (8, "ok".into()));
     // Back to plain mode.
-    let r = run(&mut sim, numbered(6, "M990 S0").as_bytes());
+    let r = run(&mut sim, numbered(9, "M990 S0").as_bytes());
     assert_eq!(r, ["ok"]);
     assert!(!sim.machine().is_framed());
 }
