@@ -406,10 +406,12 @@ impl<T: Transport> Session<T> {
             if left.is_zero() {
                 bail!("{}: no banner after the reset", self.name);
             }
-            if let Some(Incoming::Reply(_, l)) = self.recv(left)?
-                && matches!(Reply::parse(&l), Reply::Banner(_))
-            {
-                break;
+            let before = self.transport.now();
+            match self.recv(left)? {
+                Some(Incoming::Reply(_, l)) if matches!(Reply::parse(&l), Reply::Banner(_)) => break,
+                // No reply, and no time passed: nothing will ever answer (a simulator with nothing left to run).
+                None if self.transport.now() == before => bail!("{}: no banner after the reset (silent)", self.name),
+                _ => {}
             }
         }
         self.framed = false;
@@ -424,8 +426,12 @@ impl<T: Transport> Session<T> {
         self.command_checked("G28", HOMING_TIMEOUT).map(|_| ()).context("homing failed")
     }
 
-    /// Wait until the machine is idle (everything queued executed), polling the status every `every`.
+    /// Wait until the machine is idle (everything queued executed), polling the status every `every`. A machine
+    /// whose state, position, queue and completed count stay the same for [`WAIT_STALL`] (a feed hold nobody
+    /// resumes, a link whose time stands still) is an error naming its state, not an endless wait.
     pub fn wait_idle(&mut self, every: Duration) -> anyhow::Result<Status> {
+        let mut last: Option<(String, [i32; 4], usize, Option<u32>)> = None;
+        let (mut since, mut still_polls) = (self.transport.now(), 0u32);
         loop {
             let s = self.status()?;
             if s.is_idle() {
@@ -434,11 +440,37 @@ impl<T: Transport> Session<T> {
             if s.state == "Alarm" {
                 bail!("{}: the machine is in alarm", self.name);
             }
+            let key = (s.state.clone(), s.steps, s.queued, s.completed);
+            if last.as_ref() == Some(&key) {
+                still_polls += 1;
+                let still = self.transport.now().saturating_sub(since);
+                if still >= WAIT_STALL || still_polls >= WAIT_STALL_POLLS {
+                    bail!(
+                        "{}: no progress for {:.1} s ({still_polls} status reports) while waiting for the machine \
+                         to finish: it stays in state {} at steps {:?} with {} block(s) queued",
+                        self.name,
+                        still.as_secs_f64(),
+                        s.state,
+                        s.steps,
+                        s.queued
+                    );
+                }
+            } else {
+                last = Some(key);
+                (since, still_polls) = (self.transport.now(), 0);
+            }
             // Let time pass (virtual for the simulator: receiving advances it).
             let _ = self.transport.recv_line(every)?;
         }
     }
 }
+
+/// How long [`Session::wait_idle`] waits for a machine that shows no progress at all (no motion, no queue change).
+/// Longer than any dwell or pen settle a plot asks for.
+pub const WAIT_STALL: Duration = Duration::from_secs(30);
+
+/// How many unchanged status reports [`Session::wait_idle`] accepts when the link's clock stands still.
+const WAIT_STALL_POLLS: u32 = 10_000;
 
 #[cfg(test)]
 mod tests {
@@ -474,6 +506,24 @@ mod tests {
         assert!(st.is_idle());
         let e = s.command("G1 X-5 F600", COMMAND_TIMEOUT).unwrap_err().to_string();
         assert!(e.contains("refused"), "{e}");
+    }
+
+    #[test]
+    fn waiting_for_a_machine_held_forever_ends_with_its_state() {
+        let t = SimTransport::new(MachineConfig::xy_plotter(), None);
+        let mut s = Session::connect(t, "sim").unwrap();
+        s.home().unwrap();
+        // A long move (200 mm), then a feed hold nobody resumes.
+        s.command("G1 X200 F600", COMMAND_TIMEOUT).unwrap();
+        let _ = s.transport.recv_line(Duration::from_millis(500)).unwrap();
+        s.send_realtime(plotter_fw::protocol::RT_FEED_HOLD).unwrap();
+        let t0 = s.transport.now();
+        let e = s.wait_idle(Duration::from_millis(50)).unwrap_err().to_string();
+        assert!(e.contains("no progress for") && e.contains("state Hold:0"), "{e}");
+        // The simulator's clock stands still in a hold (nothing to simulate): the unchanged reports end the wait,
+        // within the deceleration into the hold.
+        let waited = s.transport.now() - t0;
+        assert!(e.contains("(10000 status reports)") && waited < Duration::from_secs(2), "{waited:?}: {e}");
     }
 
     /// A transport that answers every line with noise.
