@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! [MSG:start: reset by watchdog; previous run stopped: panic: src/stepper.rs:200: attempt to add with overflow]
-//! plotter-fw 0.1.0 proto 1 rx 256 queue 32 line 96 seq 0
+//! plotter-fw 0.1.0 proto 3 rx 256 queue 32 line 96 seq 0
 //! ```
 
 use core::fmt;
