@@ -353,3 +353,22 @@ pub fn cube_stl(size: f64) -> String {
 pub fn fixture(name: &str) -> PathBuf {
     workspace_root().join("tests").join("fixtures").join(name)
 }
+
+/// Feed every block of `plan` to the simulated firmware as framed step blocks numbered from its expected sequence
+/// number, run it until idle, and check that each frame got its `ok`; returns all replies. (The simulated wire is
+/// flow-controlled: bytes wait until the receive buffer has room.)
+pub fn play_framed(sim: &mut plotter_fw::sim::Sim, plan: &plotter_path::motion::plan::MotionPlan) -> Vec<String> {
+    use plotter_fw::protocol::{Encoder, MAX_FRAME};
+    let seq0 = sim.machine().expected_seq();
+    let mut enc = Encoder::new();
+    let mut buf = [0u8; MAX_FRAME];
+    for (i, b) in plan.blocks.iter().enumerate() {
+        let n =
+            enc.encode(&b.block, seq0 + u32::try_from(i).expect("fewer than 2³² blocks"), &mut buf).expect("encodes");
+        sim.feed(&buf[..n]);
+    }
+    sim.run_until_idle();
+    let replies = sim.take_replies();
+    assert_eq!(replies.iter().filter(|l| *l == "ok").count(), plan.blocks.len(), "{replies:?}");
+    replies
+}

@@ -4,7 +4,6 @@
 //! (4), blue wave (1) = 7 strokes, so 7 drops + 7 lifts + the lift that starts every servo plot (a servo's angle is
 //! not known before it is commanded) = 15 servo commands.
 
-use plotter_fw::protocol::{Encoder, MAX_FRAME};
 use plotter_fw::sim::Sim;
 use plotter_host::link::grbl::emulator::GrblEmulator;
 use plotter_host::link::grbl::program::{declare_position, program};
@@ -36,16 +35,7 @@ fn plot_on_sim(profile: &MachineProfile) -> (MotionPlan, Vec<(u64, f32)>, [u64; 
     assert!(sim.take_replies().iter().any(|l| l == "ok"), "homing");
     let plan = three_pens_plan(profile, sim.machine().stepper().position());
     let (busy0, steps0) = (sim.hal().busy_ticks(), sim.hal().step_counts());
-    let seq0 = sim.machine().expected_seq();
-    let mut enc = Encoder::new();
-    let mut buf = [0u8; MAX_FRAME];
-    for (i, b) in plan.blocks.iter().enumerate() {
-        let n = enc.encode(&b.block, seq0 + u32::try_from(i).unwrap(), &mut buf).unwrap();
-        sim.feed(&buf[..n]);
-    }
-    sim.run_until_idle();
-    let replies = sim.take_replies();
-    assert_eq!(replies.iter().filter(|l| *l == "ok").count(), plan.blocks.len(), "{replies:?}");
+    plotter_e2e::play_framed(&mut sim, &plan);
     let steps = sim.hal().step_counts();
     let plotted = core::array::from_fn(|i| steps[i] - steps0[i]);
     let servo = sim.hal().servo_trace().iter().map(|s| (s.0, s.1)).collect();

@@ -2,7 +2,6 @@
 //! frames fed straight into the simulated firmware (plotter-path's plan, plotter-fw's protocol and simulator).
 
 use plotter_e2e::SAMPLE_SVG;
-use plotter_fw::protocol::{Encoder, MAX_FRAME};
 use plotter_fw::sim::Sim;
 use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
 use plotter_path::motion::steps::drawing_to_steps;
@@ -17,17 +16,7 @@ fn run_on_sim(profile: &MachineProfile, plan_for: impl Fn([i32; 4]) -> MotionPla
     let start = sim.machine().stepper().position();
     let plan = plan_for(start);
     let busy0 = sim.hal().busy_ticks();
-    let seq0 = sim.machine().expected_seq();
-    let mut enc = Encoder::new();
-    let mut buf = [0u8; MAX_FRAME];
-    for (i, b) in plan.blocks.iter().enumerate() {
-        let n = enc.encode(&b.block, seq0 + u32::try_from(i).unwrap(), &mut buf).unwrap();
-        // The simulated wire is flow-controlled: bytes wait until the receive buffer has room.
-        sim.feed(&buf[..n]);
-    }
-    sim.run_until_idle();
-    let replies = sim.take_replies();
-    assert_eq!(replies.iter().filter(|l| *l == "ok").count(), plan.blocks.len(), "{replies:?}");
+    plotter_e2e::play_framed(&mut sim, &plan);
     let executed = sim.hal().busy_ticks() - busy0;
     (plan, sim, executed)
 }

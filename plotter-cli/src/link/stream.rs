@@ -294,6 +294,29 @@ impl State {
         }
     }
 
+    /// Ask the firmware for its status report now.
+    fn ask_status<T: Transport>(&mut self, session: &mut Session<T>) -> std::io::Result<()> {
+        session.send_realtime(RT_STATUS)?;
+        self.status_pending = true;
+        self.last_status_at = session.transport.now();
+        Ok(())
+    }
+
+    /// Ask for the status when the polling period has passed since the last request, unless a report is still
+    /// pending (then again after the quiet period, as a report lost to noise never comes).
+    fn ask_status_if_due<T: Transport>(
+        &mut self,
+        session: &mut Session<T>,
+        now: Duration,
+        opts: &StreamOptions,
+    ) -> std::io::Result<()> {
+        let since = now.saturating_sub(self.last_status_at);
+        if since >= opts.status_every && (!self.status_pending || since >= opts.quiet) {
+            self.ask_status(session)?;
+        }
+        Ok(())
+    }
+
     /// What the stream is doing, for the watchdog's message.
     fn phase(&self, n: usize, rx: usize, frames: &Frames, fw_state: Option<&str>) -> String {
         let host = if self.accepted == n {
@@ -448,12 +471,7 @@ pub fn stream<T: Transport>(
         // Periodic status for the executed count.
         let now = session.transport.now();
         // (A report lost to noise is asked for again after the quiet period.)
-        let since = now.saturating_sub(st.last_status_at);
-        if since >= opts.status_every && (!st.status_pending || since >= opts.quiet) {
-            session.send_realtime(RT_STATUS)?;
-            st.status_pending = true;
-            st.last_status_at = now;
-        }
+        st.ask_status_if_due(session, now, &opts)?;
         let Some(incoming) = session.recv(opts.quiet)? else {
             // Quiet: ask for the status and decide whether the firmware is just busy.
             stalls += 1;
@@ -464,10 +482,8 @@ pub fn stream<T: Transport>(
                     st.accepted
                 )));
             }
-            session.send_realtime(RT_STATUS)?;
-            st.status_pending = true;
+            st.ask_status(session)?;
             st.resync_pending = true;
-            st.last_status_at = session.transport.now();
             continue;
         };
         let (number, line) = match incoming {
@@ -602,18 +618,11 @@ pub fn stream<T: Transport>(
                 st.executed
             )));
         }
-        let since = now.saturating_sub(st.last_status_at);
-        if since >= opts.status_every && (!st.status_pending || since >= opts.quiet) {
-            session.send_realtime(RT_STATUS)?;
-            st.status_pending = true;
-            st.last_status_at = now;
-        }
+        st.ask_status_if_due(session, now, &opts)?;
         // (Virtual time passes for the simulator while receiving, unless it has nothing left to do.)
         let Some(incoming) = session.recv(opts.status_every)? else {
             // Quiet: ask now (a firmware without completion reports says it is idle only when asked).
-            session.send_realtime(RT_STATUS)?;
-            st.status_pending = true;
-            st.last_status_at = session.transport.now();
+            st.ask_status(session)?;
             continue;
         };
         let Incoming::Reply(number, line) = incoming else { continue };
