@@ -182,4 +182,51 @@ mod tests {
             ]
         );
     }
+
+    #[test]
+    fn without_a_page_the_size_is_the_far_corner_of_the_drawing() {
+        let mut first = Layer::new("a");
+        first.paths.push(Polyline::new(vec![Point::new(-5.0, 2.0), Point::new(30.5, 12.25)]));
+        let mut second = Layer::new("b");
+        // One point: nothing to draw.
+        second.paths.push(Polyline::new(vec![Point::new(3.0, 3.0)]));
+        second.paths.push(Polyline::new(vec![Point::new(0.1, 0.1), Point::new(0.2, 0.3)]));
+        let svg = to_svg_string(&Drawing { layers: vec![first, second], page_mm: None });
+        assert!(svg.contains("width=\"30.5mm\" height=\"12.25mm\" viewBox=\"0 0 30.5 12.25\""), "{svg}");
+        assert!(svg.contains("<g id=\"layer1\" inkscape:groupmode=\"layer\" inkscape:label=\"a\""), "{svg}");
+        assert!(svg.contains("<g id=\"layer2\" inkscape:groupmode=\"layer\" inkscape:label=\"b\""), "{svg}");
+        assert_eq!(svg.matches("<polyline").count(), 2, "the one-point path is left out: {svg}");
+        // A drawing within a millimetre of the origin, or none at all, gets a 1 mm page.
+        let mut tiny = Layer::new("t");
+        tiny.paths.push(Polyline::new(vec![Point::new(0.1, 0.1), Point::new(0.2, 0.3)]));
+        for layers in [vec![tiny], vec![]] {
+            let svg = to_svg_string(&Drawing { layers, page_mm: None });
+            assert!(svg.contains("width=\"1mm\" height=\"1mm\" viewBox=\"0 0 1 1\""), "{svg}");
+        }
+    }
+
+    #[test]
+    fn a_width_within_the_written_precision_of_the_layer_s_is_not_repeated() {
+        let mut layer = Layer::new("w");
+        layer.pen = Pen { color: Rgb(0, 0, 0), width_mm: 0.0 };
+        let line = vec![Point::new(0.0, 0.0), Point::new(1.0, 0.0)];
+        for width_mm in [0.5e-4, 2.0e-4] {
+            layer.paths.push(Polyline::with_pen(line.clone(), Pen { color: Rgb(0, 0, 0), width_mm }));
+        }
+        let svg = to_svg_string(&Drawing { layers: vec![layer], page_mm: None });
+        let lines: Vec<&str> = svg.lines().filter(|l| l.contains("<polyline")).collect();
+        assert_eq!(
+            lines,
+            ["    <polyline points=\"0,0 1,0\"/>", "    <polyline points=\"0,0 1,0\" stroke-width=\"0.0002\"/>"]
+        );
+    }
+
+    #[test]
+    fn write_svg_writes_the_whole_document() {
+        let mut out = Vec::new();
+        write_svg(&Drawing { layers: vec![], page_mm: Some((10.0, 20.0)) }, &mut out).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(text.starts_with("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg "), "{text}");
+        assert!(text.ends_with("viewBox=\"0 0 10 20\">\n</svg>\n"), "{text}");
+    }
 }

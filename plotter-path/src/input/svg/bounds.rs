@@ -152,4 +152,46 @@ mod tests {
         let parts = clip_polyline(&[p(1.0, 1.0), p(2.0, 1.0), p(1e12, 1.0)], m).unwrap();
         assert_eq!(parts, vec![vec![p(1.0, 1.0), p(2.0, 1.0), p(10.0, 1.0)]]);
     }
+
+    #[test]
+    fn each_edge_clips_with_its_own_coordinate() {
+        // Upwards along x = 0.5 against half-side 2: enters y = -2 at t = 4/16, leaves y = 2 at t = 8/16.
+        assert_eq!(clip_segment(p(0.5, -6.0), p(0.5, 10.0), 2.0), Some((0.25, 0.5)));
+        // Lying on the edge x = 2 itself, within the square: kept whole.
+        assert_eq!(clip_segment(p(2.0, -1.0), p(2.0, 1.0), 2.0), Some((0.0, 1.0)));
+    }
+
+    #[test]
+    fn a_spike_out_and_back_comes_back_exactly_on_the_edge() {
+        // Out along y = 0 to x = 23 and back: leaves at x = 10 and re-enters there; the re-entry point, 23 − 13
+        // by interpolation (off by an ulp), lands exactly on the edge.
+        let parts = clip_polyline(&[p(0.0, 0.0), p(23.0, 0.0), p(0.0, 0.0)], 10.0).unwrap();
+        assert_eq!(parts, vec![vec![p(0.0, 0.0), p(10.0, 0.0)], vec![p(10.0, 0.0), p(0.0, 0.0)]]);
+    }
+
+    fn item(element: &str, lines: Vec<Vec<Point>>) -> Item {
+        Item { layer: 0, pen: crate::geometry::drawing::Pen::default(), lines, occluder: None, element: element.into() }
+    }
+
+    #[test]
+    fn the_warning_names_up_to_five_elements_once_each() {
+        let far = || vec![p(0.0, 0.0), p(2.0e6, 0.0)];
+        let mut items = vec![item("<a>", vec![far()]), item("<ok>", vec![vec![p(0.0, 0.0), p(1.0, 1.0)]])];
+        items.extend(["<b>", "<c>", "<a>", "<d>", "<e>"].map(|e| item(e, vec![far()])));
+        let w = cut_far(&mut items).unwrap();
+        assert_eq!(
+            w,
+            "5 element(s) (<a>, <b>, <c>, <d>, <e>) reach beyond ±1000000 mm (1 km): cut there, the rest is kept — \
+             check the units or the scale"
+        );
+        assert_eq!(items[0].lines, vec![vec![p(0.0, 0.0), p(1.0e6, 0.0)]]);
+        assert_eq!(items[1].lines, vec![vec![p(0.0, 0.0), p(1.0, 1.0)]]);
+        items.push(item("<f>", vec![far()]));
+        let w = cut_far(&mut items).unwrap();
+        assert!(w.starts_with("1 element(s) (<f>)"), "{w}");
+        let mut six: Vec<Item> = ["<1>", "<2>", "<3>", "<4>", "<5>", "<6>"].map(|e| item(e, vec![far()])).into();
+        let w = cut_far(&mut six).unwrap();
+        assert!(w.starts_with("6 element(s) (<1>, <2>, <3>, <4>, <5>, …) reach"), "{w}");
+        assert_eq!(cut_far(&mut six), None, "already cut");
+    }
 }
