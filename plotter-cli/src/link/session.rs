@@ -526,6 +526,48 @@ mod tests {
         assert!(e.contains("(10000 status reports)") && waited < Duration::from_secs(2), "{waited:?}: {e}");
     }
 
+    /// A machine stuck in a feed hold on a link whose clock runs: every `?` is answered with the same report,
+    /// and waiting advances the clock by the timeout.
+    struct StuckInHold {
+        clock: Duration,
+        pending: Vec<String>,
+    }
+    impl Transport for StuckInHold {
+        fn send(&mut self, data: &[u8]) -> std::io::Result<()> {
+            if data == [plotter_fw::protocol::RT_STATUS] {
+                self.pending.push("<Hold:0|MPos:1.000,2.000,0.000,0.000|Steps:80,160,0,0|Q:3/32|N:17>".into());
+            }
+            Ok(())
+        }
+        fn recv_line(&mut self, timeout: Duration) -> std::io::Result<Option<String>> {
+            match self.pending.pop() {
+                Some(l) => Ok(Some(l)),
+                None => {
+                    self.clock += timeout;
+                    Ok(None)
+                }
+            }
+        }
+        fn now(&self) -> Duration {
+            self.clock
+        }
+    }
+
+    #[test]
+    fn a_hold_on_a_running_clock_ends_the_wait_after_the_stall_time() {
+        let info = FirmwareInfo { version: "t".into(), rx_bytes: 256, queue_blocks: 32, protocol: 3 };
+        let transport = StuckInHold { clock: Duration::ZERO, pending: Vec::new() };
+        let mut s = Session { transport, info, name: "held".into(), framed: false, own_lines: 0 };
+        let e = s.wait_idle(Duration::from_millis(50)).unwrap_err().to_string();
+        // One report per 50 ms poll: the wait ends at the first poll 30 s after the first report, 600 polls later.
+        assert_eq!(
+            e,
+            "held: no progress for 30.0 s (600 status reports) while waiting for the machine to finish: it stays in \
+             state Hold:0 at steps [80, 160, 0, 0] with 3 block(s) queued"
+        );
+        assert_eq!(s.transport.clock, WAIT_STALL);
+    }
+
     /// A transport that answers every line with noise.
     struct Garbage(Vec<String>);
     impl Transport for Garbage {
