@@ -1,7 +1,7 @@
 //! The web app end to end in Debian's headless Chromium, driven over the DevTools protocol (a minimal client over
 //! a WebSocket): load the page, upload samples/duck.svg through the file input, check the vector preview and the
-//! estimate, plot on the simulator and watch progress reach 100 % and the as-stepped drawing appear; a second test
-//! pauses and resumes. A screenshot of the page mid-plot is saved to `target/serve-mid-plot.png`.
+//! estimate, plot on the simulator and watch progress reach 100 % and the as-stepped drawing appear, with the pen
+//! marker on the duck's strokes all along; a second test pauses and resumes. A screenshot of the page mid-plot is saved to `target/serve-mid-plot.png`.
 //!
 //! Needs `chromium` (or `PLOTTER_CHROMIUM=/path`); without it the tests say so and pass, except under CI
 //! (`CI` set), where a missing browser is a failure.
@@ -216,6 +216,55 @@ fn percent(cdp: &mut Cdp) -> f64 {
     cdp.text("#percent").trim_end_matches(" %").parse().unwrap_or(-1.0)
 }
 
+/// The pen marker as the page shows it.
+#[derive(Debug)]
+struct Pen {
+    /// The marker's centre, page mm.
+    at: (f64, f64),
+    /// Whether it is filled (pen down).
+    down: bool,
+    /// The status bar's readout.
+    readout: String,
+    /// Distance from the centre to the nearest segment of the drawing's polylines (the preview, not the plan), mm.
+    off_drawing: f64,
+}
+
+fn pen(cdp: &mut Cdp) -> Pen {
+    let v = cdp.eval(
+        r"(() => {
+        const m = document.getElementById('pen-marker');
+        const x = parseFloat(m.getAttribute('cx')), y = parseFloat(m.getAttribute('cy'));
+        let best = Infinity;
+        for (const pl of document.querySelectorAll('#g-drawing polyline')) {
+            const p = pl.getAttribute('points').trim().split(/\s+/).map((s) => s.split(',').map(Number));
+            for (let k = 1; k < p.length; k++) {
+                const [ax, ay] = p[k - 1], dx = p[k][0] - ax, dy = p[k][1] - ay, l2 = dx * dx + dy * dy;
+                const t = l2 > 0 ? Math.max(0, Math.min(1, ((x - ax) * dx + (y - ay) * dy) / l2)) : 0;
+                best = Math.min(best, Math.hypot(x - ax - t * dx, y - ay - t * dy));
+            }
+        }
+        return { x, y, down: m.classList.contains('down'), visible: m.getAttribute('visibility') === 'visible',
+                 readout: document.getElementById('pen-pos').textContent, best };
+    })()",
+    );
+    assert_eq!(v["visible"], json!(true), "the pen marker is shown: {v}");
+    Pen {
+        at: (v["x"].as_f64().expect("cx"), v["y"].as_f64().expect("cy")),
+        down: v["down"].as_bool().expect("down"),
+        readout: v["readout"].as_str().unwrap_or("").to_string(),
+        off_drawing: v["best"].as_f64().unwrap_or(f64::INFINITY),
+    }
+}
+
+/// The marker sits on one of the drawing's strokes (once a block has run, every block ends on one: a travel at a
+/// stroke's start, a line on its path, a lift at its end; within a step, 1/80 mm, of the ideal path) and the readout
+/// names its position to 0.1 mm.
+fn check_pen(p: &Pen) {
+    assert!(p.off_drawing <= 0.05, "the pen marker is {} mm off the drawing: {p:?}", p.off_drawing);
+    let expected = format!("X {:.1} mm, Y {:.1} mm, pen {}", p.at.0, p.at.1, if p.down { "down" } else { "up" });
+    assert_eq!(p.readout, expected, "{p:?}");
+}
+
 #[test]
 fn upload_preview_plot_to_the_end_on_the_simulator() {
     let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -227,6 +276,16 @@ fn upload_preview_plot_to_the_end_on_the_simulator() {
     cdp.click("plot");
     // Mid-plot: some of the duck inked, the bar part-way.
     cdp.wait_for("the plot to be under way", "parseFloat(document.getElementById('percent').textContent) >= 30 && document.querySelectorAll('#g-ink polyline').length > 0", Duration::from_secs(60));
+    // The pen marker follows the plot: on the duck at every look, filled at least once while drawing.
+    let (mut looks, mut seen_down) = (0, false);
+    while percent(&mut cdp) < 100.0 && looks < 200 && !(seen_down && looks >= 5) {
+        let p = pen(&mut cdp);
+        check_pen(&p);
+        seen_down |= p.down;
+        looks += 1;
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(seen_down, "the marker was never filled in {looks} looks while the duck was drawn");
     let mid = percent(&mut cdp);
     assert!(mid < 100.0, "the plot should still be running at the screenshot ({mid} %)");
     let shot = workspace_root().join("target").join("serve-mid-plot.png");
@@ -240,6 +299,12 @@ fn upload_preview_plot_to_the_end_on_the_simulator() {
         Duration::from_secs(20),
     );
     assert_eq!(cdp.eval("document.querySelectorAll('#g-ink polyline').length"), json!(6));
+    // At the end the pen is up where the last stroke ended: the ordered plot draws the water last, right to left,
+    // ending at its first point (8, 82) in samples/duck.svg; the simulator reports the same place, 80 steps/mm.
+    let end = pen(&mut cdp);
+    check_pen(&end);
+    assert_eq!(end.readout, "X 8.0 mm, Y 82.0 mm, pen up");
+    assert!(cdp.text("#machine-status").contains("position 640, 6560,"), "{}", cdp.text("#machine-status"));
     assert!(cdp.text("#message").starts_with("done:"), "{}", cdp.text("#message"));
     cdp.screenshot(&workspace_root().join("target").join("serve-done.png"));
     let _ = std::fs::remove_dir_all(profile);

@@ -237,6 +237,16 @@ function onProgress(p) {
   $('percent').textContent = Math.floor(p.percent) + ' %';
   $('eta').textContent = 'ETA ' + fmtTime(p.eta_s) + (p.resends ? ', ' + p.resends + ' resends' : '');
   if (ink.paths.length) inkTo(p.draw_done_mm);
+  showPen(p.pen_mm, p.pen_down);
+}
+
+// The pen marker on the drawing (filled while the pen is down) and its position in the status bar.
+function showPen([x, y], down) {
+  const m = $('pen-marker');
+  m.setAttribute('cx', x); m.setAttribute('cy', y);
+  m.setAttribute('visibility', 'visible');
+  m.classList.toggle('down', down);
+  $('pen-pos').textContent = 'X ' + x.toFixed(1) + ' mm, Y ' + y.toFixed(1) + ' mm' + (down ? ', pen down' : ', pen up');
 }
 
 // ---- prompts -------------------------------------------------------------------------------------------------

@@ -163,8 +163,14 @@ impl PlotEvents for Terminal {
         self.bar.set_length(u64::try_from(p.total).unwrap_or(u64::MAX));
         self.bar.set_position(u64::try_from(p.executed).unwrap_or(u64::MAX));
         self.bar.set_message(format!(
-            "pen-down {:.0}/{:.0} mm  ETA {:.0} s  resends {}",
-            p.draw_done_mm, p.draw_total_mm, p.eta_s, p.resends
+            "pen-down {:.0}/{:.0} mm  ETA {:.0} s  resends {}  pen {} at X {:.1}, Y {:.1} mm",
+            p.draw_done_mm,
+            p.draw_total_mm,
+            p.eta_s,
+            p.resends,
+            if p.pen_down { "down" } else { "up" },
+            p.pen_mm.x,
+            p.pen_mm.y
         ));
     }
 

@@ -1,9 +1,10 @@
-//! Progress of a running plot: the figures a front end shows (blocks, pen-down millimetres, time left) and the
-//! journal that lets an interrupted plot resume, kept in step with what the firmware reports.
+//! Progress of a running plot: the figures a front end shows (blocks, pen-down millimetres, time left, where the
+//! pen is) and the journal that lets an interrupted plot resume, kept in step with what the firmware reports.
 
 use plotter_fw::TICK_HZ;
 use plotter_path::MachineProfile;
-use plotter_path::motion::plan::{MotionPlan, MoveKind};
+use plotter_path::kurbo::Point;
+use plotter_path::motion::plan::{MachinePos, MotionPlan, MoveKind};
 use plotter_path::motion::steps::{StepMapper, StepPos};
 
 use plotter_path::motion::pens::LayerPen;
@@ -68,6 +69,10 @@ pub struct JobProgress {
     pub eta_s: f64,
     /// Resend requests acted on so far.
     pub resends: u64,
+    /// Where the pen is, page millimetres: the end of the last executed block, taken from the plan (no traffic).
+    pub pen_mm: Point,
+    /// Whether the pen is down there (the last executed pen move lowered it).
+    pub pen_down: bool,
 }
 
 /// A front end's side of a plot job: it sees progress and decides about pauses.
@@ -108,6 +113,10 @@ pub(crate) struct Tracker<'a> {
     draw_mm: Vec<f64>,
     /// Remaining planned time after each block, ticks.
     remaining: Vec<u64>,
+    /// Where the plan starts, page mm.
+    start_mm: Point,
+    /// Pen position (page mm) and whether it is down after each block.
+    pen_at: Vec<(Point, bool)>,
     total_draw: f64,
     resumed_from: usize,
     preamble: usize,
@@ -133,6 +142,22 @@ impl<'a> Tracker<'a> {
             }
             draw_mm.push(acc);
         }
+        let on_page = |p: MachinePos| mapper.steps_to_page(StepPos::new(p[0], p[1]));
+        // Plans begin with the pen up (a first pen move lifts it when it is not).
+        let mut down = false;
+        let pen_at = plan
+            .blocks
+            .iter()
+            .zip(plan.positions())
+            .map(|(b, p)| {
+                match b.kind {
+                    MoveKind::PenDown => down = true,
+                    MoveKind::PenUp => down = false,
+                    MoveKind::Settle | MoveKind::Travel | MoveKind::Draw => {}
+                }
+                (on_page(p), down)
+            })
+            .collect();
         let mut remaining = vec![0u64; n];
         let mut r = 0u64;
         for (i, b) in plan.blocks.iter().enumerate().rev() {
@@ -144,6 +169,8 @@ impl<'a> Tracker<'a> {
             journal,
             draw_mm,
             remaining,
+            start_mm: on_page(plan.start),
+            pen_at,
             total_draw: acc,
             resumed_from: plan.resumed_from,
             preamble: plan.preamble,
@@ -164,6 +191,11 @@ impl Control for Tracker<'_> {
         // Tick counts far below 2^53: exact in f64.
         #[allow(clippy::cast_precision_loss)]
         let eta_s = left.unwrap_or(0) as f64 / f64::from(TICK_HZ);
+        let (pen_mm, pen_down) = if p.executed == 0 {
+            (self.start_mm, false)
+        } else {
+            self.pen_at.get(i).or(self.pen_at.last()).copied().unwrap_or((self.start_mm, false))
+        };
         self.events.progress(&JobProgress {
             executed: p.executed,
             accepted: p.accepted,
@@ -172,6 +204,8 @@ impl Control for Tracker<'_> {
             draw_total_mm: self.total_draw,
             eta_s,
             resends: p.resends,
+            pen_mm,
+            pen_down,
         });
         let (a, e) = (self.original(p.accepted), self.original(p.executed));
         // The journal pairs a block number with the sequence number after it; during a resume preamble that is
@@ -192,5 +226,59 @@ impl Control for Tracker<'_> {
 
     fn paused(&mut self, held: bool) -> PauseChoice {
         self.events.paused(held)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use plotter_path::motion::plan::{Lookahead, homed_position, plan};
+    use plotter_path::motion::steps::drawing_to_steps;
+    use plotter_path::{Drawing, Polyline};
+
+    /// Keeps the last progress it was told.
+    #[derive(Default)]
+    struct Last(Option<JobProgress>);
+
+    impl PlotEvents for Last {
+        fn progress(&mut self, p: &JobProgress) {
+            self.0 = Some(*p);
+        }
+    }
+
+    #[test]
+    fn the_pen_is_at_the_end_of_the_last_executed_block() {
+        let profile = MachineProfile::default_plotter();
+        let line = |a: (f64, f64), b: (f64, f64)| Polyline::new(vec![Point::new(a.0, a.1), Point::new(b.0, b.1)]);
+        let d = Drawing::single_layer("a", vec![line((5.0, 10.0), (35.0, 10.0)), line((35.0, 20.0), (5.0, 20.0))]);
+        let steps = drawing_to_steps(&profile, &d).unwrap();
+        let plan = plan(&profile, &steps, homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
+        // Travel, drop, settle, line, lift, settle; twice.
+        use MoveKind::*;
+        let kinds: Vec<MoveKind> = plan.blocks.iter().map(|b| b.kind).collect();
+        assert_eq!(kinds, [Travel, PenDown, Settle, Draw, PenUp, Settle, Travel, PenDown, Settle, Draw, PenUp, Settle]);
+        // After block k (1-based count of executed blocks): where the pen is on the page and whether it is down.
+        let expected = [
+            (0, (0.0, 0.0), false),
+            (1, (5.0, 10.0), false),
+            (2, (5.0, 10.0), true),
+            (3, (5.0, 10.0), true),
+            (4, (35.0, 10.0), true),
+            (5, (35.0, 10.0), false),
+            (7, (35.0, 20.0), false),
+            (10, (5.0, 20.0), true),
+            (12, (5.0, 20.0), false),
+        ];
+        for (executed, (x, y), down) in expected {
+            let mut last = Last::default();
+            Tracker::new(&plan, &profile, None, &mut last).progress(&Progress {
+                accepted: 12,
+                executed,
+                seq_after_accepted: 12,
+                resends: 0,
+            });
+            let p = last.0.expect("progress reported");
+            assert_eq!((p.pen_mm.x, p.pen_mm.y, p.pen_down), (x, y, down), "after {executed} blocks");
+        }
     }
 }

@@ -53,6 +53,10 @@ pub(crate) struct ProgressEvent {
     pub(crate) percent: f64,
     /// Resends so far.
     pub(crate) resends: u64,
+    /// Where the pen is, page mm (X, Y): the end of the last executed block.
+    pub(crate) pen_mm: [f64; 2],
+    /// Whether the pen is down there.
+    pub(crate) pen_down: bool,
 }
 
 /// A question the running job waits on.

@@ -289,6 +289,8 @@ async fn plot_on_the_simulator_pause_resume_and_finish() {
     assert_eq!(p["executed"], p["total"]);
     assert_eq!(p["percent"], 100.0);
     assert!((p["draw_done_mm"].as_f64().unwrap() - 565.5).abs() < 1.0, "{p}");
+    // The pen ends up where the ordered duck's last stroke (the water, right to left) ends: (8, 82) mm.
+    assert_eq!((&p["pen_mm"], &p["pen_down"]), (&json!([8.0, 82.0]), &json!(false)), "{p}");
     // The as-stepped drawing covers the duck's box (x 8..116, y 9..82 mm in samples/duck.svg) within a step, and
     // its staircase is at least as long as the straight pen-down length and at most sqrt(2) times it.
     let (s, stepped) = c.get("/api/stepped").await;

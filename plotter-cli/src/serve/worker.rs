@@ -316,6 +316,8 @@ impl PlotEvents for WebEvents {
             eta_s: p.eta_s,
             percent,
             resends: p.resends,
+            pen_mm: [p.pen_mm.x, p.pen_mm.y],
+            pen_down: p.pen_down,
         };
         let due = self.last_sent.is_none_or(|(t, _)| t.elapsed() >= PROGRESS_INTERVAL) || p.executed == p.total;
         if due {

@@ -271,13 +271,18 @@ impl MotionPlan {
 
     /// Position after block `i` (steps), by summing from the start.
     pub fn position_after(&self, i: usize) -> MachinePos {
-        let mut p = self.start;
-        for b in self.blocks.iter().take(i + 1) {
+        self.positions().take(i + 1).last().unwrap_or(self.start)
+    }
+
+    /// The position after each block in turn (steps, all axes): one pass over the plan, where calling
+    /// [`position_after`](Self::position_after) for every block would sum from the start each time.
+    pub fn positions(&self) -> impl Iterator<Item = MachinePos> + '_ {
+        self.blocks.iter().scan(self.start, |p, b| {
             for (k, s) in b.block.steps.iter().enumerate() {
                 p[k] += s;
             }
-        }
-        p
+            Some(*p)
+        })
     }
 }
 
