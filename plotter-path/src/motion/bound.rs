@@ -247,4 +247,39 @@ mod tests {
         let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
     }
+
+    #[test]
+    fn entry_and_exit_speeds_the_length_cannot_connect_are_capped() {
+        let t = (3100f64.sqrt() - 10.0) / 1500.0;
+        // Entering at 60 mm/s, 1 mm before a 10 mm/s exit at 1500 mm/s²: the entry is at most √(10² + 2·1500·1),
+        // and the whole millimetre is deceleration from there to 10.
+        assert!((min_time(1.0, 60.0, 10.0, 60.0, 1500.0) - t).abs() < 1e-12);
+        // The mirror: from 10 mm/s the exit reaches at most √3100 in 1 mm.
+        assert!((min_time(1.0, 10.0, 60.0, 60.0, 1500.0) - t).abs() < 1e-12);
+        // From 10 to 20 mm/s over 1 mm: a triangle peaking at √((2·1500·1 + 10² + 20²)/2) = √1750, below the feed.
+        let t = (2.0 * 1750f64.sqrt() - 30.0) / 1500.0;
+        assert!((min_time(1.0, 10.0, 20.0, 60.0, 1500.0) - t).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_total_is_the_sum_of_the_parts() {
+        let b = TimeBound { draw_s: 1.5, lifts_s: 2.0, travel_s: 4.25 };
+        assert_eq!(b.total_s(), 7.75);
+    }
+
+    #[test]
+    fn the_z_move_spans_the_distance_between_up_and_down() {
+        let mut p = MachineProfile::default_plotter();
+        (p.pen.down_z_mm, p.pen.up_z_mm) = (0.5, 4.5);
+        let steps = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(800, 800),
+            moves: vec![StepDelta { dx: 800, dy: 0 }],
+        }]);
+        let b = plot_time_lower_bound(&p, &steps, 0.0).unwrap();
+        // 4 mm each way, as in the long-line case above: two 50 ms dwells and two Z moves.
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let vz = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
+        let zm = 4.0 / 25.0 + (25.0 - vz).powi(2) / (2.0 * 500.0 * 25.0) + 25.0 / 500.0 / 2.0;
+        assert!((b.lifts_s - 2.0 * (0.05 + zm)).abs() < 1e-9, "{b:?}");
+    }
 }
