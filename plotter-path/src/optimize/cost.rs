@@ -146,6 +146,20 @@ mod tests {
     }
 
     #[test]
+    fn lift_and_drop_cost_comes_from_the_pen_heights_z_limits_and_settle() {
+        // Pen up at Z 5, down at Z 1: a 4 mm move at 10 mm/s and 100 mm/s² ramps over 0.5 mm at each end, so it
+        // takes 4/10 + 10/100 = 0.5 s; a lift and a drop with 100 ms settles each: 2 × 0.5 + 2 × 0.1 = 1.2 s.
+        let mut p = MachineProfile::default_plotter();
+        (p.pen.up_z_mm, p.pen.down_z_mm, p.pen.settle_ms) = (5.0, 1.0, 100.0);
+        (p.axes.z.max_feed_mm_s, p.axes.z.max_accel_mm_s2) = (10.0, 100.0);
+        let m = TravelTimeModel::from_profile(&p);
+        assert!((m.lift_drop_s - 1.2).abs() < 1e-12, "{}", m.lift_drop_s);
+        // Only the distance between the heights counts, not their order.
+        (p.pen.up_z_mm, p.pen.down_z_mm) = (1.0, 5.0);
+        assert!((TravelTimeModel::from_profile(&p).lift_drop_s - 1.2).abs() < 1e-12);
+    }
+
+    #[test]
     fn trapezoid_and_triangle_branches() {
         // v = 100, a = 1000: cruise reached after 10 mm of accel + decel.
         assert!((trapezoid_time(100.0, 100.0, 1000.0) - (1.0 + 0.1)).abs() < 1e-12);
