@@ -635,8 +635,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         for axis in Axis::ALL {
             mm[axis.index()] = pos[axis.index()] as f32 / self.cfg.axis(axis).steps_per_mm;
         }
-        let (rn, rc) = self.refused.unwrap_or((0, 0));
-        let refused = Refused(self.refused.is_some(), rn, rc);
+        let refused = Refused(self.refused);
         self.reply(
             seq,
             format_args!(
@@ -1185,11 +1184,14 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 }
 
 /// The status report's `|R:<n>,<code>` field (nothing when no block was refused).
-struct Refused(bool, u32, u8);
+struct Refused(Option<(u32, u8)>);
 
 impl fmt::Display for Refused {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.0 { write!(f, "|R:{},{}", self.1, self.2) } else { Ok(()) }
+        match self.0 {
+            Some((n, code)) => write!(f, "|R:{n},{code}"),
+            None => Ok(()),
+        }
     }
 }
 
