@@ -12,7 +12,7 @@ use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_fw::TICK_HZ;
 use plotter_host::input::InputArgs;
-use plotter_host::job::load::{load_profile, load_steps, pen_on_page};
+use plotter_host::job::load::{load_profile, load_steps, page_of, pen_on_page};
 use plotter_host::job::progress::{JobProgress, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self, JobOutcome, JournalSpec};
@@ -457,10 +457,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     let link = PlotArgs { baud: args.baud.or(original.baud), firmware: original.firmware, ..original.clone() };
     let mut c = connect(&link, port, &mut profile)?;
     // The order started where the original plot's plan did when that plot did not home.
-    let pen_at = original.no_home.then(|| {
-        plotter_path::motion::steps::StepMapper::new(&profile)
-            .steps_to_page(plotter_path::motion::steps::StepPos::new(source.start[0], source.start[1]))
-    });
+    let pen_at = original.no_home.then(|| page_of(&profile, source.start));
     let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize, pen_at)?;
     let back = original.optimize.return_home;
     let full = plan::plan_returning(&profile, &steps, source.start, plan::Lookahead::Whole, back)?;

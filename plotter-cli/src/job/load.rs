@@ -5,6 +5,7 @@ use std::path::Path;
 use anyhow::Context as _;
 use plotter_path::input::trajectory;
 use plotter_path::kurbo::Point;
+use plotter_path::motion::plan::MachinePos;
 use plotter_path::motion::steps::{StepDrawing, StepMapper, StepPos, drawing_to_steps};
 use plotter_path::optimize::{self, OptimizeOptions};
 use plotter_path::{Drawing, MachineProfile};
@@ -25,7 +26,12 @@ pub fn load_profile(path: Option<&Path>) -> anyhow::Result<MachineProfile> {
 /// Where `machine` reports its pen, page mm (the firmware's status, mapped through the profile).
 pub fn pen_on_page(machine: &mut dyn PlotMachine, profile: &MachineProfile) -> anyhow::Result<Point> {
     let at = machine.position().context("cannot read the machine's position")?;
-    Ok(StepMapper::new(profile).steps_to_page(StepPos::new(at[0], at[1])))
+    Ok(page_of(profile, at))
+}
+
+/// The page point (mm) of a machine position in steps (its X and Y).
+pub fn page_of(profile: &MachineProfile, at: MachinePos) -> Point {
+    StepMapper::new(profile).steps_to_page(StepPos::new(at[0], at[1]))
 }
 
 /// Load any supported input as steps (and the millimetre drawing for previews), laid out as the options say,
