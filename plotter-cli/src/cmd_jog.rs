@@ -2,7 +2,6 @@
 
 use crate::cmd_home::LinkArgs;
 use plotter_host::link::machine::{Connected, Firmware};
-use plotter_path::motion::profile::PenCommand;
 
 /// What to move.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -46,7 +45,7 @@ pub(crate) fn jog_lines(
         anyhow::bail!("--feed must be a positive number");
     }
     let z_feed = profile.axes.z.max_feed_mm_s * 60.0;
-    let servo = profile.pen.command == PenCommand::Servo;
+    let servo = profile.pen.uses_servo();
     if servo && matches!(args.target, JogTarget::Up | JogTarget::Down) {
         return Ok(vec![match args.target {
             JogTarget::Up => "M5".into(),
@@ -137,7 +136,7 @@ mod tests {
         let grbl = Firmware::Grbl;
         assert_eq!(jog_lines(&args(JogTarget::Y, Some(3.0)), &p, grbl).unwrap(), ["$J=G91 Y3.0000 F600.0"]);
         let mut servo = p.clone();
-        servo.pen.command = PenCommand::Servo;
+        servo.pen.command = plotter_path::motion::profile::PenCommand::Servo;
         assert_eq!(jog_lines(&args(JogTarget::Down, None), &servo, grbl).unwrap(), ["M3 S30"]);
         assert_eq!(jog_lines(&args(JogTarget::Up, None), &servo, ours).unwrap(), ["M5"]);
     }

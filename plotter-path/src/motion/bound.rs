@@ -100,7 +100,7 @@ pub fn plot_time_lower_bound(
     let dz_mm = (profile.pen.up_z_mm - profile.pen.down_z_mm).abs();
     let corner = |a: f64| corner_speed(a, deviation);
     // A servo pen moves no axis: its block is the settle dwell alone, and a fixed block, so drawing stops before it.
-    let servo = profile.pen.command == crate::motion::profile::PenCommand::Servo;
+    let servo = profile.pen.uses_servo();
     let z_move =
         if servo { 0.0 } else { min_time(dz_mm, corner(z.max_accel_mm_s2), 0.0, z.max_feed_mm_s, z.max_accel_mm_s2) };
     let settle = f64::from(crate::motion::plan::settle_ticks(profile)) / f64::from(plotter_fw::TICK_HZ);

@@ -23,7 +23,7 @@ use plotter_fw::{Axis, MachineConfig, NUM_AXES, StepBlock, TICK_HZ};
 
 use crate::MachineProfile;
 use crate::motion::pens::{self, LayerPen};
-use crate::motion::profile::{AxisProfile, HomeEnd, PenCommand};
+use crate::motion::profile::{AxisProfile, HomeEnd};
 use crate::motion::steps::{StepDrawing, StepMapper, StepPos};
 
 /// Errors planning a drawing.
@@ -303,14 +303,9 @@ fn servo_tenths(deg: f64) -> u16 {
     t
 }
 
-/// Whether `profile` lifts its pen with a servo.
-pub fn uses_servo(profile: &MachineProfile) -> bool {
-    profile.pen.command == PenCommand::Servo
-}
-
 /// The pen-up position and the pen-down position of every layer pen.
 fn pen_targets(profile: &MachineProfile, pens: &[LayerPen]) -> Result<(PenAt, Vec<PenAt>), PlanError> {
-    if uses_servo(profile) {
+    if profile.pen.uses_servo() {
         let downs = pens.iter().map(|p| PenAt::Servo(servo_tenths(p.servo_down_deg))).collect();
         return Ok((PenAt::Servo(servo_tenths(profile.pen.servo_up_deg)), downs));
     }
@@ -840,7 +835,7 @@ mod tests {
     #[test]
     fn servo_pens_plan_servo_blocks_and_resume_with_them() {
         let mut p = profile();
-        p.pen.command = PenCommand::Servo;
+        p.pen.command = crate::motion::profile::PenCommand::Servo;
         p.pen.settle_ms = 120.0;
         let d = Drawing::single_layer("a", vec![square(10.0, 10.0, 5.0), square(30.0, 10.0, 5.0)]);
         let steps = drawing_to_steps(&p, &d).unwrap();

@@ -127,6 +127,13 @@ pub struct PenProfile {
     pub servo_down_deg: f64,
 }
 
+impl PenProfile {
+    /// Whether the pen is lifted by a hobby servo (no Z axis moves for it).
+    pub fn uses_servo(&self) -> bool {
+        self.command == PenCommand::Servo
+    }
+}
+
 /// Pen width assumed when a profile does not give one, mm.
 pub const DEFAULT_PEN_WIDTH_MM: f64 = 0.3;
 

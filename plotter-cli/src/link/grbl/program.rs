@@ -14,7 +14,6 @@ use std::fmt::Write as _;
 use plotter_fw::TICK_HZ;
 use plotter_path::MachineProfile;
 use plotter_path::motion::plan::{MotionPlan, MoveKind};
-use plotter_path::motion::profile::PenCommand;
 use plotter_path::output::gcode_out::{decimals_for, fmt_mm};
 
 /// The program of a plan.
@@ -41,7 +40,7 @@ pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
     let ax = &profile.axes;
     let (sx, sy, sz) = (ax.x.steps_per_mm, ax.y.steps_per_mm, ax.z.steps_per_mm);
     let (dx, dy, dz) = (decimals_for(sx), decimals_for(sy), decimals_for(sz));
-    let servo = profile.pen.command == PenCommand::Servo;
+    let servo = profile.pen.uses_servo();
     let per_min = |mm_s: f64| fmt_mm(mm_s * 60.0, 1);
     let z_feed = per_min(ax.z.max_feed_mm_s);
     let travel_feed = per_min(profile.pen.travel_feed_mm_s);
@@ -120,7 +119,7 @@ pub fn declare_position(profile: &MachineProfile, pos: [i32; 4]) -> String {
     let (sx, sy, sz) = (ax.x.steps_per_mm, ax.y.steps_per_mm, ax.z.steps_per_mm);
     let mut l =
         format!("G92 X{} Y{}", fmt_mm(mm(pos[0], sx), decimals_for(sx)), fmt_mm(mm(pos[1], sy), decimals_for(sy)));
-    if profile.pen.command != PenCommand::Servo {
+    if !profile.pen.uses_servo() {
         let _ = write!(l, " Z{}", fmt_mm(mm(pos[2], sz), decimals_for(sz)));
     }
     l
@@ -188,7 +187,7 @@ mod tests {
     #[test]
     fn servo_pens_use_m3_m5() {
         let mut p = MachineProfile::default_plotter();
-        p.pen.command = PenCommand::Servo;
+        p.pen.command = plotter_path::motion::profile::PenCommand::Servo;
         p.pen.servo_down_deg = 25.0;
         let steps = drawing_to_steps(&p, &two_layers()).unwrap();
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();

@@ -25,7 +25,6 @@ use std::time::Duration;
 use anyhow::{Context as _, bail};
 use plotter_path::MachineProfile;
 use plotter_path::motion::plan::{MachinePos, MotionPlan};
-use plotter_path::motion::profile::PenCommand;
 
 use super::messages::{
     GrblLine, GrblStatus, RT_CYCLE_START, RT_FEED_HOLD, RT_RESET, RT_STATUS, alarm_meaning, describe_alarm,
@@ -294,7 +293,7 @@ impl<T: Transport> GrblSession<T> {
 
     /// Whether two positions are the same for the plot (Z ignored for a servo pen).
     fn same(&self, a: &MachinePos, b: &MachinePos) -> bool {
-        let axes = if self.profile.pen.command == PenCommand::Servo { 2 } else { 3 };
+        let axes = if self.profile.pen.uses_servo() { 2 } else { 3 };
         a[..axes] == b[..axes]
     }
 

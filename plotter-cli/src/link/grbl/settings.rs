@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use plotter_path::MachineProfile;
-use plotter_path::motion::profile::{AxisProfile, PenCommand};
+use plotter_path::motion::profile::AxisProfile;
 
 /// Setting numbers of GRBL 1.1 used here.
 pub mod key {
@@ -157,7 +157,7 @@ impl GrblSettings {
     /// servo pen (it does not move).
     pub fn compare(&self, profile: &MachineProfile) -> Vec<Mismatch> {
         let mut out = Vec::new();
-        let axes = if profile.pen.command == PenCommand::Servo { 2 } else { 3 };
+        let axes = if profile.pen.uses_servo() { 2 } else { 3 };
         for (i, &name) in AXES.iter().enumerate().take(axes) {
             let a = axis(profile, i);
             let k = key_for(key::STEPS_PER_MM, i);
@@ -276,7 +276,7 @@ mod tests {
         assert!(m[0].to_string().contains("X would come out +1.27 %"), "{}", m[0]);
         assert!(m[2].consequence.contains("soft-limit"));
         let mut servo = p.clone();
-        servo.pen.command = PenCommand::Servo;
+        servo.pen.command = plotter_path::motion::profile::PenCommand::Servo;
         s.values.insert(102, 1.0);
         assert!(!s.compare(&servo).iter().any(|x| x.key == 102), "no Z for a servo pen");
     }
