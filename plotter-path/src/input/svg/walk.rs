@@ -274,7 +274,8 @@ impl<'a> Walker<'a> {
         let mut width_mm = Pen::default().width_mm;
         let mut stroke_area = None;
         if let Some(s) = stroke {
-            color = paint_color(s.paint()).0;
+            let (stroke_color, stroke_paint_opaque) = paint_color(s.paint());
+            color = stroke_color;
             width_mm = f64::from(s.width().get()) * scale_mm;
             let dashed = s.dasharray().map(|da| {
                 // tiny-skia flattens curves while measuring to 0.5 / res_scale path units: ask for tolerance/4 mm.
@@ -301,7 +302,7 @@ impl<'a> Walker<'a> {
                 }
             }
             // A wide opaque stroke hides what lies under it, as a fill does.
-            let opaque = paint_color(s.paint()).1 && s.opacity().get() * ctx.opacity >= 1.0;
+            let opaque = stroke_paint_opaque && s.opacity().get() * ctx.opacity >= 1.0;
             if self.options.occlusion
                 && opaque
                 && width_mm > WIDE_STROKE_PENS * self.options.pen_width_mm
