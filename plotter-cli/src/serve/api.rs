@@ -231,14 +231,14 @@ fn too_large(what: &str, size: Option<u64>, limit: usize, upload: bool) -> ApiEr
     };
     let size = size.map_or_else(String::new, |s| format!(" ({:.1} MB)", mb(s)));
     let limit = u64::try_from(limit).unwrap_or(u64::MAX);
-    let message = if !upload {
-        format!("{what} is too large{size}: requests other than uploads are limited to {} KB", limit / 1024)
-    } else {
+    let message = if upload {
         format!(
             "{what} is too large{size}: uploads are limited to {:.1} MB (start the server with --max-upload-mb to \
              change it)",
             mb(limit)
         )
+    } else {
+        format!("{what} is too large{size}: requests other than uploads are limited to {} KB", limit / 1024)
     };
     ApiError(StatusCode::PAYLOAD_TOO_LARGE, message)
 }
@@ -249,7 +249,7 @@ fn too_large(what: &str, size: Option<u64>, limit: usize, upload: bool) -> ApiEr
 /// The state is the limit, bytes, and whether it is an upload's.
 async fn declared_size(State((limit, upload)): State<(usize, bool)>, req: Request, next: Next) -> Response {
     let declared = req.headers().get(header::CONTENT_LENGTH).and_then(|v| v.to_str().ok()?.parse::<u64>().ok());
-    if !declared.is_some_and(|n| n > u64::try_from(limit).unwrap_or(u64::MAX)) {
+    if declared.is_none_or(|n| n <= u64::try_from(limit).unwrap_or(u64::MAX)) {
         return next.run(req).await;
     }
     let what = Query::<UploadQuery>::try_from_uri(req.uri())
@@ -408,18 +408,24 @@ async fn reprepare(shared: &Arc<Shared>) -> ApiResult {
     let layers = layer_choices(&settings, &drawing)?;
     let layout = layout_args(&settings)?;
     let optimize = optimize_args(&settings)?;
-    let result = heavy(shared, move || prepare(drawing, &profile, &layers, &layout, &optimize)).await?;
+    let result = heavy(shared, move || prepare(drawing, &profile, &layers, &layout, &optimize)).await;
     let answer = {
         let mut i = shared.lock();
         i.view_version += 1;
         match result {
-            Ok(p) => {
+            // Busy: the drawing or settings have changed but could not be prepared, so the old plot must go.
+            Err(busy) => {
+                i.prepared = None;
+                i.prepare_error = Some(busy.1.clone());
+                Err(busy)
+            }
+            Ok(Ok(p)) => {
                 let warnings = p.warnings.clone();
                 i.prepared = Some(Arc::new(p));
                 i.prepare_error = None;
                 Ok(Json(json!({ "ok": true, "warnings": warnings })).into_response())
             }
-            Err(e) => {
+            Ok(Err(e)) => {
                 let message = format!("{e:#}");
                 i.prepared = None;
                 i.prepare_error = Some(message.clone());

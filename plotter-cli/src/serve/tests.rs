@@ -320,6 +320,19 @@ async fn uploads_beyond_the_import_slots_are_answered_busy() {
     let (s, v) = c.upload("duck.svg", DUCK).await;
     assert_eq!(s, StatusCode::OK, "{v}");
     assert_eq!(shared.imports.available_permits(), shared.config.limits.max_imports);
+    // New settings that cannot be prepared for want of a slot drop the old plot rather than keep one that no
+    // longer matches them.
+    let taken = Arc::clone(&shared.imports).acquire_many_owned(n).await.unwrap();
+    let (s, v) = c.post("/api/settings", json!({ "optimize": false })).await;
+    assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert!(st["prepared"].is_null(), "{st}");
+    assert!(st["prepare_error"].as_str().unwrap().starts_with("busy:"), "{st}");
+    drop(taken);
+    let (s, v) = c.post("/api/settings", json!({ "optimize": false })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert_eq!(st["prepared"]["stats"]["paths"], 6, "{st}");
 }
 
 /// An SVG of `n` short strokes: slow enough to decode that a test can hang up in the middle.
