@@ -372,3 +372,41 @@ pub fn play_framed(sim: &mut plotter_fw::sim::Sim, plan: &plotter_path::motion::
     assert_eq!(replies.iter().filter(|l| *l == "ok").count(), plan.blocks.len(), "{replies:?}");
     replies
 }
+
+/// `plotter serve` running in the background (killed when dropped).
+pub struct Served {
+    child: Child,
+    /// The page's address, as the server printed it (`http://127.0.0.1:PORT/`).
+    pub url: String,
+    /// Its `host:port`, for `Host` headers and connections.
+    pub authority: String,
+}
+
+impl Served {
+    /// Start `plotter serve` with `args` (e.g. `--listen 127.0.0.1:0` for an ephemeral loopback port) and wait
+    /// for the address it prints.
+    pub fn start(args: &[&str]) -> Served {
+        let mut child = Command::new(plotter_bin())
+            .arg("serve")
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("plotter serve starts");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().expect("stdout"))
+            .read_line(&mut line)
+            .expect("plotter serve prints its URL");
+        let url =
+            line.trim().strip_prefix("plotter serve: ").unwrap_or_else(|| panic!("unexpected first line {line:?}"));
+        let authority = url.trim_start_matches("http://").trim_end_matches('/').to_string();
+        Served { child, url: url.to_string(), authority }
+    }
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}

@@ -13,7 +13,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use plotter_e2e::{plotter_bin, sample, scratch, workspace_root};
+use plotter_e2e::{Served, sample, scratch, workspace_root};
 use serde_json::{Value, json};
 use tungstenite::{Message, WebSocket};
 
@@ -40,18 +40,11 @@ fn chromium() -> Option<PathBuf> {
     None
 }
 
-/// `plotter serve` on an ephemeral loopback port; returns the process and the page's URL.
-fn start_server(sim_speed: &str) -> (Killed, String) {
-    let mut child = Command::new(plotter_bin())
-        .args(["serve", "--listen", "127.0.0.1:0", "--sim-speed", sim_speed])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("plotter serve starts");
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("plotter serve prints its URL");
-    let url = line.trim().strip_prefix("plotter serve: ").unwrap_or_else(|| panic!("unexpected first line {line:?}"));
-    (Killed(child), url.to_string())
+/// `plotter serve` on an ephemeral loopback port at `sim_speed`.
+fn start_server(sim_speed: &str) -> (Served, String) {
+    let served = Served::start(&["--listen", "127.0.0.1:0", "--sim-speed", sim_speed]);
+    let url = served.url.clone();
+    (served, url)
 }
 
 /// A DevTools-protocol session with one page.

@@ -1,9 +1,11 @@
 //! `plotter serve`: the local web app — drop a drawing on the page, adjust it, plot it on the simulator or a
-//! serial plotter and watch it. Listens on loopback unless `--listen` says otherwise.
+//! serial plotter and watch it. Listens on loopback; another address needs `--allow-remote`, since the app has no
+//! authentication.
 
 use std::io::Write as _;
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::time::Duration;
 
 use anyhow::Context as _;
 use plotter_path::MachineProfile;
@@ -13,9 +15,13 @@ use crate::serve;
 /// Arguments of `plotter serve`.
 #[derive(clap::Args, Debug, Clone)]
 pub(crate) struct ServeArgs {
-    /// Address to listen on. Anything but loopback lets other machines on the network drive the plotter.
+    /// Address to listen on. Anything but loopback needs --allow-remote.
     #[arg(long, default_value = "127.0.0.1:8040")]
     pub(crate) listen: SocketAddr,
+    /// Allow a --listen address other machines can reach. The app has no authentication: anyone who can reach
+    /// the address can drive the plotter (one page at a time) and see the drawing.
+    #[arg(long)]
+    pub(crate) allow_remote: bool,
     /// Open the page in the default browser.
     #[arg(long)]
     pub(crate) open: bool,
@@ -31,6 +37,38 @@ pub(crate) struct ServeArgs {
     /// Pace of the simulated plotter, × real time.
     #[arg(long, default_value_t = 1.0)]
     pub(crate) sim_speed: f64,
+    /// Most connections open at once (a page uses one for its events and a few for requests); more are refused.
+    #[arg(long, default_value_t = 64)]
+    pub(crate) max_connections: usize,
+    /// Seconds a connection may take to send a request's head (and stay idle between requests).
+    #[arg(long, default_value_t = 10.0)]
+    pub(crate) header_timeout_s: f64,
+    /// Seconds a request's body (an upload) may take to arrive.
+    #[arg(long, default_value_t = 60.0)]
+    pub(crate) body_timeout_s: f64,
+    /// Seconds a page that took control has to open its event stream before control lapses.
+    #[arg(long, default_value_t = 15.0)]
+    pub(crate) claim_grace_s: f64,
+}
+
+/// A duration flag's value, in (0, 3600] s.
+fn seconds(flag: &str, value: f64) -> anyhow::Result<Duration> {
+    if !(value.is_finite() && value > 0.0 && value <= 3600.0) {
+        anyhow::bail!("--{flag} must be in (0, 3600] seconds, got {value}");
+    }
+    Ok(Duration::from_secs_f64(value))
+}
+
+/// Refuse an address other machines can reach unless `allow_remote` says so: the app has no authentication.
+fn check_listen(listen: SocketAddr, allow_remote: bool) -> anyhow::Result<()> {
+    if listen.ip().to_canonical().is_loopback() || allow_remote {
+        return Ok(());
+    }
+    anyhow::bail!(
+        "refusing to listen on {listen}: the web app has no authentication, so anyone who can reach that address \
+         could drive the plotter and see the drawing. Use a loopback address (the default is 127.0.0.1:8040), or \
+         pass --allow-remote if you mean it"
+    )
 }
 
 /// Run `plotter serve`.
@@ -41,6 +79,17 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
     if !(args.max_upload_mb.is_finite() && args.max_upload_mb > 0.0 && args.max_upload_mb <= 1024.0) {
         anyhow::bail!("--max-upload-mb must be in (0, 1024], got {}", args.max_upload_mb);
     }
+    if !(1..=10_000).contains(&args.max_connections) {
+        anyhow::bail!("--max-connections must be in 1..=10000, got {}", args.max_connections);
+    }
+    let limits = serve::state::Limits {
+        header_timeout: seconds("header-timeout-s", args.header_timeout_s)?,
+        body_timeout: seconds("body-timeout-s", args.body_timeout_s)?,
+        max_connections: args.max_connections,
+        claim_grace: seconds("claim-grace-s", args.claim_grace_s)?,
+        ..serve::state::Limits::default()
+    };
+    check_listen(args.listen, args.allow_remote)?;
     let mut profiles = vec![MachineProfile::default_plotter()];
     for p in &args.profile {
         profiles.push(MachineProfile::load(p)?);
@@ -58,10 +107,10 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
             .await
             .with_context(|| format!("cannot listen on {}", args.listen))?;
         let local = listener.local_addr()?;
-        if !local.ip().is_loopback() {
+        if !local.ip().to_canonical().is_loopback() {
             eprintln!(
-                "warning: listening on {local}: anyone who can reach this address can drive the plotter (one page \
-                 at a time); use the default 127.0.0.1 unless you mean it"
+                "warning: listening on {local} (--allow-remote): the web app has no authentication; anyone who can \
+                 reach this address can drive the plotter (one page at a time) and see the drawing"
             );
         }
         let host = if local.ip().is_unspecified() { format!("127.0.0.1:{}", local.port()) } else { local.to_string() };
@@ -77,8 +126,10 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
             sim_speed: args.sim_speed,
             extra_ports: args.port.clone(),
             profiles,
+            limits,
         };
-        serve::serve(listener, config).await.context("the server stopped")
+        serve::serve(listener, config).await;
+        Ok(())
     })
 }
 
@@ -93,5 +144,32 @@ fn open_browser(url: &str) {
     };
     if let Err(e) = std::process::Command::new(opener.0).args(&opener.1).spawn() {
         eprintln!("warning: cannot open a browser ({}: {e}); open {url} yourself", opener.0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_loopback_listens_without_the_opt_in() {
+        for local in ["127.0.0.1:8040", "127.8.9.10:0", "[::1]:8040", "[::ffff:127.0.0.1]:8040"] {
+            assert!(check_listen(local.parse().unwrap(), false).is_ok(), "{local}");
+        }
+        for remote in ["0.0.0.0:8040", "192.168.1.5:8040", "[::]:8040", "[2001:db8::1]:80"] {
+            let addr: SocketAddr = remote.parse().unwrap();
+            let e = check_listen(addr, false).unwrap_err().to_string();
+            assert!(e.contains(&format!("refusing to listen on {addr}")) && e.contains("--allow-remote"), "{e}");
+            assert!(e.contains("no authentication"), "{e}");
+            assert!(check_listen(addr, true).is_ok(), "{remote}");
+        }
+    }
+
+    #[test]
+    fn durations_are_checked() {
+        assert_eq!(seconds("x", 0.25).unwrap(), Duration::from_millis(250));
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY, 3601.0] {
+            assert!(seconds("header-timeout-s", bad).unwrap_err().to_string().contains("--header-timeout-s"), "{bad}");
+        }
     }
 }

@@ -1,6 +1,10 @@
 //! The HTTP API and the page's assets. Every request passes [`guard`] (Host/Origin, and the controller's token
 //! for anything that changes state); handlers answer JSON, errors as `{ "error": "..." }` with a status that says
 //! what kind of problem it is.
+//!
+//! Bodies are bounded in size — a declared size over the limit is refused before any of the body is read
+//! ([`declared_size`]) — and in time ([`super::deadline`]). Decoding and preparing a drawing run on the blocking
+//! pool in a limited number of slots ([`heavy`]), so no number of uploads can occupy every thread.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -10,7 +14,7 @@ use axum::Router;
 use axum::body::Bytes;
 use axum::extract::rejection::BytesRejection;
 use axum::extract::{DefaultBodyLimit, Query, Request, State};
-use axum::http::{HeaderMap, Method, StatusCode, header};
+use axum::http::{HeaderMap, HeaderValue, Method, StatusCode, header};
 use axum::middleware::{self, Next};
 use axum::response::sse::{KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
@@ -28,6 +32,8 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::broadcast::error::RecvError;
 
+use super::control;
+use super::deadline::body_deadline;
 use super::events::Event;
 use super::safety::{self, TOKEN_HEADER};
 use super::state::{Loaded, Settings, Shared, Source};
@@ -43,6 +49,13 @@ const STYLE_CSS: &str = include_str!("../../assets/style.css");
 
 /// An error answer.
 pub(crate) struct ApiError(StatusCode, String);
+
+impl ApiError {
+    /// An answer with `status` and `message`.
+    pub(crate) fn new(status: StatusCode, message: impl Into<String>) -> ApiError {
+        ApiError(status, message.into())
+    }
+}
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
@@ -64,10 +77,18 @@ fn ok() -> ApiResult {
     Ok(Json(json!({ "ok": true })).into_response())
 }
 
+/// Largest body of a request other than an upload (JSON settings and commands), bytes.
+const JSON_LIMIT: usize = 64 * 1024;
+
 /// The router for `shared`.
 pub(crate) fn router(shared: Arc<Shared>) -> Router {
     // Bodies of uploads may be as large as the limit; other JSON bodies are small.
-    let upload_limit = DefaultBodyLimit::max(shared.config.max_upload);
+    let max_upload = shared.config.max_upload;
+    let uploads = Router::new()
+        .route("/api/drawing", post(upload))
+        .route("/api/profile/upload", post(upload_profile))
+        .layer(DefaultBodyLimit::max(max_upload))
+        .layer(middleware::from_fn_with_state((max_upload, true), declared_size));
     Router::new()
         .route("/", get(|| async { ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], INDEX_HTML) }))
         .route("/app.js", get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], APP_JS) }))
@@ -79,8 +100,6 @@ pub(crate) fn router(shared: Arc<Shared>) -> Router {
         .route("/api/ports", get(ports))
         .route("/api/control/claim", post(claim))
         .route("/api/control/release", post(release))
-        .route("/api/drawing", post(upload).layer(upload_limit))
-        .route("/api/profile/upload", post(upload_profile).layer(upload_limit))
         .route("/api/gen", post(generate))
         .route("/api/settings", post(settings))
         .route("/api/profile", post(choose_profile))
@@ -95,7 +114,10 @@ pub(crate) fn router(shared: Arc<Shared>) -> Router {
         .route("/api/jog", post(jog))
         .route("/api/pen", post(pen))
         .route("/api/console", post(console))
-        .layer(DefaultBodyLimit::max(64 * 1024))
+        .layer(DefaultBodyLimit::max(JSON_LIMIT))
+        .layer(middleware::from_fn_with_state((JSON_LIMIT, false), declared_size))
+        .merge(uploads)
+        .layer(middleware::from_fn_with_state(Arc::clone(&shared), body_deadline))
         .layer(middleware::from_fn_with_state(Arc::clone(&shared), guard))
         .with_state(shared)
 }
@@ -108,7 +130,7 @@ async fn guard(State(shared): State<Arc<Shared>>, req: Request, next: Next) -> R
     let reads = matches!(*req.method(), Method::GET | Method::HEAD);
     if !reads && req.uri().path() != "/api/control/claim" {
         let token = req.headers().get(TOKEN_HEADER).and_then(|t| t.to_str().ok());
-        let controller = shared.lock().controller.clone();
+        let controller = shared.lock().controller.as_ref().map(|c| c.token.clone());
         if controller.is_none() || token != controller.as_deref() {
             let message = if controller.is_none() {
                 "take control first (nobody controls the plotter)"
@@ -130,38 +152,13 @@ struct EventsQuery {
     token: Option<String>,
 }
 
-/// Gives up control when the controller's event stream ends.
-struct ControlLease {
-    shared: Arc<Shared>,
-    token: String,
-}
-
-impl Drop for ControlLease {
-    fn drop(&mut self) {
-        let released = {
-            let mut i = self.shared.lock();
-            let ours = i.controller.as_deref() == Some(self.token.as_str());
-            if ours {
-                i.controller = None;
-            }
-            ours
-        };
-        if released {
-            self.shared.publish();
-        }
-    }
-}
-
 /// Server-sent events: the state first, then everything the hub sends. With the controller's token the stream
-/// holds control: when it closes, control is released.
+/// holds control ([`control::attach`]).
 async fn events(
     State(shared): State<Arc<Shared>>,
     Query(q): Query<EventsQuery>,
 ) -> Sse<impl Stream<Item = Result<axum::response::sse::Event, std::convert::Infallible>>> {
-    let lease = q
-        .token
-        .filter(|t| shared.lock().controller.as_deref() == Some(t.as_str()))
-        .map(|token| ControlLease { shared: Arc::clone(&shared), token });
+    let lease = q.token.and_then(|token| control::attach(&shared, &token));
     let rx = shared.hub.subscribe();
     let first = Event::new("state", &shared.snapshot());
     let s = stream::unfold((Some(first), rx, shared, lease), |(first, mut rx, shared, lease)| async move {
@@ -209,26 +206,13 @@ async fn ports(State(shared): State<Arc<Shared>>) -> Response {
 }
 
 async fn claim(State(shared): State<Arc<Shared>>, headers: HeaderMap) -> ApiResult {
-    let token = {
-        let mut i = shared.lock();
-        let held = headers.get(TOKEN_HEADER).and_then(|t| t.to_str().ok());
-        match &i.controller {
-            Some(c) if Some(c.as_str()) == held => c.clone(),
-            Some(_) => return Err(conflict("another page controls the plotter; this one is read-only")),
-            None => {
-                let t = safety::new_token();
-                i.controller = Some(t.clone());
-                t
-            }
-        }
-    };
-    shared.publish();
+    let held = headers.get(TOKEN_HEADER).and_then(|t| t.to_str().ok());
+    let token = control::claim(&shared, held).map_err(|taken| conflict(taken.to_string()))?;
     Ok(Json(json!({ "token": token })).into_response())
 }
 
 async fn release(State(shared): State<Arc<Shared>>) -> ApiResult {
-    shared.lock().controller = None;
-    shared.publish();
+    control::release(&shared);
     ok()
 }
 
@@ -237,38 +221,51 @@ struct UploadQuery {
     name: String,
 }
 
-fn too_large(what: &str, size: Option<usize>, limit: usize) -> ApiError {
-    let mb = |b: usize| {
+/// The answer to a body over `limit` bytes (`upload`: a drawing or profile; else a JSON request).
+fn too_large(what: &str, size: Option<u64>, limit: usize, upload: bool) -> ApiError {
+    let mb = |b: u64| {
         // Display only.
         #[allow(clippy::cast_precision_loss)]
         let v = b as f64 / 1_048_576.0;
         v
     };
     let size = size.map_or_else(String::new, |s| format!(" ({:.1} MB)", mb(s)));
-    ApiError(
-        StatusCode::PAYLOAD_TOO_LARGE,
+    let limit = u64::try_from(limit).unwrap_or(u64::MAX);
+    let message = if upload {
         format!(
             "{what} is too large{size}: uploads are limited to {:.1} MB (start the server with --max-upload-mb to \
              change it)",
             mb(limit)
-        ),
-    )
+        )
+    } else {
+        format!("{what} is too large{size}: requests other than uploads are limited to {} KB", limit / 1024)
+    };
+    ApiError(StatusCode::PAYLOAD_TOO_LARGE, message)
 }
 
-/// Check the declared size before reading, and map a body cut at the limit to the same message.
-fn upload_body(
-    what: &str,
-    headers: &HeaderMap,
-    body: Result<Bytes, BytesRejection>,
-    limit: usize,
-) -> Result<Bytes, ApiError> {
-    let declared = headers.get(header::CONTENT_LENGTH).and_then(|v| v.to_str().ok()).and_then(|v| v.parse().ok());
-    if declared.is_some_and(|n: usize| n > limit) {
-        return Err(too_large(what, declared, limit));
+/// Middleware: refuse a request whose declared size (`Content-Length`) is over `limit` before reading any of its
+/// body (and before telling a client that sent `Expect: 100-continue` to go on), closing the connection so the
+/// body is never read. A body without a declared size is cut at the limit as it is read ([`upload_body`]).
+/// The state is the limit, bytes, and whether it is an upload's.
+async fn declared_size(State((limit, upload)): State<(usize, bool)>, req: Request, next: Next) -> Response {
+    let declared = req.headers().get(header::CONTENT_LENGTH).and_then(|v| v.to_str().ok()?.parse::<u64>().ok());
+    if declared.is_none_or(|n| n <= u64::try_from(limit).unwrap_or(u64::MAX)) {
+        return next.run(req).await;
     }
+    let what = Query::<UploadQuery>::try_from_uri(req.uri())
+        .ok()
+        .and_then(|q| clean_name(&q.0.name).ok())
+        .unwrap_or_else(|| "the request body".into());
+    let mut refused = too_large(&what, declared, limit, upload).into_response();
+    refused.headers_mut().insert(header::CONNECTION, HeaderValue::from_static("close"));
+    refused
+}
+
+/// The body of an upload, a body cut at the limit mapped to the same message as a declared oversize one.
+fn upload_body(what: &str, body: Result<Bytes, BytesRejection>, limit: usize) -> Result<Bytes, ApiError> {
     match body {
         Ok(b) => Ok(b),
-        Err(e) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => Err(too_large(what, None, limit)),
+        Err(e) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => Err(too_large(what, None, limit, true)),
         Err(e) => Err(bad(format!("cannot read {what}: {}", e.body_text()))),
     }
 }
@@ -355,10 +352,36 @@ fn layer_choices(s: &Settings, decoded: &plotter_path::Drawing) -> Result<Vec<La
         .collect()
 }
 
-/// Decode `source` with `settings`, off the async threads.
-async fn decode(source: Source, settings: &Settings, profile: MachineProfile) -> Result<Loaded, ApiError> {
-    let input = input_args(settings)?;
+/// Run CPU-bound work (decoding, preparing) on the blocking pool in one of the server's import slots
+/// ([`super::state::Limits::max_imports`]); `503 Service Unavailable` when every slot is taken, rather than a
+/// queue. The work itself holds the slot: when a client goes away, hyper drops its handler and with it the work's
+/// result, but the work runs on to its end (the importers' own limits bound it) and its slot stays taken until
+/// then — so clients that upload and hang up cannot pile up threads.
+async fn heavy<T: Send + 'static>(shared: &Shared, work: impl FnOnce() -> T + Send + 'static) -> Result<T, ApiError> {
+    let Ok(slot) = Arc::clone(&shared.imports).try_acquire_owned() else {
+        let n = shared.config.limits.max_imports;
+        return Err(ApiError(
+            StatusCode::SERVICE_UNAVAILABLE,
+            format!("busy: {n} drawing(s) are being decoded or prepared, the most at once; try again when done"),
+        ));
+    };
     tokio::task::spawn_blocking(move || {
+        let _slot = slot;
+        work()
+    })
+    .await
+    .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))
+}
+
+/// Decode `source` with `settings`, off the async threads.
+async fn decode(
+    shared: &Shared,
+    source: Source,
+    settings: &Settings,
+    profile: MachineProfile,
+) -> Result<Loaded, ApiError> {
+    let input = input_args(settings)?;
+    heavy(shared, move || {
         let (name, decoded) = match &source {
             Source::Upload { name, bytes } => {
                 let decoded = decode_drawing(bytes, Path::new(name), name, None, &input, &profile);
@@ -372,8 +395,7 @@ async fn decode(source: Source, settings: &Settings, profile: MachineProfile) ->
         };
         Ok(Loaded { source, name, decoded, input })
     })
-    .await
-    .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?
+    .await?
 }
 
 /// Re-prepare the loaded drawing with the current settings and profile; publish.
@@ -386,20 +408,24 @@ async fn reprepare(shared: &Arc<Shared>) -> ApiResult {
     let layers = layer_choices(&settings, &drawing)?;
     let layout = layout_args(&settings)?;
     let optimize = optimize_args(&settings)?;
-    let result = tokio::task::spawn_blocking(move || prepare(drawing, &profile, &layers, &layout, &optimize))
-        .await
-        .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))?;
+    let result = heavy(shared, move || prepare(drawing, &profile, &layers, &layout, &optimize)).await;
     let answer = {
         let mut i = shared.lock();
         i.view_version += 1;
         match result {
-            Ok(p) => {
+            // Busy: the drawing or settings have changed but could not be prepared, so the old plot must go.
+            Err(busy) => {
+                i.prepared = None;
+                i.prepare_error = Some(busy.1.clone());
+                Err(busy)
+            }
+            Ok(Ok(p)) => {
                 let warnings = p.warnings.clone();
                 i.prepared = Some(Arc::new(p));
                 i.prepare_error = None;
                 Ok(Json(json!({ "ok": true, "warnings": warnings })).into_response())
             }
-            Err(e) => {
+            Ok(Err(e)) => {
                 let message = format!("{e:#}");
                 i.prepared = None;
                 i.prepare_error = Some(message.clone());
@@ -424,7 +450,7 @@ async fn load(shared: &Arc<Shared>, source: Source) -> ApiResult {
         let i = shared.lock();
         (i.settings.clone(), i.profile.clone())
     };
-    let loaded = decode(source, &settings, profile).await?;
+    let loaded = decode(shared, source, &settings, profile).await?;
     let warnings = loaded.decoded.warnings.clone();
     // A new drawing starts with its own layers and pens.
     settings.layers.clear();
@@ -442,11 +468,10 @@ async fn load(shared: &Arc<Shared>, source: Source) -> ApiResult {
 async fn upload(
     State(shared): State<Arc<Shared>>,
     Query(q): Query<UploadQuery>,
-    headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
     let name = clean_name(&q.name)?;
-    let bytes = upload_body(&name, &headers, body, shared.config.max_upload)?;
+    let bytes = upload_body(&name, body, shared.config.max_upload)?;
     if bytes.is_empty() {
         return Err(bad(format!("{name} is empty")));
     }
@@ -479,7 +504,7 @@ async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) ->
         retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.profile.clone()))).flatten()
     };
     if let Some((source, profile)) = retrace {
-        let loaded = decode(source, &s, profile).await?;
+        let loaded = decode(&shared, source, &s, profile).await?;
         shared.lock().loaded = Some(loaded);
     }
     reprepare(&shared).await
@@ -504,12 +529,11 @@ async fn choose_profile(State(shared): State<Arc<Shared>>, Json(b): Json<Profile
 async fn upload_profile(
     State(shared): State<Arc<Shared>>,
     Query(q): Query<UploadQuery>,
-    headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult {
     refuse_while_plotting(&shared)?;
     let name = clean_name(&q.name)?;
-    let bytes = upload_body(&name, &headers, body, shared.config.max_upload)?;
+    let bytes = upload_body(&name, body, shared.config.max_upload)?;
     let text = std::str::from_utf8(&bytes).map_err(|_| bad(format!("{name}: a machine profile is UTF-8 TOML text")))?;
     let profile = MachineProfile::from_toml(text, &name).map_err(|e| bad(e.to_string()))?;
     plotter_path::motion::plan::machine_config(&profile).map_err(|e| bad(format!("{name}: {e}")))?;

@@ -1,10 +1,13 @@
 //! `plotter serve`: the local web app. An HTTP server (axum on tokio) with the page's assets compiled into the
 //! binary, a JSON API and a server-sent event stream, in front of the same host library the CLI uses.
 //!
+//! - [`listen`]: the accept loop, with its connection limit and header timeout;
 //! - [`api`]: routes, the Host/Origin/controller guard, handlers;
+//! - [`deadline`]: the time limit on request bodies;
 //! - [`events`]: the event channel to the pages;
-//! - [`state`]: the shared state and what a page is sent;
-//! - [`safety`]: Host/Origin checks and control tokens;
+//! - [`state`]: the shared state, the limits on clients, and what a page is sent;
+//! - [`safety`]: Host/Origin/Referer checks and control tokens;
+//! - [`control`]: which page drives the machine;
 //! - [`worker`]: the thread that owns the link to the machine and runs plots;
 //! - [`paced`]: the simulator paced to the wall clock.
 //!
@@ -12,7 +15,10 @@
 //! events, so a long plot, a homing cycle or a slow serial port never holds up a page.
 
 pub(crate) mod api;
+pub(crate) mod control;
+pub(crate) mod deadline;
 pub(crate) mod events;
+pub(crate) mod listen;
 pub(crate) mod paced;
 pub(crate) mod safety;
 pub(crate) mod state;
@@ -36,9 +42,10 @@ pub(crate) fn app(config: Config) -> (Arc<Shared>, axum::Router) {
 }
 
 /// Serve on `listener` until the process ends.
-pub(crate) async fn serve(listener: tokio::net::TcpListener, config: Config) -> std::io::Result<()> {
+pub(crate) async fn serve(listener: tokio::net::TcpListener, config: Config) {
+    let limits = config.limits;
     let (_shared, router) = app(config);
-    axum::serve(listener, router).await
+    listen::serve(listener, router, limits).await;
 }
 
 #[cfg(test)]

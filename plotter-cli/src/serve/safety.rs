@@ -8,10 +8,16 @@
 //! with the port it listens on; names are refused, since a rebinding attack needs one — and, when an `Origin` is
 //! sent, it must be `http://` plus that same `Host`.
 //!
+//! Browsers send no `Origin` on simple `GET`s (links, images, scripts) and older ones on few requests at all; then
+//! the other signs of where a request comes from are checked: a `Referer` must be a page of this same origin, and
+//! `Sec-Fetch-Site` (sent by current browsers on every request, and not settable by scripts) must be
+//! `same-origin` or `none` (typed or bookmarked). `same-site` is refused too: another server on this machine, on
+//! another port, is the same site to the browser.
+//!
 //! # One controller
 //! Many pages may watch; one drives. A page claims control and gets a random token; every request that changes
-//! something must carry it in the `X-Plotter-Token` header. Control is given up when that page's event stream
-//! closes (the tab is closed) or on request; then another page may claim it.
+//! something must carry it in the `X-Plotter-Token` header. How control is held and given up:
+//! [`super::control`].
 
 use std::hash::{BuildHasher as _, Hasher as _};
 use std::net::{IpAddr, SocketAddr};
@@ -28,6 +34,10 @@ pub(crate) enum Refusal {
     Host(String),
     /// A foreign `Origin`.
     Origin(String),
+    /// A foreign `Referer` (no `Origin` sent).
+    Referer(String),
+    /// A `Sec-Fetch-Site` other than `same-origin` or `none`.
+    FetchSite(String),
 }
 
 impl std::fmt::Display for Refusal {
@@ -37,6 +47,14 @@ impl std::fmt::Display for Refusal {
                 write!(f, "refused: Host {h:?} is not this server (open the address plotter serve printed)")
             }
             Refusal::Origin(o) => write!(f, "refused: requests from {o:?} are not accepted (cross-site request)"),
+            Refusal::Referer(r) => {
+                write!(f, "refused: requests from the page {r:?} are not accepted (cross-site request)")
+            }
+            Refusal::FetchSite(s) => write!(
+                f,
+                "refused: the browser says this request comes from another site (Sec-Fetch-Site: {s}); open the \
+                 address plotter serve printed"
+            ),
         }
     }
 }
@@ -70,13 +88,33 @@ pub(crate) fn check_request(headers: &HeaderMap, local: SocketAddr) -> Result<()
     if !host_is_ours(host, local) {
         return Err(Refusal::Host(host.to_string()));
     }
+    if let Some(site) = headers.get(FETCH_SITE) {
+        let site = site.to_str().unwrap_or("");
+        if !matches!(site, "same-origin" | "none") {
+            return Err(Refusal::FetchSite(site.to_string()));
+        }
+    }
     if let Some(origin) = headers.get(header::ORIGIN) {
         let origin = origin.to_str().unwrap_or("");
         if origin.strip_prefix("http://") != Some(host) {
             return Err(Refusal::Origin(origin.to_string()));
         }
+    } else if let Some(referer) = headers.get(header::REFERER) {
+        let referer = referer.to_str().unwrap_or("");
+        if referer_authority(referer) != Some(host) {
+            return Err(Refusal::Referer(referer.to_string()));
+        }
     }
     Ok(())
+}
+
+/// The header in which browsers say where a request comes from relative to its target.
+const FETCH_SITE: &str = "sec-fetch-site";
+
+/// The authority of an `http://` URL (`http://host:port/path?query` → `host:port`); `None` for other schemes.
+fn referer_authority(url: &str) -> Option<&str> {
+    let rest = url.strip_prefix("http://")?;
+    Some(rest.split(['/', '?', '#']).next().unwrap_or(rest))
 }
 
 /// A fresh random token: 128 bits from the standard library's randomly keyed hasher (seeded from the operating
@@ -145,6 +183,45 @@ mod tests {
             check_request(&headers("rebind.example:8040", None), local),
             Err(Refusal::Host("rebind.example:8040".into()))
         );
+    }
+
+    #[test]
+    fn without_origin_referer_and_fetch_site_must_say_same_origin() {
+        let local: SocketAddr = "127.0.0.1:8040".parse().unwrap();
+        let with = |name: &'static str, value: &str| {
+            let mut h = headers("127.0.0.1:8040", None);
+            h.insert(name, HeaderValue::from_str(value).unwrap());
+            check_request(&h, local)
+        };
+        for ok in ["http://127.0.0.1:8040/", "http://127.0.0.1:8040", "http://127.0.0.1:8040/?x=1#y"] {
+            assert_eq!(with("referer", ok), Ok(()), "{ok}");
+        }
+        for bad in [
+            "http://evil.example/page",
+            "http://127.0.0.1:8041/",
+            "https://127.0.0.1:8040/",
+            "http://127.0.0.1:8040@evil.example/",
+            "http://localhost:8040/",
+            "about:blank",
+            "",
+        ] {
+            assert_eq!(with("referer", bad), Err(Refusal::Referer(bad.into())), "{bad}");
+        }
+        for ok in ["same-origin", "none"] {
+            assert_eq!(with("sec-fetch-site", ok), Ok(()), "{ok}");
+        }
+        for bad in ["cross-site", "same-site", "CROSS-SITE", ""] {
+            assert_eq!(with("sec-fetch-site", bad), Err(Refusal::FetchSite(bad.into())), "{bad}");
+        }
+        // Sec-Fetch-Site is checked even beside a matching Origin; a Referer is not looked at beside one (the
+        // browser's Origin is the authority).
+        let mut h = headers("127.0.0.1:8040", Some("http://127.0.0.1:8040"));
+        h.insert("sec-fetch-site", HeaderValue::from_static("cross-site"));
+        assert!(matches!(check_request(&h, local), Err(Refusal::FetchSite(_))));
+        let mut h = headers("127.0.0.1:8040", Some("http://127.0.0.1:8040"));
+        h.insert(header::REFERER, HeaderValue::from_static("http://evil.example/"));
+        assert_eq!(check_request(&h, local), Ok(()));
+        assert!(Refusal::FetchSite("cross-site".into()).to_string().contains("another site"));
     }
 
     #[test]

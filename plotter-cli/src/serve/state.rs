@@ -3,6 +3,7 @@
 
 use std::net::SocketAddr;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, mpsc};
+use std::time::Duration;
 
 use plotter_host::input::{Decoded, InputArgs};
 use plotter_host::job::page::PageView;
@@ -10,6 +11,7 @@ use plotter_host::job::prepare::Prepared;
 use plotter_path::MachineProfile;
 use serde::{Deserialize, Serialize};
 
+use super::control::Controller;
 use super::events::{Event, Hub, ProgressEvent, Prompt};
 use super::worker::Command;
 
@@ -26,6 +28,44 @@ pub(crate) struct Config {
     pub(crate) extra_ports: Vec<String>,
     /// Machine profiles on offer: the built-in kit first, then those named on the command line.
     pub(crate) profiles: Vec<MachineProfile>,
+    /// Time and count limits on clients.
+    pub(crate) limits: Limits,
+}
+
+/// What one client may hold of the server, so that no client — a hostile page, a port scanner, a half-open
+/// connection — can exhaust it:
+/// - a connection must send its request head within `header_timeout` of the server waiting for one (also the
+///   idle time of a kept-alive connection), and a request's body must arrive within `body_timeout`;
+/// - at most `max_connections` connections are open; more are answered 503 and closed at once (a page needs one
+///   for its event stream and a few for its requests);
+/// - at most `max_imports` drawings are decoded or prepared at once; more are answered 503 (each holds a CPU-bound
+///   thread until it ends, even if its client has gone);
+/// - a claim of control lapses after `claim_grace` unless the claiming page opens its event stream (the stream
+///   then holds control until it closes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Limits {
+    /// Time to send a request head.
+    pub(crate) header_timeout: Duration,
+    /// Time to send a request body.
+    pub(crate) body_timeout: Duration,
+    /// Open connections.
+    pub(crate) max_connections: usize,
+    /// Drawings decoded or prepared at once.
+    pub(crate) max_imports: usize,
+    /// Time for a claiming page to open its event stream.
+    pub(crate) claim_grace: Duration,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            header_timeout: Duration::from_secs(10),
+            body_timeout: Duration::from_secs(60),
+            max_connections: 64,
+            max_imports: 2,
+            claim_grace: Duration::from_secs(15),
+        }
+    }
 }
 
 /// Layout, layer and ordering settings as the page sends them.
@@ -120,8 +160,8 @@ pub(crate) struct MachineState {
 
 /// Everything mutable.
 pub(crate) struct Inner {
-    /// The controller's token.
-    pub(crate) controller: Option<String>,
+    /// The page in control.
+    pub(crate) controller: Option<Controller>,
     /// The drawing.
     pub(crate) loaded: Option<Loaded>,
     /// Current settings.
@@ -202,12 +242,15 @@ pub(crate) struct Shared {
     pub(crate) worker: Mutex<mpsc::Sender<Command>>,
     /// Requests to a running plot.
     pub(crate) control: PlotControl,
+    /// Slots for decoding and preparing drawings ([`Limits::max_imports`]).
+    pub(crate) imports: Arc<tokio::sync::Semaphore>,
 }
 
 impl Shared {
     /// New state; `worker` receives machine commands.
     pub(crate) fn new(config: Config, worker: mpsc::Sender<Command>) -> Shared {
         let profile = config.profiles.first().cloned().unwrap_or_else(MachineProfile::default_plotter);
+        let imports = Arc::new(tokio::sync::Semaphore::new(config.limits.max_imports));
         Shared {
             config,
             hub: Hub::new(),
@@ -228,6 +271,7 @@ impl Shared {
             }),
             worker: Mutex::new(worker),
             control: PlotControl::default(),
+            imports,
         }
     }
 

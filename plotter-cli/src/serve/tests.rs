@@ -22,6 +22,7 @@ fn test_app(max_upload: usize, sim_speed: f64) -> (Arc<Shared>, Router) {
         sim_speed,
         extra_ports: Vec::new(),
         profiles: vec![plotter_path::MachineProfile::default_plotter()],
+        limits: super::state::Limits::default(),
     })
 }
 
@@ -301,4 +302,76 @@ async fn plot_on_the_simulator_pause_resume_and_finish() {
     }
     let drawn: f64 = stepped["draw_mm"].as_f64().unwrap();
     assert!(drawn >= 565.0 && drawn <= 565.5 * 2f64.sqrt(), "as-stepped pen-down {drawn} mm");
+}
+
+#[tokio::test]
+async fn uploads_beyond_the_import_slots_are_answered_busy() {
+    let (shared, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let n = u32::try_from(shared.config.limits.max_imports).unwrap();
+    let taken = Arc::clone(&shared.imports).acquire_many_owned(n).await.unwrap();
+    let (s, v) = c.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE, "{v}");
+    assert!(v["error"].as_str().unwrap().contains(&format!("busy: {n} drawing(s)")), "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert!(st["drawing"].is_null(), "nothing loaded: {st}");
+    drop(taken);
+    let (s, v) = c.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    assert_eq!(shared.imports.available_permits(), shared.config.limits.max_imports);
+    // New settings that cannot be prepared for want of a slot drop the old plot rather than keep one that no
+    // longer matches them.
+    let taken = Arc::clone(&shared.imports).acquire_many_owned(n).await.unwrap();
+    let (s, v) = c.post("/api/settings", json!({ "optimize": false })).await;
+    assert_eq!(s, StatusCode::SERVICE_UNAVAILABLE, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert!(st["prepared"].is_null(), "{st}");
+    assert!(st["prepare_error"].as_str().unwrap().starts_with("busy:"), "{st}");
+    drop(taken);
+    let (s, v) = c.post("/api/settings", json!({ "optimize": false })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert_eq!(st["prepared"]["stats"]["paths"], 6, "{st}");
+}
+
+/// An SVG of `n` short strokes: slow enough to decode that a test can hang up in the middle.
+fn many_strokes(n: usize) -> Vec<u8> {
+    let mut svg =
+        String::from(r#"<svg xmlns="http://www.w3.org/2000/svg" width="200mm" height="200mm" viewBox="0 0 200 200">"#);
+    for i in 0..n {
+        let (x, y) = (i % 190, (i / 190) % 190);
+        svg.push_str(&format!(r#"<path d="M{x} {y} c1 2 3 4 5 6" stroke="black" fill="none"/>"#));
+    }
+    svg.push_str("</svg>");
+    svg.into_bytes()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_client_that_hangs_up_mid_decode_loads_nothing_and_its_slot_frees_when_the_work_ends() {
+    let (shared, router) = test_app(16 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let slots = shared.config.limits.max_imports;
+    let big = many_strokes(20_000);
+    let req = c.request("POST", "/api/drawing?name=big.svg").body(Body::from(big)).unwrap();
+    let r = router.clone();
+    let handler = tokio::spawn(async move { r.oneshot(req).await });
+    let t0 = Instant::now();
+    while shared.imports.available_permits() == slots {
+        assert!(t0.elapsed() < Duration::from_secs(10), "the decode never started");
+        tokio::time::sleep(Duration::from_millis(1)).await;
+    }
+    // The client goes away: hyper drops the handler, as aborting it does here.
+    handler.abort();
+    assert!(handler.await.unwrap_err().is_cancelled());
+    let hung_up = Instant::now();
+    assert_eq!(shared.imports.available_permits(), slots - 1, "the decode still holds its slot");
+    while shared.imports.available_permits() < slots {
+        assert!(hung_up.elapsed() < Duration::from_secs(60), "the decode never ended");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    eprintln!("the decode ran on {:?} after the hang-up", hung_up.elapsed());
+    let (_, st) = c.get("/api/state").await;
+    assert!(st["drawing"].is_null(), "the abandoned drawing was not loaded: {st}");
 }
