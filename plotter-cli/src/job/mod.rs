@@ -255,8 +255,9 @@ impl Run<'_> {
                 // Every abort path leaves the pen up when the machine still answers (the journal stays for a
                 // resume).
                 let note = match machine.stop_and_lift(self.profile) {
-                    Ok(()) => String::new(),
-                    Err(e) => format!("\n(could not lift the pen: {e})"),
+                    Ok(done) if done.is_empty() => String::new(),
+                    Ok(done) => format!("\n{done}"),
+                    Err(e) => format!("\n({e:#})"),
                 };
                 if let Some(e) = journal_error {
                     return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) });
