@@ -380,7 +380,8 @@ impl<T: Transport> GrblSession<T> {
     }
 
     /// Stream `plan` (whose start is where the machine stands) line by line with character counting. Returns
-    /// when every line has been executed.
+    /// when every line has been executed (a status report asked for after the last `ok` says Idle); the same
+    /// loop watches the tail, so a hold there is told and timed like one mid-plot.
     pub fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
         let prog = program(&self.profile, plan);
         let n = prog.lines.len();
@@ -412,6 +413,8 @@ impl<T: Transport> GrblSession<T> {
             last_change: t0,
             report: None,
             hold_told: false,
+            acked_at: t0,
+            finished: n == 0,
         };
         self.peak_in_flight = 0;
         let mut pause_at: Option<usize> = None;
@@ -429,8 +432,10 @@ impl<T: Transport> GrblSession<T> {
                 control.progress(&progress);
                 last_reported = Some(progress);
             }
-            if st.acked == n {
+            if st.acked == n && accept_elapsed.is_zero() {
                 accept_elapsed = self.transport.now() - t0;
+            }
+            if st.finished {
                 break Ok(());
             }
             let still = self.transport.now().saturating_sub(st.last_change);
@@ -534,6 +539,7 @@ impl<T: Transport> GrblSession<T> {
                         st.in_bytes -= len;
                         st.acked += 1;
                         st.last_change = now;
+                        st.acked_at = now;
                     }
                 }
                 GrblLine::Error(code) => {
@@ -584,6 +590,10 @@ impl<T: Transport> GrblSession<T> {
                         ));
                     }
                     st.hold_told = held;
+                    // Asked for after the last line was acknowledged: everything has run.
+                    if s.is_idle() && st.acked == n && st.last_status_at >= st.acked_at {
+                        st.finished = true;
+                    }
                 }
                 GrblLine::Msg(m) => self.messages.push(m),
                 GrblLine::Feedback(_) | GrblLine::Setting(..) | GrblLine::Other(_) => {}
@@ -591,7 +601,6 @@ impl<T: Transport> GrblSession<T> {
         };
         self.transport.set_streaming(false);
         result?;
-        self.wait_idle().map_err(StreamError::Link)?;
         st.executed = n;
         control.progress(&Progress {
             accepted: n,
@@ -854,6 +863,10 @@ struct GrblStream {
     report: Option<(String, Option<MachinePos>)>,
     /// Whether the user has been told about the feed hold the controller is in.
     hold_told: bool,
+    /// When the last line was acknowledged.
+    acked_at: Duration,
+    /// Whether a status report asked for after the last acknowledgement said Idle: the plan has run.
+    finished: bool,
 }
 
 /// Whether `p` lies on the segment `a`–`b` (within one step of it, between its ends).
