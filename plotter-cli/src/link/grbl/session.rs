@@ -1044,8 +1044,8 @@ mod tests {
         (s.transport.emulator().pen().z_steps, [p[0], p[1]])
     }
 
-    /// Line 60 (57 of the plan after the 3 set-up lines) is acknowledged while the third square's pen-down
-    /// stroke is running.
+    /// G-code line 60 (the plan's 58th, after G21 and G90) is acknowledged while a square is being drawn, pen
+    /// down (each test checks the pen before lifting it).
     const PRESS_AT: u64 = 60;
 
     #[test]
@@ -1144,6 +1144,33 @@ mod tests {
         let done = s.stop_and_lift().unwrap();
         assert!(done.starts_with("emulator: stopped (feed hold, soft reset); the pen is up (G91 G0 Z"), "{done}");
         assert_eq!(pen_and_xy(&s).0, 1600);
+    }
+
+    #[test]
+    fn a_servo_pen_is_lifted_with_m5_after_a_reset() {
+        let mut profile = MachineProfile::default_plotter();
+        profile.pen.command = plotter_path::motion::profile::PenCommand::Servo;
+        (profile.pen.servo_up_deg, profile.pen.servo_down_deg) = (90.0, 25.0);
+        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
+        // Plan lines: `M5 G4 …`, then per square travel, `M3 S25 G4 …`, four strokes, `M5 G4 …`. The servo acts
+        // once the queue has run empty, so the `ok` of G-code line 20 (G21, G90, then the third square's first
+        // stroke) comes with the pen down.
+        let faults = Faults { realtime_after_lines: Some((20, RT_RESET)), ..Faults::default() };
+        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), faults);
+        let mut s = GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap();
+        s.home().unwrap();
+        let plan = make_plan(&profile, &drawing(), s.position().unwrap(), Lookahead::Whole).unwrap();
+        let e = s.stream(&plan, &mut User::default()).unwrap_err().to_string();
+        assert!(e.contains("alarm 3"), "{e}");
+        // The reset switched the spindle output off: the servo got no new pulse and holds the pen down.
+        assert_eq!(s.transport.emulator().pen().servo_deg, Some(25.0));
+        let done = s.stop_and_lift().unwrap();
+        assert!(
+            done.ends_with(
+                "unlocked with $X (home before the next plot: the position may be lost)); the pen is up (M5)"
+            )
+        );
+        assert_eq!(s.transport.emulator().pen().servo_deg, Some(90.0));
     }
 
     #[test]
