@@ -126,3 +126,105 @@ fn grbl_alarm_mid_plot_leaves_a_journal_that_resumes() {
     let trace = sim.stop();
     assert_eq!(SimPty::figure(&trace, "grbl", "overflow"), Some(0));
 }
+
+/// Plot the three-pen sample straight through (`--pen-change none`) on the GRBL emulator started with
+/// `--grbl-fault fault`, with `extra` arguments; when `interrupt_on` appears on stderr, send the plot SIGINT (as
+/// Ctrl-C does). Returns whether it succeeded, its stderr, how long it took, and the emulator's end position
+/// (`# position x y z`, steps).
+fn plot_with_fault(
+    name: &str,
+    fault: &str,
+    extra: &[&str],
+    interrupt_on: Option<&str>,
+) -> (bool, String, f64, Vec<i64>) {
+    let dir = scratch(name);
+    let sim = SimPty::start(&dir, &["--grbl", "--fast", "--grbl-fault", fault]);
+    let svg = sample("three-pens.svg");
+    let mut args =
+        vec!["plot", svg.to_str().unwrap(), "--port", &sim.port, "--firmware", "grbl", "--pen-change", "none"];
+    args.extend_from_slice(extra);
+    let start = std::time::Instant::now();
+    let mut child = Command::new(plotter_bin())
+        .args(&args)
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("plotter runs");
+    let mut stderr = child.stderr.take().expect("stderr");
+    let mut err = String::new();
+    let mut buf = [0u8; 256];
+    let mut interrupted = false;
+    loop {
+        let n = stderr.read(&mut buf).expect("read stderr");
+        if n == 0 {
+            break;
+        }
+        err.push_str(&String::from_utf8_lossy(&buf[..n]));
+        if let Some(text) = interrupt_on
+            && !interrupted
+            && err.contains(text)
+        {
+            let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).expect("pid"));
+            nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).expect("Ctrl-C");
+            interrupted = true;
+        }
+    }
+    let status = child.wait().expect("plotter exits");
+    let secs = start.elapsed().as_secs_f64();
+    let trace = sim.stop();
+    let pos = trace
+        .comments
+        .iter()
+        .find(|c| c.starts_with("position"))
+        .map(|c| c.split_whitespace().skip(1).map(|v| v.parse::<i64>().expect("int")).collect())
+        .unwrap_or_default();
+    (status.success(), err, secs, pos)
+}
+
+/// Pen up: Z at 4 mm × 400 steps/mm.
+const PEN_UP_Z: i64 = 1600;
+
+#[test]
+fn grbl_hold_nobody_resumes_ends_with_a_message_and_the_pen_up() {
+    let (ok, err, secs, pos) = plot_with_fault("grbl-hold", "hold@40", &["--hold-timeout", "2"], None);
+    assert!(!ok);
+    assert!(err.contains("reports a feed hold (Hold:0)") && err.contains("stops by itself after 2 s on hold"), "{err}");
+    assert!(err.contains("has been in a feed hold (Hold:0) for 2 s and nobody resumed it"), "{err}");
+    assert!(err.contains("stopped (soft reset); the pen is up (G91 G0 Z"), "lifted from the paper: {err}");
+    assert_eq!(pos.get(2), Some(&PEN_UP_Z), "{pos:?}");
+    assert!(secs < 20.0, "{secs} s");
+}
+
+#[test]
+fn grbl_reset_mid_plot_ends_with_alarm_3_and_the_pen_up() {
+    let (ok, err, secs, pos) = plot_with_fault("grbl-reset", "reset@40", &[], None);
+    assert!(!ok);
+    assert!(err.contains("alarm 3 (reset while moving; the position is probably lost"), "{err}");
+    assert!(err.contains("stopped (soft reset, unlocked with $X (home before the next plot"), "{err}");
+    assert!(err.contains("the pen is up (G91 G0 Z"), "lifted from the paper: {err}");
+    assert_eq!(pos.get(2), Some(&PEN_UP_Z), "{pos:?}");
+    assert!(secs < 20.0, "{secs} s");
+}
+
+#[test]
+fn grbl_hard_limit_mid_plot_ends_with_the_pen_up() {
+    let (ok, err, secs, pos) = plot_with_fault("grbl-limit", "hard-limit@40", &[], None);
+    assert!(!ok);
+    assert!(err.contains("alarm 1 (hard limit switch triggered"), "{err}");
+    assert!(err.contains("stopped (soft reset, unlocked with $X") && err.contains("the pen is up (G91 G0 Z"), "{err}");
+    assert_eq!(pos.get(2), Some(&PEN_UP_Z), "{pos:?}");
+    assert!(secs < 20.0, "{secs} s");
+}
+
+#[test]
+fn grbl_ctrl_c_while_held_stops_at_once_with_the_pen_up() {
+    // The hold would last 30 s; Ctrl-C as soon as the plot says the controller is held.
+    let (ok, err, secs, pos) = plot_with_fault("grbl-hold-ctrl-c", "hold@40", &[], Some("reports a feed hold"));
+    assert!(!ok);
+    assert!(err.contains("stopped at once on a pause request (Ctrl-C) during a feed hold (Hold:0)"), "{err}");
+    assert!(err.contains("the pen is up (G91 G0 Z"), "lifted from the paper: {err}");
+    assert_eq!(pos.get(2), Some(&PEN_UP_Z), "{pos:?}");
+    assert!(secs < 20.0, "at once, not after the 30 s hold limit: {secs} s");
+}

@@ -68,6 +68,10 @@ pub(crate) struct PlotArgs {
     /// Serial baud rate [default: the profile's].
     #[arg(long)]
     pub(crate) baud: Option<u32>,
+    /// GRBL: how long a feed hold nobody resumes (the controller's Hold button) may last, seconds, before the
+    /// plot stops and lifts the pen.
+    #[arg(long, default_value_t = 30.0, value_parser = hold_seconds)]
+    pub(crate) hold_timeout: f64,
     /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), or auto (told by its start-up banner).
     #[arg(long, value_enum, default_value_t = Firmware::Auto)]
     pub(crate) firmware: Firmware,
@@ -111,6 +115,14 @@ struct PlotSource {
     cwd: PathBuf,
     args: Vec<String>,
     start: [i32; 4],
+}
+
+/// `--hold-timeout`: a positive number of seconds, at most a day.
+fn hold_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v <= 86_400.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a number of seconds between 0 and 86400")),
+    }
 }
 
 /// Ctrl-C handling shared by the plot loop: a flag set by the signal handler.
@@ -228,6 +240,10 @@ impl PlotEvents for Terminal {
         })
     }
 
+    fn notice(&mut self, text: &str) {
+        self.bar.suspend(|| eprintln!("\n{text}"));
+    }
+
     fn unlock_alarm(&mut self, what: &str) -> bool {
         self.bar.suspend(|| {
             eprintln!("{what}");
@@ -290,6 +306,7 @@ fn connect(args: &PlotArgs, port: &str, profile: &mut MachineProfile) -> anyhow:
                 }
             }
             g.profile = profile.clone();
+            g.hold_timeout = std::time::Duration::from_secs_f64(args.hold_timeout);
         }
         Connected::Ours(_) if args.profile_from_machine => {
             bail!("--profile-from-machine needs a GRBL controller (plotter-fw takes its settings from the profile)")
@@ -454,7 +471,12 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     let input = original.input.as_deref().context("the recorded plot has no input")?;
     let mut profile = load_profile(original.profile.as_deref())?;
     let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
-    let link = PlotArgs { baud: args.baud.or(original.baud), firmware: original.firmware, ..original.clone() };
+    let link = PlotArgs {
+        baud: args.baud.or(original.baud),
+        firmware: original.firmware,
+        hold_timeout: args.hold_timeout,
+        ..original.clone()
+    };
     let mut c = connect(&link, port, &mut profile)?;
     // The order started where the original plot's plan did when that plot did not home.
     let pen_at = original.no_home.then(|| page_of(&profile, source.start));

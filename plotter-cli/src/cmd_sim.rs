@@ -9,8 +9,9 @@
 //!
 //! With `--grbl` the pty serves the project's GRBL 1.1 emulator ([`plotter_host::link::grbl::emulator`])
 //! instead, set up from the profile; its trace adds `# grbl peak_rx <bytes> overflow <bytes> lines <n> errors
-//! <n>` and `# position x y z` (steps). `--grbl-fault` injects `hard-limit@N` (an `ALARM:1` after N lines) or
-//! `error@N:CODE` (line N answered `error:CODE`).
+//! <n>` and `# position x y z` (steps). `--grbl-fault` injects `hard-limit@N` (an `ALARM:1` after N lines),
+//! `error@N:CODE` (line N answered `error:CODE`), or a press of the controller's Hold (`hold@N`) or Reset
+//! (`reset@N`) button once N lines have been answered.
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -28,6 +29,7 @@ use plotter_fw::sim::{Sim, SimOptions};
 use plotter_host::job::load::load_profile;
 use plotter_host::link::faults::Noise;
 use plotter_host::link::grbl::emulator::{Faults, GrblEmulator};
+use plotter_host::link::grbl::messages::{RT_FEED_HOLD, RT_RESET};
 use plotter_host::link::grbl::settings::GrblSettings;
 use plotter_path::motion::plan;
 
@@ -63,18 +65,22 @@ pub(crate) struct SimArgs {
     /// Emulate a GRBL 1.1 controller instead of our firmware.
     #[arg(long)]
     pub(crate) grbl: bool,
-    /// GRBL emulator fault for tests: `hard-limit@N` or `error@N:CODE`.
+    /// GRBL emulator fault for tests: `hard-limit@N`, `error@N:CODE`, `hold@N` or `reset@N`.
     #[arg(long, requires = "grbl")]
     pub(crate) grbl_fault: Option<String>,
 }
 
 /// Parse `--grbl-fault`.
 fn parse_fault(spec: &str) -> anyhow::Result<Faults> {
-    let bad = || anyhow::anyhow!("--grbl-fault {spec:?}: use hard-limit@N or error@N:CODE");
+    let bad = || anyhow::anyhow!("--grbl-fault {spec:?}: use hard-limit@N, error@N:CODE, hold@N or reset@N");
     let (kind, at) = spec.split_once('@').ok_or_else(bad)?;
     match kind {
         "hard-limit" => {
             Ok(Faults { hard_limit_after_lines: Some(at.parse().map_err(|_| bad())?), ..Faults::default() })
+        }
+        "hold" | "reset" => {
+            let byte = if kind == "hold" { RT_FEED_HOLD } else { RT_RESET };
+            Ok(Faults { realtime_after_lines: Some((at.parse().map_err(|_| bad())?, byte)), ..Faults::default() })
         }
         "error" => {
             let (n, code) = at.split_once(':').ok_or_else(bad)?;

@@ -255,8 +255,9 @@ impl Run<'_> {
                 // Every abort path leaves the pen up when the machine still answers (the journal stays for a
                 // resume).
                 let note = match machine.stop_and_lift(self.profile) {
-                    Ok(()) => String::new(),
-                    Err(e) => format!("\n(could not lift the pen: {e})"),
+                    Ok(done) if done.is_empty() => String::new(),
+                    Ok(done) => format!("\n{done}"),
+                    Err(e) => format!("\n({e:#})"),
                 };
                 if let Some(e) = journal_error {
                     return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) });
@@ -437,6 +438,27 @@ mod tests {
         assert_eq!(runs.len(), 3, "three squares");
         let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
         assert_eq!(firsts, [(1600, 3200), (4000, 3200), (6400, 3200)]);
+    }
+
+    #[test]
+    fn a_grbl_hold_nobody_resumes_ends_the_plot_saying_so_with_the_pen_up() {
+        let profile = MachineProfile::default_plotter();
+        // A zigzag of 40 strokes of 5 mm: the 16-block planner takes the lines as the pen draws.
+        let zigzag = (0..=40).map(|i| Point::new(20.0 + 5.0 * f64::from(i), 40.0 + 5.0 * f64::from(i % 2))).collect();
+        let steps = drawing_to_steps(&profile, &Drawing::single_layer("l", vec![Polyline::new(zigzag)])).unwrap();
+        let cfg = plan::machine_config(&profile).unwrap();
+        // The Hold button, pressed once the 30th G-code line (G21, G90, then the plan's 28th) is queued: the pen
+        // is drawing then.
+        let faults = Faults { realtime_after_lines: Some((30, b'!')), ..Faults::default() };
+        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), faults);
+        let mut g = GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap();
+        g.hold_timeout = std::time::Duration::from_secs(2);
+        let mut ev = Script { answers: vec![], seen: vec![] };
+        let e = plot(&mut g, &profile, &steps, true, false, None, &mut ev).unwrap_err().to_string();
+        assert!(e.starts_with("emulator: the controller has been in a feed hold (Hold:0) for 2 s and nobody"), "{e}");
+        assert!(e.contains("\nemulator: stopped (soft reset); the pen is up (G91 G0 Z4, G90)"), "{e}");
+        assert_eq!(g.transport.emulator().pen().z_steps, 1600);
+        assert!(g.status().unwrap().is_idle());
     }
 
     #[test]

@@ -103,6 +103,9 @@ pub trait PlotEvents {
     fn unlock_alarm(&mut self, _what: &str) -> bool {
         false
     }
+    /// Something the user should know now, while the plot runs (a feed hold the controller reports, and how to
+    /// get out of it).
+    fn notice(&mut self, _text: &str) {}
 }
 
 /// Turns the stream's raw progress into [`JobProgress`] for the front end and keeps the journal up to date.
@@ -226,6 +229,10 @@ impl Control for Tracker<'_> {
 
     fn paused(&mut self, held: bool) -> PauseChoice {
         self.events.paused(held)
+    }
+
+    fn notice(&mut self, text: &str) {
+        self.events.notice(text);
     }
 }
 

@@ -5,6 +5,8 @@
 
 use std::time::Duration;
 
+use anyhow::Context as _;
+
 use plotter_path::motion::plan::{MachinePos, MotionPlan};
 
 use super::Transport;
@@ -65,9 +67,10 @@ pub trait PlotMachine {
     fn end(&mut self) -> anyhow::Result<()> {
         Ok(())
     }
-    /// After a failed or aborted stream: stop what is queued and lift the pen, if the machine still answers.
-    fn stop_and_lift(&mut self, _profile: &plotter_path::MachineProfile) -> anyhow::Result<()> {
-        Ok(())
+    /// After a failed or aborted stream: stop what is queued and lift the pen, if the machine still answers;
+    /// returns what was done, for the user (empty when there was nothing to do).
+    fn stop_and_lift(&mut self, _profile: &plotter_path::MachineProfile) -> anyhow::Result<String> {
+        Ok(String::new())
     }
 }
 
@@ -120,8 +123,9 @@ impl<T: Transport + 'static> PlotMachine for Session<T> {
         self.leave_framed()
     }
 
-    fn stop_and_lift(&mut self, profile: &plotter_path::MachineProfile) -> anyhow::Result<()> {
-        Session::stop_and_lift(self, profile.pen.up_z_mm)
+    fn stop_and_lift(&mut self, profile: &plotter_path::MachineProfile) -> anyhow::Result<String> {
+        Session::stop_and_lift(self, profile.pen.up_z_mm).context("could not lift the pen")?;
+        Ok(String::new())
     }
 }
 
@@ -170,6 +174,11 @@ impl<T: Transport + 'static> PlotMachine for GrblSession<T> {
 
     fn can_home(&self) -> bool {
         self.settings.homing_enabled()
+    }
+
+    fn stop_and_lift(&mut self, _profile: &plotter_path::MachineProfile) -> anyhow::Result<String> {
+        // The session lifts with the profile it writes the plot for.
+        GrblSession::stop_and_lift(self)
     }
 }
 

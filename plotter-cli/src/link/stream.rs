@@ -122,6 +122,8 @@ pub trait Control {
     fn pause_requested(&mut self) -> Option<bool>;
     /// The machine is paused (pen up, or held); ask what to do.
     fn paused(&mut self, held: bool) -> PauseChoice;
+    /// Something the user should know now (a feed hold the controller reports, and how to get out of it).
+    fn notice(&mut self, _text: &str) {}
 }
 
 /// Statistics of a finished stream.

@@ -13,10 +13,16 @@
 //!   unsupported command or word 20, repeated word 25, no feed rate 22, G-code during an alarm 9, `$` commands
 //!   3/5/8);
 //! - real-time `?` (status report `<State|MPos:…|FS:…>`, or `WPos:` with `$10=0`; `WCO:` every tenth report),
-//!   `!` feed hold (`Hold:1` decelerating, `Hold:0` stopped), `~` cycle start, Ctrl-X soft reset (a reset while
-//!   moving raises `ALARM:3`, position lost);
+//!   `!` feed hold (`Hold:1` decelerating, `Hold:0` stopped; on an idle machine `Hold:0` at once, and lines sent
+//!   meanwhile are queued but wait for `~`), `~` cycle start, Ctrl-X soft reset (during a cycle, a decelerating
+//!   hold or homing it stops the steppers dead and raises `ALARM:3`, position lost; idle or at `Hold:0` the
+//!   position is kept and no alarm raised). A reset never moves Z and leaves a servo pen where it was (GRBL
+//!   switches the spindle output off, so the servo gets no new pulse): [`GrblEmulator::pen`] reports both, for
+//!   tests to check that a plot ended with the pen up;
 //! - alarms: hard limit (`ALARM:1`, also injectable for tests), soft limit (`ALARM:2`: a target outside the travel
-//!   once homed, `$20=1`), homing failures (`ALARM:8`/`ALARM:9`); G-code stays locked until `$X` or `$H`;
+//!   once homed, `$20=1`) — both critical, as in GRBL: `[MSG:Reset to continue]`, then nothing but real-time
+//!   bytes is handled until a soft reset —, homing failures (`ALARM:8`/`ALARM:9`); G-code stays locked until `$X`
+//!   or `$H`. Tests can also press the Hold or Reset button mid-plot ([`Faults::realtime_after_lines`]);
 //! - `$$` (settings listing), `$n=value`, `$I` (build info, `[OPT:V,15,128]`), `$#` (offsets), `$G`
 //!   (parser state), `$X`, `$H`, `$J=` jogging; `M0`/`M1` program pause (`Hold:0` until `~`), `M2`/`M30`,
 //!   `M3 S`/`M5` (a servo pen), `G4 P<seconds>`, `G92`.
@@ -61,6 +67,10 @@ pub struct Faults {
     /// Answer the G-code line with this number (1-based, counting G-code lines received) with this error code
     /// instead of executing it.
     pub error_on_line: Option<(u64, u8)>,
+    /// Once this many G-code lines have been answered `ok`, act on this real-time byte as if it had arrived on
+    /// the serial line or from the controller's own buttons: `!` (the Hold button), `~` (Cycle Start) or `0x18`
+    /// (Reset / Abort).
+    pub realtime_after_lines: Option<(u64, u8)>,
 }
 
 /// Figures about a session.
@@ -76,6 +86,15 @@ pub struct EmulatorStats {
     pub errors: u64,
     /// Status reports sent.
     pub reports: u64,
+}
+
+/// The pen as the machine physically holds it, for tests to tell whether a plot ended with the pen up.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PenState {
+    /// Where the Z axis stands, steps (machine coordinates: the homed position is 0).
+    pub z_steps: i64,
+    /// The servo's angle, degrees, as its last pulse set it (`None` before the first servo command).
+    pub servo_deg: Option<f32>,
 }
 
 /// What the line being executed waits for.
@@ -264,6 +283,14 @@ impl GrblEmulator {
         self.stats
     }
 
+    /// The pen: the Z axis's physical position and the servo's angle.
+    pub fn pen(&self) -> PenState {
+        PenState {
+            z_steps: self.backend.physical_position()[Axis::Z.index()],
+            servo_deg: self.backend.hal().servo_trace().last().map(|s| s.1),
+        }
+    }
+
     /// Virtual time, ticks.
     pub fn now(&self) -> u64 {
         self.now
@@ -347,8 +374,16 @@ impl GrblEmulator {
     }
 
     fn soft_reset(&mut self) {
-        let moving =
-            !self.backend.machine().stepper().is_idle() || self.backend.machine().state() == MachineState::Homing;
+        // As GRBL's `mc_reset`: a reset during a cycle, a hold still decelerating (`Hold:1`) or homing stops the
+        // steppers dead and raises `ALARM:3`; at rest — idle, or a hold that has come to a stop (`Hold:0`) — the
+        // position is kept and no alarm is raised. Z does not move either way; the spindle output is switched off
+        // (GRBL's `spindle_stop`), which leaves a servo pen where its last pulse put it.
+        let homing = matches!(self.current, Some(Current { waiting: Waiting::Homing { .. }, .. }));
+        let moving = homing
+            || matches!(
+                self.backend.machine().state(),
+                MachineState::Run | MachineState::Holding | MachineState::Homing
+            );
         if moving {
             self.out.push("ALARM:3".into());
             self.alarm = Some(3);
@@ -503,6 +538,14 @@ impl GrblEmulator {
         self.rx.clear();
     }
 
+    /// A hard or soft limit: GRBL says `[MSG:Reset to continue]` and then handles nothing but real-time bytes
+    /// until a soft reset; the lines that arrive meanwhile wait in the receive buffer, unanswered, and the reset
+    /// drops them.
+    fn critical_event(&mut self) {
+        self.needs_reset = true;
+        self.out.push("[MSG:Reset to continue]".into());
+    }
+
     fn collect_backend(&mut self) {
         for l in self.backend.take_replies() {
             if let Some(rest) = l.strip_prefix("ALARM:") {
@@ -514,8 +557,7 @@ impl GrblEmulator {
                 };
                 self.raise_alarm(code, true);
                 if code == 1 {
-                    self.needs_reset = true;
-                    self.out.push("[MSG:Reset to continue]".into());
+                    self.critical_event();
                 }
                 continue;
             }
@@ -532,8 +574,11 @@ impl GrblEmulator {
                     *sent = false;
                     let more = !lines.is_empty();
                     match err {
-                        // Soft limits (the core's error 7) are an alarm on GRBL.
-                        Some(7) => self.raise_alarm(2, false),
+                        // Soft limits (the core's error 7) are an alarm on GRBL, and a critical one.
+                        Some(7) => {
+                            self.raise_alarm(2, false);
+                            self.critical_event();
+                        }
                         Some(code) => {
                             let grbl = match code {
                                 1 | 2 => code,
@@ -551,8 +596,13 @@ impl GrblEmulator {
                             if self.faults.hard_limit_after_lines.is_some_and(|n| self.ok_gcode_lines >= n) {
                                 self.faults.hard_limit_after_lines = None;
                                 self.raise_alarm(1, true);
-                                self.needs_reset = true;
-                                self.out.push("[MSG:Reset to continue]".into());
+                                self.critical_event();
+                            }
+                            if let Some((n, byte)) = self.faults.realtime_after_lines
+                                && self.ok_gcode_lines >= n
+                            {
+                                self.faults.realtime_after_lines = None;
+                                self.receive(byte);
                             }
                         }
                     }
@@ -627,7 +677,7 @@ impl GrblEmulator {
                 }
                 return;
             }
-            if self.paused {
+            if self.paused || self.needs_reset {
                 return;
             }
             let Some(end) = self.rx.iter().position(|&b| b == b'\n' || b == b'\r') else {
@@ -957,7 +1007,14 @@ mod tests {
         let mut e = emu();
         let _ = say(&mut e, "$H");
         let r = say(&mut e, "G1 X500 F600");
-        assert_eq!(r, ["ALARM:2"]);
+        assert_eq!(r, ["ALARM:2", "[MSG:Reset to continue]"]);
+        // A critical event: nothing is answered until a reset, which drops the waiting line.
+        e.feed(b"$X\n");
+        e.run_for(1_000_000);
+        assert_eq!(e.take_replies(), Vec::<String>::new());
+        e.feed(&[RT_RESET]);
+        e.run_for(1);
+        assert_eq!(e.take_replies(), ["Grbl 1.1h ['$' for help]", "[MSG:'$H'|'$X' to unlock]"]);
         assert_eq!(say(&mut e, "G1 X1 F600"), ["error:9"]);
         assert_eq!(say(&mut e, "$X"), ["[MSG:Caution: Unlocked]", "ok"]);
         assert_eq!(say(&mut e, "G1 X1 F600"), ["ok"]);
@@ -1017,5 +1074,99 @@ mod tests {
         e.run_for(1);
         assert_eq!(e.take_replies(), ["ALARM:3", "Grbl 1.1h ['$' for help]", "[MSG:'$H'|'$X' to unlock]"]);
         assert_eq!(say(&mut e, "G1 X1"), ["error:9"]);
+        // Z stays at the homed pen-up height (4 mm × 400 steps/mm); after `$X` a relative move is accepted.
+        assert_eq!(e.pen().z_steps, 1600);
+        assert_eq!(say(&mut e, "$X"), ["[MSG:Caution: Unlocked]", "ok"]);
+        assert_eq!(say(&mut e, "G91 G0 Z-1"), ["ok"]);
+        assert_eq!(e.pen().z_steps, 1200);
+    }
+
+    fn status(e: &mut GrblEmulator) -> String {
+        e.feed(b"?");
+        e.run_for(1);
+        e.take_replies().into_iter().find(|l| l.starts_with('<')).unwrap()
+    }
+
+    #[test]
+    fn hold_decelerates_then_stops_and_a_reset_at_rest_keeps_position_and_pen() {
+        let mut e = emu();
+        let _ = say(&mut e, "$H");
+        // Pen down (Z 0), then a long move at 100 mm/s.
+        assert_eq!(say(&mut e, "G1 Z0 F1500"), ["ok"]);
+        e.feed(b"G1 X200 F6000\n");
+        e.run_for(300_000);
+        e.feed(b"!");
+        e.run_for(1);
+        assert!(status(&mut e).starts_with("<Hold:1|"), "decelerating");
+        e.run_for(1_000_000);
+        let held = status(&mut e);
+        assert!(held.starts_with("<Hold:0|MPos:"), "{held}");
+        let x = e.backend().physical_position()[0];
+        assert!(x > 0 && x < 16_000, "{x}");
+        // A reset at Hold:0 is no alarm: banner only, position and pen kept, G-code accepted again.
+        let _ = e.take_replies();
+        e.feed(&[RT_RESET]);
+        e.run_for(1);
+        assert_eq!(e.take_replies(), ["Grbl 1.1h ['$' for help]"]);
+        assert!(status(&mut e).starts_with("<Idle|"));
+        assert_eq!(e.backend().physical_position()[0], x);
+        assert_eq!(e.pen(), PenState { z_steps: 0, servo_deg: None }, "a reset does not move Z");
+        assert_eq!(say(&mut e, "G0 Z4"), ["ok"]);
+        assert_eq!(e.pen().z_steps, 1600);
+    }
+
+    #[test]
+    fn hold_on_an_idle_machine_queues_lines_until_cycle_start() {
+        let mut e = emu();
+        let _ = say(&mut e, "$H");
+        e.feed(b"!");
+        e.run_for(1);
+        assert!(status(&mut e).starts_with("<Hold:0|MPos:0.000,0.000,4.000"));
+        e.feed(b"G1 X10 F600\n");
+        e.run_for(2_000_000);
+        assert_eq!(e.take_replies(), ["ok"], "queued");
+        assert_eq!(e.backend().physical_position()[0], 0, "but not started");
+        e.feed(b"~");
+        e.run_for(2_000_000);
+        assert_eq!(e.backend().physical_position()[0], 800);
+        assert!(status(&mut e).starts_with("<Idle|"));
+    }
+
+    #[test]
+    fn buttons_pressed_mid_program_act_as_real_time_bytes() {
+        let cfg = plotter_path::motion::plan::machine_config(&MachineProfile::default_plotter()).unwrap();
+        let settings = GrblSettings::for_profile(&MachineProfile::default_plotter());
+        let faults = Faults { realtime_after_lines: Some((2, RT_FEED_HOLD)), ..Faults::default() };
+        let mut e = GrblEmulator::with_settings(cfg, settings, None, faults);
+        let _ = say(&mut e, "$H");
+        e.feed(b"G1 X10 F600\nG1 X20\nG1 X30\n");
+        e.run_for(5_000_000);
+        // Held after the second line's `ok`: the third is queued too, nothing reaches X 30 mm.
+        assert_eq!(e.take_replies(), ["ok", "ok", "ok"]);
+        assert!(status(&mut e).starts_with("<Hold:0|"));
+        assert!(e.backend().physical_position()[0] < 2400);
+        e.feed(b"~");
+        e.run_for(10_000_000);
+        assert_eq!(e.backend().physical_position()[0], 2400);
+    }
+
+    #[test]
+    fn a_hard_limit_waits_for_a_reset_before_anything_else() {
+        let cfg = plotter_path::motion::plan::machine_config(&MachineProfile::default_plotter()).unwrap();
+        let settings = GrblSettings::for_profile(&MachineProfile::default_plotter());
+        let faults = Faults { hard_limit_after_lines: Some(1), ..Faults::default() };
+        let mut e = GrblEmulator::with_settings(cfg, settings, None, faults);
+        let _ = say(&mut e, "$H");
+        e.feed(b"G1 X50 F600\n");
+        e.run_for(100_000);
+        assert_eq!(e.take_replies(), ["ok", "ALARM:1", "[MSG:Reset to continue]"]);
+        e.feed(b"$X\n");
+        e.run_for(1_000_000);
+        assert_eq!(e.take_replies(), Vec::<String>::new(), "no answer before the reset");
+        assert!(status(&mut e).starts_with("<Alarm|"));
+        e.feed(&[RT_RESET]);
+        e.run_for(1);
+        assert_eq!(e.take_replies(), ["Grbl 1.1h ['$' for help]", "[MSG:'$H'|'$X' to unlock]"]);
+        assert_eq!(say(&mut e, "$X"), ["[MSG:Caution: Unlocked]", "ok"]);
     }
 }

@@ -112,6 +112,25 @@ pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
     Program { lines, safe_after }
 }
 
+/// The lines that lift the pen from Z `z_now` (steps of the plot's coordinates) with the command the plot lifts
+/// it with: `M5` for a servo pen; for a Z pen a move to the pen-up height written relative (`G91 G0 Z…`, then
+/// `G90`), so that it holds whatever work offsets a soft reset dropped — nothing when Z already stands at the
+/// pen-up height or beyond it (away from the paper).
+pub fn lift(profile: &MachineProfile, z_now: i32) -> Result<Vec<String>, plotter_path::motion::plan::PlanError> {
+    if profile.pen.uses_servo() {
+        return Ok(vec!["M5".into()]);
+    }
+    let up = plotter_path::motion::plan::homed_position(profile)?[2];
+    let sz = profile.axes.z.steps_per_mm;
+    let down = plotter_path::motion::steps::round_steps(profile.pen.down_z_mm * sz).unwrap_or(up);
+    let lifted = if up >= down { z_now >= up } else { z_now <= up };
+    if lifted {
+        return Ok(Vec::new());
+    }
+    let dz = fmt_mm(mm(up - z_now, sz), decimals_for(sz));
+    Ok(vec![format!("G91 G0 Z{dz}"), "G90".into()])
+}
+
 /// The `G92` line declaring that the machine stands at `pos` (steps of the plot's coordinates); Z is left out for
 /// a servo pen.
 pub fn declare_position(profile: &MachineProfile, pos: [i32; 4]) -> String {
@@ -209,5 +228,16 @@ mod tests {
             ]
         );
         assert_eq!(declare_position(&p, [8, 0, 1600, 0]), "G92 X0.1 Y0");
+        assert_eq!(lift(&p, 0).unwrap(), ["M5"], "a servo pen is lifted whatever Z says");
+    }
+
+    #[test]
+    fn a_z_pen_is_lifted_by_a_relative_move_to_the_pen_up_height() {
+        // The kit: pen up at Z 4 mm, down at 0 mm, 400 steps/mm.
+        let p = MachineProfile::default_plotter();
+        assert_eq!(lift(&p, 0).unwrap(), ["G91 G0 Z4", "G90"]);
+        assert_eq!(lift(&p, 300).unwrap(), ["G91 G0 Z3.25", "G90"]);
+        assert_eq!(lift(&p, 1600).unwrap(), Vec::<String>::new(), "already up");
+        assert_eq!(lift(&p, 1700).unwrap(), Vec::<String>::new(), "above the pen-up height: never lowered");
     }
 }

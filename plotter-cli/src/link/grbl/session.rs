@@ -14,6 +14,18 @@
 //! (`[OPT:…,…,RX]` from `$I`, 128 bytes by default, less the ring's one empty slot). Every line is answered once
 //! (`ok` or `error:`), in order, so each answer frees the oldest line's bytes.
 //!
+//! # Holds, alarms and resets: every way a plot ends leaves the pen up
+//! GRBL can stop in ways the sender did not ask for: its Hold button (or a `!` from another program) holds the
+//! plot, its Reset button (Ctrl-X) drops everything (`ALARM:3` when it came during motion), a limit switch raises
+//! an alarm. A hold is told to the user at once ([`Control::notice`]) and, when nobody resumes it (Cycle Start,
+//! `~`) within [`GrblSession::hold_timeout`] (30 s by default, the stall limit of our own firmware's
+//! [`crate::link::session::WAIT_STALL`]), ends the plot with an error naming it; so does any other state in which
+//! nothing moves for that long. A pause request (Ctrl-C) during such a hold, or a second one before a pause at the
+//! next pen-up is reached, stops the plot at once. Whichever way the stream ends early, the job then calls
+//! [`GrblSession::stop_and_lift`]: bring motion to rest with a feed hold (so that the reset keeps the position),
+//! soft-reset to drop what is queued, unlock (`$X`) if GRBL is in alarm, and lift the pen with the plot's own
+//! pen-up command (`M5`, or a relative Z move, which holds whatever offsets the reset dropped).
+//!
 //! # Progress
 //! `ok` means queued. What has been executed comes from the `?` status report (polled at 5 Hz, the rate GRBL's
 //! documentation recommends as the upper limit): the reported position is located on the plan's blocks between
@@ -30,9 +42,10 @@ use super::messages::{
     GrblLine, GrblStatus, RT_CYCLE_START, RT_FEED_HOLD, RT_RESET, RT_STATUS, alarm_meaning, describe_alarm,
     describe_error,
 };
-use super::program::{declare_position, program};
+use super::program::{declare_position, lift, program};
 use super::settings::GrblSettings;
 use crate::link::Transport;
+use crate::link::session::WAIT_STALL;
 use crate::link::stream::{Control, PauseChoice, Progress, StreamError, StreamStats};
 
 /// How long a plain command may take.
@@ -64,6 +77,12 @@ pub struct GrblSession<T: Transport> {
     pub messages: Vec<String>,
     /// Most bytes in flight during the last stream.
     pub peak_in_flight: usize,
+    /// How long a feed hold nobody resumes (or any other standstill) may last before a stream or a wait for
+    /// the machine ends with an error ([`WAIT_STALL`] unless set).
+    pub hold_timeout: Duration,
+    /// Whether the last status report gave the work position (`WPos`, `$10=0`), which a soft reset changes
+    /// (it drops the `G92` offset), rather than the machine position, which it keeps.
+    reports_wpos: bool,
 }
 
 fn transport_error(name: &str, e: std::io::Error) -> anyhow::Error {
@@ -101,6 +120,8 @@ impl<T: Transport> GrblSession<T> {
             offset: None,
             messages,
             peak_in_flight: 0,
+            hold_timeout: WAIT_STALL,
+            reports_wpos: false,
         };
         let info = match s.command("$I", COMMAND_TIMEOUT) {
             Ok(info) => info,
@@ -266,6 +287,7 @@ impl<T: Transport> GrblSession<T> {
     /// The position of a status report in steps of the plot's coordinates (E = 0).
     pub fn position_of(&mut self, s: &GrblStatus) -> anyhow::Result<MachinePos> {
         let r = s.mpos.or(s.wpos).context("status without a position")?;
+        self.reports_wpos = s.mpos.is_none();
         let o = self.offset(s)?;
         let p = to_steps(&self.profile, core::array::from_fn(|i| r[i] - o[i]));
         Ok([p[0], p[1], p[2], 0])
@@ -277,8 +299,11 @@ impl<T: Transport> GrblSession<T> {
         self.position_of(&s)
     }
 
-    /// Poll the status until the machine is idle.
+    /// Poll the status until the machine is idle. A machine whose state and position stay the same for
+    /// [`Self::hold_timeout`] (a feed hold nobody resumes) is an error naming its state, not an endless wait.
     pub fn wait_idle(&mut self) -> anyhow::Result<GrblStatus> {
+        let mut last: Option<(String, Option<[f64; 3]>)> = None;
+        let mut since = self.transport.now();
         loop {
             let s = self.status()?;
             if s.is_idle() {
@@ -287,7 +312,35 @@ impl<T: Transport> GrblSession<T> {
             if s.state == "Alarm" {
                 bail!("{}: the machine is in alarm", self.name);
             }
+            let key = (s.state.clone(), s.mpos.or(s.wpos));
+            if last.as_ref() == Some(&key) {
+                let still = self.transport.now().saturating_sub(since);
+                if still >= self.hold_timeout {
+                    bail!("{} while waiting for the machine to finish", self.standstill(&s.state, still));
+                }
+            } else {
+                last = Some(key);
+                since = self.transport.now();
+            }
             let _ = self.transport.recv_line(Duration::from_millis(50)).map_err(|e| transport_error(&self.name, e))?;
+        }
+    }
+
+    /// What a standstill of `still` in `state` means, for an error message.
+    fn standstill(&self, state: &str, still: Duration) -> String {
+        if state.starts_with("Hold") {
+            format!(
+                "{}: the controller has been in a feed hold ({state}) for {:.0} s and nobody resumed it (its Hold \
+                 button, or a `!` from another program; Cycle Start `~` resumes)",
+                self.name,
+                still.as_secs_f64()
+            )
+        } else {
+            format!(
+                "{}: nothing moved for {:.0} s while the controller reports {state}",
+                self.name,
+                still.as_secs_f64()
+            )
         }
     }
 
@@ -327,7 +380,8 @@ impl<T: Transport> GrblSession<T> {
     }
 
     /// Stream `plan` (whose start is where the machine stands) line by line with character counting. Returns
-    /// when every line has been executed.
+    /// when every line has been executed (a status report asked for after the last `ok` says Idle); the same
+    /// loop watches the tail, so a hold there is told and timed like one mid-plot.
     pub fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
         let prog = program(&self.profile, plan);
         let n = prog.lines.len();
@@ -356,6 +410,11 @@ impl<T: Transport> GrblSession<T> {
             last_status_at: t0,
             last_heard: t0,
             status_pending: false,
+            last_change: t0,
+            report: None,
+            hold_told: false,
+            acked_at: t0,
+            finished: n == 0,
         };
         self.peak_in_flight = 0;
         let mut pause_at: Option<usize> = None;
@@ -373,16 +432,38 @@ impl<T: Transport> GrblSession<T> {
                 control.progress(&progress);
                 last_reported = Some(progress);
             }
-            if st.acked == n {
+            if st.acked == n && accept_elapsed.is_zero() {
                 accept_elapsed = self.transport.now() - t0;
+            }
+            if st.finished {
                 break Ok(());
             }
-            if pause_at.is_none()
-                && let Some(now) = control.pause_requested()
-            {
+            let still = self.transport.now().saturating_sub(st.last_change);
+            if still > self.hold_timeout {
+                let state = st.report.as_ref().map_or("no state", |r| r.0.as_str());
+                break Err(StreamError::Link(anyhow::anyhow!(
+                    "{}; the plot stopped after {} executed block(s) ({} of {n} lines acknowledged)",
+                    self.standstill(state, still),
+                    st.executed,
+                    st.acked
+                )));
+            }
+            if let Some(now) = control.pause_requested() {
+                let held = st.report.as_ref().filter(|r| r.0.starts_with("Hold")).map(|r| r.0.clone());
+                if held.is_some() || pause_at.is_some() {
+                    let why = match held {
+                        Some(state) => format!("a pause request (Ctrl-C) during a feed hold ({state})"),
+                        None => "a second pause request (Ctrl-C) before the pause at the next pen-up".to_string(),
+                    };
+                    break Err(StreamError::Link(anyhow::anyhow!(
+                        "{}: stopped at once on {why}, after {} executed block(s)",
+                        self.name,
+                        st.executed
+                    )));
+                }
                 if now {
                     match self.hold(&mut st, plan, &ends, control) {
-                        Ok(true) => {}
+                        Ok(true) => st.last_change = self.transport.now(),
                         Ok(false) => break Err(StreamError::Aborted { executed: st.executed }),
                         Err(e) => break Err(e),
                     }
@@ -403,6 +484,7 @@ impl<T: Transport> GrblSession<T> {
                 if control.paused(false) == PauseChoice::Abort {
                     break Err(StreamError::Aborted { executed: st.executed });
                 }
+                st.last_change = self.transport.now();
                 continue;
             }
             let upto = pause_at.map_or(n, |p| p + 1);
@@ -456,6 +538,8 @@ impl<T: Transport> GrblSession<T> {
                     if let Some(len) = st.in_flight.pop_front() {
                         st.in_bytes -= len;
                         st.acked += 1;
+                        st.last_change = now;
+                        st.acked_at = now;
                     }
                 }
                 GrblLine::Error(code) => {
@@ -485,8 +569,30 @@ impl<T: Transport> GrblSession<T> {
                 GrblLine::Banner(_) => break Err(StreamError::Restarted { executed: st.executed }),
                 GrblLine::Status(s) => {
                     st.status_pending = false;
-                    if let Ok(pos) = self.position_of(&s) {
+                    let pos = self.position_of(&s).ok();
+                    if let Some(pos) = pos {
                         st.executed = st.executed.max(self.executed_at(&pos, &s, &st, plan, &ends));
+                    }
+                    let report = (s.state.clone(), pos);
+                    if st.report.as_ref() != Some(&report) {
+                        st.last_change = now;
+                        st.report = Some(report);
+                    }
+                    let held = s.state.starts_with("Hold");
+                    if held && !st.hold_told {
+                        control.notice(&format!(
+                            "{}: the controller reports a feed hold ({}), from its Hold button or a `!` sent by \
+                             another program: Cycle Start (`~`) resumes; a pause request (Ctrl-C) stops the plot and \
+                             lifts the pen; the plot stops by itself after {:.0} s on hold",
+                            self.name,
+                            s.state,
+                            self.hold_timeout.as_secs_f64()
+                        ));
+                    }
+                    st.hold_told = held;
+                    // Asked for after the last line was acknowledged: everything has run.
+                    if s.is_idle() && st.acked == n && st.last_status_at >= st.acked_at {
+                        st.finished = true;
                     }
                 }
                 GrblLine::Msg(m) => self.messages.push(m),
@@ -495,7 +601,6 @@ impl<T: Transport> GrblSession<T> {
         };
         self.transport.set_streaming(false);
         result?;
-        self.wait_idle().map_err(StreamError::Link)?;
         st.executed = n;
         control.progress(&Progress {
             accepted: n,
@@ -561,6 +666,7 @@ impl<T: Transport> GrblSession<T> {
         control: &mut dyn Control,
     ) -> Result<bool, StreamError> {
         self.transport.send(&[RT_FEED_HOLD]).map_err(|e| StreamError::Link(transport_error(&self.name, e)))?;
+        let deadline = self.transport.now() + COMMAND_TIMEOUT;
         loop {
             let s = self.status().map_err(StreamError::Link)?;
             if let Ok(pos) = self.position_of(&s) {
@@ -568,6 +674,14 @@ impl<T: Transport> GrblSession<T> {
             }
             if s.is_held() || s.is_idle() {
                 break;
+            }
+            if s.state == "Alarm" || self.transport.now() >= deadline {
+                return Err(StreamError::Link(anyhow::anyhow!(
+                    "{}: the feed hold did not come to a stop within {:.0} s (the controller reports {})",
+                    self.name,
+                    COMMAND_TIMEOUT.as_secs_f64(),
+                    s.state
+                )));
             }
             let _ = self.transport.recv_line(Duration::from_millis(20));
         }
@@ -612,14 +726,18 @@ impl<T: Transport> GrblSession<T> {
         self.reset()
     }
 
-    /// Soft reset (Ctrl-X) and wait for the banner; GRBL drops its buffers (and G92 offsets, which are
-    /// re-measured from `$#` afterwards).
+    /// Soft reset (Ctrl-X) and wait for the banner; GRBL drops its buffers (and G92 offsets: with work-position
+    /// reports the offset is re-measured from `$#` afterwards).
     pub fn reset(&mut self) -> anyhow::Result<()> {
         self.transport.send(&[RT_RESET]).map_err(|e| transport_error(&self.name, e))?;
         let deadline = self.transport.now() + COMMAND_TIMEOUT;
         while let Some(l) = self.recv(deadline)? {
             if let GrblLine::Banner(_) = GrblLine::parse(&l) {
-                self.offset = None;
+                // The reset drops the `G92` offset: a work position changes with it, a machine position does not
+                // (and still converts to the plot's coordinates with the offset measured before).
+                if self.reports_wpos {
+                    self.offset = None;
+                }
                 // Let the banner's follow-up messages arrive.
                 while let Some(l) =
                     self.transport.recv_line(Duration::from_millis(100)).map_err(|e| transport_error(&self.name, e))?
@@ -636,6 +754,96 @@ impl<T: Transport> GrblSession<T> {
         }
         bail!("{}: no banner after the soft reset", self.name)
     }
+
+    /// End a plot that stopped early with the pen up, whatever state the controller is in: bring motion to rest
+    /// with a feed hold (a reset at `Hold:0` keeps the position, during motion it raises `ALARM:3`), soft-reset
+    /// to drop what is still queued, unlock with `$X` when GRBL is in alarm, and lift the pen with the plot's own
+    /// pen-up command ([`lift`]). Returns what was done, for the user. When the controller cannot be commanded
+    /// the error says what to do by hand.
+    pub fn stop_and_lift(&mut self) -> anyhow::Result<String> {
+        self.try_stop_and_lift().map_err(|e| {
+            let lift = if self.profile.pen.uses_servo() {
+                "send `M5`".to_string()
+            } else {
+                format!("raise Z to the pen-up height ({} mm)", self.profile.pen.up_z_mm)
+            };
+            e.context(format!(
+                "could not lift the pen, which may still be on the paper: press the controller's Reset (or \
+                 power it off), lift the pen by hand, or unlock it with `$X` and {lift}; home before plotting again"
+            ))
+        })
+    }
+
+    fn try_stop_and_lift(&mut self) -> anyhow::Result<String> {
+        let mut done = Vec::new();
+        // A controller stopped by a limit switch answers nothing but a reset (and perhaps status reports), so a
+        // missing report is no reason to stop here.
+        let mut before = self.status().ok();
+        if let Some(s) = &before
+            && matches!(s.state.as_str(), "Run" | "Jog" | "Hold:1")
+        {
+            if s.state != "Hold:1" {
+                self.transport.send(&[RT_FEED_HOLD]).map_err(|e| transport_error(&self.name, e))?;
+            }
+            let deadline = self.transport.now() + COMMAND_TIMEOUT;
+            loop {
+                let s = self.status()?;
+                let rest = s.is_held() || s.is_idle() || s.state == "Alarm";
+                before = Some(s);
+                if rest || self.transport.now() >= deadline {
+                    break;
+                }
+                let _ =
+                    self.transport.recv_line(Duration::from_millis(20)).map_err(|e| transport_error(&self.name, e))?;
+            }
+            done.push("feed hold");
+        }
+        // Where the pen is, while the offsets of the plot still hold.
+        let z_before = match &before {
+            Some(s) if s.mpos.is_some() || s.wpos.is_some() => self.position_of(s).ok().map(|p| p[2]),
+            _ => None,
+        };
+        self.reset()?;
+        done.push("soft reset");
+        let s = self.status()?;
+        if s.state == "Alarm" {
+            self.unlock()?;
+            done.push("unlocked with $X (home before the next plot: the position may be lost)");
+        }
+        let s = self.status()?;
+        if !s.is_idle() {
+            bail!("{}: the controller reports {} after the reset and will not take the lift", self.name, s.state);
+        }
+        let z = match z_before {
+            Some(z) => z,
+            None => self.position_of(&s)?[2],
+        };
+        let lines = lift(&self.profile, z)?;
+        for l in &lines {
+            self.command(l, COMMAND_TIMEOUT)?;
+        }
+        let after = self.wait_idle()?;
+        if !self.profile.pen.uses_servo() && !lines.is_empty() {
+            // Check the move by what it changed in the reported Z (whichever frame the reports use).
+            let raw_z = |s: &GrblStatus| s.mpos.or(s.wpos).map_or(0.0, |p| p[2]);
+            let moved = to_steps(&self.profile, [0.0, 0.0, raw_z(&after) - raw_z(&s)])[2];
+            let up = plotter_path::motion::plan::homed_position(&self.profile)?[2];
+            if z + moved != up {
+                bail!(
+                    "{}: after the lift Z stands at {:.3} mm, not at the pen-up height {} mm",
+                    self.name,
+                    f64::from(z + moved) / self.profile.axes.z.steps_per_mm,
+                    self.profile.pen.up_z_mm
+                );
+            }
+        }
+        let what = if lines.is_empty() {
+            "the pen was already up".to_string()
+        } else {
+            format!("the pen is up ({})", lines.join(", "))
+        };
+        Ok(format!("{}: stopped ({}); {what}", self.name, done.join(", ")))
+    }
 }
 
 /// Streaming state.
@@ -649,6 +857,16 @@ struct GrblStream {
     last_status_at: Duration,
     last_heard: Duration,
     status_pending: bool,
+    /// When a line was last acknowledged or a status report last differed from the one before.
+    last_change: Duration,
+    /// The last status report's state and position (steps of the plot's coordinates, if readable).
+    report: Option<(String, Option<MachinePos>)>,
+    /// Whether the user has been told about the feed hold the controller is in.
+    hold_told: bool,
+    /// When the last line was acknowledged.
+    acked_at: Duration,
+    /// Whether a status report asked for after the last acknowledgement said Idle: the plan has run.
+    finished: bool,
 }
 
 /// Whether `p` lies on the segment `a`–`b` (within one step of it, between its ends).
@@ -787,6 +1005,187 @@ mod tests {
         let (a, b) = (plan.position_after(executed - 1), plan.position_after(executed));
         let q = [p[0], p[1], p[2], 0];
         assert!(on_segment(&q, &a, &b) && q != b, "{q:?} on {a:?}..{b:?}");
+    }
+
+    /// A user at the terminal: sees notices, presses Ctrl-C (a pause request at the next pen-up) after a notice
+    /// or once `at` blocks have been executed, `presses` times in a row; aborts at a pause.
+    #[derive(Default)]
+    struct User {
+        notices: Vec<String>,
+        after_notice: bool,
+        at: Option<usize>,
+        presses: u32,
+        executed: usize,
+    }
+
+    impl Control for User {
+        fn progress(&mut self, p: &Progress) {
+            self.executed = p.executed;
+        }
+        fn pause_requested(&mut self) -> Option<bool> {
+            let due = (self.after_notice && !self.notices.is_empty()) || self.at.is_some_and(|a| self.executed >= a);
+            if due && self.presses > 0 {
+                self.presses -= 1;
+                return Some(false);
+            }
+            None
+        }
+        fn paused(&mut self, _: bool) -> PauseChoice {
+            PauseChoice::Abort
+        }
+        fn notice(&mut self, text: &str) {
+            self.notices.push(text.to_string());
+        }
+    }
+
+    /// The emulator's pen Z (steps) and X, Y (steps).
+    fn pen_and_xy(s: &GrblSession<EmulatorTransport>) -> (i64, [i64; 2]) {
+        let p = s.transport.emulator().backend().physical_position();
+        (s.transport.emulator().pen().z_steps, [p[0], p[1]])
+    }
+
+    /// G-code line 60 (the plan's 58th, after G21 and G90) is acknowledged while a square is being drawn, pen
+    /// down (each test checks the pen before lifting it).
+    const PRESS_AT: u64 = 60;
+
+    #[test]
+    fn a_hold_nobody_resumes_ends_with_a_message_and_the_pen_up() {
+        let mut s = session(Faults { realtime_after_lines: Some((PRESS_AT, RT_FEED_HOLD)), ..Faults::default() });
+        s.hold_timeout = Duration::from_secs(3);
+        let plan = plan_for(&mut s);
+        let mut user = User::default();
+        let t0 = s.transport.now();
+        let e = s.stream(&plan, &mut user).unwrap_err().to_string();
+        let waited = s.transport.now() - t0;
+        assert!(
+            e.contains("emulator: the controller has been in a feed hold (Hold:0) for 3 s and nobody resumed it"),
+            "{e}"
+        );
+        assert!(e.contains("the plot stopped after"), "{e}");
+        assert!(waited < Duration::from_secs(12), "{waited:?}");
+        assert_eq!(user.notices.len(), 1, "told once: {:?}", user.notices);
+        assert!(user.notices[0].contains("reports a feed hold (Hold:0)") && user.notices[0].contains("after 3 s"));
+        // Held with the pen on the paper.
+        let (z, xy) = pen_and_xy(&s);
+        assert_eq!(z, 0);
+        let done = s.stop_and_lift().unwrap();
+        assert_eq!(done, "emulator: stopped (soft reset); the pen is up (G91 G0 Z4, G90)");
+        // A reset at Hold:0 raises no alarm and keeps the position: only Z moved, up to 4 mm.
+        assert_eq!(pen_and_xy(&s), (1600, xy));
+        assert!(s.status().unwrap().is_idle());
+    }
+
+    #[test]
+    fn a_soft_reset_mid_plot_ends_with_alarm_3_and_the_pen_up() {
+        let mut s = session(Faults { realtime_after_lines: Some((PRESS_AT, RT_RESET)), ..Faults::default() });
+        let plan = plan_for(&mut s);
+        match s.stream(&plan, &mut User::default()) {
+            Err(e @ StreamError::Alarm { code: 3, .. }) => {
+                let e = e.to_string();
+                assert!(e.contains("alarm 3 (reset while moving; the position is probably lost"), "{e}");
+            }
+            other => panic!("{:?}", other.map(|s| s.frames)),
+        }
+        let (z, xy) = pen_and_xy(&s);
+        assert_eq!(z, 0, "the reset does not move Z: the pen stays on the paper");
+        let done = s.stop_and_lift().unwrap();
+        assert_eq!(
+            done,
+            "emulator: stopped (soft reset, unlocked with $X (home before the next plot: the position may be lost)); \
+             the pen is up (G91 G0 Z4, G90)"
+        );
+        assert_eq!(pen_and_xy(&s), (1600, xy));
+    }
+
+    #[test]
+    fn an_alarm_mid_plot_ends_with_the_pen_up() {
+        let mut s = session(Faults { hard_limit_after_lines: Some(PRESS_AT), ..Faults::default() });
+        let plan = plan_for(&mut s);
+        let e = s.stream(&plan, &mut User::default()).unwrap_err().to_string();
+        assert!(e.contains("alarm 1 (hard limit switch triggered"), "{e}");
+        let (z, xy) = pen_and_xy(&s);
+        assert_eq!(z, 0);
+        // GRBL waits for a reset after a hard limit; then `$X`, then the lift.
+        let done = s.stop_and_lift().unwrap();
+        assert!(done.contains("soft reset, unlocked with $X") && done.ends_with("the pen is up (G91 G0 Z4, G90)"));
+        assert_eq!(pen_and_xy(&s), (1600, xy));
+    }
+
+    #[test]
+    fn ctrl_c_while_held_stops_at_once_and_lifts_the_pen() {
+        let mut s = session(Faults { realtime_after_lines: Some((PRESS_AT, RT_FEED_HOLD)), ..Faults::default() });
+        let plan = plan_for(&mut s);
+        let mut user = User { after_notice: true, presses: 1, ..User::default() };
+        let t0 = s.transport.now();
+        let e = s.stream(&plan, &mut user).unwrap_err().to_string();
+        assert!(e.contains("emulator: stopped at once on a pause request (Ctrl-C) during a feed hold (Hold:"), "{e}");
+        // At once: well within the 30 s a hold may last.
+        assert!(s.transport.now() - t0 < Duration::from_secs(10));
+        assert_eq!(pen_and_xy(&s).0, 0);
+        let done = s.stop_and_lift().unwrap();
+        assert!(done.ends_with("the pen is up (G91 G0 Z4, G90)"), "{done}");
+        assert_eq!(pen_and_xy(&s).0, 1600);
+    }
+
+    #[test]
+    fn a_second_ctrl_c_stops_at_once_without_an_alarm() {
+        let mut s = session(Faults::default());
+        let plan = plan_for(&mut s);
+        // Two presses while the second square's pen-down stroke runs.
+        let mut user = User { at: Some(13), presses: 2, ..User::default() };
+        let e = s.stream(&plan, &mut user).unwrap_err().to_string();
+        assert!(
+            e.contains("stopped at once on a second pause request (Ctrl-C) before the pause at the next pen-up"),
+            "{e}"
+        );
+        assert!(pen_and_xy(&s).0 < 1600, "stopped with the pen down");
+        // Running: held first, so the reset keeps the position (no alarm, no `$X`); the lift goes from wherever
+        // the hold stopped Z (it may have been on its way up).
+        let done = s.stop_and_lift().unwrap();
+        assert!(done.starts_with("emulator: stopped (feed hold, soft reset); the pen is up (G91 G0 Z"), "{done}");
+        assert_eq!(pen_and_xy(&s).0, 1600);
+    }
+
+    #[test]
+    fn a_servo_pen_is_lifted_with_m5_after_a_reset() {
+        let mut profile = MachineProfile::default_plotter();
+        profile.pen.command = plotter_path::motion::profile::PenCommand::Servo;
+        (profile.pen.servo_up_deg, profile.pen.servo_down_deg) = (90.0, 25.0);
+        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
+        // Plan lines: `M5 G4 …`, then per square travel, `M3 S25 G4 …`, four strokes, `M5 G4 …`. The servo acts
+        // once the queue has run empty, so the `ok` of G-code line 20 (G21, G90, then the third square's first
+        // stroke) comes with the pen down.
+        let faults = Faults { realtime_after_lines: Some((20, RT_RESET)), ..Faults::default() };
+        let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), faults);
+        let mut s = GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap();
+        s.home().unwrap();
+        let plan = make_plan(&profile, &drawing(), s.position().unwrap(), Lookahead::Whole).unwrap();
+        let e = s.stream(&plan, &mut User::default()).unwrap_err().to_string();
+        assert!(e.contains("alarm 3"), "{e}");
+        // The reset switched the spindle output off: the servo got no new pulse and holds the pen down.
+        assert_eq!(s.transport.emulator().pen().servo_deg, Some(25.0));
+        let done = s.stop_and_lift().unwrap();
+        assert!(
+            done.ends_with(
+                "unlocked with $X (home before the next plot: the position may be lost)); the pen is up (M5)"
+            )
+        );
+        assert_eq!(s.transport.emulator().pen().servo_deg, Some(90.0));
+    }
+
+    #[test]
+    fn a_silent_controller_is_reported_with_what_to_do() {
+        let profile = MachineProfile::default_plotter();
+        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
+        let emu =
+            GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
+        let mut s =
+            GrblSession::connect(EmulatorTransport::new(emu).vanish_after(1500), "/dev/ttyUSB0", &profile).unwrap();
+        let plan = plan_for(&mut s);
+        let _ = s.stream(&plan, &mut User::default()).unwrap_err();
+        let e = format!("{:#}", s.stop_and_lift().unwrap_err());
+        assert!(e.starts_with("could not lift the pen, which may still be on the paper: press the controller's Reset"));
+        assert!(e.contains("raise Z to the pen-up height (4 mm)") && e.contains("lost the connection"), "{e}");
     }
 
     #[test]
