@@ -379,7 +379,9 @@ impl Thermal {
     /// allowed (`M302`) and the hot end reads below the minimum extrusion temperature (or has no valid reading).
     pub fn cold_extrusion(&self) -> Option<TooCold> {
         let temp_c = self.ch[Heater::HotEnd.index()].temp;
-        let cold = self.cfg.heater(Heater::HotEnd).enabled && !self.cold_allowed && !(temp_c >= self.min_extrude_c);
+        // NaN (no valid reading) counts as cold.
+        let warm = temp_c.is_finite() && temp_c >= self.min_extrude_c;
+        let cold = self.cfg.heater(Heater::HotEnd).enabled && !self.cold_allowed && !warm;
         cold.then_some(TooCold { temp_c, min_c: self.min_extrude_c })
     }
 
