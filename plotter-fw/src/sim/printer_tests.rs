@@ -176,6 +176,29 @@ fn cold_extrusion_is_refused_until_allowed_or_hot() {
 }
 
 #[test]
+fn a_number_run_into_e_is_refused_and_nothing_moves() {
+    let mut sim = printer();
+    sim.take_replies();
+    // Cold extrusion allowed, so only the parser stands between `X1E5` and 5 mm of extrusion (Marlin's reading).
+    let r = run(&mut sim, "M302 P1\nG1 X1E5 F600\nG1 X1e40\nN0 G1 X1e-05*44\nG1 X2 E0.5\nG1 X2 E0.5 F600\n");
+    let ambiguous = "error:14 ambiguous number: a number runs into an E word (put a space before E) at column 5";
+    assert_eq!(
+        r,
+        [
+            "ok",
+            ambiguous,
+            ambiguous,
+            "error:14 ambiguous number: a number runs into an E word (put a space before E) at column 6",
+            "error:9 value out of range: no feed rate (F) set for G1",
+            "ok"
+        ]
+    );
+    // Not even the refused lines' F600 took effect (the first `G1 X2 E0.5` has no feed). Only the last line moved:
+    // X2 = 160 steps, E0.5 = 46.5 → 47 steps (rounded once).
+    assert_eq!(sim.hal().step_counts(), [160, 0, 0, 47]);
+}
+
+#[test]
 fn cold_step_blocks_with_extrusion_are_refused_and_latch() {
     use crate::protocol::{Encoder, MAX_FRAME};
     let mut sim = printer();
