@@ -226,3 +226,104 @@ fn prusaslicer_cube_plays_to_the_end() {
         sim.now() as f64 / 1e6
     );
 }
+
+// ---- `plotter print` ends with the reason, never printing cold (issue 22, findings 9 and 10) ----
+
+/// Notes the print streamer writes.
+#[derive(Default)]
+struct Notes(Vec<String>);
+
+impl plotter_host::link::print::PrintControl for Notes {
+    fn progress(&mut self, _: &plotter_host::link::print::PrintProgress) {}
+    fn note(&mut self, message: &str) {
+        self.0.push(message.to_string());
+    }
+}
+
+/// `gcode` printed by the library's print path on the simulated printer; `check` sees the simulator afterwards.
+/// Returns the streamer's result (the error with its causes).
+fn print_on_sim(gcode: &str, check: impl FnOnce(&Sim)) -> Result<plotter_host::link::print::PrintStats, String> {
+    use plotter_host::link::print::{PrinterSim, stream_print};
+    use plotter_host::link::session::Session;
+    let (profile, cfg) = printer();
+    let program = import_print(gcode, "t.gcode", &profile).unwrap();
+    let plan = plan_print(&profile, &program).unwrap();
+    let transport = PrinterSim::new(cfg, thermal_config(&profile).unwrap(), Vec::new());
+    let mut session = Session::connect(transport, "simulated printer").unwrap();
+    let result = stream_print(&mut session, &plan, &mut Notes::default());
+    check(session.transport.sim());
+    result.map_err(|e| format!("{e:#}"))
+}
+
+/// The start of a print without any heating: homing, the first layer's height, then extrusion (5 + 5 mm).
+const COLD_PRINT: &str = "G28\nG1 Z0.3 F600\nG1 X10 Y10 F3000\nG1 X30 Y10 E5 F1200\nG1 X30 Y30 E10\n";
+
+fn assert_stopped_cold(sim: &Sim) {
+    use plotter_fw::thermal::Heater;
+    // Not a step of filament, heaters off (targets and duties), the machine idle.
+    assert_eq!(sim.physical_position()[Axis::E.index()], 0);
+    assert_eq!(sim.hal().step_counts()[Axis::E.index()], 0);
+    let t = sim.machine().thermal();
+    assert_eq!((t.target(Heater::HotEnd), t.target(Heater::Bed), t.fan()), (0.0, 0.0, 0));
+    assert_eq!((sim.heaters().duty(Heater::HotEnd), sim.heaters().duty(Heater::Bed)), (0, 0));
+    assert!(sim.machine().stepper().is_idle());
+}
+
+#[test]
+fn cold_extrusion_stops_the_print_with_the_reason() {
+    let e = print_on_sim(COLD_PRINT, assert_stopped_cold).unwrap_err();
+    assert!(e.contains("refused by the printer: error 15: cold extrusion prevented: hot end 2"), "{e}");
+    assert!(
+        e.contains("below the minimum of 170.0 C") && e.ends_with("print stopped: motion stopped, heaters and fan off"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_refused_heater_command_stops_the_print_instead_of_printing_cold() {
+    // The issue's file: targets above the hot end's maximum (260 °C), refused; the bed heats meanwhile.
+    let gcode = format!("M140 S60\nM104 S300\nM109 S300\n{COLD_PRINT}");
+    // The bed's target (60 °C, accepted) is switched off again.
+    let e = print_on_sim(&gcode, assert_stopped_cold).unwrap_err();
+    assert!(
+        e.starts_with(
+            "line 2 (M104 S300) refused by the printer: error 9: value out of range: target above the heater's maximum"
+        ),
+        "{e}"
+    );
+    assert!(e.ends_with("heaters and fan off"), "{e}");
+}
+
+#[test]
+fn heated_print_extrudes_exactly() {
+    // The same moves after M109 S210 print to the end: 10 mm of filament at 93 steps/mm.
+    let stats = print_on_sim(&format!("M109 S210\n{COLD_PRINT}"), |sim| {
+        assert_eq!(sim.physical_position()[Axis::E.index()], 930);
+        assert!(sim.heaters().temperature(plotter_fw::thermal::Heater::HotEnd) > 205.0);
+    })
+    .unwrap();
+    assert_eq!(stats.refused, 0);
+}
+
+#[test]
+fn plotter_print_exits_with_the_reason() {
+    use plotter_e2e::{plotter, scratch};
+    let dir = scratch("print-cold");
+    let profile = sample("printer.toml");
+    let profile = profile.to_str().unwrap();
+    for (name, gcode, reason) in [
+        ("cold.gcode", COLD_PRINT.to_string(), "error 15: cold extrusion prevented"),
+        (
+            "hot300.gcode",
+            format!("M104 S300\nM109 S300\n{COLD_PRINT}"),
+            "line 1 (M104 S300) refused by the printer: error 9",
+        ),
+        ("exponent.gcode", "G28\nG1 X1e40 F600\n".to_string(), "exponent.gcode:2: ambiguous number: X1 runs into e40"),
+    ] {
+        std::fs::write(dir.join(name), gcode).unwrap();
+        let out = plotter(&dir, &["print", name, "--profile", profile]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name}: {stderr}");
+        assert!(stderr.contains(reason), "{name}: {stderr}");
+    }
+}

@@ -23,6 +23,8 @@
 //! | 11 | `Checksum` | an unnumbered line carried a bad checksum (numbered ones get `rs`) |
 //! | 12 | `BadFrame` | a step-block frame outside the sequenced stream, or one the stepper cannot run |
 //! | 13 | `OutOfRange` | a number or target beyond what the machine can represent (see [`crate::range`]); nothing moved |
+//! | 14 | `AmbiguousE` | a number runs straight into an `E` word (`X1E5`: X1 and E5 as Marlin reads it, or 1·10⁵ as a script meant it); the line was not executed |
+//! | 15 | `ColdExtrusion` | a move with extrusion while the hot end is below the minimum extrusion temperature (see [`crate::thermal`], `M302`); nothing moved |
 //!
 //! | code | alarm | meaning |
 //! |-----:|-------|---------|
@@ -67,6 +69,10 @@ pub enum ErrorCode {
     BadFrame = 12,
     /// A number or target the machine cannot represent.
     OutOfRange = 13,
+    /// A number run into an `E` word: exponent or extrusion, not guessed.
+    AmbiguousE = 14,
+    /// Extrusion refused: the hot end is below the minimum extrusion temperature.
+    ColdExtrusion = 15,
 }
 
 impl ErrorCode {
@@ -91,6 +97,8 @@ impl ErrorCode {
             ErrorCode::Checksum => "checksum mismatch",
             ErrorCode::BadFrame => "step block refused",
             ErrorCode::OutOfRange => "number out of range",
+            ErrorCode::AmbiguousE => "ambiguous number: a number runs into an E word (put a space before E)",
+            ErrorCode::ColdExtrusion => "cold extrusion prevented",
         }
     }
 }
@@ -188,6 +196,8 @@ mod tests {
             ErrorCode::Checksum,
             ErrorCode::BadFrame,
             ErrorCode::OutOfRange,
+            ErrorCode::AmbiguousE,
+            ErrorCode::ColdExtrusion,
         ];
         for (i, e) in all.iter().enumerate() {
             assert_eq!(usize::from(e.code()), i + 1);

@@ -3,6 +3,11 @@
 //! Numbers are parsed as exact fixed-point integers in millionths ([`MICRO`] per unit), not floats: positions
 //! are kept in micrometre-exact integers, so relative moves (`G91`) add up without any drift however many there
 //! are, and the only rounding is the single conversion of an absolute target to whole steps.
+//!
+//! Exponent notation is not G-code: `E` starts the extruder word, as in Marlin. A number run straight into an `E`
+//! with digits (`X1E5`, `X1e-05`) is therefore either X1 with E5 (a slicer without spaces) or 1·10⁵ (a script
+//! printing floats); the line is refused as ambiguous ([`ErrorCode::AmbiguousE`]) instead of being split silently.
+//! Command letters (`G1E5`) are exempt: their numbers are never written with exponents.
 
 use crate::errors::ErrorCode;
 use crate::protocol::xor_checksum;
@@ -215,6 +220,11 @@ pub fn parse_words(body: &[u8]) -> Result<Words, ParseError> {
             },
             column: j,
         })?;
+        let end = j + used;
+        if !CODE_LETTERS.contains(&letter) && runs_into_e(&body[end..]) {
+            // `X1E5`: Marlin reads X1 E5, a script printing floats meant 1·10⁵. Neither is guessed.
+            return Err(ParseError { code: ErrorCode::AmbiguousE, column: end });
+        }
         match letter {
             b'G' | b'M' => {
                 let code = (value % MICRO == 0 && value >= 0)
@@ -233,7 +243,7 @@ pub fn parse_words(body: &[u8]) -> Result<Words, ParseError> {
                 w.values[usize::from(letter - b'A')] = value;
             }
         }
-        i = j + used;
+        i = end;
     }
     if let Some(column) = bare_column
         && !w.g.contains(&28)
@@ -241,6 +251,17 @@ pub fn parse_words(body: &[u8]) -> Result<Words, ParseError> {
         return Err(ParseError { code: ErrorCode::ExpectedCommand, column });
     }
     Ok(w)
+}
+
+/// Letters whose values are command numbers (`G1`, `M104`, `T0`, `N12`), never written with an exponent: `G1E5` is
+/// G1 and E5 without doubt.
+const CODE_LETTERS: &[u8] = b"GMNT";
+
+/// Whether `s` (the bytes right after a number) starts with an `E` word's number: `e`/`E` followed by a digit, a
+/// sign or a point. After a number, that is either an exponent (`1E5` = 100000, as scripts print floats) or the
+/// extruder word (`X1E5` = X1 E5, as Marlin and slicers without spaces mean it).
+pub fn runs_into_e(s: &[u8]) -> bool {
+    matches!(s.first(), Some(b'e' | b'E')) && s.get(1).is_some_and(|c| c.is_ascii_digit() || b"+-.".contains(c))
 }
 
 /// Whether `s` starts with a number whose integer part has more digits than [`parse_micro`] takes.
@@ -311,7 +332,66 @@ mod tests {
         assert_eq!(parse_words(b"G28 X5").unwrap().get(b'X'), Some(5_000_000));
     }
 
+    #[test]
+    fn a_number_run_into_e_is_ambiguous() {
+        // The reproducers: a Python float and an exponent that Marlin would extrude as E40.
+        for (line, column) in [("G1 X1e-05", 5), ("G1 X1e40", 5), ("G1 X1E5 Y2", 5), ("G1 Y2 X-3.5e+1", 11)] {
+            assert_eq!(parse_words(line.as_bytes()), Err(ParseError { code: ErrorCode::AmbiguousE, column }), "{line}");
+        }
+        assert_eq!(parse_words(b"G1 X.5E.5").unwrap_err().code, ErrorCode::AmbiguousE);
+        // With a space, E is the extruder word; command letters are never exponents.
+        let w = parse_words(b"G1 X1 E40").unwrap();
+        assert_eq!((w.get(b'X'), w.get(b'E')), (Some(MICRO), Some(40 * MICRO)));
+        let w = parse_words(b"G1E5").unwrap();
+        assert_eq!((w.g.as_slice(), w.get(b'E')), (&[1][..], Some(5 * MICRO)));
+        let w = parse_words(b"M303E0S210").unwrap();
+        assert_eq!((w.get(b'E'), w.get(b'S')), (Some(0), Some(210 * MICRO)));
+        // `E` not followed by a number after a value: a bare E, only valid with G28.
+        assert_eq!(parse_words(b"G28 X1E").unwrap().get(b'X'), Some(MICRO));
+        assert_eq!(parse_words(b"G1 X1E").unwrap_err().code, ErrorCode::ExpectedCommand);
+        assert!(runs_into_e(b"e-1") && runs_into_e(b"E.5") && !runs_into_e(b"E") && !runs_into_e(b"EX"));
+    }
+
+    /// A number-like word: sign, digits (sometimes a huge run), point, fraction, exponent.
+    fn number_like() -> impl Strategy<Value = std::string::String> {
+        let digits = prop_oneof![
+            4 => "[0-9]{0,8}",
+            1 => "[0-9]{11,14}",
+            1 => (1usize..80).prop_map(|n| "9".repeat(n)),
+        ];
+        (
+            prop_oneof![Just(""), Just("-"), Just("+"), Just("--"), Just("+-")],
+            digits.clone(),
+            prop_oneof![Just(""), Just("."), Just("..")],
+            digits,
+            prop_oneof![Just(""), Just("e"), Just("E"), Just("e-"), Just("E+"), Just("e."), Just("ee")],
+            "[0-9]{0,4}",
+        )
+            .prop_map(|(s, i, p, f, e, x)| std::format!("{s}{i}{p}{f}{e}{x}"))
+    }
+
     proptest! {
+        /// Random number-like words through the parser: a value exactly as the decimal grammar reads it, or a clear
+        /// error at a column inside the line; never a panic, never a silently split exponent.
+        #[test]
+        fn number_words_give_a_value_or_a_clear_error(letter in prop::sample::select(&b"XYZEFSPR"[..]), num in number_like()) {
+            let line = std::format!("G1 {}{num}", letter as char);
+            match parse_words(line.as_bytes()) {
+                Ok(w) => {
+                    // Accepted: the whole number is one plain decimal (no exponent split off) with its exact value.
+                    let (v, used) = parse_micro(num.as_bytes()).expect("an accepted word parses");
+                    prop_assert_eq!(used, num.len());
+                    prop_assert_eq!(w.get(letter), Some(v));
+                    prop_assert!(!num.bytes().any(|c| c == b'e' || c == b'E'));
+                }
+                Err(e) => {
+                    prop_assert!(e.column <= line.len(), "{:?} {}", e, line);
+                    let ambiguous = parse_micro(num.as_bytes()).is_some_and(|(_, used)| runs_into_e(&num.as_bytes()[used..]));
+                    prop_assert_eq!(e.code == ErrorCode::AmbiguousE, ambiguous, "{:?} {}", e, line);
+                }
+            }
+        }
+
         #[test]
         fn decimal_round_trip(int in -999_999i64..999_999, frac in 0i64..1_000_000) {
             let s = std::format!("{}{}.{:06}", if int < 0 { "-" } else { "" }, int.abs(), frac);

@@ -591,6 +591,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.rt_matcher.clear();
             self.completed_base = self.stepper.completed();
             self.refused = None;
+            self.thermal.restore_cold_extrusion();
             if moving {
                 // Stopped without deceleration: steps may have been lost.
                 self.homed = 0;
@@ -869,6 +870,13 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
             return Outcome::Done;
         }
+        if block.steps[Axis::E.index()] != 0
+            && let Some(cold) = self.thermal.cold_extrusion()
+        {
+            self.refused = Some((number, ErrorCode::ColdExtrusion.code()));
+            self.reply_error(ErrorCode::ColdExtrusion, format_args!("{cold}"));
+            return Outcome::Done;
+        }
         self.set_target_steps(target);
         self.queue_block(PlanBlock::fixed(block));
         self.reply_ok();
@@ -1122,6 +1130,12 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         };
         // Both targets lie within ±2^30 steps, so the difference fits.
         let steps: [i32; NUM_AXES] = core::array::from_fn(|i| target[i] - self.target_steps[i]);
+        if steps[Axis::E.index()] != 0
+            && let Some(cold) = self.thermal.cold_extrusion()
+        {
+            self.reply_error(ErrorCode::ColdExtrusion, format_args!("{cold}"));
+            return Outcome::Done;
+        }
         let block = PlanBlock::line(&self.cfg, steps, feed);
         if let Some(b) = &block {
             let rate = crate::fmath::floor_u32(b.nominal_speed * b.events_per_mm);

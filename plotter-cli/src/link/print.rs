@@ -6,8 +6,14 @@
 //!   every second meanwhile (and during the print, after the `M155 S1` sent first).
 //! - `rs <n>` (a damaged item): the host stops sending, collects the answers of everything still in flight, and
 //!   resends from item `n` (go-back-N).
-//! - An `error:` on a line (a command the firmware refused) is reported and the print goes on; an alarm (a thermal
-//!   trip, an emergency stop, a limit) ends the print with the firmware's alarm text, which names the sensor.
+//! - A refused step block (cold extrusion, a soft limit: the firmware refuses everything after a hole in the print)
+//!   or a refused heater or homing command (`M104 S300` above the maximum would otherwise print cold) ends the print
+//!   with the firmware's reason; any other refused line (a fan the printer lacks) is reported and the print goes on.
+//!   An alarm (a thermal trip, an emergency stop, a limit) ends the print with the firmware's alarm text, which names
+//!   the sensor.
+//! - However the print ends early, the host then stops the machine (a reset: motion stops, the queue is dropped) and
+//!   switches the heaters and the fan off, and the error says so (or that it could not, so the user switches the
+//!   printer off).
 //! - Progress is the layer of the latest block the firmware accepted (its queue holds well under a second of
 //!   motion); at the end the host waits until the machine is idle.
 
@@ -124,8 +130,38 @@ pub struct PrintStats {
 /// Quiet time after which the firmware is taken to be gone (it reports temperatures every second).
 const SILENCE: Duration = Duration::from_secs(30);
 
-/// Stream `plan` over `session`; `control` gets the progress.
+/// Whether the firmware refusing this line must end the print: heater targets and waits (printing on without them
+/// prints cold or at the wrong temperature), autotune and homing.
+fn refusal_ends_print(text: &str) -> bool {
+    let command = text.split_whitespace().next().unwrap_or("");
+    matches!(command, "M104" | "M109" | "M140" | "M190" | "M303" | "G28")
+}
+
+/// Stream `plan` over `session`; `control` gets the progress. When the print ends early (see the module docs), the
+/// machine is stopped and its heaters switched off before the error returns.
 pub fn stream_print<T: Transport>(
+    session: &mut Session<T>,
+    plan: &PrintPlan,
+    control: &mut dyn PrintControl,
+) -> anyhow::Result<PrintStats> {
+    stream(session, plan, control).map_err(|why| match shut_down(session) {
+        Ok(()) => anyhow::anyhow!("{why:#}; print stopped: motion stopped, heaters and fan off"),
+        Err(e) => anyhow::anyhow!(
+            "{why:#}; print stopped, but the heaters could not be switched off ({e:#}): switch the printer off"
+        ),
+    })
+}
+
+/// After an early end: reset (motion stops, the queue is dropped), then heaters and fan off, each checked.
+fn shut_down<T: Transport>(session: &mut Session<T>) -> anyhow::Result<()> {
+    session.reset()?;
+    for off in ["M104 S0", "M140 S0", "M107"] {
+        session.command(off, COMMAND_TIMEOUT)?;
+    }
+    Ok(())
+}
+
+fn stream<T: Transport>(
     session: &mut Session<T>,
     plan: &PrintPlan,
     control: &mut dyn PrintControl,
@@ -135,6 +171,9 @@ pub fn stream_print<T: Transport>(
     let wire = wire_items(plan, base).map_err(|e| anyhow::anyhow!(e))?;
     let rx = session.info.rx_bytes;
     let n = wire.len();
+    if let Some(i) = (0..n).find(|&i| wire[i].len() > rx) {
+        bail!("item {i} is {} bytes, more than the firmware's receive buffer ({rx} bytes) holds", wire[i].len());
+    }
     // Planned time after each item.
     let mut remaining = vec![0u64; n + 1];
     for i in (0..n).rev() {
@@ -199,10 +238,15 @@ pub fn stream_print<T: Transport>(
                     Reply::Error { code, text } if rewind.is_none() => {
                         progress.accepted = item + 1;
                         stats.refused += 1;
-                        let what = match &plan.items[item] {
-                            PrintItem::Line { text, line, .. } => format!("line {line} ({text})"),
-                            PrintItem::Block { .. } => format!("block {item}"),
+                        let (what, fatal) = match &plan.items[item] {
+                            PrintItem::Line { text, line, .. } => {
+                                (format!("line {line} ({text})"), refusal_ends_print(text))
+                            }
+                            PrintItem::Block { layer, .. } => (format!("block {item} (layer {layer})"), true),
                         };
+                        if fatal {
+                            bail!("{what} refused by the printer: error {code}: {text}");
+                        }
                         control.note(&format!("{what} refused: error {code}: {text}"));
                     }
                     Reply::Resend(seq) => {

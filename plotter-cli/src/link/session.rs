@@ -399,6 +399,16 @@ impl<T: Transport> Session<T> {
     /// Stop everything and raise the pen, for abort paths: a reset (the queue is dropped, the carriage stops where it
     /// is; framed mode ends), then `G0 Z<up_z_mm>` in machine coordinates. Fails when the firmware does not answer.
     pub fn stop_and_lift(&mut self, up_z_mm: f64) -> anyhow::Result<()> {
+        self.reset()?;
+        self.command(&format!("G90 G0 Z{up_z_mm:.3}"), COMMAND_TIMEOUT)?;
+        // Wait for the lift to finish.
+        self.wait_idle(Duration::from_millis(50))?;
+        Ok(())
+    }
+
+    /// Reset the firmware (0x18) and wait for its banner: motion stops where it is, the queue is dropped, framed mode
+    /// ends. Fails when no banner comes within 3 s.
+    pub fn reset(&mut self) -> anyhow::Result<()> {
         self.send_realtime(plotter_fw::protocol::RT_RESET)?;
         let deadline = self.transport.now() + Duration::from_secs(3);
         loop {
@@ -415,9 +425,6 @@ impl<T: Transport> Session<T> {
             }
         }
         self.framed = false;
-        self.command(&format!("G90 G0 Z{up_z_mm:.3}"), COMMAND_TIMEOUT)?;
-        // Wait for the lift to finish.
-        self.wait_idle(Duration::from_millis(50))?;
         Ok(())
     }
 

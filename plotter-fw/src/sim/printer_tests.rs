@@ -90,6 +90,9 @@ fn hold_deviation(sim: &mut Sim, target: f64, secs: u64) -> f64 {
 #[test]
 fn extrusion_modes_retractions_and_g92() {
     let mut sim = printer();
+    sim.take_replies();
+    // Cold, so cold extrusion is allowed first (`cold_extrusion_is_refused_until_allowed_or_hot` tests the guard).
+    assert_eq!(run(&mut sim, "M302 P1\n"), ["ok"]);
     // Relative E (M83): 1 mm with 10 mm of X, a 0.8 mm retraction and its prime as E-only moves.
     // Absolute E (M82) after G92 E0: E2 is 2 mm more.
     let g = "G21\nM83\nG1 X10 E1 F600\nG1 E-0.8 F2100\nG1 E0.8\nG92 E0\nM82\nG1 X20 E2 F600\nG1 E1.5 F2100\n\
@@ -106,6 +109,127 @@ fn extrusion_modes_retractions_and_g92() {
     assert_eq!(e_steps, 93 + 74 + 74 + 186 + 46 + 23, "{e_steps}");
     // M114 reports E in work coordinates: G92 E0 at 1.0 mm machine E, now 2.75 → 1.75.
     assert!(r.iter().any(|l| l.starts_with("X:20.000 Y:0.000 Z:0.000 E:1.750")), "{r:?}");
+}
+
+fn run(sim: &mut Sim, text: &str) -> Vec<String> {
+    sim.feed(text.as_bytes());
+    sim.run_until_idle();
+    sim.take_replies()
+}
+
+/// The hot-end temperature an `error:15` reply states (`hot end 20.0 C, below ...`).
+fn stated_temperature(reply: &str) -> f64 {
+    let t = reply.split("hot end ").nth(1).and_then(|r| r.split(" C,").next()).expect(reply);
+    t.parse().expect(reply)
+}
+
+#[test]
+fn cold_extrusion_is_refused_until_allowed_or_hot() {
+    let mut sim = printer();
+    sim.take_replies();
+    let e_steps = |sim: &Sim| sim.hal().step_counts()[3];
+    // At room temperature: an E-only move and a move with E are refused whole (X does not move either).
+    let r = run(&mut sim, "G1 E5 F300\nG1 X10 E5\nM114\n");
+    assert_eq!(r.len(), 4, "{r:?}");
+    for reply in &r[..2] {
+        assert!(
+            reply.starts_with("error:15 cold extrusion prevented: hot end ")
+                && reply.ends_with(", below the minimum of 170.0 C (M302 P1 allows cold extrusion)"),
+            "{reply}"
+        );
+        let t = stated_temperature(reply);
+        assert!((19.0..=21.0).contains(&t), "{reply}");
+    }
+    assert!(r[2].starts_with("X:0.000 Y:0.000 Z:0.000 E:0.000"), "{r:?}");
+    assert_eq!((sim.hal().step_counts(), sim.machine().target_steps()), ([0; 4], [0; 4]));
+    // Moves without extrusion run; M302 reports the guard.
+    assert_eq!(run(&mut sim, "G1 X10 F600\n"), ["ok"]);
+    assert_eq!(sim.physical_position()[0], 800);
+    let r = run(&mut sim, "M302\n");
+    assert!(r[0].starts_with("cold extrusion prevented (minimum 170.0 C, hot end "), "{r:?}");
+    // M302 P1: allowed; 5 mm at 93 steps/mm is exactly 465 steps.
+    assert_eq!(run(&mut sim, "M302 P1\nG1 E5 F300\n"), ["ok", "ok"]);
+    assert_eq!(e_steps(&sim), 465);
+    assert_eq!(sim.physical_position()[3], 465);
+    // M302 P0: prevented again.
+    let r = run(&mut sim, "M302 P0\nG1 E6\n");
+    assert!(r[0] == "ok" && r[1].starts_with("error:15 "), "{r:?}");
+    assert_eq!(e_steps(&sim), 465);
+    // M302 S15: the minimum is 15 C, the hot end at about 20 C is warm enough; S0 allows everything.
+    assert_eq!(run(&mut sim, "M302 S15\nG1 E6\n"), ["ok", "ok"]);
+    assert_eq!(sim.physical_position()[3], 558);
+    let r = run(&mut sim, "M302 S170\nG1 E7\nM302 S300\nM302 P2\n");
+    assert!(r[0] == "ok" && r[1].starts_with("error:15 "), "{r:?}");
+    assert!(r[2].starts_with("error:9 value out of range: M302 S") && r[3].starts_with("error:9"), "{r:?}");
+    // A reset restores the profile's guard after M302 P1.
+    assert_eq!(run(&mut sim, "M302 P1\n"), ["ok"]);
+    sim.feed(&[crate::protocol::RT_RESET]);
+    sim.run_until_idle();
+    sim.take_replies();
+    let r = run(&mut sim, "G1 E7 F300\n");
+    assert!(r[0].starts_with("error:15 "), "{r:?}");
+    // Hot: extrusion runs. E7 absolute from 6 mm of work E: +1 mm = 93 steps.
+    heat_to_210(&mut sim);
+    sim.take_replies();
+    assert_eq!(run(&mut sim, "G1 E7 F300\n"), ["ok"]);
+    assert_eq!(e_steps(&sim), 465 + 93 + 93);
+}
+
+#[test]
+fn a_number_run_into_e_is_refused_and_nothing_moves() {
+    let mut sim = printer();
+    sim.take_replies();
+    // Cold extrusion allowed, so only the parser stands between `X1E5` and 5 mm of extrusion (Marlin's reading).
+    let r = run(&mut sim, "M302 P1\nG1 X1E5 F600\nG1 X1e40\nN0 G1 X1e-05*44\nG1 X2 E0.5\nG1 X2 E0.5 F600\n");
+    let ambiguous = "error:14 ambiguous number: a number runs into an E word (put a space before E) at column 5";
+    assert_eq!(
+        r,
+        [
+            "ok",
+            ambiguous,
+            ambiguous,
+            "error:14 ambiguous number: a number runs into an E word (put a space before E) at column 6",
+            "error:9 value out of range: no feed rate (F) set for G1",
+            "ok"
+        ]
+    );
+    // Not even the refused lines' F600 took effect (the first `G1 X2 E0.5` has no feed). Only the last line moved:
+    // X2 = 160 steps, E0.5 = 46.5 → 47 steps (rounded once).
+    assert_eq!(sim.hal().step_counts(), [160, 0, 0, 47]);
+}
+
+#[test]
+fn cold_step_blocks_with_extrusion_are_refused_and_latch() {
+    use crate::protocol::{Encoder, MAX_FRAME};
+    let mut sim = printer();
+    sim.take_replies();
+    let block = |steps| crate::StepBlock {
+        steps,
+        entry_rate: 0,
+        cruise_rate: 1000,
+        exit_rate: 0,
+        accel: 1000,
+        dwell_ticks: 0,
+        servo: None,
+    };
+    let mut enc = Encoder::new();
+    let mut out = [0u8; MAX_FRAME];
+    // X only (accepted), X with E (refused: cold), then X only (refused too: nothing after a hole in the print).
+    for (seq, steps) in [[80, 0, 0, 0], [80, 0, 0, 93], [80, 0, 0, 0]].into_iter().enumerate() {
+        let n = enc.encode(&block(steps), u32::try_from(seq).unwrap(), &mut out).unwrap();
+        sim.feed(&out[..n]);
+    }
+    sim.run_until_idle();
+    let r = sim.take_replies();
+    assert_eq!(r.len(), 3, "{r:?}");
+    assert_eq!(r[0], "ok");
+    assert!(r[1].starts_with("error:15 cold extrusion prevented: hot end "), "{r:?}");
+    assert_eq!(r[2], "error:12 step block refused: block 1 was refused");
+    assert_eq!(sim.hal().step_counts(), [80, 0, 0, 0]);
+    sim.feed(&[crate::protocol::RT_STATUS]);
+    sim.run_for(1000);
+    let status = sim.take_replies();
+    assert!(status.iter().any(|l| l.ends_with("|R:1,15>")), "{status:?}");
 }
 
 #[test]

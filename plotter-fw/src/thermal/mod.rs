@@ -19,10 +19,19 @@
 //! | `M303 E<0\|-1> S<t> C<n> U1` | PID autotune of the hot end (E0) or bed (E−1) at `t` over `n` cycles; `U1` applies the gains |
 //! | `M301 P I D` / `M304 P I D` | set (or, without words, report) the hot-end / bed PID gains |
 //! | `M112` | emergency stop: heaters off, motion stopped, motors off, alarm (acts as soon as the line is received) |
+//! | `M302` | cold extrusion: `P1` allows it, `P0` prevents it, `S<t>` sets the minimum (`S0` allows), no words report |
 //!
 //! A wait (`M109`, `M190`, `M303`) keeps its line pending, so the commands after it wait too, and reports the
 //! temperatures every second meanwhile. A target is reached once the temperature has stayed within
 //! [`HeaterConfig::wait_window_c`] of it for [`HeaterConfig::wait_residency_s`].
+//!
+//! # Cold extrusion
+//! Pushing filament through a nozzle too cold to melt it grinds the filament or jams the extruder, so, as in Marlin,
+//! a move with extrusion is refused ([`crate::errors::ErrorCode::ColdExtrusion`], nothing moves) while the hot end
+//! reads below [`ThermalConfig::min_extrude_c`] — G-code moves and host-planned step blocks alike, checked when the
+//! move is queued ([`Thermal::cold_extrusion`]). A hot end without a valid reading counts as cold. `M302 P1`
+//! allows cold extrusion deliberately (loading filament by hand, testing the extruder); a reset restores the
+//! profile's setting. Machines without a hot end (plotters, a paste extruder) are never checked.
 //!
 //! # Safety
 //! Every fault switches all heaters and the fan off and returns a [`ThermalAlarm`] naming the sensor; the machine
@@ -159,7 +168,13 @@ pub struct ThermalConfig {
     pub fan: bool,
     /// PID and safety-check period, ms.
     pub period_ms: u32,
+    /// Below this hot-end temperature, °C, moves with extrusion are refused (Marlin's `EXTRUDE_MINTEMP`; 0 allows
+    /// them at any temperature). See the module docs.
+    pub min_extrude_c: f32,
 }
+
+/// The default of [`ThermalConfig::min_extrude_c`], °C (Marlin's).
+pub const DEFAULT_MIN_EXTRUDE_C: f32 = 170.0;
 
 /// A heater setting out of range.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -182,11 +197,15 @@ impl fmt::Display for ThermalConfigError {
 
 impl ThermalConfig {
     /// No heaters, no fan (plotters).
-    pub const NONE: ThermalConfig =
-        ThermalConfig { heaters: [HeaterConfig::NONE; NUM_HEATERS], fan: false, period_ms: 100 };
+    pub const NONE: ThermalConfig = ThermalConfig {
+        heaters: [HeaterConfig::NONE; NUM_HEATERS],
+        fan: false,
+        period_ms: 100,
+        min_extrude_c: DEFAULT_MIN_EXTRUDE_C,
+    };
 
     /// The printer of `samples/printer.toml`: a 100k/3950 thermistor on each heater, hot end up to 260 °C, bed up
-    /// to 110 °C, fan.
+    /// to 110 °C, fan, extrusion from 170 °C.
     pub fn printer() -> Self {
         let hotend = HeaterConfig {
             enabled: true,
@@ -211,7 +230,7 @@ impl ThermalConfig {
             wait_residency_s: 3.0,
             ..HeaterConfig::NONE
         };
-        ThermalConfig { heaters: [hotend, bed], fan: true, period_ms: 100 }
+        ThermalConfig { heaters: [hotend, bed], fan: true, period_ms: 100, min_extrude_c: DEFAULT_MIN_EXTRUDE_C }
     }
 
     /// Whether any heater is configured.
@@ -242,6 +261,15 @@ impl ThermalConfig {
                 }
             }
         }
+        let hotend = self.heater(Heater::HotEnd);
+        if hotend.enabled
+            && !(self.min_extrude_c.is_finite() && (0.0..=hotend.max_target_c).contains(&self.min_extrude_c))
+        {
+            return Err(ThermalConfigError {
+                heater: None,
+                problem: "min_extrude_c must lie from 0 to the hot end's max_target_c (else nothing could extrude)",
+            });
+        }
         Ok(())
     }
 }
@@ -261,7 +289,30 @@ pub enum Cmd {
 
 /// Whether `m` is a command of this module.
 pub fn handles(m: u16) -> bool {
-    matches!(m, 104 | 105 | 106 | 107 | 109 | 112 | 140 | 155 | 190 | 301 | 303 | 304)
+    matches!(m, 104 | 105 | 106 | 107 | 109 | 112 | 140 | 155 | 190 | 301 | 302 | 303 | 304)
+}
+
+/// Why a move with extrusion was refused: the hot end's temperature (NaN without a valid reading) and the minimum.
+/// `Display` gives the detail of the `error:15` reply, e.g. `: hot end 20.0 C, below the minimum of 170.0 C (M302
+/// P1 allows cold extrusion)` (ASCII: replies stay 7-bit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TooCold {
+    /// The hot end's last temperature, °C.
+    pub temp_c: f32,
+    /// The minimum extrusion temperature in force, °C.
+    pub min_c: f32,
+}
+
+impl fmt::Display for TooCold {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(": hot end ")?;
+        if self.temp_c.is_finite() {
+            write!(f, "{} C", Decimal::new(self.temp_c, 1))?;
+        } else {
+            f.write_str("without a valid reading")?;
+        }
+        write!(f, ", below the minimum of {} C (M302 P1 allows cold extrusion)", Decimal::new(self.min_c, 1))
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -289,6 +340,10 @@ pub struct Thermal {
     report_every: u64,
     next_report: u64,
     waiting: bool,
+    /// `M302 P1`: cold extrusion allowed.
+    cold_allowed: bool,
+    /// The minimum extrusion temperature in force (`M302 S`), °C.
+    min_extrude_c: f32,
 }
 
 impl Thermal {
@@ -315,7 +370,25 @@ impl Thermal {
             report_every: 0,
             next_report: 0,
             waiting: false,
+            cold_allowed: cfg.min_extrude_c <= 0.0,
+            min_extrude_c: cfg.min_extrude_c,
         }
+    }
+
+    /// `Some` when a move with extrusion must be refused now: a hot end is configured, cold extrusion is not
+    /// allowed (`M302`) and the hot end reads below the minimum extrusion temperature (or has no valid reading).
+    pub fn cold_extrusion(&self) -> Option<TooCold> {
+        let temp_c = self.ch[Heater::HotEnd.index()].temp;
+        // NaN (no valid reading) counts as cold.
+        let warm = temp_c.is_finite() && temp_c >= self.min_extrude_c;
+        let cold = self.cfg.heater(Heater::HotEnd).enabled && !self.cold_allowed && !warm;
+        cold.then_some(TooCold { temp_c, min_c: self.min_extrude_c })
+    }
+
+    /// Back to the profile's cold-extrusion setting (a reset undoes `M302`).
+    pub fn restore_cold_extrusion(&mut self) {
+        self.cold_allowed = self.cfg.min_extrude_c <= 0.0;
+        self.min_extrude_c = self.cfg.min_extrude_c;
     }
 
     /// The configuration.
@@ -568,6 +641,7 @@ impl Thermal {
             106 => b"SPN",
             107 | 105 => b"PTN",
             155 => b"SN",
+            302 => b"PSN",
             303 => b"ESCUN",
             301 | 304 => b"PIDN",
             _ => b"N",
@@ -639,6 +713,7 @@ impl Thermal {
                 self.ch[h.index()].gains = g;
                 Cmd::Ok
             }
+            302 => self.cold_extrusion_command(w, out),
             303 => self.autotune_command(w, now, out, alarm),
             _ => {
                 let h = if matches!(m, 104 | 109) { Heater::HotEnd } else { Heater::Bed };
@@ -673,6 +748,45 @@ impl Thermal {
                 Cmd::Ok
             }
         }
+    }
+
+    /// `M302` as in Marlin: `S<t>` sets the minimum (and `S0` allows cold extrusion, any other `S` prevents it),
+    /// `P1`/`P0` allows/prevents it, neither reports the setting.
+    fn cold_extrusion_command<W: Write>(&mut self, w: &Words, out: &mut W) -> Cmd {
+        let hotend = *self.cfg.heater(Heater::HotEnd);
+        if !hotend.enabled {
+            return Cmd::Error(ErrorCode::InvalidValue, ": no hot end");
+        }
+        let s = w.get(b'S');
+        let p = w.get(b'P');
+        if s.is_none() && p.is_none() {
+            let _ = writeln!(
+                out,
+                "cold extrusion {} (minimum {} C, hot end {})",
+                if self.cold_allowed { "allowed" } else { "prevented" },
+                Decimal::new(self.min_extrude_c, 1),
+                Decimal::new(self.temperature(Heater::HotEnd), 1)
+            );
+            return Cmd::Ok;
+        }
+        if p.is_some_and(|p| p != 0 && p != MICRO) {
+            return Cmd::Error(ErrorCode::InvalidValue, ": M302 P must be 0 (prevent) or 1 (allow)");
+        }
+        let min = match s {
+            Some(s) if !(0..=MICRO * 10_000).contains(&s) || s as f32 / MICRO as f32 > hotend.max_target_c => {
+                return Cmd::Error(ErrorCode::InvalidValue, ": M302 S must lie from 0 to the hot end's maximum");
+            }
+            Some(s) => s as f32 / MICRO as f32,
+            None => self.min_extrude_c,
+        };
+        self.min_extrude_c = min;
+        if s.is_some() {
+            self.cold_allowed = min <= 0.0;
+        }
+        if let Some(p) = p {
+            self.cold_allowed = min <= 0.0 || p != 0;
+        }
+        Cmd::Ok
     }
 
     fn autotune_command<W: Write>(&mut self, w: &Words, now: u64, out: &mut W, alarm: bool) -> Cmd {
@@ -903,6 +1017,66 @@ mod tests {
         let mut c = ThermalConfig::printer();
         c.heaters[0].safety.watchdog_s = 0.15;
         assert!(c.validate().is_err());
+    }
+
+    #[test]
+    fn cold_extrusion_guard_and_m302() {
+        let mut t = Thermal::new(ThermalConfig::printer(), 0);
+        let mut io = Bench { counts: [Some(counts_at(20.0)), Some(counts_at(20.0))], ..Bench::default() };
+        let mut out = String::new();
+        // No reading yet: cold.
+        assert!(t.cold_extrusion().is_some_and(|c| c.temp_c.is_nan() && c.min_c == 170.0));
+        assert_eq!(
+            std::format!("{}", t.cold_extrusion().unwrap()),
+            ": hot end without a valid reading, below the minimum of 170.0 C (M302 P1 allows cold extrusion)"
+        );
+        t.tick(&mut io, 0, &mut out);
+        let cold = t.cold_extrusion().unwrap();
+        assert!((cold.temp_c - 20.0).abs() < 0.5, "{cold:?}");
+        // Marlin's M302: S sets the minimum (S0 allows), P allows (1) or prevents (0), neither reports.
+        assert_eq!(cmd(&mut t, &mut io, "M302 P1", 0).0, Cmd::Ok);
+        assert_eq!(t.cold_extrusion(), None);
+        let (r, text) = cmd(&mut t, &mut io, "M302", 0);
+        assert_eq!(
+            (r, text.starts_with("cold extrusion allowed (minimum 170.0 C, hot end 2")),
+            (Cmd::Ok, true),
+            "{text}"
+        );
+        assert_eq!(cmd(&mut t, &mut io, "M302 P0", 0).0, Cmd::Ok);
+        assert!(t.cold_extrusion().is_some());
+        assert_eq!(cmd(&mut t, &mut io, "M302 S0", 0).0, Cmd::Ok);
+        assert_eq!(t.cold_extrusion(), None);
+        assert_eq!(cmd(&mut t, &mut io, "M302 S0 P0", 0).0, Cmd::Ok, "S0 allows whatever P says");
+        assert_eq!(t.cold_extrusion(), None);
+        assert_eq!(cmd(&mut t, &mut io, "M302 S19", 0).0, Cmd::Ok);
+        assert_eq!(t.cold_extrusion(), None, "20 C is above a 19 C minimum");
+        assert_eq!(cmd(&mut t, &mut io, "M302 S25 P1", 0).0, Cmd::Ok);
+        assert_eq!(t.cold_extrusion(), None);
+        assert_eq!(cmd(&mut t, &mut io, "M302 P0", 0).0, Cmd::Ok);
+        assert_eq!(t.cold_extrusion().map(|c| c.min_c), Some(25.0));
+        assert!(matches!(cmd(&mut t, &mut io, "M302 S261", 0).0, Cmd::Error(ErrorCode::InvalidValue, _)));
+        assert!(matches!(cmd(&mut t, &mut io, "M302 S-1", 0).0, Cmd::Error(ErrorCode::InvalidValue, _)));
+        assert!(matches!(cmd(&mut t, &mut io, "M302 P2", 0).0, Cmd::Error(ErrorCode::InvalidValue, _)));
+        assert!(matches!(cmd(&mut t, &mut io, "M302 X1", 0).0, Cmd::Error(ErrorCode::UnsupportedWord, _)));
+        t.restore_cold_extrusion();
+        assert_eq!(t.cold_extrusion().map(|c| c.min_c), Some(170.0));
+        // Hot enough: no guard. At 170.0 exactly it is allowed (Marlin refuses only below the minimum).
+        io.counts[0] = Some(counts_at(171.0));
+        t.tick(&mut io, 100_000, &mut out);
+        assert_eq!(t.cold_extrusion(), None);
+        // A plotter, or a printer without a hot end: never checked.
+        assert_eq!(Thermal::new(ThermalConfig::NONE, 0).cold_extrusion(), None);
+        let mut bed_only = ThermalConfig::printer();
+        bed_only.heaters[0] = HeaterConfig::NONE;
+        assert_eq!(bed_only.validate(), Ok(()));
+        assert_eq!(Thermal::new(bed_only, 0).cold_extrusion(), None);
+        // The profile's minimum must be reachable.
+        let mut c = ThermalConfig::printer();
+        c.min_extrude_c = 261.0;
+        assert!(std::format!("{}", c.validate().unwrap_err()).starts_with("heaters: min_extrude_c"));
+        c.min_extrude_c = 0.0;
+        assert_eq!(c.validate(), Ok(()));
+        assert_eq!(Thermal::new(c, 0).cold_extrusion(), None, "0 allows cold extrusion");
     }
 
     #[test]

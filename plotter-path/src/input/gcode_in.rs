@@ -23,6 +23,12 @@
 //! warning; with a printer profile (one with an E axis) the warning says that `plotter print` keeps them — the
 //! printing playback is [`super::gcode_print`], which interprets the same G-code with E planned alongside X/Y/Z.
 //!
+//! Numbers: with a plotter profile (no extruder) `1e-05`, `3.5e1` and `2E1` are numbers in exponent notation —
+//! what a script printing floats writes — so `X1e-05` lands at 0.00001 mm. With a printer profile `E` starts the
+//! extruder word as in Marlin, and a number run straight into one (`X1E5`) is read as Marlin reads it with a warning
+//! naming the line (for `plotter print` it is an error). A number beyond `f64` is a range error, and no message
+//! echoes more than 40 characters of the input.
+//!
 //! Bounded work: every target and arc centre must lie within ±[`MAX_COORD_MM`] and the file may produce at most
 //! [`MAX_POINTS`] segments (see [`crate::geometry::limits`]); beyond either, the import stops with an error naming
 //! the line.
@@ -186,6 +192,43 @@ pub(crate) struct Word<'t> {
     pub(crate) letter: char,
     pub(crate) value: f64,
     pub(crate) text: &'t str,
+    /// The number runs straight into an `E` word (`X1E5`): exponent or extrusion, the caller decides how to
+    /// report it (see [`Exponents`]).
+    pub(crate) runs_into_e: bool,
+}
+
+/// How [`words`] reads a letter `e`/`E` right after the digits of a number.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Exponents {
+    /// No extruder (a plotter profile): `1e-05`, `3.5e1`, `2E1` are numbers in exponent notation, which is what
+    /// scripts printing floats write.
+    Numbers,
+    /// An extruder (a printer profile): `E` starts a word, as in Marlin, so `X1E5` is X1 and E5 — but it is flagged
+    /// ([`Word::runs_into_e`]), because a script may have meant 1·10⁵.
+    EWords,
+}
+
+/// Letters whose numbers are command codes (`G1`, `M104`, `T0`, `N12`): never exponents, so `G1E5` is G1 and E5
+/// without doubt (as in the firmware's parser, `plotter_fw::gcode`).
+const CODE_LETTERS: &[u8] = b"GMNT";
+
+/// Longest piece of input echoed in a message, characters.
+const ECHO_MAX: usize = 40;
+
+/// A number as shown in a message: plain when short (`2539999974.6`), in exponent notation otherwise (`3.4e38`,
+/// `1e-300`), so no value prints as hundreds of digits.
+pub(crate) fn num(v: f64) -> String {
+    let plain = v.to_string();
+    if plain.len() <= 24 { plain } else { format!("{v:e}") }
+}
+
+/// `text` as echoed in an error or warning: at most [`ECHO_MAX`] characters, then `…` (a 1 MB number must not
+/// become a 1 MB message).
+pub(crate) fn echo(text: &str) -> String {
+    match text.char_indices().nth(ECHO_MAX) {
+        Some((cut, _)) => format!("{}…", &text[..cut]),
+        None => text.to_string(),
+    }
 }
 
 pub(crate) fn strip_comments(line: &str) -> String {
@@ -204,7 +247,14 @@ pub(crate) fn strip_comments(line: &str) -> String {
     out
 }
 
-pub(crate) fn words<'t>(code: &'t str, origin: &str, line: usize) -> Result<Vec<Word<'t>>, GcodeError> {
+/// Split a line (comments stripped) into words. Numbers are decimals; whether `e`/`E` after one is an exponent or
+/// the next word is `exponents`' choice. A number beyond `f64` (`X1e400`, a run of 400 digits) is a range error.
+pub(crate) fn words<'t>(
+    code: &'t str,
+    origin: &str,
+    line: usize,
+    exponents: Exponents,
+) -> Result<Vec<Word<'t>>, GcodeError> {
     let bytes = code.as_bytes();
     let mut out = Vec::new();
     let mut i = 0;
@@ -230,13 +280,37 @@ pub(crate) fn words<'t>(code: &'t str, origin: &str, line: usize) -> Result<Vec<
         while i < bytes.len() && (bytes[i].is_ascii_digit() || matches!(bytes[i], b'+' | b'-' | b'.')) {
             i += 1;
         }
+        let letter = char::from(c).to_ascii_uppercase();
+        let after_number = i > num_start && !CODE_LETTERS.contains(&c.to_ascii_uppercase());
+        let mut runs_into_e = false;
+        if after_number && plotter_fw::gcode::runs_into_e(&bytes[i..]) {
+            let sign = usize::from(matches!(bytes.get(i + 1), Some(b'+' | b'-')));
+            let exponent_digits = bytes[i + 1 + sign..].iter().take_while(|b| b.is_ascii_digit()).count();
+            if exponents == Exponents::Numbers && exponent_digits > 0 {
+                i += 1 + sign + exponent_digits;
+            } else {
+                runs_into_e = true;
+            }
+        }
         let num = &code[num_start..i];
-        let value = num.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| GcodeError::Malformed {
-            origin: origin.into(),
-            line,
-            message: format!("{} needs a number, found {:?}", char::from(c).to_ascii_uppercase(), num),
-        })?;
-        out.push(Word { letter: char::from(c).to_ascii_uppercase(), value, text: code[start..i].trim() });
+        let value = match num.parse::<f64>() {
+            Ok(v) if v.is_finite() => v,
+            Ok(_) => {
+                return Err(GcodeError::Malformed {
+                    origin: origin.into(),
+                    line,
+                    message: format!("{letter}{}: number out of range", echo(num)),
+                });
+            }
+            Err(_) => {
+                return Err(GcodeError::Malformed {
+                    origin: origin.into(),
+                    line,
+                    message: format!("{letter} needs a number, found {:?}", echo(num)),
+                });
+            }
+        };
+        out.push(Word { letter, value, text: code[start..i].trim(), runs_into_e });
     }
     Ok(out)
 }
@@ -260,7 +334,7 @@ impl Machine<'_> {
     }
 
     fn unsupported(&self, line: usize, word: &str, why: &'static str) -> GcodeError {
-        GcodeError::Unsupported { origin: self.origin.into(), line, word: word.to_uppercase(), why }
+        GcodeError::Unsupported { origin: self.origin.into(), line, word: echo(&word.to_uppercase()), why }
     }
 
     fn run_line(&mut self, line: usize, raw: &str) -> Result<(), GcodeError> {
@@ -269,7 +343,19 @@ impl Machine<'_> {
         if code.is_empty() || code == "%" {
             return Ok(());
         }
-        let ws = words(code, self.origin, line)?;
+        let exponents = if self.printer { Exponents::EWords } else { Exponents::Numbers };
+        let ws = words(code, self.origin, line, exponents)?;
+        for pair in ws.windows(2).filter(|p| p[0].runs_into_e) {
+            self.warn(
+                line,
+                format!(
+                    "ambiguous number: {} runs into {}, read as two words as Marlin does (a script may have meant an \
+                     exponent); put a space before E",
+                    echo(pair[0].text),
+                    echo(pair[1].text)
+                ),
+            );
+        }
         if self.ended {
             if ws.iter().any(|w| !matches!(w.letter, 'N')) {
                 self.warn(line, "commands after the program end (M2/M30) ignored");
@@ -401,7 +487,7 @@ impl Machine<'_> {
                 format!(
                     "{} target {} mm is beyond ±{MAX_COORD_MM} mm (1 km); check the units",
                     ['X', 'Y', 'Z'][k],
-                    target[k]
+                    num(target[k])
                 ),
             ));
         }
@@ -447,7 +533,7 @@ impl Machine<'_> {
             let half = d / 2.0;
             let h2 = r_mm * r_mm - half * half;
             if h2 < -(ARC_TOLERANCE_MM * r_mm.abs()).max(1e-9) {
-                return Err(self.malformed(line, format!("arc radius {r} is smaller than half the chord")));
+                return Err(self.malformed(line, format!("arc radius {} is smaller than half the chord", num(r))));
             }
             let h = h2.max(0.0).sqrt();
             // Centre to the right of the chord for a clockwise minor arc (Y up); G3 or a negative R flips it.
@@ -465,7 +551,7 @@ impl Machine<'_> {
         if !(center.x.abs() <= MAX_COORD_MM && center.y.abs() <= MAX_COORD_MM) {
             return Err(self.malformed(
                 line,
-                format!("arc centre ({}, {}) mm is beyond ±{MAX_COORD_MM} mm (1 km)", center.x, center.y),
+                format!("arc centre ({}, {}) mm is beyond ±{MAX_COORD_MM} mm (1 km)", num(center.x), num(center.y)),
             ));
         }
         let r0 = (from - center).hypot();
@@ -753,10 +839,17 @@ mod tests {
 
     #[test]
     fn absurd_numbers_are_errors_not_hangs() {
-        // The issue's reproducer: X = 3.4e38 (written out; `3.4e38` would read as X3.4 and an E word).
+        // The issue's reproducer: X = 3.4e38, written out and in exponent notation (a number on a plotter).
         let huge = format!("G0 Z1\nG1 Z0\nG1 X{:.1} Y10 F1000\nG1 X10 Y10\n", 3.4e38);
         let e = err(&huge);
-        assert!(e.starts_with("t.gcode:3: X target 34") && e.contains("beyond ±1000000 mm"), "{e}");
+        assert_eq!(e, "t.gcode:3: X target 3.4e38 mm is beyond ±1000000 mm (1 km); check the units");
+        let e = err("G0 Z1\nG1 Z0\nG1 X3.4e38 Y10 F1000\n");
+        assert_eq!(e, "t.gcode:3: X target 3.4e38 mm is beyond ±1000000 mm (1 km); check the units");
+        assert_eq!(num(1e-300), "1e-300");
+        assert_eq!(num(-0.125), "-0.125");
+        // Beyond f64 altogether: a range error naming the word.
+        assert_eq!(err("G0 X1\nG1 Y1e400\n"), "t.gcode:2: Y1e400: number out of range");
+        assert!(err(&format!("G1 X{}\n", "9".repeat(400))).starts_with("t.gcode:1: X999"));
         assert!(err("G20\nG1 Y99999999\n").starts_with("t.gcode:2: Y target 2539999974.6"));
         assert!(err("G92 X-999999999\nG90 G1 X1\n").starts_with("t.gcode:2: X target"));
         assert!(err("G0 X0 Y0\nG2 X1 Y0 R1000000000\n").contains(":2: arc centre"));
@@ -793,6 +886,130 @@ mod tests {
         assert!(msgs.iter().any(|m| m.starts_with("line 12: commands after the program end")), "{msgs:?}");
         assert_eq!(r.drawing.path_count(), 1);
         assert_eq!(r.drawing.paths().next().unwrap().end(), Some(Point::new(3.0, 0.0)));
+    }
+
+    #[test]
+    fn exponent_notation_is_a_number_on_a_plotter() {
+        // What a script printing Python floats writes: `1e-05` lands at 0.00001 mm, not 1 mm off with an E word.
+        let r = imp("G0 Z1\nG0 X0 Y0\nG1 Z0\nG1 X1e-05 Y3.5e1\nG1 X2E1 Y35\nG1 X+2.5E+1 Y.35e2\nG0 Z1\n");
+        let paths: Vec<Vec<Point>> = r.drawing.paths().map(|p| p.points.clone()).collect();
+        let p = Point::new;
+        assert_eq!(paths, [vec![p(0.0, 0.0), p(0.000_01, 35.0), p(20.0, 35.0), p(25.0, 35.0)]]);
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        // Command letters are never exponents: `G1E5` is G1 and an E word (dropped with its warning).
+        let r = imp("G0 Z1\nG0 X0 Y0\nG1 Z0\nG1E5 X3\n");
+        assert_eq!(r.drawing.paths().next().unwrap().end(), Some(p(3.0, 0.0)));
+        assert_eq!(r.warnings[0].to_string(), "line 4: extruder (E) values ignored");
+        // An E word after a space stays an E word; `1e.5` cannot be an exponent and is said to be ambiguous.
+        let r = imp("G0 Z1\nG0 X0 Y0\nG1 Z0\nG1 X1 E5\nG1 X2e.5\n");
+        assert_eq!(r.drawing.paths().next().unwrap().end(), Some(p(2.0, 0.0)));
+        let w: Vec<String> = r.warnings.iter().map(ToString::to_string).collect();
+        assert!(w[0].starts_with("line 4: extruder (E) values ignored (2 times)"), "{w:?}");
+        assert!(w[1].starts_with("line 5: ambiguous number: X2 runs into e.5"), "{w:?}");
+    }
+
+    #[test]
+    fn a_number_run_into_e_on_a_printer_is_read_as_marlin_does_with_a_warning() {
+        let printer = MachineProfile::from_toml(include_str!("../../../samples/printer.toml"), "printer.toml").unwrap();
+        let r = import("G0 Z1\nG0 X0 Y0\nG1 Z0\nG1 X1e40 Y2\nG1 X3 Y2 E7\n", "t.gcode", &printer).unwrap();
+        let w: Vec<String> = r.warnings.iter().map(ToString::to_string).collect();
+        assert!(w[0].starts_with("line 4: ambiguous number: X1 runs into e40, read as two words"), "{w:?}");
+        // X1 (and E40, which a drawing drops), as Marlin reads it.
+        let pts = &r.drawing.paths().next().unwrap().points;
+        let page = |x, y| printer.machine_to_page(Point::new(x, y));
+        assert_eq!(pts[..], [page(0.0, 0.0), page(1.0, 2.0), page(3.0, 2.0)]);
+    }
+
+    #[test]
+    fn messages_echo_at_most_forty_characters() {
+        // Issue 12a: a 1 MB number is not echoed whole.
+        let big = "1".repeat(1 << 20);
+        for text in [format!("G1 X{big}\n"), format!("G1 X1-{big}\n"), format!("G1 A{big}\n"), format!("G{big}\n")] {
+            let e = err(&text);
+            assert!(e.len() < 200 && e.contains('…') && e.starts_with("t.gcode:1: "), "{}", &e[..e.len().min(300)]);
+        }
+        assert_eq!(echo("short"), "short");
+        assert_eq!(echo(&"x".repeat(41)), format!("{}…", "x".repeat(40)));
+        assert_eq!(echo(&"é".repeat(40)), "é".repeat(40));
+    }
+
+    /// A number-like text: sign, digits (sometimes a huge run), point, fraction, exponent.
+    fn number_like() -> impl Strategy<Value = String> {
+        let digits = prop_oneof![
+            4 => "[0-9]{0,8}",
+            1 => "[0-9]{11,20}",
+            1 => (1usize..2000).prop_map(|n| "9".repeat(n)),
+        ];
+        (
+            prop_oneof![Just(""), Just("-"), Just("+"), Just("--"), Just("+-")],
+            digits.clone(),
+            prop_oneof![Just(""), Just("."), Just("..")],
+            digits,
+            prop_oneof![Just(""), Just("e"), Just("E"), Just("e-"), Just("E+"), Just("e."), Just("ee")],
+            "[0-9]{0,4}",
+        )
+            .prop_map(|(s, i, p, f, e, x)| format!("{s}{i}{p}{f}{e}{x}"))
+    }
+
+    proptest! {
+        /// Fuzz target of the G-code number grammar: random number-like words through the firmware's parser, the
+        /// host's word splitter in both modes, the plotter import and the print import. Never a panic; a value or
+        /// a clear, bounded error naming the line; the firmware and the host agree on every value both accept and
+        /// on every number run into an E word.
+        #[test]
+        fn number_grammar_fuzz(letter in prop::sample::select(&['X', 'Y', 'Z', 'F', 'S']), num in number_like()) {
+            let code = format!("G1 {letter}{num}");
+            let fw = plotter_fw::gcode::parse_words(code.as_bytes());
+            let marlin = words(&code, "t", 1, Exponents::EWords);
+            let plotter = words(&code, "t", 1, Exponents::Numbers);
+            for r in [&marlin, &plotter] {
+                if let Err(e) = r {
+                    let e = e.to_string();
+                    prop_assert!(e.starts_with("t:1: ") && e.chars().count() < 150, "{}", e);
+                }
+            }
+            match &fw {
+                Ok(w) => {
+                    // The firmware's exact decimal agrees with the host's f64 (the firmware rounds to 10⁻⁶).
+                    let v = w.get(letter as u8).expect("the word is there");
+                    let host = marlin.as_ref().expect("the host takes what the firmware takes");
+                    prop_assert_eq!(host.len(), 2);
+                    prop_assert!(!host[1].runs_into_e);
+                    let diff = (host[1].value * 1e6 - v as f64).abs();
+                    prop_assert!(diff <= 0.5 + 1e-15 * (v as f64).abs(), "{} vs {}", host[1].value, v);
+                }
+                Err(e) if e.code == plotter_fw::errors::ErrorCode::AmbiguousE => {
+                    // Ambiguous for the firmware: flagged or refused by the host's Marlin reading too.
+                    prop_assert!(marlin.as_ref().is_err() || marlin.as_ref().unwrap().iter().any(|w| w.runs_into_e));
+                }
+                Err(_) => {}
+            }
+            if let Ok(ws) = &plotter {
+                // Read as one number (an exponent is never split off into an E word on a plotter), or, where `e` is
+                // not followed by exponent digits (`1e.5`), split with the ambiguity flagged for a warning.
+                if ws.len() == 2 {
+                    prop_assert_eq!(Some(ws[1].value), num.parse::<f64>().ok());
+                } else {
+                    prop_assert!(ws[1].runs_into_e && ws[2].letter == 'E', "{:?}", ws);
+                }
+            }
+            // The whole importers: a result or an error naming the line, never a panic, never a huge message.
+            let drawing = format!("G0 Z1\nG1 Z0\nG1 {letter}{num} Y1 F600\n");
+            if let Err(e) = import(&drawing, "t.gcode", &profile()) {
+                let e = e.to_string();
+                prop_assert!(e.starts_with("t.gcode:3: ") && e.chars().count() < 200, "{}", e);
+            }
+            let printer =
+                MachineProfile::from_toml(include_str!("../../../samples/printer.toml"), "printer.toml").unwrap();
+            let print = format!("G28\nG1 {letter}{num} Y1 F600\n");
+            match crate::input::gcode_print::import_print(&print, "t.gcode", &printer) {
+                Ok(p) => prop_assert!(p.warnings.is_empty() && marlin.is_ok_and(|ws| !ws.iter().any(|w| w.runs_into_e))),
+                Err(e) => {
+                    let e = e.to_string();
+                    prop_assert!(e.starts_with("t.gcode:2: ") && e.chars().count() < 300, "{}", e);
+                }
+            }
+        }
     }
 
     fn arb_paths() -> impl Strategy<Value = Vec<Polyline>> {

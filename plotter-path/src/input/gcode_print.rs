@@ -14,13 +14,16 @@
 //!   firmware retraction (`G10`/`G11`), pauses, tool changes, beeps, and any other M code;
 //! - `M400` (wait for moves) becomes a stop in the plan.
 //!
-//! Unknown G codes and malformed words are errors naming the line: they could change the geometry.
+//! Unknown G codes and malformed words are errors naming the line: they could change the geometry. So is a number
+//! run straight into an `E` word (`G1 X1e40`): Marlin reads X1 and extrudes 40 mm, a script printing floats meant
+//! 10⁴⁰; which one is not guessed. Commands for the firmware are sent in canonical form and at most [`COMMAND_MAX`]
+//! characters long.
 //!
 //! Layers: a layer starts at the first extruding move at a Z above the previous layer's. The slicer's own figures
 //! are read from its comments when present: `; estimated printing time (normal mode) = 1h 2m 3s` (PrusaSlicer),
 //! `;TIME:3723` (Cura), `; filament used [mm] = 1234.56` (PrusaSlicer), `;Filament used: 1.23456m` (Cura).
 
-use super::gcode_in::{GcodeError, GcodeWarning, record_warning, strip_comments, words};
+use super::gcode_in::{Exponents, GcodeError, GcodeWarning, echo, num, record_warning, strip_comments, words};
 use crate::MachineProfile;
 
 /// Maximum chord error when flattening arcs, millimetres.
@@ -29,6 +32,8 @@ const ARC_TOLERANCE_MM: f64 = 0.005;
 const MAX_ARC_CHORDS: f64 = 100_000.0;
 /// Most operations one file may produce (bounds memory: about 100 bytes each).
 pub const MAX_OPS: usize = 20_000_000;
+/// Longest command sent to the firmware as written: its line buffer less room for `N<seq> ` and `*<checksum>`.
+pub const COMMAND_MAX: usize = plotter_fw::line_buffer::LINE_MAX - 16;
 
 /// One step of the print.
 #[derive(Debug, Clone, PartialEq)]
@@ -196,7 +201,7 @@ impl Player<'_> {
         if code.is_empty() || code == "%" {
             return Ok(());
         }
-        let ws = match words(code, self.origin, line) {
+        let ws = match words(code, self.origin, line, Exponents::EWords) {
             Ok(ws) => ws,
             Err(e) => {
                 // Printer-specific M codes carry free text (`M117 Hello`, `M862.3 P "MK3S"`): ignore those lines
@@ -206,7 +211,7 @@ impl Player<'_> {
                 let head: String = body.chars().take_while(|c| *c == 'M' || c.is_ascii_digit() || *c == '.').collect();
                 let sent = ["M104", "M109", "M140", "M190", "M106", "M107", "M105", "M155", "M301", "M303", "M304"];
                 if head.starts_with('M') && head.len() > 1 && !sent.contains(&head.as_str()) {
-                    self.warn(line, format!("{head}: not supported, ignored"));
+                    self.warn(line, format!("{}: not supported, ignored", echo(&head)));
                     return Ok(());
                 }
                 return Err(e);
@@ -215,6 +220,20 @@ impl Player<'_> {
         if self.ended {
             self.warn(line, "commands after the program end (M2/M30) ignored");
             return Ok(());
+        }
+        if let Some(k) = ws.iter().position(|w| w.runs_into_e) {
+            // `G1 X1e40`: Marlin would move to X1 and extrude 40 mm; a script printing floats meant 10⁴⁰. Neither is
+            // guessed on a machine that pushes filament.
+            let next = ws.get(k + 1).map_or("E", |w| w.text);
+            return Err(self.malformed(
+                line,
+                format!(
+                    "ambiguous number: {} runs into {} (an extrusion as Marlin reads it, or an exponent); put a space \
+                     before E, or write the number without an exponent",
+                    echo(ws[k].text),
+                    echo(next)
+                ),
+            ));
         }
         let mut axes: [Option<f64>; 4] = [None; 4];
         let (mut i, mut j, mut r) = (None, None, None);
@@ -254,7 +273,7 @@ impl Player<'_> {
                     return Err(GcodeError::Unsupported {
                         origin: self.origin.into(),
                         line,
-                        word: w.text.to_uppercase(),
+                        word: echo(&w.text.to_uppercase()),
                         why: "unknown word",
                     });
                 }
@@ -311,18 +330,21 @@ impl Player<'_> {
                     return Ok(());
                 }
                 100 | 110 => {
-                    self.warn(line, format!("{}: firmware retraction not supported, ignored", text.to_uppercase()));
+                    self.warn(
+                        line,
+                        format!("{}: firmware retraction not supported, ignored", echo(&text.to_uppercase())),
+                    );
                     return Ok(());
                 }
                 290 | 800 => {
-                    self.warn(line, format!("{}: bed levelling ignored", text.to_uppercase()));
+                    self.warn(line, format!("{}: bed levelling ignored", echo(&text.to_uppercase())));
                     return Ok(());
                 }
                 180 | 190 => {
                     return Err(GcodeError::Unsupported {
                         origin: self.origin.into(),
                         line,
-                        word: text.to_uppercase(),
+                        word: echo(&text.to_uppercase()),
                         why: "only the XY plane (G17) is supported",
                     });
                 }
@@ -330,7 +352,7 @@ impl Player<'_> {
                     return Err(GcodeError::Unsupported {
                         origin: self.origin.into(),
                         line,
-                        word: text.to_uppercase(),
+                        word: echo(&text.to_uppercase()),
                         why: "unknown G code",
                     });
                 }
@@ -456,9 +478,11 @@ impl Player<'_> {
         code: &str,
         ws: &[super::gcode_in::Word<'_>],
     ) -> Result<(), GcodeError> {
-        let upper = text.to_uppercase();
+        let upper = echo(&text.to_uppercase());
+        // Sent in canonical form (`M0104` → `M104`); the number is whole here (checked below before any send).
+        let name = format!("M{}", code10(v) / 10);
         let send = |wait: bool, keep: &[char]| {
-            let mut t = upper.clone();
+            let mut t = name.clone();
             for w in ws.iter().filter(|w| keep.contains(&w.letter)) {
                 t.push(' ');
                 t.push_str(&w.text.to_uppercase().replace(' ', ""));
@@ -516,17 +540,25 @@ impl Player<'_> {
             220 | 221 => {
                 let pct = ws.iter().find(|w| w.letter == 'S').map_or(100.0, |w| w.value);
                 if pct != 100.0 {
-                    self.warn(line, format!("{upper} S{pct}: feed/flow override ignored, printing at 100 %"));
+                    self.warn(line, format!("{upper} S{}: feed/flow override ignored, printing at 100 %", num(pct)));
                 } else {
                     self.warn(line, format!("{upper}: override at 100 % ignored"));
                 }
                 return Ok(());
             }
             _ => {
-                self.warn(line, format!("{upper}: not supported, ignored ({code})"));
+                self.warn(line, format!("{upper}: not supported, ignored ({})", echo(code)));
                 return Ok(());
             }
         };
+        if let PrintOp::Command { text, .. } = &op
+            && text.len() > COMMAND_MAX
+        {
+            return Err(self.malformed(
+                line,
+                format!("{}: longer than the {COMMAND_MAX} characters a firmware line has room for", echo(text)),
+            ));
+        }
         self.push(line, op)
     }
 }
@@ -651,6 +683,43 @@ mod tests {
         for needle in ["M73", "M201", "M203", "M204", "M205", "M900", "M221 S95", "M862.3", "M117"] {
             assert!(w.iter().any(|x| x.contains(needle)), "{needle} in {w:?}");
         }
+    }
+
+    #[test]
+    fn a_number_run_into_e_is_refused_not_extruded() {
+        // Marlin would extrude 40 mm here; a script meant X = 10⁴⁰. The file is refused, naming the line.
+        for (g, word) in [
+            ("G1 X1e40", "X1 runs into e40"),
+            ("G1 Y2 X1E5 F600", "X1 runs into E5"),
+            ("G1 X1e-05", "X1 runs into e-05"),
+        ] {
+            let e = import_print(&format!("G28\n{g}\n"), "t.gcode", &printer()).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("t.gcode:2: ambiguous number: {word} (an extrusion")), "{e}");
+        }
+        // A space makes E a word; a command letter never takes an exponent.
+        let p = import_print("G28\nG1 X1 E40 F600\nG1E41\n", "t.gcode", &printer()).unwrap();
+        assert_eq!(moves(&p), [[1.0, 0.0, 3.0, 40.0], [1.0, 0.0, 3.0, 41.0]]);
+        // Absurd values are range errors.
+        let e = import_print("G1 X1\nG1 X99999999999\n", "t.gcode", &printer()).unwrap_err().to_string();
+        assert_eq!(e, "t.gcode:2: position out of range");
+    }
+
+    #[test]
+    fn commands_are_canonical_bounded_and_echoes_short() {
+        let p = import_print("M0104 S200\nm140 s60\n", "t.gcode", &printer()).unwrap();
+        let cmds: Vec<&PrintOp> = p.ops.iter().collect();
+        assert_eq!(cmds[0], &PrintOp::Command { text: "M104 S200".into(), wait: false, line: 1 });
+        assert_eq!(cmds[1], &PrintOp::Command { text: "M140 S60".into(), wait: false, line: 2 });
+        // A 1 MB number: refused with a short message, never sent (the firmware's line could not hold it).
+        let big = format!("M104 S{}210\n", "0".repeat(1 << 20));
+        let e = import_print(&big, "t.gcode", &printer()).unwrap_err().to_string();
+        assert!(e.starts_with("t.gcode:1: M104 S0000") && e.contains("…: longer than the 80 characters"), "{e}");
+        assert!(e.len() < 200, "{}", e.len());
+        let long_g = format!("G{}\n", "1".repeat(1 << 20));
+        let e = import_print(&long_g, "t.gcode", &printer()).unwrap_err().to_string();
+        assert!(e.len() < 200 && e.contains('…'), "{}", &e[..e.len().min(300)]);
+        let p = import_print(&format!("M{}\n", "7".repeat(1 << 20)), "t.gcode", &printer()).unwrap();
+        assert!(p.warnings[0].message.len() < 200, "{}", p.warnings[0].message.len());
     }
 
     #[test]

@@ -5,6 +5,7 @@
 //! [heaters]
 //! fan = true
 //! period_ms = 100
+//! min_extrude_c = 170.0      # moves with extrusion are refused below this hot-end temperature (0: never)
 //!
 //! [heaters.hotend]
 //! thermistor = { beta = 3950.0, r0_ohm = 100000.0, t0_c = 25.0 }   # or { a = …, b = …, c = … } (Steinhart–Hart)
@@ -43,6 +44,14 @@ pub struct HeatersProfile {
     /// PID and safety-check period, ms.
     #[serde(default = "default_period")]
     pub period_ms: u32,
+    /// Cold-extrusion guard: below this hot-end temperature, °C, the firmware refuses moves with extrusion (`M302`
+    /// changes it at run time); 0 allows extrusion at any temperature. Default 170 °C, as in Marlin.
+    #[serde(default = "default_min_extrude")]
+    pub min_extrude_c: f64,
+}
+
+fn default_min_extrude() -> f64 {
+    f64::from(plotter_fw::thermal::DEFAULT_MIN_EXTRUDE_C)
 }
 
 fn default_period() -> u32 {
@@ -179,6 +188,7 @@ impl HeatersProfile {
         let mut cfg = ThermalConfig::NONE;
         cfg.fan = self.fan;
         cfg.period_ms = self.period_ms;
+        cfg.min_extrude_c = f(self.min_extrude_c);
         if let Some(h) = self.hotend {
             cfg.heaters[0] = h.to_config();
         }
@@ -214,5 +224,19 @@ mod tests {
         let text = include_str!("../../../samples/printer.toml").replace("max_c = 125.0", "max_c = 100.0");
         let err = MachineProfile::from_toml(&text, "p.toml").unwrap_err().to_string();
         assert!(err.contains("p.toml") && err.contains("heaters.bed"), "{err}");
+    }
+
+    #[test]
+    fn cold_extrusion_minimum_defaults_to_170_and_is_checked() {
+        let sample = include_str!("../../../samples/printer.toml");
+        let without = sample.replace("min_extrude_c = 170.0\n", "");
+        assert_ne!(without, sample, "the sample states the setting");
+        let p = MachineProfile::from_toml(&without, "p.toml").unwrap();
+        assert_eq!(thermal_config(&p).unwrap().min_extrude_c, 170.0);
+        let p = MachineProfile::from_toml(&sample.replace("min_extrude_c = 170.0", "min_extrude_c = 0.0"), "p.toml");
+        assert_eq!(thermal_config(&p.unwrap()).unwrap().min_extrude_c, 0.0);
+        let text = sample.replace("min_extrude_c = 170.0", "min_extrude_c = 300.0");
+        let err = MachineProfile::from_toml(&text, "p.toml").unwrap_err().to_string();
+        assert!(err.contains("p.toml") && err.contains("min_extrude_c"), "{err}");
     }
 }
