@@ -8,12 +8,12 @@ use proptest::prelude::*;
 
 use crate::MachineProfile;
 use crate::geometry::limits::check_drawing;
-use crate::input::svg::{SvgOptions, import_svg};
+use crate::input::svg::{ResourcePolicy, SvgOptions, import_svg};
 use crate::input::{gcode_in, r#gen, raster, trajectory};
 use crate::motion::steps::StepMapper;
 
 fn svg(bytes: &[u8]) {
-    if let Ok(i) = import_svg(bytes, "fuzz.svg", None, &SvgOptions::default()) {
+    if let Ok(i) = import_svg(bytes, "fuzz.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()) {
         let _ = check_drawing(&i.drawing, "fuzz.svg");
     }
 }
@@ -48,7 +48,7 @@ fn regressions_stay_fixed() {
         match p.extension().and_then(|x| x.to_str()) {
             Some("svg") => {
                 // Each SVG regression is absurd: it must be refused by the limits (or the importer), never panic.
-                if let Ok(i) = import_svg(&bytes, "r.svg", None, &SvgOptions::default()) {
+                if let Ok(i) = import_svg(&bytes, "r.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()) {
                     let checked = check_drawing(&i.drawing, "r.svg");
                     let preview = crate::output::preview::render(&i.drawing, &Default::default());
                     assert!(checked.is_err() || preview.is_ok(), "{}", p.display());
