@@ -282,9 +282,13 @@ impl<'a> Dtd<'a> {
             return Err(format!("entity references nested more than {MAX_DEPTH} deep (at &{name};)"));
         }
         stack.push(name);
+        // The value's text with each reference to a declared entity replaced by that entity's expansion.
         let mut size = value.len() as u64;
         for (inner, _) in references(value) {
-            size = size.saturating_add(self.expanded_size(inner, sizes, stack)?);
+            if self.entities.contains_key(inner) {
+                size = size.saturating_sub(inner.len() as u64 + 2);
+                size = size.saturating_add(self.expanded_size(inner, sizes, stack)?);
+            }
         }
         stack.pop();
         if size > MAX_EXPANDED_BYTES {
@@ -333,9 +337,10 @@ mod tests {
 
     #[test]
     fn billion_laughs_is_refused_and_small_entities_pass() {
-        // lol9 expands to 3 × 10⁹ bytes.
+        // lol9 expands to 3 × 10⁹ bytes; lol7 to 3 × 10⁷ (28.6 MiB) passes, lol8 (286 MiB) is the first too large.
         let err = check_entities(&laughs(10)).unwrap_err();
-        assert!(err.contains("billion laughs"), "{err}");
+        assert_eq!(err, "entity &lol8; expands to more than 64 MiB: refusing a possible \"billion laughs\" document");
+        assert!(check_entities(&laughs(8)).is_ok());
         // lol5 expands to 3 × 10⁵ bytes: fine.
         assert!(check_entities(&laughs(6)).is_ok());
         let ok = "<!DOCTYPE svg [<!ENTITY ns \"http://www.w3.org/2000/svg\">]><svg xmlns=\"&ns;\"/>";

@@ -260,3 +260,197 @@ fn shorten(href: &str) -> String {
         None => href.to_string(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+    use std::time::{Duration, Instant};
+
+    use super::super::{SvgError, SvgOptions, import_svg};
+    use super::*;
+
+    /// A `data:` URL with every byte but letters and digits percent-encoded, so it nests without XML escaping.
+    pub(crate) fn data_url(mime: &str, bytes: &[u8]) -> String {
+        let mut s = format!("data:{mime},");
+        for b in bytes {
+            if b.is_ascii_alphanumeric() {
+                s.push(char::from(*b));
+            } else {
+                s.push_str(&format!("%{b:02X}"));
+            }
+        }
+        s
+    }
+
+    fn png() -> Vec<u8> {
+        let img = image::GrayImage::from_fn(4, 4, |x, _| image::Luma([if x < 2 { 0 } else { 255 }]));
+        let mut png = Vec::new();
+        image::DynamicImage::ImageLuma8(img)
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        png
+    }
+
+    /// A fresh folder for one test.
+    fn scratch(test: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("plotter-resources-{}-{test}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// A line under a mask whose content is a white square and an `<image>` naming `href`: the mask is partly
+    /// transparent (and says so) exactly when the image loads.
+    fn masked(href: &str) -> String {
+        format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="100" height="100">
+  <mask id="m" maskUnits="userSpaceOnUse" x="0" y="0" width="100" height="100">
+    <rect width="100" height="100" fill="white"/>
+    <image x="0" y="0" width="10" height="10" href="{href}"/>
+  </mask>
+  <g mask="url(#m)"><line x1="0" y1="50" x2="100" y2="50" stroke="black"/></g>
+</svg>"#
+        )
+    }
+
+    /// Import `doc`, leaving out the survey's "image not traced" notes (present whatever is loaded).
+    fn import(doc: &str, policy: &ResourcePolicy) -> Result<super::super::Imported, SvgError> {
+        let mut imported = import_svg(doc.as_bytes(), "t.svg", policy, &SvgOptions::default())?;
+        imported.warnings.retain(|w| !w.contains("embedded raster image not traced"));
+        Ok(imported)
+    }
+
+    const PARTIAL: &str = "mask(s) are partly transparent";
+
+    /// Issue 22, item 1: under the web policy an `<image>` naming an existing file and one naming a missing
+    /// file give the same drawing and the same warnings (the href itself aside): no file-existence oracle. The
+    /// command-line policy, reading the same existing file, shows the difference the oracle was made of.
+    #[test]
+    fn web_policy_answers_alike_for_existing_and_missing_files() {
+        let dir = scratch("oracle");
+        std::fs::write(dir.join("there.png"), png()).unwrap();
+        let there = dir.join("there.png").display().to_string();
+        let missing = dir.join("missing.png").display().to_string();
+        let web = ResourcePolicy::DataUrlsOnly;
+        let a = import(&masked(&there), &web).unwrap();
+        let b = import(&masked(&missing), &web).unwrap();
+        assert_eq!(a.drawing, b.drawing);
+        let neutral = |w: &[String], href: &str| w.iter().map(|s| s.replace(href, "HREF")).collect::<Vec<_>>();
+        assert_eq!(neutral(&a.warnings, &there), neutral(&b.warnings, &missing));
+        assert_eq!(neutral(&a.warnings, &there), ["t.svg: image \"HREF\" not loaded: only data: URLs are read here"]);
+        // /dev/zero and a relative path are refused alike, at once.
+        for href in ["/dev/zero", "there.png", "../x.png", "file:///etc/passwd"] {
+            let r = import(&masked(href), &web).unwrap();
+            assert_eq!(r.warnings, [format!("t.svg: image \"{href}\" not loaded: only data: URLs are read here")]);
+        }
+        // Beside the file, the existing image loads (the mask turns partly transparent) and the missing one does not.
+        let cli = ResourcePolicy::beside(&dir.join("t.svg"));
+        let loaded = import(&masked("there.png"), &cli).unwrap();
+        assert!(loaded.warnings.iter().any(|w| w.contains(PARTIAL)), "{:?}", loaded.warnings);
+        let absent = import(&masked("missing.png"), &cli).unwrap();
+        assert!(!absent.warnings.iter().any(|w| w.contains(PARTIAL)), "{:?}", absent.warnings);
+        assert!(absent.warnings[0].contains("\"missing.png\" not loaded: cannot open it"), "{:?}", absent.warnings);
+        // A data: URL is read under both policies.
+        let inline = import(&masked(&data_url("image/png", &png())), &web).unwrap();
+        assert!(inline.warnings.iter().any(|w| w.contains(PARTIAL)), "{:?}", inline.warnings);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Issue 22, item 1 on the command line: what may be read beside the file, and each refusal with its reason.
+    /// A FIFO, /dev/zero (directly and through a link) and a directory return at once without being opened.
+    #[cfg(unix)]
+    #[test]
+    fn beside_file_reads_regular_files_in_the_folder_only() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = scratch("beside");
+        std::fs::create_dir(dir.join("sub")).unwrap();
+        std::fs::write(dir.join("sub/ok.png"), png()).unwrap();
+        std::fs::write(dir.join("big.png"), vec![0u8; 2048]).unwrap();
+        std::fs::write(dir.join("text.png"), b"not an image").unwrap();
+        let fifo = dir.join("fifo.png");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status().unwrap();
+        assert!(made.success());
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+        std::os::unix::fs::symlink("/dev/zero", dir.join("zero.png")).unwrap();
+        std::os::unix::fs::symlink("/etc", dir.join("etc")).unwrap();
+        let policy = ResourcePolicy::BesideFile { dir: dir.clone(), max_bytes: 1024 };
+        let start = Instant::now();
+        let cases = [
+            ("sub/ok.png", None),
+            ("fifo.png", Some("not a regular file (a directory, device, FIFO or socket)")),
+            ("sub", Some("not a regular file (a directory, device, FIFO or socket)")),
+            ("zero.png", Some("it leads outside the SVG's folder (a symbolic link)")),
+            ("etc/passwd", Some("it leads outside the SVG's folder (a symbolic link)")),
+            ("/dev/zero", Some("absolute paths are not read; name the file relative to the SVG's folder")),
+            ("sub/../../x.png", Some("'..' is not allowed: the file must be in the SVG's folder or below it")),
+            (
+                "http://example.com/a.png",
+                Some("URLs are not fetched; use a file path relative to the SVG or a data: URL"),
+            ),
+            ("big.png", Some("larger than the 1 MiB limit")),
+            ("text.png", Some("not a PNG, JPEG, GIF, WebP or SVG image")),
+        ];
+        for (href, refusal) in cases {
+            let r = import(&masked(href), &policy).unwrap();
+            match refusal {
+                None => assert!(r.warnings.iter().any(|w| w.contains(PARTIAL)), "{href}: {:?}", r.warnings),
+                Some(why) => assert_eq!(r.warnings, [format!("t.svg: image \"{href}\" not loaded: {why}")]),
+            }
+        }
+        assert!(start.elapsed() < Duration::from_secs(5), "{:?}", start.elapsed());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    fn nest(inner: &str) -> String {
+        format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="100" height="100"><image width="10" height="10" href="{}"/><line x1="0" y1="5" x2="50" y2="5" stroke="black"/></svg>"#,
+            data_url("image/svg+xml", inner.as_bytes())
+        )
+    }
+
+    /// Issue 22, item 3: an SVG image inside the document meets the outer document's limits — entity expansion,
+    /// attribute count, gzip, nesting depth and a total budget — as a warning naming the limit; the rest imports.
+    #[test]
+    fn nested_svg_images_meet_the_outer_limits() {
+        let web = ResourcePolicy::DataUrlsOnly;
+        let warnings = |doc: &str| import(doc, &web).unwrap().warnings;
+        let inner_ok =
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="4" height="4"><rect width="4" height="4"/></svg>"#;
+        assert!(warnings(&nest(inner_ok)).is_empty());
+        // Billion laughs inside.
+        let mut laughs = String::from("<!DOCTYPE svg [<!ENTITY l0 \"lol\">");
+        for i in 1..10 {
+            laughs.push_str(&format!("<!ENTITY l{i} \"{}\">", format!("&l{};", i - 1).repeat(10)));
+        }
+        laughs.push_str("]><svg xmlns=\"http://www.w3.org/2000/svg\"><text>&l9;</text></svg>");
+        let w = warnings(&nest(&laughs));
+        assert!(w.len() == 1 && w[0].contains("nested SVG: entity &l8; expands to more than 64 MiB"), "{w:?}");
+        // Too many attributes inside.
+        let attrs: String = (0..300).map(|i| format!(" a{i}=\"1\"")).collect();
+        let w = warnings(&nest(&format!("<svg xmlns=\"http://www.w3.org/2000/svg\"><g{attrs}/></svg>")));
+        assert!(w.len() == 1 && w[0].contains("nested SVG: <g> at line 1 has more than 256 attributes"), "{w:?}");
+        // Nesting: levels 1..=3 load, the fourth is refused.
+        let mut doc = inner_ok.to_string();
+        for _ in 0..4 {
+            doc = nest(&doc);
+        }
+        let w = warnings(&doc);
+        assert!(w.len() == 1 && w[0].ends_with("not loaded: SVG images nested more than 3 deep"), "{w:?}");
+        // Budget: a nested SVG of 1 048 635 bytes shown by 40 `<use>`s is read 15 times (15 × 1 048 635 ≤ 16 MiB <
+        // 16 × 1 048 635); the other 25 are refused.
+        let big = format!("<svg xmlns=\"http://www.w3.org/2000/svg\"><desc>{}</desc></svg>", "x".repeat(1 << 20));
+        let uses: String = (0..40).map(|i| format!("<use href=\"#i\" x=\"{i}\"/>")).collect();
+        let doc = format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="100" height="100"><defs><image id="i" width="1" height="1" href="{}"/></defs>{uses}<line x1="0" y1="5" x2="50" y2="5" stroke="black"/></svg>"#,
+            data_url("image/svg+xml", big.as_bytes())
+        );
+        let start = Instant::now();
+        let w = warnings(&doc);
+        assert_eq!(
+            w,
+            ["t.svg: image \"data:image/svg+xml (1048635 bytes)\" not loaded (25 times): nested SVG images exceed 16 \
+              MiB in all"]
+        );
+        assert!(start.elapsed() < Duration::from_secs(5), "{:?}", start.elapsed());
+    }
+}

@@ -841,3 +841,69 @@ fn an_empty_file_says_so() {
         assert!(e.starts_with("e.svg: ") && e.contains(expected), "{e}");
     }
 }
+
+/// Issue 22: hostile files, each built here, end in a clear error or a bounded result (the limits behind them are
+/// tested in their own modules: dtd, attributes, resources).
+mod hostile {
+    use super::*;
+
+    fn parse_error(data: &[u8]) -> String {
+        match import_svg(data, "h.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()) {
+            Err(e @ SvgError::Parse { .. }) => e.to_string(),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+
+    /// Item 2: the three ways round the old entity guard, in a whole import (65 references to 1 MiB each).
+    #[test]
+    fn entity_guard_bypasses_are_refused() {
+        let value = "x".repeat(1 << 20);
+        let body = |name: &str| {
+            format!("<svg xmlns=\"http://www.w3.org/2000/svg\"><text>{}</text></svg>", format!("&{name};").repeat(65))
+        };
+        for doc in [
+            format!("<!DOCTYPE svg [<!-- ]> --><!ENTITY b \"{value}\">]>{}", body("b")),
+            format!("<!-- <!DOCTYPE x []> --><!DOCTYPE svg [<!ENTITY b \"{value}\">]>{}", body("b")),
+            format!("<!DOCTYPE svg [<!ENTITY b·c \"{value}\">]>{}", body("b·c")),
+        ] {
+            let err = parse_error(doc.as_bytes());
+            assert!(
+                err.starts_with("h.svg: not a valid SVG document: entity references expand to more than 64 MiB"),
+                "{err}"
+            );
+        }
+    }
+
+    /// Item 4: 200 000 attributes on one element (2.3 MB) are refused before any parser sees them.
+    #[test]
+    fn an_element_with_200k_attributes_is_refused() {
+        let attrs: String = (0..200_000).map(|i| format!(" a{i}=\"1\"")).collect();
+        let doc = format!("<svg xmlns=\"http://www.w3.org/2000/svg\">\n<rect{attrs}/></svg>");
+        let err = parse_error(doc.as_bytes());
+        assert_eq!(err, "h.svg: not a valid SVG document: <rect> at line 2 has more than 256 attributes (200000)");
+    }
+
+    /// Item 12c: a page of 10²⁰ mm is refused before usvg works on it, and a stroke scaled to 10¹⁰ mm is drawn
+    /// as its centre line (cut at 1 km) without outlining it (that took 900 MB).
+    #[test]
+    fn absurd_sizes_are_refused_or_bounded() {
+        let page = r#"<svg xmlns="http://www.w3.org/2000/svg" width="1e20mm" height="1e20mm" viewBox="0 0 10 10"><circle cx="5" cy="5" r="4" fill="none" stroke="black"/></svg>"#;
+        assert_eq!(
+            parse_error(page.as_bytes()),
+            "h.svg: not a valid SVG document: <svg> width=\"1e20mm\" at line 1 is 1.000e20 mm, beyond the 1000000 mm \
+             (1 km) limit; check the units"
+        );
+        let scaled = r#"<svg xmlns="http://www.w3.org/2000/svg" width="1000mm" height="1000mm" viewBox="0 0 10 10"><g transform="scale(1e10)"><circle cx="5" cy="5" r="4" fill="none" stroke="black"/></g><line x1="1" y1="1" x2="2" y2="1" stroke="black" stroke-width="0.01"/></svg>"#;
+        let imported =
+            import_svg(scaled.as_bytes(), "h.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap();
+        assert!(
+            imported.warnings.iter().any(|w| w.contains("1 wide stroke(s) reach beyond ±1000000 mm (1 km)")),
+            "{:?}",
+            imported.warnings
+        );
+        // The small line survives, 1 user unit = 100 mm long.
+        assert!(
+            imported.drawing.paths().any(|p| (p.points[0].distance(p.points[p.points.len() - 1]) - 100.0).abs() < 1e-6)
+        );
+    }
+}
