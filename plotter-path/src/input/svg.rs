@@ -348,8 +348,9 @@ pub fn import_svg(
 }
 
 /// Refuse a root `width` or `height` beyond ±[`crate::geometry::limits::MAX_COORD_MM`] (1 km) before usvg works
-/// on it: no plotter draws such a page, and everything on it would be absurdly large.
-fn check_page_size(root: roxmltree::Node<'_, '_>) -> Result<(), String> {
+/// on it: no plotter draws such a page, and everything on it would be absurdly large (and usvg panics on sizes
+/// near the f32 limit, e.g. an SVG image 3e38 px wide).
+pub(super) fn check_page_size(root: roxmltree::Node<'_, '_>) -> Result<(), String> {
     use crate::geometry::limits::MAX_COORD_MM;
     for attr in ["width", "height"] {
         let Some(v) = root.attribute(attr) else { continue };

@@ -234,6 +234,7 @@ impl<'p> Resolver<'p> {
         let text = decode::checked_text(data, room).map_err(|e| format!("nested SVG: {e}"))?;
         self.charge(&self.nested_bytes, text.len() as u64, MAX_NESTED_BYTES, "nested SVG images")?;
         let xml = decode::parse_xml(&text).map_err(|e| format!("nested SVG: {e}"))?;
+        super::check_page_size(xml.root_element()).map_err(|e| format!("nested SVG: {e}"))?;
         let nested = usvg::Options {
             resources_dir: None,
             dpi: opts.dpi,
@@ -429,6 +430,9 @@ mod tests {
         let attrs: String = (0..300).map(|i| format!(" a{i}=\"1\"")).collect();
         let w = warnings(&nest(&format!("<svg xmlns=\"http://www.w3.org/2000/svg\"><g{attrs}/></svg>")));
         assert!(w.len() == 1 && w[0].contains("nested SVG: <g> at line 1 has more than 256 attributes"), "{w:?}");
+        // A size usvg cannot handle (it panicked on this one, found by the fuzz test).
+        let w = warnings(&nest(r#"<svg xmlns="http://www.w3.org/2000/svg" width="3e38" height="10"/>"#));
+        assert!(w.len() == 1 && w[0].contains("nested SVG: <svg> width=\"3e38\" at line 1 is 7.938e37 mm"), "{w:?}");
         // Nesting: levels 1..=3 load, the fourth is refused.
         let mut doc = inner_ok.to_string();
         for _ in 0..4 {
