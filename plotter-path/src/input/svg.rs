@@ -359,7 +359,7 @@ pub(super) fn check_page_size(root: roxmltree::Node<'_, '_>) -> Result<(), Strin
         }
         let Some(px) = length_px(v) else { continue };
         let mm = px * MM_PER_PX;
-        if !(mm.abs() <= MAX_COORD_MM) {
+        if mm.is_nan() || mm.abs() > MAX_COORD_MM {
             return Err(format!(
                 "<svg> {attr}=\"{v}\" at line {} is {mm:.3e} mm, beyond the {MAX_COORD_MM} mm (1 km) limit; check \
                  the units",

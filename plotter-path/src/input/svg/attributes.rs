@@ -16,8 +16,8 @@ use super::dtd::line_of;
 /// Most attributes accepted on one element.
 pub const MAX_ATTRIBUTES: usize = 256;
 
-/// Refuse `text` when one of its start tags has more than [`MAX_ATTRIBUTES`] attributes; `where_` names the
-/// text in the message (e.g. "line" for the document, "line … of entity &e;" for an entity's value).
+/// Refuse `text` when one of its start tags has more than [`MAX_ATTRIBUTES`] attributes; `describe` turns the
+/// tag's line within `text` into where it is for the message (e.g. "line 12", or "line 2 of entity &e;").
 pub fn check_attributes(text: &str, describe: impl Fn(usize) -> String) -> Result<(), String> {
     let bytes = text.as_bytes();
     let mut pos = 0;
