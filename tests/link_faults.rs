@@ -12,7 +12,7 @@ use plotter_host::link::faults::Noise;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
 use plotter_path::MachineProfile;
-use plotter_path::input::svg::{SvgOptions, import_svg};
+use plotter_path::input::svg::{ResourcePolicy, SvgOptions, import_svg};
 use plotter_path::motion::plan::machine_config;
 use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
 
@@ -23,7 +23,7 @@ impl PlotEvents for Quiet {
 
 fn duck_steps(profile: &MachineProfile) -> StepDrawing {
     let data = std::fs::read(sample("duck.svg")).unwrap();
-    let imported = import_svg(&data, "duck.svg", None, &SvgOptions::default()).unwrap();
+    let imported = import_svg(&data, "duck.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap();
     drawing_to_steps(profile, &imported.drawing).unwrap()
 }
 

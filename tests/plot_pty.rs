@@ -15,7 +15,9 @@ const TOLERANCE_MM: f64 = svg::DEFAULT_TOLERANCE_MM;
 fn ideal() -> (MachineProfile, Drawing, StepDrawing) {
     let profile = MachineProfile::default_plotter();
     let opts = svg::SvgOptions { tolerance_mm: TOLERANCE_MM, ..svg::SvgOptions::default() };
-    let drawing = svg::import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", None, &opts).unwrap().drawing;
+    let drawing = svg::import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", &svg::ResourcePolicy::DataUrlsOnly, &opts)
+        .unwrap()
+        .drawing;
     let steps = drawing_to_steps(&profile, &drawing).unwrap();
     (profile, drawing, steps)
 }

@@ -111,7 +111,7 @@ fn duck_on_the_emulated_board_steps_exactly_the_plan() {
     let profile = MachineProfile::default_plotter();
     let opts = svg::SvgOptions { tolerance_mm: svg::DEFAULT_TOLERANCE_MM, ..svg::SvgOptions::default() };
     let bytes = std::fs::read(&duck).unwrap();
-    let mut drawing = svg::import_svg(&bytes, "duck.svg", None, &opts).unwrap().drawing;
+    let mut drawing = svg::import_svg(&bytes, "duck.svg", &svg::ResourcePolicy::DataUrlsOnly, &opts).unwrap().drawing;
     layout::apply(&mut drawing, &LayoutOptions { scale: Some(SCALE), ..LayoutOptions::default() }).unwrap();
     let steps = drawing_to_steps(&profile, &drawing).unwrap();
     let plan = plan::plan(&profile, &steps, [0, 0, 1600, 0], Lookahead::Whole).unwrap();

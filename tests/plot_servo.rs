@@ -20,7 +20,10 @@ fn profile(name: &str) -> MachineProfile {
 
 fn three_pens_plan(profile: &MachineProfile, start: [i32; 4]) -> MotionPlan {
     let data = std::fs::read(plotter_e2e::sample("three-pens.svg")).unwrap();
-    let drawing = svg::import_svg(&data, "three-pens.svg", None, &svg::SvgOptions::default()).unwrap().drawing;
+    let drawing =
+        svg::import_svg(&data, "three-pens.svg", &svg::ResourcePolicy::DataUrlsOnly, &svg::SvgOptions::default())
+            .unwrap()
+            .drawing;
     let steps = drawing_to_steps(profile, &drawing).unwrap();
     assert_eq!(steps.strokes.len(), STROKES);
     plan::plan(profile, &steps, start, Lookahead::Whole).unwrap()

@@ -26,7 +26,9 @@ fn host_time_equals_executed_time() {
     for profile_text in [include_str!("../samples/xy-plotter.toml"), include_str!("../samples/printer.toml")] {
         let profile = MachineProfile::from_toml(profile_text, "sample").unwrap();
         let opts = svg::SvgOptions::default();
-        let drawing = svg::import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", None, &opts).unwrap().drawing;
+        let drawing = svg::import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", &svg::ResourcePolicy::DataUrlsOnly, &opts)
+            .unwrap()
+            .drawing;
         let steps = drawing_to_steps(&profile, &drawing).unwrap();
         for look in [Lookahead::Whole, Lookahead::Window(16)] {
             let (plan, sim, executed) =
@@ -59,7 +61,7 @@ fn plan_time_is_independent_of_flattening_tolerance() {
     corners_only.motion.curve_deviation_mm = 0.0;
     let svg_at = |text: &str, name: &str, tol: f64| {
         let opts = svg::SvgOptions { tolerance_mm: tol, ..svg::SvgOptions::default() };
-        svg::import_svg(text.as_bytes(), name, None, &opts).unwrap().drawing
+        svg::import_svg(text.as_bytes(), name, &svg::ResourcePolicy::DataUrlsOnly, &opts).unwrap().drawing
     };
     let samples = [
         ("sample.svg", SAMPLE_SVG.to_string()),

@@ -17,7 +17,7 @@ use plotter_host::link::journal;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
 use plotter_path::MachineProfile;
-use plotter_path::input::svg::{SvgOptions, import_svg};
+use plotter_path::input::svg::{ResourcePolicy, SvgOptions, import_svg};
 use plotter_path::motion::plan::{self, Lookahead, machine_config};
 use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
 
@@ -64,7 +64,8 @@ impl Transport for Cut {
 
 fn drawing() -> (MachineProfile, StepDrawing) {
     let profile = MachineProfile::default_plotter();
-    let imported = import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", None, &SvgOptions::default()).unwrap();
+    let imported =
+        import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap();
     let steps = drawing_to_steps(&profile, &imported.drawing).unwrap();
     (profile, steps)
 }

@@ -1,7 +1,7 @@
 //! Every sample SVG imports cleanly, previews, and survives the plain-SVG export round trip unchanged.
 
 use plotter_e2e::sample;
-use plotter_path::input::svg::{SvgOptions, import_svg, load_svg};
+use plotter_path::input::svg::{ResourcePolicy, SvgOptions, import_svg, load_svg};
 use plotter_path::output::preview::{PreviewOptions, render};
 use plotter_path::output::svg_out::to_svg_string;
 use plotter_path::{MachineProfile, geometry::layout};
@@ -26,7 +26,8 @@ fn export_round_trip_preserves_geometry() {
     for name in SVG_SAMPLES {
         let original = load_svg(&sample(name), &SvgOptions::default()).unwrap().drawing;
         let exported = to_svg_string(&original);
-        let again = import_svg(exported.as_bytes(), name, None, &SvgOptions::default()).unwrap();
+        let again =
+            import_svg(exported.as_bytes(), name, &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap();
         assert!(again.warnings.is_empty(), "{name}: {:?}", again.warnings);
         let again = again.drawing;
         assert_eq!(

@@ -9,7 +9,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use plotter_path::geometry::hatch::FillHatch;
 use plotter_path::input::raster::Mode;
-use plotter_path::input::svg::{self, ImageTrace, LayerBy, SvgOptions, TextMode};
+use plotter_path::input::svg::{self, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
 use plotter_path::input::{gcode_in, r#gen, raster, trajectory};
 use plotter_path::motion::steps::StepMapper;
 use plotter_path::{Drawing, MachineProfile};
@@ -225,7 +225,9 @@ fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineP
         return r#gen::from_spec(spec).with_context(|| format!("cannot generate {spec}"));
     }
     let data = read_input(path)?;
-    let decoded = decode_drawing(&data, path, &shown, path.parent().map(Path::to_path_buf), args, profile)?;
+    // A file may use images beside it; stdin has no folder, so only data: URLs.
+    let resources = if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) };
+    let decoded = decode_drawing(&data, path, &shown, &resources, args, profile)?;
     warn_all(&decoded.warnings);
     Ok(decoded.drawing)
 }
@@ -240,19 +242,19 @@ pub struct Decoded {
 }
 
 /// Decode the bytes of an input file: `name` (its file name) decides the kind together with the first bytes,
-/// `shown` names it in messages, and `resources_dir` (if any) resolves an SVG's relative references — a front end
-/// that receives bytes from elsewhere passes `None`, so no path of the sender's choosing is looked up.
+/// `shown` names it in messages, and `resources` decides what an SVG may reference — a front end that receives
+/// bytes from elsewhere passes [`ResourcePolicy::DataUrlsOnly`], so no path of the sender's choosing is opened.
 pub fn decode_drawing(
     data: &[u8],
     name: &Path,
     shown: &str,
-    resources_dir: Option<PathBuf>,
+    resources: &ResourcePolicy,
     args: &InputArgs,
     profile: &MachineProfile,
 ) -> Result<Decoded> {
     match input_kind(name, &data[..data.len().min(512)]) {
         InputKind::Svg => {
-            let imported = svg::import_svg(data, shown, resources_dir, &args.svg_options(profile)?)?;
+            let imported = svg::import_svg(data, shown, resources, &args.svg_options(profile)?)?;
             Ok(Decoded { drawing: imported.drawing, warnings: imported.warnings })
         }
         InputKind::Image => {

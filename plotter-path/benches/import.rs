@@ -9,7 +9,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use plotter_path::input::svg::{SvgOptions, import_svg};
+use plotter_path::input::svg::{ResourcePolicy, SvgOptions, import_svg};
 use plotter_path::output::stats::Stats;
 
 /// A deterministic large drawing: a 300 × 200 grid of cells, each with one shape; with `filled`, circles (grown to
@@ -58,13 +58,14 @@ fn bench(c: &mut Criterion) {
     let paths = 60_000;
     let svg = large_svg(paths, false);
     let options = SvgOptions { tolerance_mm: 0.01, occlusion: false, ..SvgOptions::default() };
-    let first = import_svg(svg.as_bytes(), "bench.svg", None, &options).expect("bench SVG imports");
+    let first =
+        import_svg(svg.as_bytes(), "bench.svg", &ResourcePolicy::DataUrlsOnly, &options).expect("bench SVG imports");
     let stats = Stats::of(&first.drawing);
     let mut group = c.benchmark_group("import");
     group.sample_size(10);
     group.throughput(Throughput::Elements(stats.segments as u64));
     group.bench_function("svg_60k_paths_tol_0.01mm", |b| {
-        b.iter(|| import_svg(black_box(svg.as_bytes()), "bench.svg", None, &options).unwrap())
+        b.iter(|| import_svg(black_box(svg.as_bytes()), "bench.svg", &ResourcePolicy::DataUrlsOnly, &options).unwrap())
     });
     group.finish();
 
@@ -74,11 +75,12 @@ fn bench(c: &mut Criterion) {
         [("occlusion off", &svg, &options), ("occlusion on", &svg, &on), ("occlusion on, filled", &filled, &on)]
     {
         let runs = 3;
-        let first = import_svg(doc.as_bytes(), "bench.svg", None, opts).expect("bench SVG imports");
+        let first =
+            import_svg(doc.as_bytes(), "bench.svg", &ResourcePolicy::DataUrlsOnly, opts).expect("bench SVG imports");
         let stats = Stats::of(&first.drawing);
         let start = Instant::now();
         for _ in 0..runs {
-            black_box(import_svg(doc.as_bytes(), "bench.svg", None, opts).unwrap());
+            black_box(import_svg(doc.as_bytes(), "bench.svg", &ResourcePolicy::DataUrlsOnly, opts).unwrap());
         }
         let per_run = start.elapsed().as_secs_f64() / f64::from(runs);
         println!(

@@ -384,7 +384,9 @@ async fn decode(
     heavy(shared, move || {
         let (name, decoded) = match &source {
             Source::Upload { name, bytes } => {
-                let decoded = decode_drawing(bytes, Path::new(name), name, None, &input, &profile);
+                // An upload may use only data: URLs inside it: no path on this machine is opened or looked up.
+                let only_data = plotter_path::input::svg::ResourcePolicy::DataUrlsOnly;
+                let decoded = decode_drawing(bytes, Path::new(name), name, &only_data, &input, &profile);
                 (name.clone(), decoded.map_err(|e| bad(format!("{e:#}")))?)
             }
             Source::Gen(spec) => {

@@ -15,6 +15,7 @@ use std::str::FromStr;
 use kurbo::{Affine, Point, Rect, Vec2};
 
 use crate::geometry::drawing::Drawing;
+use crate::geometry::limits::MAX_COORD_MM;
 use crate::motion::profile::MachineProfile;
 
 /// Layout errors.
@@ -42,6 +43,31 @@ pub enum LayoutError {
     /// The drawing is empty; there is nothing to lay out.
     #[error("the drawing has no paths to lay out")]
     Empty,
+    /// A paper larger than any plotter's reach.
+    #[error("paper {width_mm:.3e} × {height_mm:.3e} mm is beyond the {max} mm (1 km) limit; give the size in mm", max = MAX_COORD_MM)]
+    PaperTooLarge {
+        /// Width, mm.
+        width_mm: f64,
+        /// Height, mm.
+        height_mm: f64,
+    },
+    /// The layout (fit, scale, translate, rotate) moved the drawing beyond ±1 km: nothing of it could be drawn.
+    #[error(
+        "{step} puts the drawing at x {x0:.3e}..{x1:.3e} mm, y {y0:.3e}..{y1:.3e} mm, beyond ±{max} mm (1 km): \
+         nothing of it could be drawn; check --paper, --scale and --translate", max = MAX_COORD_MM
+    )]
+    BeyondReach {
+        /// The layout step that did it.
+        step: &'static str,
+        /// Extent, mm.
+        x0: f64,
+        /// Extent, mm.
+        x1: f64,
+        /// Extent, mm.
+        y0: f64,
+        /// Extent, mm.
+        y1: f64,
+    },
     /// The laid-out drawing leaves the machine's reach.
     #[error(
         "drawing spans x {x0:.2}..{x1:.2} mm, y {y0:.2}..{y1:.2} mm on the machine, outside the work area \
@@ -113,6 +139,9 @@ impl FromStr for Paper {
         let (w, h) = body.split_once('x').ok_or_else(|| LayoutError::Paper(s.to_string()))?;
         let parse = |v: &str| v.trim().parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0);
         match (parse(w), parse(h)) {
+            (Some(width_mm), Some(height_mm)) if width_mm > MAX_COORD_MM || height_mm > MAX_COORD_MM => {
+                Err(LayoutError::PaperTooLarge { width_mm, height_mm })
+            }
             (Some(width_mm), Some(height_mm)) => Ok(Paper { width_mm, height_mm }),
             _ => Err(LayoutError::Paper(s.to_string())),
         }
@@ -190,6 +219,9 @@ pub fn apply(drawing: &mut Drawing, options: &LayoutOptions) -> Result<(), Layou
     }
     // 2. paper
     if let Some(paper) = options.paper {
+        if !(paper.width_mm <= MAX_COORD_MM && paper.height_mm <= MAX_COORD_MM) {
+            return Err(LayoutError::PaperTooLarge { width_mm: paper.width_mm, height_mm: paper.height_mm });
+        }
         let paper = match options.orientation {
             Some(o) => paper.oriented(o),
             None => paper,
@@ -216,6 +248,9 @@ pub fn apply(drawing: &mut Drawing, options: &LayoutOptions) -> Result<(), Layou
     if let Some(s) = factor {
         let origin = bbox.origin();
         drawing.map_points(|p| origin + (p - origin) * s);
+        if !needs_page {
+            within_reach(drawing, "--scale")?;
+        }
     }
     // 4. centre
     if needs_page {
@@ -223,13 +258,30 @@ pub fn apply(drawing: &mut Drawing, options: &LayoutOptions) -> Result<(), Layou
         let bbox = drawing.bbox().ok_or(LayoutError::Empty)?;
         let shift = area.center() - bbox.center();
         drawing.map_points(|p| p + shift);
+        let step = match (options.fit, options.scale) {
+            (true, _) => "--fit",
+            (false, Some(_)) => "--scale",
+            (false, None) => "--center",
+        };
+        within_reach(drawing, step)?;
     }
     // 5. translate
     if options.translate != Vec2::ZERO {
         let t = options.translate;
         drawing.map_points(|p| p + t);
+        within_reach(drawing, "--translate")?;
     }
     Ok(())
+}
+
+/// Refuse a drawing that `step` moved beyond ±[`MAX_COORD_MM`]: every later stage would drop or refuse it, so
+/// the layout says so, naming the step (a `--paper 1e300x1e300 --fit` used to end as "0 strokes", exit 0).
+fn within_reach(drawing: &Drawing, step: &'static str) -> Result<(), LayoutError> {
+    let Some(b) = drawing.bbox() else { return Ok(()) };
+    if [b.x0, b.x1, b.y0, b.y1].iter().all(|v| v.abs() <= MAX_COORD_MM) {
+        return Ok(());
+    }
+    Err(LayoutError::BeyondReach { step, x0: b.x0, x1: b.x1, y0: b.y0, y1: b.y1 })
 }
 
 fn drawable_area(drawing: &Drawing, margin: f64) -> Result<Rect, LayoutError> {
@@ -333,6 +385,38 @@ mod tests {
             Err(LayoutError::Scale(0.0))
         );
         assert_eq!(apply(&mut d, &LayoutOptions { center: true, ..Default::default() }), Err(LayoutError::NoPage));
+    }
+
+    /// Issue 22, item 11: a layout that throws the drawing beyond any machine's reach is an error naming the
+    /// step, never a silently empty result.
+    #[test]
+    fn absurd_layouts_are_errors_naming_the_step() {
+        let err = "1e300x1e300".parse::<Paper>().unwrap_err();
+        assert_eq!(err, LayoutError::PaperTooLarge { width_mm: 1e300, height_mm: 1e300 });
+        assert_eq!(
+            err.to_string(),
+            "paper 1.000e300 × 1.000e300 mm is beyond the 1000000 mm (1 km) limit; give the size in mm"
+        );
+        // The paper given directly (the web app builds LayoutOptions itself).
+        let huge = Paper { width_mm: 1e300, height_mm: 1e300 };
+        let mut d = rect_drawing(0.0, 0.0, 20.0, 10.0, None);
+        let opts = LayoutOptions { paper: Some(huge), fit: true, ..Default::default() };
+        assert!(matches!(apply(&mut d, &opts), Err(LayoutError::PaperTooLarge { .. })));
+        // A 1 km paper is allowed, but fitting a 20 × 10 mm drawing on it (scale 5·10⁴) reaches 10⁶ mm: allowed
+        // exactly at the edge; a 1e12 scale is not.
+        let mut d = rect_drawing(0.0, 0.0, 20.0, 10.0, None);
+        let err = apply(&mut d, &LayoutOptions { scale: Some(1e12), ..Default::default() }).unwrap_err();
+        assert!(matches!(err, LayoutError::BeyondReach { step: "--scale", .. }), "{err}");
+        assert!(err.to_string().contains("x 0.000e0..2.000e13 mm"), "{err}");
+        let mut d = rect_drawing(0.0, 0.0, 20.0, 10.0, None);
+        let far = LayoutOptions { translate: Vec2::new(2e6, 0.0), ..Default::default() };
+        assert!(matches!(apply(&mut d, &far), Err(LayoutError::BeyondReach { step: "--translate", .. })));
+        let mut d = rect_drawing(0.0, 0.0, 20.0, 10.0, None);
+        let fit =
+            LayoutOptions { paper: Some(Paper { width_mm: 1e6, height_mm: 1e6 }), fit: true, ..Default::default() };
+        apply(&mut d, &fit).unwrap();
+        let b = d.bbox().unwrap();
+        assert!((b.width() - 1e6).abs() < 1e-6 && b.x0.abs() < 1e-6, "{b:?}");
     }
 
     #[test]

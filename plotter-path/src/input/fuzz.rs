@@ -2,20 +2,86 @@
 //! trajectory files, images and generator specs go through the public importers and the size limits. Each must
 //! give a drawing within [`crate::geometry::limits`] or an error — never a panic. The files under
 //! `plotter-path/fuzz/regressions/` are the crashes and hangs found so far (the issue's reproducers among them);
-//! [`regressions_stay_fixed`] replays every one.
+//! [`regressions_stay_fixed`] replays every one. [`svg_resources_never_panic`] feeds `<image>` references of every
+//! kind — `data:` URLs (raster, nested SVG, mutated nested SVG, nested again), relative names (a regular file, a
+//! FIFO, a link to `/dev/zero`, a directory, a missing file, `..`), absolute paths and URLs — under both resource
+//! policies: each import must end (an error or a drawing within the limits) without hanging or panicking.
 
 use proptest::prelude::*;
 
 use crate::MachineProfile;
 use crate::geometry::limits::check_drawing;
-use crate::input::svg::{SvgOptions, import_svg};
+use crate::input::svg::{ResourcePolicy, SvgOptions, import_svg};
 use crate::input::{gcode_in, r#gen, raster, trajectory};
 use crate::motion::steps::StepMapper;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 fn svg(bytes: &[u8]) {
-    if let Ok(i) = import_svg(bytes, "fuzz.svg", None, &SvgOptions::default()) {
+    if let Ok(i) = import_svg(bytes, "fuzz.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()) {
         let _ = check_drawing(&i.drawing, "fuzz.svg");
     }
+}
+
+/// A `data:` URL with every byte but letters and digits percent-encoded.
+fn data_url(mime: &str, bytes: &[u8]) -> String {
+    let mut s = format!("data:{mime},");
+    for b in bytes {
+        if b.is_ascii_alphanumeric() {
+            s.push(char::from(*b));
+        } else {
+            s.push_str(&format!("%{b:02X}"));
+        }
+    }
+    s
+}
+
+/// A folder shared by the resource fuzz cases: a PNG, a nested SVG, a FIFO, a link to /dev/zero, a directory.
+fn resource_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("plotter-fuzz-resources-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        std::fs::write(dir.join("a.png"), include_bytes!("../../../samples/line-art.png")).unwrap();
+        std::fs::write(dir.join("sub/b.svg"), include_bytes!("../../../samples/transforms.svg")).unwrap();
+        #[cfg(unix)]
+        {
+            let _ = std::process::Command::new("mkfifo").arg(dir.join("fifo.png")).status();
+            let _ = std::os::unix::fs::symlink("/dev/zero", dir.join("zero.png"));
+        }
+        dir
+    })
+}
+
+/// The hrefs the resource fuzz case picks from (index, nested-SVG bytes).
+fn href(kind: u8, nested: &[u8]) -> String {
+    let raster = include_bytes!("../../../samples/line-art.png");
+    match kind % 16 {
+        0 => data_url("image/png", raster),
+        1 => data_url("image/svg+xml", nested),
+        2 => data_url("text/plain", nested),
+        3 => data_url("image/svg+xml", image_doc(&data_url("image/svg+xml", nested)).as_bytes()),
+        4 => data_url("image/svg+xml", image_doc("a.png").as_bytes()),
+        5 => "a.png".into(),
+        6 => "sub/b.svg".into(),
+        7 => "fifo.png".into(),
+        8 => "zero.png".into(),
+        9 => "sub".into(),
+        10 => "missing.png".into(),
+        11 => "sub/../a.png".into(),
+        12 => resource_dir().join("a.png").display().to_string(),
+        13 => "/dev/zero".into(),
+        14 => "file:///etc/passwd".into(),
+        _ => data_url("image/gif", nested),
+    }
+}
+
+/// A small document showing one `<image>` (also inside a mask and through `<use>`), referencing `href`.
+fn image_doc(href: &str) -> String {
+    format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="100" height="100"><defs><image id="i" width="20" height="20" href="{href}"/></defs><mask id="m"><rect width="100" height="100" fill="white"/><use href="#i"/></mask><use href="#i" x="30"/><g mask="url(#m)"><line x1="0" y1="50" x2="100" y2="50" stroke="black"/></g></svg>"##
+    )
 }
 
 fn gcode(text: &str) {
@@ -48,7 +114,7 @@ fn regressions_stay_fixed() {
         match p.extension().and_then(|x| x.to_str()) {
             Some("svg") => {
                 // Each SVG regression is absurd: it must be refused by the limits (or the importer), never panic.
-                if let Ok(i) = import_svg(&bytes, "r.svg", None, &SvgOptions::default()) {
+                if let Ok(i) = import_svg(&bytes, "r.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()) {
                     let checked = check_drawing(&i.drawing, "r.svg");
                     let preview = crate::output::preview::render(&i.drawing, &Default::default());
                     assert!(checked.is_err() || preview.is_ok(), "{}", p.display());
@@ -62,6 +128,11 @@ fn regressions_stay_fixed() {
         n += 1;
     }
     assert!(n >= 7, "{n} regression inputs");
+}
+
+/// `PROPTEST_CASES` when set (for long fuzz runs), else `default`.
+fn cases(default: u32) -> u32 {
+    std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(default)
 }
 
 fn mutate(base: &[u8], edits: &[(usize, u8, u8)]) -> Vec<u8> {
@@ -94,12 +165,29 @@ fn edits() -> impl Strategy<Value = Vec<(usize, u8, u8)>> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(cases(48)))]
 
     #[test]
     fn svg_never_panics(e in edits()) {
         let base = include_bytes!("../../../samples/transforms.svg");
         svg(&mutate(base, &e));
+    }
+
+    #[test]
+    fn svg_resources_never_panic(kinds in proptest::collection::vec(any::<u8>(), 1..4), e in edits()) {
+        let nested = mutate(include_bytes!("../../../samples/transforms.svg"), &e);
+        let policies = [
+            ResourcePolicy::DataUrlsOnly,
+            ResourcePolicy::BesideFile { dir: resource_dir().to_path_buf(), max_bytes: 1 << 20 },
+        ];
+        for policy in &policies {
+            for &k in &kinds {
+                let doc = image_doc(&href(k, &nested));
+                if let Ok(i) = import_svg(doc.as_bytes(), "fuzz.svg", policy, &SvgOptions::default()) {
+                    let _ = check_drawing(&i.drawing, "fuzz.svg");
+                }
+            }
+        }
     }
 
     #[test]

@@ -34,11 +34,16 @@
 //! layer per stroke colour as usvg normalises it (`red` and `#ff0000` are one pen; fill colour for fill-only
 //! paths). [`LayerBy::None`] puts everything in one layer. Nothing but a layer element makes a layer.
 
+pub mod attributes;
 mod bounds;
 pub mod decode;
+pub mod dtd;
 pub mod hershey;
 mod occlude;
+pub mod resources;
 mod walk;
+
+pub use resources::ResourcePolicy;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -190,48 +195,34 @@ pub struct Imported {
     pub warnings: Vec<String>,
 }
 
-/// Load and import an SVG file.
+/// Load and import an SVG file; it may reference image files beside it ([`ResourcePolicy::beside`]).
 pub fn load_svg(path: &Path, options: &SvgOptions) -> Result<Imported, SvgError> {
     let shown = path.display().to_string();
     let data = std::fs::read(path).map_err(|source| SvgError::Read { path: shown.clone(), source })?;
-    let dir = path.parent().map(Path::to_path_buf);
-    import_svg(&data, &shown, dir, options)
+    import_svg(&data, &shown, &ResourcePolicy::beside(path), options)
 }
 
-/// Import SVG bytes (plain or gzip-compressed); `name` is used in messages, `resources_dir` resolves relative
-/// references.
+/// Import SVG bytes (plain or gzip-compressed); `name` is used in messages, `resources` decides what the
+/// document may reference beyond its own bytes (a front end receiving bytes from elsewhere passes
+/// [`ResourcePolicy::DataUrlsOnly`]).
 pub fn import_svg(
     data: &[u8],
     name: &str,
-    resources_dir: Option<std::path::PathBuf>,
+    resources: &ResourcePolicy,
     options: &SvgOptions,
 ) -> Result<Imported, SvgError> {
     let parse_err = |message: String| SvgError::Parse { path: name.to_string(), message };
-    let inflated;
-    let data = if decode::is_gzip(data) {
-        inflated = decode::gunzip(data).map_err(parse_err)?;
-        inflated.as_slice()
-    } else {
-        data
-    };
-    let text = decode::decode_xml(data).map_err(parse_err)?;
-    if text.trim().is_empty() {
-        return Err(parse_err(format!(
-            "the file is empty ({} bytes{})",
-            data.len(),
-            if data.is_empty() { "" } else { ", all white space" }
-        )));
-    }
-    decode::check_entities(&text).map_err(parse_err)?;
-    let parsing = roxmltree::ParsingOptions { allow_dtd: true, nodes_limit: decode::MAX_NODES, ..Default::default() };
-    let xml = roxmltree::Document::parse_with_options(&text, parsing).map_err(|e| parse_err(e.to_string()))?;
+    let text = decode::checked_text(data, decode::MAX_INFLATED_BYTES).map_err(parse_err)?;
+    let xml = decode::parse_xml(&text).map_err(parse_err)?;
     if xml.root_element().tag_name().name() != "svg" {
         return Err(parse_err(format!("root element is <{}>, expected <svg>", xml.root_element().tag_name().name())));
     }
+    check_page_size(xml.root_element()).map_err(parse_err)?;
     let survey = survey(&xml, options.images.is_none());
     let mut warnings = survey.warnings.clone();
 
-    let mut opt = usvg::Options { resources_dir, ..usvg::Options::default() };
+    let resolver = resources::Resolver::new(resources);
+    let mut opt = usvg::Options { image_href_resolver: resolver.href_resolver(0), ..usvg::Options::default() };
     if survey.has_text {
         let db = opt.fontdb_mut();
         db.load_system_fonts();
@@ -256,6 +247,7 @@ pub fn import_svg(
         }
     }
     let tree = usvg::Tree::from_xmltree(&xml, &opt).map_err(|e| parse_err(e.to_string()))?;
+    warnings.extend(resolver.warnings(name));
 
     let empty = HashMap::new();
     let layer_groups = match options.layer_by {
@@ -283,6 +275,14 @@ pub fn import_svg(
         warnings.push(format!(
             "{name}: {} mask(s) are partly transparent (grey, gradient or translucent): cut where they are at least half opaque",
             skipped.partial_masks
+        ));
+    }
+    if skipped.far_outlines > 0 {
+        warnings.push(format!(
+            "{name}: {} wide stroke(s) reach beyond ±{} mm (1 km): drawn as centre lines only (they neither hide \
+             what lies under them nor are filled)",
+            skipped.far_outlines,
+            crate::geometry::limits::MAX_COORD_MM
         ));
     }
     if skipped.hatch_refused > 0 {
@@ -345,6 +345,29 @@ pub fn import_svg(
         return Err(SvgError::Empty { path: name.to_string(), detail });
     }
     Ok(Imported { drawing, warnings })
+}
+
+/// Refuse a root `width` or `height` beyond ±[`crate::geometry::limits::MAX_COORD_MM`] (1 km) before usvg works
+/// on it: no plotter draws such a page, and everything on it would be absurdly large (and usvg panics on sizes
+/// near the f32 limit, e.g. an SVG image 3e38 px wide).
+pub(super) fn check_page_size(root: roxmltree::Node<'_, '_>) -> Result<(), String> {
+    use crate::geometry::limits::MAX_COORD_MM;
+    for attr in ["width", "height"] {
+        let Some(v) = root.attribute(attr) else { continue };
+        if v.trim_end().ends_with('%') {
+            continue;
+        }
+        let Some(px) = length_px(v) else { continue };
+        let mm = px * MM_PER_PX;
+        if mm.is_nan() || mm.abs() > MAX_COORD_MM {
+            return Err(format!(
+                "<svg> {attr}=\"{v}\" at line {} is {mm:.3e} mm, beyond the {MAX_COORD_MM} mm (1 km) limit; check \
+                 the units",
+                root.document().text_pos_at(root.range().start).row
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The content below usvg's anonymous wrapper groups (viewBox transform and the like), with the transform to px.

@@ -1,21 +1,19 @@
-//! From file bytes to XML text a browser would read: gzip (`.svgz`, or gzip bytes under any name), the byte
-//! order mark or the declared `encoding` (ISO-8859-x, Windows-125x, UTF-16, … through encoding_rs, the decoder of
-//! the WHATWG Encoding Standard that browsers follow), and a bound on internal DTD entity expansion.
-//!
-//! **Entities.** roxmltree expands internal entities itself (with `allow_dtd`) and stops loops and deeply nested
-//! references, but a large entity referenced many times at the top level can still multiply the document's size.
-//! Before parsing, [`check_entities`] computes the expanded size of every `<!ENTITY name "value">` of the internal
-//! subset (recursively, cycles reported) and the total the document's references would expand to; over
-//! [`MAX_EXPANDED_BYTES`] is an error naming the entity, so a "billion laughs" file fails fast in bounded memory.
+//! From file bytes to a parsed XML tree, through every check that keeps hostile files bounded: gzip (`.svgz`, or
+//! gzip bytes under any name) inflated up to a cap, the byte order mark or the declared `encoding` (ISO-8859-x,
+//! Windows-125x, UTF-16, … through encoding_rs, the decoder of the WHATWG Encoding Standard that browsers follow),
+//! the bound on internal DTD entity expansion ([`super::dtd`]), the bound on attributes per element
+//! ([`super::attributes`]) and roxmltree's node limit. [`checked_text`] and [`parse_xml`] are the one path every
+//! SVG takes — the imported file and every SVG image nested in it ([`super::resources`]).
 
-use std::collections::HashMap;
 use std::io::Read;
+
+use usvg::roxmltree;
+
+use super::attributes::check_attributes;
+use super::dtd::{Dtd, check_entities};
 
 /// Largest decompressed size accepted from a gzip-compressed SVG.
 pub const MAX_INFLATED_BYTES: u64 = 256 << 20;
-
-/// Largest total text that entity references may expand to.
-pub const MAX_EXPANDED_BYTES: u64 = 64 << 20;
 
 /// Most XML nodes accepted (bounds the parser's memory on huge or hostile files).
 pub const MAX_NODES: u32 = 5_000_000;
@@ -25,15 +23,58 @@ pub fn is_gzip(data: &[u8]) -> bool {
     data.starts_with(&[0x1f, 0x8b])
 }
 
-/// Inflate gzip data, refusing more than [`MAX_INFLATED_BYTES`].
-pub fn gunzip(data: &[u8]) -> Result<Vec<u8>, String> {
+/// Inflate gzip data, refusing more than `max` bytes.
+pub fn gunzip(data: &[u8], max: u64) -> Result<Vec<u8>, String> {
     let mut out = Vec::new();
-    let mut reader = flate2::read::GzDecoder::new(data).take(MAX_INFLATED_BYTES + 1);
+    let mut reader = flate2::read::GzDecoder::new(data).take(max.saturating_add(1));
     reader.read_to_end(&mut out).map_err(|e| format!("gzip-compressed data is corrupt ({e})"))?;
-    if out.len() as u64 > MAX_INFLATED_BYTES {
-        return Err(format!("gzip-compressed data inflates to more than {} MiB", MAX_INFLATED_BYTES >> 20));
+    if out.len() as u64 > max {
+        return Err(format!("gzip-compressed data inflates to more than {}", mib(max)));
     }
     Ok(out)
+}
+
+fn mib(bytes: u64) -> String {
+    if bytes >= 1 << 20 { format!("{} MiB", bytes >> 20) } else { format!("{bytes} bytes") }
+}
+
+/// SVG file bytes (plain or gzip-compressed, inflating to at most `max_inflated` bytes) as checked XML text:
+/// decoded, not empty, entity expansion and attribute counts within bounds (see the module docs).
+pub fn checked_text(data: &[u8], max_inflated: u64) -> Result<String, String> {
+    let inflated;
+    let data = if is_gzip(data) {
+        inflated = gunzip(data, max_inflated)?;
+        inflated.as_slice()
+    } else {
+        data
+    };
+    let text = decode_xml(data)?;
+    if text.trim().is_empty() {
+        return Err(format!(
+            "the file is empty ({} bytes{})",
+            data.len(),
+            if data.is_empty() { "" } else { ", all white space" }
+        ));
+    }
+    let dtd = check_entities(&text)?;
+    check_markup(&text, &dtd)?;
+    Ok(text)
+}
+
+/// The attribute bound over the document's elements and over every entity value (entities may hold elements).
+fn check_markup(text: &str, dtd: &Dtd<'_>) -> Result<(), String> {
+    let first_line = super::dtd::line_of(text, dtd.end);
+    check_attributes(&text[dtd.end..], |line| format!("line {}", line + first_line - 1))?;
+    for (name, value) in &dtd.entities {
+        check_attributes(value, |line| format!("line {line} of entity &{name};"))?;
+    }
+    Ok(())
+}
+
+/// Parse checked text ([`checked_text`]) with DTDs allowed and at most [`MAX_NODES`] nodes.
+pub fn parse_xml(text: &str) -> Result<roxmltree::Document<'_>, String> {
+    let parsing = roxmltree::ParsingOptions { allow_dtd: true, nodes_limit: MAX_NODES, ..Default::default() };
+    roxmltree::Document::parse_with_options(text, parsing).map_err(|e| e.to_string())
 }
 
 /// Decode XML bytes to text: BOM first, then a UTF-16 signature without BOM, then the declared encoding, else
@@ -98,94 +139,6 @@ fn declared_encoding(data: &[u8]) -> Option<String> {
     Some(value[..value.find(quote)?].trim().to_owned())
 }
 
-/// Refuse documents whose internal entities would expand past [`MAX_EXPANDED_BYTES`] (see the module docs).
-pub fn check_entities(text: &str) -> Result<(), String> {
-    let Some(start) = text.find("<!DOCTYPE") else { return Ok(()) };
-    let Some(open) = text[start..].find('[').map(|i| start + i) else { return Ok(()) };
-    // The internal subset ends at the first "]>" (entity values containing "]>" are not worth supporting here).
-    let Some(close) = text[open..].find("]>").map(|i| open + i) else { return Ok(()) };
-    let subset = &text[open + 1..close];
-    let mut values: HashMap<&str, &str> = HashMap::new();
-    let mut rest = subset;
-    while let Some(i) = rest.find("<!ENTITY") {
-        rest = &rest[i + "<!ENTITY".len()..];
-        let decl = rest.trim_start();
-        if decl.starts_with('%') {
-            continue; // parameter entities are not expanded by the parser
-        }
-        let name_end = decl.find(|c: char| c.is_whitespace()).unwrap_or(decl.len());
-        let name = &decl[..name_end];
-        let after = decl[name_end..].trim_start();
-        if let Some(q) = after.chars().next().filter(|c| *c == '"' || *c == '\'')
-            && let Some(len) = after[1..].find(q)
-        {
-            values.entry(name).or_insert(&after[1..1 + len]);
-        }
-    }
-    if values.is_empty() {
-        return Ok(());
-    }
-    let mut sizes: HashMap<&str, u64> = HashMap::new();
-    for name in values.keys() {
-        expanded_size(name, &values, &mut sizes, &mut Vec::new())?;
-    }
-    let mut total: u64 = 0;
-    for (name, _) in references(&text[close..]) {
-        total = total.saturating_add(sizes.get(name).copied().unwrap_or(0));
-        if total > MAX_EXPANDED_BYTES {
-            return Err(format!(
-                "entity references expand to more than {} MiB (at &{name};): refusing a possible \"billion laughs\" \
-                 document",
-                MAX_EXPANDED_BYTES >> 20
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// `(name, byte offset)` of every general entity reference `&name;` (character references excluded).
-fn references(text: &str) -> impl Iterator<Item = (&str, usize)> {
-    text.match_indices('&').filter_map(move |(i, _)| {
-        let rest = &text[i + 1..];
-        let end = rest.find(';')?;
-        let name = &rest[..end];
-        let ok = !name.is_empty()
-            && !name.starts_with('#')
-            && name.chars().all(|c| c.is_alphanumeric() || matches!(c, '_' | '-' | '.' | ':'));
-        ok.then_some((name, i))
-    })
-}
-
-fn expanded_size<'a>(
-    name: &'a str,
-    values: &HashMap<&'a str, &'a str>,
-    sizes: &mut HashMap<&'a str, u64>,
-    stack: &mut Vec<&'a str>,
-) -> Result<u64, String> {
-    if let Some(s) = sizes.get(name) {
-        return Ok(*s);
-    }
-    let Some(value) = values.get(name) else { return Ok(0) };
-    if stack.contains(&name) {
-        return Err(format!("entity &{name}; refers to itself (through {})", stack.join(" → ")));
-    }
-    stack.push(name);
-    let mut size = value.len() as u64;
-    for (inner, _) in references(value) {
-        let s = expanded_size(inner, values, sizes, stack)?;
-        size = size.saturating_add(s);
-    }
-    stack.pop();
-    if size > MAX_EXPANDED_BYTES {
-        return Err(format!(
-            "entity &{name}; expands to more than {} MiB: refusing a possible \"billion laughs\" document",
-            MAX_EXPANDED_BYTES >> 20
-        ));
-    }
-    sizes.insert(name, size);
-    Ok(size)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -215,29 +168,9 @@ mod tests {
         enc.write_all(b"<svg/>").unwrap();
         let gz = enc.finish().unwrap();
         assert!(is_gzip(&gz));
-        assert_eq!(gunzip(&gz).unwrap(), b"<svg/>");
-        assert!(gunzip(&gz[..gz.len() - 6]).unwrap_err().contains("corrupt"));
-    }
-
-    #[test]
-    fn billion_laughs_is_refused_and_small_entities_pass() {
-        let mut doc = String::from("<?xml version=\"1.0\"?><!DOCTYPE svg [<!ENTITY lol \"lol\">");
-        let mut prev = "lol".to_string();
-        for i in 1..10 {
-            let refs = format!("&{prev};").repeat(10);
-            doc.push_str(&format!("<!ENTITY lol{i} \"{refs}\">"));
-            prev = format!("lol{i}");
-        }
-        doc.push_str(&format!("]><svg><text>&{prev};</text></svg>"));
-        // lol9 expands to 3 × 10⁹ bytes.
-        let err = check_entities(&doc).unwrap_err();
-        assert!(err.contains("billion laughs"), "{err}");
-        let ok = "<!DOCTYPE svg [<!ENTITY ns \"http://www.w3.org/2000/svg\">]><svg xmlns=\"&ns;\"/>";
-        assert!(check_entities(ok).is_ok());
-        let cyc = "<!DOCTYPE svg [<!ENTITY a \"&b;\"><!ENTITY b \"&a;\">]><svg>&a;</svg>";
-        assert!(check_entities(cyc).unwrap_err().contains("refers to itself"));
-        // Many top-level references to a large entity.
-        let big = format!("<!DOCTYPE svg [<!ENTITY b \"{}\">]><svg>{}</svg>", "x".repeat(1 << 20), "&b;".repeat(100));
-        assert!(check_entities(&big).unwrap_err().contains("more than 64 MiB"));
+        assert_eq!(gunzip(&gz, MAX_INFLATED_BYTES).unwrap(), b"<svg/>");
+        assert!(gunzip(&gz[..gz.len() - 6], MAX_INFLATED_BYTES).unwrap_err().contains("corrupt"));
+        // "<svg/>" is 6 bytes: a 5-byte cap refuses it.
+        assert_eq!(gunzip(&gz, 5).unwrap_err(), "gzip-compressed data inflates to more than 5 bytes");
     }
 }

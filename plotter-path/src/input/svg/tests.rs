@@ -4,7 +4,7 @@ use super::*;
 use crate::geometry::drawing::Pen;
 
 fn import(svg: &str) -> Imported {
-    import_svg(svg.as_bytes(), "test.svg", None, &SvgOptions::default()).unwrap()
+    import_svg(svg.as_bytes(), "test.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap()
 }
 
 /// A point given in CSS px, converted to mm.
@@ -103,7 +103,7 @@ fn curves_meet_the_tolerance_and_close() {
         <circle cx="150" cy="150" r="100" stroke="black" fill="none"/></svg>"##;
     let tol = 0.01;
     let opts = SvgOptions { tolerance_mm: tol, ..SvgOptions::default() };
-    let imported = import_svg(svg.as_bytes(), "c.svg", None, &opts).unwrap();
+    let imported = import_svg(svg.as_bytes(), "c.svg", &ResourcePolicy::DataUrlsOnly, &opts).unwrap();
     assert!(imported.warnings.is_empty(), "{:?}", imported.warnings);
     let p = imported.drawing.paths().next().unwrap();
     assert!(p.is_closed());
@@ -117,7 +117,7 @@ fn curves_meet_the_tolerance_and_close() {
     }
     // A tolerance below the library's bound is reported.
     let opts = SvgOptions { tolerance_mm: 0.005, ..SvgOptions::default() };
-    let warned = import_svg(svg.as_bytes(), "c.svg", None, &opts).unwrap();
+    let warned = import_svg(svg.as_bytes(), "c.svg", &ResourcePolicy::DataUrlsOnly, &opts).unwrap();
     assert!(warned.warnings.iter().any(|w| w.contains("arcs/circles are approximated")), "{:?}", warned.warnings);
 }
 
@@ -127,7 +127,7 @@ fn text_becomes_glyph_outlines_or_warns_without_fonts() {
         <text x="5" y="30" font-family="sans-serif" font-size="24">Hi</text></svg>"##;
     let mut db = usvg::fontdb::Database::new();
     db.load_system_fonts();
-    let result = import_svg(svg.as_bytes(), "t.svg", None, &SvgOptions::default());
+    let result = import_svg(svg.as_bytes(), "t.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default());
     if db.is_empty() {
         let err = result.unwrap_err().to_string();
         assert!(err.contains("no font found"), "{err}");
@@ -182,24 +182,24 @@ fn layers_from_inkscape_labels_and_colours() {
     assert_eq!(auto.layers[0].paths.len(), 2);
     assert_eq!(auto.layers[1].paths.len(), 2);
     let opts = SvgOptions { layer_by: LayerBy::Group, ..SvgOptions::default() };
-    let by_group = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap().drawing;
+    let by_group = import_svg(svg.as_bytes(), "l.svg", &ResourcePolicy::DataUrlsOnly, &opts).unwrap().drawing;
     let names: Vec<&str> = by_group.layers.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["Outline", "detail", "root"]);
     assert_eq!(by_group.layers[0].paths.len(), 2);
 
     let opts = SvgOptions { layer_by: LayerBy::Color, ..SvgOptions::default() };
-    let by_color = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap().drawing;
+    let by_color = import_svg(svg.as_bytes(), "l.svg", &ResourcePolicy::DataUrlsOnly, &opts).unwrap().drawing;
     let names: Vec<&str> = by_color.layers.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["#ff0000", "#0000ff"]);
     assert_eq!(by_color.layers[0].paths.len(), 2);
     assert_eq!(by_color.layers[1].pen.color, Rgb(0, 0, 255));
 
     let opts = SvgOptions { layers: vec!["detail".into()], layer_by: LayerBy::Group, ..SvgOptions::default() };
-    let only = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap().drawing;
+    let only = import_svg(svg.as_bytes(), "l.svg", &ResourcePolicy::DataUrlsOnly, &opts).unwrap().drawing;
     assert_eq!(only.layers.len(), 1);
     assert_eq!(only.layers[0].name, "detail");
     let opts = SvgOptions { layers: vec!["nope".into()], layer_by: LayerBy::Group, ..SvgOptions::default() };
-    let err = import_svg(svg.as_bytes(), "l.svg", None, &opts).unwrap_err().to_string();
+    let err = import_svg(svg.as_bytes(), "l.svg", &ResourcePolicy::DataUrlsOnly, &opts).unwrap_err().to_string();
     assert!(err.contains("no layer named 'nope'") && err.contains("Outline, detail, root"), "{err}");
 }
 
@@ -213,13 +213,15 @@ fn bad_input_is_a_clear_error_naming_the_file() {
         (b"<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"10\" height=\"10\"><g/></svg>", "nothing to draw"),
     ];
     for (data, want) in cases {
-        let err = import_svg(data, "bad.svg", None, &SvgOptions::default()).unwrap_err().to_string();
+        let err =
+            import_svg(data, "bad.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap_err().to_string();
         assert!(err.starts_with("bad.svg") && err.contains(want), "{err}");
     }
     let err = load_svg(Path::new("/definitely/missing.svg"), &SvgOptions::default()).unwrap_err().to_string();
     assert!(err.contains("/definitely/missing.svg") && err.contains("cannot read"), "{err}");
     let html = b"<html><body/></html>";
-    let err = import_svg(html, "page.html", None, &SvgOptions::default()).unwrap_err().to_string();
+    let err =
+        import_svg(html, "page.html", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap_err().to_string();
     assert!(err.contains("expected <svg>"), "{err}");
 }
 
@@ -248,7 +250,7 @@ fn mm_doc(body: &str) -> String {
 }
 
 fn import_with(svg: &str, options: &SvgOptions) -> Imported {
-    import_svg(svg.as_bytes(), "t.svg", None, options).unwrap()
+    import_svg(svg.as_bytes(), "t.svg", &ResourcePolicy::DataUrlsOnly, options).unwrap()
 }
 
 /// Total pen-down length, mm.
@@ -280,7 +282,9 @@ fn doctype_with_internal_entities() {
         prev = format!("a{i}");
     }
     laughs.push_str(&format!("]><svg xmlns=\"http://www.w3.org/2000/svg\"><text>&{prev};</text></svg>"));
-    let err = import_svg(laughs.as_bytes(), "laughs.svg", None, &SvgOptions::default()).unwrap_err().to_string();
+    let err = import_svg(laughs.as_bytes(), "laughs.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(err.starts_with("laughs.svg") && err.contains("billion laughs"), "{err}");
 }
 
@@ -306,8 +310,8 @@ fn each_encoding_reads() {
         ("UTF-16BE", utf16be),
     ];
     for (what, bytes) in cases {
-        let imported =
-            import_svg(&bytes, "enc.svg", None, &SvgOptions::default()).unwrap_or_else(|e| panic!("{what}: {e}"));
+        let imported = import_svg(&bytes, "enc.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default())
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
         assert_len(&imported.drawing, 30.0);
     }
 }
@@ -319,8 +323,12 @@ fn gzip_compressed_svg() {
     let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
     gz.write_all(svg.as_bytes()).unwrap();
     let bytes = gz.finish().unwrap();
-    assert_len(&import_svg(&bytes, "a.svgz", None, &SvgOptions::default()).unwrap().drawing, 40.0);
-    let err = import_svg(&bytes[..bytes.len() / 2], "b.svgz", None, &SvgOptions::default()).unwrap_err();
+    assert_len(
+        &import_svg(&bytes, "a.svgz", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap().drawing,
+        40.0,
+    );
+    let err = import_svg(&bytes[..bytes.len() / 2], "b.svgz", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default())
+        .unwrap_err();
     assert!(err.to_string().contains("gzip"), "{err}");
 }
 
@@ -606,7 +614,7 @@ fn single_stroke_text() {
     // font-size 32 mm = 32 Hershey units per em, so one unit is 1 mm: 33 mm of pen-down lines in 2 strokes.
     let svg = mm_doc(r#"<text x="10" y="50" font-family="sans-serif" font-size="32">L</text>"#);
     let opts = SvgOptions { text: TextMode::SingleStroke, ..SvgOptions::default() };
-    let result = import_svg(svg.as_bytes(), "t.svg", None, &opts);
+    let result = import_svg(svg.as_bytes(), "t.svg", &ResourcePolicy::DataUrlsOnly, &opts);
     let mut db = usvg::fontdb::Database::new();
     db.load_system_fonts();
     if db.is_empty() {
@@ -661,7 +669,9 @@ fn embedded_png_is_traced_in_place() {
         r#"<image x="30" y="40" width="20" height="20" xlink:href="data:image/png;base64,{}"/>"#,
         base64(&png)
     ));
-    let skipped = import_svg(svg.as_bytes(), "i.svg", None, &SvgOptions::default()).unwrap_err().to_string();
+    let skipped = import_svg(svg.as_bytes(), "i.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(skipped.contains("embedded raster image not traced"), "{skipped}");
     let opts = SvgOptions {
         images: Some(ImageTrace { trace: crate::input::raster::TraceOptions::default() }),
@@ -753,7 +763,7 @@ mod properties {
                 r#"<clipPath id="c"><polygon points="{}"/></clipPath><g clip-path="url(#c)">{}</g>"#,
                 poly_attr(&poly), line_elems(&ls)
             ));
-            let Ok(imported) = import_svg(svg.as_bytes(), "p.svg", None, &SvgOptions::default()) else {
+            let Ok(imported) = import_svg(svg.as_bytes(), "p.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()) else {
                 return Ok(()); // every line missed the clip: nothing to draw
             };
             for path in imported.drawing.paths() {
@@ -768,7 +778,7 @@ mod properties {
         #[test]
         fn no_pen_down_point_strictly_inside_a_later_opaque_fill(poly in star(), ls in lines()) {
             let svg = mm_doc(&format!(r#"{}<polygon points="{}" fill="green"/>"#, line_elems(&ls), poly_attr(&poly)));
-            let imported = import_svg(svg.as_bytes(), "p.svg", None, &SvgOptions::default()).unwrap();
+            let imported = import_svg(svg.as_bytes(), "p.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap();
             // The polygon's own outline is the last path; every earlier one was a line under it.
             let paths: Vec<&Polyline> = imported.drawing.paths().collect();
             let polygon_len: f64 = (0..poly.len())
@@ -825,7 +835,75 @@ fn an_empty_file_says_so() {
     for (data, expected) in
         [("", "the file is empty (0 bytes)"), ("  \n\t", "the file is empty (4 bytes, all white space)")]
     {
-        let e = import_svg(data.as_bytes(), "e.svg", None, &SvgOptions::default()).unwrap_err().to_string();
+        let e = import_svg(data.as_bytes(), "e.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default())
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("e.svg: ") && e.contains(expected), "{e}");
+    }
+}
+
+/// Issue 22: hostile files, each built here, end in a clear error or a bounded result (the limits behind them are
+/// tested in their own modules: dtd, attributes, resources).
+mod hostile {
+    use super::*;
+
+    fn parse_error(data: &[u8]) -> String {
+        match import_svg(data, "h.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()) {
+            Err(e @ SvgError::Parse { .. }) => e.to_string(),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+
+    /// Item 2: the three ways round the old entity guard, in a whole import (65 references to 1 MiB each).
+    #[test]
+    fn entity_guard_bypasses_are_refused() {
+        let value = "x".repeat(1 << 20);
+        let body = |name: &str| {
+            format!("<svg xmlns=\"http://www.w3.org/2000/svg\"><text>{}</text></svg>", format!("&{name};").repeat(65))
+        };
+        for doc in [
+            format!("<!DOCTYPE svg [<!-- ]> --><!ENTITY b \"{value}\">]>{}", body("b")),
+            format!("<!-- <!DOCTYPE x []> --><!DOCTYPE svg [<!ENTITY b \"{value}\">]>{}", body("b")),
+            format!("<!DOCTYPE svg [<!ENTITY b·c \"{value}\">]>{}", body("b·c")),
+        ] {
+            let err = parse_error(doc.as_bytes());
+            assert!(
+                err.starts_with("h.svg: not a valid SVG document: entity references expand to more than 64 MiB"),
+                "{err}"
+            );
+        }
+    }
+
+    /// Item 4: 200 000 attributes on one element (2.3 MB) are refused before any parser sees them.
+    #[test]
+    fn an_element_with_200k_attributes_is_refused() {
+        let attrs: String = (0..200_000).map(|i| format!(" a{i}=\"1\"")).collect();
+        let doc = format!("<svg xmlns=\"http://www.w3.org/2000/svg\">\n<rect{attrs}/></svg>");
+        let err = parse_error(doc.as_bytes());
+        assert_eq!(err, "h.svg: not a valid SVG document: <rect> at line 2 has more than 256 attributes (200000)");
+    }
+
+    /// Item 12c: a page of 10²⁰ mm is refused before usvg works on it, and a stroke scaled to 10¹⁰ mm is drawn
+    /// as its centre line (cut at 1 km) without outlining it (that took 900 MB).
+    #[test]
+    fn absurd_sizes_are_refused_or_bounded() {
+        let page = r#"<svg xmlns="http://www.w3.org/2000/svg" width="1e20mm" height="1e20mm" viewBox="0 0 10 10"><circle cx="5" cy="5" r="4" fill="none" stroke="black"/></svg>"#;
+        assert_eq!(
+            parse_error(page.as_bytes()),
+            "h.svg: not a valid SVG document: <svg> width=\"1e20mm\" at line 1 is 1.000e20 mm, beyond the 1000000 mm \
+             (1 km) limit; check the units"
+        );
+        let scaled = r#"<svg xmlns="http://www.w3.org/2000/svg" width="1000mm" height="1000mm" viewBox="0 0 10 10"><g transform="scale(1e10)"><circle cx="5" cy="5" r="4" fill="none" stroke="black"/></g><line x1="1" y1="1" x2="2" y2="1" stroke="black" stroke-width="0.01"/></svg>"#;
+        let imported =
+            import_svg(scaled.as_bytes(), "h.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap();
+        assert!(
+            imported.warnings.iter().any(|w| w.contains("1 wide stroke(s) reach beyond ±1000000 mm (1 km)")),
+            "{:?}",
+            imported.warnings
+        );
+        // The small line survives, 1 user unit = 100 mm long.
+        assert!(
+            imported.drawing.paths().any(|p| (p.points[0].distance(p.points[p.points.len() - 1]) - 100.0).abs() < 1e-6)
+        );
     }
 }

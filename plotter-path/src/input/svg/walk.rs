@@ -30,11 +30,23 @@ use super::{LayerBy, MM_PER_PX, SvgOptions, TextMode};
 use crate::geometry::drawing::{Pen, Rgb};
 use crate::geometry::flatten::flatten_path;
 use crate::geometry::hatch::{FillHatch, hatch};
+use crate::geometry::limits::MAX_COORD_MM;
 use crate::geometry::region::{FillRule, Keep, Region, cut};
 use crate::input::raster;
 
 /// Opaque strokes wider than this many pen widths hide what lies under them.
 const WIDE_STROKE_PENS: f64 = 4.0;
+
+/// Whether the outline of a stroke `width_mm` wide along `data` (under `t`, to px) stays within
+/// ±[`MAX_COORD_MM`]. tiny-skia's stroker subdivides curves by the resolution asked of it, so outlining a shape
+/// scaled far beyond any page costs memory without bound (a circle scaled to 10¹⁰ mm took 900 MB); beyond 1 km
+/// the lines are cut away anyway ([`super::bounds`]).
+fn within_reach(data: &tiny_skia_path::Path, t: Affine, width_mm: f64) -> bool {
+    let b = data.bounds();
+    let r = kurbo::Rect::new(f64::from(b.left()), f64::from(b.top()), f64::from(b.right()), f64::from(b.bottom()));
+    let mm = t.transform_rect_bbox(r).scale_from_origin(MM_PER_PX).inflate(width_mm, width_mm);
+    [mm.x0, mm.y0, mm.x1, mm.y1].iter().all(|v| v.abs() <= MAX_COORD_MM) && width_mm <= MAX_COORD_MM
+}
 
 /// One painted shape, in paint order.
 #[derive(Debug, Clone)]
@@ -60,6 +72,8 @@ pub(super) struct Skipped {
     pub(super) partial_masks: usize,
     pub(super) clip_text: usize,
     pub(super) hatch_refused: usize,
+    /// Wide strokes whose outline would reach beyond ±1 km: not outlined (neither hiding nor filled).
+    pub(super) far_outlines: usize,
 }
 
 /// Where the walk is: the transform to CSS px, the clip areas to cut by, the opacity, the layer.
@@ -289,7 +303,14 @@ impl<'a> Walker<'a> {
                 Some(Some(Some(d))) => self.flatten(&d, ctx.t),
                 Some(Some(None)) => Vec::new(),
             };
+            let wide = self.options.fill_strokes.is_some_and(|pen| width_mm > pen * 1.5)
+                || (self.options.occlusion && width_mm > WIDE_STROKE_PENS * self.options.pen_width_mm);
+            let outline_ok = !wide || within_reach(p.data(), ctx.t, width_mm);
+            if !outline_ok {
+                self.skipped.far_outlines += 1;
+            }
             if let Some(pen) = self.options.fill_strokes
+                && outline_ok
                 && width_mm > pen * 1.5
                 && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), narrow(scale_mm / pen * 4.0))
             {
@@ -305,6 +326,7 @@ impl<'a> Walker<'a> {
             let opaque = stroke_paint_opaque && s.opacity().get() * ctx.opacity >= 1.0;
             if self.options.occlusion
                 && opaque
+                && outline_ok
                 && width_mm > WIDE_STROKE_PENS * self.options.pen_width_mm
                 && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), narrow(scale_mm / self.options.tolerance_mm))
             {
