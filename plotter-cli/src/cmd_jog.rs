@@ -34,7 +34,8 @@ pub(crate) struct JogArgs {
 }
 
 /// The G-code lines of a jog for `firmware`. GRBL jogs axes with `$J=` (its jog command, refused outside the
-/// travel instead of raising an alarm) and moves a servo pen with `M3 S<angle>` / `M5`.
+/// travel instead of raising an alarm) and moves a servo pen with `M3 S<angle>` / `M5`; an EiBotBoard gets EBB
+/// commands (`XM` for X/Y, `SP` for the pen).
 pub(crate) fn jog_lines(
     args: &JogArgs,
     profile: &plotter_path::MachineProfile,
@@ -43,6 +44,9 @@ pub(crate) fn jog_lines(
     let feed_min = args.feed.unwrap_or(profile.pen.travel_feed_mm_s) * 60.0;
     if !(feed_min.is_finite() && feed_min > 0.0) {
         anyhow::bail!("--feed must be a positive number");
+    }
+    if firmware == Firmware::Ebb {
+        return ebb_jog(args, profile, feed_min / 60.0);
     }
     let z_feed = profile.axes.z.max_feed_mm_s * 60.0;
     let servo = profile.pen.uses_servo();
@@ -84,10 +88,34 @@ pub(crate) fn jog_lines(
     })
 }
 
+/// A jog as EBB commands: `XM,<ms>,<x steps>,<y steps>` (the board mixes them onto its two motors) or `SP`.
+fn ebb_jog(args: &JogArgs, profile: &plotter_path::MachineProfile, feed: f64) -> anyhow::Result<Vec<String>> {
+    let e = profile.ebb.ok_or_else(|| anyhow::anyhow!("the profile has no [ebb] section"))?;
+    let settle = profile.pen.settle_ms.round();
+    let (spm, steps_of) = match args.target {
+        JogTarget::Up => return Ok(vec![format!("SP,1,{settle},{}", e.pen_pin)]),
+        JogTarget::Down => return Ok(vec![format!("SP,0,{settle},{}", e.pen_pin)]),
+        JogTarget::Z => anyhow::bail!("an EiBotBoard has no Z axis: jog up or down"),
+        JogTarget::X => (profile.axes.x.steps_per_mm, (1, 0)),
+        JogTarget::Y => (profile.axes.y.steps_per_mm, (0, 1)),
+    };
+    let d = args.distance.ok_or_else(|| anyhow::anyhow!("jog {:?} needs a distance in mm", args.target))?;
+    if !d.is_finite() || d.abs() > 10_000.0 {
+        anyhow::bail!("the distance must be a number of millimetres within the machine");
+    }
+    let steps = plotter_path::motion::steps::round_steps(d * spm).ok_or_else(|| anyhow::anyhow!("distance out of range"))?;
+    let ms = (d.abs() / feed * 1000.0).round().max(1.0);
+    Ok(vec![format!("XM,{ms},{},{}", steps * steps_of.0, steps * steps_of.1)])
+}
+
 /// Run `plotter jog`.
 pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
     let (profile, mut c) = args.link.connect()?;
-    let firmware = if matches!(c, Connected::Grbl(_)) { Firmware::Grbl } else { Firmware::Ours };
+    let firmware = match c {
+        Connected::Grbl(_) => Firmware::Grbl,
+        Connected::Ebb(_) => Firmware::Ebb,
+        Connected::Ours(_) => Firmware::Ours,
+    };
     let lines = jog_lines(args, &profile, firmware)?;
     let mut result = Ok(());
     for l in &lines {
@@ -97,7 +125,9 @@ pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
         }
     }
     // Always return to absolute mode, even after a refused move.
-    let _ = c.command("G90");
+    if firmware != Firmware::Ebb {
+        let _ = c.command("G90");
+    }
     result?;
     match &mut c {
         Connected::Ours(s) => {
@@ -108,6 +138,10 @@ pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
             let st = g.wait_idle()?;
             let pos = st.mpos.map(|p| format!("MPos {p:?}")).or(st.wpos.map(|p| format!("WPos {p:?}")));
             println!("position {} mm", pos.unwrap_or_default());
+        }
+        Connected::Ebb(e) => {
+            e.drain(std::time::Duration::from_secs(600))?;
+            println!("position {:?} steps (motors {:?})", e.position()?, e.motors()?);
         }
     }
     Ok(())

@@ -68,7 +68,8 @@ pub(crate) struct PlotArgs {
     /// Serial baud rate [default: the profile's].
     #[arg(long)]
     pub(crate) baud: Option<u32>,
-    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), or auto (told by its start-up banner).
+    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), ebb (AxiDraw-class EiBotBoard), or auto (told
+    /// by its start-up banner or its answers).
     #[arg(long, value_enum, default_value_t = Firmware::Auto)]
     pub(crate) firmware: Firmware,
     /// Between layers drawn with different pens: park with the pen up and wait for the new pen (pause), or plot
@@ -291,10 +292,10 @@ fn connect(args: &PlotArgs, port: &str, profile: &mut MachineProfile) -> anyhow:
             }
             g.profile = profile.clone();
         }
-        Connected::Ours(_) if args.profile_from_machine => {
-            bail!("--profile-from-machine needs a GRBL controller (plotter-fw takes its settings from the profile)")
+        Connected::Ours(_) | Connected::Ebb(_) if args.profile_from_machine => {
+            bail!("--profile-from-machine needs a GRBL controller (plotter-fw and the EBB take their settings from the profile)")
         }
-        Connected::Ours(_) => {}
+        Connected::Ours(_) | Connected::Ebb(_) => {}
     }
     Ok(c)
 }
@@ -430,6 +431,12 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             println!("{}", summary(&outcome, None));
             if let Connected::Grbl(g) = c {
                 println!("GRBL: at most {} bytes in flight (receive buffer {} bytes)", g.peak_in_flight, g.rx_bytes);
+            }
+            if let Connected::Ebb(e) = c {
+                println!(
+                    "EBB: board time {:.3} s for the last stream; {} move(s) shorter than the board sustains",
+                    e.program_seconds, e.short_moves
+                );
             }
             Ok(())
         }
