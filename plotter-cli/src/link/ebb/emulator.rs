@@ -706,13 +706,16 @@ impl EbbEmulator {
         Ok(Queued::Move { axes, start_acc })
     }
 
+    /// The `QG` byte. A command just queued counts as executing (the interrupt takes it within 40 µs), so the
+    /// CMD bit is set whenever the FIFO bit is, as the reference states.
     fn general_status(&self) -> u8 {
         let moving = |m: usize| matches!(self.current, Some(Running::Move { axes }) if axes[m].active());
+        let waiting = !self.fifo.is_empty() || self.stuck.is_some();
         u8::from(self.pen_up) << 4
-            | u8::from(self.current.is_some()) << 3
+            | u8::from(self.current.is_some() || waiting) << 3
             | u8::from(moving(0)) << 2
             | u8::from(moving(1)) << 1
-            | u8::from(self.current.is_some() && !self.fifo.is_empty())
+            | u8::from(waiting)
     }
 
     /// Take the next command from the FIFO, if nothing runs.
@@ -897,7 +900,9 @@ mod tests {
         e.run_for(50_002);
         assert!(e.is_idle());
         assert_eq!(e.position(), [300, 0]);
-        assert_eq!(e.busy_intervals(), 75_003, "three 1 s moves, back to back");
+        // Without Clear the accumulator carries over: the first move leaves 8 575 134 in it, so the next two
+        // end on interval 25 000 — 75 001 intervals in all, back to back.
+        assert_eq!(e.busy_intervals(), 75_001);
         // Deeper FIFO on firmware 3: the three moves are answered at once.
         let mut e = board(V3);
         assert_eq!(say(&mut e, "CU,4,8"), "OK\r\n");

@@ -278,7 +278,7 @@ mod tests {
     fn fitted_moves_end_on_their_interval() {
         // 1000 steps in 4000 intervals accelerating from 0.1 to 0.4 steps/interval; and a decelerating one to rest.
         let u = |steps_per_interval: f64| steps_per_interval * ONE_STEP as f64;
-        for (s, t, r0, r1) in [(1000, 4000, u(0.1), u(0.4)), (300, 1200, u(0.5), 0.0), (1, 40_000, 0.0, 0.0), (7, 7, u(1.0), u(1.0))]
+        for (s, t, r0, r1) in [(1000, 4000, u(0.1), u(0.4)), (300, 1200, u(0.5), 0.0), (1, 40_000, 0.0, 0.0), (7, 8, u(0.9), u(0.9))]
         {
             let (rate, accel) = fit_axis(s, t, r0, r1).unwrap_or_else(|| panic!("{s} {t}"));
             let (ran, net, _) = run_lm(rate, s, accel);
@@ -287,7 +287,8 @@ mod tests {
         // The ramp is kept where it fits: 0.1 → 0.4 steps/interval stays a ramp, not a constant rate.
         let (rate, accel) = fit_axis(1000, 4000, u(0.1), u(0.4)).unwrap();
         assert!(accel > 0 && (f64::from(rate) - u(0.1)).abs() < u(0.01), "{rate} {accel}");
-        // More steps than intervals needs more than 25 kHz.
+        // One step in every interval needs a rate of 2^31, one more than an LM rate can be: s steps take s + 1.
+        assert_eq!(fit_axis(7, 7, u(1.0), u(1.0)), None);
         assert_eq!(fit_axis(11, 10, 0.0, 0.0), None);
     }
 }

@@ -339,9 +339,11 @@ pub fn program(
                     short_moves += 1;
                 }
                 for p in &mut phases {
-                    // At least one interval per step of the faster motor.
+                    // An LM rate is below 2^31 (one step per interval): s steps take at least s + 1 intervals.
                     let need = p.steps[0].unsigned_abs().max(p.steps[1].unsigned_abs());
-                    p.intervals = p.intervals.max(need);
+                    if need > 0 {
+                        p.intervals = p.intervals.max(need + 1);
+                    }
                 }
                 for p in &phases {
                     pos = [pos[0] + p.steps[0], pos[1] + p.steps[1]];
@@ -477,6 +479,33 @@ mod tests {
     }
 
     #[test]
+    fn every_command_takes_on_the_emulator_the_time_the_program_says() {
+        use crate::link::ebb::emulator::EbbEmulator;
+        use crate::link::ebb::messages::EbbVersion;
+        let profile = axidraw();
+        let circle: Vec<Point> = (0..=60)
+            .map(|i| {
+                let a = f64::from(i) * std::f64::consts::TAU / 60.0;
+                Point::new(80.0 + 25.0 * a.cos(), 80.0 + 25.0 * a.sin())
+            })
+            .collect();
+        let steps = drawing_to_steps(&profile, &Drawing::single_layer("c", vec![Polyline::new(circle)])).unwrap();
+        let plan = make_plan(&profile, &steps, [0; 4], Lookahead::Whole).unwrap();
+        let prog = program(&profile, &plan, [0, 0], MotionStyle::Lm).unwrap();
+        let mut e = EbbEmulator::new(EbbVersion(3, 0, 2));
+        for c in &prog.commands {
+            let before = e.busy_intervals();
+            e.feed(format!("{}\r", c.line).as_bytes());
+            while !e.is_idle() {
+                e.run_for(1);
+            }
+            e.run_for(1);
+            assert_eq!(e.busy_intervals() - before, c.intervals, "{}", c.line);
+            assert_eq!(e.position(), c.motors, "{}", c.line);
+        }
+    }
+
+    #[test]
     fn pen_positions_interpolate_between_the_profile_angles() {
         let pen = PenSetup { up_position: 20_000, down_position: 10_000, up_deg: 90.0, down_deg: 30.0, pin: 1 };
         assert_eq!(pen.position(300), 10_000);
@@ -487,9 +516,10 @@ mod tests {
     #[test]
     fn sm_times_follow_the_boards_rate_arithmetic() {
         // 1000 steps in 1000 ms: the f32 product 1000 × 85 899.34 truncates to 85 899 343 (just under one step per
-        // 25 intervals), so the last step lands on interval 25 001; 4 steps in 1 ms: 343 597 376, the last at 25.
+        // 25 intervals), so the last step lands on interval 25 001; 4 steps in 1 ms: 4 × 85 899 344 (the f32 of
+        // 85 899 345.92) = 343 597 376, just under 4·2^31/25, so 26 intervals.
         assert_eq!(sm_intervals(1000, [1000, 0]), 25_001);
-        assert_eq!(sm_intervals(1, [4, -4]), 25);
+        assert_eq!(sm_intervals(1, [4, -4]), 26);
         assert_eq!(sm_intervals(10, [0, 0]), 250);
     }
 }
