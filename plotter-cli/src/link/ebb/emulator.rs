@@ -932,4 +932,41 @@ mod tests {
         assert_eq!(e.position(), p, "nothing runs after ES");
         assert_eq!(say(&mut e, "ES"), "0\n\rOK\r\n");
     }
+
+    /// Rows of the EBB firmware's own regression data (evil-mad/EggBot, EBB_firmware/Analysis/RegressionTests/:
+    /// the commands from python_send_{LM,LT,T3}_20230507.py and the figures their firmware printed,
+    /// {LM_20230507_ExceptedOutput, LT_20230507_ExpectedOutput, T3_20230507_ExpectedOutput}.csv, as
+    /// `T` intervals, `S` steps, `C` accumulator, `R` rate and `P` net steps of axis 1). All 210 rows of the three
+    /// files were checked against this emulator while writing it; these span positive and negative rates,
+    /// preloaded accumulators, a rate changing sign mid-move, a 23-second move, and jerk.
+    const REGRESSION_ROWS: [(&str, [i64; 5]); 11] = [
+        ("LM,268435456,5,0,0,0,0", [40, 5, 0, 268_435_456, 5]),
+        ("LM,-268435456,5,0,0,0,0", [40, 5, 2_147_483_647, -268_435_456, -5]),
+        ("LM,490123456,5,0,0,0,0,1073741823", [20, 5, 138_792_703, 490_123_456, 5]),
+        ("LM,8589934,29,17353403,0,0,0", [85, 29, 1_142_286_978, 1_474_952_488, 29]),
+        ("LM,-8589934,29,17353403,0,0,0,2047483648", [84, 29, 271_709_226, 1_440_419_217, 29]),
+        ("LM,1800095000,29,-54567890,0,0,0", [69, 29, 750_143_799, -1_937_805_465, -3]),
+        ("LM,978847345,212579,-654,0,0,0,455082516", [577_969, 212_579, 199_874_382, 600_855_946, 212_579]),
+        ("LT,83,-8589934,17353403,0,0,2047483648", [83, 28, 978_773_657, 1_423_065_814, 28]),
+        ("T3,100,0,0,400000,0,0,0", [100, 31, 94_673_512, 1_980_066_666, 31]),
+        ("T3,19512,-490123456,0,11,0,0,0", [19_512, 4_761, 1_311_430_011, 1_603_719_021, 1_889]),
+        ("T3,30000,0,-95000,11,0,0,0", [30_000, 7_542, 458_869_335, 2_099_882_501, 3_144]),
+    ];
+
+    #[test]
+    fn moves_reproduce_the_firmwares_published_regression_data() {
+        let mut e = board(V3);
+        // The regression scripts' set-up: the test modes that print each move's figures.
+        assert_eq!(say(&mut e, "CU,250,1"), "OK\r\n");
+        assert_eq!(say(&mut e, "CU,251,1"), "OK\r\n");
+        for (cmd, want) in REGRESSION_ROWS {
+            let n = e.records().len();
+            assert_eq!(say(&mut e, cmd), "OK\r\n", "{cmd}");
+            while !e.is_idle() {
+                e.run_for(1);
+            }
+            let r = e.records()[n];
+            assert_eq!([i64::from(r.t), i64::from(r.s), i64::from(r.c), i64::from(r.r), r.p], want, "{cmd}");
+        }
+    }
 }
