@@ -14,8 +14,8 @@
 //!
 //! With `--ebb` the pty serves the project's EiBotBoard emulator ([`plotter_host::link::ebb::emulator`]) running
 //! firmware `--ebb-version` (2.8.1 or 3.0.2); its trace lists the motor positions instead (`t m1 m2 pen`, time in
-//! µs, pen 1 = up), then `# busy_ticks <µs> steps <n>`, `# ebb commands <n> errors <n> estops <n> peak_fifo <n>`
-//! and `# position <m1> <m2>`.
+//! µs, pen 1 = up), then `# busy_ticks <µs> steps <n>`, `# ebb commands <n> errors <n> estops <n> peak_fifo <n>
+//! pen_up <0|1>` and `# position <m1> <m2>`.
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -165,8 +165,14 @@ fn write_ebb_trace(e: &EbbEmulator, path: &Path) -> anyhow::Result<()> {
     writeln!(out, "# busy_ticks {} steps {}", e.busy_intervals() * 40, e.trace().len())?;
     writeln!(
         out,
-        "# ebb commands {} errors {} estops {} peak_fifo {}\n# position {} {}",
-        st.commands, st.errors, st.estops, st.peak_fifo, p[0], p[1]
+        "# ebb commands {} errors {} estops {} peak_fifo {} pen_up {}\n# position {} {}",
+        st.commands,
+        st.errors,
+        st.estops,
+        st.peak_fifo,
+        u8::from(e.pen_up()),
+        p[0],
+        p[1]
     )?;
     out.flush()?;
     Ok(())

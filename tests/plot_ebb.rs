@@ -1,0 +1,197 @@
+//! End to end with an EiBotBoard: `plotter sim --pty --ebb` serves the project's EBB emulator on a
+//! pseudo-terminal, and `plotter plot … --port <pty> --firmware ebb --profile samples/axidraw-v3.toml` streams
+//! `LM`/`SP` commands to it. The emulator's trace (motor positions after every step, the pen state, the motion
+//! time) tells whether the board ran the plan in the planned time, closed closed curves, and ended with the pen up.
+
+use std::io::Write as _;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use plotter_e2e::{SimPty, Trace, plotter_bin, sample, scratch};
+
+/// The profile's pen settle, s: `home` raises the pen with it (and enables the motors, one interval) before the
+/// plan starts, so the board's motion time is the plan's plus this.
+const HOME_S: f64 = 0.126 + 40e-6;
+
+fn axidraw() -> String {
+    sample("axidraw-v3.toml").to_str().expect("utf-8 path").to_string()
+}
+
+/// Run a plot; returns (success, stdout, stderr). `answers` go to stdin (one line per pen-change prompt).
+fn plot(dir: &std::path::Path, args: &[&str], answers: &str) -> (bool, String, String) {
+    let mut child = Command::new(plotter_bin())
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("plotter runs");
+    child.stdin.take().expect("stdin").write_all(answers.as_bytes()).expect("answers");
+    let out = child.wait_with_output().expect("plotter exits");
+    (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// The planned time printed by `plotter plot`, s.
+fn planned_s(stdout: &str) -> f64 {
+    let t = stdout.split("planned time ").nth(1).expect("planned time printed");
+    t.split(' ').next().and_then(|v| v.parse().ok()).expect("a number of seconds")
+}
+
+/// XY steps of motor positions (motor 1 = X+Y, motor 2 = X−Y), doubled to stay integral mid-step.
+fn xy2(p: [i64; 3]) -> (i64, i64) {
+    (p[0] + p[1], p[0] - p[1])
+}
+
+/// Pen-down runs of the trace (its third column is 1 with the pen up).
+fn runs(trace: &Trace) -> Vec<Vec<(i64, i64)>> {
+    trace.pen_down_runs(1).iter().map(|r| r.iter().map(|s| (i64::from(s.x), i64::from(s.y))).collect()).collect()
+}
+
+fn check_board(trace: &Trace, planned: f64) {
+    let ran = trace.busy_ticks as f64 / 1e6 - HOME_S;
+    assert!((ran - planned).abs() <= planned * 1e-3, "board ran {ran:.6} s, plan {planned:.6} s");
+    assert_eq!(SimPty::figure(trace, "ebb", "errors"), Some(0));
+    assert_eq!(SimPty::figure(trace, "ebb", "estops"), Some(0));
+    assert_eq!(SimPty::figure(trace, "ebb", "pen_up"), Some(1), "the plot ends with the pen up");
+}
+
+#[test]
+fn the_duck_plots_on_ebb_firmware_3_and_2_in_the_planned_time() {
+    for (version, fifo) in [("3.0.2", "FIFO 16"), ("2.8.1", "FIFO 1")] {
+        let dir = scratch(&format!("ebb-duck-{version}"));
+        let sim = SimPty::start(&dir, &["--ebb", "--ebb-version", version, "--fast"]);
+        let duck = sample("duck.svg");
+        let profile = axidraw();
+        let args = ["plot", duck.to_str().unwrap(), "--port", &sim.port, "--firmware", "ebb", "--profile", &profile];
+        let (ok, stdout, stderr) = plot(&dir, &args, "");
+        assert!(ok, "plot failed:\n{stderr}\n{stdout}");
+        assert!(stderr.contains(&format!("EiBotBoard firmware {version}")) && stderr.contains(fifo), "{stderr}");
+        assert!(stdout.contains("0 move(s) shorter than the board sustains"), "{stdout}");
+        let planned = planned_s(&stdout);
+        let trace = sim.stop();
+        check_board(&trace, planned);
+        // The board kept its FIFO full: as deep as asked on firmware 3, its one slot on 2.8.1.
+        let peak = SimPty::figure(&trace, "ebb", "peak_fifo").unwrap();
+        assert_eq!(peak, if version == "3.0.2" { 16 } else { 1 });
+        // Pen-down steps happen only between an SP,0 and the next SP,1: every run is a stroke of the duck.
+        assert!(runs(&trace).len() >= 5, "{}", runs(&trace).len());
+    }
+}
+
+#[test]
+fn a_spirograph_closes_exactly_on_the_board() {
+    let dir = scratch("ebb-spirograph");
+    let sim = SimPty::start(&dir, &["--ebb", "--fast"]);
+    let profile = axidraw();
+    let args = ["plot", "gen:spirograph?cx=150&cy=109&r=15", "--port", &sim.port, "--firmware", "ebb", "--profile", &profile];
+    let (ok, stdout, stderr) = plot(&dir, &args, "");
+    assert!(ok, "plot failed:\n{stderr}\n{stdout}");
+    let planned = planned_s(&stdout);
+    let trace = sim.stop();
+    check_board(&trace, planned);
+    // One closed curve: one pen-down run that ends on the motor step where it began.
+    let r = runs(&trace);
+    assert_eq!(r.len(), 1, "{}", r.len());
+    let (first, last) = (r[0][0], *r[0].last().unwrap());
+    let start = trace.positions.iter().position(|p| p[2] == 0).expect("pen went down");
+    let before = if start > 0 { trace.positions[start - 1] } else { [0, 0, 1] };
+    // The first pen-down step is one step from where the pen was lowered; the run returns to that point.
+    let lowered = xy2(before);
+    let end = xy2(*trace.positions.iter().rev().find(|p| p[2] == 0).unwrap());
+    assert_eq!(end, lowered, "the curve closes on the step where it began ({first:?} … {last:?})");
+}
+
+#[test]
+fn three_pens_stop_for_two_pen_changes_on_the_board() {
+    let dir = scratch("ebb-three-pens");
+    let sim = SimPty::start(&dir, &["--ebb", "--fast"]);
+    let svg = sample("three-pens.svg");
+    let profile = axidraw();
+    let args = [
+        "plot",
+        svg.to_str().unwrap(),
+        "--port",
+        &sim.port,
+        "--firmware",
+        "ebb",
+        "--profile",
+        &profile,
+        "--no-optimize",
+        "--pen-change",
+        "pause",
+    ];
+    let (ok, stdout, stderr) = plot(&dir, &args, "\n\n");
+    assert!(ok, "plot failed:\n{stderr}\n{stdout}");
+    assert!(stdout.contains("pen changes: 2"), "{stdout}");
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1));
+    // Seven strokes (frame, horizon; circle, three rays; wave), as on the other firmwares.
+    let moving = runs(&trace).into_iter().filter(|r| r.iter().any(|p| *p != r[0])).count();
+    assert_eq!(moving, 7);
+    // Parked at the home corner (motors at 0, 0) with the pen up twice after drawing began.
+    let first_draw = trace.positions.iter().position(|p| p[2] == 0).expect("draws");
+    let parked: Vec<usize> = (first_draw..trace.positions.len())
+        .filter(|&i| trace.positions[i][..2] == [0, 0] && trace.positions[i][2] == 1)
+        .collect();
+    assert_eq!(parked.len(), 2, "{parked:?}");
+}
+
+#[test]
+fn ctrl_c_stops_the_board_with_es_and_the_pen_up() {
+    let dir = scratch("ebb-ctrl-c");
+    // Real time: the duck takes about 16 s, the interrupt comes after 3.
+    let sim = SimPty::start(&dir, &["--ebb"]);
+    let duck = sample("duck.svg");
+    let profile = axidraw();
+    let args = [
+        "plot",
+        duck.to_str().unwrap(),
+        "--port",
+        &sim.port,
+        "--firmware",
+        "ebb",
+        "--profile",
+        &profile,
+        "--pause-immediately",
+    ];
+    let child = Command::new(plotter_bin())
+        .args(args)
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("plotter runs");
+    std::thread::sleep(Duration::from_secs(3));
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).expect("pid"));
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).expect("interrupt the plot");
+    let out = child.wait_with_output().expect("plotter exits");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("aborted"), "{stderr}");
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "estops"), Some(1), "ES interrupted the running move");
+    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1));
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
+    // Stopped part-way: well short of the duck's 16 s.
+    assert!(trace.busy_ticks > 1_000_000 && trace.busy_ticks < 8_000_000, "{}", trace.busy_ticks);
+}
+
+#[test]
+fn auto_recognises_the_board() {
+    let dir = scratch("ebb-auto");
+    let sim = SimPty::start(&dir, &["--ebb", "--fast"]);
+    let profile = axidraw();
+    let (ok, stdout, stderr) =
+        plot(&dir, &["plot", "gen:circle?r=10&cx=50&cy=50", "--port", &sim.port, "--profile", &profile], "");
+    assert!(ok, "{stderr}\n{stdout}");
+    assert!(stderr.contains("connected to EiBotBoard firmware 3.0.2"), "{stderr}");
+    let planned = planned_s(&stdout);
+    // The probe's `$I` is answered with an unknown-command error: one error, nothing else.
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(1));
+    let ran = trace.busy_ticks as f64 / 1e6 - HOME_S;
+    assert!((ran - planned).abs() <= planned * 1e-3, "{ran} vs {planned}");
+}
