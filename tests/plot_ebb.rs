@@ -29,7 +29,11 @@ fn plot(dir: &std::path::Path, args: &[&str], answers: &str) -> (bool, String, S
         .expect("plotter runs");
     child.stdin.take().expect("stdin").write_all(answers.as_bytes()).expect("answers");
     let out = child.wait_with_output().expect("plotter exits");
-    (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 /// The planned time printed by `plotter plot`, s.
@@ -84,7 +88,8 @@ fn a_spirograph_closes_exactly_on_the_board() {
     let dir = scratch("ebb-spirograph");
     let sim = SimPty::start(&dir, &["--ebb", "--fast"]);
     let profile = axidraw();
-    let args = ["plot", "gen:spirograph?cx=150&cy=109&r=15", "--port", &sim.port, "--firmware", "ebb", "--profile", &profile];
+    let args =
+        ["plot", "gen:spirograph?cx=150&cy=109&r=15", "--port", &sim.port, "--firmware", "ebb", "--profile", &profile];
     let (ok, stdout, stderr) = plot(&dir, &args, "");
     assert!(ok, "plot failed:\n{stderr}\n{stdout}");
     let planned = planned_s(&stdout);

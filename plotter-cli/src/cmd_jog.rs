@@ -103,7 +103,8 @@ fn ebb_jog(args: &JogArgs, profile: &plotter_path::MachineProfile, feed: f64) ->
     if !d.is_finite() || d.abs() > 10_000.0 {
         anyhow::bail!("the distance must be a number of millimetres within the machine");
     }
-    let steps = plotter_path::motion::steps::round_steps(d * spm).ok_or_else(|| anyhow::anyhow!("distance out of range"))?;
+    let steps =
+        plotter_path::motion::steps::round_steps(d * spm).ok_or_else(|| anyhow::anyhow!("distance out of range"))?;
     let ms = (d.abs() / feed * 1000.0).round().max(1.0);
     Ok(vec![format!("XM,{ms},{},{}", steps * steps_of.0, steps * steps_of.1)])
 }

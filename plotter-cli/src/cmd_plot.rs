@@ -293,7 +293,9 @@ fn connect(args: &PlotArgs, port: &str, profile: &mut MachineProfile) -> anyhow:
             g.profile = profile.clone();
         }
         Connected::Ours(_) | Connected::Ebb(_) if args.profile_from_machine => {
-            bail!("--profile-from-machine needs a GRBL controller (plotter-fw and the EBB take their settings from the profile)")
+            bail!(
+                "--profile-from-machine needs a GRBL controller (plotter-fw and the EBB take their settings from the profile)"
+            )
         }
         Connected::Ours(_) | Connected::Ebb(_) => {}
     }

@@ -63,12 +63,26 @@ pub struct MoveRecord {
 /// What a queued command does when the interrupt takes it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Queued {
-    Move { axes: [AxisMotion; 2], start_acc: [Option<u32>; 2] },
+    Move {
+        axes: [AxisMotion; 2],
+        start_acc: [Option<u32>; 2],
+    },
     Delay(u64),
-    Servo { position: u16, rate: u16, delay: u64, up: Option<bool> },
-    Enable { m1: u8, m2: Option<u8> },
+    Servo {
+        position: u16,
+        rate: u16,
+        delay: u64,
+        up: Option<bool>,
+    },
+    Enable {
+        m1: u8,
+        m2: Option<u8>,
+    },
     /// `HM`: its steps are known only when it starts.
-    Home { freq: u32, target: Option<[i64; 2]> },
+    Home {
+        freq: u32,
+        target: Option<[i64; 2]>,
+    },
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -326,7 +340,8 @@ impl EbbEmulator {
             return;
         }
         let Some((name, q, needs_idle)) = self.stuck.take() else { return };
-        let room = if needs_idle { self.current.is_none() && self.fifo.is_empty() } else { self.fifo.len() < self.fifo_size };
+        let room =
+            if needs_idle { self.current.is_none() && self.fifo.is_empty() } else { self.fifo.len() < self.fifo_size };
         if room {
             self.fifo.push_back(q);
             self.stats.peak_fifo = self.stats.peak_fifo.max(self.fifo.len());
@@ -489,7 +504,8 @@ impl EbbEmulator {
             "EM" => {
                 let p = params(args, 1, 1)?;
                 let m1 = u8::try_from(p[0]).ok().filter(|m| *m <= 5).ok_or_else(|| bad(6))?;
-                let m2 = p.get(1).map(|m| u8::try_from(*m).ok().filter(|m| *m <= 5).ok_or_else(|| bad(6))).transpose()?;
+                let m2 =
+                    p.get(1).map(|m| u8::try_from(*m).ok().filter(|m| *m <= 5).ok_or_else(|| bad(6))).transpose()?;
                 self.enqueue("EM", Queued::Enable { m1, m2 }, false);
             }
             "ES" => {
@@ -534,11 +550,7 @@ impl EbbEmulator {
             "QE" => {
                 params(args, 0, 0)?;
                 let res = [16, 8, 4, 2, 1][usize::from(self.step_mode.clamp(1, 5) - 1)];
-                let d = format!(
-                    "{},{}",
-                    if self.enabled[0] { res } else { 0 },
-                    if self.enabled[1] { res } else { 0 }
-                );
+                let d = format!("{},{}", if self.enabled[0] { res } else { 0 }, if self.enabled[1] { res } else { 0 });
                 self.data("QE", &d, "\r\n", true);
             }
             "QP" => {
@@ -659,7 +671,9 @@ impl EbbEmulator {
             axes[m] = AxisMotion::new(r, accel[m].wrapping_sub(jerk[m]), jerk[m], limit[m]);
             axes[m].fixed_dir = fixed[m];
             axes[m].v2_rollover = !v3;
-            if self.test_isr && let Some(v) = last {
+            if self.test_isr
+                && let Some(v) = last
+            {
                 start_acc[m] = Some(u32::try_from(v).map_err(|_| bad(6))?);
             } else if clear & (1 << m) != 0 {
                 start_acc[m] = Some(if v3 { cleared_accumulator(r, accel[m], jerk[m]) } else { 0 });
@@ -719,6 +733,8 @@ impl EbbEmulator {
     }
 
     /// Take the next command from the FIFO, if nothing runs.
+    // The two motors' arrays are indexed in parallel.
+    #[allow(clippy::needless_range_loop)]
     fn load(&mut self) {
         while self.current.is_none() {
             let Some(q) = self.fifo.pop_front() else { return };
@@ -783,6 +799,8 @@ impl EbbEmulator {
     }
 
     /// One 40 µs interrupt.
+    // The two motors' arrays are indexed in parallel.
+    #[allow(clippy::needless_range_loop)]
     fn tick(&mut self) {
         self.clock += 1;
         if self.clock.is_multiple_of(SERVO_CYCLE) {

@@ -168,19 +168,23 @@ pub fn last_step_interval(rate: i32, s: u32, accel: i32, max: u64) -> Option<u64
     if !guess.is_finite() || guess > max as f64 + 2.0 {
         return None;
     }
+    // `guess` is finite and at most `max + 2` (checked above); a negative one starts the search at 1.
+    #[allow(clippy::cast_possible_truncation)]
     let mut k = (guess.floor() as i64).max(1);
     while k > 1 && accumulated(r, a, k - 1) >= target {
         k -= 1;
     }
     while accumulated(r, a, k) < target {
         k += 1;
-        if k as u64 > max {
+        if k.cast_unsigned() > max {
             return None;
         }
     }
     let rate_at = |k: i64| r + a * k;
     let ok = |x: i64| (0..=1i64 << 31).contains(&x);
-    (ok(rate_at(1)) && ok(rate_at(k)) && k as u64 <= max).then_some(k as u64)
+    // k ≥ 1 here.
+    let k = k.cast_unsigned();
+    (ok(rate_at(1)) && ok(rate_at(k.cast_signed())) && k <= max).then_some(k)
 }
 
 /// `LM` parameters (rate as sent, acceleration) for one motor making `s` steps with the last in interval `t`,
@@ -213,6 +217,8 @@ pub fn fit_axis(s: u32, t: u32, r0: f64, r1: f64) -> Option<(i32, i32)> {
         if accel.abs() > f64::from(i32::MAX) {
             continue;
         }
+        // Within ±i32::MAX (checked above).
+        #[allow(clippy::cast_possible_truncation)]
         let a = accel as i64;
         // The loaded rate r' making Σ over t intervals reach the target at t, not before.
         let need = i128::from(s) * i128::from(ONE_STEP) - i128::from(a) * i128::from(t) * i128::from(t + 1) / 2;
@@ -267,7 +273,8 @@ mod tests {
 
     #[test]
     fn the_closed_form_agrees_with_the_interrupt() {
-        for (rate, s, accel) in [(8_589_934, 29, 17_353_403), (1_800_095_000, 29, -26_012_345), (42_950_000, 50, 13_400)]
+        for (rate, s, accel) in
+            [(8_589_934, 29, 17_353_403), (1_800_095_000, 29, -26_012_345), (42_950_000, 50, 13_400)]
         {
             let (t, _, _) = run_lm(rate, s, accel);
             assert_eq!(last_step_interval(rate, s, accel, 1_000_000), Some(u64::from(t)), "{rate} {s} {accel}");
@@ -278,7 +285,8 @@ mod tests {
     fn fitted_moves_end_on_their_interval() {
         // 1000 steps in 4000 intervals accelerating from 0.1 to 0.4 steps/interval; and a decelerating one to rest.
         let u = |steps_per_interval: f64| steps_per_interval * ONE_STEP as f64;
-        for (s, t, r0, r1) in [(1000, 4000, u(0.1), u(0.4)), (300, 1200, u(0.5), 0.0), (1, 40_000, 0.0, 0.0), (7, 8, u(0.9), u(0.9))]
+        for (s, t, r0, r1) in
+            [(1000, 4000, u(0.1), u(0.4)), (300, 1200, u(0.5), 0.0), (1, 40_000, 0.0, 0.0), (7, 8, u(0.9), u(0.9))]
         {
             let (rate, accel) = fit_axis(s, t, r0, r1).unwrap_or_else(|| panic!("{s} {t}"));
             let (ran, net, _) = run_lm(rate, s, accel);

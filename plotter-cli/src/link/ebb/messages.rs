@@ -173,7 +173,10 @@ mod tests {
             EbbLine::parse("SM,!4 Err: Missing parameter(s)"),
             EbbLine::Error { code: 4, text: "Missing parameter(s)".into() }
         );
-        assert_eq!(describe_error(6, "Invalid parameter value"), "!6 Err: Invalid parameter value (a parameter is out of its range)");
+        assert_eq!(
+            describe_error(6, "Invalid parameter value"),
+            "!6 Err: Invalid parameter value (a parameter is out of its range)"
+        );
     }
 
     #[test]

@@ -79,7 +79,9 @@ impl PenSetup {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ProgramError {
     /// The profile has no `[ebb]` section.
-    #[error("the machine profile has no [ebb] section (pen servo positions and rates): use one of samples/axidraw-*.toml")]
+    #[error(
+        "the machine profile has no [ebb] section (pen servo positions and rates): use one of samples/axidraw-*.toml"
+    )]
     NoEbbSection,
     /// A pen block moves a Z axis.
     #[error("block {block}: the pen moves on a Z axis; an EBB lifts it with its servo (set pen.command = \"servo\")")]
@@ -88,7 +90,9 @@ pub enum ProgramError {
         block: usize,
     },
     /// A move asks a motor for more than 25 000 steps/s.
-    #[error("block {block}: motor {motor} would step at {rate:.0} steps/s, above the board's 25 000 (lower the feeds in the profile)")]
+    #[error(
+        "block {block}: motor {motor} would step at {rate:.0} steps/s, above the board's 25 000 (lower the feeds in the profile)"
+    )]
     TooFast {
         /// Plan block index.
         block: usize,
@@ -98,7 +102,9 @@ pub enum ProgramError {
         rate: f64,
     },
     /// No integer rates make a phase end on its interval (a motor slower than about one step per two seconds).
-    #[error("block {block}: no LM rates end the move on its planned interval ({steps:?} steps in {intervals} intervals)")]
+    #[error(
+        "block {block}: no LM rates end the move on its planned interval ({steps:?} steps in {intervals} intervals)"
+    )]
     Unfittable {
         /// Plan block index.
         block: usize,
@@ -212,6 +218,8 @@ fn round_i64(x: f64) -> i64 {
 }
 
 /// The `LM` line of a phase and its exact board time.
+// The two motors' arrays are indexed in parallel.
+#[allow(clippy::needless_range_loop)]
 fn lm_line(block: usize, p: &Phase) -> Result<(String, u64), ProgramError> {
     let t = u32::try_from(p.intervals).map_err(|_| ProgramError::Unfittable {
         block,
@@ -228,8 +236,11 @@ fn lm_line(block: usize, p: &Phase) -> Result<(String, u64), ProgramError> {
             i32::try_from(r).ok().filter(|_| s > 0).map(|r| (r, 0))
         });
         let (rate, accel) = fitted.ok_or(ProgramError::Unfittable { block, steps: p.steps, intervals: p.intervals })?;
-        let last = last_step_interval(rate, s, accel, u64::from(t))
-            .ok_or(ProgramError::Unfittable { block, steps: p.steps, intervals: p.intervals })?;
+        let last = last_step_interval(rate, s, accel, u64::from(t)).ok_or(ProgramError::Unfittable {
+            block,
+            steps: p.steps,
+            intervals: p.intervals,
+        })?;
         end = end.max(last);
         parts[m] = (rate, p.steps[m], accel);
     }
@@ -307,7 +318,11 @@ pub fn program(
                         let share = dm[m].unsigned_abs() as f64 / n;
                         let peak = va.max(vb) * share;
                         if peak > kinematics::MAX_STEP_RATE * 1.000_001 {
-                            return Err(ProgramError::TooFast { block: bi, motor: if m == 0 { 1 } else { 2 }, rate: peak });
+                            return Err(ProgramError::TooFast {
+                                block: bi,
+                                motor: if m == 0 { 1 } else { 2 },
+                                rate: peak,
+                            });
                         }
                         r0[m] = rate_units(va * share);
                         r1[m] = rate_units(vb * share);

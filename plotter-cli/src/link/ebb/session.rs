@@ -361,7 +361,10 @@ impl<T: Transport> EbbSession<T> {
             .map(|i| {
                 cmds[i].ends_block
                     && !cmds[i].pen_down
-                    && plan.blocks.get(cmds[i].block + 1).is_none_or(|b| b.kind != plotter_path::motion::plan::MoveKind::Settle)
+                    && plan
+                        .blocks
+                        .get(cmds[i].block + 1)
+                        .is_none_or(|b| b.kind != plotter_path::motion::plan::MoveKind::Settle)
             })
             .collect();
         let (mut next, mut bytes) = (0usize, 0u64);
@@ -423,7 +426,8 @@ impl<T: Transport> EbbSession<T> {
                     msg += &format!(" (and stopping failed: {s:#})");
                 }
                 let text = msg.clone();
-                if let Some(code) = text.split("refused: !").nth(1).and_then(|r| r.split(' ').next()?.parse::<u8>().ok())
+                if let Some(code) =
+                    text.split("refused: !").nth(1).and_then(|r| r.split(' ').next()?.parse::<u8>().ok())
                 {
                     return Err(StreamError::Refused { block: c.block, code, text: msg });
                 }
@@ -480,7 +484,8 @@ impl<T: Transport> EbbSession<T> {
         }
         if resume > 0 && cmds[resume - 1].pen_down {
             let settle = self.profile.pen.settle_ms.round().clamp(0.0, 65_535.0);
-            self.command(&format!("SP,0,{settle},{}", e.pen_pin), Duration::from_secs(120)).map_err(StreamError::Link)?;
+            self.command(&format!("SP,0,{settle},{}", e.pen_pin), Duration::from_secs(120))
+                .map_err(StreamError::Link)?;
         }
         self.drain(Duration::from_secs(600)).map_err(StreamError::Link)?;
         Ok(Some(resume))
@@ -537,7 +542,9 @@ mod tests {
                 Point::new(x, 20.0),
             ])
         };
-        let steps = drawing_to_steps(&p, &Drawing::single_layer("s", (0..4).map(|i| sq(20.0 + 40.0 * f64::from(i))).collect())).unwrap();
+        let steps =
+            drawing_to_steps(&p, &Drawing::single_layer("s", (0..4).map(|i| sq(20.0 + 40.0 * f64::from(i))).collect()))
+                .unwrap();
         make_plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap()
     }
 
