@@ -372,6 +372,18 @@ impl EbbEmulator {
         self.version >= EbbVersion(3, 0, 0)
     }
 
+    /// Whether this firmware knows a command that came later than 2.5 (`LM`/`LT` 2.7.0, `QG`/`HM` 2.6.2, `QE`
+    /// 2.8.0).
+    fn has(&self, name: &str) -> bool {
+        let since = match name {
+            "LM" | "LT" => EbbVersion(2, 7, 0),
+            "QG" | "HM" => EbbVersion(2, 6, 2),
+            "QE" => EbbVersion(2, 8, 0),
+            _ => EbbVersion(0, 0, 0),
+        };
+        self.version >= since
+    }
+
     fn dispatch(&mut self, name: &str, args: &[&str]) -> Result<(), String> {
         match name {
             "V" => {
@@ -379,6 +391,7 @@ impl EbbEmulator {
                 let v = format!("EBBv13_and_above EB Firmware Version {}", self.version);
                 self.data("V", &v, "\r\n", false);
             }
+            "LM" | "LT" | "QE" | "HM" | "QG" if !self.has(name) => return Err(unknown(name)),
             "LM" => {
                 let p = params(args, 6, 1)?;
                 let q = self.low_level(

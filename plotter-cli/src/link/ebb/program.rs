@@ -251,6 +251,34 @@ fn lm_line(block: usize, p: &Phase) -> Result<(String, u64), ProgramError> {
     Ok((format!("LM,{r1},{s1},{a1},{r2},{s2},{a2},3"), end.max(1)))
 }
 
+/// A phase as constant-rate `SM` slices `(milliseconds, motor steps)`: one for a cruise, up to eight of at least
+/// two shortest moves each for a ramp, each ending where the constant acceleration has carried the motors by then
+/// (steps rounded once, cumulatively). Whole milliseconds, never faster than 25 steps per millisecond; the next
+/// block's boundary absorbs the rounding.
+fn sm_slices(p: &Phase, min_t: u64) -> Vec<(u32, [i64; 2])> {
+    let m = usize::from(p.steps[1].abs() > p.steps[0].abs());
+    let (r0, r1) = (p.r0[m], p.r1[m]);
+    let ramp = (r1 - r0).abs() > 1e-6 * (r0 + r1).abs().max(1.0);
+    let k = if ramp { (p.intervals / (2 * min_t)).clamp(1, 8) } else { 1 };
+    let t = p.intervals.max(1) as f64;
+    let frac = |u: f64| if r0 + r1 > 0.0 { (r0 * u + (r1 - r0) * u * u / 2.0) / ((r0 + r1) / 2.0) } else { u };
+    let mut out = Vec::new();
+    let (mut prev_b, mut prev) = (0u64, [0i64; 2]);
+    for j in 1..=k {
+        // Interval boundary of slice j (the last one exactly at the phase's end).
+        let b = p.intervals * j / k;
+        let f = if j == k { 1.0 } else { frac(b as f64 / t) };
+        let cum: [i64; 2] =
+            core::array::from_fn(|i| if j == k { p.steps[i] } else { round_i64(f * p.steps[i] as f64) });
+        let st = [cum[0] - prev[0], cum[1] - prev[1]];
+        let fastest = st[0].unsigned_abs().max(st[1].unsigned_abs());
+        let ms = ((b - prev_b + 12) / 25).max(fastest.div_ceil(25)).max(1);
+        out.push((u32::try_from(ms).unwrap_or(u32::MAX), st));
+        (prev_b, prev) = (b, cum);
+    }
+    out
+}
+
 /// The intervals an `SM` of `ms` milliseconds and these motor steps takes on the board (its f32 rate arithmetic).
 pub fn sm_intervals(ms: u32, steps: [i64; 2]) -> u64 {
     if steps == [0, 0] {
@@ -361,25 +389,29 @@ pub fn program(
                     }
                 }
                 for p in &phases {
-                    pos = [pos[0] + p.steps[0], pos[1] + p.steps[1]];
-                    let (line, t) = match style {
-                        MotionStyle::Lm => lm_line(bi, p)?,
-                        MotionStyle::Sm => {
-                            // Whole milliseconds; the next block's rounding absorbs the remainder.
-                            let ms = u32::try_from(p.intervals.div_ceil(25).max(1)).unwrap_or(u32::MAX);
-                            (format!("SM,{ms},{},{}", p.steps[0], p.steps[1]), sm_intervals(ms, p.steps))
+                    let pieces = match style {
+                        MotionStyle::Lm => {
+                            let (line, t) = lm_line(bi, p)?;
+                            vec![(line, t, p.steps)]
                         }
+                        MotionStyle::Sm => sm_slices(p, min_t)
+                            .into_iter()
+                            .map(|(ms, st)| (format!("SM,{ms},{},{}", st[0], st[1]), sm_intervals(ms, st), st))
+                            .collect(),
                     };
-                    h += t;
-                    out.push(EbbCommand {
-                        line,
-                        block: bi,
-                        intervals: t,
-                        motors: pos,
-                        queued: true,
-                        pen_down,
-                        ends_block: false,
-                    });
+                    for (line, t, st) in pieces {
+                        pos = [pos[0] + st[0], pos[1] + st[1]];
+                        h += t;
+                        out.push(EbbCommand {
+                            line,
+                            block: bi,
+                            intervals: t,
+                            motors: pos,
+                            queued: true,
+                            pen_down,
+                            ends_block: false,
+                        });
+                    }
                 }
             }
             MoveKind::PenUp | MoveKind::PenDown if b.servo.is_some() => {
@@ -518,6 +550,22 @@ mod tests {
             assert_eq!(e.busy_intervals() - before, c.intervals, "{}", c.line);
             assert_eq!(e.position(), c.motors, "{}", c.line);
         }
+    }
+
+    #[test]
+    fn sm_slices_follow_the_ramp_and_keep_every_step() {
+        // 1000 steps accelerating from rest over 2 s (50 000 intervals), slices of at least 2 × 4 ms: eight
+        // slices of 250 ms, covering (j/8)² of the distance by the end of slice j.
+        let p = Phase { steps: [1000, -500], intervals: 50_000, r0: [0.0; 2], r1: [1e9, 5e8] };
+        let s = sm_slices(&p, 100);
+        assert_eq!(s.len(), 8);
+        assert!(s.iter().all(|(ms, _)| *ms == 250));
+        let firsts: Vec<i64> = s.iter().map(|(_, st)| st[0]).collect();
+        assert_eq!(firsts, [16, 47, 78, 109, 141, 172, 203, 234], "(j/8)² × 1000, rounded cumulatively");
+        assert_eq!(s.iter().map(|(_, st)| st[1]).sum::<i64>(), -500);
+        // A cruise is one slice.
+        let c = Phase { steps: [40, 40], intervals: 1000, r0: [1e8; 2], r1: [1e8; 2] };
+        assert_eq!(sm_slices(&c, 100), [(40, [40, 40])]);
     }
 
     #[test]

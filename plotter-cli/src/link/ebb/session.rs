@@ -279,9 +279,10 @@ impl<T: Transport> EbbSession<T> {
         } else {
             false
         };
-        if enabled && self.version.has_hm() {
-            if self.motors()? != [0, 0] {
-                self.command(&format!("HM,{HM_RATE},0,0"), Duration::from_secs(120))?;
+        if enabled {
+            let at = self.motors()?;
+            if at != [0, 0] {
+                self.return_to(at, [0, 0])?;
             }
         } else {
             eprintln!("{}: the EBB has no endstops; the carriage is taken to stand in the home corner", self.name);
@@ -458,17 +459,23 @@ impl<T: Transport> EbbSession<T> {
         self.stop_and_lift().map_err(StreamError::Link)?;
         let at = self.motors().map_err(StreamError::Link)?;
         let cmds = &prog.commands;
-        // The first command (among those possibly unfinished) whose move has not reached its end.
+        // The first move (among those possibly unfinished) whose segment holds the position: interrupted in it (or
+        // about to start it) unless the position is its end, when the plot goes on after it. Pen commands between
+        // are sent again (they only set the pen).
         let before = |i: usize| if i == 0 { start } else { cmds[i - 1].motors };
-        let mut resume = sent;
+        let mut resume = *done_cmds;
         for i in *done_cmds..sent {
-            if cmds[i].motors != before(i) && cmds[i].motors != at {
-                resume = i;
+            let (a, b) = (before(i), cmds[i].motors);
+            if a == b {
+                continue;
+            }
+            if at == b {
+                resume = i + 1;
                 break;
             }
-            if cmds[i].motors != before(i) && cmds[i].motors == at {
-                // Reached: everything up to it is done; a later non-move may not have run.
-                resume = (i + 1..sent).find(|&j| cmds[j].motors != at || cmds[j].queued).unwrap_or(sent);
+            if on_segment(at, a, b) {
+                resume = i;
+                break;
             }
         }
         // Moves cannot have run beyond a move that did not finish; non-moves after the last reached move are redone.
@@ -479,8 +486,7 @@ impl<T: Transport> EbbSession<T> {
         let e = self.profile.ebb.context("no [ebb] section").map_err(StreamError::Link)?;
         let target = before(resume);
         if at != target {
-            self.command(&format!("HM,{HM_RATE},{},{}", target[0], target[1]), Duration::from_secs(120))
-                .map_err(StreamError::Link)?;
+            self.return_to(at, target).map_err(StreamError::Link)?;
         }
         if resume > 0 && cmds[resume - 1].pen_down {
             let settle = self.profile.pen.settle_ms.round().clamp(0.0, 65_535.0);
@@ -489,6 +495,17 @@ impl<T: Transport> EbbSession<T> {
         }
         self.drain(Duration::from_secs(600)).map_err(StreamError::Link)?;
         Ok(Some(resume))
+    }
+
+    /// Move the carriage (pen up) from motor position `at` to `target`: `HM` to the absolute position where the
+    /// firmware has it (2.7.0 and later), else one slow `SM`.
+    fn return_to(&mut self, at: [i64; 2], target: [i64; 2]) -> anyhow::Result<()> {
+        if self.version.has_hm() {
+            return self.command(&format!("HM,{HM_RATE},{},{}", target[0], target[1]), Duration::from_secs(120));
+        }
+        let d = [target[0] - at[0], target[1] - at[1]];
+        let ms = (d[0].unsigned_abs().max(d[1].unsigned_abs()) * 1000).div_ceil(u64::from(HM_RATE)).max(1);
+        self.command(&format!("SM,{ms},{},{}", d[0], d[1]), Duration::from_secs(120))
     }
 
     /// After the host lost a plot: the first block of `full` not certainly executed, from where the idle board
@@ -510,6 +527,20 @@ impl<T: Transport> EbbSession<T> {
         }
         Ok(best.unwrap_or(executed).max(executed))
     }
+}
+
+/// Whether motor position `p` lies on the move from `a` to `b` (within two steps of the line, between its ends):
+/// the two motors of a move step in proportion, each rounded on its own.
+fn on_segment(p: [i64; 2], a: [i64; 2], b: [i64; 2]) -> bool {
+    let d = [(b[0] - a[0]) as f64, (b[1] - a[1]) as f64];
+    let q = [(p[0] - a[0]) as f64, (p[1] - a[1]) as f64];
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    if len2 == 0.0 {
+        return q == [0.0, 0.0];
+    }
+    let t = (d[0] * q[0] + d[1] * q[1]) / len2;
+    let dist2 = (q[0] - t * d[0]).powi(2) + (q[1] - t * d[1]).powi(2);
+    (0.0..=1.0).contains(&t) && dist2 <= 4.0
 }
 
 #[cfg(test)]
@@ -579,6 +610,142 @@ mod tests {
             assert_eq!(rec.0.last().map(|p| (p.accepted, p.executed)), Some((plan.blocks.len(), plan.blocks.len())));
             assert!(rec.0.windows(2).all(|w| w[0].executed <= w[1].executed && w[1].executed <= w[1].accepted));
         }
+    }
+
+    /// Asks for one pause (now or at the next pen-up) once `after` blocks are reported executed, then resumes.
+    struct PauseOnce {
+        after: usize,
+        now: bool,
+        seen: usize,
+        asked: bool,
+        paused: Vec<bool>,
+    }
+
+    impl Control for PauseOnce {
+        fn progress(&mut self, p: &Progress) {
+            self.seen = self.seen.max(p.executed);
+        }
+        fn pause_requested(&mut self) -> Option<bool> {
+            (!self.asked && self.seen >= self.after).then(|| {
+                self.asked = true;
+                self.now
+            })
+        }
+        fn paused(&mut self, held: bool) -> PauseChoice {
+            self.paused.push(held);
+            PauseChoice::Resume
+        }
+    }
+
+    /// The board behind a link that delivers `ES` only `delay` intervals after the host sent it (USB latency, and a
+    /// user who pressed Ctrl-C at some moment of a move rather than right after a command was answered).
+    struct LateStop {
+        inner: EbbTransport,
+        delay: u64,
+    }
+
+    impl Transport for LateStop {
+        fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+            if bytes.starts_with(b"ES") {
+                self.inner.emulator_mut().run_for(self.delay);
+            }
+            self.inner.send(bytes)
+        }
+        fn recv_line(&mut self, timeout: Duration) -> std::io::Result<Option<String>> {
+            self.inner.recv_line(timeout)
+        }
+        fn now(&self) -> Duration {
+            self.inner.now()
+        }
+    }
+
+    /// The motor positions the pen was down at, in order, consecutive repeats dropped.
+    fn drawn(emu: &EbbEmulator) -> Vec<[i64; 2]> {
+        let mut v: Vec<[i64; 2]> = emu.trace().iter().filter(|s| s.pen_down).map(|s| s.motors).collect();
+        v.dedup();
+        v
+    }
+
+    #[test]
+    fn a_pause_now_stops_with_es_and_continues_from_the_interrupted_move() {
+        let plan = squares();
+        // The same plot without a pause, for comparison.
+        let mut plain = session(EbbVersion(3, 0, 2));
+        plain.home().unwrap();
+        plain.stream(&plan, &mut Record::default()).unwrap();
+        let want = drawn(plain.transport.emulator());
+        let mut returned = 0;
+        // Stops all through the plot: in moves (pen up or down) and in pen delays.
+        let n = plan.blocks.len();
+        for (k, after) in (1..n - 2).enumerate() {
+            let t = LateStop {
+                inner: EbbTransport::new(EbbEmulator::new(EbbVersion(3, 0, 2))),
+                delay: 397 * (k as u64 % 5),
+            };
+            let mut s = EbbSession::connect(t, "late", &profile()).unwrap();
+            s.home().unwrap();
+            let mut c = PauseOnce { after, now: true, seen: 0, asked: false, paused: Vec::new() };
+            s.stream(&plan, &mut c).unwrap();
+            if c.paused.is_empty() {
+                // Everything was sent before that many blocks had run: no pause is asked for any more.
+                assert!(after > n / 2, "{after} of {n}");
+                break;
+            }
+            assert_eq!(c.paused, [true]);
+            let emu = s.transport.inner.emulator();
+            assert_eq!(emu.stats().estops, 1, "ES interrupted a command");
+            let log = emu.log();
+            let es = log.iter().position(|l| l == "ES").unwrap();
+            assert!(log[es + 1].starts_with("SP,2,"), "the pen goes up at once after ES: {:?}", &log[es..]);
+            returned += usize::from(log[es..].iter().any(|l| l.starts_with("HM,")));
+            let end = plan.position_after(plan.blocks.len() - 1);
+            assert_eq!(s.position().unwrap()[..2], end[..2]);
+            // Every pen-down position of the plain plot is drawn, in order (an interrupted move is drawn again
+            // from its start, so some may be visited twice, none is missed).
+            let got = drawn(s.transport.inner.emulator());
+            let mut it = got.iter();
+            assert!(want.iter().all(|w| it.any(|g| g == w)), "after {after}: the paused plot draws everything");
+        }
+        assert!(returned >= 5, "some stops were mid-move and returned with HM: {returned}");
+    }
+
+    #[test]
+    fn a_pause_at_the_next_pen_up_drains_and_continues() {
+        let plan = squares();
+        let mut s = session(EbbVersion(3, 0, 2));
+        s.home().unwrap();
+        let mut c = PauseOnce { after: 10, now: false, seen: 0, asked: false, paused: Vec::new() };
+        s.stream(&plan, &mut c).unwrap();
+        assert_eq!(c.paused, [false]);
+        assert_eq!(s.transport.emulator().stats().estops, 0);
+        let end = plan.position_after(plan.blocks.len() - 1);
+        assert_eq!(s.position().unwrap()[..2], end[..2]);
+    }
+
+    #[test]
+    fn firmware_without_lm_gets_sm_slices_in_the_planned_time() {
+        // 2.6.0: no LM (2.7.0), no QG (2.6.2: QM is asked), no QE.
+        let mut s = session(EbbVersion(2, 6, 0));
+        assert_eq!(s.style, MotionStyle::Sm);
+        s.home().unwrap();
+        let plan = squares();
+        let busy0 = s.transport.emulator().busy_intervals();
+        s.stream(&plan, &mut Record::default()).unwrap();
+        let emu = s.transport.emulator();
+        let ran = (emu.busy_intervals() - busy0) as f64 * 40e-6;
+        // SM cannot clear the accumulators on this firmware: each slice may end one interval earlier than from a
+        // cleared one (what the host assumes), never later.
+        let slices = emu.log().iter().filter(|l| l.starts_with("SM,")).count() as f64;
+        assert!(
+            ran <= s.program_seconds + 1e-9 && ran >= s.program_seconds - slices * 40e-6,
+            "{ran} {}",
+            s.program_seconds
+        );
+        assert!((ran - plan.seconds()).abs() <= plan.seconds() * 1e-3, "ran {ran} s, planned {} s", plan.seconds());
+        assert!(emu.log().iter().any(|l| l.starts_with("SM,")) && !emu.log().iter().any(|l| l.starts_with("LM,")));
+        assert_eq!(emu.stats().errors, 0);
+        let end = plan.position_after(plan.blocks.len() - 1);
+        assert_eq!(s.position().unwrap()[..2], end[..2]);
     }
 
     #[test]
