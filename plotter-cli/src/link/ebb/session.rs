@@ -463,22 +463,18 @@ impl<T: Transport> EbbSession<T> {
         // about to start it) unless the position is its end, when the plot goes on after it. Pen commands between
         // are sent again (they only set the pen).
         let before = |i: usize| if i == 0 { start } else { cmds[i - 1].motors };
-        let mut resume = *done_cmds;
-        for i in *done_cmds..sent {
-            let (a, b) = (before(i), cmds[i].motors);
-            if a == b {
-                continue;
-            }
-            if at == b {
-                resume = i + 1;
-                break;
-            }
-            if on_segment(at, a, b) {
-                resume = i;
-                break;
-            }
-        }
-        // Moves cannot have run beyond a move that did not finish; non-moves after the last reached move are redone.
+        let resume = (*done_cmds..sent)
+            .find_map(|i| {
+                let (a, b) = (before(i), cmds[i].motors);
+                if a == b {
+                    None
+                } else if at == b {
+                    Some(i + 1)
+                } else {
+                    on_segment(at, a, b).then_some(i)
+                }
+            })
+            .unwrap_or(*done_cmds);
         *done_cmds = resume;
         if control.paused(true) == PauseChoice::Abort {
             return Ok(None);
