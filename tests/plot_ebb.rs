@@ -144,15 +144,16 @@ fn three_pens_stop_for_two_pen_changes_on_the_board() {
 }
 
 #[test]
-fn ctrl_c_stops_the_board_with_es_and_the_pen_up() {
+fn ctrl_c_stops_the_board_with_es_and_the_pen_up_and_the_journal_resumes() {
     let dir = scratch("ebb-ctrl-c");
-    // Real time: the duck takes about 16 s, the interrupt comes after 3.
+    // Real time: the circle takes about 4 s, the interrupt comes after 1.5.
     let sim = SimPty::start(&dir, &["--ebb"]);
-    let duck = sample("duck.svg");
     let profile = axidraw();
+    let circle = "gen:circle?r=30&cx=100&cy=80";
+    let journal = dir.join("circle.journal");
     let args = [
         "plot",
-        duck.to_str().unwrap(),
+        circle,
         "--port",
         &sim.port,
         "--firmware",
@@ -160,6 +161,8 @@ fn ctrl_c_stops_the_board_with_es_and_the_pen_up() {
         "--profile",
         &profile,
         "--pause-immediately",
+        "--journal",
+        journal.to_str().unwrap(),
     ];
     let child = Command::new(plotter_bin())
         .args(args)
@@ -169,19 +172,30 @@ fn ctrl_c_stops_the_board_with_es_and_the_pen_up() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("plotter runs");
-    std::thread::sleep(Duration::from_secs(3));
+    std::thread::sleep(Duration::from_millis(1500));
     let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).expect("pid"));
     nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).expect("interrupt the plot");
     let out = child.wait_with_output().expect("plotter exits");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(stderr.contains("aborted"), "{stderr}");
+    assert!(stderr.contains("aborted") && stderr.contains("--resume"), "{stderr}");
+    // The rest of the circle from the journal: the board kept its step counters, so the resume returns to the
+    // home corner with HM and continues.
+    let (ok, stdout, stderr) = plot(&dir, &["plot", "--resume", journal.to_str().unwrap(), "--port", &sim.port], "");
+    assert!(ok, "{stderr}\n{stdout}");
+    assert!(stderr.contains("resuming at block"), "{stderr}");
+    assert!(std::fs::read_to_string(&journal).unwrap().contains("complete"));
     let trace = sim.stop();
     assert_eq!(SimPty::figure(&trace, "ebb", "estops"), Some(1), "ES interrupted the running move");
     assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1));
     assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
-    // Stopped part-way: well short of the duck's 16 s.
-    assert!(trace.busy_ticks > 1_000_000 && trace.busy_ticks < 8_000_000, "{}", trace.busy_ticks);
+    // Two pen-down runs (before the stop, after the resume); the circle closes where its first run began.
+    let r = runs(&trace);
+    assert_eq!(r.len(), 2, "{}", r.len());
+    let start = trace.positions.iter().position(|p| p[2] == 0).expect("pen went down");
+    let lowered = xy2(trace.positions[start - 1]);
+    let end = xy2(*trace.positions.iter().rev().find(|p| p[2] == 0).unwrap());
+    assert_eq!(end, lowered);
 }
 
 #[test]

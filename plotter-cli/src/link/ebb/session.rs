@@ -247,10 +247,12 @@ impl<T: Transport> EbbSession<T> {
         <[i64; 2]>::try_from(v).map_err(|_| anyhow::anyhow!("{}: unreadable QS answer {l:?}", self.name))
     }
 
-    /// The plot position of motor positions.
+    /// The plot position of motor positions. A stop between the two motors' steps of a move leaves them half an
+    /// XY step apart (an odd sum): that position is rounded (towards motor 1's side); [`Self::stop_and_lift`]
+    /// steps motor 2 once to make it whole again.
     fn xy_of(&self, m: [i64; 2]) -> anyhow::Result<MachinePos> {
         let home = homed_position(&self.profile)?;
-        let (x, y) = unmix(m).with_context(|| format!("{}: motor positions {m:?} are no XY position", self.name))?;
+        let (x, y) = unmix(m).or_else(|| unmix([m[0], m[1] + 1])).context("unreachable: one of two sums is even")?;
         let to = |h: i32, d: i64| i32::try_from(i64::from(h) + d).context("position out of range");
         Ok([to(home[0], x)?, to(home[1], y)?, home[2], 0])
     }
@@ -301,7 +303,14 @@ impl<T: Transport> EbbSession<T> {
         } else {
             self.command(&format!("SP,1,0,{}", e.pen_pin), COMMAND_TIMEOUT)?;
         }
-        self.drain(Duration::from_secs(10))
+        self.drain(Duration::from_secs(10))?;
+        // Stopped between the two motors' steps of a move: one step of motor 2 makes the position an XY one.
+        let m = self.motors()?;
+        if unmix(m).is_none() {
+            self.command("SM,2,0,1", COMMAND_TIMEOUT)?;
+            self.drain(Duration::from_secs(10))?;
+        }
+        Ok(())
     }
 
     /// Stream `plan` (which starts where the machine stands). Returns when it has been executed.
