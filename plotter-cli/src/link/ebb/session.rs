@@ -595,6 +595,17 @@ mod tests {
     }
 
     #[test]
+    fn a_board_left_in_future_syntax_is_switched_back() {
+        let mut emu = EbbEmulator::new(EbbVersion(3, 0, 2));
+        emu.feed(b"CU,10,1\r");
+        let _ = emu.take_output();
+        let mut s = EbbSession::connect(EbbTransport::new(emu), "emulated EBB", &profile()).unwrap();
+        assert_eq!(s.version, EbbVersion(3, 0, 2));
+        assert_eq!(s.motors().unwrap(), [0, 0], "QS answered in the default syntax again");
+        assert!(s.transport.emulator().log().iter().any(|l| l == "CU,10,0"));
+    }
+
+    #[test]
     fn a_plot_runs_in_the_planned_time_and_ends_where_planned() {
         for v in [EbbVersion(3, 0, 2), EbbVersion(2, 8, 1)] {
             let mut s = session(v);
