@@ -569,6 +569,37 @@ mod tests {
     }
 
     #[test]
+    fn the_ebb_samples_parse_with_their_machines_figures() {
+        let load = |name: &str, text: &str| MachineProfile::from_toml(text, name).unwrap();
+        let samples = [
+            load("axidraw-v3.toml", include_str!("../../../../samples/axidraw-v3.toml")),
+            load("axidraw-se-a3.toml", include_str!("../../../../samples/axidraw-se-a3.toml")),
+            load("nextdraw.toml", include_str!("../../../../samples/nextdraw.toml")),
+            load("idraw-h.toml", include_str!("../../../../samples/idraw-h.toml")),
+        ];
+        let figures: Vec<(f64, f64, u8, u16)> = samples
+            .iter()
+            .map(|p| {
+                let e = p.ebb.unwrap();
+                (p.axes.x.travel_mm, p.axes.y.travel_mm, e.pen_pin, e.pen_up_position)
+            })
+            .collect();
+        assert_eq!(
+            figures,
+            [(300.0, 218.0, 1, 20_641), (430.0, 297.0, 1, 20_641), (300.0, 218.0, 2, 9_720), (420.0, 297.0, 1, 20_641)]
+        );
+        for p in &samples {
+            // 2032 steps per inch; no diagonal asks a motor for more than 25 000 steps/s.
+            assert_eq!((p.axes.x.steps_per_mm, p.axes.y.steps_per_mm), (80.0, 80.0));
+            assert!(80.0 * (p.axes.x.max_feed_mm_s + p.axes.y.max_feed_mm_s) <= 25_000.0);
+        }
+        // An EBB lifts its pen with the servo: a Z pen is refused with the field named.
+        let z = include_str!("../../../../samples/axidraw-v3.toml").replace("command = \"servo\"", "command = \"z\"");
+        let e = MachineProfile::from_toml(&z, "z.toml").unwrap_err().to_string();
+        assert!(e.contains("pen.command") && e.contains("servo"), "{e}");
+    }
+
+    #[test]
     fn pen_positions_interpolate_between_the_profile_angles() {
         let pen = PenSetup { up_position: 20_000, down_position: 10_000, up_deg: 90.0, down_deg: 30.0, pin: 1 };
         assert_eq!(pen.position(300), 10_000);
