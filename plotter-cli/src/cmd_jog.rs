@@ -118,6 +118,21 @@ pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
         Connected::Ours(_) => Firmware::Ours,
     };
     let lines = jog_lines(args, &profile, firmware)?;
+    if let Connected::Ebb(e) = &mut c {
+        // No soft limits on the board: the jog is checked against the travel here.
+        let at = e.position()?;
+        let (axis, travel, spm) = match args.target {
+            JogTarget::X => (0, profile.axes.x.travel_mm, profile.axes.x.steps_per_mm),
+            JogTarget::Y => (1, profile.axes.y.travel_mm, profile.axes.y.steps_per_mm),
+            _ => (2, 0.0, 1.0),
+        };
+        if axis < 2 {
+            let to = f64::from(at[axis]) / spm + args.distance.unwrap_or(0.0);
+            if !(0.0..=travel).contains(&to) {
+                anyhow::bail!("the jog would end at {to:.2} mm, outside the travel 0..{travel} mm");
+            }
+        }
+    }
     let mut result = Ok(());
     for l in &lines {
         if let Err(e) = c.command(l) {
@@ -174,5 +189,18 @@ mod tests {
         servo.pen.command = plotter_path::motion::profile::PenCommand::Servo;
         assert_eq!(jog_lines(&args(JogTarget::Down, None), &servo, grbl).unwrap(), ["M3 S30"]);
         assert_eq!(jog_lines(&args(JogTarget::Up, None), &servo, ours).unwrap(), ["M5"]);
+    }
+
+    #[test]
+    fn jog_ebb() {
+        let text = include_str!("../../samples/axidraw-v3.toml");
+        let p = plotter_path::MachineProfile::from_toml(text, "axidraw-v3.toml").unwrap();
+        let ebb = Firmware::Ebb;
+        // 10 mm at 80 steps/mm and 10 mm/s: 800 steps in 1000 ms, mixed by the board (XM: A = X, B = Y).
+        assert_eq!(jog_lines(&args(JogTarget::X, Some(10.0)), &p, ebb).unwrap(), ["XM,1000,800,0"]);
+        assert_eq!(jog_lines(&args(JogTarget::Y, Some(-2.5)), &p, ebb).unwrap(), ["XM,250,0,-200"]);
+        assert_eq!(jog_lines(&args(JogTarget::Down, None), &p, ebb).unwrap(), ["SP,0,126,1"]);
+        assert_eq!(jog_lines(&args(JogTarget::Up, None), &p, ebb).unwrap(), ["SP,1,126,1"]);
+        assert!(jog_lines(&args(JogTarget::Z, Some(1.0)), &p, ebb).unwrap_err().to_string().contains("no Z axis"));
     }
 }
