@@ -436,7 +436,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             }
             if let Connected::Ebb(e) = c {
                 println!(
-                    "EBB: board time {:.3} s for the last stream; {} move(s) shorter than the board sustains",
+                    "EBB: board time {:.3} s; {} move(s) shorter than the board sustains",
                     e.program_seconds, e.short_moves
                 );
             }

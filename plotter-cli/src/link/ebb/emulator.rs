@@ -433,7 +433,7 @@ impl EbbEmulator {
                 let (a, b) = (p[1], p.get(2).copied().unwrap_or(0));
                 let steps = if xm { [a + b, a - b] } else { [a, b] };
                 let clear = p.get(3).copied().unwrap_or(0);
-                let q = self.simple_move(name, ms, steps, clear)?;
+                let q = self.simple_move(ms, steps, clear)?;
                 self.enqueue(name, q, false);
             }
             "HM" => {
@@ -475,11 +475,11 @@ impl EbbEmulator {
                 }
             }
             "TP" => {
-                let p = params(args, 0, 1)?;
+                // The optional duration only delays the next command, which this immediate toggle does not.
+                params(args, 0, 1)?;
                 self.pen_up = !self.pen_up;
                 self.servo_target = if self.pen_up { self.servo_min } else { self.servo_max };
                 self.servo_rate = if self.pen_up { self.rate_up } else { self.rate_down };
-                let _ = p;
                 self.ok("TP");
             }
             "S2" => {
@@ -697,7 +697,7 @@ impl EbbEmulator {
 
     /// `SM`/`XM`: a constant rate per motor from the step count and duration, in the firmware's f32 arithmetic;
     /// no steps at all is a delay (capped at 100 s).
-    fn simple_move(&mut self, name: &str, ms: u32, steps: [i64; 2], clear: i64) -> Result<Queued, String> {
+    fn simple_move(&mut self, ms: u32, steps: [i64; 2], clear: i64) -> Result<Queued, String> {
         if !(0..=3).contains(&clear) {
             return Err(bad(6));
         }
@@ -729,7 +729,6 @@ impl EbbEmulator {
                 start_acc[m] = Some(0);
             }
         }
-        let _ = name;
         Ok(Queued::Move { axes, start_acc })
     }
 

@@ -71,9 +71,9 @@ pub struct EbbSession<T: Transport> {
     pub profile: MachineProfile,
     /// How moves are sent.
     pub style: MotionStyle,
-    /// Moves of the last stream shorter than the board sustains.
+    /// Moves streamed in this session that are shorter than the board sustains.
     pub short_moves: usize,
-    /// Board time of the last stream's program, seconds.
+    /// Board time of the programs streamed in this session, seconds.
     pub program_seconds: f64,
 }
 
@@ -161,6 +161,18 @@ impl<T: Transport> EbbSession<T> {
     }
 
     fn answer(&mut self, cmd: &str, expect: Expect, timeout: Duration) -> anyhow::Result<String> {
+        self.read_answer(cmd, expect, timeout)?
+            .map_err(|(code, text)| anyhow::anyhow!("{}: {cmd:?} refused: {}", self.name, describe_error(code, &text)))
+    }
+
+    /// The answer to `cmd`: its data, or the board's refusal `(error number, text)`; the link failing or staying
+    /// silent past `timeout` is the outer error.
+    fn read_answer(
+        &mut self,
+        cmd: &str,
+        expect: Expect,
+        timeout: Duration,
+    ) -> anyhow::Result<Result<String, (u8, String)>> {
         let deadline = self.transport.now() + timeout;
         let mut data = None;
         loop {
@@ -175,14 +187,12 @@ impl<T: Transport> EbbSession<T> {
                 continue;
             }
             match EbbLine::parse(&l) {
-                EbbLine::Error { code, text } => {
-                    bail!("{}: {cmd:?} refused: {}", self.name, describe_error(code, &text))
-                }
+                EbbLine::Error { code, text } => return Ok(Err((code, text))),
                 EbbLine::Ok if expect == Expect::Line => {}
-                EbbLine::Ok => return Ok(data.unwrap_or_default()),
+                EbbLine::Ok => return Ok(Ok(data.unwrap_or_default())),
                 EbbLine::Data(d) => {
                     if expect == Expect::Line {
-                        return Ok(d);
+                        return Ok(Ok(d));
                     }
                     data = Some(d);
                 }
@@ -317,8 +327,8 @@ impl<T: Transport> EbbSession<T> {
     pub fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
         let start = self.motors_of(&plan.start).map_err(StreamError::Link)?;
         let prog = program(&self.profile, plan, start, self.style).map_err(|e| StreamError::Link(e.into()))?;
-        self.short_moves = prog.short_moves;
-        self.program_seconds = prog.seconds();
+        self.short_moves += prog.short_moves;
+        self.program_seconds += prog.seconds();
         let t0 = self.transport.now();
         let result = self.send_program(&prog, plan, start, control);
         self.transport.set_streaming(false);
@@ -428,20 +438,23 @@ impl<T: Transport> EbbSession<T> {
             // A queued command waits for its slot: at most the FIFO's and the executing command's time.
             let ahead: u64 = cmds[done_cmds..next].iter().map(|c| c.intervals).sum();
             let wait = COMMAND_TIMEOUT + Duration::from_micros(ahead * u64::from(INTERVAL_US));
-            if let Err(e) = self.answer(&c.line, Expect::Ok, wait) {
+            let answer = self.read_answer(&c.line, Expect::Ok, wait);
+            if !matches!(answer, Ok(Ok(_))) {
                 let executed = Self::blocks_done(prog, done_cmds);
                 let stopped = self.stop_and_lift();
-                let mut msg = format!("{:#}; the plot stopped after {executed} executed block(s)", e);
-                if let Err(s) = stopped {
-                    msg += &format!(" (and stopping failed: {s:#})");
-                }
-                let text = msg.clone();
-                if let Some(code) =
-                    text.split("refused: !").nth(1).and_then(|r| r.split(' ').next()?.parse::<u8>().ok())
-                {
-                    return Err(StreamError::Refused { block: c.block, code, text: msg });
-                }
-                return Err(StreamError::Link(anyhow::anyhow!(msg)));
+                let after = match stopped {
+                    Ok(()) => format!("the plot stopped (pen up) after {executed} executed block(s)"),
+                    Err(s) => format!("the plot stopped after {executed} executed block(s); stopping failed: {s:#}"),
+                };
+                return Err(match answer {
+                    Ok(Err((code, text))) => StreamError::Refused {
+                        block: c.block,
+                        code,
+                        text: format!("{:?} refused: {}; {after}", c.line, describe_error(code, &text)),
+                    },
+                    Err(e) => StreamError::Link(anyhow::anyhow!("{e:#}; {after}")),
+                    Ok(Ok(_)) => unreachable!("handled above"),
+                });
             }
             if c.queued {
                 // Everything queued more than a FIFO's length before this one has finished.
