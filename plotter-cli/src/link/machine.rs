@@ -1,7 +1,8 @@
 //! The machine a plot job drives, whatever its firmware: ours (step blocks in CRC frames,
 //! [`crate::link::session::Session`]), GRBL (G-code with character counting,
-//! [`crate::link::grbl::session::GrblSession`]) or an EiBotBoard (`LM` moves, [`crate::link::ebb::session::EbbSession`]). The job ([`crate::job`]) only talks to [`PlotMachine`], so pen
-//! changes, pauses, the journal and resume work the same on both.
+//! [`crate::link::grbl::session::GrblSession`]) or an EiBotBoard (`LM` moves,
+//! [`crate::link::ebb::session::EbbSession`]). The job ([`crate::job`]) only talks to [`PlotMachine`], so pen
+//! changes, pauses, the journal and resume work the same on all of them.
 
 use std::time::Duration;
 

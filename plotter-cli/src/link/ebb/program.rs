@@ -80,7 +80,8 @@ impl PenSetup {
 pub enum ProgramError {
     /// The profile has no `[ebb]` section.
     #[error(
-        "the machine profile has no [ebb] section (pen servo positions and rates): use one of samples/axidraw-*.toml"
+        "the machine profile has no [ebb] section (pen servo positions and rates): use one of \
+         samples/axidraw-*.toml"
     )]
     NoEbbSection,
     /// A pen block moves a Z axis.
@@ -91,7 +92,8 @@ pub enum ProgramError {
     },
     /// A move asks a motor for more than 25 000 steps/s.
     #[error(
-        "block {block}: motor {motor} would step at {rate:.0} steps/s, above the board's 25 000 (lower the feeds in the profile)"
+        "block {block}: motor {motor} would step at {rate:.0} steps/s, above the board's 25 000 (lower the feeds in \
+         the profile)"
     )]
     TooFast {
         /// Plan block index.

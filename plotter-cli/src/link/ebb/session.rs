@@ -33,7 +33,7 @@ use plotter_path::motion::plan::{MachinePos, MotionPlan, homed_position};
 
 use super::kinematics::{INTERVAL_US, mix, unmix};
 use super::messages::{EbbLine, EbbVersion, GeneralStatus, describe_error};
-use super::program::{MotionStyle, Program, program};
+use super::program::{MotionStyle, Program, ProgramError, program};
 use crate::link::Transport;
 use crate::link::stream::{Control, PauseChoice, Progress, StreamError, StreamStats};
 
@@ -85,9 +85,7 @@ impl<T: Transport> EbbSession<T> {
     /// Connect: ask `V` (three times, for a board still booting), leave future syntax if another host left it on,
     /// deepen the FIFO on firmware 3, and set up the pen servo from the profile's `[ebb]` section.
     pub fn connect(mut transport: T, name: &str, profile: &MachineProfile) -> anyhow::Result<Self> {
-        let pen = profile.ebb.context(
-            "the machine profile has no [ebb] section (pen servo positions and rates): use one of samples/axidraw-*.toml",
-        )?;
+        let pen = profile.ebb.ok_or(ProgramError::NoEbbSection)?;
         let mut heard = Vec::new();
         while let Some(l) = transport.recv_line(Duration::from_millis(100)).map_err(|e| lost(name, e))? {
             if heard.len() < 5 && !l.trim().is_empty() {
