@@ -214,3 +214,78 @@ fn auto_recognises_the_board() {
     let ran = trace.busy_ticks as f64 / 1e6 - HOME_S;
     assert!((ran - planned).abs() <= planned * 1e-3, "{ran} vs {planned}");
 }
+
+/// plotink (the AxiDraw/NextDraw host library, a checkout of evil-mad/plotink at `PLOTINK_DIR`) and a Python with
+/// pyserial and packaging (`PLOTINK_PYTHON`, default `python3`), when available; otherwise the caller skips.
+fn plotink(test: &str) -> Option<(String, String)> {
+    let Some(dir) = std::env::var_os("PLOTINK_DIR") else {
+        eprintln!("SKIP {test}: set PLOTINK_DIR to a checkout of evil-mad/plotink (and PLOTINK_PYTHON)");
+        return None;
+    };
+    let python = std::env::var("PLOTINK_PYTHON").unwrap_or_else(|_| "python3".into());
+    let ok = Command::new(&python).args(["-c", "import serial, packaging"]).status().is_ok_and(|s| s.success());
+    assert!(ok, "{test}: {python} lacks pyserial or packaging");
+    Some((dir.to_string_lossy().into_owned(), python))
+}
+
+#[test]
+fn plotinks_ebb3_class_drives_the_emulator() {
+    let Some((dir, python)) = plotink("plotinks_ebb3_class_drives_the_emulator") else { return };
+    let work = scratch("ebb-plotink");
+    let sim = SimPty::start(&work, &["--ebb", "--fast"]);
+    let script = plotter_e2e::fixture("ebb_plotink_drive.py");
+    let out = Command::new(python).arg(script).args([&dir, &sim.port]).output().expect("python runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    // plotink checks every reply of the future syntax it switches on; the square and the LM leave motor 1 at
+    // 2 × 1600 + 250 and motor 2 at 250, and HM brings both home.
+    assert!(stdout.contains("version 3.0.2") && stdout.contains("enabled (1, 1)"), "{stdout}");
+    assert!(stdout.contains("steps after square+LM (3450, 250)"), "{stdout}");
+    assert!(stdout.contains("steps after HM (0, 0) status 0x10"), "{stdout}");
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
+}
+
+#[test]
+fn plotinks_model_of_the_step_generator_agrees_with_the_emulator() {
+    use plotter_host::link::ebb::emulator::EbbEmulator;
+    use plotter_host::link::ebb::messages::EbbVersion;
+    let Some((dir, python)) = plotink("plotinks_model_of_the_step_generator_agrees_with_the_emulator") else {
+        return;
+    };
+    let script = plotter_e2e::fixture("ebb_plotink_calc.py");
+    let out = Command::new(python).arg(script).args([dir.as_str(), "7"]).output().expect("python runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    let mut e = EbbEmulator::new(EbbVersion(3, 0, 2));
+    let (mut checked, mut wrong) = (0, Vec::new());
+    for l in text.lines() {
+        let f: Vec<&str> = l.split('|').collect();
+        let want: Vec<i64> = f[1..].iter().map(|x| x.parse().expect("integer")).collect();
+        let a: Vec<i64> = f[0].split(',').skip(1).map(|x| x.parse().expect("integer")).collect();
+        if f[0].starts_with("LM") {
+            // A move whose rate would pass one step per interval is no valid move (plotink's formula does not
+            // model the firmware's 32-bit overflow): skipped.
+            let end_rate = a[0] - a[2] / 2 + a[2] * want[0];
+            if end_rate.abs() >= 1 << 31 || !(0..1i64 << 31).contains(&want[2]) {
+                continue;
+            }
+        }
+        let (busy, at) = (e.busy_intervals(), e.position()[0]);
+        e.feed(format!("{}\r", f[0]).as_bytes());
+        while !e.is_idle() {
+            e.run_for(1);
+        }
+        let _ = e.take_output();
+        e.feed(b"QU,200\r");
+        let qu = String::from_utf8(e.take_output()).expect("ascii");
+        let acc: i64 = qu.trim_start_matches("QU,").split(',').next().and_then(|v| v.trim().parse().ok()).expect("acc");
+        let got = vec![i64::try_from(e.busy_intervals() - busy).expect("small"), e.position()[0] - at, acc];
+        checked += 1;
+        if got != want {
+            wrong.push(format!("{} ran {got:?}, plotink says {want:?}", f[0]));
+        }
+    }
+    assert!(checked > 2500, "{checked}");
+    assert!(wrong.is_empty(), "{} of {checked} disagree: {:?}", wrong.len(), &wrong[..wrong.len().min(5)]);
+}
