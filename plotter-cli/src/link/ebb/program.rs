@@ -542,8 +542,9 @@ mod tests {
         let plan = make_plan(&profile, &steps, [0; 4], Lookahead::Whole).unwrap();
         let prog = program(&profile, &plan, [0, 0], MotionStyle::Lm).unwrap();
         let mut e = EbbEmulator::new(EbbVersion(3, 0, 2));
+        let mut worst: f64 = 0.0;
         for c in &prog.commands {
-            let before = e.busy_intervals();
+            let (before, from, steps0) = (e.busy_intervals(), e.position(), e.trace().len());
             e.feed(format!("{}\r", c.line).as_bytes());
             while !e.is_idle() {
                 e.run_for(1);
@@ -551,7 +552,17 @@ mod tests {
             e.run_for(1);
             assert_eq!(e.busy_intervals() - before, c.intervals, "{}", c.line);
             assert_eq!(e.position(), c.motors, "{}", c.line);
+            // The two motors keep to the straight line of their move: every step within 1.5 motor steps of it.
+            let d = [(c.motors[0] - from[0]) as f64, (c.motors[1] - from[1]) as f64];
+            let len = d[0].hypot(d[1]);
+            if len > 0.0 {
+                for st in &e.trace()[steps0..] {
+                    let q = [(st.motors[0] - from[0]) as f64, (st.motors[1] - from[1]) as f64];
+                    worst = worst.max((q[0] * d[1] - q[1] * d[0]).abs() / len);
+                }
+            }
         }
+        assert!(worst <= 1.5, "a step {worst:.2} motor steps off its move's line");
     }
 
     #[test]
