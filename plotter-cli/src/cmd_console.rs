@@ -1,7 +1,7 @@
 //! `plotter console`: type G-code lines and see the firmware's replies (our firmware or GRBL: the real-time bytes
 //! are the same). A line holding only `?`, `!` or `~` sends that real-time byte (status report, feed hold,
-//! resume); `reset` sends Ctrl-X. On GRBL, `error:N` and `ALARM:N` replies are followed by their meaning. End with
-//! Ctrl-D.
+//! resume); `reset` sends Ctrl-X. On GRBL, `error:N` and `ALARM:N` replies are followed by their meaning; on an
+//! EiBotBoard (EBB commands such as `V`, `QS`, `QG`, `SM,500,100,100`), `!N Err:` replies are. End with Ctrl-D.
 
 use std::io::BufRead as _;
 use std::sync::mpsc;
@@ -11,12 +11,19 @@ use plotter_fw::protocol::{RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
 
 use crate::cmd_home::LinkArgs;
 use plotter_host::link::Transport as _;
+use plotter_host::link::ebb::messages::{EbbLine, describe_error as describe_ebb_error};
 use plotter_host::link::grbl::messages::{GrblLine, describe_alarm, describe_error};
 use plotter_host::link::machine::Connected;
 
 /// A reply as shown: GRBL's numeric codes get their meaning.
 fn shown(line: &str, grbl: bool) -> String {
     if !grbl {
+        // An EiBotBoard's errors (`!N Err: …`) get theirs; our firmware's lines are shown as they are.
+        if let EbbLine::Error { code, text } = EbbLine::parse(line)
+            && line.starts_with('!')
+        {
+            return describe_ebb_error(code, &text);
+        }
         return line.to_string();
     }
     match GrblLine::parse(line) {
@@ -41,8 +48,13 @@ pub(crate) fn console_bytes(line: &str) -> Vec<u8> {
 pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
     let (_, mut c) = args.connect()?;
     let grbl = matches!(c, Connected::Grbl(_));
+    let ebb = matches!(c, Connected::Ebb(_));
     let session = c.transport();
-    eprintln!("type G-code; ? status, ! hold, ~ resume, reset; Ctrl-D ends");
+    if ebb {
+        eprintln!("type EBB commands (V, QS, QG, SM,<ms>,<steps1>,<steps2>, SP,0 / SP,1, ES …); Ctrl-D ends");
+    } else {
+        eprintln!("type G-code; ? status, ! hold, ~ resume, reset; Ctrl-D ends");
+    }
     let (tx, rx) = mpsc::channel::<String>();
     std::thread::spawn(move || {
         for line in std::io::stdin().lock().lines() {
@@ -81,5 +93,9 @@ mod tests {
         assert_eq!(console_bytes("G1 X1"), b"G1 X1\n");
         assert_eq!(shown("error:22", true), "error:22 (no feed rate set)");
         assert_eq!(shown("error:22", false), "error:22");
+        assert_eq!(
+            shown("!8 Err: Unknown command 'XX:5858'", false),
+            "!8 Err: Unknown command 'XX:5858' (unknown command)"
+        );
     }
 }

@@ -19,7 +19,8 @@ pub(crate) struct LinkArgs {
     /// Baud rate [default: the profile's].
     #[arg(long)]
     pub(crate) baud: Option<u32>,
-    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), or auto (told by its start-up banner).
+    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), ebb (AxiDraw-class EiBotBoard), or auto (told
+    /// by its start-up banner or its answers).
     #[arg(long, value_enum, default_value_t = Firmware::Auto)]
     pub(crate) firmware: Firmware,
 }

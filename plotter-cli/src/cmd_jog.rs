@@ -34,7 +34,8 @@ pub(crate) struct JogArgs {
 }
 
 /// The G-code lines of a jog for `firmware`. GRBL jogs axes with `$J=` (its jog command, refused outside the
-/// travel instead of raising an alarm) and moves a servo pen with `M3 S<angle>` / `M5`.
+/// travel instead of raising an alarm) and moves a servo pen with `M3 S<angle>` / `M5`; an EiBotBoard gets EBB
+/// commands (`XM` for X/Y, `SP` for the pen).
 pub(crate) fn jog_lines(
     args: &JogArgs,
     profile: &plotter_path::MachineProfile,
@@ -43,6 +44,9 @@ pub(crate) fn jog_lines(
     let feed_min = args.feed.unwrap_or(profile.pen.travel_feed_mm_s) * 60.0;
     if !(feed_min.is_finite() && feed_min > 0.0) {
         anyhow::bail!("--feed must be a positive number");
+    }
+    if firmware == Firmware::Ebb {
+        return ebb_jog(args, profile, feed_min / 60.0);
     }
     let z_feed = profile.axes.z.max_feed_mm_s * 60.0;
     let servo = profile.pen.uses_servo();
@@ -84,11 +88,51 @@ pub(crate) fn jog_lines(
     })
 }
 
+/// A jog as EBB commands: `XM,<ms>,<x steps>,<y steps>` (the board mixes them onto its two motors) or `SP`.
+fn ebb_jog(args: &JogArgs, profile: &plotter_path::MachineProfile, feed: f64) -> anyhow::Result<Vec<String>> {
+    let e = profile.ebb.ok_or_else(|| anyhow::anyhow!("the profile has no [ebb] section"))?;
+    let settle = profile.pen.settle_ms.round();
+    let (spm, steps_of) = match args.target {
+        JogTarget::Up => return Ok(vec![format!("SP,1,{settle},{}", e.pen_pin)]),
+        JogTarget::Down => return Ok(vec![format!("SP,0,{settle},{}", e.pen_pin)]),
+        JogTarget::Z => anyhow::bail!("an EiBotBoard has no Z axis: jog up or down"),
+        JogTarget::X => (profile.axes.x.steps_per_mm, (1, 0)),
+        JogTarget::Y => (profile.axes.y.steps_per_mm, (0, 1)),
+    };
+    let d = args.distance.ok_or_else(|| anyhow::anyhow!("jog {:?} needs a distance in mm", args.target))?;
+    if !d.is_finite() || d.abs() > 10_000.0 {
+        anyhow::bail!("the distance must be a number of millimetres within the machine");
+    }
+    let steps =
+        plotter_path::motion::steps::round_steps(d * spm).ok_or_else(|| anyhow::anyhow!("distance out of range"))?;
+    let ms = (d.abs() / feed * 1000.0).round().max(1.0);
+    Ok(vec![format!("XM,{ms},{},{}", steps * steps_of.0, steps * steps_of.1)])
+}
+
 /// Run `plotter jog`.
 pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
     let (profile, mut c) = args.link.connect()?;
-    let firmware = if matches!(c, Connected::Grbl(_)) { Firmware::Grbl } else { Firmware::Ours };
+    let firmware = match c {
+        Connected::Grbl(_) => Firmware::Grbl,
+        Connected::Ebb(_) => Firmware::Ebb,
+        Connected::Ours(_) => Firmware::Ours,
+    };
     let lines = jog_lines(args, &profile, firmware)?;
+    if let Connected::Ebb(e) = &mut c {
+        // No soft limits on the board: the jog is checked against the travel here.
+        let at = e.position()?;
+        let (axis, travel, spm) = match args.target {
+            JogTarget::X => (0, profile.axes.x.travel_mm, profile.axes.x.steps_per_mm),
+            JogTarget::Y => (1, profile.axes.y.travel_mm, profile.axes.y.steps_per_mm),
+            _ => (2, 0.0, 1.0),
+        };
+        if axis < 2 {
+            let to = f64::from(at[axis]) / spm + args.distance.unwrap_or(0.0);
+            if !(0.0..=travel).contains(&to) {
+                anyhow::bail!("the jog would end at {to:.2} mm, outside the travel 0..{travel} mm");
+            }
+        }
+    }
     let mut result = Ok(());
     for l in &lines {
         if let Err(e) = c.command(l) {
@@ -97,7 +141,9 @@ pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
         }
     }
     // Always return to absolute mode, even after a refused move.
-    let _ = c.command("G90");
+    if firmware != Firmware::Ebb {
+        let _ = c.command("G90");
+    }
     result?;
     match &mut c {
         Connected::Ours(s) => {
@@ -108,6 +154,10 @@ pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
             let st = g.wait_idle()?;
             let pos = st.mpos.map(|p| format!("MPos {p:?}")).or(st.wpos.map(|p| format!("WPos {p:?}")));
             println!("position {} mm", pos.unwrap_or_default());
+        }
+        Connected::Ebb(e) => {
+            e.drain(std::time::Duration::from_secs(600))?;
+            println!("position {:?} steps (motors {:?})", e.position()?, e.motors()?);
         }
     }
     Ok(())
@@ -139,5 +189,18 @@ mod tests {
         servo.pen.command = plotter_path::motion::profile::PenCommand::Servo;
         assert_eq!(jog_lines(&args(JogTarget::Down, None), &servo, grbl).unwrap(), ["M3 S30"]);
         assert_eq!(jog_lines(&args(JogTarget::Up, None), &servo, ours).unwrap(), ["M5"]);
+    }
+
+    #[test]
+    fn jog_ebb() {
+        let text = include_str!("../../samples/axidraw-v3.toml");
+        let p = plotter_path::MachineProfile::from_toml(text, "axidraw-v3.toml").unwrap();
+        let ebb = Firmware::Ebb;
+        // 10 mm at 80 steps/mm and 10 mm/s: 800 steps in 1000 ms, mixed by the board (XM: A = X, B = Y).
+        assert_eq!(jog_lines(&args(JogTarget::X, Some(10.0)), &p, ebb).unwrap(), ["XM,1000,800,0"]);
+        assert_eq!(jog_lines(&args(JogTarget::Y, Some(-2.5)), &p, ebb).unwrap(), ["XM,250,0,-200"]);
+        assert_eq!(jog_lines(&args(JogTarget::Down, None), &p, ebb).unwrap(), ["SP,0,126,1"]);
+        assert_eq!(jog_lines(&args(JogTarget::Up, None), &p, ebb).unwrap(), ["SP,1,126,1"]);
+        assert!(jog_lines(&args(JogTarget::Z, Some(1.0)), &p, ebb).unwrap_err().to_string().contains("no Z axis"));
     }
 }

@@ -72,7 +72,8 @@ pub(crate) struct PlotArgs {
     /// plot stops and lifts the pen.
     #[arg(long, default_value_t = 30.0, value_parser = hold_seconds)]
     pub(crate) hold_timeout: f64,
-    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), or auto (told by its start-up banner).
+    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), ebb (AxiDraw-class EiBotBoard), or auto (told
+    /// by its start-up banner or its answers).
     #[arg(long, value_enum, default_value_t = Firmware::Auto)]
     pub(crate) firmware: Firmware,
     /// Between layers drawn with different pens: park with the pen up and wait for the new pen (pause), or plot
@@ -308,10 +309,12 @@ fn connect(args: &PlotArgs, port: &str, profile: &mut MachineProfile) -> anyhow:
             g.profile = profile.clone();
             g.hold_timeout = std::time::Duration::from_secs_f64(args.hold_timeout);
         }
-        Connected::Ours(_) if args.profile_from_machine => {
-            bail!("--profile-from-machine needs a GRBL controller (plotter-fw takes its settings from the profile)")
+        Connected::Ours(_) | Connected::Ebb(_) if args.profile_from_machine => {
+            bail!(
+                "--profile-from-machine needs a GRBL controller (plotter-fw and the EBB take their settings from the profile)"
+            )
         }
-        Connected::Ours(_) => {}
+        Connected::Ours(_) | Connected::Ebb(_) => {}
     }
     Ok(c)
 }
@@ -447,6 +450,12 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             println!("{}", summary(&outcome, None));
             if let Connected::Grbl(g) = c {
                 println!("GRBL: at most {} bytes in flight (receive buffer {} bytes)", g.peak_in_flight, g.rx_bytes);
+            }
+            if let Connected::Ebb(e) = c {
+                println!(
+                    "EBB: board time {:.3} s; {} move(s) shorter than the board sustains",
+                    e.program_seconds, e.short_moves
+                );
             }
             Ok(())
         }

@@ -12,6 +12,11 @@
 //! <n>` and `# position x y z` (steps). `--grbl-fault` injects `hard-limit@N` (an `ALARM:1` after N lines),
 //! `error@N:CODE` (line N answered `error:CODE`), or a press of the controller's Hold (`hold@N`) or Reset
 //! (`reset@N`) button once N lines have been answered.
+//!
+//! With `--ebb` the pty serves the project's EiBotBoard emulator ([`plotter_host::link::ebb::emulator`]) running
+//! firmware `--ebb-version` (2.8.1 or 3.0.2); its trace lists the motor positions instead (`t m1 m2 pen`, time in
+//! µs, pen 1 = up), then `# busy_ticks <µs> steps <n>`, `# ebb commands <n> errors <n> estops <n> peak_fifo <n>
+//! pen_up <0|1>` and `# position <m1> <m2>`.
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -27,6 +32,8 @@ use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use plotter_fw::sim::{Sim, SimOptions};
 
 use plotter_host::job::load::load_profile;
+use plotter_host::link::ebb::emulator::EbbEmulator;
+use plotter_host::link::ebb::messages::EbbVersion;
 use plotter_host::link::faults::Noise;
 use plotter_host::link::grbl::emulator::{Faults, GrblEmulator};
 use plotter_host::link::grbl::messages::{RT_FEED_HOLD, RT_RESET};
@@ -68,6 +75,12 @@ pub(crate) struct SimArgs {
     /// GRBL emulator fault for tests: `hard-limit@N`, `error@N:CODE`, `hold@N` or `reset@N`.
     #[arg(long, requires = "grbl")]
     pub(crate) grbl_fault: Option<String>,
+    /// Emulate an EiBotBoard (AxiDraw-class) instead of our firmware.
+    #[arg(long, conflicts_with_all = ["grbl", "qemu", "noise"])]
+    pub(crate) ebb: bool,
+    /// The EBB firmware version to emulate: 2.8.1 or 3.0.2.
+    #[arg(long, requires = "ebb", default_value = "3.0.2")]
+    pub(crate) ebb_version: String,
 }
 
 /// Parse `--grbl-fault`.
@@ -96,6 +109,8 @@ fn parse_fault(spec: &str) -> anyhow::Result<Faults> {
 enum Backend {
     Ours(Box<Sim>),
     Grbl(Box<GrblEmulator>),
+    /// The EBB emulator, with the µs not yet run (it runs in 40 µs intervals).
+    Ebb(Box<EbbEmulator>, u64),
 }
 
 impl Backend {
@@ -103,18 +118,23 @@ impl Backend {
         match self {
             Backend::Ours(s) => s.feed(bytes),
             Backend::Grbl(g) => g.feed(bytes),
+            Backend::Ebb(e, _) => e.feed(bytes),
         }
     }
-    fn take_replies(&mut self) -> Vec<String> {
-        match self {
+    /// What the machine sent: reply lines (each ended with `\n`), or the EBB's bytes as it wrote them.
+    fn take_output(&mut self) -> Vec<u8> {
+        let lines = match self {
             Backend::Ours(s) => s.take_replies(),
             Backend::Grbl(g) => g.take_replies(),
-        }
+            Backend::Ebb(e, _) => return e.take_output(),
+        };
+        lines.iter().flat_map(|l| format!("{l}\n").into_bytes()).collect()
     }
     fn busy(&self) -> bool {
         match self {
             Backend::Ours(s) => s.wire_len() > 0 || !s.machine().is_idle() || s.machine().has_input(),
             Backend::Grbl(g) => !g.is_idle(),
+            Backend::Ebb(e, _) => !e.is_idle(),
         }
     }
     fn run_for(&mut self, ticks: u64) {
@@ -123,14 +143,45 @@ impl Backend {
                 s.run_for(ticks);
             }
             Backend::Grbl(g) => g.run_for(ticks),
+            Backend::Ebb(e, carry) => {
+                let us = *carry + ticks;
+                e.run_for(us / 40);
+                *carry = us % 40;
+            }
         }
     }
-    fn sim(&self) -> &Sim {
+    fn sim(&self) -> Option<&Sim> {
         match self {
-            Backend::Ours(s) => s,
-            Backend::Grbl(g) => g.backend(),
+            Backend::Ours(s) => Some(s),
+            Backend::Grbl(g) => Some(g.backend()),
+            Backend::Ebb(..) => None,
         }
     }
+}
+
+/// Write the EBB emulator's step trace (see the module docs).
+fn write_ebb_trace(e: &EbbEmulator, path: &Path) -> anyhow::Result<()> {
+    let mut out =
+        std::io::BufWriter::new(File::create(path).with_context(|| format!("cannot create {}", path.display()))?);
+    for s in e.trace() {
+        writeln!(out, "{} {} {} {}", s.t * 40, s.motors[0], s.motors[1], u8::from(!s.pen_down))?;
+    }
+    let st = e.stats();
+    let p = e.position();
+    writeln!(out, "# busy_ticks {} steps {}", e.busy_intervals() * 40, e.trace().len())?;
+    writeln!(
+        out,
+        "# ebb commands {} errors {} estops {} peak_fifo {} pen_up {}\n# position {} {}",
+        st.commands,
+        st.errors,
+        st.estops,
+        st.peak_fifo,
+        u8::from(e.pen_up()),
+        p[0],
+        p[1]
+    )?;
+    out.flush()?;
+    Ok(())
 }
 
 /// Write the simulator's step trace (see the module docs).
@@ -164,7 +215,12 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
     }
     let profile = load_profile(args.profile.as_deref())?;
     let cfg = plan::machine_config(&profile)?;
-    let mut sim = if args.grbl {
+    let mut sim = if args.ebb {
+        let version = EbbVersion::parse(&format!("EB Firmware Version {}", args.ebb_version))
+            .filter(|v| [EbbVersion(2, 8, 1), EbbVersion(3, 0, 2)].contains(v))
+            .with_context(|| format!("--ebb-version {}: emulated are 2.8.1 and 3.0.2", args.ebb_version))?;
+        Backend::Ebb(Box::new(EbbEmulator::new(version)), 0)
+    } else if args.grbl {
         let faults = args.grbl_fault.as_deref().map(parse_fault).transpose()?.unwrap_or_default();
         // The pty delivers bytes at the speed the client writes them; the emulator's buffer counts them.
         Backend::Grbl(Box::new(GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), None, faults)))
@@ -212,11 +268,11 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
     let _ = ctrlc::set_handler(move || s.store(true, Ordering::SeqCst));
 
     let mut last = Instant::now();
-    let mut pending_out = sim.take_replies();
+    let mut pending_out = sim.take_output();
     while !stop.load(Ordering::SeqCst) {
-        for l in pending_out.drain(..) {
+        if !pending_out.is_empty() {
             // A client that is not there yet loses the line, as on a real port.
-            let _ = writer.write_all(format!("{l}\n").as_bytes());
+            let _ = writer.write_all(&std::mem::take(&mut pending_out));
         }
         let busy = sim.busy();
         let wait = if busy { Duration::from_micros(200) } else { Duration::from_millis(5) };
@@ -232,14 +288,16 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         let elapsed = now.duration_since(last);
         last = now;
         if args.fast {
-            sim.run_for(if args.grbl { 5_000 } else { 50_000 });
+            sim.run_for(if args.grbl || args.ebb { 5_000 } else { 50_000 });
         } else {
             sim.run_for(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX));
         }
-        pending_out = sim.take_replies();
+        pending_out = sim.take_output();
     }
-    if let Some(t) = &args.trace {
-        write_trace(sim.sim(), t)?;
+    if let (Some(t), Backend::Ebb(e, _)) = (&args.trace, &sim) {
+        write_ebb_trace(e, t)?;
+    } else if let (Some(t), Some(s)) = (&args.trace, sim.sim()) {
+        write_trace(s, t)?;
         if let Backend::Grbl(g) = &sim {
             let st = g.stats();
             let p = g.backend().machine().stepper().position();

@@ -1,7 +1,8 @@
 //! The machine a plot job drives, whatever its firmware: ours (step blocks in CRC frames,
-//! [`crate::link::session::Session`]) or GRBL (G-code with character counting,
-//! [`crate::link::grbl::session::GrblSession`]). The job ([`crate::job`]) only talks to [`PlotMachine`], so pen
-//! changes, pauses, the journal and resume work the same on both.
+//! [`crate::link::session::Session`]), GRBL (G-code with character counting,
+//! [`crate::link::grbl::session::GrblSession`]) or an EiBotBoard (`LM` moves,
+//! [`crate::link::ebb::session::EbbSession`]). The job ([`crate::job`]) only talks to [`PlotMachine`], so pen
+//! changes, pauses, the journal and resume work the same on all of them.
 
 use std::time::Duration;
 
@@ -10,6 +11,7 @@ use anyhow::Context as _;
 use plotter_path::motion::plan::{MachinePos, MotionPlan};
 
 use super::Transport;
+use super::ebb::session::EbbSession;
 use super::grbl::session::GrblSession;
 use super::session::Session;
 use super::sim::SimTransport;
@@ -26,6 +28,8 @@ pub enum Firmware {
     Ours,
     /// GRBL 1.1, grblHAL, FluidNC.
     Grbl,
+    /// The EiBotBoard (AxiDraw, NextDraw, iDraw): `LM`/`SM` moves, servo pen.
+    Ebb,
 }
 
 /// What a plot job needs from a machine.
@@ -182,9 +186,49 @@ impl<T: Transport + 'static> PlotMachine for GrblSession<T> {
     }
 }
 
+impl<T: Transport + 'static> PlotMachine for EbbSession<T> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn firmware(&self) -> Firmware {
+        Firmware::Ebb
+    }
+
+    fn home(&mut self) -> anyhow::Result<()> {
+        EbbSession::home(self)
+    }
+
+    fn position(&mut self) -> anyhow::Result<MachinePos> {
+        EbbSession::position(self)
+    }
+
+    fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
+        EbbSession::stream(self, plan, control)
+    }
+
+    fn resume_point(&mut self, state: &JournalState, full: &MotionPlan) -> anyhow::Result<usize> {
+        EbbSession::resume_point(self, state.executed, state.accepted, full)
+    }
+
+    fn busy_ticks(&self) -> u64 {
+        (&self.transport as &dyn std::any::Any)
+            .downcast_ref::<crate::link::ebb::emulator_transport::EbbTransport>()
+            .map_or(0, |t| t.emulator().busy_intervals() * u64::from(crate::link::ebb::kinematics::INTERVAL_US))
+    }
+
+    fn can_home(&self) -> bool {
+        false
+    }
+
+    fn stop_and_lift(&mut self, _profile: &plotter_path::MachineProfile) -> anyhow::Result<String> {
+        EbbSession::stop_and_lift(self)
+    }
+}
+
 /// Which firmware answers on `transport`: a start-up banner (`Grbl 1.1x ['$' for help]` or `plotter-fw …`)
 /// decides; when none arrives (the port did not reset the board), `$I` does — GRBL answers `[VER:…]`, our
-/// firmware an error. Nothing is reset or moved.
+/// firmware an error, an EiBotBoard `!8 Err: Unknown command` (it is then asked `V`). Nothing is reset or moved.
 pub fn detect<T: Transport>(transport: &mut T) -> anyhow::Result<Firmware> {
     let name_of = |l: &str| {
         if l.starts_with("Grbl ") || l.starts_with("[VER:") {
@@ -202,9 +246,19 @@ pub fn detect<T: Transport>(transport: &mut T) -> anyhow::Result<Firmware> {
     }
     transport.send(b"$I\n")?;
     let mut found = Firmware::Ours;
+    let mut ebb_error = false;
     while let Some(l) = transport.recv_line(Duration::from_millis(500))? {
         if let Some(f) = name_of(&l) {
             found = f;
+        }
+        ebb_error |= l.starts_with("!8 Err:");
+    }
+    if ebb_error {
+        transport.send(b"V\r")?;
+        while let Some(l) = transport.recv_line(Duration::from_millis(500))? {
+            if super::ebb::messages::EbbVersion::parse(&l).is_some() {
+                found = Firmware::Ebb;
+            }
         }
     }
     Ok(found)
@@ -218,6 +272,8 @@ pub enum Connected<T: Transport> {
     Ours(Session<T>),
     /// A GRBL controller.
     Grbl(GrblSession<T>),
+    /// An EiBotBoard.
+    Ebb(EbbSession<T>),
 }
 
 impl<T: Transport + 'static> Connected<T> {
@@ -235,6 +291,7 @@ impl<T: Transport + 'static> Connected<T> {
         };
         Ok(match firmware {
             Firmware::Grbl => Connected::Grbl(GrblSession::connect(transport, name, profile)?),
+            Firmware::Ebb => Connected::Ebb(EbbSession::connect(transport, name, profile)?),
             _ => Connected::Ours(Session::connect(transport, name)?),
         })
     }
@@ -244,6 +301,7 @@ impl<T: Transport + 'static> Connected<T> {
         match self {
             Connected::Ours(s) => s,
             Connected::Grbl(g) => g,
+            Connected::Ebb(e) => e,
         }
     }
 
@@ -252,6 +310,7 @@ impl<T: Transport + 'static> Connected<T> {
         match self {
             Connected::Ours(s) => &mut s.transport,
             Connected::Grbl(g) => &mut g.transport,
+            Connected::Ebb(e) => &mut e.transport,
         }
     }
 
@@ -269,14 +328,22 @@ impl<T: Transport + 'static> Connected<T> {
                 g.rx_bytes,
                 if g.settings.homing_enabled() { "on" } else { "off ($22=0)" }
             ),
+            Connected::Ebb(e) => format!(
+                "EiBotBoard firmware {} on {} (FIFO {} command(s), {} moves)",
+                e.version,
+                e.name,
+                e.fifo,
+                if e.style == super::ebb::program::MotionStyle::Lm { "LM" } else { "SM" }
+            ),
         }
     }
 
-    /// Send one G-code line and wait for its `ok`; returns the report lines.
+    /// Send one G-code line (an EBB command for an EiBotBoard) and wait for its `ok`; returns the report lines.
     pub fn command(&mut self, line: &str) -> anyhow::Result<Vec<String>> {
         match self {
             Connected::Ours(s) => s.command(line, super::session::COMMAND_TIMEOUT),
             Connected::Grbl(g) => g.command(line, super::grbl::session::COMMAND_TIMEOUT),
+            Connected::Ebb(e) => e.command(line, Duration::from_secs(120)).map(|()| Vec::new()),
         }
     }
 }

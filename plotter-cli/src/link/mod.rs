@@ -1,7 +1,9 @@
 //! The host side of the link to the firmware: byte transports (a serial port, or the simulator in-process), the
 //! session (handshake, homing, status), block streaming with flow control and resends, and the resume journal;
-//! GRBL as a second firmware dialect ([`grbl`]), and the machine interface the plot job drives ([`machine`]).
+//! GRBL ([`grbl`]) and the EiBotBoard ([`ebb`]) as further firmware dialects, and the machine interface the plot
+//! job drives ([`machine`]).
 
+pub mod ebb;
 pub mod faults;
 pub mod grbl;
 pub mod journal;

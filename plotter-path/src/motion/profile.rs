@@ -300,6 +300,56 @@ pub struct MachineProfile {
     /// Heaters and fan (printers only; see [`crate::motion::heaters`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heaters: Option<crate::motion::heaters::HeatersProfile>,
+    /// EiBotBoard settings (AxiDraw-class machines driven with `--firmware ebb`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ebb: Option<EbbProfile>,
+}
+
+/// The settings of an EiBotBoard machine (AxiDraw, NextDraw, iDraw): its pen servo in the board's own units
+/// (pulse widths of 1/12 MHz ≈ 83.3 ns, slew rates per 24 ms servo cycle) and its motion limits. The X and Y
+/// `steps_per_mm` are motor steps along one axis (motor 1 moves X+Y, motor 2 X−Y).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EbbProfile {
+    /// Servo pulse with the pen up (`SC,4`), 1/12 µs units.
+    pub pen_up_position: u16,
+    /// Servo pulse with the pen down (`SC,5`), 1/12 µs units; a pen's `servo_down_deg` between the `[pen]` angles
+    /// is interpolated between the two positions.
+    pub pen_down_position: u16,
+    /// Servo slew when raising (`SC,11`), pulse units per 24 ms; 0 = at once.
+    pub pen_rate_up: u16,
+    /// Servo slew when lowering (`SC,12`), pulse units per 24 ms; 0 = at once.
+    pub pen_rate_down: u16,
+    /// The PortB pin of the pen servo (`SP`'s third argument): 1 for the standard servo (B1), 2 for the
+    /// narrow-band brushless lift (B2) of newer machines.
+    #[serde(default = "default_pen_pin")]
+    pub pen_pin: u8,
+    /// Servo power timeout (`SR`), ms; 0 keeps it powered.
+    #[serde(default = "default_servo_timeout")]
+    pub servo_timeout_ms: u32,
+    /// Step mode for `EM` (1 = 1/16 microsteps, … 5 = full steps); the steps per mm above must match it.
+    #[serde(default = "default_step_mode")]
+    pub step_mode: u8,
+    /// Shortest move the board sustains without gaps, ms (the reference measures 4 ms for `LM` on firmware 3):
+    /// plan phases shorter than this are joined.
+    #[serde(default = "default_min_move_ms")]
+    pub min_move_ms: f64,
+}
+
+fn default_pen_pin() -> u8 {
+    1
+}
+
+fn default_servo_timeout() -> u32 {
+    60_000
+}
+
+fn default_step_mode() -> u8 {
+    1
+}
+
+fn default_min_move_ms() -> f64 {
+    4.0
 }
 
 /// The XY plotter kit profile shipped as `samples/xy-plotter.toml`, compiled in as the default.
@@ -449,6 +499,23 @@ impl MachineProfile {
         }
         if self.link.baud == 0 || self.link.rx_buffer_bytes < 64 || self.link.queue_blocks == 0 {
             return Err(bad("link", "baud and queue_blocks must be positive, rx_buffer_bytes at least 64"));
+        }
+        if let Some(e) = &self.ebb {
+            if e.pen_up_position == 0 || e.pen_down_position == 0 {
+                return Err(bad("ebb.pen_up_position", "servo positions must lie in 1..=65535"));
+            }
+            if !(0..=7).contains(&e.pen_pin) {
+                return Err(bad("ebb.pen_pin", "must be a PortB pin, 0..=7"));
+            }
+            if !(1..=5).contains(&e.step_mode) {
+                return Err(bad("ebb.step_mode", "must be 1 (1/16 step) ..= 5 (full step)"));
+            }
+            if !(e.min_move_ms.is_finite() && (0.0..=100.0).contains(&e.min_move_ms)) {
+                return Err(bad("ebb.min_move_ms", "must lie in 0..=100 ms"));
+            }
+            if !self.pen.uses_servo() {
+                return Err(bad("pen.command", "an EBB machine lifts its pen with a servo: set it to \"servo\""));
+            }
         }
         if let Some(h) = &self.heaters {
             if self.axes.e.is_none() {

@@ -1,0 +1,291 @@
+//! End to end with an EiBotBoard: `plotter sim --pty --ebb` serves the project's EBB emulator on a
+//! pseudo-terminal, and `plotter plot … --port <pty> --firmware ebb --profile samples/axidraw-v3.toml` streams
+//! `LM`/`SP` commands to it. The emulator's trace (motor positions after every step, the pen state, the motion
+//! time) tells whether the board ran the plan in the planned time, closed closed curves, and ended with the pen up.
+
+use std::io::Write as _;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use plotter_e2e::{SimPty, Trace, plotter_bin, sample, scratch};
+
+/// The profile's pen settle, s: `home` raises the pen with it (and enables the motors, one interval) before the
+/// plan starts, so the board's motion time is the plan's plus this.
+const HOME_S: f64 = 0.126 + 40e-6;
+
+fn axidraw() -> String {
+    sample("axidraw-v3.toml").to_str().expect("utf-8 path").to_string()
+}
+
+/// Run a plot; returns (success, stdout, stderr). `answers` go to stdin (one line per pen-change prompt).
+fn plot(dir: &std::path::Path, args: &[&str], answers: &str) -> (bool, String, String) {
+    let mut child = Command::new(plotter_bin())
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("plotter runs");
+    child.stdin.take().expect("stdin").write_all(answers.as_bytes()).expect("answers");
+    let out = child.wait_with_output().expect("plotter exits");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The planned time printed by `plotter plot`, s.
+fn planned_s(stdout: &str) -> f64 {
+    let t = stdout.split("planned time ").nth(1).expect("planned time printed");
+    t.split(' ').next().and_then(|v| v.parse().ok()).expect("a number of seconds")
+}
+
+/// XY steps of motor positions (motor 1 = X+Y, motor 2 = X−Y), doubled to stay integral mid-step.
+fn xy2(p: [i64; 3]) -> (i64, i64) {
+    (p[0] + p[1], p[0] - p[1])
+}
+
+/// Pen-down runs of the trace (its third column is 1 with the pen up).
+fn runs(trace: &Trace) -> Vec<Vec<(i64, i64)>> {
+    trace.pen_down_runs(1).iter().map(|r| r.iter().map(|s| (i64::from(s.x), i64::from(s.y))).collect()).collect()
+}
+
+fn check_board(trace: &Trace, planned: f64) {
+    let ran = trace.busy_ticks as f64 / 1e6 - HOME_S;
+    assert!((ran - planned).abs() <= planned * 1e-3, "board ran {ran:.6} s, plan {planned:.6} s");
+    assert_eq!(SimPty::figure(trace, "ebb", "errors"), Some(0));
+    assert_eq!(SimPty::figure(trace, "ebb", "estops"), Some(0));
+    assert_eq!(SimPty::figure(trace, "ebb", "pen_up"), Some(1), "the plot ends with the pen up");
+}
+
+#[test]
+fn the_duck_plots_on_ebb_firmware_3_and_2_in_the_planned_time() {
+    for (version, fifo) in [("3.0.2", "FIFO 16"), ("2.8.1", "FIFO 1")] {
+        let dir = scratch(&format!("ebb-duck-{version}"));
+        let sim = SimPty::start(&dir, &["--ebb", "--ebb-version", version, "--fast"]);
+        let duck = sample("duck.svg");
+        let profile = axidraw();
+        let args = ["plot", duck.to_str().unwrap(), "--port", &sim.port, "--firmware", "ebb", "--profile", &profile];
+        let (ok, stdout, stderr) = plot(&dir, &args, "");
+        assert!(ok, "plot failed:\n{stderr}\n{stdout}");
+        assert!(stderr.contains(&format!("EiBotBoard firmware {version}")) && stderr.contains(fifo), "{stderr}");
+        assert!(stdout.contains("0 move(s) shorter than the board sustains"), "{stdout}");
+        let planned = planned_s(&stdout);
+        let trace = sim.stop();
+        check_board(&trace, planned);
+        // The board kept its FIFO full: as deep as asked on firmware 3, its one slot on 2.8.1.
+        let peak = SimPty::figure(&trace, "ebb", "peak_fifo").unwrap();
+        assert_eq!(peak, if version == "3.0.2" { 16 } else { 1 });
+        // Pen-down steps happen only between an SP,0 and the next SP,1: every run is a stroke of the duck.
+        assert!(runs(&trace).len() >= 5, "{}", runs(&trace).len());
+    }
+}
+
+#[test]
+fn a_spirograph_closes_exactly_on_the_board() {
+    let dir = scratch("ebb-spirograph");
+    let sim = SimPty::start(&dir, &["--ebb", "--fast"]);
+    let profile = axidraw();
+    let args =
+        ["plot", "gen:spirograph?cx=150&cy=109&r=15", "--port", &sim.port, "--firmware", "ebb", "--profile", &profile];
+    let (ok, stdout, stderr) = plot(&dir, &args, "");
+    assert!(ok, "plot failed:\n{stderr}\n{stdout}");
+    let planned = planned_s(&stdout);
+    let trace = sim.stop();
+    check_board(&trace, planned);
+    // One closed curve: one pen-down run that ends on the motor step where it began.
+    let r = runs(&trace);
+    assert_eq!(r.len(), 1, "{}", r.len());
+    let (first, last) = (r[0][0], *r[0].last().unwrap());
+    let start = trace.positions.iter().position(|p| p[2] == 0).expect("pen went down");
+    let before = if start > 0 { trace.positions[start - 1] } else { [0, 0, 1] };
+    // The first pen-down step is one step from where the pen was lowered; the run returns to that point.
+    let lowered = xy2(before);
+    let end = xy2(*trace.positions.iter().rev().find(|p| p[2] == 0).unwrap());
+    assert_eq!(end, lowered, "the curve closes on the step where it began ({first:?} … {last:?})");
+}
+
+#[test]
+fn three_pens_stop_for_two_pen_changes_on_the_board() {
+    let dir = scratch("ebb-three-pens");
+    let sim = SimPty::start(&dir, &["--ebb", "--fast"]);
+    let svg = sample("three-pens.svg");
+    let profile = axidraw();
+    let args = [
+        "plot",
+        svg.to_str().unwrap(),
+        "--port",
+        &sim.port,
+        "--firmware",
+        "ebb",
+        "--profile",
+        &profile,
+        "--no-optimize",
+        "--pen-change",
+        "pause",
+    ];
+    let (ok, stdout, stderr) = plot(&dir, &args, "\n\n");
+    assert!(ok, "plot failed:\n{stderr}\n{stdout}");
+    assert!(stdout.contains("pen changes: 2"), "{stdout}");
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1));
+    // Seven strokes (frame, horizon; circle, three rays; wave), as on the other firmwares.
+    let moving = runs(&trace).into_iter().filter(|r| r.iter().any(|p| *p != r[0])).count();
+    assert_eq!(moving, 7);
+    // Parked at the home corner (motors at 0, 0) with the pen up twice after drawing began.
+    let first_draw = trace.positions.iter().position(|p| p[2] == 0).expect("draws");
+    let parked: Vec<usize> = (first_draw..trace.positions.len())
+        .filter(|&i| trace.positions[i][..2] == [0, 0] && trace.positions[i][2] == 1)
+        .collect();
+    assert_eq!(parked.len(), 2, "{parked:?}");
+}
+
+#[test]
+fn ctrl_c_stops_the_board_with_es_and_the_pen_up_and_the_journal_resumes() {
+    let dir = scratch("ebb-ctrl-c");
+    // Real time: the circle takes about 4 s, the interrupt comes after 1.5.
+    let sim = SimPty::start(&dir, &["--ebb"]);
+    let profile = axidraw();
+    let circle = "gen:circle?r=30&cx=100&cy=80";
+    let journal = dir.join("circle.journal");
+    let args = [
+        "plot",
+        circle,
+        "--port",
+        &sim.port,
+        "--firmware",
+        "ebb",
+        "--profile",
+        &profile,
+        "--pause-immediately",
+        "--journal",
+        journal.to_str().unwrap(),
+    ];
+    let child = Command::new(plotter_bin())
+        .args(args)
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("plotter runs");
+    std::thread::sleep(Duration::from_millis(1500));
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).expect("pid"));
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).expect("interrupt the plot");
+    let out = child.wait_with_output().expect("plotter exits");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("aborted") && stderr.contains("--resume"), "{stderr}");
+    // The rest of the circle from the journal: the board kept its step counters, so the resume returns to the
+    // home corner with HM and continues.
+    let (ok, stdout, stderr) = plot(&dir, &["plot", "--resume", journal.to_str().unwrap(), "--port", &sim.port], "");
+    assert!(ok, "{stderr}\n{stdout}");
+    assert!(stderr.contains("resuming at block"), "{stderr}");
+    assert!(std::fs::read_to_string(&journal).unwrap().contains("complete"));
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "estops"), Some(1), "ES interrupted the running move");
+    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1));
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
+    // Two pen-down runs (before the stop, after the resume); the circle closes where its first run began.
+    let r = runs(&trace);
+    assert_eq!(r.len(), 2, "{}", r.len());
+    let start = trace.positions.iter().position(|p| p[2] == 0).expect("pen went down");
+    let lowered = xy2(trace.positions[start - 1]);
+    let end = xy2(*trace.positions.iter().rev().find(|p| p[2] == 0).unwrap());
+    assert_eq!(end, lowered);
+}
+
+#[test]
+fn auto_recognises_the_board() {
+    let dir = scratch("ebb-auto");
+    let sim = SimPty::start(&dir, &["--ebb", "--fast"]);
+    let profile = axidraw();
+    let (ok, stdout, stderr) =
+        plot(&dir, &["plot", "gen:circle?r=10&cx=50&cy=50", "--port", &sim.port, "--profile", &profile], "");
+    assert!(ok, "{stderr}\n{stdout}");
+    assert!(stderr.contains("connected to EiBotBoard firmware 3.0.2"), "{stderr}");
+    let planned = planned_s(&stdout);
+    // The probe's `$I` is answered with an unknown-command error: one error, nothing else.
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(1));
+    let ran = trace.busy_ticks as f64 / 1e6 - HOME_S;
+    assert!((ran - planned).abs() <= planned * 1e-3, "{ran} vs {planned}");
+}
+
+/// plotink (the AxiDraw/NextDraw host library, a checkout of evil-mad/plotink at `PLOTINK_DIR`) and a Python with
+/// pyserial and packaging (`PLOTINK_PYTHON`, default `python3`), when available; otherwise the caller skips.
+fn plotink(test: &str) -> Option<(String, String)> {
+    let Some(dir) = std::env::var_os("PLOTINK_DIR") else {
+        eprintln!("SKIP {test}: set PLOTINK_DIR to a checkout of evil-mad/plotink (and PLOTINK_PYTHON)");
+        return None;
+    };
+    let python = std::env::var("PLOTINK_PYTHON").unwrap_or_else(|_| "python3".into());
+    let ok = Command::new(&python).args(["-c", "import serial, packaging"]).status().is_ok_and(|s| s.success());
+    assert!(ok, "{test}: {python} lacks pyserial or packaging");
+    Some((dir.to_string_lossy().into_owned(), python))
+}
+
+#[test]
+fn plotinks_ebb3_class_drives_the_emulator() {
+    let Some((dir, python)) = plotink("plotinks_ebb3_class_drives_the_emulator") else { return };
+    let work = scratch("ebb-plotink");
+    let sim = SimPty::start(&work, &["--ebb", "--fast"]);
+    let script = plotter_e2e::fixture("ebb_plotink_drive.py");
+    let out = Command::new(python).arg(script).args([&dir, &sim.port]).output().expect("python runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    // plotink checks every reply of the future syntax it switches on; the square and the LM leave motor 1 at
+    // 2 × 1600 + 250 and motor 2 at 250, and HM brings both home.
+    assert!(stdout.contains("version 3.0.2") && stdout.contains("enabled (1, 1)"), "{stdout}");
+    assert!(stdout.contains("steps after square+LM (3450, 250)"), "{stdout}");
+    assert!(stdout.contains("steps after HM (0, 0) status 0x10"), "{stdout}");
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
+}
+
+#[test]
+fn plotinks_model_of_the_step_generator_agrees_with_the_emulator() {
+    use plotter_host::link::ebb::emulator::EbbEmulator;
+    use plotter_host::link::ebb::messages::EbbVersion;
+    let Some((dir, python)) = plotink("plotinks_model_of_the_step_generator_agrees_with_the_emulator") else {
+        return;
+    };
+    let script = plotter_e2e::fixture("ebb_plotink_calc.py");
+    let out = Command::new(python).arg(script).args([dir.as_str(), "7"]).output().expect("python runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    let mut e = EbbEmulator::new(EbbVersion(3, 0, 2));
+    let (mut checked, mut wrong) = (0, Vec::new());
+    for l in text.lines() {
+        let f: Vec<&str> = l.split('|').collect();
+        let want: Vec<i64> = f[1..].iter().map(|x| x.parse().expect("integer")).collect();
+        let a: Vec<i64> = f[0].split(',').skip(1).map(|x| x.parse().expect("integer")).collect();
+        if f[0].starts_with("LM") {
+            // A move whose rate would pass one step per interval is no valid move (plotink's formula does not
+            // model the firmware's 32-bit overflow): skipped.
+            let end_rate = a[0] - a[2] / 2 + a[2] * want[0];
+            if end_rate.abs() >= 1 << 31 || !(0..1i64 << 31).contains(&want[2]) {
+                continue;
+            }
+        }
+        let (busy, at) = (e.busy_intervals(), e.position()[0]);
+        e.feed(format!("{}\r", f[0]).as_bytes());
+        while !e.is_idle() {
+            e.run_for(1);
+        }
+        let _ = e.take_output();
+        e.feed(b"QU,200\r");
+        let qu = String::from_utf8(e.take_output()).expect("ascii");
+        let acc: i64 = qu.trim_start_matches("QU,").split(',').next().and_then(|v| v.trim().parse().ok()).expect("acc");
+        let got = vec![i64::try_from(e.busy_intervals() - busy).expect("small"), e.position()[0] - at, acc];
+        checked += 1;
+        if got != want {
+            wrong.push(format!("{} ran {got:?}, plotink says {want:?}", f[0]));
+        }
+    }
+    assert!(checked > 2500, "{checked}");
+    assert!(wrong.is_empty(), "{} of {checked} disagree: {:?}", wrong.len(), &wrong[..wrong.len().min(5)]);
+}
