@@ -1,4 +1,5 @@
-//! HP-GL export of a drawing, for vintage pen plotters (HP 7475A and kin, see [`super::hpgl_devices`]).
+//! HP-GL export of a drawing, for vintage pen plotters (the HP 7475A and kin, see
+//! [`crate::geometry::hpgl_devices`]).
 //!
 //! The program is plain HP-GL (the subset every HP-GL plotter since the 7470A understands):
 //! - `IN;` resets the plotter, `IW0,0,X,Y;` sets the clip window to the sheet's hard-clip rectangle;
@@ -19,7 +20,7 @@
 use std::fmt::Write as _;
 
 use super::gcode_out::fmt_mm;
-use super::hpgl_devices::{HpglDevice, HpglPaper};
+use crate::geometry::hpgl_devices::{HpglDevice, HpglPaper};
 use crate::motion::pens::{self, LayerPen};
 use crate::{Drawing, MachineProfile};
 
@@ -217,7 +218,7 @@ fn write_list(out: &mut String, cmd: &str, points: &[(i32, i32)]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::hpgl_devices::device;
+    use crate::geometry::hpgl_devices::device;
     use crate::{Layer, Pen, Polyline, Rgb};
     use kurbo::Point;
 
