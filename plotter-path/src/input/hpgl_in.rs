@@ -10,8 +10,9 @@
 //! Not drawn, each with a warning naming the mnemonic, the index of its first use (commands are counted from 1)
 //! and how often it appeared: labels (`LB`, its text skipped up to the terminator, `ETX` or the one `DT` sets),
 //! circles, arcs, wedges and rectangles (`CI`, `AA`, `AR`, `EA`, `ER`, `EW`, `RA`, `RR`, `WG`), and any other
-//! mnemonic, such as settings that do not change the drawing (`VS` speeds — the profile's apply — `IW` clip
-//! windows, `LT` line types, which are drawn solid). After a label or an arc the pen's position is not tracked,
+//! mnemonic, such as `LT` line types (drawn solid). Speeds (`VS`, `FS`, `VA`, `VN`) are accepted without a word:
+//! the profile's speeds apply and the lines are the same. A clip window (`IW`) is not applied; when points lie
+//! outside the last one, a warning says how many. After a label or an arc the pen's position is not tracked,
 //! so a relative move before the next absolute one is an error. `SC` with parameters (user-unit scaling) would
 //! change every coordinate and is refused; device-control escapes (`ESC . x … :`) are skipped with a warning.
 //!
@@ -100,7 +101,8 @@ struct State<'a> {
     /// (pen, paths) in order of first use.
     layers: Vec<(u32, Vec<Vec<(f64, f64)>>)>,
     points: usize,
-    iw: Option<[f64; 4]>,
+    /// The last clip window and the index of its command.
+    iw: Option<([f64; 4], usize)>,
     warnings: Vec<HpglWarning>,
 }
 
@@ -247,10 +249,11 @@ impl State<'_> {
             }
             "SC" => {}
             "IW" => {
-                if let [a, b, c, d] = params {
-                    self.iw = Some([*a, *b, *c, *d]);
-                }
-                self.warn("clip window (IW) not applied: every stroke is kept whole".into());
+                self.iw = match params {
+                    [a, b, c, d] => Some(([*a, *b, *c, *d], self.command)),
+                    [] => None,
+                    _ => return Err(self.error(format!("IW takes 4 numbers, not {}", params.len()))),
+                };
             }
             "CI" | "AA" | "AR" | "EA" | "ER" | "EW" | "RA" | "RR" | "WG" => {
                 if matches!(self.mnemonic.as_str(), "AA" | "AR") {
@@ -259,7 +262,8 @@ impl State<'_> {
                 }
                 self.warn("circles, arcs, wedges and rectangles are not supported: not drawn".into());
             }
-            "VS" => self.warn("pen speed (VS) ignored: the profile's speeds apply".into()),
+            // Speeds come from the profile; the pen draws the same lines at any speed.
+            "VS" | "FS" | "VA" | "VN" => {}
             "LT" => self.warn("line type (LT) ignored: drawn solid".into()),
             m => {
                 let m = m.to_string();
@@ -346,6 +350,20 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
         st.command(&params)?;
     }
     st.pen_up();
+    if let Some(([x0, y0, x1, y1], command)) = st.iw {
+        let outside = |&&(x, y): &&(f64, f64)| x < x0.min(x1) || x > x0.max(x1) || y < y0.min(y1) || y > y0.max(y1);
+        let n = st.layers.iter().flat_map(|(_, paths)| paths.iter().flatten()).filter(outside).count();
+        if n > 0 {
+            st.warnings.push(HpglWarning {
+                command,
+                mnemonic: "IW".into(),
+                count: 1,
+                message: format!(
+                    "{n} point(s) lie outside the clip window, where a plotter would not draw; they are kept here"
+                ),
+            });
+        }
+    }
     let paper = match paper {
         Some(p) => *p,
         None => choose_paper(&st),
@@ -417,7 +435,7 @@ fn read_params(data: &[u8], mut i: usize, params: &mut Vec<f64>) -> Result<usize
 /// The sheet for the plotter units (see the module docs).
 fn choose_paper(st: &State<'_>) -> HpglPaper {
     let all = || DEVICES.iter().flat_map(|d| d.papers.iter());
-    if let Some([0.0, 0.0, x, y]) = st.iw
+    if let Some(([0.0, 0.0, x, y], _)) = st.iw
         && let Some(p) = all().find(|p| f64::from(p.clip_plu.0) == x && f64::from(p.clip_plu.1) == y)
     {
         return *p;
@@ -475,15 +493,18 @@ mod tests {
 
     #[test]
     fn unsupported_commands_are_warned_with_their_position() {
-        let r = import_a4("IN;VS10;SP1;LBhello\x03;PA0,0;PD10,0;CI50;CI20;PU;DT@;LBx@PA0,0;SP0;PD5,5;PU;");
+        let r = import_a4("IN;VS10;SP1;LBhello\x03;PA0,0;PD10,0;CI50;CI20;PU;DT@;LBx@PA0,0;SP0;PD5,5;PU;IW0,0,8,8;LT2;ZZ1;");
         let shown: Vec<String> = r.warnings.iter().map(ToString::to_string).collect();
         assert_eq!(
             shown,
             [
-                "command 2 (VS): pen speed (VS) ignored: the profile's speeds apply",
                 "command 4 (LB): labels (LB) are not supported: text not drawn (2 times)",
                 "command 7 (CI): circles, arcs, wedges and rectangles are not supported: not drawn (2 times)",
                 "command 14 (PD): pen-down moves with no pen selected (after SP0) are not drawn",
+                "command 17 (LT): line type (LT) ignored: drawn solid",
+                "command 18 (ZZ): ZZ is not supported: ignored",
+                "command 16 (IW): 1 point(s) lie outside the clip window, where a plotter would not draw; they are \
+                 kept here",
             ]
         );
         assert_eq!(r.drawing.path_count(), 1);
