@@ -375,13 +375,14 @@ fn export_hpgl(
     let device = hpgl_devices::device(&args.hpgl_device).with_context(|| {
         format!("--hpgl-device {}: not a known plotter (known: {})", args.hpgl_device, hpgl_devices::device_names())
     })?;
-    let drawing = drawing.unwrap_or_else(|| {
-        steps.to_drawing(&plotter_path::motion::steps::StepMapper::new(profile), "trajectory")
-    });
+    let drawing = drawing
+        .unwrap_or_else(|| steps.to_drawing(&plotter_path::motion::steps::StepMapper::new(profile), "trajectory"));
     let papers: Vec<HpglPaper> = match (&args.hpgl_paper, device.papers.is_empty()) {
-        (Some(name), false) => vec![*device.paper(name).with_context(|| {
-            format!("--hpgl-paper {name}: the {} takes {}", device.name, device.paper_names())
-        })?],
+        (Some(name), false) => vec![
+            *device
+                .paper(name)
+                .with_context(|| format!("--hpgl-paper {name}: the {} takes {}", device.name, device.paper_names()))?,
+        ],
         (Some(_), true) => bail!("--hpgl-paper: the {} plots on the drawing's own page", device.name),
         (None, false) => device.papers.to_vec(),
         (None, true) => {
@@ -411,13 +412,7 @@ fn export_hpgl(
     };
     plotter_host::input::warn_all(&program.warnings);
     std::fs::write(out, &program.text).with_context(|| format!("cannot write {}", out.display()))?;
-    println!(
-        "{} strokes for the {} on {} written to {}",
-        drawing.path_count(),
-        device.name,
-        paper.name,
-        out.display()
-    );
+    println!("{} strokes for the {} on {} written to {}", drawing.path_count(), device.name, paper.name, out.display());
     Ok(())
 }
 
@@ -455,9 +450,10 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         _ => None,
     };
     let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize, pen_at)?;
-    let export_ext = args.export.as_ref().map(|out| {
-        out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default()
-    });
+    let export_ext = args
+        .export
+        .as_ref()
+        .map(|out| out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default());
     if let (Some(out), Some("hpgl" | "plt" | "hgl")) = (&args.export, export_ext.as_deref()) {
         // An HP-GL plotter has its own plotting area, checked by the export instead of the profile's.
         return export_hpgl(args, &profile, &steps, drawing, out);

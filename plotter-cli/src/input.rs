@@ -10,7 +10,7 @@ use clap::{Args, ValueEnum};
 use plotter_path::geometry::hatch::FillHatch;
 use plotter_path::input::raster::Mode;
 use plotter_path::input::svg::{self, ImageTrace, LayerBy, SvgOptions, TextMode};
-use plotter_path::input::{gcode_in, hpgl_in, r#gen, raster, trajectory};
+use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use plotter_path::motion::steps::StepMapper;
 use plotter_path::{Drawing, MachineProfile};
 

@@ -11,7 +11,7 @@
 //! and how often it appeared: labels (`LB`, its text skipped up to the terminator, `ETX` or the one `DT` sets),
 //! circles, arcs, wedges and rectangles (`CI`, `AA`, `AR`, `EA`, `ER`, `EW`, `RA`, `RR`, `WG`), and any other
 //! mnemonic, such as `LT` line types (drawn solid). Speeds (`VS`, `FS`, `VA`, `VN`) are accepted without a word:
-//! the profile's speeds apply and the lines are the same. A clip window (`IW`) is not applied; when points lie
+//! the profile's speeds apply and the lines are the same; so is `PS` (paper size). A clip window (`IW`) is not applied; when points lie
 //! outside the last one, a warning says how many. After a label or an arc the pen's position is not tracked,
 //! so a relative move before the next absolute one is an error. `SC` with parameters (user-unit scaling) would
 //! change every coordinate and is refused; device-control escapes (`ESC . x … :`) are skipped with a warning.
@@ -29,7 +29,7 @@ use kurbo::Point;
 
 use crate::geometry::hpgl_devices::{DEVICES, HpglPaper, PLU_PER_MM};
 use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS};
-use crate::{Drawing, Layer, Polyline};
+use crate::{Drawing, Layer, Polyline, Rgb};
 
 /// Longest number accepted, characters.
 const MAX_NUMBER_LEN: usize = 40;
@@ -121,7 +121,12 @@ impl State<'_> {
         if let Some(w) = self.warnings.iter_mut().find(|w| w.mnemonic == self.mnemonic && w.message == message) {
             w.count += 1;
         } else {
-            self.warnings.push(HpglWarning { command: self.command, mnemonic: self.mnemonic.clone(), count: 1, message });
+            self.warnings.push(HpglWarning {
+                command: self.command,
+                mnemonic: self.mnemonic.clone(),
+                count: 1,
+                message,
+            });
         }
     }
 
@@ -262,8 +267,9 @@ impl State<'_> {
                 }
                 self.warn("circles, arcs, wedges and rectangles are not supported: not drawn".into());
             }
-            // Speeds come from the profile; the pen draws the same lines at any speed.
-            "VS" | "FS" | "VA" | "VN" => {}
+            // Speeds come from the profile; the pen draws the same lines at any speed. `PS` (the 7550A's paper
+            // size) does not move a line either.
+            "VS" | "FS" | "VA" | "VN" | "PS" => {}
             "LT" => self.warn("line type (LT) ignored: drawn solid".into()),
             m => {
                 let m = m.to_string();
@@ -371,6 +377,7 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
     let mut drawing = Drawing::default();
     for (pen, paths) in &st.layers {
         let mut layer = Layer::new(format!("pen {pen}"));
+        layer.pen.color = pen_color(*pen);
         layer.paths = paths
             .iter()
             .map(|path| {
@@ -400,6 +407,28 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
         });
     }
     Ok(ImportedHpgl { drawing, paper, warnings: st.warnings })
+}
+
+/// The colour a pen's layer gets, so that previews tell the pens apart and a re-export keeps them in their own
+/// carousel slots: pens 1–8 black, red, green, blue, cyan, magenta, yellow, orange (the usual order of plotter
+/// pen sets), higher numbers a colour spread from the number.
+fn pen_color(pen: u32) -> Rgb {
+    const SET: [Rgb; 8] = [
+        Rgb(0, 0, 0),
+        Rgb(255, 0, 0),
+        Rgb(0, 160, 0),
+        Rgb(0, 0, 255),
+        Rgb(0, 190, 190),
+        Rgb(200, 0, 200),
+        Rgb(230, 200, 0),
+        Rgb(255, 128, 0),
+    ];
+    let spread = |k: u32| u8::try_from(pen.wrapping_mul(k) % 200).unwrap_or(0);
+    pen.checked_sub(1).and_then(|i| SET.get(usize::try_from(i).ok()?)).copied().unwrap_or(Rgb(
+        spread(53),
+        spread(97),
+        spread(151),
+    ))
 }
 
 /// Parse the numbers after a mnemonic, from `i` up to `;`, the next mnemonic or an escape; returns where they end.
@@ -483,6 +512,7 @@ mod tests {
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
         let names: Vec<&str> = r.drawing.layers.iter().map(|l| l.name.as_str()).collect();
         assert_eq!(names, ["pen 1", "pen 2"]);
+        assert_eq!(r.drawing.layers[1].pen.color, Rgb(255, 0, 0));
         assert_eq!(points(&r.drawing.layers[0].paths[0]), [(30.0, 50.0), (40.0, 50.0), (40.0, 60.0)]);
         assert_eq!(points(&r.drawing.layers[1].paths[0]), [(30.0, 60.0), (40.0, 60.0), (40.0, 50.0)]);
         // Separators: spaces instead of commas, no semicolons, lower case; no SP means pen 1.
@@ -493,7 +523,9 @@ mod tests {
 
     #[test]
     fn unsupported_commands_are_warned_with_their_position() {
-        let r = import_a4("IN;VS10;SP1;LBhello\x03;PA0,0;PD10,0;CI50;CI20;PU;DT@;LBx@PA0,0;SP0;PD5,5;PU;IW0,0,8,8;LT2;ZZ1;");
+        let r = import_a4(
+            "IN;VS10;SP1;LBhello\x03;PA0,0;PD10,0;CI50;CI20;PU;DT@;LBx@PA0,0;SP0;PD5,5;PU;IW0,0,8,8;LT2;ZZ1;",
+        );
         let shown: Vec<String> = r.warnings.iter().map(ToString::to_string).collect();
         assert_eq!(
             shown,

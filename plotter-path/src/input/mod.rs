@@ -3,8 +3,8 @@
 
 pub mod gcode_in;
 pub mod gcode_print;
-pub mod hpgl_in;
 pub mod r#gen;
+pub mod hpgl_in;
 pub mod raster;
 pub mod svg;
 pub mod trajectory;

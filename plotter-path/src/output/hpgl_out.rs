@@ -137,10 +137,8 @@ pub fn export(
     }
     let _ = writeln!(out, "PU;SP0;");
     if capped {
-        warnings.push(format!(
-            "pen speeds above the {}'s {} cm/s are capped at it",
-            device.name, device.max_velocity_cm_s
-        ));
+        warnings
+            .push(format!("pen speeds above the {}'s {} cm/s are capped at it", device.name, device.max_velocity_cm_s));
     }
     Ok(HpglProgram { text: out, layer_slots, warnings })
 }
