@@ -85,6 +85,9 @@ pub struct ImportedHpgl {
     pub warnings: Vec<HpglWarning>,
 }
 
+/// A stroke in plotter units.
+type PluPath = Vec<(f64, f64)>;
+
 /// Parser and plotter state, coordinates in plotter units.
 struct State<'a> {
     origin: &'a str,
@@ -99,7 +102,7 @@ struct State<'a> {
     pos: Option<(f64, f64)>,
     path: Vec<(f64, f64)>,
     /// (pen, paths) in order of first use.
-    layers: Vec<(u32, Vec<Vec<(f64, f64)>>)>,
+    layers: Vec<(u32, Vec<PluPath>)>,
     points: usize,
     /// The last clip window and the index of its command.
     iw: Option<([f64; 4], usize)>,
@@ -208,7 +211,7 @@ impl State<'_> {
     }
 
     fn moves(&mut self, params: &[f64]) -> Result<(), HpglError> {
-        if params.len() % 2 != 0 {
+        if !params.len().is_multiple_of(2) {
             return Err(self.error(format!("{} numbers: coordinates come in x,y pairs", params.len())));
         }
         for pair in params.chunks_exact(2) {
