@@ -34,7 +34,8 @@ use serde::{Deserialize, Serialize};
 /// Arguments of `plotter plot`.
 #[derive(clap::Args, Debug, Clone)]
 pub(crate) struct PlotArgs {
-    /// Drawing to plot: an SVG, a G-code file (.gcode/.nc/.ngc/.g) or a trajectory file (.traj/.txt).
+    /// Drawing to plot: an SVG, a G-code file (.gcode/.nc/.ngc/.g), an HP-GL file (.hpgl/.plt/.hgl) or a trajectory
+    /// file (.traj/.txt).
     #[arg(required_unless_present = "resume")]
     pub(crate) input: Option<PathBuf>,
     /// Serial device of the plotter (e.g. /dev/ttyUSB0, or the path printed by `plotter sim --pty`). Without it
@@ -85,9 +86,17 @@ pub(crate) struct PlotArgs {
     #[arg(long)]
     pub(crate) profile_from_machine: bool,
     /// Do not plot: write the drawing, as it would be stepped, to this file — G-code (.gcode/.nc/.ngc/.g, GRBL
-    /// style, pen per the profile) or the seed plotter's trajectory format (.traj/.txt).
+    /// style, pen per the profile), HP-GL (.hpgl/.plt/.hgl, for --hpgl-device) or the seed plotter's trajectory
+    /// format (.traj/.txt).
     #[arg(long)]
     pub(crate) export: Option<PathBuf>,
+    /// HP-GL export: the plotter (7475a, 7550a, dxy-1300, generic).
+    #[arg(long, default_value = "7475a")]
+    pub(crate) hpgl_device: String,
+    /// HP-GL export: the sheet loaded in the plotter (7475a: a4, letter, a3, tabloid) [default: the first of
+    /// the device's sheets whose plotting area holds the drawing].
+    #[arg(long)]
+    pub(crate) hpgl_paper: Option<String>,
     /// Simulated plot only: corrupt this fraction of the bytes on the simulated link (flip a bit or drop), to
     /// watch the resends at work.
     #[arg(long, default_value_t = 0.0)]
@@ -355,6 +364,61 @@ fn print_lower_bound(
 }
 
 /// Run `plotter plot`.
+/// `--export FILE.hpgl`: write the page drawing as HP-GL for `--hpgl-device` on `--hpgl-paper` (or the first of
+/// its sheets that holds the drawing).
+fn export_hpgl(
+    args: &PlotArgs,
+    profile: &MachineProfile,
+    steps: &plotter_path::motion::steps::StepDrawing,
+    drawing: Option<plotter_path::Drawing>,
+    out: &Path,
+) -> anyhow::Result<()> {
+    use plotter_path::geometry::hpgl_devices::{self, HpglPaper};
+    use plotter_path::output::hpgl_out;
+    let device = hpgl_devices::device(&args.hpgl_device).with_context(|| {
+        format!("--hpgl-device {}: not a known plotter (known: {})", args.hpgl_device, hpgl_devices::device_names())
+    })?;
+    let drawing = drawing
+        .unwrap_or_else(|| steps.to_drawing(&plotter_path::motion::steps::StepMapper::new(profile), "trajectory"));
+    let papers: Vec<HpglPaper> = match (&args.hpgl_paper, device.papers.is_empty()) {
+        (Some(name), false) => vec![
+            *device
+                .paper(name)
+                .with_context(|| format!("--hpgl-paper {name}: the {} takes {}", device.name, device.paper_names()))?,
+        ],
+        (Some(_), true) => bail!("--hpgl-paper: the {} plots on the drawing's own page", device.name),
+        (None, false) => device.papers.to_vec(),
+        (None, true) => {
+            let (w, h) = drawing.page_mm.or_else(|| drawing.bbox().map(|b| (b.x1, b.y1))).unwrap_or((0.0, 0.0));
+            vec![HpglPaper::generic(w, h)]
+        }
+    };
+    let mut first_error = None;
+    let mut result = None;
+    for paper in &papers {
+        match hpgl_out::export(profile, &drawing, device, paper) {
+            Ok(p) => {
+                result = Some((p, paper));
+                break;
+            }
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    let Some((program, paper)) = result else {
+        let e = first_error.context("the device has no sheets")?;
+        if papers.len() > 1 {
+            bail!("{e} (nor does any other of its sheets hold the drawing: {})", device.paper_names());
+        }
+        return Err(e.into());
+    };
+    plotter_host::input::warn_all(&program.warnings);
+    std::fs::write(out, &program.text).with_context(|| format!("cannot write {}", out.display()))?;
+    println!("{} strokes for the {} on {} written to {}", drawing.path_count(), device.name, paper.name, out.display());
+    Ok(())
+}
+
 pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     if let Some(j) = &args.resume {
         return resume(args, j);
@@ -389,13 +453,20 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         _ => None,
     };
     let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize, pen_at)?;
+    let export_ext = args
+        .export
+        .as_ref()
+        .map(|out| out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default());
+    if let (Some(out), Some("hpgl" | "plt" | "hgl")) = (&args.export, export_ext.as_deref()) {
+        // An HP-GL plotter has its own plotting area, checked by the export instead of the profile's.
+        return export_hpgl(args, &profile, &steps, drawing, out);
+    }
     plan::check_work_area(&profile, &steps)?;
-    if let Some(out) = &args.export {
-        let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    if let (Some(out), Some(ext)) = (&args.export, export_ext) {
         let text = match ext.as_str() {
             "gcode" | "nc" | "ngc" | "g" | "gco" => plotter_path::output::gcode_out::export(&profile, &steps),
             "traj" | "trj" | "txt" => trajectory::export(&steps),
-            _ => bail!("--export {}: use a .gcode/.nc/.ngc/.g or .traj/.txt file name", out.display()),
+            _ => bail!("--export {}: use a .gcode/.nc/.ngc/.g, .hpgl/.plt/.hgl or .traj/.txt file name", out.display()),
         };
         std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
         println!("{} strokes, {} moves written to {}", steps.strokes.len(), steps.move_count(), out.display());

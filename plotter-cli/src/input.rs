@@ -10,7 +10,7 @@ use clap::{Args, ValueEnum};
 use plotter_path::geometry::hatch::FillHatch;
 use plotter_path::input::raster::Mode;
 use plotter_path::input::svg::{self, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
-use plotter_path::input::{gcode_in, r#gen, raster, trajectory};
+use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use plotter_path::motion::steps::StepMapper;
 use plotter_path::{Drawing, MachineProfile};
 
@@ -151,6 +151,8 @@ pub enum InputKind {
     Gcode,
     /// The seed plotter's trajectory file (relative motor steps).
     Trajectory,
+    /// HP-GL plot file.
+    Hpgl,
 }
 
 /// Prefix of generated-figure inputs.
@@ -180,10 +182,13 @@ pub fn input_kind(path: &Path, head: &[u8]) -> InputKind {
         "png" | "jpg" | "jpeg" => return InputKind::Image,
         "gcode" | "nc" | "ngc" | "g" | "gco" | "tap" => return InputKind::Gcode,
         "traj" | "trj" => return InputKind::Trajectory,
+        "hpgl" | "plt" | "hgl" => return InputKind::Hpgl,
         _ => {}
     }
     if t.starts_with('<') {
         InputKind::Svg
+    } else if t.get(..3).is_some_and(|s| s.eq_ignore_ascii_case("IN;")) {
+        InputKind::Hpgl
     } else if t.split_whitespace().next().is_some_and(|w| w.parse::<u64>().is_ok()) {
         InputKind::Trajectory
     } else {
@@ -269,6 +274,11 @@ pub fn decode_drawing(
             let warnings = imported.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
             Ok(Decoded { drawing: imported.drawing, warnings })
         }
+        InputKind::Hpgl => {
+            let imported = hpgl_in::import(data, shown, None)?;
+            let warnings = imported.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
+            Ok(Decoded { drawing: imported.drawing, warnings })
+        }
         InputKind::Trajectory => {
             let text = std::str::from_utf8(data).with_context(|| format!("{shown}: not a text file"))?;
             let steps = trajectory::import(text, shown)?;
@@ -280,7 +290,7 @@ pub fn decode_drawing(
 /// What a drawing command reads: the input, how to read it, and how to lay it out on the page.
 #[derive(Debug, Clone, Args)]
 pub struct Source {
-    /// Input: SVG, PNG/JPEG (traced), G-code, trajectory file, `gen:KIND?param=value&...`, or `-` for stdin
+    /// Input: SVG, PNG/JPEG (traced), G-code, HP-GL, trajectory file, `gen:KIND?param=value&...`, or `-` for stdin
     pub input: PathBuf,
     /// Input flags.
     #[command(flatten)]
@@ -322,6 +332,9 @@ mod tests {
         assert_eq!(input_kind(Path::new("a.JPG"), b""), InputKind::Image);
         assert_eq!(input_kind(Path::new("a.NGC"), b""), InputKind::Gcode);
         assert_eq!(input_kind(Path::new("a.traj"), b""), InputKind::Trajectory);
+        assert_eq!(input_kind(Path::new("a.PLT"), b""), InputKind::Hpgl);
+        assert_eq!(input_kind(Path::new("a.hpgl"), b""), InputKind::Hpgl);
+        assert_eq!(input_kind(Path::new("out"), b"IN;SP1;PU0,0;"), InputKind::Hpgl);
         assert_eq!(input_kind(Path::new("a.txt"), b"3\n1\n0\n0\n"), InputKind::Trajectory);
         assert_eq!(input_kind(Path::new("a.txt"), b"G1 X1\n"), InputKind::Gcode);
         assert_eq!(input_kind(Path::new("a"), b"  <svg/>"), InputKind::Svg);

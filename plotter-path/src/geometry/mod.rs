@@ -1,9 +1,10 @@
 //! Geometry in millimetres: the [`crate::Drawing`] model, curve flattening, filled regions (clip, occlusion)
-//! and their hatching, page layout, size limits and pen-up travel.
+//! and their hatching, page layout, size limits, pen-up travel, and the sheets HP-GL plotters address.
 
 pub mod drawing;
 pub mod flatten;
 pub mod hatch;
+pub mod hpgl_devices;
 pub mod layout;
 pub mod limits;
 pub mod region;

@@ -1,4 +1,4 @@
-//! Fuzzing every input kind on stable Rust (proptest, run by `cargo test`): random and mutated SVG, G-code,
+//! Fuzzing every input kind on stable Rust (proptest, run by `cargo test`): random and mutated SVG, G-code, HP-GL,
 //! trajectory files, images and generator specs go through the public importers and the size limits. Each must
 //! give a drawing within [`crate::geometry::limits`] or an error — never a panic. The files under
 //! `plotter-path/fuzz/regressions/` are the crashes and hangs found so far (the reproducers among them);
@@ -12,7 +12,7 @@ use proptest::prelude::*;
 use crate::MachineProfile;
 use crate::geometry::limits::check_drawing;
 use crate::input::svg::{ResourcePolicy, SvgOptions, import_svg};
-use crate::input::{gcode_in, r#gen, raster, trajectory};
+use crate::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use crate::motion::steps::StepMapper;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -87,6 +87,14 @@ fn image_doc(href: &str) -> String {
 fn gcode(text: &str) {
     if let Ok(i) = gcode_in::import(text, "fuzz.gcode", &MachineProfile::default_plotter()) {
         check_drawing(&i.drawing, "fuzz.gcode").expect("the G-code importer keeps its own limits");
+    }
+}
+
+fn hpgl(bytes: &[u8]) {
+    if let Ok(i) = hpgl_in::import(bytes, "fuzz.hpgl", None) {
+        // Coordinates are bounded in plotter units; placed on a sheet they may still cross the page limit, which
+        // the final gate then refuses.
+        let _ = check_drawing(&i.drawing, "fuzz.hpgl");
     }
 }
 
@@ -194,6 +202,12 @@ proptest! {
     fn gcode_never_panics(e in edits(), lines in proptest::collection::vec("[GMXYZIJRFN ]{0,3}[-+.0-9e]{0,24}( [XYZIJR][-.0-9]{0,42})*", 0..20)) {
         gcode(&String::from_utf8_lossy(&mutate(b"G21\nG90\nG0 X10 Y10\nG1 Z0\nG2 X20 Y10 I5 J0\nG1 X30\n", &e)));
         gcode(&lines.join("\n"));
+    }
+
+    #[test]
+    fn hpgl_never_panics(e in edits(), cmds in proptest::collection::vec("[A-Z]{2}[-+.0-9, ]{0,30};?", 0..20)) {
+        hpgl(&mutate(b"IN;IW0,0,11040,7721;SP1;PU800,6240;PD1200,6240;PR;PD0,-400;LBab\x03;PA;PU;SP0;", &e));
+        hpgl(cmds.concat().as_bytes());
     }
 
     #[test]

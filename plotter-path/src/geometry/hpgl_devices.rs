@@ -1,0 +1,185 @@
+//! The HP-GL plotters this project knows: their papers, plotting areas, pen carousels and top speeds.
+//!
+//! HP-GL addresses the paper in *plotter units* (plu) of 0.025 mm, [`PLU_PER_MM`] = 40 per millimetre (the HP
+//! 7470A/7475A Interfacing and Programming Manuals give 0.025 mm, "approximately 0.001 in"). The pen can reach a
+//! rectangle of the sheet, the *hard-clip limits*; its lower-left corner is plotter-unit (0, 0), X runs along the
+//! sheet's long side to the right and Y runs **up** (our page runs Y down, so every export and import flips Y).
+//!
+//! Each [`HpglPaper`] says where that rectangle lies on the sheet: `origin_mm` is the position of plu (0, 0)
+//! measured from the sheet's top-left corner (X right, Y down, like our page), and `clip_plu` is the far corner of
+//! the reachable rectangle. Sources, per device:
+//! - **HP 7475A** (6 pens, at most 38.1 cm/s): the plotting ranges (A4 0–11040 × 0–7721, A3 0–16158 × 0–11040,
+//!   ANSI A 0–10365 × 0–7962, ANSI B 0–16640 × 0–10365) are those of the 7475A Interfacing and Programming Manual
+//!   (its default P2 for A4, 10603, 7721, sits on the top of the A4 range); where the range lies on the sheet
+//!   (the origin offsets) is the placement measured by the vpype project's users and recorded in its device
+//!   configuration.
+//! - **HP 7550A** (8 pens, at most 80 cm/s): assumed to address A4 and A3 like the 7475A — *not* checked against
+//!   the 7550A manual; measure a plot before relying on the margins.
+//! - **Roland DXY-1300** (8 pens, at most 42 cm/s, HP-GL compatible "RD-GL I" at 0.025 mm): a 416 × 276 mm
+//!   plotting range (0–16640 × 0–11040) on an A3 bed, its origin at the lower-left of the range; the range is
+//!   taken as centred on the A3 sheet, which is an estimate.
+//! - **generic**: any HP-GL plotter; the plotting area is the drawing's own page with plu (0, 0) at its lower-left
+//!   corner, 8 pens, no speed cap beyond HP-GL's customary 38.1 cm/s.
+
+/// Plotter units per millimetre (1 plu = 0.025 mm).
+pub const PLU_PER_MM: f64 = 40.0;
+
+/// A sheet a device takes, with the reachable rectangle on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HpglPaper {
+    /// Name as given on the command line (`a4`, `a3`, `letter`, ...).
+    pub name: &'static str,
+    /// Sheet size as loaded, mm: width along the plotter's X, height along its Y.
+    pub size_mm: (f64, f64),
+    /// Far corner of the hard-clip rectangle, plotter units (the near corner is (0, 0)).
+    pub clip_plu: (i32, i32),
+    /// Where plu (0, 0) lies on the sheet, mm from its top-left corner (X right, Y down).
+    pub origin_mm: (f64, f64),
+}
+
+/// One HP-GL plotter model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HpglDevice {
+    /// Name as given to `--hpgl-device`.
+    pub id: &'static str,
+    /// Name shown to people.
+    pub name: &'static str,
+    /// Pens in the carousel (`SP 1` ..= `SP pens`).
+    pub pens: u8,
+    /// Highest pen speed `VS` accepts, cm/s.
+    pub max_velocity_cm_s: f64,
+    /// The sheets it takes, smallest first; empty for the generic device (the drawing's page is the sheet).
+    pub papers: &'static [HpglPaper],
+}
+
+const HP7475A_PAPERS: &[HpglPaper] = &[
+    HpglPaper { name: "a4", size_mm: (297.0, 210.0), clip_plu: (11040, 7721), origin_mm: (10.0, 206.0) },
+    HpglPaper { name: "letter", size_mm: (279.4, 215.9), clip_plu: (10365, 7962), origin_mm: (10.0, 211.0) },
+    HpglPaper { name: "a3", size_mm: (420.0, 297.0), clip_plu: (16158, 11040), origin_mm: (15.0, 287.0) },
+    HpglPaper { name: "tabloid", size_mm: (431.8, 279.4), clip_plu: (16640, 10365), origin_mm: (15.0, 287.0) },
+];
+
+const HP7550A_PAPERS: &[HpglPaper] = &[HP7475A_PAPERS[0], HP7475A_PAPERS[2]];
+
+const DXY1300_PAPERS: &[HpglPaper] =
+    &[HpglPaper { name: "a3", size_mm: (420.0, 297.0), clip_plu: (16640, 11040), origin_mm: (2.0, 286.5) }];
+
+/// Every known device, the 7475A first (the default).
+pub const DEVICES: &[HpglDevice] = &[
+    HpglDevice { id: "7475a", name: "HP 7475A", pens: 6, max_velocity_cm_s: 38.1, papers: HP7475A_PAPERS },
+    HpglDevice { id: "7550a", name: "HP 7550A", pens: 8, max_velocity_cm_s: 80.0, papers: HP7550A_PAPERS },
+    HpglDevice { id: "dxy-1300", name: "Roland DXY-1300", pens: 8, max_velocity_cm_s: 42.0, papers: DXY1300_PAPERS },
+    HpglDevice { id: "generic", name: "generic HP-GL plotter", pens: 8, max_velocity_cm_s: 38.1, papers: &[] },
+];
+
+/// The device called `id` (case-insensitive; `hp7475a` and `7475a` both name the 7475A).
+pub fn device(id: &str) -> Option<&'static HpglDevice> {
+    let id = id.trim().to_ascii_lowercase();
+    let id = id.strip_prefix("hp").unwrap_or(&id);
+    DEVICES.iter().find(|d| d.id == id || d.id.replace('-', "") == id)
+}
+
+/// The names `--hpgl-device` accepts, for messages.
+pub fn device_names() -> String {
+    DEVICES.iter().map(|d| d.id).collect::<Vec<_>>().join(", ")
+}
+
+impl HpglPaper {
+    /// The sheet of the generic device: a page of `width_mm` × `height_mm` whose lower-left corner is plu (0, 0).
+    pub fn generic(width_mm: f64, height_mm: f64) -> HpglPaper {
+        let plu = |mm: f64| mm_to_plu(mm.max(0.0)).unwrap_or(i32::MAX);
+        HpglPaper {
+            name: "page",
+            size_mm: (width_mm, height_mm),
+            clip_plu: (plu(width_mm), plu(height_mm)),
+            origin_mm: (0.0, height_mm),
+        }
+    }
+
+    /// Page millimetres (Y down, from the sheet's top-left) to plotter units, each coordinate rounded once from
+    /// the absolute position (so equal page points give equal plotter points and nothing drifts); `None` when a
+    /// coordinate does not fit an `i32`.
+    pub fn to_plu(&self, x_mm: f64, y_mm: f64) -> Option<(i32, i32)> {
+        Some((mm_to_plu(x_mm - self.origin_mm.0)?, mm_to_plu(self.origin_mm.1 - y_mm)?))
+    }
+
+    /// Plotter units back to page millimetres (the inverse of [`HpglPaper::to_plu`] before rounding).
+    pub fn to_page(&self, x_plu: f64, y_plu: f64) -> (f64, f64) {
+        (self.origin_mm.0 + x_plu / PLU_PER_MM, self.origin_mm.1 - y_plu / PLU_PER_MM)
+    }
+
+    /// Whether the plotter point lies inside the hard-clip rectangle.
+    pub fn holds(&self, (x, y): (i32, i32)) -> bool {
+        (0..=self.clip_plu.0).contains(&x) && (0..=self.clip_plu.1).contains(&y)
+    }
+
+    /// The hard-clip rectangle's size, mm.
+    pub fn area_mm(&self) -> (f64, f64) {
+        (f64::from(self.clip_plu.0) / PLU_PER_MM, f64::from(self.clip_plu.1) / PLU_PER_MM)
+    }
+}
+
+impl HpglDevice {
+    /// The paper called `name` (case-insensitive; `ansi_a`/`a` mean letter, `ansi_b`/`b` tabloid).
+    pub fn paper(&self, name: &str) -> Option<&'static HpglPaper> {
+        let name = match name.trim().to_ascii_lowercase().as_str() {
+            "a" | "ansi_a" => "letter".to_string(),
+            "b" | "ansi_b" => "tabloid".to_string(),
+            other => other.to_string(),
+        };
+        self.papers.iter().find(|p| p.name == name)
+    }
+
+    /// The names of its papers, for messages.
+    pub fn paper_names(&self) -> String {
+        self.papers.iter().map(|p| p.name).collect::<Vec<_>>().join(", ")
+    }
+}
+
+fn mm_to_plu(mm: f64) -> Option<i32> {
+    let v = (mm * PLU_PER_MM).round();
+    if v.is_finite() && v.abs() <= f64::from(i32::MAX) {
+        // In range and integral, checked just above.
+        #[allow(clippy::cast_possible_truncation)]
+        Some(v as i32)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn devices_and_papers_by_name() {
+        assert_eq!(device("7475A").map(|d| d.pens), Some(6));
+        assert_eq!(device("hp7475a").map(|d| d.id), Some("7475a"));
+        assert_eq!(device("7550a").map(|d| d.pens), Some(8));
+        assert_eq!(device("dxy1300").map(|d| d.id), Some("dxy-1300"));
+        assert_eq!(device("DXY-1300").map(|d| d.pens), Some(8));
+        assert!(device("7470b").is_none());
+        let hp = device("7475a").unwrap();
+        assert_eq!(hp.paper("A4").map(|p| p.clip_plu), Some((11040, 7721)));
+        assert_eq!(hp.paper("ansi_b").map(|p| p.name), Some("tabloid"));
+        assert_eq!(hp.paper_names(), "a4, letter, a3, tabloid");
+    }
+
+    /// On the 7475A's A4 sheet plu (0, 0) lies 10 mm from the left edge and 206 mm down: page point (10, 206)
+    /// is (0, 0), (20, 196) is (400, 400), and 0.0124 mm (0.496 units) rounds to 0 while 0.02 mm (0.8 units) rounds to 1.
+    #[test]
+    fn page_to_plotter_units_flips_y_and_rounds_once() {
+        let a4 = device("7475a").unwrap().paper("a4").unwrap();
+        assert_eq!(a4.to_plu(10.0, 206.0), Some((0, 0)));
+        assert_eq!(a4.to_plu(20.0, 196.0), Some((400, 400)));
+        assert_eq!(a4.to_plu(10.0124, 206.02), Some((0, -1)));
+        assert_eq!(a4.to_page(400.0, 400.0), (20.0, 196.0));
+        assert!(a4.holds((11040, 7721)) && !a4.holds((11041, 0)) && !a4.holds((0, -1)));
+        assert_eq!(a4.area_mm(), (276.0, 193.025));
+        assert_eq!(a4.to_plu(1e300, 0.0), None);
+        let g = HpglPaper::generic(100.0, 50.0);
+        assert_eq!(g.clip_plu, (4000, 2000));
+        assert_eq!(g.to_plu(0.0, 50.0), Some((0, 0)));
+        assert_eq!(g.to_plu(100.0, 0.0), Some((4000, 2000)));
+    }
+}
