@@ -446,7 +446,8 @@ pub fn ink_off_drawing(
         let q = (xy[0] as f64 / steps_per_mm, xy[1] as f64 / steps_per_mm);
         let near = |i: usize| point_segment_distance(q, segments[i].0, segments[i].1) <= limit;
         let lo = hint.saturating_sub(2);
-        let hit = (lo..(hint + 3).min(segments.len())).find(|&i| near(i)).or_else(|| (0..segments.len()).find(|&i| near(i)));
+        let hit =
+            (lo..(hint + 3).min(segments.len())).find(|&i| near(i)).or_else(|| (0..segments.len()).find(|&i| near(i)));
         match hit {
             Some(i) => hint = i,
             None => off.push(xy),
@@ -500,5 +501,8 @@ pub fn servo_low_intervals(servo: &[(u64, f32, u16)], up_deg: f32, settle: u64, 
 /// The paths of `drawing` in machine millimetres through `profile`'s page mapping (what [`ink_off_drawing`]
 /// checks against).
 pub fn machine_paths(profile: &plotter_path::MachineProfile, drawing: &plotter_path::Drawing) -> Vec<Vec<(f64, f64)>> {
-    drawing.paths().map(|p| p.points.iter().map(|q| profile.page_to_machine(*q)).map(|q| (q.x, q.y)).collect()).collect()
+    drawing
+        .paths()
+        .map(|p| p.points.iter().map(|q| profile.page_to_machine(*q)).map(|q| (q.x, q.y)).collect())
+        .collect()
 }

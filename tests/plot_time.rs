@@ -62,7 +62,8 @@ fn the_ink_check_catches_travel_below_the_clearance() {
     let kit = MachineProfile::default_plotter();
     let mut low = kit.clone();
     low.pen.clearance_mm = 0.5;
-    let drawing = svg::import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", None, &svg::SvgOptions::default()).unwrap().drawing;
+    let drawing =
+        svg::import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", None, &svg::SvgOptions::default()).unwrap().drawing;
     let steps = drawing_to_steps(&kit, &drawing).unwrap();
     let (_, sim, _) = run_on_sim(&kit, |start| plan::plan(&low, &steps, start, Lookahead::Whole).unwrap());
     let off = inks_off(&kit, &drawing, &sim);

@@ -622,7 +622,12 @@ fn build_blocks<'c>(
                 let h = HopHeights::new(profile, d, u);
                 let from = [raw.pos[0], raw.pos[1], raw.pos[2]];
                 for w in hop::travel_waypoints(profile, from, stroke.start, h) {
-                    raw.push([w[0] - raw.pos[0], w[1] - raw.pos[1], w[2] - raw.pos[2], 0], travel, MoveKind::Travel, si);
+                    raw.push(
+                        [w[0] - raw.pos[0], w[1] - raw.pos[1], w[2] - raw.pos[2], 0],
+                        travel,
+                        MoveKind::Travel,
+                        si,
+                    );
                 }
                 raw.pen(down, MoveKind::PenDown, si);
             }
