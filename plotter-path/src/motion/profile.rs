@@ -556,7 +556,7 @@ mod tests {
         assert_eq!((p.pen.clearance_mm, p.pen.clear_ms), (1.0, None));
         // The kit's 50 ms settle: clear after a third of it.
         assert!((p.pen.servo_clear_ms() - 50.0 / 3.0).abs() < 1e-12);
-        let with = |line: &str| DEFAULT_PROFILE_TOML.replace("settle_ms = 50.0", &format!("settle_ms = 50.0\n{line}"));
+        let with = |line: &str| DEFAULT_PROFILE_TOML.replace("clearance_mm = 1.0", line);
         let p = MachineProfile::from_toml(&with("clearance_mm = 0.5\nclear_ms = 20"), "c.toml").unwrap();
         assert_eq!((p.pen.clearance_mm, p.pen.servo_clear_ms()), (0.5, 20.0));
         for (line, field) in [("clearance_mm = 0", "pen.clearance_mm"), ("clear_ms = 60", "pen.clear_ms")] {

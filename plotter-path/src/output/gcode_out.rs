@@ -11,7 +11,10 @@
 //! (`G1 Z<clear>`, no dwell), travels with combined moves (`G0 X Y Z`) on which it climbs towards the pen-up height
 //! and comes back down to the clearance height, and drops from there; a servo pen waits only its clear time
 //! (`pen.clear_ms`) after `M5` before travelling (the drop `M3` waits for the travel to end, as GRBL runs spindle
-//! words between moves). The first travel, from wherever the machine stands, is flat at the pen-up height.
+//! words between moves). The first travel, from wherever the machine stands, is flat at the pen-up height. In a
+//! file the hops keep above the midpoint between the lowest pen-down height and the pen-up height (the clearance
+//! is raised to just above it when smaller): readers that tell travel from drawing by that midpoint, this
+//! project's G-code import among them, then see every hop as travel.
 //!
 //! Between layers drawn with different pens ([`crate::motion::pens`]) the program parks the carriage (pen up)
 //! and stops with `M0` and a comment naming the pen to load; cycle start (`~` on GRBL) continues. Each layer is
@@ -77,8 +80,12 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
             PenCommand::Servo => format!("M3 S{}", fmt_mm(p.servo_down_deg, 1)),
         })
         .collect();
+    let mut hop_profile = profile.clone();
+    let lowest = pens.iter().map(|p| p.down_z_mm).fold(pen.down_z_mm, f64::min);
+    let above_mid = (pen.up_z_mm - lowest).abs() / 2.0 + 1.0 / profile.axes.z.steps_per_mm;
+    hop_profile.pen.clearance_mm = pen.clearance_mm.max(above_mid);
     let heights: Vec<HopHeights> =
-        pens.iter().map(|p| HopHeights::new(profile, z_of(p.down_z_mm), z_of(pen.up_z_mm))).collect();
+        pens.iter().map(|p| HopHeights::new(&hop_profile, z_of(p.down_z_mm), z_of(pen.up_z_mm))).collect();
     let servo_clear = fmt_mm(pen.servo_clear_ms() / 1000.0, 4);
     // Without a park position the pen change waits above the homed corner.
     let park = park_position(profile).ok().map(|s| mapper.steps_to_machine(s));
@@ -133,7 +140,7 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
         match at {
             Some(from) if pen.command == PenCommand::Z && !change => {
                 let mut f = format!(" F{travel_f}");
-                for w in travel_waypoints(profile, [from.x, from.y, z], stroke.start, heights[l]) {
+                for w in travel_waypoints(&hop_profile, [from.x, from.y, z], stroke.start, heights[l]) {
                     let _ = writeln!(out, "G0 {} Z{}{f}", xy(StepPos::new(w[0], w[1])), z_mm(w[2]));
                     f.clear();
                     z = w[2];
@@ -213,8 +220,9 @@ mod tests {
         let dash = |x: i32| StepStroke { start: StepPos::new(x, 800), moves: vec![StepDelta { dx: 80, dy: 0 }] };
         let g = export(&p, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
         let body: Vec<&str> = g.lines().skip(3).collect();
-        // From the first dash's end (11, 10) to (21, 10): rise to the 1 mm clearance without a dwell, a climb to
-        // 5 mm · 0.051 65 = 0.258 mm above it (103 of 400 steps/mm: 1.2575 mm) and back, the drop with its settle.
+        // From the first dash's end (11, 10) to (21, 10): rise without a dwell to the clearance, raised in a file
+        // to a step above the 2 mm midpoint of the paper and the pen-up height (2.0025 mm), a climb to 5 mm ·
+        // 0.051 65 = 0.258 mm above it (103 of 400 steps/mm: 2.26 mm) and back, the drop with its settle.
         assert_eq!(
             body,
             [
@@ -224,9 +232,9 @@ mod tests {
                 "G1 Z0 F1500",
                 "G4 P0.05",
                 "G1 X11 Y10 F3600",
-                "G1 Z1 F1500",
-                "G0 X16 Y10 Z1.2575 F7200",
-                "G0 X21 Y10 Z1",
+                "G1 Z2.0025 F1500",
+                "G0 X16 Y10 Z2.26 F7200",
+                "G0 X21 Y10 Z2.0025",
                 "G1 Z0 F1500",
                 "G4 P0.05",
                 "G1 X22 Y10 F3600",
