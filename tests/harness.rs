@@ -410,3 +410,99 @@ impl Drop for Served {
         let _ = self.child.wait();
     }
 }
+
+/// The "never ink off the drawing" check (issue 25): the pen may be below its clearance height only where the XY
+/// position lies on a stroke of the drawing. `samples` are the XY positions (steps) after each step event with
+/// whether the pen was then below the clearance; `strokes` the drawing's paths in machine millimetres (flattened,
+/// as imported); a low position passes when it is within `tolerance_mm` + half a step of one of them. The
+/// simulator starts with the pen resting on the paper where the carriage stands, so nothing before the first XY
+/// motion counts (homing lifts the pen there first). Returns the offending positions (empty: the check passes).
+pub fn ink_off_drawing(
+    samples: impl IntoIterator<Item = (bool, [i64; 2])>,
+    strokes: &[Vec<(f64, f64)>],
+    steps_per_mm: f64,
+    tolerance_mm: f64,
+) -> Vec<[i64; 2]> {
+    let limit = tolerance_mm + 0.5 / steps_per_mm + 1e-9;
+    let segments: Vec<((f64, f64), (f64, f64))> = strokes
+        .iter()
+        .flat_map(|s| {
+            let pairs: Vec<_> = s.windows(2).map(|w| (w[0], w[1])).collect();
+            if s.len() == 1 { vec![(s[0], s[0])] } else { pairs }
+        })
+        .collect();
+    let mut off = Vec::new();
+    let mut first: Option<[i64; 2]> = None;
+    let mut moved = false;
+    // The segment that matched last: consecutive low positions are nearly always on it or its neighbours.
+    let mut hint = 0usize;
+    for (low, xy) in samples {
+        moved = moved || first.is_some_and(|f| f != xy);
+        first.get_or_insert(xy);
+        if !low || !moved {
+            continue;
+        }
+        #[allow(clippy::cast_precision_loss, reason = "step positions are far below 2^52")]
+        let q = (xy[0] as f64 / steps_per_mm, xy[1] as f64 / steps_per_mm);
+        let near = |i: usize| point_segment_distance(q, segments[i].0, segments[i].1) <= limit;
+        let lo = hint.saturating_sub(2);
+        let hit =
+            (lo..(hint + 3).min(segments.len())).find(|&i| near(i)).or_else(|| (0..segments.len()).find(|&i| near(i)));
+        match hit {
+            Some(i) => hint = i,
+            None => off.push(xy),
+        }
+    }
+    off
+}
+
+/// The positions `[x, y, z]` (steps) after each step event of an in-process simulator, with their times (ticks);
+/// steps of one Bresenham event (the same tick) are merged, as in [`Trace`].
+pub fn sim_positions(sim: &plotter_fw::sim::Sim) -> Vec<(u64, [i64; 3])> {
+    let mut pos = sim.hal().physical_position();
+    for e in sim.hal().steps().iter().rev() {
+        pos[e.axis.index()] -= if e.forward { 1 } else { -1 };
+    }
+    let mut out: Vec<(u64, [i64; 3])> = Vec::new();
+    for e in sim.hal().steps() {
+        pos[e.axis.index()] += if e.forward { 1 } else { -1 };
+        let p = [pos[0], pos[1], pos[2]];
+        match out.last_mut() {
+            Some(last) if last.0 == e.time => last.1 = p,
+            _ => out.push((e.time, p)),
+        }
+    }
+    out
+}
+
+/// The times (ticks) during which a servo pen is below its clearance, from the simulator's servo commands: a drop
+/// (any angle but `up_deg`) brings the tip down to the clearance `settle − clear` ticks after its command, and a
+/// lift takes it back up past the clearance `clear` ticks after its command. Half-open intervals.
+pub fn servo_low_intervals(servo: &[(u64, f32, u16)], up_deg: f32, settle: u64, clear: u64) -> Vec<(u64, u64)> {
+    let mut out = Vec::new();
+    let mut down_since: Option<u64> = None;
+    for &(t, angle, _) in servo {
+        let is_up = (angle - up_deg).abs() < 0.05;
+        match (is_up, down_since) {
+            (false, None) => down_since = Some(t),
+            (true, Some(d)) => {
+                out.push((d + settle - clear, t + clear));
+                down_since = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(d) = down_since {
+        out.push((d + settle - clear, u64::MAX));
+    }
+    out
+}
+
+/// The paths of `drawing` in machine millimetres through `profile`'s page mapping (what [`ink_off_drawing`]
+/// checks against).
+pub fn machine_paths(profile: &plotter_path::MachineProfile, drawing: &plotter_path::Drawing) -> Vec<Vec<(f64, f64)>> {
+    drawing
+        .paths()
+        .map(|p| p.points.iter().map(|q| profile.page_to_machine(*q)).map(|q| (q.x, q.y)).collect())
+        .collect()
+}

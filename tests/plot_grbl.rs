@@ -6,7 +6,8 @@
 use std::io::{Read as _, Write as _};
 use std::process::{Command, Stdio};
 
-use plotter_e2e::{SimPty, plotter, plotter_bin, sample, scratch};
+use plotter_e2e::{SimPty, ink_off_drawing, machine_paths, plotter, plotter_bin, sample, scratch};
+use plotter_path::{MachineProfile, input::svg};
 
 const PROMPT: &str = "[Enter] continue, [s] skip this layer, [q] stop";
 
@@ -78,13 +79,24 @@ fn three_pens_over_a_grbl_pty_with_two_pen_changes() {
         .collect();
     assert_eq!(pos, [6800, 4000, 1600]);
     assert_eq!(trace.positions.last().copied(), Some([6800, 4000, 1600]));
+    // Never below the 1 mm clearance (400 steps) off the drawing, though the hops move Z on the way.
+    let profile = MachineProfile::default_plotter();
+    let data = std::fs::read(&svg).expect("sample");
+    let drawing =
+        svg::import_svg(&data, "three-pens.svg", &svg::ResourcePolicy::DataUrlsOnly, &svg::SvgOptions::default())
+            .expect("svg")
+            .drawing;
+    let samples = trace.positions.iter().map(|p| (p[2] < 400, [p[0], p[1]]));
+    let off = ink_off_drawing(samples, &machine_paths(&profile, &drawing), 80.0, svg::DEFAULT_TOLERANCE_MM);
+    assert!(off.is_empty(), "{} positions below the clearance off the drawing: {:?}", off.len(), off.first());
+    assert!(trace.mixed_xy_z_steps() > 0, "no XY+Z travel");
     // Seven strokes (frame, horizon; circle, three rays; wave), and the carriage parked at the home corner with
     // the pen up between the layers: after the black horizon (2nd run) and after the last red ray (6th run).
-    let runs = trace.pen_down_runs(800);
+    let runs = trace.pen_down_runs(400);
     let moving: Vec<_> = runs.iter().filter(|r| r.iter().any(|p| *p != r[0])).collect();
     assert_eq!(moving.len(), 7, "{}", moving.len());
     let parked = trace.positions.iter().enumerate().filter(|(_, p)| p[0] == 0 && p[1] == 0 && p[2] == 1600);
-    let first_draw = trace.positions.iter().position(|p| p[2] < 800 && (p[0], p[1]) != (0, 0)).expect("draws");
+    let first_draw = trace.positions.iter().position(|p| p[2] < 400 && (p[0], p[1]) != (0, 0)).expect("draws");
     let park_visits = parked.filter(|(i, _)| *i > first_draw).map(|(i, _)| i).collect::<Vec<_>>();
     let separate = park_visits.windows(2).filter(|w| w[1] != w[0] + 1).count() + usize::from(!park_visits.is_empty());
     assert_eq!(separate, 2, "two separate stays at the park position after drawing began");

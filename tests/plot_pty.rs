@@ -6,7 +6,9 @@ use std::io::{Read as _, Write as _};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use plotter_e2e::{SAMPLE_SVG, SimPty, Trace, plotter, plotter_bin, point_segment_distance, scratch};
+use plotter_e2e::{
+    SAMPLE_SVG, SimPty, Trace, ink_off_drawing, machine_paths, plotter, plotter_bin, point_segment_distance, scratch,
+};
 use plotter_path::motion::steps::{StepDrawing, StepPos, drawing_to_steps};
 use plotter_path::{Drawing, MachineProfile, input::svg};
 
@@ -22,12 +24,21 @@ fn ideal() -> (MachineProfile, Drawing, StepDrawing) {
     (profile, drawing, steps)
 }
 
+/// The pen's clearance height (steps): below it the tip may touch the paper (the hops travel at or above it).
 fn pen_threshold(p: &MachineProfile) -> i64 {
-    let mid = (p.pen.up_z_mm + p.pen.down_z_mm) / 2.0 * p.axes.z.steps_per_mm;
+    let clear = (p.pen.down_z_mm + p.pen.clearance_mm) * p.axes.z.steps_per_mm;
     // A small positive value.
     #[allow(clippy::cast_possible_truncation)]
-    let t = mid.round() as i64;
+    let t = clear.round() as i64;
     t
+}
+
+/// The ink check over a pty trace: every position below the clearance lies on a stroke of `drawing`.
+fn assert_inks_only_the_drawing(profile: &MachineProfile, drawing: &Drawing, trace: &Trace) {
+    let threshold = pen_threshold(profile);
+    let samples = trace.positions.iter().map(|p| (p[2] < threshold, [p[0], p[1]]));
+    let off = ink_off_drawing(samples, &machine_paths(profile, drawing), profile.axes.x.steps_per_mm, TOLERANCE_MM);
+    assert!(off.is_empty(), "{} positions below the clearance off the drawing, first {:?}", off.len(), off.first());
 }
 
 fn write_sample(dir: &Path) -> std::path::PathBuf {
@@ -66,7 +77,9 @@ fn svg_plotted_over_a_pty_matches_the_intended_paths() {
     assert!(runs.iter().all(|r| r.len() > 1));
     // Pen up on every travel move: one pen-down run per stroke, nothing drawn in between.
     assert_eq!(runs.len(), steps.strokes.len());
-    assert_eq!(trace.mixed_xy_z_steps(), 0, "the pen never moves sideways while going up or down");
+    // The hops move Z on the way (issue 25), and never with the pen below the clearance off the drawing.
+    assert!(trace.mixed_xy_z_steps() > 0, "no XY+Z travel");
+    assert_inks_only_the_drawing(&profile, &drawing, &trace);
     let spm = profile.axes.x.steps_per_mm;
     assert_eq!(spm, profile.axes.y.steps_per_mm);
     let half_step_mm = 0.5 / spm;
@@ -112,6 +125,8 @@ fn resends(stdout: &str) -> u64 {
 fn line_noise_gives_the_same_trace_and_reports_resends() {
     let (clean, clean_out) = plot_over_pty(&[], &[]);
     assert_eq!(resends(&clean_out), 0);
+    let (profile, drawing, _) = ideal();
+    assert_inks_only_the_drawing(&profile, &drawing, &clean);
     for seed in ["3", "11"] {
         let (noisy, out) = plot_over_pty(&["--noise", "0.01", "--seed", seed], &[]);
         let n = resends(&out);
@@ -145,7 +160,7 @@ fn concat_runs(t: &Trace, threshold: i64) -> Vec<StepPos> {
 
 #[test]
 fn resume_after_killing_the_host_at_half() {
-    let (profile, _, _) = ideal();
+    let (profile, drawing, _) = ideal();
     let threshold = pen_threshold(&profile);
     let (clean, _) = plot_over_pty(&[], &[]);
 
@@ -181,6 +196,7 @@ fn resume_after_killing_the_host_at_half() {
     let resumed = sim.stop();
     // Every stroke drawn once, none missed: the pen-down steps are those of the uninterrupted plot.
     assert_eq!(concat_runs(&resumed, threshold), concat_runs(&clean, threshold));
+    assert_inks_only_the_drawing(&profile, &drawing, &resumed);
     assert!(std::fs::read_to_string(&journal).unwrap().ends_with("complete\n"));
 }
 

@@ -1,7 +1,7 @@
 //! Host-planned time against the simulator's executed time, and the executed geometry against the plan, with the
 //! frames fed straight into the simulated firmware (plotter-path's plan, plotter-fw's protocol and simulator).
 
-use plotter_e2e::SAMPLE_SVG;
+use plotter_e2e::{SAMPLE_SVG, ink_off_drawing, machine_paths, sim_positions};
 use plotter_fw::sim::Sim;
 use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
 use plotter_path::motion::steps::drawing_to_steps;
@@ -40,8 +40,47 @@ fn host_time_equals_executed_time() {
             assert_eq!(host, executed, "{}", profile.name);
             let end = sim.physical_position();
             assert_eq!([end[0], end[1], end[2]], [plan.end[0], plan.end[1], plan.end[2]].map(i64::from));
+            if profile.heaters.is_none() {
+                assert!(inks_off(&profile, &drawing, &sim).is_empty(), "{}", profile.name);
+            }
         }
     }
+}
+
+/// The positions the simulator stepped with the pen below `judge`'s clearance off `drawing` (see
+/// [`ink_off_drawing`]).
+fn inks_off(judge: &MachineProfile, drawing: &plotter_path::Drawing, sim: &Sim) -> Vec<[i64; 2]> {
+    let clear = (judge.pen.down_z_mm + judge.pen.clearance_mm) * judge.axes.z.steps_per_mm;
+    let below = |z: i64| f64::from(i32::try_from(z).expect("Z steps fit i32")) < clear;
+    let samples = sim_positions(sim).into_iter().map(|(_, p)| (below(p[2]), [p[0], p[1]]));
+    ink_off_drawing(samples, &machine_paths(judge, drawing), judge.axes.x.steps_per_mm, svg::DEFAULT_TOLERANCE_MM)
+}
+
+/// The ink check can fail: a plan made for a pen that clears the paper at 0.5 mm travels between 0.5 and 1 mm
+/// right after each rise and right before each drop, which on the kit (clearance 1 mm) is below the clearance
+/// while XY moves off the strokes. The same plan with the kit's own clearance passes.
+#[test]
+fn the_ink_check_catches_travel_below_the_clearance() {
+    let kit = MachineProfile::default_plotter();
+    let mut low = kit.clone();
+    low.pen.clearance_mm = 0.5;
+    let drawing = svg::import_svg(
+        SAMPLE_SVG.as_bytes(),
+        "sample.svg",
+        &svg::ResourcePolicy::DataUrlsOnly,
+        &svg::SvgOptions::default(),
+    )
+    .unwrap()
+    .drawing;
+    let steps = drawing_to_steps(&kit, &drawing).unwrap();
+    let (_, sim, _) = run_on_sim(&kit, |start| plan::plan(&low, &steps, start, Lookahead::Whole).unwrap());
+    let off = inks_off(&kit, &drawing, &sim);
+    // Every hop but the first (from the pen-up height) starts and ends below 1 mm: 5 strokes, 4 such hops, each
+    // with XY steps off the drawing at both ends.
+    assert!(off.len() >= 8, "{} positions off the drawing", off.len());
+    assert!(inks_off(&low, &drawing, &sim).is_empty(), "judged with the clearance it was planned for");
+    let (_, sim, _) = run_on_sim(&kit, |start| plan::plan(&kit, &steps, start, Lookahead::Whole).unwrap());
+    assert!(inks_off(&kit, &drawing, &sim).is_empty());
 }
 
 /// Planned time of `drawing` on `profile` from home (no path optimization: the drawing's own order).

@@ -163,14 +163,14 @@ impl Cdp {
         let input = self.call("DOM.querySelector", json!({ "nodeId": root, "selector": "#file" }))["nodeId"].clone();
         let duck = sample("duck.svg");
         self.call("DOM.setFileInputFiles", json!({ "nodeId": input, "files": [duck.display().to_string()] }));
-        // samples/duck.svg has 6 paths; `plotter stats` plans it in 14.8 s with ordering on.
+        // samples/duck.svg has 6 paths; `plotter stats` plans it in 13.2 s with ordering on.
         self.wait_for(
             "the vector preview",
             "document.querySelectorAll('#g-drawing polyline').length === 6",
             Duration::from_secs(20),
         );
         assert_eq!(self.text("#drawing-name"), "duck.svg");
-        assert_eq!(self.text("#estimate"), "0:14.8");
+        assert_eq!(self.text("#estimate"), "0:13.2");
         assert_eq!(self.eval("document.querySelectorAll('#g-travel line').length"), json!(5));
         self.click("connect");
         self.wait_for("the simulator", "document.getElementById('machine-status').textContent.startsWith('simulated plotter') && document.getElementById('activity').textContent === 'idle'", Duration::from_secs(20));

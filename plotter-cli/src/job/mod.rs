@@ -395,8 +395,8 @@ mod tests {
         GrblSession::connect(EmulatorTransport::new(emu), "emulator", &profile).unwrap()
     }
 
-    /// Pen-down runs (XY step positions while Z is below the middle) of a step trace that move in XY (homing Z
-    /// dips the pen where the carriage stands).
+    /// Pen-down runs (XY step positions while Z is below the kit's 1 mm clearance, 400 steps: the hops travel at
+    /// or above it) of a step trace that move in XY (homing Z dips the pen where the carriage stands).
     fn pen_down_runs(sim: &plotter_fw::sim::Sim) -> Vec<Vec<(i64, i64)>> {
         let mut pos = sim.hal().physical_position();
         for e in sim.hal().steps().iter().rev() {
@@ -406,7 +406,7 @@ mod tests {
         let mut cur: Vec<(i64, i64)> = Vec::new();
         for e in sim.hal().steps() {
             pos[e.axis.index()] += if e.forward { 1 } else { -1 };
-            if pos[2] < 800 {
+            if pos[2] < 400 {
                 cur.push((pos[0], pos[1]));
             } else if !cur.is_empty() {
                 runs.push(std::mem::take(&mut cur));

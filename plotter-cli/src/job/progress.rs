@@ -260,10 +260,11 @@ mod tests {
         let d = Drawing::single_layer("a", vec![line((5.0, 10.0), (35.0, 10.0)), line((35.0, 20.0), (5.0, 20.0))]);
         let steps = drawing_to_steps(&profile, &d).unwrap();
         let plan = plan(&profile, &steps, homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
-        // Travel, drop, settle, line, lift, settle; twice.
+        // Travel, drop, settle, line; the rise to the clearance and the hop in two travel blocks (climbing, then
+        // descending), drop, settle, line; the last lift and its settle.
         use MoveKind::*;
         let kinds: Vec<MoveKind> = plan.blocks.iter().map(|b| b.kind).collect();
-        assert_eq!(kinds, [Travel, PenDown, Settle, Draw, PenUp, Settle, Travel, PenDown, Settle, Draw, PenUp, Settle]);
+        assert_eq!(kinds, [Travel, PenDown, Settle, Draw, PenUp, Travel, Travel, PenDown, Settle, Draw, PenUp, Settle]);
         // After block k (1-based count of executed blocks): where the pen is on the page and whether it is down.
         let expected = [
             (0, (0.0, 0.0), false),

@@ -12,7 +12,18 @@ pub fn stepped_drawing(sim: &Sim, profile: &MachineProfile) -> (Drawing, Vec<Lin
     let mapper = StepMapper::new(profile);
     let cfg = sim.machine().config();
     let z = cfg.axis(Axis::Z);
-    let threshold = (f64::from(cfg.pen.up_z_mm) + f64::from(cfg.pen.down_z_mm)) / 2.0 * f64::from(z.steps_per_mm);
+    // The pen draws at its pen-down height; pen-up hops travel at or above the clearance height above it and the
+    // Z-only rise and drop between them move no XY: Z at (or beyond) a pen-down height is ink. With pens of
+    // different heights, the one nearest the pen-up height counts (no stroke is missed; a hop of a lower pen may
+    // show where it passes that height).
+    let up = profile.pen.up_z_mm;
+    let nearest = profile
+        .pens
+        .iter()
+        .filter_map(|p| p.down_z_mm)
+        .fold(profile.pen.down_z_mm, |n, d| if (d - up).abs() < (n - up).abs() { d } else { n });
+    let sign = if up >= nearest { 1.0 } else { -1.0 };
+    let threshold = sign * (nearest * f64::from(z.steps_per_mm)).round() + 0.5;
     let mut pos = [0i64; 4];
     let mut paths: Vec<Polyline> = Vec::new();
     let mut travel: Vec<Line> = Vec::new();
@@ -25,7 +36,7 @@ pub fn stepped_drawing(sim: &Sim, profile: &MachineProfile) -> (Drawing, Vec<Lin
     };
     // Step counts are far below 2^53, so the comparison in f64 is exact.
     #[allow(clippy::cast_precision_loss)]
-    let down = |p: &[i64; 4]| (p[2] as f64) < threshold;
+    let down = |p: &[i64; 4]| sign * (p[2] as f64) < threshold;
     for e in sim.hal().steps() {
         pos[e.axis.index()] += if e.forward { 1 } else { -1 };
         if down(&pos) {

@@ -938,13 +938,14 @@ pub(crate) mod tests {
         let profile = MachineProfile::default_plotter();
         let plan = spiral_plan(&profile, [0, 0, 1600, 0]);
         match run(None, &mut c) {
-            // The pause waits for a stroke to end: the last executed block lifted the pen (or let it settle).
+            // The pause waits for a stroke to end: the last executed block lifted the pen (between strokes of one
+            // pen only to the clearance, with no settle; the hop's travel goes on up from there).
             Err(StreamError::Aborted { executed }) => {
                 assert!(executed > 3 && executed < plan.blocks.len() / 2, "{executed}");
                 let last = &plan.blocks[executed - 1];
                 let before = &plan.blocks[executed - 2];
                 assert!(
-                    last.kind == MoveKind::Settle && before.kind == MoveKind::PenUp,
+                    last.kind == MoveKind::PenUp && before.kind == MoveKind::Draw,
                     "{:?} {:?}",
                     before.kind,
                     last.kind

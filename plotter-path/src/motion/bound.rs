@@ -12,11 +12,16 @@
 //!   Each piece between such vertices takes at least the fastest one-dimensional motion over its length that
 //!   starts and ends within those speeds, never exceeds the draw feed and accelerates at most at
 //!   `√(a_x² + a_y²)` (the largest acceleration the per-axis limits allow along any direction).
-//! * **Pen lifts**: one drop and one lift per stroke, each a settle dwell and a Z move that ends at rest (the
-//!   dwell) and starts no faster than the 90° corner from the XY move allows. A servo pen's drop or lift is its
-//!   settle dwell alone, and the drawing before it ends at rest (the servo block is a stop).
+//! * **Pen lifts** (the hop overlaps them with the travel, see [`crate::motion::hop`]): per stroke a Z move of at
+//!   least the clearance off the paper (entered no faster than the 90° corner from the drawing allows, left no
+//!   faster than the corner into a travel that climbs at up to twice the hop slope), a Z move of at least the
+//!   clearance down to it (entered likewise, ending at rest) and the settle dwell; and once, the settle after the
+//!   final lift. A servo pen's hop waits at least the clear time for the lift and the settle time for the drop,
+//!   of which the travel may overlap no more than `settle − clear` (the drop is commanded before the carriage
+//!   arrives only when the rest of the travel fits in that): `2·clear` per stroke, and `2·settle − clear` once for
+//!   the plot's first lift and last lift. The drawing before a servo lift ends at rest (the servo block is a stop).
 //! * **Travel**: the pen-up hops span at least the travel lower bound's tree (see [`crate::optimize::bound`]),
-//!   each hop on its own: from rest, at no more than the travel feed, into the pen drop's corner
+//!   each hop on its own: at no more than the travel feed, from and into the corners with the pen's Z moves
 //!   ([`min_hop_seconds`]).
 //!
 //! Curvature limits inside strokes and the direction limits of the feed are left out (each only adds time), so the
@@ -66,17 +71,27 @@ fn corner_speed(a: f64, deviation: f64) -> f64 {
     (a * deviation * s / (1.0 - s)).sqrt()
 }
 
-/// The least time a pen-up hop of at least `d` mm can take on `profile`, seconds (no lift): it starts at rest (after
-/// the lift's settle), reaches at most the travel feed, accelerates at most `√(a_x² + a_y²)`, and ends no faster
-/// than the 90° corner into the pen drop. Its endpoints were rounded to steps, which may shorten it by up to two
-/// step diagonals. Non-decreasing in `d`, so it maps a travel lower bound's hop lengths to a time bound
+/// The junction speed between a Z-only move and a travel that climbs or descends at up to twice the hop slope
+/// (the turn is less than 90° by up to `atan(2·s)`), at acceleration `a`: an over-estimate of what the plan's
+/// hops enter and leave their Z moves with.
+fn hop_corner_speed(profile: &MachineProfile, a: f64) -> f64 {
+    let tilt = (2.0 * crate::motion::hop::rise_slope(profile)).atan();
+    let sin_half = ((std::f64::consts::FRAC_PI_2 + tilt) / 2.0).sin();
+    (a * profile.motion.junction_deviation_mm * sin_half / (1.0 - sin_half)).sqrt()
+}
+
+/// The least time a pen-up hop of at least `d` mm can take on `profile`, seconds (no lift): it starts and ends no
+/// faster than the corners with the pen's Z moves allow ([`hop_corner_speed`] with the largest XY acceleration;
+/// a servo pen's hop starts and ends at rest), reaches at most the travel feed and accelerates at most
+/// `√(a_x² + a_y²)`. Its endpoints were rounded to steps, which may shorten it by up to two step diagonals.
+/// Non-decreasing in `d`, so it maps a travel lower bound's hop lengths to a time bound
 /// ([`crate::optimize::travel_lower_bound_mapped`]).
 pub fn min_hop_seconds(profile: &MachineProfile) -> impl Fn(f64) -> f64 + use<> {
     let accel = profile.axes.x.max_accel_mm_s2.hypot(profile.axes.y.max_accel_mm_s2);
-    let v_end = corner_speed(accel, profile.motion.junction_deviation_mm);
+    let v_end = hop_corner_speed(profile, accel);
     let feed = profile.pen.travel_feed_mm_s;
     let slack = 2.0 * (1.0 / profile.axes.x.steps_per_mm).hypot(1.0 / profile.axes.y.steps_per_mm);
-    move |d: f64| min_time((d - slack).max(0.0), 0.0, v_end, feed, accel)
+    move |d: f64| min_time((d - slack).max(0.0), v_end, v_end, feed, accel)
 }
 
 /// Lower bound on the time to plot `steps` (strokes as the plan draws them) whose pen-up hops take at least
@@ -95,16 +110,27 @@ pub fn plot_time_lower_bound(
     let draw = profile.pen.draw_feed_mm_s;
     let deviation = profile.motion.junction_deviation_mm;
     let mut bound = TimeBound::default();
-    // One drop and one lift per stroke: the settle dwell and a Z move entered at most at the 90° corner speed.
     let z = &profile.axes.z;
-    let dz_mm = (profile.pen.up_z_mm - profile.pen.down_z_mm).abs();
     let corner = |a: f64| corner_speed(a, deviation);
-    // A servo pen moves no axis: its block is the settle dwell alone, and a fixed block, so drawing stops before it.
+    let secs = |ticks: u32| f64::from(ticks) / f64::from(plotter_fw::TICK_HZ);
+    let settle = secs(crate::motion::plan::settle_ticks(profile));
+    // A servo pen moves no axis: its blocks are dwells, and fixed blocks, so drawing stops before them.
     let servo = profile.pen.uses_servo();
-    let z_move =
-        if servo { 0.0 } else { min_time(dz_mm, corner(z.max_accel_mm_s2), 0.0, z.max_feed_mm_s, z.max_accel_mm_s2) };
-    let settle = f64::from(crate::motion::plan::settle_ticks(profile)) / f64::from(plotter_fw::TICK_HZ);
-    let cycle_s = 2.0 * (z_move + settle);
+    let (cycle_s, once_s) = if servo {
+        let clear = secs(crate::motion::plan::servo_clear_ticks(profile));
+        (2.0 * clear, 2.0 * settle - clear)
+    } else {
+        // The clearance, capped (as the plan caps it) by every pen's distance from the paper to the pen-up height.
+        let up = profile.pen.up_z_mm;
+        let c_mm = std::iter::once(profile.pen.down_z_mm)
+            .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
+            .fold(profile.pen.clearance_mm, |c, d| c.min((up - d).abs()));
+        let (vz, az) = (z.max_feed_mm_s, z.max_accel_mm_s2);
+        let v_hop = hop_corner_speed(profile, az);
+        let rise = min_time(c_mm, corner(az), v_hop, vz, az);
+        let drop = min_time(c_mm, v_hop, 0.0, vz, az);
+        (rise + drop + settle, settle)
+    };
     let v_lift = if servo { 0.0 } else { corner(accel) };
     let mut strokes = 0usize;
     for s in &steps.strokes {
@@ -135,7 +161,7 @@ pub fn plot_time_lower_bound(
     }
     #[allow(clippy::cast_precision_loss, reason = "stroke counts are far below 2^52")]
     {
-        bound.lifts_s = strokes as f64 * cycle_s;
+        bound.lifts_s = if strokes == 0 { 0.0 } else { strokes as f64 * cycle_s + once_s };
     }
     bound.travel_s = travel_lb_s;
     Ok(bound)
@@ -174,17 +200,18 @@ mod tests {
     fn min_hop_by_hand() {
         let p = MachineProfile::default_plotter();
         let hop = min_hop_seconds(&p);
-        // a = 1500·√2, the corner speed into the drop v₁ = √(a·0.02·√½/(1 − √½)), the slack two step diagonals.
+        // a = 1500·√2; the corners with the Z moves, a turn of 90° less the travel's tilt (up to twice the hop
+        // slope 0.051 65: atan 0.1033 = 5.897°), v₁ = √(a·0.02·sin(θ/2)/(1 − sin(θ/2))) with
+        // sin(θ/2) = sin(47.949°) = 0.742 66; the slack two step diagonals.
         let a = 1500f64.hypot(1500.0);
-        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let s = 0.742_66;
         let v1 = (a * 0.02 * s / (1.0 - s)).sqrt();
         let slack = 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0);
-        // 100 mm: ramp up to 120 (120²/2a), ramp down to v₁, cruise the rest.
+        // 100 mm: ramp up from v₁ to 120, ramp down to v₁, cruise the rest.
         let len = 100.0 - slack;
-        let up = 120.0 * 120.0 / (2.0 * a);
-        let down = (120.0 * 120.0 - v1 * v1) / (2.0 * a);
-        let t = 120.0 / a + (120.0 - v1) / a + (len - up - down) / 120.0;
-        assert!((hop(100.0) - t).abs() < 1e-9, "{} vs {t}", hop(100.0));
+        let ramp = (120.0 * 120.0 - v1 * v1) / (2.0 * a);
+        let t = 2.0 * (120.0 - v1) / a + (len - 2.0 * ramp) / 120.0;
+        assert!((hop(100.0) - t).abs() < 1e-5, "{} vs {t}", hop(100.0));
         // Shorter than the slack: nothing is certain.
         assert_eq!(hop(slack / 2.0), 0.0);
         // Monotone.
@@ -209,11 +236,18 @@ mod tests {
         let v_lift = (a * 0.02 * s / (1.0 - s)).sqrt();
         assert!((b.draw_s - min_time(100.0, 0.0, v_lift, 60.0, a)).abs() < 1e-9, "{b:?}");
         assert!((b.draw_s - (100.0 / 60.0 + 60.0 / a / 2.0 + (60.0 - v_lift).powi(2) / (2.0 * a * 60.0))).abs() < 1e-9);
-        // Lifts: two 50 ms dwells and two 4 mm Z moves, each at least 4/25 + (25 − v)²/(2·500·25) with v the Z
-        // corner speed √(500·0.02·√½/(1 − √½)) entering it, plus the 25/500/2 s ramp down.
+        // Lifts: the drop's and the final lift's 50 ms dwells, and 1 mm of Z (the clearance) off the paper and
+        // onto it. Off: from the 90° corner √(500·0.02·√½/(1 − √½)) = 4.913 mm/s into the hop's corner (the
+        // travel climbing at up to 2·0.051 65: sin(θ/2) = sin((90° + 5.897°)/2) = 0.742 66, √(10·0.742 66/0.257 34)
+        // = 5.371 mm/s); 1 mm is too short to reach 25 mm/s: a triangle peaking at √((2·500·1 + v0² + v1²)/2).
         let vz = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
-        let zm = 4.0 / 25.0 + (25.0 - vz).powi(2) / (2.0 * 500.0 * 25.0) + 25.0 / 500.0 / 2.0;
-        assert!((b.lifts_s - 2.0 * (0.05 + zm)).abs() < 1e-9, "{b:?}");
+        let vh = hop_corner_speed(&p, 500.0);
+        assert!((vz - 4.913).abs() < 1e-3 && (vh - 5.371).abs() < 1e-3, "{vz} {vh}");
+        let tri = |v0: f64, v1: f64| {
+            let peak = ((1000.0 + v0 * v0 + v1 * v1) / 2.0).sqrt();
+            (2.0 * peak - v0 - v1) / 500.0
+        };
+        assert!((b.lifts_s - (tri(vz, vh) + tri(vh, 0.0) + 2.0 * 0.05)).abs() < 1e-9, "{b:?}");
         // Travel: handed in as it is.
         assert_eq!(b.travel_s, 0.1);
         // A zig-zag stops at each reversal: three 10 mm legs take three rest-to-rest motions.
@@ -240,10 +274,12 @@ mod tests {
             moves: vec![StepDelta { dx: 8000, dy: 0 }],
         }]);
         let b = plot_time_lower_bound(&p, &steps, min_hop_seconds(&p)(200f64.sqrt())).unwrap();
-        // The servo block is a stop: the 100 mm line runs rest to rest; a drop and a lift of 150 ms each.
+        // The servo block is a stop: the 100 mm line runs rest to rest. Lifts: the first and last lifts' 150 ms
+        // each, and the one stroke's clear time (50 ms, a third of the settle) for its drop (the rest of the drop
+        // may overlap the travel).
         let a = 1500f64.hypot(1500.0);
         assert!((b.draw_s - (100.0 / 60.0 + 60.0 / a)).abs() < 1e-9, "{b:?}");
-        assert!((b.lifts_s - 0.3).abs() < 1e-12, "{b:?}");
+        assert!((b.lifts_s - 0.35).abs() < 1e-12, "{b:?}");
         let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
     }
@@ -268,18 +304,27 @@ mod tests {
     }
 
     #[test]
-    fn the_z_move_spans_the_distance_between_up_and_down() {
+    fn the_z_moves_span_the_clearance_capped_by_the_pen_heights() {
         let mut p = MachineProfile::default_plotter();
-        (p.pen.down_z_mm, p.pen.up_z_mm) = (0.5, 4.5);
         let steps = StepDrawing::from_strokes(vec![StepStroke {
             start: StepPos::new(800, 800),
             moves: vec![StepDelta { dx: 800, dy: 0 }],
         }]);
-        let b = plot_time_lower_bound(&p, &steps, 0.0).unwrap();
-        // 4 mm each way, as in the long-line case above: two 50 ms dwells and two Z moves.
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let vz = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
-        let zm = 4.0 / 25.0 + (25.0 - vz).powi(2) / (2.0 * 500.0 * 25.0) + 25.0 / 500.0 / 2.0;
-        assert!((b.lifts_s - 2.0 * (0.05 + zm)).abs() < 1e-9, "{b:?}");
+        let vh = hop_corner_speed(&p, 500.0);
+        let lifts = |c: f64| min_time(c, vz, vh, 25.0, 500.0) + min_time(c, vh, 0.0, 25.0, 500.0) + 0.1;
+        let at = |p: &MachineProfile| plot_time_lower_bound(p, &steps, 0.0).unwrap().lifts_s;
+        // 1 mm of clearance, 4 mm from the paper to the pen-up height.
+        assert!((at(&p) - lifts(1.0)).abs() < 1e-12);
+        // Only 0.4 mm between the paper and the pen-up height: the clearance is capped there.
+        (p.pen.down_z_mm, p.pen.up_z_mm) = (3.6, 4.0);
+        assert!((at(&p) - lifts(0.4)).abs() < 1e-12);
+        // A larger clearance, and a pen-table pen that sits higher and caps it.
+        (p.pen.down_z_mm, p.pen.clearance_mm) = (0.0, 2.0);
+        assert!((at(&p) - lifts(2.0)).abs() < 1e-12);
+        p.pens[0].down_z_mm = Some(2.5);
+        assert!((at(&p) - lifts(1.5)).abs() < 1e-12);
+        assert!(lifts(1.5) < lifts(2.0));
     }
 }

@@ -3,6 +3,7 @@
 
 pub mod bound;
 pub mod heaters;
+pub mod hop;
 pub mod pens;
 pub mod plan;
 pub mod print_plan;

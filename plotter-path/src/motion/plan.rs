@@ -1,9 +1,23 @@
 //! The host motion plan: a [`StepDrawing`] becomes the exact sequence of step blocks the firmware will run.
 //!
-//! Sequence per stroke: pen-up travel (XY at the travel feed) to the stroke start, pen drop (a Z move to the
-//! pen-down height) and its settle dwell, the pen-down moves at the drawing feed, pen lift (Z to the pen-up height)
-//! and its settle dwell. A servo pen (`pen.command = "servo"`) moves no axis: each drop and lift is one servo block
-//! ([`StepBlock::servo`]: the angle, then the settle time as its dwell) and Z never steps. Every move becomes a [`PlanBlock`] of the firmware's own planner
+//! Sequence per stroke: the pen-up hop to the stroke start, the pen drop and its settle dwell, the pen-down moves
+//! at the drawing feed. The hop overlaps the pen's motion with the travel (issue 25): with a Z pen it is a Z-only
+//! rise from the paper to the clearance height (`pen.clearance_mm`), XY+Z travel blocks along which the pen goes
+//! on up towards the pen-up height and comes back down to the clearance height ([`crate::motion::hop`]), and the
+//! Z-only drop from there to the paper. Nothing waits for the pen to stop rising, so the lift has no settle. Before
+//! a pen change, and after the last stroke, the pen goes fully up and settles, and the travel to the first stroke of
+//! a new pen is flat at the pen-up height (where the job parks).
+//!
+//! A servo pen (`pen.command = "servo"`) moves no axis: each drop and lift is one servo block ([`StepBlock::servo`]:
+//! the angle, then a dwell) and Z never steps. Its overlap is timing: the travel starts once the tip is clear
+//! (`pen.clear_ms` after the lift command), and the drop is commanded before the carriage arrives, when the rest
+//! of the travel fits in the time the falling tip takes to reach the clearance height (`settle − clear`, the
+//! drop taken as the lift run backwards). Servo blocks carry no steps, so the drop command splits the travel: the
+//! travel stops, the servo is commanded (a 1-tick block), the last part follows and a dwell completes the settle
+//! time counted from the command. The split is only made where it pays, and a drop is never commanded before the
+//! previous lift has had its full settle time (so the servo always falls from the pen-up angle).
+//!
+//! Every move becomes a [`PlanBlock`] of the firmware's own planner
 //! ([`plotter_fw::planner`]: per-axis limits, junction deviation, reverse/forward passes), planned here over the
 //! **whole drawing** at once — the host has unlimited look-ahead, the firmware only its queue. Dwells are fixed
 //! blocks and therefore stop points, so the pen never moves sideways while it is settling.
@@ -22,6 +36,7 @@ use plotter_fw::protocol;
 use plotter_fw::{Axis, MachineConfig, NUM_AXES, StepBlock, TICK_HZ};
 
 use crate::MachineProfile;
+use crate::motion::hop::{self, HopHeights};
 use crate::motion::pens::{self, LayerPen};
 use crate::motion::profile::{AxisProfile, HomeEnd};
 use crate::motion::steps::{StepDrawing, StepMapper, StepPos};
@@ -423,7 +438,17 @@ pub fn check_work_area(profile: &MachineProfile, steps: &StepDrawing) -> Result<
 
 /// Settle dwell in ticks.
 pub(crate) fn settle_ticks(profile: &MachineProfile) -> u32 {
-    let t = (profile.pen.settle_ms * 1000.0).round();
+    ms_ticks(profile.pen.settle_ms)
+}
+
+/// A servo pen's clear time ([`crate::motion::profile::PenProfile::servo_clear_ms`]) in ticks, at most the settle.
+pub(crate) fn servo_clear_ticks(profile: &MachineProfile) -> u32 {
+    ms_ticks(profile.pen.servo_clear_ms()).min(settle_ticks(profile))
+}
+
+/// Milliseconds as a dwell in ticks.
+fn ms_ticks(ms: f64) -> u32 {
+    let t = (ms * 1000.0).round();
     // Clamped into the u32 range first.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let ticks = t.clamp(0.0, f64::from(protocol::DWELL_MAX)) as u32;
@@ -476,6 +501,68 @@ impl RawPlan<'_> {
     fn line_to(&mut self, to: StepPos, feed: f32, kind: MoveKind, stroke: usize) {
         self.push([to.x - self.pos[0], to.y - self.pos[1], 0, 0], feed, kind, stroke);
     }
+
+    /// Exact duration (ticks, quantized as on the wire) of an XY move by `delta` at `feed` from rest to rest: what
+    /// a move between two fixed blocks takes. 0 when nothing moves.
+    fn rest_to_rest_ticks(&self, delta: StepPos, feed: f32) -> u32 {
+        let Some(b) = PlanBlock::line(self.cfg, [delta.x, delta.y, 0, 0], feed) else { return 0 };
+        protocol::quantize(&planner::to_step_block(&b, 0.0)).duration_ticks()
+    }
+
+    fn fixed(&mut self, block: StepBlock, kind: MoveKind, stroke: usize) {
+        self.blocks.push(PlanBlock::fixed(block));
+        self.meta.push((kind, stroke));
+    }
+
+    /// A servo pen's hop to `to` (see the module docs): the lift (when `lift` gives its angle) waits only until the
+    /// tip is clear (`clear` ticks), or longer when the travel before the drop command would otherwise start the
+    /// drop before the lift has ended; the drop is commanded before the carriage arrives, with the last part of the
+    /// travel, as long as that part fits in the time the falling tip takes to reach the clearance height.
+    fn servo_hop(&mut self, lift: Option<u16>, down: u16, to: StepPos, feed: f32, stroke: usize, clear: u32) {
+        let settle = self.settle;
+        let from = StepPos::new(self.pos[0], self.pos[1]);
+        let delta = from.delta_to(to);
+        // The drop command is a 1-tick servo block; the carriage must then arrive within this budget.
+        const DROP_TICK: u32 = 1;
+        let budget = settle.saturating_sub(clear.saturating_add(DROP_TICK));
+        let at = |k: i64, n: i64| {
+            // The point k/n of the way back from `to` towards `from`.
+            let back = |d: i32| i32::try_from(i64::from(d) * k / n).unwrap_or(0);
+            StepPos::new(to.x - back(delta.dx), to.y - back(delta.dy))
+        };
+        let n = i64::from(delta.dx.unsigned_abs().max(delta.dy.unsigned_abs()));
+        let t_full = self.rest_to_rest_ticks(StepPos::new(delta.dx, delta.dy), feed);
+        // Splitting pays when the carriage would still be travelling once the lift has fully ended.
+        let worth = n > 0 && budget > 0 && (lift.is_none() || clear.saturating_add(t_full) > settle);
+        // The longest last part that fits in the budget (durations grow with the length).
+        let (mut lo, mut hi) = (0i64, if worth { n } else { 0 });
+        while lo < hi {
+            let mid = (lo + hi + 1) / 2;
+            let p = at(mid, n);
+            if self.rest_to_rest_ticks(StepPos::new(to.x - p.x, to.y - p.y), feed) <= budget {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
+        }
+        let split = at(lo, n);
+        let t1 = self.rest_to_rest_ticks(StepPos::new(split.x - from.x, split.y - from.y), feed);
+        if let Some(u) = lift {
+            self.fixed(StepBlock::servo(u, clear.max(settle.saturating_sub(t1))), MoveKind::PenUp, stroke - 1);
+        }
+        self.line_to(split, feed, MoveKind::Travel, stroke);
+        if split == to {
+            self.fixed(StepBlock::servo(down, settle), MoveKind::PenDown, stroke);
+            return;
+        }
+        self.fixed(StepBlock::servo(down, DROP_TICK), MoveKind::PenDown, stroke);
+        let t2 = self.rest_to_rest_ticks(StepPos::new(to.x - split.x, to.y - split.y), feed);
+        self.line_to(to, feed, MoveKind::Travel, stroke);
+        let rest = settle.saturating_sub(DROP_TICK + t2);
+        if rest > 0 {
+            self.fixed(StepBlock::dwell(rest), MoveKind::Settle, stroke);
+        }
+    }
 }
 
 fn build_blocks<'c>(
@@ -491,7 +578,7 @@ fn build_blocks<'c>(
     let travel = f32_of(profile.pen.travel_feed_mm_s);
     let pens = layer_pens(profile, steps);
     let (up, downs) = pen_targets(profile, &pens)?;
-    let capacity = steps.move_count() + 6 * steps.strokes.len() + 2;
+    let capacity = steps.move_count() + 8 * steps.strokes.len() + 2;
     let mut raw = RawPlan {
         cfg,
         blocks: Vec::with_capacity(capacity),
@@ -504,27 +591,60 @@ fn build_blocks<'c>(
     let mut layer = 0;
     for (si, stroke) in steps.strokes.iter().enumerate() {
         let l = steps.layer_of(si);
-        if l != layer {
-            if !pens[l].same_pen(&pens[layer]) {
-                raw.changes.push(PenChange {
-                    block: raw.blocks.len(),
-                    layer: l,
-                    layer_name: steps.layers.get(l).map(|x| x.name.clone()).unwrap_or_default(),
-                    pen: pens[l].clone(),
-                    previous: pens[layer].clone(),
-                });
+        let change = l != layer && !pens[l].same_pen(&pens[layer]);
+        // Leave the previous stroke: fully up before a pen change, else only as far as the hop needs.
+        if si > 0 {
+            if change {
+                raw.pen(up, MoveKind::PenUp, si - 1);
+            } else if let (PenAt::Z(u), PenAt::Z(d)) = (up, downs[layer]) {
+                let clear = HopHeights::new(profile, d, u).clear;
+                raw.push([0, 0, clear - raw.pos[2], 0], raw.cfg.axis(Axis::Z).max_feed_mm_s, MoveKind::PenUp, si - 1);
             }
-            layer = l;
         }
+        if change {
+            raw.changes.push(PenChange {
+                block: raw.blocks.len(),
+                layer: l,
+                layer_name: steps.layers.get(l).map(|x| x.name.clone()).unwrap_or_default(),
+                pen: pens[l].clone(),
+                previous: pens[layer].clone(),
+            });
+        }
+        layer = l;
         let (down, draw) = (downs[l], f32_of(pens[l].draw_feed_mm_s));
-        raw.line_to(stroke.start, travel, MoveKind::Travel, si);
-        raw.pen(down, MoveKind::PenDown, si);
+        match (up, down) {
+            // After a pen change the pen is fully up: the old sequence, a flat travel the job can park.
+            _ if change => {
+                raw.line_to(stroke.start, travel, MoveKind::Travel, si);
+                raw.pen(down, MoveKind::PenDown, si);
+            }
+            (PenAt::Z(u), PenAt::Z(d)) => {
+                let h = HopHeights::new(profile, d, u);
+                let from = [raw.pos[0], raw.pos[1], raw.pos[2]];
+                for w in hop::travel_waypoints(profile, from, stroke.start, h) {
+                    raw.push(
+                        [w[0] - raw.pos[0], w[1] - raw.pos[1], w[2] - raw.pos[2], 0],
+                        travel,
+                        MoveKind::Travel,
+                        si,
+                    );
+                }
+                raw.pen(down, MoveKind::PenDown, si);
+            }
+            (PenAt::Servo(u), PenAt::Servo(d)) => {
+                let lift = (si > 0).then_some(u);
+                raw.servo_hop(lift, d, stroke.start, travel, si, servo_clear_ticks(profile));
+            }
+            _ => unreachable!("pen_targets gives one kind of pen"),
+        }
         let mut at = stroke.start;
         for d in &stroke.moves {
             at = at.offset(*d);
             raw.line_to(at, draw, MoveKind::Draw, si);
         }
-        raw.pen(up, MoveKind::PenUp, si);
+    }
+    if let Some(last) = steps.strokes.len().checked_sub(1) {
+        raw.pen(up, MoveKind::PenUp, last);
     }
     if return_home {
         let last = steps.strokes.len().saturating_sub(1);
@@ -574,7 +694,16 @@ pub fn plan_resume(
     let cfg = machine_config(profile)?;
     check_work_area(profile, steps)?;
     let full = build_blocks(profile, &cfg, steps, original_start, return_home)?;
-    let done = done.min(full.blocks.len());
+    let mut done = done.min(full.blocks.len());
+    // A servo pen's drop is commanded before the last part of its travel: resuming on that part starts again at
+    // the drop command, so that the part is travelled with the pen up and the pen then comes down in full.
+    let last_pen = full.meta[..done].iter().rposition(|m| matches!(m.0, MoveKind::PenUp | MoveKind::PenDown));
+    if let Some(j) = last_pen
+        && full.meta[j].0 == MoveKind::PenDown
+        && full.meta.get(done).is_some_and(|m| m.0 == MoveKind::Travel)
+    {
+        done = j;
+    }
     let mut target = original_start;
     for b in &full.blocks[..done] {
         for (t, s) in target.iter_mut().zip(b.steps) {
@@ -724,9 +853,17 @@ mod tests {
         assert_eq!(plan.end, [800, 800, 1600, 0]);
         assert_eq!(plan.position_after(plan.blocks.len() - 1), plan.end);
         assert!((plan.draw_mm - 20.0).abs() < 1e-9 && (plan.travel_mm - 200f64.sqrt()).abs() < 1e-9);
-        // Pen moves are pure Z, dwells last the settle time (50 ms = 50 000 ticks).
-        assert_eq!(plan.blocks[1].block.steps, [0, 0, -1600, 0]);
+        // The travel from home starts at the pen-up height and comes down on the way (14.14 mm at the hop slope,
+        // 0.73 mm), staying above the 1 mm clearance; the drop is pure Z and the rest of the way to the paper.
+        let (travel, drop) = (plan.blocks[0].block.steps, plan.blocks[1].block.steps);
+        let descent = 200f64.sqrt() * crate::motion::hop::rise_slope(&p) * 400.0;
+        assert_eq!(f64::from(travel[2]), -descent.round());
+        assert_eq!([travel[0], travel[1], drop[0], drop[1]], [800, 800, 0, 0]);
+        assert_eq!(travel[2] + drop[2], -1600);
+        // The dwell lasts the settle time (50 ms = 50 000 ticks).
         assert_eq!(plan.blocks[2].block, StepBlock::dwell(50_000));
+        // The last lift is pure Z, all the way up.
+        assert_eq!(plan.blocks[7].block.steps, [0, 0, 1600, 0]);
         // Total time is the sum of the quantized blocks' durations.
         let sum: u64 = plan.blocks.iter().map(|b| u64::from(b.block.duration_ticks())).sum();
         assert_eq!(plan.total_ticks, sum);
@@ -755,9 +892,56 @@ mod tests {
         assert!((b.travel_s() - 2.0 * (10.0 / 120.0 + 0.08)).abs() < 1e-3, "{b:?}");
         // Drawing: two 30 mm lines along X at 60 mm/s: 2 · (30/60 + 60/1500) = 1.08 s.
         assert!((b.draw_s() - 2.0 * (0.5 + 0.04)).abs() < 1e-3, "{b:?}");
-        // Lifts: two drops and two lifts, each 4 mm of Z at 25 mm/s, 500 mm/s² (4/25 + 25/500 = 0.21 s) and a
-        // 50 ms settle: 4 · 0.26 = 1.04 s.
-        assert!((b.lift_s() - 4.0 * 0.26).abs() < 1e-3, "{b:?}");
+        // Lifts: a full Z move of 4 mm at 25 mm/s, 500 mm/s² takes 4/25 + 25/500 = 0.21 s, the 1 mm clearance
+        // (too short for 25 mm/s) 2·√(1/500) = 0.0894 s. The first drop comes from the travel's end 1599 steps up
+        // (the first hop from the pen-up height came down 10 mm · 0.000 37 = 1 step): 3.9975/25 + 0.05 s; then the
+        // rise off the paper to the clearance, the drop from it, the final lift; three 50 ms settles (after the
+        // drops and the final lift, none after the rise to the clearance).
+        let clear = 2.0 * (1.0f64 / 500.0).sqrt();
+        let expect = (3.9975 / 25.0 + 0.05) + clear + clear + 0.21 + 3.0 * 0.05;
+        assert!((b.lift_s() - expect).abs() < 1e-3, "{b:?} vs {expect}");
+    }
+
+    #[test]
+    fn one_overlapped_hop_by_hand_against_the_sequential_one() {
+        // Junction deviation ~0 (1 nm) makes every junction a stop (a 90° corner at √(500·10⁻⁹·2.414) =
+        // 0.001 mm/s), so each block is a rest-to-rest trapezoid (and the hop slope, 0.8·tan(acos(F²/(F² + aδ)))
+        // ≈ 0.000 012, leaves a 10 mm hop flat). Two lines along X with a 10 mm gap: the hop between them is the rise off the paper to the 1 mm
+        // clearance (Z, 25 mm/s, 500 mm/s²: too short for 25 mm/s, a triangle 2·√(1/500) = 0.089 443 s), the
+        // travel at the clearance height (10/120 + 120/1500 = 0.163 333 s), the drop from the clearance
+        // (0.089 443 s) and its 50 ms settle: 0.392 219 s. Sequential, as before issue 25: a 4 mm lift
+        // (4/25 + 25/500 = 0.21 s) and its settle, the same travel, a 4 mm drop and its settle: 0.683 333 s.
+        let mut p = profile();
+        p.motion.junction_deviation_mm = 1e-9;
+        let line = |x0: f64, x1: f64| Polyline::new(vec![Point::new(x0, 10.0), Point::new(x1, 10.0)]);
+        let steps = drawing_to_steps(&p, &Drawing::single_layer("a", vec![line(0.0, 30.0), line(40.0, 70.0)])).unwrap();
+        let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        use MoveKind::*;
+        // The first line's only Draw block is block 3; the hop follows.
+        let hop: Vec<_> = plan.blocks[4..8].iter().map(|b| (b.kind, b.block.steps)).collect();
+        assert_eq!(
+            hop,
+            [(PenUp, [0, 0, 400, 0]), (Travel, [800, 0, 0, 0]), (PenDown, [0, 0, -400, 0]), (Settle, [0; 4])]
+        );
+        let secs = |r: std::ops::Range<usize>| {
+            #[allow(clippy::cast_precision_loss)]
+            let t = plan.blocks[r].iter().map(|b| u64::from(b.block.duration_ticks())).sum::<u64>() as f64;
+            t / 1e6
+        };
+        let (clear, travel) = (2.0 * (1.0f64 / 500.0).sqrt(), 10.0 / 120.0 + 120.0 / 1500.0);
+        let overlapped = clear + travel + clear + 0.05;
+        let sequential = 2.0 * (4.0 / 25.0 + 25.0 / 500.0 + 0.05) + travel;
+        assert!((overlapped - 0.392_219).abs() < 1e-6 && (sequential - 0.683_333).abs() < 1e-6);
+        // The stepper's rates are rounded down to what a frame carries (9 significant bits, ≤ 0.2 % slower) and to
+        // whole ticks, the corners are not quite stops (a few µs): the planned hop is within 0.2 % of the hand value.
+        let planned = secs(4..8);
+        assert!(planned >= overlapped - 1e-5 && planned <= overlapped * 1.002, "{planned} vs {overlapped}");
+        assert!(planned < 0.6 * sequential);
+        // Each part on its own.
+        assert!((secs(4..5) - clear).abs() < clear * 0.002, "{}", secs(4..5));
+        assert!((secs(6..7) - clear).abs() < clear * 0.002, "{}", secs(6..7));
+        assert_eq!(secs(7..8), 0.05);
+        assert!((secs(5..6) - travel).abs() < travel * 0.002, "{}", secs(5..6));
     }
 
     #[test]
@@ -825,8 +1009,16 @@ mod tests {
         assert_eq!(r.end, full.end);
         assert_eq!(r.original_index(r.preamble), Some(4));
         assert_eq!(r.original_index(0), None);
-        // Resuming at a pen-up point from the pen-up height needs no pen moves.
-        let r = plan_resume(&p, &steps, start, 9, start, false).unwrap();
+        // Resuming on the hop (block 8, the first travel block after the rise to the clearance) from the pen-up
+        // height: travel there, and set the pen to the height it had there (the clearance, 400 steps).
+        assert_eq!(full.blocks[7].kind, PenUp);
+        assert_eq!(full.position_after(7)[2], 400);
+        let r = plan_resume(&p, &steps, start, 8, start, false).unwrap();
+        assert_eq!(r.blocks[..r.preamble].iter().map(|b| b.kind).collect::<Vec<_>>(), [Travel, PenDown, Settle]);
+        assert_eq!(r.position_after(r.preamble - 1), full.position_after(7));
+        // Resuming after the final lift, from the pen-up height, needs no pen moves.
+        let last = full.blocks.len() - 1;
+        let r = plan_resume(&p, &steps, start, last, start, false).unwrap();
         assert_eq!(r.blocks[..r.preamble].iter().map(|b| b.kind).collect::<Vec<_>>(), [Travel]);
         assert_ne!(full.geometry_hash(), r.geometry_hash());
         assert_eq!(full.geometry_hash(), plan(&p, &steps, start, Lookahead::Window(4)).unwrap().geometry_hash());
@@ -843,27 +1035,47 @@ mod tests {
         let full = plan(&p, &steps, start, Lookahead::Whole).unwrap();
         use MoveKind::*;
         let up = Some(StepBlock::servo(900, 120_000));
-        let down = Some(StepBlock::servo(300, 120_000));
+        // The tip is clear a third of the settle after a lift (40 ms); the drop is commanded (a 1-tick servo
+        // block) before the last part of the travel, which with the dwell after it completes the 120 ms.
+        let (lift, drop) = (Some(StepBlock::servo(900, 40_000)), Some(StepBlock::servo(300, 1)));
         let shape: Vec<(MoveKind, Option<StepBlock>)> =
             full.blocks.iter().map(|b| (b.kind, b.block.servo.map(|_| b.block))).collect();
-        let square_blocks = [(Travel, None), (PenDown, down), (Draw, None), (Draw, None), (Draw, None), (Draw, None)];
+        let hop = [(Travel, None), (PenDown, drop), (Travel, None), (Settle, None)];
+        let sides = [(Draw, None); 4];
         let mut expected = vec![(PenUp, up)];
-        for _ in 0..2 {
-            expected.extend(square_blocks);
-            expected.push((PenUp, up));
-        }
+        expected.extend(hop.iter().chain(&sides));
+        expected.push((PenUp, lift));
+        expected.extend(hop.iter().chain(&sides));
+        expected.push((PenUp, up));
         assert_eq!(shape, expected);
         assert!(full.blocks.iter().all(|b| b.block.steps[2] == 0), "no Z steps");
-        // Resumed on the first square's second side (block 4): lift, travel back, lower to the pen's angle.
-        let r = plan_resume(&p, &steps, start, 4, [0, 0, start[2], 0], false).unwrap();
+        for drop_at in [2, 11] {
+            let t = |i: usize| full.blocks[i].block.duration_ticks();
+            // From the drop command to the first side: the settle time exactly.
+            assert_eq!(t(drop_at) + t(drop_at + 1) + t(drop_at + 2), 120_000);
+            // The carriage arrives before the falling tip reaches the clearance height (120 − 40 ms after the
+            // command).
+            assert!(t(drop_at) + t(drop_at + 1) <= 80_000);
+        }
+        // Between the lift at block 9 and the drop command: at least the lift's whole settle.
+        assert!(full.blocks[9].block.duration_ticks() + full.blocks[10].block.duration_ticks() >= 120_000);
+        // Resumed on the first square's second side (block 6): lift, travel back, lower to the pen's angle.
+        let r = plan_resume(&p, &steps, start, 6, [0, 0, start[2], 0], false).unwrap();
         let pre: Vec<(MoveKind, Option<u16>)> =
             r.blocks[..r.preamble].iter().map(|b| (b.kind, b.block.servo)).collect();
         assert_eq!(pre, [(PenUp, Some(900)), (Travel, None), (PenDown, Some(300))]);
-        assert_eq!(r.position_after(r.preamble - 1), full.position_after(3));
+        assert_eq!(r.position_after(r.preamble - 1), full.position_after(5));
         // Resumed at the travel to the second square (pen up): the servo is lifted anyway, its angle being unknown.
-        let r = plan_resume(&p, &steps, start, 8, start, false).unwrap();
+        let r = plan_resume(&p, &steps, start, 10, start, false).unwrap();
         let pre: Vec<MoveKind> = r.blocks[..r.preamble].iter().map(|b| b.kind).collect();
         assert_eq!(pre, [PenUp, Travel]);
+        // Resumed on the last part of that travel (block 12, after the drop command): it starts again at the drop
+        // command, so the part is travelled with the pen up.
+        let r = plan_resume(&p, &steps, start, 12, start, false).unwrap();
+        assert_eq!(r.resumed_from, 11);
+        let pre: Vec<MoveKind> = r.blocks[..r.preamble].iter().map(|b| b.kind).collect();
+        assert_eq!(pre, [PenUp, Travel]);
+        assert_eq!(r.blocks[r.preamble].block.servo, Some(300));
     }
 
     #[test]
@@ -894,7 +1106,9 @@ mod tests {
         let steps = drawing_to_steps(&p, &d).unwrap();
         let start = homed_position(&p).unwrap();
         let plan = plan(&p, &steps, start, Lookahead::Whole).unwrap();
-        // Layers of 9 blocks each (travel, drop, settle, 4 draws, lift, settle): black, red, red (same pen), black.
+        // Black (travel, drop, settle, 4 draws), full lift and settle; red (travel, drop, settle, 4 draws); red,
+        // the same pen (rise to the clearance, two travel blocks climbing and descending, drop, settle, 4 draws),
+        // full lift and settle; black.
         let blocks: Vec<usize> = plan.pen_changes.iter().map(|c| c.block).collect();
         assert_eq!(blocks, [9, 27]);
         assert!(plan.pen_changes.iter().all(|c| plan.blocks[c.block].kind == MoveKind::Travel));
@@ -904,8 +1118,15 @@ mod tests {
         assert_eq!(plan.first_pen.name, "black");
         // The red pen drops to 1 mm (400 steps/mm: 1200 steps below the 4 mm pen-up) and draws at 30 mm/s: a 5 mm
         // side takes longer than the black pen's at 60 mm/s.
+        // After the pen change the travel is flat at the pen-up height.
+        assert_eq!(plan.blocks[9].block.steps[2], 0);
         assert_eq!(plan.blocks[10].block.steps, [0, 0, -1200, 0]);
-        assert_eq!(plan.blocks[1].block.steps, [0, 0, -1600, 0]);
+        assert_eq!(plan.blocks[0].block.steps[2] + plan.blocks[1].block.steps[2], -1600);
+        // Before it the pen goes all the way up and settles; between the two red layers (one pen) it rises to
+        // the clearance (1 mm above its 1 mm down height) only.
+        assert_eq!(plan.blocks[7].block.steps, [0, 0, 1600, 0]);
+        assert_eq!(plan.blocks[8].kind, MoveKind::Settle);
+        assert_eq!((plan.blocks[16].kind, plan.blocks[16].block.steps), (MoveKind::PenUp, [0, 0, 400, 0]));
         let side = |i: usize| plan.blocks[i].block.duration_ticks();
         assert!(side(12) > side(3), "{} vs {}", side(12), side(3));
         // A resumed plan keeps the original numbering of the pen changes.

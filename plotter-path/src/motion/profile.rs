@@ -125,6 +125,16 @@ pub struct PenProfile {
     /// Servo pens: the angle (degrees, 0..=180) putting the pen on the paper.
     #[serde(default = "default_servo_down")]
     pub servo_down_deg: f64,
+    /// Z pens: how far above the pen-down height the tip is clear of the paper, mm (default 1 mm). Pen-up travel
+    /// starts as soon as a lift has reached this height and ends at it, the rest of the lift and drop happening
+    /// during the travel (see [`crate::motion::hop`]). Capped at the pen-up height.
+    #[serde(default = "default_clearance")]
+    pub clearance_mm: f64,
+    /// Servo pens: how long after a lift command the tip is clear of the paper, milliseconds (0..=`settle_ms`;
+    /// default a third of `settle_ms`). Travel starts after it; a drop is taken to pass the same height this long
+    /// before its settle ends, so it is commanded while the carriage is still travelling.
+    #[serde(default)]
+    pub clear_ms: Option<f64>,
 }
 
 impl PenProfile {
@@ -132,6 +142,19 @@ impl PenProfile {
     pub fn uses_servo(&self) -> bool {
         self.command == PenCommand::Servo
     }
+
+    /// Servo pens: milliseconds from a lift command until the tip is clear ([`Self::clear_ms`], by default a
+    /// third of the settle time).
+    pub fn servo_clear_ms(&self) -> f64 {
+        self.clear_ms.unwrap_or(self.settle_ms / 3.0)
+    }
+}
+
+/// Height above the pen-down Z at which the tip is clear of the paper when a profile does not say, mm.
+pub const DEFAULT_CLEARANCE_MM: f64 = 1.0;
+
+fn default_clearance() -> f64 {
+    DEFAULT_CLEARANCE_MM
 }
 
 /// Pen width assumed when a profile does not give one, mm.
@@ -453,6 +476,14 @@ impl MachineProfile {
                 return Err(bad(field, "must lie within the Z travel"));
             }
         }
+        if !(self.pen.clearance_mm.is_finite() && self.pen.clearance_mm > 0.0) {
+            return Err(bad("pen.clearance_mm", "must be a positive number"));
+        }
+        if let Some(c) = self.pen.clear_ms
+            && !(c.is_finite() && (0.0..=self.pen.settle_ms).contains(&c))
+        {
+            return Err(bad("pen.clear_ms", "must lie in 0..=pen.settle_ms"));
+        }
         for (field, a) in [("pen.servo_up_deg", self.pen.servo_up_deg), ("pen.servo_down_deg", self.pen.servo_down_deg)]
         {
             if !(a.is_finite() && (0.0..=180.0).contains(&a)) {
@@ -584,6 +615,21 @@ mod tests {
         assert!(err.contains("pens[3] (red).color") && err.contains("#rrggbb"), "{err}");
         let err = MachineProfile::from_toml(&text.replace("y_mm = 280.0", "y_mm = 300.0"), "p.toml").unwrap_err();
         assert!(err.to_string().contains("park"), "{err}");
+    }
+
+    #[test]
+    fn pen_clearance_defaults_and_is_checked() {
+        let p = MachineProfile::default_plotter();
+        assert_eq!((p.pen.clearance_mm, p.pen.clear_ms), (1.0, None));
+        // The kit's 50 ms settle: clear after a third of it.
+        assert!((p.pen.servo_clear_ms() - 50.0 / 3.0).abs() < 1e-12);
+        let with = |line: &str| DEFAULT_PROFILE_TOML.replace("clearance_mm = 1.0", line);
+        let p = MachineProfile::from_toml(&with("clearance_mm = 0.5\nclear_ms = 20"), "c.toml").unwrap();
+        assert_eq!((p.pen.clearance_mm, p.pen.servo_clear_ms()), (0.5, 20.0));
+        for (line, field) in [("clearance_mm = 0", "pen.clearance_mm"), ("clear_ms = 60", "pen.clear_ms")] {
+            let err = MachineProfile::from_toml(&with(line), "c.toml").unwrap_err().to_string();
+            assert!(err.contains(field) && err.contains("c.toml"), "{err}");
+        }
     }
 
     #[test]

@@ -5,7 +5,16 @@
 //! lifted and lowered either as Z moves (`G0 Z<up>` / `G1 Z<down>`, the default) or, for servo pen lifts
 //! ([`PenCommand::Servo`] in the profile), as `M3 S<angle>` / `M5` (the pen's down angle in degrees, as this
 //! project's firmware and GRBL servo-pen builds with `$30=180` take it).
-//! Each lift and drop is followed by a `G4` dwell of the profile's settle time when it is non-zero.
+//! Each drop, and each lift before a pen change or at the end, is followed by a `G4` dwell of the profile's
+//! settle time when it is non-zero. Between two strokes drawn with one pen the hop overlaps the pen's motion with
+//! the travel as the motion plan does ([`crate::motion::hop`]): a Z pen rises only to the clearance height
+//! (`G1 Z<clear>`, no dwell), travels with combined moves (`G0 X Y Z`) on which it climbs towards the pen-up height
+//! and comes back down to the clearance height, and drops from there; a servo pen waits only its clear time
+//! (`pen.clear_ms`) after `M5` before travelling (the drop `M3` waits for the travel to end, as GRBL runs spindle
+//! words between moves). The first travel, from wherever the machine stands, is flat at the pen-up height. In a
+//! file the hops keep above the midpoint between the lowest pen-down height and the pen-up height (the clearance
+//! is raised to just above it when smaller): readers that tell travel from drawing by that midpoint, this
+//! project's G-code import among them, then see every hop as travel.
 //!
 //! Between layers drawn with different pens ([`crate::motion::pens`]) the program parks the carriage (pen up)
 //! and stops with `M0` and a comment naming the pen to load; cycle start (`~` on GRBL) continues. Each layer is
@@ -18,9 +27,10 @@
 use std::fmt::Write as _;
 
 use crate::MachineProfile;
+use crate::motion::hop::{HopHeights, travel_waypoints};
 use crate::motion::plan::{layer_pens, park_position};
 use crate::motion::profile::PenCommand;
-use crate::motion::steps::{StepDrawing, StepMapper};
+use crate::motion::steps::{StepDrawing, StepMapper, StepPos};
 
 /// Format a millimetre value with at most `decimals` decimals, trailing zeros removed (`-0` printed as `0`).
 pub fn fmt_mm(v: f64, decimals: usize) -> String {
@@ -60,15 +70,23 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
         PenCommand::Servo => "M5".to_string(),
     };
     let pens = layer_pens(profile, steps);
+    let z_of = |mm: f64| mapper.z_steps(mm).unwrap_or(0);
+    let z_mm = |steps: i32| fmt_mm(f64::from(steps) / profile.axes.z.steps_per_mm, dz);
+    let z_feed = per_min(profile.axes.z.max_feed_mm_s);
     let downs: Vec<String> = pens
         .iter()
         .map(|p| match pen.command {
-            PenCommand::Z => {
-                format!("G1 Z{} F{}", fmt_mm(p.down_z_mm, dz), per_min(profile.axes.z.max_feed_mm_s))
-            }
+            PenCommand::Z => format!("G1 Z{} F{z_feed}", fmt_mm(p.down_z_mm, dz)),
             PenCommand::Servo => format!("M3 S{}", fmt_mm(p.servo_down_deg, 1)),
         })
         .collect();
+    let mut hop_profile = profile.clone();
+    let lowest = pens.iter().map(|p| p.down_z_mm).fold(pen.down_z_mm, f64::min);
+    let above_mid = (pen.up_z_mm - lowest).abs() / 2.0 + 1.0 / profile.axes.z.steps_per_mm;
+    hop_profile.pen.clearance_mm = pen.clearance_mm.max(above_mid);
+    let heights: Vec<HopHeights> =
+        pens.iter().map(|p| HopHeights::new(&hop_profile, z_of(p.down_z_mm), z_of(pen.up_z_mm))).collect();
+    let servo_clear = fmt_mm(pen.servo_clear_ms() / 1000.0, 4);
     // Without a park position the pen change waits above the homed corner.
     let park = park_position(profile).ok().map(|s| mapper.steps_to_machine(s));
     let mut out = String::new();
@@ -82,33 +100,70 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
     };
     lift(&mut out, &up);
     let travel_f = per_min(pen.travel_feed_mm_s);
+    let xy = |p: StepPos| {
+        let m = mapper.steps_to_machine(p);
+        format!("X{} Y{}", fmt_mm(m.x, dx), fmt_mm(m.y, dy))
+    };
     let mut layer = 0;
+    // Where the last stroke ended, and the pen's Z (steps) after the last line.
+    let mut at: Option<StepPos> = None;
+    let mut z = z_of(pen.up_z_mm);
     for (si, stroke) in steps.strokes.iter().enumerate() {
         let l = steps.layer_of(si);
-        if l != layer {
-            if !pens[l].same_pen(&pens[layer]) {
-                if let Some(p) = park {
-                    let _ = writeln!(out, "G0 X{} Y{} F{travel_f}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+        let change = l != layer && !pens[l].same_pen(&pens[layer]);
+        if si > 0 {
+            match pen.command {
+                _ if change => {
+                    lift(&mut out, &up);
+                    z = heights[layer].up;
                 }
-                let name = steps.layers.get(l).map_or("", |x| x.name.as_str());
-                let _ = writeln!(out, "M0 ; pen change: load {} for layer {name:?}", pens[l].label());
+                PenCommand::Z => {
+                    z = heights[layer].clear;
+                    let _ = writeln!(out, "G1 Z{} F{z_feed}", z_mm(z));
+                }
+                PenCommand::Servo => {
+                    let _ = writeln!(out, "M5");
+                    if pen.servo_clear_ms() > 0.0 {
+                        let _ = writeln!(out, "G4 P{servo_clear}");
+                    }
+                }
             }
-            layer = l;
         }
-        let draw_f = per_min(pens[l].draw_feed_mm_s);
-        let p = mapper.steps_to_machine(stroke.start);
-        let _ = writeln!(out, "G0 X{} Y{} F{travel_f}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+        if change {
+            if let Some(p) = park {
+                let _ = writeln!(out, "G0 X{} Y{} F{travel_f}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+            }
+            let name = steps.layers.get(l).map_or("", |x| x.name.as_str());
+            let _ = writeln!(out, "M0 ; pen change: load {} for layer {name:?}", pens[l].label());
+        }
+        layer = l;
+        match at {
+            Some(from) if pen.command == PenCommand::Z && !change => {
+                let mut f = format!(" F{travel_f}");
+                for w in travel_waypoints(&hop_profile, [from.x, from.y, z], stroke.start, heights[l]) {
+                    let _ = writeln!(out, "G0 {} Z{}{f}", xy(StepPos::new(w[0], w[1])), z_mm(w[2]));
+                    f.clear();
+                    z = w[2];
+                }
+            }
+            _ => {
+                let _ = writeln!(out, "G0 {} F{travel_f}", xy(stroke.start));
+            }
+        }
         lift(&mut out, &downs[l]);
+        let draw_f = per_min(pens[l].draw_feed_mm_s);
         let mut first = true;
         for pos in stroke.positions().into_iter().skip(1) {
-            let p = mapper.steps_to_machine(pos);
             if first {
-                let _ = writeln!(out, "G1 X{} Y{} F{draw_f}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+                let _ = writeln!(out, "G1 {} F{draw_f}", xy(pos));
                 first = false;
             } else {
-                let _ = writeln!(out, "G1 X{} Y{}", fmt_mm(p.x, dx), fmt_mm(p.y, dy));
+                let _ = writeln!(out, "G1 {}", xy(pos));
             }
         }
+        at = Some(stroke.end());
+    }
+    if !steps.strokes.is_empty() {
         lift(&mut out, &up);
     }
     let _ = writeln!(out, "M2");
@@ -157,6 +212,42 @@ mod tests {
                 "M2",
             ]
         );
+    }
+
+    #[test]
+    fn hops_between_strokes_overlap_the_pen_moves_with_the_travel() {
+        let p = MachineProfile::default_plotter();
+        let dash = |x: i32| StepStroke { start: StepPos::new(x, 800), moves: vec![StepDelta { dx: 80, dy: 0 }] };
+        let g = export(&p, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
+        let body: Vec<&str> = g.lines().skip(3).collect();
+        // From the first dash's end (11, 10) to (21, 10): rise without a dwell to the clearance, raised in a file
+        // to a step above the 2 mm midpoint of the paper and the pen-up height (2.0025 mm), a climb to 5 mm ·
+        // 0.051 65 = 0.258 mm above it (103 of 400 steps/mm: 2.26 mm) and back, the drop with its settle.
+        assert_eq!(
+            body,
+            [
+                "G0 Z4",
+                "G4 P0.05",
+                "G0 X10 Y10 F7200",
+                "G1 Z0 F1500",
+                "G4 P0.05",
+                "G1 X11 Y10 F3600",
+                "G1 Z2.0025 F1500",
+                "G0 X16 Y10 Z2.26 F7200",
+                "G0 X21 Y10 Z2.0025",
+                "G1 Z0 F1500",
+                "G4 P0.05",
+                "G1 X22 Y10 F3600",
+                "G0 Z4",
+                "G4 P0.05",
+                "M2",
+            ]
+        );
+        // A servo pen waits only its clear time (a third of the settle) after the lift between them.
+        let mut servo = p.clone();
+        servo.pen.command = PenCommand::Servo;
+        let g = export(&servo, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
+        assert!(g.contains("G1 X11 Y10 F3600\nM5\nG4 P0.0167\nG0 X21 Y10 F7200\nM3 S30\nG4 P0.05\n"), "{g}");
     }
 
     #[test]

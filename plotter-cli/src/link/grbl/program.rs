@@ -5,9 +5,9 @@
 //! homing), printed from the plan's exact step positions with enough decimals that GRBL's own rounding
 //! (`round(mm × steps/mm)`) lands on the same step, so the machine ends exactly where the plan ends. Travel and
 //! drawing are `G1` at the profile's travel feed and the pen's drawing feed (F in mm/min, written when it
-//! changes); the pen is a Z move at the Z axis's maximum rate, or `M3 S<angle>` / `M5` for a servo pen (with its
-//! settle dwell on the same line, `M5 G4 P0.15`, as the plan's servo block carries both); a settle dwell is
-//! `G4 P<seconds>`.
+//! changes), travel with a `Z` where the plan's hop moves the pen on the way; the pen is a Z move at the Z axis's
+//! maximum rate, or `M3 S<angle>` / `M5` for a servo pen (with its settle dwell on the same line, `M5 G4 P0.15`,
+//! as the plan's servo block carries both); a settle dwell is `G4 P<seconds>`.
 
 use std::fmt::Write as _;
 
@@ -77,6 +77,10 @@ pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
             MoveKind::Travel | MoveKind::Draw => {
                 line.push_str("G1 ");
                 xy(&mut line);
+                // A pen-up hop lifts and lowers the pen on the way (combined XY+Z moves).
+                if b.block.steps[2] != 0 {
+                    let _ = write!(line, " Z{}", fmt_mm(mm(pos[2], sz), dz));
+                }
                 let f = if b.kind == MoveKind::Travel { travel_feed.clone() } else { per_min(pen.draw_feed_mm_s) };
                 with_feed(&mut line, &f);
             }
@@ -180,10 +184,12 @@ mod tests {
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         let prog = program(&p, &plan);
         assert_eq!(prog.lines.len(), plan.blocks.len());
+        // The first hop starts at the pen-up height and comes down on the way (14.14 mm at the hop slope 0.0517:
+        // 0.73 mm, to 3.27 mm); after the pen change the travel is flat at the pen-up height.
         assert_eq!(
             prog.lines,
             [
-                "G1 X10 Y10 F7200",
+                "G1 X10 Y10 Z3.27 F7200",
                 "G1 Z0 F1500",
                 "G4 P0.05",
                 "G1 X12.5 Y10 F3600",
@@ -211,13 +217,17 @@ mod tests {
         let steps = drawing_to_steps(&p, &two_layers()).unwrap();
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         let prog = program(&p, &plan);
-        // The servo blocks carry the 50 ms settle; the plot starts by lifting the pen (its angle is not known).
+        // The servo blocks carry the 50 ms settle; the plot starts by lifting the pen (its angle is not known). The
+        // first drop is commanded before the last 33 ms of the travel (the settle less the 16.7 ms clear time), a
+        // dwell completing the 50 ms; before the pen change the lift is whole and the travel after it flat.
         assert_eq!(
             prog.lines,
             [
                 "M5 G4 P0.05",
-                "G1 X10 Y10 F7200",
-                "M3 S25 G4 P0.05",
+                "G1 X9.5875 Y9.5875 F7200",
+                "M3 S25 G4 P0",
+                "G1 X10 Y10",
+                "G4 P0.017",
                 "G1 X12.5 Y10 F3600",
                 "G1 X12.5 Y11.0125",
                 "M5 G4 P0.05",
