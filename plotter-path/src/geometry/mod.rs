@@ -1,6 +1,7 @@
 //! Geometry in millimetres: the [`crate::Drawing`] model, curve flattening, filled regions (clip, occlusion)
-//! and their hatching, page layout, size limits and pen-up travel.
+//! and their hatching, page layout, size limits, pen-up travel, and the flag that cancels long work.
 
+pub mod cancel;
 pub mod drawing;
 pub mod flatten;
 pub mod hatch;
