@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
+use plotter_path::geometry::cancel::Cancel;
 use plotter_path::geometry::hatch::FillHatch;
 use plotter_path::input::raster::Mode;
 use plotter_path::input::svg::{self, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
@@ -232,7 +233,7 @@ fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineP
     let data = read_input(path)?;
     // A file may use images beside it; stdin has no folder, so only data: URLs.
     let resources = if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) };
-    let decoded = decode_drawing(&data, path, &shown, &resources, args, profile)?;
+    let decoded = decode_drawing(&data, path, &shown, &resources, args, profile, &Cancel::never())?;
     warn_all(&decoded.warnings);
     Ok(decoded.drawing)
 }
@@ -249,6 +250,8 @@ pub struct Decoded {
 /// Decode the bytes of an input file: `name` (its file name) decides the kind together with the first bytes,
 /// `shown` names it in messages, and `resources` decides what an SVG may reference — a front end that receives
 /// bytes from elsewhere passes [`ResourcePolicy::DataUrlsOnly`], so no path of the sender's choosing is opened.
+/// `cancel` stops an SVG import or an image tracing early (with their `Cancelled` error) once it is set — a front
+/// end whose requester went away sets it; [`Cancel::never`] otherwise.
 pub fn decode_drawing(
     data: &[u8],
     name: &Path,
@@ -256,15 +259,18 @@ pub fn decode_drawing(
     resources: &ResourcePolicy,
     args: &InputArgs,
     profile: &MachineProfile,
+    cancel: &Cancel,
 ) -> Result<Decoded> {
     match input_kind(name, &data[..data.len().min(512)]) {
         InputKind::Svg => {
-            let imported = svg::import_svg(data, shown, resources, &args.svg_options(profile)?)?;
+            let options = SvgOptions { cancel: cancel.clone(), ..args.svg_options(profile)? };
+            let imported = svg::import_svg(data, shown, resources, &options)?;
             Ok(Decoded { drawing: imported.drawing, warnings: imported.warnings })
         }
         InputKind::Image => {
             let image = raster::decode_image(data, name)?;
-            let traced = raster::trace_named(&image, shown, &args.trace.options())?;
+            let options = raster::TraceOptions { cancel: cancel.clone(), ..args.trace.options() };
+            let traced = raster::trace_named(&image, shown, &options)?;
             let warnings = traced.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
             Ok(Decoded { drawing: traced.drawing, warnings })
         }

@@ -461,6 +461,97 @@ mod tests {
         assert!(g.status().unwrap().is_idle());
     }
 
+    /// A user who presses Ctrl-C (a pause at the next pen-up) `presses` times in a row once `at` blocks have
+    /// been executed, and would abort at a pause.
+    struct Presses {
+        at: usize,
+        presses: u32,
+        executed: usize,
+        notices: Vec<String>,
+    }
+
+    impl PlotEvents for Presses {
+        fn progress(&mut self, p: &JobProgress) {
+            self.executed = p.executed;
+        }
+        fn pause_requested(&mut self) -> Option<bool> {
+            (self.executed >= self.at && self.presses > 0).then(|| {
+                self.presses -= 1;
+                false
+            })
+        }
+        fn notice(&mut self, text: &str) {
+            self.notices.push(text.to_string());
+        }
+    }
+
+    /// Our firmware, simulated, and a zigzag of 200 pen-down strokes (1 mm apart, 5 mm tall) from X 20 mm: one
+    /// stroke of 205 blocks (travel, pen down, settle, 200 lines, pen up, settle), far more than the firmware
+    /// queues.
+    fn zigzag_on_sim(profile: &MachineProfile) -> (Session<SimTransport>, StepDrawing, MotionPlan) {
+        let zigzag = (0..=200).map(|i| Point::new(20.0 + f64::from(i), 40.0 + 5.0 * f64::from(i % 2))).collect();
+        let steps = drawing_to_steps(profile, &Drawing::single_layer("l", vec![Polyline::new(zigzag)])).unwrap();
+        let cfg = plan::machine_config(profile).unwrap();
+        let s = Session::connect(SimTransport::new(cfg, Some(115_200)), "sim").unwrap();
+        let full = plan::plan(profile, &steps, plan::homed_position(profile).unwrap(), Lookahead::Whole).unwrap();
+        (s, steps, full)
+    }
+
+    /// The executed block count an error message names ("after N executed block(s)").
+    fn executed_in(e: &str) -> usize {
+        e.split("after ").nth(1).and_then(|t| t.split(' ').next()).and_then(|n| n.parse().ok()).unwrap()
+    }
+
+    #[test]
+    fn a_second_ctrl_c_stops_our_firmware_at_once_with_the_pen_up() {
+        let profile = MachineProfile::default_plotter();
+        let (mut s, steps, full) = zigzag_on_sim(&profile);
+        assert_eq!(full.blocks.len(), 205, "travel, pen down, settle, 200 strokes, pen up, settle");
+        // Two presses while the 20th stroke is drawn: the pause at the next pen-up (the zigzag's end) is
+        // scheduled, then the second press stops the plot there and then.
+        let mut user = Presses { at: 23, presses: 2, executed: 0, notices: vec![] };
+        let e = plot(&mut s, &profile, &steps, true, false, None, &mut user).unwrap_err().to_string();
+        assert!(
+            e.starts_with(
+                "sim: stopped at once on a second pause request (Ctrl-C) before the pause at the next pen-up"
+            ),
+            "{e}"
+        );
+        let executed = executed_in(&e);
+        assert!((23..40).contains(&executed), "{e}");
+        let sim = s.transport.sim().hal();
+        // The simulated pen starts down (Z 0) until homing lifts it; then it went down once for the zigzag and is
+        // up now (lifted by the job after the stop).
+        let pen: Vec<bool> = sim.pen_trace().iter().map(|p| p.1).collect();
+        assert_eq!(pen, [true, false, true, false]);
+        // It stopped where it was, within a few blocks of the executed count the message names, far before the
+        // zigzag's end (X 220 mm = 17600 steps); the lift moved Z only.
+        let x = sim.physical_position()[0];
+        let (lo, hi) = (full.position_after(executed - 1)[0], full.position_after(executed + 3)[0]);
+        assert!(i64::from(lo) <= x && x <= i64::from(hi), "{lo} <= {x} <= {hi}");
+        assert_eq!(sim.physical_position()[2], 1600);
+        assert!(user.notices.is_empty(), "{:?}", user.notices);
+    }
+
+    #[test]
+    fn once_everything_is_queued_a_first_ctrl_c_says_so_and_a_second_stops_at_once() {
+        let profile = MachineProfile::default_plotter();
+        let (mut s, steps, full) = zigzag_on_sim(&profile);
+        // 196 executed: every block has been accepted, the last strokes are still being drawn.
+        let mut user = Presses { at: 196, presses: 2, executed: 0, notices: vec![] };
+        let e = plot(&mut s, &profile, &steps, true, false, None, &mut user).unwrap_err().to_string();
+        assert!(e.starts_with("sim: stopped at once on a second pause request (Ctrl-C)"), "{e}");
+        assert_eq!(user.notices.len(), 1, "{:?}", user.notices);
+        assert!(
+            user.notices[0].starts_with("sim: every block is queued, so the plot ends with the pen up in a moment")
+        );
+        let executed = executed_in(&e);
+        assert!((196..203).contains(&executed), "{e}");
+        let sim = s.transport.sim().hal();
+        assert_eq!(sim.pen_trace().last().map(|p| p.1), Some(false));
+        assert!(sim.physical_position()[0] < i64::from(full.position_after(202)[0]), "the last stroke was cut short");
+    }
+
     #[test]
     fn a_refused_block_stops_the_plot_and_is_named_with_its_end() {
         // The firmware's X travel is 50 mm, the profile's 420 mm: the line from (10, 10) to (100, 10) mm passes the

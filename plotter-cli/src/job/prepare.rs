@@ -4,6 +4,7 @@
 //! a setting.
 
 use anyhow::{Context as _, bail};
+use plotter_path::geometry::cancel::Cancel;
 use plotter_path::motion::plan::{self, Lookahead};
 use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
 use plotter_path::optimize::OptimizeReport;
@@ -43,13 +44,16 @@ pub struct Prepared {
 }
 
 /// Keep the visible layers of `drawing` with their chosen pens, lay them out, order the paths, and plan.
-/// Layers the choices do not name are kept as they are; a choice naming no layer is a warning.
+/// Layers the choices do not name are kept as they are; a choice naming no layer is a warning. Once `cancel` is
+/// set, the next check between these stages ends the work with
+/// [`plotter_path::geometry::cancel::Cancelled`] (an error that downcasts to it).
 pub fn prepare(
     mut drawing: Drawing,
     profile: &MachineProfile,
     layers: &[LayerChoice],
     layout: &LayoutArgs,
     optimize: &OptimizeArgs,
+    cancel: &Cancel,
 ) -> anyhow::Result<Prepared> {
     let mut warnings = Vec::new();
     for choice in layers {
@@ -69,9 +73,13 @@ pub fn prepare(
     if drawing.paths().all(|p| p.points.len() < 2) {
         bail!("nothing to plot: every layer is hidden or empty");
     }
+    cancel.check()?;
     layout.apply(&mut drawing)?;
+    cancel.check()?;
     let report = optimize_quietly(&mut drawing, optimize, Some(profile))?;
+    cancel.check()?;
     let steps = drawing_to_steps(profile, &drawing).context("cannot convert the drawing to machine steps")?;
+    cancel.check()?;
     let estimate_s = match plan::check_work_area(profile, &steps)
         .and_then(|()| plan::plan(profile, &steps, plan::homed_position(profile)?, Lookahead::Whole))
     {
@@ -113,6 +121,18 @@ mod tests {
     }
 
     #[test]
+    fn a_cancelled_preparation_ends_with_the_typed_error() {
+        let profile = MachineProfile::default_plotter();
+        let cancel = Cancel::new();
+        cancel.cancel();
+        let e = prepare(two_layers(), &profile, &[], &LayoutArgs::default(), &no_optimize(), &cancel).unwrap_err();
+        assert_eq!(
+            e.downcast_ref::<plotter_path::geometry::cancel::Cancelled>(),
+            Some(&plotter_path::geometry::cancel::Cancelled)
+        );
+    }
+
+    #[test]
     fn hidden_layers_are_dropped_and_pens_applied() {
         let red = Pen { color: Rgb(200, 0, 0), width_mm: 0.8 };
         let choices = [
@@ -121,7 +141,8 @@ mod tests {
             LayerChoice { name: "ghost".into(), visible: true, pen: None },
         ];
         let profile = MachineProfile::default_plotter();
-        let p = prepare(two_layers(), &profile, &choices, &LayoutArgs::default(), &no_optimize()).unwrap();
+        let p = prepare(two_layers(), &profile, &choices, &LayoutArgs::default(), &no_optimize(), &Cancel::never())
+            .unwrap();
         assert_eq!(p.drawing.layers.len(), 1);
         assert_eq!(p.drawing.layers[0].pen, red);
         assert!((p.stats.pen_down_mm - 40.0).abs() < 1e-9);
@@ -136,10 +157,11 @@ mod tests {
     fn layout_applies_and_nothing_visible_is_an_error() {
         let profile = MachineProfile::default_plotter();
         let layout = LayoutArgs { translate: Some(plotter_path::kurbo::Vec2::new(5.0, -3.0)), ..LayoutArgs::default() };
-        let p = prepare(two_layers(), &profile, &[], &layout, &no_optimize()).unwrap();
+        let p = prepare(two_layers(), &profile, &[], &layout, &no_optimize(), &Cancel::never()).unwrap();
         assert_eq!(p.stats.bbox_mm, Some([25.0, 17.0, 70.0, 27.0]));
         let hide = |n: &str| LayerChoice { name: n.into(), visible: false, pen: None };
-        let e = prepare(two_layers(), &profile, &[hide("a"), hide("b")], &layout, &no_optimize()).unwrap_err();
+        let e = prepare(two_layers(), &profile, &[hide("a"), hide("b")], &layout, &no_optimize(), &Cancel::never())
+            .unwrap_err();
         assert!(e.to_string().contains("nothing to plot"), "{e}");
     }
 
@@ -147,7 +169,7 @@ mod tests {
     fn outside_the_work_area_is_a_warning_not_an_estimate() {
         let profile = MachineProfile::default_plotter();
         let d = Drawing::single_layer("far", vec![square(5000.0, 5000.0, 10.0)]);
-        let p = prepare(d, &profile, &[], &LayoutArgs::default(), &no_optimize()).unwrap();
+        let p = prepare(d, &profile, &[], &LayoutArgs::default(), &no_optimize(), &Cancel::never()).unwrap();
         assert_eq!(p.estimate_s, None);
         assert!(p.warnings[0].starts_with("cannot plot on"), "{:?}", p.warnings);
     }

@@ -28,6 +28,15 @@
 //! count (older firmwares) the status gives a lower bound: of the accepted frames, at most the planner queue
 //! (`Q:`) plus the stepper's own queue and the running block are still waiting, so `accepted − Q − 3` blocks are
 //! certainly done; when the machine is idle, all accepted blocks are.
+//!
+//! # Pauses
+//! A pause request ([`Control::pause_requested`], Ctrl-C) pauses at the next pen-up: the host stops sending after
+//! the first frame that leaves the pen up and waits for the machine to finish; or, when asked for, it holds at once
+//! (feed hold). A second request before that pen-up, or one while the firmware reports a feed hold, stops the plot
+//! at once ([`stop_at_once`], the same rule as the GRBL dialect's): the stream ends with
+//! [`StreamError::StoppedAtOnce`] and the job resets the firmware (which drops its queue and stops where it is)
+//! and lifts the pen. Once every frame is queued, a pause at the next pen-up would come only at the end, so a first
+//! request there is answered with a notice and a second one stops at once.
 
 use std::collections::VecDeque;
 use std::time::Duration;
@@ -186,9 +195,34 @@ pub enum StreamError {
         /// Blocks executed.
         executed: usize,
     },
+    /// A pause request that could not wait for the next pen-up (see [`stop_at_once`]) stopped the plot where it
+    /// stood; the job then stops the machine and lifts the pen.
+    #[error("{name}: stopped at once on {why}, after {executed} executed block(s)")]
+    StoppedAtOnce {
+        /// Where the machine is connected.
+        name: String,
+        /// What made the stop immediate, from [`stop_at_once`].
+        why: String,
+        /// Blocks certainly executed.
+        executed: usize,
+    },
     /// The link failed.
     #[error(transparent)]
     Link(#[from] anyhow::Error),
+}
+
+/// Whether a pause request (Ctrl-C) must stop the plot at once instead of pausing, and why: when the machine
+/// already stands in a feed hold (`held`, the state it reports: a pause at the next pen-up would never come) or
+/// when a pause at the next pen-up is already scheduled (`pause_scheduled`: the user asked twice). Every firmware
+/// dialect's stream loop asks this on each request, so a second Ctrl-C means the same everywhere.
+pub fn stop_at_once(held: Option<&str>, pause_scheduled: bool) -> Option<String> {
+    match held {
+        Some(state) => Some(format!("a pause request (Ctrl-C) during a feed hold ({state})")),
+        None if pause_scheduled => {
+            Some("a second pause request (Ctrl-C) before the pause at the next pen-up".to_string())
+        }
+        None => None,
+    }
 }
 
 impl From<std::io::Error> for StreamError {
@@ -421,26 +455,18 @@ pub fn stream<T: Transport>(
             accept_elapsed = session.transport.now() - t0;
             break Ok(());
         }
-        // Pause requests.
-        if pause_at.is_none()
-            && let Some(now) = control.pause_requested()
-        {
+        // Pause requests: a pause at the next pen-up, a feed hold, or (a second request, or one while the
+        // firmware is held) a stop at once.
+        if let Some(now) = control.pause_requested() {
+            if let Some(why) = stop_at_once(held_state(fw_state.as_deref()), pause_at.is_some()) {
+                break Err(StreamError::StoppedAtOnce { name: session.name.clone(), why, executed: st.executed });
+            }
             if now {
-                session.send_realtime(protocol::RT_FEED_HOLD)?;
-                // The firmware only resumes once the hold has come to a stop.
-                loop {
-                    let s = session.status()?;
-                    st.on_status(&s, frames.base, n);
-                    if s.state == "Hold:0" || s.is_idle() {
-                        break;
-                    }
-                    let _ = session.transport.recv_line(Duration::from_millis(20))?;
-                }
-                let choice = control.paused(true);
-                if choice == PauseChoice::Abort {
+                if hold_and_ask(session, &mut st, frames, control)? == PauseChoice::Abort {
                     break Err(StreamError::Aborted { executed: st.executed });
                 }
-                session.send_realtime(protocol::RT_RESUME)?;
+                // (A report asked for before the hold may still say Hold; the next one tells.)
+                fw_state = None;
             } else {
                 let from = st.next.saturating_sub(1);
                 pause_at = Some((from..n).find(|&i| frames.safe_after[i]).unwrap_or(n - 1));
@@ -596,7 +622,29 @@ pub fn stream<T: Transport>(
     let seq_after = frames.base.wrapping_add(u32::try_from(n).unwrap_or(u32::MAX));
     st.status_pending = false;
     let mut reported = st.executed;
+    // Every block is queued: a pause at the next pen-up can no longer stop before the end, so a first request
+    // only says so (a pause the main loop had scheduled at the last block counts as one), and a second one stops
+    // at once; a feed hold works as before.
+    let mut pause_scheduled = pause_at.is_some();
     loop {
+        if let Some(now) = control.pause_requested() {
+            if let Some(why) = stop_at_once(held_state(fw_state.as_deref()), pause_scheduled) {
+                return Err(StreamError::StoppedAtOnce { name: session.name.clone(), why, executed: st.executed });
+            }
+            if now {
+                if hold_and_ask(session, &mut st, frames, control)? == PauseChoice::Abort {
+                    return Err(StreamError::Aborted { executed: st.executed });
+                }
+                fw_state = None;
+            } else {
+                pause_scheduled = true;
+                control.notice(&format!(
+                    "{}: every block is queued, so the plot ends with the pen up in a moment ({} of {n} blocks \
+                     executed); a second pause request (Ctrl-C) stops it at once",
+                    session.name, st.executed
+                ));
+            }
+        }
         let now = session.transport.now();
         if st.executed != reported {
             reported = st.executed;
@@ -669,6 +717,35 @@ pub fn stream<T: Transport>(
         accept_elapsed,
         underruns: session.transport.underruns(),
     })
+}
+
+/// The firmware's reported state if it is a feed hold.
+fn held_state(state: Option<&str>) -> Option<&str> {
+    state.filter(|s| s.starts_with("Hold"))
+}
+
+/// A feed hold at once: hold, wait until the machine has come to a stop (the firmware only resumes from there),
+/// ask the user, and resume when they say so. Returns their choice.
+fn hold_and_ask<T: Transport>(
+    session: &mut Session<T>,
+    st: &mut State,
+    frames: &Frames,
+    control: &mut dyn Control,
+) -> Result<PauseChoice, StreamError> {
+    session.send_realtime(protocol::RT_FEED_HOLD)?;
+    loop {
+        let s = session.status()?;
+        st.on_status(&s, frames.base, frames.len());
+        if s.state == "Hold:0" || s.is_idle() {
+            break;
+        }
+        let _ = session.transport.recv_line(Duration::from_millis(20))?;
+    }
+    let choice = control.paused(true);
+    if choice == PauseChoice::Resume {
+        session.send_realtime(protocol::RT_RESUME)?;
+    }
+    Ok(choice)
 }
 
 /// Stream a plan after checking where the firmware's sequence counter stands.

@@ -106,6 +106,7 @@ impl TraceArgs {
             min_length_px: self.min_length,
             canny_low: self.canny_low,
             canny_high: self.canny_high,
+            cancel: plotter_path::geometry::cancel::Cancel::never(),
             hatch: HatchOptions {
                 levels: self.levels,
                 spacing_mm: self.spacing,

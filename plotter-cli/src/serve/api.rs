@@ -26,6 +26,7 @@ use plotter_host::job::prepare::{LayerChoice, prepare};
 use plotter_host::options::layout::{LayoutArgs, OrientationArg};
 use plotter_host::options::optimize::OptimizeArgs;
 use plotter_host::options::trace::ModeArg;
+use plotter_path::geometry::cancel::Cancel;
 use plotter_path::input::r#gen;
 use plotter_path::{MachineProfile, Pen, Rgb};
 use serde::Deserialize;
@@ -352,12 +353,28 @@ fn layer_choices(s: &Settings, decoded: &plotter_path::Drawing) -> Result<Vec<La
         .collect()
 }
 
+/// Sets its flag when dropped, unless the work it guards has ended.
+struct CancelOnDrop(Option<Cancel>);
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.take() {
+            c.cancel();
+        }
+    }
+}
+
 /// Run CPU-bound work (decoding, preparing) on the blocking pool in one of the server's import slots
 /// ([`super::state::Limits::max_imports`]); `503 Service Unavailable` when every slot is taken, rather than a
-/// queue. The work itself holds the slot: when a client goes away, hyper drops its handler and with it the work's
-/// result, but the work runs on to its end (the importers' own limits bound it) and its slot stays taken until
-/// then — so clients that upload and hang up cannot pile up threads.
-async fn heavy<T: Send + 'static>(shared: &Shared, work: impl FnOnce() -> T + Send + 'static) -> Result<T, ApiError> {
+/// queue. The work itself holds the slot, so clients that upload and hang up cannot pile up threads; and it gets
+/// a [`Cancel`] flag that a guard held by the request's future sets when that future is dropped (hyper drops the
+/// handler when its client goes away): the work then stops at its next coarse check (per SVG element, between
+/// stages; see [`plotter_path::geometry::cancel`]) and frees its slot, instead of running to an end nobody waits
+/// for.
+async fn heavy<T: Send + 'static>(
+    shared: &Shared,
+    work: impl FnOnce(&Cancel) -> T + Send + 'static,
+) -> Result<T, ApiError> {
     let Ok(slot) = Arc::clone(&shared.imports).try_acquire_owned() else {
         let n = shared.config.limits.max_imports;
         return Err(ApiError(
@@ -365,12 +382,16 @@ async fn heavy<T: Send + 'static>(shared: &Shared, work: impl FnOnce() -> T + Se
             format!("busy: {n} drawing(s) are being decoded or prepared, the most at once; try again when done"),
         ));
     };
-    tokio::task::spawn_blocking(move || {
+    let cancel = Cancel::new();
+    let mut guard = CancelOnDrop(Some(cancel.clone()));
+    let result = tokio::task::spawn_blocking(move || {
         let _slot = slot;
-        work()
+        work(&cancel)
     })
-    .await
-    .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))
+    .await;
+    // Ended: nothing left to cancel.
+    guard.0 = None;
+    result.map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))
 }
 
 /// Decode `source` with `settings`, off the async threads.
@@ -381,12 +402,12 @@ async fn decode(
     profile: MachineProfile,
 ) -> Result<Loaded, ApiError> {
     let input = input_args(settings)?;
-    heavy(shared, move || {
+    heavy(shared, move |cancel| {
         let (name, decoded) = match &source {
             Source::Upload { name, bytes } => {
                 // An upload may use only data: URLs inside it: no path on this machine is opened or looked up.
                 let only_data = plotter_path::input::svg::ResourcePolicy::DataUrlsOnly;
-                let decoded = decode_drawing(bytes, Path::new(name), name, &only_data, &input, &profile);
+                let decoded = decode_drawing(bytes, Path::new(name), name, &only_data, &input, &profile, cancel);
                 (name.clone(), decoded.map_err(|e| bad(format!("{e:#}")))?)
             }
             Source::Gen(spec) => {
@@ -410,7 +431,7 @@ async fn reprepare(shared: &Arc<Shared>) -> ApiResult {
     let layers = layer_choices(&settings, &drawing)?;
     let layout = layout_args(&settings)?;
     let optimize = optimize_args(&settings)?;
-    let result = heavy(shared, move || prepare(drawing, &profile, &layers, &layout, &optimize)).await;
+    let result = heavy(shared, move |cancel| prepare(drawing, &profile, &layers, &layout, &optimize, cancel)).await;
     let answer = {
         let mut i = shared.lock();
         i.view_version += 1;

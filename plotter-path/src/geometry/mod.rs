@@ -1,6 +1,8 @@
 //! Geometry in millimetres: the [`crate::Drawing`] model, curve flattening, filled regions (clip, occlusion)
-//! and their hatching, page layout, size limits, pen-up travel, and the sheets HP-GL plotters address.
+//! and their hatching, page layout, size limits, pen-up travel, the sheets HP-GL plotters address, and the flag
+//! that cancels long work.
 
+pub mod cancel;
 pub mod drawing;
 pub mod flatten;
 pub mod hatch;

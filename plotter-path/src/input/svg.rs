@@ -51,6 +51,7 @@ use std::path::Path;
 use kurbo::{Affine, Point, Rect};
 use usvg::roxmltree;
 
+use crate::geometry::cancel::Cancel;
 use crate::geometry::drawing::{Drawing, Layer, Polyline, Rgb};
 use crate::geometry::hatch::FillHatch;
 use crate::geometry::region::{Keep, Region, cut};
@@ -91,6 +92,12 @@ pub enum SvgError {
         path: String,
         /// Why, when it is more than "no shapes".
         detail: String,
+    },
+    /// The import was cancelled ([`SvgOptions::cancel`]) before it ended.
+    #[error("{path}: import cancelled (the drawing was no longer wanted)")]
+    Cancelled {
+        /// The file.
+        path: String,
     },
     /// A requested layer does not exist.
     #[error("{path}: no layer named '{name}'; layers are: {available}")]
@@ -165,6 +172,9 @@ pub struct SvgOptions {
     /// [`crate::motion::pens::table_index`]) has a `hatch` gets its fills shaded, unless [`SvgOptions::hatch`]
     /// sets one hatch for all.
     pub pens: Vec<crate::motion::profile::PenSpec>,
+    /// Stops the import early with [`SvgError::Cancelled`] when set: checked after parsing, at every element of
+    /// the walk and every item of hidden-line removal, and passed on to the tracer of embedded images.
+    pub cancel: Cancel,
 }
 
 impl Default for SvgOptions {
@@ -182,6 +192,7 @@ impl Default for SvgOptions {
             paper_color: Rgb(255, 255, 255),
             pen_width_mm: crate::geometry::drawing::Pen::default().width_mm,
             pens: Vec::new(),
+            cancel: Cancel::never(),
         }
     }
 }
@@ -212,6 +223,7 @@ pub fn import_svg(
     options: &SvgOptions,
 ) -> Result<Imported, SvgError> {
     let parse_err = |message: String| SvgError::Parse { path: name.to_string(), message };
+    let cancelled = |_| SvgError::Cancelled { path: name.to_string() };
     let text = decode::checked_text(data, decode::MAX_INFLATED_BYTES).map_err(parse_err)?;
     let xml = decode::parse_xml(&text).map_err(parse_err)?;
     if xml.root_element().tag_name().name() != "svg" {
@@ -246,7 +258,9 @@ pub fn import_svg(
             )),
         }
     }
+    options.cancel.check().map_err(cancelled)?;
     let tree = usvg::Tree::from_xmltree(&xml, &opt).map_err(|e| parse_err(e.to_string()))?;
+    options.cancel.check().map_err(cancelled)?;
     warnings.extend(resolver.warnings(name));
 
     let empty = HashMap::new();
@@ -258,6 +272,7 @@ pub fn import_svg(
     let mut walker = walk::Walker::new(options, layer_groups, name);
     let (root, t) = content_root(tree.root(), root_viewbox_transform(xml.root_element()));
     walker.walk_root(root, t);
+    options.cancel.check().map_err(cancelled)?;
     warnings.append(&mut walker.warnings);
     let skipped = &walker.skipped;
     if skipped.hidden > 0 {
@@ -306,7 +321,8 @@ pub fn import_svg(
         warnings.push(format!("{name}: {w}"));
     }
     if options.occlusion {
-        occlude::occlude(&mut items);
+        occlude::occlude(&mut items, &options.cancel);
+        options.cancel.check().map_err(cancelled)?;
     }
     // The page in f64 from the document's absolute width and height when it has them, else usvg's (f32) size.
     let size = tree.size();

@@ -46,7 +46,7 @@ use super::program::{declare_position, lift, program};
 use super::settings::GrblSettings;
 use crate::link::Transport;
 use crate::link::session::WAIT_STALL;
-use crate::link::stream::{Control, PauseChoice, Progress, StreamError, StreamStats};
+use crate::link::stream::{Control, PauseChoice, Progress, StreamError, StreamStats, stop_at_once};
 
 /// How long a plain command may take.
 pub const COMMAND_TIMEOUT: Duration = Duration::from_secs(10);
@@ -449,17 +449,9 @@ impl<T: Transport> GrblSession<T> {
                 )));
             }
             if let Some(now) = control.pause_requested() {
-                let held = st.report.as_ref().filter(|r| r.0.starts_with("Hold")).map(|r| r.0.clone());
-                if held.is_some() || pause_at.is_some() {
-                    let why = match held {
-                        Some(state) => format!("a pause request (Ctrl-C) during a feed hold ({state})"),
-                        None => "a second pause request (Ctrl-C) before the pause at the next pen-up".to_string(),
-                    };
-                    break Err(StreamError::Link(anyhow::anyhow!(
-                        "{}: stopped at once on {why}, after {} executed block(s)",
-                        self.name,
-                        st.executed
-                    )));
+                let held = st.report.as_ref().map(|r| r.0.as_str()).filter(|s| s.starts_with("Hold"));
+                if let Some(why) = stop_at_once(held, pause_at.is_some()) {
+                    break Err(StreamError::StoppedAtOnce { name: self.name.clone(), why, executed: st.executed });
                 }
                 if now {
                     match self.hold(&mut st, plan, &ends, control) {

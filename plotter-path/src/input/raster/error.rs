@@ -57,6 +57,12 @@ pub enum RasterError {
         /// What was found.
         reason: String,
     },
+    /// The tracing was cancelled ([`super::TraceOptions::cancel`]) before it ended.
+    #[error("{input}: tracing cancelled (the drawing was no longer wanted)")]
+    Cancelled {
+        /// The file or image label.
+        input: String,
+    },
     /// An option is out of range.
     #[error("invalid trace option {name} = {value}: {reason}")]
     InvalidOption {

@@ -45,6 +45,7 @@ pub use hatch::{HatchOptions, HatchScheme};
 pub use load::{Prepared, decode_image, load_image, prepare};
 pub use threshold::{Threshold, binarize, cut_level};
 
+use crate::geometry::cancel::Cancel;
 use crate::{Drawing, Layer, Pen, Polyline};
 use image::DynamicImage;
 use kurbo::Point;
@@ -138,6 +139,9 @@ pub struct TraceOptions {
     pub canny_high: f32,
     /// Hatch levels, spacing and angle.
     pub hatch: HatchOptions,
+    /// Stops the tracing early with [`RasterError::Cancelled`] when set: checked between its stages (resizing,
+    /// thresholding, tracing, scaling to millimetres).
+    pub cancel: Cancel,
 }
 
 impl Default for TraceOptions {
@@ -156,6 +160,7 @@ impl Default for TraceOptions {
             canny_low: 40.0,
             canny_high: 100.0,
             hatch: HatchOptions::default(),
+            cancel: Cancel::never(),
         }
     }
 }
@@ -231,7 +236,10 @@ pub fn trace(image: &DynamicImage, options: &TraceOptions) -> Result<Traced, Ras
 pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) -> Result<Traced, RasterError> {
     options.validate()?;
     load::check_size(input, image.width(), image.height())?;
+    let cancelled = |_| RasterError::Cancelled { input: input.to_owned() };
+    options.cancel.check().map_err(cancelled)?;
     let prepared = prepare(image, options)?;
+    options.cancel.check().map_err(cancelled)?;
     let mut warnings = prepared.warnings.clone();
     let nothing = |reason: String| RasterError::NothingToDraw { input: input.to_owned(), reason };
     let layers: Vec<(String, Vec<Vec<Point>>)> = match options.mode {
@@ -241,6 +249,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
                 let inv = if options.invert { ", inverted" } else { "" };
                 return Err(nothing(format!("no ink: no pixel passes the threshold ({}{inv})", options.threshold)));
             }
+            options.cancel.check().map_err(cancelled)?;
             let (paths, w) = if options.mode == Mode::Outline {
                 outline::outline(&bitmap, options.simplify_px, options.min_area_px)
             } else {
@@ -276,6 +285,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             out
         }
     };
+    options.cancel.check().map_err(cancelled)?;
     let (w, h) = prepared.gray.dimensions();
     let s = prepared.pixel_mm;
     let mut drawing = Drawing { layers: Vec::new(), page_mm: Some((f64::from(w) * s, f64::from(h) * s)) };
@@ -311,6 +321,21 @@ mod tests {
 
     fn white(w: u32, h: u32) -> DynamicImage {
         DynamicImage::ImageLuma8(GrayImage::from_pixel(w, h, Luma([255])))
+    }
+
+    #[test]
+    fn a_cancelled_trace_ends_with_its_typed_error() {
+        let img = GrayImage::from_fn(20, 20, |x, y| {
+            Luma([if (5..15).contains(&x) && (5..15).contains(&y) { 0 } else { 255 }])
+        });
+        let cancel = Cancel::new();
+        let opts = TraceOptions { pitch_mm: Some(0.5), cancel: cancel.clone(), ..TraceOptions::default() };
+        let img = DynamicImage::ImageLuma8(img);
+        assert_eq!(trace_named(&img, "square.png", &opts).unwrap().drawing.path_count(), 1);
+        cancel.cancel();
+        let e = trace_named(&img, "square.png", &opts).unwrap_err();
+        assert!(matches!(e, RasterError::Cancelled { .. }), "{e:?}");
+        assert_eq!(e.to_string(), "square.png: tracing cancelled (the drawing was no longer wanted)");
     }
 
     #[test]

@@ -10,12 +10,14 @@
 use kurbo::Rect;
 
 use super::walk::Item;
+use crate::geometry::cancel::Cancel;
 use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
 
 const MAX_CELLS: f64 = 256.0;
 
-/// Remove hidden parts in place; returns how many items lost some of their lines.
-pub(super) fn occlude(items: &mut [Item]) -> usize {
+/// Remove hidden parts in place; returns how many items lost some of their lines. Stops between items once
+/// `cancel` is set (the items are then only partly processed, for a caller that discards them).
+pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
     let occluders: Vec<(usize, Rect)> = items
         .iter()
         .enumerate()
@@ -48,6 +50,9 @@ pub(super) fn occlude(items: &mut [Item]) -> usize {
     let mut seen = vec![usize::MAX; occluders.len()];
     let mut changed = 0;
     for i in 0..items.len() {
+        if cancel.is_cancelled() {
+            break;
+        }
         if items[i].lines.is_empty() {
             continue;
         }

@@ -907,3 +907,39 @@ mod hostile {
         );
     }
 }
+
+/// Three overlapping white discs outlined in black: each later disc hides part of the outlines before it.
+const DISCS: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
+  <circle cx="30" cy="50" r="15" fill="white" stroke="black"/>
+  <circle cx="45" cy="50" r="15" fill="white" stroke="black"/>
+  <circle cx="60" cy="50" r="15" fill="white" stroke="black"/>
+</svg>"#;
+
+#[test]
+fn a_cancelled_import_ends_with_its_typed_error_and_each_check_stops_its_stage() {
+    let cancel = crate::geometry::cancel::Cancel::new();
+    let opts = SvgOptions { cancel: cancel.clone(), ..SvgOptions::default() };
+    // Not cancelled: the same drawing as without a flag.
+    assert_eq!(import_with(DISCS, &opts), import_with(DISCS, &SvgOptions::default()));
+    cancel.cancel();
+    match import_svg(DISCS.as_bytes(), "discs.svg", &ResourcePolicy::DataUrlsOnly, &opts) {
+        Err(e @ SvgError::Cancelled { .. }) => {
+            assert_eq!(e.to_string(), "discs.svg: import cancelled (the drawing was no longer wanted)");
+        }
+        other => panic!("{other:?}"),
+    }
+    // The checks inside the stages: a cancelled walk collects no element, and hidden-line removal cancelled
+    // before its first item cuts none (uncancelled, it cuts the first two outlines).
+    let tree = usvg::Tree::from_str(DISCS, &usvg::Options::default()).unwrap();
+    let groups = HashMap::new();
+    let mut walker = walk::Walker::new(&opts, &groups, "discs.svg");
+    walker.walk_root(tree.root(), Affine::IDENTITY);
+    assert!(walker.items.is_empty());
+    let open = SvgOptions::default();
+    let mut walker = walk::Walker::new(&open, &groups, "discs.svg");
+    walker.walk_root(tree.root(), Affine::IDENTITY);
+    assert_eq!(walker.items.len(), 3);
+    let mut items = std::mem::take(&mut walker.items);
+    assert_eq!(occlude::occlude(&mut items, &cancel), 0);
+    assert_eq!(occlude::occlude(&mut items, &crate::geometry::cancel::Cancel::never()), 2);
+}

@@ -172,7 +172,11 @@ impl<'a> Walker<'a> {
         }
     }
 
+    /// One element (and what it contains); nothing once the import is cancelled (the caller then reports it).
     fn walk(&mut self, node: &usvg::Node, ctx: &Ctx) {
+        if self.options.cancel.is_cancelled() {
+            return;
+        }
         match node {
             usvg::Node::Group(g) => self.walk_group(g, ctx),
             usvg::Node::Path(p) => self.add_path(p, ctx, "path"),
@@ -567,7 +571,12 @@ impl<'a> Walker<'a> {
         let m = affine(&image.abs_transform());
         let to_mm = Affine::scale(MM_PER_PX) * m;
         let pixel_mm = to_mm.determinant().abs().sqrt();
-        let opts = raster::TraceOptions { pitch_mm: Some(pixel_mm), width_mm: None, ..mode.trace.clone() };
+        let opts = raster::TraceOptions {
+            pitch_mm: Some(pixel_mm),
+            width_mm: None,
+            cancel: self.options.cancel.clone(),
+            ..mode.trace.clone()
+        };
         let traced = match raster::trace_named(&decoded, &element, &opts) {
             Ok(t) => t,
             Err(e) => {
