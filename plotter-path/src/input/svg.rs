@@ -28,7 +28,8 @@
 //! curve given as an arc is therefore at most the tolerance plus usvg's 0.1 user unit.
 //!
 //! **Layers are pens.** [`LayerBy::Auto`] (the default): one layer per Inkscape layer
-//! (`inkscape:groupmode="layer"`, named by its label) when the document has any — shapes outside every layer go
+//! (`inkscape:groupmode="layer"`, named by its label, with or without an `id`: see [`layers`]) when the
+//! document has any — shapes outside every layer go
 //! to a layer named `root` — otherwise the whole drawing is one layer. [`LayerBy::Group`] makes a layer of each
 //! top-level `<g>` (vpype's convention; other top-level content goes to `root`). [`LayerBy::Color`] makes one
 //! layer per stroke colour as usvg normalises it (`red` and `#ff0000` are one pen; fill colour for fill-only
@@ -39,6 +40,7 @@ mod bounds;
 pub mod decode;
 pub mod dtd;
 pub mod hershey;
+mod layers;
 mod occlude;
 pub mod resources;
 mod walk;
@@ -218,7 +220,14 @@ pub fn import_svg(
         return Err(parse_err(format!("root element is <{}>, expected <svg>", xml.root_element().tag_name().name())));
     }
     check_page_size(xml.root_element()).map_err(parse_err)?;
-    let survey = survey(&xml, options.images.is_none());
+    // Layer groups without an id get one, so that they can be found in usvg's tree (see [`layers`]).
+    let prefix = layers::synthetic_prefix(&text);
+    let named = layers::name_layer_groups(&text, &xml, &prefix);
+    let xml = match &named {
+        Some(t) => decode::parse_xml(t).map_err(parse_err)?,
+        None => xml,
+    };
+    let survey = survey(&xml, options.images.is_none(), &prefix);
     let mut warnings = survey.warnings.clone();
 
     let resolver = resources::Resolver::new(resources);
@@ -445,8 +454,10 @@ struct Survey {
     warnings: Vec<String>,
 }
 
-fn survey(xml: &roxmltree::Document<'_>, skip_images: bool) -> Survey {
-    const INKSCAPE: &str = "http://www.inkscape.org/namespaces/inkscape";
+/// `prefix` marks the synthetic ids of [`layers::name_layer_groups`]: a group named so is called by its label, else
+/// by its line.
+fn survey(xml: &roxmltree::Document<'_>, skip_images: bool, prefix: &str) -> Survey {
+    use layers::INKSCAPE;
     let mut s = Survey {
         inkscape_layers: HashMap::new(),
         top_groups: HashMap::new(),
@@ -475,7 +486,13 @@ fn survey(xml: &roxmltree::Document<'_>, skip_images: bool) -> Survey {
         if tag == "g"
             && let Some(id) = node.attribute("id")
         {
-            let label = node.attribute((INKSCAPE, "label")).unwrap_or(id).to_string();
+            let label = match node.attribute((INKSCAPE, "label")) {
+                Some(l) => l.to_string(),
+                None if id.starts_with(prefix) => {
+                    format!("group at line {}", xml.text_pos_at(node.range().start).row)
+                }
+                None => id.to_string(),
+            };
             if node.attribute((INKSCAPE, "groupmode")) == Some("layer") {
                 s.inkscape_layers.insert(id.to_string(), label.clone());
             }

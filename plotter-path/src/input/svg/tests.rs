@@ -367,6 +367,37 @@ fn inkscape_layers_versus_plain_groups() {
 }
 
 #[test]
+fn inkscape_layers_without_ids_are_layers() {
+    // Two layers without ids (usvg keeps such groups but without a name to find them by): 20 + 10 mm in "Ink",
+    // 30 mm in "Pencil"; a line outside both goes to "root".
+    let svg = mm_doc(
+        r##"<g inkscape:groupmode="layer" inkscape:label="Ink">
+              <line x1="0" y1="0" x2="20" y2="0" stroke="red"/>
+              <g><line x1="0" y1="5" x2="10" y2="5" stroke="blue"/></g></g>
+            <g inkscape:label="Pencil" inkscape:groupmode="layer" transform="translate(0,10)">
+              <line x1="0" y1="9" x2="30" y2="9" stroke="black"/></g>
+            <line x1="0" y1="50" x2="7" y2="50" stroke="black"/>"##,
+    );
+    let d = import(&svg).drawing;
+    let names: Vec<&str> = d.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Ink", "Pencil", "root"]);
+    let lengths: Vec<f64> = d.layers.iter().map(|l| l.paths.iter().map(Polyline::length).sum()).collect();
+    assert_eq!(d.layers[0].paths.len(), 2);
+    for (got, want) in lengths.iter().zip([30.0, 30.0, 7.0]) {
+        assert!((got - want).abs() < 1e-6, "{lengths:?}");
+    }
+    // The Pencil line moved by its layer's transform: y = 19 mm.
+    assert!((d.layers[1].paths[0].points[0].y - 19.0).abs() < 1e-6);
+    // Top-level groups without ids are groups too (named by their label, else their line).
+    let by_group = import_with(&svg, &SvgOptions { layer_by: LayerBy::Group, ..SvgOptions::default() }).drawing;
+    let names: Vec<&str> = by_group.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Ink", "Pencil", "root"]);
+    let unlabelled = mm_doc("\n<g>\n<line x1=\"0\" y1=\"0\" x2=\"5\" y2=\"0\" stroke=\"black\"/></g>");
+    let d = import_with(&unlabelled, &SvgOptions { layer_by: LayerBy::Group, ..SvgOptions::default() }).drawing;
+    assert_eq!(d.layers[0].name, "group at line 4");
+}
+
+#[test]
 fn colour_layers_normalise_colour_names() {
     let svg = mm_doc(
         r##"<line x1="0" y1="0" x2="10" y2="0" stroke="red"/>
