@@ -8,10 +8,11 @@
 //!
 //! **What is plotted** (the reference is the SVG rendered by a browser or resvg; see [`walk`] for the details):
 //! a stroked path along its centre line (dashes as separate pen-down dashes); a fill-only path along the outline
-//! of its filled area, unless it is filled with the paper's colour (then it only hides what lies under it);
+//! of its filled area where the colour on its two sides differs as painted (a white shape on black is outlined,
+//! on the paper it only hides what lies under it; see [`edges`]);
 //! with [`SvgOptions::hatch`], every filled area is also shaded with parallel lines. Everything is cut to its
 //! clip paths, masks (their opaque area) and nested viewports; with [`SvgOptions::occlusion`] (on by default) the
-//! parts of lines under an opaque fill painted later are removed ([`occlude`]). Skipped with a warning: paths
+//! parts of lines under a fill more than half opaque painted later are removed ([`occlude`]). Skipped with a warning: paths
 //! with neither fill nor stroke, `display:none`/`visibility:hidden`, fully transparent shapes. Geometry outside
 //! the page is reported, and cut at the page edge with [`SvgOptions::crop`]; lines reaching beyond ±1 km are cut
 //! there with a warning ([`bounds`]). Embedded raster `<image>`s are
@@ -39,6 +40,8 @@ pub mod attributes;
 mod bounds;
 pub mod decode;
 pub mod dtd;
+mod edges;
+mod grid;
 pub mod hershey;
 mod layers;
 mod occlude;
@@ -158,7 +161,7 @@ pub struct SvgOptions {
     pub images: Option<ImageTrace>,
     /// Cut everything at the page edge.
     pub crop: bool,
-    /// The paper's colour: opaque fill-only shapes of this colour hide what is under them and draw nothing.
+    /// The paper's colour: fill-only shapes of this colour draw an outline only where they lie on another colour.
     pub paper_color: Rgb,
     /// The pen's width, mm: opaque strokes wider than four times this hide what lies under them, as fills do
     /// (thinner ones would only nick the lines they cross).
@@ -311,6 +314,13 @@ pub fn import_svg(
     }
     let layer_names = std::mem::take(&mut walker.layer_names);
     let mut items = std::mem::take(&mut walker.items);
+    let unseen = edges::draw_edges(&mut items, options.paper_color);
+    if unseen > 0 {
+        warnings.push(format!(
+            "{name}: {unseen} fill-only shape(s) not outlined: their colour is that of what lies beneath (e.g. white \
+             on the paper); they only hide what lies under them"
+        ));
+    }
     if let Some(w) = bounds::cut_far(&mut items) {
         warnings.push(format!("{name}: {w}"));
     }

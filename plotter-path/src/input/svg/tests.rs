@@ -507,6 +507,84 @@ fn white_fill_only_shape_masks_a_line_and_is_not_drawn() {
     assert_eq!(d.path_count(), 2);
 }
 
+/// Fill-only shapes are outlined where their colour differs from what lies beneath (issue 24).
+#[test]
+fn a_fill_only_shape_draws_its_edge_where_the_colours_differ() {
+    let warned = |i: &Imported| i.warnings.iter().any(|w| w.contains("1 fill-only shape(s) not outlined"));
+    // A white 20 mm square on a black 60 mm square: both outlines, 240 + 80 mm.
+    let on_black = import(&mm_doc(
+        r#"<rect x="0" y="0" width="60" height="60" fill="black"/>
+           <rect x="20" y="20" width="20" height="20" fill="white"/>"#,
+    ));
+    assert_len(&on_black.drawing, 320.0);
+    assert!(!warned(&on_black), "{:?}", on_black.warnings);
+    // On the page alone it draws nothing: with a 7 mm line beside it, only the line, and the shape is reported.
+    let alone = import(&mm_doc(
+        r#"<rect x="20" y="20" width="20" height="20" fill="white"/>
+           <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>"#,
+    ));
+    assert_len(&alone.drawing, 7.0);
+    assert!(warned(&alone), "{:?}", alone.warnings);
+    let err = import_svg(
+        mm_doc(r##"<rect x="20" y="20" width="20" height="20" fill="#fff"/>"##).as_bytes(),
+        "w.svg",
+        &ResourcePolicy::DataUrlsOnly,
+        &SvgOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("nothing to draw") && err.contains("not outlined"), "{err}");
+    // Straddling the bottom edge of a black 40 × 20 rectangle: the white square x 10..30, y 10..30 draws its top
+    // (20 mm) and its sides down to y = 20 (2 × 10 mm); the rectangle loses the 20 mm of its bottom edge under the
+    // square (120 − 20). Total 140 mm.
+    let straddle = mm_doc(
+        r#"<rect x="0" y="0" width="40" height="20" fill="black"/>
+           <rect x="10" y="10" width="20" height="20" fill="white"/>"#,
+    );
+    assert_len(&import(&straddle).drawing, 140.0);
+    // The same with a red square on a red rectangle: the square's edge is drawn over the paper instead, its bottom
+    // and lower sides (20 + 2 × 10 mm), again 140 mm; on a blue rectangle, its whole outline: 100 + 80 mm.
+    let red = straddle.replace("black", "red").replace("white", "#f00");
+    assert_len(&import(&red).drawing, 140.0);
+    assert_len(&import(&straddle.replace("black", "blue").replace("white", "red")).drawing, 180.0);
+    // Red inside red draws only the outer outline; a later black square between them separates the colours.
+    let nested = mm_doc(
+        r#"<rect x="0" y="0" width="60" height="60" fill="red"/>
+           <rect x="20" y="20" width="20" height="20" fill="red"/>"#,
+    );
+    assert_len(&import(&nested).drawing, 240.0);
+    let between = nested.replace(
+        r#"<rect x="20" y="20""#,
+        r#"<rect x="10" y="10" width="40" height="40" fill="black"/><rect x="20" y="20""#,
+    );
+    assert_len(&import(&between).drawing, 240.0 + 160.0 + 80.0);
+    // The paper's colour is the option's: on yellow paper a yellow square draws nothing and a white one its edge.
+    let yellow = SvgOptions { paper_color: Rgb(255, 255, 0), ..SvgOptions::default() };
+    let doc = |fill: &str| {
+        mm_doc(&format!(
+            r#"<rect x="20" y="20" width="20" height="20" fill="{fill}"/>
+               <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>"#
+        ))
+    };
+    assert_len(&import_with(&doc("yellow"), &yellow).drawing, 7.0);
+    assert_len(&import_with(&doc("white"), &yellow).drawing, 87.0);
+}
+
+#[test]
+fn a_fill_under_half_opacity_hides_nothing() {
+    // A 100 mm line under a black 40 mm square at 30 % opacity: the line stays whole, plus the square's 160 mm.
+    let doc = |opacity: &str| {
+        mm_doc(&format!(
+            r#"<line x1="0" y1="50" x2="100" y2="50" stroke="black"/>
+               <rect x="30" y="30" width="40" height="40" fill="black" fill-opacity="{opacity}"/>"#
+        ))
+    };
+    assert_len(&import(&doc("0.3")).drawing, 260.0);
+    // At 60 % (here the element's opacity) or 75 % it hides the 40 mm under it.
+    assert_len(&import(&doc("1").replace("<rect ", r#"<rect opacity="0.6" "#)).drawing, 220.0);
+    assert_len(&import(&doc("0.75")).drawing, 220.0);
+}
+
 #[test]
 fn wide_opaque_stroke_hides_what_lies_under_it() {
     // A 100 mm line at y = 50 under a vertical 10 mm wide black stroke x = 50, y 0..100 (butt caps: the outline
