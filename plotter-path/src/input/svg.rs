@@ -10,7 +10,9 @@
 //! a stroked path along its centre line (dashes as separate pen-down dashes); a fill-only path along the outline
 //! of its filled area where the colour on its two sides differs as painted (a white shape on black is outlined,
 //! on the paper it only hides what lies under it; see [`edges`]);
-//! with [`SvgOptions::hatch`], every filled area is also shaded with parallel lines. Everything is cut to its
+//! a `<pattern>` fill as its tiles' content, cut to the shape (see [`walk`]'s pattern module; patterns finer than
+//! the pen are skipped with a warning); with [`SvgOptions::hatch`], every filled area is also shaded with
+//! parallel lines. Everything is cut to its
 //! clip paths, masks (their opaque area) and nested viewports; with [`SvgOptions::occlusion`] (on by default) the
 //! parts of lines under a fill more than half opaque painted later are removed ([`occlude`]). Skipped with a warning: paths
 //! with neither fill nor stroke, `display:none`/`visibility:hidden`, fully transparent shapes. Geometry outside

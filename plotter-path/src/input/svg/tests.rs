@@ -585,6 +585,75 @@ fn a_fill_under_half_opacity_hides_nothing() {
     assert_len(&import(&doc("0.75")).drawing, 220.0);
 }
 
+/// Pen-down length of the part of a circle (centre at distance `d` from `c`, radius `r`) inside the circle of
+/// radius `big` around `c`: the points at angle φ from the direction towards `c` lie within `big` when
+/// d² + r² − 2dr·cos φ ≤ big², so the inside arc spans 2·acos((d² + r² − big²) / 2dr).
+fn arc_inside(d: f64, r: f64, big: f64) -> f64 {
+    if d + r <= big {
+        return 2.0 * std::f64::consts::PI * r;
+    }
+    if d - r >= big {
+        return 0.0;
+    }
+    2.0 * r * ((d * d + r * r - big * big) / (2.0 * d * r)).clamp(-1.0, 1.0).acos()
+}
+
+#[test]
+fn pattern_dots_are_tiled_and_clipped_to_their_shape() {
+    // 5 mm dots (r 2.5) centred in 6 mm tiles from the origin, filling a 20 mm circle (r 10) at (50, 50).
+    let svg = mm_doc(
+        r#"<defs><pattern id="dots" patternUnits="userSpaceOnUse" width="6" height="6">
+              <circle cx="3" cy="3" r="2.5" fill="black"/></pattern></defs>
+           <circle cx="50" cy="50" r="10" fill="url(#dots)"/>"#,
+    );
+    let fine = SvgOptions { tolerance_mm: 0.001, ..SvgOptions::default() };
+    let imported = import_with(&svg, &fine);
+    // (At this tolerance, only the note that usvg's arcs are within 0.003 mm.)
+    assert!(imported.warnings.iter().all(|w| w.contains("arcs/circles")), "{:?}", imported.warnings);
+    let d = imported.drawing;
+    // From the geometry: every dot centre (3 + 6i, 3 + 6j), whole when within 7.5 mm of the centre, cut when
+    // within 12.5 mm.
+    let (mut whole, mut cut_dots, mut length) = (0, 0, 0.0);
+    for i in 0..20 {
+        for j in 0..20 {
+            let c = Point::new(3.0 + 6.0 * f64::from(i), 3.0 + 6.0 * f64::from(j));
+            let dist = c.distance(Point::new(50.0, 50.0));
+            length += arc_inside(dist, 2.5, 10.0);
+            if dist + 2.5 <= 10.0 {
+                whole += 1;
+            } else if dist - 2.5 < 10.0 {
+                cut_dots += 1;
+            }
+        }
+    }
+    // By hand, centre offsets from (50, 50) on each axis are −11, −5, 1, 7, 13: whole (≤ 7.5 mm) are (1,1),
+    // (−5,1), (1,−5), (7,1), (1,7), (−5,−5); cut (< 12.5 mm) are (−5,7), (7,−5), (7,7), (−11,1), (1,−11),
+    // (−11,−5), (−5,−11).
+    assert_eq!((whole, cut_dots), (6, 7));
+    let closed = d.paths().filter(|p| p.is_closed()).count();
+    assert_eq!(closed, whole, "every whole dot is one closed line");
+    let got = pen_down(&d);
+    // usvg's cubic circles lie up to 2.7e-4 of the radius outside the true circle, so lengths agree to that.
+    assert!((got - length).abs() < 3e-4 * length, "pen-down {got} mm, expected {length} mm");
+    // Nothing outside the circle.
+    assert!(d.paths().flat_map(|p| &p.points).all(|q| q.distance(Point::new(50.0, 50.0)) <= 10.0 + 0.003));
+    // Tiles finer than the pen (0.125 mm < 0.3 mm) are not drawn, with the count of tiles over the shape's box
+    // (x and y 40.3 .. 60.3: tiles 322 ..= 482, 161 each way).
+    let tiny = mm_doc(
+        r#"<defs><pattern id="fine" patternUnits="userSpaceOnUse" width="0.125" height="0.125">
+              <circle cx="0.0625" cy="0.0625" r="0.05" fill="black"/></pattern></defs>
+           <circle cx="50.3" cy="50.3" r="10" fill="url(#fine)"/>
+           <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>"#,
+    );
+    let imported = import(&tiny);
+    assert_len(&imported.drawing, 7.0);
+    assert!(
+        imported.warnings.iter().any(|w| w.contains("pattern \"fine\"") && w.contains("25921 tile(s)")),
+        "{:?}",
+        imported.warnings
+    );
+}
+
 #[test]
 fn wide_opaque_stroke_hides_what_lies_under_it() {
     // A 100 mm line at y = 50 under a vertical 10 mm wide black stroke x = 50, y 0..100 (butt caps: the outline

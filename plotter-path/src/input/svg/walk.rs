@@ -35,6 +35,8 @@ use crate::geometry::limits::MAX_COORD_MM;
 use crate::geometry::region::{FillRule, Keep, Region, cut};
 use crate::input::raster;
 
+mod pattern;
+
 /// A fill hides what lies under it when its opacity is more than this.
 const HIDING_ALPHA: f32 = 0.5;
 
@@ -100,6 +102,10 @@ pub(super) struct Skipped {
     pub(super) hatch_refused: usize,
     /// Wide strokes whose outline would reach beyond ±1 km: not outlined (neither hiding nor filled).
     pub(super) far_outlines: usize,
+    /// Pattern fills not drawn because their tiles are narrower than the pen.
+    pub(super) fine_patterns: usize,
+    /// Pattern fills not drawn because they would paint too many shapes.
+    pub(super) huge_patterns: usize,
 }
 
 /// Where the walk is: the transform to CSS px, the clip areas to cut by, the opacity, the layer.
@@ -122,6 +128,8 @@ pub(super) struct Walker<'a> {
     pub(super) warnings: Vec<String>,
     font: Option<Result<HersheyFont, String>>,
     name: &'a str,
+    /// Shapes painted by pattern fills so far (bounded by [`pattern::MAX_PATTERN_SHAPES`]).
+    pattern_shapes: usize,
 }
 
 fn affine(t: &usvg::Transform) -> Affine {
@@ -204,6 +212,7 @@ impl<'a> Walker<'a> {
             warnings: Vec::new(),
             font: None,
             name,
+            pattern_shapes: 0,
         }
     }
 
@@ -401,7 +410,11 @@ impl<'a> Walker<'a> {
             let needs_area = hides || fill_hatch.is_some();
             let area = needs_area.then(|| self.area(p.data(), ctx.t, rule(r)));
             let uniform = uniform_color(f.paint());
-            if stroke.is_none() {
+            if let usvg::Paint::Pattern(pattern) = f.paint() {
+                // The tiles are the fill: painted now, before the shape's stroke; the shape itself has no edge.
+                let area = self.area(p.data(), ctx.t, rule(r));
+                self.add_pattern(pattern, area, ctx, f.opacity().get(), &describe(tag, p.id()));
+            } else if stroke.is_none() {
                 let own = self.flatten(p.data(), ctx.t);
                 outline = Some(Outline { lines: Self::cut_to_clips(own, &ctx.clips), color: uniform });
             }
