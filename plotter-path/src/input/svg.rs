@@ -8,10 +8,13 @@
 //!
 //! **What is plotted** (the reference is the SVG rendered by a browser or resvg; see [`walk`] for the details):
 //! a stroked path along its centre line (dashes as separate pen-down dashes); a fill-only path along the outline
-//! of its filled area, unless it is filled with the paper's colour (then it only hides what lies under it);
-//! with [`SvgOptions::hatch`], every filled area is also shaded with parallel lines. Everything is cut to its
+//! of its filled area where the colour on its two sides differs as painted (a white shape on black is outlined,
+//! on the paper it only hides what lies under it; see [`edges`]);
+//! a `<pattern>` fill as its tiles' content, cut to the shape (see [`walk`]'s pattern module; patterns finer than
+//! the pen are skipped with a warning); with [`SvgOptions::hatch`], every filled area is also shaded with
+//! parallel lines. Everything is cut to its
 //! clip paths, masks (their opaque area) and nested viewports; with [`SvgOptions::occlusion`] (on by default) the
-//! parts of lines under an opaque fill painted later are removed ([`occlude`]). Skipped with a warning: paths
+//! parts of lines under a fill more than half opaque painted later are removed ([`occlude`]). Skipped with a warning: paths
 //! with neither fill nor stroke, `display:none`/`visibility:hidden`, fully transparent shapes. Geometry outside
 //! the page is reported, and cut at the page edge with [`SvgOptions::crop`]; lines reaching beyond ±1 km are cut
 //! there with a warning ([`bounds`]). Embedded raster `<image>`s are
@@ -28,7 +31,8 @@
 //! curve given as an arc is therefore at most the tolerance plus usvg's 0.1 user unit.
 //!
 //! **Layers are pens.** [`LayerBy::Auto`] (the default): one layer per Inkscape layer
-//! (`inkscape:groupmode="layer"`, named by its label) when the document has any — shapes outside every layer go
+//! (`inkscape:groupmode="layer"`, named by its label, with or without an `id`: see [`layers`]) when the
+//! document has any — shapes outside every layer go
 //! to a layer named `root` — otherwise the whole drawing is one layer. [`LayerBy::Group`] makes a layer of each
 //! top-level `<g>` (vpype's convention; other top-level content goes to `root`). [`LayerBy::Color`] makes one
 //! layer per stroke colour as usvg normalises it (`red` and `#ff0000` are one pen; fill colour for fill-only
@@ -38,7 +42,10 @@ pub mod attributes;
 mod bounds;
 pub mod decode;
 pub mod dtd;
+mod edges;
+mod grid;
 pub mod hershey;
+mod layers;
 mod occlude;
 pub mod resources;
 mod walk;
@@ -163,7 +170,7 @@ pub struct SvgOptions {
     pub images: Option<ImageTrace>,
     /// Cut everything at the page edge.
     pub crop: bool,
-    /// The paper's colour: opaque fill-only shapes of this colour hide what is under them and draw nothing.
+    /// The paper's colour: fill-only shapes of this colour draw an outline only where they lie on another colour.
     pub paper_color: Rgb,
     /// The pen's width, mm: opaque strokes wider than four times this hide what lies under them, as fills do
     /// (thinner ones would only nick the lines they cross).
@@ -230,7 +237,14 @@ pub fn import_svg(
         return Err(parse_err(format!("root element is <{}>, expected <svg>", xml.root_element().tag_name().name())));
     }
     check_page_size(xml.root_element()).map_err(parse_err)?;
-    let survey = survey(&xml, options.images.is_none());
+    // Layer groups without an id get one, so that they can be found in usvg's tree (see [`layers`]).
+    let prefix = layers::synthetic_prefix(&text);
+    let named = layers::name_layer_groups(&text, &xml, &prefix);
+    let xml = match &named {
+        Some(t) => decode::parse_xml(t).map_err(parse_err)?,
+        None => xml,
+    };
+    let survey = survey(&xml, options.images.is_none(), &prefix);
     let mut warnings = survey.warnings.clone();
 
     let resolver = resources::Resolver::new(resources);
@@ -317,6 +331,13 @@ pub fn import_svg(
     }
     let layer_names = std::mem::take(&mut walker.layer_names);
     let mut items = std::mem::take(&mut walker.items);
+    let unseen = edges::draw_edges(&mut items, options.paper_color);
+    if unseen > 0 {
+        warnings.push(format!(
+            "{name}: {unseen} fill-only shape(s) not outlined: their colour is that of what lies beneath (e.g. white \
+             on the paper); they only hide what lies under them"
+        ));
+    }
     if let Some(w) = bounds::cut_far(&mut items) {
         warnings.push(format!("{name}: {w}"));
     }
@@ -461,8 +482,10 @@ struct Survey {
     warnings: Vec<String>,
 }
 
-fn survey(xml: &roxmltree::Document<'_>, skip_images: bool) -> Survey {
-    const INKSCAPE: &str = "http://www.inkscape.org/namespaces/inkscape";
+/// `prefix` marks the synthetic ids of [`layers::name_layer_groups`]: a group named so is called by its label, else
+/// by its line.
+fn survey(xml: &roxmltree::Document<'_>, skip_images: bool, prefix: &str) -> Survey {
+    use layers::INKSCAPE;
     let mut s = Survey {
         inkscape_layers: HashMap::new(),
         top_groups: HashMap::new(),
@@ -491,7 +514,13 @@ fn survey(xml: &roxmltree::Document<'_>, skip_images: bool) -> Survey {
         if tag == "g"
             && let Some(id) = node.attribute("id")
         {
-            let label = node.attribute((INKSCAPE, "label")).unwrap_or(id).to_string();
+            let label = match node.attribute((INKSCAPE, "label")) {
+                Some(l) => l.to_string(),
+                None if id.starts_with(prefix) => {
+                    format!("group at line {}", xml.text_pos_at(node.range().start).row)
+                }
+                None => id.to_string(),
+            };
             if node.attribute((INKSCAPE, "groupmode")) == Some("layer") {
                 s.inkscape_layers.insert(id.to_string(), label.clone());
             }

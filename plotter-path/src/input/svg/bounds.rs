@@ -170,7 +170,14 @@ mod tests {
     }
 
     fn item(element: &str, lines: Vec<Vec<Point>>) -> Item {
-        Item { layer: 0, pen: crate::geometry::drawing::Pen::default(), lines, occluder: None, element: element.into() }
+        Item {
+            layer: 0,
+            pen: crate::geometry::drawing::Pen::default(),
+            lines,
+            outline: None,
+            paints: Vec::new(),
+            element: element.into(),
+        }
     }
 
     #[test]

@@ -367,6 +367,37 @@ fn inkscape_layers_versus_plain_groups() {
 }
 
 #[test]
+fn inkscape_layers_without_ids_are_layers() {
+    // Two layers without ids (usvg keeps such groups but without a name to find them by): 20 + 10 mm in "Ink",
+    // 30 mm in "Pencil"; a line outside both goes to "root".
+    let svg = mm_doc(
+        r##"<g inkscape:groupmode="layer" inkscape:label="Ink">
+              <line x1="0" y1="0" x2="20" y2="0" stroke="red"/>
+              <g><line x1="0" y1="5" x2="10" y2="5" stroke="blue"/></g></g>
+            <g inkscape:label="Pencil" inkscape:groupmode="layer" transform="translate(0,10)">
+              <line x1="0" y1="9" x2="30" y2="9" stroke="black"/></g>
+            <line x1="0" y1="50" x2="7" y2="50" stroke="black"/>"##,
+    );
+    let d = import(&svg).drawing;
+    let names: Vec<&str> = d.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Ink", "Pencil", "root"]);
+    let lengths: Vec<f64> = d.layers.iter().map(|l| l.paths.iter().map(Polyline::length).sum()).collect();
+    assert_eq!(d.layers[0].paths.len(), 2);
+    for (got, want) in lengths.iter().zip([30.0, 30.0, 7.0]) {
+        assert!((got - want).abs() < 1e-6, "{lengths:?}");
+    }
+    // The Pencil line moved by its layer's transform: y = 19 mm.
+    assert!((d.layers[1].paths[0].points[0].y - 19.0).abs() < 1e-6);
+    // Top-level groups without ids are groups too (named by their label, else their line).
+    let by_group = import_with(&svg, &SvgOptions { layer_by: LayerBy::Group, ..SvgOptions::default() }).drawing;
+    let names: Vec<&str> = by_group.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Ink", "Pencil", "root"]);
+    let unlabelled = mm_doc("\n<g>\n<line x1=\"0\" y1=\"0\" x2=\"5\" y2=\"0\" stroke=\"black\"/></g>");
+    let d = import_with(&unlabelled, &SvgOptions { layer_by: LayerBy::Group, ..SvgOptions::default() }).drawing;
+    assert_eq!(d.layers[0].name, "group at line 4");
+}
+
+#[test]
 fn colour_layers_normalise_colour_names() {
     let svg = mm_doc(
         r##"<line x1="0" y1="0" x2="10" y2="0" stroke="red"/>
@@ -474,6 +505,153 @@ fn white_fill_only_shape_masks_a_line_and_is_not_drawn() {
     let d = import(&svg).drawing;
     assert_len(&d, 60.0);
     assert_eq!(d.path_count(), 2);
+}
+
+/// Fill-only shapes are outlined where their colour differs from what lies beneath (issue 24).
+#[test]
+fn a_fill_only_shape_draws_its_edge_where_the_colours_differ() {
+    let warned = |i: &Imported| i.warnings.iter().any(|w| w.contains("1 fill-only shape(s) not outlined"));
+    // A white 20 mm square on a black 60 mm square: both outlines, 240 + 80 mm.
+    let on_black = import(&mm_doc(
+        r#"<rect x="0" y="0" width="60" height="60" fill="black"/>
+           <rect x="20" y="20" width="20" height="20" fill="white"/>"#,
+    ));
+    assert_len(&on_black.drawing, 320.0);
+    assert!(!warned(&on_black), "{:?}", on_black.warnings);
+    // On the page alone it draws nothing: with a 7 mm line beside it, only the line, and the shape is reported.
+    let alone = import(&mm_doc(
+        r#"<rect x="20" y="20" width="20" height="20" fill="white"/>
+           <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>"#,
+    ));
+    assert_len(&alone.drawing, 7.0);
+    assert!(warned(&alone), "{:?}", alone.warnings);
+    let err = import_svg(
+        mm_doc(r##"<rect x="20" y="20" width="20" height="20" fill="#fff"/>"##).as_bytes(),
+        "w.svg",
+        &ResourcePolicy::DataUrlsOnly,
+        &SvgOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("nothing to draw") && err.contains("not outlined"), "{err}");
+    // Straddling the bottom edge of a black 40 × 20 rectangle: the white square x 10..30, y 10..30 draws its top
+    // (20 mm) and its sides down to y = 20 (2 × 10 mm); the rectangle loses the 20 mm of its bottom edge under the
+    // square (120 − 20). Total 140 mm.
+    let straddle = mm_doc(
+        r#"<rect x="0" y="0" width="40" height="20" fill="black"/>
+           <rect x="10" y="10" width="20" height="20" fill="white"/>"#,
+    );
+    assert_len(&import(&straddle).drawing, 140.0);
+    // The same with a red square on a red rectangle: the square's edge is drawn over the paper instead, its bottom
+    // and lower sides (20 + 2 × 10 mm), again 140 mm; on a blue rectangle, its whole outline: 100 + 80 mm.
+    let red = straddle.replace("black", "red").replace("white", "#f00");
+    assert_len(&import(&red).drawing, 140.0);
+    assert_len(&import(&straddle.replace("black", "blue").replace("white", "red")).drawing, 180.0);
+    // Red inside red draws only the outer outline; a later black square between them separates the colours.
+    let nested = mm_doc(
+        r#"<rect x="0" y="0" width="60" height="60" fill="red"/>
+           <rect x="20" y="20" width="20" height="20" fill="red"/>"#,
+    );
+    assert_len(&import(&nested).drawing, 240.0);
+    let between = nested.replace(
+        r#"<rect x="20" y="20""#,
+        r#"<rect x="10" y="10" width="40" height="40" fill="black"/><rect x="20" y="20""#,
+    );
+    assert_len(&import(&between).drawing, 240.0 + 160.0 + 80.0);
+    // The paper's colour is the option's: on yellow paper a yellow square draws nothing and a white one its edge.
+    let yellow = SvgOptions { paper_color: Rgb(255, 255, 0), ..SvgOptions::default() };
+    let doc = |fill: &str| {
+        mm_doc(&format!(
+            r#"<rect x="20" y="20" width="20" height="20" fill="{fill}"/>
+               <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>"#
+        ))
+    };
+    assert_len(&import_with(&doc("yellow"), &yellow).drawing, 7.0);
+    assert_len(&import_with(&doc("white"), &yellow).drawing, 87.0);
+}
+
+#[test]
+fn a_fill_under_half_opacity_hides_nothing() {
+    // A 100 mm line under a black 40 mm square at 30 % opacity: the line stays whole, plus the square's 160 mm.
+    let doc = |opacity: &str| {
+        mm_doc(&format!(
+            r#"<line x1="0" y1="50" x2="100" y2="50" stroke="black"/>
+               <rect x="30" y="30" width="40" height="40" fill="black" fill-opacity="{opacity}"/>"#
+        ))
+    };
+    assert_len(&import(&doc("0.3")).drawing, 260.0);
+    // At 60 % (here the element's opacity) or 75 % it hides the 40 mm under it.
+    assert_len(&import(&doc("1").replace("<rect ", r#"<rect opacity="0.6" "#)).drawing, 220.0);
+    assert_len(&import(&doc("0.75")).drawing, 220.0);
+}
+
+/// Pen-down length of the part of a circle (centre at distance `d` from `c`, radius `r`) inside the circle of
+/// radius `big` around `c`: the points at angle φ from the direction towards `c` lie within `big` when
+/// d² + r² − 2dr·cos φ ≤ big², so the inside arc spans 2·acos((d² + r² − big²) / 2dr).
+fn arc_inside(d: f64, r: f64, big: f64) -> f64 {
+    if d + r <= big {
+        return 2.0 * std::f64::consts::PI * r;
+    }
+    if d - r >= big {
+        return 0.0;
+    }
+    2.0 * r * ((d * d + r * r - big * big) / (2.0 * d * r)).clamp(-1.0, 1.0).acos()
+}
+
+#[test]
+fn pattern_dots_are_tiled_and_clipped_to_their_shape() {
+    // 5 mm dots (r 2.5) centred in 6 mm tiles from the origin, filling a 20 mm circle (r 10) at (50, 50).
+    let svg = mm_doc(
+        r#"<defs><pattern id="dots" patternUnits="userSpaceOnUse" width="6" height="6">
+              <circle cx="3" cy="3" r="2.5" fill="black"/></pattern></defs>
+           <circle cx="50" cy="50" r="10" fill="url(#dots)"/>"#,
+    );
+    let fine = SvgOptions { tolerance_mm: 0.001, ..SvgOptions::default() };
+    let imported = import_with(&svg, &fine);
+    // (At this tolerance, only the note that usvg's arcs are within 0.003 mm.)
+    assert!(imported.warnings.iter().all(|w| w.contains("arcs/circles")), "{:?}", imported.warnings);
+    let d = imported.drawing;
+    // From the geometry: every dot centre (3 + 6i, 3 + 6j), whole when within 7.5 mm of the centre, cut when
+    // within 12.5 mm.
+    let (mut whole, mut cut_dots, mut length) = (0, 0, 0.0);
+    for i in 0..20 {
+        for j in 0..20 {
+            let c = Point::new(3.0 + 6.0 * f64::from(i), 3.0 + 6.0 * f64::from(j));
+            let dist = c.distance(Point::new(50.0, 50.0));
+            length += arc_inside(dist, 2.5, 10.0);
+            if dist + 2.5 <= 10.0 {
+                whole += 1;
+            } else if dist - 2.5 < 10.0 {
+                cut_dots += 1;
+            }
+        }
+    }
+    // By hand, centre offsets from (50, 50) on each axis are −11, −5, 1, 7, 13: whole (≤ 7.5 mm) are (1,1),
+    // (−5,1), (1,−5), (7,1), (1,7), (−5,−5); cut (< 12.5 mm) are (−5,7), (7,−5), (7,7), (−11,1), (1,−11),
+    // (−11,−5), (−5,−11).
+    assert_eq!((whole, cut_dots), (6, 7));
+    let closed = d.paths().filter(|p| p.is_closed()).count();
+    assert_eq!(closed, whole, "every whole dot is one closed line");
+    let got = pen_down(&d);
+    // usvg's cubic circles lie up to 2.7e-4 of the radius outside the true circle, so lengths agree to that.
+    assert!((got - length).abs() < 3e-4 * length, "pen-down {got} mm, expected {length} mm");
+    // Nothing outside the circle.
+    assert!(d.paths().flat_map(|p| &p.points).all(|q| q.distance(Point::new(50.0, 50.0)) <= 10.0 + 0.003));
+    // Tiles finer than the pen (0.125 mm < 0.3 mm) are not drawn, with the count of tiles over the shape's box
+    // (x and y 40.3 .. 60.3: tiles 322 ..= 482, 161 each way).
+    let tiny = mm_doc(
+        r#"<defs><pattern id="fine" patternUnits="userSpaceOnUse" width="0.125" height="0.125">
+              <circle cx="0.0625" cy="0.0625" r="0.05" fill="black"/></pattern></defs>
+           <circle cx="50.3" cy="50.3" r="10" fill="url(#fine)"/>
+           <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>"#,
+    );
+    let imported = import(&tiny);
+    assert_len(&imported.drawing, 7.0);
+    assert!(
+        imported.warnings.iter().any(|w| w.contains("pattern \"fine\"") && w.contains("25921 tile(s)")),
+        "{:?}",
+        imported.warnings
+    );
 }
 
 #[test]

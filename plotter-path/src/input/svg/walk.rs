@@ -12,13 +12,14 @@
 //! strictly between 0 and 1 (grey, gradients, partial opacity) is reported, since a pen has no half tones.
 //!
 //! **Opacity.** The opacity of the enclosing groups multiplies each paint's own. A shape whose fill and stroke are
-//! both fully transparent is skipped (counted for a warning); a fill is an occluder only when it is fully opaque
-//! (a colour, or a gradient whose stops are all opaque, at opacity 1). A fill-only shape in the paper's colour
-//! (a plain colour, or a gradient all of whose stops are that colour) draws nothing: it only hides what lies
-//! under it. An opaque stroke wider than four pen widths hides what lies under its outline too (a thick border
-//! over text); thinner strokes do not: every crossing would cut a gap into the line beneath that is hardly wider
-//! than the pen's own blot there, costing two lifts for nothing visible (a mm-unit drawing's default 1 mm stroke
-//! is such a line).
+//! both fully transparent is skipped (counted for a warning); a fill hides what lies under it when it is more
+//! than half opaque (its opacity times its least gradient stop opacity): a fainter one lets the eye see the lines
+//! through it. A fill-only shape's outline is drawn where its colour differs from what lies beneath
+//! ([`super::edges`]): a white shape draws nothing on the paper and its outline on black. Paper-coloured fills
+//! are never hatched. An opaque stroke wider than four pen widths hides what lies under its outline too (a thick
+//! border over text); thinner strokes do not: every crossing would cut a gap into the line beneath that is hardly
+//! wider than the pen's own blot there, costing two lifts for nothing visible (a mm-unit drawing's default 1 mm
+//! stroke //! is such a line).
 
 use std::collections::HashMap;
 
@@ -33,6 +34,11 @@ use crate::geometry::hatch::{FillHatch, hatch};
 use crate::geometry::limits::MAX_COORD_MM;
 use crate::geometry::region::{FillRule, Keep, Region, cut};
 use crate::input::raster;
+
+mod pattern;
+
+/// A fill hides what lies under it when its opacity is more than this.
+const HIDING_ALPHA: f32 = 0.5;
 
 /// Opaque strokes wider than this many pen widths hide what lies under them.
 const WIDE_STROKE_PENS: f64 = 4.0;
@@ -57,10 +63,32 @@ pub(super) struct Item {
     pub(super) pen: Pen,
     /// Pen-down lines in page millimetres, already cut to the clips above the shape.
     pub(super) lines: Vec<Vec<Point>>,
-    /// The opaque area the shape's fill covers (cut to its clips), if any.
-    pub(super) occluder: Option<Region>,
+    /// The outline of a fill-only shape, cut to its clips: drawn only where the fill's colour differs from what
+    /// lies beneath ([`super::edges`]), after which it joins `lines`.
+    pub(super) outline: Option<Outline>,
+    /// The areas the shape paints over what lies beneath, in paint order (fill, then a wide stroke), cut to its
+    /// clips: each hides the lines under it and has a colour for the edge rule.
+    pub(super) paints: Vec<Paint>,
     /// The element, for messages: `<path id="x">` or `<path>`.
     pub(super) element: String,
+}
+
+/// The outline of a fill-only shape, waiting for the edge rule.
+#[derive(Debug, Clone)]
+pub(super) struct Outline {
+    /// The outline's lines, mm.
+    pub(super) lines: Vec<Vec<Point>>,
+    /// The fill's colour; `None` when it is not one colour (a gradient of several), which matches nothing.
+    pub(super) color: Option<Rgb>,
+}
+
+/// An area painted more than half opaque, in mm.
+#[derive(Debug, Clone)]
+pub(super) struct Paint {
+    /// The area.
+    pub(super) area: Region,
+    /// Its colour; `None` when it is not one colour.
+    pub(super) color: Option<Rgb>,
 }
 
 /// Counts of what was skipped, for warnings.
@@ -74,6 +102,10 @@ pub(super) struct Skipped {
     pub(super) hatch_refused: usize,
     /// Wide strokes whose outline would reach beyond ±1 km: not outlined (neither hiding nor filled).
     pub(super) far_outlines: usize,
+    /// Pattern fills not drawn because their tiles are narrower than the pen.
+    pub(super) fine_patterns: usize,
+    /// Pattern fills not drawn because they would paint too many shapes.
+    pub(super) huge_patterns: usize,
 }
 
 /// Where the walk is: the transform to CSS px, the clip areas to cut by, the opacity, the layer.
@@ -96,6 +128,8 @@ pub(super) struct Walker<'a> {
     pub(super) warnings: Vec<String>,
     font: Option<Result<HersheyFont, String>>,
     name: &'a str,
+    /// Shapes painted by pattern fills so far (bounded by [`pattern::MAX_PATTERN_SHAPES`]).
+    pattern_shapes: usize,
 }
 
 fn affine(t: &usvg::Transform) -> Affine {
@@ -114,6 +148,32 @@ fn paint_is(p: &usvg::Paint, color: Rgb) -> bool {
         usvg::Paint::LinearGradient(g) => stops(g.stops()),
         usvg::Paint::RadialGradient(g) => stops(g.stops()),
         usvg::Paint::Pattern(_) => false,
+    }
+}
+
+/// The paint's one colour (a plain colour, or a gradient whose every stop has it); `None` otherwise.
+fn uniform_color(p: &usvg::Paint) -> Option<Rgb> {
+    let stops = |s: &[usvg::Stop]| {
+        let first = rgb(s.first()?.color());
+        s.iter().all(|s| rgb(s.color()) == first).then_some(first)
+    };
+    match p {
+        usvg::Paint::Color(c) => Some(rgb(*c)),
+        usvg::Paint::LinearGradient(g) => stops(g.stops()),
+        usvg::Paint::RadialGradient(g) => stops(g.stops()),
+        usvg::Paint::Pattern(_) => None,
+    }
+}
+
+/// The paint's own opacity: 1 for a colour, the least stop opacity of a gradient, 0 for a pattern (whose tiles
+/// paint on their own).
+fn paint_alpha(p: &usvg::Paint) -> f32 {
+    let stops = |s: &[usvg::Stop]| s.iter().map(|s| s.opacity().get()).reduce(f32::min).unwrap_or(0.0);
+    match p {
+        usvg::Paint::Color(_) => 1.0,
+        usvg::Paint::LinearGradient(g) => stops(g.stops()),
+        usvg::Paint::RadialGradient(g) => stops(g.stops()),
+        usvg::Paint::Pattern(_) => 0.0,
     }
 }
 
@@ -152,6 +212,7 @@ impl<'a> Walker<'a> {
             warnings: Vec::new(),
             font: None,
             name,
+            pattern_shapes: 0,
         }
     }
 
@@ -274,10 +335,12 @@ impl<'a> Walker<'a> {
             return;
         }
         let fill = p.fill().map(|f| {
-            let (color, opaque) = paint_color(f.paint());
+            let (color, _) = paint_color(f.paint());
             let alpha = f.opacity().get() * ctx.opacity;
             let paper = paint_is(f.paint(), self.options.paper_color);
-            (color, opaque && alpha >= 1.0, alpha > 0.0, f.rule(), paper)
+            // More than half opaque: it hides what lies under it (a fainter fill lets the eye see through).
+            let hides = alpha * paint_alpha(f.paint()) > HIDING_ALPHA;
+            (color, hides, alpha > 0.0, f.rule(), paper)
         });
         let stroke = p.stroke().filter(|s| s.opacity().get() * ctx.opacity > 0.0);
         let fill_visible = fill.is_some_and(|f| f.2);
@@ -340,44 +403,48 @@ impl<'a> Walker<'a> {
             color = fill.map_or(Rgb::BLACK, |f| f.0);
         }
         let layer = self.item_layer(ctx, color);
-        let mut occluder = None;
-        if let Some((_, opaque, visible, r, paper)) = fill
+        let mut paints = Vec::new();
+        let mut outline = None;
+        if let Some((_, hides, visible, r, paper)) = fill
             && visible
+            && let Some(f) = p.fill()
         {
-            let paper = opaque && paper;
-            let fill_hatch = self.fill_hatch(layer, color);
-            let needs_area = opaque || fill_hatch.is_some();
+            // Paper-coloured fills are not hatched: no ink belongs inside them.
+            let fill_hatch = if paper { None } else { self.fill_hatch(layer, color) };
+            let needs_area = hides || fill_hatch.is_some();
             let area = needs_area.then(|| self.area(p.data(), ctx.t, rule(r)));
-            if !paper {
-                if stroke.is_none() {
-                    lines = self.flatten(p.data(), ctx.t);
-                }
-                if let (Some(h), Some(a)) = (&fill_hatch, &area) {
-                    match hatch(a, h) {
-                        Some(l) => lines.extend(l),
-                        None => self.skipped.hatch_refused += 1,
-                    }
+            let uniform = uniform_color(f.paint());
+            if let usvg::Paint::Pattern(pattern) = f.paint() {
+                // The tiles are the fill: painted now, before the shape's stroke; the shape itself has no edge.
+                let area = self.area(p.data(), ctx.t, rule(r));
+                self.add_pattern(pattern, area, ctx, f.opacity().get(), &describe(tag, p.id()));
+            } else if stroke.is_none() {
+                let own = self.flatten(p.data(), ctx.t);
+                outline = Some(Outline { lines: Self::cut_to_clips(own, &ctx.clips), color: uniform });
+            }
+            if let (Some(h), Some(a)) = (&fill_hatch, &area) {
+                match hatch(a, h) {
+                    Some(l) => lines.extend(l),
+                    None => self.skipped.hatch_refused += 1,
                 }
             }
-            if opaque && self.options.occlusion {
-                occluder = area;
+            if hides && let Some(a) = area {
+                paints.push(Paint { area: a, color: uniform });
             }
         }
         if let Some(s) = stroke_area {
-            occluder = Some(match occluder {
-                Some(f) => f.union(&s),
-                None => s,
-            });
+            let color = stroke.and_then(|s| uniform_color(s.paint()));
+            paints.push(Paint { area: s, color });
         }
-        let occluder = occluder.map(|mut a| {
+        for paint in &mut paints {
             for c in &ctx.clips {
-                a = a.intersect(c);
+                paint.area = paint.area.intersect(c);
             }
-            a
-        });
+        }
+        paints.retain(|p| !p.area.is_empty());
         let lines = Self::cut_to_clips(lines, &ctx.clips);
         let pen = Pen { color, width_mm };
-        self.items.push(Item { layer, pen, lines, occluder, element: describe(tag, p.id()) });
+        self.items.push(Item { layer, pen, lines, outline, paints, element: describe(tag, p.id()) });
     }
 
     /// The area a clip path lets through, in mm, for content under `t` (px).
@@ -540,7 +607,14 @@ impl<'a> Walker<'a> {
             let lines = Self::cut_to_clips(lines, &ctx.clips);
             let layer = self.item_layer(ctx, color);
             let pen = Pen { color, width_mm: Pen::default().width_mm };
-            self.items.push(Item { layer, pen, lines, occluder: None, element: describe("text", text.id()) });
+            self.items.push(Item {
+                layer,
+                pen,
+                lines,
+                outline: None,
+                paints: Vec::new(),
+                element: describe("text", text.id()),
+            });
         }
     }
 
@@ -597,7 +671,7 @@ impl<'a> Walker<'a> {
         let lines = Self::cut_to_clips(lines, &ctx.clips);
         let pen = raster::TraceOptions::default().pen;
         let layer = self.item_layer(ctx, pen.color);
-        self.items.push(Item { layer, pen, lines, occluder: None, element });
+        self.items.push(Item { layer, pen, lines, outline: None, paints: Vec::new(), element });
     }
 }
 

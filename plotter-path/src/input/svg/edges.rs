@@ -1,0 +1,84 @@
+//! The edge rule for fill-only shapes: a browser shows a filled shape's boundary only where the colour on its two
+//! sides differs, so its outline is drawn exactly there. Inside, the colour is the shape's fill; outside, it is
+//! what was painted before it at that place — the topmost earlier paint more than half opaque
+//! ([`super::walk::Paint`]: fills, wide strokes), or the paper where there is none. (What is painted later is
+//! hidden-line removal's business, [`super::occlude`].) So a white shape on white paper draws nothing, on a black
+//! square its whole outline, half over each exactly the half over black; a red shape on a red one draws no edge.
+//! A fill that is not one colour (a gradient of several) matches nothing, so its outline is drawn wherever it is
+//! visible. Translucent fills are compared by their colour, as if opaque: a faint red on red shows no edge either.
+//!
+//! For a shape of colour `c`, the earlier paints meeting its outline's bounding box are visited from the top down,
+//! each contributing the part not covered by those above it: to `same` when its colour is `c`, else to `other`.
+//! When `c` is the paper's colour the outline is kept inside `other` (everything uncovered is paper, the same);
+//! otherwise it is cut away inside `same` (uncovered paper differs). Shortcuts: with nothing of colour `c` beneath
+//! and `c` not the paper's, the outline stays whole without any area operation; with nothing at all beneath a
+//! paper-coloured shape, it goes.
+
+use super::grid::BoxGrid;
+use super::walk::Item;
+use crate::geometry::drawing::Rgb;
+use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
+
+/// Apply the edge rule to every item's outline and move what remains into its lines. Returns how many shapes lost
+/// their whole outline to it (they match what lies beneath everywhere, e.g. white on the paper).
+pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
+    let mut paints: Vec<(usize, usize)> = Vec::new();
+    let mut boxes = Vec::new();
+    for (i, it) in items.iter().enumerate() {
+        for (p, paint) in it.paints.iter().enumerate() {
+            if let Some(b) = paint.area.bbox() {
+                paints.push((i, p));
+                boxes.push(b);
+            }
+        }
+    }
+    let grid = BoxGrid::new(boxes);
+    let mut vanished = 0;
+    for i in 0..items.len() {
+        let Some(outline) = items[i].outline.take() else { continue };
+        let Some(bbox) = outline.lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
+            continue;
+        };
+        // Earlier paints under the outline, from the top down (later items and, within one, the stroke first).
+        let mut beneath: Vec<(usize, usize)> = grid
+            .as_ref()
+            .map(|g| g.query(bbox).into_iter().map(|k| paints[k]).filter(|h| h.0 < i).collect())
+            .unwrap_or_default();
+        beneath.reverse();
+        let color = outline.color;
+        let on_paper = color == Some(paper);
+        let kept = if on_paper {
+            if beneath.is_empty() {
+                Vec::new()
+            } else {
+                let other = visible_where(items, &beneath, |c| c != color);
+                cut(outline.lines, &[&other], Keep::Inside)
+            }
+        } else if color.is_none() || !beneath.iter().any(|&(k, p)| items[k].paints[p].color == color) {
+            outline.lines
+        } else {
+            let same = visible_where(items, &beneath, |c| c == color);
+            cut(outline.lines, &[&same], Keep::Outside)
+        };
+        if kept.iter().all(|l| l.len() < 2) {
+            vanished += 1;
+        }
+        items[i].lines.extend(kept);
+    }
+    vanished
+}
+
+/// The union of the visible parts of the paints `beneath` (listed from the top down) whose colour `wanted` accepts.
+fn visible_where(items: &[Item], beneath: &[(usize, usize)], wanted: impl Fn(Option<Rgb>) -> bool) -> Region {
+    let mut covered = Region::default();
+    let mut found = Region::default();
+    for &(k, p) in beneath {
+        let paint = &items[k].paints[p];
+        if wanted(paint.color) {
+            let visible = if covered.is_empty() { paint.area.clone() } else { paint.area.difference(&covered) };
+            found = found.union(&visible);
+        }
+        covered = covered.union(&paint.area);
+    }
+    found
+}
