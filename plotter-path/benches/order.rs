@@ -56,7 +56,9 @@ fn main() {
         ..OptimizeOptions::default()
     };
     let svg_opts = SvgOptions { pen_width_mm: width, pens: profile.pens.clone(), ..SvgOptions::default() };
-    println!("| input | paths | import s | optimize wall s (median) | cpu s | pen-up mm | pen-up time s | kicks kept/tried |");
+    println!(
+        "| input | paths | import s | optimize wall s (median) | cpu s | pen-up mm | pen-up time s | kicks kept/tried |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     let (mut tw, mut tmm, mut ts) = (0.0, 0.0, 0.0);
     for f in files {
