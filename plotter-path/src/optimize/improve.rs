@@ -374,9 +374,11 @@ impl<'a> Tour<'a> {
         }
     }
 
-    fn nbr(&self, end: u32) -> &[u32] {
+    /// Where the neighbour list of `end` sits in `nbrs` (indices, so a move can be applied mid-scan).
+    #[inline]
+    fn nbr_range(&self, end: u32) -> (usize, usize) {
         let e = end as usize;
-        &self.nbrs[self.nbr_off[e] as usize..self.nbr_off[e + 1] as usize]
+        (self.nbr_off[e] as usize, self.nbr_off[e + 1] as usize)
     }
 
     fn out_of_time(&mut self) -> bool {
@@ -402,12 +404,11 @@ impl<'a> Tour<'a> {
         let x2 = self.in_end(b);
         let g1 = self.c(x1, x2);
         if g1 > EPS && !self.is_wild(x1) {
-            let mut cands: Vec<u32> = self.nbr(x1).to_vec();
             let depot_out = self.out_end(self.depot);
-            if self.is_wild(depot_out) {
-                cands.push(depot_out);
-            }
-            for y in cands {
+            let (lo, hi) = self.nbr_range(x1);
+            let extra = usize::from(self.is_wild(depot_out));
+            for i in lo..hi + extra {
+                let y = if i < hi { self.nbrs[i] } else { depot_out };
                 let cn = y / 2;
                 if cn == a || (!self.closed[cn as usize] && y != self.out_end(cn)) {
                     continue;
@@ -437,12 +438,11 @@ impl<'a> Tour<'a> {
         let x2 = self.out_end(p);
         let g1 = self.c(x2, x1);
         if g1 > EPS && !self.is_wild(x1) {
-            let mut cands: Vec<u32> = self.nbr(x1).to_vec();
             let depot_in = self.in_end(self.depot);
-            if self.is_wild(depot_in) {
-                cands.push(depot_in);
-            }
-            for y in cands {
+            let (lo, hi) = self.nbr_range(x1);
+            let extra = usize::from(self.is_wild(depot_in));
+            for i in lo..hi + extra {
+                let y = if i < hi { self.nbrs[i] } else { depot_in };
                 let cn = y / 2;
                 if cn == a || (!self.closed[cn as usize] && y != self.in_end(cn)) {
                     continue;
@@ -510,8 +510,9 @@ impl<'a> Tour<'a> {
                     if self.is_wild(x) {
                         continue;
                     }
-                    let cands: Vec<u32> = self.nbr(x).to_vec();
-                    for y in cands {
+                    let (lo, hi) = self.nbr_range(x);
+                    for i in lo..hi {
+                        let y = self.nbrs[i];
                         let cn = y / 2;
                         if in_seg(self, cn) {
                             continue;
@@ -625,8 +626,8 @@ impl<'a> Tour<'a> {
         true
     }
 
-    fn undo(&mut self, log: Vec<Op>) {
-        for op in log.into_iter().rev() {
+    fn undo(&mut self, log: &[Op]) {
+        for &op in log.iter().rev() {
             match op {
                 Op::Exchange(a, b, c, d) => self.exchange(a, c, b, d),
                 Op::Seam(k, v) => self.set_seam(k, v),
@@ -643,6 +644,7 @@ impl<'a> Tour<'a> {
             return;
         }
         let mut rng = SplitMix64::new(self.params.seed ^ 0x6b69_636b);
+        let mut log = Vec::new();
         for _ in 0..self.params.kicks {
             if self.out_of_time() {
                 return;
@@ -661,18 +663,19 @@ impl<'a> Tour<'a> {
                 + self.c(self.out_end(s2), self.in_end(dn));
             self.stats.kicks_tried += 1;
             let before = self.params.verify.then(|| self.total_cost());
-            self.log = Some(Vec::new());
+            log.clear();
+            self.log = Some(std::mem::take(&mut log));
             self.gained = 0.0;
             self.apply_or(s1, s2, cc, dn, false);
             self.applied(old - new, before);
             let finished = self.local_search();
-            let log = self.log.take().unwrap_or_default();
+            log = self.log.take().unwrap_or_default();
             if self.gained > EPS {
                 self.stats.kicks_kept += 1;
             } else {
                 let before = self.params.verify.then(|| self.total_cost());
                 let undone = self.gained;
-                self.undo(log);
+                self.undo(&log);
                 self.applied(-undone, before);
             }
             if !finished {
