@@ -522,7 +522,17 @@ mod tests {
         // (X+Y) at 3200 and motor 2 (X−Y) at 0.
         assert_eq!(prog.commands.last().unwrap().motors, [3200, 0]);
         // The 40 mm pen-down edges accelerate, cruise and decelerate: three LMs each; pen moves are SP commands.
-        assert!(prog.commands.iter().all(|c| c.line.starts_with("LM,") || c.line.starts_with("SP,")));
+        // The drop is commanded during the travel to the square (the pen hop overlaps it), so the rest of the
+        // settle after arriving is the one dwell, an SM with no steps on the Settle block.
+        for c in &prog.commands {
+            let kind = plan.blocks[c.block].kind;
+            match kind {
+                MoveKind::Travel | MoveKind::Draw => assert!(c.line.starts_with("LM,"), "{kind:?}: {}", c.line),
+                MoveKind::PenUp | MoveKind::PenDown => assert!(c.line.starts_with("SP,"), "{kind:?}: {}", c.line),
+                MoveKind::Settle => assert!(c.line.starts_with("SM,") && c.line.ends_with(",0,0"), "{}", c.line),
+            }
+        }
+        assert_eq!(prog.commands.iter().filter(|c| plan.blocks[c.block].kind == MoveKind::Draw).count(), 12);
         assert_eq!(prog.commands.iter().filter(|c| c.line.starts_with("SP,0,")).count(), 1);
         assert_eq!(prog.short_moves, 0);
     }
