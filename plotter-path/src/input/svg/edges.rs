@@ -14,7 +14,7 @@
 //! and `c` not the paper's, the outline stays whole without any area operation; with nothing at all beneath a
 //! paper-coloured shape, it goes.
 
-use super::grid::BoxGrid;
+use super::grid::paint_grid;
 use super::walk::Item;
 use crate::geometry::drawing::Rgb;
 use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
@@ -22,17 +22,7 @@ use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
 /// Apply the edge rule to every item's outline and move what remains into its lines. Returns how many shapes lost
 /// their whole outline to it (they match what lies beneath everywhere, e.g. white on the paper).
 pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
-    let mut paints: Vec<(usize, usize)> = Vec::new();
-    let mut boxes = Vec::new();
-    for (i, it) in items.iter().enumerate() {
-        for (p, paint) in it.paints.iter().enumerate() {
-            if let Some(b) = paint.area.bbox() {
-                paints.push((i, p));
-                boxes.push(b);
-            }
-        }
-    }
-    let grid = BoxGrid::new(boxes);
+    let (paints, grid) = paint_grid(items);
     let mut vanished = 0;
     for i in 0..items.len() {
         let Some(outline) = items[i].outline.take() else { continue };

@@ -5,6 +5,8 @@
 
 use kurbo::Rect;
 
+use super::walk::Item;
+
 const MAX_CELLS: f64 = 256.0;
 
 /// The grid: for each cell, the indices of the boxes reaching into it.
@@ -20,6 +22,22 @@ pub(super) struct BoxGrid {
 /// Whether two closed boxes meet.
 pub(super) fn meet(a: Rect, b: Rect) -> bool {
     a.x0 <= b.x1 && b.x0 <= a.x1 && a.y0 <= b.y1 && b.y0 <= a.y1
+}
+
+/// Every paint (fill, wide stroke) of every item with a bounding box, as (item, paint index), and a grid over their
+/// boxes (`None` when nothing paints): what hidden-line removal and the edge rule both query.
+pub(super) fn paint_grid(items: &[Item]) -> (Vec<(usize, usize)>, Option<BoxGrid>) {
+    let mut paints = Vec::new();
+    let mut boxes = Vec::new();
+    for (i, it) in items.iter().enumerate() {
+        for (p, paint) in it.paints.iter().enumerate() {
+            if let Some(b) = paint.area.bbox() {
+                paints.push((i, p));
+                boxes.push(b);
+            }
+        }
+    }
+    (paints, BoxGrid::new(boxes))
 }
 
 impl BoxGrid {

@@ -2,11 +2,12 @@
 //! removed, as a browser's painter's algorithm would hide them.
 //!
 //! For item `i` the occluders are the paints (fills more than half opaque, wide opaque strokes) of items `j > i`
-//! whose bounding boxes meet the item's lines; they are found through a [`BoxGrid`] over the paints' bounding
-//! boxes, and the lines are cut against them one by one, skipping those the remaining lines no longer reach. Cost: per item, one cut per overlapping later fill, each linear in the vertices involved
-//! up to a log factor.
+//! whose bounding boxes meet the item's lines; they are found through a [`super::grid::BoxGrid`] over the paints'
+//! bounding boxes, and the lines are cut against them one by one, skipping those the remaining lines no longer
+//! reach. Cost: per item, one cut per overlapping later fill, each linear in the vertices involved up to a log
+//! factor.
 
-use super::grid::BoxGrid;
+use super::grid::paint_grid;
 use super::walk::Item;
 use crate::geometry::cancel::Cancel;
 use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
@@ -14,18 +15,8 @@ use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
 /// Remove hidden parts in place; returns how many items lost some of their lines. Stops between items once
 /// `cancel` is set (the items are then only partly processed, for a caller that discards them).
 pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
-    // Every paint (fill, wide stroke) of every item, as (item, paint) with its bounding box.
-    let mut paints: Vec<(usize, usize)> = Vec::new();
-    let mut boxes = Vec::new();
-    for (i, it) in items.iter().enumerate() {
-        for (p, paint) in it.paints.iter().enumerate() {
-            if let Some(b) = paint.area.bbox() {
-                paints.push((i, p));
-                boxes.push(b);
-            }
-        }
-    }
-    let Some(grid) = BoxGrid::new(boxes) else { return 0 };
+    let (paints, grid) = paint_grid(items);
+    let Some(grid) = grid else { return 0 };
     let mut changed = 0;
     for i in 0..items.len() {
         if cancel.is_cancelled() {
