@@ -136,6 +136,14 @@ pub struct EbbCommand {
     pub ends_block: bool,
 }
 
+impl EbbCommand {
+    /// A queued command of block `block`, taking `intervals`, with the motors at `motors` and the pen as `pen_down`
+    /// after it (not yet marked as its block's last).
+    fn queued(line: String, block: usize, intervals: u64, motors: [i64; 2], pen_down: bool) -> EbbCommand {
+        EbbCommand { line, block, intervals, motors, queued: true, pen_down, ends_block: false }
+    }
+}
+
 /// The program of a plan.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Program {
@@ -404,15 +412,7 @@ pub fn program(
                     for (line, t, st) in pieces {
                         pos = [pos[0] + st[0], pos[1] + st[1]];
                         h += t;
-                        out.push(EbbCommand {
-                            line,
-                            block: bi,
-                            intervals: t,
-                            motors: pos,
-                            queued: true,
-                            pen_down,
-                            ends_block: false,
-                        });
+                        out.push(EbbCommand::queued(line, bi, t, pos, pen_down));
                     }
                 }
             }
@@ -425,13 +425,8 @@ pub fn program(
                     let p = pen.position(b.servo.unwrap_or(0));
                     if p != down_position {
                         out.push(EbbCommand {
-                            line: format!("SC,5,{p}"),
-                            block: bi,
-                            intervals: 0,
-                            motors: pos,
                             queued: false,
-                            pen_down,
-                            ends_block: false,
+                            ..EbbCommand::queued(format!("SC,5,{p}"), bi, 0, pos, pen_down)
                         });
                         down_position = p;
                     }
@@ -439,15 +434,7 @@ pub fn program(
                 pen_down = !up;
                 let t = (25 * ms).max(1);
                 h += t;
-                out.push(EbbCommand {
-                    line: format!("SP,{},{ms},{}", u8::from(up), pen.pin),
-                    block: bi,
-                    intervals: t,
-                    motors: pos,
-                    queued: true,
-                    pen_down,
-                    ends_block: false,
-                });
+                out.push(EbbCommand::queued(format!("SP,{},{ms},{}", u8::from(up), pen.pin), bi, t, pos, pen_down));
             }
             MoveKind::PenUp | MoveKind::PenDown => return Err(ProgramError::NotServo { block: bi }),
             _ => {
@@ -456,30 +443,14 @@ pub fn program(
                 let ms = u32::try_from((target.saturating_sub(h) + 12) / 25).unwrap_or(100_000).clamp(1, 100_000);
                 let t = sm_intervals(ms, [0, 0]);
                 h += t;
-                out.push(EbbCommand {
-                    line: format!("SM,{ms},0,0"),
-                    block: bi,
-                    intervals: t,
-                    motors: pos,
-                    queued: true,
-                    pen_down,
-                    ends_block: false,
-                });
+                out.push(EbbCommand::queued(format!("SM,{ms},0,0"), bi, t, pos, pen_down));
             }
         }
         t_us += dur;
         if out.len() == first {
             // A block with nothing to send (a zero move): keep the accounting with a 1 ms pause.
             h += 25;
-            out.push(EbbCommand {
-                line: "SM,1,0,0".into(),
-                block: bi,
-                intervals: 25,
-                motors: pos,
-                queued: true,
-                pen_down,
-                ends_block: false,
-            });
+            out.push(EbbCommand::queued("SM,1,0,0".into(), bi, 25, pos, pen_down));
         }
         if let Some(last) = out.last_mut() {
             last.ends_block = true;
