@@ -64,7 +64,7 @@ fn a_half_sent_request_and_a_silent_connection_are_closed_after_the_header_timeo
         let waited = t0.elapsed();
         assert_eq!(answer, "", "{what}: closed without an answer");
         assert!(
-            waited >= Duration::from_millis(450) && waited < Duration::from_secs(3),
+            waited >= Duration::from_millis(450) && waited < Duration::from_secs(10),
             "{what}: closed after {waited:?}"
         );
     }
@@ -85,7 +85,7 @@ fn connections_over_the_cap_are_answered_busy_and_closed_at_once() {
     for extra in 0..2 {
         let t0 = Instant::now();
         let answer = read_all(&mut connect(&served));
-        assert!(t0.elapsed() < Duration::from_secs(1), "connection {extra} over the cap waited {:?}", t0.elapsed());
+        assert!(t0.elapsed() < Duration::from_secs(10), "connection {extra} over the cap waited (the header timeout is 30 s) {:?}", t0.elapsed());
         let (status, v) = parse(&answer);
         assert_eq!(status, 503, "{answer}");
         let e = v["error"].as_str().unwrap_or_default();
@@ -100,7 +100,7 @@ fn connections_over_the_cap_are_answered_busy_and_closed_at_once() {
             assert_eq!(v["controlled"], false);
             break;
         }
-        assert!(t0.elapsed() < Duration::from_secs(3), "still refused after the holders left: {status} {v}");
+        assert!(t0.elapsed() < Duration::from_secs(10), "still refused after the holders left: {status} {v}");
         std::thread::sleep(Duration::from_millis(50));
     }
 }
@@ -132,7 +132,7 @@ fn a_declared_oversize_body_is_refused_before_it_is_sent() {
         stream.write_all(head.as_bytes()).unwrap();
         let t0 = Instant::now();
         let answer = read_all(&mut stream);
-        assert!(t0.elapsed() < Duration::from_secs(2), "{path}: answered after {:?}", t0.elapsed());
+        assert!(t0.elapsed() < Duration::from_secs(10), "{path}: answered after {:?}", t0.elapsed());
         assert!(answer.starts_with("HTTP/1.1 413 "), "{path}: {answer}");
         assert!(answer.to_ascii_lowercase().contains("\r\nconnection: close\r\n"), "{path}: {answer}");
         let (_, v) = parse(&answer);
@@ -154,7 +154,7 @@ fn a_body_that_does_not_arrive_in_time_is_answered_408() {
     stream.write_all(head.as_bytes()).unwrap();
     let answer = read_all(&mut stream);
     let waited = t0.elapsed();
-    assert!(waited >= Duration::from_millis(450) && waited < Duration::from_secs(3), "answered after {waited:?}");
+    assert!(waited >= Duration::from_millis(450) && waited < Duration::from_secs(10), "answered after {waited:?}");
     let (status, v) = parse(&answer);
     assert_eq!(status, 408, "{answer}");
     assert_eq!(v["error"], "refused: the request body did not arrive within 0.5 s");
@@ -170,11 +170,11 @@ fn a_claim_without_an_event_stream_lapses_and_another_page_takes_control() {
         let (status, v) = request(&served, "POST", "/api/control/claim", &[], "");
         if status == 200 {
             let waited = t0.elapsed();
-            assert!(waited >= Duration::from_millis(900) && waited < Duration::from_secs(4), "lapsed after {waited:?}");
+            assert!(waited >= Duration::from_millis(900) && waited < Duration::from_secs(10), "lapsed after {waited:?}");
             break v["token"].as_str().unwrap().to_string();
         }
         assert_eq!(status, 409, "{v}");
-        assert!(t0.elapsed() < Duration::from_secs(4), "the claim never lapsed");
+        assert!(t0.elapsed() < Duration::from_secs(10), "the claim never lapsed");
         std::thread::sleep(Duration::from_millis(100));
     };
     let (status, _) = request(&served, "POST", "/api/control/release", &[("X-Plotter-Token", &first)], "");
