@@ -1,6 +1,6 @@
 //! `plotter stats`: path/segment counts, pen-down and pen-up length, pen lifts, bounding box, and what path
 //! optimisation and the motion planner make of the drawing: pen-up length after ordering, a lower bound on it, and
-//! the estimated plot time before and after (text or JSON).
+//! the estimated plot time before and after, and what the import left out and why (text or JSON).
 
 use std::path::PathBuf;
 
@@ -23,7 +23,8 @@ use plotter_host::options::optimize::{OptimizeArgs, optimize_quietly};
 pub(crate) struct StatsArgs {
     #[command(flatten)]
     pub(crate) source: Source,
-    /// Print JSON (keys: layers, paths, segments, pen_down_mm, pen_up_mm, pen_lifts, bbox_mm, layer_names,
+    /// Print JSON (keys: layers, paths, segments, pen_down_mm, pen_up_mm, pen_lifts, bbox_mm, layer_names, skipped
+    /// (count per reason: invisible, same_colour_fill, image_not_traced, pattern_too_fine…),
     /// pen_up_mm_from_home, pen_up_mm_optimized, pen_up_lower_bound_mm, pen_lifts_optimized, est_time_s,
     /// est_time_lower_bound_s, est_time_s_optimized, est_time_lower_bound_s_optimized, and est_time_parts /
     /// est_time_parts_optimized: draw_s, travel_s, lifts_s and their *_lower_bound_s)
@@ -55,7 +56,8 @@ fn estimate(
 /// Run `plotter stats`.
 pub(crate) fn run(args: &StatsArgs) -> Result<()> {
     let profile = load_profile(args.profile.as_deref())?;
-    let drawing = args.source.load(&profile)?;
+    let decoded = args.source.load_decoded(&profile)?;
+    let (drawing, skipped) = (decoded.drawing, decoded.skipped);
     let stats = Stats::of(&drawing);
     let names: Vec<&str> = drawing.layers.iter().map(|l| l.name.as_str()).collect();
     let options = args.optimize.options(Some(&profile))?;
@@ -85,6 +87,7 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
     if args.json {
         let mut value = serde_json::to_value(&stats)?;
         value["layer_names"] = serde_json::json!(names);
+        value["skipped"] = skipped.iter().map(|(reason, n)| (reason.key().to_string(), serde_json::json!(n))).collect();
         value["pen_up_mm_from_home"] = serde_json::json!(pen_up_from_home);
         value["pen_up_mm_optimized"] = serde_json::json!(pen_up_optimized);
         value["pen_up_lower_bound_mm"] = serde_json::json!(report.as_ref().and_then(|r| r.pen_up_lower_bound_mm));
@@ -111,6 +114,7 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         if back { " and back" } else { "" }
     );
     println!("layer names   {}", names.join(", "));
+    println!("skipped       {skipped}");
     if let Some((t, parts, b)) = &est {
         println!("plot time     {} (profile '{}'), lower bound {}", clock(*t), profile.name, clock(b.total_s()));
         println!("              {}", crate::time_parts::line(parts, b));

@@ -10,6 +10,7 @@ use clap::{Args, ValueEnum};
 use plotter_path::geometry::cancel::Cancel;
 use plotter_path::geometry::hatch::FillHatch;
 use plotter_path::input::raster::Mode;
+use plotter_path::input::skipped::Skipped;
 use plotter_path::input::svg::{self, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
 use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use plotter_path::motion::steps::StepMapper;
@@ -218,24 +219,30 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
 /// Load any supported input as a drawing in page millimetres (before layout). `profile` maps machine coordinates
 /// of G-code and trajectory files back to the page.
 pub fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
-    let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
-    let drawing = load_unchecked(path, &shown, args, profile)?;
-    // Every input passes the size limits before any later stage works on it.
-    plotter_path::geometry::limits::check_drawing(&drawing, &shown)?;
-    Ok(drawing)
+    Ok(load_decoded(path, args, profile)?.drawing)
 }
 
-fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineProfile) -> Result<Drawing> {
+/// [`load_drawing`] with what the import left out ([`Decoded::skipped`]); the warnings are printed.
+pub fn load_decoded(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Decoded> {
+    let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
+    let decoded = load_unchecked(path, &shown, args, profile)?;
+    // Every input passes the size limits before any later stage works on it.
+    plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown)?;
+    Ok(decoded)
+}
+
+fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineProfile) -> Result<Decoded> {
     let shown = shown.to_string();
     if let Some(spec) = path.to_str().and_then(|p| p.strip_prefix(GEN_PREFIX)) {
-        return r#gen::from_spec(spec).with_context(|| format!("cannot generate {spec}"));
+        let drawing = r#gen::from_spec(spec).with_context(|| format!("cannot generate {spec}"))?;
+        return Ok(Decoded::plain(drawing, Vec::new()));
     }
     let data = read_input(path)?;
     // A file may use images beside it; stdin has no folder, so only data: URLs.
     let resources = if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) };
     let decoded = decode_drawing(&data, path, &shown, &resources, args, profile, &Cancel::never())?;
     warn_all(&decoded.warnings);
-    Ok(decoded.drawing)
+    Ok(decoded)
 }
 
 /// A drawing decoded from bytes, with the warnings met on the way (each names the input).
@@ -245,6 +252,15 @@ pub struct Decoded {
     pub drawing: Drawing,
     /// Warnings, ready to show.
     pub warnings: Vec<String>,
+    /// What the import left out, per reason (SVG imports count it; other inputs warn only).
+    pub skipped: Skipped,
+}
+
+impl Decoded {
+    /// A drawing whose import counts nothing as skipped.
+    pub fn plain(drawing: Drawing, warnings: Vec<String>) -> Self {
+        Decoded { drawing, warnings, skipped: Skipped::default() }
+    }
 }
 
 /// Decode the bytes of an input file: `name` (its file name) decides the kind together with the first bytes,
@@ -265,30 +281,30 @@ pub fn decode_drawing(
         InputKind::Svg => {
             let options = SvgOptions { cancel: cancel.clone(), ..args.svg_options(profile)? };
             let imported = svg::import_svg(data, shown, resources, &options)?;
-            Ok(Decoded { drawing: imported.drawing, warnings: imported.warnings })
+            Ok(Decoded { drawing: imported.drawing, warnings: imported.warnings, skipped: imported.skipped })
         }
         InputKind::Image => {
             let image = raster::decode_image(data, name)?;
             let options = raster::TraceOptions { cancel: cancel.clone(), ..args.trace.options() };
             let traced = raster::trace_named(&image, shown, &options)?;
             let warnings = traced.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
-            Ok(Decoded { drawing: traced.drawing, warnings })
+            Ok(Decoded::plain(traced.drawing, warnings))
         }
         InputKind::Gcode => {
             let text = std::str::from_utf8(data).with_context(|| format!("{shown}: G-code is not UTF-8 text"))?;
             let imported = gcode_in::import(text, shown, profile)?;
             let warnings = imported.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
-            Ok(Decoded { drawing: imported.drawing, warnings })
+            Ok(Decoded::plain(imported.drawing, warnings))
         }
         InputKind::Hpgl => {
             let imported = hpgl_in::import(data, shown, None)?;
             let warnings = imported.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
-            Ok(Decoded { drawing: imported.drawing, warnings })
+            Ok(Decoded::plain(imported.drawing, warnings))
         }
         InputKind::Trajectory => {
             let text = std::str::from_utf8(data).with_context(|| format!("{shown}: not a text file"))?;
             let steps = trajectory::import(text, shown)?;
-            Ok(Decoded { drawing: steps.to_drawing(&StepMapper::new(profile), "trajectory"), warnings: Vec::new() })
+            Ok(Decoded::plain(steps.to_drawing(&StepMapper::new(profile), "trajectory"), Vec::new()))
         }
     }
 }
@@ -309,9 +325,14 @@ pub struct Source {
 impl Source {
     /// Load the input and lay it out; `profile` maps G-code and trajectory files back to the page.
     pub fn load(&self, profile: &MachineProfile) -> Result<Drawing> {
-        let mut drawing = load_drawing(&self.input, &self.read, profile)?;
-        self.layout.apply(&mut drawing)?;
-        Ok(drawing)
+        Ok(self.load_decoded(profile)?.drawing)
+    }
+
+    /// [`Source::load`] with what the import left out ([`Decoded::skipped`]).
+    pub fn load_decoded(&self, profile: &MachineProfile) -> Result<Decoded> {
+        let mut decoded = load_decoded(&self.input, &self.read, profile)?;
+        self.layout.apply(&mut decoded.drawing)?;
+        Ok(decoded)
     }
 }
 

@@ -131,3 +131,41 @@ fn every_input_kind_previews() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("rose"), "{}", stderr(&o));
 }
+
+#[test]
+fn stats_says_what_the_import_left_out_and_why() {
+    // A line, a white square on the blank page (no visible edge), an untraced image and a pattern finer than the pen.
+    let file = out_dir("stats-skipped").join("skips.svg");
+    std::fs::write(
+        &file,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
+             <defs><pattern id="fine" patternUnits="userSpaceOnUse" width="0.1" height="0.1">
+               <circle cx="0.05" cy="0.05" r="0.04" fill="black"/></pattern></defs>
+             <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>
+             <rect x="10" y="10" width="20" height="20" fill="white"/>
+             <image x="0" y="40" width="4" height="4" href="data:image/png;base64,iVBORw0KGgo="/>
+             <circle cx="50" cy="60" r="5" fill="url(#fine)"/>
+           </svg>"#,
+    )
+    .unwrap();
+    let o = run(plotter().args(["stats", "--json"]).arg(&file));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        v["skipped"],
+        serde_json::json!({"same_colour_fill": 1, "image_not_traced": 1, "pattern_too_fine": 1}),
+        "{v}"
+    );
+    let o = run(plotter().arg("stats").arg(&file));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let line = text.lines().find(|l| l.starts_with("skipped")).unwrap_or_default();
+    assert!(
+        line.contains("1 fill-only shape(s) not outlined: the colour of what lies beneath")
+            && line.contains("1 raster image(s) not traced")
+            && line.contains("1 pattern fill(s) finer than the pen"),
+        "{text}"
+    );
+    // Nothing left out: said so.
+    let o = run(plotter().arg("stats").arg(sample("duck.svg")));
+    assert!(String::from_utf8_lossy(&o.stdout).lines().any(|l| l == "skipped       nothing"));
+}

@@ -412,7 +412,7 @@ async fn decode(
             }
             Source::Gen(spec) => {
                 let drawing = r#gen::from_spec(spec).map_err(|e| bad(format!("cannot generate {spec}: {e}")))?;
-                let decoded = plotter_host::input::Decoded { drawing, warnings: Vec::new() };
+                let decoded = plotter_host::input::Decoded::plain(drawing, Vec::new());
                 (format!("gen:{spec}"), decoded)
             }
         };

@@ -6,6 +6,7 @@ pub mod gcode_print;
 pub mod r#gen;
 pub mod hpgl_in;
 pub mod raster;
+pub mod skipped;
 pub mod svg;
 pub mod trajectory;
 

@@ -63,6 +63,7 @@ use crate::geometry::drawing::{Drawing, Layer, Polyline, Rgb};
 use crate::geometry::hatch::FillHatch;
 use crate::geometry::region::{Keep, Region, cut};
 use crate::input::raster::TraceOptions;
+use crate::input::skipped::{SkipReason, Skipped};
 
 /// Millimetres per CSS pixel (1/96 in).
 pub const MM_PER_PX: f64 = 25.4 / 96.0;
@@ -211,6 +212,8 @@ pub struct Imported {
     pub drawing: Drawing,
     /// Elements that were skipped or approximated, each naming the element and its line.
     pub warnings: Vec<String>,
+    /// How many elements were left out (wholly or in part), per reason: the summary beside the warnings.
+    pub skipped: Skipped,
 }
 
 /// Load and import an SVG file; it may reference image files beside it ([`ResourcePolicy::beside`]).
@@ -289,6 +292,17 @@ pub fn import_svg(
     options.cancel.check().map_err(cancelled)?;
     warnings.append(&mut walker.warnings);
     let skipped = &walker.skipped;
+    let mut summary = Skipped::default();
+    summary.add(SkipReason::Invisible, skipped.hidden);
+    summary.add(SkipReason::Transparent, skipped.transparent);
+    summary.add(SkipReason::SinglePoint, skipped.dropped_subpaths);
+    summary.add(SkipReason::HatchRefused, skipped.hatch_refused);
+    summary.add(SkipReason::PatternTooFine, skipped.fine_patterns);
+    summary.add(SkipReason::PatternTooLarge, skipped.huge_patterns);
+    summary.add(SkipReason::ImageNotTraced, skipped.images_not_traced + survey.images_not_traced);
+    summary.add(SkipReason::ImageUndecodable, skipped.images_undecodable);
+    summary.add(SkipReason::UnsupportedElement, survey.unsupported);
+    summary.add(SkipReason::DegenerateShape, survey.degenerate);
     if skipped.hidden > 0 {
         warnings
             .push(format!("{name}: {} invisible shape(s) skipped (no fill and no stroke, or hidden)", skipped.hidden));
@@ -332,6 +346,7 @@ pub fn import_svg(
     let layer_names = std::mem::take(&mut walker.layer_names);
     let mut items = std::mem::take(&mut walker.items);
     let unseen = edges::draw_edges(&mut items, options.paper_color);
+    summary.add(SkipReason::SameColourFill, unseen);
     if unseen > 0 {
         warnings.push(format!(
             "{name}: {unseen} fill-only shape(s) not outlined: their colour is that of what lies beneath (e.g. white \
@@ -349,8 +364,11 @@ pub fn import_svg(
     let size = tree.size();
     let (w, h) = absolute_size_px(xml.root_element()).unwrap_or((f64::from(size.width()), f64::from(size.height())));
     let page_mm = (w * MM_PER_PX, h * MM_PER_PX);
-    if let Some(w) = off_page(&mut items, page_mm, options.crop) {
+    if let Some((w, elements)) = off_page(&mut items, page_mm, options.crop) {
         warnings.push(format!("{name}: {w}"));
+        if options.crop {
+            summary.add(SkipReason::CroppedAtPage, elements);
+        }
     }
     let mut layers: Vec<Layer> = layer_names.into_iter().map(Layer::new).collect();
     let mut has_pen = vec![false; layers.len()];
@@ -381,7 +399,7 @@ pub fn import_svg(
         let detail = if warnings.is_empty() { String::new() } else { format!(" ({})", warnings.join("; ")) };
         return Err(SvgError::Empty { path: name.to_string(), detail });
     }
-    Ok(Imported { drawing, warnings })
+    Ok(Imported { drawing, warnings, skipped: summary })
 }
 
 /// Refuse a root `width` or `height` beyond ±[`crate::geometry::limits::MAX_COORD_MM`] (1 km) before usvg works
@@ -427,8 +445,8 @@ fn content_root(mut root: &usvg::Group, viewbox: Option<Affine>) -> (&usvg::Grou
     (root, t)
 }
 
-/// Report (and with `crop`, cut) the lines outside the page.
-fn off_page(items: &mut [walk::Item], (w, h): (f64, f64), crop: bool) -> Option<String> {
+/// Report (and with `crop`, cut) the lines outside the page: the warning and the number of elements concerned.
+fn off_page(items: &mut [walk::Item], (w, h): (f64, f64), crop: bool) -> Option<(String, usize)> {
     let page = Rect::new(0.0, 0.0, w, h);
     let region = Region::rect(page);
     let (mut length, mut elements) = (0.0, Vec::new());
@@ -460,10 +478,11 @@ fn off_page(items: &mut [walk::Item], (w, h): (f64, f64), crop: bool) -> Option<
         shown.push("…".into());
     }
     let what = if crop { "were cut at the page edge (--crop)" } else { "lie outside the page; --crop cuts them there" };
-    Some(format!(
+    let warning = format!(
         "{length:.1} mm of pen-down lines in {n} element(s) ({}) {what} ({w:.1} × {h:.1} mm)",
         shown.join(", ")
-    ))
+    );
+    Some((warning, n))
 }
 
 /// What a pass over the XML learns before usvg runs: layer labels, text, arcs, and elements usvg would drop.
@@ -479,6 +498,12 @@ struct Survey {
     max_arc_radius: f64,
     /// Largest scale from a user unit to px over the document (an upper bound from viewBox and width).
     max_user_unit_px: f64,
+    /// Raster `<image>`s left untraced because tracing is off.
+    images_not_traced: usize,
+    /// Elements no plotter draws (`foreignObject`, `video`…).
+    unsupported: usize,
+    /// Shapes of zero or negative size.
+    degenerate: usize,
     warnings: Vec<String>,
 }
 
@@ -493,6 +518,9 @@ fn survey(xml: &roxmltree::Document<'_>, skip_images: bool, prefix: &str) -> Sur
         text_elements: 0,
         max_arc_radius: 0.0,
         max_user_unit_px: 1.0,
+        images_not_traced: 0,
+        unsupported: 0,
+        degenerate: 0,
         warnings: Vec::new(),
     };
     let root = xml.root_element();
@@ -560,9 +588,11 @@ fn survey(xml: &roxmltree::Document<'_>, skip_images: bool, prefix: &str) -> Sur
                 }
             },
             "image" if skip_images => {
+                s.images_not_traced += 1;
                 s.warnings.push(format!("{}: embedded raster image not traced (use --images MODE)", at()));
             }
             "foreignObject" | "video" | "audio" | "iframe" | "canvas" => {
+                s.unsupported += 1;
                 s.warnings.push(format!("{}: element not supported, skipped", at()));
             }
             _ => {}
@@ -577,6 +607,7 @@ fn survey(xml: &roxmltree::Document<'_>, skip_images: bool, prefix: &str) -> Sur
             _ => false,
         };
         if degenerate {
+            s.degenerate += 1;
             s.warnings.push(format!("{}: zero or negative size, not drawn", at()));
         }
     }

@@ -1121,3 +1121,38 @@ fn a_cancelled_import_ends_with_its_typed_error_and_each_check_stops_its_stage()
     assert_eq!(occlude::occlude(&mut items, &cancel), 0);
     assert_eq!(occlude::occlude(&mut items, &crate::geometry::cancel::Cancel::never()), 2);
 }
+
+#[test]
+fn the_skipped_summary_counts_each_item_left_out_with_its_reason() {
+    // One drawn line beside: a white square on the paper (no edge), two invisible rects (no paint; display:none),
+    // a transparent circle, an image (not traced: images off by default), a foreignObject, a zero-width rect and a
+    // pattern finer than the pen.
+    let svg = mm_doc(
+        r#"<defs><pattern id="fine" patternUnits="userSpaceOnUse" width="0.125" height="0.125">
+              <circle cx="0.0625" cy="0.0625" r="0.05" fill="black"/></pattern></defs>
+           <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>
+           <rect x="10" y="10" width="20" height="20" fill="white"/>
+           <rect x="40" y="10" width="5" height="5" fill="none"/>
+           <rect x="50" y="10" width="5" height="5" fill="black" style="display:none"/>
+           <circle cx="70" cy="20" r="5" fill="black" opacity="0"/>
+           <image x="0" y="40" width="4" height="4" href="data:image/png;base64,iVBORw0KGgo="/>
+           <foreignObject x="0" y="50" width="10" height="10"/>
+           <rect x="20" y="50" width="0" height="10" fill="black"/>
+           <circle cx="50" cy="60" r="5" fill="url(#fine)"/>"#,
+    );
+    let imported = import(&svg);
+    assert_len(&imported.drawing, 7.0);
+    let s = &imported.skipped;
+    assert_eq!(s.count(SkipReason::SameColourFill), 1, "{s}");
+    assert_eq!(s.count(SkipReason::Transparent), 1, "{s}");
+    assert_eq!(s.count(SkipReason::ImageNotTraced), 1, "{s}");
+    assert_eq!(s.count(SkipReason::UnsupportedElement), 1, "{s}");
+    assert_eq!(s.count(SkipReason::DegenerateShape), 1, "{s}");
+    assert_eq!(s.count(SkipReason::PatternTooFine), 1, "{s}");
+    // usvg drops display:none before the walk; the fill="none" rect is the one invisible shape it keeps.
+    assert_eq!(s.count(SkipReason::Invisible), 1, "{s}");
+    assert_eq!(s.total(), 7, "{s}");
+    // A drawing with nothing left out says so.
+    let plain = import(&mm_doc(r#"<line x1="0" y1="90" x2="7" y2="90" stroke="black"/>"#));
+    assert!(plain.skipped.is_empty(), "{}", plain.skipped);
+}

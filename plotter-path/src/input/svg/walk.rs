@@ -106,6 +106,10 @@ pub(super) struct Skipped {
     pub(super) fine_patterns: usize,
     /// Pattern fills not drawn because they would paint too many shapes.
     pub(super) huge_patterns: usize,
+    /// Raster images of a kind the tracer does not take (e.g. nested SVG, GIF).
+    pub(super) images_not_traced: usize,
+    /// Raster images that cannot be decoded.
+    pub(super) images_undecodable: usize,
 }
 
 /// Where the walk is: the transform to CSS px, the clip areas to cut by, the opacity, the layer.
@@ -629,6 +633,7 @@ impl<'a> Walker<'a> {
         let bytes = match image.kind() {
             usvg::ImageKind::PNG(d) | usvg::ImageKind::JPEG(d) => d.clone(),
             other => {
+                self.skipped.images_not_traced += 1;
                 self.warnings.push(format!("{}: {element}: {other:?} images are not traced", self.name));
                 return;
             }
@@ -636,6 +641,7 @@ impl<'a> Walker<'a> {
         let decoded = match image::load_from_memory(&bytes) {
             Ok(i) => i,
             Err(e) => {
+                self.skipped.images_undecodable += 1;
                 self.warnings.push(format!("{}: {element}: cannot decode the image ({e})", self.name));
                 return;
             }
