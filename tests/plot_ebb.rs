@@ -218,7 +218,8 @@ fn auto_recognises_the_board() {
     assert!((ran - planned).abs() <= planned * 1e-3, "{ran} vs {planned}");
 }
 
-/// plotink (the AxiDraw/NextDraw host library, a checkout of evil-mad/plotink at `PLOTINK_DIR`) and a Python with
+/// plotink (the AxiDraw/NextDraw host library: a checkout of evil-mad/plotink, or the folder holding the PyPI
+/// package `plotink` as .ci/run installs it, at `PLOTINK_DIR`) and a Python with
 /// pyserial and packaging (`PLOTINK_PYTHON`, default `python3`), when available; otherwise the caller skips.
 fn plotink(test: &str) -> Option<(String, String)> {
     let Some(dir) = std::env::var_os("PLOTINK_DIR") else {
