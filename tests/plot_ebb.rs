@@ -293,3 +293,84 @@ fn plotinks_model_of_the_step_generator_agrees_with_the_emulator() {
     assert!(checked > 2500, "{checked}");
     assert!(wrong.is_empty(), "{} of {checked} disagree: {:?}", wrong.len(), &wrong[..wrong.len().min(5)]);
 }
+
+/// saxi (the npm package, 0.15: `SAXI_DIR` is its folder, e.g. `node_modules/saxi`, as .ci/run installs it) and
+/// `node`, when available; otherwise the caller skips.
+fn saxi(test: &str) -> Option<String> {
+    let Some(dir) = std::env::var_os("SAXI_DIR") else {
+        eprintln!("SKIP {test}: set SAXI_DIR to the folder of the npm package saxi (0.15)");
+        return None;
+    };
+    let ok = Command::new("node").arg("--version").status().is_ok_and(|s| s.success());
+    assert!(ok, "{test}: SAXI_DIR is set but node does not run");
+    Some(dir.to_string_lossy().into_owned())
+}
+
+#[test]
+fn saxi_plans_and_drives_the_emulator_and_the_board_draws_its_square_and_circle() {
+    let Some(dir) = saxi("saxi_plans_and_drives_the_emulator_and_the_board_draws_its_square_and_circle") else {
+        return;
+    };
+    let work = scratch("ebb-saxi");
+    // saxi lifts to 17750 and lowers to 15700 with raw S2 positions: the tip touches the paper below 16725.
+    let sim = SimPty::start(&work, &["--ebb", "--fast", "--ebb-pen-contact", "16725"]);
+    let script = plotter_e2e::fixture("ebb_saxi_drive.js");
+    let out = Command::new("node").arg(script).args([&dir, &sim.port]).output().expect("node runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        stdout.contains("version EBBv13_and_above EB Firmware Version 3.0.2") && stdout.contains("done"),
+        "{stdout}"
+    );
+    let planned: f64 = stdout
+        .split("planned ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .expect("saxi's planned duration");
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1), "saxi ends with the pen up");
+    // saxi's own plan duration (moves and pen motions) against the board's motion time: within 1 %.
+    let ran = trace.busy_ticks as f64 / 1e6;
+    assert!((ran - planned).abs() <= planned * 0.01, "board ran {ran:.4} s, saxi planned {planned:.4} s");
+    // What the pen drew, in mm (40 motor steps per mm; motor 1 = X+Y, motor 2 = X−Y): the square, then the circle.
+    let mm = |p: &[i64; 3]| {
+        let (x2, y2) = xy2(*p);
+        (x2 as f64 / 80.0, y2 as f64 / 80.0)
+    };
+    let mut down: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut was_down = false;
+    for p in &trace.positions {
+        let here = p[2] < 1;
+        if here && !was_down {
+            down.push(Vec::new());
+        }
+        if here {
+            down.last_mut().expect("a run").push(mm(p));
+        }
+        was_down = here;
+    }
+    assert_eq!(down.len(), 2, "two pen-down paths");
+    // Each pen-down position lies on the drawing: within 0.1 mm (4 steps; the H-bot's motors step one at a time, so
+    // the carriage zigzags by half a step about the line) of the square's sides, of the circle's radius.
+    let off_square = |&(x, y): &(f64, f64)| {
+        let (dx, dy) = ((x - 40.0).abs(), (y - 40.0).abs());
+        if dx.max(dy) >= 20.0 { (dx - 20.0).max(dy - 20.0) } else { (20.0 - dx).min(20.0 - dy) }
+    };
+    let worst = down[0].iter().map(off_square).fold(0.0, f64::max);
+    assert!(worst <= 0.1, "the square's ink strays {worst} mm from its sides");
+    let worst = down[1].iter().map(|&(x, y)| ((x - 90.0).hypot(y - 40.0) - 15.0).abs()).fold(0.0, f64::max);
+    assert!(worst <= 0.1, "the circle's ink strays {worst} mm from its radius");
+    // And the whole drawing is drawn: every corner of the square and every degree of the circle is inked within
+    // 0.1 mm, so the pen-down length matches the drawing's.
+    let near = |run: &[(f64, f64)], (px, py): (f64, f64)| run.iter().any(|&(x, y)| (x - px).hypot(y - py) <= 0.1);
+    for corner in [(20.0, 20.0), (60.0, 20.0), (60.0, 60.0), (20.0, 60.0)] {
+        assert!(near(&down[0], corner), "corner {corner:?} not drawn");
+    }
+    for deg in 0..360 {
+        let a = f64::from(deg).to_radians();
+        let p = (90.0 + 15.0 * a.cos(), 40.0 + 15.0 * a.sin());
+        assert!(near(&down[1], p), "the circle at {deg}° not drawn");
+    }
+}

@@ -81,6 +81,11 @@ pub(crate) struct SimArgs {
     /// The EBB firmware version to emulate: 2.8.1 or 3.0.2.
     #[arg(long, requires = "ebb", default_value = "3.0.2")]
     pub(crate) ebb_version: String,
+    /// Model the EBB pen lift's geometry: the pen touches the paper while its servo is below this position (AxiDraw:
+    /// a longer pulse lifts the pen), for hosts that move the pen with raw `S2` positions (saxi). Without it the pen
+    /// is where `SP`/`TP` last put it.
+    #[arg(long, requires = "ebb")]
+    pub(crate) ebb_pen_contact: Option<u16>,
 }
 
 /// Parse `--grbl-fault`.
@@ -219,7 +224,9 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         let version = EbbVersion::parse(&format!("EB Firmware Version {}", args.ebb_version))
             .filter(|v| [EbbVersion(2, 8, 1), EbbVersion(3, 0, 2)].contains(v))
             .with_context(|| format!("--ebb-version {}: emulated are 2.8.1 and 3.0.2", args.ebb_version))?;
-        Backend::Ebb(Box::new(EbbEmulator::new(version)), 0)
+        let mut board = EbbEmulator::new(version);
+        board.set_pen_contact(args.ebb_pen_contact);
+        Backend::Ebb(Box::new(board), 0)
     } else if args.grbl {
         let faults = args.grbl_fault.as_deref().map(parse_fault).transpose()?.unwrap_or_default();
         // The pty delivers bytes at the speed the client writes them; the emulator's buffer counts them.

@@ -129,6 +129,8 @@ pub struct EbbEmulator {
     servo_target: u16,
     servo_rate: u16,
     pen_up: bool,
+    /// The pen lift's geometry when modelled: the tip touches the paper while the servo is below this position.
+    pen_contact: Option<u16>,
     clock: u64,
     busy: u64,
     future: bool,
@@ -196,6 +198,7 @@ impl EbbEmulator {
             servo_target: 12_000,
             servo_rate: 0,
             pen_up: true,
+            pen_contact: None,
             clock: 0,
             busy: 0,
             future: false,
@@ -233,9 +236,25 @@ impl EbbEmulator {
         self.pos
     }
 
-    /// Whether the pen is (commanded) up.
+    /// Whether the pen is up: where the servo is, with [`EbbEmulator::set_pen_contact`]; else as `SP`/`TP` last
+    /// commanded (`S2` moves the servo without changing that state, as on the board's `QP`).
     pub fn pen_up(&self) -> bool {
-        self.pen_up
+        match self.pen_contact {
+            Some(contact) => self.servo_now >= contact,
+            None => self.pen_up,
+        }
+    }
+
+    /// Model the pen lift's geometry: the tip touches the paper while the servo position is below `contact` (an
+    /// AxiDraw lifts its pen with a longer pulse). Hosts that move the pen with raw `S2` positions, as saxi does,
+    /// then draw in the trace; `None` (the default) takes the pen state `SP`/`TP` commanded. Set before the first
+    /// command: the pen starts up, as a user leaves it before a plot (the servo resting at the contact position).
+    pub fn set_pen_contact(&mut self, contact: Option<u16>) {
+        self.pen_contact = contact;
+        if let Some(c) = contact {
+            self.servo_now = self.servo_now.max(c);
+            self.servo_target = self.servo_target.max(c);
+        }
     }
 
     /// The servo's current pulse width.
@@ -819,6 +838,7 @@ impl EbbEmulator {
             self.servo_step();
         }
         self.load();
+        let pen_down = !self.pen_up();
         let Some(run) = self.current.as_mut() else { return };
         self.busy += 1;
         match run {
@@ -839,7 +859,7 @@ impl EbbEmulator {
                 let done = !axes[0].active() && !axes[1].active();
                 let a0 = axes[0];
                 if stepped {
-                    self.trace.push(TraceStep { t: self.clock, motors: self.pos, pen_down: !self.pen_up });
+                    self.trace.push(TraceStep { t: self.clock, motors: self.pos, pen_down });
                 }
                 if done {
                     if self.test_isr {
@@ -940,6 +960,27 @@ mod tests {
         e.run_for(1);
         assert_eq!(String::from_utf8(e.take_output()).unwrap(), "OK\r\nOK\r\nOK\r\n");
         assert_eq!(say(&mut e, "QU,6"), "QU,02\r\nOK\r\n");
+    }
+
+    #[test]
+    fn with_a_pen_contact_the_pen_is_down_while_the_servo_is_below_it() {
+        // saxi's pen: S2 to 15700 (down) and 17750 (up) on pin 4, instant (rate 0); contact below 16725.
+        let mut e = board(V3);
+        e.set_pen_contact(Some(16_725));
+        assert!(e.pen_up(), "the pen starts up");
+        e.feed(b"S2,15700,4,0,10\r");
+        e.run_for(1_000);
+        assert_eq!(e.servo_position(), 15_700);
+        assert!(!e.pen_up(), "below the contact: on the paper");
+        e.feed(b"S2,17750,4,0,10\r");
+        e.run_for(1_000);
+        assert!(e.pen_up(), "above it: lifted");
+        // Without the model, S2 leaves the commanded state (up) alone, as the board's QP does.
+        let mut e = board(V3);
+        e.feed(b"S2,15700,4,0,10\r");
+        e.run_for(1_000);
+        assert_eq!(e.servo_position(), 15_700);
+        assert!(e.pen_up());
     }
 
     #[test]
