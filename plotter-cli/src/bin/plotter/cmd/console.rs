@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use plotter_fw::protocol::{RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
 
-use crate::cmd_home::LinkArgs;
+use crate::cmd::home::LinkArgs;
 use plotter_host::link::Transport as _;
 use plotter_host::link::ebb::messages::{EbbLine, describe_error as describe_ebb_error};
 use plotter_host::link::grbl::messages::{GrblLine, describe_alarm, describe_error};

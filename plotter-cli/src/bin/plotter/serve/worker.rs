@@ -25,9 +25,9 @@ use serde::Serialize;
 use super::events::{Event, ProgressEvent, Prompt};
 use super::paced::PacedSim;
 use super::state::Shared;
-use crate::cmd_console::console_bytes;
-use crate::cmd_home::LinkArgs;
-use crate::cmd_jog::{JogArgs, JogTarget, jog_lines};
+use crate::cmd::console::console_bytes;
+use crate::cmd::home::LinkArgs;
+use crate::cmd::jog::{JogArgs, JogTarget, jog_lines};
 
 /// What the worker is asked to do.
 pub(crate) enum Command {

@@ -1,6 +1,6 @@
 //! `plotter jog`: move one axis by a distance, or lift/lower the pen, on a connected plotter.
 
-use crate::cmd_home::LinkArgs;
+use crate::cmd::home::LinkArgs;
 use plotter_host::link::machine::{Connected, Firmware};
 
 /// What to move.
@@ -193,7 +193,7 @@ mod tests {
 
     #[test]
     fn jog_ebb() {
-        let text = include_str!("../../samples/axidraw-v3.toml");
+        let text = include_str!("../../../../../samples/axidraw-v3.toml");
         let p = plotter_path::MachineProfile::from_toml(text, "axidraw-v3.toml").unwrap();
         let ebb = Firmware::Ebb;
         // 10 mm at 80 steps/mm and 10 mm/s: 800 steps in 1000 ms, mixed by the board (XM: A = X, B = Y).

@@ -39,14 +39,14 @@ use super::events::Event;
 use super::safety::{self, TOKEN_HEADER};
 use super::state::{Loaded, Settings, Shared, Source};
 use super::worker::Command;
-use crate::cmd_jog::JogTarget;
+use crate::cmd::jog::JogTarget;
 
 /// The page.
-const INDEX_HTML: &str = include_str!("../../assets/index.html");
+const INDEX_HTML: &str = include_str!("../../../../assets/index.html");
 /// Its script.
-const APP_JS: &str = include_str!("../../assets/app.js");
+const APP_JS: &str = include_str!("../../../../assets/app.js");
 /// Its style sheet.
-const STYLE_CSS: &str = include_str!("../../assets/style.css");
+const STYLE_CSS: &str = include_str!("../../../../assets/style.css");
 
 /// An error answer.
 pub(crate) struct ApiError(StatusCode, String);
