@@ -38,11 +38,11 @@ enum Command {
     /// print its device path
     Sim(cmd::sim::SimArgs),
     /// Home a connected plotter
-    Home(cmd::home::LinkArgs),
+    Home(plotter_host::link::connect::LinkArgs),
     /// Move an axis by a distance, or lift/lower the pen
     Jog(cmd::jog::JogArgs),
     /// Type G-code to a connected plotter and see its replies
-    Console(cmd::home::LinkArgs),
+    Console(plotter_host::link::connect::LinkArgs),
     /// Benchmark the serial link on a dense drawing (simulated 115200-baud link)
     #[command(hide = true)]
     BenchLink(cmd::bench::BenchArgs),
