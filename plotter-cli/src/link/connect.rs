@@ -33,14 +33,14 @@ pub fn open_port(
     baud: u32,
     firmware: Firmware,
     profile: &MachineProfile,
-) -> anyhow::Result<Connected<SerialTransport>> {
+) -> crate::Result<Connected<SerialTransport>> {
     let transport = SerialTransport::open(port, baud)?;
     Connected::connect(transport, port, firmware, profile)
 }
 
 impl LinkArgs {
     /// The profile and the open connection (at the profile's baud rate unless `--baud` says otherwise).
-    pub fn connect(&self) -> anyhow::Result<(MachineProfile, Connected<SerialTransport>)> {
+    pub fn connect(&self) -> crate::Result<(MachineProfile, Connected<SerialTransport>)> {
         let profile = load_profile(self.profile.as_deref())?;
         let c = open_port(&self.port, self.baud.unwrap_or(profile.link.baud), self.firmware, &profile)?;
         Ok((profile, c))

@@ -191,7 +191,7 @@ impl Worker {
         };
         let mut events = WebEvents { shared: Arc::clone(&shared), last_sent: None, prompt_id: 0 };
         let profile = &self.profile;
-        let result = plan::check_work_area(profile, &prepared.steps).map_err(anyhow::Error::from).and_then(
+        let result = plan::check_work_area(profile, &prepared.steps).map_err(plotter_host::Error::from).and_then(
             |()| on_session!(link, s => job::plot(&mut **s, profile, &prepared.steps, true, false, None, &mut events)),
         );
         events.flush();
