@@ -9,8 +9,6 @@
 use std::fmt;
 use std::path::PathBuf;
 
-use crate::link::stream::StreamError;
-
 /// What went wrong, for a front end to act on.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -169,27 +167,11 @@ impl From<std::io::Error> for Error {
     }
 }
 
-impl Error {
-    /// A stream's early end, followed by `after` (what the job did then, how to continue).
-    pub fn from_stream(e: StreamError, after: String) -> Self {
-        match e {
-            StreamError::Refused { block, code, text } => Error::Refused { block, code, text, after },
-            StreamError::Alarm { code, text, executed } => Error::Alarm { code, text, executed, after },
-            StreamError::Restarted { executed } => Error::Restarted { executed, after },
-            StreamError::Aborted { executed } => Error::Aborted { executed, after },
-            StreamError::StoppedAtOnce { name, why, executed } => Error::StoppedAtOnce { name, why, executed, after },
-            StreamError::Link(e) => match Error::from(e) {
-                Error::PortLost { cause, after: none } => Error::PortLost { cause, after: none + &after },
-                // As the message reads (its first line: the causes stay with the link's own error).
-                other => Error::Other(anyhow::anyhow!("{other}{after}")),
-            },
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::job::stopped;
+    use crate::link::stream::StreamError;
     use anyhow::Context as _;
 
     fn lost() -> std::io::Error {
@@ -223,13 +205,12 @@ mod tests {
 
     #[test]
     fn a_stream_error_keeps_its_text_and_gets_what_followed() {
-        let e =
-            Error::from_stream(StreamError::Alarm { code: 2, text: "hard limit".into(), executed: 9 }, "\nX".into());
+        let e = stopped(StreamError::Alarm { code: 2, text: "hard limit".into(), executed: 9 }, "\nX".into());
         assert!(matches!(e, Error::Alarm { code: 2, executed: 9, .. }));
         assert_eq!(e.to_string(), "alarm 2 (hard limit) after 9 executed block(s)\nX");
-        let e = Error::from_stream(StreamError::Link(anyhow::anyhow!("sim: no reply").context("x")), "!".into());
+        let e = stopped(StreamError::Link(anyhow::anyhow!("sim: no reply").context("x")), "!".into());
         assert_eq!(e.to_string(), "x!");
-        let e = Error::from_stream(StreamError::from(lost()), "\nhint".into());
+        let e = stopped(StreamError::from(lost()), "\nhint".into());
         assert!(matches!(e, Error::PortLost { .. }));
         assert_eq!(e.to_string(), "the device went away\nhint");
     }

@@ -11,18 +11,11 @@ use plotter_path::optimize::{self, OptimizeOptions};
 use plotter_path::{Drawing, MachineProfile};
 
 use crate::error::BadInput;
+pub use crate::input::load_profile;
 use crate::input::{InputArgs, InputKind, input_kind, load_drawing};
 use crate::link::machine::PlotMachine;
 use crate::options::layout::LayoutArgs;
 use crate::options::optimize::OptimizeArgs;
-
-/// Load the machine profile at `path`, or the built-in XY plotter kit profile.
-pub fn load_profile(path: Option<&Path>) -> crate::Result<MachineProfile> {
-    match path {
-        Some(p) => MachineProfile::load(p).map_err(|e| BadInput::new(p, e.into()).into()),
-        None => Ok(MachineProfile::default_plotter()),
-    }
-}
 
 /// Where `machine` reports its pen, page mm (the firmware's status, mapped through the profile).
 pub fn pen_on_page(machine: &mut dyn PlotMachine, profile: &MachineProfile) -> anyhow::Result<Point> {

@@ -265,12 +265,12 @@ impl Run<'_> {
                 }
                 if let Err(e) = result {
                     let after = hint(&e, self.journal_path) + &note;
-                    return Err(Error::from_stream(e, after));
+                    return Err(stopped(e, after));
                 }
             }
             let s = result.map_err(|e| {
                 let after = hint(&e, self.journal_path);
-                Error::from_stream(e, after)
+                stopped(e, after)
             })?;
             add(&mut stats, &s);
             match next {
@@ -323,6 +323,22 @@ fn locate_refusal(e: StreamError, part: &MotionPlan, profile: &MachineProfile) -
             StreamError::Refused { block: original, code, text }
         }
         e => e,
+    }
+}
+
+/// A stream's early end as the library's error, followed by `after` (what the job did then, how to continue).
+pub(crate) fn stopped(e: StreamError, after: String) -> Error {
+    match e {
+        StreamError::Refused { block, code, text } => Error::Refused { block, code, text, after },
+        StreamError::Alarm { code, text, executed } => Error::Alarm { code, text, executed, after },
+        StreamError::Restarted { executed } => Error::Restarted { executed, after },
+        StreamError::Aborted { executed } => Error::Aborted { executed, after },
+        StreamError::StoppedAtOnce { name, why, executed } => Error::StoppedAtOnce { name, why, executed, after },
+        StreamError::Link(e) => match Error::from(e) {
+            Error::PortLost { cause, after: none } => Error::PortLost { cause, after: none + &after },
+            // As the message reads (its first line: the causes stay with the link's own error).
+            other => Error::Other(anyhow::anyhow!("{other}{after}")),
+        },
     }
 }
 

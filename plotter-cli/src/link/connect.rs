@@ -7,7 +7,7 @@ use plotter_path::MachineProfile;
 
 use super::machine::{Connected, Firmware};
 use super::serial::SerialTransport;
-use crate::job::load::load_profile;
+use crate::input::load_profile;
 
 /// How to reach a plotter.
 #[derive(clap::Args, Debug, Clone)]
