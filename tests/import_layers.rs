@@ -554,6 +554,37 @@ fn plotter_path_stages_import_only_downstream() {
     assert!(problems.is_empty(), "plotter-path imports:\n{}", problems.join("\n"));
 }
 
+/// plotter-cli's library (`plotter_host`), lowest first: the error every part returns; the option groups; the
+/// input loader; the link to the machine (transports, sessions, dialects, connecting, jogging); the plot job,
+/// which drives the link.
+const PLOTTER_CLI_LIB: Layers<'static> =
+    &[("error", &["error"]), ("options", &["options"]), ("input", &["input"]), ("link", &["link"]), ("job", &["job"])];
+
+/// The `plotter` binary, above the library (which it reaches only as the external crate `plotter_host`): helpers,
+/// the web app, and the subcommands — of which `plotter serve` starts the web app; the web app never imports a
+/// subcommand.
+const PLOTTER_CLI_BIN: Layers<'static> =
+    &[("helpers", &["time_parts", "stop_signals", "sim_qemu"]), ("web app", &["serve"]), ("commands", &["cmd"])];
+
+#[test]
+fn plotter_cli_library_imports_only_downstream() {
+    let problems = check_crate(Path::new("plotter-cli/src/lib.rs"), PLOTTER_CLI_LIB, &read_disk);
+    assert!(problems.is_empty(), "plotter-cli library imports:\n{}", problems.join("\n"));
+}
+
+#[test]
+fn plotter_cli_front_ends_import_only_the_library() {
+    let root = Path::new("plotter-cli/src/bin/plotter/main.rs");
+    let problems = check_crate(root, PLOTTER_CLI_BIN, &read_disk);
+    assert!(problems.is_empty(), "plotter binary imports:\n{}", problems.join("\n"));
+    // Not vacuous: both front ends and the subcommand that starts the web app are read.
+    let src = read_crate(root, &read_disk);
+    let has = |m: &str| src.modules.contains(&m.split("::").map(String::from).collect::<Vec<_>>());
+    assert!(has("cmd::plot") && has("cmd::serve") && has("serve::worker") && has("serve::command"));
+    let edges = src.edges();
+    assert!(edges.iter().any(|e| e.from == ["cmd", "serve"] && e.to.first().is_some_and(|t| t == "serve")));
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
