@@ -170,8 +170,6 @@ impl From<std::io::Error> for Error {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::job::stopped;
-    use crate::link::stream::StreamError;
     use anyhow::Context as _;
 
     fn lost() -> std::io::Error {
@@ -201,18 +199,6 @@ mod tests {
             format!("{:#}", anyhow::Error::from(e)),
             "plotting duck.svg: the firmware refused block 4: error 7: soft limit"
         );
-    }
-
-    #[test]
-    fn a_stream_error_keeps_its_text_and_gets_what_followed() {
-        let e = stopped(StreamError::Alarm { code: 2, text: "hard limit".into(), executed: 9 }, "\nX".into());
-        assert!(matches!(e, Error::Alarm { code: 2, executed: 9, .. }));
-        assert_eq!(e.to_string(), "alarm 2 (hard limit) after 9 executed block(s)\nX");
-        let e = stopped(StreamError::Link(anyhow::anyhow!("sim: no reply").context("x")), "!".into());
-        assert_eq!(e.to_string(), "x!");
-        let e = stopped(StreamError::from(lost()), "\nhint".into());
-        assert!(matches!(e, Error::PortLost { .. }));
-        assert_eq!(e.to_string(), "the device went away\nhint");
     }
 
     #[test]

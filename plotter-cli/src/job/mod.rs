@@ -600,6 +600,21 @@ mod tests {
     }
 
     #[test]
+    fn a_stream_error_keeps_its_text_and_gets_what_followed() {
+        let e = stopped(StreamError::Alarm { code: 2, text: "hard limit".into(), executed: 9 }, "\nX".into());
+        assert!(matches!(e, Error::Alarm { code: 2, executed: 9, .. }));
+        assert_eq!(e.to_string(), "alarm 2 (hard limit) after 9 executed block(s)\nX");
+        let e = stopped(StreamError::Link(anyhow::anyhow!("sim: no reply").context("x")), "!".into());
+        assert_eq!(e.to_string(), "x!");
+        let e = stopped(
+            StreamError::from(std::io::Error::new(std::io::ErrorKind::BrokenPipe, "the device went away")),
+            "\nhint".into(),
+        );
+        assert!(matches!(e, Error::PortLost { .. }));
+        assert_eq!(e.to_string(), "the device went away\nhint");
+    }
+
+    #[test]
     fn a_refused_block_is_the_typed_error_with_its_number_and_code() {
         // As above: the firmware's X travel is 50 mm, the line ends at X 100 mm; blocks: travel, pen down, settle,
         // the line (3).
