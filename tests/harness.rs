@@ -120,10 +120,20 @@ impl SimPty {
     }
 
     /// Stop the simulator (SIGINT) and read its step trace.
-    pub fn stop(mut self) -> Trace {
+    pub fn stop(self) -> Trace {
+        self.stop_with(nix::sys::signal::Signal::SIGINT)
+    }
+
+    /// The simulator's process id.
+    pub fn pid(&self) -> i32 {
+        i32::try_from(self.child.as_ref().expect("running").id()).expect("pid fits")
+    }
+
+    /// Stop the simulator with `signal` and read its step trace (it must exit successfully).
+    pub fn stop_with(mut self, signal: nix::sys::signal::Signal) -> Trace {
         let mut child = self.child.take().expect("running");
         let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).expect("pid fits"));
-        nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).expect("signal the simulator");
+        nix::sys::signal::kill(pid, signal).expect("signal the simulator");
         let status = child.wait().expect("simulator exits");
         assert!(status.success(), "simulator failed: {status}");
         Trace::load(&self.trace)

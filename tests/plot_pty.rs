@@ -248,3 +248,13 @@ fn missing_port_and_garbage_port() {
     assert_fails(&out, "does not answer like plotter-fw");
     assert_fails(&out, "garbage");
 }
+
+#[test]
+fn sigterm_ends_the_simulator_as_ctrl_c_does_with_its_trace_written() {
+    let dir = scratch("pty-sigterm");
+    let sim = SimPty::start(&dir, &["--fast"]);
+    // Homing moves every axis: the trace has steps to write.
+    ok(&plotter(&dir, &["home", "--port", &sim.port]));
+    let trace = sim.stop_with(nix::sys::signal::Signal::SIGTERM);
+    assert!(!trace.positions.is_empty() && trace.busy_ticks > 0, "{trace:?}");
+}

@@ -264,3 +264,46 @@ fn bad_input_over_the_uart_behaves_as_in_the_simulator() {
     let all = settled_trace(sim.trace_path());
     assert_eq!(pulses(&all, [0, 0, 0]), ([400, 160, 0], [400, 160, 0]));
 }
+
+/// The processes whose parent is `parent` and whose command name is `name` (from `/proc/<pid>/stat`).
+fn children_named(parent: i32, name: &str) -> Vec<i32> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir("/proc").expect("/proc").flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else { continue };
+        let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else { continue };
+        // "pid (comm) state ppid ...": the name may hold spaces, so split after its closing parenthesis.
+        let (Some(open), Some(close)) = (stat.find('('), stat.rfind(')')) else { continue };
+        let ppid = stat[close + 1..].split_whitespace().nth(1).and_then(|p| p.parse::<i32>().ok());
+        if &stat[open + 1..close] == name && ppid == Some(parent) {
+            found.push(pid);
+        }
+    }
+    found
+}
+
+/// Whether `pid` still runs (a zombie nobody reaped does not).
+fn running(pid: i32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .ok()
+        .and_then(|s| s.rfind(')').and_then(|c| s[c + 1..].split_whitespace().next().map(|st| st != "Z")))
+        .unwrap_or(false)
+}
+
+#[test]
+fn sigterm_ends_sim_qemu_and_its_emulator_with_the_trace_written() {
+    if !qemu_available("sigterm_ends_sim_qemu_and_its_emulator_with_the_trace_written") {
+        return;
+    }
+    let dir = scratch("qemu-sigterm");
+    let sim = SimPty::start_qemu(&dir);
+    let qemu = children_named(sim.pid(), "qemu-system-arm");
+    assert_eq!(qemu.len(), 1, "one QEMU under plotter sim --qemu: {qemu:?}");
+    assert!(running(qemu[0]));
+    let trace_path = sim.trace_path().to_path_buf();
+    sim.stop_with(nix::sys::signal::Signal::SIGTERM);
+    // `stop_with` waited for plotter to exit; it kills and reaps QEMU before it does.
+    assert!(!running(qemu[0]), "QEMU {} outlived plotter sim --qemu", qemu[0]);
+    // The summary line is the last thing written, on the way out.
+    let text = std::fs::read_to_string(&trace_path).expect("trace written");
+    assert!(text.lines().last().is_some_and(|l| l.starts_with("# busy_ticks ")), "{text}");
+}

@@ -16,6 +16,7 @@ use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use plotter_path::motion::steps::StepMapper;
 use plotter_path::{Drawing, MachineProfile};
 
+use crate::error::BadInput;
 use crate::options::layout::LayoutArgs;
 use crate::options::trace::TraceArgs;
 
@@ -213,6 +214,15 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
         Ok(data)
     } else {
         std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
+    }
+}
+
+/// Load the machine profile at `path` (a TOML file, a bad one is [`crate::Error::BadInput`]), or the built-in XY
+/// plotter kit profile.
+pub fn load_profile(path: Option<&Path>) -> crate::Result<MachineProfile> {
+    match path {
+        Some(p) => MachineProfile::load(p).map_err(|e| BadInput::new(p, e.into()).into()),
+        None => Ok(MachineProfile::default_plotter()),
     }
 }
 

@@ -1,7 +1,11 @@
 //! # plotter-host — the host library behind every front end of the plotter
 //!
 //! The `plotter` command and the local web app both drive the machine through this library; they only parse
-//! their arguments and display. It holds:
+//! their arguments and display. The package is `plotter-cli` because it ships the `plotter` command (its files are
+//! all under `src/bin/plotter/`: `cmd/` one file per subcommand, `serve/` the web app); the library is named
+//! `plotter_host` because it is the host side of the link whose other side is the firmware, `plotter-fw`, and both
+//! front ends are built on it. `src/` outside `bin/` is the library alone; no library module imports a front end.
+//! It holds:
 //!
 //! - [`options`]: the layout, optimization and tracing options (as `clap` flag groups, which the web app fills
 //!   in directly);
@@ -10,7 +14,10 @@
 //! - [`job`]: the plot job — load, lay out, optimize, plan, stream with pauses and a journal, resume, progress
 //!   events — and the as-stepped drawing of a simulated plot;
 //! - [`link`]: the byte transports (serial port, in-process simulator, fault injection), the session with the
-//!   firmware, block streaming with flow control and resends, and the resume journal.
+//!   firmware, block streaming with flow control and resends, and the resume journal; connecting to a port of any
+//!   firmware dialect, jogging and the console's keys, which both front ends offer;
+//! - [`error`]: the typed [`Error`] its functions return, with the causes a front end acts on (a refused block,
+//!   an alarm, a lost port, a firmware that is not the expected one, a bad input file, a plot the user stopped).
 //!
 //! ```
 //! use plotter_host::job::{self, load::load_profile, progress::{JobProgress, PlotEvents}};
@@ -35,7 +42,10 @@
 //! # Ok(()) }
 //! ```
 
+pub mod error;
 pub mod input;
 pub mod job;
 pub mod link;
 pub mod options;
+
+pub use error::{Error, Result};

@@ -10,18 +10,12 @@ use plotter_path::motion::steps::{StepDrawing, StepMapper, StepPos, drawing_to_s
 use plotter_path::optimize::{self, OptimizeOptions};
 use plotter_path::{Drawing, MachineProfile};
 
+use crate::error::BadInput;
+pub use crate::input::load_profile;
 use crate::input::{InputArgs, InputKind, input_kind, load_drawing};
 use crate::link::machine::PlotMachine;
 use crate::options::layout::LayoutArgs;
 use crate::options::optimize::OptimizeArgs;
-
-/// Load the machine profile at `path`, or the built-in XY plotter kit profile.
-pub fn load_profile(path: Option<&Path>) -> anyhow::Result<MachineProfile> {
-    match path {
-        Some(p) => Ok(MachineProfile::load(p)?),
-        None => Ok(MachineProfile::default_plotter()),
-    }
-}
 
 /// Where `machine` reports its pen, page mm (the firmware's status, mapped through the profile).
 pub fn pen_on_page(machine: &mut dyn PlotMachine, profile: &MachineProfile) -> anyhow::Result<Point> {
@@ -46,16 +40,17 @@ pub fn load_steps(
     layout: &LayoutArgs,
     optimize: &OptimizeArgs,
     pen_at: Option<Point>,
-) -> anyhow::Result<(StepDrawing, Option<Drawing>)> {
+) -> crate::Result<(StepDrawing, Option<Drawing>)> {
     let shown = input.display().to_string();
+    let bad = |e: anyhow::Error| crate::Error::from(BadInput::new(input, e));
     if input != Path::new("-") && layout.options()?.is_identity() {
         let head = std::fs::read(input).map(|b| b[..b.len().min(512)].to_vec()).unwrap_or_default();
         if input_kind(input, &head) == InputKind::Trajectory {
-            let text = std::fs::read_to_string(input).with_context(|| format!("{shown}: cannot read"))?;
-            return Ok((trajectory::import(&text, &shown)?, None));
+            let text = std::fs::read_to_string(input).with_context(|| format!("{shown}: cannot read")).map_err(bad)?;
+            return Ok((trajectory::import(&text, &shown).map_err(|e| bad(e.into()))?, None));
         }
     }
-    let mut drawing = load_drawing(input, input_args, profile)?;
+    let mut drawing = load_drawing(input, input_args, profile).map_err(bad)?;
     layout.apply(&mut drawing)?;
     if optimize.enabled() {
         let options = OptimizeOptions { time_budget: None, ..optimize.options_from(Some(profile), pen_at)? };
@@ -67,7 +62,8 @@ pub fn load_steps(
             report.pen_up_lower_bound_mm.map_or_else(|| "not computed".to_string(), |b| format!("{b:.1} mm"))
         );
     }
-    let steps = drawing_to_steps(profile, &drawing).with_context(|| format!("cannot convert {shown} to steps"))?;
+    let steps =
+        drawing_to_steps(profile, &drawing).with_context(|| format!("cannot convert {shown} to steps")).map_err(bad)?;
     Ok((steps, Some(drawing)))
 }
 

@@ -18,6 +18,7 @@ use plotter_path::MachineProfile;
 use plotter_path::motion::plan::{self, Lookahead, MachinePos, MotionPlan, MoveKind, PenChange};
 use plotter_path::motion::steps::StepDrawing;
 
+use crate::Error;
 use crate::link::journal::{Journal, JournalState};
 use crate::link::machine::PlotMachine;
 use crate::link::stream::{Quiet, StreamError, StreamStats};
@@ -81,7 +82,7 @@ pub fn plot<M: PlotMachine + ?Sized>(
     return_home: bool,
     journal: Option<JournalSpec<'_>>,
     events: &mut dyn PlotEvents,
-) -> anyhow::Result<JobOutcome> {
+) -> crate::Result<JobOutcome> {
     settle_alarm(machine, home, events)?;
     // Our firmware: framed mode for everything the plot acts on (verified replies, real-time commands noise
     // cannot forge).
@@ -116,7 +117,7 @@ pub fn resume<M: PlotMachine + ?Sized>(
     trust_position: bool,
     return_home: bool,
     events: &mut dyn PlotEvents,
-) -> anyhow::Result<JobOutcome> {
+) -> crate::Result<JobOutcome> {
     let full = plan::plan_returning(profile, steps, start, Lookahead::Whole, return_home)?;
     machine.begin()?;
     let done = machine.resume_point(state, &full)?;
@@ -184,7 +185,7 @@ impl Run<'_> {
         busy_before: u64,
         ask_first: Option<PenChange>,
         events: &mut dyn PlotEvents,
-    ) -> anyhow::Result<JobOutcome> {
+    ) -> crate::Result<JobOutcome> {
         let pause = events.pen_change_mode() == PenChangeMode::Pause;
         let total_changes = plan.pen_changes.len();
         let mut stats = StreamStats::default();
@@ -223,11 +224,11 @@ impl Run<'_> {
                             .journal_path
                             .map(|j| format!("\ncontinue with: plotter plot --resume {} --port <device>", j.display()))
                             .unwrap_or_default();
-                        anyhow::bail!(
-                            "stopped at the pen change before layer {:?} (pen {}){hint}",
-                            change.layer_name,
-                            change.pen.label()
-                        );
+                        return Err(Error::StoppedAtPenChange {
+                            layer: change.layer_name.clone(),
+                            pen: change.pen.label(),
+                            after: hint,
+                        });
                     }
                 }
                 if from >= self.full.blocks.len() {
@@ -260,13 +261,17 @@ impl Run<'_> {
                     Err(e) => format!("\n({e:#})"),
                 };
                 if let Some(e) = journal_error {
-                    return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) });
+                    return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) }.into());
                 }
                 if let Err(e) = result {
-                    return Err(anyhow::anyhow!("{}{note}", explain(e, self.journal_path)));
+                    let after = hint(&e, self.journal_path) + &note;
+                    return Err(stopped(e, after));
                 }
             }
-            let s = result.map_err(|e| explain(e, self.journal_path))?;
+            let s = result.map_err(|e| {
+                let after = hint(&e, self.journal_path);
+                stopped(e, after)
+            })?;
             add(&mut stats, &s);
             match next {
                 Some(c) => pending = Some((c, false)),
@@ -321,13 +326,29 @@ fn locate_refusal(e: StreamError, part: &MotionPlan, profile: &MachineProfile) -
     }
 }
 
-/// A stream error, with how to continue when a journal was kept.
-fn explain(e: StreamError, journal: Option<&Path>) -> anyhow::Error {
-    let hint = match (&e, journal) {
+/// A stream's early end as the library's error, followed by `after` (what the job did then, how to continue).
+pub(crate) fn stopped(e: StreamError, after: String) -> Error {
+    match e {
+        StreamError::Refused { block, code, text } => Error::Refused { block, code, text, after },
+        StreamError::Alarm { code, text, executed } => Error::Alarm { code, text, executed, after },
+        StreamError::Restarted { executed } => Error::Restarted { executed, after },
+        StreamError::Aborted { executed } => Error::Aborted { executed, after },
+        StreamError::StoppedAtOnce { name, why, executed } => Error::StoppedAtOnce { name, why, executed, after },
+        StreamError::Link(e) => match Error::from(e) {
+            Error::PortLost { cause, after: none } => Error::PortLost { cause, after: none + &after },
+            // As the message reads (its first line: the causes stay with the link's own error).
+            other => Error::Other(anyhow::anyhow!("{other}{after}")),
+        },
+    }
+}
+
+/// How to continue after the stream error `e`, when a journal was kept (nothing after a refused block: resuming
+/// would meet the same refusal).
+fn hint(e: &StreamError, journal: Option<&Path>) -> String {
+    match (e, journal) {
         (StreamError::Refused { .. }, _) | (_, None) => String::new(),
         (_, Some(j)) => format!("\ncontinue with: plotter plot --resume {} --port <device>", j.display()),
-    };
-    anyhow::anyhow!("{e}{hint}")
+    }
 }
 
 #[cfg(test)]
@@ -576,6 +597,71 @@ mod tests {
         // Nothing beyond X 50 mm (4000 steps) was drawn, and the pen was lifted.
         let phys = s.transport.sim().physical_position();
         assert!(phys[0] <= 4000 && phys[2] > 800, "{phys:?}");
+    }
+
+    #[test]
+    fn a_stream_error_keeps_its_text_and_gets_what_followed() {
+        let e = stopped(StreamError::Alarm { code: 2, text: "hard limit".into(), executed: 9 }, "\nX".into());
+        assert!(matches!(e, Error::Alarm { code: 2, executed: 9, .. }));
+        assert_eq!(e.to_string(), "alarm 2 (hard limit) after 9 executed block(s)\nX");
+        let e = stopped(StreamError::Link(anyhow::anyhow!("sim: no reply").context("x")), "!".into());
+        assert_eq!(e.to_string(), "x!");
+        let e = stopped(
+            StreamError::from(std::io::Error::new(std::io::ErrorKind::BrokenPipe, "the device went away")),
+            "\nhint".into(),
+        );
+        assert!(matches!(e, Error::PortLost { .. }));
+        assert_eq!(e.to_string(), "the device went away\nhint");
+    }
+
+    #[test]
+    fn a_refused_block_is_the_typed_error_with_its_number_and_code() {
+        // As above: the firmware's X travel is 50 mm, the line ends at X 100 mm; blocks: travel, pen down, settle,
+        // the line (3).
+        let profile = MachineProfile::default_plotter();
+        let mut cfg = plan::machine_config(&profile).unwrap();
+        cfg.axes[0].travel_mm = 50.0;
+        let mut s = Session::connect(SimTransport::new(cfg, Some(115_200)), "sim").unwrap();
+        let line = Polyline::new(vec![Point::new(10.0, 10.0), Point::new(100.0, 10.0)]);
+        let steps = drawing_to_steps(&profile, &Drawing::single_layer("l", vec![line])).unwrap();
+        let mut events = Script { answers: vec![], seen: vec![] };
+        match plot(&mut s, &profile, &steps, true, false, None, &mut events).unwrap_err() {
+            Error::Refused { block, code, text, .. } => {
+                assert_eq!((block, code), (3, 7));
+                assert!(text.ends_with("(the block ends at X 100.000 mm, Y 10.000 mm)"), "{text}");
+            }
+            e => panic!("{e:?}"),
+        }
+    }
+
+    #[test]
+    fn a_second_ctrl_c_is_the_typed_stop_at_once() {
+        let profile = MachineProfile::default_plotter();
+        let (mut s, steps, _) = zigzag_on_sim(&profile);
+        let mut user = Presses { at: 23, presses: 2, executed: 0, notices: vec![] };
+        match plot(&mut s, &profile, &steps, true, false, None, &mut user).unwrap_err() {
+            Error::StoppedAtOnce { name, executed, .. } => {
+                assert_eq!(name, "sim");
+                assert!((23..40).contains(&executed), "{executed}");
+            }
+            e => panic!("{e:?}"),
+        }
+    }
+
+    #[test]
+    fn stopping_at_a_pen_change_is_typed_and_names_the_layer() {
+        let profile = MachineProfile::default_plotter();
+        let steps = three_pens(&profile);
+        let mut m = Session::connect(SimTransport::new(plan::machine_config(&profile).unwrap(), None), "sim").unwrap();
+        let mut ev = Script { answers: vec![PenChangeChoice::Stop], seen: vec![] };
+        match plot(&mut m, &profile, &steps, true, false, None, &mut ev).unwrap_err() {
+            // No journal: no resume hint.
+            Error::StoppedAtPenChange { layer, pen, after } => {
+                assert_eq!((layer.as_str(), after.as_str()), ("red", ""));
+                assert!(pen.starts_with("red fineliner 0.5 (#"), "{pen}");
+            }
+            e => panic!("{e:?}"),
+        }
     }
 
     #[test]

@@ -284,7 +284,7 @@ impl<T: Transport + 'static> Connected<T> {
         name: &str,
         firmware: Firmware,
         profile: &plotter_path::MachineProfile,
-    ) -> anyhow::Result<Self> {
+    ) -> crate::Result<Self> {
         let firmware = match firmware {
             Firmware::Auto => detect(&mut transport)?,
             f => f,

@@ -1,11 +1,15 @@
 //! The host side of the link to the firmware: byte transports (a serial port, or the simulator in-process), the
 //! session (handshake, homing, status), block streaming with flow control and resends, and the resume journal;
 //! GRBL ([`grbl`]) and the EiBotBoard ([`ebb`]) as further firmware dialects, and the machine interface the plot
-//! job drives ([`machine`]).
+//! job drives ([`machine`]); what the front ends share to reach and drive a plotter by hand: connecting to a port
+//! of any dialect ([`connect`]), jogging ([`jog`]) and the console's real-time keys ([`console`]).
 
+pub mod connect;
+pub mod console;
 pub mod ebb;
 pub mod faults;
 pub mod grbl;
+pub mod jog;
 pub mod journal;
 pub mod machine;
 pub mod print;

@@ -116,7 +116,7 @@ fn parse_m115(line: &str) -> Option<FirmwareInfo> {
 impl<T: Transport> Session<T> {
     /// Handshake: flush any half-received line, ask `M115` (up to three times, for boards that reset when the port
     /// opens), read the buffer sizes. A device that never answers like plotter-fw is an error naming what it sent.
-    pub fn connect(mut transport: T, name: &str) -> anyhow::Result<Self> {
+    pub fn connect(mut transport: T, name: &str) -> crate::Result<Self> {
         let mut heard: Vec<String> = Vec::new();
         transport.send(b"\n").with_context(|| format!("cannot write to {name}"))?;
         // Plain replies are unchecked, so the firmware's description only counts when two answers agree (line noise
@@ -168,10 +168,10 @@ impl<T: Transport> Session<T> {
             }
         }
         if heard.is_empty() {
-            bail!("no answer from {name}: is it a plotter running plotter-fw (or `plotter sim --pty`)?");
+            return Err(crate::Error::NoAnswer { name: name.to_string() });
         }
         let shown: Vec<String> = heard.iter().take(3).map(|l| format!("{l:?}")).collect();
-        bail!("{name} does not answer like plotter-fw (M115 got no firmware info); it sent: {}", shown.join(", "))
+        Err(crate::Error::FirmwareMismatch { name: name.to_string(), heard: shown.join(", ") })
     }
 
     /// The next line from the firmware within `timeout` (see [`Incoming`]).
@@ -594,5 +594,43 @@ mod tests {
     fn a_port_answering_garbage_is_refused() {
         let e = Session::connect(Garbage(Vec::new()), "/dev/ttyX").err().unwrap().to_string();
         assert!(e.contains("/dev/ttyX does not answer like plotter-fw") && e.contains("garbage"), "{e}");
+    }
+
+    #[test]
+    fn a_port_answering_garbage_is_a_firmware_mismatch() {
+        match Session::connect(Garbage(Vec::new()), "/dev/ttyX").err().unwrap() {
+            crate::Error::FirmwareMismatch { name, heard } => {
+                assert_eq!(name, "/dev/ttyX");
+                // The first three lines heard, quoted.
+                assert_eq!(heard.matches("\"\\u{7f}#garbage%\"").count(), 3, "{heard}");
+            }
+            e => panic!("{e:?}"),
+        }
+    }
+
+    /// A transport that never answers, or whose reads fail.
+    struct Silent(bool);
+    impl Transport for Silent {
+        fn send(&mut self, _: &[u8]) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn recv_line(&mut self, _: Duration) -> std::io::Result<Option<String>> {
+            if self.0 { Err(std::io::Error::new(std::io::ErrorKind::BrokenPipe, "device unplugged")) } else { Ok(None) }
+        }
+        fn now(&self) -> Duration {
+            Duration::ZERO
+        }
+    }
+
+    #[test]
+    fn silence_is_no_answer_and_a_failing_read_a_lost_port() {
+        let e = Session::connect(Silent(false), "/dev/ttyS9").err().unwrap();
+        assert!(matches!(&e, crate::Error::NoAnswer { name } if name == "/dev/ttyS9"), "{e:?}");
+        let e = Session::connect(Silent(true), "/dev/ttyS9").err().unwrap();
+        assert!(
+            matches!(&e, crate::Error::PortLost { cause, .. } if cause.kind() == std::io::ErrorKind::BrokenPipe),
+            "{e:?}"
+        );
+        assert_eq!(e.to_string(), "device unplugged");
     }
 }

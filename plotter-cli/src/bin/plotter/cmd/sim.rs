@@ -4,7 +4,7 @@
 //! The pty is opened with nix's safe `openpty`; the simulator owns the master side. Bytes read from the master
 //! feed the simulator's serial line (optionally through line noise), its replies are written back. Time runs at
 //! wall-clock speed by default (a plot takes as long as on the machine) or as fast as possible with `--fast`. On
-//! Ctrl-C (SIGINT), the step trace is written to `--trace` (one line per step: its time in µs and the position
+//! Ctrl-C (SIGINT), SIGTERM or SIGHUP, the step trace is written to `--trace` (one line per step: its time in µs and the position
 //! after it, `t x y z` in steps), followed by a summary line `# busy_ticks <motion time in µs> steps <count>`.
 //!
 //! With `--grbl` the pty serves the project's GRBL 1.1 emulator ([`plotter_host::link::grbl::emulator`])
@@ -21,8 +21,7 @@
 use std::fs::File;
 use std::io::{Read as _, Write as _};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -205,12 +204,14 @@ pub(crate) fn write_trace(sim: &Sim, path: &Path) -> anyhow::Result<()> {
 
 /// Run `plotter sim`.
 pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
+    // Before any thread starts: SIGTERM and SIGHUP end the simulator as Ctrl-C does.
+    let stop = crate::stop_signals::stop_flag()?;
     if args.qemu {
         if args.profile.is_some() {
             bail!("--profile: the QEMU image carries the built-in XY plotter kit configuration; drop --profile");
         }
         let cfg = plotter_fw::MachineConfig::xy_plotter();
-        return crate::sim_qemu::run(&cfg, args.image.as_deref(), args.trace.as_deref());
+        return crate::sim_qemu::run(&cfg, args.image.as_deref(), args.trace.as_deref(), &stop);
     }
     if !args.pty {
         bail!(
@@ -270,9 +271,6 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
             }
         }
     });
-    let stop = Arc::new(AtomicBool::new(false));
-    let s = Arc::clone(&stop);
-    let _ = ctrlc::set_handler(move || s.store(true, Ordering::SeqCst));
 
     let mut last = Instant::now();
     let mut pending_out = sim.take_output();

@@ -13,7 +13,7 @@
 //!   the carriage leaves it. Homing thus runs against switches the firmware cannot see through.
 //!
 //! `--trace FILE` receives one line per step as it happens (`t x y z`: µs since start and the position after
-//! the step, as `plotter sim --pty` writes) and, on Ctrl-C (SIGINT), a summary line
+//! the step, as `plotter sim --pty` writes) and, on Ctrl-C (SIGINT), SIGTERM or SIGHUP, a summary line
 //! `# busy_ticks <µs from first to last step> steps <count>`.
 //!
 //! The pin map mirrors `plotter-fw/boards/qemu-lm3s6965/src/pins.rs`: steps PD0..PD3, directions PD4..PD7 (high =
@@ -231,7 +231,14 @@ fn gpio_ports(qmp: &mut Qmp) -> anyhow::Result<Vec<String>> {
 }
 
 /// Run `plotter sim --qemu`.
-pub(crate) fn run(cfg: &MachineConfig, image_arg: Option<&Path>, trace: Option<&Path>) -> anyhow::Result<()> {
+/// Runs until `stop` is set (a termination signal, see [`crate::stop_signals`]) or QEMU ends; QEMU is killed on
+/// every way out.
+pub(crate) fn run(
+    cfg: &MachineConfig,
+    image_arg: Option<&Path>,
+    trace: Option<&Path>,
+    stop: &AtomicBool,
+) -> anyhow::Result<()> {
     let elf = image(image_arg)?;
     let dir = std::env::temp_dir().join(format!("plotter-qemu-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -248,14 +255,20 @@ pub(crate) fn run(cfg: &MachineConfig, image_arg: Option<&Path>, trace: Option<&
         .stderr(Stdio::piped())
         .spawn()
         .context("cannot start qemu-system-arm (install it: apt-get install qemu-system-arm)")?;
-    let result = serve(&mut qemu, cfg, &qmp_path, trace);
+    let result = serve(&mut qemu, cfg, &qmp_path, trace, stop);
     let _ = qemu.kill();
     let _ = qemu.wait();
     let _ = std::fs::remove_dir_all(&dir);
     result
 }
 
-fn serve(qemu: &mut Child, cfg: &MachineConfig, qmp_path: &Path, trace: Option<&Path>) -> anyhow::Result<()> {
+fn serve(
+    qemu: &mut Child,
+    cfg: &MachineConfig,
+    qmp_path: &Path,
+    trace: Option<&Path>,
+    stop: &AtomicBool,
+) -> anyhow::Result<()> {
     let stdout = qemu.stdout.take().context("QEMU's stdout")?;
     let stderr = qemu.stderr.take().context("QEMU's stderr")?;
     // QEMU announces the pty on stdout: "char device redirected to /dev/pts/N (label serial0)".
@@ -339,9 +352,6 @@ fn serve(qemu: &mut Child, cfg: &MachineConfig, qmp_path: &Path, trace: Option<&
 
     println!("{pty}");
     std::io::stdout().flush()?;
-    let stop = Arc::new(AtomicBool::new(false));
-    let st = Arc::clone(&stop);
-    let _ = ctrlc::set_handler(move || st.store(true, Ordering::SeqCst));
     let mut died = None;
     while !stop.load(Ordering::SeqCst) {
         if let Some(status) = qemu.try_wait()? {

@@ -13,6 +13,8 @@ use plotter_host::job::progress::{JobProgress, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self};
 use plotter_host::link::Transport as _;
+use plotter_host::link::console::console_bytes;
+use plotter_host::link::jog::{Jog, jog_lines};
 use plotter_host::link::machine::Firmware;
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::session::{COMMAND_TIMEOUT, Session};
@@ -22,28 +24,10 @@ use plotter_path::MachineProfile;
 use plotter_path::motion::plan;
 use serde::Serialize;
 
+use super::command::Command;
 use super::events::{Event, ProgressEvent, Prompt};
 use super::paced::PacedSim;
 use super::state::Shared;
-use crate::cmd_console::console_bytes;
-use crate::cmd_home::LinkArgs;
-use crate::cmd_jog::{JogArgs, JogTarget, jog_lines};
-
-/// What the worker is asked to do.
-pub(crate) enum Command {
-    /// Connect to the simulator (`None`) or a serial device, with a profile.
-    Connect(Option<String>, Box<MachineProfile>),
-    /// Close the link.
-    Disconnect,
-    /// Home.
-    Home,
-    /// Move an axis (x, y, z) by mm, or lift/lower the pen.
-    Jog(JogTarget, Option<f64>),
-    /// Send a console line.
-    Console(String),
-    /// Plot.
-    Plot(Arc<Prepared>),
-}
 
 /// The open link (boxed: the simulator is large, and the link moves only when it opens).
 enum Link {
@@ -162,13 +146,7 @@ impl Worker {
                 hub.log("info", "homed");
             }
             Command::Jog(target, distance) => {
-                let args = JogArgs {
-                    link: LinkArgs { port: String::new(), profile: None, baud: None, firmware: Firmware::Ours },
-                    target,
-                    distance,
-                    feed: None,
-                };
-                let lines = jog_lines(&args, &profile, Firmware::Ours)?;
+                let lines = jog_lines(&Jog { target, distance, feed: None }, &profile, Firmware::Ours)?;
                 let mut result = Ok(());
                 for l in &lines {
                     hub.log("out", l.clone());
@@ -213,7 +191,7 @@ impl Worker {
         };
         let mut events = WebEvents { shared: Arc::clone(&shared), last_sent: None, prompt_id: 0 };
         let profile = &self.profile;
-        let result = plan::check_work_area(profile, &prepared.steps).map_err(anyhow::Error::from).and_then(
+        let result = plan::check_work_area(profile, &prepared.steps).map_err(plotter_host::Error::from).and_then(
             |()| on_session!(link, s => job::plot(&mut **s, profile, &prepared.steps, true, false, None, &mut events)),
         );
         events.flush();

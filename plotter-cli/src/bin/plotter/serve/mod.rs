@@ -3,11 +3,13 @@
 //!
 //! - [`listen`]: the accept loop, with its connection limit and header timeout;
 //! - [`api`]: routes, the Host/Origin/controller guard, handlers;
+//! - [`error`]: the error answer;
 //! - [`deadline`]: the time limit on request bodies;
 //! - [`events`]: the event channel to the pages;
 //! - [`state`]: the shared state, the limits on clients, and what a page is sent;
 //! - [`safety`]: Host/Origin/Referer checks and control tokens;
 //! - [`control`]: which page drives the machine;
+//! - [`command`]: what the HTTP side asks the worker;
 //! - [`worker`]: the thread that owns the link to the machine and runs plots;
 //! - [`paced`]: the simulator paced to the wall clock.
 //!
@@ -15,8 +17,10 @@
 //! events, so a long plot, a homing cycle or a slow serial port never holds up a page.
 
 pub(crate) mod api;
+pub(crate) mod command;
 pub(crate) mod control;
 pub(crate) mod deadline;
+pub(crate) mod error;
 pub(crate) mod events;
 pub(crate) mod listen;
 pub(crate) mod paced;

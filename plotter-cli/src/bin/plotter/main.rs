@@ -1,24 +1,12 @@
 //! `plotter`: drive an XY pen plotter (or its built-in simulator) from SVGs, images and parametric curves.
 //!
-//! Each subcommand lives in its own `cmd_*.rs` file; flags shared by several commands (input, layout) are
+//! Each subcommand lives in its own file under `cmd/`; flags shared by several commands (input, layout) are
 //! `clap::Args` structs flattened into them.
 
-mod cmd_bench;
-mod cmd_console;
-mod cmd_convert;
-mod cmd_gen;
-mod cmd_home;
-mod cmd_jog;
-mod cmd_optimize;
-mod cmd_plot;
-mod cmd_preview;
-mod cmd_print;
-mod cmd_serve;
-mod cmd_sim;
-mod cmd_stats;
-mod cmd_trace;
+mod cmd;
 mod serve;
 mod sim_qemu;
+mod stop_signals;
 mod time_parts;
 
 use clap::{Parser, Subcommand};
@@ -38,54 +26,54 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a drawing as a preview PNG
-    Preview(cmd_preview::PreviewArgs),
+    Preview(cmd::preview::PreviewArgs),
     /// Print figures about a drawing (paths, segments, pen-down/up length, lifts, bounding box)
-    Stats(cmd_stats::StatsArgs),
+    Stats(cmd::stats::StatsArgs),
     /// Write the flattened, laid-out drawing as a plain SVG of polylines in mm
-    Convert(cmd_convert::ConvertArgs),
+    Convert(cmd::convert::ConvertArgs),
     /// Plot a drawing on the simulated plotter (default) or a serial plotter (--port)
-    Plot(cmd_plot::PlotArgs),
+    Plot(cmd::plot::PlotArgs),
     /// Print slicer G-code (PrusaSlicer/Cura, Marlin flavour) on the simulated printer (default) or a serial one
-    Print(cmd_print::PrintArgs),
+    Print(cmd::print::PrintArgs),
     /// Run the simulated firmware (`--pty`) or the firmware image under QEMU (`--qemu`) on a pseudo-terminal and
     /// print its device path
-    Sim(cmd_sim::SimArgs),
+    Sim(cmd::sim::SimArgs),
     /// Home a connected plotter
-    Home(cmd_home::LinkArgs),
+    Home(plotter_host::link::connect::LinkArgs),
     /// Move an axis by a distance, or lift/lower the pen
-    Jog(cmd_jog::JogArgs),
+    Jog(cmd::jog::JogArgs),
     /// Type G-code to a connected plotter and see its replies
-    Console(cmd_home::LinkArgs),
+    Console(plotter_host::link::connect::LinkArgs),
     /// Benchmark the serial link on a dense drawing (simulated 115200-baud link)
     #[command(hide = true)]
-    BenchLink(cmd_bench::BenchArgs),
+    BenchLink(cmd::bench::BenchArgs),
     /// Generate a parametric figure (roulettes, roses, Lissajous, spirals, Fourier outlines) as SVG or PNG
-    Gen(cmd_gen::GenArgs),
+    Gen(cmd::generate::GenArgs),
     /// Trace a PNG/JPEG image into paths (outline, centerline, edges, hatch) and write a plain SVG
-    Trace(cmd_trace::TraceCmdArgs),
+    Trace(cmd::trace::TraceCmdArgs),
     /// Merge, reorder and reverse paths to cut pen-up travel; write plain SVG
-    Optimize(cmd_optimize::OptimizeCmdArgs),
+    Optimize(cmd::optimize::OptimizeCmdArgs),
     /// Run the local web app: drop a drawing on the page, plot it, watch it (http://127.0.0.1:8040/)
-    Serve(cmd_serve::ServeArgs),
+    Serve(cmd::serve::ServeArgs),
 }
 
 fn main() {
     let cli = Cli::parse();
     let result = match &cli.command {
-        Command::Preview(args) => cmd_preview::run(args),
-        Command::Stats(args) => cmd_stats::run(args),
-        Command::Convert(args) => cmd_convert::run(args),
-        Command::Plot(args) => cmd_plot::run(args),
-        Command::Print(args) => cmd_print::run(args),
-        Command::Sim(args) => cmd_sim::run(args),
-        Command::Home(args) => cmd_home::run(args),
-        Command::Jog(args) => cmd_jog::run(args),
-        Command::Console(args) => cmd_console::run(args),
-        Command::BenchLink(args) => cmd_bench::run(args),
-        Command::Gen(args) => cmd_gen::run(args),
-        Command::Trace(args) => cmd_trace::run(args),
-        Command::Optimize(args) => cmd_optimize::run(args),
-        Command::Serve(args) => cmd_serve::run(args),
+        Command::Preview(args) => cmd::preview::run(args),
+        Command::Stats(args) => cmd::stats::run(args),
+        Command::Convert(args) => cmd::convert::run(args),
+        Command::Plot(args) => cmd::plot::run(args),
+        Command::Print(args) => cmd::print::run(args),
+        Command::Sim(args) => cmd::sim::run(args),
+        Command::Home(args) => cmd::home::run(args),
+        Command::Jog(args) => cmd::jog::run(args),
+        Command::Console(args) => cmd::console::run(args),
+        Command::BenchLink(args) => cmd::bench::run(args),
+        Command::Gen(args) => cmd::generate::run(args),
+        Command::Trace(args) => cmd::trace::run(args),
+        Command::Optimize(args) => cmd::optimize::run(args),
+        Command::Serve(args) => cmd::serve::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -304,7 +304,7 @@ fn summary(outcome: &JobOutcome, executed_ticks: Option<u64>) -> String {
 /// Connect to the port, check GRBL's settings against `profile` (or build the profile from them).
 fn connect(args: &PlotArgs, port: &str, profile: &mut MachineProfile) -> anyhow::Result<Connected<SerialTransport>> {
     let baud = args.baud.unwrap_or(profile.link.baud);
-    let mut c = crate::cmd_home::open(port, baud, args.firmware, profile)?;
+    let mut c = crate::cmd::home::open(port, baud, args.firmware, profile)?;
     match &mut c {
         Connected::Grbl(g) => {
             if args.profile_from_machine {

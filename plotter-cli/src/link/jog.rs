@@ -1,11 +1,11 @@
-//! `plotter jog`: move one axis by a distance, or lift/lower the pen, on a connected plotter.
+//! Jogging: move one axis by a distance, or lift/lower the pen — the lines each firmware dialect takes for it
+//! (shared by `plotter jog` and the web app's jog buttons).
 
-use crate::cmd_home::LinkArgs;
-use plotter_host::link::machine::{Connected, Firmware};
+use super::machine::Firmware;
 
 /// What to move.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum JogTarget {
+pub enum JogTarget {
     /// X axis by DISTANCE mm.
     X,
     /// Y axis by DISTANCE mm.
@@ -18,26 +18,24 @@ pub(crate) enum JogTarget {
     Down,
 }
 
-/// Arguments of `plotter jog`.
-#[derive(clap::Args, Debug, Clone)]
-pub(crate) struct JogArgs {
-    #[command(flatten)]
-    pub(crate) link: LinkArgs,
+/// One jog: what to move, how far, how fast (`clap` arguments of `plotter jog`, filled in directly by the web app).
+#[derive(clap::Args, Debug, Clone, Copy, PartialEq)]
+pub struct Jog {
     /// Axis to move (x, y, z) or pen action (up, down).
-    pub(crate) target: JogTarget,
+    pub target: JogTarget,
     /// Distance in mm (signed) for an axis move.
     #[arg(allow_negative_numbers = true)]
-    pub(crate) distance: Option<f64>,
+    pub distance: Option<f64>,
     /// Feed rate, mm/s [default: the profile's travel feed].
     #[arg(long)]
-    pub(crate) feed: Option<f64>,
+    pub feed: Option<f64>,
 }
 
 /// The G-code lines of a jog for `firmware`. GRBL jogs axes with `$J=` (its jog command, refused outside the
 /// travel instead of raising an alarm) and moves a servo pen with `M3 S<angle>` / `M5`; an EiBotBoard gets EBB
 /// commands (`XM` for X/Y, `SP` for the pen).
-pub(crate) fn jog_lines(
-    args: &JogArgs,
+pub fn jog_lines(
+    args: &Jog,
     profile: &plotter_path::MachineProfile,
     firmware: Firmware,
 ) -> anyhow::Result<Vec<String>> {
@@ -89,7 +87,7 @@ pub(crate) fn jog_lines(
 }
 
 /// A jog as EBB commands: `XM,<ms>,<x steps>,<y steps>` (the board mixes them onto its two motors) or `SP`.
-fn ebb_jog(args: &JogArgs, profile: &plotter_path::MachineProfile, feed: f64) -> anyhow::Result<Vec<String>> {
+fn ebb_jog(args: &Jog, profile: &plotter_path::MachineProfile, feed: f64) -> anyhow::Result<Vec<String>> {
     let e = profile.ebb.ok_or_else(|| anyhow::anyhow!("the profile has no [ebb] section"))?;
     let settle = profile.pen.settle_ms.round();
     let (spm, steps_of) = match args.target {
@@ -109,71 +107,12 @@ fn ebb_jog(args: &JogArgs, profile: &plotter_path::MachineProfile, feed: f64) ->
     Ok(vec![format!("XM,{ms},{},{}", steps * steps_of.0, steps * steps_of.1)])
 }
 
-/// Run `plotter jog`.
-pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
-    let (profile, mut c) = args.link.connect()?;
-    let firmware = match c {
-        Connected::Grbl(_) => Firmware::Grbl,
-        Connected::Ebb(_) => Firmware::Ebb,
-        Connected::Ours(_) => Firmware::Ours,
-    };
-    let lines = jog_lines(args, &profile, firmware)?;
-    if let Connected::Ebb(e) = &mut c {
-        // No soft limits on the board: the jog is checked against the travel here.
-        let at = e.position()?;
-        let (axis, travel, spm) = match args.target {
-            JogTarget::X => (0, profile.axes.x.travel_mm, profile.axes.x.steps_per_mm),
-            JogTarget::Y => (1, profile.axes.y.travel_mm, profile.axes.y.steps_per_mm),
-            _ => (2, 0.0, 1.0),
-        };
-        if axis < 2 {
-            let to = f64::from(at[axis]) / spm + args.distance.unwrap_or(0.0);
-            if !(0.0..=travel).contains(&to) {
-                anyhow::bail!("the jog would end at {to:.2} mm, outside the travel 0..{travel} mm");
-            }
-        }
-    }
-    let mut result = Ok(());
-    for l in &lines {
-        if let Err(e) = c.command(l) {
-            result = Err(e);
-            break;
-        }
-    }
-    // Always return to absolute mode, even after a refused move.
-    if firmware != Firmware::Ebb {
-        let _ = c.command("G90");
-    }
-    result?;
-    match &mut c {
-        Connected::Ours(s) => {
-            let st = s.wait_idle(std::time::Duration::from_millis(50))?;
-            println!("position {:?} steps", st.steps);
-        }
-        Connected::Grbl(g) => {
-            let st = g.wait_idle()?;
-            let pos = st.mpos.map(|p| format!("MPos {p:?}")).or(st.wpos.map(|p| format!("WPos {p:?}")));
-            println!("position {} mm", pos.unwrap_or_default());
-        }
-        Connected::Ebb(e) => {
-            e.drain(std::time::Duration::from_secs(600))?;
-            println!("position {:?} steps (motors {:?})", e.position()?, e.motors()?);
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn args(target: JogTarget, distance: Option<f64>) -> JogArgs {
-        JogArgs {
-            link: LinkArgs { port: "p".into(), profile: None, baud: None, firmware: Firmware::Auto },
-            target,
-            distance,
-            feed: Some(10.0),
-        }
+    fn args(target: JogTarget, distance: Option<f64>) -> Jog {
+        Jog { target, distance, feed: Some(10.0) }
     }
 
     #[test]
@@ -193,7 +132,7 @@ mod tests {
 
     #[test]
     fn jog_ebb() {
-        let text = include_str!("../../samples/axidraw-v3.toml");
+        let text = include_str!("../../../samples/axidraw-v3.toml");
         let p = plotter_path::MachineProfile::from_toml(text, "axidraw-v3.toml").unwrap();
         let ebb = Firmware::Ebb;
         // 10 mm at 80 steps/mm and 10 mm/s: 800 steps in 1000 ms, mixed by the board (XM: A = X, B = Y).

@@ -7,10 +7,9 @@ use std::io::BufRead as _;
 use std::sync::mpsc;
 use std::time::Duration;
 
-use plotter_fw::protocol::{RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
-
-use crate::cmd_home::LinkArgs;
 use plotter_host::link::Transport as _;
+use plotter_host::link::connect::LinkArgs;
+use plotter_host::link::console::console_bytes;
 use plotter_host::link::ebb::messages::{EbbLine, describe_error as describe_ebb_error};
 use plotter_host::link::grbl::messages::{GrblLine, describe_alarm, describe_error};
 use plotter_host::link::machine::Connected;
@@ -33,20 +32,9 @@ fn shown(line: &str, grbl: bool) -> String {
     }
 }
 
-/// What a typed line sends.
-pub(crate) fn console_bytes(line: &str) -> Vec<u8> {
-    match line.trim() {
-        "?" => vec![RT_STATUS],
-        "!" => vec![RT_FEED_HOLD],
-        "~" => vec![RT_RESUME],
-        "reset" => vec![RT_RESET],
-        other => format!("{other}\n").into_bytes(),
-    }
-}
-
 /// Run `plotter console`.
 pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
-    let (_, mut c) = args.connect()?;
+    let (_, mut c) = crate::cmd::home::connect(args)?;
     let grbl = matches!(c, Connected::Grbl(_));
     let ebb = matches!(c, Connected::Ebb(_));
     let session = c.transport();
@@ -87,10 +75,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn real_time_keys() {
-        assert_eq!(console_bytes(" ? "), b"?");
-        assert_eq!(console_bytes("reset"), [0x18]);
-        assert_eq!(console_bytes("G1 X1"), b"G1 X1\n");
+    fn replies_shown() {
         assert_eq!(shown("error:22", true), "error:22 (no feed rate set)");
         assert_eq!(shown("error:22", false), "error:22");
         assert_eq!(

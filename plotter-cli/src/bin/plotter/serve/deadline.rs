@@ -17,7 +17,7 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse as _, Response};
 use hyper::body::{Frame, SizeHint};
 
-use super::api::ApiError;
+use super::error::ApiError;
 use super::state::Shared;
 
 /// Reading a body failed: it did not arrive in time.

@@ -13,7 +13,7 @@ use tower::ServiceExt as _;
 use super::state::{Config, Shared};
 
 const HOST: &str = "127.0.0.1:8040";
-const DUCK: &[u8] = include_bytes!("../../../samples/duck.svg");
+const DUCK: &[u8] = include_bytes!("../../../../../samples/duck.svg");
 
 fn test_app(max_upload: usize, sim_speed: f64) -> (Arc<Shared>, Router) {
     super::app(Config {

@@ -10,16 +10,7 @@
 use std::sync::Arc;
 
 use super::safety;
-use super::state::Shared;
-
-/// The page in control.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct Controller {
-    /// Its token, sent back in the `X-Plotter-Token` header of every change.
-    pub(crate) token: String,
-    /// Its open event streams.
-    pub(crate) streams: usize,
-}
+use super::state::{Controller, Shared};
 
 /// Why a claim is refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -23,6 +23,7 @@ use futures_util::stream::{self, Stream};
 use plotter_host::input::{InputArgs, decode_drawing};
 use plotter_host::job::page::view;
 use plotter_host::job::prepare::{LayerChoice, prepare};
+use plotter_host::link::jog::JogTarget;
 use plotter_host::options::layout::{LayoutArgs, OrientationArg};
 use plotter_host::options::optimize::OptimizeArgs;
 use plotter_host::options::trace::ModeArg;
@@ -33,36 +34,20 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::broadcast::error::RecvError;
 
+use super::command::Command;
 use super::control;
 use super::deadline::body_deadline;
+use super::error::ApiError;
 use super::events::Event;
 use super::safety::{self, TOKEN_HEADER};
 use super::state::{Loaded, Settings, Shared, Source};
-use super::worker::Command;
-use crate::cmd_jog::JogTarget;
 
 /// The page.
-const INDEX_HTML: &str = include_str!("../../assets/index.html");
+const INDEX_HTML: &str = include_str!("../../../../assets/index.html");
 /// Its script.
-const APP_JS: &str = include_str!("../../assets/app.js");
+const APP_JS: &str = include_str!("../../../../assets/app.js");
 /// Its style sheet.
-const STYLE_CSS: &str = include_str!("../../assets/style.css");
-
-/// An error answer.
-pub(crate) struct ApiError(StatusCode, String);
-
-impl ApiError {
-    /// An answer with `status` and `message`.
-    pub(crate) fn new(status: StatusCode, message: impl Into<String>) -> ApiError {
-        ApiError(status, message.into())
-    }
-}
-
-impl IntoResponse for ApiError {
-    fn into_response(self) -> Response {
-        (self.0, Json(json!({ "error": self.1 }))).into_response()
-    }
-}
+const STYLE_CSS: &str = include_str!("../../../../assets/style.css");
 
 fn bad(message: impl Into<String>) -> ApiError {
     ApiError(StatusCode::BAD_REQUEST, message.into())

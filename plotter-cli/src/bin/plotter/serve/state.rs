@@ -11,9 +11,17 @@ use plotter_host::job::prepare::Prepared;
 use plotter_path::MachineProfile;
 use serde::{Deserialize, Serialize};
 
-use super::control::Controller;
+use super::command::Command;
 use super::events::{Event, Hub, ProgressEvent, Prompt};
-use super::worker::Command;
+
+/// The page in control.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct Controller {
+    /// Its token, sent back in the `X-Plotter-Token` header of every change.
+    pub(crate) token: String,
+    /// Its open event streams.
+    pub(crate) streams: usize,
+}
 
 /// Fixed at start-up by `plotter serve`'s flags.
 #[derive(Clone)]

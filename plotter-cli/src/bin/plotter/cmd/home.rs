@@ -1,0 +1,40 @@
+//! `plotter home`: run the homing cycle on a connected plotter (our firmware or GRBL) and report where it is.
+
+use plotter_host::link::connect::{LinkArgs, open_port};
+use plotter_host::link::machine::{Connected, Firmware};
+use plotter_host::link::serial::SerialTransport;
+use plotter_path::MachineProfile;
+
+/// Open `port` and connect to `firmware`; prints what answered.
+pub(crate) fn open(
+    port: &str,
+    baud: u32,
+    firmware: Firmware,
+    profile: &MachineProfile,
+) -> anyhow::Result<Connected<SerialTransport>> {
+    let c = open_port(port, baud, firmware, profile)?;
+    eprintln!("connected to {}", c.describe());
+    Ok(c)
+}
+
+/// The profile and the connection `args` name; prints what answered.
+pub(crate) fn connect(args: &LinkArgs) -> anyhow::Result<(MachineProfile, Connected<SerialTransport>)> {
+    let (profile, c) = args.connect()?;
+    eprintln!("connected to {}", c.describe());
+    Ok((profile, c))
+}
+
+/// Run `plotter home`.
+pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
+    let (_, mut c) = connect(args)?;
+    let m = c.machine();
+    if let Some(what) = m.alarm_pending()?
+        && !m.can_home()
+    {
+        anyhow::bail!("{what}; homing is disabled, unlock it with `plotter console` ($X) once it is safe");
+    }
+    m.home()?;
+    let p = m.position()?;
+    println!("homed; position {p:?} steps");
+    Ok(())
+}

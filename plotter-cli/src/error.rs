@@ -1,0 +1,212 @@
+//! The library's error: the causes a front end acts on, as variants it can match — a block the firmware refused
+//! (with its number), an alarm (with its code), a firmware that restarted or is not the one expected, a plot the
+//! user stopped, a lost port, a bad input file — and, for everything else, the message with its chain of causes.
+//!
+//! Every variant displays the same text the front ends print; the `after` fields carry what the job did once the
+//! plot stopped (the pen lifted, the machine reset) and how to continue (`plotter plot --resume …`), empty when
+//! there is nothing to add.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// What went wrong, for a front end to act on.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The firmware refused a block (`error:`); nothing after it was executed.
+    #[error("the firmware refused block {block}: error {code}: {text}{after}")]
+    Refused {
+        /// The block's number in the plan (the original plan's, when the plot was resumed or split at pen changes).
+        block: usize,
+        /// Error code.
+        code: u8,
+        /// Error text (and, from the plot job, where the block ends).
+        text: String,
+        /// What happened next.
+        after: String,
+    },
+    /// The firmware raised an alarm.
+    #[error("alarm {code} ({text}) after {executed} executed block(s){after}")]
+    Alarm {
+        /// Alarm code.
+        code: u8,
+        /// Alarm text.
+        text: String,
+        /// Blocks certainly executed.
+        executed: usize,
+        /// What happened next, and how to continue.
+        after: String,
+    },
+    /// The firmware restarted during a plot (its banner appeared).
+    #[error("the firmware restarted during the plot after {executed} executed block(s){after}")]
+    Restarted {
+        /// Blocks certainly executed.
+        executed: usize,
+        /// What happened next, and how to continue.
+        after: String,
+    },
+    /// The user stopped the plot at a pause.
+    #[error("plot aborted by the user after {executed} executed block(s){after}")]
+    Aborted {
+        /// Blocks executed.
+        executed: usize,
+        /// What happened next, and how to continue.
+        after: String,
+    },
+    /// A pause request that could not wait for the next pen-up stopped the plot where it stood.
+    #[error("{name}: stopped at once on {why}, after {executed} executed block(s){after}")]
+    StoppedAtOnce {
+        /// Where the machine is connected.
+        name: String,
+        /// What made the stop immediate.
+        why: String,
+        /// Blocks certainly executed.
+        executed: usize,
+        /// What happened next, and how to continue.
+        after: String,
+    },
+    /// The user chose to stop at a pen change.
+    #[error("stopped at the pen change before layer {layer:?} (pen {pen}){after}")]
+    StoppedAtPenChange {
+        /// The layer the plot would have continued with.
+        layer: String,
+        /// Its pen.
+        pen: String,
+        /// How to continue.
+        after: String,
+    },
+    /// The link to the machine failed: the port went away or could not be read or written.
+    #[error("{cause}{after}")]
+    PortLost {
+        /// What the operating system said.
+        cause: std::io::Error,
+        /// What happened next, and how to continue.
+        after: String,
+    },
+    /// The device on the port does not answer like the firmware expected.
+    #[error("{name} does not answer like plotter-fw (M115 got no firmware info); it sent: {heard}")]
+    FirmwareMismatch {
+        /// Where the device is connected.
+        name: String,
+        /// Its first few lines, quoted.
+        heard: String,
+    },
+    /// Nothing answered on the port.
+    #[error("no answer from {name}: is it a plotter running plotter-fw (or `plotter sim --pty`)?")]
+    NoAnswer {
+        /// Where the device is connected.
+        name: String,
+    },
+    /// The motion plan cannot be made (a move outside the machine's travel, a block beyond its limits).
+    #[error(transparent)]
+    Plan(#[from] plotter_path::motion::plan::PlanError),
+    /// An input file (a drawing, a profile) could not be read or is not valid; the message names the place.
+    #[error(transparent)]
+    BadInput(#[from] BadInput),
+    /// Anything else, as a message with its causes.
+    #[error(transparent)]
+    Other(anyhow::Error),
+}
+
+/// A result of this library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// A bad input file, and what is wrong with it (with the line, element or key where the reader knows it).
+#[derive(Debug)]
+pub struct BadInput {
+    /// The file (`-` for standard input).
+    pub input: PathBuf,
+    error: anyhow::Error,
+}
+
+impl BadInput {
+    /// `input` is bad as `error` says.
+    pub fn new(input: impl Into<PathBuf>, error: anyhow::Error) -> Self {
+        BadInput { input: input.into(), error }
+    }
+}
+
+impl fmt::Display for BadInput {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(&self.error, f)
+    }
+}
+
+impl std::error::Error for BadInput {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.error.source()
+    }
+}
+
+/// How many errors `e`'s chain holds (`e` itself and its sources).
+fn chain_len(e: &(dyn std::error::Error + 'static)) -> usize {
+    std::iter::successors(Some(e), |e| e.source()).count()
+}
+
+impl From<anyhow::Error> for Error {
+    /// The typed error inside `e` when nothing was added to it on the way ([`Error`] itself, or an I/O error of
+    /// the link: [`Error::PortLost`]); otherwise [`Error::Other`] with the whole message.
+    fn from(e: anyhow::Error) -> Self {
+        if let Some(inner) = e.downcast_ref::<Error>()
+            && chain_len(inner) == e.chain().count()
+        {
+            return e.downcast::<Error>().unwrap_or_else(Error::Other);
+        }
+        if let Some(inner) = e.downcast_ref::<std::io::Error>()
+            && chain_len(inner) == e.chain().count()
+        {
+            return e.downcast::<std::io::Error>().map_or_else(Error::Other, Error::from);
+        }
+        Error::Other(e)
+    }
+}
+
+impl From<std::io::Error> for Error {
+    fn from(cause: std::io::Error) -> Self {
+        Error::PortLost { cause, after: String::new() }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use anyhow::Context as _;
+
+    fn lost() -> std::io::Error {
+        std::io::Error::new(std::io::ErrorKind::BrokenPipe, "the device went away")
+    }
+
+    #[test]
+    fn a_bare_io_error_is_a_lost_port_and_one_with_context_keeps_its_message() {
+        let e = Error::from(anyhow::Error::from(lost()));
+        assert!(matches!(&e, Error::PortLost { cause, after } if cause.kind() == std::io::ErrorKind::BrokenPipe
+            && after.is_empty()));
+        assert_eq!(e.to_string(), "the device went away");
+        let e = Error::from(anyhow::Error::from(lost()).context("cannot write to /dev/ttyUSB0"));
+        assert!(matches!(e, Error::Other(_)));
+        assert_eq!(format!("{:#}", anyhow::Error::from(e)), "cannot write to /dev/ttyUSB0: the device went away");
+    }
+
+    #[test]
+    fn a_typed_error_comes_back_out_of_anyhow_unless_context_was_added() {
+        let refused = || Error::Refused { block: 4, code: 7, text: "soft limit".into(), after: String::new() };
+        let back = Error::from(anyhow::Error::from(refused()));
+        assert!(matches!(back, Error::Refused { block: 4, code: 7, .. }), "{back:?}");
+        let wrapped: anyhow::Result<()> = Err(refused()).context("plotting duck.svg");
+        let e = Error::from(wrapped.unwrap_err());
+        assert!(matches!(e, Error::Other(_)), "{e:?}");
+        assert_eq!(
+            format!("{:#}", anyhow::Error::from(e)),
+            "plotting duck.svg: the firmware refused block 4: error 7: soft limit"
+        );
+    }
+
+    #[test]
+    fn bad_input_reads_as_its_cause_and_names_the_file() {
+        let cause = anyhow::anyhow!("line 3: unknown key").context("a.toml: not a machine profile");
+        let e = Error::from(BadInput::new("a.toml", cause));
+        let Error::BadInput(b) = &e else { panic!("{e:?}") };
+        assert_eq!(b.input, PathBuf::from("a.toml"));
+        assert_eq!(format!("{:#}", anyhow::Error::from(e)), "a.toml: not a machine profile: line 3: unknown key");
+    }
+}

@@ -1,0 +1,48 @@
+//! Reaching a plotter on a serial port, whatever its firmware (ours, GRBL, an EiBotBoard): the `clap` flags that
+//! name it and the connection they open (shared by `plotter home`, `jog`, `console` and `plot --port`).
+
+use std::path::PathBuf;
+
+use plotter_path::MachineProfile;
+
+use super::machine::{Connected, Firmware};
+use super::serial::SerialTransport;
+use crate::input::load_profile;
+
+/// How to reach a plotter.
+#[derive(clap::Args, Debug, Clone)]
+pub struct LinkArgs {
+    /// Serial device of the plotter (or the path printed by `plotter sim --pty`).
+    #[arg(long)]
+    pub port: String,
+    /// Machine profile (TOML) [default: the built-in XY plotter kit].
+    #[arg(long)]
+    pub profile: Option<PathBuf>,
+    /// Baud rate [default: the profile's].
+    #[arg(long)]
+    pub baud: Option<u32>,
+    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), ebb (AxiDraw-class EiBotBoard), or auto (told
+    /// by its start-up banner or its answers).
+    #[arg(long, value_enum, default_value_t = Firmware::Auto)]
+    pub firmware: Firmware,
+}
+
+/// Open the serial device `port` at `baud` and connect to `firmware` on it (detected when [`Firmware::Auto`]).
+pub fn open_port(
+    port: &str,
+    baud: u32,
+    firmware: Firmware,
+    profile: &MachineProfile,
+) -> crate::Result<Connected<SerialTransport>> {
+    let transport = SerialTransport::open(port, baud)?;
+    Connected::connect(transport, port, firmware, profile)
+}
+
+impl LinkArgs {
+    /// The profile and the open connection (at the profile's baud rate unless `--baud` says otherwise).
+    pub fn connect(&self) -> crate::Result<(MachineProfile, Connected<SerialTransport>)> {
+        let profile = load_profile(self.profile.as_deref())?;
+        let c = open_port(&self.port, self.baud.unwrap_or(profile.link.baud), self.firmware, &profile)?;
+        Ok((profile, c))
+    }
+}
