@@ -5,10 +5,10 @@
 //!
 //! - firmware: [`machine::Machine`] on a board's [`hal::Hal`] — line input ([`line_buffer`], [`gcode`]),
 //!   sequencing and resends ([`protocol`]), framed replies and real-time commands ([`framing`]), the planner
-//!   queue ([`planner`]), the Bresenham [`stepper`], [`homing`], [`limits`], checked number [`range`]s,
-//!   [`realtime`] commands, completion [`report`]s, the [`errors`] table, and the printer's heaters ([`thermal`]: PID, autotune,
-//!   thermal-runaway protection);
-//! - host: the same [`planner`] over a whole drawing, [`stepper::StepBlock::duration_ticks`] for the exact
+//!   queue ([`planner`]), the step-block contract ([`step_block`]), the Bresenham [`stepper`], [`homing`],
+//!   [`limits`], checked number [`range`]s, [`realtime`] commands, completion [`report`]s, the [`errors`] table,
+//!   and the printer's heaters ([`thermal`]: PID, autotune, thermal-runaway protection);
+//! - host: the same [`planner`] over a whole drawing, [`step_block::StepBlock::duration_ticks`] for the exact
 //!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
 //!
 //! ```
@@ -51,9 +51,10 @@ pub mod realtime;
 pub mod report;
 #[cfg(feature = "std")]
 pub mod sim;
+pub mod step_block;
 pub mod stepper;
 pub mod thermal;
 
 pub use axis::{Axis, NUM_AXES};
 pub use config::MachineConfig;
-pub use stepper::{SERVO_TENTHS_MAX, StepBlock, TICK_HZ};
+pub use step_block::{SERVO_TENTHS_MAX, StepBlock, TICK_HZ};

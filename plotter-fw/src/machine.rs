@@ -38,7 +38,8 @@ use crate::planner::{Linker, PlanBlock, plan, to_step_block};
 use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
 use crate::realtime::MachineState;
 use crate::report::CompletionReporter;
-use crate::stepper::{StepBlock, Stepper, StepperFault, TICK_HZ};
+use crate::step_block::{StepBlock, TICK_HZ};
+use crate::stepper::{Stepper, StepperFault};
 use crate::thermal::{Cmd, EmergencyParser, Thermal, ThermalConfig};
 
 /// Firmware version reported in the banner and M115.

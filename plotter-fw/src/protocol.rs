@@ -71,7 +71,7 @@
 //! (entry, cruise and exit all different) 12 bytes including `\n`; a new acceleration adds 3 bytes.
 
 use crate::axis::{Axis, NUM_AXES};
-use crate::stepper::{SERVO_TENTHS_MAX, StepBlock};
+use crate::step_block::{SERVO_TENTHS_MAX, StepBlock};
 
 /// Real-time byte: status report.
 pub const RT_STATUS: u8 = b'?';

@@ -20,7 +20,7 @@
 //! nothing is queued or changed for that line, homed or not.
 
 use crate::gcode::MICRO;
-use crate::stepper::TICK_HZ;
+use crate::step_block::TICK_HZ;
 
 /// Largest magnitude of a target position, steps.
 pub const MAX_POSITION_STEPS: i32 = 1 << 30;

@@ -29,7 +29,7 @@ use crate::config::MachineConfig;
 use crate::fmath::round_i32;
 use crate::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer};
 use crate::machine::Machine;
-use crate::stepper::TICK_HZ;
+use crate::step_block::TICK_HZ;
 use crate::thermal::ThermalConfig;
 
 pub mod thermal;

@@ -8,7 +8,7 @@ use super::*;
 use crate::framing::{parse_reply, rt_sequence};
 use crate::protocol::{Encoder, MAX_FRAME, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, xor_checksum};
 use crate::realtime::MachineState;
-use crate::stepper::StepBlock;
+use crate::step_block::StepBlock;
 
 fn numbered(n: u32, body: &str) -> String {
     let line = std::format!("N{n} {body}");

@@ -11,7 +11,7 @@ use super::*;
 use crate::planner::{PlanBlock, link_all, plan, step_blocks};
 use crate::protocol::{Encoder, MAX_FRAME, RT_FEED_HOLD, RT_RESUME, RT_STATUS, quantize, xor_checksum};
 use crate::realtime::MachineState;
-use crate::stepper::StepBlock;
+use crate::step_block::StepBlock;
 
 fn cfg() -> MachineConfig {
     MachineConfig::xy_plotter()
