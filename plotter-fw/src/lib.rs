@@ -32,28 +32,18 @@
 #[cfg(test)]
 extern crate std;
 
-pub mod axis;
-pub mod config;
-pub mod decimal;
-pub mod errors;
-pub mod fmath;
-pub mod framing;
-pub mod gcode;
-pub mod hal;
-pub mod homing;
-pub mod limits;
-pub mod line_buffer;
+mod drivers;
+mod logic;
 pub mod machine;
-pub mod planner;
-pub mod protocol;
-pub mod range;
-pub mod realtime;
-pub mod report;
 #[cfg(feature = "std")]
 pub mod sim;
-pub mod step_block;
-pub mod stepper;
-pub mod thermal;
+mod types;
+
+// The layers are private folders; their modules are public at the crate root, so a path names the concept
+// (`plotter_fw::planner`), not the layer.
+pub use drivers::{hal, stepper};
+pub use logic::{framing, gcode, homing, limits, line_buffer, planner, protocol, realtime, report, thermal};
+pub use types::{axis, config, decimal, errors, fmath, range, step_block};
 
 pub use axis::{Axis, NUM_AXES};
 pub use config::MachineConfig;
