@@ -43,7 +43,7 @@ mod types;
 // (`plotter_fw::planner`), not the layer.
 pub use drivers::{hal, stepper};
 pub use logic::{framing, gcode, homing, limits, line_buffer, planner, protocol, realtime, report, thermal};
-pub use types::{axis, config, decimal, errors, fmath, range, step_block};
+pub use types::{axis, config, decimal, errors, fmath, heater, range, step_block};
 
 pub use axis::{Axis, NUM_AXES};
 pub use config::MachineConfig;

@@ -14,7 +14,7 @@
 //! nothing for them.
 
 use crate::axis::Axis;
-use crate::thermal::Heater;
+use crate::heater::Heater;
 
 /// Step and direction outputs, one pair per axis, plus the drivers' enable line.
 pub trait StepPins {

@@ -405,7 +405,7 @@ proptest! {
                     }
                     v
                 }),
-            Just(b"N0 M990 S1*".iter().copied().chain(std::format!("{}\n", crate::protocol::xor_checksum(b"N0 M990 S1")).into_bytes()).collect::<Vec<u8>>()),
+            Just(b"N0 M990 S1*".iter().copied().chain(std::format!("{}\n", crate::gcode::xor_checksum(b"N0 M990 S1")).into_bytes()).collect::<Vec<u8>>()),
         ], 1..16)
     ) {
         let mut sim = Sim::new(cfg());

@@ -8,8 +8,8 @@ use super::thermal::SimFault;
 use super::*;
 use crate::config::AxisConfig;
 use crate::errors::AlarmCode;
-use crate::thermal::safety::Fault;
-use crate::thermal::{Heater, ThermalAlarm};
+use crate::errors::{Fault, ThermalAlarm};
+use crate::heater::Heater;
 
 const S: u64 = 1_000_000;
 

@@ -8,5 +8,6 @@ pub mod config;
 pub mod decimal;
 pub mod errors;
 pub mod fmath;
+pub mod heater;
 pub mod range;
 pub mod step_block;

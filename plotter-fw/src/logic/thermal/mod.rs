@@ -45,52 +45,15 @@ pub mod thermistor;
 use core::fmt::{self, Write};
 
 use crate::decimal::Decimal;
-use crate::errors::ErrorCode;
-use crate::gcode::{MICRO, Words};
+use crate::errors::{ErrorCode, Fault, ThermalAlarm};
+use crate::gcode::Words;
 use crate::hal::Heaters;
+use crate::heater::{Heater, NUM_HEATERS};
+use crate::range::MICRO;
 use autotune::{Autotune, Step};
 use pid::{Pid, PidGains};
-use safety::{Fault, Guard, SafetyConfig, ticks};
+use safety::{Guard, SafetyConfig, ticks};
 use thermistor::{Reading, Thermistor};
-
-/// Number of heater channels.
-pub const NUM_HEATERS: usize = 2;
-
-/// A heater channel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Heater {
-    /// The hot end (tool 0), sensor `T0`.
-    HotEnd = 0,
-    /// The heated bed, sensor `B`.
-    Bed = 1,
-}
-
-impl Heater {
-    /// Both channels in index order.
-    pub const ALL: [Heater; NUM_HEATERS] = [Heater::HotEnd, Heater::Bed];
-
-    /// Index into per-heater arrays.
-    pub const fn index(self) -> usize {
-        self as usize
-    }
-
-    /// The name used in alarms and errors.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Heater::HotEnd => "hot end sensor T0",
-            Heater::Bed => "bed sensor B",
-        }
-    }
-}
-
-/// A thermal fault of one heater: what the machine latches as its alarm.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ThermalAlarm {
-    /// The heater whose sensor tripped.
-    pub heater: Heater,
-    /// What tripped.
-    pub fault: Fault,
-}
 
 /// Settings of one heater.
 #[derive(Debug, Clone, Copy, PartialEq)]
