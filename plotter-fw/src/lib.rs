@@ -41,8 +41,10 @@ mod types;
 
 // The layers are private folders; their modules are public at the crate root, so a path names the concept
 // (`plotter_fw::planner`), not the layer.
-pub use drivers::{hal, stepper};
-pub use logic::{framing, gcode, homing, limits, line_buffer, planner, protocol, realtime, report, thermal};
+pub use drivers::{hal, heater_driver, stepper};
+pub use logic::{
+    estop, framing, gcode, homing, limits, line_buffer, planner, protocol, realtime, report, thermal, thermal_gcode,
+};
 pub use types::{axis, config, decimal, errors, fmath, heater, range, step_block};
 
 pub use axis::{Axis, NUM_AXES};

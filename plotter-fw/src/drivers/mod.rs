@@ -3,4 +3,5 @@
 //! machine.
 
 pub mod hal;
+pub mod heater_driver;
 pub mod stepper;

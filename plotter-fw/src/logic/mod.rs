@@ -5,6 +5,7 @@
 //! checks). No hardware, no state beyond their own values; they import only layer 0 and each other (without
 //! cycles).
 
+pub mod estop;
 pub mod framing;
 pub mod gcode;
 pub mod homing;
@@ -15,3 +16,4 @@ pub mod protocol;
 pub mod realtime;
 pub mod report;
 pub mod thermal;
+pub mod thermal_gcode;

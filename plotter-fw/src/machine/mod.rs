@@ -29,9 +29,11 @@ use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
 use crate::decimal::Decimal;
 use crate::errors::{AlarmCode, ErrorCode};
+use crate::estop::EmergencyParser;
 use crate::framing::{self, M_FRAMED, RtMatcher};
 use crate::gcode::{Words, envelope, parse_words};
 use crate::hal::{Hal, Heaters, NoHeaters};
+use crate::heater_driver::{Cmd, Thermal};
 use crate::homing::{HomingCycle, HomingStep};
 use crate::line_buffer::{Frame, LINE_MAX, LineAssembler, RxBuffer};
 use crate::planner::{Linker, PlanBlock, plan, to_step_block};
@@ -41,7 +43,8 @@ use crate::realtime::MachineState;
 use crate::report::CompletionReporter;
 use crate::step_block::{StepBlock, TICK_HZ};
 use crate::stepper::{Stepper, StepperFault};
-use crate::thermal::{Cmd, EmergencyParser, Thermal, ThermalConfig};
+use crate::thermal::ThermalConfig;
+use crate::thermal_gcode::{self, ThermalLine};
 
 /// Firmware version reported in the banner and M115.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -354,11 +357,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     pub fn receive(&mut self, b: u8) {
         if self.estop.feed(b) {
             // M112: act now, not when the line's turn comes.
-            self.thermal.shutdown(&mut self.heaters);
-            self.stepper.abort();
-            self.hal.cancel();
-            self.timer_running = false;
-            self.estop_pending = true;
+            self.emergency_stop();
         }
         if self.framed {
             // Only a complete four-byte sequence is a command; everything else is data (see `crate::framing`).
@@ -512,30 +511,54 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// The heaters' period (PID, safety checks) and a pending emergency stop.
     fn service_thermal(&mut self) {
-        if core::mem::take(&mut self.estop_pending) {
-            self.raise_alarm(AlarmCode::EmergencyStop);
-        }
+        self.latch_emergency_stop();
         let now = self.hal.now();
         if let Some(alarm) = self.thermal.tick(&mut self.heaters, now, &mut Out(&mut self.hal)) {
             self.raise_alarm(AlarmCode::Thermal(alarm));
         }
     }
 
-    /// A temperature, fan or emergency-stop command (see [`crate::thermal`]); `None` when `w` is none of these.
-    fn thermal_command(&mut self, w: &Words) -> Option<Outcome> {
-        if !w.m.iter().any(|&m| crate::thermal::handles(m)) {
-            return None;
+    /// The emergency stop (`M112`), the one place it is handled: heaters off and motion stopped at once (this runs
+    /// in the receive interrupt as soon as the line is complete); `poll` then latches the alarm, which also
+    /// disables the motors and flushes the queue ([`AlarmCode::is_shutdown`]).
+    fn emergency_stop(&mut self) {
+        self.thermal.shutdown(&mut self.heaters);
+        self.stepper.abort();
+        self.hal.cancel();
+        self.timer_running = false;
+        self.estop_pending = true;
+    }
+
+    /// Latch the alarm of an emergency stop received since the last poll.
+    fn latch_emergency_stop(&mut self) {
+        if core::mem::take(&mut self.estop_pending) {
+            self.raise_alarm(AlarmCode::EmergencyStop);
         }
+    }
+
+    /// A temperature, fan or emergency-stop command (parsed by [`crate::thermal_gcode`], run by the heater
+    /// driver); `None` when `w` is none of these.
+    fn thermal_command(&mut self, w: &Words) -> Option<Outcome> {
+        let cmd = match thermal_gcode::parse(w, self.thermal.config())? {
+            Ok(ThermalLine::Heaters(cmd)) => cmd,
+            Ok(ThermalLine::EmergencyStop) => {
+                // Spotted on receipt already, unless written in a form the byte spotter does not take (`M0112`).
+                self.emergency_stop();
+                self.latch_emergency_stop();
+                self.reply_ok();
+                return Some(Outcome::Done);
+            }
+            Err((code, detail)) => {
+                self.reply_error(code, format_args!("{detail}"));
+                return Some(Outcome::Done);
+            }
+        };
         let now = self.hal.now();
         let alarm = self.alarm.is_some();
-        match self.thermal.command(w, now, &mut self.heaters, &mut Out(&mut self.hal), alarm) {
+        match self.thermal.command(cmd, now, &mut self.heaters, &mut Out(&mut self.hal), alarm) {
             Cmd::Ok => self.reply_ok(),
             Cmd::Blocked => return Some(Outcome::Blocked),
             Cmd::Error(code, detail) => self.reply_error(code, format_args!("{detail}")),
-            Cmd::EmergencyStop => {
-                self.raise_alarm(AlarmCode::EmergencyStop);
-                self.reply_ok();
-            }
         }
         Some(Outcome::Done)
     }
