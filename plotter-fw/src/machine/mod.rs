@@ -10,11 +10,9 @@
 //! body with the timer and UART interrupts masked (a critical section), as single-core firmwares do. The
 //! simulator calls all three from one thread.
 //!
-//! # Look-ahead and the stepper hand-off
-//! Moves parsed from G-code are planned in the bounded planner queue ([`crate::planner`], re-planned on every
-//! new block). A planned block is handed to the stepper — and frozen — only when the stepper holds fewer than two
-//! blocks, so the planner keeps as much look-ahead as the input gives it. Host-planned step blocks and dwells pass
-//! through the same queue unchanged ([`PlanBlock::fixed`]).
+//! # Parts
+//! Each part owns its state: the motion queue ([`motion`]: planner queue, stepper, the one stop path) and the
+//! heater driver below; the interpreter and the alarms here, on top, use them.
 //!
 //! # Coordinates
 //! Positions are kept exactly, in millionths of a millimetre (machine coordinates: 0 at the homing switch). A
@@ -22,8 +20,6 @@
 //! steps, so relative moves never drift. `G92` offsets work coordinates from machine coordinates.
 
 use core::fmt::{self, Write as _};
-
-use heapless::Deque;
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
@@ -36,7 +32,7 @@ use crate::hal::{Hal, Heaters, NoHeaters};
 use crate::heater_driver::{Cmd, Thermal};
 use crate::homing::{HomingCycle, HomingStep};
 use crate::line_buffer::{Frame, LINE_MAX, LineAssembler, RxBuffer};
-use crate::planner::{Linker, PlanBlock, plan, to_step_block};
+use crate::planner::PlanBlock;
 use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
 use crate::range::MICRO;
 use crate::realtime::MachineState;
@@ -45,6 +41,9 @@ use crate::step_block::{StepBlock, TICK_HZ};
 use crate::stepper::{Stepper, StepperFault};
 use crate::thermal::ThermalConfig;
 use crate::thermal_gcode::{self, ThermalLine};
+use motion::MotionQueue;
+
+mod motion;
 
 /// Firmware version reported in the banner and M115.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -104,14 +103,7 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     asm: LineAssembler,
     pending: heapless::Vec<u8, LINE_MAX>,
     pending_kind: Option<PendingKind>,
-    planner: Deque<PlanBlock, Q>,
-    /// Cornering memory of the planner (the last blocks' geometry, for curve radii).
-    linker: Linker,
-    queue_limit: usize,
-    first_entry_sqr: f32,
-    hold_replanned: bool,
-    stepper: Stepper,
-    timer_running: bool,
+    motion: MotionQueue<Q>,
     decoder: Decoder,
     seq: u32,
     resync: bool,
@@ -170,13 +162,6 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// Start the firmware of a printer: `heaters` drives the heater outputs and reads the thermistors configured
     /// in `thermal` (validate both configurations first); sends the banner.
     pub fn with_heaters(hal: H, cfg: MachineConfig, heaters: T, thermal: ThermalConfig) -> Self {
-        let invert = Axis::ALL.iter().filter(|a| cfg.axis(**a).invert_dir).fold(0, |m, a| m | a.bit());
-        let limits = if cfg.hard_limits {
-            Axis::ALL.iter().filter(|a| cfg.axis(**a).is_limited()).fold(0, |m, a| m | a.bit())
-        } else {
-            0
-        };
-        let queue_limit = usize::try_from(cfg.queue_blocks).unwrap_or(Q).clamp(1, Q);
         let thermal = Thermal::new(thermal, hal.now());
         let mut m = Machine {
             hal,
@@ -189,13 +174,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             asm: LineAssembler::new(),
             pending: heapless::Vec::new(),
             pending_kind: None,
-            planner: Deque::new(),
-            linker: Linker::new(),
-            queue_limit,
-            first_entry_sqr: 0.0,
-            hold_replanned: false,
-            stepper: Stepper::new(invert, limits),
-            timer_running: false,
+            motion: MotionQueue::new(&cfg),
             decoder: Decoder::new(),
             seq: 0,
             resync: false,
@@ -261,7 +240,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// The stepper (position, queue state).
     pub fn stepper(&self) -> &Stepper {
-        &self.stepper
+        self.motion.stepper()
     }
 
     /// Receive buffer size announced to the host.
@@ -271,7 +250,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Planner queue size announced to the host.
     pub fn queue_size(&self) -> usize {
-        self.queue_limit
+        self.motion.limit()
     }
 
     /// The latched alarm.
@@ -305,11 +284,11 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             MachineState::Alarm
         } else if self.homing.is_some() {
             MachineState::Homing
-        } else if self.stepper.is_held() || self.program_paused {
+        } else if self.motion.stepper().is_held() || self.program_paused {
             MachineState::Held
-        } else if self.stepper.is_holding() {
+        } else if self.motion.stepper().is_holding() {
             MachineState::Holding
-        } else if !self.stepper.is_idle() || !self.planner.is_empty() {
+        } else if !self.motion.drained() {
             MachineState::Run
         } else {
             MachineState::Idle
@@ -318,15 +297,15 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Nothing left to do: no motion, no queued blocks, no pending input.
     pub fn is_idle(&self) -> bool {
-        self.stepper.is_idle() && self.planner.is_empty() && self.homing.is_none() && !self.has_input() && self.rt == 0
+        self.motion.drained() && self.homing.is_none() && !self.has_input() && self.rt == 0
     }
 
     /// Whether a block finished or something else happened that `poll` should see.
     pub fn needs_poll(&self) -> bool {
-        self.stepper.completed() != self.last_completed
+        self.motion.stepper().completed() != self.last_completed
             || self.rt != 0
-            || self.stepper.fault().is_some()
-            || (self.resume_after_hold && self.stepper.is_held())
+            || self.motion.stepper().fault().is_some()
+            || (self.resume_after_hold && self.motion.stepper().is_held())
             || self.thermal.due(self.hal.now())
             || self.estop_pending
             || self.completion_due()
@@ -334,18 +313,18 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Nothing left to run: planner queue and stepper empty.
     fn drained(&self) -> bool {
-        self.stepper.is_idle() && self.planner.is_empty()
+        self.motion.drained()
     }
 
     /// Whether a completion report should go out now ([`crate::report`]; framed mode only).
     fn completion_due(&self) -> bool {
-        self.framed && self.reporter.due(self.stepper.completed(), self.hal.now(), self.drained())
+        self.framed && self.reporter.due(self.motion.stepper().completed(), self.hal.now(), self.drained())
     }
 
     /// Send the completion report when one is due.
     fn report_completion(&mut self) {
         if self.completion_due() {
-            let completed = self.stepper.completed();
+            let completed = self.motion.stepper().completed();
             let (done, seq) = (completed.wrapping_sub(self.completed_base), self.seq);
             self.reply(seq, format_args!("C:{done}"));
             self.reporter.sent(completed, self.hal.now());
@@ -388,13 +367,11 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 RT_FEED_HOLD => {
                     // The latest real-time command wins: a hold cancels a resume still waiting for the stop.
                     self.resume_after_hold = false;
-                    self.stepper.feed_hold();
+                    self.motion.stepper_mut().feed_hold();
                 }
                 RT_RESUME => self.rt |= RT_FLAG_RESUME,
                 RT_RESET => {
-                    self.stepper.abort();
-                    self.hal.cancel();
-                    self.timer_running = false;
+                    self.motion.halt(&mut self.hal);
                     self.rt |= RT_FLAG_RESET;
                 }
                 _ => {}
@@ -413,33 +390,23 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Step timer interrupt.
     pub fn on_timer(&mut self) {
-        match self.stepper.tick(&mut self.hal) {
-            Some(t) => self.hal.schedule(t),
-            None => {
-                self.timer_running = false;
-                self.hal.cancel();
-            }
-        }
+        self.motion.on_timer(&mut self.hal);
     }
 
     /// Main loop pass: real-time work, homing, line handling, planning, stepper hand-off.
     pub fn poll(&mut self) {
-        self.last_completed = self.stepper.completed();
+        self.last_completed = self.motion.stepper().completed();
         self.service_realtime();
-        if let Some(StepperFault::HardLimit(_)) = self.stepper.fault() {
-            self.stepper.clear_fault();
+        if let Some(StepperFault::HardLimit(_)) = self.motion.stepper().fault() {
+            self.motion.stepper_mut().clear_fault();
             self.raise_alarm(AlarmCode::HardLimit);
         }
-        if self.stepper.is_held() && !self.hold_replanned {
-            // Everything after the hold restarts from rest.
-            self.hold_replanned = true;
-            self.first_entry_sqr = 0.0;
-            plan(self.planner.make_contiguous(), 0.0);
-        }
-        if self.resume_after_hold && self.stepper.is_held() {
+        // Everything after a hold restarts from rest.
+        self.motion.replan_after_hold();
+        if self.resume_after_hold && self.motion.stepper().is_held() {
             // A `~` received while the hold was decelerating: the hold has now stopped (and was re-planned).
             self.resume_after_hold = false;
-            self.resume();
+            self.motion.resume(&mut self.hal);
         }
         self.service_thermal();
         self.run_homing();
@@ -452,10 +419,10 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             }
             self.pending_kind = None;
             self.pending.clear();
-            self.feed_stepper();
+            self.motion.feed(&mut self.hal);
             self.run_homing();
         }
-        self.feed_stepper();
+        self.motion.feed(&mut self.hal);
         self.report_completion();
     }
 
@@ -478,7 +445,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn banner(&mut self) {
-        let (rx, q, seq) = (self.rx_size(), self.queue_limit, self.seq);
+        let (rx, q, seq) = (self.rx_size(), self.motion.limit(), self.seq);
         let _ = writeln!(
             Out(&mut self.hal),
             "plotter-fw {VERSION} proto {PROTOCOL_VERSION} rx {rx} queue {q} line {LINE_MAX} seq {seq}"
@@ -523,9 +490,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// disables the motors and flushes the queue ([`AlarmCode::is_shutdown`]).
     fn emergency_stop(&mut self) {
         self.thermal.shutdown(&mut self.heaters);
-        self.stepper.abort();
-        self.hal.cancel();
-        self.timer_running = false;
+        self.motion.halt(&mut self.hal);
         self.estop_pending = true;
     }
 
@@ -568,12 +533,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.thermal.shutdown(&mut self.heaters);
             self.hal.enable_motors(false);
         }
-        self.stepper.abort();
-        self.hal.cancel();
-        self.timer_running = false;
-        self.planner.clear();
-        self.linker.clear();
-        self.first_entry_sqr = 0.0;
+        self.motion.abort(&mut self.hal);
         self.homing = None;
         if self.homing_result.is_none() && matches!(code, AlarmCode::HomingNotFound | AlarmCode::HomingNotReleased) {
             self.homing_result = Some(Err(code));
@@ -590,14 +550,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     fn service_realtime(&mut self) {
         let rt = core::mem::take(&mut self.rt);
         if rt & RT_FLAG_RESET != 0 {
-            let moving = !self.stepper.is_idle() || !self.planner.is_empty() || self.homing.is_some();
-            self.stepper.abort();
-            self.stepper.clear_fault();
-            self.hal.cancel();
-            self.timer_running = false;
-            self.planner.clear();
-            self.first_entry_sqr = 0.0;
-            self.hold_replanned = false;
+            let moving = !self.motion.drained() || self.homing.is_some();
+            self.motion.abort(&mut self.hal);
+            self.motion.stepper_mut().clear_fault();
             self.rx.clear();
             self.asm.clear();
             self.pending.clear();
@@ -614,7 +569,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.program_paused = false;
             self.framed = false;
             self.rt_matcher.clear();
-            self.completed_base = self.stepper.completed();
+            self.completed_base = self.motion.stepper().completed();
             self.refused = None;
             self.thermal.restore_cold_extrusion();
             if moving {
@@ -622,16 +577,16 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 self.homed = 0;
             }
             self.sync_target();
-            self.last_completed = self.stepper.completed();
+            self.last_completed = self.motion.stepper().completed();
             self.banner();
             return;
         }
         if rt & RT_FLAG_RESUME != 0 {
             if self.program_paused {
                 self.program_paused = false;
-            } else if self.stepper.is_held() {
-                self.resume();
-            } else if self.stepper.is_holding() {
+            } else if self.motion.stepper().is_held() {
+                self.motion.resume(&mut self.hal);
+            } else if self.motion.stepper().is_holding() {
                 // Still decelerating: remember the resume and act once the hold has stopped (see `poll`).
                 self.resume_after_hold = true;
             }
@@ -641,22 +596,13 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         }
     }
 
-    fn resume(&mut self) {
-        self.hold_replanned = false;
-        if let Some(t) = self.stepper.resume(&mut self.hal) {
-            self.timer_running = true;
-            self.hal.schedule(t);
-        }
-        self.feed_stepper();
-    }
-
     /// Write the status report line (also sent for `?`).
     pub fn status_report(&mut self) {
         let state = self.state();
-        let pos = self.stepper.position();
-        let used = self.planner.len();
-        let (q, seq) = (self.queue_limit, self.seq);
-        let done = self.stepper.completed().wrapping_sub(self.completed_base);
+        let pos = self.motion.stepper().position();
+        let used = self.motion.len();
+        let (q, seq) = (self.motion.limit(), self.seq);
+        let done = self.motion.stepper().completed().wrapping_sub(self.completed_base);
         let mut mm = [0.0f32; NUM_AXES];
         for axis in Axis::ALL {
             mm[axis.index()] = pos[axis.index()] as f32 / self.cfg.axis(axis).steps_per_mm;
@@ -679,7 +625,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn sync_target(&mut self) {
-        let pos = self.stepper.position();
+        let pos = self.motion.stepper().position();
         self.target_steps = pos;
         for axis in Axis::ALL {
             let i = axis.index();
@@ -689,46 +635,24 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn quiescent(&self) -> bool {
-        self.stepper.is_idle() && self.planner.is_empty() && self.homing.is_none()
-    }
-
-    /// Move planned blocks to the stepper while it holds fewer than two, then make sure it runs.
-    fn feed_stepper(&mut self) {
-        while self.stepper.pending() < 2 && !self.stepper.is_held() {
-            let Some(head) = self.planner.pop_front() else { break };
-            let exit = self.planner.front().map_or(0.0, |b| b.entry_speed_sqr);
-            self.first_entry_sqr = exit;
-            let block = to_step_block(&head, exit);
-            // Cannot fail: the stepper holds fewer than two blocks and its queue takes two.
-            let _ = self.stepper.push(block, 0);
-        }
-        self.start_stepper();
-    }
-
-    fn start_stepper(&mut self) {
-        if !self.timer_running
-            && let Some(t) = self.stepper.start(&mut self.hal)
-        {
-            self.timer_running = true;
-            self.hal.schedule(t);
-        }
+        self.motion.drained() && self.homing.is_none()
     }
 
     fn run_homing(&mut self) {
         while let Some(cycle) = self.homing.as_mut() {
-            if !self.stepper.is_idle() {
+            if !self.motion.stepper().is_idle() {
                 return;
             }
             let pressed = self.hal.pressed();
-            let step = cycle.next(&self.cfg, self.stepper.homing_hits(), pressed, &self.stepper.position());
+            let step =
+                cycle.next(&self.cfg, self.motion.stepper().homing_hits(), pressed, &self.motion.stepper().position());
             match step {
                 HomingStep::Move(b, mask) => {
-                    let _ = self.stepper.push(b, mask);
-                    self.start_stepper();
+                    self.motion.push_homing(b, mask, &mut self.hal);
                     return;
                 }
                 HomingStep::SetPosition(_, pos) => {
-                    self.stepper.set_position(pos);
+                    self.motion.stepper_mut().set_position(pos);
                     self.sync_target();
                 }
                 HomingStep::Alarm(code) => {
@@ -871,7 +795,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.reply_error(ErrorCode::Alarm, format_args!(""));
             return Outcome::Done;
         }
-        if self.planner.len() >= self.queue_limit || self.homing.is_some() {
+        if self.motion.is_full() || self.homing.is_some() {
             return Outcome::Blocked;
         }
         self.decoder = trial;
@@ -918,11 +842,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn queue_block(&mut self, block: PlanBlock) {
-        // Cannot fail: callers check the fill against `queue_limit ≤ Q`.
-        let _ = self.planner.push_back(block);
-        self.linker.push(self.planner.make_contiguous(), &self.cfg);
-        let first = if self.stepper.is_held() { 0.0 } else { self.first_entry_sqr };
-        plan(self.planner.make_contiguous(), first);
+        self.motion.push(block, &self.cfg);
     }
 
     /// A G-code length in millionths of the current unit → millionths of a mm; `None` on overflow.
@@ -1019,7 +939,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         if needs_idle && !self.quiescent() {
             return Outcome::Blocked;
         }
-        if needs_slot && (self.planner.len() >= self.queue_limit || self.homing.is_some()) {
+        if needs_slot && (self.motion.is_full() || self.homing.is_some()) {
             return Outcome::Blocked;
         }
         // Modal words.
@@ -1092,7 +1012,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 17 => self.hal.enable_motors(true),
                 M_FRAMED => {
                     self.framed = w.get(b'S').is_some_and(|s| s != 0);
-                    self.reporter.restart(self.stepper.completed());
+                    self.reporter.restart(self.motion.stepper().completed());
                     self.refused = None;
                 }
                 18 | 84 => self.hal.enable_motors(false),
@@ -1100,7 +1020,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 83 => self.modal.e_relative = true,
                 114 => self.report_position(),
                 115 => {
-                    let (rx, q) = (self.rx_size(), self.queue_limit);
+                    let (rx, q) = (self.rx_size(), self.motion.limit());
                     // Framed in framed mode: the host takes its buffer sizes from it.
                     self.reply(
                         self.answering,
@@ -1191,14 +1111,13 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         }
         let mask = Axis::ALL.iter().filter(|a| w.has(a.letter() as u8)).fold(0, |m, a| m | a.bit());
         self.homing = Some(HomingCycle::new(&self.cfg, mask));
-        self.linker.clear();
         self.run_homing();
         if self.homing_result.is_some() { self.home(w) } else { Outcome::Blocked }
     }
 
     fn report_position(&mut self) {
         let work: [f64; NUM_AXES] = core::array::from_fn(|i| (self.target_um[i] - self.offset_um[i]) as f64 / 1e6);
-        let p = self.stepper.position();
+        let p = self.motion.stepper().position();
         let _ = writeln!(
             Out(&mut self.hal),
             "X:{} Y:{} Z:{} E:{} Count X:{} Y:{} Z:{} E:{}",
