@@ -26,23 +26,24 @@ use crate::config::MachineConfig;
 use crate::decimal::Decimal;
 use crate::errors::{AlarmCode, ErrorCode};
 use crate::estop::EmergencyParser;
-use crate::framing::{self, M_FRAMED, RtMatcher};
-use crate::gcode::{Words, envelope, parse_words};
+use crate::framing::M_FRAMED;
+use crate::gcode::Words;
 use crate::hal::{Hal, Heaters, NoHeaters};
 use crate::heater_driver::{Cmd, Thermal};
 use crate::homing::{HomingCycle, HomingStep};
-use crate::line_buffer::{Frame, LINE_MAX, LineAssembler, RxBuffer};
+use crate::line_buffer::LINE_MAX;
 use crate::planner::PlanBlock;
-use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
+use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
 use crate::range::MICRO;
 use crate::realtime::MachineState;
-use crate::report::CompletionReporter;
 use crate::step_block::{StepBlock, TICK_HZ};
 use crate::stepper::{Stepper, StepperFault};
 use crate::thermal::ThermalConfig;
 use crate::thermal_gcode::{self, ThermalLine};
+use link::{Input, Link, Out};
 use motion::MotionQueue;
 
+mod link;
 mod motion;
 
 /// Firmware version reported in the banner and M115.
@@ -78,16 +79,6 @@ impl Modal {
     const DEFAULT: Modal = Modal { absolute: true, inches: false, motion: 0, feed_mm_s: 0.0, e_relative: false };
 }
 
-/// Writes formatted text to the serial port.
-struct Out<'a, H: Hal>(&'a mut H);
-
-impl<H: Hal> fmt::Write for Out<'_, H> {
-    fn write_str(&mut self, s: &str) -> fmt::Result {
-        self.0.write(s.as_bytes());
-        Ok(())
-    }
-}
-
 /// The firmware. `RX` is the receive buffer capacity (bytes), `Q` the planner queue capacity (blocks); the sizes
 /// announced to the host are the configured ones, clamped to these. `T` is the printer's heater I/O
 /// ([`NoHeaters`] on plotters).
@@ -99,14 +90,8 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     /// `M112` was received; `poll` latches the alarm.
     estop_pending: bool,
     cfg: MachineConfig,
-    rx: RxBuffer<RX>,
-    asm: LineAssembler,
-    pending: heapless::Vec<u8, LINE_MAX>,
-    pending_kind: Option<PendingKind>,
+    link: Link<RX>,
     motion: MotionQueue<Q>,
-    decoder: Decoder,
-    seq: u32,
-    resync: bool,
     alarm: Option<AlarmCode>,
     homed: u8,
     homing: Option<HomingCycle>,
@@ -121,33 +106,10 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     last_completed: u32,
     /// `~` arrived while a feed hold was still decelerating: resume as soon as it has stopped.
     resume_after_hold: bool,
-    /// The stepper's completed-block count at start or the last reset (the status report's `C:` counts from it).
-    completed_base: u32,
-    /// A sequenced stream is active: a sequenced frame was accepted or a resend requested since the last reset or
-    /// the last plain G-code line. Bytes ≥ 0x80 in a line then mean a damaged frame.
-    streaming: bool,
     /// Servo pen: the angle `M5` lifts to (set with `M5 S<angle>`).
     servo_up_deg: f32,
     /// `M0`/`M1` program pause (a pen change in a raw G-code stream): nothing more runs until `~`.
     program_paused: bool,
-    /// Framed mode ([`crate::framing`]): CRC-framed replies, four-byte real-time commands, sequenced input only.
-    framed: bool,
-    rt_matcher: RtMatcher,
-    /// The sequence number of the frame or line being answered (framed `ok`/`error:` carry it).
-    answering: u32,
-    /// When to send the next completion report (framed mode, [`crate::report`]).
-    reporter: CompletionReporter,
-    /// A step block was refused (its sequence number and error code): every later frame is refused too, so nothing
-    /// after a hole in the plot runs, until a reset, a homing cycle or framed mode switched on again. The status
-    /// report carries it as `R:<n>,<code>`.
-    refused: Option<(u32, u8)>,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum PendingKind {
-    Line,
-    TooLong,
-    Damaged,
 }
 
 impl<H: Hal, const RX: usize, const Q: usize> Machine<H, RX, Q, NoHeaters> {
@@ -170,14 +132,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             estop: EmergencyParser::new(),
             estop_pending: false,
             cfg,
-            rx: RxBuffer::new(),
-            asm: LineAssembler::new(),
-            pending: heapless::Vec::new(),
-            pending_kind: None,
+            link: Link::new(cfg.rx_buffer_bytes),
             motion: MotionQueue::new(&cfg),
-            decoder: Decoder::new(),
-            seq: 0,
-            resync: false,
             alarm: None,
             homed: 0,
             homing: None,
@@ -189,15 +145,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             rt: 0,
             last_completed: 0,
             resume_after_hold: false,
-            completed_base: 0,
-            streaming: false,
             servo_up_deg: cfg.pen.servo_up_deg,
             program_paused: false,
-            framed: false,
-            rt_matcher: RtMatcher::new(),
-            answering: 0,
-            reporter: CompletionReporter::new(0),
-            refused: None,
         };
         m.banner();
         m
@@ -245,7 +194,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Receive buffer size announced to the host.
     pub fn rx_size(&self) -> usize {
-        usize::try_from(self.cfg.rx_buffer_bytes).unwrap_or(RX).min(RX)
+        self.link.rx_size()
     }
 
     /// Planner queue size announced to the host.
@@ -265,17 +214,17 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Next expected sequence number.
     pub fn expected_seq(&self) -> u32 {
-        self.seq
+        self.link.seq()
     }
 
     /// Whether the receive buffer holds bytes or a frame is waiting.
     pub fn has_input(&self) -> bool {
-        !self.rx.is_empty() || self.pending_kind.is_some()
+        self.link.has_input()
     }
 
     /// Free bytes in the receive buffer.
     pub fn rx_free(&self) -> usize {
-        self.rx_size().saturating_sub(self.rx.len())
+        self.link.rx_free()
     }
 
     /// Current state.
@@ -311,24 +260,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             || self.completion_due()
     }
 
-    /// Nothing left to run: planner queue and stepper empty.
-    fn drained(&self) -> bool {
-        self.motion.drained()
-    }
-
     /// Whether a completion report should go out now ([`crate::report`]; framed mode only).
     fn completion_due(&self) -> bool {
-        self.framed && self.reporter.due(self.motion.stepper().completed(), self.hal.now(), self.drained())
-    }
-
-    /// Send the completion report when one is due.
-    fn report_completion(&mut self) {
-        if self.completion_due() {
-            let completed = self.motion.stepper().completed();
-            let (done, seq) = (completed.wrapping_sub(self.completed_base), self.seq);
-            self.reply(seq, format_args!("C:{done}"));
-            self.reporter.sent(completed, self.hal.now());
-        }
+        self.link.completion_due(self.motion.stepper().completed(), self.hal.now(), self.motion.drained())
     }
 
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
@@ -338,26 +272,14 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             // M112: act now, not when the line's turn comes.
             self.emergency_stop();
         }
-        if self.framed {
-            // Only a complete four-byte sequence is a command; everything else is data (see `crate::framing`).
-            let mut matcher = core::mem::take(&mut self.rt_matcher);
-            let cmd = matcher.feed(b, |d| self.receive_data(d));
-            self.rt_matcher = matcher;
-            if let Some(c) = cmd {
-                self.realtime(c);
-            }
-            return;
+        if let Some(cmd) = self.link.receive(b) {
+            self.realtime(cmd);
         }
-        if is_realtime(b) {
-            self.realtime(b);
-            return;
-        }
-        self.receive_data(b);
     }
 
     /// Whether framed mode is on ([`crate::framing`]).
     pub fn is_framed(&self) -> bool {
-        self.framed
+        self.link.is_framed()
     }
 
     fn realtime(&mut self, b: u8) {
@@ -377,15 +299,6 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 _ => {}
             }
         }
-    }
-
-    fn receive_data(&mut self, b: u8) {
-        if self.rx.len() >= self.rx_size() {
-            // Over the announced size: recorded as a loss, exactly like a full ring.
-            self.rx.mark_loss();
-            return;
-        }
-        self.rx.push(b);
     }
 
     /// Step timer interrupt.
@@ -411,69 +324,31 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         self.service_thermal();
         self.run_homing();
         loop {
-            if self.pending_kind.is_none() && !self.next_frame() {
+            if !self.link.next_frame() {
                 break;
             }
             if self.handle_pending() == Outcome::Blocked {
                 break;
             }
-            self.pending_kind = None;
-            self.pending.clear();
+            self.link.finish_frame();
             self.motion.feed(&mut self.hal);
             self.run_homing();
         }
         self.motion.feed(&mut self.hal);
-        self.report_completion();
-    }
-
-    fn next_frame(&mut self) -> bool {
-        while let Some((b, lost)) = self.rx.pop() {
-            if let Some(frame) = self.asm.feed(b, lost) {
-                let (kind, bytes) = match frame {
-                    Frame::Line(l) => (PendingKind::Line, l),
-                    Frame::TooLong(l) => (PendingKind::TooLong, l),
-                    Frame::Damaged(l) => (PendingKind::Damaged, l),
-                };
-                self.pending.clear();
-                // Cannot fail: frames are at most LINE_MAX bytes.
-                let _ = self.pending.extend_from_slice(bytes);
-                self.pending_kind = Some(kind);
-                return true;
-            }
-        }
-        false
+        let (completed, now, drained) = (self.motion.stepper().completed(), self.hal.now(), self.motion.drained());
+        self.link.report_completion(&mut self.hal, completed, now, drained);
     }
 
     fn banner(&mut self) {
-        let (rx, q, seq) = (self.rx_size(), self.motion.limit(), self.seq);
-        let _ = writeln!(
-            Out(&mut self.hal),
-            "plotter-fw {VERSION} proto {PROTOCOL_VERSION} rx {rx} queue {q} line {LINE_MAX} seq {seq}"
-        );
-    }
-
-    /// One reply line: plain, or framed with number `n` in framed mode.
-    fn reply(&mut self, n: u32, text: fmt::Arguments<'_>) {
-        if self.framed {
-            let _ = framing::write_reply(Out(&mut self.hal), n, text);
-        } else {
-            let _ = writeln!(Out(&mut self.hal), "{text}");
-        }
+        self.link.banner(&mut self.hal, VERSION, self.motion.limit());
     }
 
     fn reply_ok(&mut self) {
-        self.reply(self.answering, format_args!("ok"));
+        self.link.reply_ok(&mut self.hal);
     }
 
     fn reply_error(&mut self, code: ErrorCode, detail: fmt::Arguments<'_>) {
-        self.reply(self.answering, format_args!("error:{} {}{}", code.code(), code.text(), detail));
-    }
-
-    fn reply_resend(&mut self) {
-        self.resync = true;
-        self.streaming = true;
-        let seq = self.seq;
-        self.reply(seq, format_args!("rs {seq}"));
+        self.link.reply_error(&mut self.hal, code, detail);
     }
 
     /// The heaters' period (PID, safety checks) and a pending emergency stop.
@@ -543,7 +418,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         self.sync_target();
         if self.alarm.is_none() {
             self.alarm = Some(code);
-            self.reply(self.seq, format_args!("{code}"));
+            let seq = self.link.seq();
+            self.link.reply(&mut self.hal, seq, format_args!("{code}"));
         }
     }
 
@@ -553,24 +429,13 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             let moving = !self.motion.drained() || self.homing.is_some();
             self.motion.abort(&mut self.hal);
             self.motion.stepper_mut().clear_fault();
-            self.rx.clear();
-            self.asm.clear();
-            self.pending.clear();
-            self.pending_kind = None;
-            self.decoder = Decoder::new();
-            self.seq = 0;
-            self.resync = false;
+            self.link.reset(self.motion.stepper().completed());
             self.alarm = None;
             self.homing = None;
             self.homing_result = None;
             self.modal = Modal::DEFAULT;
             self.resume_after_hold = false;
-            self.streaming = false;
             self.program_paused = false;
-            self.framed = false;
-            self.rt_matcher.clear();
-            self.completed_base = self.motion.stepper().completed();
-            self.refused = None;
             self.thermal.restore_cold_extrusion();
             if moving {
                 // Stopped without deceleration: steps may have been lost.
@@ -601,14 +466,15 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         let state = self.state();
         let pos = self.motion.stepper().position();
         let used = self.motion.len();
-        let (q, seq) = (self.motion.limit(), self.seq);
-        let done = self.motion.stepper().completed().wrapping_sub(self.completed_base);
+        let (q, seq) = (self.motion.limit(), self.link.seq());
+        let done = self.link.completed_since_reset(self.motion.stepper().completed());
         let mut mm = [0.0f32; NUM_AXES];
         for axis in Axis::ALL {
             mm[axis.index()] = pos[axis.index()] as f32 / self.cfg.axis(axis).steps_per_mm;
         }
-        let refused = Refused(self.refused);
-        self.reply(
+        let refused = Refused(self.link.refused());
+        self.link.reply(
+            &mut self.hal,
             seq,
             format_args!(
                 "<{state}|MPos:{},{},{},{}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}{refused}>",
@@ -662,7 +528,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 }
                 HomingStep::Done(mask) => {
                     self.homed |= mask;
-                    self.refused = None;
+                    self.link.clear_refused();
                     self.homing = None;
                     self.homing_result = Some(Ok(()));
                     self.sync_target();
@@ -673,135 +539,31 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn handle_pending(&mut self) -> Outcome {
-        let kind = self.pending_kind.unwrap_or(PendingKind::Line);
-        let mut buf = [0u8; LINE_MAX];
-        let len = self.pending.len();
-        buf[..len].copy_from_slice(&self.pending);
-        let line = &buf[..len];
-        // G-code is ASCII: during a sequenced stream, a line with a byte ≥ 0x80 is a step-block frame whose marker
-        // bit (or marker byte) was damaged on the wire, never a command to run.
-        let damaged_frame = self.streaming && line.iter().any(|&c| c >= 0x80);
-        let sequenced =
-            self.framed || damaged_frame || line.first().is_some_and(|&c| c >= 0x80 || c == b'N' || c == b'n');
-        self.answering = self.seq;
-        if self.framed && kind == PendingKind::Line && line.first().is_none_or(|&c| c < 0x80) {
-            // Framed mode takes sequenced input only: anything else is a damaged frame.
-            match envelope(line) {
-                Ok(e) if e.checked && e.number.is_some() => self.answering = e.number.unwrap_or(self.seq),
-                _ => {
-                    self.reply_resend();
-                    return Outcome::Done;
+        match self.link.input(&mut self.hal) {
+            Input::Answered => Outcome::Done,
+            Input::Line { words, number } => {
+                let out = self.execute(&words);
+                if out == Outcome::Done {
+                    self.link.commit_seq(number);
                 }
+                out
             }
-        }
-        match kind {
-            PendingKind::TooLong | PendingKind::Damaged if sequenced => {
-                self.reply_resend();
-                return Outcome::Done;
-            }
-            PendingKind::TooLong => {
-                self.reply_error(ErrorCode::LineTooLong, format_args!(""));
-                return Outcome::Done;
-            }
-            PendingKind::Damaged => {
-                let lost = self.rx.take_lost();
-                self.reply_error(ErrorCode::RxOverflow, format_args!(": {lost} bytes"));
-                return Outcome::Done;
-            }
-            PendingKind::Line => {}
-        }
-        if line.first().is_some_and(|&c| c >= 0x80) {
-            return self.handle_step_frame(line);
-        }
-        if damaged_frame {
-            self.reply_resend();
-            return Outcome::Done;
-        }
-        let env = match envelope(line) {
-            Ok(e) => e,
-            Err(_) if sequenced => {
-                self.reply_resend();
-                return Outcome::Done;
-            }
-            Err(_) => {
-                self.reply_error(ErrorCode::Checksum, format_args!(""));
-                return Outcome::Done;
-            }
-        };
-        let words = match parse_words(env.body) {
-            Ok(w) => Some(w),
-            Err(e) => {
-                if env.number.is_some() && !env.checked {
-                    self.reply_resend();
-                    return Outcome::Done;
-                }
-                if let Some(n) = env.number
-                    && n != self.seq
-                {
-                    self.reply_resend();
-                    return Outcome::Done;
-                }
-                self.commit_seq(env.number);
-                self.reply_error(e.code, format_args!(" at column {}", e.column));
-                return Outcome::Done;
-            }
-        };
-        let Some(words) = words else { return Outcome::Done };
-        if env.number.is_none() && !env.checked {
-            // A plain, well-formed G-code line: interactive use, not a sequenced stream.
-            self.streaming = false;
-        }
-        if let Some(n) = env.number {
-            let m110 = words.m.contains(&110);
-            if !env.checked {
-                self.reply_resend();
-                return Outcome::Done;
-            }
-            if m110 {
-                self.seq = n;
-                self.resync = false;
-            } else if n != self.seq {
-                self.reply_resend();
-                return Outcome::Done;
-            }
-        }
-        let out = self.execute(&words);
-        if out == Outcome::Done {
-            self.commit_seq(env.number);
-        }
-        out
-    }
-
-    fn commit_seq(&mut self, number: Option<u32>) {
-        if number.is_some() {
-            self.seq = self.seq.wrapping_add(1);
-            self.resync = false;
-            self.streaming = true;
+            Input::Frame { block, decoder } => self.step_frame(block, decoder),
         }
     }
 
-    fn handle_step_frame(&mut self, frame: &[u8]) -> Outcome {
-        let mut trial = self.decoder.clone();
-        let block = match trial.decode(frame, self.seq) {
-            Ok(b) => b,
-            Err(_) => {
-                self.reply_resend();
-                return Outcome::Done;
-            }
-        };
+    /// A host-planned step block: checked like a move, then queued unchanged.
+    fn step_frame(&mut self, block: StepBlock, decoder: Decoder) -> Outcome {
         if self.alarm.is_some() {
-            self.decoder = trial;
-            self.commit_seq(Some(0));
+            self.link.accept_frame(decoder);
             self.reply_error(ErrorCode::Alarm, format_args!(""));
             return Outcome::Done;
         }
         if self.motion.is_full() || self.homing.is_some() {
             return Outcome::Blocked;
         }
-        self.decoder = trial;
-        let number = self.seq;
-        self.commit_seq(Some(0));
-        if let Some((n, _)) = self.refused {
+        let number = self.link.accept_frame(decoder);
+        if let Some((n, _)) = self.link.refused() {
             self.reply_error(ErrorCode::BadFrame, format_args!(": block {n} was refused"));
             return Outcome::Done;
         }
@@ -810,19 +572,19 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             *t = t.saturating_add(s);
         }
         if !crate::range::position_ok(&target) {
-            self.refused = Some((number, ErrorCode::OutOfRange.code()));
+            self.link.refuse(number, ErrorCode::OutOfRange);
             self.reply_error(ErrorCode::OutOfRange, format_args!(": {}", crate::range::MoveRange::Position.text()));
             return Outcome::Done;
         }
         if let Some(axis) = crate::limits::violation(&self.cfg, self.homed, &target) {
-            self.refused = Some((number, ErrorCode::SoftLimit.code()));
+            self.link.refuse(number, ErrorCode::SoftLimit);
             self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
             return Outcome::Done;
         }
         if block.steps[Axis::E.index()] != 0
             && let Some(cold) = self.thermal.cold_extrusion()
         {
-            self.refused = Some((number, ErrorCode::ColdExtrusion.code()));
+            self.link.refuse(number, ErrorCode::ColdExtrusion);
             self.reply_error(ErrorCode::ColdExtrusion, format_args!("{cold}"));
             return Outcome::Done;
         }
@@ -1011,9 +773,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 }
                 17 => self.hal.enable_motors(true),
                 M_FRAMED => {
-                    self.framed = w.get(b'S').is_some_and(|s| s != 0);
-                    self.reporter.restart(self.motion.stepper().completed());
-                    self.refused = None;
+                    self.link.set_framed(w.get(b'S').is_some_and(|s| s != 0), self.motion.stepper().completed())
                 }
                 18 | 84 => self.hal.enable_motors(false),
                 82 => self.modal.e_relative = false,
@@ -1022,8 +782,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 115 => {
                     let (rx, q) = (self.rx_size(), self.motion.limit());
                     // Framed in framed mode: the host takes its buffer sizes from it.
-                    self.reply(
-                        self.answering,
+                    self.link.answer(
+                        &mut self.hal,
                         format_args!(
                             "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:{VERSION} PROTOCOL_VERSION:{PROTOCOL_VERSION} \
                              RX_BUFFER:{rx} QUEUE_BLOCKS:{q} LINE_MAX:{LINE_MAX} TICK_HZ:{TICK_HZ}"
