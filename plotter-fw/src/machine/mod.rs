@@ -19,7 +19,7 @@
 //! target is converted to whole steps once (rounded), and a move is the difference to the previous target in
 //! steps, so relative moves never drift. `G92` offsets work coordinates from machine coordinates.
 
-use core::fmt::{self, Write as _};
+use core::fmt;
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
@@ -42,9 +42,11 @@ use crate::thermal::ThermalConfig;
 use crate::thermal_gcode::{self, ThermalLine};
 use link::{Input, Link, Out};
 use motion::MotionQueue;
+use program::{Program, Refusal};
 
 mod link;
 mod motion;
+mod program;
 
 /// Firmware version reported in the banner and M115.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -60,23 +62,6 @@ enum Outcome {
     Done,
     /// Cannot run yet (queue full, waiting for idle, homing): keep the frame and retry on the next poll.
     Blocked,
-}
-
-/// G-code modal state.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Modal {
-    absolute: bool,
-    inches: bool,
-    /// Last motion command: 0 or 1.
-    motion: u16,
-    /// Feed for G1, mm/s (0 = not set yet).
-    feed_mm_s: f32,
-    /// E words are relative (M83, or G91 until M82).
-    e_relative: bool,
-}
-
-impl Modal {
-    const DEFAULT: Modal = Modal { absolute: true, inches: false, motion: 0, feed_mm_s: 0.0, e_relative: false };
 }
 
 /// The firmware. `RX` is the receive buffer capacity (bytes), `Q` the planner queue capacity (blocks); the sizes
@@ -96,12 +81,7 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     homed: u8,
     homing: Option<HomingCycle>,
     homing_result: Option<Result<(), AlarmCode>>,
-    modal: Modal,
-    /// Machine position of the last queued target, millionths of a mm.
-    target_um: [i64; NUM_AXES],
-    /// The same in steps (what the queue ends at).
-    target_steps: [i32; NUM_AXES],
-    offset_um: [i64; NUM_AXES],
+    program: Program,
     rt: u8,
     last_completed: u32,
     /// `~` arrived while a feed hold was still decelerating: resume as soon as it has stopped.
@@ -138,10 +118,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             homed: 0,
             homing: None,
             homing_result: None,
-            modal: Modal::DEFAULT,
-            target_um: [0; NUM_AXES],
-            target_steps: [0; NUM_AXES],
-            offset_um: [0; NUM_AXES],
+            program: Program::new(),
             rt: 0,
             last_completed: 0,
             resume_after_hold: false,
@@ -433,7 +410,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.alarm = None;
             self.homing = None;
             self.homing_result = None;
-            self.modal = Modal::DEFAULT;
+            self.program.reset_modes();
             self.resume_after_hold = false;
             self.program_paused = false;
             self.thermal.restore_cold_extrusion();
@@ -491,13 +468,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn sync_target(&mut self) {
-        let pos = self.motion.stepper().position();
-        self.target_steps = pos;
-        for axis in Axis::ALL {
-            let i = axis.index();
-            let spm = f64::from(self.cfg.axis(axis).steps_per_mm);
-            self.target_um[i] = round_i64(f64::from(pos[i]) / spm * 1e6);
-        }
+        self.program.set_target_steps(self.motion.stepper().position(), &self.cfg);
     }
 
     fn quiescent(&self) -> bool {
@@ -567,55 +538,31 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.reply_error(ErrorCode::BadFrame, format_args!(": block {n} was refused"));
             return Outcome::Done;
         }
-        let mut target = self.target_steps;
-        for (t, s) in target.iter_mut().zip(block.steps) {
-            *t = t.saturating_add(s);
+        let cold = self.thermal.cold_extrusion();
+        match self.program.frame_target(&block.steps, &self.cfg, self.homed, cold) {
+            Ok(target) => {
+                self.program.set_target_steps(target, &self.cfg);
+                self.queue_block(PlanBlock::fixed(block));
+                self.reply_ok();
+            }
+            Err(r) => {
+                self.link.refuse(number, r.code);
+                self.refuse(r);
+            }
         }
-        if !crate::range::position_ok(&target) {
-            self.link.refuse(number, ErrorCode::OutOfRange);
-            self.reply_error(ErrorCode::OutOfRange, format_args!(": {}", crate::range::MoveRange::Position.text()));
-            return Outcome::Done;
-        }
-        if let Some(axis) = crate::limits::violation(&self.cfg, self.homed, &target) {
-            self.link.refuse(number, ErrorCode::SoftLimit);
-            self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
-            return Outcome::Done;
-        }
-        if block.steps[Axis::E.index()] != 0
-            && let Some(cold) = self.thermal.cold_extrusion()
-        {
-            self.link.refuse(number, ErrorCode::ColdExtrusion);
-            self.reply_error(ErrorCode::ColdExtrusion, format_args!("{cold}"));
-            return Outcome::Done;
-        }
-        self.set_target_steps(target);
-        self.queue_block(PlanBlock::fixed(block));
-        self.reply_ok();
         Outcome::Done
-    }
-
-    fn set_target_steps(&mut self, target: [i32; NUM_AXES]) {
-        self.target_steps = target;
-        for axis in Axis::ALL {
-            let i = axis.index();
-            let spm = f64::from(self.cfg.axis(axis).steps_per_mm);
-            self.target_um[i] = round_i64(f64::from(target[i]) / spm * 1e6);
-        }
     }
 
     fn queue_block(&mut self, block: PlanBlock) {
         self.motion.push(block, &self.cfg);
     }
 
-    /// A G-code length in millionths of the current unit → millionths of a mm; `None` on overflow.
-    fn to_um(&self, value: i64) -> Option<i64> {
-        if self.modal.inches { crate::range::inches_to_um(value) } else { Some(value) }
+    fn refuse(&mut self, r: Refusal) -> Outcome {
+        self.reply_error(r.code, format_args!("{}", r.detail));
+        Outcome::Done
     }
 
-    fn reply_out_of_range(&mut self, what: &str) {
-        self.reply_error(ErrorCode::OutOfRange, format_args!(": {what}"));
-    }
-
+    /// Run a G-code line (or keep it pending: [`Outcome::Blocked`]).
     fn execute(&mut self, w: &Words) -> Outcome {
         if self.program_paused {
             // `M0`/`M1`: wait for `~`.
@@ -624,142 +571,55 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         if let Some(out) = self.thermal_command(w) {
             return out;
         }
-        // Validate axis words first.
-        for axis in Axis::ALL {
-            if w.has(axis.letter() as u8) && !self.cfg.axis(axis).enabled {
-                self.reply_error(ErrorCode::AxisDisabled, format_args!(": {}", axis.letter()));
-                return Outcome::Done;
-            }
-        }
-        const KNOWN: &[u8] = b"XYZEFPSN";
-        for bit in 0..26u8 {
-            let letter = b'A' + bit;
-            if w.letters() & (1 << bit) != 0 && !KNOWN.contains(&letter) {
-                self.reply_error(ErrorCode::UnsupportedWord, format_args!(": {}", letter as char));
-                return Outcome::Done;
-            }
-        }
-        let mut motion = None;
-        let mut other_g = None;
-        for &g in &w.g {
-            match g {
-                0 | 1 => motion = Some(g),
-                4 | 28 | 92 => other_g = Some(g),
-                20 | 21 | 90 | 91 => {}
-                _ => {
-                    self.reply_error(ErrorCode::UnknownCommand, format_args!(": G{g}"));
-                    return Outcome::Done;
-                }
-            }
-        }
-        for &m in &w.m {
-            if !matches!(m, 0 | 1 | 2 | 3 | 4 | 5 | 17 | 18 | 30 | 82 | 83 | 84 | 110 | 114 | 115 | M_FRAMED) {
-                self.reply_error(ErrorCode::UnknownCommand, format_args!(": M{m}"));
-                return Outcome::Done;
-            }
-        }
-        let has_axis = Axis::ALL.iter().any(|a| w.has(a.letter() as u8));
-        if w.get(b'F').is_some_and(|f| f <= 0) {
-            self.reply_error(ErrorCode::InvalidValue, format_args!(": F must be positive"));
-            return Outcome::Done;
-        }
-        // Values that cannot be represented in the unit this line asks for, checked before any state changes.
-        let inches = w.g.iter().rev().find_map(|g| match g {
-            20 => Some(true),
-            21 => Some(false),
-            _ => None,
-        });
-        let inches = inches.unwrap_or(self.modal.inches);
-        for letter in *b"XYZEF" {
-            if inches && w.get(letter).is_some_and(|v| crate::range::inches_to_um(v).is_none()) {
-                self.reply_out_of_range(core::str::from_utf8(&[letter]).unwrap_or("?"));
-                return Outcome::Done;
-            }
-        }
-        // Blocking conditions, checked before any state changes.
-        let needs_slot = motion.is_some() || other_g == Some(4) || (has_axis && other_g.is_none());
-        // The servo pen and program pauses act between moves, so they wait for the queue to empty.
-        let pen_or_pause = w.m.iter().any(|m| matches!(m, 0 | 1 | 3 | 4 | 5));
-        let needs_idle = matches!(other_g, Some(28 | 92)) || w.m.contains(&18) || w.m.contains(&84) || pen_or_pause;
-        let servo_s = w.get(b'S').map(|s| s as f64 / 1e6);
-        if w.m.iter().any(|m| matches!(m, 3 | 4)) && servo_s.is_none_or(|a| !(0.0..=180.0).contains(&a)) {
-            self.reply_error(ErrorCode::InvalidValue, format_args!(": M3 needs S<angle> from 0 to 180"));
-            return Outcome::Done;
-        }
-        if w.m.contains(&5) && servo_s.is_some_and(|a| !(0.0..=180.0).contains(&a)) {
-            self.reply_error(ErrorCode::InvalidValue, format_args!(": S must be an angle from 0 to 180"));
-            return Outcome::Done;
-        }
-        let moves = needs_slot || other_g == Some(28);
-        if moves && self.alarm.is_some() && self.homing_result.is_none() {
+        let line = match program::check(w, &self.cfg, self.program.inches()) {
+            Ok(line) => line,
+            Err(r) => return self.refuse(r),
+        };
+        if line.moves && self.alarm.is_some() && self.homing_result.is_none() {
             self.reply_error(ErrorCode::Alarm, format_args!(""));
             return Outcome::Done;
         }
-        if other_g == Some(28) {
+        if line.other_g == Some(28) {
             return self.home(w);
         }
-        if needs_idle && !self.quiescent() {
+        // Blocking conditions, checked before any state changes.
+        if line.needs_idle && !self.quiescent() {
             return Outcome::Blocked;
         }
-        if needs_slot && (self.motion.is_full() || self.homing.is_some()) {
+        if line.needs_slot && (self.motion.is_full() || self.homing.is_some()) {
             return Outcome::Blocked;
         }
-        // Modal words.
-        for &g in &w.g {
-            match g {
-                20 => self.modal.inches = true,
-                21 => self.modal.inches = false,
-                90 => (self.modal.absolute, self.modal.e_relative) = (true, false),
-                91 => (self.modal.absolute, self.modal.e_relative) = (false, true),
-                _ => {}
-            }
-        }
-        if let Some(f) = w.get(b'F') {
-            // Checked above for the line's unit.
-            let f_um_min = self.to_um(f).unwrap_or(i64::MAX);
-            self.modal.feed_mm_s = f_um_min as f32 / 1e6 / 60.0;
-        }
-        if let Some(m) = motion {
-            self.modal.motion = m;
-        }
-        match other_g {
-            Some(4) => {
-                let ms = w.get(b'P').map(|p| p / 1000).or_else(|| w.get(b'S').map(|s| s / 1000 * 1000)).unwrap_or(0);
-                if !(0..=3_600_000_000).contains(&ms) {
-                    self.reply_error(ErrorCode::InvalidValue, format_args!(": dwell"));
-                    return Outcome::Done;
-                }
-                // ms is in thousandths of a millisecond = microseconds = ticks.
-                let ticks = u32::try_from(ms).unwrap_or(u32::MAX);
-                if ticks > 0 {
-                    self.queue_block(PlanBlock::fixed(StepBlock::dwell(ticks)));
-                }
-            }
+        self.program.apply_modes(w, &line);
+        match line.other_g {
+            Some(4) => match Program::dwell_ticks(w) {
+                Ok(0) => {}
+                Ok(ticks) => self.queue_block(PlanBlock::fixed(StepBlock::dwell(ticks))),
+                Err(r) => return self.refuse(r),
+            },
             Some(92) => {
-                let mut offset = self.offset_um;
-                for axis in Axis::ALL {
-                    let i = axis.index();
-                    // Checked above for the line's unit.
-                    let given = w.get(axis.letter() as u8).map(|v| self.to_um(v).unwrap_or(0));
-                    if let Some(v) = given.or(if has_axis { None } else { Some(0) }) {
-                        let Some(o) = self.target_um[i].checked_sub(v) else {
-                            self.reply_out_of_range("G92 offset");
-                            return Outcome::Done;
-                        };
-                        offset[i] = o;
+                if let Err(r) = self.program.set_offsets(w, line.has_axis) {
+                    return self.refuse(r);
+                }
+            }
+            _ if line.has_axis => {
+                let cold = self.thermal.cold_extrusion();
+                return match self.program.line_move(w, &self.cfg, self.homed, cold) {
+                    Ok(block) => {
+                        if let Some(b) = block {
+                            self.queue_block(b);
+                        }
+                        self.reply_ok();
+                        Outcome::Done
                     }
-                }
-                self.offset_um = offset;
+                    Err(r) => self.refuse(r),
+                };
             }
-            _ => {
-                if has_axis {
-                    return self.linear_move(w);
-                }
-            }
+            _ => {}
         }
+        let servo_s = line.servo_deg;
         for &m in &w.m {
             match m {
-                2 | 30 => self.modal = Modal { feed_mm_s: self.modal.feed_mm_s, ..Modal::DEFAULT },
+                2 | 30 => self.program.end(),
                 0 | 1 => self.program_paused = true,
                 // Angles are 0..=180 (checked above): exact enough in f32.
                 #[allow(clippy::cast_possible_truncation)]
@@ -776,9 +636,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                     self.link.set_framed(w.get(b'S').is_some_and(|s| s != 0), self.motion.stepper().completed())
                 }
                 18 | 84 => self.hal.enable_motors(false),
-                82 => self.modal.e_relative = false,
-                83 => self.modal.e_relative = true,
-                114 => self.report_position(),
+                82 | 83 => self.program.set_e_relative(m == 83),
+                114 => self.program.write_position(&mut Out(&mut self.hal), &self.motion.stepper().position()),
                 115 => {
                     let (rx, q) = (self.rx_size(), self.motion.limit());
                     // Framed in framed mode: the host takes its buffer sizes from it.
@@ -792,67 +651,6 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 }
                 _ => {}
             }
-        }
-        self.reply_ok();
-        Outcome::Done
-    }
-
-    fn linear_move(&mut self, w: &Words) -> Outcome {
-        // Every step is checked (see `crate::range`): an unrepresentable target is refused, never wrapped or
-        // saturated, so a move's direction is always the commanded one.
-        let mut target_um = self.target_um;
-        let mut target = self.target_steps;
-        for axis in Axis::ALL {
-            let i = axis.index();
-            if let Some(v) = w.get(axis.letter() as u8) {
-                let um = self.to_um(v).and_then(|v| {
-                    let absolute = if axis == Axis::E { !self.modal.e_relative } else { self.modal.absolute };
-                    if absolute { v.checked_add(self.offset_um[i]) } else { target_um[i].checked_add(v) }
-                });
-                let steps = um.and_then(|um| crate::range::um_to_steps(um, self.cfg.axis(axis).steps_per_mm));
-                let (Some(um), Some(steps)) = (um, steps) else {
-                    self.reply_error(
-                        ErrorCode::OutOfRange,
-                        format_args!(": {} {}", axis.letter(), crate::range::MoveRange::Position.text()),
-                    );
-                    return Outcome::Done;
-                };
-                target_um[i] = um;
-                target[i] = steps;
-            }
-        }
-        if let Some(axis) = crate::limits::violation(&self.cfg, self.homed, &target) {
-            self.reply_error(ErrorCode::SoftLimit, format_args!(": {}", axis.letter()));
-            return Outcome::Done;
-        }
-        let feed = if self.modal.motion == 0 {
-            f32::INFINITY
-        } else if self.modal.feed_mm_s > 0.0 {
-            self.modal.feed_mm_s
-        } else {
-            self.reply_error(ErrorCode::InvalidValue, format_args!(": no feed rate (F) set for G1"));
-            return Outcome::Done;
-        };
-        // Both targets lie within ±2^30 steps, so the difference fits.
-        let steps: [i32; NUM_AXES] = core::array::from_fn(|i| target[i] - self.target_steps[i]);
-        if steps[Axis::E.index()] != 0
-            && let Some(cold) = self.thermal.cold_extrusion()
-        {
-            self.reply_error(ErrorCode::ColdExtrusion, format_args!("{cold}"));
-            return Outcome::Done;
-        }
-        let block = PlanBlock::line(&self.cfg, steps, feed);
-        if let Some(b) = &block {
-            let rate = crate::fmath::floor_u32(b.nominal_speed * b.events_per_mm);
-            if let Err(e) = crate::range::check_move(&steps, rate) {
-                self.reply_out_of_range(e.text());
-                return Outcome::Done;
-            }
-        }
-        self.target_um = target_um;
-        self.target_steps = target;
-        if let Some(b) = block {
-            self.queue_block(b);
         }
         self.reply_ok();
         Outcome::Done
@@ -875,26 +673,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         if self.homing_result.is_some() { self.home(w) } else { Outcome::Blocked }
     }
 
-    fn report_position(&mut self) {
-        let work: [f64; NUM_AXES] = core::array::from_fn(|i| (self.target_um[i] - self.offset_um[i]) as f64 / 1e6);
-        let p = self.motion.stepper().position();
-        let _ = writeln!(
-            Out(&mut self.hal),
-            "X:{} Y:{} Z:{} E:{} Count X:{} Y:{} Z:{} E:{}",
-            Decimal::new(work[0], 3),
-            Decimal::new(work[1], 3),
-            Decimal::new(work[2], 3),
-            Decimal::new(work[3], 3),
-            p[0],
-            p[1],
-            p[2],
-            p[3]
-        );
-    }
-
     /// Exact commanded (queued) target in steps.
     pub fn target_steps(&self) -> [i32; NUM_AXES] {
-        self.target_steps
+        self.program.target_steps()
     }
 
     /// Micrometre scale of the G-code parser, for callers converting positions.
@@ -911,11 +692,4 @@ impl fmt::Display for Refused {
             None => Ok(()),
         }
     }
-}
-
-fn round_i64(x: f64) -> i64 {
-    let r = if x >= 0.0 { x + 0.5 } else { x - 0.5 };
-    #[allow(clippy::cast_possible_truncation, reason = "float→int `as` saturates; positions are far below 2^63")]
-    let r = r as i64;
-    r
 }
