@@ -30,7 +30,6 @@ use crate::framing::M_FRAMED;
 use crate::gcode::Words;
 use crate::hal::{Hal, Heaters, NoHeaters};
 use crate::heater_driver::{Cmd, Thermal};
-use crate::homing::{HomingCycle, HomingStep};
 use crate::line_buffer::LINE_MAX;
 use crate::planner::PlanBlock;
 use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
@@ -40,10 +39,12 @@ use crate::step_block::{StepBlock, TICK_HZ};
 use crate::stepper::{Stepper, StepperFault};
 use crate::thermal::ThermalConfig;
 use crate::thermal_gcode::{self, ThermalLine};
+use homing_run::{Ended, Homing};
 use link::{Input, Link, Out};
 use motion::MotionQueue;
 use program::{Program, Refusal};
 
+mod homing_run;
 mod link;
 mod motion;
 mod program;
@@ -78,9 +79,7 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     link: Link<RX>,
     motion: MotionQueue<Q>,
     alarm: Option<AlarmCode>,
-    homed: u8,
-    homing: Option<HomingCycle>,
-    homing_result: Option<Result<(), AlarmCode>>,
+    homing: Homing,
     program: Program,
     rt: u8,
     last_completed: u32,
@@ -115,9 +114,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             link: Link::new(cfg.rx_buffer_bytes),
             motion: MotionQueue::new(&cfg),
             alarm: None,
-            homed: 0,
-            homing: None,
-            homing_result: None,
+            homing: Homing::new(),
             program: Program::new(),
             rt: 0,
             last_completed: 0,
@@ -186,7 +183,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Mask of homed axes.
     pub fn homed(&self) -> u8 {
-        self.homed
+        self.homing.homed()
     }
 
     /// Next expected sequence number.
@@ -208,7 +205,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     pub fn state(&self) -> MachineState {
         if self.alarm.is_some() {
             MachineState::Alarm
-        } else if self.homing.is_some() {
+        } else if self.homing.is_running() {
             MachineState::Homing
         } else if self.motion.stepper().is_held() || self.program_paused {
             MachineState::Held
@@ -223,7 +220,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Nothing left to do: no motion, no queued blocks, no pending input.
     pub fn is_idle(&self) -> bool {
-        self.motion.drained() && self.homing.is_none() && !self.has_input() && self.rt == 0
+        self.motion.drained() && !self.homing.is_running() && !self.has_input() && self.rt == 0
     }
 
     /// Whether a block finished or something else happened that `poll` should see.
@@ -386,11 +383,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.hal.enable_motors(false);
         }
         self.motion.abort(&mut self.hal);
-        self.homing = None;
-        if self.homing_result.is_none() && matches!(code, AlarmCode::HomingNotFound | AlarmCode::HomingNotReleased) {
-            self.homing_result = Some(Err(code));
-        }
-        self.homed = 0;
+        self.homing.abort(code);
         self.resume_after_hold = false;
         self.sync_target();
         if self.alarm.is_none() {
@@ -403,21 +396,17 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     fn service_realtime(&mut self) {
         let rt = core::mem::take(&mut self.rt);
         if rt & RT_FLAG_RESET != 0 {
-            let moving = !self.motion.drained() || self.homing.is_some();
+            let moving = !self.motion.drained() || self.homing.is_running();
             self.motion.abort(&mut self.hal);
             self.motion.stepper_mut().clear_fault();
             self.link.reset(self.motion.stepper().completed());
             self.alarm = None;
-            self.homing = None;
-            self.homing_result = None;
+            // Stopped without deceleration while moving: steps may have been lost.
+            self.homing.reset(moving);
             self.program.reset_modes();
             self.resume_after_hold = false;
             self.program_paused = false;
             self.thermal.restore_cold_extrusion();
-            if moving {
-                // Stopped without deceleration: steps may have been lost.
-                self.homed = 0;
-            }
             self.sync_target();
             self.last_completed = self.motion.stepper().completed();
             self.banner();
@@ -472,40 +461,14 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn quiescent(&self) -> bool {
-        self.motion.drained() && self.homing.is_none()
+        self.motion.drained() && !self.homing.is_running()
     }
 
     fn run_homing(&mut self) {
-        while let Some(cycle) = self.homing.as_mut() {
-            if !self.motion.stepper().is_idle() {
-                return;
-            }
-            let pressed = self.hal.pressed();
-            let step =
-                cycle.next(&self.cfg, self.motion.stepper().homing_hits(), pressed, &self.motion.stepper().position());
-            match step {
-                HomingStep::Move(b, mask) => {
-                    self.motion.push_homing(b, mask, &mut self.hal);
-                    return;
-                }
-                HomingStep::SetPosition(_, pos) => {
-                    self.motion.stepper_mut().set_position(pos);
-                    self.sync_target();
-                }
-                HomingStep::Alarm(code) => {
-                    self.homing_result = Some(Err(code));
-                    self.raise_alarm(code);
-                    return;
-                }
-                HomingStep::Done(mask) => {
-                    self.homed |= mask;
-                    self.link.clear_refused();
-                    self.homing = None;
-                    self.homing_result = Some(Ok(()));
-                    self.sync_target();
-                    return;
-                }
-            }
+        match self.homing.run(&self.cfg, &mut self.motion, &mut self.program, &mut self.hal) {
+            Some(Ended::Alarm(code)) => self.raise_alarm(code),
+            Some(Ended::Done) => self.link.clear_refused(),
+            None => {}
         }
     }
 
@@ -530,7 +493,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.reply_error(ErrorCode::Alarm, format_args!(""));
             return Outcome::Done;
         }
-        if self.motion.is_full() || self.homing.is_some() {
+        if self.motion.is_full() || self.homing.is_running() {
             return Outcome::Blocked;
         }
         let number = self.link.accept_frame(decoder);
@@ -539,7 +502,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             return Outcome::Done;
         }
         let cold = self.thermal.cold_extrusion();
-        match self.program.frame_target(&block.steps, &self.cfg, self.homed, cold) {
+        match self.program.frame_target(&block.steps, &self.cfg, self.homing.homed(), cold) {
             Ok(target) => {
                 self.program.set_target_steps(target, &self.cfg);
                 self.queue_block(PlanBlock::fixed(block));
@@ -575,7 +538,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             Ok(line) => line,
             Err(r) => return self.refuse(r),
         };
-        if line.moves && self.alarm.is_some() && self.homing_result.is_none() {
+        if line.moves && self.alarm.is_some() && !self.homing.has_result() {
             self.reply_error(ErrorCode::Alarm, format_args!(""));
             return Outcome::Done;
         }
@@ -586,7 +549,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         if line.needs_idle && !self.quiescent() {
             return Outcome::Blocked;
         }
-        if line.needs_slot && (self.motion.is_full() || self.homing.is_some()) {
+        if line.needs_slot && (self.motion.is_full() || self.homing.is_running()) {
             return Outcome::Blocked;
         }
         self.program.apply_modes(w, &line);
@@ -603,7 +566,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             }
             _ if line.has_axis => {
                 let cold = self.thermal.cold_extrusion();
-                return match self.program.line_move(w, &self.cfg, self.homed, cold) {
+                return match self.program.line_move(w, &self.cfg, self.homing.homed(), cold) {
                     Ok(block) => {
                         if let Some(b) = block {
                             self.queue_block(b);
@@ -657,20 +620,20 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn home(&mut self, w: &Words) -> Outcome {
-        if let Some(result) = self.homing_result.take() {
+        if let Some(result) = self.homing.take_result() {
             match result {
                 Ok(()) => self.reply_ok(),
                 Err(code) => self.reply_error(ErrorCode::Alarm, format_args!(": {}", code.text())),
             }
             return Outcome::Done;
         }
-        if self.homing.is_some() || !self.quiescent() {
+        if self.homing.is_running() || !self.quiescent() {
             return Outcome::Blocked;
         }
         let mask = Axis::ALL.iter().filter(|a| w.has(a.letter() as u8)).fold(0, |m, a| m | a.bit());
-        self.homing = Some(HomingCycle::new(&self.cfg, mask));
+        self.homing.start(&self.cfg, mask);
         self.run_homing();
-        if self.homing_result.is_some() { self.home(w) } else { Outcome::Blocked }
+        if self.homing.has_result() { self.home(w) } else { Outcome::Blocked }
     }
 
     /// Exact commanded (queued) target in steps.
