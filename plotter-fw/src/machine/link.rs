@@ -6,14 +6,18 @@
 
 use core::fmt::{self, Write as _};
 
+use crate::axis::{Axis, NUM_AXES};
+use crate::config::MachineConfig;
+use crate::decimal::Decimal;
 use crate::errors::ErrorCode;
 use crate::framing::{self, RtMatcher};
 use crate::gcode::{Words, envelope, parse_words};
 use crate::hal::SerialOut;
 use crate::line_buffer::{Frame, LINE_MAX, LineAssembler, RxBuffer};
 use crate::protocol::{Decoder, PROTOCOL_VERSION, is_realtime};
+use crate::realtime::MachineState;
 use crate::report::CompletionReporter;
-use crate::step_block::StepBlock;
+use crate::step_block::{StepBlock, TICK_HZ};
 
 /// Formatted text to a serial port.
 pub(crate) struct Out<'a, S: SerialOut>(pub(crate) &'a mut S);
@@ -347,6 +351,51 @@ impl<const RX: usize> Link<RX> {
         }
     }
 
+    /// The status report (`?`): `state`, the stepper's position `steps`, the planner queue's fill
+    /// `[queued, size]` and the stepper's completed-block count.
+    pub(crate) fn status_report<S: SerialOut>(
+        &mut self,
+        out: &mut S,
+        state: MachineState,
+        steps: &[i32; NUM_AXES],
+        cfg: &MachineConfig,
+        [queued, size]: [usize; 2],
+        completed: u32,
+    ) {
+        let seq = self.seq;
+        let done = self.completed_since_reset(completed);
+        let mm: [f32; NUM_AXES] = core::array::from_fn(|i| steps[i] as f32 / cfg.axis(Axis::ALL[i]).steps_per_mm);
+        let refused = Refused(self.refused);
+        self.reply(
+            out,
+            seq,
+            format_args!(
+                "<{state}|MPos:{},{},{},{}|Steps:{},{},{},{}|Q:{queued}/{size}|N:{seq}|C:{done}{refused}>",
+                Decimal::new(mm[0], 3),
+                Decimal::new(mm[1], 3),
+                Decimal::new(mm[2], 3),
+                Decimal::new(mm[3], 3),
+                steps[0],
+                steps[1],
+                steps[2],
+                steps[3]
+            ),
+        );
+    }
+
+    /// The `M115` reply: firmware, protocol and buffer sizes (framed in framed mode: the host takes its buffer
+    /// sizes from it); `queue` blocks of planner queue.
+    pub(crate) fn identify<S: SerialOut>(&mut self, out: &mut S, version: &str, queue: usize) {
+        let rx = self.rx_size;
+        self.answer(
+            out,
+            format_args!(
+                "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:{version} PROTOCOL_VERSION:{PROTOCOL_VERSION} \
+                 RX_BUFFER:{rx} QUEUE_BLOCKS:{queue} LINE_MAX:{LINE_MAX} TICK_HZ:{TICK_HZ}"
+            ),
+        );
+    }
+
     /// A reply to the line or frame being answered.
     pub(crate) fn answer<S: SerialOut>(&mut self, out: &mut S, text: fmt::Arguments<'_>) {
         self.reply(out, self.answering, text);
@@ -374,6 +423,18 @@ impl<const RX: usize> Link<RX> {
             let (done, seq) = (self.completed_since_reset(completed), self.seq);
             self.reply(out, seq, format_args!("C:{done}"));
             self.reporter.sent(completed, now);
+        }
+    }
+}
+
+/// The status report's `|R:<n>,<code>` field (nothing when no block was refused).
+struct Refused(Option<(u32, u8)>);
+
+impl fmt::Display for Refused {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
+            Some((n, code)) => write!(f, "|R:{n},{code}"),
+            None => Ok(()),
         }
     }
 }

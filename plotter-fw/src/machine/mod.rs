@@ -23,27 +23,25 @@ use core::fmt;
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
-use crate::decimal::Decimal;
 use crate::errors::{AlarmCode, ErrorCode};
-use crate::estop::EmergencyParser;
 use crate::framing::M_FRAMED;
 use crate::gcode::Words;
 use crate::hal::{Hal, Heaters, NoHeaters};
 use crate::heater_driver::{Cmd, Thermal};
-use crate::line_buffer::LINE_MAX;
 use crate::planner::PlanBlock;
-use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
+use crate::protocol::{Decoder, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
 use crate::range::MICRO;
 use crate::realtime::MachineState;
-use crate::step_block::{StepBlock, TICK_HZ};
+use crate::step_block::StepBlock;
 use crate::stepper::{Stepper, StepperFault};
 use crate::thermal::ThermalConfig;
-use crate::thermal_gcode::{self, ThermalLine};
+use heaters::{HeaterUnit, Reply};
 use homing_run::{Ended, Homing};
 use link::{Input, Link, Out};
 use motion::MotionQueue;
 use program::{Program, Refusal};
 
+mod heaters;
 mod homing_run;
 mod link;
 mod motion;
@@ -70,9 +68,7 @@ enum Outcome {
 /// ([`NoHeaters`] on plotters).
 pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heaters = NoHeaters> {
     hal: H,
-    heaters: T,
-    thermal: Thermal,
-    estop: EmergencyParser,
+    heaters: HeaterUnit<T>,
     /// `M112` was received; `poll` latches the alarm.
     estop_pending: bool,
     cfg: MachineConfig,
@@ -103,12 +99,10 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// Start the firmware of a printer: `heaters` drives the heater outputs and reads the thermistors configured
     /// in `thermal` (validate both configurations first); sends the banner.
     pub fn with_heaters(hal: H, cfg: MachineConfig, heaters: T, thermal: ThermalConfig) -> Self {
-        let thermal = Thermal::new(thermal, hal.now());
+        let heaters = HeaterUnit::new(heaters, thermal, hal.now());
         let mut m = Machine {
             hal,
             heaters,
-            thermal,
-            estop: EmergencyParser::new(),
             estop_pending: false,
             cfg,
             link: Link::new(cfg.rx_buffer_bytes),
@@ -138,22 +132,22 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// The heater I/O.
     pub fn heaters(&self) -> &T {
-        &self.heaters
+        self.heaters.io()
     }
 
     /// The heater I/O, mutably (simulator access to the thermal model).
     pub fn heaters_mut(&mut self) -> &mut T {
-        &mut self.heaters
+        self.heaters.io_mut()
     }
 
     /// The heater controller (temperatures, targets, duties).
     pub fn thermal(&self) -> &Thermal {
-        &self.thermal
+        self.heaters.thermal()
     }
 
     /// When the main loop must run next for the heaters (ticks); `None` without heaters.
     pub fn thermal_deadline(&self) -> Option<u64> {
-        self.thermal.next_deadline()
+        self.heaters.thermal().next_deadline()
     }
 
     /// The configuration.
@@ -229,7 +223,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             || self.rt != 0
             || self.motion.stepper().fault().is_some()
             || (self.resume_after_hold && self.motion.stepper().is_held())
-            || self.thermal.due(self.hal.now())
+            || self.heaters.thermal().due(self.hal.now())
             || self.estop_pending
             || self.completion_due()
     }
@@ -242,7 +236,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
     /// (a byte that does not fit is counted and reported, see [`RxBuffer`]). Counting against the announced size.
     pub fn receive(&mut self, b: u8) {
-        if self.estop.feed(b) {
+        if self.heaters.spots_emergency_stop(b) {
             // M112: act now, not when the line's turn comes.
             self.emergency_stop();
         }
@@ -329,8 +323,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     fn service_thermal(&mut self) {
         self.latch_emergency_stop();
         let now = self.hal.now();
-        if let Some(alarm) = self.thermal.tick(&mut self.heaters, now, &mut Out(&mut self.hal)) {
-            self.raise_alarm(AlarmCode::Thermal(alarm));
+        if let Some(alarm) = self.heaters.service(now, &mut Out(&mut self.hal)) {
+            self.raise_alarm(alarm);
         }
     }
 
@@ -338,7 +332,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// in the receive interrupt as soon as the line is complete); `poll` then latches the alarm, which also
     /// disables the motors and flushes the queue ([`AlarmCode::is_shutdown`]).
     fn emergency_stop(&mut self) {
-        self.thermal.shutdown(&mut self.heaters);
+        self.heaters.shutdown();
         self.motion.halt(&mut self.hal);
         self.estop_pending = true;
     }
@@ -353,33 +347,24 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// A temperature, fan or emergency-stop command (parsed by [`crate::thermal_gcode`], run by the heater
     /// driver); `None` when `w` is none of these.
     fn thermal_command(&mut self, w: &Words) -> Option<Outcome> {
-        let cmd = match thermal_gcode::parse(w, self.thermal.config())? {
-            Ok(ThermalLine::Heaters(cmd)) => cmd,
-            Ok(ThermalLine::EmergencyStop) => {
+        let (now, alarm) = (self.hal.now(), self.alarm.is_some());
+        match self.heaters.command(w, now, &mut Out(&mut self.hal), alarm)? {
+            Reply::Driver(Cmd::Ok) => self.reply_ok(),
+            Reply::Driver(Cmd::Blocked) => return Some(Outcome::Blocked),
+            Reply::Driver(Cmd::Error(code, detail)) => self.reply_error(code, format_args!("{detail}")),
+            Reply::EmergencyStop => {
                 // Spotted on receipt already, unless written in a form the byte spotter does not take (`M0112`).
                 self.emergency_stop();
                 self.latch_emergency_stop();
                 self.reply_ok();
-                return Some(Outcome::Done);
             }
-            Err((code, detail)) => {
-                self.reply_error(code, format_args!("{detail}"));
-                return Some(Outcome::Done);
-            }
-        };
-        let now = self.hal.now();
-        let alarm = self.alarm.is_some();
-        match self.thermal.command(cmd, now, &mut self.heaters, &mut Out(&mut self.hal), alarm) {
-            Cmd::Ok => self.reply_ok(),
-            Cmd::Blocked => return Some(Outcome::Blocked),
-            Cmd::Error(code, detail) => self.reply_error(code, format_args!("{detail}")),
         }
         Some(Outcome::Done)
     }
 
     fn raise_alarm(&mut self, code: AlarmCode) {
         if code.is_shutdown() {
-            self.thermal.shutdown(&mut self.heaters);
+            self.heaters.shutdown();
             self.hal.enable_motors(false);
         }
         self.motion.abort(&mut self.hal);
@@ -406,7 +391,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.program.reset_modes();
             self.resume_after_hold = false;
             self.program_paused = false;
-            self.thermal.restore_cold_extrusion();
+            self.heaters.reset();
             self.sync_target();
             self.last_completed = self.motion.stepper().completed();
             self.banner();
@@ -430,30 +415,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// Write the status report line (also sent for `?`).
     pub fn status_report(&mut self) {
         let state = self.state();
-        let pos = self.motion.stepper().position();
-        let used = self.motion.len();
-        let (q, seq) = (self.motion.limit(), self.link.seq());
-        let done = self.link.completed_since_reset(self.motion.stepper().completed());
-        let mut mm = [0.0f32; NUM_AXES];
-        for axis in Axis::ALL {
-            mm[axis.index()] = pos[axis.index()] as f32 / self.cfg.axis(axis).steps_per_mm;
-        }
-        let refused = Refused(self.link.refused());
-        self.link.reply(
-            &mut self.hal,
-            seq,
-            format_args!(
-                "<{state}|MPos:{},{},{},{}|Steps:{},{},{},{}|Q:{used}/{q}|N:{seq}|C:{done}{refused}>",
-                Decimal::new(mm[0], 3),
-                Decimal::new(mm[1], 3),
-                Decimal::new(mm[2], 3),
-                Decimal::new(mm[3], 3),
-                pos[0],
-                pos[1],
-                pos[2],
-                pos[3]
-            ),
-        );
+        let (queued, queue, completed) = (self.motion.len(), self.motion.limit(), self.motion.stepper().completed());
+        let steps = self.motion.stepper().position();
+        self.link.status_report(&mut self.hal, state, &steps, &self.cfg, [queued, queue], completed);
     }
 
     fn sync_target(&mut self) {
@@ -501,7 +465,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.reply_error(ErrorCode::BadFrame, format_args!(": block {n} was refused"));
             return Outcome::Done;
         }
-        let cold = self.thermal.cold_extrusion();
+        let cold = self.heaters.cold_extrusion();
         match self.program.frame_target(&block.steps, &self.cfg, self.homing.homed(), cold) {
             Ok(target) => {
                 self.program.set_target_steps(target, &self.cfg);
@@ -565,7 +529,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 }
             }
             _ if line.has_axis => {
-                let cold = self.thermal.cold_extrusion();
+                let cold = self.heaters.cold_extrusion();
                 return match self.program.line_move(w, &self.cfg, self.homing.homed(), cold) {
                     Ok(block) => {
                         if let Some(b) = block {
@@ -601,17 +565,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
                 18 | 84 => self.hal.enable_motors(false),
                 82 | 83 => self.program.set_e_relative(m == 83),
                 114 => self.program.write_position(&mut Out(&mut self.hal), &self.motion.stepper().position()),
-                115 => {
-                    let (rx, q) = (self.rx_size(), self.motion.limit());
-                    // Framed in framed mode: the host takes its buffer sizes from it.
-                    self.link.answer(
-                        &mut self.hal,
-                        format_args!(
-                            "FIRMWARE_NAME:plotter-fw FIRMWARE_VERSION:{VERSION} PROTOCOL_VERSION:{PROTOCOL_VERSION} \
-                             RX_BUFFER:{rx} QUEUE_BLOCKS:{q} LINE_MAX:{LINE_MAX} TICK_HZ:{TICK_HZ}"
-                        ),
-                    );
-                }
+                115 => self.link.identify(&mut self.hal, VERSION, self.motion.limit()),
                 _ => {}
             }
         }
@@ -643,16 +597,4 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// Micrometre scale of the G-code parser, for callers converting positions.
     pub const MICRO: i64 = MICRO;
-}
-
-/// The status report's `|R:<n>,<code>` field (nothing when no block was refused).
-struct Refused(Option<(u32, u8)>);
-
-impl fmt::Display for Refused {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.0 {
-            Some((n, code)) => write!(f, "|R:{n},{code}"),
-            None => Ok(()),
-        }
-    }
 }
