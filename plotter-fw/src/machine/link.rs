@@ -122,11 +122,6 @@ impl<const RX: usize> Link<RX> {
         self.refused = None;
     }
 
-    /// Receive size announced to the host.
-    pub(crate) fn rx_size(&self) -> usize {
-        self.rx_size
-    }
-
     /// Free bytes in the receive buffer.
     pub(crate) fn rx_free(&self) -> usize {
         self.rx_size.saturating_sub(self.rx.len())

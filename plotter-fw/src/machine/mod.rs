@@ -14,10 +14,6 @@
 //! Each part owns its state: the motion queue ([`motion`]: planner queue, stepper, the one stop path) and the
 //! heater driver below; the interpreter and the alarms here, on top, use them.
 //!
-//! # Coordinates
-//! Positions are kept exactly, in millionths of a millimetre (machine coordinates: 0 at the homing switch). A
-//! target is converted to whole steps once (rounded), and a move is the difference to the previous target in
-//! steps, so relative moves never drift. `G92` offsets work coordinates from machine coordinates.
 
 use core::fmt;
 
@@ -30,7 +26,6 @@ use crate::hal::{Hal, Heaters, NoHeaters};
 use crate::heater_driver::{Cmd, Thermal};
 use crate::planner::PlanBlock;
 use crate::protocol::{Decoder, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
-use crate::range::MICRO;
 use crate::realtime::MachineState;
 use crate::step_block::StepBlock;
 use crate::stepper::{Stepper, StepperFault};
@@ -79,10 +74,6 @@ pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heater
     program: Program,
     rt: u8,
     last_completed: u32,
-    /// `~` arrived while a feed hold was still decelerating: resume as soon as it has stopped.
-    resume_after_hold: bool,
-    /// Servo pen: the angle `M5` lifts to (set with `M5 S<angle>`).
-    servo_up_deg: f32,
     /// `M0`/`M1` program pause (a pen change in a raw G-code stream): nothing more runs until `~`.
     program_paused: bool,
 }
@@ -109,11 +100,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             motion: MotionQueue::new(&cfg),
             alarm: None,
             homing: Homing::new(),
-            program: Program::new(),
+            program: Program::new(cfg.pen.servo_up_deg),
             rt: 0,
             last_completed: 0,
-            resume_after_hold: false,
-            servo_up_deg: cfg.pen.servo_up_deg,
             program_paused: false,
         };
         m.banner();
@@ -158,16 +147,6 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// The stepper (position, queue state).
     pub fn stepper(&self) -> &Stepper {
         self.motion.stepper()
-    }
-
-    /// Receive buffer size announced to the host.
-    pub fn rx_size(&self) -> usize {
-        self.link.rx_size()
-    }
-
-    /// Planner queue size announced to the host.
-    pub fn queue_size(&self) -> usize {
-        self.motion.limit()
     }
 
     /// The latched alarm.
@@ -222,7 +201,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         self.motion.stepper().completed() != self.last_completed
             || self.rt != 0
             || self.motion.stepper().fault().is_some()
-            || (self.resume_after_hold && self.motion.stepper().is_held())
+            || self.motion.resume_due()
             || self.heaters.thermal().due(self.hal.now())
             || self.estop_pending
             || self.completion_due()
@@ -254,11 +233,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         {
             match b {
                 RT_STATUS => self.rt |= RT_FLAG_STATUS,
-                RT_FEED_HOLD => {
-                    // The latest real-time command wins: a hold cancels a resume still waiting for the stop.
-                    self.resume_after_hold = false;
-                    self.motion.stepper_mut().feed_hold();
-                }
+                RT_FEED_HOLD => self.motion.feed_hold(),
                 RT_RESUME => self.rt |= RT_FLAG_RESUME,
                 RT_RESET => {
                     self.motion.halt(&mut self.hal);
@@ -284,11 +259,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         }
         // Everything after a hold restarts from rest.
         self.motion.replan_after_hold();
-        if self.resume_after_hold && self.motion.stepper().is_held() {
-            // A `~` received while the hold was decelerating: the hold has now stopped (and was re-planned).
-            self.resume_after_hold = false;
-            self.motion.resume(&mut self.hal);
-        }
+        // A `~` received while the hold was decelerating: the hold has now stopped (and was re-planned).
+        self.motion.resume_when_stopped(&mut self.hal);
         self.service_thermal();
         self.run_homing();
         loop {
@@ -369,7 +341,6 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         }
         self.motion.abort(&mut self.hal);
         self.homing.abort(code);
-        self.resume_after_hold = false;
         self.sync_target();
         if self.alarm.is_none() {
             self.alarm = Some(code);
@@ -389,7 +360,6 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             // Stopped without deceleration while moving: steps may have been lost.
             self.homing.reset(moving);
             self.program.reset_modes();
-            self.resume_after_hold = false;
             self.program_paused = false;
             self.heaters.reset();
             self.sync_target();
@@ -400,11 +370,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         if rt & RT_FLAG_RESUME != 0 {
             if self.program_paused {
                 self.program_paused = false;
-            } else if self.motion.stepper().is_held() {
+            } else {
                 self.motion.resume(&mut self.hal);
-            } else if self.motion.stepper().is_holding() {
-                // Still decelerating: remember the resume and act once the hold has stopped (see `poll`).
-                self.resume_after_hold = true;
             }
         }
         if rt & RT_FLAG_STATUS != 0 {
@@ -516,48 +483,25 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         if line.needs_slot && (self.motion.is_full() || self.homing.is_running()) {
             return Outcome::Blocked;
         }
-        self.program.apply_modes(w, &line);
-        match line.other_g {
-            Some(4) => match Program::dwell_ticks(w) {
-                Ok(0) => {}
-                Ok(ticks) => self.queue_block(PlanBlock::fixed(StepBlock::dwell(ticks))),
-                Err(r) => return self.refuse(r),
-            },
-            Some(92) => {
-                if let Err(r) = self.program.set_offsets(w, line.has_axis) {
-                    return self.refuse(r);
+        let cold = self.heaters.cold_extrusion();
+        match self.program.run_g(w, &line, &self.cfg, self.homing.homed(), cold) {
+            Ok(block) => {
+                if let Some(b) = block {
+                    self.queue_block(b);
                 }
             }
-            _ if line.has_axis => {
-                let cold = self.heaters.cold_extrusion();
-                return match self.program.line_move(w, &self.cfg, self.homing.homed(), cold) {
-                    Ok(block) => {
-                        if let Some(b) = block {
-                            self.queue_block(b);
-                        }
-                        self.reply_ok();
-                        Outcome::Done
-                    }
-                    Err(r) => self.refuse(r),
-                };
-            }
-            _ => {}
+            Err(r) => return self.refuse(r),
         }
-        let servo_s = line.servo_deg;
+        if line.is_move() {
+            // A move line's M words are not run (as before the split).
+            self.reply_ok();
+            return Outcome::Done;
+        }
         for &m in &w.m {
             match m {
                 2 | 30 => self.program.end(),
                 0 | 1 => self.program_paused = true,
-                // Angles are 0..=180 (checked above): exact enough in f32.
-                #[allow(clippy::cast_possible_truncation)]
-                3 | 4 => self.hal.set_servo(servo_s.unwrap_or(0.0) as f32),
-                #[allow(clippy::cast_possible_truncation)]
-                5 => {
-                    if let Some(a) = servo_s {
-                        self.servo_up_deg = a as f32;
-                    }
-                    self.hal.set_servo(self.servo_up_deg);
-                }
+                3..=5 => self.hal.set_servo(self.program.pen_angle(m, line.servo_deg)),
                 17 => self.hal.enable_motors(true),
                 M_FRAMED => {
                     self.link.set_framed(w.get(b'S').is_some_and(|s| s != 0), self.motion.stepper().completed())
@@ -594,7 +538,4 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     pub fn target_steps(&self) -> [i32; NUM_AXES] {
         self.program.target_steps()
     }
-
-    /// Micrometre scale of the G-code parser, for callers converting positions.
-    pub const MICRO: i64 = MICRO;
 }

@@ -32,6 +32,8 @@ pub(crate) struct MotionQueue<const Q: usize> {
     first_entry_sqr: f32,
     /// The queue was re-planned from rest after the current feed hold stopped.
     hold_replanned: bool,
+    /// `~` arrived while a feed hold was still decelerating: resume as soon as it has stopped.
+    resume_after_hold: bool,
     stepper: Stepper,
     timer_running: bool,
 }
@@ -51,6 +53,7 @@ impl<const Q: usize> MotionQueue<Q> {
             limit: usize::try_from(cfg.queue_blocks).unwrap_or(Q).clamp(1, Q),
             first_entry_sqr: 0.0,
             hold_replanned: false,
+            resume_after_hold: false,
             stepper: Stepper::new(invert, limits),
             timer_running: false,
         }
@@ -145,8 +148,37 @@ impl<const Q: usize> MotionQueue<Q> {
         }
     }
 
-    /// Continue after a feed hold that has stopped.
+    /// Feed hold (`!`): decelerate to a stop. The latest real-time command wins: a hold cancels a resume still
+    /// waiting for the stop.
+    pub(crate) fn feed_hold(&mut self) {
+        self.resume_after_hold = false;
+        self.stepper.feed_hold();
+    }
+
+    /// Resume (`~`): continue after a hold that has stopped, or, while it is still decelerating, as soon as it has
+    /// stopped ([`MotionQueue::resume_when_stopped`]).
     pub(crate) fn resume<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
+        if self.stepper.is_held() {
+            self.restart(hal);
+        } else if self.stepper.is_holding() {
+            self.resume_after_hold = true;
+        }
+    }
+
+    /// A resume waits for the hold to stop, and it has.
+    pub(crate) fn resume_due(&self) -> bool {
+        self.resume_after_hold && self.stepper.is_held()
+    }
+
+    /// Act on a resume that waited for the hold to stop.
+    pub(crate) fn resume_when_stopped<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
+        if self.resume_due() {
+            self.resume_after_hold = false;
+            self.restart(hal);
+        }
+    }
+
+    fn restart<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
         self.hold_replanned = false;
         if let Some(t) = self.stepper.resume(hal) {
             self.timer_running = true;
@@ -169,5 +201,6 @@ impl<const Q: usize> MotionQueue<Q> {
         self.linker.clear();
         self.first_entry_sqr = 0.0;
         self.hold_replanned = false;
+        self.resume_after_hold = false;
     }
 }

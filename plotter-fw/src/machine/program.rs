@@ -19,6 +19,7 @@ use crate::gcode::Words;
 use crate::heater_driver::TooCold;
 use crate::planner::PlanBlock;
 use crate::range::MoveRange;
+use crate::step_block::StepBlock;
 
 /// The detail after an error's text.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,6 +81,13 @@ pub(crate) struct Line {
     pub(crate) servo_deg: Option<f64>,
     /// `G0` or `G1`.
     motion: Option<u16>,
+}
+
+impl Line {
+    /// A `G0`/`G1` move (axis words without `G4`, `G28` or `G92`).
+    pub(crate) fn is_move(&self) -> bool {
+        self.has_axis && self.other_g.is_none()
+    }
 }
 
 /// Check a line's words, codes and numbers against `cfg`, before anything runs or changes (`inches`: the modal
@@ -171,16 +179,19 @@ pub(crate) struct Program {
     /// The same in steps (what the queue ends at).
     target_steps: [i32; NUM_AXES],
     offset_um: [i64; NUM_AXES],
+    /// Servo pen: the angle `M5` lifts to (set with `M5 S<angle>`).
+    servo_up_deg: f32,
 }
 
 impl Program {
-    /// At the origin, default modes.
-    pub(crate) const fn new() -> Self {
+    /// At the origin, default modes; `M5` lifts the servo pen to `servo_up_deg`.
+    pub(crate) const fn new(servo_up_deg: f32) -> Self {
         Program {
             modal: Modal::DEFAULT,
             target_um: [0; NUM_AXES],
             target_steps: [0; NUM_AXES],
             offset_um: [0; NUM_AXES],
+            servo_up_deg,
         }
     }
 
@@ -192,6 +203,20 @@ impl Program {
     /// `M2`/`M30`: default modes, the feed kept.
     pub(crate) fn end(&mut self) {
         self.modal = Modal { feed_mm_s: self.modal.feed_mm_s, ..Modal::DEFAULT };
+    }
+
+    /// The servo angle of `M3`/`M4` (down to `S`) or `M5` (up; `S` sets the up angle), `servo_deg` checked to
+    /// lie in 0..=180 by [`check`].
+    pub(crate) fn pen_angle(&mut self, m: u16, servo_deg: Option<f64>) -> f32 {
+        // Angles are 0..=180: exact enough in f32.
+        #[allow(clippy::cast_possible_truncation)]
+        let s = servo_deg.map(|a| a as f32);
+        if m == 5 {
+            self.servo_up_deg = s.unwrap_or(self.servo_up_deg);
+            self.servo_up_deg
+        } else {
+            s.unwrap_or(0.0)
+        }
     }
 
     /// `M82` (false) / `M83` (true).
@@ -224,8 +249,29 @@ impl Program {
         if self.modal.inches { crate::range::inches_to_um(value) } else { Some(value) }
     }
 
+    /// Take the line's modal words, then run its G words (`homed`: soft limits, `cold`: extrusion refused): the
+    /// block to queue (a dwell or a move), if any.
+    pub(crate) fn run_g(
+        &mut self,
+        w: &Words,
+        line: &Line,
+        cfg: &MachineConfig,
+        homed: u8,
+        cold: Option<TooCold>,
+    ) -> Result<Option<PlanBlock>, Refusal> {
+        self.apply_modes(w, line);
+        match line.other_g {
+            Some(4) => {
+                Ok(Some(Self::dwell_ticks(w)?).filter(|&t| t > 0).map(|t| PlanBlock::fixed(StepBlock::dwell(t))))
+            }
+            Some(92) => self.set_offsets(w, line.has_axis).map(|()| None),
+            _ if line.has_axis => self.line_move(w, cfg, homed, cold),
+            _ => Ok(None),
+        }
+    }
+
     /// Take the line's modal words (checked by [`check`]).
-    pub(crate) fn apply_modes(&mut self, w: &Words, line: &Line) {
+    fn apply_modes(&mut self, w: &Words, line: &Line) {
         for &g in &w.g {
             match g {
                 20 => self.modal.inches = true,
@@ -246,7 +292,7 @@ impl Program {
     }
 
     /// `G4 P<ms>` / `G4 S<s>`: the dwell in ticks (µs).
-    pub(crate) fn dwell_ticks(w: &Words) -> Result<u32, Refusal> {
+    fn dwell_ticks(w: &Words) -> Result<u32, Refusal> {
         let ms = w.get(b'P').map(|p| p / 1000).or_else(|| w.get(b'S').map(|s| s / 1000 * 1000)).unwrap_or(0);
         if !(0..=3_600_000_000).contains(&ms) {
             return refuse(ErrorCode::InvalidValue, Detail::Text(": dwell"));
@@ -256,7 +302,7 @@ impl Program {
     }
 
     /// `G92`: the given axes (all, without axis words) read the given positions (0) from now on.
-    pub(crate) fn set_offsets(&mut self, w: &Words, has_axis: bool) -> Result<(), Refusal> {
+    fn set_offsets(&mut self, w: &Words, has_axis: bool) -> Result<(), Refusal> {
         let mut offset = self.offset_um;
         for axis in Axis::ALL {
             let i = axis.index();
@@ -275,7 +321,7 @@ impl Program {
 
     /// `G0`/`G1`: the block from the current target to the line's (`None` when nothing moves), and the target
     /// taken; `cold` refuses extrusion, `homed` is the mask of homed axes (soft limits).
-    pub(crate) fn line_move(
+    fn line_move(
         &mut self,
         w: &Words,
         cfg: &MachineConfig,
