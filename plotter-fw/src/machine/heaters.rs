@@ -26,12 +26,14 @@ pub(crate) struct HeaterUnit<T: Heaters> {
     io: T,
     thermal: Thermal,
     estop: EmergencyParser,
+    /// `M112` was received; the next [`HeaterUnit::service`] returns its alarm.
+    estop_pending: bool,
 }
 
 impl<T: Heaters> HeaterUnit<T> {
     /// The heaters of `cfg` on `io`, started at `now`.
     pub(crate) fn new(io: T, cfg: ThermalConfig, now: u64) -> Self {
-        HeaterUnit { io, thermal: Thermal::new(cfg, now), estop: EmergencyParser::new() }
+        HeaterUnit { io, thermal: Thermal::new(cfg, now), estop: EmergencyParser::new(), estop_pending: false }
     }
 
     /// The heater I/O.
@@ -49,9 +51,21 @@ impl<T: Heaters> HeaterUnit<T> {
         &self.thermal
     }
 
-    /// Feed one received byte to the `M112` spotter: `true` when it completed an emergency stop.
-    pub(crate) fn spots_emergency_stop(&mut self, b: u8) -> bool {
-        self.estop.feed(b)
+    /// Feed one received byte to the `M112` spotter: when it completes an emergency stop, everything is switched
+    /// off at once, the alarm is left for [`HeaterUnit::service`] to raise, and `true` tells the machine to stop
+    /// motion.
+    pub(crate) fn spot_emergency_stop(&mut self, b: u8) -> bool {
+        let fired = self.estop.feed(b);
+        if fired {
+            self.shutdown();
+            self.estop_pending = true;
+        }
+        fired
+    }
+
+    /// An emergency stop waits for its alarm.
+    pub(crate) fn emergency_pending(&self) -> bool {
+        self.estop_pending
     }
 
     /// All heaters and the fan off.
@@ -69,8 +83,12 @@ impl<T: Heaters> HeaterUnit<T> {
         self.thermal.cold_extrusion()
     }
 
-    /// Run the control periods due at `now` (reports to `out`); the alarm of a tripped safety check.
+    /// The alarm of an emergency stop received since the last call, else run the control periods due at `now`
+    /// (reports to `out`): the alarm of a tripped safety check.
     pub(crate) fn service<W: Write>(&mut self, now: u64, out: &mut W) -> Option<AlarmCode> {
+        if core::mem::take(&mut self.estop_pending) {
+            return Some(AlarmCode::EmergencyStop);
+        }
         self.thermal.tick(&mut self.io, now, out).map(AlarmCode::Thermal)
     }
 

@@ -14,7 +14,7 @@ use crate::framing::{self, RtMatcher};
 use crate::gcode::{Words, envelope, parse_words};
 use crate::hal::SerialOut;
 use crate::line_buffer::{Frame, LINE_MAX, LineAssembler, RxBuffer};
-use crate::protocol::{Decoder, PROTOCOL_VERSION, is_realtime};
+use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
 use crate::realtime::MachineState;
 use crate::report::CompletionReporter;
 use crate::step_block::{StepBlock, TICK_HZ};
@@ -58,8 +58,17 @@ pub(crate) enum Input {
     },
 }
 
+/// A status report (`?`) was asked for.
+pub(crate) const RT_FLAG_STATUS: u8 = 1;
+/// A resume (`~`) was asked for.
+pub(crate) const RT_FLAG_RESUME: u8 = 2;
+/// A reset (0x18) was asked for.
+pub(crate) const RT_FLAG_RESET: u8 = 4;
+
 /// The session state of the host link (`RX`: receive ring capacity).
 pub(crate) struct Link<const RX: usize> {
+    /// Real-time commands received and not yet served (`RT_FLAG_*`).
+    realtime: u8,
     rx: RxBuffer<RX>,
     /// Receive size announced to the host (≤ `RX`).
     rx_size: usize,
@@ -90,6 +99,7 @@ impl<const RX: usize> Link<RX> {
     /// A fresh session announcing `rx_bytes` of receive buffer (clamped to `RX`).
     pub(crate) fn new(rx_bytes: u32) -> Self {
         Link {
+            realtime: 0,
             rx: RxBuffer::new(),
             rx_size: usize::try_from(rx_bytes).unwrap_or(RX).min(RX),
             asm: LineAssembler::new(),
@@ -169,21 +179,39 @@ impl<const RX: usize> Link<RX> {
         self.refused = None;
     }
 
-    /// One received byte (interrupt context): a real-time command is returned for the machine to act on at once,
-    /// everything else goes to the ring (a byte that does not fit is counted and reported, see [`RxBuffer`]).
+    /// One received byte (interrupt context): a real-time command is recorded for [`Link::take_realtime`] and
+    /// returned for the machine to act on at once; everything else goes to the ring (a byte that does not fit is
+    /// counted and reported, see [`RxBuffer`]).
     pub(crate) fn receive(&mut self, b: u8) -> Option<u8> {
-        if self.framed {
+        let cmd = if self.framed {
             // Only a complete four-byte sequence is a command; everything else is data (see `crate::framing`).
             let mut matcher = core::mem::take(&mut self.rt_matcher);
             let cmd = matcher.feed(b, |d| self.receive_data(d));
             self.rt_matcher = matcher;
-            return cmd;
-        }
-        if is_realtime(b) {
-            return Some(b);
-        }
-        self.receive_data(b);
-        None
+            cmd
+        } else if is_realtime(b) {
+            Some(b)
+        } else {
+            self.receive_data(b);
+            None
+        };
+        self.realtime |= match cmd {
+            Some(RT_STATUS) => RT_FLAG_STATUS,
+            Some(RT_RESUME) => RT_FLAG_RESUME,
+            Some(RT_RESET) => RT_FLAG_RESET,
+            _ => 0,
+        };
+        cmd
+    }
+
+    /// Real-time commands wait for the main loop.
+    pub(crate) fn realtime_pending(&self) -> bool {
+        self.realtime != 0
+    }
+
+    /// The real-time commands received since the last call (`RT_FLAG_*`).
+    pub(crate) fn take_realtime(&mut self) -> u8 {
+        core::mem::take(&mut self.realtime)
     }
 
     fn receive_data(&mut self, b: u8) {

@@ -25,7 +25,7 @@ use crate::gcode::Words;
 use crate::hal::{Hal, Heaters, NoHeaters};
 use crate::heater_driver::{Cmd, Thermal};
 use crate::planner::PlanBlock;
-use crate::protocol::{Decoder, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
+use crate::protocol::{Decoder, RT_FEED_HOLD, RT_RESET};
 use crate::realtime::MachineState;
 use crate::step_block::StepBlock;
 use crate::stepper::{Stepper, StepperFault};
@@ -45,10 +45,6 @@ mod program;
 /// Firmware version reported in the banner and M115.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
-const RT_FLAG_STATUS: u8 = 1;
-const RT_FLAG_RESUME: u8 = 2;
-const RT_FLAG_RESET: u8 = 4;
-
 /// Result of handling one frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Outcome {
@@ -64,15 +60,12 @@ enum Outcome {
 pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heaters = NoHeaters> {
     hal: H,
     heaters: HeaterUnit<T>,
-    /// `M112` was received; `poll` latches the alarm.
-    estop_pending: bool,
     cfg: MachineConfig,
     link: Link<RX>,
     motion: MotionQueue<Q>,
     alarm: Option<AlarmCode>,
     homing: Homing,
     program: Program,
-    rt: u8,
     last_completed: u32,
     /// `M0`/`M1` program pause (a pen change in a raw G-code stream): nothing more runs until `~`.
     program_paused: bool,
@@ -94,14 +87,12 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         let mut m = Machine {
             hal,
             heaters,
-            estop_pending: false,
             cfg,
             link: Link::new(cfg.rx_buffer_bytes),
             motion: MotionQueue::new(&cfg),
             alarm: None,
             homing: Homing::new(),
             program: Program::new(cfg.pen.servo_up_deg),
-            rt: 0,
             last_completed: 0,
             program_paused: false,
         };
@@ -132,11 +123,6 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     /// The heater controller (temperatures, targets, duties).
     pub fn thermal(&self) -> &Thermal {
         self.heaters.thermal()
-    }
-
-    /// When the main loop must run next for the heaters (ticks); `None` without heaters.
-    pub fn thermal_deadline(&self) -> Option<u64> {
-        self.heaters.thermal().next_deadline()
     }
 
     /// The configuration.
@@ -180,68 +166,47 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             MachineState::Alarm
         } else if self.homing.is_running() {
             MachineState::Homing
-        } else if self.motion.stepper().is_held() || self.program_paused {
+        } else if self.program_paused {
             MachineState::Held
-        } else if self.motion.stepper().is_holding() {
-            MachineState::Holding
-        } else if !self.motion.drained() {
-            MachineState::Run
         } else {
-            MachineState::Idle
+            self.motion.state()
         }
     }
 
     /// Nothing left to do: no motion, no queued blocks, no pending input.
     pub fn is_idle(&self) -> bool {
-        self.motion.drained() && !self.homing.is_running() && !self.has_input() && self.rt == 0
+        self.motion.drained() && !self.homing.is_running() && !self.has_input()
     }
 
     /// Whether a block finished or something else happened that `poll` should see.
     pub fn needs_poll(&self) -> bool {
         self.motion.stepper().completed() != self.last_completed
-            || self.rt != 0
+            || self.link.realtime_pending()
             || self.motion.stepper().fault().is_some()
             || self.motion.resume_due()
             || self.heaters.thermal().due(self.hal.now())
-            || self.estop_pending
-            || self.completion_due()
-    }
-
-    /// Whether a completion report should go out now ([`crate::report`]; framed mode only).
-    fn completion_due(&self) -> bool {
-        self.link.completion_due(self.motion.stepper().completed(), self.hal.now(), self.motion.drained())
+            || self.heaters.emergency_pending()
+            || self.link.completion_due(self.motion.stepper().completed(), self.hal.now(), self.motion.drained())
     }
 
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
     /// (a byte that does not fit is counted and reported, see [`RxBuffer`]). Counting against the announced size.
     pub fn receive(&mut self, b: u8) {
-        if self.heaters.spots_emergency_stop(b) {
-            // M112: act now, not when the line's turn comes.
-            self.emergency_stop();
+        if self.heaters.spot_emergency_stop(b) {
+            // M112: heaters off and motion stopped now, not when the line's turn comes; `poll` latches the alarm.
+            self.motion.halt(&mut self.hal);
         }
-        if let Some(cmd) = self.link.receive(b) {
-            self.realtime(cmd);
+        // Feed hold and reset act at once; status, resume and the rest of a reset wait for `poll`.
+        match self.link.receive(b) {
+            Some(RT_FEED_HOLD) => self.motion.feed_hold(),
+            Some(RT_RESET) => self.motion.halt(&mut self.hal),
+            _ => {}
         }
     }
 
     /// Whether framed mode is on ([`crate::framing`]).
     pub fn is_framed(&self) -> bool {
         self.link.is_framed()
-    }
-
-    fn realtime(&mut self, b: u8) {
-        {
-            match b {
-                RT_STATUS => self.rt |= RT_FLAG_STATUS,
-                RT_FEED_HOLD => self.motion.feed_hold(),
-                RT_RESUME => self.rt |= RT_FLAG_RESUME,
-                RT_RESET => {
-                    self.motion.halt(&mut self.hal);
-                    self.rt |= RT_FLAG_RESET;
-                }
-                _ => {}
-            }
-        }
     }
 
     /// Step timer interrupt.
@@ -291,28 +256,11 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         self.link.reply_error(&mut self.hal, code, detail);
     }
 
-    /// The heaters' period (PID, safety checks) and a pending emergency stop.
+    /// A pending emergency stop, and the heaters' period (PID, safety checks).
     fn service_thermal(&mut self) {
-        self.latch_emergency_stop();
         let now = self.hal.now();
         if let Some(alarm) = self.heaters.service(now, &mut Out(&mut self.hal)) {
             self.raise_alarm(alarm);
-        }
-    }
-
-    /// The emergency stop (`M112`), the one place it is handled: heaters off and motion stopped at once (this runs
-    /// in the receive interrupt as soon as the line is complete); `poll` then latches the alarm, which also
-    /// disables the motors and flushes the queue ([`AlarmCode::is_shutdown`]).
-    fn emergency_stop(&mut self) {
-        self.heaters.shutdown();
-        self.motion.halt(&mut self.hal);
-        self.estop_pending = true;
-    }
-
-    /// Latch the alarm of an emergency stop received since the last poll.
-    fn latch_emergency_stop(&mut self) {
-        if core::mem::take(&mut self.estop_pending) {
-            self.raise_alarm(AlarmCode::EmergencyStop);
         }
     }
 
@@ -326,8 +274,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             Reply::Driver(Cmd::Error(code, detail)) => self.reply_error(code, format_args!("{detail}")),
             Reply::EmergencyStop => {
                 // Spotted on receipt already, unless written in a form the byte spotter does not take (`M0112`).
-                self.emergency_stop();
-                self.latch_emergency_stop();
+                self.raise_alarm(AlarmCode::EmergencyStop);
                 self.reply_ok();
             }
         }
@@ -350,8 +297,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     fn service_realtime(&mut self) {
-        let rt = core::mem::take(&mut self.rt);
-        if rt & RT_FLAG_RESET != 0 {
+        let rt = self.link.take_realtime();
+        if rt & link::RT_FLAG_RESET != 0 {
             let moving = !self.motion.drained() || self.homing.is_running();
             self.motion.abort(&mut self.hal);
             self.motion.stepper_mut().clear_fault();
@@ -367,14 +314,14 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.banner();
             return;
         }
-        if rt & RT_FLAG_RESUME != 0 {
+        if rt & link::RT_FLAG_RESUME != 0 {
             if self.program_paused {
                 self.program_paused = false;
             } else {
                 self.motion.resume(&mut self.hal);
             }
         }
-        if rt & RT_FLAG_STATUS != 0 {
+        if rt & link::RT_FLAG_STATUS != 0 {
             self.status_report();
         }
     }
@@ -419,16 +366,14 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
 
     /// A host-planned step block: checked like a move, then queued unchanged.
     fn step_frame(&mut self, block: StepBlock, decoder: Decoder) -> Outcome {
-        if self.alarm.is_some() {
-            self.link.accept_frame(decoder);
-            self.reply_error(ErrorCode::Alarm, format_args!(""));
-            return Outcome::Done;
-        }
-        if self.motion.is_full() || self.homing.is_running() {
+        if self.alarm.is_none() && (self.motion.is_full() || self.homing.is_running()) {
             return Outcome::Blocked;
         }
         let number = self.link.accept_frame(decoder);
-        if let Some((n, _)) = self.link.refused() {
+        if self.alarm.is_some() {
+            self.reply_error(ErrorCode::Alarm, format_args!(""));
+            return Outcome::Done;
+        } else if let Some((n, _)) = self.link.refused() {
             self.reply_error(ErrorCode::BadFrame, format_args!(": block {n} was refused"));
             return Outcome::Done;
         }
@@ -436,7 +381,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         match self.program.frame_target(&block.steps, &self.cfg, self.homing.homed(), cold) {
             Ok(target) => {
                 self.program.set_target_steps(target, &self.cfg);
-                self.queue_block(PlanBlock::fixed(block));
+                self.motion.push_block(PlanBlock::fixed(block), &self.cfg);
                 self.reply_ok();
             }
             Err(r) => {
@@ -445,10 +390,6 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             }
         }
         Outcome::Done
-    }
-
-    fn queue_block(&mut self, block: PlanBlock) {
-        self.motion.push(block, &self.cfg);
     }
 
     fn refuse(&mut self, r: Refusal) -> Outcome {
@@ -487,7 +428,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         match self.program.run_g(w, &line, &self.cfg, self.homing.homed(), cold) {
             Ok(block) => {
                 if let Some(b) = block {
-                    self.queue_block(b);
+                    self.motion.push_block(b, &self.cfg);
                 }
             }
             Err(r) => return self.refuse(r),

@@ -18,6 +18,7 @@ use crate::axis::Axis;
 use crate::config::MachineConfig;
 use crate::hal::{Endstops, StepPins, StepTimer};
 use crate::planner::{Linker, PlanBlock, plan, to_step_block};
+use crate::realtime::MachineState;
 use crate::step_block::StepBlock;
 use crate::stepper::Stepper;
 
@@ -84,13 +85,26 @@ impl<const Q: usize> MotionQueue<Q> {
         self.planner.len() >= self.limit
     }
 
+    /// The motion part of the machine state: held, holding, running or idle.
+    pub(crate) fn state(&self) -> MachineState {
+        if self.stepper.is_held() {
+            MachineState::Held
+        } else if self.stepper.is_holding() {
+            MachineState::Holding
+        } else if !self.drained() {
+            MachineState::Run
+        } else {
+            MachineState::Idle
+        }
+    }
+
     /// Nothing left to run: planner queue and stepper empty.
     pub(crate) fn drained(&self) -> bool {
         self.stepper.is_idle() && self.planner.is_empty()
     }
 
     /// Queue `block` (callers check [`MotionQueue::is_full`] first) and re-plan the queue.
-    pub(crate) fn push(&mut self, block: PlanBlock, cfg: &MachineConfig) {
+    pub(crate) fn push_block(&mut self, block: PlanBlock, cfg: &MachineConfig) {
         // Cannot fail: callers check the fill against `limit ≤ Q`.
         let _ = self.planner.push_back(block);
         self.linker.push(self.planner.make_contiguous(), cfg);

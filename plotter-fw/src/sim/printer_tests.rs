@@ -391,7 +391,7 @@ fn emergency_stop_acts_while_a_wait_holds_the_queue() {
 #[test]
 fn plotter_has_no_heaters_and_no_thermal_schedule() {
     let mut sim = Sim::new(MachineConfig::xy_plotter());
-    assert_eq!(sim.machine().thermal_deadline(), None);
+    assert_eq!(sim.machine().thermal().next_deadline(), None);
     sim.feed(b"M104 S200\nM105\nG1 X1 F600\n");
     sim.run_until_idle();
     let r = sim.take_replies();
