@@ -11,6 +11,26 @@
 //! - host: the same [`planner`] over a whole drawing, [`step_block::StepBlock::duration_ticks`] for the exact
 //!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
 //!
+//! # Layers
+//! The source sits in four folders, one per layer; a module imports only from its own layer or below, never from
+//! a higher one (`tests/layers.rs` reads every `crate::` path and fails on an upward import or a cycle):
+//!
+//! ```text
+//!  3  machine/   orchestration    Machine: host link, motion queue, program state, homing, heaters, alarms
+//!        │                                                                      (sim, std only, sits above it)
+//!  2  drivers/   HAL and drivers  hal (board traits), stepper (step interrupt), heater_driver
+//!        │
+//!  1  logic/     pure algorithms  gcode, thermal_gcode, estop, protocol, framing, line_buffer, realtime,
+//!        │       and codecs       report, planner, limits, homing (state machine), thermal (thermistor,
+//!        │       shared with      PID, autotune, safety)
+//!        │       the host
+//!  0  types/     leaf types       axis, fmath, decimal, range, config, step_block (the timing contract the
+//!                                 host reproduces), heater (identities), errors (error and alarm codes)
+//! ```
+//!
+//! The folders are private; every module is public at the crate root (`plotter_fw::planner`), so a path names
+//! the concept, not the layer.
+//!
 //! ```
 //! use plotter_fw::planner::{PlanBlock, link_all, plan, step_blocks, total_ticks};
 //! use plotter_fw::MachineConfig;

@@ -1,5 +1,9 @@
-//! The firmware proper: receive path, line handling (sequencing, resends), the G-code interpreter, the planner
-//! queue, the hand-off to the stepper, homing, alarms and real-time commands.
+//! Layer 3, orchestration: the firmware proper. [`Machine`] ties together parts that each own their state — the
+//! host link (`link.rs`: receive ring, frames, sequence numbers, resends, replies, completion reports), the motion
+//! queue (`motion.rs`: planner queue, stepper hand-off, re-planning after a hold, the one stop path), the program
+//! state (`program.rs`: modal words, targets, offsets, line checks), homing (`homing_run.rs`) and the heaters
+//! (`heaters.rs`: heater I/O, the heater driver, the `M112` spotter). The parts never call each other or the
+//! machine; the machine, on top, interprets each line with them and latches alarms.
 //!
 //! # Entry points (how a board wires it)
 //! - [`Machine::receive`] from the serial receive interrupt, one byte at a time;
@@ -9,10 +13,6 @@
 //! On hardware the two interrupt entry points and `poll` share the `Machine`; the board integration runs `poll`'s
 //! body with the timer and UART interrupts masked (a critical section), as single-core firmwares do. The
 //! simulator calls all three from one thread.
-//!
-//! # Parts
-//! Each part owns its state: the motion queue ([`motion`]: planner queue, stepper, the one stop path) and the
-//! heater driver below; the interpreter and the alarms here, on top, use them.
 //!
 
 use core::fmt;
@@ -190,7 +190,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     /// Serial receive path (interrupt context): real-time bytes act at once, the rest goes to the ring buffer
-    /// (a byte that does not fit is counted and reported, see [`RxBuffer`]). Counting against the announced size.
+    /// (a byte that does not fit is counted and reported, see [`crate::line_buffer::RxBuffer`]). Counting against the announced size.
     pub fn receive(&mut self, b: u8) {
         if self.heaters.spot_emergency_stop(b) {
             // M112: heaters off and motion stopped now, not when the line's turn comes; `poll` latches the alarm.
