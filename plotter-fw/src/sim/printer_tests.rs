@@ -203,7 +203,7 @@ fn cold_step_blocks_with_extrusion_are_refused_and_latch() {
     use crate::protocol::{Encoder, MAX_FRAME};
     let mut sim = printer();
     sim.take_replies();
-    let block = |steps| crate::StepBlock {
+    let block = |steps| crate::step_block::StepBlock {
         steps,
         entry_rate: 0,
         cruise_rate: 1000,
