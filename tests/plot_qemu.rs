@@ -18,7 +18,7 @@ use plotter_e2e::{RawPort, SimPty, plotter, qemu_available, sample, scratch};
 use plotter_fw::MachineConfig;
 use plotter_fw::protocol::{Encoder, MAX_FRAME};
 use plotter_fw::sim::Sim;
-use plotter_fw::stepper::StepBlock;
+use plotter_fw::step_block::StepBlock;
 use plotter_path::geometry::layout::{self, LayoutOptions};
 use plotter_path::motion::plan::{self, Lookahead};
 use plotter_path::motion::steps::drawing_to_steps;

@@ -259,7 +259,7 @@ fn print_on_sim(gcode: &str, check: impl FnOnce(&Sim)) -> Result<plotter_host::l
 const COLD_PRINT: &str = "G28\nG1 Z0.3 F600\nG1 X10 Y10 F3000\nG1 X30 Y10 E5 F1200\nG1 X30 Y30 E10\n";
 
 fn assert_stopped_cold(sim: &Sim) {
-    use plotter_fw::thermal::Heater;
+    use plotter_fw::heater::Heater;
     // Not a step of filament, heaters off (targets and duties), the machine idle.
     assert_eq!(sim.physical_position()[Axis::E.index()], 0);
     assert_eq!(sim.hal().step_counts()[Axis::E.index()], 0);
@@ -299,7 +299,7 @@ fn heated_print_extrudes_exactly() {
     // The same moves after M109 S210 print to the end: 10 mm of filament at 93 steps/mm.
     let stats = print_on_sim(&format!("M109 S210\n{COLD_PRINT}"), |sim| {
         assert_eq!(sim.physical_position()[Axis::E.index()], 930);
-        assert!(sim.heaters().temperature(plotter_fw::thermal::Heater::HotEnd) > 205.0);
+        assert!(sim.heaters().temperature(plotter_fw::heater::Heater::HotEnd) > 205.0);
     })
     .unwrap();
     assert_eq!(stats.refused, 0);

@@ -13,7 +13,8 @@
 //! (`--toggle-collect` counts only while inside `tick`.) Target: ≤ 150 instructions per tick (x86-64).
 
 use plotter_fw::hal::{Endstops, StepPins};
-use plotter_fw::stepper::{StepBlock, Stepper};
+use plotter_fw::step_block::StepBlock;
+use plotter_fw::stepper::Stepper;
 use plotter_fw::{Axis, NUM_AXES};
 
 /// Pins as memory: what a board's GPIO writes amount to.

@@ -5,11 +5,31 @@
 //!
 //! - firmware: [`machine::Machine`] on a board's [`hal::Hal`] — line input ([`line_buffer`], [`gcode`]),
 //!   sequencing and resends ([`protocol`]), framed replies and real-time commands ([`framing`]), the planner
-//!   queue ([`planner`]), the Bresenham [`stepper`], [`homing`], [`limits`], checked number [`range`]s,
-//!   [`realtime`] commands, completion [`report`]s, the [`errors`] table, and the printer's heaters ([`thermal`]: PID, autotune,
-//!   thermal-runaway protection);
-//! - host: the same [`planner`] over a whole drawing, [`stepper::StepBlock::duration_ticks`] for the exact
+//!   queue ([`planner`]), the step-block contract ([`step_block`]), the Bresenham [`stepper`], [`homing`],
+//!   [`limits`], checked number [`range`]s, [`realtime`] commands, completion [`report`]s, the [`errors`] table,
+//!   and the printer's heaters ([`thermal`]: PID, autotune, thermal-runaway protection);
+//! - host: the same [`planner`] over a whole drawing, [`step_block::StepBlock::duration_ticks`] for the exact
 //!   execution time, and [`protocol::Encoder`] for the compact step-block frames.
+//!
+//! # Layers
+//! The source sits in four folders, one per layer; a module imports only from its own layer or below, never from
+//! a higher one (`tests/layers.rs` reads every `crate::` path and fails on an upward import or a cycle):
+//!
+//! ```text
+//!  3  machine/   orchestration    Machine: host link, motion queue, program state, homing, heaters, alarms
+//!        │                                                                      (sim, std only, sits above it)
+//!  2  drivers/   HAL and drivers  hal (board traits), stepper (step interrupt), heater_driver
+//!        │
+//!  1  logic/     pure algorithms  gcode, thermal_gcode, estop, protocol, framing, line_buffer, realtime,
+//!        │       and codecs       report, planner, limits, homing (state machine), thermal (thermistor,
+//!        │       shared with      PID, autotune, safety)
+//!        │       the host
+//!  0  types/     leaf types       axis, fmath, decimal, range, config, step_block (the timing contract the
+//!                                 host reproduces), heater (identities), errors (error and alarm codes)
+//! ```
+//!
+//! The folders are private; every module is public at the crate root (`plotter_fw::planner`), so a path names
+//! the concept, not the layer.
 //!
 //! ```
 //! use plotter_fw::planner::{PlanBlock, link_all, plan, step_blocks, total_ticks};
@@ -32,28 +52,21 @@
 #[cfg(test)]
 extern crate std;
 
-pub mod axis;
-pub mod config;
-pub mod decimal;
-pub mod errors;
-pub mod fmath;
-pub mod framing;
-pub mod gcode;
-pub mod hal;
-pub mod homing;
-pub mod limits;
-pub mod line_buffer;
+mod drivers;
+mod logic;
 pub mod machine;
-pub mod planner;
-pub mod protocol;
-pub mod range;
-pub mod realtime;
-pub mod report;
 #[cfg(feature = "std")]
 pub mod sim;
-pub mod stepper;
-pub mod thermal;
+mod types;
+
+// The layers are private folders; their modules are public at the crate root, so a path names the concept
+// (`plotter_fw::planner`), not the layer.
+pub use drivers::{hal, heater_driver, stepper};
+pub use logic::{
+    estop, framing, gcode, homing, limits, line_buffer, planner, protocol, realtime, report, thermal, thermal_gcode,
+};
+pub use types::{axis, config, decimal, errors, fmath, heater, range, step_block};
 
 pub use axis::{Axis, NUM_AXES};
 pub use config::MachineConfig;
-pub use stepper::{SERVO_TENTHS_MAX, StepBlock, TICK_HZ};
+pub use step_block::{SERVO_TENTHS_MAX, StepBlock, TICK_HZ};

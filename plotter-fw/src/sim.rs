@@ -29,7 +29,7 @@ use crate::config::MachineConfig;
 use crate::fmath::round_i32;
 use crate::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer};
 use crate::machine::Machine;
-use crate::stepper::TICK_HZ;
+use crate::step_block::TICK_HZ;
 use crate::thermal::ThermalConfig;
 
 pub mod thermal;
@@ -398,7 +398,7 @@ impl Sim {
             // for a temperature) or for a bounded run; an idle machine holding its temperature does not keep
             // `run_until_idle` going for ever.
             let busy = end != u64::MAX || self.machine.has_input() || !self.machine.stepper().is_idle();
-            let thermal_at = self.machine.thermal_deadline().filter(|_| busy).map(|t| t.max(self.now()));
+            let thermal_at = self.machine.thermal().next_deadline().filter(|_| busy).map(|t| t.max(self.now()));
             let next = match [timer_at, byte_at, thermal_at].into_iter().flatten().min() {
                 Some(t) => t,
                 None => {

@@ -22,10 +22,11 @@ use std::time::Duration;
 
 use anyhow::{Context as _, bail};
 use plotter_fw::MachineConfig;
+use plotter_fw::heater::Heater;
 use plotter_fw::protocol::{RT_STATUS, Reply};
 use plotter_fw::sim::thermal::SimFault;
 use plotter_fw::sim::{Sim, SimOptions};
-use plotter_fw::thermal::{Heater, ThermalConfig};
+use plotter_fw::thermal::ThermalConfig;
 use plotter_path::motion::print_plan::{PrintItem, PrintPlan, wire_items};
 
 use super::Transport;

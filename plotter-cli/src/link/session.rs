@@ -206,7 +206,7 @@ impl<T: Transport> Session<T> {
         let mut seq = self.status()?.seq;
         'attempt: for _attempt in 0..10 {
             let body = format!("N{seq} M{} S1", framing::M_FRAMED);
-            let cs = plotter_fw::protocol::xor_checksum(body.as_bytes());
+            let cs = plotter_fw::gcode::xor_checksum(body.as_bytes());
             self.transport.send(format!("{body}*{cs}\n").as_bytes())?;
             let deadline = self.transport.now() + COMMAND_TIMEOUT;
             loop {
@@ -259,7 +259,7 @@ impl<T: Transport> Session<T> {
         let mut seq = self.status()?.seq;
         for _attempt in 0..10 {
             let body = format!("N{seq} M{} S0", framing::M_FRAMED);
-            let cs = plotter_fw::protocol::xor_checksum(body.as_bytes());
+            let cs = plotter_fw::gcode::xor_checksum(body.as_bytes());
             self.transport.send(format!("{body}*{cs}\n").as_bytes())?;
             self.framed = false;
             let deadline = self.transport.now() + COMMAND_TIMEOUT;
@@ -346,7 +346,7 @@ impl<T: Transport> Session<T> {
         let mut seq = self.status()?.seq;
         for _attempt in 0..10 {
             let body = format!("N{seq} {line}");
-            let cs = plotter_fw::protocol::xor_checksum(body.as_bytes());
+            let cs = plotter_fw::gcode::xor_checksum(body.as_bytes());
             self.transport.send(format!("{body}*{cs}\n").as_bytes())?;
             let deadline = self.transport.now() + timeout;
             loop {

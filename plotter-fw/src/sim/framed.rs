@@ -6,9 +6,10 @@ use std::vec::Vec;
 
 use super::*;
 use crate::framing::{parse_reply, rt_sequence};
-use crate::protocol::{Encoder, MAX_FRAME, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, xor_checksum};
+use crate::gcode::xor_checksum;
+use crate::protocol::{Encoder, MAX_FRAME, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS};
 use crate::realtime::MachineState;
-use crate::stepper::StepBlock;
+use crate::step_block::StepBlock;
 
 fn numbered(n: u32, body: &str) -> String {
     let line = std::format!("N{n} {body}");

@@ -122,7 +122,7 @@ fn g28_with_bare_axis_letters_homes_those_axes() {
 #[test]
 fn step_frame_beyond_the_position_range_is_refused() {
     use crate::protocol::{Encoder, MAX_FRAME};
-    use crate::stepper::StepBlock;
+    use crate::step_block::StepBlock;
     // An X axis of 10^9 steps homing at its maximum end: after `G28 X` the machine stands at +10^9 steps, and
     // 2^30 − 10^9 = 73 741 824 steps further is the end of the position range: the 9th frame of 2^23 − 1 steps
     // (queued, not yet stepped: targets are checked when a block is queued) crosses it.
@@ -394,7 +394,7 @@ proptest! {
             "[GMNXYZEFPS0-9. *;()-]{0,40}\n".prop_map(String::into_bytes),
             (proptest::array::uniform4(-9_000_000i32..9_000_000), 1u32..70_000, any::<u32>(), any::<usize>(), any::<u8>())
                 .prop_map(|(steps, rate, seq, pos, flip)| {
-                    let b = crate::stepper::StepBlock { steps, entry_rate: 0, cruise_rate: rate, exit_rate: 0, accel: 5000, dwell_ticks: 0, servo: None };
+                    let b = crate::step_block::StepBlock { steps, entry_rate: 0, cruise_rate: rate, exit_rate: 0, accel: 5000, dwell_ticks: 0, servo: None };
                     let mut out = [0u8; crate::protocol::MAX_FRAME];
                     let mut enc = crate::protocol::Encoder::new();
                     let n = enc.encode(&crate::protocol::quantize(&b), seq % 4, &mut out).unwrap_or(0);
@@ -405,7 +405,7 @@ proptest! {
                     }
                     v
                 }),
-            Just(b"N0 M990 S1*".iter().copied().chain(std::format!("{}\n", crate::protocol::xor_checksum(b"N0 M990 S1")).into_bytes()).collect::<Vec<u8>>()),
+            Just(b"N0 M990 S1*".iter().copied().chain(std::format!("{}\n", crate::gcode::xor_checksum(b"N0 M990 S1")).into_bytes()).collect::<Vec<u8>>()),
         ], 1..16)
     ) {
         let mut sim = Sim::new(cfg());

@@ -8,8 +8,8 @@ use super::thermal::SimFault;
 use super::*;
 use crate::config::AxisConfig;
 use crate::errors::AlarmCode;
-use crate::thermal::safety::Fault;
-use crate::thermal::{Heater, ThermalAlarm};
+use crate::errors::{Fault, ThermalAlarm};
+use crate::heater::Heater;
 
 const S: u64 = 1_000_000;
 
@@ -203,7 +203,7 @@ fn cold_step_blocks_with_extrusion_are_refused_and_latch() {
     use crate::protocol::{Encoder, MAX_FRAME};
     let mut sim = printer();
     sim.take_replies();
-    let block = |steps| crate::StepBlock {
+    let block = |steps| crate::step_block::StepBlock {
         steps,
         entry_rate: 0,
         cruise_rate: 1000,
@@ -391,7 +391,7 @@ fn emergency_stop_acts_while_a_wait_holds_the_queue() {
 #[test]
 fn plotter_has_no_heaters_and_no_thermal_schedule() {
     let mut sim = Sim::new(MachineConfig::xy_plotter());
-    assert_eq!(sim.machine().thermal_deadline(), None);
+    assert_eq!(sim.machine().thermal().next_deadline(), None);
     sim.feed(b"M104 S200\nM105\nG1 X1 F600\n");
     sim.run_until_idle();
     let r = sim.take_replies();

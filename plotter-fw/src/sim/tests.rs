@@ -8,10 +8,11 @@ use std::vec::Vec;
 use rand::{RngExt, SeedableRng, rngs::StdRng};
 
 use super::*;
+use crate::gcode::xor_checksum;
 use crate::planner::{PlanBlock, link_all, plan, step_blocks};
-use crate::protocol::{Encoder, MAX_FRAME, RT_FEED_HOLD, RT_RESUME, RT_STATUS, quantize, xor_checksum};
+use crate::protocol::{Encoder, MAX_FRAME, RT_FEED_HOLD, RT_RESUME, RT_STATUS, quantize};
 use crate::realtime::MachineState;
-use crate::stepper::StepBlock;
+use crate::step_block::StepBlock;
 
 fn cfg() -> MachineConfig {
     MachineConfig::xy_plotter()

@@ -25,8 +25,9 @@
 use std::vec::Vec;
 
 use crate::hal::Heaters;
+use crate::heater::{Heater, NUM_HEATERS};
+use crate::thermal::ThermalConfig;
 use crate::thermal::thermistor::{Curve, KELVIN, Thermistor};
-use crate::thermal::{Heater, NUM_HEATERS, ThermalConfig};
 
 /// Physical parameters of one heater.
 #[derive(Debug, Clone, Copy, PartialEq)]

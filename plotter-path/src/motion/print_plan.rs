@@ -116,7 +116,7 @@ pub fn wire_items(plan: &PrintPlan, base: u32) -> Result<Vec<Vec<u8>>, String> {
             }
             PrintItem::Line { text, .. } => {
                 let body = format!("N{seq} {text}");
-                let cs = protocol::xor_checksum(body.as_bytes());
+                let cs = plotter_fw::gcode::xor_checksum(body.as_bytes());
                 out.push(format!("{body}*{cs}\n").into_bytes());
             }
         }

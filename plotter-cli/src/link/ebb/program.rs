@@ -171,11 +171,11 @@ struct Phase {
     r1: [f64; 2],
 }
 
-/// The trapezoid of a block as the stepper's [`plotter_fw::stepper::Profile`] builds it: `(events, start rate,
+/// The trapezoid of a block as the stepper's [`plotter_fw::step_block::Profile`] builds it: `(events, start rate,
 /// end rate, seconds)` per phase, in f64.
 fn trapezoid(b: &StepBlock) -> Vec<(f64, f64, f64, f64)> {
     let n = f64::from(b.events());
-    let max = f64::from(plotter_fw::stepper::MAX_RATE);
+    let max = f64::from(plotter_fw::step_block::MAX_RATE);
     let vc = f64::from(b.cruise_rate).clamp(1.0, max);
     let v0 = f64::from(b.entry_rate).min(max).min(vc);
     let v1 = f64::from(b.exit_rate).min(max).min(vc);

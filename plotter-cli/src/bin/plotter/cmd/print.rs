@@ -14,8 +14,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use plotter_fw::heater::Heater;
 use plotter_fw::sim::thermal::SimFault;
-use plotter_fw::thermal::Heater;
 use plotter_fw::{Axis, TICK_HZ};
 use plotter_path::input::gcode_print::import_print;
 use plotter_path::motion::heaters::thermal_config;

@@ -36,8 +36,7 @@
 
 use core::fmt;
 
-use crate::thermal::ThermalAlarm;
-use crate::thermal::safety::Fault;
+use crate::heater::Heater;
 
 /// Why a line was refused (see the module table).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -175,6 +174,43 @@ impl fmt::Display for AlarmCode {
     }
 }
 
+/// A thermal fault of one heater: what the machine latches as its alarm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ThermalAlarm {
+    /// The heater whose sensor tripped.
+    pub heater: Heater,
+    /// What tripped.
+    pub fault: Fault,
+}
+
+/// A safety trip.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// Below the minimum, or the thermistor is open.
+    MinTemp,
+    /// Above the maximum, or the thermistor is shorted.
+    MaxTemp,
+    /// Heating but not rising.
+    HeatingFailed,
+    /// Fell out of the holding band for too long.
+    Runaway,
+    /// No fresh reading.
+    SensorTimeout,
+}
+
+impl Fault {
+    /// Short name, as printer firmwares print it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Fault::MinTemp => "MINTEMP",
+            Fault::MaxTemp => "MAXTEMP",
+            Fault::HeatingFailed => "heating failed",
+            Fault::Runaway => "thermal runaway",
+            Fault::SensorTimeout => "sensor timeout",
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -204,7 +240,7 @@ mod tests {
         }
         assert_eq!(ErrorCode::SoftLimit.to_string(), "error:7 target outside the travel");
         assert_eq!(AlarmCode::HomingNotFound.to_string(), "ALARM:2 homing failed: switch not found");
-        let t = AlarmCode::Thermal(ThermalAlarm { heater: crate::thermal::Heater::Bed, fault: Fault::Runaway });
+        let t = AlarmCode::Thermal(ThermalAlarm { heater: Heater::Bed, fault: Fault::Runaway });
         assert_eq!(t.code(), 8);
         assert_eq!(
             t.to_string(),

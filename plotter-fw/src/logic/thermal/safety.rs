@@ -16,6 +16,7 @@
 //! off (target 0) ends both.
 
 use super::thermistor::Reading;
+use crate::errors::Fault;
 use crate::fmath::round_u32;
 
 /// Limits of the safety checks of one heater (see the module table).
@@ -65,34 +66,6 @@ impl SafetyConfig {
             return Err("heat_rise_c and hold_band_c must be positive");
         }
         Ok(())
-    }
-}
-
-/// A safety trip.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Fault {
-    /// Below the minimum, or the thermistor is open.
-    MinTemp,
-    /// Above the maximum, or the thermistor is shorted.
-    MaxTemp,
-    /// Heating but not rising.
-    HeatingFailed,
-    /// Fell out of the holding band for too long.
-    Runaway,
-    /// No fresh reading.
-    SensorTimeout,
-}
-
-impl Fault {
-    /// Short name, as printer firmwares print it.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Fault::MinTemp => "MINTEMP",
-            Fault::MaxTemp => "MAXTEMP",
-            Fault::HeatingFailed => "heating failed",
-            Fault::Runaway => "thermal runaway",
-            Fault::SensorTimeout => "sensor timeout",
-        }
     }
 }
 

@@ -17,7 +17,7 @@ use crate::config::MachineConfig;
 use crate::errors::AlarmCode;
 use crate::fmath::{round_i32, round_u32};
 use crate::planner::{PlanBlock, to_step_block};
-use crate::stepper::{StepBlock, TICK_HZ};
+use crate::step_block::{StepBlock, TICK_HZ};
 
 /// Flag in a stepper home mask: this is a homing block (hard limits are not checked during it).
 pub const HOMING_BLOCK: u8 = 0x80;

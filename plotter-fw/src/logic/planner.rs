@@ -55,7 +55,7 @@
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
 use crate::fmath::{floor_u32, sqrt};
-use crate::stepper::{MAX_RATE, StepBlock};
+use crate::step_block::{MAX_RATE, StepBlock};
 
 /// Path length (mm) followed on each side of a vertex to measure the radius of the curve through it.
 pub const CURVE_SPAN_MM: f32 = 2.0;
@@ -614,7 +614,7 @@ pub fn step_blocks(blocks: &[PlanBlock]) -> impl Iterator<Item = StepBlock> + '_
     (0..blocks.len()).map(|i| to_step_block(&blocks[i], exit_speed_sqr(blocks, i)))
 }
 
-/// Exact execution time of a planned sequence, timer ticks ([`crate::stepper::TICK_HZ`]): the sum of the
+/// Exact execution time of a planned sequence, timer ticks ([`crate::step_block::TICK_HZ`]): the sum of the
 /// stepper's [`StepBlock::duration_ticks`].
 pub fn total_ticks(blocks: &[PlanBlock]) -> u64 {
     step_blocks(blocks).map(|b| u64::from(b.duration_ticks())).sum()

@@ -1,7 +1,7 @@
 //! Deterministic float helpers for `no_std`.
 //!
 //! `core` has no `f32::sqrt` on stable, and the host and the firmware must compute **bit-identical** step times
-//! (the host's time estimate is the stepper's own arithmetic, see [`crate::stepper`]). So the square root here is
+//! (the host's time estimate is the stepper's own arithmetic, see [`crate::step_block`]). So the square root here is
 //! built only from IEEE-754 addition, multiplication and division, which are correctly rounded on every platform
 //! (x86-64 SSE and the Cortex-M4 FPU alike): the result depends on nothing but the input bits.
 

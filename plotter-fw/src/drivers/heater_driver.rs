@@ -1,13 +1,15 @@
-//! Heaters of the printer profile: the hot end and the bed, each a PWM output with a thermistor input, plus the
-//! part-cooling fan. Plotter profiles configure none ([`ThermalConfig::NONE`]) and never reach this code.
+//! The heater driver of the printer profile: the hot end and the bed, each a PWM output with a thermistor input, plus
+//! the part-cooling fan, run through [`Heaters`]. Plotter profiles configure none ([`ThermalConfig::NONE`]) and never
+//! reach this code. It takes typed commands ([`HeaterCommand`], parsed from G-code by [`crate::thermal_gcode`]).
 //!
 //! # Scheduling
 //! [`Thermal::tick`] runs at the fixed rate [`ThermalConfig::period_ms`] from the core's main loop
 //! ([`crate::machine::Machine::poll`], which the scheduler wakes at [`Thermal::next_deadline`]). Each period it
 //! reads every configured thermistor ([`crate::hal::Heaters::read_thermistor`]), runs the safety checks
-//! ([`safety`]), then the PID ([`pid`]) or the autotune relay ([`autotune`]), and writes the PWM duty.
+//! ([`crate::thermal::safety`]), then the PID ([`crate::thermal::pid`]) or the autotune relay
+//! ([`crate::thermal::autotune`]), and writes the PWM duty.
 //!
-//! # Commands (Marlin's meanings)
+//! # Commands (Marlin's meanings; M112, the emergency stop, is the machine's)
 //! | command | does |
 //! |---------|------|
 //! | `M104 S<t>` | hot-end target, no wait (`S0` = off) |
@@ -18,12 +20,11 @@
 //! | `M106 S<0–255>` / `M107` | part-cooling fan duty / off |
 //! | `M303 E<0\|-1> S<t> C<n> U1` | PID autotune of the hot end (E0) or bed (E−1) at `t` over `n` cycles; `U1` applies the gains |
 //! | `M301 P I D` / `M304 P I D` | set (or, without words, report) the hot-end / bed PID gains |
-//! | `M112` | emergency stop: heaters off, motion stopped, motors off, alarm (acts as soon as the line is received) |
-//! | `M302` | cold extrusion: `P1` allows it, `P0` prevents it, `S<t>` sets the minimum (`S0` allows), no words report |
+//! //! | `M302` | cold extrusion: `P1` allows it, `P0` prevents it, `S<t>` sets the minimum (`S0` allows), no words report |
 //!
 //! A wait (`M109`, `M190`, `M303`) keeps its line pending, so the commands after it wait too, and reports the
 //! temperatures every second meanwhile. A target is reached once the temperature has stayed within
-//! [`HeaterConfig::wait_window_c`] of it for [`HeaterConfig::wait_residency_s`].
+//! [`crate::thermal::HeaterConfig::wait_window_c`] of it for [`crate::thermal::HeaterConfig::wait_residency_s`].
 //!
 //! # Cold extrusion
 //! Pushing filament through a nozzle too cold to melt it grinds the filament or jams the extruder, so, as in Marlin,
@@ -35,246 +36,23 @@
 //!
 //! # Safety
 //! Every fault switches all heaters and the fan off and returns a [`ThermalAlarm`] naming the sensor; the machine
-//! latches it as an alarm, stops motion and disables the motors. See [`safety`] for the checks and their times.
-
-pub mod autotune;
-pub mod pid;
-pub mod safety;
-pub mod thermistor;
+//! latches it as an alarm, stops motion and disables the motors. See [`crate::thermal::safety`] for the checks and
+//! their times.
 
 use core::fmt::{self, Write};
 
 use crate::decimal::Decimal;
-use crate::errors::ErrorCode;
-use crate::gcode::{MICRO, Words};
+use crate::errors::{ErrorCode, Fault, ThermalAlarm};
 use crate::hal::Heaters;
-use autotune::{Autotune, Step};
-use pid::{Pid, PidGains};
-use safety::{Fault, Guard, SafetyConfig, ticks};
-use thermistor::{Reading, Thermistor};
+use crate::heater::{Heater, NUM_HEATERS};
+use crate::thermal::ThermalConfig;
+use crate::thermal::autotune::{self, Autotune, Step};
+use crate::thermal::pid::{Pid, PidGains};
+use crate::thermal::safety::{self, Guard, ticks};
+use crate::thermal::thermistor::Reading;
+use crate::thermal_gcode::HeaterCommand;
 
-/// Number of heater channels.
-pub const NUM_HEATERS: usize = 2;
-
-/// A heater channel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Heater {
-    /// The hot end (tool 0), sensor `T0`.
-    HotEnd = 0,
-    /// The heated bed, sensor `B`.
-    Bed = 1,
-}
-
-impl Heater {
-    /// Both channels in index order.
-    pub const ALL: [Heater; NUM_HEATERS] = [Heater::HotEnd, Heater::Bed];
-
-    /// Index into per-heater arrays.
-    pub const fn index(self) -> usize {
-        self as usize
-    }
-
-    /// The name used in alarms and errors.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Heater::HotEnd => "hot end sensor T0",
-            Heater::Bed => "bed sensor B",
-        }
-    }
-}
-
-/// A thermal fault of one heater: what the machine latches as its alarm.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ThermalAlarm {
-    /// The heater whose sensor tripped.
-    pub heater: Heater,
-    /// What tripped.
-    pub fault: Fault,
-}
-
-/// Settings of one heater.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeaterConfig {
-    /// Whether the heater exists.
-    pub enabled: bool,
-    /// Its thermistor and conversion.
-    pub sensor: Thermistor,
-    /// Safety limits.
-    pub safety: SafetyConfig,
-    /// PID gains (duty 0–255 per °C).
-    pub pid: PidGains,
-    /// Highest PWM duty, 1–255.
-    pub max_duty: u8,
-    /// Highest target a command may set, °C (below MAXTEMP).
-    pub max_target_c: f32,
-    /// A wait is over once the temperature is within this of the target, °C...
-    pub wait_window_c: f32,
-    /// ...for this long, s.
-    pub wait_residency_s: f32,
-}
-
-impl HeaterConfig {
-    /// No heater.
-    pub const NONE: HeaterConfig = HeaterConfig {
-        enabled: false,
-        sensor: Thermistor::NTC_100K_3950,
-        safety: SafetyConfig {
-            min_c: 5.0,
-            max_c: 275.0,
-            heat_period_s: 20.0,
-            heat_rise_c: 2.0,
-            hold_period_s: 40.0,
-            hold_band_c: 4.0,
-            watchdog_s: 2.0,
-        },
-        pid: PidGains { kp: 1.0, ki: 0.0, kd: 0.0 },
-        max_duty: 255,
-        max_target_c: 0.0,
-        wait_window_c: 1.0,
-        wait_residency_s: 0.0,
-    };
-
-    fn validate(&self) -> Result<(), &'static str> {
-        self.sensor.validate()?;
-        self.safety.validate()?;
-        if !self.pid.is_valid() {
-            return Err("pid gains must be finite, kp positive, ki and kd zero or positive");
-        }
-        if self.max_duty == 0 {
-            return Err("max_duty must be positive");
-        }
-        if !(self.max_target_c.is_finite()
-            && self.max_target_c > self.safety.min_c
-            && self.max_target_c <= self.safety.max_c - self.safety.hold_band_c)
-        {
-            return Err("max_target_c must lie above min_c and at least hold_band_c below max_c");
-        }
-        if !(self.wait_window_c.is_finite() && self.wait_window_c > 0.0) {
-            return Err("wait_window_c must be positive");
-        }
-        if !(self.wait_residency_s.is_finite() && (0.0..=600.0).contains(&self.wait_residency_s)) {
-            return Err("wait_residency_s must lie in 0..=600");
-        }
-        Ok(())
-    }
-}
-
-/// The heaters of a machine (board configuration).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ThermalConfig {
-    /// Hot end and bed, indexed by [`Heater::index`].
-    pub heaters: [HeaterConfig; NUM_HEATERS],
-    /// Whether a part-cooling fan is wired.
-    pub fan: bool,
-    /// PID and safety-check period, ms.
-    pub period_ms: u32,
-    /// Below this hot-end temperature, °C, moves with extrusion are refused (Marlin's `EXTRUDE_MINTEMP`; 0 allows
-    /// them at any temperature). See the module docs.
-    pub min_extrude_c: f32,
-}
-
-/// The default of [`ThermalConfig::min_extrude_c`], °C (Marlin's).
-pub const DEFAULT_MIN_EXTRUDE_C: f32 = 170.0;
-
-/// A heater setting out of range.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ThermalConfigError {
-    /// The heater, when per heater.
-    pub heater: Option<Heater>,
-    /// What is wrong.
-    pub problem: &'static str,
-}
-
-impl fmt::Display for ThermalConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.heater {
-            Some(Heater::HotEnd) => write!(f, "heaters.hotend: {}", self.problem),
-            Some(Heater::Bed) => write!(f, "heaters.bed: {}", self.problem),
-            None => write!(f, "heaters: {}", self.problem),
-        }
-    }
-}
-
-impl ThermalConfig {
-    /// No heaters, no fan (plotters).
-    pub const NONE: ThermalConfig = ThermalConfig {
-        heaters: [HeaterConfig::NONE; NUM_HEATERS],
-        fan: false,
-        period_ms: 100,
-        min_extrude_c: DEFAULT_MIN_EXTRUDE_C,
-    };
-
-    /// The printer of `samples/printer.toml`: a 100k/3950 thermistor on each heater, hot end up to 260 °C, bed up
-    /// to 110 °C, fan, extrusion from 170 °C.
-    pub fn printer() -> Self {
-        let hotend = HeaterConfig {
-            enabled: true,
-            max_target_c: 260.0,
-            pid: PidGains { kp: 20.0, ki: 1.0, kd: 80.0 },
-            wait_residency_s: 3.0,
-            ..HeaterConfig::NONE
-        };
-        let bed = HeaterConfig {
-            enabled: true,
-            safety: SafetyConfig {
-                min_c: 5.0,
-                max_c: 125.0,
-                heat_period_s: 60.0,
-                heat_rise_c: 2.0,
-                hold_period_s: 60.0,
-                hold_band_c: 3.0,
-                watchdog_s: 2.0,
-            },
-            pid: PidGains { kp: 60.0, ki: 1.0, kd: 500.0 },
-            max_target_c: 110.0,
-            wait_residency_s: 3.0,
-            ..HeaterConfig::NONE
-        };
-        ThermalConfig { heaters: [hotend, bed], fan: true, period_ms: 100, min_extrude_c: DEFAULT_MIN_EXTRUDE_C }
-    }
-
-    /// Whether any heater is configured.
-    pub fn is_active(&self) -> bool {
-        self.heaters.iter().any(|h| h.enabled)
-    }
-
-    /// The settings of `heater`.
-    pub fn heater(&self, heater: Heater) -> &HeaterConfig {
-        &self.heaters[heater.index()]
-    }
-
-    /// Check every value; the first problem found is returned.
-    pub fn validate(&self) -> Result<(), ThermalConfigError> {
-        if !(10..=1000).contains(&self.period_ms) {
-            return Err(ThermalConfigError { heater: None, problem: "period_ms must lie in 10..=1000" });
-        }
-        for h in Heater::ALL {
-            let c = self.heater(h);
-            if c.enabled {
-                c.validate().map_err(|problem| ThermalConfigError { heater: Some(h), problem })?;
-                // The watchdog must see at least two periods.
-                if ticks(c.safety.watchdog_s) < 2 * u64::from(self.period_ms) * 1000 {
-                    return Err(ThermalConfigError {
-                        heater: Some(h),
-                        problem: "watchdog_s must cover at least two thermal periods",
-                    });
-                }
-            }
-        }
-        let hotend = self.heater(Heater::HotEnd);
-        if hotend.enabled
-            && !(self.min_extrude_c.is_finite() && (0.0..=hotend.max_target_c).contains(&self.min_extrude_c))
-        {
-            return Err(ThermalConfigError {
-                heater: None,
-                problem: "min_extrude_c must lie from 0 to the hot end's max_target_c (else nothing could extrude)",
-            });
-        }
-        Ok(())
-    }
-}
-
-/// What a thermal command asks the machine to do.
+/// What a heater command asks the machine to do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Cmd {
     /// Done: answer `ok`.
@@ -283,13 +61,6 @@ pub enum Cmd {
     Blocked,
     /// Refused: answer `error:` with this code and detail.
     Error(ErrorCode, &'static str),
-    /// `M112`: stop everything.
-    EmergencyStop,
-}
-
-/// Whether `m` is a command of this module.
-pub fn handles(m: u16) -> bool {
-    matches!(m, 104 | 105 | 106 | 107 | 109 | 112 | 140 | 155 | 190 | 301 | 302 | 303 | 304)
 }
 
 /// Why a move with extrusion was refused: the hot end's temperature (NaN without a valid reading) and the minimum.
@@ -619,146 +390,111 @@ impl Thermal {
         c.in_window_since.is_some_and(|since| now - since >= ticks(cfg.wait_residency_s))
     }
 
-    /// Run a thermal command (`handles(m)` for one of its M codes). `alarm`: the machine is in alarm (heating is
+    /// Run a command parsed from G-code ([`crate::thermal_gcode`]). `alarm`: the machine is in alarm (heating is
     /// refused then). Reports go to `out`.
     pub fn command<IO: Heaters, W: Write>(
         &mut self,
-        w: &Words,
+        cmd: HeaterCommand,
         now: u64,
         io: &mut IO,
         out: &mut W,
         alarm: bool,
     ) -> Cmd {
-        let Some(&m) = w.m.iter().find(|m| handles(**m)) else { return Cmd::Ok };
-        if w.m.len() > 1 || !w.g.is_empty() {
-            return Cmd::Error(ErrorCode::UnsupportedWord, ": a temperature command goes on a line of its own");
-        }
-        if m == 112 {
-            return Cmd::EmergencyStop;
-        }
-        let allowed: &[u8] = match m {
-            104 | 109 | 140 | 190 => b"SRTN",
-            106 => b"SPN",
-            107 | 105 => b"PTN",
-            155 => b"SN",
-            302 => b"PSN",
-            303 => b"ESCUN",
-            301 | 304 => b"PIDN",
-            _ => b"N",
-        };
-        for bit in 0..26u8 {
-            if w.letters() & (1 << bit) != 0 && !allowed.contains(&(b'A' + bit)) {
-                return Cmd::Error(ErrorCode::UnsupportedWord, ": not a word of this command");
+        match cmd {
+            HeaterCommand::Fan(_) if !self.cfg.fan => Cmd::Error(ErrorCode::UnknownCommand, ": no fan configured"),
+            HeaterCommand::Fan(duty) => {
+                self.fan = duty;
+                io.set_fan(duty);
+                Cmd::Ok
             }
-        }
-        let celsius = |v: i64| v as f32 / MICRO as f32;
-        if matches!(m, 106 | 107) {
-            if !self.cfg.fan {
-                return Cmd::Error(ErrorCode::UnknownCommand, ": no fan configured");
-            }
-            if w.get(b'P').is_some_and(|p| p != 0) {
-                return Cmd::Error(ErrorCode::InvalidValue, ": only fan P0 exists");
-            }
-            let duty = if m == 107 { 0 } else { w.get(b'S').map_or(255, |s| s / MICRO) };
-            let Ok(duty) = u8::try_from(duty) else {
-                return Cmd::Error(ErrorCode::InvalidValue, ": fan S must lie in 0..=255");
-            };
-            self.fan = duty;
-            io.set_fan(duty);
-            return Cmd::Ok;
-        }
-        if !self.is_active() {
-            return Cmd::Error(ErrorCode::UnknownCommand, ": no heaters configured");
-        }
-        if w.get(b'T').is_some_and(|t| t != 0) {
-            return Cmd::Error(ErrorCode::InvalidValue, ": only tool T0 exists");
-        }
-        match m {
-            105 => {
+            HeaterCommand::Report => {
                 self.report(out);
                 Cmd::Ok
             }
-            155 => {
-                let s = w.get(b'S').unwrap_or(0);
-                if !(0..=60 * MICRO).contains(&s) {
-                    return Cmd::Error(ErrorCode::InvalidValue, ": M155 S must lie in 0..=60 s");
-                }
-                self.report_every = u64::try_from(s).unwrap_or(0);
+            HeaterCommand::ReportEvery(every) => {
+                self.report_every = every;
                 self.next_report = now;
                 Cmd::Ok
             }
-            301 | 304 => {
-                let h = if m == 301 { Heater::HotEnd } else { Heater::Bed };
-                if !self.cfg.heater(h).enabled {
-                    return Cmd::Error(ErrorCode::InvalidValue, ": no such heater");
-                }
-                let mut g = self.ch[h.index()].gains;
-                if !(w.has(b'P') || w.has(b'I') || w.has(b'D')) {
-                    let _ = writeln!(
-                        out,
-                        "{} Kp:{} Ki:{} Kd:{}",
-                        pid_label(h),
-                        Decimal::new(g.kp, 3),
-                        Decimal::new(g.ki, 4),
-                        Decimal::new(g.kd, 3)
-                    );
-                    return Cmd::Ok;
-                }
-                g.kp = w.get(b'P').map_or(g.kp, celsius);
-                g.ki = w.get(b'I').map_or(g.ki, celsius);
-                g.kd = w.get(b'D').map_or(g.kd, celsius);
-                if !g.is_valid() {
-                    return Cmd::Error(ErrorCode::InvalidValue, ": PID gains must be non-negative, P positive");
-                }
-                self.ch[h.index()].gains = g;
-                Cmd::Ok
+            HeaterCommand::Gains { heater, kp, ki, kd } => self.gains_command(heater, [kp, ki, kd], out),
+            HeaterCommand::ColdExtrusion { min_c, allow } => self.cold_extrusion_command(min_c, allow, out),
+            HeaterCommand::Autotune { heater, target_c, cycles, apply } => {
+                self.autotune_command(heater, target_c, cycles, apply, now, out, alarm)
             }
-            302 => self.cold_extrusion_command(w, out),
-            303 => self.autotune_command(w, now, out, alarm),
-            _ => {
-                let h = if matches!(m, 104 | 109) { Heater::HotEnd } else { Heater::Bed };
-                let wait = matches!(m, 109 | 190);
-                let (value, cooling) = match (w.get(b'S'), w.get(b'R')) {
-                    (Some(_), Some(_)) => return Cmd::Error(ErrorCode::UnsupportedWord, ": S or R, not both"),
-                    (Some(s), None) => (Some(s), false),
-                    (None, Some(r)) => (Some(r), true),
-                    (None, None) => (None, false),
-                };
-                if let Some(v) = value {
-                    let t = celsius(v);
-                    if alarm && t > 0.0 {
-                        return Cmd::Error(ErrorCode::Alarm, "");
-                    }
-                    if self.autotune.is_some_and(|(th, _, _)| th == h) {
-                        return Cmd::Error(ErrorCode::InvalidValue, ": autotune running on this heater");
-                    }
-                    if let Err(why) = self.set_target(h, t, now) {
-                        self.waiting = false;
-                        return Cmd::Error(ErrorCode::InvalidValue, detail(why));
-                    }
-                }
-                if wait && !self.wait_over(h, now, cooling) {
-                    if !self.waiting {
-                        self.waiting = true;
-                        self.next_report = now;
-                    }
-                    return Cmd::Blocked;
-                }
-                self.waiting = false;
-                Cmd::Ok
+            HeaterCommand::Target { heater, target_c, wait, cooling } => {
+                self.target_command(heater, target_c, wait, cooling, now, alarm)
             }
         }
     }
 
+    /// `M104`/`M109`/`M140`/`M190`: set the target, then (with `wait`) keep the line pending until it is reached.
+    fn target_command(
+        &mut self,
+        h: Heater,
+        target: Option<f32>,
+        wait: bool,
+        cooling: bool,
+        now: u64,
+        alarm: bool,
+    ) -> Cmd {
+        if let Some(t) = target {
+            if alarm && t > 0.0 {
+                return Cmd::Error(ErrorCode::Alarm, "");
+            }
+            if self.autotune.is_some_and(|(th, _, _)| th == h) {
+                return Cmd::Error(ErrorCode::InvalidValue, ": autotune running on this heater");
+            }
+            if let Err(why) = self.set_target(h, t, now) {
+                self.waiting = false;
+                return Cmd::Error(ErrorCode::InvalidValue, detail(why));
+            }
+        }
+        if wait && !self.wait_over(h, now, cooling) {
+            if !self.waiting {
+                self.waiting = true;
+                self.next_report = now;
+            }
+            return Cmd::Blocked;
+        }
+        self.waiting = false;
+        Cmd::Ok
+    }
+
+    /// `M301`/`M304`: replace the given gains (`[kp, ki, kd]`), or report them when none is given.
+    fn gains_command<W: Write>(&mut self, h: Heater, given: [Option<f32>; 3], out: &mut W) -> Cmd {
+        if !self.cfg.heater(h).enabled {
+            return Cmd::Error(ErrorCode::InvalidValue, ": no such heater");
+        }
+        let mut g = self.ch[h.index()].gains;
+        if given.iter().all(Option::is_none) {
+            let _ = writeln!(
+                out,
+                "{} Kp:{} Ki:{} Kd:{}",
+                pid_label(h),
+                Decimal::new(g.kp, 3),
+                Decimal::new(g.ki, 4),
+                Decimal::new(g.kd, 3)
+            );
+            return Cmd::Ok;
+        }
+        let [kp, ki, kd] = given;
+        g.kp = kp.unwrap_or(g.kp);
+        g.ki = ki.unwrap_or(g.ki);
+        g.kd = kd.unwrap_or(g.kd);
+        if !g.is_valid() {
+            return Cmd::Error(ErrorCode::InvalidValue, ": PID gains must be non-negative, P positive");
+        }
+        self.ch[h.index()].gains = g;
+        Cmd::Ok
+    }
+
     /// `M302` as in Marlin: `S<t>` sets the minimum (and `S0` allows cold extrusion, any other `S` prevents it),
     /// `P1`/`P0` allows/prevents it, neither reports the setting.
-    fn cold_extrusion_command<W: Write>(&mut self, w: &Words, out: &mut W) -> Cmd {
+    fn cold_extrusion_command<W: Write>(&mut self, s: Option<f32>, p: Option<bool>, out: &mut W) -> Cmd {
         let hotend = *self.cfg.heater(Heater::HotEnd);
         if !hotend.enabled {
             return Cmd::Error(ErrorCode::InvalidValue, ": no hot end");
         }
-        let s = w.get(b'S');
-        let p = w.get(b'P');
         if s.is_none() && p.is_none() {
             let _ = writeln!(
                 out,
@@ -769,14 +505,11 @@ impl Thermal {
             );
             return Cmd::Ok;
         }
-        if p.is_some_and(|p| p != 0 && p != MICRO) {
-            return Cmd::Error(ErrorCode::InvalidValue, ": M302 P must be 0 (prevent) or 1 (allow)");
-        }
         let min = match s {
-            Some(s) if !(0..=MICRO * 10_000).contains(&s) || s as f32 / MICRO as f32 > hotend.max_target_c => {
+            Some(s) if !(0.0..=hotend.max_target_c).contains(&s) => {
                 return Cmd::Error(ErrorCode::InvalidValue, ": M302 S must lie from 0 to the hot end's maximum");
             }
-            Some(s) => s as f32 / MICRO as f32,
+            Some(s) => s,
             None => self.min_extrude_c,
         };
         self.min_extrude_c = min;
@@ -784,20 +517,26 @@ impl Thermal {
             self.cold_allowed = min <= 0.0;
         }
         if let Some(p) = p {
-            self.cold_allowed = min <= 0.0 || p != 0;
+            self.cold_allowed = min <= 0.0 || p;
         }
         Cmd::Ok
     }
 
-    fn autotune_command<W: Write>(&mut self, w: &Words, now: u64, out: &mut W, alarm: bool) -> Cmd {
+    /// `M303`: start an autotune (the line stays pending), or, once it ended, report its result.
+    #[allow(clippy::too_many_arguments, reason = "the command's four values plus the call's context")]
+    fn autotune_command<W: Write>(
+        &mut self,
+        h: Heater,
+        target: f32,
+        cycles: u8,
+        apply: bool,
+        now: u64,
+        out: &mut W,
+        alarm: bool,
+    ) -> Cmd {
         if self.autotune.is_some() {
             return Cmd::Blocked;
         }
-        let h = match w.get(b'E').unwrap_or(0) {
-            0 => Heater::HotEnd,
-            -1_000_000 => Heater::Bed,
-            _ => return Cmd::Error(ErrorCode::InvalidValue, ": M303 E must be 0 (hot end) or -1 (bed)"),
-        };
         if let Some(result) = self.autotune_result.take() {
             self.waiting = false;
             return match result {
@@ -825,21 +564,9 @@ impl Thermal {
         if !cfg.enabled {
             return Cmd::Error(ErrorCode::InvalidValue, ": no such heater");
         }
-        let Some(s) = w.get(b'S') else {
-            return Cmd::Error(ErrorCode::InvalidValue, ": M303 needs a target S");
-        };
-        let target = s as f32 / MICRO as f32;
         if !(target > 0.0 && target <= cfg.max_target_c - autotune::HYSTERESIS_C) {
             return Cmd::Error(ErrorCode::InvalidValue, ": M303 target above the heater's maximum");
         }
-        let cycles = w.get(b'C').map_or(5, |c| c / MICRO);
-        let Ok(cycles) = u8::try_from(cycles) else {
-            return Cmd::Error(ErrorCode::InvalidValue, ": M303 C must lie in 3..=20");
-        };
-        if !(3..=autotune::MAX_CYCLES).contains(&cycles) {
-            return Cmd::Error(ErrorCode::InvalidValue, ": M303 C must lie in 3..=20");
-        }
-        let apply = w.get(b'U').is_some_and(|u| u != 0);
         let c = &mut self.ch[h.index()];
         c.target = 0.0;
         c.pid.reset();
@@ -866,56 +593,12 @@ fn detail(why: &'static str) -> &'static str {
     }
 }
 
-/// Spots `M112` in the received bytes, before the line is queued: an emergency stop must act even while earlier
-/// lines wait (a heating wait, a full planner queue). It accepts the line start, an optional `N<n>` line number and
-/// spaces, then `M112` followed by a non-digit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct EmergencyParser {
-    state: u8,
-}
-
-impl EmergencyParser {
-    const START: u8 = 0;
-    const NUMBER: u8 = 1;
-    const SKIP: u8 = 10;
-
-    /// A parser at a line start.
-    pub const fn new() -> Self {
-        EmergencyParser { state: Self::START }
-    }
-
-    /// Feed one received byte; `true` when it completed an `M112`.
-    pub fn feed(&mut self, b: u8) -> bool {
-        if b == b'\n' || b == b'\r' {
-            let fire = self.state == 5;
-            self.state = Self::START;
-            return fire;
-        }
-        let next = match (self.state, b.to_ascii_uppercase()) {
-            (Self::START, b' ') => Self::START,
-            (Self::START, b'N') => Self::NUMBER,
-            (Self::NUMBER, c) if c.is_ascii_digit() => Self::NUMBER,
-            (Self::NUMBER, b' ') => Self::NUMBER,
-            (Self::START | Self::NUMBER, b'M') => 2,
-            (2, b'1') => 3,
-            (3, b'1') => 4,
-            (4, b'2') => 5,
-            (5, c) if c.is_ascii_digit() => Self::SKIP,
-            (5, _) => {
-                self.state = Self::SKIP;
-                return true;
-            }
-            _ => Self::SKIP,
-        };
-        self.state = next;
-        false
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::gcode::parse_words;
+    use crate::thermal::HeaterConfig;
+    use crate::thermal_gcode::{ThermalLine, parse};
     use std::string::String;
 
     #[derive(Default)]
@@ -949,7 +632,12 @@ mod tests {
     fn cmd(t: &mut Thermal, io: &mut Bench, line: &str, now: u64) -> (Cmd, String) {
         let mut out = String::new();
         let w = parse_words(line.as_bytes()).unwrap();
-        (t.command(&w, now, io, &mut out, false), out)
+        let r = match parse(&w, t.config()) {
+            Some(Ok(ThermalLine::Heaters(c))) => t.command(c, now, io, &mut out, false),
+            Some(Err((code, detail))) => Cmd::Error(code, detail),
+            other => panic!("{line}: {other:?}"),
+        };
+        (r, out)
     }
 
     #[test]
@@ -979,7 +667,6 @@ mod tests {
         assert_eq!(io.fan, 128);
         assert_eq!(cmd(&mut t, &mut io, "M107", 0).0, Cmd::Ok);
         assert_eq!(io.fan, 0);
-        assert_eq!(cmd(&mut t, &mut io, "M112", 0).0, Cmd::EmergencyStop);
     }
 
     #[test]
@@ -989,7 +676,6 @@ mod tests {
         assert_eq!(t.next_deadline(), None);
         assert!(matches!(cmd(&mut t, &mut io, "M104 S200", 0).0, Cmd::Error(ErrorCode::UnknownCommand, _)));
         assert!(matches!(cmd(&mut t, &mut io, "M106", 0).0, Cmd::Error(ErrorCode::UnknownCommand, _)));
-        assert_eq!(cmd(&mut t, &mut io, "M112", 0).0, Cmd::EmergencyStop);
     }
 
     #[test]
@@ -1077,19 +763,5 @@ mod tests {
         c.min_extrude_c = 0.0;
         assert_eq!(c.validate(), Ok(()));
         assert_eq!(Thermal::new(c, 0).cold_extrusion(), None, "0 allows cold extrusion");
-    }
-
-    #[test]
-    fn emergency_parser() {
-        let fire = |s: &str| {
-            let mut p = EmergencyParser::new();
-            s.bytes().filter(|b| p.feed(*b)).count()
-        };
-        assert_eq!(fire("M112\n"), 1);
-        assert_eq!(fire("N12 M112*33\n"), 1);
-        assert_eq!(fire("G1 X1\nm112 ; stop\n"), 1);
-        assert_eq!(fire("M1120\n"), 0);
-        assert_eq!(fire("G1 M112\n"), 0);
-        assert_eq!(fire("M11\n"), 0);
     }
 }

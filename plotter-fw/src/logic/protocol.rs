@@ -4,7 +4,7 @@
 //! # Byte stream
 //! Host → firmware is a byte stream of *frames*, each ending with `\n` (a `\r` before it is ignored):
 //! - **G-code line**: ASCII, at most [`crate::line_buffer::LINE_MAX`] bytes. Optionally numbered and checked as
-//!   in RepRap firmwares: `N<n> <words>*<cs>` with `cs` the XOR of all bytes before `*` ([`xor_checksum`]).
+//!   in RepRap firmwares: `N<n> <words>*<cs>` with `cs` the XOR of all bytes before `*` ([`crate::gcode::xor_checksum`]).
 //! - **Step-block frame**: first byte ≥ `0x80` (never valid in G-code), see below.
 //! - **Real-time bytes** [`RT_STATUS`] `?`, [`RT_FEED_HOLD`] `!`, [`RT_RESUME`] `~`, [`RT_RESET`] `0x18` are acted
 //!   on the moment they are received, wherever they appear; they never enter a frame and are not answered with `ok`.
@@ -71,7 +71,7 @@
 //! (entry, cruise and exit all different) 12 bytes including `\n`; a new acceleration adds 3 bytes.
 
 use crate::axis::{Axis, NUM_AXES};
-use crate::stepper::{SERVO_TENTHS_MAX, StepBlock};
+use crate::step_block::{SERVO_TENTHS_MAX, StepBlock};
 
 /// Real-time byte: status report.
 pub const RT_STATUS: u8 = b'?';
@@ -105,11 +105,6 @@ pub const fn is_realtime(b: u8) -> bool {
 
 const fn needs_escape(b: u8) -> bool {
     b == b'\n' || b == ESC || is_realtime(b)
-}
-
-/// XOR checksum of a G-code line (all bytes before `*`).
-pub fn xor_checksum(bytes: &[u8]) -> u8 {
-    bytes.iter().fold(0, |c, b| c ^ b)
 }
 
 fn crc16(seq: u32, marker: u8, payload: &[u8]) -> u16 {

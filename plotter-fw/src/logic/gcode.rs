@@ -10,10 +10,12 @@
 //! Command letters (`G1E5`) are exempt: their numbers are never written with exponents.
 
 use crate::errors::ErrorCode;
-use crate::protocol::xor_checksum;
+use crate::range::MICRO;
 
-/// Fixed-point scale of parsed values: 1 unit = 1 000 000.
-pub const MICRO: i64 = 1_000_000;
+/// XOR checksum of a G-code line (all bytes before `*`), as in RepRap firmwares.
+pub fn xor_checksum(bytes: &[u8]) -> u8 {
+    bytes.iter().fold(0, |c, b| c ^ b)
+}
 
 /// Most G or M codes on one line.
 pub const MAX_CODES: usize = 4;

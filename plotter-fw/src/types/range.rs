@@ -19,8 +19,11 @@
 //! A value outside a bound is answered `error:13 number out of range: <what>` ([`crate::errors::ErrorCode`]);
 //! nothing is queued or changed for that line, homed or not.
 
-use crate::gcode::MICRO;
-use crate::stepper::TICK_HZ;
+use crate::step_block::TICK_HZ;
+
+/// Fixed-point scale of the numbers the G-code parser reads ([`crate::gcode`]): 1 unit = 1 000 000, so a length
+/// is kept in exact millionths of a millimetre.
+pub const MICRO: i64 = 1_000_000;
 
 /// Largest magnitude of a target position, steps.
 pub const MAX_POSITION_STEPS: i32 = 1 << 30;

@@ -14,7 +14,7 @@
 //! nothing for them.
 
 use crate::axis::Axis;
-use crate::thermal::Heater;
+use crate::heater::Heater;
 
 /// Step and direction outputs, one pair per axis, plus the drivers' enable line.
 pub trait StepPins {
@@ -46,7 +46,7 @@ pub trait Endstops {
     fn pressed(&mut self) -> u8;
 }
 
-/// A one-shot step timer counting at [`crate::stepper::TICK_HZ`].
+/// A one-shot step timer counting at [`crate::step_block::TICK_HZ`].
 pub trait StepTimer {
     /// Fire the timer interrupt `ticks` timer ticks after the previous timer event (or after now, when the
     /// stepper was idle). `ticks ≥ 1`.
@@ -63,7 +63,7 @@ pub trait SerialOut {
 
 /// A free-running clock.
 pub trait Clock {
-    /// Time since start in [`crate::stepper::TICK_HZ`] ticks.
+    /// Time since start in [`crate::step_block::TICK_HZ`] ticks.
     fn now(&self) -> u64;
 }
 

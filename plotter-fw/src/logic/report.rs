@@ -14,7 +14,7 @@
 //!
 //! Plain G-code mode never sends them: consoles and GRBL-style senders would not know the line.
 
-use crate::stepper::TICK_HZ;
+use crate::step_block::TICK_HZ;
 
 /// Smallest gap between two completion reports, timer ticks (5 ms).
 pub const MIN_INTERVAL_TICKS: u64 = TICK_HZ as u64 / 200;
