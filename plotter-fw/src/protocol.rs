@@ -746,6 +746,7 @@ mod tests {
         assert_eq!(e.encode(&StepBlock { accel: ACCEL_MAX + 1, ..fast }, 0, &mut out), Err(EncodeError::Accel));
         assert_eq!(e.encode(&StepBlock::dwell(DWELL_MAX + 1), 0, &mut out), Err(EncodeError::Dwell));
         assert_eq!(e.encode(&StepBlock::servo(SERVO_TENTHS_MAX + 1, 0), 0, &mut out), Err(EncodeError::Servo));
+        assert_eq!(e.encode(&StepBlock::servo(SERVO_TENTHS_MAX, 0), 0, &mut out), Ok(9));
         // Refused blocks leave the encoder as it was: the next frame with acceleration 0 carries no field. Codes,
         // X = 1 in 6 bits and cruise 100 = 0x064: 0000 000001 000001100100 + 2 bits of padding = 00 41 90; its
         // CRC-16 (E = 0) 0x3FDE starts with `?`, which is escaped.
@@ -783,7 +784,8 @@ mod tests {
         assert_eq!(d.decode(&[0x80; 24], 0), Err(DecodeError::Framing));
         // 22 bytes fit the buffer: then it is the CRC that fails.
         assert_eq!(d.decode(&[0x80; 23], 0), Err(DecodeError::Crc));
-        // Fewer than the two CRC bytes.
+        // Only the two CRC bytes (an empty payload: the CRC is checked first, and fails), and fewer.
+        assert_eq!(d.decode(&[0x80, 0x00, 0x00], 0), Err(DecodeError::Crc));
         assert_eq!(d.decode(&[0x80, 0x00], 0), Err(DecodeError::Malformed));
         assert_eq!(d.decode(&[0x80], 0), Err(DecodeError::Malformed));
         // A dwell of 16 ticks (payload 00 00 01 00) is fine; with the wrong E its CRC fails.
