@@ -911,4 +911,25 @@ mod tests {
         assert_eq!(Reply::parse("plotter-fwx"), Reply::Info("plotter-fwx"));
         assert_eq!(Reply::parse("ok "), Reply::Info("ok "));
     }
+
+    #[test]
+    fn the_longest_frame_fits_max_frame() {
+        // The widest move: four axes of 24 bits, explicit entry and exit rates, a new acceleration:
+        // 4 + 4·24 + 3·12 + 24 = 160 bits = 20 payload bytes, + 2 CRC bytes; all 22 escaped in the worst case,
+        // plus the marker and `\n`: 1 + 2·22 + 1 = 46 bytes.
+        assert_eq!(MAX_FRAME, 46);
+        let widest = StepBlock {
+            steps: [-(1 << 23), (1 << 23) - 1, 4096, -4097],
+            entry_rate: 1000,
+            cruise_rate: 4800,
+            exit_rate: 2000,
+            accel: 0xAB_CDEF,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let f = enc(&mut Encoder::new(), &widest, 3);
+        let escaped = f.iter().filter(|&&b| b == ESC).count();
+        assert_eq!(f.len(), 1 + 22 + escaped + 1);
+        assert_eq!(Decoder::new().decode(&f[..f.len() - 1], 3), Ok(widest));
+    }
 }
