@@ -994,4 +994,255 @@ mod tests {
         l.push(&mut q2, &c);
         assert_eq!(q2[0].max_entry_speed_sqr, 0.0);
     }
+
+    /// A moving segment of `len` mm along the XY direction `(x, y)` (a unit vector), 1000 mm/s², 50 mm/s.
+    fn seg_xy(x: f32, y: f32, len: f32) -> Seg {
+        Seg { unit: [x, y, 0.0, 0.0], len, accel: 1000.0, nominal: 50.0, fixed: false }
+    }
+
+    /// A segment of `len` mm at `deg` degrees in the XY plane.
+    fn seg_deg(deg: f32, len: f32) -> Seg {
+        let r = deg.to_radians();
+        seg_xy(r.cos(), r.sin(), len)
+    }
+
+    fn close(a: f32, b: f32, tol: f32) -> bool {
+        (a - b).abs() <= tol
+    }
+
+    #[test]
+    fn half_turn_of_hand_computed_turns() {
+        // (1, 0) then (0.6, 0.8): cos φ = 0.6, so cos²(φ/2) = (1 + 0.6)/2 = 0.8 and sin²(φ/2) = 0.2.
+        let (c, s) = half_turn(&seg_xy(1.0, 0.0, 1.0), &seg_xy(0.6, 0.8, 1.0));
+        assert!(close(c, 0.8f32.sqrt(), 1e-6) && close(s, 0.2f32.sqrt(), 1e-6), "{c} {s}");
+        // The same turn between Z and Y (other axes, reversed roles): cos φ = 0.8 → cos² = 0.9, sin² = 0.1.
+        let a = Seg { unit: [0.0, 0.0, 1.0, 0.0], ..seg_xy(0.0, 0.0, 1.0) };
+        let b = Seg { unit: [0.0, 0.6, 0.8, 0.0], ..seg_xy(0.0, 0.0, 1.0) };
+        let (c, s) = half_turn(&a, &b);
+        assert!(close(c, 0.9f32.sqrt(), 1e-6) && close(s, 0.1f32.sqrt(), 1e-6), "{c} {s}");
+        // Straight on: (1, 0); a right angle: (√½, √½); a reversal: (0, 1).
+        assert_eq!(half_turn(&seg_xy(0.6, 0.8, 1.0), &seg_xy(0.6, 0.8, 2.0)), (1.0, 0.0));
+        let (c, s) = half_turn(&seg_xy(1.0, 0.0, 1.0), &seg_xy(0.0, -1.0, 1.0));
+        assert!(close(c, core::f32::consts::FRAC_1_SQRT_2, 1e-6) && close(s, core::f32::consts::FRAC_1_SQRT_2, 1e-6));
+        assert_eq!(half_turn(&seg_xy(0.0, 1.0, 1.0), &seg_xy(0.0, -1.0, 1.0)), (0.0, 1.0));
+    }
+
+    #[test]
+    fn locally_smooth_on_both_sides_of_the_deviation() {
+        // Turn φ from (1, 0) to (0.6, 0.8): tan(φ/2) = 0.5, so tan(φ/4) = 0.5/(1 + √1.25) = √5 − 2 = 0.236068.
+        // Chords of 2 and 3 mm: half the shorter is m = 1 mm, the tangent circle passes 0.236068 mm from the vertex.
+        let (a, b) = (seg_xy(1.0, 0.0, 2.0), seg_xy(0.6, 0.8, 3.0));
+        assert!(locally_smooth(&a, &b, 0.2361));
+        assert!(!locally_smooth(&a, &b, 0.2360));
+        // Either order of the chords (the shorter one decides).
+        assert!(locally_smooth(&b, &a, 0.2361) && !locally_smooth(&b, &a, 0.2360));
+        // A fixed block on either side is never part of a curve.
+        assert!(!locally_smooth(&Seg { fixed: true, ..a }, &b, 10.0));
+        assert!(!locally_smooth(&a, &Seg { fixed: true, ..b }, 10.0));
+        // The turn must stay below 90°, however short the chords: 89° passes, 91° does not.
+        let (a, b) = (seg_deg(0.0, 0.001), seg_deg(89.0, 0.001));
+        assert!(locally_smooth(&a, &b, 1.0));
+        let b = seg_deg(91.0, 0.001);
+        assert!(!locally_smooth(&a, &b, 1.0));
+        // Straight on is smooth even with no deviation allowed.
+        assert!(locally_smooth(&seg_xy(1.0, 0.0, 5.0), &seg_xy(1.0, 0.0, 5.0), 0.0));
+    }
+
+    #[test]
+    fn circumradius_of_a_known_circle() {
+        // The circle of radius 10 mm centred on (0, 10) passes through the origin; (6, 2) and (−8, 4) lie on it
+        // (x² + y² = 20·y). pp = 40, qq = 80, |p − q|² = 200, p × q = 40: r² = 40·80·200/(4·1600) = 100.
+        let r = circumradius(&[6.0, 2.0, 0.0, 0.0], &[-8.0, 4.0, 0.0, 0.0]).unwrap();
+        assert!(close(r, 10.0, 1e-5), "{r}");
+        // The same points in the X/Z and Y/Z planes, and in the other order.
+        let r = circumradius(&[6.0, 0.0, 2.0, 0.0], &[-8.0, 0.0, 4.0, 0.0]).unwrap();
+        assert!(close(r, 10.0, 1e-5), "{r}");
+        let r = circumradius(&[0.0, -8.0, 4.0, 0.0], &[0.0, 6.0, 2.0, 0.0]).unwrap();
+        assert!(close(r, 10.0, 1e-5), "{r}");
+        // A right angle at the origin: the origin, (6, 0, 0) and (0, 0, 8) lie on the circle whose diameter is the
+        // hypotenuse √(6² + 8²) = 10, so r = 5 (X/Z, then Y/E).
+        let r = circumradius(&[6.0, 0.0, 0.0, 0.0], &[0.0, 0.0, 8.0, 0.0]).unwrap();
+        assert!(close(r, 5.0, 1e-5), "{r}");
+        let r = circumradius(&[0.0, 6.0, 0.0, 0.0], &[0.0, 0.0, 0.0, 8.0]).unwrap();
+        assert!(close(r, 5.0, 1e-5), "{r}");
+        // Points 2 mm either side of a vertex of a circle of radius 10 (the span the planner measures): chord
+        // angles ±2·asin(0.1) from the vertex at the bottom of the circle centred on (0, 10).
+        let t = 2.0 * 0.1f64.asin();
+        let on = |a: f64| [(10.0 * a.sin()) as f32, (10.0 - 10.0 * a.cos()) as f32, 0.0, 0.0];
+        let r = circumradius(&on(-t), &on(t)).unwrap();
+        assert!(close(r, 10.0, 2e-3), "{r}");
+        // Collinear (through the origin, on either side or the same side), and a point at the origin: no circle.
+        assert_eq!(circumradius(&[-1.0, -1.0, 0.0, 0.0], &[2.0, 2.0, 0.0, 0.0]), None);
+        assert_eq!(circumradius(&[1.0, 2.0, 3.0, 0.0], &[2.0, 4.0, 6.0, 0.0]), None);
+        assert_eq!(circumradius(&[0.0; NUM_AXES], &[2.0, 1.0, 0.0, 0.0]), None);
+        assert_eq!(circumradius(&[2.0, 1.0, 0.0, 0.0], &[0.0; NUM_AXES]), None);
+        // Nearly collinear: p = (−2, 0), q = (1000, y). |p × q|² = 4y² against the bound 10⁻¹²·|p|²|q|² = 4·10⁻⁶:
+        // y = 5·10⁻⁴ (a bend of 5·10⁻⁷ rad) is within it, y = 2·10⁻³ (2·10⁻⁶ rad) is a circle of radius
+        // |p|·|q|·|p − q|/(2·|p × q|) = 2·1000·1002/(4·2·10⁻³) = 2.505·10⁸ mm.
+        assert_eq!(circumradius(&[-2.0, 0.0, 0.0, 0.0], &[1000.0, 5e-4, 0.0, 0.0]), None);
+        let r = circumradius(&[-2.0, 0.0, 0.0, 0.0], &[1000.0, 2e-3, 0.0, 0.0]).unwrap();
+        assert!((r / 2.505e8 - 1.0).abs() < 1e-2, "{r}");
+    }
+
+    /// `span` over the segments `segs` from vertex `j`.
+    fn span_of(segs: &[Seg], j: usize, forward: bool, tangent: [f32; 2], dev: f32, target: f32) -> [f32; 2] {
+        let seq = |k: usize| segs[k];
+        let v = span(&seq, segs.len(), j, forward, &[tangent[0], tangent[1], 0.0, 0.0], dev, target);
+        assert_eq!(v[2..], [0.0, 0.0]);
+        [v[0], v[1]]
+    }
+
+    fn close2(v: [f32; 2], w: [f32; 2]) -> bool {
+        close(v[0], w[0], 1e-5) && close(v[1], w[1], 1e-5)
+    }
+
+    #[test]
+    fn span_follows_whole_chords_to_the_target() {
+        let x = [1.0, 0.0];
+        // Ten chords of 0.5 mm along X; vertex 5 is where chord 5 starts.
+        let line = [seg_xy(1.0, 0.0, 0.5); 10];
+        assert!(close2(span_of(&line, 5, true, x, 0.1, 2.0), [2.0, 0.0]));
+        assert!(close2(span_of(&line, 5, false, x, 0.1, 2.0), [-2.0, 0.0]));
+        // 1.2 mm aimed at: two chords reach 1.0, the third is taken whole (1.5 ≤ 2·1.2), keeping the end on the path.
+        assert!(close2(span_of(&line, 5, true, x, 0.1, 1.2), [1.5, 0.0]));
+        // The sequence ends: two chords back from vertex 2, two forward from vertex 8, none back from vertex 0.
+        assert!(close2(span_of(&line, 2, false, x, 0.1, 2.0), [-1.0, 0.0]));
+        assert!(close2(span_of(&line, 8, true, x, 0.1, 2.0), [1.0, 0.0]));
+        assert!(close2(span_of(&line, 0, false, x, 0.1, 2.0), [0.0, 0.0]));
+        // At most CURVE_SPAN_BLOCKS = 16 chords: 40 chords of 0.05 mm reach 0.8 mm, not 2.
+        let fine = [seg_xy(1.0, 0.0, 0.05); 40];
+        assert!(close2(span_of(&fine, 20, true, x, 0.1, 2.0), [0.8, 0.0]));
+        assert!(close2(span_of(&fine, 20, false, x, 0.1, 2.0), [-0.8, 0.0]));
+        // A long chord: taken whole up to twice the target (5.5 ≤ 6), cut at the target beyond (7 > 6 → 3).
+        let long = [seg_xy(0.6, 0.8, 5.5), seg_xy(0.6, 0.8, 7.0), seg_xy(0.6, 0.8, 7.0)];
+        assert!(close2(span_of(&long, 0, true, [0.6, 0.8], 0.1, 3.0), [3.3, 4.4]));
+        assert!(close2(span_of(&long, 1, true, [0.6, 0.8], 0.1, 3.0), [1.8, 2.4]));
+        // After 1 mm of chord, 7 more would overshoot 2·3: the rest of the target, 2 mm, is taken.
+        let cut = [seg_xy(1.0, 0.0, 1.0), seg_xy(1.0, 0.0, 7.0)];
+        assert!(close2(span_of(&cut, 0, true, x, 0.1, 3.0), [3.0, 0.0]));
+        assert!(close2(span_of(&cut, 2, false, x, 0.1, 3.0), [-3.0, 0.0]));
+    }
+
+    #[test]
+    fn span_stops_at_corners_turns_and_fixed_blocks() {
+        let x = [1.0, 0.0];
+        // A 120° turn after the first chord: forward from vertex 1 only that chord; back from vertex 3 the two
+        // chords before the corner.
+        let corner = [seg_xy(1.0, 0.0, 0.5), seg_xy(1.0, 0.0, 0.5), seg_deg(120.0, 0.5), seg_deg(120.0, 0.5)];
+        assert!(close2(span_of(&corner, 1, true, x, 0.1, 2.0), [0.5, 0.0]));
+        let back = span_of(&corner, 4, false, [-0.5, 0.866_025_4], 0.1, 2.0);
+        assert!(close2(back, [0.5, -0.866_025_4]), "{back:?}");
+        // A turn of 30° between chords of 1 mm: the tangent circle passes 0.5·tan(7.5°) = 0.065826 mm from the
+        // vertex, so the span crosses it with 0.07 mm of deviation allowed and stops before it with 0.06.
+        let bend = [seg_xy(1.0, 0.0, 1.0), seg_deg(30.0, 1.0), seg_deg(30.0, 1.0)];
+        let (c, s) = (30f32.to_radians().cos(), 30f32.to_radians().sin());
+        assert!(close2(span_of(&bend, 0, true, x, 0.07, 2.5), [1.0 + 2.0 * c, 2.0 * s]));
+        assert!(close2(span_of(&bend, 0, true, x, 0.06, 2.5), [1.0, 0.0]));
+        assert!(close2(span_of(&bend, 3, false, [c, s], 0.07, 2.5), [-1.0 - 2.0 * c, -2.0 * s]));
+        assert!(close2(span_of(&bend, 3, false, [c, s], 0.06, 2.5), [-2.0 * c, -2.0 * s]));
+        // Chords of 0.1 mm turning 25° each (smooth with 0.01 mm: 0.05·tan(6.25°) = 0.0055): the span leaves the
+        // tangent (1, 0) by at most 60°, so it stops before the chord at 75° (cos 75° = 0.26 < 0.5).
+        let arc: Vec<Seg> = [0.0, 25.0, 50.0, 75.0, 100.0].iter().map(|&d| seg_deg(d, 0.1)).collect();
+        let r = |d: f32| d.to_radians();
+        let fwd = [0.1 * (1.0 + r(25.0).cos() + r(50.0).cos()), 0.1 * (r(25.0).sin() + r(50.0).sin())];
+        assert!(close2(span_of(&arc, 0, true, x, 0.01, 2.0), fwd));
+        // Backwards along the mirror image (chords at −75°, −50°, −25°, 0° before the vertex).
+        let before: Vec<Seg> = [-75.0, -50.0, -25.0, 0.0].iter().map(|&d| seg_deg(d, 0.1)).collect();
+        let back = [-0.1 * (1.0 + r(25.0).cos() + r(50.0).cos()), 0.1 * (r(25.0).sin() + r(50.0).sin())];
+        assert!(close2(span_of(&before, 4, false, x, 0.01, 2.0), back));
+        // A fixed block ends the span: nothing from a vertex where one starts; forward up to the one that follows.
+        let mut fixed = [seg_xy(1.0, 0.0, 0.5); 6];
+        fixed[3].fixed = true;
+        assert!(close2(span_of(&fixed, 3, true, x, 0.1, 2.0), [0.0, 0.0]));
+        assert!(close2(span_of(&fixed, 1, true, x, 0.1, 2.0), [1.0, 0.0]));
+        assert!(close2(span_of(&fixed, 6, false, x, 0.1, 2.0), [-1.0, 0.0]));
+    }
+
+    /// Ten chords of 0.25 mm along `rot − kink/2` degrees, then ten along `rot + kink/2` (100 mm/s, 1000 mm/s²):
+    /// vertex 10 turns by `kink`.
+    fn kinked(kink: f32, rot: f32) -> Vec<Seg> {
+        let h = (kink / 2.0).to_radians();
+        let (c, s) = (rot.to_radians().cos(), rot.to_radians().sin());
+        let dir = |y: f32| {
+            let (ux, uy) = (h.cos(), y);
+            Seg { nominal: 100.0, ..seg_xy(ux * c - uy * s, ux * s + uy * c, 0.25) }
+        };
+        let mut v = std::vec![dir(-h.sin()); 10];
+        v.extend([dir(h.sin()); 10]);
+        v
+    }
+
+    fn verdict(segs: &[Seg], j: usize, c: &MachineConfig) -> Junction {
+        junction_at(&|k: usize| segs[k], segs.len(), j, c)
+    }
+
+    #[test]
+    fn junction_verdict_at_a_kink_on_both_sides_of_the_threshold() {
+        // 80 steps/mm on X and Y (a step of 0.0125 mm), Y limited to 700 mm/s², curve deviation 0.1 mm,
+        // junction deviation 0.02 mm. Two straight runs of 0.25 mm chords meeting at a turn κ: locally smooth
+        // (0.125·tan(κ/4) ≪ 0.1 mm); the 2 mm spans are exact (8 whole chords each way), so the circle through
+        // their ends and the vertex has r = |p − q|/(2·sin(180° − κ)) with |p − q| = 4·cos(κ/2).
+        // Rule 3 compares the turn 2·sin(κ/2) with 1.5·(0.5 + 0.5)/r + 1.5·0.0125·(1/0.5 + 1/0.5) (spans of
+        // 24 steps = 0.3 mm: two whole chords, 0.5 mm).
+        let mut c = MachineConfig::xy_plotter();
+        c.axes[1].max_accel_mm_s2 = 700.0;
+        // κ = 16°: r = 4·cos 8°/(2·sin 16°) = 7.18530 mm; turn 0.278346 ≤ 0.15/r·… = 0.283760: a curve, whose
+        // normal is along Y, so v² = 700·r = 5029.71 (below the chords' 100² mm²/s²).
+        let j = verdict(&kinked(16.0, 0.0), 10, &c);
+        let curve = j.curve.unwrap();
+        assert!(close(curve.radius, 7.185_297, 1e-3), "{j:?}");
+        assert!(close(curve.speed_sqr, 5029.71, 1.0) && close(j.speed_sqr, 5029.71, 1.0), "{j:?}");
+        // κ = 19°: r = 6.05886 mm; turn 0.330095 > 0.322571: a corner, junction deviation with the chords'
+        // 1000 mm/s²: v² = 1000·0.02·cos 9.5°/(1 − cos 9.5°) = 1438.32.
+        let j = verdict(&kinked(19.0, 0.0), 10, &c);
+        assert_eq!(j.curve, None, "{j:?}");
+        assert!(close(j.speed_sqr, 1438.32, 0.5), "{j:?}");
+        // The 16° kink turned by 45°: the normal (at 135°) loads both axes by 1/√2, so the Y axis allows
+        // 700·√2 = 989.95 mm/s² along it: v² = 989.95·7.18530 = 7113.1.
+        let j = verdict(&kinked(16.0, 45.0), 10, &c);
+        let curve = j.curve.unwrap();
+        assert!(close(curve.radius, 7.185_297, 1e-3), "{j:?}");
+        assert!(close(curve.speed_sqr, 7113.1, 1.5) && close(j.speed_sqr, 7113.1, 1.5), "{j:?}");
+        // The chords' nominal speed caps the vertex (not the curve's own limit): 60 mm/s → 3600.
+        let slow: Vec<Seg> = kinked(16.0, 0.0).into_iter().map(|s| Seg { nominal: 60.0, ..s }).collect();
+        let j = verdict(&slow, 10, &c);
+        assert!(close(j.speed_sqr, 3600.0, 0.01) && close(j.curve.unwrap().speed_sqr, 5029.71, 1.0), "{j:?}");
+        // With Y at 40 steps/mm (a step of 0.025 mm, spans of 24 steps = 0.6 mm: three chords, 0.75 mm) rounding
+        // explains more: 1.5·1.5/6.05886 + 1.5·0.025·(2/0.75) = 0.471359 > 0.330095, so 19° is a curve,
+        // v² = 700·6.05886 = 4241.2.
+        let mut coarse = c;
+        coarse.axes[1].steps_per_mm = 40.0;
+        let j = verdict(&kinked(19.0, 0.0), 10, &coarse);
+        assert!(close(j.curve.unwrap().speed_sqr, 4241.2, 1.0), "{j:?}");
+    }
+
+    #[test]
+    fn junction_verdict_of_straight_runs_corners_and_stops() {
+        let c = cfg();
+        // Straight on: no circle, the vertex runs at the chords' speed and lies on a curve of infinite radius.
+        let straight = kinked(0.0, 30.0);
+        let j = verdict(&straight, 10, &c);
+        assert_eq!(
+            j,
+            Junction { speed_sqr: 10_000.0, curve: Some(Curve { radius: f32::INFINITY, speed_sqr: f32::INFINITY }) }
+        );
+        // A turn of 120° is not locally smooth (rule 1): junction deviation, 1000·0.02·sin 30°/(1 − sin 30°) = 20.
+        let mut sharp = kinked(0.0, 0.0);
+        for s in &mut sharp[10..] {
+            *s = Seg { nominal: 100.0, ..seg_deg(120.0, 0.25) };
+        }
+        let j = verdict(&sharp, 10, &c);
+        assert_eq!(j.curve, None);
+        assert!(close(j.speed_sqr, 20.0, 1e-3), "{j:?}");
+        // The start, past the end, and a fixed block on either side: rest.
+        assert_eq!(verdict(&straight, 0, &c), Junction::REST);
+        assert_eq!(verdict(&straight, 20, &c), Junction::REST);
+        let mut fixed = straight.clone();
+        fixed[9].fixed = true;
+        assert_eq!(verdict(&fixed, 10, &c), Junction::REST);
+        assert_ne!(verdict(&fixed, 11, &c), Junction::REST);
+        let mut fixed = straight;
+        fixed[10].fixed = true;
+        assert_eq!(verdict(&fixed, 10, &c), Junction::REST);
+    }
 }

@@ -648,4 +648,283 @@ mod tests {
             prop_assert!(d.decode(frame, seq.wrapping_sub(1)).is_err());
         }
     }
+
+    #[test]
+    fn checksums_match_published_values() {
+        // CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, unreflected, no final XOR): the catalogued check value of
+        // "123456789" is 0x29B1. The CRC runs over E's four little-endian bytes, the marker and the payload.
+        assert_eq!(crc16(u32::from_le_bytes(*b"1234"), b'5', b"6789"), 0x29B1);
+        // Five zero bytes (E = 0, marker 0, no payload): 0x110C.
+        assert_eq!(crc16(0, 0, &[]), 0x110C);
+        // The RepRap wiki's numbered line `N3 T0*57`.
+        assert_eq!(xor_checksum(b"N3 T0"), 57);
+        assert_eq!(xor_checksum(b""), 0);
+    }
+
+    #[test]
+    fn frames_are_the_documented_bytes() {
+        let mut e = Encoder::new();
+        // X 200, Y −120 (9-bit class: 200 needs 8 magnitude bits + sign), from rest to cruise 4800 = 300 << 4
+        // (code 4·512 + 300 = 0x92C), a new acceleration 120 000 = 0x01D4C0.
+        // Marker 1 1100 01 1 = 0xE3. Payload bits 00 01 011001000 110001000 100100101100 000000011101010011000000
+        // (58 bits, 6 zero bits of padding) = 16 46 22 4B 00 75 30 00; CRC-16 (E = 0) 0xF6DB.
+        let first = StepBlock {
+            steps: [200, -120, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 4800,
+            exit_rate: 4800,
+            accel: 120_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let f = enc(&mut e, &first, 0);
+        assert_eq!(f, [0xE3, 0x16, 0x46, 0x22, 0x4B, 0x00, 0x75, 0x30, 0x00, 0xF6, 0xDB, b'\n']);
+        // Z −5, E 3 (6-bit class), entering at 1000 = 500 << 1 (explicit: code 1·512 + 500 = 0x3F4), stopping, the
+        // same acceleration (no field). Marker 1 0011 00 0 = 0x98; payload 10 00 111011 000011 100100101100
+        // 001111110100 = 8E C3 92 C3 F4; CRC-16 (E = 1) 0x725F.
+        let second = StepBlock { steps: [0, 0, -5, 3], entry_rate: 1000, exit_rate: 0, ..first };
+        let f = enc(&mut e, &second, 1);
+        assert_eq!(f, [0x98, 0x8E, 0xC3, 0x92, 0xC3, 0xF4, 0x72, 0x5F, b'\n']);
+        assert_eq!(Decoder::new().decode(&f[..f.len() - 1], 1), Ok(StepBlock { accel: 0, ..second }));
+        // A dwell of 0xA1B2 ticks: payload 0000 + 24 bits = 00 0A 1B 20, whose `\n` and ESC are escaped as
+        // ESC 0x2A and ESC 0x3B; CRC-16 (E = 5) 0x7144.
+        let f = enc(&mut e, &StepBlock::dwell(0xA1B2), 5);
+        assert_eq!(f, [0x80, 0x00, 0x1B, 0x2A, 0x1B, 0x3B, 0x20, 0x71, 0x44, b'\n']);
+        assert_eq!(Decoder::new().decode(&f[..f.len() - 1], 5), Ok(StepBlock::dwell(0xA1B2)));
+        // A servo block at 3.3° (0x021) settling 0x7E183F ticks: payload 00 21 7E 18 3F holds the four real-time
+        // bytes `!`, `~`, 0x18 and `?`, each escaped; CRC-16 (E = 9) 0x54C2.
+        let f = enc(&mut e, &StepBlock::servo(0x21, 0x7E_183F), 9);
+        assert_eq!(f, [0x82, 0x00, 0x1B, 0x01, 0x1B, 0x5E, 0x1B, 0x38, 0x1B, 0x1F, 0x54, 0xC2, b'\n']);
+        assert_eq!(Decoder::new().decode(&f[..f.len() - 1], 9), Ok(StepBlock::servo(0x21, 0x7E_183F)));
+    }
+
+    #[test]
+    fn step_width_classes_and_encode_errors() {
+        let mv = |steps: [i32; NUM_AXES]| StepBlock {
+            steps,
+            entry_rate: 0,
+            cruise_rate: 100,
+            exit_rate: 0,
+            accel: 0,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        // Two's-complement widths 6/9/13/24: the class is bits 2..1 of the marker (X only: mask 1000).
+        for (s, class) in [
+            (31, 0u8),
+            (-32, 0),
+            (32, 1),
+            (-33, 1),
+            (255, 1),
+            (-256, 1),
+            (256, 2),
+            (4095, 2),
+            (-4096, 2),
+            (4096, 3),
+            ((1 << 23) - 1, 3),
+            (-(1 << 23), 3),
+        ] {
+            let f = enc(&mut Encoder::new(), &mv([s, 0, 0, 0]), 0);
+            assert_eq!(f[0], 0xC0 | (class << 1), "{s}");
+            assert_eq!(Decoder::new().decode(&f[..f.len() - 1], 0), Ok(mv([s, 0, 0, 0])), "{s}");
+        }
+        let mut out = [0u8; MAX_FRAME];
+        let mut e = Encoder::new();
+        assert_eq!(e.encode(&mv([1 << 23, 0, 0, 0]), 0, &mut out), Err(EncodeError::Steps));
+        assert_eq!(e.encode(&mv([0, 0, 0, -(1 << 23) - 1]), 0, &mut out), Err(EncodeError::Steps));
+        assert_eq!(e.encode(&StepBlock { cruise_rate: 0, ..mv([1, 0, 0, 0]) }, 0, &mut out), Err(EncodeError::Rate));
+        // 4801 is not representable (call quantize first), as cruise, entry or exit.
+        assert_eq!(e.encode(&StepBlock { cruise_rate: 4801, ..mv([1, 0, 0, 0]) }, 0, &mut out), Err(EncodeError::Rate));
+        let fast = StepBlock { cruise_rate: 9600, ..mv([1, 0, 0, 0]) };
+        assert_eq!(e.encode(&StepBlock { entry_rate: 4801, ..fast }, 0, &mut out), Err(EncodeError::Rate));
+        assert_eq!(e.encode(&StepBlock { exit_rate: 4801, ..fast }, 0, &mut out), Err(EncodeError::Rate));
+        assert_eq!(e.encode(&StepBlock { accel: ACCEL_MAX + 1, ..fast }, 0, &mut out), Err(EncodeError::Accel));
+        assert_eq!(e.encode(&StepBlock::dwell(DWELL_MAX + 1), 0, &mut out), Err(EncodeError::Dwell));
+        assert_eq!(e.encode(&StepBlock::servo(SERVO_TENTHS_MAX + 1, 0), 0, &mut out), Err(EncodeError::Servo));
+        assert_eq!(e.encode(&StepBlock::servo(SERVO_TENTHS_MAX, 0), 0, &mut out), Ok(9));
+        // Refused blocks leave the encoder as it was: the next frame with acceleration 0 carries no field. Codes,
+        // X = 1 in 6 bits and cruise 100 = 0x064: 0000 000001 000001100100 + 2 bits of padding = 00 41 90; its
+        // CRC-16 (E = 0) 0x3FDE starts with `?`, which is escaped.
+        let n = e.encode(&mv([1, 0, 0, 0]), 0, &mut out).unwrap();
+        assert_eq!(out[..n], [0xC0, 0x00, 0x41, 0x90, ESC, 0x1F, 0xDE, b'\n']);
+        // The largest values each field can carry go through.
+        let top = StepBlock { entry_rate: RATE_MAX, cruise_rate: RATE_MAX, exit_rate: 512, accel: ACCEL_MAX, ..fast };
+        let n = e.encode(&top, 3, &mut out).unwrap();
+        assert_eq!(Decoder::new().decode(&out[..n - 1], 3), Ok(top));
+        let n = e.encode(&StepBlock::dwell(DWELL_MAX), 4, &mut out).unwrap();
+        assert_eq!(Decoder::new().decode(&out[..n - 1], 4), Ok(StepBlock::dwell(DWELL_MAX)));
+    }
+
+    /// A frame from raw payload bytes with a valid CRC (escaped as on the wire, without the `\n`).
+    fn raw_frame(marker: u8, payload: &[u8], seq: u32) -> std::vec::Vec<u8> {
+        let mut f = std::vec![marker];
+        for &b in payload.iter().chain(&crc16(seq, marker, payload).to_be_bytes()) {
+            if needs_escape(b) {
+                f.extend([ESC, b ^ 0x20]);
+            } else {
+                f.push(b);
+            }
+        }
+        f
+    }
+
+    #[test]
+    fn decode_errors_name_the_fault() {
+        let mut d = Decoder::new();
+        assert_eq!(d.decode(&[], 0), Err(DecodeError::NotAFrame));
+        assert_eq!(d.decode(b"G1 X1", 0), Err(DecodeError::NotAFrame));
+        assert_eq!(d.decode(&[0x7F, 0, 0, 0], 0), Err(DecodeError::NotAFrame));
+        // ESC as the last byte; 23 bytes after the marker (at most 20 payload + 2 CRC).
+        assert_eq!(d.decode(&[0x80, 0x00, ESC], 0), Err(DecodeError::Framing));
+        assert_eq!(d.decode(&[0x80; 24], 0), Err(DecodeError::Framing));
+        // 22 bytes fit the buffer: then it is the CRC that fails.
+        assert_eq!(d.decode(&[0x80; 23], 0), Err(DecodeError::Crc));
+        // Only the two CRC bytes (an empty payload: the CRC is checked first, and fails), and fewer.
+        assert_eq!(d.decode(&[0x80, 0x00, 0x00], 0), Err(DecodeError::Crc));
+        assert_eq!(d.decode(&[0x80, 0x00], 0), Err(DecodeError::Malformed));
+        assert_eq!(d.decode(&[0x80], 0), Err(DecodeError::Malformed));
+        // A dwell of 16 ticks (payload 00 00 01 00) is fine; with the wrong E its CRC fails.
+        assert_eq!(d.decode(&raw_frame(0x80, &[0, 0, 1, 0], 7), 7), Ok(StepBlock::dwell(16)));
+        assert_eq!(d.decode(&raw_frame(0x80, &[0, 0, 1, 0], 7), 8), Err(DecodeError::Crc));
+        // A dwell with rate codes, an acceleration flag or a step class above 1; too short; one byte too many;
+        // non-zero padding; a servo angle above 180°.
+        for (marker, payload) in [
+            (0x80u8, &[0x40u8, 0, 1, 0][..]),
+            (0x80, &[0x10, 0, 1, 0]),
+            (0x81, &[0, 0, 1, 0]),
+            (0x84, &[0, 0, 1, 0]),
+            (0x86, &[0, 0, 1, 0]),
+            (0x80, &[0, 0, 1]),
+            (0x80, &[0, 0, 1, 0, 0]),
+            (0x80, &[0, 0, 1, 1]),
+            (0x82, &[0x07, 0x09, 0, 0, 1]),
+        ] {
+            assert_eq!(
+                d.decode(&raw_frame(marker, payload, 0), 0),
+                Err(DecodeError::Malformed),
+                "{marker:x} {payload:?}"
+            );
+        }
+        // 180.0° is the largest angle.
+        assert_eq!(d.decode(&raw_frame(0x82, &[0x07, 0x08, 0, 0, 1], 0), 0), Ok(StepBlock::servo(1800, 1)));
+        // A move (X only, 6-bit class, marker 0xC0): codes 0000, X 000001, cruise 0x064 (100), 2 bits of padding:
+        // 00 41 90.
+        let ok = [0x00u8, 0x41, 0x90];
+        let block = StepBlock {
+            steps: [1, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 100,
+            exit_rate: 0,
+            accel: 0,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        assert_eq!(Decoder::new().decode(&raw_frame(0xC0, &ok, 0), 0), Ok(block));
+        // Rate code 3; a zero step field for an axis in the mask; cruise 0.
+        for payload in [[0xC0u8, 0x41, 0x90], [0x00, 0x01, 0x90], [0x00, 0x40, 0x00]] {
+            assert_eq!(
+                Decoder::new().decode(&raw_frame(0xC0, &payload, 0), 0),
+                Err(DecodeError::Malformed),
+                "{payload:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn decoder_keeps_the_acceleration_of_accepted_moves_only() {
+        let mut e = Encoder::new();
+        let mut d = Decoder::new();
+        let mv = StepBlock {
+            steps: [10, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 100,
+            exit_rate: 0,
+            accel: 5000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let f = enc(&mut e, &mv, 0);
+        // Rejected (wrong E): the acceleration is not taken.
+        assert_eq!(d.decode(&f[..f.len() - 1], 1), Err(DecodeError::Crc));
+        let again = enc(&mut Encoder::new(), &StepBlock { accel: 0, ..mv }, 0);
+        assert_eq!(d.decode(&again[..again.len() - 1], 0), Ok(StepBlock { accel: 0, ..mv }));
+        assert_eq!(d.decode(&f[..f.len() - 1], 0), Ok(mv));
+        // A dwell in between does not reset it; the next move without the field reuses 5000.
+        let dw = enc(&mut e, &StepBlock::dwell(10), 1);
+        assert_eq!(d.decode(&dw[..dw.len() - 1], 1), Ok(StepBlock::dwell(10)));
+        let next = enc(&mut e, &StepBlock { steps: [0, -3, 0, 0], ..mv }, 2);
+        assert_eq!(next[0] & 1, 0, "no acceleration field");
+        assert_eq!(d.decode(&next[..next.len() - 1], 2), Ok(StepBlock { steps: [0, -3, 0, 0], ..mv }));
+    }
+
+    #[test]
+    fn quantize_and_rate_codes_by_hand() {
+        // Exact below 512; 1023 = 0b11_1111_1111 keeps 9 bits: 1022; 4801 → 4800 (300 << 4); 65 535 → 65 408
+        // (511 << 7); beyond the largest, the largest.
+        assert_eq!(
+            [0, 1, 512, 1023, 4801, 65_535, RATE_MAX, RATE_MAX + 1].map(quantize_rate),
+            [0, 1, 512, 1022, 4800, 65_408, RATE_MAX, RATE_MAX]
+        );
+        assert_eq!(RATE_MAX, 65_408);
+        assert_eq!(rate_code(511), Some(511));
+        assert_eq!(rate_code(512), Some((1 << 9) | 256));
+        assert_eq!(rate_code(4800), Some((4 << 9) | 300));
+        assert_eq!(rate_code(RATE_MAX), Some((7 << 9) | 511));
+        assert_eq!(rate_code(513), None);
+        assert_eq!(rate_code(511 << 8), None);
+        assert_eq!(rate_value((4 << 9) | 300), 4800);
+        // A move: cruise at least 1, entry and exit capped at cruise and rounded down, acceleration capped.
+        let b = StepBlock {
+            steps: [5, 0, 0, 0],
+            entry_rate: 9000,
+            cruise_rate: 4801,
+            exit_rate: 1023,
+            accel: u32::MAX,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let q = quantize(&b);
+        assert_eq!((q.entry_rate, q.cruise_rate, q.exit_rate, q.accel), (4800, 4800, 1022, ACCEL_MAX));
+        let q = quantize(&StepBlock { cruise_rate: 0, entry_rate: 5, exit_rate: 0, ..b });
+        assert_eq!((q.entry_rate, q.cruise_rate), (1, 1));
+        // A dwell: ticks capped, the servo angle kept.
+        assert_eq!(quantize(&StepBlock::dwell(u32::MAX)), StepBlock::dwell(DWELL_MAX));
+        assert_eq!(quantize(&StepBlock::servo(450, u32::MAX)), StepBlock::servo(450, DWELL_MAX));
+    }
+
+    #[test]
+    fn realtime_bytes_and_more_replies() {
+        for b in 0..=255u8 {
+            assert_eq!(is_realtime(b), [b'?', b'!', b'~', 0x18].contains(&b), "{b}");
+            assert_eq!(needs_escape(b), [b'?', b'!', b'~', 0x18, b'\n', 0x1B].contains(&b), "{b}");
+        }
+        assert_eq!(Reply::parse("error:7"), Reply::Error { code: 7, text: "" });
+        assert_eq!(Reply::parse("error:x bad"), Reply::Info("error:x bad"));
+        assert_eq!(Reply::parse("ALARM:300 x"), Reply::Info("ALARM:300 x"));
+        assert_eq!(Reply::parse("rs x"), Reply::Info("rs x"));
+        assert_eq!(Reply::parse("<Idle"), Reply::Info("<Idle"));
+        assert_eq!(Reply::parse("plotter-fwx"), Reply::Info("plotter-fwx"));
+        assert_eq!(Reply::parse("ok "), Reply::Info("ok "));
+    }
+
+    #[test]
+    fn the_longest_frame_fits_max_frame() {
+        // The widest move: four axes of 24 bits, explicit entry and exit rates, a new acceleration:
+        // 4 + 4·24 + 3·12 + 24 = 160 bits = 20 payload bytes, + 2 CRC bytes; all 22 escaped in the worst case,
+        // plus the marker and `\n`: 1 + 2·22 + 1 = 46 bytes.
+        assert_eq!(MAX_FRAME, 46);
+        let widest = StepBlock {
+            steps: [-(1 << 23), (1 << 23) - 1, 4096, -4097],
+            entry_rate: 1000,
+            cruise_rate: 4800,
+            exit_rate: 2000,
+            accel: 0xAB_CDEF,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let f = enc(&mut Encoder::new(), &widest, 3);
+        let escaped = f.iter().filter(|&&b| b == ESC).count();
+        assert_eq!(f.len(), 1 + 22 + escaped + 1);
+        assert_eq!(Decoder::new().decode(&f[..f.len() - 1], 3), Ok(widest));
+    }
 }
