@@ -237,7 +237,7 @@ mod tests {
         #[test]
         fn data_passes_through(chunks in proptest::collection::vec((proptest::collection::vec(any::<u8>().prop_filter("rt", |b| !is_realtime(*b)), 0..20), proptest::option::of(prop_oneof![Just(RT_STATUS), Just(RT_FEED_HOLD), Just(b'~'), Just(RT_RESET)])), 0..10)) {
             let mut m = RtMatcher::new();
-            let (mut want_data, mut want_cmds, mut input) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut want_data, mut want_cmds, mut input) = (Vec::<u8>::new(), Vec::new(), Vec::new());
             for (d, c) in &chunks {
                 want_data.extend(d);
                 input.extend(d);

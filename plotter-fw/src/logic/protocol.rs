@@ -502,6 +502,7 @@ impl<'a> Reply<'a> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+    use crate::gcode::xor_checksum;
 
     fn enc(e: &mut Encoder, b: &StepBlock, seq: u32) -> std::vec::Vec<u8> {
         let mut out = [0u8; MAX_FRAME];
