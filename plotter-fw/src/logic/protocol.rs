@@ -501,8 +501,8 @@ impl<'a> Reply<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proptest::prelude::*;
     use crate::gcode::xor_checksum;
+    use proptest::prelude::*;
 
     fn enc(e: &mut Encoder, b: &StepBlock, seq: u32) -> std::vec::Vec<u8> {
         let mut out = [0u8; MAX_FRAME];
