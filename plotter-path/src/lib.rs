@@ -18,12 +18,13 @@
 //! assert_eq!(drawing.bbox().unwrap().width(), 10.0);
 //! ```
 
+pub mod config;
 pub mod geometry;
 pub mod input;
 pub mod motion;
 pub mod optimize;
 pub mod output;
 
+pub use config::profile::MachineProfile;
 pub use geometry::drawing::{Drawing, Layer, Pen, Polyline, Rgb};
 pub use kurbo;
-pub use motion::profile::MachineProfile;

@@ -35,8 +35,8 @@
 
 use kurbo::Point;
 
+use crate::config::pens::parse_hex_color;
 use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS};
-use crate::motion::pens::parse_hex_color;
 use crate::{Drawing, Layer, MachineProfile, Polyline};
 
 /// Maximum chord error when flattening arcs, millimetres.
@@ -710,8 +710,8 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::profile::PenCommand;
-    use crate::motion::steps::drawing_to_steps;
+    use crate::config::profile::PenCommand;
+    use crate::geometry::steps::drawing_to_steps;
     use crate::output::gcode_out;
     use proptest::prelude::*;
 
@@ -1022,7 +1022,7 @@ mod tests {
         fn export_then_import_gives_the_same_steps(paths in arb_paths(), servo in any::<bool>(), flip in any::<bool>()) {
             let mut p = profile();
             if servo { p.pen.command = PenCommand::Servo; }
-            if flip { p.page_origin = crate::motion::profile::PageOrigin::BottomLeft; }
+            if flip { p.page_origin = crate::config::profile::PageOrigin::BottomLeft; }
             let steps = drawing_to_steps(&p, &Drawing::single_layer("a", paths)).unwrap();
             // Strokes whose every point rounds to the same step carry no motion and come back as nothing.
             let mut expected = steps.clone();

@@ -259,7 +259,7 @@ pub fn drawing_to_steps(profile: &MachineProfile, drawing: &Drawing) -> Result<S
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::profile::PageOrigin;
+    use crate::config::profile::PageOrigin;
     use proptest::prelude::*;
 
     fn profile() -> MachineProfile {

@@ -1,12 +1,12 @@
 //! Which pen draws which layer, and where the plot stops for a pen change.
 //!
 //! A layer carries its pen (colour and width from the input, its name from the Inkscape layer or colour). The
-//! profile's pen table (`[[pens]]`, [`crate::motion::profile::PenSpec`]) names the physical pens: a layer is drawn
+//! profile's pen table (`[[pens]]`, [`crate::config::profile::PenSpec`]) names the physical pens: a layer is drawn
 //! with the table pen whose name equals the layer's name (case-insensitive), else the one whose colour equals the
 //! layer's colour. Without a match (or without a table) the layer's colour is its pen, with the profile's `[pen]`
 //! values. Two consecutive layers need a pen change exactly when they resolve to different pens.
 
-use crate::motion::profile::{MachineProfile, PenSpec};
+use crate::config::profile::{MachineProfile, PenSpec};
 use crate::{Pen, Rgb};
 
 /// The pen a layer is drawn with, resolved against the profile.

@@ -320,9 +320,9 @@ pub struct MachineProfile {
     /// Pen-change park position; the homed corner when absent.
     #[serde(default)]
     pub park: Option<ParkProfile>,
-    /// Heaters and fan (printers only; see [`crate::motion::heaters`]).
+    /// Heaters and fan (printers only; see [`crate::config::heaters`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub heaters: Option<crate::motion::heaters::HeatersProfile>,
+    pub heaters: Option<crate::config::heaters::HeatersProfile>,
     /// EiBotBoard settings (AxiDraw-class machines driven with `--firmware ebb`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ebb: Option<EbbProfile>,
@@ -496,7 +496,7 @@ impl MachineProfile {
                 return Err(bad(&format!("pens[{i}].name"), "must not be empty"));
             }
             if let Some(c) = &pen.color
-                && crate::motion::pens::parse_hex_color(c).is_none()
+                && crate::config::pens::parse_hex_color(c).is_none()
             {
                 return Err(bad(&f("color"), "must be #rrggbb"));
             }
