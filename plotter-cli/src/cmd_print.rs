@@ -17,7 +17,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_fw::sim::thermal::SimFault;
 use plotter_fw::thermal::Heater;
 use plotter_fw::{Axis, TICK_HZ};
-use plotter_path::config::heaters::thermal_config;
+use plotter_path::config::profile::thermal_config;
 use plotter_path::input::gcode_print::import_print;
 use plotter_path::motion::plan;
 use plotter_path::motion::print_plan::plan_print;

@@ -35,7 +35,7 @@
 
 use kurbo::Point;
 
-use crate::config::pens::parse_hex_color;
+use crate::config::color::parse_hex_color;
 use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS};
 use crate::{Drawing, Layer, MachineProfile, Polyline};
 

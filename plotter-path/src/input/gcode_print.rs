@@ -25,6 +25,7 @@
 
 use super::gcode_in::{Exponents, GcodeError, GcodeWarning, echo, num, record_warning, strip_comments, words};
 use crate::MachineProfile;
+use crate::geometry::steps::StepMapper;
 
 /// Maximum chord error when flattening arcs, millimetres.
 const ARC_TOLERANCE_MM: f64 = 0.005;
@@ -573,7 +574,7 @@ pub fn import_print(text: &str, origin: &str, profile: &MachineProfile) -> Resul
             message: format!("profile {:?} has no extruder (axes.e): it cannot print", profile.name),
         });
     }
-    let homed = crate::motion::plan::homed_position(profile).map_err(|e| GcodeError::Malformed {
+    let homed = StepMapper::new(profile).homed().map_err(|e| GcodeError::Malformed {
         origin: origin.into(),
         line: 0,
         message: e.to_string(),

@@ -38,7 +38,7 @@ use plotter_fw::{Axis, MachineConfig, NUM_AXES, StepBlock, TICK_HZ};
 use crate::MachineProfile;
 use crate::config::pens::{self, LayerPen};
 use crate::config::profile::{AxisProfile, HomeEnd};
-use crate::geometry::steps::{StepDrawing, StepMapper, StepPos};
+use crate::geometry::steps::{PenHeightsError, StepDrawing, StepMapper, StepPos};
 use crate::motion::hop::{self, HopHeights};
 
 /// Errors planning a drawing.
@@ -67,7 +67,7 @@ pub enum PlanError {
     #[error("machine profile: {0}")]
     Config(String),
     /// The pen Z heights do not round to different steps.
-    #[error("machine profile: pen.up_z_mm and pen.down_z_mm round to the same Z step")]
+    #[error("{}", PenHeightsError)]
     PenHeights,
 }
 
@@ -337,13 +337,7 @@ fn pen_steps(profile: &MachineProfile) -> Result<(i32, i32), PlanError> {
 
 /// The pen-up Z and the pen-down Z `down_mm` in steps.
 fn pen_steps_at(profile: &MachineProfile, down_mm: f64) -> Result<(i32, i32), PlanError> {
-    let m = StepMapper::new(profile);
-    let up = m.z_steps(profile.pen.up_z_mm).ok_or(PlanError::PenHeights)?;
-    let down = m.z_steps(down_mm).ok_or(PlanError::PenHeights)?;
-    if up == down {
-        return Err(PlanError::PenHeights);
-    }
-    Ok((up, down))
+    StepMapper::new(profile).pen_z_steps(down_mm).map_err(|PenHeightsError| PlanError::PenHeights)
 }
 
 /// The resolved pen of every layer of `steps` (one default layer when it has none).
@@ -397,15 +391,7 @@ pub fn plan_travel(profile: &MachineProfile, from: MachinePos, to: StepPos) -> R
 
 /// The position after homing: X and Y at their switch end, Z at the pen-up height.
 pub fn homed_position(profile: &MachineProfile) -> Result<MachinePos, PlanError> {
-    let (up, _) = pen_steps(profile)?;
-    let end = |a: &AxisProfile| {
-        if a.home == HomeEnd::Max {
-            crate::geometry::steps::round_steps(a.travel_mm * a.steps_per_mm).unwrap_or(0)
-        } else {
-            0
-        }
-    };
-    Ok([end(&profile.axes.x), end(&profile.axes.y), up, 0])
+    StepMapper::new(profile).homed().map_err(|PenHeightsError| PlanError::PenHeights)
 }
 
 /// Where the pen is after homing, in page millimetres (where a plot's first travel starts).

@@ -297,7 +297,7 @@ impl<'a> Walker<'a> {
         self.options.hatch.or_else(|| {
             let name = &self.layer_names[layer];
             let pen = crate::config::pens::table_index(&self.options.pens, name, color)?;
-            self.options.pens[pen].hatch.map(|h| h.fill_hatch())
+            self.options.pens[pen].hatch.map(FillHatch::from)
         })
     }
 
