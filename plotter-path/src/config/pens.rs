@@ -1,4 +1,5 @@
-//! Which pen draws which layer, and where the plot stops for a pen change.
+//! Pens: the [`Pen`] a layer is drawn with, which pen of the profile's table draws which layer, and where the plot
+//! stops for a pen change.
 //!
 //! A layer carries its pen (colour and width from the input, its name from the Inkscape layer or colour). The
 //! profile's pen table (`[[pens]]`, [`crate::config::profile::PenSpec`]) names the physical pens: a layer is drawn
