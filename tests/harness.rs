@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::sync::OnceLock;
 
-use plotter_path::motion::steps::StepPos;
+use plotter_path::geometry::steps::StepPos;
 
 /// The workspace root (holds `samples/`).
 pub fn workspace_root() -> PathBuf {

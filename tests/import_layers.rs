@@ -548,7 +548,6 @@ const PLOTTER_PATH: Layers<'static> = &[
 ];
 
 #[test]
-#[ignore = "plotter-path's input/ still imports motion/ and output/ until its configuration moves below the stages"]
 fn plotter_path_stages_import_only_downstream() {
     let problems = check_crate(Path::new("plotter-path/src/lib.rs"), PLOTTER_PATH, &read_disk);
     assert!(problems.is_empty(), "plotter-path imports:\n{}", problems.join("\n"));

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use plotter_e2e::{
     SAMPLE_SVG, SimPty, Trace, ink_off_drawing, machine_paths, plotter, plotter_bin, point_segment_distance, scratch,
 };
-use plotter_path::motion::steps::{StepDrawing, StepPos, drawing_to_steps};
+use plotter_path::geometry::steps::{StepDrawing, StepPos, drawing_to_steps};
 use plotter_path::{Drawing, MachineProfile, input::svg};
 
 const TOLERANCE_MM: f64 = svg::DEFAULT_TOLERANCE_MM;

@@ -20,8 +20,8 @@ use plotter_fw::protocol::{Encoder, MAX_FRAME};
 use plotter_fw::sim::Sim;
 use plotter_fw::step_block::StepBlock;
 use plotter_path::geometry::layout::{self, LayoutOptions};
+use plotter_path::geometry::steps::drawing_to_steps;
 use plotter_path::motion::plan::{self, Lookahead};
-use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::{MachineProfile, input::svg};
 
 const SCALE: f64 = 0.3;

@@ -7,8 +7,8 @@
 use plotter_fw::sim::Sim;
 use plotter_host::link::grbl::emulator::GrblEmulator;
 use plotter_host::link::grbl::program::{declare_position, program};
+use plotter_path::geometry::steps::drawing_to_steps;
 use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
-use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::{MachineProfile, input::svg};
 
 const STROKES: usize = 7;

@@ -3,8 +3,8 @@
 
 use plotter_e2e::{SAMPLE_SVG, ink_off_drawing, machine_paths, sim_positions};
 use plotter_fw::sim::Sim;
+use plotter_path::geometry::steps::drawing_to_steps;
 use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
-use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::{MachineProfile, input::svg};
 
 fn run_on_sim(profile: &MachineProfile, plan_for: impl Fn([i32; 4]) -> MotionPlan) -> (MotionPlan, Sim, u64) {

@@ -17,9 +17,9 @@ use plotter_host::link::journal;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
 use plotter_path::MachineProfile;
+use plotter_path::geometry::steps::{StepDrawing, drawing_to_steps};
 use plotter_path::input::svg::{ResourcePolicy, SvgOptions, import_svg};
 use plotter_path::motion::plan::{self, Lookahead, machine_config};
-use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
 
 struct Quiet;
 impl PlotEvents for Quiet {

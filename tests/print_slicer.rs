@@ -13,8 +13,8 @@ use plotter_e2e::{cube_stl, fixture, sample};
 use plotter_fw::sim::{Sim, SimOptions};
 use plotter_fw::{Axis, MachineConfig};
 use plotter_path::MachineProfile;
+use plotter_path::config::profile::thermal_config;
 use plotter_path::input::gcode_print::import_print;
-use plotter_path::motion::heaters::thermal_config;
 use plotter_path::motion::plan::{homed_position, machine_config};
 use plotter_path::motion::print_plan::{PrintItem, plan_print, wire_items};
 

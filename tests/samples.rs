@@ -50,8 +50,8 @@ fn export_round_trip_preserves_geometry() {
 
 #[test]
 fn three_pens_sample_changes_pen_twice() {
+    use plotter_path::geometry::steps::drawing_to_steps;
     use plotter_path::motion::plan::{Lookahead, homed_position, plan};
-    use plotter_path::motion::steps::drawing_to_steps;
     let profile = MachineProfile::default_plotter();
     let d = load_svg(&sample("three-pens.svg"), &SvgOptions::default()).unwrap().drawing;
     let layers: Vec<(&str, String)> = d.layers.iter().map(|l| (l.name.as_str(), l.pen.color.to_hex())).collect();

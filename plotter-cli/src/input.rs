@@ -9,11 +9,11 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use plotter_path::geometry::cancel::Cancel;
 use plotter_path::geometry::hatch::FillHatch;
+use plotter_path::geometry::steps::StepMapper;
 use plotter_path::input::raster::Mode;
 use plotter_path::input::skipped::Skipped;
 use plotter_path::input::svg::{self, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
 use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
-use plotter_path::motion::steps::StepMapper;
 use plotter_path::{Drawing, MachineProfile};
 
 use crate::error::BadInput;

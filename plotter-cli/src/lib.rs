@@ -23,7 +23,7 @@
 //! use plotter_host::job::{self, load::load_profile, progress::{JobProgress, PlotEvents}};
 //! use plotter_host::link::{session::Session, sim::SimTransport};
 //! use plotter_path::kurbo::Point;
-//! use plotter_path::motion::{plan::machine_config, steps::drawing_to_steps};
+//! use plotter_path::{geometry::steps::drawing_to_steps, motion::plan::machine_config};
 //! use plotter_path::{Drawing, Polyline};
 //!
 //! struct Quiet;

@@ -5,6 +5,10 @@
 //! pen-up travel, the motion is planned with the firmware's own planner, and the result becomes drift-free step
 //! blocks. Every stage can be previewed as a PNG and measured with [`output::stats`].
 //!
+//! The modules follow the flow: [`config`] (the machine profile and pen table every stage reads) below
+//! [`geometry`] (the drawing model, layout, steps), then the stages [`input`] → [`optimize`] → [`motion`] →
+//! [`output`]; each imports only from the ones before it (checked by the workspace's `tests/import_layers.rs`).
+//!
 //! ```
 //! use plotter_path::{Drawing, Polyline};
 //! use kurbo::Point;
@@ -18,12 +22,15 @@
 //! assert_eq!(drawing.bbox().unwrap().width(), 10.0);
 //! ```
 
+pub mod config;
 pub mod geometry;
 pub mod input;
 pub mod motion;
 pub mod optimize;
 pub mod output;
 
-pub use geometry::drawing::{Drawing, Layer, Pen, Polyline, Rgb};
+pub use config::color::Rgb;
+pub use config::pens::Pen;
+pub use config::profile::MachineProfile;
+pub use geometry::drawing::{Drawing, Layer, Polyline};
 pub use kurbo;
-pub use motion::profile::MachineProfile;

@@ -3,10 +3,10 @@
 use std::path::Path;
 
 use anyhow::Context as _;
+use plotter_path::geometry::steps::{StepDrawing, StepMapper, StepPos, drawing_to_steps};
 use plotter_path::input::trajectory;
 use plotter_path::kurbo::Point;
 use plotter_path::motion::plan::MachinePos;
-use plotter_path::motion::steps::{StepDrawing, StepMapper, StepPos, drawing_to_steps};
 use plotter_path::optimize::{self, OptimizeOptions};
 use plotter_path::{Drawing, MachineProfile};
 

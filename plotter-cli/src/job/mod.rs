@@ -15,8 +15,8 @@ pub mod stepped;
 use std::path::Path;
 
 use plotter_path::MachineProfile;
+use plotter_path::geometry::steps::StepDrawing;
 use plotter_path::motion::plan::{self, Lookahead, MachinePos, MotionPlan, MoveKind, PenChange};
-use plotter_path::motion::steps::StepDrawing;
 
 use crate::Error;
 use crate::link::journal::{Journal, JournalState};
@@ -293,7 +293,7 @@ impl Run<'_> {
         if !travel.blocks.is_empty() {
             machine.stream(&travel, &mut Quiet).map_err(|e| anyhow::anyhow!("cannot park for the pen change: {e}"))?;
         }
-        let m = plotter_path::motion::steps::StepMapper::new(self.profile).steps_to_machine(to);
+        let m = plotter_path::geometry::steps::StepMapper::new(self.profile).steps_to_machine(to);
         Ok((m.x, m.y))
     }
 }
@@ -316,8 +316,8 @@ fn locate_refusal(e: StreamError, part: &MotionPlan, profile: &MachineProfile) -
     match e {
         StreamError::Refused { block, code, text } if block < part.blocks.len() => {
             let end = part.position_after(block);
-            let mm = plotter_path::motion::steps::StepMapper::new(profile)
-                .steps_to_machine(plotter_path::motion::steps::StepPos::new(end[0], end[1]));
+            let mm = plotter_path::geometry::steps::StepMapper::new(profile)
+                .steps_to_machine(plotter_path::geometry::steps::StepPos::new(end[0], end[1]));
             let original = (part.resumed_from + block).saturating_sub(part.preamble);
             let text = format!("{text} (the block ends at X {:.3} mm, Y {:.3} mm)", mm.x, mm.y);
             StreamError::Refused { block: original, code, text }
@@ -361,8 +361,8 @@ mod tests {
     use crate::link::grbl::settings::GrblSettings;
     use crate::link::session::Session;
     use crate::link::sim::SimTransport;
+    use plotter_path::geometry::steps::drawing_to_steps;
     use plotter_path::kurbo::Point;
-    use plotter_path::motion::steps::drawing_to_steps;
     use plotter_path::{Drawing, Layer, Polyline, Rgb};
 
     /// Three layers, black / red / blue, one 10 mm square each, at x = 20, 50, 80 mm.

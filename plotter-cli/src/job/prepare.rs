@@ -5,8 +5,8 @@
 
 use anyhow::{Context as _, bail};
 use plotter_path::geometry::cancel::Cancel;
+use plotter_path::geometry::steps::{StepDrawing, drawing_to_steps};
 use plotter_path::motion::plan::{self, Lookahead};
-use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
 use plotter_path::optimize::OptimizeReport;
 use plotter_path::output::stats::Stats;
 use plotter_path::{Drawing, MachineProfile, Pen};

@@ -3,11 +3,11 @@
 
 use plotter_fw::TICK_HZ;
 use plotter_path::MachineProfile;
+use plotter_path::geometry::steps::{StepMapper, StepPos};
 use plotter_path::kurbo::Point;
 use plotter_path::motion::plan::{MachinePos, MotionPlan, MoveKind};
-use plotter_path::motion::steps::{StepMapper, StepPos};
 
-use plotter_path::motion::pens::LayerPen;
+use plotter_path::config::pens::LayerPen;
 
 use crate::link::journal::Journal;
 use crate::link::stream::{Control, PauseChoice, Progress};
@@ -239,8 +239,8 @@ impl Control for Tracker<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use plotter_path::geometry::steps::drawing_to_steps;
     use plotter_path::motion::plan::{Lookahead, homed_position, plan};
-    use plotter_path::motion::steps::drawing_to_steps;
     use plotter_path::{Drawing, Polyline};
 
     /// Keeps the last progress it was told.

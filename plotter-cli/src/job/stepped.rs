@@ -2,8 +2,8 @@
 
 use plotter_fw::Axis;
 use plotter_fw::sim::Sim;
+use plotter_path::geometry::steps::{StepMapper, StepPos};
 use plotter_path::kurbo::{Line, Point};
-use plotter_path::motion::steps::{StepMapper, StepPos};
 use plotter_path::{Drawing, MachineProfile, Polyline};
 
 /// The as-stepped drawing: pen-down runs of the simulator's step trace as page-millimetre polylines, and the

@@ -102,7 +102,7 @@ fn ebb_jog(args: &Jog, profile: &plotter_path::MachineProfile, feed: f64) -> any
         anyhow::bail!("the distance must be a number of millimetres within the machine");
     }
     let steps =
-        plotter_path::motion::steps::round_steps(d * spm).ok_or_else(|| anyhow::anyhow!("distance out of range"))?;
+        plotter_path::geometry::steps::round_steps(d * spm).ok_or_else(|| anyhow::anyhow!("distance out of range"))?;
     let ms = (d.abs() / feed * 1000.0).round().max(1.0);
     Ok(vec![format!("XM,{ms},{},{}", steps * steps_of.0, steps * steps_of.1)])
 }
@@ -125,7 +125,7 @@ mod tests {
         let grbl = Firmware::Grbl;
         assert_eq!(jog_lines(&args(JogTarget::Y, Some(3.0)), &p, grbl).unwrap(), ["$J=G91 Y3.0000 F600.0"]);
         let mut servo = p.clone();
-        servo.pen.command = plotter_path::motion::profile::PenCommand::Servo;
+        servo.pen.command = plotter_path::config::profile::PenCommand::Servo;
         assert_eq!(jog_lines(&args(JogTarget::Down, None), &servo, grbl).unwrap(), ["M3 S30"]);
         assert_eq!(jog_lines(&args(JogTarget::Up, None), &servo, ours).unwrap(), ["M5"]);
     }

@@ -808,9 +808,9 @@ pub(crate) mod tests {
     use crate::link::faults::Noise;
     use crate::link::sim::SimTransport;
     use plotter_fw::Axis;
+    use plotter_path::geometry::steps::drawing_to_steps;
     use plotter_path::kurbo::Point;
     use plotter_path::motion::plan::{self, Lookahead};
-    use plotter_path::motion::steps::drawing_to_steps;
     use plotter_path::{Drawing, MachineProfile, Polyline};
 
     fn spiral_plan(profile: &MachineProfile, start: [i32; 4]) -> MotionPlan {
@@ -877,7 +877,7 @@ pub(crate) mod tests {
     #[test]
     fn servo_plans_need_protocol_3() {
         let mut servo = MachineProfile::default_plotter();
-        servo.pen.command = plotter_path::motion::profile::PenCommand::Servo;
+        servo.pen.command = plotter_path::config::profile::PenCommand::Servo;
         let d = Drawing::single_layer("s", vec![Polyline::new(vec![Point::new(10.0, 10.0), Point::new(20.0, 10.0)])]);
         let steps = drawing_to_steps(&servo, &d).unwrap();
         let p = plan::plan(&servo, &steps, plan::homed_position(&servo).unwrap(), Lookahead::Whole).unwrap();

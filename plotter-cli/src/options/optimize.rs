@@ -128,7 +128,7 @@ impl OptimizeArgs {
         if !(self.opt_budget.is_finite() && self.opt_budget >= 0.0) {
             bail!("--opt-budget must be a number of seconds ≥ 0, got {}", self.opt_budget);
         }
-        let width = profile.map_or(plotter_path::motion::profile::DEFAULT_PEN_WIDTH_MM, |p| p.pen.width_mm);
+        let width = profile.map_or(plotter_path::config::profile::DEFAULT_PEN_WIDTH_MM, |p| p.pen.width_mm);
         let start = self.start_from(profile, pen_at)?;
         if self.return_home && start.is_none() {
             bail!("--return-home needs to know where home is: give --profile or --start-at");

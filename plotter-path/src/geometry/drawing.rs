@@ -7,34 +7,10 @@
 
 use kurbo::{Point, Rect};
 
-/// An RGB colour, 8 bits per channel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct Rgb(pub u8, pub u8, pub u8);
-
-impl Rgb {
-    /// Black, the default pen colour.
-    pub const BLACK: Rgb = Rgb(0, 0, 0);
-
-    /// `#rrggbb` form, as used in SVG output.
-    pub fn to_hex(self) -> String {
-        format!("#{:02x}{:02x}{:02x}", self.0, self.1, self.2)
-    }
-}
-
-/// The pen a layer is drawn with.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pen {
-    /// Ink colour, used by previews and by colour-based layer selection.
-    pub color: Rgb,
-    /// Nib width in millimetres (previews draw strokes this wide).
-    pub width_mm: f64,
-}
-
-impl Default for Pen {
-    fn default() -> Self {
-        Pen { color: Rgb::BLACK, width_mm: 0.3 }
-    }
-}
+// A layer's pen and its colour are configuration too (the pen table matches them), defined in `config`; they are
+// re-exported here, where drawings use them.
+pub use crate::config::color::Rgb;
+pub use crate::config::pens::Pen;
 
 /// One pen-down stroke: a sequence of points in millimetres. Closed when first point == last point.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -12,6 +12,7 @@
 use kurbo::{Line, Point, Rect, Vec2};
 
 use super::region::{Keep, Region, cut};
+use crate::config::profile::PenHatch;
 
 /// Hatch settings for filled areas.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -24,6 +25,13 @@ pub struct FillHatch {
     pub cross: bool,
     /// Link neighbouring lines into zig-zags where the link stays inside the area.
     pub link: bool,
+}
+
+impl From<PenHatch> for FillHatch {
+    /// The hatch settings of a pen-table pen (lines linked into zig-zags where that saves lifts).
+    fn from(h: PenHatch) -> Self {
+        FillHatch { spacing_mm: h.spacing_mm, angle_deg: h.angle_deg, cross: h.cross, link: true }
+    }
 }
 
 impl Default for FillHatch {

@@ -14,9 +14,9 @@ use std::str::FromStr;
 
 use kurbo::{Affine, Point, Rect, Vec2};
 
+use crate::config::profile::MachineProfile;
 use crate::geometry::drawing::Drawing;
 use crate::geometry::limits::MAX_COORD_MM;
-use crate::motion::profile::MachineProfile;
 
 /// Layout errors.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -1,6 +1,6 @@
 //! Geometry in millimetres: the [`crate::Drawing`] model, curve flattening, filled regions (clip, occlusion)
-//! and their hatching, page layout, size limits, pen-up travel, the sheets HP-GL plotters address, and the flag
-//! that cancels long work.
+//! and their hatching, page layout, size limits, pen-up travel, the sheets HP-GL plotters address, the flag
+//! that cancels long work, and the drift-free conversion of millimetres to whole motor steps.
 
 pub mod cancel;
 pub mod drawing;
@@ -10,4 +10,5 @@ pub mod hpgl_devices;
 pub mod layout;
 pub mod limits;
 pub mod region;
+pub mod steps;
 pub mod travel;

@@ -11,9 +11,9 @@ use proptest::prelude::*;
 
 use crate::MachineProfile;
 use crate::geometry::limits::check_drawing;
+use crate::geometry::steps::StepMapper;
 use crate::input::svg::{ResourcePolicy, SvgOptions, import_svg};
 use crate::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
-use crate::motion::steps::StepMapper;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 

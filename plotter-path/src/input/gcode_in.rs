@@ -35,8 +35,10 @@
 
 use kurbo::Point;
 
+use super::gcode_words::{Exponents, code10, echo, num, record_warning, strip_comments, words};
+pub use super::gcode_words::{GcodeError, GcodeWarning};
+use crate::config::color::parse_hex_color;
 use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS};
-use crate::motion::pens::parse_hex_color;
 use crate::{Drawing, Layer, MachineProfile, Polyline};
 
 /// Maximum chord error when flattening arcs, millimetres.
@@ -44,54 +46,6 @@ pub const ARC_TOLERANCE_MM: f64 = 0.005;
 
 /// Most chords one arc may become (guards against absurd radii).
 const MAX_ARC_CHORDS: f64 = 200_000.0;
-
-/// Errors importing G-code.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum GcodeError {
-    /// A command this importer does not understand and cannot safely skip.
-    #[error("{origin}:{line}: unsupported command {word}: {why}")]
-    Unsupported {
-        /// File name.
-        origin: String,
-        /// 1-based line number.
-        line: usize,
-        /// The word, e.g. `G18`.
-        word: String,
-        /// Why it cannot be skipped.
-        why: &'static str,
-    },
-    /// The line does not parse or is inconsistent.
-    #[error("{origin}:{line}: {message}")]
-    Malformed {
-        /// File name.
-        origin: String,
-        /// 1-based line number.
-        line: usize,
-        /// What is wrong.
-        message: String,
-    },
-}
-
-/// Something the importer skipped or assumed; the drawing is still usable.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct GcodeWarning {
-    /// First line (1-based) where it happened, 0 when it concerns the whole file.
-    pub line: usize,
-    /// How many times it happened.
-    pub count: usize,
-    /// What was skipped or assumed.
-    pub message: String,
-}
-
-impl std::fmt::Display for GcodeWarning {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.line > 0 {
-            write!(f, "line {}: ", self.line)?;
-        }
-        write!(f, "{}", self.message)?;
-        if self.count > 1 { write!(f, " ({} times)", self.count) } else { Ok(()) }
-    }
-}
 
 /// How the imported file lifts its pen (decided by the second pass).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -186,144 +140,6 @@ fn pause_layer(raw: &str, n: usize) -> Layer {
     layer
 }
 
-/// One parsed word: letter and value with its source text.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Word<'t> {
-    pub(crate) letter: char,
-    pub(crate) value: f64,
-    pub(crate) text: &'t str,
-    /// The number runs straight into an `E` word (`X1E5`): exponent or extrusion, the caller decides how to
-    /// report it (see [`Exponents`]).
-    pub(crate) runs_into_e: bool,
-}
-
-/// How [`words`] reads a letter `e`/`E` right after the digits of a number.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Exponents {
-    /// No extruder (a plotter profile): `1e-05`, `3.5e1`, `2E1` are numbers in exponent notation, which is what
-    /// scripts printing floats write.
-    Numbers,
-    /// An extruder (a printer profile): `E` starts a word, as in Marlin, so `X1E5` is X1 and E5 — but it is flagged
-    /// ([`Word::runs_into_e`]), because a script may have meant 1·10⁵.
-    EWords,
-}
-
-/// Letters whose numbers are command codes (`G1`, `M104`, `T0`, `N12`): never exponents, so `G1E5` is G1 and E5
-/// without doubt (as in the firmware's parser, `plotter_fw::gcode`).
-const CODE_LETTERS: &[u8] = b"GMNT";
-
-/// Longest piece of input echoed in a message, characters.
-const ECHO_MAX: usize = 40;
-
-/// A number as shown in a message: plain when short (`2539999974.6`), in exponent notation otherwise (`3.4e38`,
-/// `1e-300`), so no value prints as hundreds of digits.
-pub(crate) fn num(v: f64) -> String {
-    let plain = v.to_string();
-    if plain.len() <= 24 { plain } else { format!("{v:e}") }
-}
-
-/// `text` as echoed in an error or warning: at most [`ECHO_MAX`] characters, then `…` (a 1 MB number must not
-/// become a 1 MB message).
-pub(crate) fn echo(text: &str) -> String {
-    match text.char_indices().nth(ECHO_MAX) {
-        Some((cut, _)) => format!("{}…", &text[..cut]),
-        None => text.to_string(),
-    }
-}
-
-pub(crate) fn strip_comments(line: &str) -> String {
-    let mut out = String::with_capacity(line.len());
-    let mut in_paren = false;
-    for c in line.chars() {
-        match c {
-            '(' => in_paren = true,
-            ')' if in_paren => in_paren = false,
-            ';' if !in_paren => break,
-            '*' if !in_paren => break, // checksum follows
-            _ if !in_paren => out.push(c),
-            _ => {}
-        }
-    }
-    out
-}
-
-/// Split a line (comments stripped) into words. Numbers are decimals; whether `e`/`E` after one is an exponent or
-/// the next word is `exponents`' choice. A number beyond `f64` (`X1e400`, a run of 400 digits) is a range error.
-pub(crate) fn words<'t>(
-    code: &'t str,
-    origin: &str,
-    line: usize,
-    exponents: Exponents,
-) -> Result<Vec<Word<'t>>, GcodeError> {
-    let bytes = code.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < bytes.len() {
-        let c = bytes[i];
-        if c.is_ascii_whitespace() {
-            i += 1;
-            continue;
-        }
-        if !c.is_ascii_alphabetic() {
-            return Err(GcodeError::Malformed {
-                origin: origin.into(),
-                line,
-                message: format!("unexpected character {:?}", char::from(c)),
-            });
-        }
-        let start = i;
-        i += 1;
-        while i < bytes.len() && bytes[i].is_ascii_whitespace() {
-            i += 1;
-        }
-        let num_start = i;
-        while i < bytes.len() && (bytes[i].is_ascii_digit() || matches!(bytes[i], b'+' | b'-' | b'.')) {
-            i += 1;
-        }
-        let letter = char::from(c).to_ascii_uppercase();
-        let after_number = i > num_start && !CODE_LETTERS.contains(&c.to_ascii_uppercase());
-        let mut runs_into_e = false;
-        if after_number && plotter_fw::gcode::runs_into_e(&bytes[i..]) {
-            let sign = usize::from(matches!(bytes.get(i + 1), Some(b'+' | b'-')));
-            let exponent_digits = bytes[i + 1 + sign..].iter().take_while(|b| b.is_ascii_digit()).count();
-            if exponents == Exponents::Numbers && exponent_digits > 0 {
-                i += 1 + sign + exponent_digits;
-            } else {
-                runs_into_e = true;
-            }
-        }
-        let num = &code[num_start..i];
-        let value = match num.parse::<f64>() {
-            Ok(v) if v.is_finite() => v,
-            Ok(_) => {
-                return Err(GcodeError::Malformed {
-                    origin: origin.into(),
-                    line,
-                    message: format!("{letter}{}: number out of range", echo(num)),
-                });
-            }
-            Err(_) => {
-                return Err(GcodeError::Malformed {
-                    origin: origin.into(),
-                    line,
-                    message: format!("{letter} needs a number, found {:?}", echo(num)),
-                });
-            }
-        };
-        out.push(Word { letter, value, text: code[start..i].trim(), runs_into_e });
-    }
-    Ok(out)
-}
-
-/// Add a warning, or count one more occurrence of the same message (reported with its first line).
-pub(crate) fn record_warning(warnings: &mut Vec<GcodeWarning>, line: usize, message: String) {
-    if let Some(w) = warnings.iter_mut().find(|w| w.message == message) {
-        w.count += 1;
-    } else {
-        warnings.push(GcodeWarning { line, count: 1, message });
-    }
-}
-
 impl Machine<'_> {
     fn warn(&mut self, line: usize, message: impl Into<String>) {
         record_warning(&mut self.warnings, line, message.into());
@@ -370,50 +186,46 @@ impl Machine<'_> {
         for w in &ws {
             match w.letter {
                 'G' => {
-                    let code10 = (w.value * 10.0).round();
-                    match code10 {
-                        0.0 => self.motion = Some(Motion::Rapid),
-                        10.0 => self.motion = Some(Motion::Linear),
-                        20.0 => self.motion = Some(Motion::Cw),
-                        30.0 => self.motion = Some(Motion::Ccw),
-                        200.0 => self.mm_per_unit = 25.4,
-                        210.0 => self.mm_per_unit = 1.0,
-                        900.0 => self.absolute = true,
-                        910.0 => self.absolute = false,
-                        901.0 => self.arc_center_absolute = true,
-                        911.0 => self.arc_center_absolute = false,
-                        920.0 => g92 = true,
-                        921.0 => self.offset = [0.0; 3],
-                        280.0 => g28 = true,
+                    match code10(w.value) {
+                        0 => self.motion = Some(Motion::Rapid),
+                        10 => self.motion = Some(Motion::Linear),
+                        20 => self.motion = Some(Motion::Cw),
+                        30 => self.motion = Some(Motion::Ccw),
+                        200 => self.mm_per_unit = 25.4,
+                        210 => self.mm_per_unit = 1.0,
+                        900 => self.absolute = true,
+                        910 => self.absolute = false,
+                        901 => self.arc_center_absolute = true,
+                        911 => self.arc_center_absolute = false,
+                        920 => g92 = true,
+                        921 => self.offset = [0.0; 3],
+                        280 => g28 = true,
                         // Dwell, XY plane, feed per minute, path modes, cancel offsets/cycles, first work system.
-                        40.0 | 170.0 | 940.0 | 610.0 | 640.0 | 400.0 | 490.0 | 800.0 | 540.0 => {}
-                        180.0 | 190.0 => {
+                        40 | 170 | 940 | 610 | 640 | 400 | 490 | 800 | 540 => {}
+                        180 | 190 => {
                             return Err(self.unsupported(line, w.text, "only the XY plane (G17) is drawn"));
                         }
                         _ => return Err(self.unsupported(line, w.text, "unknown G code")),
                     }
                 }
-                'M' => match (w.value * 10.0).round() {
-                    30.0 | 40.0 => {
+                'M' => match code10(w.value) {
+                    30 | 40 => {
                         self.spindle = true;
                         self.used_spindle = true;
                     }
-                    50.0 => {
+                    50 => {
                         self.spindle = false;
                         self.used_spindle = true;
                     }
-                    20.0 | 300.0 => self.ended = true,
-                    0.0 | 10.0 => {
+                    20 | 300 => self.ended = true,
+                    0 | 10 => {
                         let layer = pause_layer(raw, self.layer_starts.len() + 2);
                         self.layer_starts.push((self.segments.len(), layer));
                     }
-                    60.0 => self.warn(line, "tool change ignored: the drawing is one layer"),
+                    60 => self.warn(line, "tool change ignored: the drawing is one layer"),
                     // Motors, extrusion modes, temperatures, fans, messages, feed/flow overrides, sync, reports.
-                    v if [
-                        170.0, 180.0, 840.0, 820.0, 830.0, 1040.0, 1090.0, 1400.0, 1900.0, 1060.0, 1070.0, 1170.0,
-                    ]
-                    .contains(&v)
-                        || [2200.0, 2210.0, 4000.0, 1140.0, 1150.0, 70.0, 80.0, 90.0].contains(&v) => {}
+                    v if [170, 180, 840, 820, 830, 1040, 1090, 1400, 1900, 1060, 1070, 1170].contains(&v)
+                        || [2200, 2210, 4000, 1140, 1150, 70, 80, 90].contains(&v) => {}
                     _ => return Err(self.unsupported(line, w.text, "unknown M code")),
                 },
                 'X' => axes[0] = Some(w.value),
@@ -710,8 +522,8 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::profile::PenCommand;
-    use crate::motion::steps::drawing_to_steps;
+    use crate::config::profile::PenCommand;
+    use crate::geometry::steps::drawing_to_steps;
     use crate::output::gcode_out;
     use proptest::prelude::*;
 
@@ -1022,7 +834,7 @@ mod tests {
         fn export_then_import_gives_the_same_steps(paths in arb_paths(), servo in any::<bool>(), flip in any::<bool>()) {
             let mut p = profile();
             if servo { p.pen.command = PenCommand::Servo; }
-            if flip { p.page_origin = crate::motion::profile::PageOrigin::BottomLeft; }
+            if flip { p.page_origin = crate::config::profile::PageOrigin::BottomLeft; }
             let steps = drawing_to_steps(&p, &Drawing::single_layer("a", paths)).unwrap();
             // Strokes whose every point rounds to the same step carry no motion and come back as nothing.
             let mut expected = steps.clone();

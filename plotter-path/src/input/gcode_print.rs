@@ -23,8 +23,11 @@
 //! are read from its comments when present: `; estimated printing time (normal mode) = 1h 2m 3s` (PrusaSlicer),
 //! `;TIME:3723` (Cura), `; filament used [mm] = 1234.56` (PrusaSlicer), `;Filament used: 1.23456m` (Cura).
 
-use super::gcode_in::{Exponents, GcodeError, GcodeWarning, echo, num, record_warning, strip_comments, words};
+use super::gcode_words::{
+    Exponents, GcodeError, GcodeWarning, Word, code10, echo, num, record_warning, strip_comments, words,
+};
 use crate::MachineProfile;
+use crate::geometry::steps::StepMapper;
 
 /// Maximum chord error when flattening arcs, millimetres.
 const ARC_TOLERANCE_MM: f64 = 0.005;
@@ -168,14 +171,6 @@ fn slicer_comment(raw: &str, figures: &mut SlicerFigures) {
         let m: Option<f64> = v.split(',').map(|x| x.trim().trim_end_matches('m').parse::<f64>().ok()).sum();
         figures.filament_mm = figures.filament_mm.or(m.map(|m| m * 1000.0));
     }
-}
-
-/// A G/M code times ten (`G92.1` → 921), saturating far outside the codes in use.
-fn code10(v: f64) -> i64 {
-    // Clamped to a small range first, so the conversion is exact.
-    #[allow(clippy::cast_possible_truncation)]
-    let c = (v * 10.0).round().clamp(-1e6, 1e6) as i64;
-    c
 }
 
 impl Player<'_> {
@@ -470,14 +465,7 @@ impl Player<'_> {
         Ok(())
     }
 
-    fn m_code(
-        &mut self,
-        line: usize,
-        v: f64,
-        text: &str,
-        code: &str,
-        ws: &[super::gcode_in::Word<'_>],
-    ) -> Result<(), GcodeError> {
+    fn m_code(&mut self, line: usize, v: f64, text: &str, code: &str, ws: &[Word<'_>]) -> Result<(), GcodeError> {
         let upper = echo(&text.to_uppercase());
         // Sent in canonical form (`M0104` → `M104`); the number is whole here (checked below before any send).
         let name = format!("M{}", code10(v) / 10);
@@ -573,7 +561,7 @@ pub fn import_print(text: &str, origin: &str, profile: &MachineProfile) -> Resul
             message: format!("profile {:?} has no extruder (axes.e): it cannot print", profile.name),
         });
     }
-    let homed = crate::motion::plan::homed_position(profile).map_err(|e| GcodeError::Malformed {
+    let homed = StepMapper::new(profile).homed().map_err(|e| GcodeError::Malformed {
         origin: origin.into(),
         line: 0,
         message: e.to_string(),

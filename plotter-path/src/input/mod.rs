@@ -3,6 +3,7 @@
 
 pub mod gcode_in;
 pub mod gcode_print;
+pub mod gcode_words;
 pub mod r#gen;
 pub mod hpgl_in;
 pub mod raster;

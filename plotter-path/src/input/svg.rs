@@ -177,9 +177,9 @@ pub struct SvgOptions {
     /// (thinner ones would only nick the lines they cross).
     pub pen_width_mm: f64,
     /// The profile's pen table: a layer whose pen (matched by name, then colour, see
-    /// [`crate::motion::pens::table_index`]) has a `hatch` gets its fills shaded, unless [`SvgOptions::hatch`]
+    /// [`crate::config::pens::table_index`]) has a `hatch` gets its fills shaded, unless [`SvgOptions::hatch`]
     /// sets one hatch for all.
-    pub pens: Vec<crate::motion::profile::PenSpec>,
+    pub pens: Vec<crate::config::profile::PenSpec>,
     /// Stops the import early with [`SvgError::Cancelled`] when set: checked after parsing, at every element of
     /// the walk and every item of hidden-line removal, and passed on to the tracer of embedded images.
     pub cancel: Cancel,

@@ -13,12 +13,12 @@
 //! Every count is a signed relative step count. Move 1 of each trace is the pen-up travel from where the previous
 //! trace ended (the first trace starts at the homed origin, step (0, 0)) to the trace's start; the remaining moves are
 //! drawn with the pen down. A trace of one move is therefore a dot. Because the moves are the differences of
-//! absolute step positions (see [`crate::motion::steps`]), a file written here sums to exact positions and never drifts.
+//! absolute step positions (see [`crate::geometry::steps`]), a file written here sums to exact positions and never drifts.
 //!
 //! Import accepts commas or tabs as separators and blank lines between traces, and reports any other deviation with
 //! its line number.
 
-use crate::motion::steps::{MAX_STEP_COORD, StepDelta, StepDrawing, StepPos, StepStroke};
+use crate::geometry::steps::{MAX_STEP_COORD, StepDelta, StepDrawing, StepPos, StepStroke};
 
 /// Errors reading a trajectory file.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

@@ -28,8 +28,8 @@
 //! bound is valid whatever the order; the gap between it and the plan is what any order and planner could gain.
 
 use crate::MachineProfile;
+use crate::geometry::steps::StepDrawing;
 use crate::motion::plan::{PlanError, machine_config};
-use crate::motion::steps::StepDrawing;
 
 /// The parts of a plot-time lower bound, seconds.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
@@ -183,8 +183,8 @@ pub fn drawing_time_lower_bound(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::steps::{StepDelta, StepPos, StepStroke};
     use crate::motion::plan::{Lookahead, homed_position, plan};
-    use crate::motion::steps::{StepDelta, StepPos, StepStroke};
 
     #[test]
     fn one_dimensional_minimum_times() {
@@ -267,7 +267,7 @@ mod tests {
     #[test]
     fn a_servo_pen_stops_drawing_and_lifts_in_its_settle_time() {
         let mut p = MachineProfile::default_plotter();
-        p.pen.command = crate::motion::profile::PenCommand::Servo;
+        p.pen.command = crate::config::profile::PenCommand::Servo;
         p.pen.settle_ms = 150.0;
         let steps = StepDrawing::from_strokes(vec![StepStroke {
             start: StepPos::new(800, 800),

@@ -24,7 +24,7 @@
 //! Servo pens have no Z to blend; their equivalent is timing, planned in [`crate::motion::plan`].
 
 use crate::MachineProfile;
-use crate::motion::steps::{StepPos, round_steps};
+use crate::geometry::steps::{StepPos, round_steps};
 
 /// Safety factor on the slope for the rounding of the vertices to steps.
 const SLOPE_MARGIN: f64 = 0.8;

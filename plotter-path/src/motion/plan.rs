@@ -36,10 +36,10 @@ use plotter_fw::protocol;
 use plotter_fw::{Axis, MachineConfig, NUM_AXES, StepBlock, TICK_HZ};
 
 use crate::MachineProfile;
+use crate::config::pens::{self, LayerPen};
+use crate::config::profile::{AxisProfile, HomeEnd};
+use crate::geometry::steps::{PenHeightsError, StepDrawing, StepMapper, StepPos};
 use crate::motion::hop::{self, HopHeights};
-use crate::motion::pens::{self, LayerPen};
-use crate::motion::profile::{AxisProfile, HomeEnd};
-use crate::motion::steps::{StepDrawing, StepMapper, StepPos};
 
 /// Errors planning a drawing.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -67,7 +67,7 @@ pub enum PlanError {
     #[error("machine profile: {0}")]
     Config(String),
     /// The pen Z heights do not round to different steps.
-    #[error("machine profile: pen.up_z_mm and pen.down_z_mm round to the same Z step")]
+    #[error("{}", PenHeightsError)]
     PenHeights,
 }
 
@@ -337,13 +337,7 @@ fn pen_steps(profile: &MachineProfile) -> Result<(i32, i32), PlanError> {
 
 /// The pen-up Z and the pen-down Z `down_mm` in steps.
 fn pen_steps_at(profile: &MachineProfile, down_mm: f64) -> Result<(i32, i32), PlanError> {
-    let m = StepMapper::new(profile);
-    let up = m.z_steps(profile.pen.up_z_mm).ok_or(PlanError::PenHeights)?;
-    let down = m.z_steps(down_mm).ok_or(PlanError::PenHeights)?;
-    if up == down {
-        return Err(PlanError::PenHeights);
-    }
-    Ok((up, down))
+    StepMapper::new(profile).pen_z_steps(down_mm).map_err(|PenHeightsError| PlanError::PenHeights)
 }
 
 /// The resolved pen of every layer of `steps` (one default layer when it has none).
@@ -360,7 +354,8 @@ pub fn park_position(profile: &MachineProfile) -> Result<StepPos, PlanError> {
         Some(p) => {
             let m = StepMapper::new(profile);
             let (sx, sy) = m.steps_per_mm();
-            let r = |v: f64| crate::motion::steps::round_steps(v).ok_or(PlanError::Config("park: out of range".into()));
+            let r =
+                |v: f64| crate::geometry::steps::round_steps(v).ok_or(PlanError::Config("park: out of range".into()));
             Ok(StepPos::new(r(p.x_mm * sx)?, r(p.y_mm * sy)?))
         }
         None => {
@@ -396,15 +391,7 @@ pub fn plan_travel(profile: &MachineProfile, from: MachinePos, to: StepPos) -> R
 
 /// The position after homing: X and Y at their switch end, Z at the pen-up height.
 pub fn homed_position(profile: &MachineProfile) -> Result<MachinePos, PlanError> {
-    let (up, _) = pen_steps(profile)?;
-    let end = |a: &AxisProfile| {
-        if a.home == HomeEnd::Max {
-            crate::motion::steps::round_steps(a.travel_mm * a.steps_per_mm).unwrap_or(0)
-        } else {
-            0
-        }
-    };
-    Ok([end(&profile.axes.x), end(&profile.axes.y), up, 0])
+    StepMapper::new(profile).homed().map_err(|PenHeightsError| PlanError::PenHeights)
 }
 
 /// Where the pen is after homing, in page millimetres (where a plot's first travel starts).
@@ -416,7 +403,7 @@ pub fn home_on_page(profile: &MachineProfile) -> Result<kurbo::Point, PlanError>
 /// Check that every stroke point is inside the work area (0..=travel on X and Y, in steps).
 pub fn check_work_area(profile: &MachineProfile, steps: &StepDrawing) -> Result<(), PlanError> {
     let mapper = StepMapper::new(profile);
-    let lim = |a: &AxisProfile| crate::motion::steps::round_steps(a.travel_mm * a.steps_per_mm).unwrap_or(i32::MAX);
+    let lim = |a: &AxisProfile| crate::geometry::steps::round_steps(a.travel_mm * a.steps_per_mm).unwrap_or(i32::MAX);
     let (wx, wy) = (lim(&profile.axes.x), lim(&profile.axes.y));
     for (si, s) in steps.strokes.iter().enumerate() {
         for (pi, p) in s.positions().into_iter().enumerate() {
@@ -441,7 +428,7 @@ pub(crate) fn settle_ticks(profile: &MachineProfile) -> u32 {
     ms_ticks(profile.pen.settle_ms)
 }
 
-/// A servo pen's clear time ([`crate::motion::profile::PenProfile::servo_clear_ms`]) in ticks, at most the settle.
+/// A servo pen's clear time ([`crate::config::profile::PenProfile::servo_clear_ms`]) in ticks, at most the settle.
 pub(crate) fn servo_clear_ticks(profile: &MachineProfile) -> u32 {
     ms_ticks(profile.pen.servo_clear_ms()).min(settle_ticks(profile))
 }
@@ -823,7 +810,7 @@ fn windowed(raw: &[PlanBlock], w: usize) -> Vec<StepBlock> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::steps::{StepDelta, StepStroke, drawing_to_steps};
+    use crate::geometry::steps::{StepDelta, StepStroke, drawing_to_steps};
     use crate::{Drawing, Polyline};
     use kurbo::Point;
 
@@ -1027,7 +1014,7 @@ mod tests {
     #[test]
     fn servo_pens_plan_servo_blocks_and_resume_with_them() {
         let mut p = profile();
-        p.pen.command = crate::motion::profile::PenCommand::Servo;
+        p.pen.command = crate::config::profile::PenCommand::Servo;
         p.pen.settle_ms = 120.0;
         let d = Drawing::single_layer("a", vec![square(10.0, 10.0, 5.0), square(30.0, 10.0, 5.0)]);
         let steps = drawing_to_steps(&p, &d).unwrap();
@@ -1080,7 +1067,7 @@ mod tests {
 
     #[test]
     fn pen_changes_sit_before_the_travel_to_a_layer_with_another_pen() {
-        use crate::motion::profile::PenSpec;
+        use crate::config::profile::PenSpec;
         let mut p = profile();
         p.pens = vec![PenSpec {
             name: "red".into(),

@@ -18,9 +18,9 @@ use plotter_fw::protocol::{self, DWELL_MAX};
 use plotter_fw::{MachineConfig, NUM_AXES, StepBlock, TICK_HZ};
 
 use crate::MachineProfile;
+use crate::geometry::steps::round_steps;
 use crate::input::gcode_print::{PrintOp, PrintProgram};
 use crate::motion::plan::{MachinePos, homed_position, machine_config};
-use crate::motion::steps::round_steps;
 
 /// Errors planning a print.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

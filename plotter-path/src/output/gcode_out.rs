@@ -1,7 +1,7 @@
 //! GRBL-compatible G-code export of a drawing.
 //!
 //! The program is millimetres (`G21`), absolute (`G90`), machine coordinates (the page → machine mapping is already
-//! applied by [`crate::motion::steps`]). Pen-up travel is `G0`, drawing is `G1` at the profile's drawing feed. The pen is
+//! applied by [`crate::geometry::steps`]). Pen-up travel is `G0`, drawing is `G1` at the profile's drawing feed. The pen is
 //! lifted and lowered either as Z moves (`G0 Z<up>` / `G1 Z<down>`, the default) or, for servo pen lifts
 //! ([`PenCommand::Servo`] in the profile), as `M3 S<angle>` / `M5` (the pen's down angle in degrees, as this
 //! project's firmware and GRBL servo-pen builds with `$30=180` take it).
@@ -16,7 +16,7 @@
 //! is raised to just above it when smaller): readers that tell travel from drawing by that midpoint, this
 //! project's G-code import among them, then see every hop as travel.
 //!
-//! Between layers drawn with different pens ([`crate::motion::pens`]) the program parks the carriage (pen up)
+//! Between layers drawn with different pens ([`crate::config::pens`]) the program parks the carriage (pen up)
 //! and stops with `M0` and a comment naming the pen to load; cycle start (`~` on GRBL) continues. Each layer is
 //! drawn with its pen's down height (or servo angle) and drawing feed.
 //!
@@ -27,10 +27,10 @@
 use std::fmt::Write as _;
 
 use crate::MachineProfile;
+use crate::config::profile::PenCommand;
+use crate::geometry::steps::{StepDrawing, StepMapper, StepPos};
 use crate::motion::hop::{HopHeights, travel_waypoints};
 use crate::motion::plan::{layer_pens, park_position};
-use crate::motion::profile::PenCommand;
-use crate::motion::steps::{StepDrawing, StepMapper, StepPos};
 
 /// Format a millimetre value with at most `decimals` decimals, trailing zeros removed (`-0` printed as `0`).
 pub fn fmt_mm(v: f64, decimals: usize) -> String {
@@ -173,7 +173,7 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::steps::{StepDelta, StepPos, StepStroke};
+    use crate::geometry::steps::{StepDelta, StepPos, StepStroke};
 
     fn square() -> StepDrawing {
         StepDrawing {
@@ -262,12 +262,12 @@ mod tests {
 
     #[test]
     fn pen_changes_park_and_stop_with_m0() {
-        use crate::motion::steps::StepLayer;
+        use crate::geometry::steps::StepLayer;
         use crate::{Pen, Rgb};
         let mut p = MachineProfile::default_plotter();
         // No pen table: each colour is its own pen, named after its layer.
         p.pens.clear();
-        p.park = Some(crate::motion::profile::ParkProfile { x_mm: 2.0, y_mm: 3.0 });
+        p.park = Some(crate::config::profile::ParkProfile { x_mm: 2.0, y_mm: 3.0 });
         let stroke = |x: i32| StepStroke { start: StepPos::new(x, 8), moves: vec![StepDelta { dx: 80, dy: 0 }] };
         let layer = |name: &str, color: Rgb, first_stroke: usize| StepLayer {
             name: name.into(),

@@ -20,8 +20,8 @@
 use std::fmt::Write as _;
 
 use super::gcode_out::fmt_mm;
+use crate::config::pens::{self, LayerPen};
 use crate::geometry::hpgl_devices::{HpglDevice, HpglPaper};
-use crate::motion::pens::{self, LayerPen};
 use crate::{Drawing, MachineProfile};
 
 /// Longest line written, characters (without the newline).

@@ -463,9 +463,9 @@ pub fn program(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use plotter_path::geometry::steps::drawing_to_steps;
     use plotter_path::kurbo::Point;
     use plotter_path::motion::plan::{Lookahead, plan as make_plan};
-    use plotter_path::motion::steps::drawing_to_steps;
     use plotter_path::{Drawing, Polyline};
 
     pub(crate) fn axidraw() -> MachineProfile {

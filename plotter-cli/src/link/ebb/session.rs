@@ -566,9 +566,9 @@ mod tests {
     use crate::link::ebb::emulator::EbbEmulator;
     use crate::link::ebb::emulator_transport::EbbTransport;
     use crate::link::stream::tests::Record;
+    use plotter_path::geometry::steps::drawing_to_steps;
     use plotter_path::kurbo::Point;
     use plotter_path::motion::plan::{Lookahead, plan as make_plan};
-    use plotter_path::motion::steps::drawing_to_steps;
     use plotter_path::{Drawing, Polyline};
 
     fn profile() -> MachineProfile {

@@ -126,7 +126,7 @@ pub fn lift(profile: &MachineProfile, z_now: i32) -> Result<Vec<String>, plotter
     }
     let up = plotter_path::motion::plan::homed_position(profile)?[2];
     let sz = profile.axes.z.steps_per_mm;
-    let down = plotter_path::motion::steps::round_steps(profile.pen.down_z_mm * sz).unwrap_or(up);
+    let down = plotter_path::geometry::steps::round_steps(profile.pen.down_z_mm * sz).unwrap_or(up);
     let lifted = if up >= down { z_now >= up } else { z_now <= up };
     if lifted {
         return Ok(Vec::new());
@@ -151,9 +151,9 @@ pub fn declare_position(profile: &MachineProfile, pos: [i32; 4]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use plotter_path::geometry::steps::drawing_to_steps;
     use plotter_path::kurbo::Point;
     use plotter_path::motion::plan::{Lookahead, homed_position, plan};
-    use plotter_path::motion::steps::drawing_to_steps;
     use plotter_path::{Drawing, Layer, Polyline, Rgb};
 
     fn two_layers() -> Drawing {
@@ -171,7 +171,7 @@ mod tests {
     #[test]
     fn one_line_per_block_with_exact_positions() {
         let mut p = MachineProfile::default_plotter();
-        p.pens = vec![plotter_path::motion::profile::PenSpec {
+        p.pens = vec![plotter_path::config::profile::PenSpec {
             name: "red".into(),
             color: Some("#ff0000".into()),
             width_mm: None,
@@ -212,7 +212,7 @@ mod tests {
     #[test]
     fn servo_pens_use_m3_m5() {
         let mut p = MachineProfile::default_plotter();
-        p.pen.command = plotter_path::motion::profile::PenCommand::Servo;
+        p.pen.command = plotter_path::config::profile::PenCommand::Servo;
         p.pen.servo_down_deg = 25.0;
         let steps = drawing_to_steps(&p, &two_layers()).unwrap();
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();

@@ -92,7 +92,7 @@ fn transport_error(name: &str, e: std::io::Error) -> anyhow::Error {
 /// Step position (XYZ) of millimetres.
 fn to_steps(profile: &MachineProfile, mm: [f64; 3]) -> [i32; 3] {
     let spm = [profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm, profile.axes.z.steps_per_mm];
-    core::array::from_fn(|i| plotter_path::motion::steps::round_steps(mm[i] * spm[i]).unwrap_or(i32::MAX))
+    core::array::from_fn(|i| plotter_path::geometry::steps::round_steps(mm[i] * spm[i]).unwrap_or(i32::MAX))
 }
 
 impl<T: Transport> GrblSession<T> {
@@ -884,9 +884,9 @@ mod tests {
     use crate::link::grbl::emulator_transport::EmulatorTransport;
     use crate::link::grbl::settings::GrblSettings;
     use crate::link::stream::tests::Record;
+    use plotter_path::geometry::steps::{StepDrawing, drawing_to_steps};
     use plotter_path::kurbo::Point;
     use plotter_path::motion::plan::{Lookahead, homed_position, plan as make_plan};
-    use plotter_path::motion::steps::{StepDrawing, drawing_to_steps};
     use plotter_path::{Drawing, Polyline};
 
     /// Ten 10 mm squares and a circle of 2 mm chords: every segment takes far longer to draw (≥ 2 mm at 60 mm/s
@@ -1141,7 +1141,7 @@ mod tests {
     #[test]
     fn a_servo_pen_is_lifted_with_m5_after_a_reset() {
         let mut profile = MachineProfile::default_plotter();
-        profile.pen.command = plotter_path::motion::profile::PenCommand::Servo;
+        profile.pen.command = plotter_path::config::profile::PenCommand::Servo;
         (profile.pen.servo_up_deg, profile.pen.servo_down_deg) = (90.0, 25.0);
         let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
         // Plan lines: `M5 G4 …`, then per square travel, `M3 S25 G4 …`, four strokes, `M5 G4 …`. The servo acts

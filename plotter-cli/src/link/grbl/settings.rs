@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use plotter_path::MachineProfile;
-use plotter_path::motion::profile::AxisProfile;
+use plotter_path::config::profile::AxisProfile;
 
 /// Setting numbers of GRBL 1.1 used here.
 pub mod key {
@@ -276,7 +276,7 @@ mod tests {
         assert!(m[0].to_string().contains("X would come out +1.27 %"), "{}", m[0]);
         assert!(m[2].consequence.contains("soft-limit"));
         let mut servo = p.clone();
-        servo.pen.command = plotter_path::motion::profile::PenCommand::Servo;
+        servo.pen.command = plotter_path::config::profile::PenCommand::Servo;
         s.values.insert(102, 1.0);
         assert!(!s.compare(&servo).iter().any(|x| x.key == 102), "no Z for a servo pen");
     }

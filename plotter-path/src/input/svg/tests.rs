@@ -702,7 +702,7 @@ fn pens_with_a_hatch_shade_their_layers_fills() {
         r#"<rect x="10" y="10.5" width="20" height="20" fill="red"/>
            <rect x="50" y="10.5" width="20" height="20" fill="blue"/>"#,
     );
-    let pen = |name: &str, color: &str, hatch| crate::motion::profile::PenSpec {
+    let pen = |name: &str, color: &str, hatch| crate::config::profile::PenSpec {
         name: name.into(),
         color: Some(color.into()),
         width_mm: None,
@@ -711,7 +711,7 @@ fn pens_with_a_hatch_shade_their_layers_fills() {
         draw_feed_mm_s: None,
         hatch,
     };
-    let red_hatch = crate::motion::profile::PenHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false };
+    let red_hatch = crate::config::profile::PenHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false };
     let options = SvgOptions {
         layer_by: LayerBy::Color,
         pens: vec![pen("red gel", "#ff0000", Some(red_hatch)), pen("blue", "#0000ff", None)],

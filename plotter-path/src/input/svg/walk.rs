@@ -300,8 +300,8 @@ impl<'a> Walker<'a> {
     fn fill_hatch(&self, layer: usize, color: Rgb) -> Option<FillHatch> {
         self.options.hatch.or_else(|| {
             let name = &self.layer_names[layer];
-            let pen = crate::motion::pens::table_index(&self.options.pens, name, color)?;
-            self.options.pens[pen].hatch.map(|h| h.fill_hatch())
+            let pen = crate::config::pens::table_index(&self.options.pens, name, color)?;
+            self.options.pens[pen].hatch.map(FillHatch::from)
         })
     }
 

@@ -9,9 +9,9 @@ use std::f64::consts::TAU;
 use std::time::Instant;
 
 use plotter_fw::TICK_HZ;
+use plotter_path::geometry::steps::drawing_to_steps;
 use plotter_path::kurbo::Point;
 use plotter_path::motion::plan::{self, Lookahead};
-use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::{Drawing, MachineProfile, Polyline};
 
 use plotter_host::link::grbl::emulator::GrblEmulator;

@@ -25,8 +25,8 @@ use plotter_host::link::stream::PauseChoice;
 use plotter_host::options::layout::LayoutArgs;
 use plotter_host::options::optimize::OptimizeArgs;
 use plotter_path::MachineProfile;
+use plotter_path::config::pens::LayerPen;
 use plotter_path::input::trajectory;
-use plotter_path::motion::pens::LayerPen;
 use plotter_path::motion::plan;
 use plotter_path::output::preview;
 use serde::{Deserialize, Serialize};
@@ -342,7 +342,7 @@ fn default_beside(input: &Path, suffix: &str) -> PathBuf {
 /// [`plotter_path::motion::bound`]); the order's travel bound is taken from `start`, where the order started.
 fn print_lower_bound(
     profile: &plotter_path::MachineProfile,
-    steps: &plotter_path::motion::steps::StepDrawing,
+    steps: &plotter_path::geometry::steps::StepDrawing,
     drawing: &plotter_path::Drawing,
     plan: &plotter_path::motion::plan::MotionPlan,
     args: &PlotArgs,
@@ -369,7 +369,7 @@ fn print_lower_bound(
 fn export_hpgl(
     args: &PlotArgs,
     profile: &MachineProfile,
-    steps: &plotter_path::motion::steps::StepDrawing,
+    steps: &plotter_path::geometry::steps::StepDrawing,
     drawing: Option<plotter_path::Drawing>,
     out: &Path,
 ) -> anyhow::Result<()> {
@@ -379,7 +379,7 @@ fn export_hpgl(
         format!("--hpgl-device {}: not a known plotter (known: {})", args.hpgl_device, hpgl_devices::device_names())
     })?;
     let drawing = drawing
-        .unwrap_or_else(|| steps.to_drawing(&plotter_path::motion::steps::StepMapper::new(profile), "trajectory"));
+        .unwrap_or_else(|| steps.to_drawing(&plotter_path::geometry::steps::StepMapper::new(profile), "trajectory"));
     let papers: Vec<HpglPaper> = match (&args.hpgl_paper, device.papers.is_empty()) {
         (Some(name), false) => vec![
             *device

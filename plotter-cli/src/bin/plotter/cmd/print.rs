@@ -17,8 +17,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_fw::heater::Heater;
 use plotter_fw::sim::thermal::SimFault;
 use plotter_fw::{Axis, TICK_HZ};
+use plotter_path::config::profile::thermal_config;
 use plotter_path::input::gcode_print::import_print;
-use plotter_path::motion::heaters::thermal_config;
 use plotter_path::motion::plan;
 use plotter_path::motion::print_plan::plan_print;
 

@@ -236,7 +236,7 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         let mut opts = SimOptions::for_config(&cfg);
         opts.baud = if args.fast { None } else { Some(profile.link.baud) };
         // A printer profile's heaters run on the thermal model (plotters have none).
-        opts.thermal = plotter_path::motion::heaters::thermal_config(&profile).map_err(anyhow::Error::msg)?;
+        opts.thermal = plotter_path::config::profile::thermal_config(&profile).map_err(anyhow::Error::msg)?;
         Backend::Ours(Box::new(Sim::with_options(cfg, opts)))
     };
     let mut noise = (args.noise > 0.0).then(|| Noise::new(args.noise, args.seed));

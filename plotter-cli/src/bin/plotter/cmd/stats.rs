@@ -6,10 +6,10 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
+use plotter_path::geometry::steps::drawing_to_steps;
 use plotter_path::kurbo::Point;
 use plotter_path::motion::bound::{TimeBound, drawing_time_lower_bound};
 use plotter_path::motion::plan::{self, Lookahead, PlanBreakdown};
-use plotter_path::motion::steps::drawing_to_steps;
 use plotter_path::optimize::{CostModel, SeamMode, drawing_travel};
 use plotter_path::output::stats::Stats;
 use plotter_path::{Drawing, MachineProfile};

@@ -200,15 +200,11 @@ impl HeatersProfile {
     }
 }
 
-/// The heaters of `profile` for the firmware ([`ThermalConfig::NONE`] without a `[heaters]` section).
-pub fn thermal_config(profile: &crate::MachineProfile) -> Result<ThermalConfig, String> {
-    profile.heaters.as_ref().map_or(Ok(ThermalConfig::NONE), HeatersProfile::to_config)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::MachineProfile;
+    use crate::config::profile::thermal_config;
 
     #[test]
     fn printer_sample_matches_the_firmware_printer() {

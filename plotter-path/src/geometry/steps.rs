@@ -11,6 +11,7 @@
 
 use kurbo::Point;
 
+use crate::config::profile::{AxisProfile, HomeEnd};
 use crate::{Drawing, MachineProfile, Pen, Polyline};
 
 /// Largest step coordinate accepted: ±2³⁰ keeps every difference of two coordinates inside `i32`.
@@ -126,7 +127,32 @@ impl StepMapper {
     pub fn z_steps(&self, z_mm: f64) -> Option<i32> {
         round_steps(z_mm * self.profile.axes.z.steps_per_mm)
     }
+
+    /// The pen-up Z and the pen-down Z `down_mm`, in steps.
+    pub fn pen_z_steps(&self, down_mm: f64) -> Result<(i32, i32), PenHeightsError> {
+        let up = self.z_steps(self.profile.pen.up_z_mm).ok_or(PenHeightsError)?;
+        let down = self.z_steps(down_mm).ok_or(PenHeightsError)?;
+        if up == down {
+            return Err(PenHeightsError);
+        }
+        Ok((up, down))
+    }
+
+    /// The machine position after homing, in steps (X, Y, Z, E): X and Y at their switch end, Z at the pen-up
+    /// height, E at 0.
+    pub fn homed(&self) -> Result<[i32; 4], PenHeightsError> {
+        let (up, _) = self.pen_z_steps(self.profile.pen.down_z_mm)?;
+        let end = |a: &AxisProfile| {
+            if a.home == HomeEnd::Max { round_steps(a.travel_mm * a.steps_per_mm).unwrap_or(0) } else { 0 }
+        };
+        Ok([end(&self.profile.axes.x), end(&self.profile.axes.y), up, 0])
+    }
 }
+
+/// The profile's pen heights do not round to two different Z steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("machine profile: pen.up_z_mm and pen.down_z_mm round to the same Z step")]
+pub struct PenHeightsError;
 
 /// Round a step count to the nearest integer (ties away from zero), `None` when not finite or beyond the range.
 pub fn round_steps(v: f64) -> Option<i32> {
@@ -259,7 +285,7 @@ pub fn drawing_to_steps(profile: &MachineProfile, drawing: &Drawing) -> Result<S
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::profile::PageOrigin;
+    use crate::config::profile::PageOrigin;
     use proptest::prelude::*;
 
     fn profile() -> MachineProfile {

@@ -8,7 +8,10 @@
 use std::path::Path;
 
 use kurbo::{Point, Rect};
+use plotter_fw::thermal::ThermalConfig;
 use serde::{Deserialize, Serialize};
+
+use crate::config::heaters::HeatersProfile;
 
 /// Errors loading a machine profile.
 #[derive(Debug, thiserror::Error)]
@@ -219,16 +222,6 @@ impl PenHatch {
     fn default_angle() -> f64 {
         45.0
     }
-
-    /// The hatch settings for filled areas (lines linked into zig-zags where that saves lifts).
-    pub fn fill_hatch(&self) -> crate::geometry::hatch::FillHatch {
-        crate::geometry::hatch::FillHatch {
-            spacing_mm: self.spacing_mm,
-            angle_deg: self.angle_deg,
-            cross: self.cross,
-            link: true,
-        }
-    }
 }
 
 /// Where the carriage waits during a pen change (machine millimetres).
@@ -320,9 +313,9 @@ pub struct MachineProfile {
     /// Pen-change park position; the homed corner when absent.
     #[serde(default)]
     pub park: Option<ParkProfile>,
-    /// Heaters and fan (printers only; see [`crate::motion::heaters`]).
+    /// Heaters and fan (printers only; see [`crate::config::heaters`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub heaters: Option<crate::motion::heaters::HeatersProfile>,
+    pub heaters: Option<HeatersProfile>,
     /// EiBotBoard settings (AxiDraw-class machines driven with `--firmware ebb`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ebb: Option<EbbProfile>,
@@ -496,7 +489,7 @@ impl MachineProfile {
                 return Err(bad(&format!("pens[{i}].name"), "must not be empty"));
             }
             if let Some(c) = &pen.color
-                && crate::motion::pens::parse_hex_color(c).is_none()
+                && crate::config::color::parse_hex_color(c).is_none()
             {
                 return Err(bad(&f("color"), "must be #rrggbb"));
             }
@@ -561,6 +554,11 @@ impl MachineProfile {
     }
 }
 
+/// The heaters of `profile` for the firmware ([`ThermalConfig::NONE`] without a `[heaters]` section).
+pub fn thermal_config(profile: &MachineProfile) -> Result<ThermalConfig, String> {
+    profile.heaters.as_ref().map_or(Ok(ThermalConfig::NONE), HeatersProfile::to_config)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -572,7 +570,7 @@ mod tests {
         let h = p.pens.last().unwrap().hatch.unwrap();
         assert_eq!((h.spacing_mm, h.angle_deg, h.cross), (0.5, 45.0, false));
         assert_eq!(
-            h.fill_hatch(),
+            crate::geometry::hatch::FillHatch::from(h),
             crate::geometry::hatch::FillHatch { spacing_mm: 0.5, angle_deg: 45.0, cross: false, link: true }
         );
         let bad = text.replace("spacing_mm = 0.5", "spacing_mm = 0");

@@ -1,13 +1,29 @@
-//! Which pen draws which layer, and where the plot stops for a pen change.
+//! Pens: the [`Pen`] a layer is drawn with, which pen of the profile's table draws which layer, and where the plot
+//! stops for a pen change.
 //!
 //! A layer carries its pen (colour and width from the input, its name from the Inkscape layer or colour). The
-//! profile's pen table (`[[pens]]`, [`crate::motion::profile::PenSpec`]) names the physical pens: a layer is drawn
+//! profile's pen table (`[[pens]]`, [`crate::config::profile::PenSpec`]) names the physical pens: a layer is drawn
 //! with the table pen whose name equals the layer's name (case-insensitive), else the one whose colour equals the
 //! layer's colour. Without a match (or without a table) the layer's colour is its pen, with the profile's `[pen]`
 //! values. Two consecutive layers need a pen change exactly when they resolve to different pens.
 
-use crate::motion::profile::{MachineProfile, PenSpec};
-use crate::{Pen, Rgb};
+use crate::config::color::{Rgb, parse_hex_color};
+use crate::config::profile::{MachineProfile, PenSpec};
+
+/// The pen a layer is drawn with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pen {
+    /// Ink colour, used by previews and by colour-based layer selection.
+    pub color: Rgb,
+    /// Nib width in millimetres (previews draw strokes this wide).
+    pub width_mm: f64,
+}
+
+impl Default for Pen {
+    fn default() -> Self {
+        Pen { color: Rgb::BLACK, width_mm: 0.3 }
+    }
+}
 
 /// The pen a layer is drawn with, resolved against the profile.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,16 +59,6 @@ impl LayerPen {
     pub fn label(&self) -> String {
         format!("{} ({})", self.name, self.color.to_hex())
     }
-}
-
-/// Parse `#rrggbb` (or `rrggbb`).
-pub fn parse_hex_color(s: &str) -> Option<Rgb> {
-    let h = s.trim().strip_prefix('#').unwrap_or(s.trim());
-    if h.len() != 6 || !h.is_ascii() {
-        return None;
-    }
-    let byte = |i: usize| u8::from_str_radix(&h[i..i + 2], 16).ok();
-    Some(Rgb(byte(0)?, byte(2)?, byte(4)?))
 }
 
 /// The pen-table entry for a layer named `name` whose colour is `color`: the pen of that name
