@@ -85,7 +85,11 @@ fn connections_over_the_cap_are_answered_busy_and_closed_at_once() {
     for extra in 0..2 {
         let t0 = Instant::now();
         let answer = read_all(&mut connect(&served));
-        assert!(t0.elapsed() < Duration::from_secs(10), "connection {extra} over the cap waited (the header timeout is 30 s) {:?}", t0.elapsed());
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "connection {extra} over the cap waited (the header timeout is 30 s) {:?}",
+            t0.elapsed()
+        );
         let (status, v) = parse(&answer);
         assert_eq!(status, 503, "{answer}");
         let e = v["error"].as_str().unwrap_or_default();
@@ -170,7 +174,10 @@ fn a_claim_without_an_event_stream_lapses_and_another_page_takes_control() {
         let (status, v) = request(&served, "POST", "/api/control/claim", &[], "");
         if status == 200 {
             let waited = t0.elapsed();
-            assert!(waited >= Duration::from_millis(900) && waited < Duration::from_secs(10), "lapsed after {waited:?}");
+            assert!(
+                waited >= Duration::from_millis(900) && waited < Duration::from_secs(10),
+                "lapsed after {waited:?}"
+            );
             break v["token"].as_str().unwrap().to_string();
         }
         assert_eq!(status, 409, "{v}");

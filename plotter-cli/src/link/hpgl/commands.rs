@@ -173,7 +173,10 @@ mod tests {
         let p = "IN;\nIW0,0,11040,7721;\nPU;SP2;\nVS6;\nPU800,6240;\nPD1200,6240,1200,5840;\nPU;SP0;\n";
         let c = Commands::split(p, d);
         let texts: Vec<&str> = c.list.iter().map(|c| c.text.as_str()).collect();
-        assert_eq!(texts, ["IN;", "IW0,0,11040,7721;", "PU;", "SP2;", "VS6;", "PU800,6240;", "PD1200,6240,1200,5840;", "PU;", "SP0;"]);
+        assert_eq!(
+            texts,
+            ["IN;", "IW0,0,11040,7721;", "PU;", "SP2;", "VS6;", "PU800,6240;", "PD1200,6240,1200,5840;", "PU;", "SP0;"]
+        );
         assert_eq!(c.setup, ["IN;", "IW0,0,11040,7721;"]);
         // Two 400-unit sides = 800 plu = 20 mm.
         assert!((c.draw_mm() - 20.0).abs() < 1e-12);

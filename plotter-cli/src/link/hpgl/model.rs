@@ -342,14 +342,19 @@ impl HpglModel {
             }
             Parse::Letter(a) => {
                 if b.is_ascii_alphabetic() {
-                    self.parse =
-                        Parse::Params { mnemonic: [a, b.to_ascii_uppercase()], number: String::new(), numbers: Vec::new(), pairs: 0 };
+                    self.parse = Parse::Params {
+                        mnemonic: [a, b.to_ascii_uppercase()],
+                        number: String::new(),
+                        numbers: Vec::new(),
+                        pairs: 0,
+                    };
                 } else {
                     self.error(1);
                 }
             }
             Parse::Params { mnemonic, mut number, mut numbers, mut pairs } => {
-                let ends_number = b == b',' || b == b' ' || b == b';' || b.is_ascii_alphabetic() || b == b'\n' || b == b'\r';
+                let ends_number =
+                    b == b',' || b == b' ' || b == b';' || b.is_ascii_alphabetic() || b == b'\n' || b == b'\r';
                 if !ends_number {
                     if (b.is_ascii_digit() || b == b'-' || b == b'+' || b == b'.') && number.len() < MAX_NUMBER {
                         number.push(char::from(b));

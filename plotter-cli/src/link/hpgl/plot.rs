@@ -86,7 +86,8 @@ impl Run<'_> {
         let total = list.len();
         let at = |k: usize, f: fn(&super::commands::Command) -> f64| if k == 0 { 0.0 } else { f(&list[k - 1]) };
         let state = list.get(self.executed).map(|c| c.before);
-        let (pos, down) = state.map_or_else(|| (list.last().map_or((0, 0), |c| c.before.pos), false), |s| (s.pos, s.down));
+        let (pos, down) =
+            state.map_or_else(|| (list.last().map_or((0, 0), |c| c.before.pos), false), |s| (s.pos, s.down));
         let (x, y) = self.paper.to_page(f64::from(pos.0), f64::from(pos.1));
         events.progress(&JobProgress {
             executed: self.executed,
@@ -132,16 +133,8 @@ pub fn plot<L: HpglLink>(
 ) -> anyhow::Result<HpglOutcome> {
     let stats0 = s.stats;
     let t0 = s.link.now();
-    let mut run = Run {
-        cmds,
-        paper,
-        ends: cmds.ends(),
-        base: 0,
-        accepted: from,
-        executed: from,
-        journal,
-        journal_path,
-    };
+    let mut run =
+        Run { cmds, paper, ends: cmds.ends(), base: 0, accepted: from, executed: from, journal, journal_path };
     let result = stream(s, &mut run, from, events);
     if let Err(e) = result {
         let note = match s.cancel() {

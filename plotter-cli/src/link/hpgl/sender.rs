@@ -26,8 +26,7 @@ use plotter_path::geometry::hpgl_devices::HpglDevice;
 use super::HpglLink;
 use super::handshake::{Handshake, PIECE, threshold};
 use super::messages::{
-    ABORT_GRAPHICS, BUFFER_SIZE, BUFFER_SPACE, CR, EXTENDED_ERROR, XOFF, XON, error_text, parse_number,
-    xon_xoff_setup,
+    ABORT_GRAPHICS, BUFFER_SIZE, BUFFER_SPACE, CR, EXTENDED_ERROR, XOFF, XON, error_text, parse_number, xon_xoff_setup,
 };
 
 /// How long an answer to a device-control query may take.
