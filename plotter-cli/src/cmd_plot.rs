@@ -510,7 +510,6 @@ fn plot_hpgl(
 }
 
 /// Run `plotter plot`.
-
 pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     if let Some(j) = &args.resume {
         return resume(args, j);

@@ -84,7 +84,7 @@ impl Commands {
                 }
                 "IW" => setup.push(format!("{text};")),
                 "SP" => {
-                    st.pen = nums.first().map_or(0, |&n| n.max(0.0).round() as u32);
+                    st.pen = nums.first().map_or(0, |&n| u32::try_from(plu(n)).unwrap_or(0));
                     st.down = false;
                     secs += PEN_CHANGE_S;
                 }

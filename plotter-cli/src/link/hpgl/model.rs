@@ -305,11 +305,9 @@ impl HpglModel {
                                 }
                             }
                         }
-                        b'N' => {
-                            if self.cfg.xon_xoff && p.get(1).copied().flatten() == Some(usize::from(XOFF)) {
-                                self.xon_enabled = true;
-                                self.flow();
-                            }
+                        b'N' if self.cfg.xon_xoff && p.get(1).copied().flatten() == Some(usize::from(XOFF)) => {
+                            self.xon_enabled = true;
+                            self.flow();
                         }
                         _ => {}
                     }
@@ -463,10 +461,10 @@ impl HpglModel {
         };
         self.busy(move_seconds(d, v, accel_plu(dev)));
         self.pos = to;
-        if self.down {
-            if let Some(l) = self.trace.last_mut().filter(|_| self.drawing) {
-                l.push(to);
-            }
+        if self.down
+            && let Some(l) = self.trace.last_mut().filter(|_| self.drawing)
+        {
+            l.push(to);
         }
     }
 
