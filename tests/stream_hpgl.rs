@@ -258,7 +258,8 @@ fn ctrl_c_parks_with_the_pen_up_and_the_journal_resumes() {
 }
 
 /// The whole path over a pseudo-terminal: `plotter sim --pty --hpgl --hpgl-buffer 60` and `plotter plot
-/// --firmware hpgl --port <pty>` (which has no handshake lines: `ESC . B`, the default, needs none).
+/// --firmware hpgl --port <pty>` (which has no handshake lines: `ESC . B`, the default, needs none). The model
+/// runs `--fast` (its clock ahead of the wall clock), so the wait for its last moves is short.
 #[test]
 fn plot_firmware_hpgl_over_a_pty_draws_the_export() {
     let dir = scratch("hpgl-pty");
@@ -270,7 +271,7 @@ fn plot_firmware_hpgl_over_a_pty_draws_the_export() {
     let want = drawn_by(&std::fs::read_to_string(dir.join("out.hpgl")).unwrap());
     let trace = dir.join("hpgl-trace.txt");
     let mut sim = std::process::Command::new(plotter_bin())
-        .args(["sim", "--pty", "--hpgl", "--hpgl-buffer", "60", "--baud", "38400", "--trace"])
+        .args(["sim", "--pty", "--hpgl", "--hpgl-buffer", "60", "--baud", "38400", "--fast", "--trace"])
         .arg(&trace)
         .current_dir(&dir)
         .stdout(std::process::Stdio::piped())
@@ -310,4 +311,25 @@ fn plot_firmware_hpgl_over_a_pty_draws_the_export() {
     let summary = text.lines().find(|l| l.starts_with("# hpgl ")).unwrap();
     assert!(summary.contains(" overflow 0 ") && summary.contains(" errors 0 "), "{summary}");
     assert!(summary.contains(" pen_up 1 pen 0 "), "{summary}");
+}
+
+#[test]
+fn a_pause_mid_stroke_resumes_where_the_pen_was() {
+    let (d, paper) = hp7475a();
+    let text = program();
+    let cmds = Commands::split(&text, d);
+    // A command inside a circle (its pen is down before it): pause there and carry on.
+    let k = (cmds.list.len() / 3..).find(|&k| cmds.list[k].before.down).unwrap();
+    let mut front = Front { pause_at: Some(k), choice: Some(PauseChoice::Resume), ..Front::default() };
+    let mut s = HpglSession::connect(model_link(60, true), "model", d, Handshake::Escb).unwrap();
+    hplot::plot(&mut s, &cmds, &paper, 0, None, None, &mut front).unwrap();
+    assert!(front.asked);
+    s.link.finish(60.0);
+    let m = s.link.model();
+    assert_eq!(m.stats().errors, 0);
+    // The same segments; the stroke the pause cut is drawn as two polylines meeting where the pen was lifted.
+    let want = drawn_by(&text);
+    assert_eq!(segments(&m.trace().to_vec()), segments(&want));
+    assert_eq!(m.trace().len(), want.len() + 1);
+    assert!(m.pen_up() && m.pen() == 0);
 }

@@ -4,8 +4,9 @@
 //!
 //! # Flow control
 //! - `escb`: the sender keeps a *credit*, the free space the last `ESC . B` reported minus what it sent since;
-//!   when the credit is used up it asks again (waiting a little while the plotter has less room than a useful
-//!   chunk). No byte is ever sent without room for it, whatever the cable.
+//!   when the credit is used up it asks again (while the plotter has less room than a useful chunk — a quarter
+//!   of its buffer, or what is left to send — it waits 10, 20, 40, then every 80 ms before asking again, so the
+//!   queries do not crowd the line). No byte is ever sent without room for it, whatever the cable.
 //! - `xonxoff`: [`PIECE`] bytes at a time; before each, whatever arrived is read and an Xoff stops the sending
 //!   until the Xon.
 //! - `hardware`: [`PIECE`] bytes at a time while CTS is up.
@@ -204,6 +205,7 @@ impl<L: HpglLink> HpglSession<L> {
     /// Send HP-GL `bytes` under the handshake.
     pub fn send(&mut self, mut bytes: &[u8]) -> anyhow::Result<()> {
         let mut stalled_since = None;
+        let mut waits_before = self.stats.waits;
         while !bytes.is_empty() {
             let room = match self.handshake {
                 Handshake::Escb => self.escb_room(bytes.len())?,
@@ -233,10 +235,14 @@ impl<L: HpglLink> HpglSession<L> {
                     );
                 }
                 self.stats.waits += 1;
-                self.pump(Duration::from_millis(5))?;
+                // Under escb each look costs a query on the line: look less often the longer the plotter is full.
+                let streak = u32::try_from(self.stats.waits - waits_before).unwrap_or(u32::MAX).min(4);
+                let pause = if self.handshake == Handshake::Escb { 5 << streak } else { 5 };
+                self.pump(Duration::from_millis(pause))?;
                 continue;
             }
             stalled_since = None;
+            waits_before = self.stats.waits;
             let n = room.min(bytes.len());
             self.link.write(&bytes[..n]).map_err(|e| lost(&self.name, e))?;
             self.stats.bytes += n as u64;
