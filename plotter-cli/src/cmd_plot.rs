@@ -489,7 +489,7 @@ fn plot_hpgl(
     let (bytes, cmds_sent) = (o.stats.bytes as f64, (o.commands - o.from) as f64);
     println!(
         "{} commands (from command {}), {:.1} mm pen-down; {} bytes in {:.1} s: {:.0} bytes/s, {:.1} commands/s \
-         (estimated plotter time {:.1} s)",
+         (the program's estimated plotter time {:.1} s)",
         o.commands,
         o.from + 1,
         o.draw_mm,

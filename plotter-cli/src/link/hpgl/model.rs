@@ -25,6 +25,8 @@ use super::timing::{PEN_CHANGE_S, PEN_LIFT_S, accel_plu, cm_s_to_plu, move_secon
 
 /// Longest number the parser keeps, characters (longer ones are error 3).
 const MAX_NUMBER: usize = 24;
+/// Most parameters kept for one instruction (coordinate pairs run as they come and are not kept).
+const MAX_PARAMS: usize = 16;
 /// Longest device-control parameter string, bytes (longer is error 14).
 const MAX_ESC: usize = 40;
 
@@ -366,6 +368,8 @@ impl HpglModel {
                 }
                 if !number.is_empty() {
                     match number.parse::<f64>() {
+                        // More parameters than any instruction takes are dropped (bounded memory): error 2.
+                        Ok(_) if numbers.len() >= MAX_PARAMS => self.error(2),
                         Ok(v) => numbers.push(v),
                         Err(_) => self.error(3),
                     }

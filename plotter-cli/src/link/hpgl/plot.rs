@@ -141,13 +141,13 @@ pub fn plot<L: HpglLink>(
             Ok(done) => format!("\n{done}"),
             Err(c) => format!("\n(could not stop the plotter: {c:#})"),
         };
-        return Err(e.context(format!(
-            "{}: the plot stopped after command {} of {}{note}{}",
+        return Err(anyhow::anyhow!(
+            "{}: {e:#}; the plot stopped after command {} of {}{note}{}",
             s.name,
             run.executed,
             cmds.list.len(),
             run.hint()
-        )));
+        ));
     }
     if let Some(j) = run.journal.as_mut() {
         j.complete()?;
