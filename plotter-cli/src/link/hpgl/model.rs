@@ -213,7 +213,20 @@ impl HpglModel {
 
     /// Run until `t` (s): take bytes from the buffer and execute them while not moving.
     pub fn run_until(&mut self, t: f64) {
+        self.run(t, false);
+    }
+
+    /// Run until `t`, or until the plotter has something to send (an answer, Xon/Xoff): its clock then stands
+    /// at the moment it was sent. Output not yet taken stops it at once.
+    pub fn run_until_output(&mut self, t: f64) {
+        self.run(t, true);
+    }
+
+    fn run(&mut self, t: f64, stop_on_output: bool) {
         while self.clock < t {
+            if stop_on_output && !self.out.is_empty() {
+                return;
+            }
             if self.busy_until > self.clock {
                 self.clock = self.busy_until.min(t);
                 continue;

@@ -57,29 +57,55 @@ impl Wire {
     }
 
     /// Run the plotter and the line until `t`: bytes arrive at their times, the plotter's answers are queued
-    /// towards the host as it sends them.
+    /// towards the host at the moments it sends them.
     pub fn run_until(&mut self, t: f64) {
         while let Some(&(at, b)) = self.to_plotter.front().filter(|(at, _)| *at <= t) {
-            self.model.run_until(at);
-            self.queue_output();
+            self.advance(at, false);
             self.model.receive(b);
             self.queue_output();
             self.to_plotter.pop_front();
         }
-        // The plotter's answers go out as it makes them: run it in steps of a byte's time.
-        while self.model.clock() < t {
-            let next = (self.model.clock() + self.byte_s).min(t);
-            self.model.run_until(next);
-            self.queue_output();
-        }
+        self.advance(t, false);
     }
 
-    fn queue_output(&mut self) {
+    /// Like [`Wire::run_until`], but stop as soon as the plotter has sent something (returns whether it did).
+    pub fn run_until_output(&mut self, t: f64) -> bool {
+        while let Some(&(at, b)) = self.to_plotter.front().filter(|(at, _)| *at <= t) {
+            if self.advance(at, true) {
+                return true;
+            }
+            self.model.receive(b);
+            self.to_plotter.pop_front();
+            if self.queue_output() {
+                return true;
+            }
+        }
+        self.advance(t, true)
+    }
+
+    /// Run the plotter alone to `t` (no byte arriving before), queueing what it sends; with `stop`, return at the
+    /// first output. Returns whether it sent something.
+    fn advance(&mut self, t: f64, stop: bool) -> bool {
+        let mut sent = false;
+        while self.model.clock() < t {
+            self.model.run_until_output(t);
+            sent |= self.queue_output();
+            if sent && stop {
+                return true;
+            }
+        }
+        sent
+    }
+
+    /// Queue what the plotter sent (at its clock) towards the host; returns whether there was anything.
+    fn queue_output(&mut self) -> bool {
         let now = self.model.clock();
-        for b in self.model.take_output() {
+        let out = self.model.take_output();
+        for &b in &out {
             self.to_host_free = self.to_host_free.max(now) + self.byte_s;
             self.to_host.push_back((self.to_host_free, b));
         }
+        !out.is_empty()
     }
 
     /// Bytes that have reached the host by `t`.
@@ -150,10 +176,16 @@ impl HpglLink for ModelLink {
             if self.now >= deadline {
                 return Ok(Vec::new());
             }
-            // Up to the next arrival, or a byte's time, or the deadline.
-            let step = self.wire.next_arrival().unwrap_or(self.now + self.wire.byte_s).max(self.now);
-            self.now = step.min(deadline).max(self.now + 1e-9);
-            self.wire.run_until(self.now);
+            // Up to the next byte's arrival at the host, or until the plotter sends one, or the deadline.
+            let until = self.wire.next_arrival().map_or(deadline, |a| a.min(deadline));
+            if self.wire.run_until_output(until) {
+                // Sent at the plotter's clock: it reaches the host a byte's time later.
+                let until = self.wire.next_arrival().map_or(deadline, |a| a.min(deadline)).max(self.now);
+                self.wire.run_until(until);
+                self.now = until;
+            } else {
+                self.now = until.max(self.now);
+            }
         }
     }
 
