@@ -333,3 +333,49 @@ fn a_pause_mid_stroke_resumes_where_the_pen_was() {
     assert_eq!(m.trace().len(), want.len() + 1);
     assert!(m.pen_up() && m.pen() == 0);
 }
+
+/// A drawing the line cannot keep up with: 2000 zigzag steps of 0.05 mm × 0.05 mm (2 plotter units each way),
+/// each under 4 ms of pen motion but ten bytes (about 10 ms at 9600 baud). Every handshake must keep the line
+/// busy.
+#[test]
+fn a_line_bound_drawing_keeps_the_line_busy_under_each_handshake() {
+    let zigzag = Polyline::new(
+        (0..=2000).map(|i| Point::new(40.0 + f64::from(i) * 0.05, 100.0 + f64::from(i % 2) * 0.05)).collect(),
+    );
+    let mut drawing = Drawing::single_layer("zigzag", vec![zigzag]);
+    drawing.page_mm = Some((297.0, 210.0));
+    let (d, paper) = hp7475a();
+    let text = hpgl_out::export(&MachineProfile::default_plotter(), &drawing, d, &paper).unwrap().text;
+    let cmds = Commands::split(&text, d);
+    for h in [Handshake::Escb, Handshake::Xonxoff, Handshake::Hardware] {
+        let mut s = HpglSession::connect(model_link(60, true), "model", d, h).unwrap();
+        let o = hplot::plot(&mut s, &cmds, &paper, 0, None, None, &mut Front::default()).unwrap();
+        s.link.finish(60.0);
+        let m = s.link.model();
+        assert_eq!((m.stats().overflow, m.stats().errors), (0, 0));
+        assert_eq!(m.trace(), drawn_by(&text).as_slice());
+        let bps = o.stats.bytes as f64 / o.seconds;
+        eprintln!(
+            "{:>8}: {} bytes, {} commands in {:.2} s: {:.0} bytes/s ({:.0} % of the line), {:.1} commands/s; \
+             plotter busy {:.2} s; {} ESC.B queries, {} Xoffs, {} waits",
+            h.name(),
+            o.stats.bytes,
+            o.commands,
+            o.seconds,
+            bps,
+            bps / 9.6,
+            o.commands as f64 / o.seconds,
+            m.busy_seconds(),
+            o.stats.space_queries,
+            o.stats.xoffs,
+            o.stats.waits
+        );
+        assert!(m.busy_seconds() < o.seconds * 0.5, "{h:?}: the line, not the plotter, sets the pace");
+        // The time is the line's: the HP-GL bytes and the 3-byte `ESC . B` queries at 960 bytes/s, plus the two
+        // pen changes (SP1 at the start, SP0 before the last check answers) of 2 s each; 6 % for the rest (the
+        // round trips of the queries and the error checks, the last moves).
+        let line_s = (o.stats.bytes + 3 * o.stats.space_queries) as f64 / 960.0;
+        assert!(o.seconds <= (line_s + 4.0) * 1.06, "{h:?}: {:.2} s for {line_s:.2} s of line time", o.seconds);
+        assert!(bps <= 960.0);
+    }
+}

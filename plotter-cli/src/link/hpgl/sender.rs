@@ -3,10 +3,12 @@
 //! line and the buffer, `OE` for the HP-GL), and stop (`ESC . K`, then `PU;SP0;`).
 //!
 //! # Flow control
-//! - `escb`: the sender keeps a *credit*, the free space the last `ESC . B` reported minus what it sent since;
-//!   when the credit is used up it asks again (while the plotter has less room than a useful chunk — a quarter
-//!   of its buffer, or what is left to send — it waits 10, 20, 40, then every 80 ms before asking again, so the
-//!   queries do not crowd the line). No byte is ever sent without room for it, whatever the cable.
+//! - `escb`: the sender keeps a *credit*, the free space the last `ESC . B` reported minus what it sent since
+//!   (bytes sent after the query arrive after it, so the count is exact). The next query goes out ahead, once
+//!   half the buffer's worth of credit is used, so the line keeps carrying data during the round trip. While the
+//!   plotter has less room than a useful chunk (a quarter of its buffer, or the command if shorter) the sender
+//!   waits 10, 20, 40, then every 80 ms before asking again, so the queries do not crowd the line. No byte is
+//!   ever sent without room for it, whatever the cable.
 //! - `xonxoff`: [`PIECE`] bytes at a time; before each, whatever arrived is read and an Xoff stops the sending
 //!   until the Xon.
 //! - `hardware`: [`PIECE`] bytes at a time while CTS is up.
@@ -73,6 +75,8 @@ pub struct HpglSession<L: HpglLink> {
     xoff: bool,
     credit: usize,
     parsed: u64,
+    /// An `ESC . B` sent and not yet answered: the HP-GL byte count when it was sent.
+    space_asked_at: Option<u64>,
 }
 
 fn lost(name: &str, e: std::io::Error) -> anyhow::Error {
@@ -96,6 +100,7 @@ impl<L: HpglLink> HpglSession<L> {
             xoff: false,
             credit: 0,
             parsed: 0,
+            space_asked_at: None,
         };
         // Whatever an earlier session left on the line.
         while !s.link.read(Duration::from_millis(100)).map_err(|e| lost(name, e))?.is_empty() {}
@@ -128,8 +133,10 @@ impl<L: HpglLink> HpglSession<L> {
         }
         let _ = s.query(EXTENDED_ERROR)?;
         s.send(b"OI;")?;
+        s.settle_space(true)?;
         s.identity = s.answer(ANSWER_TIMEOUT * 5).context("no answer to OI (output identification)")?;
         s.send(b"OE;")?;
+        s.settle_space(true)?;
         let _ = s.answer(ANSWER_TIMEOUT * 5).context("no answer to OE (output error)")?;
         s.parsed = s.stats.bytes;
         if !s.identity.eq_ignore_ascii_case(device.identity) {
@@ -163,17 +170,24 @@ impl<L: HpglLink> HpglSession<L> {
         Ok(!got.is_empty())
     }
 
-    /// The next answer (up to its CR, trimmed), waiting at most `timeout`.
+    /// An answer already received (up to its CR, trimmed), if there is one.
+    fn take_answer(&mut self) -> Option<String> {
+        while let Some(i) = self.rx.iter().position(|&b| b == CR || b == b'\n') {
+            let line: Vec<u8> = self.rx.drain(..=i).collect();
+            let text = String::from_utf8_lossy(&line[..i]).trim().to_string();
+            if !text.is_empty() {
+                return Some(text);
+            }
+        }
+        None
+    }
+
+    /// The next answer, waiting at most `timeout`.
     fn answer(&mut self, timeout: Duration) -> anyhow::Result<String> {
         let deadline = self.link.now() + timeout;
         loop {
-            if let Some(i) = self.rx.iter().position(|&b| b == CR || b == b'\n') {
-                let line: Vec<u8> = self.rx.drain(..=i).collect();
-                let text = String::from_utf8_lossy(&line[..i]).trim().to_string();
-                if text.is_empty() {
-                    continue;
-                }
-                return Ok(text);
+            if let Some(a) = self.take_answer() {
+                return Ok(a);
             }
             let left = deadline.saturating_sub(self.link.now());
             if left.is_zero() {
@@ -183,8 +197,40 @@ impl<L: HpglLink> HpglSession<L> {
         }
     }
 
+    /// Take the answer to an `ESC . B` sent ahead (waiting for it when `wait`): the credit becomes the free space
+    /// it reports minus the bytes sent since it was asked (they arrived after it), and the bytes then waiting in
+    /// the buffer tell how far the plotter has parsed.
+    fn settle_space(&mut self, wait: bool) -> anyhow::Result<()> {
+        let Some(at) = self.space_asked_at else { return Ok(()) };
+        let a = if wait {
+            self.answer(ANSWER_TIMEOUT)?
+        } else {
+            self.pump(Duration::ZERO)?;
+            match self.take_answer() {
+                Some(a) => a,
+                None => return Ok(()),
+            }
+        };
+        self.space_asked_at = None;
+        let free = parse_number(&a).with_context(|| format!("{}: ESC . B answered {a:?}, not a number", self.name))?;
+        let free = usize::try_from(free).unwrap_or(0).min(self.buffer_bytes);
+        let since = usize::try_from(self.stats.bytes - at).unwrap_or(usize::MAX);
+        self.credit = free.saturating_sub(since);
+        self.parsed = self.parsed.max(at.saturating_sub((self.buffer_bytes - free) as u64));
+        Ok(())
+    }
+
+    /// Ask `ESC . B` without waiting for the answer.
+    fn ask_space(&mut self) -> anyhow::Result<()> {
+        self.write_raw(BUFFER_SPACE)?;
+        self.stats.space_queries += 1;
+        self.space_asked_at = Some(self.stats.bytes);
+        Ok(())
+    }
+
     /// Send a device-control query and read its number.
     pub fn query(&mut self, esc: &[u8]) -> anyhow::Result<u32> {
+        self.settle_space(true)?;
         self.write_raw(esc)?;
         let a = self.answer(ANSWER_TIMEOUT)?;
         parse_number(&a).with_context(|| {
@@ -254,30 +300,40 @@ impl<L: HpglLink> HpglSession<L> {
         Ok(())
     }
 
-    /// Under `escb`: how many bytes may go now (0: wait), asking `ESC . B` when the credit is used up or too
-    /// small for a useful chunk.
+    /// Under `escb`: how many bytes may go now (0: wait). The next `ESC . B` is asked ahead, once half the
+    /// buffer's worth of credit is used, so that its answer is back before the credit runs out and the line does
+    /// not stand still for the round trip; only when the credit is too small for a useful chunk does the sender
+    /// wait for the answer.
     fn escb_room(&mut self, want: usize) -> anyhow::Result<usize> {
         let useful = want.min(self.buffer_bytes / 4).max(1);
-        if self.credit >= useful {
-            return Ok(self.credit);
+        self.settle_space(false)?;
+        if self.credit < useful {
+            if self.space_asked_at.is_none() {
+                self.ask_space()?;
+            }
+            self.settle_space(true)?;
+            if self.credit < useful {
+                return Ok(0);
+            }
         }
-        let free = usize::try_from(self.query(BUFFER_SPACE)?).unwrap_or(0).min(self.buffer_bytes);
-        self.stats.space_queries += 1;
-        let waiting = (self.buffer_bytes - free) as u64;
-        self.parsed = self.parsed.max(self.stats.bytes.saturating_sub(waiting));
-        self.credit = free;
-        Ok(if free >= useful { free } else { 0 })
+        if self.space_asked_at.is_none() && self.credit < self.buffer_bytes / 2 {
+            self.ask_space()?;
+        }
+        Ok(self.credit)
     }
 
     /// Check for errors: `ESC . E` (the line and the buffer: at once), then `OE` (which waits its turn in the
     /// buffer, so everything sent before has been parsed when it answers). `wait` bounds the wait for `OE`.
     pub fn check(&mut self, wait: Duration) -> anyhow::Result<()> {
+        self.settle_space(true)?;
         let line = self.query(EXTENDED_ERROR)?;
         if line != 0 {
             bail!("{} reports {}", self.name, error_text(line));
         }
         self.send(b"OE;")?;
         let sent = self.stats.bytes;
+        // An `ESC . B` asked ahead while sending `OE` is answered first (on arrival; `OE` when parsed).
+        self.settle_space(true)?;
         let a = match self.answer(wait) {
             Ok(a) => a,
             Err(e) => {
@@ -301,6 +357,8 @@ impl<L: HpglLink> HpglSession<L> {
     /// put away (`PU;SP0;`). Returns what was done, for the user.
     pub fn cancel(&mut self) -> anyhow::Result<String> {
         self.write_raw(ABORT_GRAPHICS)?;
+        // An answer still due is of no use now.
+        self.space_asked_at = None;
         self.credit = 0;
         self.xoff = false;
         self.send(b"PU;SP0;")?;
