@@ -30,6 +30,9 @@ pub enum Firmware {
     Grbl,
     /// The EiBotBoard (AxiDraw, NextDraw, iDraw): `LM`/`SM` moves, servo pen.
     Ebb,
+    /// A vintage HP-GL plotter (HP 7475A and kin): the HP-GL export streamed under a buffer handshake
+    /// ([`super::hpgl`]); only `plotter plot` drives one.
+    Hpgl,
 }
 
 /// What a plot job needs from a machine.
@@ -292,6 +295,12 @@ impl<T: Transport + 'static> Connected<T> {
         Ok(match firmware {
             Firmware::Grbl => Connected::Grbl(GrblSession::connect(transport, name, profile)?),
             Firmware::Ebb => Connected::Ebb(EbbSession::connect(transport, name, profile)?),
+            Firmware::Hpgl => {
+                return Err(crate::Error::Other(anyhow::anyhow!(
+                    "{name}: an HP-GL plotter is driven by `plotter plot FILE --port {name} --firmware hpgl` only \
+                     (it plans its own moves: no homing, jogging or console here)"
+                )));
+            }
             _ => Connected::Ours(Session::connect(transport, name)?),
         })
     }

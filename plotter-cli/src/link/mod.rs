@@ -10,6 +10,7 @@ pub mod ebb;
 pub mod faults;
 pub mod grbl;
 pub mod jog;
+pub mod hpgl;
 pub mod journal;
 pub mod machine;
 pub mod print;

@@ -21,6 +21,13 @@
 //! - **generic**: any HP-GL plotter; the plotting area is the drawing's own page with plu (0, 0) at its lower-left
 //!   corner, 8 pens, no speed cap beyond HP-GL's customary 38.1 cm/s.
 
+//!
+//! Streaming facts (for the sender and the plotter model of `plotter sim --hpgl`): the `OI` identity is the model
+//! number; the input buffer is 1024 bytes on the 7475A (its manual's default logical buffer); the 7470A's
+//! brochure gives 2 g acceleration for the same mechanism family, taken for the 7475A. The 7550A's and the
+//! DXY-1300's buffer and acceleration and everything of the generic device are estimates (a small buffer and a
+//! gentle acceleration, which only make the sender more careful and the time estimate longer).
+
 /// Plotter units per millimetre (1 plu = 0.025 mm).
 pub const PLU_PER_MM: f64 = 40.0;
 
@@ -50,6 +57,12 @@ pub struct HpglDevice {
     pub max_velocity_cm_s: f64,
     /// The sheets it takes, smallest first; empty for the generic device (the drawing's page is the sheet).
     pub papers: &'static [HpglPaper],
+    /// What it answers to `OI` (output identification).
+    pub identity: &'static str,
+    /// Size of its input buffer, bytes (what `ESC . L` reports with the buffer empty).
+    pub buffer_bytes: usize,
+    /// Pen acceleration, g (9.80665 m/s²).
+    pub accel_g: f64,
 }
 
 const HP7475A_PAPERS: &[HpglPaper] = &[
@@ -66,10 +79,46 @@ const DXY1300_PAPERS: &[HpglPaper] =
 
 /// Every known device, the 7475A first (the default).
 pub const DEVICES: &[HpglDevice] = &[
-    HpglDevice { id: "7475a", name: "HP 7475A", pens: 6, max_velocity_cm_s: 38.1, papers: HP7475A_PAPERS },
-    HpglDevice { id: "7550a", name: "HP 7550A", pens: 8, max_velocity_cm_s: 80.0, papers: HP7550A_PAPERS },
-    HpglDevice { id: "dxy-1300", name: "Roland DXY-1300", pens: 8, max_velocity_cm_s: 42.0, papers: DXY1300_PAPERS },
-    HpglDevice { id: "generic", name: "generic HP-GL plotter", pens: 8, max_velocity_cm_s: 38.1, papers: &[] },
+    HpglDevice {
+        id: "7475a",
+        name: "HP 7475A",
+        pens: 6,
+        max_velocity_cm_s: 38.1,
+        papers: HP7475A_PAPERS,
+        identity: "7475A",
+        buffer_bytes: 1024,
+        accel_g: 2.0,
+    },
+    HpglDevice {
+        id: "7550a",
+        name: "HP 7550A",
+        pens: 8,
+        max_velocity_cm_s: 80.0,
+        papers: HP7550A_PAPERS,
+        identity: "7550A",
+        buffer_bytes: 1024,
+        accel_g: 4.0,
+    },
+    HpglDevice {
+        id: "dxy-1300",
+        name: "Roland DXY-1300",
+        pens: 8,
+        max_velocity_cm_s: 42.0,
+        papers: DXY1300_PAPERS,
+        identity: "DXY-1300",
+        buffer_bytes: 1024,
+        accel_g: 1.0,
+    },
+    HpglDevice {
+        id: "generic",
+        name: "generic HP-GL plotter",
+        pens: 8,
+        max_velocity_cm_s: 38.1,
+        papers: &[],
+        identity: "HP-GL",
+        buffer_bytes: 256,
+        accel_g: 1.0,
+    },
 ];
 
 /// The device called `id` (case-insensitive; `hp7475a` and `7475a` both name the 7475A).

@@ -16,6 +16,7 @@ use plotter_host::job::load::{load_profile, load_steps, page_of, pen_on_page};
 use plotter_host::job::progress::{JobProgress, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self, JobOutcome, JournalSpec};
+use plotter_host::link::hpgl::handshake::Handshake;
 use plotter_host::link::journal;
 use plotter_host::link::machine::{Connected, Firmware};
 use plotter_host::link::serial::SerialTransport;
@@ -73,8 +74,9 @@ pub(crate) struct PlotArgs {
     /// plot stops and lifts the pen.
     #[arg(long, default_value_t = 30.0, value_parser = hold_seconds)]
     pub(crate) hold_timeout: f64,
-    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), ebb (AxiDraw-class EiBotBoard), or auto (told
-    /// by its start-up banner or its answers).
+    /// The plotter's firmware: ours, GRBL 1.1 (grblHAL, FluidNC), ebb (AxiDraw-class EiBotBoard), hpgl (a
+    /// vintage HP-GL plotter, sent the HP-GL export for --hpgl-device), or auto (told by its start-up banner or
+    /// its answers).
     #[arg(long, value_enum, default_value_t = Firmware::Auto)]
     pub(crate) firmware: Firmware,
     /// Between layers drawn with different pens: park with the pen up and wait for the new pen (pause), or plot
@@ -93,6 +95,11 @@ pub(crate) struct PlotArgs {
     /// HP-GL export: the plotter (7475a, 7550a, dxy-1300, generic).
     #[arg(long, default_value = "7475a")]
     pub(crate) hpgl_device: String,
+    /// HP-GL plotter (--firmware hpgl): how the sender keeps the plotter's buffer from overflowing — `ESC . B`
+    /// buffer-space queries (escb, any cable), Xon/Xoff, or the RTS/CTS lines (hardware). The baud rate is 9600
+    /// unless --baud says otherwise.
+    #[arg(long, value_enum, default_value_t = Handshake::Escb)]
+    pub(crate) handshake: Handshake,
     /// HP-GL export: the sheet loaded in the plotter (7475a: a4, letter, a3, tabloid) [default: the first of
     /// the device's sheets whose plotting area holds the drawing].
     #[arg(long)]
@@ -363,16 +370,19 @@ fn print_lower_bound(
     Ok(())
 }
 
-/// Run `plotter plot`.
-/// `--export FILE.hpgl`: write the page drawing as HP-GL for `--hpgl-device` on `--hpgl-paper` (or the first of
-/// its sheets that holds the drawing).
-fn export_hpgl(
+/// The page drawing as HP-GL for `--hpgl-device` on `--hpgl-paper` (or the first of its sheets that holds the
+/// drawing), with the device and the sheet.
+fn hpgl_program(
     args: &PlotArgs,
     profile: &MachineProfile,
     steps: &plotter_path::geometry::steps::StepDrawing,
     drawing: Option<plotter_path::Drawing>,
-    out: &Path,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<(
+    plotter_path::output::hpgl_out::HpglProgram,
+    &'static plotter_path::geometry::hpgl_devices::HpglDevice,
+    plotter_path::geometry::hpgl_devices::HpglPaper,
+    usize,
+)> {
     use plotter_path::geometry::hpgl_devices::{self, HpglPaper};
     use plotter_path::output::hpgl_out;
     let device = hpgl_devices::device(&args.hpgl_device).with_context(|| {
@@ -414,17 +424,105 @@ fn export_hpgl(
         return Err(e.into());
     };
     plotter_host::input::warn_all(&program.warnings);
+    Ok((program, device, *paper, drawing.path_count()))
+}
+
+/// `--export FILE.hpgl`: write the HP-GL program.
+fn export_hpgl(
+    args: &PlotArgs,
+    profile: &MachineProfile,
+    steps: &plotter_path::geometry::steps::StepDrawing,
+    drawing: Option<plotter_path::Drawing>,
+    out: &Path,
+) -> anyhow::Result<()> {
+    let (program, device, paper, strokes) = hpgl_program(args, profile, steps, drawing)?;
     std::fs::write(out, &program.text).with_context(|| format!("cannot write {}", out.display()))?;
-    println!("{} strokes for the {} on {} written to {}", drawing.path_count(), device.name, paper.name, out.display());
+    println!("{strokes} strokes for the {} on {} written to {}", device.name, paper.name, out.display());
     Ok(())
 }
 
+/// `--firmware hpgl --port DEV`: stream the HP-GL program to the plotter (or, with `resume`, continue the plot a
+/// journal recorded).
+fn plot_hpgl(
+    args: &PlotArgs,
+    input: &Path,
+    port: &str,
+    profile: &MachineProfile,
+    steps: &plotter_path::geometry::steps::StepDrawing,
+    drawing: Option<plotter_path::Drawing>,
+    resume: Option<(&journal::JournalState, &Path)>,
+) -> anyhow::Result<()> {
+    use plotter_host::link::hpgl::{commands::Commands, plot as hplot, port::HpglPort, sender::HpglSession};
+    let (program, device, paper, _) = hpgl_program(args, profile, steps, drawing)?;
+    let cmds = Commands::split(&program.text, device);
+    let hash = hplot::program_hash(&program.text);
+    if let Some((state, path)) = resume
+        && (state.plan_hash != hash || state.blocks != cmds.list.len())
+    {
+        bail!("{} no longer gives the HP-GL program recorded in {}", input.display(), path.display());
+    }
+    let mut s = HpglSession::connect(HpglPort::open(port, args.baud.unwrap_or(9600))?, port, device, args.handshake)?;
+    eprintln!("{} on {port} (buffer {} bytes, handshake {})", s.identity, s.buffer_bytes, args.handshake.name());
+    for w in &s.warnings {
+        eprintln!("warning: {w}");
+    }
+    let (journal, from, path) = match resume {
+        Some((state, path)) => {
+            (journal::Journal::append(path, state)?, hplot::resume_point(state.executed, &cmds), path.to_path_buf())
+        }
+        None => {
+            let path = args.journal.clone().unwrap_or_else(|| default_beside(input, ".journal"));
+            let source = PlotSource {
+                cwd: std::env::current_dir().context("no current directory")?,
+                args: std::env::args().skip_while(|a| a != "plot").skip(1).collect(),
+                start: [0; 4],
+            };
+            (journal::Journal::create(&path, &serde_json::to_string(&source)?, hash, cmds.list.len())?, 0, path)
+        }
+    };
+    let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately, PenChangeMode::None);
+    let outcome = hplot::plot(&mut s, &cmds, &paper, from, Some(journal), Some(&path), &mut terminal);
+    terminal.bar.finish_and_clear();
+    let o = outcome?;
+    // Display only.
+    #[allow(clippy::cast_precision_loss)]
+    let (bytes, cmds_sent) = (o.stats.bytes as f64, (o.commands - o.from) as f64);
+    println!(
+        "{} commands (from command {}), {:.1} mm pen-down; {} bytes in {:.1} s: {:.0} bytes/s, {:.1} commands/s \
+         (the program's estimated plotter time {:.1} s)",
+        o.commands,
+        o.from + 1,
+        o.draw_mm,
+        o.stats.bytes,
+        o.seconds,
+        bytes / o.seconds.max(1e-9),
+        cmds_sent / o.seconds.max(1e-9),
+        o.estimated_s
+    );
+    println!(
+        "handshake {}: {} ESC . B queries, {} Xoffs, {} waits for room",
+        args.handshake.name(),
+        o.stats.space_queries,
+        o.stats.xoffs,
+        o.stats.waits
+    );
+    Ok(())
+}
+
+/// Run `plotter plot`.
 pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     if let Some(j) = &args.resume {
         return resume(args, j);
     }
     let input = args.input.as_deref().context("an input file is required")?;
     let mut profile = load_profile(args.profile.as_deref())?;
+    if args.firmware == Firmware::Hpgl && args.export.is_none() {
+        let port = args.port.as_deref().context(
+            "--firmware hpgl needs --port (a plotter, or the model `plotter sim --pty --hpgl` serves on a pty)",
+        )?;
+        let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize, None)?;
+        return plot_hpgl(args, input, port, &profile, &steps, drawing, None);
+    }
     if args.export.is_none() && args.port.is_none() && args.profile_from_machine {
         bail!("--profile-from-machine needs --port (a GRBL controller to read the settings from)");
     }
@@ -551,6 +649,12 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     let input = original.input.as_deref().context("the recorded plot has no input")?;
     let mut profile = load_profile(original.profile.as_deref())?;
     let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
+    if original.firmware == Firmware::Hpgl {
+        let (steps, drawing) =
+            load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize, None)?;
+        let link = PlotArgs { baud: args.baud.or(original.baud), ..original.clone() };
+        return plot_hpgl(&link, input, port, &profile, &steps, drawing, Some((&state, journal_path)));
+    }
     let link = PlotArgs {
         baud: args.baud.or(original.baud),
         firmware: original.firmware,

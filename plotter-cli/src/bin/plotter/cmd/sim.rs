@@ -17,6 +17,11 @@
 //! firmware `--ebb-version` (2.8.1 or 3.0.2); its trace lists the motor positions instead (`t m1 m2 pen`, time in
 //! µs, pen 1 = up), then `# busy_ticks <µs> steps <n>`, `# ebb commands <n> errors <n> estops <n> peak_fifo <n>
 //! pen_up <0|1>` and `# position <m1> <m2>`.
+//!
+//! With `--hpgl` the pty serves the project's HP-GL plotter model ([`plotter_host::link::hpgl::model`]) of
+//! `--hpgl-device` with a `--hpgl-buffer`-byte input buffer behind a 9600-baud line (`--baud`); its trace lists
+//! the pen-down polylines (`pd x,y x,y …` in plotter units), then `# hpgl buffered <n> overflow <n> peak <n>
+//! instructions <n> errors <n> xoffs <n> aborts <n> pen_up <0|1> pen <n> busy_s <s>`.
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -37,6 +42,9 @@ use plotter_host::link::faults::Noise;
 use plotter_host::link::grbl::emulator::{Faults, GrblEmulator};
 use plotter_host::link::grbl::messages::{RT_FEED_HOLD, RT_RESET};
 use plotter_host::link::grbl::settings::GrblSettings;
+use plotter_host::link::hpgl::handshake::Handshake;
+use plotter_host::link::hpgl::model::{HpglModel, ModelConfig};
+use plotter_host::link::hpgl::model_link::Wire;
 use plotter_path::motion::plan;
 
 /// Arguments of `plotter sim`.
@@ -85,6 +93,23 @@ pub(crate) struct SimArgs {
     /// is where `SP`/`TP` last put it.
     #[arg(long, requires = "ebb")]
     pub(crate) ebb_pen_contact: Option<u16>,
+    /// Emulate a vintage HP-GL plotter instead of our firmware.
+    #[arg(long, conflicts_with_all = ["grbl", "qemu", "noise", "ebb"])]
+    pub(crate) hpgl: bool,
+    /// The HP-GL plotter to emulate (7475a, 7550a, dxy-1300, generic).
+    #[arg(long, requires = "hpgl", default_value = "7475a")]
+    pub(crate) hpgl_device: String,
+    /// Its input buffer, bytes [default: the device's].
+    #[arg(long, requires = "hpgl")]
+    pub(crate) hpgl_buffer: Option<usize>,
+    /// The handshakes the HP-GL plotter offers beyond `ESC . B`: xonxoff (Xon/Xoff when asked for, the default)
+    /// or escb (no Xon/Xoff, like a plotter whose Xon/Xoff is not set up). A pty carries no CTS line, so
+    /// hardware is refused.
+    #[arg(long, requires = "hpgl", value_enum)]
+    pub(crate) handshake: Option<Handshake>,
+    /// HP-GL: the line's baud rate.
+    #[arg(long, requires = "hpgl", default_value_t = 9600)]
+    pub(crate) baud: u32,
 }
 
 /// Parse `--grbl-fault`.
@@ -115,6 +140,8 @@ enum Backend {
     Grbl(Box<GrblEmulator>),
     /// The EBB emulator, with the µs not yet run (it runs in 40 µs intervals).
     Ebb(Box<EbbEmulator>, u64),
+    /// The HP-GL plotter model behind its serial line, with its clock (µs).
+    Hpgl(Box<Wire>, u64),
 }
 
 impl Backend {
@@ -123,6 +150,9 @@ impl Backend {
             Backend::Ours(s) => s.feed(bytes),
             Backend::Grbl(g) => g.feed(bytes),
             Backend::Ebb(e, _) => e.feed(bytes),
+            Backend::Hpgl(w, us) => {
+                w.send(secs(*us), bytes);
+            }
         }
     }
     /// What the machine sent: reply lines (each ended with `\n`), or the EBB's bytes as it wrote them.
@@ -131,6 +161,7 @@ impl Backend {
             Backend::Ours(s) => s.take_replies(),
             Backend::Grbl(g) => g.take_replies(),
             Backend::Ebb(e, _) => return e.take_output(),
+            Backend::Hpgl(w, us) => return w.received(secs(*us)),
         };
         lines.iter().flat_map(|l| format!("{l}\n").into_bytes()).collect()
     }
@@ -139,6 +170,7 @@ impl Backend {
             Backend::Ours(s) => s.wire_len() > 0 || !s.machine().is_idle() || s.machine().has_input(),
             Backend::Grbl(g) => !g.is_idle(),
             Backend::Ebb(e, _) => !e.is_idle(),
+            Backend::Hpgl(w, _) => !w.model().idle(),
         }
     }
     fn run_for(&mut self, ticks: u64) {
@@ -152,15 +184,54 @@ impl Backend {
                 e.run_for(us / 40);
                 *carry = us % 40;
             }
+            Backend::Hpgl(w, us) => {
+                *us += ticks;
+                w.run_until(secs(*us));
+            }
         }
     }
     fn sim(&self) -> Option<&Sim> {
         match self {
             Backend::Ours(s) => Some(s),
             Backend::Grbl(g) => Some(g.backend()),
-            Backend::Ebb(..) => None,
+            Backend::Ebb(..) | Backend::Hpgl(..) => None,
         }
     }
+}
+
+/// Microseconds as seconds.
+fn secs(us: u64) -> f64 {
+    // Display and model time: µs counts stay far below 2^52.
+    #[allow(clippy::cast_precision_loss)]
+    let s = us as f64 * 1e-6;
+    s
+}
+
+/// Write the HP-GL model's trace (see the module docs).
+fn write_hpgl_trace(m: &HpglModel, path: &Path) -> anyhow::Result<()> {
+    let mut out =
+        std::io::BufWriter::new(File::create(path).with_context(|| format!("cannot create {}", path.display()))?);
+    for line in m.trace() {
+        let pts: Vec<String> = line.iter().map(|(x, y)| format!("{x},{y}")).collect();
+        writeln!(out, "pd {}", pts.join(" "))?;
+    }
+    let st = m.stats();
+    writeln!(
+        out,
+        "# hpgl buffered {} overflow {} peak {} instructions {} errors {} xoffs {} aborts {} pen_up {} pen {} busy_s {:.6}",
+        st.buffered,
+        st.overflow,
+        st.peak,
+        st.instructions,
+        st.errors,
+        st.xoffs,
+        st.aborts,
+        u8::from(m.pen_up()),
+        m.pen(),
+        m.busy_seconds()
+    )?;
+    out.flush()?;
+    Ok(())
 }
 
 /// Write the EBB emulator's step trace (see the module docs).
@@ -221,7 +292,28 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
     }
     let profile = load_profile(args.profile.as_deref())?;
     let cfg = plan::machine_config(&profile)?;
-    let mut sim = if args.ebb {
+    let mut sim = if args.hpgl {
+        let device = plotter_path::geometry::hpgl_devices::device(&args.hpgl_device).with_context(|| {
+            format!(
+                "--hpgl-device {}: not a known plotter (known: {})",
+                args.hpgl_device,
+                plotter_path::geometry::hpgl_devices::device_names()
+            )
+        })?;
+        let buffer = args.hpgl_buffer.unwrap_or(device.buffer_bytes);
+        if !(16..=1 << 20).contains(&buffer) {
+            bail!("--hpgl-buffer {buffer}: give 16 to 1048576 bytes");
+        }
+        let xon_xoff = match args.handshake {
+            Some(Handshake::Hardware) => bail!(
+                "--handshake hardware: a pseudo-terminal has no RTS/CTS lines; the model offers escb (always) and \
+                 xonxoff"
+            ),
+            Some(Handshake::Escb) => false,
+            Some(Handshake::Xonxoff) | None => true,
+        };
+        Backend::Hpgl(Box::new(Wire::new(HpglModel::new(ModelConfig { device, buffer, xon_xoff }), args.baud)), 0)
+    } else if args.ebb {
         let version = EbbVersion::parse(&format!("EB Firmware Version {}", args.ebb_version))
             .filter(|v| [EbbVersion(2, 8, 1), EbbVersion(3, 0, 2)].contains(v))
             .with_context(|| format!("--ebb-version {}: emulated are 2.8.1 and 3.0.2", args.ebb_version))?;
@@ -293,13 +385,15 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         let elapsed = now.duration_since(last);
         last = now;
         if args.fast {
-            sim.run_for(if args.grbl || args.ebb { 5_000 } else { 50_000 });
+            sim.run_for(if args.grbl || args.ebb || args.hpgl { 5_000 } else { 50_000 });
         } else {
             sim.run_for(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX));
         }
         pending_out = sim.take_output();
     }
-    if let (Some(t), Backend::Ebb(e, _)) = (&args.trace, &sim) {
+    if let (Some(t), Backend::Hpgl(w, _)) = (&args.trace, &sim) {
+        write_hpgl_trace(w.model(), t)?;
+    } else if let (Some(t), Backend::Ebb(e, _)) = (&args.trace, &sim) {
         write_ebb_trace(e, t)?;
     } else if let (Some(t), Some(s)) = (&args.trace, sim.sim()) {
         write_trace(s, t)?;
