@@ -1245,4 +1245,25 @@ mod tests {
         fixed[10].fixed = true;
         assert_eq!(verdict(&fixed, 10, &c), Junction::REST);
     }
+
+    #[test]
+    fn chord_cap_by_sagitta_and_passes_by_hand() {
+        // A chord of length L on a circle of radius r has sagitta L²/(8r): with r = 10 mm and 0.1 mm allowed,
+        // chords up to √8 = 2.828 mm belong to the curve (capped at its speed), longer ones do not.
+        let on = |radius: f32, speed_sqr: f32| Junction { speed_sqr, curve: Some(Curve { radius, speed_sqr }) };
+        assert_eq!(chord_speed_sqr(2.8, &on(10.0, 400.0), None, 0.1), 400.0);
+        assert_eq!(chord_speed_sqr(2.9, &on(10.0, 400.0), None, 0.1), f32::INFINITY);
+        // Both ends on curves: the faster one; an end at a corner does not cap.
+        assert_eq!(chord_speed_sqr(2.8, &on(10.0, 400.0), Some(&on(10.0, 900.0)), 0.1), 900.0);
+        assert_eq!(chord_speed_sqr(2.9, &on(10.0, 400.0), Some(&on(20.0, 900.0)), 0.1), 900.0);
+        assert_eq!(chord_speed_sqr(1.0, &Junction::REST, None, 0.1), f32::INFINITY);
+        // Forward pass: 40 steps (0.5 mm) from rest, then a long collinear move: the second block can enter at
+        // most at 2·1500·0.5 = 1500 mm²/s² (below the straight-on limit 100² and what it needs to stop).
+        let c = MachineConfig::xy_plotter();
+        let v = build(&c, &[([40, 0, 0, 0], 100.0), ([8000, 0, 0, 0], 100.0)]);
+        assert_eq!(v[1].entry_speed_sqr, 1500.0);
+        // Reverse pass: a long move, then 0.5 mm to a stop: the last block enters at most at 2·1500·0.5 = 1500.
+        let v = build(&c, &[([8000, 0, 0, 0], 100.0), ([40, 0, 0, 0], 100.0)]);
+        assert_eq!(v[1].entry_speed_sqr, 1500.0);
+    }
 }
