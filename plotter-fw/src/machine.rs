@@ -38,7 +38,7 @@ use crate::planner::{Linker, PlanBlock, plan, to_step_block};
 use crate::protocol::{Decoder, PROTOCOL_VERSION, RT_FEED_HOLD, RT_RESET, RT_RESUME, RT_STATUS, is_realtime};
 use crate::realtime::MachineState;
 use crate::report::CompletionReporter;
-use crate::step_block::{StepBlock, TICK_HZ};
+use crate::step_block::{StepBlock, Switches, TICK_HZ};
 use crate::stepper::{Stepper, StepperFault};
 use crate::thermal::{Cmd, EmergencyParser, Thermal, ThermalConfig};
 
@@ -676,7 +676,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             self.first_entry_sqr = exit;
             let block = to_step_block(&head, exit);
             // Cannot fail: the stepper holds fewer than two blocks and its queue takes two.
-            let _ = self.stepper.push(block, 0);
+            let _ = self.stepper.push(block, Switches::Limits);
         }
         self.start_stepper();
     }
@@ -698,8 +698,8 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             let pressed = self.hal.pressed();
             let step = cycle.next(&self.cfg, self.stepper.homing_hits(), pressed, &self.stepper.position());
             match step {
-                HomingStep::Move(b, mask) => {
-                    let _ = self.stepper.push(b, mask);
+                HomingStep::Move(b, switches) => {
+                    let _ = self.stepper.push(b, switches);
                     self.start_stepper();
                     return;
                 }

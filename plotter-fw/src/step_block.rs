@@ -110,7 +110,244 @@ impl StepBlock {
     }
 }
 
-/// The trapezoid of one block, precomputed for per-event evaluation (see the module docs for the formulas).
+/// Segments each acceleration or deceleration ramp is cut into (a cruise is one more segment).
+pub const RAMP_SEGMENTS: usize = 12;
+
+/// Most segments a block's step times have: two ramps and a cruise.
+pub const MAX_SEGMENTS: usize = 2 * RAMP_SEGMENTS + 1;
+
+/// Fixed-point time: one timer tick is `1 << FRAC_BITS` units.
+pub const FRAC_BITS: u32 = 32;
+
+/// Half a tick in fixed point: every time carries it, so the integer tick of a time (its high word) is the time
+/// rounded to the nearest tick.
+const HALF: u64 = 1 << (FRAC_BITS - 1);
+
+/// How the stepper treats the axis switches during a block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Switches {
+    /// A normal move: a pressed switch of an axis in the stepper's limit mask is a hard-limit fault.
+    #[default]
+    Limits,
+    /// A homing block: hard limits are not checked, and each axis in `axes` stops (the rest of the block runs
+    /// without it) the moment its switch reads pressed; the block ends when all of them have.
+    Homing {
+        /// Mask of the axes stopped by their switch (0: none, e.g. a pull-off or a debounce dwell).
+        axes: u8,
+    },
+}
+
+/// One piece of a block's step-time recurrence: `count` events, the first `interval` after the previous event,
+/// each following one `add` longer than the one before (fixed point, [`FRAC_BITS`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Segment {
+    /// Events in the segment (≥ 1).
+    pub count: u32,
+    /// Interval before the segment's first event, fixed-point ticks.
+    pub interval: u64,
+    /// Change of the interval from one event to the next, fixed-point ticks.
+    pub add: i64,
+}
+
+/// The integer recurrence that times a block's step events: a short list of [`Segment`]s (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepTimes {
+    segments: [Segment; MAX_SEGMENTS],
+    len: u8,
+    /// Fixed-point time the recurrence starts from (with [`HALF`]).
+    start: u64,
+    /// Fixed-point time from the start to the last event (not wrapped).
+    span: u128,
+    /// Number of events.
+    events: u32,
+}
+
+/// The per-event state of a [`StepTimes`] being executed: integer adds and a compare per event.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Cursor {
+    seg: u8,
+    left: u32,
+    t: u64,
+    d: u64,
+    e: i64,
+    last: u32,
+}
+
+impl Cursor {
+    /// Advance to the next event and return the ticks since the previous one (the block start for the first).
+    /// Past the last event it returns 1 (never reached by the stepper, which counts the events).
+    #[inline]
+    pub fn next(&mut self, times: &StepTimes) -> u32 {
+        if self.left == 0 {
+            if self.seg >= times.len {
+                return 1;
+            }
+            let Some(s) = times.segments.get(usize::from(self.seg)) else { return 1 };
+            self.seg += 1;
+            self.left = s.count;
+            self.d = s.interval;
+            self.e = s.add;
+        }
+        self.left -= 1;
+        self.t = self.t.wrapping_add(self.d);
+        self.d = self.d.wrapping_add_signed(self.e);
+        let tick = high_word(self.t);
+        let interval = tick.wrapping_sub(self.last);
+        self.last = tick;
+        interval
+    }
+
+    /// Fixed-point time of the last event returned (the start, before the first).
+    pub fn time(&self) -> u64 {
+        self.t
+    }
+}
+
+/// The high word of a fixed-point time: its tick.
+#[inline]
+fn high_word(t: u64) -> u32 {
+    #[allow(clippy::cast_possible_truncation, reason = "the shift leaves 32 bits")]
+    let w = (t >> FRAC_BITS) as u32;
+    w
+}
+
+/// `t` ticks (≥ 0) as fixed point, truncated; saturates.
+fn to_fixed(t: f32) -> u64 {
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "float→int `as` saturates")]
+    let f = (t * 4_294_967_296.0) as u64;
+    f
+}
+
+/// `x⁶`: where the ramp boundaries go (see [`StepTimes::ramp`]).
+fn pow6(x: f32) -> f32 {
+    let x2 = x * x;
+    x2 * x2 * x2
+}
+
+impl StepTimes {
+    /// No events yet, starting at fixed-point time `start` (which includes the half tick).
+    fn empty(start: u64) -> Self {
+        StepTimes {
+            segments: [Segment::default(); MAX_SEGMENTS],
+            len: 0,
+            start,
+            span: 0,
+            events: 0,
+        }
+    }
+
+    /// The segments.
+    pub fn segments(&self) -> &[Segment] {
+        &self.segments[..usize::from(self.len)]
+    }
+
+    /// Number of events timed.
+    pub fn events(&self) -> u32 {
+        self.events
+    }
+
+    /// Ticks from the start to the last event, exactly as [`Cursor::next`] adds them up (saturated at `u32::MAX`).
+    pub fn duration_ticks(&self) -> u32 {
+        let end = (u128::from(self.start) + self.span) >> FRAC_BITS;
+        let ticks = end - (u128::from(self.start) >> FRAC_BITS);
+        u32::try_from(ticks).unwrap_or(u32::MAX)
+    }
+
+    /// A cursor at the start.
+    pub fn cursor(&self) -> Cursor {
+        Cursor { seg: 0, left: 0, t: self.start, d: 0, e: 0, last: high_word(self.start) }
+    }
+
+    /// Append a segment of `m` events ending at relative time `t_end` (ticks after `start`), whose event at
+    /// `m/2` should be at `t_mid` and whose start is ideally at `t_from`; `linear` forces a constant interval.
+    fn fit(&mut self, m: u32, t_from: f32, t_mid: f32, t_end: f32, linear: bool) {
+        if m == 0 || usize::from(self.len) >= MAX_SEGMENTS {
+            return;
+        }
+        let now = i128::try_from(self.span).unwrap_or(i128::MAX);
+        let target = i128::from(to_fixed(t_end)).max(now);
+        let span = target - now;
+        let mm = i128::from(m);
+        let tri = mm * (mm - 1) / 2;
+        let mut e: i128 = if linear || m < 2 {
+            0
+        } else {
+            // Through the ideal start, middle and end: t(j) = t_from + j·D + j(j−1)/2·E gives E = 4(A − 2B)/m².
+            let mf = m as f32;
+            let curve = 4.0 * ((t_end - t_from) - 2.0 * (t_mid - t_from)) / (mf * mf);
+            let c = curve * 4_294_967_296.0;
+            #[allow(clippy::cast_possible_truncation, reason = "float→int `as` saturates")]
+            let c = c as i64;
+            i128::from(c)
+        };
+        let mut d = (span - e * tri).div_euclid(mm);
+        if d < 0 || d + e * (mm - 1) < 0 {
+            e = 0;
+            d = span / mm;
+        }
+        let total = d * mm + e * tri;
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "d ≥ 0 and below 2^64 by the fit")]
+        let seg = Segment { count: m, interval: d as u64, add: e as i64 };
+        self.segments[usize::from(self.len)] = seg;
+        self.len += 1;
+        self.events += m;
+        self.span = self.span.saturating_add(u128::try_from(total).unwrap_or(0));
+    }
+
+    /// Cut the events `from..to` into [`RAMP_SEGMENTS`] segments fitted to `time` (relative ticks of a real
+    /// event position), denser towards the slow end (`slow_end`: the end; else the start). The boundaries sit
+    /// at the sixth power of the fraction, which spreads the interpolation error of `√` evenly over the segments.
+    fn ramp(&mut self, from: u32, to: u32, slow_end: bool, time: impl Fn(f32) -> f32) {
+        let len = (to - from) as f32;
+        let mut prev = from;
+        let s = RAMP_SEGMENTS as f32;
+        for i in 1..=RAMP_SEGMENTS {
+            let b = if i == RAMP_SEGMENTS {
+                to
+            } else {
+                let w = i as f32 / s;
+                let frac = if slow_end { 1.0 - pow6(1.0 - w) } else { pow6(w) };
+                (from + round_u32(len * frac)).clamp(prev, to)
+            };
+            if b > prev {
+                let m = b - prev;
+                let mid = prev as f32 + m as f32 * 0.5;
+                self.fit(m, time(prev as f32), time(mid), time(b as f32), false);
+                prev = b;
+            }
+        }
+    }
+
+    /// The constant-rate events `from..to` (one segment).
+    fn cruise(&mut self, from: u32, to: u32, time: impl Fn(f32) -> f32) {
+        if to > from {
+            self.fit(to - from, time(from as f32), 0.0, time(to as f32), true);
+        }
+    }
+
+    /// A feed-hold stop: from an event at fixed-point time `start` and rate `v` (events/s), decelerate at `accel`
+    /// (events/s², > 0) over at most `avail` more events. Event `j` is at `(v − √(v² − 2aj))/a` after the start
+    /// while `v² − 2aj > 0`. Returns the times, and the rate² left at the end when `avail` events do not stop it
+    /// (`None`: it stops after [`StepTimes::events`] events).
+    pub fn hold(start: u64, avail: u32, v: f32, accel: u32) -> (StepTimes, Option<f32>) {
+        let a = accel.max(1) as f32;
+        let two_a = 2.0 * a;
+        let vsq = v * v;
+        let q = vsq / two_a;
+        // Events j ≥ 1 with v² − 2aj > 0.
+        let fl = crate::fmath::floor_u32(q);
+        let stop = if fl as f32 == q { fl.saturating_sub(1) } else { fl };
+        let f_over_a = TICK_HZ as f32 / a;
+        let time = |x: f32| (v - sqrt(vsq - two_a * x)) * f_over_a;
+        let mut times = StepTimes::empty(start);
+        let count = stop.min(avail);
+        times.ramp(0, count, true, time);
+        let left = if stop < avail { None } else { Some(vsq - two_a * avail as f32) };
+        (times, left)
+    }
+}
+
+/// The trapezoid of one block (see the module docs for the formulas), and its step times.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Profile {
     n: u32,
@@ -125,15 +362,13 @@ pub struct Profile {
     /// `TICK_HZ / vp`.
     f_over_vp: f32,
     xa: f32,
+    xd: f32,
     nf: f32,
-    /// Last event index in the accelerating / cruising phase.
-    ka: u32,
-    kd: u32,
     /// End of acceleration, ticks (unrounded).
     ta: f32,
-    /// Total, ticks (unrounded) and rounded.
+    /// Total, ticks (unrounded).
     total: f32,
-    total_ticks: u32,
+    times: StepTimes,
 }
 
 impl Profile {
@@ -177,7 +412,7 @@ impl Profile {
         let f_over_vp = f / vp;
         let ta = (vp - v0) * f_over_a;
         let total = ta + (xd - xa) * f_over_vp + (vp - v1) * f_over_a;
-        Profile {
+        let mut p = Profile {
             n,
             v0,
             v1,
@@ -188,13 +423,21 @@ impl Profile {
             f_over_a,
             f_over_vp,
             xa,
+            xd,
             nf,
-            ka: crate::fmath::floor_u32(xa),
-            kd: crate::fmath::floor_u32(xd),
             ta,
             total,
-            total_ticks: round_u32(total),
-        }
+            times: StepTimes::empty(HALF),
+        };
+        let ka = crate::fmath::floor_u32(xa).min(n);
+        let kd = crate::fmath::floor_u32(xd).clamp(ka, n);
+        let mut times = StepTimes::empty(HALF);
+        let at = |x: f32| p.time_at(x);
+        times.ramp(0, ka, false, at);
+        times.cruise(ka, kd, at);
+        times.ramp(kd, n, true, at);
+        p.times = times;
+        p
     }
 
     /// Number of step events.
@@ -202,26 +445,31 @@ impl Profile {
         self.n
     }
 
-    /// Rounded time of event `k` (1..=n) after the block start, ticks. `k ≥ n` gives the block duration.
-    #[inline]
-    pub fn tick_of(&self, k: u32) -> u32 {
-        if k >= self.n {
-            return self.total_ticks;
-        }
-        let kf = k as f32;
-        let t = if k <= self.ka {
-            (sqrt(self.v0sq + self.two_a * kf) - self.v0) * self.f_over_a
-        } else if k <= self.kd {
-            self.ta + (kf - self.xa) * self.f_over_vp
+    /// Ideal time of the continuous motion at position `x` (0..=n events) after the block start, ticks
+    /// (the formulas of the module docs).
+    pub fn time_at(&self, x: f32) -> f32 {
+        if x <= self.xa && self.two_a > 0.0 {
+            (sqrt(self.v0sq + self.two_a * x) - self.v0) * self.f_over_a
+        } else if x <= self.xd || self.two_a == 0.0 {
+            self.ta + (x - self.xa) * self.f_over_vp
         } else {
-            self.total - (sqrt(self.v1sq + self.two_a * (self.nf - kf)) - self.v1) * self.f_over_a
-        };
-        round_u32(t)
+            self.total - (sqrt(self.v1sq + self.two_a * (self.nf - x)) - self.v1) * self.f_over_a
+        }
     }
 
-    /// Duration of the block, ticks.
+    /// The step times the stepper executes.
+    pub fn times(&self) -> &StepTimes {
+        &self.times
+    }
+
+    /// Replace the step times (a feed hold re-times the rest of a block).
+    pub fn set_times(&mut self, times: StepTimes) {
+        self.times = times;
+    }
+
+    /// Duration of the block, ticks: the sum of the recurrence's intervals.
     pub fn duration_ticks(&self) -> u32 {
-        self.total_ticks
+        self.times.duration_ticks()
     }
 
     /// Peak rate reached (events/s).
@@ -239,7 +487,7 @@ impl Profile {
         let kf = k.min(self.n) as f32;
         if kf <= self.xa && self.two_a > 0.0 {
             sqrt(self.v0sq + self.two_a * kf)
-        } else if k <= self.kd || self.two_a == 0.0 {
+        } else if kf <= self.xd || self.two_a == 0.0 {
             self.vp
         } else {
             sqrt(self.v1sq + self.two_a * (self.nf - kf))
