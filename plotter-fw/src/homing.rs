@@ -185,10 +185,7 @@ mod tests {
         let HomingStep::Move(b, m) = h.next(&c, 0, 0, &pos) else { panic!() };
         assert_eq!((b.steps, m), ([0, 0, -6000, 0], Switches::Homing { axes: Axis::Z.bit() }));
         // Switch found → debounce dwell of 5 ms.
-        assert_eq!(
-            h.next(&c, Axis::Z.bit(), Axis::Z.bit(), &pos),
-            HomingStep::Move(StepBlock::dwell(5000), NO_STOP)
-        );
+        assert_eq!(h.next(&c, Axis::Z.bit(), Axis::Z.bit(), &pos), HomingStep::Move(StepBlock::dwell(5000), NO_STOP));
         let HomingStep::Move(b, m) = h.next(&c, Axis::Z.bit(), Axis::Z.bit(), &pos) else { panic!() };
         assert_eq!((b.steps, m), ([0, 0, 800, 0], NO_STOP));
         // Still pressed after the pull-off → alarm.

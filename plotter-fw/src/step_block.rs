@@ -111,10 +111,10 @@ impl StepBlock {
 }
 
 /// Segments each acceleration or deceleration ramp is cut into (a cruise is one more segment).
-pub const RAMP_SEGMENTS: usize = 12;
+pub const RAMP_SEGMENTS: usize = 16;
 
-/// Most segments a block's step times have: two ramps and a cruise.
-pub const MAX_SEGMENTS: usize = 2 * RAMP_SEGMENTS + 1;
+/// Most segments a block's step times have: two ramps, a cruise and the event where the cruise begins.
+pub const MAX_SEGMENTS: usize = 2 * RAMP_SEGMENTS + 2;
 
 /// Fixed-point time: one timer tick is `1 << FRAC_BITS` units.
 pub const FRAC_BITS: u32 = 32;
@@ -218,22 +218,10 @@ fn to_fixed(t: f32) -> u64 {
     f
 }
 
-/// `x⁶`: where the ramp boundaries go (see [`StepTimes::ramp`]).
-fn pow6(x: f32) -> f32 {
-    let x2 = x * x;
-    x2 * x2 * x2
-}
-
 impl StepTimes {
     /// No events yet, starting at fixed-point time `start` (which includes the half tick).
     fn empty(start: u64) -> Self {
-        StepTimes {
-            segments: [Segment::default(); MAX_SEGMENTS],
-            len: 0,
-            start,
-            span: 0,
-            events: 0,
-        }
+        StepTimes { segments: [Segment::default(); MAX_SEGMENTS], len: 0, start, span: 0, events: 0 }
     }
 
     /// The segments.
@@ -294,21 +282,28 @@ impl StepTimes {
         self.span = self.span.saturating_add(u128::try_from(total).unwrap_or(0));
     }
 
-    /// Cut the events `from..to` into [`RAMP_SEGMENTS`] segments fitted to `time` (relative ticks of a real
-    /// event position), denser towards the slow end (`slow_end`: the end; else the start). The boundaries sit
-    /// at the sixth power of the fraction, which spreads the interpolation error of `√` evenly over the segments.
-    fn ramp(&mut self, from: u32, to: u32, slow_end: bool, time: impl Fn(f32) -> f32) {
-        let len = (to - from) as f32;
-        let mut prev = from;
-        let s = RAMP_SEGMENTS as f32;
+    /// Cut the events `from..to` of a ramp into at most [`RAMP_SEGMENTS`] segments fitted to `time` (relative
+    /// ticks of a real event position). The ramp is slowest at `to` when `slow_end`, else at `from`, where the
+    /// motion is `c = v²/2a` events past the point where its rate would be zero. Segment boundaries are spaced
+    /// geometrically in the distance from that point (each segment the same ratio `q` longer than the distance
+    /// before it): `t ∝ √distance` there, so every segment then has the same relative interpolation error.
+    fn ramp(&mut self, from: u32, to: u32, slow_end: bool, c: f32, time: impl Fn(f32) -> f32) {
+        if to <= from {
+            return;
+        }
+        let len = to - from;
+        let base = if c > 1.0 { c } else { 1.0 };
+        // q = ((len + c)/base)^(1/16), the 16th root as four square roots.
+        let q = sqrt(sqrt(sqrt(sqrt((len as f32 + c) / base))));
+        let mut dist = [0u32; RAMP_SEGMENTS + 1];
+        let mut g = base;
         for i in 1..=RAMP_SEGMENTS {
-            let b = if i == RAMP_SEGMENTS {
-                to
-            } else {
-                let w = i as f32 / s;
-                let frac = if slow_end { 1.0 - pow6(1.0 - w) } else { pow6(w) };
-                (from + round_u32(len * frac)).clamp(prev, to)
-            };
+            g *= q;
+            dist[i] = if i == RAMP_SEGMENTS { len } else { round_u32(g - c).clamp(dist[i - 1], len) };
+        }
+        let mut prev = from;
+        for i in 1..=RAMP_SEGMENTS {
+            let b = if slow_end { to - dist[RAMP_SEGMENTS - i] } else { from + dist[i] };
             if b > prev {
                 let m = b - prev;
                 let mid = prev as f32 + m as f32 * 0.5;
@@ -337,14 +332,25 @@ impl StepTimes {
         // Events j ≥ 1 with v² − 2aj > 0.
         let fl = crate::fmath::floor_u32(q);
         let stop = if fl as f32 == q { fl.saturating_sub(1) } else { fl };
-        let f_over_a = TICK_HZ as f32 / a;
-        let time = |x: f32| (v - sqrt(vsq - two_a * x)) * f_over_a;
+        let f = TICK_HZ as f32;
+        let time = |x: f32| ramp_time(x, v, vsq, -two_a) * f;
         let mut times = StepTimes::empty(start);
         let count = stop.min(avail);
-        times.ramp(0, count, true, time);
+        times.ramp(0, count, true, q - count as f32, time);
         let left = if stop < avail { None } else { Some(vsq - two_a * avail as f32) };
         (times, left)
     }
+}
+
+/// Seconds to cover `x` events accelerating at `two_a / 2` from rate `v` (`v_sq = v²`): `(√(v² + 2ax) − v)/a`,
+/// computed as `2x/(√(v² + 2ax) + v)`, which does not cancel nearly equal numbers (0 at `x ≤ 0`). With a negative
+/// `two_a` it is the time to cover `x` events decelerating.
+fn ramp_time(x: f32, v: f32, v_sq: f32, two_a: f32) -> f32 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    let den = sqrt(v_sq + two_a * x) + v;
+    if den > 0.0 { 2.0 * x / den } else { 0.0 }
 }
 
 /// The trapezoid of one block (see the module docs for the formulas), and its step times.
@@ -357,8 +363,6 @@ pub struct Profile {
     v0sq: f32,
     v1sq: f32,
     two_a: f32,
-    /// `TICK_HZ / a` (0 when `a == 0`).
-    f_over_a: f32,
     /// `TICK_HZ / vp`.
     f_over_vp: f32,
     xa: f32,
@@ -387,8 +391,8 @@ impl Profile {
         } else {
             let a = accel as f32;
             let two_a = 2.0 * a;
-            let xa_full = (vc * vc - v0 * v0) / two_a;
-            let xd_full = (vc * vc - v1 * v1) / two_a;
+            let xa_full = (vc - v0) * (vc + v0) / two_a;
+            let xd_full = (vc - v1) * (vc + v1) / two_a;
             if xa_full + xd_full <= nf {
                 (vc, xa_full, nf - xd_full, a)
             } else {
@@ -403,15 +407,15 @@ impl Profile {
                     (v1, nf, nf, a)
                 } else {
                     let vp = sqrt(peak_sq);
-                    let xa = (peak_sq - v0 * v0) / two_a;
+                    let xa = (two_a * nf + (v1 - v0) * (v1 + v0)) / (2.0 * two_a);
                     (vp, xa, xa, a)
                 }
             }
         };
-        let f_over_a = if a > 0.0 { f / a } else { 0.0 };
         let f_over_vp = f / vp;
-        let ta = (vp - v0) * f_over_a;
-        let total = ta + (xd - xa) * f_over_vp + (vp - v1) * f_over_a;
+        // (vp − v0)/a written as 2·x_a/(vp + v0): no cancellation of nearly equal rates.
+        let ta = 2.0 * xa * f / (vp + v0);
+        let total = ta + (xd - xa) * f_over_vp + 2.0 * (nf - xd) * f / (vp + v1);
         let mut p = Profile {
             n,
             v0,
@@ -420,7 +424,6 @@ impl Profile {
             v0sq: v0 * v0,
             v1sq: v1 * v1,
             two_a: 2.0 * a,
-            f_over_a,
             f_over_vp,
             xa,
             xd,
@@ -433,9 +436,17 @@ impl Profile {
         let kd = crate::fmath::floor_u32(xd).clamp(ka, n);
         let mut times = StepTimes::empty(HALF);
         let at = |x: f32| p.time_at(x);
-        times.ramp(0, ka, false, at);
-        times.cruise(ka, kd, at);
-        times.ramp(kd, n, true, at);
+        let two_a = 2.0 * a;
+        let c0 = if a > 0.0 { v0 * v0 / two_a } else { 0.0 };
+        let c1 = if a > 0.0 { v1 * v1 / two_a } else { 0.0 };
+        times.ramp(0, ka, false, c0, at);
+        // The event after x_a is the first of the cruise, but the interval before it still partly accelerates.
+        let kc = if (ka as f32) < xa && ka < kd { ka + 1 } else { ka };
+        if kc > ka {
+            times.fit(1, at(ka as f32), 0.0, at(kc as f32), true);
+        }
+        times.cruise(kc, kd, at);
+        times.ramp(kd, n, true, c1, at);
         p.times = times;
         p
     }
@@ -448,12 +459,13 @@ impl Profile {
     /// Ideal time of the continuous motion at position `x` (0..=n events) after the block start, ticks
     /// (the formulas of the module docs).
     pub fn time_at(&self, x: f32) -> f32 {
+        let f = TICK_HZ as f32;
         if x <= self.xa && self.two_a > 0.0 {
-            (sqrt(self.v0sq + self.two_a * x) - self.v0) * self.f_over_a
+            ramp_time(x, self.v0, self.v0sq, self.two_a) * f
         } else if x <= self.xd || self.two_a == 0.0 {
             self.ta + (x - self.xa) * self.f_over_vp
         } else {
-            self.total - (sqrt(self.v1sq + self.two_a * (self.nf - x)) - self.v1) * self.f_over_a
+            self.total - ramp_time(self.nf - x, self.v1, self.v1sq, self.two_a) * f
         }
     }
 
@@ -491,6 +503,156 @@ impl Profile {
             self.vp
         } else {
             sqrt(self.v1sq + self.two_a * (self.nf - kf))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::vec::Vec;
+
+    /// The trapezoid of the module docs in f64, written out independently of [`Profile`]:
+    /// `(v0, vp, v1, a, x_a, x_d, T)` in events, events/s, events/s² and seconds.
+    fn ideal(n: u32, entry: u32, cruise: u32, exit: u32, accel: u32) -> (f64, f64, f64, f64, f64, f64, f64) {
+        let nf = f64::from(n);
+        let vc = f64::from(cruise.clamp(1, MAX_RATE));
+        let v0 = f64::from(entry.min(MAX_RATE)).min(vc);
+        let v1 = f64::from(exit.min(MAX_RATE)).min(vc);
+        if accel == 0 {
+            return (vc, vc, vc, 0.0, 0.0, nf, nf / vc);
+        }
+        let a = f64::from(accel);
+        let (xa, xd) = ((vc * vc - v0 * v0) / (2.0 * a), (vc * vc - v1 * v1) / (2.0 * a));
+        let (v0, vp, v1, xa, xd) = if xa + xd <= nf {
+            (v0, vc, v1, xa, nf - xd)
+        } else {
+            let peak_sq = (2.0 * a * nf + v0 * v0 + v1 * v1) / 2.0;
+            if peak_sq <= v0 * v0 {
+                (v0, v0, (v0 * v0 - 2.0 * a * nf).max(0.0).sqrt(), 0.0, 0.0)
+            } else if peak_sq <= v1 * v1 {
+                let v1 = (v0 * v0 + 2.0 * a * nf).sqrt();
+                (v0, v1, v1, nf, nf)
+            } else {
+                let xa = (peak_sq - v0 * v0) / (2.0 * a);
+                (v0, peak_sq.sqrt(), v1, xa, xa)
+            }
+        };
+        let total = (vp - v0) / a + (xd - xa) / vp + (vp - v1) / a;
+        (v0, vp, v1, a, xa, xd, total)
+    }
+
+    /// Ideal time of event `k`, seconds.
+    fn ideal_t(k: f64, p: (f64, f64, f64, f64, f64, f64, f64), n: f64) -> f64 {
+        let (v0, vp, v1, a, xa, xd, total) = p;
+        if a == 0.0 {
+            k / vp
+        } else if k <= xa {
+            ((v0 * v0 + 2.0 * a * k).sqrt() - v0) / a
+        } else if k <= xd {
+            (vp - v0) / a + (k - xa) / vp
+        } else {
+            total - ((v1 * v1 + 2.0 * a * (n - k)).max(0.0).sqrt() - v1) / a
+        }
+    }
+
+    /// All intervals of a block's recurrence.
+    fn intervals(p: &Profile) -> Vec<u32> {
+        let mut c = p.times().cursor();
+        (0..p.events()).map(|_| c.next(p.times())).collect()
+    }
+
+    #[test]
+    fn hand_computed_pure_acceleration() {
+        // a = 2·10⁶ events/s² from rest: t(k) = √(2k/a) = 1000·√k µs; four events fit 12 segments exactly.
+        let p = Profile::new(4, 0, MAX_RATE, MAX_RATE, 2_000_000);
+        // round(1000·√k): 1000, 1414, 1732, 2000.
+        assert_eq!(intervals(&p), [1000, 414, 318, 268]);
+        assert_eq!(p.duration_ticks(), 2000);
+    }
+
+    #[test]
+    fn hand_computed_cruise_is_one_constant_segment() {
+        let p = Profile::new(5, 0, 400, 0, 0);
+        assert_eq!(intervals(&p), [2500; 5]);
+        assert_eq!(p.times().segments(), [Segment { count: 5, interval: 2500 << 32, add: 0 }]);
+        assert_eq!(p.duration_ticks(), 12_500);
+    }
+
+    #[test]
+    fn hand_computed_trapezoid() {
+        // 0 → 1000 events/s at 10⁴ events/s²: 50 events and 0.1 s each way, 900 events cruise (0.9 s).
+        let p = Profile::new(1000, 0, 1000, 0, 10_000);
+        let iv = intervals(&p);
+        assert_eq!(iv.iter().map(|&i| u64::from(i)).sum::<u64>(), 1_100_000);
+        assert_eq!(p.duration_ticks(), 1_100_000);
+        // Event 50 ends the ramp at 0.1 s; the cruise then ticks every millisecond; event 950 is at 1.0 s.
+        let at = |k: usize| iv[..k].iter().map(|&i| u64::from(i)).sum::<u64>();
+        assert_eq!(at(50), 100_000);
+        assert!(iv[50..950].iter().all(|&i| i == 1000), "cruise intervals");
+        assert_eq!(at(950), 1_000_000);
+        // First event √(2/a) = 14 142.1 µs, second √(4/a) = 20 000 µs.
+        assert_eq!(&iv[..2], [14_142, 5858]);
+        // At most 12 + 1 + 12 segments.
+        assert!(p.times().segments().len() <= MAX_SEGMENTS);
+    }
+
+    #[test]
+    fn hold_ramp_stops_where_the_speed_runs_out() {
+        // From 1000 events/s at 10⁵ events/s²: v² − 2aj > 0 for j < 5, so 4 more events, event j at
+        // (v − √(v² − 2aj))/a = 10·(1000 − √(10⁶ − 2·10⁵·j)) µs: 1055.7, 2254.0, 3675.4, 5527.9.
+        let (t, left) = StepTimes::hold(HALF, 1000, 1000.0, 100_000);
+        assert_eq!(left, None);
+        assert_eq!(t.events(), 4);
+        let mut c = t.cursor();
+        let iv: Vec<u32> = (0..4).map(|_| c.next(&t)).collect();
+        assert_eq!(iv, [1056, 1198, 1421, 1853]);
+        assert_eq!(t.duration_ticks(), 5528);
+        // From 1000 events/s at 10⁴ events/s²: 49 events, the last at 0.1·(1 − √0.02) s = 85 857.9 µs.
+        let (t, left) = StepTimes::hold(HALF, 1000, 1000.0, 10_000);
+        assert_eq!((t.events(), left), (49, None));
+        assert_eq!(t.duration_ticks(), 85_858);
+        // Fewer events available than the stop needs: the rate² left is carried on.
+        let (t, left) = StepTimes::hold(HALF, 10, 1000.0, 10_000);
+        assert_eq!(t.events(), 10);
+        assert_eq!(left, Some(1000.0 * 1000.0 - 2.0 * 10_000.0 * 10.0));
+    }
+
+    /// The stated bound: each event within 2 ticks + 0.05 % of the time spent ramping (accelerating plus
+    /// decelerating) + 2·10⁻⁶ of its own time (the f32 arithmetic) of the ideal trapezoid.
+    fn bound(ramp_ticks: f64, t_ticks: f64) -> f64 {
+        2.0 + 5e-4 * ramp_ticks + 2e-6 * t_ticks
+    }
+
+    fn rates() -> impl Strategy<Value = (u32, u32, u32, u32, u32)> {
+        (1u32..3000, 0u32..20_000, 1u32..20_000, 0u32..20_000, prop_oneof![Just(0u32), 1u32..200_000])
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        /// Every event of the recurrence is within [`bound`] of the analytic t(k); the duration is the sum of the
+        /// intervals exactly; no interval is shorter than the cruise rate's by more than 2 % and one tick (rounding).
+        #[test]
+        fn recurrence_tracks_the_ideal_trapezoid((n, e, c, x, a) in rates()) {
+            let p = Profile::new(n, e, c, x, a);
+            let ideal = ideal(n, e, c, x, a);
+            let (v0, vp, v1, acc, ..) = ideal;
+            let f = f64::from(TICK_HZ);
+            let ramp = if acc > 0.0 { f * ((vp - v0) + (vp - v1)) / acc } else { 0.0 };
+            let mut cur = p.times().cursor();
+            let mut t = 0u64;
+            let min_interval = f / f64::from(c.clamp(1, MAX_RATE)) * 0.98 - 1.0;
+            for k in 1..=n {
+                let iv = cur.next(p.times());
+                prop_assert!(f64::from(iv) >= min_interval, "event {k}: interval {iv} < {min_interval}");
+                t += u64::from(iv);
+                let want = f * ideal_t(f64::from(k), ideal, f64::from(n));
+                let err = (t as f64 - want).abs();
+                prop_assert!(err <= bound(ramp, want), "event {k}: {t} vs {want:.2} (err {err:.2})");
+            }
+            prop_assert_eq!(t, u64::from(p.duration_ticks()));
+            prop_assert_eq!(p.times().events(), n);
         }
     }
 }
