@@ -367,21 +367,17 @@ impl Stepper {
         }
         act.k += 1;
         let n = act.n;
-        for axis in Axis::ALL {
-            let i = axis.index();
-            let d = act.delta[i];
-            if d != 0 {
-                let e = act.err[i] + d;
-                if e >= n {
-                    act.err[i] = e - n;
-                    if act.locked & axis.bit() == 0 {
-                        hal.step(axis);
-                        self.position[i] += act.sign[i];
-                    }
-                } else {
-                    act.err[i] = e;
-                }
-            }
+        // Written out per axis: the firmware is built for size, which would keep a loop here.
+        let mut mask = bresenham::<0>(act, n) | bresenham::<1>(act, n) | bresenham::<2>(act, n);
+        mask |= bresenham::<3>(act, n);
+        // Axes stopped by their switch (homing) no longer step.
+        mask &= !act.locked;
+        if mask != 0 {
+            count::<0>(&mut self.position, &act.sign, mask);
+            count::<1>(&mut self.position, &act.sign, mask);
+            count::<2>(&mut self.position, &act.sign, mask);
+            count::<3>(&mut self.position, &act.sign, mask);
+            hal.step_axes(mask);
         }
         if act.k == n {
             return self.finish_block(hal);
@@ -391,6 +387,30 @@ impl Stepper {
             return None;
         }
         Some(act.cursor.next(act.profile.times()))
+    }
+}
+
+// The per-event code below is written out for four axes.
+const _: () = assert!(NUM_AXES == 4);
+
+/// One event of axis `I`'s Bresenham error term (`n` events in the block): its bit when it steps.
+#[inline(always)]
+fn bresenham<const I: usize>(act: &mut Active, n: u32) -> u8 {
+    let e = act.err[I] + act.delta[I];
+    if e >= n {
+        act.err[I] = e - n;
+        1 << I
+    } else {
+        act.err[I] = e;
+        0
+    }
+}
+
+/// Count axis `I`'s step in the position when it is in `mask`.
+#[inline(always)]
+fn count<const I: usize>(position: &mut [i32; NUM_AXES], sign: &[i32; NUM_AXES], mask: u8) {
+    if mask & (1 << I) != 0 {
+        position[I] += sign[I];
     }
 }
 
