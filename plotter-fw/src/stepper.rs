@@ -13,8 +13,6 @@
 //! does integer adds, compares and pin writes only. A feed hold computes its deceleration the same way when it is
 //! requested ([`Stepper::feed_hold`]).
 
-use heapless::Deque;
-
 use crate::axis::{Axis, NUM_AXES};
 use crate::fmath::sqrt;
 use crate::hal::{Endstops, StepPins};
@@ -37,7 +35,11 @@ enum HoldState {
 /// No stop inside the block.
 const NO_STOP: u32 = u32::MAX;
 
-/// A block waiting in the stepper's queue, its step times already computed.
+/// Slots of the block ring: the executing block and the queue.
+const SLOTS: usize = STEPPER_QUEUE + 1;
+
+/// A block in the stepper's ring (queued, or executing from where it was queued: loading it copies nothing), its
+/// step times already computed.
 #[derive(Debug, Clone, Copy)]
 struct Queued {
     block: StepBlock,
@@ -58,11 +60,11 @@ struct Carry {
     planned_exit: u32,
 }
 
-/// The executing block.
+/// The executing block's state (the block itself stays in its ring slot).
 #[derive(Debug, Clone, Copy)]
 struct Active {
-    block: StepBlock,
-    profile: Profile,
+    /// Ring slot of the block.
+    slot: usize,
     cursor: Cursor,
     /// Events already emitted.
     k: u32,
@@ -91,7 +93,10 @@ pub enum StepperFault {
 /// The stepper: a queue of [`StepBlock`]s and the executing block's Bresenham state.
 #[derive(Debug)]
 pub struct Stepper {
-    queue: Deque<Queued, STEPPER_QUEUE>,
+    /// The executing block's slot (when one executes) is the one before `first`; `queued` blocks follow it.
+    ring: [Queued; SLOTS],
+    first: usize,
+    queued: usize,
     active: Option<Active>,
     position: [i32; NUM_AXES],
     invert: u8,
@@ -111,8 +116,18 @@ impl Stepper {
     /// An idle stepper at position 0. `invert` is the mask of axes with an inverted direction pin; `limit_mask` the
     /// axes whose switch, pressed outside homing, is a hard-limit fault.
     pub fn new(invert: u8, limit_mask: u8) -> Self {
+        let empty = StepBlock::dwell(0);
+        let slot = Queued {
+            block: empty,
+            profile: empty.profile(),
+            switches: Switches::Limits,
+            hold: false,
+            stop_at: NO_STOP,
+        };
         Stepper {
-            queue: Deque::new(),
+            ring: [slot; SLOTS],
+            first: 0,
+            queued: 0,
             active: None,
             position: [0; NUM_AXES],
             invert,
@@ -142,17 +157,17 @@ impl Stepper {
 
     /// Whether another block can be queued.
     pub fn has_room(&self) -> bool {
-        !self.queue.is_full()
+        self.queued < STEPPER_QUEUE
     }
 
     /// Blocks queued plus the executing one.
     pub fn pending(&self) -> usize {
-        self.queue.len() + usize::from(self.active.is_some())
+        self.queued + usize::from(self.active.is_some())
     }
 
     /// Nothing executing or queued.
     pub fn is_idle(&self) -> bool {
-        self.active.is_none() && self.queue.is_empty()
+        self.active.is_none() && self.queued == 0
     }
 
     /// Blocks completed since start.
@@ -173,14 +188,17 @@ impl Stepper {
     /// Queue a block (main context: its step times are computed here). `switches` says how the axis switches are
     /// treated during it (hard limits, or homing). Returns the block back when the queue is full.
     pub fn push(&mut self, block: StepBlock, switches: Switches) -> Result<(), StepBlock> {
-        if self.queue.is_full() {
+        if self.queued >= STEPPER_QUEUE {
             return Err(block);
         }
         let mut q = Queued { block, profile: block.profile(), switches, hold: false, stop_at: NO_STOP };
         if self.hold == HoldState::Decelerating {
             self.carry = self.carry.and_then(|c| continue_hold(c, &mut q));
         }
-        self.queue.push_back(q).map_err(|q| q.block)
+        // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
+        self.ring[(self.first + self.queued) % SLOTS] = q;
+        self.queued += 1;
+        Ok(())
     }
 
     /// If idle, start the next queued block: returns the ticks until its first event (the caller arms the timer).
@@ -193,7 +211,7 @@ impl Stepper {
 
     /// Drop everything (reset or alarm): the executing block stops where it is.
     pub fn abort(&mut self) {
-        self.queue.clear();
+        self.queued = 0;
         self.active = None;
         self.hold = HoldState::Running;
         self.carry = None;
@@ -217,26 +235,27 @@ impl Stepper {
         };
         self.hold = HoldState::Decelerating;
         self.carry = None;
+        let slot = &mut self.ring[act.slot];
         if act.n == 0 {
             // A dwell: the hold stops at its end.
             return;
         }
         let scheduled = act.k + 1;
-        if act.block.accel == 0 {
+        if slot.block.accel == 0 {
             // No acceleration to slow down with: stop after the event already scheduled.
             act.stop_at = scheduled;
             return;
         }
-        let v = act.profile.rate_at(scheduled - act.offset);
-        let (times, left) = StepTimes::hold(act.cursor.time(), act.n - scheduled, v, act.block.accel);
+        let v = slot.profile.rate_at(scheduled - act.offset);
+        let (times, left) = StepTimes::hold(act.cursor.time(), act.n - scheduled, v, slot.block.accel);
         act.cursor = times.cursor();
-        act.profile.set_times(times);
+        slot.profile.set_times(times);
         match left {
             None => act.stop_at = scheduled + times.events(),
             Some(v_sq) => {
-                let mut carry = Some(Carry { v_sq, planned_exit: act.block.exit_rate });
-                for q in self.queue.iter_mut() {
-                    carry = carry.and_then(|c| continue_hold(c, q));
+                let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
+                for i in 0..self.queued {
+                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[(self.first + i) % SLOTS]));
                 }
                 self.carry = carry;
             }
@@ -262,7 +281,8 @@ impl Stepper {
         }
         self.hold = HoldState::Running;
         self.carry = None;
-        for q in self.queue.iter_mut() {
+        for i in 0..self.queued {
+            let q = &mut self.ring[(self.first + i) % SLOTS];
             q.block.entry_rate = 0;
             q.block.exit_rate = 0;
             q.profile = q.block.profile();
@@ -273,26 +293,32 @@ impl Stepper {
             Some(act) => {
                 let rest = act.n - act.k;
                 act.offset = act.k;
-                act.profile = Profile::new(rest, 0, act.block.cruise_rate, 0, act.block.accel);
+                let slot = &mut self.ring[act.slot];
+                slot.profile = Profile::new(rest, 0, slot.block.cruise_rate, 0, slot.block.accel);
                 act.stop_at = NO_STOP;
-                act.cursor = act.profile.times().cursor();
-                Some(act.cursor.next(act.profile.times()))
+                act.cursor = slot.profile.times().cursor();
+                Some(act.cursor.next(slot.profile.times()))
             }
             None => self.load_next(hal),
         }
     }
 
     fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
-        let q = self.queue.pop_front()?;
-        let block = q.block;
+        if self.queued == 0 {
+            return None;
+        }
+        let slot = self.first;
+        self.first = (slot + 1) % SLOTS;
+        self.queued -= 1;
+        let q = &self.ring[slot];
+        let block = &q.block;
         let n = block.events();
         let (watch, home_mask) = match q.switches {
             Switches::Limits => (self.limit_mask, 0),
             Switches::Homing { axes } => (axes, axes),
         };
         let mut act = Active {
-            block,
-            profile: q.profile,
+            slot,
             cursor: q.profile.times().cursor(),
             k: 0,
             offset: 0,
@@ -321,7 +347,7 @@ impl Stepper {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
         // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
-        let first = if n == 0 { block.dwell_ticks.max(1) } else { act.cursor.next(act.profile.times()) };
+        let first = if n == 0 { block.dwell_ticks.max(1) } else { act.cursor.next(q.profile.times()) };
         self.active = Some(act);
         Some(first)
     }
@@ -330,7 +356,7 @@ impl Stepper {
     fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         self.active = None;
         self.completed = self.completed.wrapping_add(1);
-        if self.hold != HoldState::Running && !self.queue.front().is_some_and(|q| q.hold) {
+        if self.hold != HoldState::Running && !(self.queued > 0 && self.ring[self.first].hold) {
             self.hold = HoldState::Stopped;
             return None;
         }
@@ -386,7 +412,7 @@ impl Stepper {
             self.hold = HoldState::Stopped;
             return None;
         }
-        Some(act.cursor.next(act.profile.times()))
+        Some(act.cursor.next(self.ring[act.slot].profile.times()))
     }
 }
 
