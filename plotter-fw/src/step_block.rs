@@ -8,7 +8,7 @@
 //! events per second) and an acceleration `a` (events/s²). [`Profile::new`] turns it into a continuous trapezoid
 //! over position `x ∈ [0, n]` (in events): accelerate from `v0` up to `x_a`, cruise at the peak `vp` up to
 //! `x_d`, decelerate to `v1` at `x = n` (a triangle when `vc` is not reachable; `vp² = (2an + v0² + v1²)/2`).
-//! Event `k` fires at the time the continuous motion passes position `k`:
+//! Ideally, event `k` fires at the time the continuous motion passes position `k`:
 //!
 //! ```text
 //! t(k) = (√(v0² + 2ak) − v0) / a                 k ≤ x_a   (accelerating)
@@ -17,16 +17,38 @@
 //! T    = (vp − v0)/a + (x_d − x_a)/vp + (vp − v1)/a
 //! ```
 //!
-//! and is scheduled at `round(TICK_HZ · t(k))` timer ticks after the block start. Rounding the *absolute* time of
-//! each event (not each interval) keeps the tick grid from drifting, so a block lasts exactly
-//! `round(TICK_HZ · T)` ticks ([`StepBlock::duration_ticks`]); the next block starts at the previous block's last
-//! event. All of this is `f32` arithmetic with the deterministic [`crate::fmath::sqrt`], so the host calling
-//! [`StepBlock::duration_ticks`] gets bit-for-bit the time the firmware (or the simulator) takes: a sequence of
-//! blocks takes exactly the sum of their durations.
+//! (the code avoids the cancellation of nearly equal numbers in these forms: `√(v² + 2ax) − v` is computed as
+//! `2ax/(√(v² + 2ax) + v)`).
+//!
+//! # Step times: an integer recurrence (what the interrupt runs and the host sums)
+//! The events are not timed by evaluating `t(k)` (a square root per event); when a block is pushed into the
+//! stepper (main context), [`Profile::new`] cuts its events into at most [`MAX_SEGMENTS`] [`Segment`]s
+//! `(count, interval, add)`, in the form Klipper's step queue uses: the segment's first event comes `interval`
+//! after the previous one, and each following interval is `add` longer. Times are fixed point (`2^32` units per
+//! tick, [`FRAC_BITS`]), so per event the executor ([`Cursor::next`]) does two 64-bit adds, a decrement and a
+//! compare; the event fires at the high word of the running time, which starts half a tick in so that the high
+//! word is the time rounded to a tick.
+//!
+//! The segments: each ramp (acceleration, deceleration) gets at most [`RAMP_SEGMENTS`], their boundaries spaced
+//! geometrically in the distance from the point where the ramp's rate would be zero (`t ∝ √distance` there, so
+//! each segment has the same relative error); the cruise is one segment with `add = 0` (exact), plus a one-event
+//! segment for the event where the cruise begins. Each segment's `add` is fitted through `t(k)` at its start,
+//! middle and end, and its `interval` so that its last event lands on `t(end)` (to `2^-32` tick). Measured
+//! against `t(k)` in f64 (the proptest in this file, blocks up to 3000 events, rates up to 20 000/s): every
+//! event is within 2 ticks + 0.05 % of the block's ramp time + 2·10⁻⁶ of `t(k)` (f32 rounding), and no interval
+//! is more than 2 % (plus one tick of rounding) shorter than the cruise rate's — the largest such deviation sits
+//! at the fast end of a long ramp.
+//!
+//! The contract: a block lasts exactly the sum of its recurrence's intervals, [`StepBlock::duration_ticks`],
+//! computed in closed form from the segments (`count·interval + add·count(count−1)/2`, exact integers); the next
+//! block starts at the previous block's last event. The segment computation is `f32` with the deterministic
+//! [`crate::fmath::sqrt`] and integer arithmetic, so the host calling [`StepBlock::duration_ticks`] gets bit for
+//! bit the time the firmware (or the simulator) takes: a sequence of blocks takes exactly the sum of their
+//! durations. A feed hold computes its deceleration the same way ([`StepTimes::hold`]) when it is requested.
 //!
 //! A dwell (G4, pen settle) is a block with no steps that lasts its given number of ticks. A servo block is a dwell
-//! that first drives the pen servo ([`crate::hal::StepPins::set_servo`]) to its angle: the settle time is its dwell, so the
-//! pen moves exactly between the moves around it, in the stepper's own time line.
+//! that first drives the pen servo ([`crate::hal::StepPins::set_servo`]) to its angle: the settle time is its
+//! dwell, so the pen moves exactly between the moves around it, in the stepper's own time line.
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::fmath::{round_u32, sqrt};

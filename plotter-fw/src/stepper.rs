@@ -684,7 +684,9 @@ mod tests {
             if let Some(first) = s.start(&mut hal) {
                 t += u64::from(first);
                 loop {
-                    while s.has_room() { match pending.pop() { Some(b) => s.push(b, Switches::Limits).unwrap(), None => break } }
+                    while s.has_room() {
+                        match pending.pop() { Some(b) => s.push(b, Switches::Limits).unwrap(), None => break }
+                    }
                     match s.tick(&mut hal) { Some(iv) => t += u64::from(iv), None => break }
                 }
             }
