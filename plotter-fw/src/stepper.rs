@@ -632,6 +632,70 @@ mod tests {
         assert_eq!(hal.pos, [8000, 2000, 0, 0]);
     }
 
+    #[test]
+    fn feed_hold_decelerates_through_a_block_boundary() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let block = |entry, exit| StepBlock {
+            steps: [3000, 0, 0, 0],
+            entry_rate: entry,
+            cruise_rate: 4000,
+            exit_rate: exit,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        s.push(block(0, 4000), Switches::Limits).unwrap();
+        s.push(block(4000, 0), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..2899 {
+            s.tick(&mut hal).unwrap();
+        }
+        // `start` scheduled event 1 and each tick emitted one: event 2899 emitted, 2900 scheduled (cruise).
+        s.feed_hold();
+        let mut intervals = std::vec::Vec::new();
+        while let Some(iv) = s.tick(&mut hal) {
+            intervals.push(iv);
+        }
+        assert!(s.is_held());
+        // From 4000 events/s at 20 000 events/s²: v² − 2aj > 0 for j < 400, so 399 events after the scheduled one;
+        // 100 of them finish the first block, the other 299 run in the second.
+        assert_eq!(hal.pos[0], 2900 + 399);
+        assert_eq!(s.completed(), 1);
+        // Slowing down all the way, across the boundary too: from the scheduled cruise interval (250 µs) on, no
+        // interval is shorter than the one before by more than the rounding of the two event times around it.
+        assert_eq!(intervals[0], 250);
+        assert!(intervals.windows(2).all(|w| w[1] + 2 >= w[0]), "{intervals:?}");
+        // The last interval: events 398 and 399 of the stop at (v − √(v² − 2aj))/a, i.e.
+        // (√(16·10⁶ − 40 000·398) − √(16·10⁶ − 40 000·399))/20 000 s = (√80 000 − √40 000)/0.02 µs = 4142.1 µs.
+        let last = *intervals.last().unwrap();
+        assert!((4140..=4144).contains(&last), "{last}");
+        assert!(s.resume(&mut hal).is_some());
+        while s.tick(&mut hal).is_some() {}
+        assert!(s.is_idle());
+        assert_eq!(hal.pos[0], 6000);
+        assert_eq!(s.completed(), 2);
+    }
+
+    #[test]
+    fn feed_hold_without_acceleration_stops_after_the_scheduled_event() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [0, 50, 0, 0], cruise_rate: 100, ..StepBlock::default() }, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..10 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        assert!(s.is_holding() && !s.is_held());
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!(hal.pos[1], 11);
+        assert_eq!(s.resume(&mut hal), Some(10_000));
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(hal.pos[1], 50);
+    }
+
     fn block_strategy() -> impl Strategy<Value = StepBlock> {
         (proptest::array::uniform4(-3000i32..3000), 0u32..20_000, 1u32..20_000, 0u32..20_000, 0u32..200_000).prop_map(
             |(steps, e, c, x, a)| StepBlock {
