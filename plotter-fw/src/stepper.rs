@@ -44,6 +44,10 @@ const SLOTS: usize = STEPPER_QUEUE + 1;
 struct Queued {
     block: StepBlock,
     profile: Profile,
+    /// Step events, steps per axis and their signs (computed at push, read by the interrupt).
+    n: u32,
+    delta: [u32; NUM_AXES],
+    sign: [i32; NUM_AXES],
     switches: Switches,
     /// A feed hold re-timed this block as the continuation of its deceleration.
     hold: bool,
@@ -71,9 +75,7 @@ struct Active {
     /// Event index the profile starts from (non-zero after a feed hold re-profiled the rest).
     offset: u32,
     n: u32,
-    delta: [u32; NUM_AXES],
     err: [u32; NUM_AXES],
-    sign: [i32; NUM_AXES],
     /// Axes whose switch is read at each event: the home mask in a homing block, else the hard-limit mask.
     watch: u8,
     /// Homing: axes stopped by their switch, and those already stopped.
@@ -120,6 +122,9 @@ impl Stepper {
         let slot = Queued {
             block: empty,
             profile: empty.profile(),
+            n: 0,
+            delta: [0; NUM_AXES],
+            sign: [0; NUM_AXES],
             switches: Switches::Limits,
             hold: false,
             stop_at: NO_STOP,
@@ -191,7 +196,16 @@ impl Stepper {
         if self.queued >= STEPPER_QUEUE {
             return Err(block);
         }
-        let mut q = Queued { block, profile: block.profile(), switches, hold: false, stop_at: NO_STOP };
+        let mut q = Queued {
+            block,
+            profile: block.profile(),
+            n: block.events(),
+            delta: block.steps.map(i32::unsigned_abs),
+            sign: block.steps.map(i32::signum),
+            switches,
+            hold: false,
+            stop_at: NO_STOP,
+        };
         if self.hold == HoldState::Decelerating {
             self.carry = self.carry.and_then(|c| continue_hold(c, &mut q));
         }
@@ -312,31 +326,14 @@ impl Stepper {
         self.queued -= 1;
         let q = &self.ring[slot];
         let block = &q.block;
-        let n = block.events();
+        let n = q.n;
         let (watch, home_mask) = match q.switches {
             Switches::Limits => (self.limit_mask, 0),
             Switches::Homing { axes } => (axes, axes),
         };
-        let mut act = Active {
-            slot,
-            cursor: q.profile.times().cursor(),
-            k: 0,
-            offset: 0,
-            n,
-            delta: [0; NUM_AXES],
-            err: [n / 2; NUM_AXES],
-            sign: [0; NUM_AXES],
-            watch,
-            home_mask,
-            locked: 0,
-            stop_at: q.stop_at,
-        };
         for axis in Axis::ALL {
-            let i = axis.index();
-            let s = block.steps[i];
+            let s = q.sign[axis.index()];
             if s != 0 {
-                act.delta[i] = s.unsigned_abs();
-                act.sign[i] = s.signum();
                 hal.set_dir(axis, (s < 0) ^ (self.invert & axis.bit() != 0));
             }
         }
@@ -346,9 +343,20 @@ impl Stepper {
         if let Some(tenths) = block.servo {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
+        let act = self.active.insert(Active {
+            slot,
+            cursor: q.profile.times().cursor(),
+            k: 0,
+            offset: 0,
+            n,
+            err: [n / 2; NUM_AXES],
+            watch,
+            home_mask,
+            locked: 0,
+            stop_at: q.stop_at,
+        });
         // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
         let first = if n == 0 { block.dwell_ticks.max(1) } else { act.cursor.next(q.profile.times()) };
-        self.active = Some(act);
         Some(first)
     }
 
@@ -394,15 +402,16 @@ impl Stepper {
         act.k += 1;
         let n = act.n;
         // Written out per axis: the firmware is built for size, which would keep a loop here.
-        let mut mask = bresenham::<0>(act, n) | bresenham::<1>(act, n) | bresenham::<2>(act, n);
-        mask |= bresenham::<3>(act, n);
+        let q = &self.ring[act.slot];
+        let mut mask = bresenham::<0>(act, &q.delta, n) | bresenham::<1>(act, &q.delta, n);
+        mask |= bresenham::<2>(act, &q.delta, n) | bresenham::<3>(act, &q.delta, n);
         // Axes stopped by their switch (homing) no longer step.
         mask &= !act.locked;
         if mask != 0 {
-            count::<0>(&mut self.position, &act.sign, mask);
-            count::<1>(&mut self.position, &act.sign, mask);
-            count::<2>(&mut self.position, &act.sign, mask);
-            count::<3>(&mut self.position, &act.sign, mask);
+            count::<0>(&mut self.position, &q.sign, mask);
+            count::<1>(&mut self.position, &q.sign, mask);
+            count::<2>(&mut self.position, &q.sign, mask);
+            count::<3>(&mut self.position, &q.sign, mask);
             hal.step_axes(mask);
         }
         if act.k == n {
@@ -421,8 +430,8 @@ const _: () = assert!(NUM_AXES == 4);
 
 /// One event of axis `I`'s Bresenham error term (`n` events in the block): its bit when it steps.
 #[inline(always)]
-fn bresenham<const I: usize>(act: &mut Active, n: u32) -> u8 {
-    let e = act.err[I] + act.delta[I];
+fn bresenham<const I: usize>(act: &mut Active, delta: &[u32; NUM_AXES], n: u32) -> u8 {
+    let e = act.err[I] + delta[I];
     if e >= n {
         act.err[I] = e - n;
         1 << I
