@@ -621,6 +621,18 @@ mod tests {
     }
 
     #[test]
+    fn cursor_past_the_last_event_and_saturated_durations() {
+        let p = Profile::new(2, 0, 1000, 0, 0);
+        let mut c = p.times().cursor();
+        assert_eq!([c.next(p.times()), c.next(p.times())], [1000, 1000]);
+        // Never asked by the stepper, which counts the events: a harmless 1.
+        assert_eq!(c.next(p.times()), 1);
+        // 5000 events at 1 event/s: 5·10⁹ µs do not fit the u32 duration, which saturates.
+        assert_eq!(Profile::new(5000, 0, 1, 0, 0).duration_ticks(), u32::MAX);
+        assert_eq!(Profile::new(4000, 0, 1, 0, 0).duration_ticks(), 4_000_000_000);
+    }
+
+    #[test]
     fn hold_ramp_stops_where_the_speed_runs_out() {
         // From 1000 events/s at 10⁵ events/s²: v² − 2aj > 0 for j < 5, so 4 more events, event j at
         // (v − √(v² − 2aj))/a = 10·(1000 − √(10⁶ − 2·10⁵·j)) µs: 1055.7, 2254.0, 3675.4, 5527.9.
