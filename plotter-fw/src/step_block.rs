@@ -621,6 +621,16 @@ mod tests {
     }
 
     #[test]
+    fn a_long_trapezoid_fills_every_segment() {
+        // 0 → 10⁴ → 0 events/s at 9·10⁴ events/s²: each ramp is 555.6 events (16 distinct geometric boundaries),
+        // the cruise begins at the fractional x_a (one event of its own), then one cruise segment.
+        let p = Profile::new(3000, 0, 10_000, 0, 90_000);
+        assert_eq!(p.times().segments().len(), MAX_SEGMENTS);
+        assert_eq!(MAX_SEGMENTS, 34);
+        assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 3000);
+    }
+
+    #[test]
     fn cursor_past_the_last_event_and_saturated_durations() {
         let p = Profile::new(2, 0, 1000, 0, 0);
         let mut c = p.times().cursor();
