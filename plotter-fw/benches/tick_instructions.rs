@@ -13,7 +13,7 @@
 //! (`--toggle-collect` counts only while inside `tick`.) Target: ≤ 150 instructions per tick (x86-64).
 
 use plotter_fw::hal::{Endstops, StepPins};
-use plotter_fw::step_block::StepBlock;
+use plotter_fw::step_block::{StepBlock, Switches};
 use plotter_fw::stepper::Stepper;
 use plotter_fw::{Axis, NUM_AXES};
 
@@ -69,13 +69,13 @@ fn main() {
     pending.reverse();
     let mut ticks = 0u64;
     let mut time = 0u64;
-    let _ = s.push(pending.pop().unwrap(), 0);
+    let _ = s.push(pending.pop().unwrap(), Switches::Limits);
     time += u64::from(s.start(&mut pins).unwrap());
     loop {
         while s.has_room() {
             match pending.pop() {
                 Some(b) => {
-                    let _ = s.push(b, 0);
+                    let _ = s.push(b, Switches::Limits);
                 }
                 None => break,
             }

@@ -23,6 +23,17 @@ pub trait StepPins {
     fn set_dir(&mut self, axis: Axis, level: bool);
     /// Emit one step pulse on `axis`.
     fn step(&mut self, axis: Axis);
+    /// Emit one step pulse on every axis in `mask` ([`Axis::bit`]s) at once: the stepper calls this once per step
+    /// event. The default steps the axes one by one; boards override it to set the pins together and end all
+    /// pulses with one timer compare.
+    #[inline]
+    fn step_axes(&mut self, mask: u8) {
+        for axis in Axis::ALL {
+            if mask & axis.bit() != 0 {
+                self.step(axis);
+            }
+        }
+    }
     /// Energise (`true`, M17) or release (`false`, M18) the motor drivers.
     fn enable_motors(&mut self, on: bool);
     /// Drive the pen-lift hobby servo to `angle_deg` (0–180°, `M3 S<angle>` / `M5`): a 50 Hz PWM whose pulse is

@@ -8,56 +8,81 @@
 //! never more than half a step from the ideal line and ends with exactly `d` steps (the midpoint form of
 //! Bresenham's line algorithm, generalised to several axes by giving each minor axis its own error term).
 //!
-//! Timing and the block contract are in [`crate::step_block`].
-
-use heapless::Deque;
+//! Timing and the block contract are in [`crate::step_block`]: a block's step times are an integer recurrence
+//! computed when the block is pushed ([`Stepper::push`], main context), so the timer interrupt ([`Stepper::tick`])
+//! does integer adds, compares and pin writes only. A feed hold computes its deceleration the same way when it is
+//! requested ([`Stepper::feed_hold`]).
 
 use crate::axis::{Axis, NUM_AXES};
-use crate::fmath::{round_u32, sqrt};
+use crate::fmath::sqrt;
 use crate::hal::{Endstops, StepPins};
-use crate::step_block::{Profile, StepBlock, TICK_HZ};
+use crate::step_block::{Cursor, Profile, StepBlock, StepTimes, Switches};
 
 /// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
 /// frozen; the planner keeps re-planning the rest.
 pub const STEPPER_QUEUE: usize = 2;
 
 /// Feed-hold state of the stepper.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum HoldState {
     Running,
-    /// Decelerating: from event `k0` (time `t0` ticks in the block), rate² `v0sq`, acceleration `a`.
-    Decelerating {
-        k0: u32,
-        t0: f32,
-        v0: f32,
-        v0sq: f32,
-        two_a: f32,
-        f_over_a: f32,
-    },
+    /// Decelerating along step times computed when the hold was requested.
+    Decelerating,
     /// Stopped with the queue kept.
     Stopped,
 }
 
-/// The executing block.
+/// No stop inside the block.
+const NO_STOP: u32 = u32::MAX;
+
+/// Slots of the block ring: the executing block and the queue.
+const SLOTS: usize = STEPPER_QUEUE + 1;
+
+/// A block in the stepper's ring (queued, or executing from where it was queued: loading it copies nothing), its
+/// step times already computed.
 #[derive(Debug, Clone, Copy)]
-struct Active {
+struct Queued {
     block: StepBlock,
     profile: Profile,
+    /// Step events, steps per axis and their signs (computed at push, read by the interrupt).
+    n: u32,
+    delta: [u32; NUM_AXES],
+    sign: [i32; NUM_AXES],
+    switches: Switches,
+    /// A feed hold re-timed this block as the continuation of its deceleration.
+    hold: bool,
+    /// Event after which the hold stops ([`NO_STOP`]: none).
+    stop_at: u32,
+}
+
+/// The rate a decelerating hold carries out of the last block it has re-timed.
+#[derive(Debug, Clone, Copy)]
+struct Carry {
+    /// Rate² at the block end, that block's units.
+    v_sq: f32,
+    /// That block's planned exit rate, for the conversion to the next block's units.
+    planned_exit: u32,
+}
+
+/// The executing block's state (the block itself stays in its ring slot).
+#[derive(Debug, Clone, Copy)]
+struct Active {
+    /// Ring slot of the block.
+    slot: usize,
+    cursor: Cursor,
     /// Events already emitted.
     k: u32,
     /// Event index the profile starts from (non-zero after a feed hold re-profiled the rest).
     offset: u32,
     n: u32,
-    delta: [u32; NUM_AXES],
     err: [u32; NUM_AXES],
-    sign: [i32; NUM_AXES],
-    /// Tick of event `k` (from the profile start).
-    last_tick: u32,
     /// Axes whose switch is read at each event: the home mask in a homing block, else the hard-limit mask.
     watch: u8,
     /// Homing: axes stopped by their switch, and those already stopped.
     home_mask: u8,
     locked: u8,
+    /// Event after which a feed hold stops ([`NO_STOP`]: none).
+    stop_at: u32,
 }
 
 /// What stopped the stepper abnormally.
@@ -70,14 +95,18 @@ pub enum StepperFault {
 /// The stepper: a queue of [`StepBlock`]s and the executing block's Bresenham state.
 #[derive(Debug)]
 pub struct Stepper {
-    queue: Deque<(StepBlock, u8), STEPPER_QUEUE>,
+    /// The executing block's slot (when one executes) is the one before `first`; `queued` blocks follow it.
+    ring: [Queued; SLOTS],
+    first: usize,
+    queued: usize,
     active: Option<Active>,
     position: [i32; NUM_AXES],
     invert: u8,
     /// Axes checked for a hard-limit hit on each event (0 disables).
     limit_mask: u8,
     hold: HoldState,
-    hold_requested: bool,
+    /// While decelerating: the rate the hold carries into the next block pushed (`None`: it stops before it).
+    carry: Option<Carry>,
     fault: Option<StepperFault>,
     /// Blocks finished since start.
     completed: u32,
@@ -89,14 +118,27 @@ impl Stepper {
     /// An idle stepper at position 0. `invert` is the mask of axes with an inverted direction pin; `limit_mask` the
     /// axes whose switch, pressed outside homing, is a hard-limit fault.
     pub fn new(invert: u8, limit_mask: u8) -> Self {
+        let empty = StepBlock::dwell(0);
+        let slot = Queued {
+            block: empty,
+            profile: empty.profile(),
+            n: 0,
+            delta: [0; NUM_AXES],
+            sign: [0; NUM_AXES],
+            switches: Switches::Limits,
+            hold: false,
+            stop_at: NO_STOP,
+        };
         Stepper {
-            queue: Deque::new(),
+            ring: [slot; SLOTS],
+            first: 0,
+            queued: 0,
             active: None,
             position: [0; NUM_AXES],
             invert,
             limit_mask,
             hold: HoldState::Running,
-            hold_requested: false,
+            carry: None,
             fault: None,
             completed: 0,
             homing_hits: 0,
@@ -120,17 +162,17 @@ impl Stepper {
 
     /// Whether another block can be queued.
     pub fn has_room(&self) -> bool {
-        !self.queue.is_full()
+        self.queued < STEPPER_QUEUE
     }
 
     /// Blocks queued plus the executing one.
     pub fn pending(&self) -> usize {
-        self.queue.len() + usize::from(self.active.is_some())
+        self.queued + usize::from(self.active.is_some())
     }
 
     /// Nothing executing or queued.
     pub fn is_idle(&self) -> bool {
-        self.active.is_none() && self.queue.is_empty()
+        self.active.is_none() && self.queued == 0
     }
 
     /// Blocks completed since start.
@@ -148,11 +190,29 @@ impl Stepper {
         self.fault
     }
 
-    /// Queue a block. `home_mask` is 0 for normal moves (hard limits checked); for homing blocks it carries
-    /// [`crate::homing::HOMING_BLOCK`] (no hard-limit check) plus the axes to stop when their switch reads pressed.
-    /// Returns the block back when the queue is full.
-    pub fn push(&mut self, block: StepBlock, home_mask: u8) -> Result<(), StepBlock> {
-        self.queue.push_back((block, home_mask)).map_err(|(b, _)| b)
+    /// Queue a block (main context: its step times are computed here). `switches` says how the axis switches are
+    /// treated during it (hard limits, or homing). Returns the block back when the queue is full.
+    pub fn push(&mut self, block: StepBlock, switches: Switches) -> Result<(), StepBlock> {
+        if self.queued >= STEPPER_QUEUE {
+            return Err(block);
+        }
+        let mut q = Queued {
+            block,
+            profile: block.profile(),
+            n: block.events(),
+            delta: block.steps.map(i32::unsigned_abs),
+            sign: block.steps.map(i32::signum),
+            switches,
+            hold: false,
+            stop_at: NO_STOP,
+        };
+        if self.hold == HoldState::Decelerating {
+            self.carry = self.carry.and_then(|c| continue_hold(c, &mut q));
+        }
+        // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
+        self.ring[(self.first + self.queued) % SLOTS] = q;
+        self.queued += 1;
+        Ok(())
     }
 
     /// If idle, start the next queued block: returns the ticks until its first event (the caller arms the timer).
@@ -165,10 +225,10 @@ impl Stepper {
 
     /// Drop everything (reset or alarm): the executing block stops where it is.
     pub fn abort(&mut self) {
-        self.queue.clear();
+        self.queued = 0;
         self.active = None;
         self.hold = HoldState::Running;
-        self.hold_requested = false;
+        self.carry = None;
     }
 
     /// Clear a latched fault (after reset).
@@ -176,13 +236,42 @@ impl Stepper {
         self.fault = None;
     }
 
-    /// Request a feed hold: decelerate to a stop at the block's acceleration, keeping the queue.
+    /// Request a feed hold (main context): decelerate to a stop at the block's acceleration, keeping the queue.
+    /// The deceleration's step times are computed here, from the rate at the event already scheduled, for the
+    /// executing block and as far into the queued ones as it reaches; the interrupt only follows them.
     pub fn feed_hold(&mut self) {
-        if self.hold == HoldState::Running {
-            if self.active.is_none() {
-                self.hold = HoldState::Stopped;
-            } else {
-                self.hold_requested = true;
+        if self.hold != HoldState::Running {
+            return;
+        }
+        let Some(act) = self.active.as_mut() else {
+            self.hold = HoldState::Stopped;
+            return;
+        };
+        self.hold = HoldState::Decelerating;
+        self.carry = None;
+        let slot = &mut self.ring[act.slot];
+        if act.n == 0 {
+            // A dwell: the hold stops at its end.
+            return;
+        }
+        let scheduled = act.k + 1;
+        if slot.block.accel == 0 {
+            // No acceleration to slow down with: stop after the event already scheduled.
+            act.stop_at = scheduled;
+            return;
+        }
+        let v = slot.profile.rate_at(scheduled - act.offset);
+        let (times, left) = StepTimes::hold(act.cursor.time(), act.n - scheduled, v, slot.block.accel);
+        act.cursor = times.cursor();
+        slot.profile.set_times(times);
+        match left {
+            None => act.stop_at = scheduled + times.events(),
+            Some(v_sq) => {
+                let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
+                for i in 0..self.queued {
+                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[(self.first + i) % SLOTS]));
+                }
+                self.carry = carry;
             }
         }
     }
@@ -194,78 +283,96 @@ impl Stepper {
 
     /// Whether a feed hold is in progress or complete.
     pub fn is_holding(&self) -> bool {
-        self.hold_requested || self.hold != HoldState::Running
+        self.hold != HoldState::Running
     }
 
     /// Resume after a completed feed hold: the rest of the interrupted block and the queued blocks restart from
     /// rest and end at rest (the caller re-plans what follows from entry speed 0). Returns ticks until the next
-    /// event, if any.
+    /// event, if any. While the hold is still decelerating it does nothing (the caller resumes once it stopped).
     pub fn resume<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if self.hold != HoldState::Stopped {
-            // Hold still decelerating: cancel it, the profile continues from where the hold left it is not
-            // representable, so let it finish stopping first.
-            self.hold_requested = false;
             return None;
         }
         self.hold = HoldState::Running;
-        for (b, _) in self.queue.iter_mut() {
-            b.entry_rate = 0;
-            b.exit_rate = 0;
+        self.carry = None;
+        for i in 0..self.queued {
+            let q = &mut self.ring[(self.first + i) % SLOTS];
+            q.block.entry_rate = 0;
+            q.block.exit_rate = 0;
+            q.profile = q.block.profile();
+            q.hold = false;
+            q.stop_at = NO_STOP;
         }
         match &mut self.active {
             Some(act) => {
                 let rest = act.n - act.k;
                 act.offset = act.k;
-                act.profile = Profile::new(rest, 0, act.block.cruise_rate, 0, act.block.accel);
-                act.last_tick = act.profile.tick_of(1);
-                Some(act.last_tick)
+                let slot = &mut self.ring[act.slot];
+                slot.profile = Profile::new(rest, 0, slot.block.cruise_rate, 0, slot.block.accel);
+                act.stop_at = NO_STOP;
+                act.cursor = slot.profile.times().cursor();
+                Some(act.cursor.next(slot.profile.times()))
             }
             None => self.load_next(hal),
         }
     }
 
     fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
-        let (block, home_mask) = self.queue.pop_front()?;
-        let n = block.events();
-        let profile = block.profile();
-        let mut act = Active {
-            block,
-            profile,
-            k: 0,
-            offset: 0,
-            n,
-            delta: [0; NUM_AXES],
-            err: [n / 2; NUM_AXES],
-            sign: [0; NUM_AXES],
-            last_tick: 0,
-            watch: if home_mask & crate::homing::HOMING_BLOCK != 0 { home_mask & 0x0F } else { self.limit_mask },
-            home_mask: home_mask & 0x0F,
-            locked: 0,
+        if self.queued == 0 {
+            return None;
+        }
+        let slot = self.first;
+        self.first = (slot + 1) % SLOTS;
+        self.queued -= 1;
+        let q = &self.ring[slot];
+        let block = &q.block;
+        let n = q.n;
+        let (watch, home_mask) = match q.switches {
+            Switches::Limits => (self.limit_mask, 0),
+            Switches::Homing { axes } => (axes, axes),
         };
         for axis in Axis::ALL {
-            let i = axis.index();
-            let s = block.steps[i];
+            let s = q.sign[axis.index()];
             if s != 0 {
-                act.delta[i] = s.unsigned_abs();
-                act.sign[i] = s.signum();
                 hal.set_dir(axis, (s < 0) ^ (self.invert & axis.bit() != 0));
             }
         }
-        if home_mask & 0x0F != 0 {
+        if home_mask != 0 {
             self.homing_hits = 0;
         }
         if let Some(tenths) = block.servo {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
+        let act = self.active.insert(Active {
+            slot,
+            cursor: q.profile.times().cursor(),
+            k: 0,
+            offset: 0,
+            n,
+            err: [n / 2; NUM_AXES],
+            watch,
+            home_mask,
+            locked: 0,
+            stop_at: q.stop_at,
+        });
         // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
-        let first = if n == 0 { block.dwell_ticks.max(1) } else { profile.tick_of(1) };
-        act.last_tick = first;
-        self.active = Some(act);
+        let first = if n == 0 { block.dwell_ticks.max(1) } else { act.cursor.next(q.profile.times()) };
         Some(first)
     }
 
+    /// The executing block is done: count it and go on with the next one, unless a hold stops here.
+    fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
+        self.active = None;
+        self.completed = self.completed.wrapping_add(1);
+        if self.hold != HoldState::Running && !(self.queued > 0 && self.ring[self.first].hold) {
+            self.hold = HoldState::Stopped;
+            return None;
+        }
+        self.load_next(hal)
+    }
+
     /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
-    /// held or faulted — the caller stops the timer).
+    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only.
     #[inline(never)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
         let Some(act) = self.active.as_mut() else {
@@ -273,14 +380,7 @@ impl Stepper {
         };
         if act.n == 0 {
             // A dwell ended.
-            self.active = None;
-            self.completed = self.completed.wrapping_add(1);
-            if self.hold_requested {
-                self.hold_requested = false;
-                self.hold = HoldState::Stopped;
-                return None;
-            }
-            return self.load_next(hal);
+            return self.finish_block(hal);
         }
         if act.watch != 0 {
             let pressed = hal.pressed() & act.watch;
@@ -301,113 +401,77 @@ impl Stepper {
         }
         act.k += 1;
         let n = act.n;
-        for axis in Axis::ALL {
-            let i = axis.index();
-            let d = act.delta[i];
-            if d != 0 {
-                let e = act.err[i] + d;
-                if e >= n {
-                    act.err[i] = e - n;
-                    if act.locked & axis.bit() == 0 {
-                        hal.step(axis);
-                        self.position[i] += act.sign[i];
-                    }
-                } else {
-                    act.err[i] = e;
-                }
-            }
+        // Written out per axis: the firmware is built for size, which would keep a loop here.
+        let q = &self.ring[act.slot];
+        let mut mask = bresenham::<0>(act, &q.delta, n) | bresenham::<1>(act, &q.delta, n);
+        mask |= bresenham::<2>(act, &q.delta, n) | bresenham::<3>(act, &q.delta, n);
+        // Axes stopped by their switch (homing) no longer step.
+        mask &= !act.locked;
+        if mask != 0 {
+            count::<0>(&mut self.position, &q.sign, mask);
+            count::<1>(&mut self.position, &q.sign, mask);
+            count::<2>(&mut self.position, &q.sign, mask);
+            count::<3>(&mut self.position, &q.sign, mask);
+            hal.step_axes(mask);
         }
         if act.k == n {
-            let exit_rate = act.profile.exit_rate();
-            let planned_exit = act.block.exit_rate;
-            self.active = None;
-            self.completed = self.completed.wrapping_add(1);
-            if let HoldState::Decelerating { k0, v0sq, two_a, .. } = self.hold {
-                // Carry the hold into the next block: convert the rate to its units via the planned junction.
-                let v_end_sq = v0sq - two_a * (n - k0) as f32;
-                return self.continue_hold(hal, v_end_sq, exit_rate, planned_exit);
-            }
-            if self.hold_requested {
-                self.hold_requested = false;
-                self.hold = HoldState::Stopped;
-                return None;
-            }
-            return self.load_next(hal);
+            return self.finish_block(hal);
         }
-        let j = act.k - act.offset;
-        if self.hold_requested && self.hold == HoldState::Running {
-            self.hold_requested = false;
-            let v = act.profile.rate_at(j);
-            let a = act.block.accel as f32;
-            if a <= 0.0 {
-                self.hold = HoldState::Stopped;
-                return None;
-            }
-            self.hold = HoldState::Decelerating {
-                k0: act.k,
-                t0: act.last_tick as f32,
-                v0: v,
-                v0sq: v * v,
-                two_a: 2.0 * a,
-                f_over_a: TICK_HZ as f32 / a,
-            };
+        if act.k == act.stop_at {
+            self.hold = HoldState::Stopped;
+            return None;
         }
-        let next = match self.hold {
-            HoldState::Running => act.profile.tick_of(j + 1),
-            HoldState::Decelerating { k0, t0, v0, v0sq, two_a, f_over_a } => {
-                let rem = v0sq - two_a * (act.k + 1 - k0) as f32;
-                if rem <= 0.0 {
-                    self.hold = HoldState::Stopped;
-                    return None;
-                }
-                round_u32(t0 + (v0 - sqrt(rem)) * f_over_a)
-            }
-            HoldState::Stopped => return None,
-        };
-        let interval = next.saturating_sub(act.last_tick);
-        act.last_tick = next;
-        Some(interval)
+        Some(act.cursor.next(self.ring[act.slot].profile.times()))
     }
+}
 
-    /// A hold decelerating through a block boundary: start the next block and keep slowing down from the speed
-    /// reached (`v_end_sq`, this block's units), converted by the ratio of the planned junction rates.
-    fn continue_hold<H: StepPins>(
-        &mut self,
-        hal: &mut H,
-        v_end_sq: f32,
-        exit_rate: f32,
-        planned_exit: u32,
-    ) -> Option<u32> {
-        if v_end_sq <= 0.0 || planned_exit == 0 || exit_rate <= 0.0 {
-            self.hold = HoldState::Stopped;
-            return None;
+// The per-event code below is written out for four axes.
+const _: () = assert!(NUM_AXES == 4);
+
+/// One event of axis `I`'s Bresenham error term (`n` events in the block): its bit when it steps.
+#[inline(always)]
+fn bresenham<const I: usize>(act: &mut Active, delta: &[u32; NUM_AXES], n: u32) -> u8 {
+    let e = act.err[I] + delta[I];
+    if e >= n {
+        act.err[I] = e - n;
+        1 << I
+    } else {
+        act.err[I] = e;
+        0
+    }
+}
+
+/// Count axis `I`'s step in the position when it is in `mask`.
+#[inline(always)]
+fn count<const I: usize>(position: &mut [i32; NUM_AXES], sign: &[i32; NUM_AXES], mask: u8) {
+    if mask & (1 << I) != 0 {
+        position[I] += sign[I];
+    }
+}
+
+/// A hold decelerating through a block boundary: re-time the queued block `q` to keep slowing down from the rate
+/// reached (`carry`, converted by the ratio of the planned junction rates). Returns the rate carried out of `q`,
+/// `None` when the hold stops within it or before it (a dwell, a block without acceleration, no speed left).
+fn continue_hold(carry: Carry, q: &mut Queued) -> Option<Carry> {
+    if carry.v_sq <= 0.0 || carry.planned_exit == 0 || q.block.is_dwell() || q.block.accel == 0 {
+        return None;
+    }
+    let ratio = q.block.entry_rate as f32 / carry.planned_exit as f32;
+    let v = sqrt(carry.v_sq) * ratio;
+    let n = q.block.events();
+    let (times, left) = StepTimes::hold(q.profile.times().cursor().time(), n, v, q.block.accel);
+    if times.events() == 0 && left.is_none() {
+        // Not even one more step: stop before this block's first event.
+        return None;
+    }
+    q.profile.set_times(times);
+    q.hold = true;
+    match left {
+        None => {
+            q.stop_at = times.events();
+            None
         }
-        let Some(&(next, _)) = self.queue.front() else {
-            self.hold = HoldState::Stopped;
-            return None;
-        };
-        if next.is_dwell() || next.accel == 0 {
-            self.hold = HoldState::Stopped;
-            return None;
-        }
-        let ratio = next.entry_rate as f32 / planned_exit as f32;
-        let v = sqrt(v_end_sq) * ratio;
-        self.hold = HoldState::Running;
-        self.load_next(hal)?;
-        let act = self.active.as_mut()?;
-        let a = act.block.accel as f32;
-        let (v0sq, two_a, f_over_a) = (v * v, 2.0 * a, TICK_HZ as f32 / a);
-        let rem = v0sq - two_a;
-        if rem <= 0.0 {
-            // Not even one more step: stop before this block's first event.
-            self.hold = HoldState::Stopped;
-            act.last_tick = 0;
-            return None;
-        }
-        self.hold = HoldState::Decelerating { k0: 0, t0: 0.0, v0: v, v0sq, two_a, f_over_a };
-        let first = round_u32((v - sqrt(rem)) * f_over_a);
-        act.last_tick = first;
-        Some(first)
+        Some(v_sq) => Some(Carry { v_sq, planned_exit: q.block.exit_rate }),
     }
 }
 
@@ -445,7 +509,7 @@ mod tests {
     fn run(block: StepBlock, mut check: impl FnMut(u32, &[i64; NUM_AXES])) -> (Rec, u64) {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();
-        s.push(block, 0).unwrap();
+        s.push(block, Switches::Limits).unwrap();
         let mut t = u64::from(s.start(&mut hal).unwrap());
         let mut k = 0;
         while let Some(iv) = s.tick(&mut hal) {
@@ -491,7 +555,7 @@ mod tests {
         assert_eq!(hal.pos, [1000, -300, 0, 0]);
         assert_eq!(t, 1_100_000);
         // First event: √(2/a) = 14.142 ms.
-        assert_eq!(b.profile().tick_of(1), 14_142);
+        assert_eq!(b.profile().times().cursor().next(b.profile().times()), 14_142);
     }
 
     #[test]
@@ -526,7 +590,7 @@ mod tests {
     fn dwell_lasts_its_ticks() {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();
-        s.push(StepBlock::dwell(5000), 0).unwrap();
+        s.push(StepBlock::dwell(5000), Switches::Limits).unwrap();
         assert_eq!(s.start(&mut hal), Some(5000));
         assert_eq!(s.tick(&mut hal), None);
         assert!(s.is_idle());
@@ -537,7 +601,7 @@ mod tests {
     fn inverted_dir_pin() {
         let mut s = Stepper::new(Axis::Y.bit(), 0);
         let mut hal = Rec::default();
-        s.push(StepBlock { steps: [0, 5, 0, 0], cruise_rate: 100, ..StepBlock::default() }, 0).unwrap();
+        s.push(StepBlock { steps: [0, 5, 0, 0], cruise_rate: 100, ..StepBlock::default() }, Switches::Limits).unwrap();
         s.start(&mut hal);
         while s.tick(&mut hal).is_some() {}
         assert_eq!(hal.pos[1], -5, "pin level inverted, physical motion reversed");
@@ -557,8 +621,8 @@ mod tests {
             dwell_ticks: 0,
             servo: None,
         };
-        s.push(b, 0).unwrap();
-        s.push(b, 0).unwrap();
+        s.push(b, Switches::Limits).unwrap();
+        s.push(b, Switches::Limits).unwrap();
         s.start(&mut hal);
         for _ in 0..2000 {
             s.tick(&mut hal).unwrap();
@@ -575,6 +639,70 @@ mod tests {
         while s.tick(&mut hal).is_some() {}
         assert!(s.is_idle());
         assert_eq!(hal.pos, [8000, 2000, 0, 0]);
+    }
+
+    #[test]
+    fn feed_hold_decelerates_through_a_block_boundary() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let block = |entry, exit| StepBlock {
+            steps: [3000, 0, 0, 0],
+            entry_rate: entry,
+            cruise_rate: 4000,
+            exit_rate: exit,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        s.push(block(0, 4000), Switches::Limits).unwrap();
+        s.push(block(4000, 0), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..2899 {
+            s.tick(&mut hal).unwrap();
+        }
+        // `start` scheduled event 1 and each tick emitted one: event 2899 emitted, 2900 scheduled (cruise).
+        s.feed_hold();
+        let mut intervals = std::vec::Vec::new();
+        while let Some(iv) = s.tick(&mut hal) {
+            intervals.push(iv);
+        }
+        assert!(s.is_held());
+        // From 4000 events/s at 20 000 events/s²: v² − 2aj > 0 for j < 400, so 399 events after the scheduled one;
+        // 100 of them finish the first block, the other 299 run in the second.
+        assert_eq!(hal.pos[0], 2900 + 399);
+        assert_eq!(s.completed(), 1);
+        // Slowing down all the way, across the boundary too: from the scheduled cruise interval (250 µs) on, no
+        // interval is shorter than the one before by more than the rounding of the two event times around it.
+        assert_eq!(intervals[0], 250);
+        assert!(intervals.windows(2).all(|w| w[1] + 2 >= w[0]), "{intervals:?}");
+        // The last interval: events 398 and 399 of the stop at (v − √(v² − 2aj))/a, i.e.
+        // (√(16·10⁶ − 40 000·398) − √(16·10⁶ − 40 000·399))/20 000 s = (√80 000 − √40 000)/0.02 µs = 4142.1 µs.
+        let last = *intervals.last().unwrap();
+        assert!((4140..=4144).contains(&last), "{last}");
+        assert!(s.resume(&mut hal).is_some());
+        while s.tick(&mut hal).is_some() {}
+        assert!(s.is_idle());
+        assert_eq!(hal.pos[0], 6000);
+        assert_eq!(s.completed(), 2);
+    }
+
+    #[test]
+    fn feed_hold_without_acceleration_stops_after_the_scheduled_event() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [0, 50, 0, 0], cruise_rate: 100, ..StepBlock::default() }, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..10 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        assert!(s.is_holding() && !s.is_held());
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!(hal.pos[1], 11);
+        assert_eq!(s.resume(&mut hal), Some(10_000));
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(hal.pos[1], 50);
     }
 
     fn block_strategy() -> impl Strategy<Value = StepBlock> {
@@ -625,11 +753,13 @@ mod tests {
             let mut pending = blocks.iter().filter(|b| !b.is_dwell()).copied().collect::<std::vec::Vec<_>>();
             pending.reverse();
             for b in &pending { expect += u64::from(b.duration_ticks()); }
-            while let Some(b) = pending.pop() { if s.push(b, 0).is_err() { pending.push(b); break; } }
+            while let Some(b) = pending.pop() { if s.push(b, Switches::Limits).is_err() { pending.push(b); break; } }
             if let Some(first) = s.start(&mut hal) {
                 t += u64::from(first);
                 loop {
-                    while s.has_room() { match pending.pop() { Some(b) => s.push(b, 0).unwrap(), None => break } }
+                    while s.has_room() {
+                        match pending.pop() { Some(b) => s.push(b, Switches::Limits).unwrap(), None => break }
+                    }
                     match s.tick(&mut hal) { Some(iv) => t += u64::from(iv), None => break }
                 }
             }

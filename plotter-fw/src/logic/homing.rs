@@ -17,16 +17,16 @@ use crate::config::MachineConfig;
 use crate::errors::AlarmCode;
 use crate::fmath::{round_i32, round_u32};
 use crate::planner::{PlanBlock, to_step_block};
-use crate::step_block::{StepBlock, TICK_HZ};
+use crate::step_block::{StepBlock, Switches, TICK_HZ};
 
-/// Flag in a stepper home mask: this is a homing block (hard limits are not checked during it).
-pub const HOMING_BLOCK: u8 = 0x80;
+/// A homing block that stops no axis at its switch (a debounce dwell, a pull-off): hard limits are not checked.
+const NO_STOP: Switches = Switches::Homing { axes: 0 };
 
 /// What the machine should do next for the cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum HomingStep {
-    /// Queue this block with this stepper home mask (see [`HOMING_BLOCK`]).
-    Move(StepBlock, u8),
+    /// Queue this block, treating the switches as given (always [`Switches::Homing`]).
+    Move(StepBlock, Switches),
     /// Set these axes' positions (steps), for the axes in the mask.
     SetPosition(u8, [i32; NUM_AXES]),
     /// The cycle failed.
@@ -96,7 +96,7 @@ impl HomingCycle {
                         return HomingStep::Alarm(AlarmCode::HomingNotFound);
                     }
                     self.phase = if self.phase == Phase::Debounce1 { Phase::PullOff1 } else { Phase::PullOff2 };
-                    return HomingStep::Move(debounce, HOMING_BLOCK);
+                    return HomingStep::Move(debounce, NO_STOP);
                 }
                 Phase::PullOff1 | Phase::PullOff2 => {
                     self.phase = if self.phase == Phase::PullOff1 { Phase::Locate } else { Phase::SetPosition };
@@ -132,7 +132,7 @@ impl HomingCycle {
                     steps[Axis::Z.index()] = target - position[Axis::Z.index()];
                     if let Some(b) = PlanBlock::line(config, steps, z.max_feed_mm_s) {
                         // Part of the cycle: switches of axes not homed yet may legitimately be pressed.
-                        return HomingStep::Move(to_step_block(&b, 0.0), HOMING_BLOCK);
+                        return HomingStep::Move(to_step_block(&b, 0.0), NO_STOP);
                     }
                 }
                 Phase::NextGroup => {
@@ -168,7 +168,7 @@ impl HomingCycle {
         }
         let plan = PlanBlock::line(config, steps, rate);
         let block = plan.map_or(StepBlock::dwell(1), |p| to_step_block(&p, 0.0));
-        HomingStep::Move(block, HOMING_BLOCK | if towards { group } else { 0 })
+        HomingStep::Move(block, Switches::Homing { axes: if towards { group } else { 0 } })
     }
 }
 
@@ -183,14 +183,11 @@ mod tests {
         let pos = [0; NUM_AXES];
         // Z seek: 1.5 × 10 mm × 400 = 6000 steps towards 0, watching Z.
         let HomingStep::Move(b, m) = h.next(&c, 0, 0, &pos) else { panic!() };
-        assert_eq!((b.steps, m), ([0, 0, -6000, 0], HOMING_BLOCK | Axis::Z.bit()));
+        assert_eq!((b.steps, m), ([0, 0, -6000, 0], Switches::Homing { axes: Axis::Z.bit() }));
         // Switch found → debounce dwell of 5 ms.
-        assert_eq!(
-            h.next(&c, Axis::Z.bit(), Axis::Z.bit(), &pos),
-            HomingStep::Move(StepBlock::dwell(5000), HOMING_BLOCK)
-        );
+        assert_eq!(h.next(&c, Axis::Z.bit(), Axis::Z.bit(), &pos), HomingStep::Move(StepBlock::dwell(5000), NO_STOP));
         let HomingStep::Move(b, m) = h.next(&c, Axis::Z.bit(), Axis::Z.bit(), &pos) else { panic!() };
-        assert_eq!((b.steps, m), ([0, 0, 800, 0], HOMING_BLOCK));
+        assert_eq!((b.steps, m), ([0, 0, 800, 0], NO_STOP));
         // Still pressed after the pull-off → alarm.
         assert_eq!(h.next(&c, 0, Axis::Z.bit(), &pos), HomingStep::Alarm(AlarmCode::HomingNotReleased));
     }

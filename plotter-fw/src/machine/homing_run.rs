@@ -93,8 +93,8 @@ impl Homing {
             let pressed = hal.pressed();
             let stepper = motion.stepper();
             match cycle.next(cfg, stepper.homing_hits(), pressed, &stepper.position()) {
-                HomingStep::Move(b, mask) => {
-                    motion.push_homing(b, mask, hal);
+                HomingStep::Move(b, switches) => {
+                    motion.push_homing(b, switches, hal);
                     return None;
                 }
                 HomingStep::SetPosition(_, pos) => {

@@ -19,7 +19,7 @@ use crate::config::MachineConfig;
 use crate::hal::{Endstops, StepPins, StepTimer};
 use crate::planner::{Linker, PlanBlock, plan, to_step_block};
 use crate::realtime::MachineState;
-use crate::step_block::StepBlock;
+use crate::step_block::{StepBlock, Switches};
 use crate::stepper::Stepper;
 
 /// The planner queue (capacity `Q` blocks) and the stepper.
@@ -112,11 +112,16 @@ impl<const Q: usize> MotionQueue<Q> {
         plan(self.planner.make_contiguous(), first);
     }
 
-    /// Start a homing move of the cycle: `block` stops the axes of `mask` at their switches.
-    pub(crate) fn push_homing<H: StepPins + Endstops + StepTimer>(&mut self, block: StepBlock, mask: u8, hal: &mut H) {
+    /// Start a homing move of the cycle: `block` watches the `switches` the cycle names.
+    pub(crate) fn push_homing<H: StepPins + Endstops + StepTimer>(
+        &mut self,
+        block: StepBlock,
+        switches: Switches,
+        hal: &mut H,
+    ) {
         self.linker.clear();
         // Cannot fail: homing moves run one at a time on an idle stepper.
-        let _ = self.stepper.push(block, mask);
+        let _ = self.stepper.push(block, switches);
         self.start(hal);
     }
 
@@ -128,7 +133,7 @@ impl<const Q: usize> MotionQueue<Q> {
             self.first_entry_sqr = exit;
             let block = to_step_block(&head, exit);
             // Cannot fail: the stepper holds fewer than two blocks and its queue takes two.
-            let _ = self.stepper.push(block, 0);
+            let _ = self.stepper.push(block, Switches::Limits);
         }
         self.start(hal);
     }

@@ -58,6 +58,14 @@ impl Debouncer {
     pub fn stable(&self) -> u8 {
         self.stable
     }
+
+    /// Nothing pressed at the last reading and nothing held as pressed: a reading with no switch pressed then
+    /// changes nothing, so [`Debouncer::update`] (and the clock read for it) can be skipped — the step interrupt's
+    /// usual case.
+    #[inline]
+    pub fn is_quiet(&self) -> bool {
+        self.stable == 0 && self.last_raw == 0
+    }
 }
 
 #[cfg(test)]
@@ -100,6 +108,23 @@ mod tests {
         // Bits beyond the axes are ignored.
         assert_eq!(d.update(0b1111_0010, 103), 0b0010);
         assert_eq!(d.update(0b1111_0010, 104), 0b0010);
+    }
+
+    #[test]
+    fn a_quiet_filter_is_unchanged_by_a_released_reading() {
+        let mut d = Debouncer::new(100);
+        assert!(d.is_quiet());
+        let before = d;
+        assert_eq!(d.update(0, 5), 0);
+        assert_eq!(d, before, "nothing to skip over");
+        // A spike is not quiet (the next pressed reading would make it a press), nor is a held press.
+        d.update(0b0001, 10);
+        assert!(!d.is_quiet());
+        assert_eq!(d.update(0b0001, 11), 0b0001);
+        assert_eq!(d.update(0, 12), 0b0001);
+        assert!(!d.is_quiet(), "released but inside the window");
+        assert_eq!(d.update(0, 112), 0);
+        assert!(d.is_quiet());
     }
 
     #[test]

@@ -50,6 +50,24 @@ fn set(p: Pin) {
     regs::write(p.port + gpio::BSRR, 1 << p.n);
 }
 
+/// Axis `I`'s step pin high when it is in `mask` (written out per axis: the image is built for size, which would
+/// keep a loop in the step interrupt).
+#[inline(always)]
+fn step_pin<const I: usize>(mask: u8) {
+    if mask & (1 << I) != 0 {
+        set(pins::STEP[I]);
+    }
+}
+
+/// Switch `I` as a mask bit: set when it is fitted and its pin reads low (pressed).
+#[inline(always)]
+fn endstop_low<const I: usize>() -> u8 {
+    match pins::ENDSTOP[I] {
+        Some(p) if regs::read(p.port + gpio::IDR) & (1 << p.n) == 0 => 1 << I,
+        _ => 0,
+    }
+}
+
 fn reset(p: Pin) {
     regs::write(p.port + gpio::BSRR, 1 << (u32::from(p.n) + 16));
 }
@@ -267,13 +285,9 @@ impl NucleoHal {
 
     /// Feed the debounce filter a reading of the switches (SysTick at 1 kHz, and every read).
     pub(crate) fn sample_endstops(&mut self) -> u8 {
-        let mut raw = 0;
-        for (i, p) in pins::ENDSTOP.iter().enumerate() {
-            if let Some(p) = p
-                && regs::read(p.port + gpio::IDR) & (1 << p.n) == 0
-            {
-                raw |= 1 << i;
-            }
+        let raw = endstop_low::<0>() | endstop_low::<1>() | endstop_low::<2>() | endstop_low::<3>();
+        if raw == 0 && self.debounce.is_quiet() {
+            return 0;
         }
         self.debounce.update(raw, now())
     }
@@ -312,6 +326,24 @@ impl StepPins for NucleoHal {
         regs::write(t + tim::SR, !tim::CC2);
         regs::modify(t + tim::DIER, 0, tim::CC2);
         if axis == Axis::Z
+            && let Some(s) = self.servo.as_mut()
+        {
+            regs::write(tim::TIM3 + tim::CCR3, u32::from(s.step()));
+        }
+    }
+
+    /// All the event's step pins, then one pulse-end compare for them all.
+    #[inline]
+    fn step_axes(&mut self, mask: u8) {
+        step_pin::<0>(mask);
+        step_pin::<1>(mask);
+        step_pin::<2>(mask);
+        step_pin::<3>(mask);
+        let t = tim::TIM2;
+        regs::write(t + tim::CCR2, regs::read(t + tim::CNT).wrapping_add(PULSE_TICKS));
+        regs::write(t + tim::SR, !tim::CC2);
+        regs::modify(t + tim::DIER, 0, tim::CC2);
+        if mask & Axis::Z.bit() != 0
             && let Some(s) = self.servo.as_mut()
         {
             regs::write(tim::TIM3 + tim::CCR3, u32::from(s.step()));

@@ -57,6 +57,22 @@ const STEP: [(usize, u32); 4] = [(BSRR_A, 10), (BSRR_B, 3), (BSRR_B, 5), (BSRR_A
 const DIR: [(usize, u32); 4] = [(BSRR_B, 4), (BSRR_B, 10), (BSRR_A, 8), (BSRR_A, 5)];
 const ENDSTOP: [(usize, u32); 3] = [(IDR_C, 7), (IDR_B, 6), (IDR_A, 7)];
 
+/// Axis `I`'s step pin high when it is in `mask` (written out per axis, as the Nucleo board does).
+#[inline(always)]
+fn step_pin<const I: usize>(mask: u8) {
+    if mask & (1 << I) != 0 {
+        let (r, n) = STEP[I];
+        wr(r, 1 << n);
+    }
+}
+
+/// Switch `I` as a mask bit: set when its pin reads low (pressed).
+#[inline(always)]
+fn endstop_low<const I: usize>() -> u8 {
+    let (r, n) = ENDSTOP[I];
+    u8::from(rd(r) & (1 << n) == 0) << I
+}
+
 struct BenchHal {
     deadline: Deadline,
     debounce: Debouncer,
@@ -82,17 +98,27 @@ impl StepPins for BenchHal {
         wr(SR, !4);
         wr(DIER, rd(DIER) | 4);
     }
+    /// As the Nucleo board: the event's step pins, then one pulse-end compare.
+    #[inline]
+    fn step_axes(&mut self, mask: u8) {
+        step_pin::<0>(mask);
+        step_pin::<1>(mask);
+        step_pin::<2>(mask);
+        step_pin::<3>(mask);
+        self.steps += mask.count_ones();
+        wr(CCR2, rd(CNT).wrapping_add(3));
+        wr(SR, !4);
+        wr(DIER, rd(DIER) | 4);
+    }
     fn enable_motors(&mut self, _on: bool) {}
 }
 
 impl Endstops for BenchHal {
     #[inline]
     fn pressed(&mut self) -> u8 {
-        let mut raw = 0;
-        for (i, (r, n)) in ENDSTOP.iter().enumerate() {
-            if rd(*r) & (1 << n) == 0 {
-                raw |= 1 << i;
-            }
+        let raw = endstop_low::<0>() | endstop_low::<1>() | endstop_low::<2>();
+        if raw == 0 && self.debounce.is_quiet() {
+            return 0;
         }
         let now = self.now();
         self.debounce.update(raw, now)
