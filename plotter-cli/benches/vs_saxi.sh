@@ -13,7 +13,8 @@
 #   200 mm/s², cornering 0.127 mm; pen up 200 mm/s at 400 mm/s²; pen lift and drop 0.12 s each). saxi moves the
 #   pen with raw S2 positions, so the emulator is told where the tip touches (--ebb-pen-contact 16725, between its
 #   up 17750 and down 15700) to count its lifts.
-# - ours: `plotter plot --firmware ebb --profile samples/axidraw-saxi.toml` (our optimizer's order, our planner).
+# - ours: `plotter plot --firmware ebb --profile samples/axidraw-saxi.toml --pen-change none` (our optimizer's
+#   order, our planner; no pauses between colours, as saxi plots them all with one pen).
 # Prints one row per drawing (its paths, saxi's pen lifts / ours, both board times in seconds, ours/saxi, the lower
 # bound `plotter stats` proves for our plan and its ratio to saxi's time) and the sums.
 set -euo pipefail
@@ -27,7 +28,7 @@ if [ $# -eq 0 ]; then
   set -- "$ROOT/samples/duck.svg" "$ROOT/samples/transforms.svg" "$ROOT/samples/stacked.svg" \
     "$OC/animals/bat_orlando_karam_.svg" "$OC/education/books/open_book_nae_02.svg" \
     "$OC/recreation/sports/volley-ball_andrea_bianc_01.svg" "$OC/computer/home13.svg" \
-    "$OC/recreation/games/cards/simple/simple_h_k.svg" "$OC/people/chibi_character_rick_.svg" \
+    "$OC/recreation/games/cards/simple/simple_h_k.svg" \
     "$OC/plants/sun_flower_ganson.svg" "$OC/food/desserts/cone2_ganson.svg" \
     "$OC/office/cassa_negozio_architetto_01.svg"
 fi
@@ -62,7 +63,8 @@ for f in "$@"; do
   "$PLOTTER" convert "$f" --paper a4 --landscape --fit -o "$conv" 2>/dev/null
   t_saxi=$(on_board "--ebb-pen-contact 16725" node "$HERE/vs_saxi_drive.js" "$SAXI_DIR" PORT "$conv")
   read -r _ paths _ lifts _ <"$WORK/out.txt"
-  t_ours=$(on_board "" "$PLOTTER" plot "$conv" --port PORT --firmware ebb --profile "$PROFILE")
+  t_ours=$(on_board "" "$PLOTTER" plot "$conv" --port PORT --firmware ebb --profile "$PROFILE" \
+    --pen-change none)
   # Our optimized plan's pen lifts and the plot-time lower bound `plotter stats` proves for it (pen-down length at
   # the draw feed with the least corner losses, each lift's settles, the shortest hops): no plan can beat it.
   stats=$("$PLOTTER" stats "$conv" --profile "$PROFILE" 2>/dev/null | grep '^optimized' || true)
