@@ -28,7 +28,7 @@ if [ $# -eq 0 ]; then
   set -- "$ROOT/samples/duck.svg" "$ROOT/samples/transforms.svg" "$ROOT/samples/stacked.svg" \
     "$OC/animals/bat_orlando_karam_.svg" "$OC/education/books/open_book_nae_02.svg" \
     "$OC/recreation/sports/volley-ball_andrea_bianc_01.svg" "$OC/computer/home13.svg" \
-    "$OC/recreation/games/cards/simple/simple_h_k.svg" \
+    "$OC/recreation/games/cards/simple/simple_h_k.svg" "$OC/people/chibi_character_rick_.svg" \
     "$OC/plants/sun_flower_ganson.svg" "$OC/food/desserts/cone2_ganson.svg" \
     "$OC/office/cassa_negozio_architetto_01.svg"
 fi
