@@ -138,6 +138,14 @@ pub struct PenProfile {
     /// before its settle ends, so it is commanded while the carriage is still travelling.
     #[serde(default)]
     pub clear_ms: Option<f64>,
+    /// Acceleration along the path while drawing, mm/s² (default: only the axes' limits). A cap below what the
+    /// axes allow, for a pen that skips or a machine that shakes when it draws (saxi, for one, draws at 200 and
+    /// travels at 400 mm/s²).
+    #[serde(default)]
+    pub draw_accel_mm_s2: Option<f64>,
+    /// Acceleration along the path of pen-up travel, mm/s² (default: only the axes' limits).
+    #[serde(default)]
+    pub travel_accel_mm_s2: Option<f64>,
 }
 
 impl PenProfile {
@@ -444,6 +452,14 @@ impl MachineProfile {
         ];
         for (field, v) in positive {
             if !(v.is_finite() && v > 0.0) {
+                return Err(bad(field, "must be a positive number"));
+            }
+        }
+        for (field, v) in [
+            ("pen.draw_accel_mm_s2", self.pen.draw_accel_mm_s2),
+            ("pen.travel_accel_mm_s2", self.pen.travel_accel_mm_s2),
+        ] {
+            if v.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
                 return Err(bad(field, "must be a positive number"));
             }
         }

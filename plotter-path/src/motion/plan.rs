@@ -372,14 +372,7 @@ pub fn plan_travel(profile: &MachineProfile, from: MachinePos, to: StepPos) -> R
     let (up, _) = pen_targets(profile, &[])?;
     #[allow(clippy::cast_possible_truncation)]
     let travel = profile.pen.travel_feed_mm_s as f32;
-    let mut raw = RawPlan {
-        cfg: &cfg,
-        blocks: Vec::new(),
-        meta: Vec::new(),
-        pos: from,
-        settle: settle_ticks(profile),
-        changes: Vec::new(),
-    };
+    let mut raw = RawPlan::new(profile, &cfg, from, 0);
     // A servo's angle is not part of the position: lift it to be sure.
     if !raw.at(up) {
         raw.pen(up, MoveKind::PenUp, 0);
@@ -450,11 +443,42 @@ struct RawPlan<'c> {
     pos: MachinePos,
     settle: u32,
     changes: Vec<PenChange>,
+    /// The profile's path acceleration caps (drawing, travel), mm/s²; `f32::MAX` where it sets none.
+    accel_caps: [f32; 2],
 }
 
-impl RawPlan<'_> {
+impl<'c> RawPlan<'c> {
+    /// An empty plan at `pos`.
+    fn new(profile: &MachineProfile, cfg: &'c MachineConfig, pos: MachinePos, capacity: usize) -> RawPlan<'c> {
+        // Accelerations are physical values, far inside f32.
+        #[allow(clippy::cast_possible_truncation)]
+        let cap = |a: Option<f64>| a.map_or(f32::MAX, |a| a as f32);
+        RawPlan {
+            cfg,
+            blocks: Vec::with_capacity(capacity),
+            meta: Vec::with_capacity(capacity),
+            pos,
+            settle: settle_ticks(profile),
+            changes: Vec::new(),
+            accel_caps: [cap(profile.pen.draw_accel_mm_s2), cap(profile.pen.travel_accel_mm_s2)],
+        }
+    }
+
+    /// The block of an XY(Z) move of `kind`: the axes' limits, and the profile's acceleration cap for drawing or
+    /// travel.
+    fn line_block(&self, delta: MachinePos, feed: f32, kind: MoveKind) -> Option<PlanBlock> {
+        let mut b = PlanBlock::line(self.cfg, delta, feed)?;
+        let cap = match kind {
+            MoveKind::Draw => self.accel_caps[0],
+            MoveKind::Travel => self.accel_caps[1],
+            _ => f32::MAX,
+        };
+        b.acceleration = b.acceleration.min(cap);
+        Some(b)
+    }
+
     fn push(&mut self, delta: MachinePos, feed: f32, kind: MoveKind, stroke: usize) -> bool {
-        let Some(b) = PlanBlock::line(self.cfg, delta, feed) else { return false };
+        let Some(b) = self.line_block(delta, feed, kind) else { return false };
         self.blocks.push(b);
         self.meta.push((kind, stroke));
         for (p, d) in self.pos.iter_mut().zip(delta) {
@@ -492,7 +516,7 @@ impl RawPlan<'_> {
     /// Exact duration (ticks, quantized as on the wire) of an XY move by `delta` at `feed` from rest to rest: what
     /// a move between two fixed blocks takes. 0 when nothing moves.
     fn rest_to_rest_ticks(&self, delta: StepPos, feed: f32) -> u32 {
-        let Some(b) = PlanBlock::line(self.cfg, [delta.x, delta.y, 0, 0], feed) else { return 0 };
+        let Some(b) = self.line_block([delta.x, delta.y, 0, 0], feed, MoveKind::Travel) else { return 0 };
         protocol::quantize(&planner::to_step_block(&b, 0.0)).duration_ticks()
     }
 
@@ -513,8 +537,8 @@ impl RawPlan<'_> {
         const DROP_TICK: u32 = 1;
         let budget = settle.saturating_sub(clear.saturating_add(DROP_TICK));
         let at = |k: i64, n: i64| {
-            // The point k/n of the way back from `to` towards `from`.
-            let back = |d: i32| i32::try_from(i64::from(d) * k / n).unwrap_or(0);
+            // The point k/n of the way back from `to` towards `from` (`to` itself for a hop of no length).
+            let back = |d: i32| i32::try_from((i64::from(d) * k).checked_div(n).unwrap_or(0)).unwrap_or(0);
             StepPos::new(to.x - back(delta.dx), to.y - back(delta.dy))
         };
         let n = i64::from(delta.dx.unsigned_abs().max(delta.dy.unsigned_abs()));
@@ -566,14 +590,7 @@ fn build_blocks<'c>(
     let pens = layer_pens(profile, steps);
     let (up, downs) = pen_targets(profile, &pens)?;
     let capacity = steps.move_count() + 8 * steps.strokes.len() + 2;
-    let mut raw = RawPlan {
-        cfg,
-        blocks: Vec::with_capacity(capacity),
-        meta: Vec::with_capacity(capacity),
-        pos: start,
-        settle: settle_ticks(profile),
-        changes: Vec::new(),
-    };
+    let mut raw = RawPlan::new(profile, cfg, start, capacity);
     raw.pen(up, MoveKind::PenUp, 0);
     let mut layer = 0;
     for (si, stroke) in steps.strokes.iter().enumerate() {
@@ -709,14 +726,7 @@ pub fn plan_resume(
     };
     #[allow(clippy::cast_possible_truncation)]
     let travel = profile.pen.travel_feed_mm_s as f32;
-    let mut pre = RawPlan {
-        cfg: &cfg,
-        blocks: Vec::new(),
-        meta: Vec::new(),
-        pos: now,
-        settle: settle_ticks(profile),
-        changes: Vec::new(),
-    };
+    let mut pre = RawPlan::new(profile, &cfg, now, 0);
     if !pre.at(up) {
         pre.pen(up, MoveKind::PenUp, stroke);
     }
@@ -1009,6 +1019,69 @@ mod tests {
         assert_eq!(r.blocks[..r.preamble].iter().map(|b| b.kind).collect::<Vec<_>>(), [Travel]);
         assert_ne!(full.geometry_hash(), r.geometry_hash());
         assert_eq!(full.geometry_hash(), plan(&p, &steps, start, Lookahead::Window(4)).unwrap().geometry_hash());
+    }
+
+    #[test]
+    // Accelerations in steps/s², far inside u32.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    fn draw_and_travel_accelerations_are_capped_by_the_pen_profile() {
+        let mut p = profile();
+        // A servo pen: travel stays flat (no Z in the hop), so its per-event acceleration is the path's.
+        p.pen.command = crate::motion::profile::PenCommand::Servo;
+        let (spm, axis_a) = (p.axes.x.steps_per_mm, p.axes.x.max_accel_mm_s2);
+        assert_eq!((p.axes.y.steps_per_mm, p.axes.y.max_accel_mm_s2), (spm, axis_a));
+        let d = Drawing::single_layer("a", vec![square(10.0, 10.0, 5.0), square(30.0, 10.0, 5.0)]);
+        let accels = |p: &MachineProfile, kind: MoveKind| -> Vec<u32> {
+            let steps = drawing_to_steps(p, &d).unwrap();
+            let full = plan(p, &steps, homed_position(p).unwrap(), Lookahead::Whole).unwrap();
+            // Axis-aligned moves only: one step per event, so the accel is the cap in steps/s².
+            full.blocks
+                .iter()
+                .filter(|b| b.kind == kind && !b.block.is_dwell() && (b.block.steps[0] == 0) != (b.block.steps[1] == 0))
+                .map(|b| b.block.accel)
+                .collect()
+        };
+        // Without caps: the axes' acceleration (rounded down in f32: within one step/s² of the exact figure).
+        let floor = |a: f64| (a * spm).floor() as u32;
+        let near = |got: u32, a: f64| got <= floor(a) && got + 1 >= floor(a);
+        assert!(accels(&p, MoveKind::Draw).iter().all(|&a| near(a, axis_a)));
+        let (draw_a, travel_a) = (axis_a / 4.0, axis_a / 2.0);
+        p.pen.draw_accel_mm_s2 = Some(draw_a);
+        p.pen.travel_accel_mm_s2 = Some(travel_a);
+        let draws = accels(&p, MoveKind::Draw);
+        assert_eq!(draws.len(), 8, "the two squares' sides");
+        assert!(draws.iter().all(|&a| near(a, draw_a)), "{draws:?}");
+        let travels = accels(&p, MoveKind::Travel);
+        assert!(!travels.is_empty() && travels.iter().all(|&a| near(a, travel_a)), "{travels:?}");
+        // A cap above the axes' limits changes nothing; a zero cap is refused by the profile check.
+        p.pen.draw_accel_mm_s2 = Some(axis_a * 2.0);
+        assert!(accels(&p, MoveKind::Draw).iter().all(|&a| near(a, axis_a)));
+        let err = MachineProfile::from_toml(
+            &include_str!("../../../samples/xy-plotter.toml").replace("[pen]", "[pen]\ntravel_accel_mm_s2 = 0.0"),
+            "t",
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("pen.travel_accel_mm_s2"), "{err}");
+    }
+
+    #[test]
+    fn a_servo_hop_of_no_length_lifts_and_drops_in_place() {
+        // Two strokes meeting end to start (as `plan` gets them when nothing merged them): the hop between them
+        // has no length (this divided by zero once).
+        let mut p = profile();
+        p.pen.command = crate::motion::profile::PenCommand::Servo;
+        p.pen.settle_ms = 120.0;
+        let a = Polyline::new(vec![Point::new(10.0, 10.0), Point::new(20.0, 10.0)]);
+        let b = Polyline::new(vec![Point::new(20.0, 10.0), Point::new(20.0, 20.0)]);
+        let steps = drawing_to_steps(&p, &Drawing::single_layer("a", vec![a, b])).unwrap();
+        let full = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        use MoveKind::*;
+        let kinds: Vec<MoveKind> = full.blocks.iter().map(|b| b.kind).collect();
+        let i = kinds.iter().position(|&k| k == Draw).unwrap() + 1;
+        // Lifted (its whole settle, as no travel overlaps it), then dropped in place with its settle.
+        assert_eq!(&kinds[i..i + 2], [PenUp, PenDown]);
+        assert_eq!(full.blocks[i].block.duration_ticks() + full.blocks[i + 1].block.duration_ticks(), 240_000);
+        assert_eq!(kinds[i + 2], Draw);
     }
 
     #[test]

@@ -587,6 +587,16 @@ mod tests {
             assert_eq!((p.axes.x.steps_per_mm, p.axes.y.steps_per_mm), (80.0, 80.0));
             assert!(80.0 * (p.axes.x.max_feed_mm_s + p.axes.y.max_feed_mm_s) <= 25_000.0);
         }
+        // saxi's limits (its defaultPlanOptions) along the path: 50 mm/s at 200 mm/s² drawing, 200 mm/s at
+        // 400 mm/s² travelling, 0.12 s per pen move; at 200 mm/s in any direction a motor steps at most
+        // 80 × 200 × √2 ≈ 22 627 steps/s.
+        let saxi = load("axidraw-saxi.toml", include_str!("../../../../samples/axidraw-saxi.toml"));
+        let pen = &saxi.pen;
+        assert_eq!((pen.draw_feed_mm_s, pen.draw_accel_mm_s2), (50.0, Some(200.0)));
+        assert_eq!((pen.travel_feed_mm_s, pen.travel_accel_mm_s2), (200.0, Some(400.0)));
+        assert_eq!((pen.settle_ms, saxi.motion.junction_deviation_mm), (120.0, 0.127));
+        assert!(80.0 * pen.travel_feed_mm_s * std::f64::consts::SQRT_2 <= 25_000.0);
+        assert!(saxi.axes.x.max_accel_mm_s2.min(saxi.axes.y.max_accel_mm_s2) >= 400.0, "the caps bind, not the axes");
         // An EBB lifts its pen with the servo: a Z pen is refused with the field named.
         let z = include_str!("../../../../samples/axidraw-v3.toml").replace("command = \"servo\"", "command = \"z\"");
         let e = MachineProfile::from_toml(&z, "z.toml").unwrap_err().to_string();

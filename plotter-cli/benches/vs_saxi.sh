@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Plot time against saxi (issue 23), by hand: for each drawing, saxi and ours plot the SAME polylines on the
+# project's EBB emulator (`plotter sim --pty --ebb --fast`) with the same machine limits, and the board's motion
+# time (the trace's `# busy_ticks`, µs: steps, pen servo moves and dwells, as the board executes them) is compared.
+#
+#   PLOTTER=target/release/plotter SAXI_DIR=target/ci-node/node_modules/saxi \
+#     plotter-cli/benches/vs_saxi.sh [DRAWING ...]      (default: the drawings listed below)
+#
+# - The polylines: `plotter convert DRAWING --paper a4 --landscape --fit` (mm, laid out on the AxiDraw's page).
+#   Both plot that file, so only path order and motion planning differ.
+# - saxi: plotter-cli/benches/vs_saxi_drive.js (its default pipeline: optimize-paths `reorder` = greedy nearest
+#   path end, either direction; `merge` of ends within 0.5 mm; its AxidrawFast limits: pen down 50 mm/s at
+#   200 mm/s², cornering 0.127 mm; pen up 200 mm/s at 400 mm/s²; pen lift and drop 0.12 s each). saxi moves the
+#   pen with raw S2 positions, so the emulator is told where the tip touches (--ebb-pen-contact 16725, between its
+#   up 17750 and down 15700) to count its lifts.
+# - ours: `plotter plot --firmware ebb --profile samples/axidraw-saxi.toml --pen-change none` (our optimizer's
+#   order, our planner; no pauses between colours, as saxi plots them all with one pen).
+# Prints one row per drawing (its paths, saxi's pen lifts / ours, both board times in seconds, ours/saxi, the lower
+# bound `plotter stats` proves for our plan and its ratio to saxi's time) and the sums.
+set -euo pipefail
+PLOTTER=${PLOTTER:-target/release/plotter}
+SAXI_DIR=${SAXI_DIR:-target/ci-node/node_modules/saxi}
+HERE=$(cd "$(dirname "$0")" && pwd)
+ROOT=$(cd "$HERE/../.." && pwd)
+PROFILE=${PROFILE:-$ROOT/samples/axidraw-saxi.toml}
+OC=/usr/share/openclipart/svg
+if [ $# -eq 0 ]; then
+  set -- "$ROOT/samples/duck.svg" "$ROOT/samples/transforms.svg" "$ROOT/samples/stacked.svg" \
+    "$OC/animals/bat_orlando_karam_.svg" "$OC/education/books/open_book_nae_02.svg" \
+    "$OC/recreation/sports/volley-ball_andrea_bianc_01.svg" "$OC/computer/home13.svg" \
+    "$OC/recreation/games/cards/simple/simple_h_k.svg" "$OC/people/chibi_character_rick_.svg" \
+    "$OC/plants/sun_flower_ganson.svg" "$OC/food/desserts/cone2_ganson.svg" \
+    "$OC/office/cassa_negozio_architetto_01.svg"
+fi
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+
+# Start the emulator, run "$@" with its port substituted for PORT, stop it (SIGINT writes the trace), print the
+# trace's busy time in seconds and its pen-up count.
+on_board() {
+  local trace=$WORK/trace.txt extra=$1
+  shift
+  rm -f "$trace"
+  # shellcheck disable=SC2086
+  coproc SIM { exec "$PLOTTER" sim --pty --ebb --fast --trace "$trace" $extra; }
+  local sim_pid=$SIM_PID port
+  read -r port <&"${SIM[0]}"
+  local args=()
+  for a in "$@"; do args+=("${a//PORT/$port}"); done
+  "${args[@]}" >"$WORK/out.txt" 2>"$WORK/err.txt" || { cat "$WORK/err.txt" >&2; kill -INT "$sim_pid"; return 1; }
+  kill -INT "$sim_pid"
+  wait "$sim_pid" || true
+  awk '/^# busy_ticks/ { printf "%.3f", $3 / 1e6 }' "$trace"
+}
+
+printf '%-38s %7s %7s %9s %9s %6s %8s %6s\n' drawing paths lifts saxi_s ours_s ratio bound_s b/saxi
+sum_saxi=0
+sum_ours=0
+sum_lb=0
+for f in "$@"; do
+  name=$(basename "$f" .svg)
+  conv=$WORK/$name.svg
+  "$PLOTTER" convert "$f" --paper a4 --landscape --fit -o "$conv" 2>/dev/null
+  t_saxi=$(on_board "--ebb-pen-contact 16725" node "$HERE/vs_saxi_drive.js" "$SAXI_DIR" PORT "$conv")
+  read -r _ paths _ lifts _ <"$WORK/out.txt"
+  t_ours=$(on_board "" "$PLOTTER" plot "$conv" --port PORT --firmware ebb --profile "$PROFILE" \
+    --pen-change none)
+  # Our optimized plan's pen lifts and the plot-time lower bound `plotter stats` proves for it (pen-down length at
+  # the draw feed with the least corner losses, each lift's settles, the shortest hops): no plan can beat it.
+  stats=$("$PLOTTER" stats "$conv" --profile "$PROFILE" 2>/dev/null | grep '^optimized' || true)
+  ours_lifts=$(echo "$stats" | awk '{ for (i = 1; i < NF; i++) if ($(i+1) == "pen" && $(i+2) == "lifts,") print $i }')
+  lb=$(echo "$stats" | awk '{ for (i = 1; i < NF; i++) if ($i == "bound" && $(i-1) == "lower" && $(i-3) == "time") {
+    n = split($(i+1), t, ":"); s = 0; for (j = 1; j <= n; j++) s = s * 60 + t[j]; print s } }')
+  printf '%-38s %7s %7s %9s %9s %6.3f %8s %6.3f\n' "${name:0:38}" "$paths" "$lifts/${ours_lifts:-?}" "$t_saxi" \
+    "$t_ours" "$(echo "$t_ours / $t_saxi" | bc -l)" "${lb:-0}" "$(echo "${lb:-0} / $t_saxi" | bc -l)"
+  sum_saxi=$(echo "$sum_saxi + $t_saxi" | bc -l)
+  sum_ours=$(echo "$sum_ours + $t_ours" | bc -l)
+  sum_lb=$(echo "$sum_lb + ${lb:-0}" | bc -l)
+done
+printf '%-38s %7s %7s %9.3f %9.3f %6.3f %8.1f %6.3f\n' sum '' '' "$sum_saxi" "$sum_ours" \
+  "$(echo "$sum_ours / $sum_saxi" | bc -l)" "$sum_lb" "$(echo "$sum_lb / $sum_saxi" | bc -l)"
