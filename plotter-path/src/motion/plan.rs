@@ -1027,7 +1027,7 @@ mod tests {
     fn draw_and_travel_accelerations_are_capped_by_the_pen_profile() {
         let mut p = profile();
         // A servo pen: travel stays flat (no Z in the hop), so its per-event acceleration is the path's.
-        p.pen.command = crate::motion::profile::PenCommand::Servo;
+        p.pen.command = crate::config::profile::PenCommand::Servo;
         let (spm, axis_a) = (p.axes.x.steps_per_mm, p.axes.x.max_accel_mm_s2);
         assert_eq!((p.axes.y.steps_per_mm, p.axes.y.max_accel_mm_s2), (spm, axis_a));
         let d = Drawing::single_layer("a", vec![square(10.0, 10.0, 5.0), square(30.0, 10.0, 5.0)]);
@@ -1069,7 +1069,7 @@ mod tests {
         // Two strokes meeting end to start (as `plan` gets them when nothing merged them): the hop between them
         // has no length (this divided by zero once).
         let mut p = profile();
-        p.pen.command = crate::motion::profile::PenCommand::Servo;
+        p.pen.command = crate::config::profile::PenCommand::Servo;
         p.pen.settle_ms = 120.0;
         let a = Polyline::new(vec![Point::new(10.0, 10.0), Point::new(20.0, 10.0)]);
         let b = Polyline::new(vec![Point::new(20.0, 10.0), Point::new(20.0, 20.0)]);
