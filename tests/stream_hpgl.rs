@@ -8,12 +8,12 @@ use std::collections::HashSet;
 use std::time::Duration;
 
 use plotter_e2e::{plotter, plotter_bin, sample, scratch};
+use plotter_host::job::hpgl::{self as hplot, HpglOutcome};
 use plotter_host::job::progress::{JobProgress, PlotEvents};
 use plotter_host::link::hpgl::commands::Commands;
 use plotter_host::link::hpgl::handshake::Handshake;
 use plotter_host::link::hpgl::model::{HpglModel, ModelConfig};
 use plotter_host::link::hpgl::model_link::ModelLink;
-use plotter_host::link::hpgl::plot::{self as hplot, HpglOutcome};
 use plotter_host::link::hpgl::sender::HpglSession;
 use plotter_host::link::journal::{self, Journal};
 use plotter_host::link::stream::PauseChoice;

@@ -6,6 +6,7 @@
 //! A front end supplies a [`progress::PlotEvents`] (progress display, pause requests and decisions) and gets a
 //! [`JobOutcome`] or an error that says how to continue.
 
+pub mod hpgl;
 pub mod load;
 pub mod page;
 pub mod prepare;

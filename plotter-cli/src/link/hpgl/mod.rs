@@ -7,7 +7,7 @@
 //!   resuming at command granularity);
 //! - [`handshake`]: the three ways of keeping the buffer from overflowing, chosen by `--handshake`;
 //! - [`sender`]: the session with a plotter — identify (`OI`), send bytes under the handshake, read errors back;
-//! - [`plot`]: the plot job over a session — progress, pause, cancel, journal and resume;
+//! - the plot job over a session (progress, pause, cancel, journal and resume) is [`crate::job::hpgl`], above the link;
 //! - [`port`]: a serial port (or a pty) as an [`HpglLink`];
 //! - [`model`] and [`model_link`]: a plotter of our own for tests and `plotter sim --pty --hpgl`.
 //!
@@ -20,7 +20,6 @@ pub mod handshake;
 pub mod messages;
 pub mod model;
 pub mod model_link;
-pub mod plot;
 pub mod port;
 pub mod sender;
 pub mod timing;

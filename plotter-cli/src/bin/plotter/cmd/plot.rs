@@ -452,7 +452,8 @@ fn plot_hpgl(
     drawing: Option<plotter_path::Drawing>,
     resume: Option<(&journal::JournalState, &Path)>,
 ) -> anyhow::Result<()> {
-    use plotter_host::link::hpgl::{commands::Commands, plot as hplot, port::HpglPort, sender::HpglSession};
+    use plotter_host::job::hpgl as hplot;
+    use plotter_host::link::hpgl::{commands::Commands, port::HpglPort, sender::HpglSession};
     let (program, device, paper, _) = hpgl_program(args, profile, steps, drawing)?;
     let cmds = Commands::split(&program.text, device);
     let hash = hplot::program_hash(&program.text);

@@ -21,10 +21,10 @@ use anyhow::bail;
 use plotter_path::geometry::hpgl_devices::HpglPaper;
 use plotter_path::kurbo::Point;
 
-use super::HpglLink;
-use super::commands::Commands;
-use super::sender::{HpglSession, SendStats};
-use crate::job::progress::{JobProgress, PlotEvents};
+use super::progress::{JobProgress, PlotEvents};
+use crate::link::hpgl::HpglLink;
+use crate::link::hpgl::commands::Commands;
+use crate::link::hpgl::sender::{HpglSession, SendStats};
 use crate::link::journal::Journal;
 use crate::link::stream::PauseChoice;
 
@@ -84,7 +84,8 @@ impl Run<'_> {
     fn report(&mut self, events: &mut dyn PlotEvents) -> anyhow::Result<()> {
         let list = &self.cmds.list;
         let total = list.len();
-        let at = |k: usize, f: fn(&super::commands::Command) -> f64| if k == 0 { 0.0 } else { f(&list[k - 1]) };
+        let at =
+            |k: usize, f: fn(&crate::link::hpgl::commands::Command) -> f64| if k == 0 { 0.0 } else { f(&list[k - 1]) };
         let state = list.get(self.executed).map(|c| c.before);
         let (pos, down) =
             state.map_or_else(|| (list.last().map_or((0, 0), |c| c.before.pos), false), |s| (s.pos, s.down));
