@@ -169,3 +169,19 @@ fn stats_says_what_the_import_left_out_and_why() {
     let o = run(plotter().arg("stats").arg(sample("duck.svg")));
     assert!(String::from_utf8_lossy(&o.stdout).lines().any(|l| l == "skipped       nothing"));
 }
+
+#[test]
+fn a_printing_command_ends_quietly_when_its_reader_goes_away() {
+    // `plotter stats FILE | head -0`: the reader closes before anything is printed.
+    let mut child = plotter()
+        .arg("stats")
+        .arg(sample("duck.svg"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run plotter");
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("plotter ends");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+}

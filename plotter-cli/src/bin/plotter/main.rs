@@ -59,6 +59,9 @@ enum Command {
 
 fn main() {
     let cli = Cli::parse();
+    if cli.command.only_prints() {
+        quiet_on_closed_stdout();
+    }
     let result = match &cli.command {
         Command::Preview(args) => cmd::preview::run(args),
         Command::Stats(args) => cmd::stats::run(args),
@@ -79,4 +82,39 @@ fn main() {
         eprintln!("error: {e:#}");
         std::process::exit(1);
     }
+}
+
+impl Command {
+    /// Whether the command only reads files and prints (no machine, no server): such a command may simply end when
+    /// its reader goes away, as `plotter stats FILE | head` expects.
+    fn only_prints(&self) -> bool {
+        matches!(
+            self,
+            Command::Preview(_)
+                | Command::Stats(_)
+                | Command::Convert(_)
+                | Command::Gen(_)
+                | Command::Trace(_)
+                | Command::Optimize(_)
+        )
+    }
+}
+
+/// End the process quietly, as Unix tools do, when standard output is a pipe whose reader has gone (`println!`
+/// panics then). Only for commands that drive no machine: a plot must never stop half-way because its summary
+/// could not be printed.
+fn quiet_on_closed_stdout() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or_default();
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
 }
