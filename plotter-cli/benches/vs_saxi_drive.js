@@ -9,12 +9,10 @@
 // microstepping mode 2, as its server does. Prints `paths N lifts N planned S` and `done`.
 'use strict';
 const fs = require('fs');
-const tty = require('tty');
-const { Readable, Writable } = require('stream');
+const board = require('../../tests/fixtures/saxi_board');
 
 const [saxiDir, port, drawing] = process.argv.slice(2);
-const planning = require(`${saxiDir}/dist/server/planning`);
-const { EBB } = require(`${saxiDir}/dist/server/ebb`);
+const { planning, ebb } = board.open(saxiDir, port);
 const optimize = require(require.resolve('optimize-paths', { paths: [saxiDir] }));
 
 const svg = fs.readFileSync(drawing, 'utf8');
@@ -34,19 +32,4 @@ const unitsPerMm = planning.Device.Axidraw.stepsPerMm;
 paths = paths.map((ps) => ps.map((p) => ({ x: p.x * unitsPerMm, y: p.y * unitsPerMm })));
 const plan = planning.plan(paths, planning.AxidrawFast);
 
-const fd = fs.openSync(port, fs.constants.O_RDWR | fs.constants.O_NOCTTY);
-const rx = new tty.ReadStream(fd);
-rx.setRawMode(true);
-const tx = new tty.WriteStream(fd);
-const ebb = new EBB({ readable: Readable.toWeb(rx), writable: Writable.toWeb(tx) });
-
-(async () => {
-  await ebb.firmwareVersion();
-  console.log('paths', input, 'lifts', paths.length, 'planned', plan.duration().toFixed(3));
-  await ebb.executePlan(plan, 2);
-  console.log('done');
-  process.exit(0);
-})().catch((e) => {
-  console.error('saxi failed:', e);
-  process.exit(1);
-});
+board.run(ebb, plan, () => `paths ${input} lifts ${paths.length} planned ${plan.duration().toFixed(3)}`);
