@@ -30,8 +30,8 @@ pub(crate) enum Command {
 pub(crate) fn firmware_choice(simulator: bool, name: Option<&str>) -> Result<Firmware, String> {
     use clap::ValueEnum as _;
     let name = name.map_or("auto", str::trim);
-    let firmware = Firmware::from_str(name, true)
-        .map_err(|_| format!("unknown firmware {name:?} (auto, ours, grbl, ebb)"))?;
+    let firmware =
+        Firmware::from_str(name, true).map_err(|_| format!("unknown firmware {name:?} (auto, ours, grbl, ebb)"))?;
     match firmware {
         Firmware::Hpgl => Err("an HP-GL plotter is not driven from the web app: plot it with \
                                `plotter plot FILE --port PORT --firmware hpgl`"
@@ -59,6 +59,9 @@ mod tests {
         assert!(hpgl.contains("plotter plot FILE --port PORT --firmware hpgl"), "{hpgl}");
         let sim = firmware_choice(true, Some("ebb")).unwrap_err();
         assert!(sim.contains("plotter sim --pty --ebb"), "{sim}");
-        assert_eq!(firmware_choice(false, Some("marlin")).unwrap_err(), "unknown firmware \"marlin\" (auto, ours, grbl, ebb)");
+        assert_eq!(
+            firmware_choice(false, Some("marlin")).unwrap_err(),
+            "unknown firmware \"marlin\" (auto, ours, grbl, ebb)"
+        );
     }
 }
