@@ -1,7 +1,8 @@
 //! The web app drives a GRBL controller and an EiBotBoard as well as our firmware: `plotter serve --port <pty>`
 //! in front of `plotter sim --pty --grbl` / `--ebb`, connected with firmware `auto` through the HTTP API, plots a
-//! generated circle; the emulator's trace must show pen-down steps that moved and the pen up at the end. A connect
-//! asking for an HP-GL plotter is refused with the command that drives one.
+//! generated circle after a home and a jog through the same connection; the emulator's trace must show pen-down
+//! steps that moved and the pen up at the end. A connect asking for an HP-GL plotter is refused with the command
+//! that drives one.
 
 use std::io::{BufRead as _, BufReader, Read as _, Write as _};
 use std::net::TcpStream;
@@ -81,6 +82,19 @@ impl Page {
         }
     }
 
+    /// Wait (within `limit`) for a `log` line whose text starts with `start`; the first `error` line fails.
+    fn wait_log(&self, start: &str, limit: Duration) {
+        let mut log = Vec::new();
+        loop {
+            let line = self.wait_event("log", limit, &mut log);
+            let text = line["text"].as_str().unwrap_or_default();
+            assert_ne!(line["dir"], "error", "{text}");
+            if text.starts_with(start) {
+                return;
+            }
+        }
+    }
+
     /// The state once `ready` holds of it (polled), within `limit`.
     fn wait_state(&self, served: &Served, what: &str, limit: Duration, ready: impl Fn(&Value) -> bool) -> Value {
         let end = Instant::now() + limit;
@@ -120,6 +134,17 @@ fn plot_through_the_web_app(sim: SimPty, profile: Option<(&str, &str)>) -> (Stri
     });
     let connected = state["machine"]["connected"].as_str().unwrap_or_else(|| panic!("not connected: {state}"));
     let connected = connected.to_string();
+    // Home and jog go through the connected dialect: 10 mm of X at 80 steps/mm (both profiles) is 800 steps.
+    let (status, v) = page.post(&served, "/api/home", json!({}));
+    assert_eq!(status, 200, "{v}");
+    page.wait_log("homed", Duration::from_secs(60));
+    let homed = page.wait_state(&served, "idle", Duration::from_secs(60), |s| s["machine"]["activity"] == "idle");
+    let x0 = homed["machine"]["position"][0].as_i64().expect("x steps");
+    let (status, v) = page.post(&served, "/api/jog", json!({ "axis": "x", "mm": 10.0 }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_log("position", Duration::from_secs(60));
+    let jogged = page.wait_state(&served, "idle", Duration::from_secs(60), |s| s["machine"]["activity"] == "idle");
+    assert_eq!(jogged["machine"]["position"][0].as_i64(), Some(x0 + 800), "{jogged}");
     let (status, v) = page.post(&served, "/api/plot", json!({}));
     assert_eq!(status, 200, "{v}");
     let mut log = Vec::new();
