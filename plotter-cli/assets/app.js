@@ -328,7 +328,7 @@ async function refreshPorts() {
   sel.value = [...sel.options].some((o) => o.value === keep) ? keep : 'sim';
 }
 $('refresh-ports').onclick = refreshPorts;
-$('connect').onclick = () => api('/api/connect', { target: $('target').value }).catch(() => {});
+$('connect').onclick = () => api('/api/connect', { target: $('target').value, firmware: $('firmware').value }).catch(() => {});
 $('disconnect').onclick = () => api('/api/disconnect').catch(() => {});
 $('home').onclick = () => api('/api/home').catch(() => {});
 $('pen-up').onclick = () => api('/api/pen', { down: false }).catch(() => {});

@@ -1,7 +1,10 @@
 //! Jogging: move one axis by a distance, or lift/lower the pen — the lines each firmware dialect takes for it
 //! (shared by `plotter jog` and the web app's jog buttons).
 
-use super::machine::Firmware;
+use std::time::Duration;
+
+use super::Transport;
+use super::machine::{Connected, Firmware};
 
 /// What to move.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -82,6 +85,58 @@ pub fn jog_lines(
                 _ => 'Z',
             };
             vec!["G91".into(), format!("G1 {letter}{d:.4} F{feed_min:.1}"), "G90".into()]
+        }
+    })
+}
+
+/// Run `jog` on the connected machine: its lines for the machine's dialect ([`jog_lines`]), each handed to `sent`
+/// before it goes out (for a log), then back to absolute mode (even after a refused move) and wait until the move
+/// is done. An EiBotBoard has no soft limits, so its jog is checked against the profile's travel first. Returns
+/// where the machine then stands, as a line for the user.
+pub fn run_jog<T: Transport + 'static>(
+    c: &mut Connected<T>,
+    jog: &Jog,
+    profile: &plotter_path::MachineProfile,
+    sent: &mut dyn FnMut(&str),
+) -> anyhow::Result<String> {
+    let firmware = c.machine().firmware();
+    let lines = jog_lines(jog, profile, firmware)?;
+    if let Connected::Ebb(e) = c {
+        let at = e.position()?;
+        let (axis, travel, spm) = match jog.target {
+            JogTarget::X => (0, profile.axes.x.travel_mm, profile.axes.x.steps_per_mm),
+            JogTarget::Y => (1, profile.axes.y.travel_mm, profile.axes.y.steps_per_mm),
+            _ => (2, 0.0, 1.0),
+        };
+        if axis < 2 {
+            let to = f64::from(at[axis]) / spm + jog.distance.unwrap_or(0.0);
+            if !(0.0..=travel).contains(&to) {
+                anyhow::bail!("the jog would end at {to:.2} mm, outside the travel 0..{travel} mm");
+            }
+        }
+    }
+    let mut result = Ok(());
+    for l in &lines {
+        sent(l);
+        if let Err(e) = c.command(l) {
+            result = Err(e);
+            break;
+        }
+    }
+    if firmware != Firmware::Ebb {
+        let _ = c.command("G90");
+    }
+    result?;
+    Ok(match c {
+        Connected::Ours(s) => format!("position {:?} steps", s.wait_idle(Duration::from_millis(50))?.steps),
+        Connected::Grbl(g) => {
+            let st = g.wait_idle()?;
+            let pos = st.mpos.map(|p| format!("MPos {p:?}")).or(st.wpos.map(|p| format!("WPos {p:?}")));
+            format!("position {} mm", pos.unwrap_or_default())
+        }
+        Connected::Ebb(e) => {
+            e.drain(Duration::from_secs(600))?;
+            format!("position {:?} steps (motors {:?})", e.position()?, e.motors()?)
         }
     })
 }

@@ -229,6 +229,18 @@ impl<T: Transport + 'static> PlotMachine for EbbSession<T> {
     }
 }
 
+/// Home `m` (shared by `plotter home` and the web app): refused while the machine is in an alarm that homing
+/// cannot clear (GRBL with homing disabled, `$22=0`); returns where it then stands, steps.
+pub fn home_machine(m: &mut dyn PlotMachine) -> anyhow::Result<MachinePos> {
+    if let Some(what) = m.alarm_pending()?
+        && !m.can_home()
+    {
+        anyhow::bail!("{what}; homing is disabled, unlock it with `$X` on the console once it is safe");
+    }
+    m.home()?;
+    m.position()
+}
+
 /// Which firmware answers on `transport`: a start-up banner (`Grbl 1.1x ['$' for help]` or `plotter-fw …`)
 /// decides; when none arrives (the port did not reset the board), `$I` does — GRBL answers `[VER:…]`, our
 /// firmware an error, an EiBotBoard `!8 Err: Unknown command` (it is then asked `V`). Nothing is reset or moved.

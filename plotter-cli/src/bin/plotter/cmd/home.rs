@@ -1,7 +1,7 @@
 //! `plotter home`: run the homing cycle on a connected plotter (our firmware or GRBL) and report where it is.
 
 use plotter_host::link::connect::{LinkArgs, open_port};
-use plotter_host::link::machine::{Connected, Firmware};
+use plotter_host::link::machine::{Connected, Firmware, home_machine};
 use plotter_host::link::serial::SerialTransport;
 use plotter_path::MachineProfile;
 
@@ -27,14 +27,7 @@ pub(crate) fn connect(args: &LinkArgs) -> anyhow::Result<(MachineProfile, Connec
 /// Run `plotter home`.
 pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
     let (_, mut c) = connect(args)?;
-    let m = c.machine();
-    if let Some(what) = m.alarm_pending()?
-        && !m.can_home()
-    {
-        anyhow::bail!("{what}; homing is disabled, unlock it with `plotter console` ($X) once it is safe");
-    }
-    m.home()?;
-    let p = m.position()?;
+    let p = home_machine(c.machine())?;
     println!("homed; position {p:?} steps");
     Ok(())
 }

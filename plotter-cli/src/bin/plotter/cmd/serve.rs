@@ -1,5 +1,5 @@
 //! `plotter serve`: the local web app — drop a drawing on the page, adjust it, plot it on the simulator or a
-//! serial plotter and watch it. Listens on loopback; another address needs `--allow-remote`, since the app has no
+//! serial plotter (our firmware, GRBL or an EiBotBoard) and watch it. Listens on loopback; another address needs `--allow-remote`, since the app has no
 //! authentication.
 
 use std::io::Write as _;

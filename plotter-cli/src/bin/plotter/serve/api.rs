@@ -34,7 +34,7 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::broadcast::error::RecvError;
 
-use super::command::Command;
+use super::command::{Command, firmware_choice};
 use super::control;
 use super::deadline::body_deadline;
 use super::error::ApiError;
@@ -557,10 +557,14 @@ async fn upload_profile(
 struct ConnectBody {
     /// `sim`, or one of the listed serial ports.
     target: String,
+    /// The port's firmware: `auto` (default), `ours`, `grbl` or `ebb` ([`firmware_choice`]).
+    #[serde(default)]
+    firmware: Option<String>,
 }
 
 async fn connect(State(shared): State<Arc<Shared>>, Json(b): Json<ConnectBody>) -> ApiResult {
     refuse_while_plotting(&shared)?;
+    let firmware = firmware_choice(b.target == "sim", b.firmware.as_deref()).map_err(bad)?;
     let port = if b.target == "sim" {
         None
     } else {
@@ -573,7 +577,7 @@ async fn connect(State(shared): State<Arc<Shared>>, Json(b): Json<ConnectBody>) 
         Some(b.target)
     };
     let profile = Box::new(shared.lock().profile.clone());
-    shared.command(Command::Connect(port, profile)).map_err(conflict)?;
+    shared.command(Command::Connect(port, firmware, profile)).map_err(conflict)?;
     ok()
 }
 

@@ -243,6 +243,15 @@ async fn only_listed_ports_can_be_opened() {
     let (s, v) = c.post("/api/connect", json!({ "target": "/etc/passwd" })).await;
     assert_eq!(s, StatusCode::BAD_REQUEST);
     assert!(v["error"].as_str().unwrap().contains("not a listed serial port"), "{v}");
+    // The simulator runs our firmware: asking it for another dialect, or for an unknown one, is refused.
+    let (s, v) = c.post("/api/connect", json!({ "target": "sim", "firmware": "grbl" })).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(v["error"].as_str().unwrap().contains("plotter sim --pty --grbl"), "{v}");
+    let (s, v) = c.post("/api/connect", json!({ "target": "sim", "firmware": "marlin" })).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(v["error"].as_str().unwrap().contains("unknown firmware \"marlin\""), "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert!(st["machine"]["connected"].is_null(), "{st}");
     let (s, v) = c.post("/api/plot", json!({})).await;
     assert_eq!(s, StatusCode::CONFLICT);
     assert!(v["error"].as_str().unwrap().contains("not connected"), "{v}");

@@ -1,5 +1,5 @@
-//! The machine worker: one thread owns the link to the plotter (a serial port, or the simulator paced to the wall
-//! clock) and runs what the HTTP side asks — connect, home, jog, console lines, and plots through
+//! The machine worker: one thread owns the link to the plotter (a serial port speaking our firmware, GRBL or an
+//! EiBotBoard's EBB commands, or the simulator of our firmware paced to the wall clock) and runs what the HTTP side asks — connect, home, jog, console lines, and plots through
 //! [`plotter_host::job::plot`] — reporting to every page through the event hub. A plot's pause, resume and cancel
 //! requests and prompt answers reach it through [`super::state::PlotControl`], which [`WebEvents`] reads.
 
@@ -13,11 +13,11 @@ use plotter_host::job::progress::{JobProgress, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self};
 use plotter_host::link::Transport as _;
-use plotter_host::link::console::console_bytes;
-use plotter_host::link::jog::{Jog, jog_lines};
-use plotter_host::link::machine::Firmware;
+use plotter_host::link::connect::open_port;
+use plotter_host::link::console::{console_bytes, shown_reply};
+use plotter_host::link::jog::{Jog, run_jog};
+use plotter_host::link::machine::{Connected, Firmware, home_machine};
 use plotter_host::link::serial::SerialTransport;
-use plotter_host::link::session::{COMMAND_TIMEOUT, Session};
 use plotter_host::link::sim::SimTransport;
 use plotter_host::link::stream::PauseChoice;
 use plotter_path::MachineProfile;
@@ -29,18 +29,19 @@ use super::events::{Event, ProgressEvent, Prompt};
 use super::paced::PacedSim;
 use super::state::Shared;
 
-/// The open link (boxed: the simulator is large, and the link moves only when it opens).
+/// The open link (boxed: the simulator is large, and the link moves only when it opens): the simulator runs our
+/// firmware; a serial port any dialect [`Connected`] speaks.
 enum Link {
-    Sim(Box<Session<PacedSim>>),
-    Serial(Box<Session<SerialTransport>>),
+    Sim(Box<Connected<PacedSim>>),
+    Serial(Box<Connected<SerialTransport>>),
 }
 
-/// Run `$body` with `$s` bound to the session, whichever the transport.
-macro_rules! on_session {
-    ($link:expr, $s:ident => $body:expr) => {
+/// Run `$body` with `$c` bound to the connection, whichever the transport.
+macro_rules! on_link {
+    ($link:expr, $c:ident => $body:expr) => {
         match $link {
-            Link::Sim($s) => $body,
-            Link::Serial($s) => $body,
+            Link::Sim($c) => $body,
+            Link::Serial($c) => $body,
         }
     };
 }
@@ -75,11 +76,11 @@ impl Worker {
     fn handle(&mut self, c: Command) {
         self.shared.lock().machine.error = None;
         match c {
-            Command::Connect(port, profile) => {
+            Command::Connect(port, firmware, profile) => {
                 self.link = None;
                 self.set_activity("connecting");
                 self.profile = *profile;
-                match self.connect(port.as_deref()) {
+                match self.connect(port.as_deref(), firmware) {
                     Ok((link, name)) => {
                         self.shared.hub.log("info", format!("connected to {name}"));
                         self.link = Some(link);
@@ -111,27 +112,34 @@ impl Worker {
         self.set_activity("idle");
     }
 
-    fn connect(&self, port: Option<&str>) -> anyhow::Result<(Link, String)> {
+    fn connect(&self, port: Option<&str>, firmware: Firmware) -> anyhow::Result<(Link, String)> {
         let cfg = plan::machine_config(&self.profile)?;
         Ok(match port {
             None => {
                 let name = format!("simulated plotter ({} x real time)", self.shared.config.sim_speed);
                 let transport =
                     PacedSim::new(SimTransport::new(cfg, Some(self.profile.link.baud)), self.shared.config.sim_speed);
-                (Link::Sim(Box::new(Session::connect(transport, "simulated plotter")?)), name)
+                let c = Connected::connect(transport, "simulated plotter", Firmware::Ours, &self.profile)?;
+                (Link::Sim(Box::new(c)), name)
             }
             Some(p) => {
-                let s = Session::connect(SerialTransport::open(p, self.profile.link.baud)?, p)?;
-                let name = format!("{p} (plotter-fw {})", s.info.version);
-                (Link::Serial(Box::new(s)), name)
+                let c = open_port(p, self.profile.link.baud, firmware, &self.profile)?;
+                if let Connected::Grbl(g) = &c {
+                    // The plot is written for the profile; say where the controller's settings disagree.
+                    for m in g.settings.compare(&self.profile) {
+                        self.shared.hub.log("error", format!("warning: GRBL setting {m}"));
+                    }
+                }
+                let name = c.describe();
+                (Link::Serial(Box::new(c)), name)
             }
         })
     }
 
     fn refresh_position(&mut self) {
         let Some(link) = self.link.as_mut() else { return };
-        if let Ok(s) = on_session!(link, s => s.status()) {
-            self.shared.lock().machine.position = Some(s.steps);
+        if let Ok(p) = on_link!(link, c => c.machine().position()) {
+            self.shared.lock().machine.position = Some(p);
         }
     }
 
@@ -141,33 +149,24 @@ impl Worker {
         let link = self.link.as_mut().ok_or_else(|| anyhow::anyhow!("not connected: connect to a plotter first"))?;
         match c {
             Command::Home => {
-                hub.log("out", "G28");
-                on_session!(link, s => s.home())?;
-                hub.log("info", "homed");
+                hub.log("out", "home");
+                let at = on_link!(link, c => home_machine(c.machine()))?;
+                hub.log("info", format!("homed; position {at:?} steps"));
             }
             Command::Jog(target, distance) => {
-                let lines = jog_lines(&Jog { target, distance, feed: None }, &profile, Firmware::Ours)?;
-                let mut result = Ok(());
-                for l in &lines {
-                    hub.log("out", l.clone());
-                    if let Err(e) = on_session!(link, s => s.command(l, COMMAND_TIMEOUT)) {
-                        result = Err(e);
-                        break;
-                    }
-                }
-                // Always back to absolute mode, even after a refused move.
-                let _ = on_session!(link, s => s.command("G90", COMMAND_TIMEOUT));
-                result?;
-                on_session!(link, s => s.wait_idle(Duration::from_millis(50)))?;
+                let jog = Jog { target, distance, feed: None };
+                let at = on_link!(link, c => run_jog(c, &jog, &profile, &mut |l| hub.log("out", l.to_string())))?;
+                hub.log("info", at);
             }
             Command::Console(line) => {
                 hub.log("out", line.clone());
-                on_session!(link, s => s.transport.send(&console_bytes(&line)))?;
+                let firmware = on_link!(link, c => c.machine().firmware());
+                on_link!(link, c => c.transport().send(&console_bytes(&line)))?;
                 // Show the answers until the machine has been quiet for a moment.
                 let deadline = Instant::now() + Duration::from_secs(5);
                 while Instant::now() < deadline {
-                    match on_session!(link, s => s.transport.recv_line(Duration::from_millis(300)))? {
-                        Some(l) => hub.log("in", l),
+                    match on_link!(link, c => c.transport().recv_line(Duration::from_millis(300)))? {
+                        Some(l) => hub.log("in", shown_reply(&l, firmware)),
                         None => break,
                     }
                 }
@@ -192,13 +191,15 @@ impl Worker {
         let mut events = WebEvents { shared: Arc::clone(&shared), last_sent: None, prompt_id: 0 };
         let profile = &self.profile;
         let result = plan::check_work_area(profile, &prepared.steps).map_err(plotter_host::Error::from).and_then(
-            |()| on_session!(link, s => job::plot(&mut **s, profile, &prepared.steps, true, false, None, &mut events)),
+            |()| on_link!(link, c => job::plot(c.machine(), profile, &prepared.steps, true, false, None, &mut events)),
         );
         events.flush();
         match result {
             Ok(outcome) => {
                 let mut stepped = false;
-                if let Link::Sim(s) = link {
+                if let Link::Sim(c) = link
+                    && let Connected::Ours(s) = &**c
+                {
                     let (mut drawing, travel) = stepped_drawing(s.transport.inner().sim(), profile);
                     drawing.page_mm = prepared.drawing.page_mm;
                     let mut i = shared.lock();

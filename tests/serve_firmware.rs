@@ -1,0 +1,200 @@
+//! The web app drives a GRBL controller and an EiBotBoard as well as our firmware: `plotter serve --port <pty>`
+//! in front of `plotter sim --pty --grbl` / `--ebb`, connected with firmware `auto` through the HTTP API, plots a
+//! generated circle after a home and a jog through the same connection; the emulator's trace must show pen-down
+//! steps that moved and the pen up at the end. A connect asking for an HP-GL plotter is refused with the command
+//! that drives one.
+
+use std::io::{BufRead as _, BufReader, Read as _, Write as _};
+use std::net::TcpStream;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use plotter_e2e::{Served, SimPty, Trace, sample, scratch};
+use serde_json::{Value, json};
+
+/// One request with the control token and a JSON body; its status and JSON answer.
+fn api(served: &Served, token: &str, method: &str, path: &str, body: &Value) -> (u16, Value) {
+    let mut stream = TcpStream::connect(&served.authority).expect("connect to plotter serve");
+    stream.set_read_timeout(Some(Duration::from_secs(30))).expect("read timeout");
+    let body = body.to_string();
+    let head = format!(
+        "{method} {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\nX-Plotter-Token: {token}\r\n\
+         Content-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
+        served.authority,
+        body.len()
+    );
+    stream.write_all(head.as_bytes()).expect("send");
+    let mut answer = String::new();
+    stream.read_to_string(&mut answer).expect("the server answers and closes");
+    let status = answer.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let json = answer.split_once("\r\n\r\n").map_or("", |(_, b)| b);
+    (status, serde_json::from_str(json).unwrap_or(Value::Null))
+}
+
+/// A page: it holds control and listens to the event stream (the claim lapses without one).
+struct Page {
+    token: String,
+    /// `(event name, data)` of every server-sent event.
+    events: mpsc::Receiver<(String, String)>,
+}
+
+impl Page {
+    fn open(served: &Served) -> Page {
+        let (status, v) = api(served, "", "POST", "/api/control/claim", &Value::Null);
+        assert_eq!(status, 200, "{v}");
+        let token = v["token"].as_str().expect("a token").to_string();
+        let mut stream = TcpStream::connect(&served.authority).expect("connect to plotter serve");
+        let get = format!("GET /api/events?token={token} HTTP/1.1\r\nHost: {}\r\n\r\n", served.authority);
+        stream.write_all(get.as_bytes()).expect("send");
+        let (tx, events) = mpsc::channel();
+        std::thread::spawn(move || {
+            let mut name = String::new();
+            for line in BufReader::new(stream).lines() {
+                let Ok(line) = line else { break };
+                if let Some(n) = line.strip_prefix("event: ") {
+                    name = n.to_string();
+                } else if let Some(d) = line.strip_prefix("data: ")
+                    && tx.send((name.clone(), d.to_string())).is_err()
+                {
+                    break;
+                }
+            }
+        });
+        Page { token, events }
+    }
+
+    fn post(&self, served: &Served, path: &str, body: Value) -> (u16, Value) {
+        api(served, &self.token, "POST", path, &body)
+    }
+
+    /// The data of the next event named `name` within `limit`; every `log` line seen meanwhile goes to `log`.
+    fn wait_event(&self, name: &str, limit: Duration, log: &mut Vec<String>) -> Value {
+        let end = Instant::now() + limit;
+        loop {
+            let left = end.saturating_duration_since(Instant::now());
+            let (n, d) = self.events.recv_timeout(left).unwrap_or_else(|_| panic!("no {name} event; log: {log:#?}"));
+            if n == "log" {
+                log.push(d.clone());
+            }
+            if n == name {
+                return serde_json::from_str(&d).expect("JSON event data");
+            }
+        }
+    }
+
+    /// Wait (within `limit`) for a `log` line whose text starts with `start`; the first `error` line fails.
+    fn wait_log(&self, start: &str, limit: Duration) {
+        let mut log = Vec::new();
+        loop {
+            let line = self.wait_event("log", limit, &mut log);
+            let text = line["text"].as_str().unwrap_or_default();
+            assert_ne!(line["dir"], "error", "{text}");
+            if text.starts_with(start) {
+                return;
+            }
+        }
+    }
+
+    /// The state once `ready` holds of it (polled), within `limit`.
+    fn wait_state(&self, served: &Served, what: &str, limit: Duration, ready: impl Fn(&Value) -> bool) -> Value {
+        let end = Instant::now() + limit;
+        loop {
+            let (_, s) = api(served, &self.token, "GET", "/api/state", &Value::Null);
+            if ready(&s) {
+                return s;
+            }
+            assert!(Instant::now() < end, "{what} not reached: {s}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+/// Serve `sim`'s port (with `profile`, when given, chosen), connect with firmware auto and plot a circle; the
+/// connected machine's description and the emulator's trace.
+fn plot_through_the_web_app(sim: SimPty, profile: Option<(&str, &str)>) -> (String, Trace) {
+    let mut args = vec!["--listen", "127.0.0.1:0", "--port", sim.port.as_str()];
+    let path;
+    if let Some((file, _)) = profile {
+        path = sample(file).to_str().expect("utf-8 path").to_string();
+        args.extend(["--profile", path.as_str()]);
+    }
+    let served = Served::start(&args);
+    let page = Page::open(&served);
+    if let Some((_, name)) = profile {
+        let (status, v) = page.post(&served, "/api/profile", json!({ "name": name }));
+        assert_eq!(status, 200, "{v}");
+    }
+    let (status, v) = page.post(&served, "/api/gen", json!({ "spec": "circle?r=10&cx=50&cy=50" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "a prepared drawing", Duration::from_secs(60), |s| !s["prepared"].is_null());
+    let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "auto" }));
+    assert_eq!(status, 200, "{v}");
+    let state = page.wait_state(&served, "connected", Duration::from_secs(60), |s| {
+        !s["machine"]["connected"].is_null() || !s["machine"]["error"].is_null()
+    });
+    let connected = state["machine"]["connected"].as_str().unwrap_or_else(|| panic!("not connected: {state}"));
+    let connected = connected.to_string();
+    // Home and jog go through the connected dialect: 10 mm of X at 80 steps/mm (both profiles) is 800 steps.
+    let (status, v) = page.post(&served, "/api/home", json!({}));
+    assert_eq!(status, 200, "{v}");
+    page.wait_log("homed", Duration::from_secs(60));
+    let homed = page.wait_state(&served, "idle", Duration::from_secs(60), |s| s["machine"]["activity"] == "idle");
+    let x0 = homed["machine"]["position"][0].as_i64().expect("x steps");
+    let (status, v) = page.post(&served, "/api/jog", json!({ "axis": "x", "mm": 10.0 }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_log("position", Duration::from_secs(60));
+    let jogged = page.wait_state(&served, "idle", Duration::from_secs(60), |s| s["machine"]["activity"] == "idle");
+    assert_eq!(jogged["machine"]["position"][0].as_i64(), Some(x0 + 800), "{jogged}");
+    let (status, v) = page.post(&served, "/api/plot", json!({}));
+    assert_eq!(status, 200, "{v}");
+    let mut log = Vec::new();
+    let done = page.wait_event("done", Duration::from_secs(120), &mut log);
+    assert_eq!(done["ok"], true, "{done}; log: {log:#?}");
+    drop(page);
+    drop(served);
+    (connected, sim.stop())
+}
+
+#[test]
+fn the_web_app_plots_on_a_grbl_controller_told_by_auto() {
+    let dir = scratch("serve-grbl");
+    let sim = SimPty::start(&dir, &["--grbl", "--fast"]);
+    let (connected, trace) = plot_through_the_web_app(sim, None);
+    assert!(connected.starts_with("GRBL 1.1"), "{connected}");
+    assert_eq!(SimPty::figure(&trace, "grbl", "errors"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "grbl", "overflow"), Some(0));
+    // The built-in profile: 400 Z steps per mm, pen down at 0 mm, up at 4 mm (1600 steps); the clearance is 1 mm.
+    let moving = trace.pen_down_runs(400).into_iter().filter(|r| r.iter().any(|p| *p != r[0])).count();
+    assert_eq!(moving, 1, "one circle, drawn in one stroke");
+    let last = trace.positions.last().copied().expect("the emulator moved");
+    assert_eq!(last[2], 1600, "the plot ends with the pen up: {last:?}");
+}
+
+#[test]
+fn the_web_app_plots_on_an_eibotboard_told_by_auto() {
+    let dir = scratch("serve-ebb");
+    let sim = SimPty::start(&dir, &["--ebb", "--fast"]);
+    let (connected, trace) = plot_through_the_web_app(sim, Some(("axidraw-v3.toml", "AxiDraw V3 (A4)")));
+    assert!(connected.starts_with("EiBotBoard firmware"), "{connected}");
+    // Auto's probe `$I` is answered with an unknown-command error: that one, nothing else.
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(1));
+    assert_eq!(SimPty::figure(&trace, "ebb", "estops"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1), "the plot ends with the pen up");
+    // The trace's third column is the pen, 1 while up.
+    let moving = trace.pen_down_runs(1).into_iter().filter(|r| r.iter().any(|p| *p != r[0])).count();
+    assert_eq!(moving, 1, "one circle, drawn in one stroke");
+}
+
+#[test]
+fn a_connect_for_an_hpgl_plotter_is_refused_with_the_command_that_drives_one() {
+    let dir = scratch("serve-hpgl");
+    let sim = SimPty::start(&dir, &["--hpgl"]);
+    let served = Served::start(&["--listen", "127.0.0.1:0", "--port", sim.port.as_str()]);
+    let page = Page::open(&served);
+    let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "hpgl" }));
+    assert_eq!(status, 400, "{v}");
+    let message = v["error"].as_str().unwrap_or_default();
+    assert!(message.contains("plotter plot FILE --port PORT --firmware hpgl"), "{v}");
+    let (_, s) = api(&served, &page.token, "GET", "/api/state", &Value::Null);
+    assert!(s["machine"]["connected"].is_null(), "{s}");
+}
