@@ -2,8 +2,9 @@
 //! in front of `plotter sim --pty --grbl` / `--ebb`, connected with firmware `auto` through the HTTP API, plots a
 //! generated circle after a home and a jog through the same connection; the emulator's trace must show pen-down
 //! steps that moved and the pen up at the end. An HP-GL plotter (`plotter sim --pty --hpgl`, the HP 7440A's
-//! 60-byte buffer) is connected with firmware `hpgl`: home and jog are refused, the console speaks HP-GL, and the
-//! circle is streamed without an overflow.
+//! 60-byte buffer) is connected with firmware `hpgl`: home and jog are refused, the console and the pen buttons
+//! speak HP-GL, the circle is streamed without an overflow, and a second plot paused and cancelled from the page
+//! ends with the pen up and put away.
 
 use std::io::{BufRead as _, BufReader, Read as _, Write as _};
 use std::net::TcpStream;
@@ -214,10 +215,14 @@ fn the_web_app_plots_on_an_hpgl_plotter_with_a_60_byte_buffer() {
         assert_eq!(status, 409, "{path}: {v}");
         assert!(v["error"].as_str().unwrap_or_default().contains("no homing cycle"), "{path}: {v}");
     }
-    // The console sends HP-GL: OI is answered with the model.
+    // The console sends HP-GL: OI is answered with the model. The pen lifts with PU.
     let (status, v) = page.post(&served, "/api/console", json!({ "line": "OI;" }));
     assert_eq!(status, 200, "{v}");
     page.wait_log("7475A", Duration::from_secs(30));
+    page.wait_state(&served, "idle", Duration::from_secs(30), |s| s["machine"]["activity"] == "idle");
+    let (status, v) = page.post(&served, "/api/pen", json!({ "down": false }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_log("pen up", Duration::from_secs(30));
     page.wait_state(&served, "idle", Duration::from_secs(30), |s| s["machine"]["activity"] == "idle");
     let (status, v) = page.post(&served, "/api/plot", json!({}));
     assert_eq!(status, 200, "{v}");
@@ -259,4 +264,45 @@ fn the_web_app_plots_on_an_hpgl_plotter_with_a_60_byte_buffer() {
     let length: f64 = pts.windows(2).map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1)).sum();
     let want = std::f64::consts::TAU * 400.0;
     assert!((length / want - 1.0).abs() < 0.01, "{length} units drawn, {want} wanted");
+}
+
+#[test]
+fn an_hpgl_plot_paused_and_cancelled_from_the_page_puts_the_pen_away() {
+    let dir = scratch("serve-hpgl-cancel");
+    let sim = SimPty::start(&dir, &["--hpgl", "--hpgl-buffer", "60", "--fast"]);
+    let served = Served::start(&["--listen", "127.0.0.1:0", "--port", sim.port.as_str()]);
+    let page = Page::open(&served);
+    // A spiral of 40 turns: some 10 kB of HP-GL, several seconds of a 9600-baud line.
+    let (status, v) = page.post(&served, "/api/gen", json!({ "spec": "spiral?r0=5&r1=60&turns=40&cx=100&cy=100" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "a prepared drawing", Duration::from_secs(60), |s| !s["prepared"].is_null());
+    let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "hpgl" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "connected", Duration::from_secs(60), |s| s["machine"]["hpgl"] == true);
+    let (status, v) = page.post(&served, "/api/plot", json!({}));
+    assert_eq!(status, 200, "{v}");
+    let mut log = Vec::new();
+    page.wait_event("progress", Duration::from_secs(30), &mut log);
+    let (status, v) = page.post(&served, "/api/pause", json!({ "now": false }));
+    assert_eq!(status, 200, "{v}");
+    let prompt = page.wait_event("prompt", Duration::from_secs(60), &mut log);
+    assert_eq!(prompt["kind"], "pause", "{prompt}");
+    let paused = page.wait_state(&served, "paused", Duration::from_secs(30), |s| s["machine"]["activity"] == "paused");
+    let percent = paused["progress"]["percent"].as_f64().unwrap_or_default();
+    assert!((0.0..100.0).contains(&percent), "paused at {percent} %: {paused}");
+    let (status, v) = page.post(&served, "/api/cancel", json!({}));
+    assert_eq!(status, 200, "{v}");
+    let done = page.wait_event("done", Duration::from_secs(60), &mut log);
+    assert_eq!(done["ok"], false, "{done}");
+    let message = done["message"].as_str().unwrap_or_default();
+    assert!(message.contains("stopped at the user's request"), "{message}");
+    assert!(message.contains("the pen is up and put away"), "{message}");
+    drop(page);
+    drop(served);
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "hpgl", "overflow"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "hpgl", "errors"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "hpgl", "aborts"), Some(1), "ESC . K once");
+    assert_eq!(SimPty::figure(&trace, "hpgl", "pen_up"), Some(1));
+    assert_eq!(SimPty::figure(&trace, "hpgl", "pen"), Some(0));
 }

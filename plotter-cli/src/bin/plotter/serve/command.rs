@@ -81,8 +81,8 @@ pub(crate) fn hpgl_choice(
 /// Why `what` (home, jog) is refused on an HP-GL plotter.
 pub(crate) fn hpgl_refusal(what: &str) -> String {
     format!(
-        "{what} is not available on an HP-GL plotter: it has no homing cycle and moves only by HP-GL (PU to lift \
-         and move the pen); type PU x,y; in the console to move it"
+        "{what} is not available on an HP-GL plotter: it has no homing cycle and moves only by HP-GL (the pen \
+         buttons send PU; and PD;); type PU x,y; in the console to move it"
     )
 }
 

@@ -20,7 +20,7 @@ use plotter_host::link::console::{console_bytes, shown_reply};
 use plotter_host::link::hpgl::commands::Commands;
 use plotter_host::link::hpgl::port::HpglPort;
 use plotter_host::link::hpgl::sender::HpglSession;
-use plotter_host::link::jog::{Jog, run_jog};
+use plotter_host::link::jog::{Jog, JogTarget, run_jog};
 use plotter_host::link::machine::{Connected, Firmware, PlotMachine, home_machine};
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::sim::SimTransport;
@@ -199,7 +199,17 @@ impl Worker {
                 let at = on_link!(
                     link,
                     c => run_jog(c, &jog, &profile, &mut |l| hub.log("out", l.to_string())),
-                    _h => anyhow::bail!(hpgl_refusal("jog"))
+                    h => {
+                        // The pen lifts and lowers by HP-GL where it stands; moving it is no jog of steps.
+                        let pu_pd = match target {
+                            JogTarget::Up => "PU;",
+                            JogTarget::Down => "PD;",
+                            JogTarget::X | JogTarget::Y | JogTarget::Z => anyhow::bail!(hpgl_refusal("jog")),
+                        };
+                        hub.log("out", pu_pd);
+                        h.session.exchange(pu_pd.as_bytes(), Duration::from_millis(100))?;
+                        Ok(format!("pen {}", if target == JogTarget::Up { "up" } else { "down" }))
+                    }
                 )?;
                 hub.log("info", at);
             }
