@@ -259,6 +259,8 @@ pub struct Trace {
     pub busy_ticks: u64,
     /// Other summary lines (`# …`, without the `# `), e.g. the GRBL emulator's figures.
     pub comments: Vec<String>,
+    /// The HP-GL model's pen-down polylines (`pd x,y x,y …`), plotter units.
+    pub pen_down_lines: Vec<Vec<(i64, i64)>>,
 }
 
 impl Trace {
@@ -269,7 +271,16 @@ impl Trace {
         let mut busy_ticks = 0;
         let mut last_time = None;
         let mut comments = Vec::new();
+        let mut pen_down_lines = Vec::new();
         for l in text.lines() {
+            if let Some(rest) = l.strip_prefix("pd ") {
+                let point = |p: &str| {
+                    let (x, y) = p.split_once(',').expect("x,y");
+                    (x.parse().expect("integer x"), y.parse().expect("integer y"))
+                };
+                pen_down_lines.push(rest.split_whitespace().map(point).collect());
+                continue;
+            }
             if let Some(rest) = l.strip_prefix("# busy_ticks ") {
                 busy_ticks = rest.split_whitespace().next().and_then(|v| v.parse().ok()).expect("busy ticks");
                 continue;
@@ -287,7 +298,7 @@ impl Trace {
             }
             last_time = Some(v[0]);
         }
-        Trace { positions, busy_ticks, comments }
+        Trace { positions, busy_ticks, comments, pen_down_lines }
     }
 
     /// The pen-down runs: maximal sequences of XY positions visited while Z is below `z_threshold` (steps),

@@ -1,8 +1,10 @@
 //! The web app drives a GRBL controller and an EiBotBoard as well as our firmware: `plotter serve --port <pty>`
 //! in front of `plotter sim --pty --grbl` / `--ebb`, connected with firmware `auto` through the HTTP API, plots a
 //! generated circle after a home and a jog through the same connection; the emulator's trace must show pen-down
-//! steps that moved and the pen up at the end. A connect asking for an HP-GL plotter is refused with the command
-//! that drives one.
+//! steps that moved and the pen up at the end. An HP-GL plotter (`plotter sim --pty --hpgl`, the HP 7440A's
+//! 60-byte buffer) is connected with firmware `hpgl`: home and jog are refused, the console and the pen buttons
+//! speak HP-GL, the circle is streamed without an overflow, and a second plot paused and cancelled from the page
+//! ends with the pen up and put away.
 
 use std::io::{BufRead as _, BufReader, Read as _, Write as _};
 use std::net::TcpStream;
@@ -186,15 +188,121 @@ fn the_web_app_plots_on_an_eibotboard_told_by_auto() {
 }
 
 #[test]
-fn a_connect_for_an_hpgl_plotter_is_refused_with_the_command_that_drives_one() {
+fn the_web_app_plots_on_an_hpgl_plotter_with_a_60_byte_buffer() {
     let dir = scratch("serve-hpgl");
-    let sim = SimPty::start(&dir, &["--hpgl"]);
+    let sim = SimPty::start(&dir, &["--hpgl", "--hpgl-buffer", "60", "--fast"]);
     let served = Served::start(&["--listen", "127.0.0.1:0", "--port", sim.port.as_str()]);
     let page = Page::open(&served);
-    let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "hpgl" }));
+    let (status, v) = page.post(&served, "/api/gen", json!({ "spec": "circle?r=10&cx=50&cy=50" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "a prepared drawing", Duration::from_secs(60), |s| !s["prepared"].is_null());
+    // A handshake that is not one is refused before anything is opened.
+    let (status, v) =
+        page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "hpgl", "handshake": "rts" }));
     assert_eq!(status, 400, "{v}");
-    let message = v["error"].as_str().unwrap_or_default();
-    assert!(message.contains("plotter plot FILE --port PORT --firmware hpgl"), "{v}");
+    assert_eq!(v["error"], "handshake \"rts\": use escb, xonxoff or hardware", "{v}");
+    let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "hpgl" }));
+    assert_eq!(status, 200, "{v}");
+    let state = page.wait_state(&served, "connected", Duration::from_secs(60), |s| {
+        !s["machine"]["connected"].is_null() || !s["machine"]["error"].is_null()
+    });
+    let connected = state["machine"]["connected"].as_str().unwrap_or_else(|| panic!("not connected: {state}"));
+    assert!(connected.starts_with("7475A on ") && connected.contains("buffer 60 bytes, handshake escb"), "{connected}");
+    assert_eq!(state["machine"]["hpgl"], true, "{state}");
+    // No homing and no jogging on an HP-GL plotter: refused, with what to do instead.
+    for (path, body) in [("/api/home", json!({})), ("/api/jog", json!({ "axis": "x", "mm": 10.0 }))] {
+        let (status, v) = page.post(&served, path, body);
+        assert_eq!(status, 409, "{path}: {v}");
+        assert!(v["error"].as_str().unwrap_or_default().contains("no homing cycle"), "{path}: {v}");
+    }
+    // The console sends HP-GL: OI is answered with the model. The pen lifts with PU.
+    let (status, v) = page.post(&served, "/api/console", json!({ "line": "OI;" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_log("7475A", Duration::from_secs(30));
+    page.wait_state(&served, "idle", Duration::from_secs(30), |s| s["machine"]["activity"] == "idle");
+    let (status, v) = page.post(&served, "/api/pen", json!({ "down": false }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_log("pen up", Duration::from_secs(30));
+    page.wait_state(&served, "idle", Duration::from_secs(30), |s| s["machine"]["activity"] == "idle");
+    let (status, v) = page.post(&served, "/api/plot", json!({}));
+    assert_eq!(status, 200, "{v}");
+    let mut log = Vec::new();
+    let done = page.wait_event("done", Duration::from_secs(120), &mut log);
+    assert_eq!(done["ok"], true, "{done}; log: {log:#?}");
+    let message = done["message"].as_str().unwrap_or_default();
+    assert!(message.contains("HP-GL commands for the HP 7475A on a4"), "{message}");
     let (_, s) = api(&served, &page.token, "GET", "/api/state", &Value::Null);
-    assert!(s["machine"]["connected"].is_null(), "{s}");
+    let progress = &s["progress"];
+    assert!(progress["total"].as_u64().is_some_and(|t| t > 10), "{s}");
+    assert_eq!(progress["executed"], progress["total"], "{s}");
+    assert_eq!(progress["percent"], 100.0, "{s}");
+    let drawn = progress["draw_done_mm"].as_f64().unwrap_or_default();
+    assert!((drawn / (std::f64::consts::TAU * 10.0) - 1.0).abs() < 0.01, "{drawn} mm pen-down: {s}");
+    drop(page);
+    drop(served);
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "hpgl", "overflow"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "hpgl", "errors"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "hpgl", "pen_up"), Some(1), "the plot ends with the pen up");
+    assert_eq!(SimPty::figure(&trace, "hpgl", "pen"), Some(0), "and the pen put away");
+    // One circle in one stroke: 10 mm is 400 plotter units from its centre (rounding to a unit and the
+    // flattening of the arc leave less than 4), closed, 2π·10 mm = 2513 units round within 1 %.
+    assert_eq!(trace.pen_down_lines.len(), 1, "{:?}", trace.pen_down_lines);
+    let line = &trace.pen_down_lines[0];
+    // Plotter units: far below 2^53.
+    #[allow(clippy::cast_precision_loss)]
+    let pts: Vec<(f64, f64)> = line.iter().map(|&(x, y)| (x as f64, y as f64)).collect();
+    #[allow(clippy::cast_precision_loss)]
+    let n = pts.len() as f64;
+    let centre = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
+    for p in &pts {
+        let r = (p.0 - centre.0).hypot(p.1 - centre.1);
+        assert!((r - 400.0).abs() < 4.0, "{p:?} is {r} units from the centre {centre:?}");
+    }
+    let (first, last) = (pts[0], pts[pts.len() - 1]);
+    assert!((first.0 - last.0).hypot(first.1 - last.1) <= 1.5, "not closed: {first:?} {last:?}");
+    let length: f64 = pts.windows(2).map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1)).sum();
+    let want = std::f64::consts::TAU * 400.0;
+    assert!((length / want - 1.0).abs() < 0.01, "{length} units drawn, {want} wanted");
+}
+
+#[test]
+fn an_hpgl_plot_paused_and_cancelled_from_the_page_puts_the_pen_away() {
+    let dir = scratch("serve-hpgl-cancel");
+    let sim = SimPty::start(&dir, &["--hpgl", "--hpgl-buffer", "60", "--fast"]);
+    let served = Served::start(&["--listen", "127.0.0.1:0", "--port", sim.port.as_str()]);
+    let page = Page::open(&served);
+    // A spiral of 40 turns: some 10 kB of HP-GL, several seconds of a 9600-baud line.
+    let (status, v) = page.post(&served, "/api/gen", json!({ "spec": "spiral?r0=5&r1=60&turns=40&cx=100&cy=100" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "a prepared drawing", Duration::from_secs(60), |s| !s["prepared"].is_null());
+    let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "hpgl" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "connected", Duration::from_secs(60), |s| s["machine"]["hpgl"] == true);
+    let (status, v) = page.post(&served, "/api/plot", json!({}));
+    assert_eq!(status, 200, "{v}");
+    let mut log = Vec::new();
+    page.wait_event("progress", Duration::from_secs(30), &mut log);
+    let (status, v) = page.post(&served, "/api/pause", json!({ "now": false }));
+    assert_eq!(status, 200, "{v}");
+    let prompt = page.wait_event("prompt", Duration::from_secs(60), &mut log);
+    assert_eq!(prompt["kind"], "pause", "{prompt}");
+    let paused = page.wait_state(&served, "paused", Duration::from_secs(30), |s| s["machine"]["activity"] == "paused");
+    let percent = paused["progress"]["percent"].as_f64().unwrap_or_default();
+    assert!((0.0..100.0).contains(&percent), "paused at {percent} %: {paused}");
+    let (status, v) = page.post(&served, "/api/cancel", json!({}));
+    assert_eq!(status, 200, "{v}");
+    let done = page.wait_event("done", Duration::from_secs(60), &mut log);
+    assert_eq!(done["ok"], false, "{done}");
+    let message = done["message"].as_str().unwrap_or_default();
+    assert!(message.contains("stopped at the user's request"), "{message}");
+    assert!(message.contains("the pen is up and put away"), "{message}");
+    drop(page);
+    drop(served);
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "hpgl", "overflow"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "hpgl", "errors"), Some(0));
+    assert_eq!(SimPty::figure(&trace, "hpgl", "aborts"), Some(1), "ESC . K once");
+    assert_eq!(SimPty::figure(&trace, "hpgl", "pen_up"), Some(1));
+    assert_eq!(SimPty::figure(&trace, "hpgl", "pen"), Some(0));
 }

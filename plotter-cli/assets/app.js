@@ -133,11 +133,15 @@ function fillMachine(s) {
     p.replaceChildren(...s.profiles.map((n) => new Option(n, n, false, n === s.profile)));
   }
   const m = s.machine;
-  $('machine-status').innerHTML = '';
-  const status = (m.connected ? m.connected : 'not connected') + ' — <span id="activity"></span>' +
-    (m.position ? ' — position ' + m.position.slice(0, 3).join(', ') + ' steps' : '');
-  $('machine-status').innerHTML = status;
-  $('activity').textContent = m.activity;
+  // Text nodes: the connected name holds what the machine answered (an HP-GL plotter's identity).
+  const activity = document.createElement('span');
+  activity.id = 'activity';
+  activity.textContent = m.activity;
+  $('machine-status').replaceChildren((m.connected ? m.connected : 'not connected') + ' — ', activity,
+    m.position ? ' — position ' + m.position.slice(0, 3).join(', ') + ' steps' : '');
+  // An HP-GL plotter has no homing and no jogging.
+  $('home').disabled = !!m.hpgl;
+  document.querySelectorAll('.jog-btn').forEach((b) => { b.disabled = !!m.hpgl; });
   const plotting = m.activity === 'plotting' || m.activity === 'paused';
   $('plot').disabled = !m.connected || plotting || !s.prepared;
   $('pause').disabled = $('pause-now').disabled = m.activity !== 'plotting';

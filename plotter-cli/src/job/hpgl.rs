@@ -17,9 +17,11 @@
 use std::path::Path;
 use std::time::Duration;
 
-use anyhow::bail;
-use plotter_path::geometry::hpgl_devices::HpglPaper;
+use anyhow::{Context as _, bail};
+use plotter_path::geometry::hpgl_devices::{HpglDevice, HpglPaper};
 use plotter_path::kurbo::Point;
+use plotter_path::output::hpgl_out::{self, HpglProgram};
+use plotter_path::{Drawing, MachineProfile};
 
 use super::progress::{JobProgress, PlotEvents};
 use crate::link::hpgl::HpglLink;
@@ -49,6 +51,39 @@ pub struct HpglOutcome {
     pub draw_mm: f64,
     /// The program's estimated plotter time, s.
     pub estimated_s: f64,
+}
+
+/// The page drawing (mm) as the HP-GL program for `device` with `paper` loaded, or, without one, on the first
+/// of the device's sheets whose plotting area holds the drawing (a device without a sheet table plots on the
+/// drawing's own page). The program's warnings are the caller's to show.
+pub fn program_for(
+    profile: &MachineProfile,
+    drawing: &Drawing,
+    device: &HpglDevice,
+    paper: Option<&HpglPaper>,
+) -> anyhow::Result<(HpglProgram, HpglPaper)> {
+    let papers: Vec<HpglPaper> = match (paper, device.papers.is_empty()) {
+        (Some(p), _) => vec![*p],
+        (None, false) => device.papers.to_vec(),
+        (None, true) => {
+            let (w, h) = drawing.page_mm.or_else(|| drawing.bbox().map(|b| (b.x1, b.y1))).unwrap_or((0.0, 0.0));
+            vec![HpglPaper::generic(w, h)]
+        }
+    };
+    let mut first_error = None;
+    for paper in &papers {
+        match hpgl_out::export(profile, drawing, device, paper) {
+            Ok(p) => return Ok((p, *paper)),
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    let e = first_error.context("the device has no sheets")?;
+    if papers.len() > 1 {
+        bail!("{e} (nor does any other of its sheets hold the drawing: {})", device.paper_names());
+    }
+    Err(e.into())
 }
 
 /// FNV-1a of the program text: the journal's check that a resume rebuilds the same program.

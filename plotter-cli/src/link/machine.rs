@@ -31,7 +31,7 @@ pub enum Firmware {
     /// The EiBotBoard (AxiDraw, NextDraw, iDraw): `LM`/`SM` moves, servo pen.
     Ebb,
     /// A vintage HP-GL plotter (HP 7475A and kin): the HP-GL export streamed under a buffer handshake
-    /// ([`super::hpgl`]); only `plotter plot` drives one.
+    /// ([`super::hpgl`]), driven by `plotter plot` and `plotter serve` through an HP-GL session, not [`Connected`].
     Hpgl,
 }
 

@@ -353,6 +353,25 @@ impl<L: HpglLink> HpglSession<L> {
         Ok(())
     }
 
+    /// A console line: send `text` as HP-GL under the handshake and return the plotter's answers (an `OI;` is
+    /// answered with the model, an `OE;` with the error number), collected until it has been quiet for `quiet`
+    /// (at most 16 answers).
+    pub fn exchange(&mut self, text: &[u8], quiet: Duration) -> anyhow::Result<Vec<String>> {
+        self.settle_space(true)?;
+        self.send(text)?;
+        // An `ESC . B` asked ahead while sending is answered on arrival, before any answer of `text`.
+        self.settle_space(true)?;
+        let mut answers = Vec::new();
+        while answers.len() < 16 {
+            match self.take_answer() {
+                Some(a) => answers.push(a),
+                None if self.pump(quiet)? => {}
+                None => break,
+            }
+        }
+        Ok(answers)
+    }
+
     /// Stop now: `ESC . K` drops what the buffer holds and the instruction under way, then the pen is lifted and
     /// put away (`PU;SP0;`). Returns what was done, for the user.
     pub fn cancel(&mut self) -> anyhow::Result<String> {
@@ -407,6 +426,16 @@ mod tests {
         let e = s.check(Duration::from_secs(60)).unwrap_err().to_string();
         assert!(e.contains("error 16 (input buffer overflow"), "{e}");
         assert!(s.link.model().stats().overflow > 0);
+    }
+
+    #[test]
+    fn a_console_line_gets_the_plotters_answers() {
+        let mut s = HpglSession::connect(link(60, true), "model", device("7475a").unwrap(), Handshake::Escb).unwrap();
+        assert_eq!(s.exchange(b"OI;", Duration::from_millis(500)).unwrap(), vec!["7475A".to_string()]);
+        // A pen-up move answers nothing; the error number after it is 0 (none).
+        assert!(s.exchange(b"PU100,200;", Duration::from_millis(200)).unwrap().is_empty());
+        assert_eq!(s.exchange(b"OE;", Duration::from_millis(500)).unwrap(), vec!["0".to_string()]);
+        assert_eq!(s.link.model().position(), (100, 200));
     }
 
     #[test]

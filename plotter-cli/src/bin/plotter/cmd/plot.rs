@@ -383,48 +383,24 @@ fn hpgl_program(
     plotter_path::geometry::hpgl_devices::HpglPaper,
     usize,
 )> {
-    use plotter_path::geometry::hpgl_devices::{self, HpglPaper};
-    use plotter_path::output::hpgl_out;
+    use plotter_path::geometry::hpgl_devices;
     let device = hpgl_devices::device(&args.hpgl_device).with_context(|| {
         format!("--hpgl-device {}: not a known plotter (known: {})", args.hpgl_device, hpgl_devices::device_names())
     })?;
     let drawing = drawing
         .unwrap_or_else(|| steps.to_drawing(&plotter_path::geometry::steps::StepMapper::new(profile), "trajectory"));
-    let papers: Vec<HpglPaper> = match (&args.hpgl_paper, device.papers.is_empty()) {
-        (Some(name), false) => vec![
-            *device
+    let paper = match (&args.hpgl_paper, device.papers.is_empty()) {
+        (Some(name), false) => Some(
+            device
                 .paper(name)
                 .with_context(|| format!("--hpgl-paper {name}: the {} takes {}", device.name, device.paper_names()))?,
-        ],
+        ),
         (Some(_), true) => bail!("--hpgl-paper: the {} plots on the drawing's own page", device.name),
-        (None, false) => device.papers.to_vec(),
-        (None, true) => {
-            let (w, h) = drawing.page_mm.or_else(|| drawing.bbox().map(|b| (b.x1, b.y1))).unwrap_or((0.0, 0.0));
-            vec![HpglPaper::generic(w, h)]
-        }
+        (None, _) => None,
     };
-    let mut first_error = None;
-    let mut result = None;
-    for paper in &papers {
-        match hpgl_out::export(profile, &drawing, device, paper) {
-            Ok(p) => {
-                result = Some((p, paper));
-                break;
-            }
-            Err(e) => {
-                first_error.get_or_insert(e);
-            }
-        }
-    }
-    let Some((program, paper)) = result else {
-        let e = first_error.context("the device has no sheets")?;
-        if papers.len() > 1 {
-            bail!("{e} (nor does any other of its sheets hold the drawing: {})", device.paper_names());
-        }
-        return Err(e.into());
-    };
+    let (program, paper) = plotter_host::job::hpgl::program_for(profile, &drawing, device, paper)?;
     plotter_host::input::warn_all(&program.warnings);
-    Ok((program, device, *paper, drawing.path_count()))
+    Ok((program, device, paper, drawing.path_count()))
 }
 
 /// `--export FILE.hpgl`: write the HP-GL program.

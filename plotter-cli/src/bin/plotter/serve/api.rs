@@ -24,6 +24,7 @@ use plotter_host::input::{InputArgs, decode_drawing};
 use plotter_host::job::page::view;
 use plotter_host::job::prepare::{LayerChoice, prepare};
 use plotter_host::link::jog::JogTarget;
+use plotter_host::link::machine::Firmware;
 use plotter_host::options::layout::{LayoutArgs, OrientationArg};
 use plotter_host::options::optimize::OptimizeArgs;
 use plotter_host::options::trace::ModeArg;
@@ -34,7 +35,7 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::broadcast::error::RecvError;
 
-use super::command::{Command, firmware_choice};
+use super::command::{Command, firmware_choice, hpgl_choice, hpgl_refusal};
 use super::control;
 use super::deadline::body_deadline;
 use super::error::ApiError;
@@ -557,14 +558,34 @@ async fn upload_profile(
 struct ConnectBody {
     /// `sim`, or one of the listed serial ports.
     target: String,
-    /// The port's firmware: `auto` (default), `ours`, `grbl` or `ebb` ([`firmware_choice`]).
+    /// The port's firmware: `auto` (default), `ours`, `grbl`, `ebb` or `hpgl` ([`firmware_choice`]).
     #[serde(default)]
     firmware: Option<String>,
+    /// HP-GL: the plotter model (default `7475a`) ([`hpgl_choice`]).
+    #[serde(default)]
+    hpgl_device: Option<String>,
+    /// HP-GL: the sheet loaded (default: the first that holds the drawing).
+    #[serde(default)]
+    hpgl_paper: Option<String>,
+    /// HP-GL: `escb` (default), `xonxoff` or `hardware`.
+    #[serde(default)]
+    handshake: Option<String>,
+    /// HP-GL: the line's baud rate (default 9600).
+    #[serde(default)]
+    baud: Option<u32>,
 }
 
 async fn connect(State(shared): State<Arc<Shared>>, Json(b): Json<ConnectBody>) -> ApiResult {
     refuse_while_plotting(&shared)?;
     let firmware = firmware_choice(b.target == "sim", b.firmware.as_deref()).map_err(bad)?;
+    let hpgl = if firmware == Firmware::Hpgl {
+        Some(
+            hpgl_choice(b.hpgl_device.as_deref(), b.hpgl_paper.as_deref(), b.handshake.as_deref(), b.baud)
+                .map_err(bad)?,
+        )
+    } else {
+        None
+    };
     let port = if b.target == "sim" {
         None
     } else {
@@ -577,7 +598,7 @@ async fn connect(State(shared): State<Arc<Shared>>, Json(b): Json<ConnectBody>) 
         Some(b.target)
     };
     let profile = Box::new(shared.lock().profile.clone());
-    shared.command(Command::Connect(port, firmware, profile)).map_err(conflict)?;
+    shared.command(Command::Connect(port, firmware, profile, hpgl)).map_err(conflict)?;
     ok()
 }
 
@@ -664,8 +685,14 @@ async fn answer(State(shared): State<Arc<Shared>>, Json(b): Json<AnswerBody>) ->
     answer_prompt(&shared, Some(b.id), &b.answer)
 }
 
+/// Home and jog move the machine by steps: an HP-GL plotter has neither (see [`hpgl_refusal`]).
+fn refuse_on_hpgl(shared: &Shared, what: &str) -> Result<(), ApiError> {
+    if shared.lock().machine.hpgl { Err(conflict(hpgl_refusal(what))) } else { Ok(()) }
+}
+
 async fn home(State(shared): State<Arc<Shared>>) -> ApiResult {
     ready(&shared)?;
+    refuse_on_hpgl(&shared, "home")?;
     shared.command(Command::Home).map_err(conflict)?;
     ok()
 }
@@ -678,6 +705,7 @@ struct JogBody {
 
 async fn jog(State(shared): State<Arc<Shared>>, Json(b): Json<JogBody>) -> ApiResult {
     ready(&shared)?;
+    refuse_on_hpgl(&shared, "jog")?;
     let target = match b.axis.as_str() {
         "x" => JogTarget::X,
         "y" => JogTarget::Y,

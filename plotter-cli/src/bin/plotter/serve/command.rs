@@ -3,15 +3,17 @@
 use std::sync::Arc;
 
 use plotter_host::job::prepare::Prepared;
+use plotter_host::link::hpgl::handshake::Handshake;
 use plotter_host::link::jog::JogTarget;
 use plotter_host::link::machine::Firmware;
 use plotter_path::MachineProfile;
+use plotter_path::geometry::hpgl_devices::{self, HpglDevice, HpglPaper};
 
 /// What the worker is asked to do.
 pub(crate) enum Command {
     /// Connect to the simulator (`None`, our firmware) or a serial device speaking the firmware (detected when
-    /// [`Firmware::Auto`]), with a profile.
-    Connect(Option<String>, Firmware, Box<MachineProfile>),
+    /// [`Firmware::Auto`]), with a profile; an HP-GL plotter (firmware `hpgl`) with its device and handshake.
+    Connect(Option<String>, Firmware, Box<MachineProfile>, Option<HpglChoice>),
     /// Close the link.
     Disconnect,
     /// Home.
@@ -24,17 +26,77 @@ pub(crate) enum Command {
     Plot(Arc<Prepared>),
 }
 
-/// The firmware a connect request asks for: `auto` (the default, as the CLI's `--firmware`), `ours`, `grbl` or
-/// `ebb`. The built-in simulator runs our firmware only; an HP-GL plotter is refused here (only `plotter plot`
-/// drives one). The error says why, for the page.
+/// How to drive an HP-GL plotter: the device the program is written for (as the CLI's `--hpgl-device`), the
+/// sheet loaded (`None`: the first of the device's sheets that holds the drawing) and the buffer handshake.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct HpglChoice {
+    /// The plotter model.
+    pub(crate) device: &'static HpglDevice,
+    /// The sheet loaded.
+    pub(crate) paper: Option<HpglPaper>,
+    /// How the sender keeps its buffer from overflowing.
+    pub(crate) handshake: Handshake,
+    /// The line's baud rate (9600 unless asked, as `plotter plot --firmware hpgl`).
+    pub(crate) baud: u32,
+}
+
+/// What a connect request for an HP-GL plotter names: `hpgl_device` (default `7475a`, as the CLI),
+/// `hpgl_paper` (default: the first sheet that holds the drawing), `handshake` (default `escb`) and `baud`
+/// (default 9600). The error names the field and the choices, for the page.
+pub(crate) fn hpgl_choice(
+    device: Option<&str>,
+    paper: Option<&str>,
+    handshake: Option<&str>,
+    baud: Option<u32>,
+) -> Result<HpglChoice, String> {
+    use clap::ValueEnum as _;
+    let name = device.map_or("7475a", str::trim);
+    let device = hpgl_devices::device(name).ok_or_else(|| {
+        format!("hpgl_device {name:?}: not a known plotter (known: {})", hpgl_devices::device_names())
+    })?;
+    let paper = match paper.map(str::trim) {
+        None => None,
+        Some(_) if device.papers.is_empty() => {
+            return Err(format!("hpgl_paper: the {} plots on the drawing's own page", device.name));
+        }
+        Some(p) => Some(
+            *device
+                .paper(p)
+                .ok_or_else(|| format!("hpgl_paper {p:?}: the {} takes {}", device.name, device.paper_names()))?,
+        ),
+    };
+    let handshake = match handshake.map(str::trim) {
+        None => Handshake::default(),
+        Some(h) => {
+            Handshake::from_str(h, true).map_err(|_| format!("handshake {h:?}: use escb, xonxoff or hardware"))?
+        }
+    };
+    let baud = baud.unwrap_or(9600);
+    if !(300..=1_000_000).contains(&baud) {
+        return Err(format!("baud {baud}: give 300 to 1000000"));
+    }
+    Ok(HpglChoice { device, paper, handshake, baud })
+}
+
+/// Why `what` (home, jog) is refused on an HP-GL plotter.
+pub(crate) fn hpgl_refusal(what: &str) -> String {
+    format!(
+        "{what} is not available on an HP-GL plotter: it has no homing cycle and moves only by HP-GL (the pen \
+         buttons send PU; and PD;); type PU x,y; in the console to move it"
+    )
+}
+
+/// The firmware a connect request asks for: `auto` (the default, as the CLI's `--firmware`), `ours`, `grbl`,
+/// `ebb` or `hpgl`. The built-in simulator runs our firmware only. The error says why, for the page.
 pub(crate) fn firmware_choice(simulator: bool, name: Option<&str>) -> Result<Firmware, String> {
     use clap::ValueEnum as _;
     let name = name.map_or("auto", str::trim);
-    let firmware =
-        Firmware::from_str(name, true).map_err(|_| format!("unknown firmware {name:?} (auto, ours, grbl, ebb)"))?;
+    let firmware = Firmware::from_str(name, true)
+        .map_err(|_| format!("unknown firmware {name:?} (auto, ours, grbl, ebb, hpgl)"))?;
     match firmware {
-        Firmware::Hpgl => Err("an HP-GL plotter is not driven from the web app: plot it with \
-                               `plotter plot FILE --port PORT --firmware hpgl`"
+        Firmware::Hpgl if simulator => Err("the built-in simulator runs plotter-fw, not an HP-GL plotter: serve the \
+                                            model with `plotter sim --pty --hpgl` and pass its port to `plotter \
+                                            serve --port`"
             .into()),
         Firmware::Grbl | Firmware::Ebb if simulator => Err(format!(
             "the built-in simulator runs plotter-fw, not {name}: serve an emulator with `plotter sim --pty --{name}` \
@@ -55,13 +117,32 @@ mod tests {
         assert_eq!(firmware_choice(false, Some("ebb")), Ok(Firmware::Ebb));
         assert_eq!(firmware_choice(true, Some("ours")), Ok(Firmware::Ours));
         assert_eq!(firmware_choice(true, None), Ok(Firmware::Auto));
-        let hpgl = firmware_choice(false, Some("hpgl")).unwrap_err();
-        assert!(hpgl.contains("plotter plot FILE --port PORT --firmware hpgl"), "{hpgl}");
+        assert_eq!(firmware_choice(false, Some("hpgl")), Ok(Firmware::Hpgl));
+        let hpgl = firmware_choice(true, Some("hpgl")).unwrap_err();
+        assert!(hpgl.contains("plotter sim --pty --hpgl"), "{hpgl}");
         let sim = firmware_choice(true, Some("ebb")).unwrap_err();
         assert!(sim.contains("plotter sim --pty --ebb"), "{sim}");
         assert_eq!(
             firmware_choice(false, Some("marlin")).unwrap_err(),
-            "unknown firmware \"marlin\" (auto, ours, grbl, ebb)"
+            "unknown firmware \"marlin\" (auto, ours, grbl, ebb, hpgl)"
         );
+    }
+
+    #[test]
+    fn hpgl_choices() {
+        let c = hpgl_choice(None, None, None, None).unwrap();
+        assert_eq!((c.device.name, c.paper, c.handshake, c.baud), ("HP 7475A", None, Handshake::Escb, 9600));
+        let c = hpgl_choice(Some("7550a"), Some("a3"), Some("XonXoff"), Some(19200)).unwrap();
+        assert_eq!(c.baud, 19200);
+        assert_eq!((c.device.name, c.paper.map(|p| p.name), c.handshake), ("HP 7550A", Some("a3"), Handshake::Xonxoff));
+        let e = hpgl_choice(Some("7470b"), None, None, None).unwrap_err();
+        assert!(e.starts_with("hpgl_device \"7470b\": not a known plotter (known: "), "{e}");
+        let e = hpgl_choice(None, Some("a0"), None, None).unwrap_err();
+        assert!(e.starts_with("hpgl_paper \"a0\": the HP 7475A takes "), "{e}");
+        assert_eq!(
+            hpgl_choice(None, None, Some("rts"), None).unwrap_err(),
+            "handshake \"rts\": use escb, xonxoff or hardware"
+        );
+        assert_eq!(hpgl_choice(None, None, None, Some(0)).unwrap_err(), "baud 0: give 300 to 1000000");
     }
 }

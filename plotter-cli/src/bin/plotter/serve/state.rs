@@ -162,6 +162,8 @@ pub(crate) struct MachineState {
     pub(crate) activity: &'static str,
     /// Position in steps, last known.
     pub(crate) position: Option<[i32; 4]>,
+    /// The connected machine is an HP-GL plotter (no homing, no jogging; the console speaks HP-GL).
+    pub(crate) hpgl: bool,
     /// Last error.
     pub(crate) error: Option<String>,
 }
@@ -271,7 +273,7 @@ impl Shared {
                 view_version: 0,
                 profile,
                 uploaded_profile: None,
-                machine: MachineState { connected: None, activity: "idle", position: None, error: None },
+                machine: MachineState { connected: None, activity: "idle", position: None, hpgl: false, error: None },
                 progress: None,
                 prompt: None,
                 stepped: None,

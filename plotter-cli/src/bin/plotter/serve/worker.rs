@@ -1,6 +1,8 @@
 //! The machine worker: one thread owns the link to the plotter (a serial port speaking our firmware, GRBL or an
 //! EiBotBoard's EBB commands, or the simulator of our firmware paced to the wall clock) and runs what the HTTP side asks — connect, home, jog, console lines, and plots through
-//! [`plotter_host::job::plot`] — reporting to every page through the event hub. A plot's pause, resume and cancel
+//! [`plotter_host::job::plot`] — reporting to every page through the event hub. An HP-GL plotter is a session of
+//! its own ([`HpglSession`]): its plots are the HP-GL export streamed by [`plotter_host::job::hpgl::plot`] with the
+//! same progress, pause and cancel; it has no homing and no jogging. A plot's pause, resume and cancel
 //! requests and prompt answers reach it through [`super::state::PlotControl`], which [`WebEvents`] reads.
 
 use std::sync::Arc;
@@ -12,11 +14,14 @@ use plotter_host::job::prepare::Prepared;
 use plotter_host::job::progress::{JobProgress, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self};
-use plotter_host::link::Transport as _;
+use plotter_host::link::Transport;
 use plotter_host::link::connect::open_port;
 use plotter_host::link::console::{console_bytes, shown_reply};
-use plotter_host::link::jog::{Jog, run_jog};
-use plotter_host::link::machine::{Connected, Firmware, home_machine};
+use plotter_host::link::hpgl::commands::Commands;
+use plotter_host::link::hpgl::port::HpglPort;
+use plotter_host::link::hpgl::sender::HpglSession;
+use plotter_host::link::jog::{Jog, JogTarget, run_jog};
+use plotter_host::link::machine::{Connected, Firmware, PlotMachine, home_machine};
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::sim::SimTransport;
 use plotter_host::link::stream::PauseChoice;
@@ -24,24 +29,32 @@ use plotter_path::MachineProfile;
 use plotter_path::motion::plan;
 use serde::Serialize;
 
-use super::command::Command;
-use super::events::{Event, ProgressEvent, Prompt};
+use super::command::{Command, HpglChoice, hpgl_refusal};
+use super::events::{Event, Hub, ProgressEvent, Prompt};
 use super::paced::PacedSim;
 use super::state::Shared;
 
 /// The open link (boxed: the simulator is large, and the link moves only when it opens): the simulator runs our
-/// firmware; a serial port any dialect [`Connected`] speaks.
+/// firmware; a serial port any dialect [`Connected`] speaks, or an HP-GL plotter's session.
 enum Link {
     Sim(Box<Connected<PacedSim>>),
     Serial(Box<Connected<SerialTransport>>),
+    Hpgl(Box<Hpgl>),
 }
 
-/// Run `$body` with `$c` bound to the connection, whichever the transport.
+/// An HP-GL plotter: the session and how its programs are written.
+struct Hpgl {
+    session: HpglSession<HpglPort>,
+    choice: HpglChoice,
+}
+
+/// Run `$body` with `$c` bound to the connection, whichever the transport; `$hpgl` for an HP-GL plotter.
 macro_rules! on_link {
-    ($link:expr, $c:ident => $body:expr) => {
+    ($link:expr, $c:ident => $body:expr, $h:ident => $hpgl:expr) => {
         match $link {
             Link::Sim($c) => $body,
             Link::Serial($c) => $body,
+            Link::Hpgl($h) => $hpgl,
         }
     };
 }
@@ -76,25 +89,34 @@ impl Worker {
     fn handle(&mut self, c: Command) {
         self.shared.lock().machine.error = None;
         match c {
-            Command::Connect(port, firmware, profile) => {
+            Command::Connect(port, firmware, profile, hpgl) => {
                 self.link = None;
+                {
+                    let mut i = self.shared.lock();
+                    i.machine.connected = None;
+                    i.machine.hpgl = false;
+                }
                 self.set_activity("connecting");
                 self.profile = *profile;
-                match self.connect(port.as_deref(), firmware) {
+                match self.connect(port.as_deref(), firmware, hpgl) {
                     Ok((link, name)) => {
                         self.shared.hub.log("info", format!("connected to {name}"));
+                        let is_hpgl = matches!(link, Link::Hpgl(_));
                         self.link = Some(link);
-                        self.shared.lock().machine.connected = Some(name);
+                        let mut i = self.shared.lock();
+                        i.machine.connected = Some(name);
+                        i.machine.hpgl = is_hpgl;
                     }
-                    Err(e) => {
-                        self.shared.lock().machine.connected = None;
-                        self.fail("cannot connect", &e);
-                    }
+                    Err(e) => self.fail("cannot connect", &e),
                 }
             }
             Command::Disconnect => {
                 self.link = None;
-                self.shared.lock().machine.connected = None;
+                {
+                    let mut i = self.shared.lock();
+                    i.machine.connected = None;
+                    i.machine.hpgl = false;
+                }
                 self.shared.hub.log("info", "disconnected");
             }
             Command::Plot(prepared) => {
@@ -112,7 +134,26 @@ impl Worker {
         self.set_activity("idle");
     }
 
-    fn connect(&self, port: Option<&str>, firmware: Firmware) -> anyhow::Result<(Link, String)> {
+    fn connect(
+        &self,
+        port: Option<&str>,
+        firmware: Firmware,
+        hpgl: Option<HpglChoice>,
+    ) -> anyhow::Result<(Link, String)> {
+        if let (Some(p), Some(choice)) = (port, hpgl) {
+            let session = HpglSession::connect(HpglPort::open(p, choice.baud)?, p, choice.device, choice.handshake)?;
+            for w in &session.warnings {
+                self.shared.hub.log("error", format!("warning: {w}"));
+            }
+            let name = format!(
+                "{} on {p} (HP-GL, buffer {} bytes, handshake {}; programs for the {})",
+                session.identity,
+                session.buffer_bytes,
+                choice.handshake.name(),
+                choice.device.name
+            );
+            return Ok((Link::Hpgl(Box::new(Hpgl { session, choice })), name));
+        }
         let cfg = plan::machine_config(&self.profile)?;
         Ok(match port {
             None => {
@@ -138,7 +179,7 @@ impl Worker {
 
     fn refresh_position(&mut self) {
         let Some(link) = self.link.as_mut() else { return };
-        if let Ok(p) = on_link!(link, c => c.machine().position()) {
+        if let Ok(p) = on_link!(link, c => c.machine().position(), _h => return) {
             self.shared.lock().machine.position = Some(p);
         }
     }
@@ -150,26 +191,37 @@ impl Worker {
         match c {
             Command::Home => {
                 hub.log("out", "home");
-                let at = on_link!(link, c => home_machine(c.machine()))?;
+                let at = on_link!(link, c => home_machine(c.machine()), _h => anyhow::bail!(hpgl_refusal("home")))?;
                 hub.log("info", format!("homed; position {at:?} steps"));
             }
             Command::Jog(target, distance) => {
                 let jog = Jog { target, distance, feed: None };
-                let at = on_link!(link, c => run_jog(c, &jog, &profile, &mut |l| hub.log("out", l.to_string())))?;
+                let at = on_link!(
+                    link,
+                    c => run_jog(c, &jog, &profile, &mut |l| hub.log("out", l.to_string())),
+                    h => {
+                        // The pen lifts and lowers by HP-GL where it stands; moving it is no jog of steps.
+                        let pu_pd = match target {
+                            JogTarget::Up => "PU;",
+                            JogTarget::Down => "PD;",
+                            JogTarget::X | JogTarget::Y | JogTarget::Z => anyhow::bail!(hpgl_refusal("jog")),
+                        };
+                        hub.log("out", pu_pd);
+                        h.session.exchange(pu_pd.as_bytes(), Duration::from_millis(100))?;
+                        Ok(format!("pen {}", if target == JogTarget::Up { "up" } else { "down" }))
+                    }
+                )?;
                 hub.log("info", at);
             }
             Command::Console(line) => {
                 hub.log("out", line.clone());
-                let firmware = on_link!(link, c => c.machine().firmware());
-                on_link!(link, c => c.transport().send(&console_bytes(&line)))?;
-                // Show the answers until the machine has been quiet for a moment.
-                let deadline = Instant::now() + Duration::from_secs(5);
-                while Instant::now() < deadline {
-                    match on_link!(link, c => c.transport().recv_line(Duration::from_millis(300)))? {
-                        Some(l) => hub.log("in", shown_reply(&l, firmware)),
-                        None => break,
+                on_link!(link, c => console_line(c, &line, &hub), h => {
+                    // HP-GL as typed, under the buffer handshake; the answers (OI, OE, …) as they come.
+                    for a in h.session.exchange(line.as_bytes(), Duration::from_millis(300))? {
+                        hub.log("in", a);
                     }
-                }
+                    Ok(())
+                })?;
             }
             Command::Connect(..) | Command::Disconnect | Command::Plot(_) => {}
         }
@@ -190,9 +242,22 @@ impl Worker {
         };
         let mut events = WebEvents { shared: Arc::clone(&shared), last_sent: None, prompt_id: 0 };
         let profile = &self.profile;
-        let result = plan::check_work_area(profile, &prepared.steps).map_err(plotter_host::Error::from).and_then(
-            |()| on_link!(link, c => job::plot(c.machine(), profile, &prepared.steps, true, false, None, &mut events)),
-        );
+        let machine: &mut dyn PlotMachine = match &mut *link {
+            Link::Hpgl(h) => {
+                let result = plot_hpgl(h, profile, prepared, &mut events, &shared.hub);
+                events.flush();
+                match result {
+                    Ok(message) => self.done(true, message, false),
+                    Err(e) => self.done(false, format!("plot stopped: {e:#}"), false),
+                }
+                return;
+            }
+            Link::Sim(c) => c.machine(),
+            Link::Serial(c) => c.machine(),
+        };
+        let result = plan::check_work_area(profile, &prepared.steps)
+            .map_err(plotter_host::Error::from)
+            .and_then(|()| job::plot(machine, profile, &prepared.steps, true, false, None, &mut events));
         events.flush();
         match result {
             Ok(outcome) => {
@@ -232,6 +297,54 @@ impl Worker {
         self.shared.hub.log(if ok { "info" } else { "error" }, message.clone());
         self.shared.hub.send(Event::new("done", &Done { ok, message, stepped }));
     }
+}
+
+/// Plot `prepared` on an HP-GL plotter: its page drawing exported for the chosen device and sheet, streamed
+/// command by command with the page's progress, pause and cancel (no journal, as the other dialects here). The
+/// message for the page.
+fn plot_hpgl(
+    h: &mut Hpgl,
+    profile: &MachineProfile,
+    prepared: &Prepared,
+    events: &mut WebEvents,
+    hub: &Hub,
+) -> anyhow::Result<String> {
+    let device = h.choice.device;
+    let (program, paper) = job::hpgl::program_for(profile, &prepared.drawing, device, h.choice.paper.as_ref())?;
+    for w in &program.warnings {
+        hub.log("error", format!("warning: {w}"));
+    }
+    let cmds = Commands::split(&program.text, device);
+    let o = job::hpgl::plot(&mut h.session, &cmds, &paper, 0, None, None, events)?;
+    Ok(format!(
+        "done: {} HP-GL commands for the {} on {}, {:.1} mm pen-down; {} bytes in {:.1} s ({} ESC . B queries, {} \
+         Xoffs, {} waits for room; the program's estimated plotter time {:.1} s)",
+        o.commands,
+        device.name,
+        paper.name,
+        o.draw_mm,
+        o.stats.bytes,
+        o.seconds,
+        o.stats.space_queries,
+        o.stats.xoffs,
+        o.stats.waits,
+        o.estimated_s
+    ))
+}
+
+/// Send a console line to a machine of the line-based dialects and show its answers until it has been quiet for a
+/// moment.
+fn console_line<T: Transport + 'static>(c: &mut Connected<T>, line: &str, hub: &Hub) -> anyhow::Result<()> {
+    let firmware = c.machine().firmware();
+    c.transport().send(&console_bytes(line))?;
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while Instant::now() < deadline {
+        match c.transport().recv_line(Duration::from_millis(300))? {
+            Some(l) => hub.log("in", shown_reply(&l, firmware)),
+            None => break,
+        }
+    }
+    Ok(())
 }
 
 /// The page's side of a plot: progress to every page, pause and cancel from the controlling one.
