@@ -1165,14 +1165,18 @@ mod tests {
         assert_eq!(s.transport.emulator().pen().servo_deg, Some(90.0));
     }
 
-    #[test]
-    fn a_silent_controller_is_reported_with_what_to_do() {
+    /// A session on `/dev/ttyUSB0` whose port goes away after 1500 bytes.
+    fn vanishing_session() -> GrblSession<EmulatorTransport> {
         let profile = MachineProfile::default_plotter();
         let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
         let emu =
             GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
-        let mut s =
-            GrblSession::connect(EmulatorTransport::new(emu).vanish_after(1500), "/dev/ttyUSB0", &profile).unwrap();
+        GrblSession::connect(EmulatorTransport::new(emu).vanish_after(1500), "/dev/ttyUSB0", &profile).unwrap()
+    }
+
+    #[test]
+    fn a_silent_controller_is_reported_with_what_to_do() {
+        let mut s = vanishing_session();
         let plan = plan_for(&mut s);
         let _ = s.stream(&plan, &mut User::default()).unwrap_err();
         let e = format!("{:#}", s.stop_and_lift().unwrap_err());
@@ -1182,12 +1186,7 @@ mod tests {
 
     #[test]
     fn a_vanished_port_is_a_clear_error() {
-        let profile = MachineProfile::default_plotter();
-        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
-        let emu =
-            GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
-        let mut s =
-            GrblSession::connect(EmulatorTransport::new(emu).vanish_after(1500), "/dev/ttyUSB0", &profile).unwrap();
+        let mut s = vanishing_session();
         let plan = plan_for(&mut s);
         let e = s.stream(&plan, &mut Record::default()).unwrap_err().to_string();
         assert!(e.contains("lost the connection to /dev/ttyUSB0") && e.contains("unplugged"), "{e}");
