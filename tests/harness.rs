@@ -41,6 +41,21 @@ pub fn plotter(dir: &Path, args: &[&str]) -> Output {
     Command::new(plotter_bin()).args(args).current_dir(dir).output().expect("plotter runs")
 }
 
+/// [`plotter`] with `input` on its standard input (e.g. one line per pen-change prompt).
+pub fn plotter_with_input(dir: &Path, args: &[&str], input: &str) -> Output {
+    use std::io::Write as _;
+    let mut child = Command::new(plotter_bin())
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("plotter runs");
+    child.stdin.take().expect("stdin").write_all(input.as_bytes()).expect("write plotter's input");
+    child.wait_with_output().expect("plotter exits")
+}
+
 /// A fresh scratch directory for one test.
 pub fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("plotter-e2e-{}-{name}", std::process::id()));

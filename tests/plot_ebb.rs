@@ -3,11 +3,10 @@
 //! `LM`/`SP` commands to it. The emulator's trace (motor positions after every step, the pen state, the motion
 //! time) tells whether the board ran the plan in the planned time, closed closed curves, and ended with the pen up.
 
-use std::io::Write as _;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use plotter_e2e::{SimPty, Trace, plotter_bin, sample, scratch};
+use plotter_e2e::{SimPty, Trace, plotter_bin, plotter_with_input, sample, scratch};
 
 /// The profile's pen settle, s: `home` raises the pen with it (and enables the motors, one interval) before the
 /// plan starts, so the board's motion time is the plan's plus this.
@@ -19,16 +18,7 @@ fn axidraw() -> String {
 
 /// Run a plot; returns (success, stdout, stderr). `answers` go to stdin (one line per pen-change prompt).
 fn plot(dir: &std::path::Path, args: &[&str], answers: &str) -> (bool, String, String) {
-    let mut child = Command::new(plotter_bin())
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("plotter runs");
-    child.stdin.take().expect("stdin").write_all(answers.as_bytes()).expect("answers");
-    let out = child.wait_with_output().expect("plotter exits");
+    let out = plotter_with_input(dir, args, answers);
     (
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
