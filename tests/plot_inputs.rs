@@ -43,3 +43,29 @@ fn exports_step_exactly_like_the_svg() {
     stdout_of(&plotter(&dir, &["plot", "s.gcode", "--no-optimize", "--export", "s2.traj"]));
     assert_eq!(std::fs::read(dir.join("s.traj")).unwrap(), std::fs::read(dir.join("s2.traj")).unwrap());
 }
+
+#[test]
+fn gcode_plays_as_written_with_its_own_lifts_and_dwells() {
+    let dir = scratch("as-written");
+    // vpype-gcode style pen moves on the kit (Z 400 steps/mm, 25 mm/s, 500 mm/s²; pen up at Z 4 after homing):
+    // drop at F1500, settle `G4 P0.05` (seconds, as GRBL reads it), rapid back up. Each Z move from rest to rest:
+    // 25 mm/s = 10 000 steps/s, sent as 9984 (the wire's 64 steps/s rate quantum), ramps 9984/200 000 s = 49.92 ms
+    // over 249.2 steps, cruise (1600 − 498.4)/9984 s = 110.34 ms: 210.18 ms; in all 2·210.18 + 50 = 470.35 ms.
+    std::fs::write(dir.join("lift.gcode"), "G21\nG90\nG1 Z0 F1500\nG4 P0.05\nG0 Z4\nM2\n").unwrap();
+    let out = stdout_of(&plotter(&dir, &["plot", "lift.gcode", "--as-written"]));
+    assert!(out.contains("3 blocks as written; planned time 0.470 s, executed 0.470 s"), "{out}");
+    // A file that ends with the pen down gets it raised, and says so.
+    std::fs::write(dir.join("down.gcode"), "G1 Z0 F1500\nG1 X10 F600\n").unwrap();
+    let out = plotter(&dir, &["plot", "down.gcode", "--as-written"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && err.contains("ended with the pen below its up height: raising it"), "{err}");
+    // What a plotter cannot play is refused with the line; so is a servo profile and a move past the travel.
+    std::fs::write(dir.join("e.gcode"), "G1 X1\nG1 X2 E0.5\n").unwrap();
+    let out = plotter(&dir, &["plot", "e.gcode", "--as-written"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("e.gcode:2") && err.contains("no extruder"), "{err}");
+    std::fs::write(dir.join("far.gcode"), "G1 X1\nG0 X5000\n").unwrap();
+    let out = plotter(&dir, &["plot", "far.gcode", "--as-written"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("line 2") && err.contains("outside the travel"), "{err}");
+}

@@ -243,14 +243,14 @@ impl plotter_host::link::print::PrintControl for Notes {
 /// `gcode` printed by the library's print path on the simulated printer; `check` sees the simulator afterwards.
 /// Returns the streamer's result (the error with its causes).
 fn print_on_sim(gcode: &str, check: impl FnOnce(&Sim)) -> Result<plotter_host::link::print::PrintStats, String> {
-    use plotter_host::link::print::{PrinterSim, stream_print};
+    use plotter_host::link::print::{Played, PrinterSim, stream_print};
     use plotter_host::link::session::Session;
     let (profile, cfg) = printer();
     let program = import_print(gcode, "t.gcode", &profile).unwrap();
     let plan = plan_print(&profile, &program).unwrap();
     let transport = PrinterSim::new(cfg, thermal_config(&profile).unwrap(), Vec::new());
     let mut session = Session::connect(transport, "simulated printer").unwrap();
-    let result = stream_print(&mut session, &plan, &mut Notes::default());
+    let result = stream_print(&mut session, &plan, Played::Printer, &mut Notes::default());
     check(session.transport.sim());
     result.map_err(|e| format!("{e:#}"))
 }

@@ -113,6 +113,35 @@ pub trait PrintControl {
     fn progress(&mut self, p: &PrintProgress);
     /// Something to tell the user (a refused line, a firmware message).
     fn note(&mut self, message: &str);
+    /// Whether the user asked to stop (Ctrl-C): the stream then ends early, as after an error (see
+    /// [`stream_print`]). Asked between replies, at least every 200 ms.
+    fn stop_requested(&mut self) -> bool {
+        false
+    }
+}
+
+/// The machine a [`PrintPlan`] is streamed to, which decides how it starts and how an early end makes it safe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Played {
+    /// A printer: temperature reports are switched on first; an early end switches the heaters and the fan off.
+    Printer,
+    /// A Z-lift pen plotter playing G-code as written (no heaters): an early end raises the pen to `up_z_mm`
+    /// (machine coordinates), and so does a program that ends with the pen below it.
+    Plotter {
+        /// The pen-up height, mm.
+        up_z_mm: f64,
+        /// Z steps per mm (to read the plan's end position).
+        z_steps_per_mm: f64,
+    },
+}
+
+impl Played {
+    fn noun(self) -> &'static str {
+        match self {
+            Self::Printer => "printer",
+            Self::Plotter { .. } => "plotter",
+        }
+    }
 }
 
 /// Figures of a finished print.
@@ -138,36 +167,62 @@ fn refusal_ends_print(text: &str) -> bool {
     matches!(command, "M104" | "M109" | "M140" | "M190" | "M303" | "G28")
 }
 
-/// Stream `plan` over `session`; `control` gets the progress. When the print ends early (see the module docs), the
-/// machine is stopped and its heaters switched off before the error returns.
+/// Stream `plan` over `session` to `machine`; `control` gets the progress. When the stream ends early (see the
+/// module docs; also when `control` asks to stop), the machine is stopped and made safe — a printer's heaters
+/// switched off, a plotter's pen raised — before the error returns. A plotter program that ends with the pen down
+/// gets its pen raised too (with a note).
 pub fn stream_print<T: Transport>(
     session: &mut Session<T>,
     plan: &PrintPlan,
+    machine: Played,
     control: &mut dyn PrintControl,
 ) -> anyhow::Result<PrintStats> {
-    stream(session, plan, control).map_err(|why| match shut_down(session) {
-        Ok(()) => anyhow::anyhow!("{why:#}; print stopped: motion stopped, heaters and fan off"),
-        Err(e) => anyhow::anyhow!(
+    let stats = stream(session, plan, machine, control).map_err(|why| match (machine, shut_down(session, machine)) {
+        (Played::Printer, Ok(())) => anyhow::anyhow!("{why:#}; print stopped: motion stopped, heaters and fan off"),
+        (Played::Printer, Err(e)) => anyhow::anyhow!(
             "{why:#}; print stopped, but the heaters could not be switched off ({e:#}): switch the printer off"
         ),
-    })
+        (Played::Plotter { .. }, Ok(())) => anyhow::anyhow!("{why:#}; plot stopped: motion stopped, pen up"),
+        (Played::Plotter { .. }, Err(e)) => anyhow::anyhow!(
+            "{why:#}; plot stopped, but the pen could not be raised ({e:#}): lift it by hand before moving the carriage"
+        ),
+    })?;
+    if let Played::Plotter { up_z_mm, z_steps_per_mm } = machine {
+        // The plan's end is in steps; half a step of slack for the rounding of the height.
+        if f64::from(plan.end[2]) < up_z_mm * z_steps_per_mm - 0.5 {
+            control.note("the program ended with the pen below its up height: raising it");
+            session.command_checked(&format!("G90 G0 Z{up_z_mm:.3}"), COMMAND_TIMEOUT)?;
+            session.wait_idle(Duration::from_millis(50))?;
+        }
+    }
+    Ok(stats)
 }
 
-/// After an early end: reset (motion stops, the queue is dropped), then heaters and fan off, each checked.
-fn shut_down<T: Transport>(session: &mut Session<T>) -> anyhow::Result<()> {
-    session.reset()?;
-    for off in ["M104 S0", "M140 S0", "M107"] {
-        session.command(off, COMMAND_TIMEOUT)?;
+/// After an early end: reset (motion stops, the queue is dropped), then make the machine safe — heaters and fan off
+/// (a printer), the pen raised (a plotter) — each checked.
+fn shut_down<T: Transport>(session: &mut Session<T>, machine: Played) -> anyhow::Result<()> {
+    match machine {
+        Played::Printer => {
+            session.reset()?;
+            for off in ["M104 S0", "M140 S0", "M107"] {
+                session.command(off, COMMAND_TIMEOUT)?;
+            }
+            Ok(())
+        }
+        Played::Plotter { up_z_mm, .. } => session.stop_and_lift(up_z_mm),
     }
-    Ok(())
 }
 
 fn stream<T: Transport>(
     session: &mut Session<T>,
     plan: &PrintPlan,
+    machine: Played,
     control: &mut dyn PrintControl,
 ) -> anyhow::Result<PrintStats> {
-    session.command_checked("M155 S1", COMMAND_TIMEOUT).context("cannot switch on the temperature reports")?;
+    if machine == Played::Printer {
+        session.command_checked("M155 S1", COMMAND_TIMEOUT).context("cannot switch on the temperature reports")?;
+    }
+    let noun = machine.noun();
     let base = session.status()?.seq;
     let wire = wire_items(plan, base).map_err(|e| anyhow::anyhow!(e))?;
     let rx = session.info.rx_bytes;
@@ -195,6 +250,7 @@ fn stream<T: Transport>(
     let mut last_heard = t.now();
     let mut last_status = t.now();
     let mut done_sending = false;
+    let mut stalled = false;
     loop {
         if rewind.is_none() {
             while next < n && inflight_bytes + wire[next].len() <= rx {
@@ -213,13 +269,30 @@ fn stream<T: Transport>(
             t.send(&[RT_STATUS])?;
             last_status = t.now();
         }
+        if control.stop_requested() {
+            bail!("stopped by the user at item {} of {n}", progress.accepted);
+        }
+        let waited_from = t.now();
         let Some(line) = t.recv_line(Duration::from_millis(200))? else {
+            if t.now() == waited_from {
+                // A simulator with nothing left to run (no heaters keep its time going): time stands still, so the
+                // status is asked for at once — its answer ends the wait once the machine is idle. Silence twice
+                // in a row with the clock stopped means nothing will ever answer.
+                if stalled {
+                    bail!("the firmware stopped answering (item {} of {n})", progress.accepted);
+                }
+                stalled = true;
+                t.send(&[RT_STATUS])?;
+                last_status = t.now();
+                continue;
+            }
             if t.now().saturating_sub(last_heard) > SILENCE {
                 bail!("the firmware went quiet for {} s (item {} of {n})", SILENCE.as_secs(), progress.accepted);
             }
             continue;
         };
         last_heard = t.now();
+        stalled = false;
         match Reply::parse(&line) {
             Reply::Ok | Reply::Error { .. } | Reply::Resend(_) => {
                 let Some(item) = inflight.pop_front() else {
@@ -246,7 +319,7 @@ fn stream<T: Transport>(
                             PrintItem::Block { layer, .. } => (format!("block {item} (layer {layer})"), true),
                         };
                         if fatal {
-                            bail!("{what} refused by the printer: error {code}: {text}");
+                            bail!("{what} refused by the {noun}: error {code}: {text}");
                         }
                         control.note(&format!("{what} refused: error {code}: {text}"));
                     }
@@ -275,14 +348,16 @@ fn stream<T: Transport>(
                 }
                 control.progress(&progress);
             }
-            Reply::Alarm { code, text } => bail!("printer alarm {code}: {text}"),
-            Reply::Banner(_) => bail!("the firmware restarted during the print"),
+            Reply::Alarm { code, text } => bail!("{noun} alarm {code}: {text}"),
+            Reply::Banner(_) => {
+                bail!("the firmware restarted during the {}", if noun == "printer" { "print" } else { "plot" })
+            }
             // Completion reports (framed mode) count blocks; the print follows its lines' answers instead.
             Reply::Completed(_) => {}
             Reply::Status(s) => {
                 if let Some(st) = Status::parse(s) {
                     if st.state == "Alarm" {
-                        bail!("the printer is in alarm");
+                        bail!("the {noun} is in alarm");
                     }
                     if done_sending && st.is_idle() {
                         break;

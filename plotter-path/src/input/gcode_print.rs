@@ -22,6 +22,13 @@
 //! Layers: a layer starts at the first extruding move at a Z above the previous layer's. The slicer's own figures
 //! are read from its comments when present: `; estimated printing time (normal mode) = 1h 2m 3s` (PrusaSlicer),
 //! `;TIME:3723` (Cura), `; filament used [mm] = 1234.56` (PrusaSlicer), `;Filament used: 1.23456m` (Cura).
+//!
+//! With a plotter profile (no extruder, `axes.e` absent) the same playback plays plotter G-code exactly as written
+//! (`plotter plot FILE.gcode --as-written`): every move, pen lift and dwell as the file states it, nothing re-planned.
+//! There an `E` word, a heater or fan command and a spindle/servo command (`M3`/`M4`/`M5`, which only the drawing
+//! import reads as pen down/up) are errors naming the line, numbers may use exponents (`X1e-05`) as in the
+//! drawing import, `G4 P` is in seconds and `G0` runs at the machine's top speed, as GRBL reads them (Marlin, for
+//! printers: milliseconds, and the modal feed).
 
 use super::gcode_words::{
     Exponents, GcodeError, GcodeWarning, Word, code10, echo, num, record_warning, strip_comments, words,
@@ -113,6 +120,8 @@ pub struct PrintProgram {
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Motion {
+    /// `G0`: at the modal feed for a printer (Marlin), at the machine's top speed for a plotter (GRBL).
+    Rapid,
     Linear,
     Cw,
     Ccw,
@@ -135,6 +144,8 @@ struct Player<'a> {
     warnings: Vec<GcodeWarning>,
     net_e: f64,
     high_e: f64,
+    /// The machine has an extruder (a printer profile); without one, E words and heater commands are errors.
+    extruder: bool,
 }
 
 /// Parse `; estimated printing time (normal mode) = 1d 2h 3m 4s` style durations.
@@ -196,7 +207,8 @@ impl Player<'_> {
         if code.is_empty() || code == "%" {
             return Ok(());
         }
-        let ws = match words(code, self.origin, line, Exponents::EWords) {
+        let exponents = if self.extruder { Exponents::EWords } else { Exponents::Numbers };
+        let ws = match words(code, self.origin, line, exponents) {
             Ok(ws) => ws,
             Err(e) => {
                 // Printer-specific M codes carry free text (`M117 Hello`, `M862.3 P "MK3S"`): ignore those lines
@@ -243,6 +255,14 @@ impl Player<'_> {
                 'X' => axes[0] = Some(w.value),
                 'Y' => axes[1] = Some(w.value),
                 'Z' => axes[2] = Some(w.value),
+                'E' if !self.extruder => {
+                    return Err(GcodeError::Unsupported {
+                        origin: self.origin.into(),
+                        line,
+                        word: echo(&w.text.to_uppercase()),
+                        why: "this machine has no extruder",
+                    });
+                }
                 'E' => axes[3] = Some(w.value),
                 'F' => {
                     if w.value <= 0.0 {
@@ -280,11 +300,15 @@ impl Player<'_> {
         let any_axis = axes.iter().any(Option::is_some);
         if let Some((v, text)) = g {
             match code10(v) {
-                0 | 10 => self.motion = Some(Motion::Linear),
+                0 => self.motion = Some(Motion::Rapid),
+                10 => self.motion = Some(Motion::Linear),
                 20 => self.motion = Some(Motion::Cw),
                 30 => self.motion = Some(Motion::Ccw),
                 40 => {
-                    let ms = p.or(s.map(|s| s * 1000.0)).unwrap_or(0.0);
+                    // `G4 P`: milliseconds in Marlin (printers); seconds in GRBL, which plotter G-code follows
+                    // (vpype-gcode's profiles, our own export). `S` is seconds in both.
+                    let p_ms = if self.extruder { p } else { p.map(|p| p * 1000.0) };
+                    let ms = p_ms.or(s.map(|s| s * 1000.0)).unwrap_or(0.0);
                     if !(0.0..=3_600_000.0).contains(&ms) {
                         return Err(self.malformed(line, "G4 dwell out of range (0..=3600 s)"));
                     }
@@ -370,9 +394,10 @@ impl Player<'_> {
         if !target.iter().all(|v| v.is_finite() && v.abs() < 1e7) {
             return Err(self.malformed(line, "position out of range"));
         }
-        let feed = if self.feed_mm_s > 0.0 { self.feed_mm_s } else { f64::INFINITY };
+        let rapid = motion == Motion::Rapid && !self.extruder;
+        let feed = if self.feed_mm_s > 0.0 && !rapid { self.feed_mm_s } else { f64::INFINITY };
         match motion {
-            Motion::Linear => self.move_to(line, target, feed)?,
+            Motion::Rapid | Motion::Linear => self.move_to(line, target, feed)?,
             Motion::Cw | Motion::Ccw => self.arc(line, motion == Motion::Cw, target, feed, (i, j, r))?,
         }
         Ok(())
@@ -477,6 +502,21 @@ impl Player<'_> {
             }
             PrintOp::Command { text: t, wait, line }
         };
+        if !self.extruder {
+            let why = match code10(v) / 10 {
+                104 | 109 | 140 | 190 | 106 | 107 | 105 | 155 | 301 | 303 | 304 => {
+                    Some("this machine has no heaters or fan")
+                }
+                3..=5 => Some(
+                    "a spindle/servo pen command is not played as written (plot the file without --as-written: the \
+                     drawing import reads M3/M5 as pen down/up)",
+                ),
+                _ => None,
+            };
+            if let Some(why) = why {
+                return Err(GcodeError::Unsupported { origin: self.origin.into(), line, word: upper, why });
+            }
+        }
         if v.fract() != 0.0 {
             // M862.1 and friends (Prusa printer checks).
             self.warn(line, format!("{upper}: printer check ignored"));
@@ -551,16 +591,9 @@ impl Player<'_> {
     }
 }
 
-/// Interpret slicer G-code for `profile` (which must have an extruder, `axes.e`). `origin` names the text in
-/// errors.
+/// Interpret slicer G-code for `profile` — or, for a plotter profile (no `axes.e`), plotter G-code as written (see
+/// the module docs). `origin` names the text in errors.
 pub fn import_print(text: &str, origin: &str, profile: &MachineProfile) -> Result<PrintProgram, GcodeError> {
-    if profile.axes.e.is_none() {
-        return Err(GcodeError::Malformed {
-            origin: origin.into(),
-            line: 0,
-            message: format!("profile {:?} has no extruder (axes.e): it cannot print", profile.name),
-        });
-    }
     let homed = StepMapper::new(profile).homed().map_err(|e| GcodeError::Malformed {
         origin: origin.into(),
         line: 0,
@@ -585,6 +618,7 @@ pub fn import_print(text: &str, origin: &str, profile: &MachineProfile) -> Resul
         warnings: Vec::new(),
         net_e: 0.0,
         high_e: 0.0,
+        extruder: profile.axes.e.is_some(),
     };
     let mut slicer = SlicerFigures::default();
     for (idx, raw) in text.lines().enumerate() {
@@ -729,7 +763,45 @@ mod tests {
         assert!(e.contains("b.gcode:2") && e.contains("G18"), "{e}");
         let e = import_print("G1 X1 Q2\n", "b.gcode", &printer()).unwrap_err().to_string();
         assert!(e.contains("b.gcode:1"), "{e}");
-        let e = import_print("G1 X1\n", "c.gcode", &MachineProfile::default_plotter()).unwrap_err().to_string();
-        assert!(e.contains("no extruder"), "{e}");
+        // A plotter profile plays plotter G-code as written; what only a printer has is refused with its line.
+        let plotter = MachineProfile::default_plotter();
+        let e = import_print("G1 X1\nG1 X2 E2\n", "c.gcode", &plotter).unwrap_err().to_string();
+        assert!(e.contains("c.gcode:2") && e.contains("E2") && e.contains("no extruder"), "{e}");
+        let e = import_print("G1 X1\nM104 S200\n", "c.gcode", &plotter).unwrap_err().to_string();
+        assert!(e.contains("c.gcode:2") && e.contains("M104") && e.contains("no heaters"), "{e}");
+        let e = import_print("M3 S1000\n", "c.gcode", &plotter).unwrap_err().to_string();
+        assert!(e.contains("c.gcode:1") && e.contains("M3") && e.contains("--as-written"), "{e}");
+    }
+
+    #[test]
+    fn plotter_gcode_as_written() {
+        // vpype-gcode style: lift, dwell, travel, drop, dwell, draw; exponents are numbers without an extruder.
+        let g = "G21\nG90\nG0 Z4\nG4 P0.05\nG0 X10 Y5 F7200\nG1 Z0 F1500\nG4 P0.05\nG1 X2e1 Y5 F3600\nG0 Z4\nM2\n";
+        let p = import_print(g, "v.gcode", &MachineProfile::default_plotter()).unwrap();
+        let ops: Vec<String> = p
+            .ops
+            .iter()
+            .map(|o| match o {
+                PrintOp::Move { to, feed_mm_s, .. } => format!("move {:?} at {feed_mm_s}", &to[..3]),
+                PrintOp::Dwell { ms, .. } => format!("dwell {ms}"),
+                other => format!("{other:?}"),
+            })
+            .collect();
+        // Without an extruder `G4 P` is in seconds, as GRBL and plotter tools write it: P0.05 = 50 ms.
+        // The plotter starts homed with the pen up (Z 4), so the first `G0 Z4` moves nothing; `G0` is a rapid
+        // (infinite feed: the machine's limits), `G1` keeps its feed (F1500 = 25 mm/s, F3600 = 60 mm/s).
+        assert_eq!(MachineProfile::default_plotter().pen.up_z_mm, 4.0);
+        assert_eq!(
+            ops,
+            [
+                "dwell 50",
+                "move [10.0, 5.0, 4.0] at inf",
+                "move [10.0, 5.0, 0.0] at 25",
+                "dwell 50",
+                "move [20.0, 5.0, 0.0] at 60",
+                "move [20.0, 5.0, 4.0] at inf"
+            ]
+        );
+        assert_eq!((p.extruded_mm, p.layers), (0.0, 0));
     }
 }

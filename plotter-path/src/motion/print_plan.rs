@@ -162,14 +162,12 @@ impl Planner<'_> {
     }
 }
 
-/// Plan `program` for `profile` (a printer: it needs an extruder axis).
+/// Plan `program` for `profile`: a printer, or a plotter playing its G-code as written (no extruder: the program
+/// then never moves E, which [`crate::input::gcode_print::import_print`] guarantees).
 pub fn plan_print(profile: &MachineProfile, program: &PrintProgram) -> Result<PrintPlan, PrintPlanError> {
     let cfg = machine_config(profile).map_err(|e| PrintPlanError::Profile(e.to_string()))?;
-    let Some(e_axis) = profile.axes.e else {
-        return Err(PrintPlanError::Profile(format!("{:?} has no extruder (axes.e)", profile.name)));
-    };
     let homed = homed_position(profile).map_err(|e| PrintPlanError::Profile(e.to_string()))?;
-    let axes = [profile.axes.x, profile.axes.y, profile.axes.z, e_axis];
+    let axes = [Some(profile.axes.x), Some(profile.axes.y), Some(profile.axes.z), profile.axes.e];
     let mut p = Planner {
         cfg: &cfg,
         items: Vec::new(),
@@ -192,7 +190,15 @@ pub fn plan_print(profile: &MachineProfile, program: &PrintProgram) -> Result<Pr
                 layer = *l;
                 let mut target = pos;
                 for k in 0..NUM_AXES {
-                    let a = &axes[k];
+                    let Some(a) = &axes[k] else {
+                        if to[k] != 0.0 {
+                            return Err(PrintPlanError::Profile(format!(
+                                "line {line}: {:?} has no extruder (axes.e)",
+                                profile.name
+                            )));
+                        }
+                        continue;
+                    };
                     if k < 3 && a.travel_mm > 0.0 && !(-1e-9..=a.travel_mm + 1e-9).contains(&to[k]) {
                         return Err(PrintPlanError::OutsideTravel {
                             line: *line,
@@ -276,6 +282,27 @@ mod tests {
         let t = p.total_ticks as f64;
         assert!((t - 70_259.0).abs() < 3.0, "{t} {:?}", p.items);
         assert!(matches!(&p.items[0], PrintItem::Line { text, wait: true, .. } if text == "G28"));
+    }
+
+    #[test]
+    fn plotter_gcode_plays_as_written() {
+        // The plotter kit (no extruder), pen up at Z 4 after homing: drop at F1500 (25 mm/s, Z's top speed, 500 mm/s²),
+        // settle 50 ms (GRBL's `G4 P` in seconds), rapid back up, every move from rest to rest. 25 mm/s is 10 000
+        // steps/s, sent as 9984 (the wire's rate quantum, 64 steps/s), at 500·400 = 200 000 steps/s²: ramps of
+        // 9984/200000 = 49.92 ms over 249.2 steps each, cruise (1600 − 498.4)/9984 = 110.34 ms: 210.18 ms per move
+        // (the ideal 25 mm/s gives 210 ms); in all 2·210.176 + 50 = 470.352 ms.
+        let kit = MachineProfile::default_plotter();
+        let g = "G1 Z0 F1500\nG4 P0.05\nG0 Z4\n";
+        let p = plan_print(&kit, &import_print(g, "v.gcode", &kit).unwrap()).unwrap();
+        let t = p.total_ticks as f64;
+        assert!((t - 470_352.0).abs() < 3.0, "{t} {:?}", p.items);
+        assert_eq!((p.e_steps, p.end[2]), (0, 1600));
+        let blocks: Vec<i32> = p
+            .items
+            .iter()
+            .filter_map(|i| if let PrintItem::Block { block, .. } = i { Some(block.steps[2]) } else { None })
+            .collect();
+        assert_eq!(blocks, [-1600, 0, 1600]);
     }
 
     #[test]

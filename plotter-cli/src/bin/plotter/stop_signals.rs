@@ -1,6 +1,8 @@
-//! The termination signals of a long-running command (`plotter sim`) as a flag: SIGINT (Ctrl-C), SIGTERM, SIGHUP
+//! The termination signals of a long-running command (`plotter sim`, `plotter print`, `plotter plot --as-written`)
+//! as a flag: SIGINT (Ctrl-C), SIGTERM, SIGHUP
 //! and SIGQUIT are blocked in every thread and taken by one thread of their own (`sigwait`), which sets the flag;
-//! the command's loop sees it and ends the way it ends on Ctrl-C — the trace written, a QEMU child killed.
+//! the command's loop sees it and ends the way it ends on Ctrl-C — the trace written, a QEMU child killed, a print's
+//! heaters switched off, a plot's pen raised.
 //! SIGKILL cannot be caught.
 
 use std::sync::Arc;

@@ -8,6 +8,7 @@ pub(crate) mod home;
 pub(crate) mod jog;
 pub(crate) mod optimize;
 pub(crate) mod plot;
+pub(crate) mod plot_as_written;
 pub(crate) mod preview;
 pub(crate) mod print;
 pub(crate) mod serve;

@@ -104,6 +104,10 @@ pub(crate) struct PlotArgs {
     /// the device's sheets whose plotting area holds the drawing].
     #[arg(long)]
     pub(crate) hpgl_paper: Option<String>,
+    /// Play a G-code file exactly as written — its order, its moves at their feeds, its pen lifts as Z moves, its
+    /// dwells — instead of reading it as a drawing to order and plan (the simulator or our firmware; Z-lift pens).
+    #[arg(long, conflicts_with_all = ["resume", "export"])]
+    pub(crate) as_written: bool,
     /// Simulated plot only: corrupt this fraction of the bytes on the simulated link (flip a bit or drop), to
     /// watch the resends at work.
     #[arg(long, default_value_t = 0.0)]
@@ -493,6 +497,9 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     }
     let input = args.input.as_deref().context("an input file is required")?;
     let mut profile = load_profile(args.profile.as_deref())?;
+    if args.as_written {
+        return crate::cmd::plot_as_written::run(args, input, &profile);
+    }
     if args.firmware == Firmware::Hpgl && args.export.is_none() {
         let port = args.port.as_deref().context(
             "--firmware hpgl needs --port (a plotter, or the model `plotter sim --pty --hpgl` serves on a pty)",

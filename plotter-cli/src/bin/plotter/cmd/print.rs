@@ -11,6 +11,8 @@
 
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -23,7 +25,7 @@ use plotter_path::motion::plan;
 use plotter_path::motion::print_plan::plan_print;
 
 use plotter_host::job::load::load_profile;
-use plotter_host::link::print::{PrintControl, PrintProgress, PrinterSim, ScheduledFault, stream_print};
+use plotter_host::link::print::{Played, PrintControl, PrintProgress, PrinterSim, ScheduledFault, stream_print};
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::session::Session;
 
@@ -81,6 +83,8 @@ fn hms(secs: f64) -> String {
 struct Display {
     bar: ProgressBar,
     layers: usize,
+    /// Set by Ctrl-C, SIGTERM or SIGHUP: the print stops, heaters off.
+    stop: Arc<AtomicBool>,
 }
 
 impl PrintControl for Display {
@@ -96,10 +100,15 @@ impl PrintControl for Display {
     fn note(&mut self, message: &str) {
         self.bar.suspend(|| eprintln!("{message}"));
     }
+    fn stop_requested(&mut self) -> bool {
+        self.stop.load(Ordering::SeqCst)
+    }
 }
 
 /// Run `plotter print`.
 pub(crate) fn run(args: &PrintArgs) -> anyhow::Result<()> {
+    // Taken before any thread starts (see stop_signals).
+    let stop = crate::stop_signals::stop_flag()?;
     let profile = load_profile(Some(&args.profile))?;
     if profile.axes.e.is_none() {
         bail!("{}: not a printer profile (no axes.e)", args.profile.display());
@@ -131,7 +140,7 @@ pub(crate) fn run(args: &PrintArgs) -> anyhow::Result<()> {
     if let Ok(style) = ProgressStyle::with_template("{bar:25} {percent:>3}%  {msg}") {
         bar.set_style(style.progress_chars("█▉ "));
     }
-    let mut display = Display { bar, layers: plan.layers };
+    let mut display = Display { bar, layers: plan.layers, stop };
     let baud = args.baud.unwrap_or(profile.link.baud);
     match &args.port {
         None => {
@@ -148,7 +157,7 @@ pub(crate) fn run(args: &PrintArgs) -> anyhow::Result<()> {
             let transport = PrinterSim::new(cfg, thermal, faults);
             let mut session = Session::connect(transport, "simulated printer")?;
             let busy_before = session.transport.sim().hal().busy_ticks();
-            let result = stream_print(&mut session, &plan, &mut display);
+            let result = stream_print(&mut session, &plan, Played::Printer, &mut display);
             display.bar.finish_and_clear();
             let stats = result?;
             let sim = session.transport.sim();
@@ -177,7 +186,7 @@ pub(crate) fn run(args: &PrintArgs) -> anyhow::Result<()> {
             }
             let transport = SerialTransport::open(port, baud)?;
             let mut session = Session::connect(transport, port)?;
-            let result = stream_print(&mut session, &plan, &mut display);
+            let result = stream_print(&mut session, &plan, Played::Printer, &mut display);
             display.bar.finish_and_clear();
             let stats = result?;
             println!(
