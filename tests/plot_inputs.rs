@@ -69,3 +69,34 @@ fn gcode_plays_as_written_with_its_own_lifts_and_dwells() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("line 2") && err.contains("outside the travel"), "{err}");
 }
+
+#[test]
+fn ctrl_c_stops_an_as_written_plot_with_the_pen_up() {
+    use std::time::{Duration, Instant};
+    let dir = scratch("as-written-stop");
+    // Pen down, then a 20 s line (200 mm at 10 mm/s) on the real-time simulator over a pty.
+    std::fs::write(dir.join("long.gcode"), "G1 Z0 F1500\nG1 X200 F600\nG0 Z4\n").unwrap();
+    let sim = plotter_e2e::SimPty::start(&dir, &[]);
+    let host = std::process::Command::new(plotter_e2e::plotter_bin())
+        .args(["plot", "long.gcode", "--as-written", "--port", &sim.port])
+        .current_dir(&dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Homing, the drop and a few seconds of the line.
+    std::thread::sleep(Duration::from_secs(4));
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(host.id()).unwrap());
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).unwrap();
+    let t0 = Instant::now();
+    let out = host.wait_with_output().unwrap();
+    assert!(t0.elapsed() < Duration::from_secs(15), "the stop took {:?}", t0.elapsed());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("stopped by the user") && err.contains("plot stopped: motion stopped, pen up"), "{err}");
+    let trace = sim.stop();
+    let last = trace.positions.last().copied().unwrap();
+    // Stopped part-way along the line (80 steps/mm), the pen back at its up height (4 mm · 400 steps/mm).
+    assert!(last[0] > 0 && last[0] < 200 * 80, "{last:?}");
+    assert_eq!(last[2], 1600, "{last:?}");
+}

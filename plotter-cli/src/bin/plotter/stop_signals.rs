@@ -1,36 +1,22 @@
 //! The termination signals of a long-running command (`plotter sim`, `plotter print`, `plotter plot --as-written`)
-//! as a flag: SIGINT (Ctrl-C), SIGTERM, SIGHUP
-//! and SIGQUIT are blocked in every thread and taken by one thread of their own (`sigwait`), which sets the flag;
-//! the command's loop sees it and ends the way it ends on Ctrl-C — the trace written, a QEMU child killed, a print's
-//! heaters switched off, a plot's pen raised.
-//! SIGKILL cannot be caught.
+//! as a flag: SIGINT (Ctrl-C), SIGTERM, SIGHUP and SIGQUIT get a handler (signal-hook's) that only sets the flag, in
+//! whichever thread takes the signal; the command's loop sees it and ends the way it ends on Ctrl-C — the trace
+//! written, a QEMU child killed, a print's heaters switched off, a plot's pen raised. A handler rather than blocking
+//! the signals: the serial port's read waits in `ppoll` with every signal unblocked, where a blocked-elsewhere
+//! SIGTERM would take its default action and end the process with the pen down. A signal the parent set to be
+//! ignored (a background job's SIGINT) is taken too. SIGKILL cannot be caught.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use anyhow::Context as _;
-use nix::sys::signal::{SigSet, Signal};
+use signal_hook::consts::{SIGHUP, SIGINT, SIGQUIT, SIGTERM};
 
-/// Start taking the termination signals; the flag is set once one arrives. Call it before any other thread is
-/// started: a thread inherits the signal mask of the thread that starts it, and a signal delivered to a thread that
-/// does not block it would still end the process at once.
+/// Start taking the termination signals; the flag is set once one arrives.
 pub(crate) fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
-    let mut set = SigSet::empty();
-    for s in [Signal::SIGINT, Signal::SIGTERM, Signal::SIGHUP, Signal::SIGQUIT] {
-        set.add(s);
-    }
-    set.thread_block().context("cannot block the termination signals")?;
     let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    std::thread::Builder::new()
-        .name("signals".into())
-        .spawn(move || {
-            loop {
-                if set.wait().is_ok() {
-                    flag.store(true, Ordering::SeqCst);
-                }
-            }
-        })
-        .context("cannot start the signal thread")?;
+    for s in [SIGINT, SIGTERM, SIGHUP, SIGQUIT] {
+        signal_hook::flag::register(s, Arc::clone(&stop)).context("cannot take the termination signals")?;
+    }
     Ok(stop)
 }
