@@ -342,7 +342,7 @@ fn pause_and_resume_from_the_page() {
 /// then filled from the server's device table — the 7475A first with its four sheets, the 7550A's two, the
 /// generic plotter's drawing page — and sent with the connect request.
 fn hpgl_controls(cdp: &mut Cdp) {
-    assert_eq!(cdp.eval("document.getElementById('hpgl-row').hidden"), json!(true));
+    assert_eq!(cdp.eval("getComputedStyle(document.getElementById('hpgl-row')).display"), json!("none"));
     let choose = |cdp: &mut Cdp, id: &str, value: &str| {
         cdp.eval(&format!(
             "(() => {{ const e = document.getElementById('{id}'); e.value = '{value}'; \
