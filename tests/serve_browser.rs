@@ -355,7 +355,9 @@ fn hpgl_controls(cdp: &mut Cdp) {
         "!document.getElementById('hpgl-row').hidden && getComputedStyle(document.getElementById('hpgl-row')).display !== 'none'",
         Duration::from_secs(10),
     );
-    let values = |cdp: &mut Cdp, id: &str| cdp.eval(&format!("[...document.getElementById('{id}').options].map((o) => o.value)"));
+    let values = |cdp: &mut Cdp, id: &str| {
+        cdp.eval(&format!("[...document.getElementById('{id}').options].map((o) => o.value)"))
+    };
     assert_eq!(values(cdp, "hpgl-device"), json!(["7475a", "7550a", "dxy-1300", "generic"]));
     assert_eq!(values(cdp, "hpgl-paper"), json!(["", "a4", "letter", "a3", "tabloid"]));
     assert_eq!(values(cdp, "handshake"), json!(["escb", "xonxoff", "hardware"]));

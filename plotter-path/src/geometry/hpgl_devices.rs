@@ -114,9 +114,9 @@ pub const DEVICES: &[HpglDevice] = &[
         pens: 6,                 // the six-pen carousel (Wikipedia, "HP 7470": the 7475 has six pens)
         max_velocity_cm_s: 38.1, // 15 in/s, HP's figure, as recorded before (not re-checked)
         papers: HP7475A_PAPERS,
-        identity: "7475A",  // the model number, as `OI` answers on HP's plotters ([KC-GL] for the 7550A)
+        identity: "7475A", // the model number, as `OI` answers on HP's plotters ([KC-GL] for the 7550A)
         buffer_bytes: 1024, // what `ESC.L` reports by default, as recorded before (not re-checked)
-        accel_g: 2.0,       // estimated: the figure recorded for the 7470A mechanism
+        accel_g: 2.0,      // estimated: the figure recorded for the 7470A mechanism
     },
     HpglDevice {
         id: "7550a",

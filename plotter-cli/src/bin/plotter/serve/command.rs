@@ -198,7 +198,10 @@ mod tests {
         // 7475A: 4 sheets, 7550A: 2, DXY-1300: 1, generic: the drawing's page.
         assert_eq!(offered, 7);
         let hp = &devices[0];
-        assert_eq!(hp["papers"][0], serde_json::json!({ "name": "a4", "size_mm": [297.0, 210.0], "area_mm": [276.0, 193.025] }));
+        assert_eq!(
+            hp["papers"][0],
+            serde_json::json!({ "name": "a4", "size_mm": [297.0, 210.0], "area_mm": [276.0, 193.025] })
+        );
         assert_eq!((hp["pens"].as_u64(), hp["buffer_bytes"].as_u64()), (Some(6), Some(1024)));
     }
 }
