@@ -12,17 +12,19 @@
 //! # Where every figure comes from
 //!
 //! Each figure below is either taken from a named document or marked *estimated*, with why. Sources:
-//! - **[7475A-IPM]** HP 7475A Interfacing and Programming Manual (07475-90002): the plotter unit (0.025 mm), the
-//!   plotting ranges of each paper size in plotter units (its table of plotting areas and default P1/P2).
+//! - **[7475A-IPM]** HP 7475A Interfacing and Programming Manual (07475-90002): the plotter unit (0.025 mm) and
+//!   its table "Plotting Areas and Default P1, P2 Locations" (the range of each paper size in plotter units). Its
+//!   full text could not be searched here; the ranges were checked as [vpype] records them.
 //! - **[HP-GL-coords]** the HP-GL coordinate-system page that quotes HP's manuals (pic.hallikainen.org techref,
 //!   "language/hpgl/coordinates"): "the plotter unit is 0.025 mm (approximately 0.001 in.)", X along the long
 //!   side, Y up, origin at the lower left of the hard-clip limits.
 //! - **[vpype]** vpype's device configuration `vpype/hpgl_devices.toml`: records the 7475A ranges above (the same
 //!   numbers as [7475A-IPM]) and the placement of those ranges on the sheet (`origin_location`), measured by its
 //!   users — the manual gives the ranges, not the margins.
-//! - **[DXY-CRM]** Roland DXY-1300/1200/1100 Command Reference Manual: RD-GL I (its HP-GL) addresses 0.025 mm
-//!   units (§1.3, §3); §5.4.1 (the `ESC.N` example) gives the plotter's answer to `ESC.L` (buffer size) as
-//!   "1024"; the Xon/Xoff and ENQ/ACK thresholds default to 80 bytes (`ESC.H`/`ESC.I`, same section).
+//! - **[DXY-CRM]** Roland DXY-1300/1200/1100 Command Reference Manual: §5.4.1 (the `ESC.N` example) gives the
+//!   plotter's answer to `ESC.L` (buffer size) as "1024"; the Xon/Xoff and ENQ/ACK thresholds default to 80 bytes
+//!   (`ESC.H`/`ESC.I`, same section). RD-GL I (its HP-GL) at 0.025 mm units is as a public table of DXY models
+//!   records it; the manual's own unit section was not readable here.
 //! - **[7550A-notes]** J. Stepanian, "Operating the HP 7550A Pen Plotter" (jamie.stepanian.ca/docs/hp7550a): up
 //!   to 8 pens, an automatic sheet feeder, "6g of acceleration". The 7550A's own interfacing manual
 //!   (07550-90001) could not be searched for its buffer size, see below.
@@ -30,8 +32,8 @@
 //!   number is the identity, as on the 7475A.
 //!
 //! Per device:
-//! - **HP 7475A**: 6 pens; 38.1 cm/s top speed (15 in/s, HP's figure for the 7470A/7475A mechanism, as recorded
-//!   before — not re-checked here); papers and ranges A4 0–11040 × 0–7721, A3 0–16158 × 0–11040, ANSI A
+//! - **HP 7475A**: 6 pens; 38.1 cm/s top speed (15 in/s, as recorded before; an overview of the HP 7470, the same
+//!   grit-wheel mechanism, gives "up to 38 cm/s"); papers and ranges A4 0–11040 × 0–7721, A3 0–16158 × 0–11040, ANSI A
 //!   0–10365 × 0–7962, ANSI B 0–16640 × 0–10365 [7475A-IPM, vpype]; origins on the sheet [vpype] except ANSI B's
 //!   (*estimated*: vpype's would put the range off the sheet, see the table); buffer 1024
 //!   bytes (the size the manual's `ESC.L` reports by default, as recorded before); acceleration 2 g (*estimated*:
