@@ -1,7 +1,8 @@
 //! The web app end to end in Debian's headless Chromium, driven over the DevTools protocol (a minimal client over
 //! a WebSocket): load the page, upload samples/duck.svg through the file input, check the vector preview and the
 //! estimate, plot on the simulator and watch progress reach 100 % and the as-stepped drawing appear, with the pen
-//! marker on the duck's strokes all along; a second test pauses and resumes. A screenshot of the page mid-plot is saved to `target/serve-mid-plot.png`.
+//! marker on the duck's strokes all along; a second test pauses and resumes, then fills the connect form's HP-GL
+//! device, sheet and handshake selectors from the server's table. A screenshot of the page mid-plot is saved to `target/serve-mid-plot.png`.
 //!
 //! Needs `chromium` (or `PLOTTER_CHROMIUM=/path`); without it the tests say so and pass, except under CI
 //! (`CI` set), where a missing browser is a failure.
@@ -333,5 +334,48 @@ fn pause_and_resume_from_the_page() {
         "document.querySelectorAll('#g-stepped polyline').length === 6",
         Duration::from_secs(20),
     );
+    hpgl_controls(&mut cdp);
     let _ = std::fs::remove_dir_all(profile);
+}
+
+/// The connect form's HP-GL selectors (in an open page, to spare a browser start): hidden until HP-GL is chosen,
+/// then filled from the server's device table — the 7475A first with its four sheets, the 7550A's two, the
+/// generic plotter's drawing page — and sent with the connect request.
+fn hpgl_controls(cdp: &mut Cdp) {
+    assert_eq!(cdp.eval("getComputedStyle(document.getElementById('hpgl-row')).display"), json!("none"));
+    let choose = |cdp: &mut Cdp, id: &str, value: &str| {
+        cdp.eval(&format!(
+            "(() => {{ const e = document.getElementById('{id}'); e.value = '{value}'; \
+             e.dispatchEvent(new Event('change')); return e.value; }})()"
+        ))
+    };
+    assert_eq!(choose(cdp, "firmware", "hpgl"), json!("hpgl"));
+    cdp.wait_for(
+        "the HP-GL selectors",
+        "!document.getElementById('hpgl-row').hidden && getComputedStyle(document.getElementById('hpgl-row')).display !== 'none'",
+        Duration::from_secs(10),
+    );
+    let values = |cdp: &mut Cdp, id: &str| {
+        cdp.eval(&format!("[...document.getElementById('{id}').options].map((o) => o.value)"))
+    };
+    assert_eq!(values(cdp, "hpgl-device"), json!(["7475a", "7550a", "dxy-1300", "generic"]));
+    assert_eq!(values(cdp, "hpgl-paper"), json!(["", "a4", "letter", "a3", "tabloid"]));
+    assert_eq!(values(cdp, "handshake"), json!(["escb", "xonxoff", "hardware"]));
+    assert_eq!(choose(cdp, "hpgl-device", "7550a"), json!("7550a"));
+    assert_eq!(values(cdp, "hpgl-paper"), json!(["", "a4", "a3"]));
+    choose(cdp, "hpgl-paper", "a3");
+    choose(cdp, "handshake", "xonxoff");
+    assert_eq!(
+        cdp.eval("connectBody()"),
+        json!({ "target": "sim", "firmware": "hpgl", "hpgl_device": "7550a", "hpgl_paper": "a3", "handshake": "xonxoff" })
+    );
+    choose(cdp, "hpgl-device", "generic");
+    assert_eq!(values(cdp, "hpgl-paper"), json!([""]));
+    // The built-in simulator is no HP-GL plotter: the server refuses, and the page says why.
+    cdp.click("connect");
+    cdp.wait_for(
+        "the refusal",
+        "document.getElementById('message').textContent.includes('plotter sim --pty --hpgl')",
+        Duration::from_secs(10),
+    );
 }

@@ -2,7 +2,8 @@
 //! in front of `plotter sim --pty --grbl` / `--ebb`, connected with firmware `auto` through the HTTP API, plots a
 //! generated circle after a home and a jog through the same connection; the emulator's trace must show pen-down
 //! steps that moved and the pen up at the end. An HP-GL plotter (`plotter sim --pty --hpgl`, the HP 7440A's
-//! 60-byte buffer) is connected with firmware `hpgl`: home and jog are refused, the console and the pen buttons
+//! 60-byte buffer) is connected with firmware `hpgl` (an unknown device, sheet or handshake, or a body of the wrong
+//! shape, refused with a 400 first): home and jog are refused, the console and the pen buttons
 //! speak HP-GL, the circle is streamed without an overflow, and a second plot paused and cancelled from the page
 //! ends with the pen up and put away.
 
@@ -201,6 +202,29 @@ fn the_web_app_plots_on_an_hpgl_plotter_with_a_60_byte_buffer() {
         page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "hpgl", "handshake": "rts" }));
     assert_eq!(status, 400, "{v}");
     assert_eq!(v["error"], "handshake \"rts\": use escb, xonxoff or hardware", "{v}");
+    // So is a plotter not in the device table, a sheet the device does not take, and a body of the wrong shape:
+    // each a 400 naming the field and the choices.
+    for (body, want) in [
+        (
+            json!({ "target": sim.port, "firmware": "hpgl", "hpgl_device": "7470b" }),
+            "hpgl_device \"7470b\": not a known plotter (known: 7475a, 7550a, dxy-1300, generic)",
+        ),
+        (
+            json!({ "target": sim.port, "firmware": "hpgl", "hpgl_device": "dxy-1300", "hpgl_paper": "a4" }),
+            "hpgl_paper \"a4\": the Roland DXY-1300 takes a3",
+        ),
+        (json!({ "target": sim.port, "firmware": "hpgl", "hpgl_device": 7475 }), "connect: "),
+    ] {
+        let (status, v) = page.post(&served, "/api/connect", body.clone());
+        assert_eq!(status, 400, "{body}: {v}");
+        assert!(v["error"].as_str().is_some_and(|e| e.starts_with(want)), "{body}: {v}");
+    }
+    // The page's selectors come from the same table.
+    let (status, table) = api(&served, &page.token, "GET", "/api/hpgl", &Value::Null);
+    assert_eq!(status, 200, "{table}");
+    let ids: Vec<&str> = table["devices"].as_array().unwrap().iter().filter_map(|d| d["id"].as_str()).collect();
+    assert_eq!(ids, ["7475a", "7550a", "dxy-1300", "generic"]);
+    assert_eq!(table["devices"][2]["buffer_bytes"], 1024, "{table}");
     let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "hpgl" }));
     assert_eq!(status, 200, "{v}");
     let state = page.wait_state(&served, "connected", Duration::from_secs(60), |s| {

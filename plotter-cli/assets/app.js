@@ -332,7 +332,43 @@ async function refreshPorts() {
   sel.value = [...sel.options].some((o) => o.value === keep) ? keep : 'sim';
 }
 $('refresh-ports').onclick = refreshPorts;
-$('connect').onclick = () => api('/api/connect', { target: $('target').value, firmware: $('firmware').value }).catch(() => {});
+// ---- HP-GL plotters: device, sheet and handshake, offered from the server's device table (GET /api/hpgl) --------
+let hpgl = null;
+const HANDSHAKE_LABELS = { escb: 'ESC.B queries (any cable)', xonxoff: 'Xon/Xoff', hardware: 'RTS/CTS lines' };
+async function loadHpgl() {
+  const r = await fetch('/api/hpgl');
+  if (!r.ok) return;
+  hpgl = await r.json();
+  $('hpgl-device').replaceChildren(...hpgl.devices.map((d) =>
+    new Option(d.name + ' (' + d.pens + ' pens)', d.id, false, d.id === hpgl.default_device)));
+  $('handshake').replaceChildren(...hpgl.handshakes.map((h) =>
+    new Option(HANDSHAKE_LABELS[h] || h, h, false, h === hpgl.default_handshake)));
+  fillHpglPapers();
+  showHpgl();
+}
+function fillHpglPapers() {
+  const d = hpgl && hpgl.devices.find((x) => x.id === $('hpgl-device').value);
+  if (!d) return;
+  const mm = (v) => Math.round(v * 10) / 10;
+  // The empty value lets the server take the first sheet that holds the drawing.
+  const options = d.papers.length === 0 ? [new Option("the drawing's page", '')]
+    : [new Option('sheet: the first that fits', ''),
+      ...d.papers.map((p) => new Option(p.name + ' (' + mm(p.area_mm[0]) + ' × ' + mm(p.area_mm[1]) + ' mm)', p.name))];
+  $('hpgl-paper').replaceChildren(...options);
+}
+function showHpgl() { $('hpgl-row').hidden = $('firmware').value !== 'hpgl'; }
+$('firmware').onchange = showHpgl;
+$('hpgl-device').onchange = fillHpglPapers;
+function connectBody() {
+  const body = { target: $('target').value, firmware: $('firmware').value };
+  if (body.firmware === 'hpgl') {
+    body.hpgl_device = $('hpgl-device').value || undefined;
+    body.hpgl_paper = $('hpgl-paper').value || undefined;
+    body.handshake = $('handshake').value || undefined;
+  }
+  return body;
+}
+$('connect').onclick = () => api('/api/connect', connectBody()).catch(() => {});
 $('disconnect').onclick = () => api('/api/disconnect').catch(() => {});
 $('home').onclick = () => api('/api/home').catch(() => {});
 $('pen-up').onclick = () => api('/api/pen', { down: false }).catch(() => {});
@@ -350,4 +386,5 @@ $('resume').onclick = () => api('/api/resume').catch(() => {});
 $('cancel').onclick = () => api('/api/cancel').then(() => say('cancelling…')).catch(() => {});
 
 refreshPorts();
+loadHpgl();
 claim();

@@ -7,26 +7,51 @@
 //!
 //! Each [`HpglPaper`] says where that rectangle lies on the sheet: `origin_mm` is the position of plu (0, 0)
 //! measured from the sheet's top-left corner (X right, Y down, like our page), and `clip_plu` is the far corner of
-//! the reachable rectangle. Sources, per device:
-//! - **HP 7475A** (6 pens, at most 38.1 cm/s): the plotting ranges (A4 0–11040 × 0–7721, A3 0–16158 × 0–11040,
-//!   ANSI A 0–10365 × 0–7962, ANSI B 0–16640 × 0–10365) are those of the 7475A Interfacing and Programming Manual
-//!   (its default P2 for A4, 10603, 7721, sits on the top of the A4 range); where the range lies on the sheet
-//!   (the origin offsets) is the placement measured by the vpype project's users and recorded in its device
-//!   configuration.
-//! - **HP 7550A** (8 pens, at most 80 cm/s): assumed to address A4 and A3 like the 7475A — *not* checked against
-//!   the 7550A manual; measure a plot before relying on the margins.
-//! - **Roland DXY-1300** (8 pens, at most 42 cm/s, HP-GL compatible "RD-GL I" at 0.025 mm): a 416 × 276 mm
-//!   plotting range (0–16640 × 0–11040) on an A3 bed, its origin at the lower-left of the range; the range is
-//!   taken as centred on the A3 sheet, which is an estimate.
-//! - **generic**: any HP-GL plotter; the plotting area is the drawing's own page with plu (0, 0) at its lower-left
-//!   corner, 8 pens, no speed cap beyond HP-GL's customary 38.1 cm/s.
-
+//! the reachable rectangle.
 //!
-//! Streaming facts (for the sender and the plotter model of `plotter sim --hpgl`): the `OI` identity is the model
-//! number; the input buffer is 1024 bytes on the 7475A (its manual's default logical buffer); the 7470A's
-//! brochure gives 2 g acceleration for the same mechanism family, taken for the 7475A. The 7550A's and the
-//! DXY-1300's buffer and acceleration and everything of the generic device are estimates (a small buffer and a
-//! gentle acceleration, which only make the sender more careful and the time estimate longer).
+//! # Where every figure comes from
+//!
+//! Each figure below is either taken from a named document or marked *estimated*, with why. Sources:
+//! - **[7475A-IPM]** HP 7475A Interfacing and Programming Manual (07475-90002): the plotter unit (0.025 mm) and
+//!   its table "Plotting Areas and Default P1, P2 Locations" (the range of each paper size in plotter units). Its
+//!   full text could not be searched here; the ranges were checked as [vpype] records them.
+//! - **[HP-GL-coords]** the HP-GL coordinate-system page that quotes HP's manuals (pic.hallikainen.org techref,
+//!   "language/hpgl/coordinates"): "the plotter unit is 0.025 mm (approximately 0.001 in.)", X along the long
+//!   side, Y up, origin at the lower left of the hard-clip limits.
+//! - **[vpype]** vpype's device configuration `vpype/hpgl_devices.toml`: records the 7475A ranges above (the same
+//!   numbers as [7475A-IPM]) and the placement of those ranges on the sheet (`origin_location`), measured by its
+//!   users — the manual gives the ranges, not the margins.
+//! - **[DXY-CRM]** Roland DXY-1300/1200/1100 Command Reference Manual: §5.4.1 (the `ESC.N` example) gives the
+//!   plotter's answer to `ESC.L` (buffer size) as "1024"; the Xon/Xoff and ENQ/ACK thresholds default to 80 bytes
+//!   (`ESC.H`/`ESC.I`, same section). RD-GL I (its HP-GL) at 0.025 mm units is as a public table of DXY models
+//!   records it; the manual's own unit section was not readable here.
+//! - **[7550A-notes]** J. Stepanian, "Operating the HP 7550A Pen Plotter" (jamie.stepanian.ca/docs/hp7550a): up
+//!   to 8 pens, an automatic sheet feeder, "6g of acceleration". The 7550A's own interfacing manual
+//!   (07550-90001) could not be searched for its buffer size, see below.
+//! - **[KC-GL]** Kyocera's HP 7550A emulation (KC-GL) reference: `OI` answers `7550A` in that mode — the model
+//!   number is the identity, as on the 7475A.
+//!
+//! Per device:
+//! - **HP 7475A**: 6 pens; 38.1 cm/s top speed (15 in/s, as recorded before; an overview of the HP 7470, the same
+//!   grit-wheel mechanism, gives "up to 38 cm/s"); papers and ranges A4 0–11040 × 0–7721, A3 0–16158 × 0–11040, ANSI A
+//!   0–10365 × 0–7962, ANSI B 0–16640 × 0–10365 [7475A-IPM, vpype]; origins on the sheet [vpype] except ANSI B's
+//!   (*estimated*: vpype's would put the range off the sheet, see the table); buffer 1024
+//!   bytes (the size the manual's `ESC.L` reports by default, as recorded before); acceleration 2 g (*estimated*:
+//!   the figure recorded for the 7470A mechanism, not found in the sources searched).
+//! - **HP 7550A**: 8 pens and 6 g [7550A-notes]; 80 cm/s (HP's figure as recorded before, not re-checked); the A4
+//!   and A3 ranges and origins are *estimated* as the 7475A's (the 7550A manual's table was not available); the
+//!   buffer of 1024 bytes is *estimated* (the 7550A's manual was not searchable; the sender asks the plotter with
+//!   `ESC.L` at connect and uses the answer, so this figure only sizes the model of `plotter sim --hpgl`).
+//! - **Roland DXY-1300**: 8 pens (as recorded before, not re-checked); 0.025 mm units and a 1024-byte buffer
+//!   [DXY-CRM]; 42 cm/s and 1 g are *estimated* (not in the command reference, which covers commands only; a
+//!   gentle acceleration only makes the time estimate longer); the 416 × 276 mm range (0–16640 × 0–11040) and
+//!   its centring on A3 are *estimated* likewise.
+//! - **generic**: any HP-GL plotter; the plotting area is the drawing's own page with plu (0, 0) at its lower-left
+//!   corner, 8 pens, 38.1 cm/s (HP-GL's customary top `VS`), all *estimated* on purpose: a small 256-byte buffer
+//!   and 1 g, which only make the sender more careful and the time estimate longer.
+//!
+//! Pen lift and pen-change times live with the timing model (`plotter-cli`'s `link::hpgl::timing`), estimated
+//! there with the reason.
 
 /// Plotter units per millimetre (1 plu = 0.025 mm).
 pub const PLU_PER_MM: f64 = 40.0;
@@ -65,15 +90,21 @@ pub struct HpglDevice {
     pub accel_g: f64,
 }
 
+// Ranges: [7475A-IPM] (recorded in [vpype] with the same numbers); origins: [vpype] (measured by its users).
+// vpype also records a measured plotter unit of 0.02488 mm; we keep the manual's 0.025 mm ([`PLU_PER_MM`]).
 const HP7475A_PAPERS: &[HpglPaper] = &[
     HpglPaper { name: "a4", size_mm: (297.0, 210.0), clip_plu: (11040, 7721), origin_mm: (10.0, 206.0) },
     HpglPaper { name: "letter", size_mm: (279.4, 215.9), clip_plu: (10365, 7962), origin_mm: (10.0, 211.0) },
     HpglPaper { name: "a3", size_mm: (420.0, 297.0), clip_plu: (16158, 11040), origin_mm: (15.0, 287.0) },
-    HpglPaper { name: "tabloid", size_mm: (431.8, 279.4), clip_plu: (16640, 10365), origin_mm: (15.0, 287.0) },
+    // Origin estimated: [vpype] gives the A3 sheet's 287 mm here too, which lies off a 279.4 mm sheet; taken
+    // instead 10 mm above the bottom edge, as on A3, with A3's 15 mm left margin.
+    HpglPaper { name: "tabloid", size_mm: (431.8, 279.4), clip_plu: (16640, 10365), origin_mm: (15.0, 269.4) },
 ];
 
+// Estimated: the 7475A's A4 and A3 (the 7550A manual's table was not available; measure before relying on margins).
 const HP7550A_PAPERS: &[HpglPaper] = &[HP7475A_PAPERS[0], HP7475A_PAPERS[2]];
 
+// Units: [DXY-CRM] (0.025 mm in RD-GL I). Range 416 × 276 mm and its centring on A3: estimated.
 const DXY1300_PAPERS: &[HpglPaper] =
     &[HpglPaper { name: "a3", size_mm: (420.0, 297.0), clip_plu: (16640, 11040), origin_mm: (2.0, 286.5) }];
 
@@ -82,42 +113,42 @@ pub const DEVICES: &[HpglDevice] = &[
     HpglDevice {
         id: "7475a",
         name: "HP 7475A",
-        pens: 6,
-        max_velocity_cm_s: 38.1,
+        pens: 6,                 // the six-pen carousel (Wikipedia, "HP 7470": the 7475 has six pens)
+        max_velocity_cm_s: 38.1, // 15 in/s, HP's figure, as recorded before (not re-checked)
         papers: HP7475A_PAPERS,
-        identity: "7475A",
-        buffer_bytes: 1024,
-        accel_g: 2.0,
+        identity: "7475A", // the model number, as `OI` answers on HP's plotters ([KC-GL] for the 7550A)
+        buffer_bytes: 1024, // what `ESC.L` reports by default, as recorded before (not re-checked)
+        accel_g: 2.0,      // estimated: the figure recorded for the 7470A mechanism
     },
     HpglDevice {
         id: "7550a",
         name: "HP 7550A",
-        pens: 8,
-        max_velocity_cm_s: 80.0,
+        pens: 8,                 // [7550A-notes]
+        max_velocity_cm_s: 80.0, // HP's figure, as recorded before (not re-checked)
         papers: HP7550A_PAPERS,
-        identity: "7550A",
-        buffer_bytes: 1024,
-        accel_g: 4.0,
+        identity: "7550A",  // [KC-GL]
+        buffer_bytes: 1024, // estimated: not found; the sender uses what `ESC.L` answers
+        accel_g: 6.0,       // [7550A-notes]: "6g of acceleration" (was 4, unsourced)
     },
     HpglDevice {
         id: "dxy-1300",
         name: "Roland DXY-1300",
-        pens: 8,
-        max_velocity_cm_s: 42.0,
+        pens: 8,                 // as recorded before (not re-checked)
+        max_velocity_cm_s: 42.0, // estimated (not in the command reference)
         papers: DXY1300_PAPERS,
-        identity: "DXY-1300",
-        buffer_bytes: 1024,
-        accel_g: 1.0,
+        identity: "DXY-1300", // estimated: the model name (the command reference's `OI` answer was not found)
+        buffer_bytes: 1024,   // [DXY-CRM] §5.4.1: `ESC.L` answers 1024
+        accel_g: 1.0,         // estimated: gentle, so the time estimate errs long
     },
     HpglDevice {
         id: "generic",
         name: "generic HP-GL plotter",
-        pens: 8,
-        max_velocity_cm_s: 38.1,
+        pens: 8,                 // estimated: the common carousel size
+        max_velocity_cm_s: 38.1, // estimated: HP-GL's customary top `VS`
         papers: &[],
-        identity: "HP-GL",
-        buffer_bytes: 256,
-        accel_g: 1.0,
+        identity: "HP-GL", // estimated: what the model answers to `OI`
+        buffer_bytes: 256, // estimated: small on purpose, so the sender stays careful
+        accel_g: 1.0,      // estimated: gentle, so the time estimate errs long
     },
 ];
 
@@ -230,5 +261,41 @@ mod tests {
         assert_eq!(g.clip_plu, (4000, 2000));
         assert_eq!(g.to_plu(0.0, 50.0), Some((0, 0)));
         assert_eq!(g.to_plu(100.0, 0.0), Some((4000, 2000)));
+    }
+
+    /// The figures the sources give, pinned: 0.025 mm units; the 7475A's plotting ranges per paper as its
+    /// Interfacing and Programming Manual lists them; the DXY-1300's 1024-byte buffer (its command reference's
+    /// `ESC.L` answer); the 7550A's 8 pens and 6 g.
+    #[test]
+    fn documented_figures() {
+        assert_eq!(PLU_PER_MM, 40.0);
+        assert_eq!(1.0 / PLU_PER_MM, 0.025);
+        let hp = device("7475a").unwrap();
+        let ranges: Vec<(&str, (i32, i32))> = hp.papers.iter().map(|p| (p.name, p.clip_plu)).collect();
+        assert_eq!(
+            ranges,
+            [("a4", (11040, 7721)), ("letter", (10365, 7962)), ("a3", (16158, 11040)), ("tabloid", (16640, 10365))]
+        );
+        // 16158 units = 403.95 mm, 11040 = 276 mm: the A3 range by hand.
+        assert_eq!(hp.paper("a3").unwrap().area_mm(), (403.95, 276.0));
+        assert_eq!((hp.pens, hp.buffer_bytes, hp.identity), (6, 1024, "7475A"));
+        let dxy = device("dxy-1300").unwrap();
+        assert_eq!((dxy.buffer_bytes, dxy.pens), (1024, 8));
+        let hp7550 = device("7550a").unwrap();
+        assert_eq!((hp7550.pens, hp7550.accel_g, hp7550.identity), (8, 6.0, "7550A"));
+    }
+
+    /// Every hard-clip rectangle, placed at its origin, lies on its sheet: a range or an origin copied wrong
+    /// (say the A3 range on an A4 sheet) would reach past the paper's edge.
+    #[test]
+    fn every_plotting_range_lies_on_its_sheet() {
+        for d in DEVICES {
+            for p in d.papers {
+                let (w, h) = p.area_mm();
+                let (x0, y0) = p.origin_mm;
+                assert!(x0 >= 0.0 && x0 + w <= p.size_mm.0, "{} {}: x {x0} + {w} past {}", d.id, p.name, p.size_mm.0);
+                assert!(y0 <= p.size_mm.1 && y0 - h >= 0.0, "{} {}: y {y0} - {h} off the sheet", d.id, p.name);
+            }
+        }
     }
 }

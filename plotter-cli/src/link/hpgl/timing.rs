@@ -5,9 +5,11 @@
 
 use plotter_path::geometry::hpgl_devices::{HpglDevice, PLU_PER_MM};
 
-/// Lifting or lowering the pen, s (an estimate: the solenoid and the pen settling).
+/// Lifting or lowering the pen, s. Estimated, for every device: none of the sources the device table cites
+/// (`plotter_path::geometry::hpgl_devices`) gives it; 30 ms is a solenoid's stroke plus the pen settling.
 pub const PEN_LIFT_S: f64 = 0.03;
-/// A pen change (`SP n`): put the pen back in the carousel and take another, s (an estimate).
+/// A pen change (`SP n`): put the pen back in the carousel and take another, s. Estimated, for every device:
+/// not in the sources the device table cites; 2 s covers a carousel turning half way and the two pen strokes.
 pub const PEN_CHANGE_S: f64 = 2.0;
 
 /// Standard gravity, m/s².

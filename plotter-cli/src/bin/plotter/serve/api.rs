@@ -12,7 +12,7 @@ use std::sync::Arc;
 use axum::Json;
 use axum::Router;
 use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
+use axum::extract::rejection::{BytesRejection, JsonRejection};
 use axum::extract::{DefaultBodyLimit, Query, Request, State};
 use axum::http::{HeaderMap, HeaderValue, Method, StatusCode, header};
 use axum::middleware::{self, Next};
@@ -35,7 +35,7 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::broadcast::error::RecvError;
 
-use super::command::{Command, firmware_choice, hpgl_choice, hpgl_refusal};
+use super::command::{Command, firmware_choice, hpgl_choice, hpgl_refusal, hpgl_table};
 use super::control;
 use super::deadline::body_deadline;
 use super::error::ApiError;
@@ -85,6 +85,7 @@ pub(crate) fn router(shared: Arc<Shared>) -> Router {
         .route("/api/view", get(drawing_view))
         .route("/api/stepped", get(stepped_view))
         .route("/api/ports", get(ports))
+        .route("/api/hpgl", get(|| async { Json(hpgl_table()) }))
         .route("/api/control/claim", post(claim))
         .route("/api/control/release", post(release))
         .route("/api/gen", post(generate))
@@ -575,7 +576,9 @@ struct ConnectBody {
     baud: Option<u32>,
 }
 
-async fn connect(State(shared): State<Arc<Shared>>, Json(b): Json<ConnectBody>) -> ApiResult {
+async fn connect(State(shared): State<Arc<Shared>>, body: Result<Json<ConnectBody>, JsonRejection>) -> ApiResult {
+    // A body of the wrong shape (say a number for `hpgl_device`) is a bad request, said in the page's JSON.
+    let Json(b) = body.map_err(|e| bad(format!("connect: {}", e.body_text())))?;
     refuse_while_plotting(&shared)?;
     let firmware = firmware_choice(b.target == "sim", b.firmware.as_deref()).map_err(bad)?;
     let hpgl = if firmware == Firmware::Hpgl {

@@ -78,6 +78,33 @@ pub(crate) fn hpgl_choice(
     Ok(HpglChoice { device, paper, handshake, baud })
 }
 
+/// The HP-GL choices the page offers (`GET /api/hpgl`), from the device table the server validates against: each
+/// device with its pens, buffer and sheets (each sheet's size and plotting area, mm), the default device, and the
+/// handshakes. The page's selectors are filled from this, so they cannot offer what [`hpgl_choice`] refuses.
+pub(crate) fn hpgl_table() -> serde_json::Value {
+    use clap::ValueEnum as _;
+    let devices: Vec<serde_json::Value> = hpgl_devices::DEVICES
+        .iter()
+        .map(|d| {
+            let papers: Vec<serde_json::Value> = d
+                .papers
+                .iter()
+                .map(|p| serde_json::json!({ "name": p.name, "size_mm": [p.size_mm.0, p.size_mm.1], "area_mm": p.area_mm() }))
+                .collect();
+            serde_json::json!({
+                "id": d.id, "name": d.name, "pens": d.pens, "buffer_bytes": d.buffer_bytes, "papers": papers,
+            })
+        })
+        .collect();
+    let handshakes: Vec<&str> = Handshake::value_variants().iter().map(|h| h.name()).collect();
+    serde_json::json!({
+        "devices": devices,
+        "default_device": hpgl_devices::DEVICES[0].id,
+        "handshakes": handshakes,
+        "default_handshake": Handshake::default().name(),
+    })
+}
+
 /// Why `what` (home, jog) is refused on an HP-GL plotter.
 pub(crate) fn hpgl_refusal(what: &str) -> String {
     format!(
@@ -144,5 +171,37 @@ mod tests {
             "handshake \"rts\": use escb, xonxoff or hardware"
         );
         assert_eq!(hpgl_choice(None, None, None, Some(0)).unwrap_err(), "baud 0: give 300 to 1000000");
+    }
+
+    /// Everything the page is offered is accepted by [`hpgl_choice`]: every device with each of its sheets and
+    /// every handshake; the 7475A (the default) lists its four sheets with the plotting areas of the manual.
+    #[test]
+    fn the_page_is_offered_only_what_connect_accepts() {
+        let t = hpgl_table();
+        assert_eq!(t["default_device"], "7475a");
+        assert_eq!(t["handshakes"], serde_json::json!(["escb", "xonxoff", "hardware"]));
+        assert_eq!(t["default_handshake"], "escb");
+        let devices = t["devices"].as_array().unwrap();
+        assert_eq!(devices.len(), hpgl_devices::DEVICES.len());
+        let mut offered = 0;
+        for d in devices {
+            let id = d["id"].as_str().unwrap();
+            for h in t["handshakes"].as_array().unwrap() {
+                assert!(hpgl_choice(Some(id), None, h.as_str(), None).is_ok(), "{id} {h}");
+            }
+            for p in d["papers"].as_array().unwrap() {
+                let c = hpgl_choice(Some(id), p["name"].as_str(), None, None).unwrap();
+                assert_eq!(c.paper.map(|p| p.name), p["name"].as_str());
+                offered += 1;
+            }
+        }
+        // 7475A: 4 sheets, 7550A: 2, DXY-1300: 1, generic: the drawing's page.
+        assert_eq!(offered, 7);
+        let hp = &devices[0];
+        assert_eq!(
+            hp["papers"][0],
+            serde_json::json!({ "name": "a4", "size_mm": [297.0, 210.0], "area_mm": [276.0, 193.025] })
+        );
+        assert_eq!((hp["pens"].as_u64(), hp["buffer_bytes"].as_u64()), (Some(6), Some(1024)));
     }
 }
