@@ -66,7 +66,8 @@ for f in "$@"; do
   t_ours=$(on_board "" "$PLOTTER" plot "$conv" --port PORT --firmware ebb --profile "$PROFILE" \
     --pen-change none)
   # Our optimized plan's pen lifts and the plot-time lower bound `plotter stats` proves for it (pen-down length at
-  # the draw feed with the least corner losses, each lift's settles, the shortest hops): no plan can beat it.
+  # the draw feed and the profile's drawing acceleration with the least corner losses, each lift's settles, the
+  # shortest hops at the travel feed and acceleration): no plan can beat it.
   stats=$("$PLOTTER" stats "$conv" --profile "$PROFILE" 2>/dev/null | grep '^optimized' || true)
   ours_lifts=$(echo "$stats" | awk '{ for (i = 1; i < NF; i++) if ($(i+1) == "pen" && $(i+2) == "lifts,") print $i }')
   lb=$(echo "$stats" | awk '{ for (i = 1; i < NF; i++) if ($i == "bound" && $(i-1) == "lower" && $(i-3) == "time") {

@@ -122,12 +122,11 @@ impl PlanBlock {
         for axis in Axis::ALL {
             let i = axis.index();
             unit[i] = mm[i] / length;
+            // An axis that does not move divides by 0: +∞ (or NaN for a zero limit), which `min` ignores.
             let u = unit[i].abs();
-            if u > 0.0 {
-                let a = config.axis(axis);
-                nominal = nominal.min(a.max_feed_mm_s / u);
-                accel = accel.min(a.max_accel_mm_s2 / u);
-            }
+            let a = config.axis(axis);
+            nominal = nominal.min(a.max_feed_mm_s / u);
+            accel = accel.min(a.max_accel_mm_s2 / u);
         }
         let events_per_mm = events as f32 / length;
         // The step rate must stay within what the stepper can time.
@@ -342,21 +341,28 @@ fn span<F: Fn(usize) -> Seg>(
     v
 }
 
+/// The pairs of distinct axes (index pairs), for cross products in any number of dimensions (the array's type
+/// stops the build if [`NUM_AXES`] changes and the list is not updated).
+const AXIS_PAIRS: [(usize, usize); NUM_AXES * (NUM_AXES - 1) / 2] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+
 /// Radius of the circle through the origin and the points `p` and `q`; `None` when they are (nearly) collinear.
 fn circumradius(p: &[f32; NUM_AXES], q: &[f32; NUM_AXES]) -> Option<f32> {
     let pp = dot(p, p);
     let qq = dot(q, q);
     let mut dd = 0.0f32;
-    let mut cross_sq = 0.0f32;
     for i in 0..NUM_AXES {
         dd += (p[i] - q[i]) * (p[i] - q[i]);
-        for k in i + 1..NUM_AXES {
-            let c = p[i] * q[k] - p[k] * q[i];
-            cross_sq += c * c;
-        }
     }
-    // |p × q| = |p||q|·sin(angle): below ~1e-6 rad the radius is beyond any plotter's size.
-    if cross_sq <= 1e-12 * pp * qq || pp == 0.0 || qq == 0.0 {
+    // |p × q|² as the sum of the squared 2×2 minors over the axis pairs (exact for nearly collinear points, where
+    // |p|²|q|² − (p·q)² would cancel).
+    let mut cross_sq = 0.0f32;
+    for (i, k) in AXIS_PAIRS {
+        let c = p[i] * q[k] - p[k] * q[i];
+        cross_sq += c * c;
+    }
+    // |p × q| = |p||q|·sin(angle): below ~1e-6 rad the radius is beyond any plotter's size. A point at the origin
+    // (|p| or |q| = 0) is caught too: then both sides are 0.
+    if cross_sq <= 1e-12 * pp * qq {
         return None;
     }
     Some(sqrt(pp * qq * dd / (4.0 * cross_sq)))
@@ -430,10 +436,9 @@ fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineCo
     if nl > 1e-6 {
         accel = f32::MAX;
         for axis in Axis::ALL {
+            // An axis across the normal divides by 0: +∞ (or NaN), which `min` ignores.
             let u = (normal[axis.index()] / nl).abs();
-            if u > 0.0 {
-                accel = accel.min(cfg.axis(axis).max_accel_mm_s2 / u);
-            }
+            accel = accel.min(cfg.axis(axis).max_accel_mm_s2 / u);
         }
     }
     let speed_sqr = accel * radius;
@@ -1156,6 +1161,73 @@ mod tests {
         assert!(close2(span_of(&fixed, 3, true, x, 0.1, 2.0), [0.0, 0.0]));
         assert!(close2(span_of(&fixed, 1, true, x, 0.1, 2.0), [1.0, 0.0]));
         assert!(close2(span_of(&fixed, 6, false, x, 0.1, 2.0), [-1.0, 0.0]));
+    }
+
+    #[test]
+    fn span_takes_a_chord_at_exactly_the_limits() {
+        let x = [1.0, 0.0];
+        // A chord exactly 60° off the tangent (cos 60° = 0.5 exactly: unit (0.5, 0.866 025 4)) still belongs to the
+        // span; the vertex before it (60° between 0.1 mm chords: 0.05·tan 15° = 0.0134 mm) is smooth.
+        let sixty = [seg_xy(1.0, 0.0, 0.1), seg_xy(0.5, 0.866_025_4, 0.1)];
+        assert!(close2(span_of(&sixty, 0, true, x, 0.1, 2.0), [0.15, 0.086_602_54]));
+        // A chord of exactly twice the target is still taken whole.
+        let long = [seg_xy(1.0, 0.0, 6.0)];
+        assert!(close2(span_of(&long, 0, true, x, 0.1, 3.0), [6.0, 0.0]));
+        assert!(close2(span_of(&long, 1, false, x, 0.1, 3.0), [-6.0, 0.0]));
+    }
+
+    #[test]
+    fn the_curve_span_stops_60_degrees_off_the_vertex_tangent() {
+        // Chords turning 20° each (−70°, −50°, …, 70°), 0.2 mm long but the first and the last (1 mm), all
+        // locally smooth (0.1·tan 5° = 0.0087 mm). At the vertex between −10° and 10° (tangent 0°) each span
+        // follows the chords within 60° of the tangent (±10°, ±30°, ±50°) and stops before the 70° ones, so its
+        // ends lie on the circle of the regular 18-gon of 0.2 mm sides: r = 0.2/(2·sin 10°) = 0.575 877 mm. (Were
+        // the 1 mm chords taken, the ends would leave that circle.) The centre lies along +Y, whose 1500 mm/s²
+        // give v² = 1500·0.575 877 = 863.8 mm²/s².
+        let c = MachineConfig::xy_plotter();
+        let segs: Vec<Seg> = [-70.0, -50.0, -30.0, -10.0, 10.0, 30.0, 50.0, 70.0]
+            .iter()
+            .map(|&d: &f32| seg_deg(d, if d.abs() > 60.0 { 1.0 } else { 0.2 }))
+            .collect();
+        let j = verdict(&segs, 4, &c);
+        let curve = j.curve.unwrap();
+        assert!(close(curve.radius, 0.575_877, 1e-3), "{j:?}");
+        assert!(close(curve.speed_sqr, 863.8, 1.0) && close(j.speed_sqr, 863.8, 1.0), "{j:?}");
+    }
+
+    #[test]
+    fn the_kink_rule_counts_the_rounding_of_every_axis_either_chord_moves() {
+        // The 19° kink of `junction_verdict_at_a_kink_on_both_sides_of_the_threshold`, turned so that the chords
+        // before the vertex run along X alone (Y unit exactly 0) and those after it at 19°. With Y at 40 steps/mm
+        // the step that rounding may add is Y's 0.025 mm (the chords after the vertex move Y): the turn
+        // 2·sin 9.5° = 0.330 095 is within 1.5·1.5/6.058 86 + 1.5·0.025·(2/0.75) = 0.471 359, a curve of radius
+        // 2·cos 9.5°/sin 19° = 6.058 86 mm. With Y at 80 steps/mm (0.0125 mm) it is a corner (0.322 571).
+        let mut c = MachineConfig::xy_plotter();
+        c.axes[1].max_accel_mm_s2 = 700.0;
+        let k = 19f32.to_radians();
+        let mut segs = std::vec![Seg { nominal: 100.0, ..seg_xy(1.0, 0.0, 0.25) }; 10];
+        segs.extend([Seg { nominal: 100.0, ..seg_xy(k.cos(), k.sin(), 0.25) }; 10]);
+        assert_eq!(verdict(&segs, 10, &c).curve, None);
+        c.axes[1].steps_per_mm = 40.0;
+        let j = verdict(&segs, 10, &c);
+        assert!(close(j.curve.unwrap().radius, 6.058_86, 1e-3), "{j:?}");
+    }
+
+    #[test]
+    fn a_straight_run_of_short_chords_cruises_at_full_speed() {
+        // 100 collinear chords of 20 steps (0.25 mm) at 100 mm/s, 1500 mm/s²: every vertex is straight on, so
+        // the plan is one trapezoid over 25 mm. Entry speed² at vertex k: min(100², 2·1500·0.25·k, … (100 − k)),
+        // exact in f32 (multiples of 750); vertices 14..=86 are entered at the full 100 mm/s.
+        let c = MachineConfig::xy_plotter();
+        let v = build(&c, &std::vec![([20, 0, 0, 0], 100.0); 100]);
+        for (k, b) in v.iter().enumerate() {
+            let k = k as f32;
+            assert_eq!(b.entry_speed_sqr, 10_000f32.min(750.0 * k).min(750.0 * (100.0 - k)), "vertex {k}");
+            assert_eq!(b.curve_speed_sqr, f32::INFINITY);
+        }
+        // 25 mm at 100 mm/s plus a ramp's lost time v/a = 1/15 s: 0.316 667 s, to within the rates' rounding.
+        let t = total_ticks(&v) as f64;
+        assert!((t - 316_667.0).abs() < 0.005 * 316_667.0, "{t}");
     }
 
     /// Ten chords of 0.25 mm along `rot − kink/2` degrees, then ten along `rot + kink/2` (100 mm/s, 1000 mm/s²):

@@ -11,7 +11,10 @@
 //!   (computed here with the largest acceleration any direction allows, so it over-estimates); a reversal stops.
 //!   Each piece between such vertices takes at least the fastest one-dimensional motion over its length that
 //!   starts and ends within those speeds, never exceeds the draw feed and accelerates at most at
-//!   `√(a_x² + a_y²)` (the largest acceleration the per-axis limits allow along any direction).
+//!   `√(a_x² + a_y²)` (the largest acceleration the per-axis limits allow along any direction), or at the
+//!   profile's drawing acceleration (`pen.draw_accel_mm_s2`) where that is lower: the plan caps every drawing
+//!   block's acceleration there, and a corner's junction deviation takes the lower acceleration of its two
+//!   blocks, so the cap bounds the corners' speeds too.
 //! * **Pen lifts** (the hop overlaps them with the travel, see [`crate::motion::hop`]): per stroke a Z move of at
 //!   least the clearance off the paper (entered no faster than the 90° corner from the drawing allows, left no
 //!   faster than the corner into a travel that climbs at up to twice the hop slope), a Z move of at least the
@@ -21,7 +24,8 @@
 //!   arrives only when the rest of the travel fits in that): `2·clear` per stroke, and `2·settle − clear` once for
 //!   the plot's first lift and last lift. The drawing before a servo lift ends at rest (the servo block is a stop).
 //! * **Travel**: the pen-up hops span at least the travel lower bound's tree (see [`crate::optimize::bound`]),
-//!   each hop on its own: at no more than the travel feed, from and into the corners with the pen's Z moves
+//!   each hop on its own: at no more than the travel feed and the travel acceleration (the axes' `√(a_x² + a_y²)`,
+//!   or `pen.travel_accel_mm_s2` where lower), from and into the corners with the pen's Z moves
 //!   ([`min_hop_seconds`]).
 //!
 //! Curvature limits inside strokes and the direction limits of the feed are left out (each only adds time), so the
@@ -80,14 +84,22 @@ fn hop_corner_speed(profile: &MachineProfile, a: f64) -> f64 {
     (a * profile.motion.junction_deviation_mm * sin_half / (1.0 - sin_half)).sqrt()
 }
 
+/// The largest acceleration along an XY path: `√(a_x² + a_y²)` from the axes' limits, lowered to the profile's
+/// cap for that kind of move (`pen.draw_accel_mm_s2` or `pen.travel_accel_mm_s2`) when it sets one — the plan caps
+/// every such block there ([`crate::motion::plan`]).
+fn path_accel(profile: &MachineProfile, cap: Option<f64>) -> f64 {
+    let axes = profile.axes.x.max_accel_mm_s2.hypot(profile.axes.y.max_accel_mm_s2);
+    cap.map_or(axes, |c| axes.min(c))
+}
+
 /// The least time a pen-up hop of at least `d` mm can take on `profile`, seconds (no lift): it starts and ends no
-/// faster than the corners with the pen's Z moves allow ([`hop_corner_speed`] with the largest XY acceleration;
-/// a servo pen's hop starts and ends at rest), reaches at most the travel feed and accelerates at most
-/// `√(a_x² + a_y²)`. Its endpoints were rounded to steps, which may shorten it by up to two step diagonals.
-/// Non-decreasing in `d`, so it maps a travel lower bound's hop lengths to a time bound
+/// faster than the corners with the pen's Z moves allow ([`hop_corner_speed`] with the largest travel
+/// acceleration; a servo pen's hop starts and ends at rest), reaches at most the travel feed and accelerates at
+/// most at the travel acceleration ([`path_accel`]). Its endpoints were rounded to steps, which may shorten it by
+/// up to two step diagonals. Non-decreasing in `d`, so it maps a travel lower bound's hop lengths to a time bound
 /// ([`crate::optimize::travel_lower_bound_mapped`]).
 pub fn min_hop_seconds(profile: &MachineProfile) -> impl Fn(f64) -> f64 + use<> {
-    let accel = profile.axes.x.max_accel_mm_s2.hypot(profile.axes.y.max_accel_mm_s2);
+    let accel = path_accel(profile, profile.pen.travel_accel_mm_s2);
     let v_end = hop_corner_speed(profile, accel);
     let feed = profile.pen.travel_feed_mm_s;
     let slack = 2.0 * (1.0 / profile.axes.x.steps_per_mm).hypot(1.0 / profile.axes.y.steps_per_mm);
@@ -104,8 +116,7 @@ pub fn plot_time_lower_bound(
 ) -> Result<TimeBound, PlanError> {
     // Only to refuse a profile the planner refuses.
     machine_config(profile)?;
-    let (ax, ay) = (profile.axes.x.max_accel_mm_s2, profile.axes.y.max_accel_mm_s2);
-    let accel = ax.hypot(ay);
+    let accel = path_accel(profile, profile.pen.draw_accel_mm_s2);
     let (sx, sy) = (profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm);
     let draw = profile.pen.draw_feed_mm_s;
     let deviation = profile.motion.junction_deviation_mm;
@@ -282,6 +293,40 @@ mod tests {
         assert!((b.lifts_s - 0.35).abs() < 1e-12, "{b:?}");
         let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
+    }
+
+    #[test]
+    fn the_profiles_acceleration_caps_bound_drawing_and_travel() {
+        // The axes allow 1500 mm/s² each (√2·1500 along a diagonal), but the profile caps drawing at 500 and travel
+        // at 800 mm/s², as the plan does.
+        let mut p = MachineProfile::default_plotter();
+        (p.pen.draw_accel_mm_s2, p.pen.travel_accel_mm_s2) = (Some(500.0), Some(800.0));
+        let steps = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(800, 800),
+            moves: vec![StepDelta { dx: 8000, dy: 0 }],
+        }]);
+        let b = plot_time_lower_bound(&p, &steps, 0.0).unwrap();
+        // 100 mm at 60 mm/s from rest, up at 500 mm/s² (0.12 s, 3.6 mm), leaving at the 90° corner into the lift
+        // with the same 500: v₁ = √(500·0.02·√½/(1 − √½)) = 4.913 mm/s, down in (60 − v₁)/500 s:
+        // 100/60 + 60/(2·500) + (60 − v₁)²/(2·500·60) = 1.666 67 + 0.06 + 0.050 58 = 1.777 24 s.
+        assert!((b.draw_s - 1.777_24).abs() < 1e-4, "{b:?}");
+        let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
+        // The plan's own drawing time is no shorter: its blocks accelerate at 500 along X.
+        assert!(b.draw_s <= planned.breakdown().draw_s(), "{b:?} vs {:?}", planned.breakdown());
+        // Travel: a 100 mm hop at 800 mm/s² between corners with the Z moves, v₁ = √(800·0.02·s/(1 − s)) with
+        // s = 0.742 66 (see `min_hop_by_hand`), up to the 120 mm/s feed and back down, less the slack.
+        let (a, s): (f64, f64) = (800.0, 0.742_66);
+        let v1 = (a * 0.02 * s / (1.0 - s)).sqrt();
+        let len = 100.0 - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0);
+        let t = 2.0 * (120.0 - v1) / a + (len - (120.0 * 120.0 - v1 * v1) / a) / 120.0;
+        assert!((min_hop_seconds(&p)(100.0) - t).abs() < 1e-5, "{} vs {t}", min_hop_seconds(&p)(100.0));
+        // Caps above what the axes allow change nothing.
+        let mut loose = p.clone();
+        (loose.pen.draw_accel_mm_s2, loose.pen.travel_accel_mm_s2) = (Some(1e6), Some(1e6));
+        let free = MachineProfile::default_plotter();
+        assert_eq!(plot_time_lower_bound(&loose, &steps, 0.0), plot_time_lower_bound(&free, &steps, 0.0));
+        assert_eq!(min_hop_seconds(&loose)(100.0), min_hop_seconds(&free)(100.0));
     }
 
     #[test]
