@@ -57,6 +57,9 @@ mod logic;
 pub mod machine;
 #[cfg(feature = "std")]
 pub mod sim;
+#[cfg(any(test, feature = "proptest"))]
+#[doc(hidden)]
+pub mod testing;
 mod types;
 
 // The layers are private folders; their modules are public at the crate root, so a path names the concept

@@ -200,6 +200,25 @@ mod tests {
         assert_eq!(parse_reply("ok #17 CBF43926"), None, "uppercase hex is not ours");
     }
 
+    #[test]
+    fn crc_digits_are_exactly_eight_lowercase() {
+        // Values from an independent CRC-32 (Python's `zlib.crc32`): b"ok #17" → 0x425baf4a, b"ok #3" → 0x08533714.
+        let mut s = String::new();
+        write_reply(&mut s, 17, format_args!("ok")).unwrap();
+        assert_eq!(s, "ok #17 425baf4a\n");
+        s.clear();
+        write_reply(&mut s, 3, format_args!("ok")).unwrap();
+        assert_eq!(s, "ok #3 08533714\n", "leading zeros are written");
+        assert_eq!(parse_reply("ok #17 425baf4a"), Some((17, "ok")));
+        assert_eq!(parse_reply("ok #3 08533714"), Some((3, "ok")));
+        // The right value in another spelling is not a framed line: uppercase, a ninth digit, a dropped zero.
+        assert_eq!(parse_reply("ok #17 425BAF4A"), None);
+        assert_eq!(parse_reply("ok #17 0425baf4a"), None);
+        assert_eq!(parse_reply("ok #3 8533714"), None);
+        // A verified CRC over a body without ` #<n>` is still refused: b"123456789" → 0xcbf43926 (the check value).
+        assert_eq!(parse_reply("123456789 cbf43926"), None);
+    }
+
     fn run(m: &mut RtMatcher, bytes: &[u8]) -> (Vec<u8>, Vec<u8>) {
         let (mut data, mut cmds) = (Vec::new(), Vec::new());
         for &b in bytes {
@@ -229,6 +248,38 @@ mod tests {
         assert_eq!(cmds, [RT_RESET]);
         let (_, cmds) = run(&mut m, &rt_sequence(RT_RESET));
         assert_eq!(cmds, [RT_RESET]);
+    }
+
+    #[test]
+    fn only_realtime_bytes_are_held_back() {
+        let mut m = RtMatcher::new();
+        // A data byte is released at once, also the zero byte (the held buffer's initial contents) and 0xE7 (!0x18).
+        for b in [0x00, b'a', 0xE7, 0xFF] {
+            let mut got = Vec::new();
+            assert_eq!(m.feed(b, |d| got.push(d)), None);
+            assert_eq!(got, [b], "{b:#x}");
+        }
+        // A completed sequence leaves nothing held: the next byte equal to its first is a new start, held.
+        let (data, cmds) = run(&mut m, &rt_sequence(RT_STATUS));
+        assert_eq!((data.len(), cmds), (0, std::vec![RT_STATUS]));
+        let (data, cmds) = run(&mut m, &[RT_STATUS]);
+        assert_eq!((data.len(), cmds.len()), (0, 0));
+        let (data, _) = run(&mut m, b"x");
+        assert_eq!(data, [RT_STATUS, b'x']);
+    }
+
+    #[test]
+    fn clear_forgets_held_bytes_and_resets_in_a_row() {
+        let mut m = RtMatcher::new();
+        let (data, _) = run(&mut m, &[RT_FEED_HOLD, !RT_FEED_HOLD]);
+        assert!(data.is_empty(), "two bytes of a sequence held");
+        m.clear();
+        assert_eq!(run(&mut m, b"a"), (b"a".to_vec(), Vec::new()), "nothing held is released after clear");
+        let _ = run(&mut m, &[RT_RESET, RT_RESET]);
+        m.clear();
+        // Two Ctrl-X, clear, one Ctrl-X: not three in a row.
+        let (_, cmds) = run(&mut m, &[RT_RESET]);
+        assert!(cmds.is_empty());
     }
 
     proptest! {

@@ -212,6 +212,82 @@ mod tests {
     }
 
     #[test]
+    fn ring_counts_and_wraps() {
+        let mut rx = RxBuffer::<4>::new();
+        assert_eq!((rx.capacity(), rx.len(), rx.is_empty()), (4, 0, true));
+        assert_eq!(rx.pop(), None);
+        assert!(rx.push(b'a') && rx.push(b'b') && rx.push(b'c'));
+        assert_eq!((rx.len(), rx.is_empty()), (3, false));
+        assert_eq!(rx.pop(), Some((b'a', false)));
+        assert_eq!(rx.pop(), Some((b'b', false)));
+        // Three more go round the end of the ring: d at index 3, e at 0, f at 1; then it is full.
+        assert!(rx.push(b'd') && rx.push(b'e') && rx.push(b'f'));
+        assert_eq!(rx.len(), 4);
+        assert!(!rx.push(b'g'));
+        let mut out = std::vec::Vec::new();
+        while let Some((b, _)) = rx.pop() {
+            out.push(b);
+        }
+        assert_eq!(out, b"cdef");
+        assert_eq!((rx.len(), rx.is_empty(), rx.take_lost(), rx.take_lost()), (0, true, 1, 0));
+    }
+
+    #[test]
+    fn a_byte_dropped_by_the_caller_damages_its_line() {
+        let mut rx = RxBuffer::<8>::new();
+        assert!(rx.push(b'A'));
+        rx.mark_loss();
+        rx.mark_loss();
+        assert!(rx.push(b'\n'));
+        assert_eq!(rx.take_lost(), 2);
+        assert_eq!(rx.pop(), Some((b'A', true)), "the loss came right after A");
+        assert_eq!(rx.pop(), Some((b'\n', false)));
+        let mut a = LineAssembler::new();
+        assert_eq!(a.feed(b'A', true), None);
+        assert_eq!(a.feed(b'\n', false), Some(Frame::Damaged(b"A")));
+    }
+
+    #[test]
+    fn clear_drops_bytes_and_losses() {
+        let mut rx = RxBuffer::<2>::new();
+        assert!(rx.push(b'x') && rx.push(b'y') && !rx.push(b'z'));
+        rx.clear();
+        assert_eq!((rx.len(), rx.is_empty(), rx.take_lost()), (0, true, 0));
+        assert_eq!(rx.pop(), None);
+        // The loss position is forgotten too: the next bytes come out clean.
+        assert!(rx.push(b'1') && rx.push(b'2'));
+        assert_eq!((rx.pop(), rx.pop()), (Some((b'1', false)), Some((b'2', false))));
+
+        let mut a = LineAssembler::new();
+        for &b in b"G1 X" {
+            assert_eq!(a.feed(b, false), None);
+        }
+        a.clear();
+        assert_eq!(feed_all(&mut a, b"M2\n"), ["Line([77, 50])"]);
+        for _ in 0..=LINE_MAX {
+            a.feed(b'G', false);
+        }
+        a.clear();
+        assert_eq!(feed_all(&mut a, b"M2\n"), ["Line([77, 50])"], "too long forgotten");
+        a.feed(b'G', true);
+        a.clear();
+        assert_eq!(feed_all(&mut a, b"\n"), ["Line([])"], "damage forgotten");
+    }
+
+    #[test]
+    fn carriage_return_is_stripped_from_text_lines_only() {
+        let mut a = LineAssembler::new();
+        // 0x7F is the last text byte; a step-block frame starts at 0x80 and may end in 0x0D (a CRC byte).
+        assert_eq!(feed_all(&mut a, b"\x7f\r\n"), ["Line([127])"]);
+        assert_eq!(feed_all(&mut a, b"\x80\r\n"), ["Line([128, 13])"]);
+        assert_eq!(feed_all(&mut a, b"\r\n"), ["Line([])"]);
+        // The longest line fits; one byte more is too long.
+        let mut line = std::vec![b'G'; LINE_MAX];
+        line.push(b'\n');
+        assert_eq!(feed_all(&mut a, &line), [std::format!("{:?}", Frame::Line(&line[..LINE_MAX]))]);
+    }
+
+    #[test]
     fn overflow_is_never_silent() {
         let mut rx = RxBuffer::<8>::new();
         let input = b"G1 X1\nG1 X2\n";

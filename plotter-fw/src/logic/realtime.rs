@@ -55,3 +55,24 @@ impl fmt::Display for MachineState {
         f.write_str(self.name())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn report_words_are_grbls() {
+        // The words of grbl's status report (its `Hold:0`/`Hold:1` sub-states included).
+        let all = [
+            (MachineState::Idle, "Idle"),
+            (MachineState::Run, "Run"),
+            (MachineState::Holding, "Hold:1"),
+            (MachineState::Held, "Hold:0"),
+            (MachineState::Homing, "Home"),
+            (MachineState::Alarm, "Alarm"),
+        ];
+        for (state, word) in all {
+            assert_eq!((state.name(), std::format!("<{state}|")), (word, std::format!("<{word}|")));
+        }
+    }
+}

@@ -747,20 +747,7 @@ mod tests {
 
     /// A number-like text: sign, digits (sometimes a huge run), point, fraction, exponent.
     fn number_like() -> impl Strategy<Value = String> {
-        let digits = prop_oneof![
-            4 => "[0-9]{0,8}",
-            1 => "[0-9]{11,20}",
-            1 => (1usize..2000).prop_map(|n| "9".repeat(n)),
-        ];
-        (
-            prop_oneof![Just(""), Just("-"), Just("+"), Just("--"), Just("+-")],
-            digits.clone(),
-            prop_oneof![Just(""), Just("."), Just("..")],
-            digits,
-            prop_oneof![Just(""), Just("e"), Just("E"), Just("e-"), Just("E+"), Just("e."), Just("ee")],
-            "[0-9]{0,4}",
-        )
-            .prop_map(|(s, i, p, f, e, x)| format!("{s}{i}{p}{f}{e}{x}"))
+        plotter_fw::testing::number_like(11..=20, 1..2000)
     }
 
     proptest! {
