@@ -38,16 +38,107 @@ const NO_STOP: u32 = u32::MAX;
 /// Slots of the block ring: the executing block and the queue.
 const SLOTS: usize = STEPPER_QUEUE + 1;
 
-/// A block in the stepper's ring (queued, or executing from where it was queued: loading it copies nothing), its
-/// step times already computed.
+/// Most axes that step on some events only (every block has a major axis that steps at each event).
+const MINORS: usize = NUM_AXES - 1;
+
+// `Layout::event` is written out for three minor axes.
+const _: () = assert!(MINORS == 3);
+
+/// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term.
+#[derive(Debug, Clone, Copy, Default)]
+struct Minor {
+    delta: u32,
+    err: u32,
+    /// Its [`Axis::bit`].
+    bit: u8,
+    /// Its [`Axis::index`].
+    axis: u8,
+}
+
+/// What the interrupt does at each event of a block, laid out when the block is pushed: the axes that step at
+/// every event, and the few that do not, in a packed list (no per-axis loop, no match at each event).
+#[derive(Debug, Clone, Copy, Default)]
+struct Layout {
+    /// Axes with `|Δ| = n`: they step at every event.
+    always: u8,
+    /// Packed minor axes; `minors` of them are used.
+    minor: [Minor; MINORS],
+    minors: u8,
+}
+
+impl Layout {
+    fn of(block: &StepBlock, n: u32) -> Self {
+        let mut l = Layout::default();
+        for axis in Axis::ALL {
+            let d = block.steps[axis.index()].unsigned_abs();
+            if d == n && n > 0 {
+                l.always |= axis.bit();
+            } else if d > 0 && usize::from(l.minors) < MINORS {
+                #[allow(clippy::cast_possible_truncation, reason = "an axis index is below NUM_AXES")]
+                let index = axis.index() as u8;
+                l.minor[usize::from(l.minors)] = Minor { delta: d, err: n / 2, bit: axis.bit(), axis: index };
+                l.minors += 1;
+            }
+        }
+        l
+    }
+
+    /// One event of the Bresenham error terms: the mask of the axes that step.
+    #[inline(always)]
+    fn event(&mut self, n: u32) -> u8 {
+        let mut mask = self.always;
+        if self.minors > 0 {
+            mask |= self.minor[0].event(n);
+            if self.minors > 1 {
+                mask |= self.minor[1].event(n);
+                if self.minors > 2 {
+                    mask |= self.minor[2].event(n);
+                }
+            }
+        }
+        mask
+    }
+
+    /// Steps made by each axis (unsigned) after `k` of the `n` events: `k` for the axes of every event, and
+    /// `(k·|Δ| + ⌊n/2⌋ − err)/n` for the others (exact: the error term is that sum's remainder). Main context.
+    fn steps_after(&self, k: u32, n: u32) -> [u32; NUM_AXES] {
+        let mut steps = [0; NUM_AXES];
+        for axis in Axis::ALL {
+            if self.always & axis.bit() != 0 {
+                steps[axis.index()] = k;
+            }
+        }
+        for m in &self.minor[..usize::from(self.minors)] {
+            let sum = u64::from(k) * u64::from(m.delta) + u64::from(n / 2) - u64::from(m.err);
+            steps[usize::from(m.axis)] = u32::try_from(sum / u64::from(n.max(1))).unwrap_or(u32::MAX);
+        }
+        steps
+    }
+}
+
+impl Minor {
+    #[inline(always)]
+    fn event(&mut self, n: u32) -> u8 {
+        let e = self.err + self.delta;
+        if e >= n {
+            self.err = e - n;
+            self.bit
+        } else {
+            self.err = e;
+            0
+        }
+    }
+}
+
+/// A block in the stepper's ring (queued, or executing from where it was queued), its step times and per-event
+/// layout already computed.
 #[derive(Debug, Clone, Copy)]
 struct Queued {
     block: StepBlock,
     profile: Profile,
-    /// Step events, steps per axis and their signs (computed at push, read by the interrupt).
+    /// Step events.
     n: u32,
-    delta: [u32; NUM_AXES],
-    sign: [i32; NUM_AXES],
+    layout: Layout,
     switches: Switches,
     /// A feed hold re-timed this block as the continuation of its deceleration.
     hold: bool,
@@ -65,24 +156,73 @@ struct Carry {
 }
 
 /// The executing block's state (the block itself stays in its ring slot).
+///
+/// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
+/// interval. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing event,
+/// the idle stepper — is one `countdown == 0` test away, on the slow path.
 #[derive(Debug, Clone, Copy)]
 struct Active {
+    /// Events the fast path may still emit before the event at `target`.
+    countdown: u32,
+    /// The next event the slow path handles: the block's last, or where a hold stops; for a homing block (all its
+    /// events on the slow path) the next event.
+    target: u32,
+    /// Events in the block.
+    n: u32,
+    layout: Layout,
+    cursor: Cursor,
     /// Ring slot of the block.
     slot: usize,
-    cursor: Cursor,
-    /// Events already emitted.
-    k: u32,
+    /// A block is executing.
+    live: bool,
+    /// Homing: its steps are counted in the position at each event, not derived from the layout.
+    counted: bool,
+    /// The hard limits are armed (a [`Switches::Limits`] block).
+    limits: bool,
     /// Event index the profile starts from (non-zero after a feed hold re-profiled the rest).
     offset: u32,
-    n: u32,
-    err: [u32; NUM_AXES],
-    /// Axes whose switch is read at each event: the home mask in a homing block, else the hard-limit mask.
-    watch: u8,
     /// Homing: axes stopped by their switch, and those already stopped.
     home_mask: u8,
     locked: u8,
     /// Event after which a feed hold stops ([`NO_STOP`]: none).
     stop_at: u32,
+}
+
+impl Active {
+    /// No block executing.
+    fn idle() -> Self {
+        Active {
+            countdown: 0,
+            target: 1,
+            n: 0,
+            layout: Layout::default(),
+            cursor: Cursor::default(),
+            slot: 0,
+            live: false,
+            counted: false,
+            limits: false,
+            offset: 0,
+            home_mask: 0,
+            locked: 0,
+            stop_at: NO_STOP,
+        }
+    }
+
+    /// Events emitted so far.
+    fn emitted(&self) -> u32 {
+        self.target - 1 - self.countdown
+    }
+
+    /// After `k` events: hand the events before the next stop (block end or hold) to the fast path.
+    fn arm(&mut self, k: u32) {
+        if self.counted {
+            self.target = k + 1;
+            self.countdown = 0;
+        } else {
+            self.target = self.n.min(self.stop_at).max(k + 1);
+            self.countdown = self.target - k - 1;
+        }
+    }
 }
 
 /// What stopped the stepper abnormally.
@@ -95,14 +235,16 @@ pub enum StepperFault {
 /// The stepper: a queue of [`StepBlock`]s and the executing block's Bresenham state.
 #[derive(Debug)]
 pub struct Stepper {
+    act: Active,
     /// The executing block's slot (when one executes) is the one before `first`; `queued` blocks follow it.
     ring: [Queued; SLOTS],
     first: usize,
     queued: usize,
-    active: Option<Active>,
+    /// Position in steps before the executing block's steps (which are added when it ends, or counted per event
+    /// in a homing block).
     position: [i32; NUM_AXES],
     invert: u8,
-    /// Axes checked for a hard-limit hit on each event (0 disables).
+    /// Axes whose switch, pressed during a normal move, is a hard-limit fault (0 disables).
     limit_mask: u8,
     hold: HoldState,
     /// While decelerating: the rate the hold carries into the next block pushed (`None`: it stops before it).
@@ -123,17 +265,16 @@ impl Stepper {
             block: empty,
             profile: empty.profile(),
             n: 0,
-            delta: [0; NUM_AXES],
-            sign: [0; NUM_AXES],
+            layout: Layout::default(),
             switches: Switches::Limits,
             hold: false,
             stop_at: NO_STOP,
         };
         Stepper {
+            act: Active::idle(),
             ring: [slot; SLOTS],
             first: 0,
             queued: 0,
-            active: None,
             position: [0; NUM_AXES],
             invert,
             limit_mask,
@@ -147,7 +288,16 @@ impl Stepper {
 
     /// Position in steps, as counted from emitted steps.
     pub fn position(&self) -> [i32; NUM_AXES] {
-        self.position
+        let mut pos = self.position;
+        if self.act.live && !self.act.counted && self.act.n > 0 {
+            let done = self.act.layout.steps_after(self.act.emitted(), self.act.n);
+            let steps = &self.ring[self.act.slot].block.steps;
+            for i in 0..NUM_AXES {
+                let d = i32::try_from(done[i]).unwrap_or(i32::MAX);
+                pos[i] += if steps[i] < 0 { -d } else { d };
+            }
+        }
+        pos
     }
 
     /// Overwrite the position (G92, homing). Only while idle.
@@ -167,12 +317,12 @@ impl Stepper {
 
     /// Blocks queued plus the executing one.
     pub fn pending(&self) -> usize {
-        self.queued + usize::from(self.active.is_some())
+        self.queued + usize::from(self.act.live)
     }
 
     /// Nothing executing or queued.
     pub fn is_idle(&self) -> bool {
-        self.active.is_none() && self.queued == 0
+        !self.act.live && self.queued == 0
     }
 
     /// Blocks completed since start.
@@ -190,18 +340,19 @@ impl Stepper {
         self.fault
     }
 
-    /// Queue a block (main context: its step times are computed here). `switches` says how the axis switches are
-    /// treated during it (hard limits, or homing). Returns the block back when the queue is full.
+    /// Queue a block (main context: its step times and per-event layout are computed here). `switches` says how
+    /// the axis switches are treated during it (hard limits, or homing). Returns the block back when the queue is
+    /// full.
     pub fn push(&mut self, block: StepBlock, switches: Switches) -> Result<(), StepBlock> {
         if self.queued >= STEPPER_QUEUE {
             return Err(block);
         }
+        let n = block.events();
         let mut q = Queued {
             block,
             profile: block.profile(),
-            n: block.events(),
-            delta: block.steps.map(i32::unsigned_abs),
-            sign: block.steps.map(i32::signum),
+            n,
+            layout: Layout::of(&block, n),
             switches,
             hold: false,
             stop_at: NO_STOP,
@@ -217,16 +368,30 @@ impl Stepper {
 
     /// If idle, start the next queued block: returns the ticks until its first event (the caller arms the timer).
     pub fn start<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
-        if self.active.is_some() || self.fault.is_some() || self.hold != HoldState::Running {
+        if self.act.live || self.fault.is_some() || self.hold != HoldState::Running {
             return None;
         }
         self.load_next(hal)
     }
 
+    /// The switches read `pressed` (main context or the board's switch interrupt, never per step event): during a
+    /// normal move, a pressed switch of an axis in the limit mask is a hard-limit fault — the stepper stops where
+    /// it is and drops its queue. Returns whether it did (the caller stops the timer).
+    pub fn limit_switches(&mut self, pressed: u8) -> bool {
+        let hit = pressed & self.limit_mask;
+        if hit == 0 || !self.act.live || !self.act.limits {
+            return false;
+        }
+        self.fault = Some(StepperFault::HardLimit(hit));
+        self.abort();
+        true
+    }
+
     /// Drop everything (reset or alarm): the executing block stops where it is.
     pub fn abort(&mut self) {
+        self.position = self.position();
         self.queued = 0;
-        self.active = None;
+        self.act = Active::idle();
         self.hold = HoldState::Running;
         self.carry = None;
     }
@@ -243,21 +408,24 @@ impl Stepper {
         if self.hold != HoldState::Running {
             return;
         }
-        let Some(act) = self.active.as_mut() else {
+        if !self.act.live {
             self.hold = HoldState::Stopped;
             return;
-        };
+        }
         self.hold = HoldState::Decelerating;
         self.carry = None;
-        let slot = &mut self.ring[act.slot];
+        let act = &mut self.act;
         if act.n == 0 {
             // A dwell: the hold stops at its end.
             return;
         }
-        let scheduled = act.k + 1;
+        let k = act.emitted();
+        let scheduled = k + 1;
+        let slot = &mut self.ring[act.slot];
         if slot.block.accel == 0 {
             // No acceleration to slow down with: stop after the event already scheduled.
             act.stop_at = scheduled;
+            act.arm(k);
             return;
         }
         let v = slot.profile.rate_at(scheduled - act.offset);
@@ -265,7 +433,10 @@ impl Stepper {
         act.cursor = times.cursor();
         slot.profile.set_times(times);
         match left {
-            None => act.stop_at = scheduled + times.events(),
+            None => {
+                act.stop_at = scheduled + times.events();
+                act.arm(k);
+            }
             Some(v_sq) => {
                 let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
                 for i in 0..self.queued {
@@ -303,18 +474,18 @@ impl Stepper {
             q.hold = false;
             q.stop_at = NO_STOP;
         }
-        match &mut self.active {
-            Some(act) => {
-                let rest = act.n - act.k;
-                act.offset = act.k;
-                let slot = &mut self.ring[act.slot];
-                slot.profile = Profile::new(rest, 0, slot.block.cruise_rate, 0, slot.block.accel);
-                act.stop_at = NO_STOP;
-                act.cursor = slot.profile.times().cursor();
-                Some(act.cursor.next(slot.profile.times()))
-            }
-            None => self.load_next(hal),
+        if !self.act.live {
+            return self.load_next(hal);
         }
+        let act = &mut self.act;
+        let k = act.emitted();
+        act.offset = k;
+        let slot = &mut self.ring[act.slot];
+        slot.profile = Profile::new(act.n - k, 0, slot.block.cruise_rate, 0, slot.block.accel);
+        act.stop_at = NO_STOP;
+        act.arm(k);
+        act.cursor = slot.profile.times().cursor();
+        Some(act.cursor.next(slot.profile.times()))
     }
 
     fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
@@ -327,12 +498,12 @@ impl Stepper {
         let q = &self.ring[slot];
         let block = &q.block;
         let n = q.n;
-        let (watch, home_mask) = match q.switches {
-            Switches::Limits => (self.limit_mask, 0),
-            Switches::Homing { axes } => (axes, axes),
+        let home_mask = match q.switches {
+            Switches::Limits => 0,
+            Switches::Homing { axes } => axes,
         };
         for axis in Axis::ALL {
-            let s = q.sign[axis.index()];
+            let s = block.steps[axis.index()];
             if s != 0 {
                 hal.set_dir(axis, (s < 0) ^ (self.invert & axis.bit() != 0));
             }
@@ -343,26 +514,39 @@ impl Stepper {
         if let Some(tenths) = block.servo {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
-        let act = self.active.insert(Active {
-            slot,
-            cursor: q.profile.times().cursor(),
-            k: 0,
-            offset: 0,
+        let act = &mut self.act;
+        *act = Active {
+            countdown: 0,
+            target: 1,
             n,
-            err: [n / 2; NUM_AXES],
-            watch,
+            layout: q.layout,
+            cursor: q.profile.times().cursor(),
+            slot,
+            live: true,
+            counted: home_mask != 0,
+            limits: q.switches == Switches::Limits,
+            offset: 0,
             home_mask,
             locked: 0,
             stop_at: q.stop_at,
-        });
-        // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
-        let first = if n == 0 { block.dwell_ticks.max(1) } else { act.cursor.next(q.profile.times()) };
-        Some(first)
+        };
+        if n == 0 {
+            // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
+            return Some(block.dwell_ticks.max(1));
+        }
+        act.arm(0);
+        Some(act.cursor.next(q.profile.times()))
     }
 
     /// The executing block is done: count it and go on with the next one, unless a hold stops here.
     fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
-        self.active = None;
+        if !self.act.counted {
+            let steps = self.ring[self.act.slot].block.steps;
+            for (p, s) in self.position.iter_mut().zip(steps) {
+                *p += s;
+            }
+        }
+        self.act.live = false;
         self.completed = self.completed.wrapping_add(1);
         if self.hold != HoldState::Running && !(self.queued > 0 && self.ring[self.first].hold) {
             self.hold = HoldState::Stopped;
@@ -372,80 +556,72 @@ impl Stepper {
     }
 
     /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
-    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only.
+    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only: the fast path
+    /// is a countdown, the Bresenham terms of the block's moving axes, the pin write and the time recurrence.
     #[inline(never)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
-        let Some(act) = self.active.as_mut() else {
+        let act = &mut self.act;
+        if act.countdown == 0 {
+            return self.tick_slow(hal);
+        }
+        act.countdown -= 1;
+        hal.step_axes(act.layout.event(act.n));
+        Some(match act.cursor.advance() {
+            Some(interval) => interval,
+            None => act.cursor.next(self.ring[act.slot].profile.times()),
+        })
+    }
+
+    /// Everything but a plain event in the middle of a block.
+    #[inline(never)]
+    fn tick_slow<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
+        if !self.act.live {
             return self.load_next(hal);
-        };
-        if act.n == 0 {
+        }
+        if self.act.n == 0 {
             // A dwell ended.
             return self.finish_block(hal);
         }
-        if act.watch != 0 {
-            let pressed = hal.pressed() & act.watch;
+        let k = self.act.target;
+        let mut mask = self.act.layout.event(self.act.n);
+        if self.act.counted {
+            // Homing: the switches are read at each event; an axis stops the moment its switch reads pressed.
+            let act = &mut self.act;
+            let pressed = hal.pressed() & act.home_mask;
             if pressed != 0 {
-                if act.home_mask == 0 {
-                    self.fault = Some(StepperFault::HardLimit(pressed));
-                    self.abort();
-                    return None;
-                }
-                act.locked |= pressed & act.home_mask;
+                act.locked |= pressed;
                 self.homing_hits = act.locked;
                 if act.locked == act.home_mask {
-                    self.active = None;
+                    self.act.live = false;
                     self.completed = self.completed.wrapping_add(1);
                     return self.load_next(hal);
                 }
             }
+            mask &= !act.locked;
+            let steps = &self.ring[act.slot].block.steps;
+            for axis in Axis::ALL {
+                let i = axis.index();
+                if mask & axis.bit() != 0 {
+                    self.position[i] += steps[i].signum();
+                }
+            }
         }
-        act.k += 1;
-        let n = act.n;
-        // Written out per axis: the firmware is built for size, which would keep a loop here.
-        let q = &self.ring[act.slot];
-        let mut mask = bresenham::<0>(act, &q.delta, n) | bresenham::<1>(act, &q.delta, n);
-        mask |= bresenham::<2>(act, &q.delta, n) | bresenham::<3>(act, &q.delta, n);
-        // Axes stopped by their switch (homing) no longer step.
-        mask &= !act.locked;
         if mask != 0 {
-            count::<0>(&mut self.position, &q.sign, mask);
-            count::<1>(&mut self.position, &q.sign, mask);
-            count::<2>(&mut self.position, &q.sign, mask);
-            count::<3>(&mut self.position, &q.sign, mask);
             hal.step_axes(mask);
         }
-        if act.k == n {
+        // `k` events emitted (what a hold that stops here leaves).
+        self.act.target = k + 1;
+        self.act.countdown = 0;
+        if k == self.act.n {
             return self.finish_block(hal);
         }
-        if act.k == act.stop_at {
+        if k == self.act.stop_at {
             self.hold = HoldState::Stopped;
             return None;
         }
+        let act = &mut self.act;
+        act.arm(k);
         Some(act.cursor.next(self.ring[act.slot].profile.times()))
-    }
-}
-
-// The per-event code below is written out for four axes.
-const _: () = assert!(NUM_AXES == 4);
-
-/// One event of axis `I`'s Bresenham error term (`n` events in the block): its bit when it steps.
-#[inline(always)]
-fn bresenham<const I: usize>(act: &mut Active, delta: &[u32; NUM_AXES], n: u32) -> u8 {
-    let e = act.err[I] + delta[I];
-    if e >= n {
-        act.err[I] = e - n;
-        1 << I
-    } else {
-        act.err[I] = e;
-        0
-    }
-}
-
-/// Count axis `I`'s step in the position when it is in `mask`.
-#[inline(always)]
-fn count<const I: usize>(position: &mut [i32; NUM_AXES], sign: &[i32; NUM_AXES], mask: u8) {
-    if mask & (1 << I) != 0 {
-        position[I] += sign[I];
     }
 }
 

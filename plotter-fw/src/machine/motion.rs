@@ -158,6 +158,16 @@ impl<const Q: usize> MotionQueue<Q> {
         }
     }
 
+    /// The switches may have changed (the board's switch interrupt or sampling tick): a switch pressed during a
+    /// normal move stops the stepper with a hard-limit fault, latched as an alarm by the next poll.
+    pub(crate) fn check_limits<H: Endstops + StepTimer>(&mut self, hal: &mut H) {
+        let pressed = hal.pressed();
+        if self.stepper.limit_switches(pressed) {
+            self.timer_running = false;
+            hal.cancel();
+        }
+    }
+
     /// Once a feed hold has stopped, re-plan what is queued to start from rest (once per hold).
     pub(crate) fn replan_after_hold(&mut self) {
         if self.stepper.is_held() && !self.hold_replanned {

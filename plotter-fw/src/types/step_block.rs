@@ -200,15 +200,18 @@ impl Cursor {
     /// Past the last event it returns 1 (never reached by the stepper, which counts the events).
     #[inline]
     pub fn next(&mut self, times: &StepTimes) -> u32 {
+        match self.advance() {
+            Some(interval) => interval,
+            None => self.next_segment(times),
+        }
+    }
+
+    /// [`Cursor::next`] within the current segment (the step interrupt's path: two 64-bit adds, a decrement and a
+    /// compare); `None` when the segment is used up and the next one must be read from the [`StepTimes`].
+    #[inline(always)]
+    pub fn advance(&mut self) -> Option<u32> {
         if self.left == 0 {
-            if self.seg >= times.len {
-                return 1;
-            }
-            let Some(s) = times.segments.get(usize::from(self.seg)) else { return 1 };
-            self.seg += 1;
-            self.left = s.count;
-            self.d = s.interval;
-            self.e = s.add;
+            return None;
         }
         self.left -= 1;
         self.t = self.t.wrapping_add(self.d);
@@ -216,7 +219,18 @@ impl Cursor {
         let tick = high_word(self.t);
         let interval = tick.wrapping_sub(self.last);
         self.last = tick;
-        interval
+        Some(interval)
+    }
+
+    /// Enter the next segment and return its first interval (1 past the last event).
+    #[inline(never)]
+    fn next_segment(&mut self, times: &StepTimes) -> u32 {
+        let Some(s) = times.segments().get(usize::from(self.seg)) else { return 1 };
+        self.seg += 1;
+        self.left = s.count;
+        self.d = s.interval;
+        self.e = s.add;
+        self.advance().unwrap_or(1)
     }
 
     /// Fixed-point time of the last event returned (the start, before the first).
