@@ -557,8 +557,9 @@ impl Stepper {
 
     /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
     /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only: the fast path
-    /// is a countdown, the Bresenham terms of the block's moving axes, the pin write and the time recurrence.
-    #[inline(never)]
+    /// is a countdown, the Bresenham terms of the block's moving axes, the pin write and the time recurrence,
+    /// inlined into the board's interrupt handler.
+    #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
         let act = &mut self.act;
         if act.countdown == 0 {

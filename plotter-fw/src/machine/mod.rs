@@ -210,6 +210,7 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     /// Step timer interrupt.
+    #[inline(always)]
     pub fn on_timer(&mut self) {
         self.motion.on_timer(&mut self.hal);
     }

@@ -148,6 +148,7 @@ impl<const Q: usize> MotionQueue<Q> {
     }
 
     /// The step timer interrupt.
+    #[inline(always)]
     pub(crate) fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
         match self.stepper.tick(hal) {
             Some(t) => hal.schedule(t),
