@@ -38,6 +38,17 @@ const NO_STOP: u32 = u32::MAX;
 /// Slots of the block ring: the executing block and the queue.
 const SLOTS: usize = STEPPER_QUEUE + 1;
 
+/// The ring slot after `i` (no division: this runs in the interrupt at each block change).
+fn after(i: usize) -> usize {
+    if i + 1 >= SLOTS { 0 } else { i + 1 }
+}
+
+/// The ring slot `k` places after `i` (`k < SLOTS`).
+fn nth_after(i: usize, k: usize) -> usize {
+    let j = i + k;
+    if j >= SLOTS { j - SLOTS } else { j }
+}
+
 /// Most axes that step on some events only (every block has a major axis that steps at each event).
 const MINORS: usize = NUM_AXES - 1;
 
@@ -139,6 +150,9 @@ struct Queued {
     /// Step events.
     n: u32,
     layout: Layout,
+    /// Axes that move, and the level of their direction pin (inversion applied).
+    dir_axes: u8,
+    dir_levels: u8,
     switches: Switches,
     /// A feed hold re-timed this block as the continuation of its deceleration.
     hold: bool,
@@ -266,6 +280,8 @@ impl Stepper {
             profile: empty.profile(),
             n: 0,
             layout: Layout::default(),
+            dir_axes: 0,
+            dir_levels: 0,
             switches: Switches::Limits,
             hold: false,
             stop_at: NO_STOP,
@@ -348,11 +364,23 @@ impl Stepper {
             return Err(block);
         }
         let n = block.events();
+        let (mut dir_axes, mut dir_levels) = (0, 0);
+        for axis in Axis::ALL {
+            let s = block.steps[axis.index()];
+            if s != 0 {
+                dir_axes |= axis.bit();
+                if (s < 0) ^ (self.invert & axis.bit() != 0) {
+                    dir_levels |= axis.bit();
+                }
+            }
+        }
         let mut q = Queued {
             block,
             profile: block.profile(),
             n,
             layout: Layout::of(&block, n),
+            dir_axes,
+            dir_levels,
             switches,
             hold: false,
             stop_at: NO_STOP,
@@ -361,7 +389,7 @@ impl Stepper {
             self.carry = self.carry.and_then(|c| continue_hold(c, &mut q));
         }
         // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
-        self.ring[(self.first + self.queued) % SLOTS] = q;
+        self.ring[nth_after(self.first, self.queued)] = q;
         self.queued += 1;
         Ok(())
     }
@@ -440,7 +468,7 @@ impl Stepper {
             Some(v_sq) => {
                 let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
                 for i in 0..self.queued {
-                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[(self.first + i) % SLOTS]));
+                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
                 }
                 self.carry = carry;
             }
@@ -467,7 +495,7 @@ impl Stepper {
         self.hold = HoldState::Running;
         self.carry = None;
         for i in 0..self.queued {
-            let q = &mut self.ring[(self.first + i) % SLOTS];
+            let q = &mut self.ring[nth_after(self.first, i)];
             q.block.entry_rate = 0;
             q.block.exit_rate = 0;
             q.profile = q.block.profile();
@@ -493,7 +521,7 @@ impl Stepper {
             return None;
         }
         let slot = self.first;
-        self.first = (slot + 1) % SLOTS;
+        self.first = after(slot);
         self.queued -= 1;
         let q = &self.ring[slot];
         let block = &q.block;
@@ -503,9 +531,8 @@ impl Stepper {
             Switches::Homing { axes } => axes,
         };
         for axis in Axis::ALL {
-            let s = block.steps[axis.index()];
-            if s != 0 {
-                hal.set_dir(axis, (s < 0) ^ (self.invert & axis.bit() != 0));
+            if q.dir_axes & axis.bit() != 0 {
+                hal.set_dir(axis, q.dir_levels & axis.bit() != 0);
             }
         }
         if home_mask != 0 {
@@ -514,22 +541,25 @@ impl Stepper {
         if let Some(tenths) = block.servo {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
+        // Field by field (no whole-struct copy in the interrupt).
         let act = &mut self.act;
-        *act = Active {
-            countdown: 0,
-            target: 1,
-            n,
-            layout: q.layout,
-            cursor: q.profile.times().cursor(),
-            slot,
-            live: true,
-            counted: home_mask != 0,
-            limits: q.switches == Switches::Limits,
-            offset: 0,
-            home_mask,
-            locked: 0,
-            stop_at: q.stop_at,
-        };
+        act.n = n;
+        act.layout.always = q.layout.always;
+        act.layout.minors = q.layout.minors;
+        for (a, b) in act.layout.minor.iter_mut().zip(&q.layout.minor) {
+            *a = *b;
+        }
+        act.cursor = q.profile.times().cursor();
+        act.slot = slot;
+        act.live = true;
+        act.counted = home_mask != 0;
+        act.limits = q.switches == Switches::Limits;
+        act.offset = 0;
+        act.home_mask = home_mask;
+        act.locked = 0;
+        act.stop_at = q.stop_at;
+        act.countdown = 0;
+        act.target = 1;
         if n == 0 {
             // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
             return Some(block.dwell_ticks.max(1));
@@ -541,10 +571,12 @@ impl Stepper {
     /// The executing block is done: count it and go on with the next one, unless a hold stops here.
     fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if !self.act.counted {
-            let steps = self.ring[self.act.slot].block.steps;
-            for (p, s) in self.position.iter_mut().zip(steps) {
-                *p += s;
-            }
+            let steps = &self.ring[self.act.slot].block.steps;
+            // Written out per axis (no loop through a copy).
+            self.position[0] += steps[0];
+            self.position[1] += steps[1];
+            self.position[2] += steps[2];
+            self.position[3] += steps[3];
         }
         self.act.live = false;
         self.completed = self.completed.wrapping_add(1);

@@ -340,7 +340,8 @@ impl StepPins for NucleoHal {
     /// All the event's step pins at once; the timer and DMA end the pulse.
     #[inline(always)]
     fn step_axes(&mut self, mask: u8) {
-        STEP_OUT.step_event(mask, self.servo.as_mut());
+        // Without the `servo-pen` feature there is no servo: the check folds away.
+        STEP_OUT.step_event(mask, self.servo.as_mut().filter(|_| cfg!(feature = "servo-pen")));
     }
 
     fn enable_motors(&mut self, on: bool) {

@@ -22,7 +22,6 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use plotter_board::deadline::Deadline;
 use plotter_board::debounce::Debouncer;
-use plotter_board::servo::ServoPen;
 use plotter_board::shared::Shared;
 use plotter_board::stm32_step::{StepOutputs, read, tim, write};
 use plotter_fw::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer};
@@ -46,6 +45,9 @@ const IDR: usize = 0x10;
 /// As the Nucleo's: step pins X PA10, Y PB3, Z PB5, E PA6; 3 µs pulses, 2 µs low; the servo's compare register.
 const STEP_OUT: StepOutputs = StepOutputs::new([GPIOA, GPIOB], [(0, 10), (1, 3), (1, 5), (0, 6)], TIM2, 3, TIM3 + 0x3C);
 const LEAD: u32 = 3 + 2;
+/// The Nucleo's direction pins (PB4, PB10, PA8, PA5), on stand-in ports of their own here so that the step
+/// ports' BSRR stand-ins show only the step pins (the store is the same).
+const DIR: [(usize, u32); 4] = [(DIR_B, 4), (DIR_B, 10), (DIR_A, 8), (DIR_A, 5)];
 /// Endstops X PC7, Y PB6, Z PA7.
 const ENDSTOP: [(usize, u32); 3] = [(GPIOC, 7), (GPIOB, 6), (GPIOA, 7)];
 
@@ -62,26 +64,22 @@ fn endstop_low<const I: usize>() -> u8 {
 struct BenchHal {
     deadline: Deadline,
     debounce: Debouncer,
-    /// As the Nucleo's without the `servo-pen` feature.
-    servo: Option<ServoPen>,
 }
 
 impl StepPins for BenchHal {
     #[inline]
     fn set_dir(&mut self, axis: Axis, level: bool) {
-        // The Nucleo's direction pins (PB4, PB10, PA8, PA5), on stand-in ports of their own here so that the step
-        // ports' BSRR stand-ins show only the step pins (the store is the same).
-        let (port, n) = [(DIR_B, 4), (DIR_B, 10), (DIR_A, 8), (DIR_A, 5)][axis.index()];
+        let (port, n) = DIR[axis.index()];
         write(port + plotter_board::stm32_step::BSRR, if level { 1 << n } else { 1 << (n + 16) });
     }
     #[inline]
     fn step(&mut self, axis: Axis) {
         self.step_axes(axis.bit());
     }
-    /// As the Nucleo board.
+    /// As the Nucleo board (built without the `servo-pen` feature).
     #[inline(always)]
     fn step_axes(&mut self, mask: u8) {
-        STEP_OUT.step_event(mask, self.servo.as_mut());
+        STEP_OUT.step_event(mask, None);
     }
     fn enable_motors(&mut self, _on: bool) {}
 }
@@ -172,7 +170,7 @@ fn main() -> ! {
         write(port + IDR, 0xFFFF);
     }
     let cfg = MachineConfig::xy_plotter();
-    let hal = BenchHal { deadline: Deadline::new(LEAD), debounce: Debouncer::new(1_000), servo: None };
+    let hal = BenchHal { deadline: Deadline::new(LEAD), debounce: Debouncer::new(1_000) };
     MACHINE.install(Machine::new(hal, cfg));
     let mut ticks = 0u32;
     let mut steps = 0u32;
