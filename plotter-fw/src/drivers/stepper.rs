@@ -689,13 +689,15 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// Records steps per tick; no endstops.
+    /// Records steps per tick; switches pressed at or below `switch_at` (per axis, when set).
     #[derive(Default)]
     struct Rec {
         dir: [bool; NUM_AXES],
         pos: [i64; NUM_AXES],
         dir_changes_during_block: u32,
         steps: [u32; NUM_AXES],
+        switch_at: [Option<i64>; NUM_AXES],
+        reads: u32,
     }
     impl StepPins for Rec {
         fn set_dir(&mut self, axis: Axis, level: bool) {
@@ -711,8 +713,13 @@ mod tests {
     }
     impl Endstops for Rec {
         fn pressed(&mut self) -> u8 {
-            0
+            self.reads += 1;
+            (0..NUM_AXES).filter(|&i| self.switch_at[i].is_some_and(|at| self.pos[i] <= at)).fold(0, |m, i| m | 1 << i)
         }
+    }
+
+    fn as_i32(pos: &[i64; NUM_AXES]) -> [i32; NUM_AXES] {
+        pos.map(|p| i32::try_from(p).unwrap())
     }
 
     fn run(block: StepBlock, mut check: impl FnMut(u32, &[i64; NUM_AXES])) -> (Rec, u64) {
@@ -724,8 +731,12 @@ mod tests {
         while let Some(iv) = s.tick(&mut hal) {
             k += 1;
             check(k, &hal.pos);
+            // The position the stepper reports (derived from its error terms) is the steps emitted, at every event.
+            assert_eq!(s.position(), as_i32(&hal.pos), "event {k}");
             t += u64::from(iv);
         }
+        assert_eq!(s.position(), as_i32(&hal.pos));
+        assert_eq!(hal.reads, 0, "no switch read outside homing");
         // The last tick returned None at the last event; `t` is the time of that last event.
         (hal, t)
     }
@@ -912,6 +923,193 @@ mod tests {
         assert_eq!(s.resume(&mut hal), Some(10_000));
         while s.tick(&mut hal).is_some() {}
         assert_eq!(hal.pos[1], 50);
+    }
+
+    #[test]
+    fn layout_packs_the_axes_of_every_event_and_the_minor_ones() {
+        let b = StepBlock { steps: [5, -5, 3, 0], cruise_rate: 100, ..StepBlock::default() };
+        let l = Layout::of(&b, 5);
+        assert_eq!((l.always, l.minors), (0b0011, 1));
+        assert_eq!((l.minor[0].delta, l.minor[0].err, l.minor[0].bit, l.minor[0].axis), (3, 2, 0b0100, 2));
+        let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
+        let l = Layout::of(&b, 7);
+        assert_eq!((l.always, l.minors), (0b1000, 3));
+        assert_eq!(l.minor.map(|m| (m.delta, m.bit, m.axis)), [(1, 1, 0), (2, 2, 1), (3, 4, 2)]);
+        // Steps after k events: k for the major axis, ⌊(k·d + ⌊n/2⌋)/n⌋ for the others (n = 7, k = 4: 1, 1, 2).
+        let mut l2 = l;
+        for _ in 0..4 {
+            l2.event(7);
+        }
+        assert_eq!(l2.steps_after(4, 7), [1, 1, 2, 4]);
+        assert_eq!(Layout::of(&StepBlock::dwell(5), 0).always, 0);
+    }
+
+    #[test]
+    fn ring_slots_wrap_without_division() {
+        assert_eq!([after(0), after(1), after(2)], [1, 2, 0]);
+        assert_eq!([nth_after(1, 0), nth_after(1, 1), nth_after(1, 2), nth_after(2, 2)], [1, 2, 0, 1]);
+    }
+
+    #[test]
+    fn abort_keeps_the_position_reached() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [40, -30, 0, 7], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.start(&mut hal);
+        for _ in 0..17 {
+            s.tick(&mut hal).unwrap();
+        }
+        // 17 of 40 events: X 17, Y ⌊(17·30 + 20)/40⌋ = 13 back, E ⌊(17·7 + 20)/40⌋ = 3.
+        assert_eq!(s.position(), [17, -13, 0, 3]);
+        assert_eq!(as_i32(&hal.pos), [17, -13, 0, 3]);
+        assert_eq!(s.pending(), 1);
+        s.abort();
+        assert!(s.is_idle());
+        assert_eq!(s.position(), [17, -13, 0, 3]);
+        // The next move starts from there.
+        s.push(StepBlock { steps: [3, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(s.position(), [20, -13, 0, 3]);
+        assert_eq!(s.completed(), 1);
+    }
+
+    #[test]
+    fn limit_switches_fault_only_during_a_normal_move() {
+        let mut s = Stepper::new(0, Axis::X.bit() | Axis::Y.bit());
+        let mut hal = Rec::default();
+        assert!(!s.limit_switches(0b0011), "idle: nothing to stop");
+        s.push(StepBlock { steps: [50, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.push(StepBlock { steps: [50, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.start(&mut hal);
+        for _ in 0..10 {
+            s.tick(&mut hal).unwrap();
+        }
+        assert!(!s.limit_switches(0), "nothing pressed");
+        assert!(!s.limit_switches(Axis::Z.bit()), "Z has no hard limit");
+        assert_eq!(s.fault(), None);
+        assert!(s.limit_switches(Axis::Y.bit() | Axis::Z.bit()));
+        assert_eq!(s.fault(), Some(StepperFault::HardLimit(Axis::Y.bit())));
+        assert!(s.is_idle(), "queue dropped");
+        assert_eq!(s.position(), [10, 0, 0, 0]);
+        assert_eq!(s.start(&mut hal), None, "a fault keeps it stopped");
+        s.clear_fault();
+        assert_eq!(s.fault(), None);
+        // A homing move does not treat its switches as limits.
+        s.push(
+            StepBlock { steps: [-50, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() },
+            Switches::Homing { axes: 0 },
+        )
+        .unwrap();
+        s.start(&mut hal);
+        s.tick(&mut hal).unwrap();
+        assert!(!s.limit_switches(Axis::X.bit()));
+        assert_eq!(s.fault(), None);
+    }
+
+    #[test]
+    fn homing_stops_each_axis_at_its_switch() {
+        let mut s = Stepper::new(0, Axis::X.bit());
+        let mut hal = Rec::default();
+        hal.switch_at = [Some(-100), Some(-250), None, None];
+        let block = StepBlock { steps: [-1000, -1000, -400, 0], cruise_rate: 1000, ..StepBlock::default() };
+        s.push(block, Switches::Homing { axes: Axis::X.bit() | Axis::Y.bit() }).unwrap();
+        s.start(&mut hal);
+        let mut events = 0;
+        while s.tick(&mut hal).is_some() {
+            events += 1;
+            assert_eq!(s.position(), as_i32(&hal.pos), "counted at each event");
+            assert!(events <= 1000);
+        }
+        // The switch is read before each event: X stops where its switch closed, Y too; Z went on (2 in 5).
+        assert_eq!(as_i32(&hal.pos), [-100, -250, -100, 0]);
+        assert_eq!(s.position(), [-100, -250, -100, 0]);
+        assert_eq!(s.homing_hits(), 0b0011);
+        assert_eq!((events, s.completed()), (250, 1));
+        assert!(s.is_idle());
+        assert_eq!(s.fault(), None);
+        // Both switches still pressed: the next homing move of both ends at its first event without a step.
+        s.push(
+            StepBlock { steps: [-10, -10, 0, 0], cruise_rate: 1000, ..StepBlock::default() },
+            Switches::Homing { axes: 0b0011 },
+        )
+        .unwrap();
+        s.start(&mut hal);
+        assert_eq!(s.tick(&mut hal), None);
+        assert_eq!((s.position(), s.completed()), ([-100, -250, -100, 0], 2));
+        // A homing block of one axis whose switch is never hit runs to its end.
+        hal.switch_at = [None; NUM_AXES];
+        s.push(
+            StepBlock { steps: [0, 0, 0, -5], cruise_rate: 1000, ..StepBlock::default() },
+            Switches::Homing { axes: Axis::E.bit() },
+        )
+        .unwrap();
+        s.start(&mut hal);
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(s.position(), [-100, -250, -100, -5]);
+        assert_eq!(s.homing_hits(), 0);
+    }
+
+    #[test]
+    fn a_hold_during_homing_stops_and_resumes_counting() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let block = StepBlock { steps: [0, 60, 0, 0], cruise_rate: 100, ..StepBlock::default() };
+        s.push(block, Switches::Homing { axes: Axis::Y.bit() }).unwrap();
+        s.start(&mut hal);
+        for _ in 0..20 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!(s.position(), [0, 21, 0, 0]);
+        assert_eq!(s.resume(&mut hal), Some(10_000));
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(s.position(), [0, 60, 0, 0]);
+        assert_eq!(as_i32(&hal.pos), [0, 60, 0, 0]);
+    }
+
+    #[test]
+    fn a_dwell_and_a_servo_block_keep_the_position_and_count() {
+        #[derive(Default)]
+        struct Servo(Rec, std::vec::Vec<f32>);
+        impl StepPins for Servo {
+            fn set_dir(&mut self, axis: Axis, level: bool) {
+                self.0.set_dir(axis, level);
+            }
+            fn step(&mut self, axis: Axis) {
+                self.0.step(axis);
+            }
+            fn enable_motors(&mut self, _on: bool) {}
+            fn set_servo(&mut self, angle_deg: f32) {
+                self.1.push(angle_deg);
+            }
+        }
+        impl Endstops for Servo {
+            fn pressed(&mut self) -> u8 {
+                0
+            }
+        }
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Servo::default();
+        s.set_position([5, 6, 7, 8]);
+        s.set_axis_position(Axis::Z, 9);
+        s.push(StepBlock::servo(450, 300), Switches::Limits).unwrap();
+        s.push(StepBlock::dwell(0), Switches::Limits).unwrap();
+        assert!(!s.has_room());
+        assert_eq!(s.pending(), 2);
+        assert_eq!(s.start(&mut hal), Some(300));
+        assert_eq!(hal.1, [45.0]);
+        assert_eq!(s.position(), [5, 6, 9, 8]);
+        // The servo block ends, the zero dwell starts (at least one tick).
+        assert_eq!(s.tick(&mut hal), Some(1));
+        assert_eq!(s.tick(&mut hal), None);
+        assert_eq!((s.completed(), s.position()), (2, [5, 6, 9, 8]));
+        assert!(s.is_idle());
     }
 
     fn block_strategy() -> impl Strategy<Value = StepBlock> {

@@ -657,6 +657,37 @@ mod tests {
     }
 
     #[test]
+    fn cursor_intervals_and_times_are_exact_fixed_point() {
+        // From half a tick: 3 events 1.5 ticks apart growing by 0.25, then 2 events 4 ticks apart.
+        let mut times = StepTimes::empty(HALF);
+        times.segments[0] = Segment { count: 3, interval: 3 << 31, add: 1 << 30 };
+        times.segments[1] = Segment { count: 2, interval: 4 << 32, add: 0 };
+        times.len = 2;
+        times.events = 5;
+        times.span = (13 << 32) + (1 << 31) - u128::from(HALF);
+        // Event times 2.0, 3.75, 5.75, 9.75, 13.75 ticks: ticks 2, 3, 5, 9, 13.
+        let quarter = 1u64 << 30;
+        let expect_t = [8 * quarter, 15 * quarter, 23 * quarter, 39 * quarter, 55 * quarter];
+        let mut c = times.cursor();
+        assert_eq!(c.time(), HALF);
+        let mut intervals = Vec::new();
+        for t in expect_t {
+            intervals.push(c.next(&times));
+            assert_eq!(c.time(), t);
+        }
+        assert_eq!(intervals, [2, 1, 2, 4, 4]);
+        assert_eq!(times.duration_ticks(), 13);
+        assert_eq!(times.segments().len(), 2);
+        // Within a segment `advance` is `next`; at a segment's end it leaves the switch to `next`.
+        let mut c = times.cursor();
+        assert_eq!(c.advance(), None, "no segment entered yet");
+        assert_eq!(c.next(&times), 2);
+        assert_eq!([c.advance(), c.advance(), c.advance()], [Some(1), Some(2), None]);
+        assert_eq!(c.time(), 23 * quarter);
+        assert_eq!([c.next(&times), c.next(&times), c.next(&times)], [4, 4, 1]);
+    }
+
+    #[test]
     fn hold_ramp_stops_where_the_speed_runs_out() {
         // From 1000 events/s at 10⁵ events/s²: v² − 2aj > 0 for j < 5, so 4 more events, event j at
         // (v − √(v² − 2aj))/a = 10·(1000 − √(10⁶ − 2·10⁵·j)) µs: 1055.7, 2254.0, 3675.4, 5527.9.
