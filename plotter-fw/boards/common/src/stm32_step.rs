@@ -156,7 +156,7 @@ impl StepOutputs {
         let sr = read(self.tim + tim::SR) & read(self.tim + tim::DIER);
         write(self.tim + tim::SR, !sr);
         if sr & tim::UIF != 0 {
-            wraps.fetch_add(1, Ordering::Relaxed);
+            count_wrap(wraps);
         }
         sr & tim::CC1 != 0
     }
@@ -182,6 +182,13 @@ impl StepOutputs {
         write(self.tim + tim::SR, !tim::CC1);
         deadline.cancel();
     }
+}
+
+/// One more overflow of the timer (once every 2³² ticks: out of the step path's way).
+#[cold]
+#[inline(never)]
+fn count_wrap(wraps: &AtomicU32) {
+    wraps.fetch_add(1, Ordering::Relaxed);
 }
 
 #[cfg(test)]

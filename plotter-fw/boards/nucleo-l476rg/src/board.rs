@@ -22,10 +22,10 @@
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use plotter_board::deadline::Deadline;
-use plotter_board::stm32_step::StepOutputs;
 use plotter_board::debounce::Debouncer;
 use plotter_board::note::ResetCause;
 use plotter_board::servo::{ServoConfig, ServoPen};
+use plotter_board::stm32_step::StepOutputs;
 use plotter_fw::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer, servo_pulse_us};
 use plotter_fw::{Axis, MachineConfig};
 
