@@ -1013,8 +1013,7 @@ mod tests {
     #[test]
     fn homing_stops_each_axis_at_its_switch() {
         let mut s = Stepper::new(0, Axis::X.bit());
-        let mut hal = Rec::default();
-        hal.switch_at = [Some(-100), Some(-250), None, None];
+        let mut hal = Rec { switch_at: [Some(-100), Some(-250), None, None], ..Rec::default() };
         let block = StepBlock { steps: [-1000, -1000, -400, 0], cruise_rate: 1000, ..StepBlock::default() };
         s.push(block, Switches::Homing { axes: Axis::X.bit() | Axis::Y.bit() }).unwrap();
         s.start(&mut hal);

@@ -206,25 +206,25 @@ mod tests {
         assert_eq!(o.pulse_end_transfers(), [((1 << 26) | (1 << 22), 0x118), ((1 << 19) | (1 << 21), 0x218)]);
     }
 
-    /// Pulse and gap at the ticks' resolution: the pins go up at `set` (a real time, in ticks), the counter reads
-    /// `⌊set + ε⌋`, the DMA lowers them when the counter reaches that plus `pulse`; the next event is scheduled
+    /// Pulse and gap at the ticks' resolution (times in hundredths of a tick): the pins go up at `set`, the counter
+    /// reads `⌊set⌋`, the DMA lowers them when the counter reaches that plus `pulse`; the next event is scheduled
     /// from the counter read then and fires at its deadline (plus the interrupt's latency).
     #[test]
     fn pulses_stay_high_and_low_long_enough_at_every_latency_and_rate() {
         let (pulse, low) = (3u32, 2u32);
         for interval in 1..12u32 {
-            for latency_tenths in [0u32, 3, 9, 10, 17, 25, 40, 47, 60, 99, 150] {
+            for latency in [0u32, 30, 90, 100, 170, 250, 400, 470, 600, 990, 1500] {
                 let mut d = Deadline::new(pulse + low);
                 let mut deadline = d.schedule(0, interval);
-                let mut last_end: Option<f64> = None;
+                let mut last_end: Option<u32> = None;
                 for _ in 0..20 {
-                    // The interrupt runs `latency` after the deadline; the pin store and the counter read follow.
-                    let set = f64::from(deadline) + f64::from(latency_tenths) / 10.0 + 0.05;
-                    let cnt = set.floor() as u32;
-                    let end = f64::from(cnt + pulse);
-                    assert!(end - set >= f64::from(pulse - 1), "high {} at {interval}/{latency_tenths}", end - set);
+                    // The interrupt runs `latency` after the deadline; the pin store comes 0.05 tick later.
+                    let set = deadline * 100 + latency + 5;
+                    let cnt = set / 100;
+                    let end = (cnt + pulse) * 100;
+                    assert!(end - set >= (pulse - 1) * 100, "high {} at {interval}/{latency}", end - set);
                     if let Some(prev_end) = last_end {
-                        assert!(set - prev_end >= f64::from(low), "low {} at {interval}", set - prev_end);
+                        assert!(set - prev_end >= low * 100, "low {} at {interval}/{latency}", set - prev_end);
                     }
                     last_end = Some(end);
                     deadline = d.schedule(cnt, interval);
