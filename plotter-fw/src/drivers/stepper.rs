@@ -904,6 +904,17 @@ mod tests {
         assert!(s.is_idle());
         assert_eq!(hal.pos[0], 6000);
         assert_eq!(s.completed(), 2);
+        // Later, a hold during a dwell stops at its end, whatever the ring slots still remember of the re-timed
+        // block (the slot after the dwell's is the second block's, which the hold above had marked).
+        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        assert_eq!(s.tick(&mut hal), None);
+        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!(s.completed(), 4);
     }
 
     #[test]

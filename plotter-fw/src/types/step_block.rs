@@ -706,6 +706,27 @@ mod tests {
         let (t, left) = StepTimes::hold(HALF, 10, 1000.0, 10_000);
         assert_eq!(t.events(), 10);
         assert_eq!(left, Some(1000.0 * 1000.0 - 2.0 * 10_000.0 * 10.0));
+        // Exactly the 49 events the stop needs: the last one still has speed (v² − 2a·49 = 20 000), carried on;
+        // one more available and the hold stops within.
+        let (t, left) = StepTimes::hold(HALF, 49, 1000.0, 10_000);
+        assert_eq!((t.events(), left), (49, Some(20_000.0)));
+        let (t, left) = StepTimes::hold(HALF, 50, 1000.0, 10_000);
+        assert_eq!((t.events(), left), (49, None));
+    }
+
+    #[test]
+    fn a_fit_whose_last_interval_would_be_negative_is_linear() {
+        // 4 events over 4 ticks with the middle one at 3.9: E = 4·(4 − 7.8)/16 = −0.95 tick, D = (4 + 0.95·6)/4 =
+        // 2.425, last interval D + 3E = −0.425 < 0: one tick each instead.
+        let mut t = StepTimes::empty(HALF);
+        t.fit(4, 0.0, 3.9, 4.0, false);
+        assert_eq!(t.segments(), &[Segment { count: 4, interval: 1 << 32, add: 0 }]);
+        assert_eq!((t.events(), t.duration_ticks()), (4, 4));
+        // Convex (middle at 1.0): E = 4·(4 − 2)/16 = 0.5 tick, D = (4 − 0.5·6)/4 = 0.25, intervals 0.25 … 1.75.
+        let mut t = StepTimes::empty(HALF);
+        t.fit(4, 0.0, 1.0, 4.0, false);
+        assert_eq!(t.segments(), &[Segment { count: 4, interval: 1 << 30, add: 1 << 31 }]);
+        assert_eq!((t.events(), t.duration_ticks()), (4, 4));
     }
 
     /// The stated bound: each event within 2 ticks + 0.05 % of the time spent ramping (accelerating plus
