@@ -715,6 +715,19 @@ mod tests {
     }
 
     #[test]
+    fn rate_at_follows_the_trapezoid() {
+        // 100 events, 0 → 1000 → 0 at 10⁴ events/s²: accelerate over 50, decelerate over 50.
+        let p = Profile::new(100, 0, 1000, 0, 10_000);
+        // √(2a·25) = √500 000 = 707.107 a quarter in and a quarter before the end; the peak in the middle.
+        assert!((p.rate_at(25) - 707.107).abs() < 0.01, "{}", p.rate_at(25));
+        assert!((p.rate_at(75) - 707.107).abs() < 0.01, "{}", p.rate_at(75));
+        assert!((p.rate_at(90) - 447.214).abs() < 0.01, "{}", p.rate_at(90));
+        assert_eq!(p.rate_at(50), 1000.0);
+        assert_eq!(p.rate_at(500), 0.0, "past the end: the end");
+        assert_eq!(Profile::new(10, 0, 300, 0, 0).rate_at(4), 300.0, "no acceleration: the cruise rate");
+    }
+
+    #[test]
     fn a_fit_whose_last_interval_would_be_negative_is_linear() {
         // 4 events over 4 ticks with the middle one at 3.9: E = 4·(4 − 7.8)/16 = −0.95 tick, D = (4 + 0.95·6)/4 =
         // 2.425, last interval D + 3E = −0.425 < 0: one tick each instead.
