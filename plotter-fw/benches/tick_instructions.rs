@@ -1,21 +1,28 @@
 //! Instructions per stepper tick, counted with callgrind.
 //!
-//! The binary drives `Stepper::tick` (marked `#[inline(never)]`) through a long accelerating/cruising/
+//! The binary drives `Stepper::tick` (inlined into the board's interrupt handler, so here wrapped in the
+//! `#[inline(never)]` function `stepper_tick`) through a long accelerating/cruising/
 //! decelerating 3-axis block and a run of short blocks, on a HAL whose pins are plain memory writes, and prints
 //! how many ticks it made. Count the instructions executed inside `tick` (inclusive of everything it calls) with
 //!
 //! ```text
 //! cargo bench -p plotter-fw --bench tick_instructions --no-run
-//! valgrind --tool=callgrind --toggle-collect='*Stepper*tick*' --callgrind-out-file=/tmp/cg.out \
+//! valgrind --tool=callgrind --toggle-collect='*stepper_tick*' --callgrind-out-file=/tmp/cg.out \
 //!     target/release/deps/tick_instructions-<hash>
 //! callgrind_annotate /tmp/cg.out | head      # "PROGRAM TOTALS" Ir / ticks printed = instructions per tick
 //! ```
-//! (`--toggle-collect` counts only while inside `tick`.) Target: ≤ 150 instructions per tick (x86-64).
+//! (`--toggle-collect` counts only while inside `stepper_tick`.) Target: ≤ 150 instructions per tick (x86-64).
 
 use plotter_fw::hal::{Endstops, StepPins};
 use plotter_fw::step_block::{StepBlock, Switches};
 use plotter_fw::stepper::Stepper;
 use plotter_fw::{Axis, NUM_AXES};
+
+/// One step interrupt, as a function of its own for callgrind.
+#[inline(never)]
+fn stepper_tick(s: &mut Stepper, pins: &mut Pins) -> Option<u32> {
+    s.tick(pins)
+}
 
 /// Pins as memory: what a board's GPIO writes amount to.
 struct Pins {
@@ -81,7 +88,7 @@ fn main() {
             }
         }
         ticks += 1;
-        match s.tick(&mut pins) {
+        match stepper_tick(&mut s, &mut pins) {
             Some(t) => time += u64::from(t),
             None => break,
         }

@@ -422,6 +422,8 @@ impl Sim {
                 // Hot loop: timer events until something needs the main loop or a byte is due.
                 let limit = byte_at.unwrap_or(u64::MAX).min(end).min(thermal_at.unwrap_or(u64::MAX));
                 loop {
+                    // The switches as a board's switch interrupt sees them: between two step events.
+                    self.machine.check_limits();
                     self.machine.on_timer();
                     if self.machine.needs_poll() {
                         break;

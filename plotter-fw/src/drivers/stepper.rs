@@ -38,16 +38,121 @@ const NO_STOP: u32 = u32::MAX;
 /// Slots of the block ring: the executing block and the queue.
 const SLOTS: usize = STEPPER_QUEUE + 1;
 
-/// A block in the stepper's ring (queued, or executing from where it was queued: loading it copies nothing), its
-/// step times already computed.
+/// The ring slot after `i` (no division: this runs in the interrupt at each block change).
+fn after(i: usize) -> usize {
+    if i + 1 >= SLOTS { 0 } else { i + 1 }
+}
+
+/// The ring slot `k` places after `i` (`k < SLOTS`).
+fn nth_after(i: usize, k: usize) -> usize {
+    let j = i + k;
+    if j >= SLOTS { j - SLOTS } else { j }
+}
+
+/// Most axes that step on some events only (every block has a major axis that steps at each event).
+const MINORS: usize = NUM_AXES - 1;
+
+// `Layout::event` is written out for three minor axes.
+const _: () = assert!(MINORS == 3);
+
+/// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term.
+#[derive(Debug, Clone, Copy, Default)]
+struct Minor {
+    delta: u32,
+    err: u32,
+    /// Its [`Axis::bit`].
+    bit: u8,
+    /// Its [`Axis::index`].
+    axis: u8,
+}
+
+/// What the interrupt does at each event of a block, laid out when the block is pushed: the axes that step at
+/// every event, and the few that do not, in a packed list (no per-axis loop, no match at each event).
+#[derive(Debug, Clone, Copy, Default)]
+struct Layout {
+    /// Axes with `|Δ| = n`: they step at every event.
+    always: u8,
+    /// Packed minor axes; `minors` of them are used.
+    minor: [Minor; MINORS],
+    minors: u8,
+}
+
+impl Layout {
+    fn of(block: &StepBlock, n: u32) -> Self {
+        let mut l = Layout::default();
+        for axis in Axis::ALL {
+            let d = block.steps[axis.index()].unsigned_abs();
+            if d == n && n > 0 {
+                l.always |= axis.bit();
+            } else if d > 0 && usize::from(l.minors) < MINORS {
+                #[allow(clippy::cast_possible_truncation, reason = "an axis index is below NUM_AXES")]
+                let index = axis.index() as u8;
+                l.minor[usize::from(l.minors)] = Minor { delta: d, err: n / 2, bit: axis.bit(), axis: index };
+                l.minors += 1;
+            }
+        }
+        l
+    }
+
+    /// One event of the Bresenham error terms: the mask of the axes that step.
+    #[inline(always)]
+    fn event(&mut self, n: u32) -> u8 {
+        let mut mask = self.always;
+        if self.minors > 0 {
+            mask |= self.minor[0].event(n);
+            if self.minors > 1 {
+                mask |= self.minor[1].event(n);
+                if self.minors > 2 {
+                    mask |= self.minor[2].event(n);
+                }
+            }
+        }
+        mask
+    }
+
+    /// Steps made by each axis (unsigned) after `k` of the `n` events: `k` for the axes of every event, and
+    /// `(k·|Δ| + ⌊n/2⌋ − err)/n` for the others (exact: the error term is that sum's remainder). Main context.
+    fn steps_after(&self, k: u32, n: u32) -> [u32; NUM_AXES] {
+        let mut steps = [0; NUM_AXES];
+        for axis in Axis::ALL {
+            if self.always & axis.bit() != 0 {
+                steps[axis.index()] = k;
+            }
+        }
+        for m in &self.minor[..usize::from(self.minors)] {
+            let sum = u64::from(k) * u64::from(m.delta) + u64::from(n / 2) - u64::from(m.err);
+            steps[usize::from(m.axis)] = u32::try_from(sum / u64::from(n.max(1))).unwrap_or(u32::MAX);
+        }
+        steps
+    }
+}
+
+impl Minor {
+    #[inline(always)]
+    fn event(&mut self, n: u32) -> u8 {
+        let e = self.err + self.delta;
+        if e >= n {
+            self.err = e - n;
+            self.bit
+        } else {
+            self.err = e;
+            0
+        }
+    }
+}
+
+/// A block in the stepper's ring (queued, or executing from where it was queued), its step times and per-event
+/// layout already computed.
 #[derive(Debug, Clone, Copy)]
 struct Queued {
     block: StepBlock,
     profile: Profile,
-    /// Step events, steps per axis and their signs (computed at push, read by the interrupt).
+    /// Step events.
     n: u32,
-    delta: [u32; NUM_AXES],
-    sign: [i32; NUM_AXES],
+    layout: Layout,
+    /// Axes that move, and the level of their direction pin (inversion applied).
+    dir_axes: u8,
+    dir_levels: u8,
     switches: Switches,
     /// A feed hold re-timed this block as the continuation of its deceleration.
     hold: bool,
@@ -65,24 +170,73 @@ struct Carry {
 }
 
 /// The executing block's state (the block itself stays in its ring slot).
+///
+/// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
+/// interval. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing event,
+/// the idle stepper — is one `countdown == 0` test away, on the slow path.
 #[derive(Debug, Clone, Copy)]
 struct Active {
+    /// Events the fast path may still emit before the event at `target`.
+    countdown: u32,
+    /// The next event the slow path handles: the block's last, or where a hold stops; for a homing block (all its
+    /// events on the slow path) the next event.
+    target: u32,
+    /// Events in the block.
+    n: u32,
+    layout: Layout,
+    cursor: Cursor,
     /// Ring slot of the block.
     slot: usize,
-    cursor: Cursor,
-    /// Events already emitted.
-    k: u32,
+    /// A block is executing.
+    live: bool,
+    /// Homing: its steps are counted in the position at each event, not derived from the layout.
+    counted: bool,
+    /// The hard limits are armed (a [`Switches::Limits`] block).
+    limits: bool,
     /// Event index the profile starts from (non-zero after a feed hold re-profiled the rest).
     offset: u32,
-    n: u32,
-    err: [u32; NUM_AXES],
-    /// Axes whose switch is read at each event: the home mask in a homing block, else the hard-limit mask.
-    watch: u8,
     /// Homing: axes stopped by their switch, and those already stopped.
     home_mask: u8,
     locked: u8,
     /// Event after which a feed hold stops ([`NO_STOP`]: none).
     stop_at: u32,
+}
+
+impl Active {
+    /// No block executing.
+    fn idle() -> Self {
+        Active {
+            countdown: 0,
+            target: 1,
+            n: 0,
+            layout: Layout::default(),
+            cursor: Cursor::default(),
+            slot: 0,
+            live: false,
+            counted: false,
+            limits: false,
+            offset: 0,
+            home_mask: 0,
+            locked: 0,
+            stop_at: NO_STOP,
+        }
+    }
+
+    /// Events emitted so far.
+    fn emitted(&self) -> u32 {
+        self.target - 1 - self.countdown
+    }
+
+    /// After `k` events: hand the events before the next stop (block end or hold) to the fast path.
+    fn arm(&mut self, k: u32) {
+        if self.counted {
+            self.target = k + 1;
+            self.countdown = 0;
+        } else {
+            self.target = self.n.min(self.stop_at).max(k + 1);
+            self.countdown = self.target - k - 1;
+        }
+    }
 }
 
 /// What stopped the stepper abnormally.
@@ -95,14 +249,16 @@ pub enum StepperFault {
 /// The stepper: a queue of [`StepBlock`]s and the executing block's Bresenham state.
 #[derive(Debug)]
 pub struct Stepper {
+    act: Active,
     /// The executing block's slot (when one executes) is the one before `first`; `queued` blocks follow it.
     ring: [Queued; SLOTS],
     first: usize,
     queued: usize,
-    active: Option<Active>,
+    /// Position in steps before the executing block's steps (which are added when it ends, or counted per event
+    /// in a homing block).
     position: [i32; NUM_AXES],
     invert: u8,
-    /// Axes checked for a hard-limit hit on each event (0 disables).
+    /// Axes whose switch, pressed during a normal move, is a hard-limit fault (0 disables).
     limit_mask: u8,
     hold: HoldState,
     /// While decelerating: the rate the hold carries into the next block pushed (`None`: it stops before it).
@@ -123,17 +279,18 @@ impl Stepper {
             block: empty,
             profile: empty.profile(),
             n: 0,
-            delta: [0; NUM_AXES],
-            sign: [0; NUM_AXES],
+            layout: Layout::default(),
+            dir_axes: 0,
+            dir_levels: 0,
             switches: Switches::Limits,
             hold: false,
             stop_at: NO_STOP,
         };
         Stepper {
+            act: Active::idle(),
             ring: [slot; SLOTS],
             first: 0,
             queued: 0,
-            active: None,
             position: [0; NUM_AXES],
             invert,
             limit_mask,
@@ -147,7 +304,16 @@ impl Stepper {
 
     /// Position in steps, as counted from emitted steps.
     pub fn position(&self) -> [i32; NUM_AXES] {
-        self.position
+        let mut pos = self.position;
+        if self.act.live && !self.act.counted && self.act.n > 0 {
+            let done = self.act.layout.steps_after(self.act.emitted(), self.act.n);
+            let steps = &self.ring[self.act.slot].block.steps;
+            for i in 0..NUM_AXES {
+                let d = i32::try_from(done[i]).unwrap_or(i32::MAX);
+                pos[i] += if steps[i] < 0 { -d } else { d };
+            }
+        }
+        pos
     }
 
     /// Overwrite the position (G92, homing). Only while idle.
@@ -167,12 +333,12 @@ impl Stepper {
 
     /// Blocks queued plus the executing one.
     pub fn pending(&self) -> usize {
-        self.queued + usize::from(self.active.is_some())
+        self.queued + usize::from(self.act.live)
     }
 
     /// Nothing executing or queued.
     pub fn is_idle(&self) -> bool {
-        self.active.is_none() && self.queued == 0
+        !self.act.live && self.queued == 0
     }
 
     /// Blocks completed since start.
@@ -190,18 +356,31 @@ impl Stepper {
         self.fault
     }
 
-    /// Queue a block (main context: its step times are computed here). `switches` says how the axis switches are
-    /// treated during it (hard limits, or homing). Returns the block back when the queue is full.
+    /// Queue a block (main context: its step times and per-event layout are computed here). `switches` says how
+    /// the axis switches are treated during it (hard limits, or homing). Returns the block back when the queue is
+    /// full.
     pub fn push(&mut self, block: StepBlock, switches: Switches) -> Result<(), StepBlock> {
         if self.queued >= STEPPER_QUEUE {
             return Err(block);
         }
+        let n = block.events();
+        let (mut dir_axes, mut dir_levels) = (0, 0);
+        for axis in Axis::ALL {
+            let s = block.steps[axis.index()];
+            if s != 0 {
+                dir_axes |= axis.bit();
+                if (s < 0) ^ (self.invert & axis.bit() != 0) {
+                    dir_levels |= axis.bit();
+                }
+            }
+        }
         let mut q = Queued {
             block,
             profile: block.profile(),
-            n: block.events(),
-            delta: block.steps.map(i32::unsigned_abs),
-            sign: block.steps.map(i32::signum),
+            n,
+            layout: Layout::of(&block, n),
+            dir_axes,
+            dir_levels,
             switches,
             hold: false,
             stop_at: NO_STOP,
@@ -210,23 +389,37 @@ impl Stepper {
             self.carry = self.carry.and_then(|c| continue_hold(c, &mut q));
         }
         // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
-        self.ring[(self.first + self.queued) % SLOTS] = q;
+        self.ring[nth_after(self.first, self.queued)] = q;
         self.queued += 1;
         Ok(())
     }
 
     /// If idle, start the next queued block: returns the ticks until its first event (the caller arms the timer).
     pub fn start<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
-        if self.active.is_some() || self.fault.is_some() || self.hold != HoldState::Running {
+        if self.act.live || self.fault.is_some() || self.hold != HoldState::Running {
             return None;
         }
         self.load_next(hal)
     }
 
+    /// The switches read `pressed` (main context or the board's switch interrupt, never per step event): during a
+    /// normal move, a pressed switch of an axis in the limit mask is a hard-limit fault — the stepper stops where
+    /// it is and drops its queue. Returns whether it did (the caller stops the timer).
+    pub fn limit_switches(&mut self, pressed: u8) -> bool {
+        let hit = pressed & self.limit_mask;
+        if hit == 0 || !self.act.live || !self.act.limits {
+            return false;
+        }
+        self.fault = Some(StepperFault::HardLimit(hit));
+        self.abort();
+        true
+    }
+
     /// Drop everything (reset or alarm): the executing block stops where it is.
     pub fn abort(&mut self) {
+        self.position = self.position();
         self.queued = 0;
-        self.active = None;
+        self.act = Active::idle();
         self.hold = HoldState::Running;
         self.carry = None;
     }
@@ -243,21 +436,24 @@ impl Stepper {
         if self.hold != HoldState::Running {
             return;
         }
-        let Some(act) = self.active.as_mut() else {
+        if !self.act.live {
             self.hold = HoldState::Stopped;
             return;
-        };
+        }
         self.hold = HoldState::Decelerating;
         self.carry = None;
-        let slot = &mut self.ring[act.slot];
+        let act = &mut self.act;
         if act.n == 0 {
             // A dwell: the hold stops at its end.
             return;
         }
-        let scheduled = act.k + 1;
+        let k = act.emitted();
+        let scheduled = k + 1;
+        let slot = &mut self.ring[act.slot];
         if slot.block.accel == 0 {
             // No acceleration to slow down with: stop after the event already scheduled.
             act.stop_at = scheduled;
+            act.arm(k);
             return;
         }
         let v = slot.profile.rate_at(scheduled - act.offset);
@@ -265,11 +461,14 @@ impl Stepper {
         act.cursor = times.cursor();
         slot.profile.set_times(times);
         match left {
-            None => act.stop_at = scheduled + times.events(),
+            None => {
+                act.stop_at = scheduled + times.events();
+                act.arm(k);
+            }
             Some(v_sq) => {
                 let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
                 for i in 0..self.queued {
-                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[(self.first + i) % SLOTS]));
+                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
                 }
                 self.carry = carry;
             }
@@ -296,25 +495,25 @@ impl Stepper {
         self.hold = HoldState::Running;
         self.carry = None;
         for i in 0..self.queued {
-            let q = &mut self.ring[(self.first + i) % SLOTS];
+            let q = &mut self.ring[nth_after(self.first, i)];
             q.block.entry_rate = 0;
             q.block.exit_rate = 0;
             q.profile = q.block.profile();
             q.hold = false;
             q.stop_at = NO_STOP;
         }
-        match &mut self.active {
-            Some(act) => {
-                let rest = act.n - act.k;
-                act.offset = act.k;
-                let slot = &mut self.ring[act.slot];
-                slot.profile = Profile::new(rest, 0, slot.block.cruise_rate, 0, slot.block.accel);
-                act.stop_at = NO_STOP;
-                act.cursor = slot.profile.times().cursor();
-                Some(act.cursor.next(slot.profile.times()))
-            }
-            None => self.load_next(hal),
+        if !self.act.live {
+            return self.load_next(hal);
         }
+        let act = &mut self.act;
+        let k = act.emitted();
+        act.offset = k;
+        let slot = &mut self.ring[act.slot];
+        slot.profile = Profile::new(act.n - k, 0, slot.block.cruise_rate, 0, slot.block.accel);
+        act.stop_at = NO_STOP;
+        act.arm(k);
+        act.cursor = slot.profile.times().cursor();
+        Some(act.cursor.next(slot.profile.times()))
     }
 
     fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
@@ -322,19 +521,18 @@ impl Stepper {
             return None;
         }
         let slot = self.first;
-        self.first = (slot + 1) % SLOTS;
+        self.first = after(slot);
         self.queued -= 1;
         let q = &self.ring[slot];
         let block = &q.block;
         let n = q.n;
-        let (watch, home_mask) = match q.switches {
-            Switches::Limits => (self.limit_mask, 0),
-            Switches::Homing { axes } => (axes, axes),
+        let home_mask = match q.switches {
+            Switches::Limits => 0,
+            Switches::Homing { axes } => axes,
         };
         for axis in Axis::ALL {
-            let s = q.sign[axis.index()];
-            if s != 0 {
-                hal.set_dir(axis, (s < 0) ^ (self.invert & axis.bit() != 0));
+            if q.dir_axes & axis.bit() != 0 {
+                hal.set_dir(axis, q.dir_levels & axis.bit() != 0);
             }
         }
         if home_mask != 0 {
@@ -343,26 +541,44 @@ impl Stepper {
         if let Some(tenths) = block.servo {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
-        let act = self.active.insert(Active {
-            slot,
-            cursor: q.profile.times().cursor(),
-            k: 0,
-            offset: 0,
-            n,
-            err: [n / 2; NUM_AXES],
-            watch,
-            home_mask,
-            locked: 0,
-            stop_at: q.stop_at,
-        });
-        // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
-        let first = if n == 0 { block.dwell_ticks.max(1) } else { act.cursor.next(q.profile.times()) };
-        Some(first)
+        // Field by field (no whole-struct copy in the interrupt).
+        let act = &mut self.act;
+        act.n = n;
+        act.layout.always = q.layout.always;
+        act.layout.minors = q.layout.minors;
+        for (a, b) in act.layout.minor.iter_mut().zip(&q.layout.minor) {
+            *a = *b;
+        }
+        act.cursor = q.profile.times().cursor();
+        act.slot = slot;
+        act.live = true;
+        act.counted = home_mask != 0;
+        act.limits = q.switches == Switches::Limits;
+        act.offset = 0;
+        act.home_mask = home_mask;
+        act.locked = 0;
+        act.stop_at = q.stop_at;
+        act.countdown = 0;
+        act.target = 1;
+        if n == 0 {
+            // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
+            return Some(block.dwell_ticks.max(1));
+        }
+        act.arm(0);
+        Some(act.cursor.next(q.profile.times()))
     }
 
     /// The executing block is done: count it and go on with the next one, unless a hold stops here.
     fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
-        self.active = None;
+        if !self.act.counted {
+            let steps = &self.ring[self.act.slot].block.steps;
+            // Written out per axis (no loop through a copy).
+            self.position[0] += steps[0];
+            self.position[1] += steps[1];
+            self.position[2] += steps[2];
+            self.position[3] += steps[3];
+        }
+        self.act.live = false;
         self.completed = self.completed.wrapping_add(1);
         if self.hold != HoldState::Running && !(self.queued > 0 && self.ring[self.first].hold) {
             self.hold = HoldState::Stopped;
@@ -372,80 +588,73 @@ impl Stepper {
     }
 
     /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
-    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only.
-    #[inline(never)]
+    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only: the fast path
+    /// is a countdown, the Bresenham terms of the block's moving axes, the pin write and the time recurrence,
+    /// inlined into the board's interrupt handler.
+    #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
-        let Some(act) = self.active.as_mut() else {
+        let act = &mut self.act;
+        if act.countdown == 0 {
+            return self.tick_slow(hal);
+        }
+        act.countdown -= 1;
+        hal.step_axes(act.layout.event(act.n));
+        Some(match act.cursor.advance() {
+            Some(interval) => interval,
+            None => act.cursor.next(self.ring[act.slot].profile.times()),
+        })
+    }
+
+    /// Everything but a plain event in the middle of a block.
+    #[inline(never)]
+    fn tick_slow<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
+        if !self.act.live {
             return self.load_next(hal);
-        };
-        if act.n == 0 {
+        }
+        if self.act.n == 0 {
             // A dwell ended.
             return self.finish_block(hal);
         }
-        if act.watch != 0 {
-            let pressed = hal.pressed() & act.watch;
+        let k = self.act.target;
+        let mut mask = self.act.layout.event(self.act.n);
+        if self.act.counted {
+            // Homing: the switches are read at each event; an axis stops the moment its switch reads pressed.
+            let act = &mut self.act;
+            let pressed = hal.pressed() & act.home_mask;
             if pressed != 0 {
-                if act.home_mask == 0 {
-                    self.fault = Some(StepperFault::HardLimit(pressed));
-                    self.abort();
-                    return None;
-                }
-                act.locked |= pressed & act.home_mask;
+                act.locked |= pressed;
                 self.homing_hits = act.locked;
                 if act.locked == act.home_mask {
-                    self.active = None;
+                    self.act.live = false;
                     self.completed = self.completed.wrapping_add(1);
                     return self.load_next(hal);
                 }
             }
+            mask &= !act.locked;
+            let steps = &self.ring[act.slot].block.steps;
+            for axis in Axis::ALL {
+                let i = axis.index();
+                if mask & axis.bit() != 0 {
+                    self.position[i] += steps[i].signum();
+                }
+            }
         }
-        act.k += 1;
-        let n = act.n;
-        // Written out per axis: the firmware is built for size, which would keep a loop here.
-        let q = &self.ring[act.slot];
-        let mut mask = bresenham::<0>(act, &q.delta, n) | bresenham::<1>(act, &q.delta, n);
-        mask |= bresenham::<2>(act, &q.delta, n) | bresenham::<3>(act, &q.delta, n);
-        // Axes stopped by their switch (homing) no longer step.
-        mask &= !act.locked;
         if mask != 0 {
-            count::<0>(&mut self.position, &q.sign, mask);
-            count::<1>(&mut self.position, &q.sign, mask);
-            count::<2>(&mut self.position, &q.sign, mask);
-            count::<3>(&mut self.position, &q.sign, mask);
             hal.step_axes(mask);
         }
-        if act.k == n {
+        // `k` events emitted (what a hold that stops here leaves).
+        self.act.target = k + 1;
+        self.act.countdown = 0;
+        if k == self.act.n {
             return self.finish_block(hal);
         }
-        if act.k == act.stop_at {
+        if k == self.act.stop_at {
             self.hold = HoldState::Stopped;
             return None;
         }
+        let act = &mut self.act;
+        act.arm(k);
         Some(act.cursor.next(self.ring[act.slot].profile.times()))
-    }
-}
-
-// The per-event code below is written out for four axes.
-const _: () = assert!(NUM_AXES == 4);
-
-/// One event of axis `I`'s Bresenham error term (`n` events in the block): its bit when it steps.
-#[inline(always)]
-fn bresenham<const I: usize>(act: &mut Active, delta: &[u32; NUM_AXES], n: u32) -> u8 {
-    let e = act.err[I] + delta[I];
-    if e >= n {
-        act.err[I] = e - n;
-        1 << I
-    } else {
-        act.err[I] = e;
-        0
-    }
-}
-
-/// Count axis `I`'s step in the position when it is in `mask`.
-#[inline(always)]
-fn count<const I: usize>(position: &mut [i32; NUM_AXES], sign: &[i32; NUM_AXES], mask: u8) {
-    if mask & (1 << I) != 0 {
-        position[I] += sign[I];
     }
 }
 
@@ -480,13 +689,15 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// Records steps per tick; no endstops.
+    /// Records steps per tick; switches pressed at or below `switch_at` (per axis, when set).
     #[derive(Default)]
     struct Rec {
         dir: [bool; NUM_AXES],
         pos: [i64; NUM_AXES],
         dir_changes_during_block: u32,
         steps: [u32; NUM_AXES],
+        switch_at: [Option<i64>; NUM_AXES],
+        reads: u32,
     }
     impl StepPins for Rec {
         fn set_dir(&mut self, axis: Axis, level: bool) {
@@ -502,8 +713,13 @@ mod tests {
     }
     impl Endstops for Rec {
         fn pressed(&mut self) -> u8 {
-            0
+            self.reads += 1;
+            (0..NUM_AXES).filter(|&i| self.switch_at[i].is_some_and(|at| self.pos[i] <= at)).fold(0, |m, i| m | 1 << i)
         }
+    }
+
+    fn as_i32(pos: &[i64; NUM_AXES]) -> [i32; NUM_AXES] {
+        pos.map(|p| i32::try_from(p).unwrap())
     }
 
     fn run(block: StepBlock, mut check: impl FnMut(u32, &[i64; NUM_AXES])) -> (Rec, u64) {
@@ -515,8 +731,12 @@ mod tests {
         while let Some(iv) = s.tick(&mut hal) {
             k += 1;
             check(k, &hal.pos);
+            // The position the stepper reports (derived from its error terms) is the steps emitted, at every event.
+            assert_eq!(s.position(), as_i32(&hal.pos), "event {k}");
             t += u64::from(iv);
         }
+        assert_eq!(s.position(), as_i32(&hal.pos));
+        assert_eq!(hal.reads, 0, "no switch read outside homing");
         // The last tick returned None at the last event; `t` is the time of that last event.
         (hal, t)
     }
@@ -684,6 +904,17 @@ mod tests {
         assert!(s.is_idle());
         assert_eq!(hal.pos[0], 6000);
         assert_eq!(s.completed(), 2);
+        // Later, a hold during a dwell stops at its end, whatever the ring slots still remember of the re-timed
+        // block (the slot after the dwell's is the second block's, which the hold above had marked).
+        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        assert_eq!(s.tick(&mut hal), None);
+        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!(s.completed(), 4);
     }
 
     #[test]
@@ -703,6 +934,192 @@ mod tests {
         assert_eq!(s.resume(&mut hal), Some(10_000));
         while s.tick(&mut hal).is_some() {}
         assert_eq!(hal.pos[1], 50);
+    }
+
+    #[test]
+    fn layout_packs_the_axes_of_every_event_and_the_minor_ones() {
+        let b = StepBlock { steps: [5, -5, 3, 0], cruise_rate: 100, ..StepBlock::default() };
+        let l = Layout::of(&b, 5);
+        assert_eq!((l.always, l.minors), (0b0011, 1));
+        assert_eq!((l.minor[0].delta, l.minor[0].err, l.minor[0].bit, l.minor[0].axis), (3, 2, 0b0100, 2));
+        let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
+        let l = Layout::of(&b, 7);
+        assert_eq!((l.always, l.minors), (0b1000, 3));
+        assert_eq!(l.minor.map(|m| (m.delta, m.bit, m.axis)), [(1, 1, 0), (2, 2, 1), (3, 4, 2)]);
+        // Steps after k events: k for the major axis, ⌊(k·d + ⌊n/2⌋)/n⌋ for the others (n = 7, k = 4: 1, 1, 2).
+        let mut l2 = l;
+        for _ in 0..4 {
+            l2.event(7);
+        }
+        assert_eq!(l2.steps_after(4, 7), [1, 1, 2, 4]);
+        assert_eq!(Layout::of(&StepBlock::dwell(5), 0).always, 0);
+    }
+
+    #[test]
+    fn ring_slots_wrap_without_division() {
+        assert_eq!([after(0), after(1), after(2)], [1, 2, 0]);
+        assert_eq!([nth_after(1, 0), nth_after(1, 1), nth_after(1, 2), nth_after(2, 2)], [1, 2, 0, 1]);
+    }
+
+    #[test]
+    fn abort_keeps_the_position_reached() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [40, -30, 0, 7], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.start(&mut hal);
+        for _ in 0..17 {
+            s.tick(&mut hal).unwrap();
+        }
+        // 17 of 40 events: X 17, Y ⌊(17·30 + 20)/40⌋ = 13 back, E ⌊(17·7 + 20)/40⌋ = 3.
+        assert_eq!(s.position(), [17, -13, 0, 3]);
+        assert_eq!(as_i32(&hal.pos), [17, -13, 0, 3]);
+        assert_eq!(s.pending(), 1);
+        s.abort();
+        assert!(s.is_idle());
+        assert_eq!(s.position(), [17, -13, 0, 3]);
+        // The next move starts from there.
+        s.push(StepBlock { steps: [3, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(s.position(), [20, -13, 0, 3]);
+        assert_eq!(s.completed(), 1);
+    }
+
+    #[test]
+    fn limit_switches_fault_only_during_a_normal_move() {
+        let mut s = Stepper::new(0, Axis::X.bit() | Axis::Y.bit());
+        let mut hal = Rec::default();
+        assert!(!s.limit_switches(0b0011), "idle: nothing to stop");
+        s.push(StepBlock { steps: [50, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.push(StepBlock { steps: [50, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.start(&mut hal);
+        for _ in 0..10 {
+            s.tick(&mut hal).unwrap();
+        }
+        assert!(!s.limit_switches(0), "nothing pressed");
+        assert!(!s.limit_switches(Axis::Z.bit()), "Z has no hard limit");
+        assert_eq!(s.fault(), None);
+        assert!(s.limit_switches(Axis::Y.bit() | Axis::Z.bit()));
+        assert_eq!(s.fault(), Some(StepperFault::HardLimit(Axis::Y.bit())));
+        assert!(s.is_idle(), "queue dropped");
+        assert_eq!(s.position(), [10, 0, 0, 0]);
+        assert_eq!(s.start(&mut hal), None, "a fault keeps it stopped");
+        s.clear_fault();
+        assert_eq!(s.fault(), None);
+        // A homing move does not treat its switches as limits.
+        s.push(
+            StepBlock { steps: [-50, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() },
+            Switches::Homing { axes: 0 },
+        )
+        .unwrap();
+        s.start(&mut hal);
+        s.tick(&mut hal).unwrap();
+        assert!(!s.limit_switches(Axis::X.bit()));
+        assert_eq!(s.fault(), None);
+    }
+
+    #[test]
+    fn homing_stops_each_axis_at_its_switch() {
+        let mut s = Stepper::new(0, Axis::X.bit());
+        let mut hal = Rec { switch_at: [Some(-100), Some(-250), None, None], ..Rec::default() };
+        let block = StepBlock { steps: [-1000, -1000, -400, 0], cruise_rate: 1000, ..StepBlock::default() };
+        s.push(block, Switches::Homing { axes: Axis::X.bit() | Axis::Y.bit() }).unwrap();
+        s.start(&mut hal);
+        let mut events = 0;
+        while s.tick(&mut hal).is_some() {
+            events += 1;
+            assert_eq!(s.position(), as_i32(&hal.pos), "counted at each event");
+            assert!(events <= 1000);
+        }
+        // The switch is read before each event: X stops where its switch closed, Y too; Z went on (2 in 5).
+        assert_eq!(as_i32(&hal.pos), [-100, -250, -100, 0]);
+        assert_eq!(s.position(), [-100, -250, -100, 0]);
+        assert_eq!(s.homing_hits(), 0b0011);
+        assert_eq!((events, s.completed()), (250, 1));
+        assert!(s.is_idle());
+        assert_eq!(s.fault(), None);
+        // Both switches still pressed: the next homing move of both ends at its first event without a step.
+        s.push(
+            StepBlock { steps: [-10, -10, 0, 0], cruise_rate: 1000, ..StepBlock::default() },
+            Switches::Homing { axes: 0b0011 },
+        )
+        .unwrap();
+        s.start(&mut hal);
+        assert_eq!(s.tick(&mut hal), None);
+        assert_eq!((s.position(), s.completed()), ([-100, -250, -100, 0], 2));
+        // A homing block of one axis whose switch is never hit runs to its end.
+        hal.switch_at = [None; NUM_AXES];
+        s.push(
+            StepBlock { steps: [0, 0, 0, -5], cruise_rate: 1000, ..StepBlock::default() },
+            Switches::Homing { axes: Axis::E.bit() },
+        )
+        .unwrap();
+        s.start(&mut hal);
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(s.position(), [-100, -250, -100, -5]);
+        assert_eq!(s.homing_hits(), 0);
+    }
+
+    #[test]
+    fn a_hold_during_homing_stops_and_resumes_counting() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let block = StepBlock { steps: [0, 60, 0, 0], cruise_rate: 100, ..StepBlock::default() };
+        s.push(block, Switches::Homing { axes: Axis::Y.bit() }).unwrap();
+        s.start(&mut hal);
+        for _ in 0..20 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!(s.position(), [0, 21, 0, 0]);
+        assert_eq!(s.resume(&mut hal), Some(10_000));
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(s.position(), [0, 60, 0, 0]);
+        assert_eq!(as_i32(&hal.pos), [0, 60, 0, 0]);
+    }
+
+    #[test]
+    fn a_dwell_and_a_servo_block_keep_the_position_and_count() {
+        #[derive(Default)]
+        struct Servo(Rec, std::vec::Vec<f32>);
+        impl StepPins for Servo {
+            fn set_dir(&mut self, axis: Axis, level: bool) {
+                self.0.set_dir(axis, level);
+            }
+            fn step(&mut self, axis: Axis) {
+                self.0.step(axis);
+            }
+            fn enable_motors(&mut self, _on: bool) {}
+            fn set_servo(&mut self, angle_deg: f32) {
+                self.1.push(angle_deg);
+            }
+        }
+        impl Endstops for Servo {
+            fn pressed(&mut self) -> u8 {
+                0
+            }
+        }
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Servo::default();
+        s.set_position([5, 6, 7, 8]);
+        s.set_axis_position(Axis::Z, 9);
+        s.push(StepBlock::servo(450, 300), Switches::Limits).unwrap();
+        s.push(StepBlock::dwell(0), Switches::Limits).unwrap();
+        assert!(!s.has_room());
+        assert_eq!(s.pending(), 2);
+        assert_eq!(s.start(&mut hal), Some(300));
+        assert_eq!(hal.1, [45.0]);
+        assert_eq!(s.position(), [5, 6, 9, 8]);
+        // The servo block ends, the zero dwell starts (at least one tick).
+        assert_eq!(s.tick(&mut hal), Some(1));
+        assert_eq!(s.tick(&mut hal), None);
+        assert_eq!((s.completed(), s.position()), (2, [5, 6, 9, 8]));
+        assert!(s.is_idle());
     }
 
     fn block_strategy() -> impl Strategy<Value = StepBlock> {

@@ -210,8 +210,17 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     }
 
     /// Step timer interrupt.
+    #[inline(always)]
     pub fn on_timer(&mut self) {
         self.motion.on_timer(&mut self.hal);
+    }
+
+    /// The limit switches may have changed: a board calls this from its switch interrupt or its switch-sampling
+    /// tick (the step interrupt reads the switches only during homing). During a normal move a pressed switch of
+    /// an axis with hard limits stops the motion at once; the next [`Machine::poll`] raises the alarm (pen up,
+    /// queue flushed).
+    pub fn check_limits(&mut self) {
+        self.motion.check_limits(&mut self.hal);
     }
 
     /// Main loop pass: real-time work, homing, line handling, planning, stepper hand-off.

@@ -148,6 +148,7 @@ impl<const Q: usize> MotionQueue<Q> {
     }
 
     /// The step timer interrupt.
+    #[inline(always)]
     pub(crate) fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
         match self.stepper.tick(hal) {
             Some(t) => hal.schedule(t),
@@ -155,6 +156,16 @@ impl<const Q: usize> MotionQueue<Q> {
                 self.timer_running = false;
                 hal.cancel();
             }
+        }
+    }
+
+    /// The switches may have changed (the board's switch interrupt or sampling tick): a switch pressed during a
+    /// normal move stops the stepper with a hard-limit fault, latched as an alarm by the next poll.
+    pub(crate) fn check_limits<H: Endstops + StepTimer>(&mut self, hal: &mut H) {
+        let pressed = hal.pressed();
+        if self.stepper.limit_switches(pressed) {
+            self.timer_running = false;
+            hal.cancel();
         }
     }
 

@@ -200,15 +200,18 @@ impl Cursor {
     /// Past the last event it returns 1 (never reached by the stepper, which counts the events).
     #[inline]
     pub fn next(&mut self, times: &StepTimes) -> u32 {
+        match self.advance() {
+            Some(interval) => interval,
+            None => self.next_segment(times),
+        }
+    }
+
+    /// [`Cursor::next`] within the current segment (the step interrupt's path: two 64-bit adds, a decrement and a
+    /// compare); `None` when the segment is used up and the next one must be read from the [`StepTimes`].
+    #[inline(always)]
+    pub fn advance(&mut self) -> Option<u32> {
         if self.left == 0 {
-            if self.seg >= times.len {
-                return 1;
-            }
-            let Some(s) = times.segments.get(usize::from(self.seg)) else { return 1 };
-            self.seg += 1;
-            self.left = s.count;
-            self.d = s.interval;
-            self.e = s.add;
+            return None;
         }
         self.left -= 1;
         self.t = self.t.wrapping_add(self.d);
@@ -216,7 +219,18 @@ impl Cursor {
         let tick = high_word(self.t);
         let interval = tick.wrapping_sub(self.last);
         self.last = tick;
-        interval
+        Some(interval)
+    }
+
+    /// Enter the next segment and return its first interval (1 past the last event).
+    #[inline(never)]
+    fn next_segment(&mut self, times: &StepTimes) -> u32 {
+        let Some(s) = times.segments().get(usize::from(self.seg)) else { return 1 };
+        self.seg += 1;
+        self.left = s.count;
+        self.d = s.interval;
+        self.e = s.add;
+        self.advance().unwrap_or(1)
     }
 
     /// Fixed-point time of the last event returned (the start, before the first).
@@ -643,6 +657,37 @@ mod tests {
     }
 
     #[test]
+    fn cursor_intervals_and_times_are_exact_fixed_point() {
+        // From half a tick: 3 events 1.5 ticks apart growing by 0.25, then 2 events 4 ticks apart.
+        let mut times = StepTimes::empty(HALF);
+        times.segments[0] = Segment { count: 3, interval: 3 << 31, add: 1 << 30 };
+        times.segments[1] = Segment { count: 2, interval: 4 << 32, add: 0 };
+        times.len = 2;
+        times.events = 5;
+        times.span = (13 << 32) + (1 << 31) - u128::from(HALF);
+        // Event times 2.0, 3.75, 5.75, 9.75, 13.75 ticks: ticks 2, 3, 5, 9, 13.
+        let quarter = 1u64 << 30;
+        let expect_t = [8 * quarter, 15 * quarter, 23 * quarter, 39 * quarter, 55 * quarter];
+        let mut c = times.cursor();
+        assert_eq!(c.time(), HALF);
+        let mut intervals = Vec::new();
+        for t in expect_t {
+            intervals.push(c.next(&times));
+            assert_eq!(c.time(), t);
+        }
+        assert_eq!(intervals, [2, 1, 2, 4, 4]);
+        assert_eq!(times.duration_ticks(), 13);
+        assert_eq!(times.segments().len(), 2);
+        // Within a segment `advance` is `next`; at a segment's end it leaves the switch to `next`.
+        let mut c = times.cursor();
+        assert_eq!(c.advance(), None, "no segment entered yet");
+        assert_eq!(c.next(&times), 2);
+        assert_eq!([c.advance(), c.advance(), c.advance()], [Some(1), Some(2), None]);
+        assert_eq!(c.time(), 23 * quarter);
+        assert_eq!([c.next(&times), c.next(&times), c.next(&times)], [4, 4, 1]);
+    }
+
+    #[test]
     fn hold_ramp_stops_where_the_speed_runs_out() {
         // From 1000 events/s at 10⁵ events/s²: v² − 2aj > 0 for j < 5, so 4 more events, event j at
         // (v − √(v² − 2aj))/a = 10·(1000 − √(10⁶ − 2·10⁵·j)) µs: 1055.7, 2254.0, 3675.4, 5527.9.
@@ -661,6 +706,40 @@ mod tests {
         let (t, left) = StepTimes::hold(HALF, 10, 1000.0, 10_000);
         assert_eq!(t.events(), 10);
         assert_eq!(left, Some(1000.0 * 1000.0 - 2.0 * 10_000.0 * 10.0));
+        // Exactly the 49 events the stop needs: the last one still has speed (v² − 2a·49 = 20 000), carried on;
+        // one more available and the hold stops within.
+        let (t, left) = StepTimes::hold(HALF, 49, 1000.0, 10_000);
+        assert_eq!((t.events(), left), (49, Some(20_000.0)));
+        let (t, left) = StepTimes::hold(HALF, 50, 1000.0, 10_000);
+        assert_eq!((t.events(), left), (49, None));
+    }
+
+    #[test]
+    fn rate_at_follows_the_trapezoid() {
+        // 100 events, 0 → 1000 → 0 at 10⁴ events/s²: accelerate over 50, decelerate over 50.
+        let p = Profile::new(100, 0, 1000, 0, 10_000);
+        // √(2a·25) = √500 000 = 707.107 a quarter in and a quarter before the end; the peak in the middle.
+        assert!((p.rate_at(25) - 707.107).abs() < 0.01, "{}", p.rate_at(25));
+        assert!((p.rate_at(75) - 707.107).abs() < 0.01, "{}", p.rate_at(75));
+        assert!((p.rate_at(90) - 447.214).abs() < 0.01, "{}", p.rate_at(90));
+        assert_eq!(p.rate_at(50), 1000.0);
+        assert_eq!(p.rate_at(500), 0.0, "past the end: the end");
+        assert_eq!(Profile::new(10, 0, 300, 0, 0).rate_at(4), 300.0, "no acceleration: the cruise rate");
+    }
+
+    #[test]
+    fn a_fit_whose_last_interval_would_be_negative_is_linear() {
+        // 4 events over 4 ticks with the middle one at 3.9: E = 4·(4 − 7.8)/16 = −0.95 tick, D = (4 + 0.95·6)/4 =
+        // 2.425, last interval D + 3E = −0.425 < 0: one tick each instead.
+        let mut t = StepTimes::empty(HALF);
+        t.fit(4, 0.0, 3.9, 4.0, false);
+        assert_eq!(t.segments(), &[Segment { count: 4, interval: 1 << 32, add: 0 }]);
+        assert_eq!((t.events(), t.duration_ticks()), (4, 4));
+        // Convex (middle at 1.0): E = 4·(4 − 2)/16 = 0.5 tick, D = (4 − 0.5·6)/4 = 0.25, intervals 0.25 … 1.75.
+        let mut t = StepTimes::empty(HALF);
+        t.fit(4, 0.0, 1.0, 4.0, false);
+        assert_eq!(t.segments(), &[Segment { count: 4, interval: 1 << 30, add: 1 << 31 }]);
+        assert_eq!((t.events(), t.duration_ticks()), (4, 4));
     }
 
     /// The stated bound: each event within 2 ticks + 0.05 % of the time spent ramping (accelerating plus

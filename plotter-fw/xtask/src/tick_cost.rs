@@ -27,10 +27,12 @@
 //! Whether a branch was taken is read from the trace (the next block's address). A tick whose path executes an
 //! FPU instruction also pays the lazy stacking of the FPU context (17 cycles: the interrupted main loop uses the
 //! FPU, and the Cortex-M4 saves its registers at the interrupt's first FPU instruction); it is counted in that
-//! tick's body. Added per step event: the interrupt entry (12 cycles) and exit (10), and the step-pulse-end
-//! interrupt (its body `bench_pulse_end`, priced the same way, plus 22
-//! for its entry and exit). Instruction fetch is assumed to hit the L476's ART accelerator (prefetch and
-//! instruction cache, zero wait states); the tick path is far smaller than its cache.
+//! tick's body. Added per step event: the interrupt entry (12 cycles) and exit (10), and [`DMA_STALL`] for the
+//! pulse end: on the board TIM2's compare channels 2 and 3 trigger two one-word DMA transfers that lower the step
+//! pins (no interrupt, no instruction — `plotter_board::stm32_step`); they take bus cycles, and the CPU waits
+//! when it accesses the bus matrix in the same cycle, so each is charged as a stalled 2-cycle access.
+//! Instruction fetch is assumed to hit the L476's ART accelerator (prefetch and instruction cache, zero wait
+//! states); the tick path is far smaller than its cache.
 
 use std::collections::HashMap;
 use std::io::{BufRead, BufReader};
@@ -44,8 +46,8 @@ const ISR_OVERHEAD: u64 = 12 + 10;
 const FPU_STACKING: u64 = 17;
 /// The aggregate step rate the stepper should sustain with half of the CPU (issue 26), kHz.
 const TARGET_KHZ: f64 = 250.0;
-/// Entry + exit of the pulse-end interrupt (no FPU use).
-const PULSE_ISR_OVERHEAD: u64 = 12 + 10;
+/// The pulse end's two DMA transfers, charged as CPU stalls.
+const DMA_STALL: u64 = 2 * 2;
 /// Core clock of the L476, Hz.
 const CLOCK_HZ: f64 = 80.0e6;
 
@@ -205,8 +207,6 @@ pub(crate) struct Figures {
     pub(crate) p90: u64,
     /// 99.9th percentile.
     pub(crate) p999: u64,
-    /// Worst pulse-end body.
-    pub(crate) pulse_end: u64,
 }
 
 /// Parse QEMU's `in_asm,exec` log.
@@ -214,8 +214,7 @@ fn measure(log: impl BufRead) -> anyhow::Result<Figures> {
     let mut code: HashMap<u64, Vec<Insn>> = HashMap::new();
     let mut current: Option<Vec<Insn>> = None;
     let mut ticks = Vec::new();
-    let mut pulses = Vec::new();
-    let mut open: Option<(bool, Vec<u64>)> = None;
+    let mut open: Option<Vec<u64>> = None;
     for line in log.lines() {
         let line = line?;
         if line.starts_with("IN:") {
@@ -235,22 +234,16 @@ fn measure(log: impl BufRead) -> anyhow::Result<Figures> {
         }
         let Some((pc, sym)) = parse_exec(&line) else { continue };
         match (&mut open, sym) {
-            (None, "bench_tick") => open = Some((false, vec![pc])),
-            (None, "bench_pulse_end") => open = Some((true, vec![pc])),
-            (Some((pulse, blocks)), "bench_tick_done") => {
-                let c = path_cycles(blocks, &code)?;
-                if *pulse {
-                    pulses.push(c)
-                } else {
-                    ticks.push(c)
-                }
+            (None, "bench_tick") => open = Some(vec![pc]),
+            (Some(blocks), "bench_tick_done") => {
+                ticks.push(path_cycles(blocks, &code)?);
                 open = None;
             }
-            (Some((_, blocks)), _) => blocks.push(pc),
+            (Some(blocks), _) => blocks.push(pc),
             (None, _) => {}
         }
     }
-    if ticks.is_empty() || pulses.is_empty() {
+    if ticks.is_empty() {
         bail!("the trace holds no measured tick (did QEMU log `in_asm,exec`?)");
     }
     ticks.sort_unstable();
@@ -263,7 +256,6 @@ fn measure(log: impl BufRead) -> anyhow::Result<Figures> {
         p50: ticks[n / 2],
         p90: ticks[(n * 9 / 10).min(n - 1)],
         p999: ticks[(n * 999 / 1000).min(n - 1)],
-        pulse_end: pulses.iter().copied().max().unwrap_or(0),
     })
 }
 
@@ -298,7 +290,7 @@ pub(crate) fn run(elf: &std::path::Path) -> anyhow::Result<()> {
         bail!("the tick bench failed under QEMU ({status})");
     }
     let f = figures?;
-    let overhead = ISR_OVERHEAD + f.pulse_end + PULSE_ISR_OVERHEAD;
+    let overhead = ISR_OVERHEAD + DMA_STALL;
     let per_event = f.worst + overhead;
     let mean_event = f.mean + overhead as f64;
     // Half of the CPU for stepping: events/s = 0.5 × clock / cycles per event.
@@ -309,10 +301,10 @@ pub(crate) fn run(elf: &std::path::Path) -> anyhow::Result<()> {
         "  tick body: worst {} cycles, 99.9th percentile {}, 90th {}, median {}, mean {:.0}",
         f.worst, f.p999, f.p90, f.p50, f.mean
     );
-    println!("  pulse-end body: worst {} cycles", f.pulse_end);
     println!(
-        "  per step event (worst): {per_event} cycles = tick {} + interrupt entry/exit {ISR_OVERHEAD} + pulse end {} + {PULSE_ISR_OVERHEAD}",
-        f.worst, f.pulse_end
+        "  per step event (worst): {per_event} cycles = tick {} + interrupt entry/exit {ISR_OVERHEAD} + pulse-end DMA \
+         stalls {DMA_STALL} (no pulse-end interrupt)",
+        f.worst
     );
     println!("  mean per step event: {mean_event:.0} cycles; {steps_per_event:.2} steps per event in this workload");
     println!(
@@ -384,13 +376,9 @@ Trace 0: 0x1 [0/00000200/0/0] bench_tick_done
 Trace 0: 0x1 [0/00000100/0/0] bench_tick
 Trace 0: 0x1 [0/00000108/0/0] bench_tick
 Trace 0: 0x1 [0/00000200/0/0] bench_tick_done
-Trace 0: 0x1 [0/00000100/0/0] bench_pulse_end
-Trace 0: 0x1 [0/00000200/0/0] bench_tick_done
 ";
         let f = measure(log.as_bytes()).unwrap();
         // push 3 + beq not taken 1 + movs 1 + pop {r7,pc} 6 = 11; push 3 + beq taken 4 + pop 6 = 13.
         assert_eq!((f.ticks, f.worst, f.mean), (2, 13, 12.0));
-        // The "pulse" path: push 3 + beq (last of the trace, not taken) 1.
-        assert_eq!(f.pulse_end, 4);
     }
 }

@@ -5,34 +5,44 @@
 //! `previous + ticks`, so interrupt latency never accumulates into the plot's timing: the step times are the
 //! core's rounded absolute times exactly, as in the simulator.
 //!
-//! A deadline that has already passed (the interrupt ran late, e.g. behind a long critical section) fires at the
-//! next tick, and the following events are measured from that late one: the machine falls behind by the delay but
-//! never emits a burst of catch-up steps (a stepper motor may stall on those).
+//! Times are the low 32 bits of the board's [`plotter_fw::TICK_HZ`] clock (a free-running 32-bit compare timer
+//! counts exactly that), compared by wrapping differences: one subtraction, one add and one compare per event,
+//! no 64-bit arithmetic in the step interrupt.
+//!
+//! A deadline that has already passed, or is closer than the board's *lead* (the interrupt ran late, e.g. behind
+//! a long critical section), fires `lead` ticks after now, and the following events are measured from that late
+//! one: the machine falls behind by the delay but never emits a burst of catch-up steps (a stepper motor may stall
+//! on those), and the lead keeps a step pulse's low time (see the board's pulse timing) even then.
 
-/// The deadline of the last scheduled step event, in [`plotter_fw::TICK_HZ`] ticks of the board's clock.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// The deadline of the last scheduled step event, in [`plotter_fw::TICK_HZ`] ticks of the board's clock (low 32
+/// bits).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Deadline {
-    at: u64,
+    at: u32,
     running: bool,
+    lead: u32,
 }
 
 impl Deadline {
-    /// Idle: the next [`Deadline::schedule`] counts from now.
-    pub const fn new() -> Self {
-        Deadline { at: 0, running: false }
+    /// Idle: the next [`Deadline::schedule`] counts from now. A late event fires `lead` (≥ 1) ticks after now.
+    pub const fn new(lead: u32) -> Self {
+        Deadline { at: 0, running: false, lead: if lead == 0 { 1 } else { lead } }
     }
 
-    /// The next event: `ticks` after the previous one (or after `now` when idle), never earlier than `now + 1`.
-    /// Returns its absolute time.
-    pub fn schedule(&mut self, now: u64, ticks: u32) -> u64 {
+    /// The next event: `ticks` after the previous one (or after `now` when idle), never earlier than
+    /// `now + lead`. Returns its absolute time (wrapping).
+    #[inline(always)]
+    pub fn schedule(&mut self, now: u32, ticks: u32) -> u32 {
+        // Ticks since the previous event (the interrupt runs at or after it); from now when idle.
         let base = if self.running { self.at } else { now };
-        let mut at = base + u64::from(ticks);
-        if at <= now {
-            at = now + 1;
-        }
-        self.at = at;
+        let elapsed = now.wrapping_sub(base);
+        self.at = if ticks >= elapsed.saturating_add(self.lead) {
+            base.wrapping_add(ticks)
+        } else {
+            now.wrapping_add(self.lead)
+        };
         self.running = true;
-        at
+        self.at
     }
 
     /// The stepper went idle.
@@ -46,7 +56,7 @@ impl Deadline {
     }
 
     /// Absolute time of the scheduled (or last) event.
-    pub fn at(&self) -> u64 {
+    pub fn at(&self) -> u32 {
         self.at
     }
 }
@@ -57,7 +67,7 @@ mod tests {
 
     #[test]
     fn events_follow_the_previous_deadline_not_the_interrupt_time() {
-        let mut d = Deadline::new();
+        let mut d = Deadline::new(1);
         // Idle: from now.
         assert_eq!(d.schedule(1_000, 40), 1_040);
         // The interrupt ran at 1_043 (3 ticks of latency): the next event still lands at 1_040 + 25.
@@ -67,16 +77,43 @@ mod tests {
         assert!(!d.is_running());
         // Idle again: counts from now.
         assert_eq!(d.schedule(5_000, 10), 5_010);
+        assert_eq!(d.at(), 5_010);
     }
 
     #[test]
-    fn a_late_deadline_fires_next_tick_without_a_burst() {
-        let mut d = Deadline::new();
+    fn a_late_deadline_fires_after_the_lead_without_a_burst() {
+        let mut d = Deadline::new(1);
         assert_eq!(d.schedule(0, 10), 10);
         // Interrupt 100 ticks late: 10 + 10 = 20 is past; fire at once, then measure from there.
         assert_eq!(d.schedule(110, 10), 111);
         assert_eq!(d.schedule(111, 10), 121);
         // Exactly now is also past: an interrupt cannot be scheduled at the current tick.
         assert_eq!(d.schedule(131, 10), 132);
+        // A lead of 5: 140 + 3 = 143 is closer than 141 + 5.
+        let mut d = Deadline::new(5);
+        assert_eq!(d.schedule(135, 5), 140);
+        assert_eq!(d.schedule(141, 3), 146);
+        // Exactly the lead away is in time.
+        assert_eq!(d.schedule(147, 6), 152);
+        // From idle, a delay below the lead is stretched to it.
+        d.cancel();
+        assert_eq!(d.schedule(200, 2), 205);
+        assert_eq!(Deadline::new(0).schedule(7, 0), 8, "a lead of 0 is 1");
+    }
+
+    #[test]
+    fn the_32_bit_clock_wraps_between_events() {
+        let mut d = Deadline::new(1);
+        assert_eq!(d.schedule(u32::MAX - 5, 4), u32::MAX - 1);
+        // The interrupt ran 2 ticks late, after the counter wrapped: 9 ticks after the deadline is 7.
+        assert_eq!(d.schedule(0, 9), 7);
+        // Late across the wrap: fires at now + 1.
+        let mut d = Deadline::new(1);
+        d.schedule(u32::MAX - 1, 1);
+        assert_eq!(d.schedule(3, 2), 4);
+        // A delay longer than half the counter is not mistaken for a late one.
+        let mut d = Deadline::new(1);
+        d.schedule(0, 10);
+        assert_eq!(d.schedule(12, 3_000_000_000), 3_000_000_010);
     }
 }

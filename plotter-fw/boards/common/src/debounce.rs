@@ -1,7 +1,8 @@
 //! Endstop debounce.
 //!
 //! Mechanical switches bounce for a millisecond or so, and long endstop wires pick up spikes from the motor
-//! leads. The core reads the switches at every step event ([`plotter_fw::hal::Endstops::pressed`]) and in the
+//! leads. The core reads the switches ([`plotter_fw::hal::Endstops::pressed`]) at every step event of a homing move,
+//! from the board's 1 kHz sampling tick (hard limits, `Machine::check_limits`) and in the
 //! homing cycle; the board filters the raw pin levels before answering:
 //!
 //! - a **press** counts once two consecutive readings (at different times) say pressed — a single spike is not a

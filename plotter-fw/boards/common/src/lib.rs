@@ -7,11 +7,13 @@
 //!
 //! - [`shared`]: the machine behind a critical section, called from the UART and timer interrupts and the main
 //!   loop;
-//! - [`deadline`]: drift-free step-timer deadlines ("`ticks` after the previous event");
+//! - [`deadline`]: drift-free step-timer deadlines ("`ticks` after the previous event", 32-bit wrapping);
 //! - [`debounce`]: the endstop filter (a press needs two readings, a release must hold for a window);
 //! - [`fault`]: the panic/fault reason kept in no-init RAM across the reset, and [`note`]: the start-up line that
 //!   reports it with the reset cause, just before the firmware's banner;
-//! - [`servo`]: a hobby-servo pen lift driven by the Z axis's steps.
+//! - [`servo`]: a hobby-servo pen lift driven by the Z axis's steps;
+//! - [`stm32_step`]: the step-event path of an STM32 board (step pins, compare timer, pulse end by DMA), shared
+//!   by the Nucleo image and the tick bench that prices it.
 //!
 //! No parsing, planning or protocol logic lives in a board: that is the core's.
 //!
@@ -29,3 +31,4 @@ pub mod fault;
 pub mod note;
 pub mod servo;
 pub mod shared;
+pub mod stm32_step;

@@ -1,10 +1,12 @@
 //! The machine shared between the interrupts and the main loop.
 //!
 //! A single-core microcontroller runs [`Machine::receive`] in the UART receive interrupt, [`Machine::on_timer`] in
-//! the step-timer interrupt and [`Machine::poll`] in the main loop. All three take the machine through one
-//! critical section (interrupts masked), as the core's docs prescribe: the interrupts can never see a half-done
-//! `poll`, and `poll` is short (one line, one re-plan) so the step timer is delayed by at most that long; the
-//! [`crate::deadline`] scheme keeps a late event from shifting the ones after it.
+//! the step-timer interrupt and [`Machine::poll`] in the main loop. Everything but the step interrupt takes the
+//! machine through one critical section (interrupts masked), as the core's docs prescribe: the interrupts can
+//! never see a half-done `poll`, and `poll` is short (one line, one re-plan) so the step timer is delayed by at
+//! most that long; the [`crate::deadline`] scheme keeps a late event from shifting the ones after it. The step
+//! interrupt itself ([`Shared::on_timer_unmasked`]) needs no critical section of its own: since every other
+//! access masks it, it never finds the machine in use.
 
 use core::cell::RefCell;
 
@@ -49,9 +51,28 @@ impl<H: Hal> Shared<H> {
         self.with(|m| m.receive(b));
     }
 
-    /// Step-timer interrupt.
+    /// Step-timer interrupt, through the critical section.
     pub fn on_timer(&self) {
         self.with(|m| m.on_timer());
+    }
+
+    /// Step-timer interrupt without a critical section of its own: every other access ([`Shared::with`] and the
+    /// calls built on it) runs with interrupts masked, so while the step interrupt runs nothing else holds the
+    /// machine, and the step interrupt cannot preempt one that does.
+    ///
+    /// # Safety
+    /// Call only from one interrupt handler that does not preempt itself (the step timer's), while every other
+    /// user of this `Shared` goes through [`Shared::with`] (nothing else touches it from an interrupt of higher
+    /// priority without masking).
+    #[inline(always)]
+    pub unsafe fn on_timer_unmasked(&self) {
+        // SAFETY: no other context can hold the machine while this runs (see the contract above), which is what
+        // the token stands for here.
+        let cs = unsafe { critical_section::CriticalSection::new() };
+        // SAFETY: no borrow of the cell exists while this runs (see the contract), so this is the only reference.
+        if let Slot::Full(m) = unsafe { &mut *self.cell.borrow(cs).as_ptr() } {
+            m.on_timer();
+        }
     }
 
     /// Main-loop pass; returns whether more work is already waiting (input, a finished block, a real-time
@@ -125,6 +146,8 @@ mod tests {
     fn interrupts_and_main_loop_drive_one_machine() {
         static M: Shared<Bench> = Shared::new();
         assert!(!M.poll(), "nothing installed: nothing to do");
+        // SAFETY: single-threaded test.
+        unsafe { M.on_timer_unmasked() };
         let mut cfg = MachineConfig::xy_plotter();
         cfg.soft_limits = false;
         M.install(Machine::new(Bench::default(), cfg));
@@ -136,7 +159,13 @@ mod tests {
         // Fire the step timer as the interrupt would, until the stepper stops it.
         let mut events = 0;
         while M.with(|m| m.hal().armed.is_some()).unwrap() {
-            M.on_timer();
+            // Alternately as the boards' step interrupt does (no critical section) and through one.
+            if events % 2 == 0 {
+                // SAFETY: single-threaded test; nothing else holds the machine.
+                unsafe { M.on_timer_unmasked() };
+            } else {
+                M.on_timer();
+            }
             events += 1;
             while M.poll() {}
             assert!(events < 1_000);

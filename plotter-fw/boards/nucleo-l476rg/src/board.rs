@@ -4,13 +4,17 @@
 //!   interrupt extends it to 64 ([`now`]).
 //! - **Step timer**: TIM2 compare channel 1 at the absolute deadline ([`plotter_board::deadline`]): output-compare
 //!   timing is exact, the interrupt's latency never shifts the steps.
-//! - **Steps**: the tick sets the step pins (BSRR) and compare channel 2 clears them [`PULSE_TICKS`] later
-//!   (A4988 needs ≥ 1 µs high, DRV8825 ≥ 1.9 µs); the shortest event interval the core asks for is 4 µs.
+//! - **Steps** ([`plotter_board::stm32_step`]): the tick sets the step pins (one BSRR store per port) and TIM2's
+//!   compare channels 2 (port A) and 3 (port B) end the pulse [`PULSE_TICKS`] later through DMA1 channels 7 and 1,
+//!   which store the port's "step pins low" word into its BSRR — no pulse-end interrupt. High ≥ 2 µs, low ≥ 2 µs
+//!   (DRV8825: 1.9 µs each; A4988: 1 µs).
 //! - **Serial**: USART2 receives by DMA into a 256-byte circular buffer (no byte is ever lost to interrupt
 //!   latency); the half/complete and line-idle interrupts hand the new bytes to `Machine::receive`. Replies go
 //!   through a 512-byte ring drained by the transmit-empty interrupt.
-//! - **Endstops**: pull-up inputs, filtered by [`plotter_board::debounce`], sampled at 1 kHz by SysTick and at
-//!   every read.
+//! - **Endstops**: pull-up inputs, filtered by [`plotter_board::debounce`], sampled at 1 kHz by SysTick, which
+//!   hands them to `Machine::check_limits` (hard limits during normal moves: within 2 ms, the debounce's two
+//!   readings), and at every read (the step interrupt reads them at each event of a homing move only). X's PC7 and
+//!   Z's PA7 share EXTI line 7, so a pin-change interrupt cannot serve all three.
 //! - **Pen servo** (feature `servo-pen`): TIM3 CH3 PWM at 50 Hz, driven to the angle of each `M3`/`M5` and servo
 //!   step block (protocol 3), and following the Z steps of a Z-lift profile ([`plotter_board::servo`]) between the
 //!   configured `pen.servo_down_deg` and `pen.servo_up_deg` pulses.
@@ -21,6 +25,7 @@ use plotter_board::deadline::Deadline;
 use plotter_board::debounce::Debouncer;
 use plotter_board::note::ResetCause;
 use plotter_board::servo::{ServoConfig, ServoPen};
+use plotter_board::stm32_step::StepOutputs;
 use plotter_fw::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer, servo_pulse_us};
 use plotter_fw::{Axis, MachineConfig};
 
@@ -31,6 +36,25 @@ use crate::regs::{self, dma1, gpio, iwdg, rcc, tim, usart2};
 pub(crate) const SYSCLK_HZ: u32 = 80_000_000;
 /// Step pulse length, µs.
 const PULSE_TICKS: u32 = 3;
+/// Shortest step pulse low time, µs (the step timer's lead: a late event comes at least this after a pulse end).
+const LOW_TICKS: u32 = 2;
+/// The step pins (X PA10, Y PB3, Z PB5, E PA6: ports A = 0 and B = 1) and TIM2.
+const STEP_OUT: StepOutputs = StepOutputs::new(
+    [pins::GPIOA, pins::GPIOB],
+    [step_pin(0), step_pin(1), step_pin(2), step_pin(3)],
+    tim::TIM2,
+    PULSE_TICKS,
+    tim::TIM3 + tim::CCR3,
+);
+/// Axis `a`'s step pin as (port 0 = A or 1 = B, pin); the step pins must be on those two ports.
+const fn step_pin(a: usize) -> (u8, u8) {
+    let p = pins::STEP[a];
+    assert!(p.port == pins::GPIOA || p.port == pins::GPIOB, "step pins on ports A and B only");
+    (if p.port == pins::GPIOA { 0 } else { 1 }, p.n)
+}
+
+/// The words the pulse-end DMA stores (memory to peripheral).
+static PULSE_END: [u32; 2] = [STEP_OUT.pulse_end_transfers()[0].0, STEP_OUT.pulse_end_transfers()[1].0];
 /// Endstop release window, µs.
 const DEBOUNCE_TICKS: u64 = 1_000;
 /// Receive ring size (DMA, circular).
@@ -48,15 +72,6 @@ static RX_READ: AtomicU32 = AtomicU32::new(0);
 
 fn set(p: Pin) {
     regs::write(p.port + gpio::BSRR, 1 << p.n);
-}
-
-/// Axis `I`'s step pin high when it is in `mask` (written out per axis: the image is built for size, which would
-/// keep a loop in the step interrupt).
-#[inline(always)]
-fn step_pin<const I: usize>(mask: u8) {
-    if mask & (1 << I) != 0 {
-        set(pins::STEP[I]);
-    }
 }
 
 /// Switch `I` as a mask bit: set when it is fitted and its pin reads low (pressed).
@@ -136,8 +151,21 @@ pub(crate) fn init() {
     regs::write(t + tim::ARR, u32::MAX);
     regs::write(t + tim::EGR, 1);
     regs::write(t + tim::SR, 0);
-    regs::write(t + tim::DIER, tim::UIF);
+    regs::write(t + tim::DIER, tim::UIF | plotter_board::stm32_step::tim::CC2DE_CC3DE);
     regs::write(t + tim::CR1, 1);
+    // Pulse ends: TIM2 compare 2 → DMA1 channel 7 → port A's BSRR, compare 3 → channel 1 → port B's (request 4).
+    regs::modify(dma1::CSELR, (0xF << 24) | 0xF, (4 << 24) | 4);
+    let [(_, bsrr_a), (_, bsrr_b)] = STEP_OUT.pulse_end_transfers();
+    for (ch, (cpar, cmar, cndtr, ccr), bsrr) in [
+        (0usize, (dma1::CPAR7, dma1::CMAR7, dma1::CNDTR7, dma1::CCR7), bsrr_a),
+        (1, (dma1::CPAR1, dma1::CMAR1, dma1::CNDTR1, dma1::CCR1), bsrr_b),
+    ] {
+        regs::write(cpar, u32::try_from(bsrr).unwrap_or(0));
+        #[allow(clippy::cast_possible_truncation, reason = "a Cortex-M address fits u32")]
+        regs::write(cmar, core::ptr::addr_of!(PULSE_END[ch]) as usize as u32);
+        regs::write(cndtr, 1);
+        regs::write(ccr, dma1::CCR_PULSE_END);
+    }
 
     // USART2 on PA2 (TX) / PA3 (RX), alternate function 7; 8N1; DMA reception into the ring.
     for n in [2u8, 3] {
@@ -195,29 +223,16 @@ pub(crate) fn enable_drivers() {
 pub(crate) fn emergency_stop() {
     regs::write(tim::TIM2 + tim::DIER, 0);
     set(pins::ENABLE);
-    for p in &pins::STEP {
-        reset(*p);
-    }
+    STEP_OUT.lower_all();
     if cfg!(feature = "servo-pen") {
         regs::write(tim::TIM3 + tim::CCR3, SERVO_UP_PULSE.load(Ordering::Relaxed));
     }
 }
 
-/// TIM2 interrupt: returns whether the step event (compare 1) is due; handles overflow and pulse end.
+/// TIM2 interrupt: returns whether the step event (compare 1) is due; counts an overflow.
+#[inline(always)]
 pub(crate) fn tim2_events() -> bool {
-    let t = tim::TIM2;
-    let sr = regs::read(t + tim::SR) & regs::read(t + tim::DIER);
-    regs::write(t + tim::SR, !sr);
-    if sr & tim::UIF != 0 {
-        TIM2_WRAPS.fetch_add(1, Ordering::Relaxed);
-    }
-    if sr & tim::CC2 != 0 {
-        for p in &pins::STEP {
-            reset(*p);
-        }
-        regs::modify(t + tim::DIER, tim::CC2, 0);
-    }
-    sr & tim::CC1 != 0
+    STEP_OUT.timer_interrupt(&TIM2_WRAPS)
 }
 
 /// Hand the bytes the DMA has written since the last call to `f` (USART2 idle and DMA half/complete
@@ -276,14 +291,14 @@ impl NucleoHal {
             )
         });
         NucleoHal {
-            deadline: Deadline::new(),
+            deadline: Deadline::new(PULSE_TICKS + LOW_TICKS),
             debounce: Debouncer::new(DEBOUNCE_TICKS),
             tx: heapless::Deque::new(),
             servo,
         }
     }
 
-    /// Feed the debounce filter a reading of the switches (SysTick at 1 kHz, and every read).
+    /// Feed the debounce filter a reading of the switches (every read: SysTick's at 1 kHz, homing).
     pub(crate) fn sample_endstops(&mut self) -> u8 {
         let raw = endstop_low::<0>() | endstop_low::<1>() | endstop_low::<2>() | endstop_low::<3>();
         if raw == 0 && self.debounce.is_quiet() {
@@ -319,35 +334,14 @@ impl StepPins for NucleoHal {
 
     #[inline]
     fn step(&mut self, axis: Axis) {
-        set(pins::STEP[axis.index()]);
-        // End the pulse PULSE_TICKS from now (compare channel 2).
-        let t = tim::TIM2;
-        regs::write(t + tim::CCR2, regs::read(t + tim::CNT).wrapping_add(PULSE_TICKS));
-        regs::write(t + tim::SR, !tim::CC2);
-        regs::modify(t + tim::DIER, 0, tim::CC2);
-        if axis == Axis::Z
-            && let Some(s) = self.servo.as_mut()
-        {
-            regs::write(tim::TIM3 + tim::CCR3, u32::from(s.step()));
-        }
+        self.step_axes(axis.bit());
     }
 
-    /// All the event's step pins, then one pulse-end compare for them all.
-    #[inline]
+    /// All the event's step pins at once; the timer and DMA end the pulse.
+    #[inline(always)]
     fn step_axes(&mut self, mask: u8) {
-        step_pin::<0>(mask);
-        step_pin::<1>(mask);
-        step_pin::<2>(mask);
-        step_pin::<3>(mask);
-        let t = tim::TIM2;
-        regs::write(t + tim::CCR2, regs::read(t + tim::CNT).wrapping_add(PULSE_TICKS));
-        regs::write(t + tim::SR, !tim::CC2);
-        regs::modify(t + tim::DIER, 0, tim::CC2);
-        if mask & Axis::Z.bit() != 0
-            && let Some(s) = self.servo.as_mut()
-        {
-            regs::write(tim::TIM3 + tim::CCR3, u32::from(s.step()));
-        }
+        // Without the `servo-pen` feature there is no servo: the check folds away.
+        STEP_OUT.step_event(mask, self.servo.as_mut().filter(|_| cfg!(feature = "servo-pen")));
     }
 
     fn enable_motors(&mut self, on: bool) {
@@ -370,25 +364,13 @@ impl Endstops for NucleoHal {
 }
 
 impl StepTimer for NucleoHal {
+    #[inline(always)]
     fn schedule(&mut self, ticks: u32) {
-        let t = tim::TIM2;
-        let at = self.deadline.schedule(now(), ticks);
-        #[allow(clippy::cast_possible_truncation, reason = "the compare register holds the low 32 bits")]
-        let at32 = at as u32;
-        regs::write(t + tim::CCR1, at32);
-        regs::write(t + tim::SR, !tim::CC1);
-        regs::modify(t + tim::DIER, 0, tim::CC1);
-        // Already passed while being set (a deadline within a tick): raise the event by hand.
-        #[allow(clippy::cast_possible_wrap, reason = "wrapping difference of two counter values")]
-        if regs::read(t + tim::CNT).wrapping_sub(at32) as i32 >= 0 {
-            regs::write(t + tim::EGR, tim::CC1);
-        }
+        STEP_OUT.schedule(&mut self.deadline, ticks);
     }
 
     fn cancel(&mut self) {
-        regs::modify(tim::TIM2 + tim::DIER, tim::CC1, 0);
-        regs::write(tim::TIM2 + tim::SR, !tim::CC1);
-        self.deadline.cancel();
+        STEP_OUT.cancel(&mut self.deadline);
     }
 }
 

@@ -14,7 +14,8 @@
 //!
 //! **Wiring of the core**: USART2's idle-line and DMA1 channel 6's half/complete interrupts hand received bytes
 //! to `Machine::receive`; TIM2's compare-1 interrupt calls `Machine::on_timer`; the main loop feeds the
-//! independent watchdog, calls `Machine::poll` and sleeps (WFI) when nothing is waiting.
+//! independent watchdog, calls `Machine::poll` and sleeps (WFI) when nothing is waiting; SysTick (1 kHz) samples the
+//! switches into `Machine::check_limits`.
 //!
 //! **Faults**: a panic or hard fault stops the step timer, releases the drivers, lifts a servo pen, stores the
 //! reason in no-init RAM and resets; the start-up note before the next banner reports it with the reset cause.
@@ -83,7 +84,7 @@ fn main() -> ! {
         panic!("clock tree: {} Hz instead of {}", clocks.sysclk().raw(), board::SYSCLK_HZ);
     }
     board::init();
-    // SysTick at 1 kHz samples the endstops.
+    // SysTick at 1 kHz samples the endstops (hard limits).
     cp.SYST.set_clock_source(cortex_m::peripheral::syst::SystClkSource::Core);
     cp.SYST.set_reload(board::SYSCLK_HZ / 1_000 - 1);
     cp.SYST.clear_current();
@@ -99,7 +100,7 @@ fn main() -> ! {
     }
     MACHINE.install(Machine::new(NucleoHal::new(&cfg), cfg));
     board::enable_drivers();
-    // SAFETY: the handlers only touch the machine through the critical section.
+    // SAFETY: the handlers only touch the machine through the critical section (TIM2: see its handler).
     unsafe {
         NVIC::unmask(Interrupt::USART2);
         NVIC::unmask(Interrupt::DMA1_CH6);
@@ -121,7 +122,9 @@ fn main() -> ! {
 #[interrupt]
 fn TIM2() {
     if board::tim2_events() {
-        MACHINE.on_timer();
+        // SAFETY: the only caller is this handler (TIM2 never preempts itself), and every other access to the
+        // machine — the USART2, DMA1 and SysTick handlers, the main loop — goes through `with`, which masks it.
+        unsafe { MACHINE.on_timer_unmasked() };
     }
 }
 
@@ -140,9 +143,10 @@ fn DMA1_CH6() {
     board::drain_rx(|b| MACHINE.receive(b));
 }
 
+/// The switches at 1 kHz: debounced, then the hard-limit check (the step interrupt reads them only when homing).
 #[exception]
 fn SysTick() {
-    MACHINE.with(|m| m.hal_mut().sample_endstops());
+    MACHINE.with(|m| m.check_limits());
 }
 
 #[exception]

@@ -2,19 +2,7 @@
 //! accessed volatile. The clock tree is set up by stm32l4xx-hal; the hot paths (GPIO set/reset, the TIM2
 //! compare channels, the USART2/DMA receive ring) are plain register accesses, which is what they are anyway.
 
-/// Read a register.
-#[inline(always)]
-pub(crate) fn read(addr: usize) -> u32 {
-    // SAFETY: `addr` is one of the memory-mapped register addresses below (aligned, always mapped).
-    unsafe { (addr as *const u32).read_volatile() }
-}
-
-/// Write a register.
-#[inline(always)]
-pub(crate) fn write(addr: usize, value: u32) {
-    // SAFETY: as for `read`; these registers have no memory-safety effects.
-    unsafe { (addr as *mut u32).write_volatile(value) }
-}
+pub(crate) use plotter_board::stm32_step::{read, write};
 
 /// Read-modify-write: clear `clear`, then set `set`.
 #[inline(always)]
@@ -45,28 +33,20 @@ pub(crate) mod gpio {
     pub(crate) const AFRL: usize = 0x20;
 }
 
-/// General-purpose timers (TIM2: 32-bit step timer and clock; TIM3: servo PWM).
+/// General-purpose timers (TIM2: 32-bit step timer and clock; TIM3: servo PWM); the offsets and bits of the step
+/// path are [`plotter_board::stm32_step::tim`]'s.
 pub(crate) mod tim {
+    pub(crate) use plotter_board::stm32_step::tim::{CNT, CR1, DIER, EGR, SR, UIF};
     pub(crate) const TIM2: usize = 0x4000_0000;
     pub(crate) const TIM3: usize = 0x4000_0400;
-    pub(crate) const CR1: usize = 0x00;
-    pub(crate) const DIER: usize = 0x0C;
-    pub(crate) const SR: usize = 0x10;
-    pub(crate) const EGR: usize = 0x14;
     #[cfg_attr(not(feature = "servo-pen"), allow(dead_code, reason = "servo PWM only"))]
     pub(crate) const CCMR2: usize = 0x1C;
     #[cfg_attr(not(feature = "servo-pen"), allow(dead_code, reason = "servo PWM only"))]
     pub(crate) const CCER: usize = 0x20;
-    pub(crate) const CNT: usize = 0x24;
     pub(crate) const PSC: usize = 0x28;
     pub(crate) const ARR: usize = 0x2C;
-    pub(crate) const CCR1: usize = 0x34;
-    pub(crate) const CCR2: usize = 0x38;
+    #[cfg_attr(not(feature = "servo-pen"), allow(dead_code, reason = "servo PWM only"))]
     pub(crate) const CCR3: usize = 0x3C;
-    /// Update (overflow), compare 1 and compare 2 flags / interrupt enables (same bits in SR and DIER).
-    pub(crate) const UIF: u32 = 1 << 0;
-    pub(crate) const CC1: u32 = 1 << 1;
-    pub(crate) const CC2: u32 = 1 << 2;
 }
 
 /// USART2 (the ST-LINK virtual COM port).
@@ -91,9 +71,20 @@ pub(crate) mod usart2 {
     pub(crate) const ICR_ERRORS_IDLE: u32 = 0b1_1111;
 }
 
-/// DMA1 channel 6 = USART2_RX (request 2).
+/// DMA1: channel 6 = USART2_RX (request 2); channel 1 = TIM2_CH3 and channel 7 = TIM2_CH2 (request 4), the
+/// step pulses' ends.
 pub(crate) mod dma1 {
     pub(crate) const BASE: usize = 0x4002_0000;
+    pub(crate) const CCR1: usize = BASE + 0x08;
+    pub(crate) const CNDTR1: usize = BASE + 0x0C;
+    pub(crate) const CPAR1: usize = BASE + 0x10;
+    pub(crate) const CMAR1: usize = BASE + 0x14;
+    pub(crate) const CCR7: usize = BASE + 0x80;
+    pub(crate) const CNDTR7: usize = BASE + 0x84;
+    pub(crate) const CPAR7: usize = BASE + 0x88;
+    pub(crate) const CMAR7: usize = BASE + 0x8C;
+    /// CCR: enable, memory to peripheral, circular, 32-bit memory and peripheral, no increments.
+    pub(crate) const CCR_PULSE_END: u32 = (1 << 0) | (1 << 4) | (1 << 5) | (0b10 << 8) | (0b10 << 10);
     pub(crate) const IFCR: usize = BASE + 0x04;
     pub(crate) const CCR6: usize = BASE + 0x6C;
     pub(crate) const CNDTR6: usize = BASE + 0x70;

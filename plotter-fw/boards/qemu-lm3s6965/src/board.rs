@@ -184,7 +184,7 @@ pub(crate) struct QemuHal {
 impl QemuHal {
     /// After [`init`].
     pub(crate) fn new() -> Self {
-        QemuHal { deadline: Deadline::new(), debounce: Debouncer::new(DEBOUNCE_TICKS) }
+        QemuHal { deadline: Deadline::new(1), debounce: Debouncer::new(DEBOUNCE_TICKS) }
     }
 }
 
@@ -208,7 +208,7 @@ impl StepPins for QemuHal {
 }
 
 impl QemuHal {
-    /// Feed the debounce filter a reading of the endstop pins (the 1 kHz sampling tick and every read).
+    /// Feed the debounce filter a reading of the endstop pins (every read: the 1 kHz sampling tick's, homing).
     pub(crate) fn sample_endstops(&mut self) -> u8 {
         let raw = pins::endstops_pressed(regs::gpio_read(pins::ENDSTOP_PORT));
         let now = self.now();
@@ -225,9 +225,11 @@ impl Endstops for QemuHal {
 
 impl StepTimer for QemuHal {
     fn schedule(&mut self, ticks: u32) {
-        let now = self.now();
+        // The deadline runs on the clock's low 32 bits (wrapping).
+        #[allow(clippy::cast_possible_truncation, reason = "the low 32 bits of the clock")]
+        let now = self.now() as u32;
         let at = self.deadline.schedule(now, ticks);
-        let cycles = (at - now) * CYCLES_PER_TICK;
+        let cycles = u64::from(at.wrapping_sub(now)) * CYCLES_PER_TICK;
         regs::write(timer0::CTL, 0);
         regs::write(timer0::TAILR, u32::try_from(cycles).unwrap_or(u32::MAX));
         regs::write(timer0::ICR, timer0::TIMEOUT);

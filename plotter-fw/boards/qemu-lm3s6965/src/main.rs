@@ -102,7 +102,8 @@ fn TIMER_0A() {
 #[interrupt]
 fn TIMER_1A() {
     board::ack_sample_timer();
-    MACHINE.with(|m| m.hal_mut().sample_endstops());
+    // The switches at 1 kHz: debounced, then the hard-limit check (the step interrupt reads them only when homing).
+    MACHINE.with(|m| m.check_limits());
 }
 
 #[interrupt]

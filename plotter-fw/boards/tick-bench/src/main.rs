@@ -1,114 +1,85 @@
 //! # tick-bench — what one stepper interrupt costs on a Cortex-M4F
 //!
-//! Runs the firmware core on QEMU's `mps2-an386` (a Cortex-M4 with FPU, like the STM32L476) with a HAL that
-//! does exactly what the Nucleo board's does per call — the same GPIO set/reset stores, the same TIM2 compare
-//! register reads and writes, the same [`plotter_board::debounce`] and [`plotter_board::deadline`] code — but on
-//! registers that live in RAM (the mps2 has no STM32 peripherals). `cargo xtask tick-cost` runs it with QEMU's
-//! execution trace and prices every instruction executed between [`bench_tick`]'s entry and
-//! [`bench_tick_done`] with the Cortex-M4's documented cycle counts.
+//! Runs the firmware core on QEMU's `mps2-an386` (a Cortex-M4 with FPU, like the STM32L476) with the Nucleo
+//! board's step path — the same [`plotter_board::stm32_step`] code (step pins from the mask table, pulse end armed
+//! on TIM2's compare channels 2 and 3, next compare from [`plotter_board::deadline`]), the same interrupt body
+//! without a critical section — on register stand-ins in RAM at fixed addresses (the mps2 has no STM32
+//! peripherals). `cargo xtask tick-cost` runs it with QEMU's execution trace and prices every instruction executed
+//! between [`bench_tick`]'s entry and [`bench_tick_done`] with the Cortex-M4's documented cycle counts.
 //!
-//! [`bench_tick`] is the body of the Nucleo's TIM2 interrupt: acknowledge the compare flag, then
-//! `Machine::on_timer` through the critical section. The workload is the worst this firmware sees: moves of
-//! three axes at once (every event steps several axes), short blocks with acceleration and deceleration at
-//! every event (a square root per event), a block change at every block end (the next block's profile is
-//! computed in the interrupt), hard limits watched (an endstop read and debounce per event), and a feed hold
-//! that decelerates across block boundaries.
+//! [`bench_tick`] is the body of the Nucleo's TIM2 interrupt: acknowledge the flags, then `Machine::on_timer`.
+//! On the board the step pulse ends by DMA (no instructions); here the main loop lowers the stand-in pins after
+//! each measured tick. The workload is the worst this firmware sees: moves of three axes at once (every event steps
+//! several axes), short blocks with acceleration and deceleration (every ramp segment change on the slow path), a
+//! block change at every block end (loaded in the interrupt), hard limits armed (checked by the 1 kHz sampling
+//! tick, not per event — as on the board), and a feed hold that decelerates across block boundaries.
 #![no_std]
 #![no_main]
 
-use core::ptr::addr_of_mut;
+use core::sync::atomic::AtomicU32;
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use plotter_board::deadline::Deadline;
 use plotter_board::debounce::Debouncer;
 use plotter_board::shared::Shared;
+use plotter_board::stm32_step::{StepOutputs, read, tim, write};
 use plotter_fw::hal::{Clock, Endstops, SerialOut, StepPins, StepTimer};
 use plotter_fw::machine::Machine;
 use plotter_fw::{Axis, MachineConfig};
 
-/// Stand-ins for the Nucleo's registers: GPIO BSRR/IDR per port, TIM2 SR/DIER/CNT/CCR1/CCR2.
-static mut REGS: [u32; 16] = [0; 16];
-const BSRR_A: usize = 0;
-const BSRR_B: usize = 1;
-const IDR_A: usize = 2;
-const IDR_B: usize = 3;
-const IDR_C: usize = 4;
-const SR: usize = 5;
-const DIER: usize = 6;
-const CNT: usize = 7;
-const CCR1: usize = 8;
-const CCR2: usize = 9;
+/// Stand-ins for the Nucleo's peripherals: RAM that `memory.x` keeps out of the program's, laid out like the
+/// STM32's register blocks (TIM2, GPIOA..C, TIM3), so the step path runs the Nucleo's code with other base
+/// addresses.
+const PERIPH: usize = 0x203F_0000;
+const TIM2: usize = PERIPH;
+const GPIOA: usize = PERIPH + 0x400;
+const GPIOB: usize = PERIPH + 0x800;
+const GPIOC: usize = PERIPH + 0xC00;
+const TIM3: usize = PERIPH + 0x1000;
+const DIR_A: usize = PERIPH + 0x1400;
+const DIR_B: usize = PERIPH + 0x1800;
+/// GPIO input data register offset.
+const IDR: usize = 0x10;
 
-#[inline(always)]
-fn rd(i: usize) -> u32 {
-    // SAFETY: an index into the static register array; volatile like a peripheral access.
-    unsafe { addr_of_mut!(REGS).cast::<u32>().add(i).read_volatile() }
-}
+/// As the Nucleo's: step pins X PA10, Y PB3, Z PB5, E PA6; 3 µs pulses, 2 µs low; the servo's compare register.
+const STEP_OUT: StepOutputs = StepOutputs::new([GPIOA, GPIOB], [(0, 10), (1, 3), (1, 5), (0, 6)], TIM2, 3, TIM3 + 0x3C);
+const LEAD: u32 = 3 + 2;
+/// The Nucleo's direction pins (PB4, PB10, PA8, PA5), on stand-in ports of their own here so that the step
+/// ports' BSRR stand-ins show only the step pins (the store is the same).
+const DIR: [(usize, u32); 4] = [(DIR_B, 4), (DIR_B, 10), (DIR_A, 8), (DIR_A, 5)];
+/// Endstops X PC7, Y PB6, Z PA7.
+const ENDSTOP: [(usize, u32); 3] = [(GPIOC, 7), (GPIOB, 6), (GPIOA, 7)];
 
-#[inline(always)]
-fn wr(i: usize, v: u32) {
-    // SAFETY: as for `rd`.
-    unsafe { addr_of_mut!(REGS).cast::<u32>().add(i).write_volatile(v) }
-}
-
-/// Port register and pin of each step/dir pin, as on the Nucleo (A = 0, B = 1).
-const STEP: [(usize, u32); 4] = [(BSRR_A, 10), (BSRR_B, 3), (BSRR_B, 5), (BSRR_A, 6)];
-const DIR: [(usize, u32); 4] = [(BSRR_B, 4), (BSRR_B, 10), (BSRR_A, 8), (BSRR_A, 5)];
-const ENDSTOP: [(usize, u32); 3] = [(IDR_C, 7), (IDR_B, 6), (IDR_A, 7)];
-
-/// Axis `I`'s step pin high when it is in `mask` (written out per axis, as the Nucleo board does).
-#[inline(always)]
-fn step_pin<const I: usize>(mask: u8) {
-    if mask & (1 << I) != 0 {
-        let (r, n) = STEP[I];
-        wr(r, 1 << n);
-    }
-}
+/// TIM2 overflows (the Nucleo's clock extension).
+static TIM2_WRAPS: AtomicU32 = AtomicU32::new(0);
 
 /// Switch `I` as a mask bit: set when its pin reads low (pressed).
 #[inline(always)]
 fn endstop_low<const I: usize>() -> u8 {
-    let (r, n) = ENDSTOP[I];
-    u8::from(rd(r) & (1 << n) == 0) << I
+    let (port, n) = ENDSTOP[I];
+    u8::from(read(port + IDR) & (1 << n) == 0) << I
 }
 
 struct BenchHal {
     deadline: Deadline,
     debounce: Debouncer,
-    armed: bool,
-    /// Steps emitted (for the steps-per-event figure).
-    steps: u32,
-    /// Simulated time, µs.
-    time: u64,
 }
 
 impl StepPins for BenchHal {
     #[inline]
     fn set_dir(&mut self, axis: Axis, level: bool) {
-        let (r, n) = DIR[axis.index()];
-        wr(r, if level { 1 << n } else { 1 << (n + 16) });
+        let (port, n) = DIR[axis.index()];
+        write(port + plotter_board::stm32_step::BSRR, if level { 1 << n } else { 1 << (n + 16) });
     }
     #[inline]
     fn step(&mut self, axis: Axis) {
-        let (r, n) = STEP[axis.index()];
-        wr(r, 1 << n);
-        self.steps += 1;
-        wr(CCR2, rd(CNT).wrapping_add(3));
-        wr(SR, !4);
-        wr(DIER, rd(DIER) | 4);
+        self.step_axes(axis.bit());
     }
-    /// As the Nucleo board: the event's step pins, then one pulse-end compare.
-    #[inline]
+    /// As the Nucleo board (built without the `servo-pen` feature).
+    #[inline(always)]
     fn step_axes(&mut self, mask: u8) {
-        step_pin::<0>(mask);
-        step_pin::<1>(mask);
-        step_pin::<2>(mask);
-        step_pin::<3>(mask);
-        self.steps += mask.count_ones();
-        wr(CCR2, rd(CNT).wrapping_add(3));
-        wr(SR, !4);
-        wr(DIER, rd(DIER) | 4);
+        STEP_OUT.step_event(mask, None);
     }
     fn enable_motors(&mut self, _on: bool) {}
 }
@@ -126,24 +97,12 @@ impl Endstops for BenchHal {
 }
 
 impl StepTimer for BenchHal {
+    #[inline(always)]
     fn schedule(&mut self, ticks: u32) {
-        let at = self.deadline.schedule(self.now(), ticks);
-        #[allow(clippy::cast_possible_truncation, reason = "the compare register holds the low 32 bits")]
-        let at32 = at as u32;
-        wr(CCR1, at32);
-        wr(SR, !2);
-        wr(DIER, rd(DIER) | 2);
-        #[allow(clippy::cast_possible_wrap, reason = "wrapping difference of two counter values")]
-        if rd(CNT).wrapping_sub(at32) as i32 >= 0 {
-            wr(SR, 2);
-        }
-        self.armed = true;
-        self.time = at;
+        STEP_OUT.schedule(&mut self.deadline, ticks);
     }
     fn cancel(&mut self) {
-        wr(DIER, rd(DIER) & !2);
-        self.deadline.cancel();
-        self.armed = false;
+        STEP_OUT.cancel(&mut self.deadline);
     }
 }
 
@@ -154,11 +113,8 @@ impl SerialOut for BenchHal {
 impl Clock for BenchHal {
     #[inline]
     fn now(&self) -> u64 {
-        // As the Nucleo's: the 32-bit counter and the overflow count.
-        let cnt = rd(CNT);
-        let pending = rd(SR) & 1 != 0;
-        let wraps = (self.time >> 32) + u64::from(pending && cnt < u32::MAX / 2);
-        (wraps << 32) | u64::from(cnt)
+        let wraps = TIM2_WRAPS.load(core::sync::atomic::Ordering::Relaxed);
+        (u64::from(wraps) << 32) | u64::from(read(TIM2 + tim::CNT))
     }
 }
 
@@ -168,24 +124,9 @@ static MACHINE: Shared<BenchHal> = Shared::new();
 #[unsafe(no_mangle)]
 #[inline(never)]
 pub extern "C" fn bench_tick() {
-    let sr = rd(SR) & rd(DIER);
-    wr(SR, !sr);
-    if sr & 2 != 0 || sr == 0 {
-        MACHINE.on_timer();
-    }
-}
-
-/// The Nucleo's pulse-end work (TIM2 compare 2): clear every step pin, stop the compare interrupt.
-#[unsafe(no_mangle)]
-#[inline(never)]
-pub extern "C" fn bench_pulse_end() {
-    let sr = rd(SR) & rd(DIER);
-    wr(SR, !sr);
-    if sr & 4 != 0 {
-        for &(r, n) in &STEP {
-            wr(r, 1 << (n + 16));
-        }
-        wr(DIER, rd(DIER) & !4);
+    if STEP_OUT.timer_interrupt(&TIM2_WRAPS) {
+        // SAFETY: as on the Nucleo: only this function runs the step path, everything else goes through `with`.
+        unsafe { MACHINE.on_timer_unmasked() };
     }
 }
 
@@ -208,6 +149,14 @@ const PROGRAM: &[&[u8]] = &[
     b"G1 X-0.6 Y-0.5 Z-0.2\n",
 ];
 
+/// The step pins raised by the last event (the BSRR stand-ins hold the last word written: its low half is the
+/// pins set; the pulse end's word has none).
+fn step_pins() -> u32 {
+    let a = read(GPIOA + plotter_board::stm32_step::BSRR) & 0xFFFF;
+    let b = read(GPIOB + plotter_board::stm32_step::BSRR) & 0xFFFF;
+    (a & ((1 << 10) | (1 << 6))) << 16 | (b & ((1 << 3) | (1 << 5)))
+}
+
 fn feed(line: &[u8]) {
     for &b in line {
         MACHINE.receive(b);
@@ -217,26 +166,28 @@ fn feed(line: &[u8]) {
 #[entry]
 fn main() -> ! {
     // Endstops released (pins high).
-    wr(IDR_A, 0xFFFF);
-    wr(IDR_B, 0xFFFF);
-    wr(IDR_C, 0xFFFF);
+    for port in [GPIOA, GPIOB, GPIOC] {
+        write(port + IDR, 0xFFFF);
+    }
     let cfg = MachineConfig::xy_plotter();
-    let hal = BenchHal { deadline: Deadline::new(), debounce: Debouncer::new(1_000), armed: false, steps: 0, time: 0 };
+    let hal = BenchHal { deadline: Deadline::new(LEAD), debounce: Debouncer::new(1_000) };
     MACHINE.install(Machine::new(hal, cfg));
     let mut ticks = 0u32;
+    let mut steps = 0u32;
     let mut lines = 0usize;
     let mut held = false;
     loop {
         // The timer "fires": the counter jumps to the compare value.
-        let armed = MACHINE.with(|m| m.hal().armed).unwrap_or(false);
-        if armed {
-            #[allow(clippy::cast_possible_truncation, reason = "the counter holds the low 32 bits")]
-            MACHINE.with(|m| wr(CNT, m.hal().time as u32));
+        let due = MACHINE.with(|m| m.hal().deadline.is_running().then(|| m.hal().deadline.at())).flatten();
+        if let Some(at) = due {
+            // The counter reaches the compare value: the flag goes up, the interrupt runs.
+            write(TIM2 + tim::CNT, at);
+            write(TIM2 + tim::SR, read(TIM2 + tim::SR) | tim::CC1);
             bench_tick();
             bench_tick_done();
-            wr(SR, rd(SR) | 4);
-            bench_pulse_end();
-            bench_tick_done();
+            steps += step_pins().count_ones();
+            // What the pulse-end DMA does on the board (no CPU instructions): the step pins go low.
+            STEP_OUT.lower_all();
             ticks += 1;
             // A feed hold in the middle of the zig-zags, resumed once stopped.
             if ticks == 1_500 {
@@ -272,7 +223,6 @@ fn main() -> ! {
             break;
         }
     }
-    let steps = MACHINE.with(|m| m.hal().steps).unwrap_or(0);
     hprintln!("tick-bench: {} ticks {} steps", ticks, steps);
     debug::exit(debug::EXIT_SUCCESS);
     loop {

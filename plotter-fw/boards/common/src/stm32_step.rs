@@ -1,0 +1,235 @@
+//! The step-event path of an STM32 board: GPIO step pins, a free-running 32-bit compare timer, and the step
+//! pulse ended by the timer and DMA, not by an interrupt.
+//!
+//! Per step event the interrupt does, and nothing else:
+//! 1. [`StepOutputs::timer_interrupt`]: read and clear the timer's flags (counting an overflow for the board's
+//!    64-bit clock);
+//! 2. the stepper's event ([`plotter_fw::stepper::Stepper::tick`]) and [`StepOutputs::raise`]: one BSRR store per
+//!    port from a table indexed by the axis mask, then the pulse end: the counter read once, plus the pulse
+//!    length, stored into the two compare channels that end the pulse (channel 2 for the first port, channel 3
+//!    for the second);
+//! 3. [`StepOutputs::schedule`]: the next event's compare value, the previous deadline plus the interval
+//!    ([`crate::deadline`]), one add and one compare against the counter.
+//!
+//! **Pulse end in hardware.** Each of the two pulse compare channels raises a DMA request when the counter
+//! matches it; its DMA channel (circular, one word, memory to peripheral) stores the port's "all step pins low"
+//! word into that port's BSRR. No second interrupt, no busy wait: the pulse lasts from the pin write to the match.
+//!
+//! **Pulse timing** (proved by the tests below over every latency and interval): with the pins raised before the
+//! counter is read, a pulse of `pulse` ticks is high for at least `pulse − 1` ticks (the read falls anywhere in a
+//! tick) and at most `pulse` plus the few cycles between the pin store and the counter read; the next event is never
+//! earlier than `lead = pulse + low` ticks after the counter read of the one before (the [`crate::deadline`]
+//! lead), so the pins are low for at least `low` ticks. The Nucleo uses `pulse = 3`, `low = 2` at 1 MHz: high
+//! ≥ 2 µs, low ≥ 2 µs — the DRV8825's 1.9 µs minimum high and low times (the A4988's 1 µs and the TMC2209's
+//! 100 ns are shorter). The price: events closer than 5 µs (above 200 k events/s) come late by the difference.
+//!
+//! The same code runs on the Nucleo-L476RG and in the `tick-bench` image that `cargo xtask tick-cost` prices;
+//! only the register base addresses differ (the bench's "registers" are RAM on QEMU's mps2-an386).
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use plotter_fw::{Axis, NUM_AXES};
+
+use crate::deadline::Deadline;
+use crate::servo::ServoPen;
+
+/// Register offsets and bits of an STM32 general-purpose timer (RM0351 §31.4).
+pub mod tim {
+    /// Control 1.
+    pub const CR1: usize = 0x00;
+    /// DMA/interrupt enable.
+    pub const DIER: usize = 0x0C;
+    /// Status.
+    pub const SR: usize = 0x10;
+    /// Event generation.
+    pub const EGR: usize = 0x14;
+    /// Counter.
+    pub const CNT: usize = 0x24;
+    /// Compare 1: the next step event.
+    pub const CCR1: usize = 0x34;
+    /// Compare 2: end of the pulse on the first step port.
+    pub const CCR2: usize = 0x38;
+    /// Compare 3: end of the pulse on the second step port.
+    pub const CCR3: usize = 0x3C;
+    /// Update (overflow) flag / interrupt enable.
+    pub const UIF: u32 = 1 << 0;
+    /// Compare 1 flag / interrupt enable.
+    pub const CC1: u32 = 1 << 1;
+    /// Compare 2 and 3 DMA request enables.
+    pub const CC2DE_CC3DE: u32 = (1 << 10) | (1 << 11);
+}
+
+/// GPIO bit set/reset register offset.
+pub const BSRR: usize = 0x18;
+
+/// Read a memory-mapped register.
+#[inline(always)]
+pub fn read(addr: usize) -> u32 {
+    // SAFETY: the addresses used are a board's peripheral registers or the bench's RAM stand-ins (aligned, mapped).
+    unsafe { (addr as *const u32).read_volatile() }
+}
+
+/// Write a memory-mapped register.
+#[inline(always)]
+pub fn write(addr: usize, value: u32) {
+    // SAFETY: as for `read`; these registers have no memory-safety effects.
+    unsafe { (addr as *mut u32).write_volatile(value) }
+}
+
+/// A board's step pins (on at most two GPIO ports) and its step timer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepOutputs {
+    /// BSRR of the two ports.
+    bsrr: [usize; 2],
+    /// Per axis mask: the BSRR words that raise its axes' step pins, per port.
+    raise: [[u32; 2]; 1 << NUM_AXES],
+    /// Per port: the BSRR word that lowers all its step pins (what the pulse-end DMA stores).
+    lower: [u32; 2],
+    /// Timer base address.
+    tim: usize,
+    /// Pulse length, ticks.
+    pulse: u32,
+    /// The compare register of a servo pen's PWM.
+    servo_ccr: usize,
+}
+
+impl StepOutputs {
+    /// Step pins `steps[axis] = (port, pin)` with `port` 0 or 1 of `ports` (GPIO base addresses), the timer at
+    /// `tim`, pulses of `pulse` ticks; a servo pen's PWM compare register at `servo_ccr`.
+    pub const fn new(ports: [usize; 2], steps: [(u8, u8); NUM_AXES], tim: usize, pulse: u32, servo_ccr: usize) -> Self {
+        let mut raise = [[0u32; 2]; 1 << NUM_AXES];
+        let mut lower = [0u32; 2];
+        let mut a = 0;
+        while a < NUM_AXES {
+            let (port, pin) = steps[a];
+            lower[port as usize] |= 1 << (pin as u32 + 16);
+            let mut mask = 0;
+            while mask < 1 << NUM_AXES {
+                if mask & (1 << a) != 0 {
+                    raise[mask][port as usize] |= 1 << pin;
+                }
+                mask += 1;
+            }
+            a += 1;
+        }
+        StepOutputs { bsrr: [ports[0] + BSRR, ports[1] + BSRR], raise, lower, tim, pulse, servo_ccr }
+    }
+
+    /// The pulse-end DMA's source word and destination (BSRR) for port 0 and 1.
+    pub const fn pulse_end_transfers(&self) -> [(u32, usize); 2] {
+        [(self.lower[0], self.bsrr[0]), (self.lower[1], self.bsrr[1])]
+    }
+
+    /// Raise the step pins of the axes in `mask` and arm the pulse end (the hardware lowers them `pulse` ticks
+    /// later).
+    #[inline(always)]
+    pub fn raise(&self, mask: u8) {
+        let words = &self.raise[usize::from(mask) & ((1 << NUM_AXES) - 1)];
+        write(self.bsrr[0], words[0]);
+        write(self.bsrr[1], words[1]);
+        let end = read(self.tim + tim::CNT).wrapping_add(self.pulse);
+        write(self.tim + tim::CCR2, end);
+        write(self.tim + tim::CCR3, end);
+    }
+
+    /// A step event's outputs ([`plotter_fw::hal::StepPins::step_axes`]): [`StepOutputs::raise`], then a servo pen
+    /// (if fitted) follows the Z step.
+    #[inline(always)]
+    pub fn step_event(&self, mask: u8, servo: Option<&mut ServoPen>) {
+        self.raise(mask);
+        if mask & Axis::Z.bit() != 0
+            && let Some(s) = servo
+        {
+            write(self.servo_ccr, u32::from(s.step()));
+        }
+    }
+
+    /// Lower every step pin now (fault path).
+    pub fn lower_all(&self) {
+        write(self.bsrr[0], self.lower[0]);
+        write(self.bsrr[1], self.lower[1]);
+    }
+
+    /// The timer's interrupt: clear its flags, count an overflow in `wraps`; returns whether a step event is due.
+    #[inline(always)]
+    pub fn timer_interrupt(&self, wraps: &AtomicU32) -> bool {
+        let sr = read(self.tim + tim::SR) & read(self.tim + tim::DIER);
+        write(self.tim + tim::SR, !sr);
+        if sr & tim::UIF != 0 {
+            count_wrap(wraps);
+        }
+        sr & tim::CC1 != 0
+    }
+
+    /// Aim compare 1 at the next event, `ticks` after the previous one ([`Deadline`]); from idle, also enable its
+    /// interrupt.
+    #[inline(always)]
+    pub fn schedule(&self, deadline: &mut Deadline, ticks: u32) {
+        let idle = !deadline.is_running();
+        let at = deadline.schedule(read(self.tim + tim::CNT), ticks);
+        write(self.tim + tim::CCR1, at);
+        if idle {
+            write(self.tim + tim::SR, !tim::CC1);
+            let dier = read(self.tim + tim::DIER);
+            write(self.tim + tim::DIER, dier | tim::CC1);
+        }
+    }
+
+    /// Stop the step events.
+    pub fn cancel(&self, deadline: &mut Deadline) {
+        let dier = read(self.tim + tim::DIER);
+        write(self.tim + tim::DIER, dier & !tim::CC1);
+        write(self.tim + tim::SR, !tim::CC1);
+        deadline.cancel();
+    }
+}
+
+/// One more overflow of the timer (once every 2³² ticks: out of the step path's way).
+#[cold]
+#[inline(never)]
+fn count_wrap(wraps: &AtomicU32) {
+    wraps.fetch_add(1, Ordering::Relaxed);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn raise_words_per_mask_and_the_pulse_end_words() {
+        // X on port 0 pin 10, Y port 1 pin 3, Z port 1 pin 5, E port 0 pin 6 (the Nucleo's wiring).
+        let o = StepOutputs::new([0x100, 0x200], [(0, 10), (1, 3), (1, 5), (0, 6)], 0x300, 3, 0x400);
+        assert_eq!(o.raise[0b0001], [1 << 10, 0]);
+        assert_eq!(o.raise[0b0110], [0, (1 << 3) | (1 << 5)]);
+        assert_eq!(o.raise[0b1111], [(1 << 10) | (1 << 6), (1 << 3) | (1 << 5)]);
+        assert_eq!(o.raise[0], [0, 0]);
+        assert_eq!(o.pulse_end_transfers(), [((1 << 26) | (1 << 22), 0x118), ((1 << 19) | (1 << 21), 0x218)]);
+    }
+
+    /// Pulse and gap at the ticks' resolution (times in hundredths of a tick): the pins go up at `set`, the counter
+    /// reads `⌊set⌋`, the DMA lowers them when the counter reaches that plus `pulse`; the next event is scheduled
+    /// from the counter read then and fires at its deadline (plus the interrupt's latency).
+    #[test]
+    fn pulses_stay_high_and_low_long_enough_at_every_latency_and_rate() {
+        let (pulse, low) = (3u32, 2u32);
+        for interval in 1..12u32 {
+            for latency in [0u32, 30, 90, 100, 170, 250, 400, 470, 600, 990, 1500] {
+                let mut d = Deadline::new(pulse + low);
+                let mut deadline = d.schedule(0, interval);
+                let mut last_end: Option<u32> = None;
+                for _ in 0..20 {
+                    // The interrupt runs `latency` after the deadline; the pin store comes 0.05 tick later.
+                    let set = deadline * 100 + latency + 5;
+                    let cnt = set / 100;
+                    let end = (cnt + pulse) * 100;
+                    assert!(end - set >= (pulse - 1) * 100, "high {} at {interval}/{latency}", end - set);
+                    if let Some(prev_end) = last_end {
+                        assert!(set - prev_end >= low * 100, "low {} at {interval}/{latency}", set - prev_end);
+                    }
+                    last_end = Some(end);
+                    deadline = d.schedule(cnt, interval);
+                }
+            }
+        }
+    }
+}
