@@ -23,6 +23,8 @@
 #   --json      print one JSON object (per-file rows and the totals) instead of the table
 #   PLOTTER     our binary [default: target/release/plotter]; the figures are simulated times, whatever the build
 #   PLOT_ARGS   extra arguments for our `plotter plot` (e.g. PLOT_ARGS="--opt-cost distance"), split on spaces
+#   CONVERT_ARGS  extra arguments for the shared `plotter convert` (e.g. CONVERT_ARGS=--no-occlusion: both sides
+#               plot every outline in full, hidden lines included)
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
@@ -33,6 +35,7 @@ if [ "${1:-}" = "--json" ]; then json=1; shift; fi
 n="${1:-24}"
 vpype="${VPYPE:-vpype}"
 read -r -a plot_args <<<"${PLOT_ARGS:-}"
+read -r -a convert_args <<<"${CONVERT_ARGS:-}"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 command -v "$vpype" >/dev/null || { echo "vpype not found (put it on PATH or set VPYPE)" >&2; exit 1; }
@@ -56,7 +59,7 @@ for f in "${inputs[@]}"; do
   case "$f" in gen:*) name="$f" ;; *) name="$(basename "$f")" ;; esac
   case "$f" in gen:*) ;; *) [ "$clips" -ge "$n" ] && continue ;; esac
   flat="$work/flat.svg"
-  if ! "$plotter" convert "$f" -o "$flat" --paper a4 --fit --margin 10 2>/dev/null; then
+  if ! "$plotter" convert "$f" -o "$flat" --paper a4 --fit --margin 10 "${convert_args[@]}" 2>/dev/null; then
     say "skip $name (our importer refused it)"; echo "$name" >>"$work/skipped.txt"; continue
   fi
   if ! "$plotter" plot "$flat" --layer-by none --preview "$work/o.png" "${plot_args[@]}" >"$work/o.txt" 2>"$work/o.err"
