@@ -498,7 +498,13 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     let input = args.input.as_deref().context("an input file is required")?;
     let mut profile = load_profile(args.profile.as_deref())?;
     if args.as_written {
-        return crate::cmd::plot_as_written::run(args, input, &profile);
+        if !matches!(args.firmware, Firmware::Ours | Firmware::Auto) {
+            bail!(
+                "--as-written streams G-code to our firmware (the simulator or --firmware ours); a GRBL controller \
+                 takes the file from any G-code sender"
+            );
+        }
+        return crate::cmd::plot_as_written::run(input, &profile, args.port.as_deref(), args.baud);
     }
     if args.firmware == Firmware::Hpgl && args.export.is_none() {
         let port = args.port.as_deref().context(

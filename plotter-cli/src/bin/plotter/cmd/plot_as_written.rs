@@ -19,7 +19,6 @@ use anyhow::{Context as _, bail};
 use plotter_fw::TICK_HZ;
 use plotter_host::input::{InputKind, input_kind};
 use plotter_host::link::Transport;
-use plotter_host::link::machine::Firmware;
 use plotter_host::link::print::{Played, PrintControl, PrintProgress, stream_print};
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::session::Session;
@@ -29,8 +28,6 @@ use plotter_path::config::profile::PenCommand;
 use plotter_path::input::gcode_print::{PrintOp, import_print};
 use plotter_path::motion::plan;
 use plotter_path::motion::print_plan::{PrintPlan, plan_print};
-
-use super::plot::PlotArgs;
 
 /// Progress on stderr (one line per 10 %), Ctrl-C as a stop request.
 struct Console {
@@ -100,16 +97,9 @@ fn play<T: Transport>(
     Ok(())
 }
 
-/// Run `plotter plot INPUT --as-written`.
-pub(crate) fn run(args: &PlotArgs, input: &Path, profile: &MachineProfile) -> anyhow::Result<()> {
-    if args.export.is_some() {
-        bail!("--as-written plays the file; --export writes one (use one of them)");
-    }
-    if !matches!(args.firmware, Firmware::Ours | Firmware::Auto) {
-        bail!(
-            "--as-written streams G-code to our firmware (the simulator or --firmware ours); a GRBL controller takes the file from any G-code sender"
-        );
-    }
+/// Run `plotter plot INPUT --as-written` on the simulated plotter, or on our firmware at `port` (the caller has
+/// checked that the firmware is ours); `baud` overrides the profile's.
+pub(crate) fn run(input: &Path, profile: &MachineProfile, port: Option<&str>, baud: Option<u32>) -> anyhow::Result<()> {
     if profile.pen.command != PenCommand::Z {
         bail!("--as-written needs a Z-lift pen (the profile's pen.command is servo): plot the file without it");
     }
@@ -118,8 +108,8 @@ pub(crate) fn run(args: &PlotArgs, input: &Path, profile: &MachineProfile) -> an
     let plan = plan_file(input, profile)?;
     let machine = Played::Plotter { up_z_mm: profile.pen.up_z_mm, z_steps_per_mm: profile.axes.z.steps_per_mm };
     let cfg = plan::machine_config(profile)?;
-    let baud = args.baud.unwrap_or(profile.link.baud);
-    match &args.port {
+    let baud = baud.unwrap_or(profile.link.baud);
+    match port {
         None => {
             let session = Session::connect(SimTransport::new(cfg, Some(baud)), "simulated plotter")?;
             play(session, &plan, machine, |s| Some(s.transport.sim().hal().busy_ticks()), interrupt)
