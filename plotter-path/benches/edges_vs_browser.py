@@ -1,0 +1,405 @@
+#!/usr/bin/env python3
+"""Does the plot draw the edges the browser shows? Ours against vpype's, on openclipart drawings (issue 24).
+
+The measure, per SVG file:
+  * visible edges: the file rendered by headless Chromium at a fixed pixel size (longest side --size px, default 800)
+    after every stroke is made a 1 px hairline (an injected `* { stroke-width: 1px !important; vector-effect:
+    non-scaling-stroke !important }`: a pen draws a stroke's centre line, not its width). A pixel is a visible-edge
+    pixel when its painted colour differs from its right or lower neighbour's by more than --threshold (default 40 of
+    255, the largest of the three channel differences); both pixels of such a pair are marked.
+  * ink: what each side would draw, as 1 px lines (Bresenham, no smoothing) in the same pixel frame:
+      ours:   plotter convert FILE -o OUT.svg   (a plain SVG of polylines in mm; its page is the document's frame)
+      vpype:  vpype read FILE write OUT.svg     (polylines in CSS px; its page is the document's frame)
+    Both outputs' viewBox spans the document's frame, which is mapped onto the browser's pixels (checked by --selftest
+    on hand-made files whose coordinates are known).
+  * precision = share of ink pixels within 3 px (Euclidean) of a visible-edge pixel;
+    recall    = share of visible-edge pixels within 3 px of an ink pixel.
+  Per file, then over the whole set two ways: pooled (pixel counts summed over files, so large drawings weigh more)
+  and mean (the average of the per-file figures, every file weighing the same). Files the browser shows nothing for
+  (no edge pixel) are excluded and counted; files our importer or vpype refuses are listed and left out of both
+  sides' figures.
+
+Inputs: every SVG under /usr/share/openclipart/svg (Debian's openclipart-svg package) of --min-kb..--max-kb
+(default 2..250 KB), sorted by path, duplicates by content dropped; then every k-th so that --n (default 130) remain.
+
+Set-up (not a CI dependency): Chromium at /usr/bin/chromium, vpype on PATH, and a venv with Pillow and numpy:
+  python3 -m venv /tmp/edges-venv && /tmp/edges-venv/bin/pip install pillow numpy
+  cargo build -p plotter-cli          # or --release; pass the binary with --plotter
+  /tmp/edges-venv/bin/python plotter-path/benches/edges_vs_browser.py --plotter target/debug/plotter \
+      [--n 130] [--cache DIR] [--keep DIR] [--json] [--selftest]
+--cache DIR keeps the browser renderings and vpype's outputs between runs (they do not change when ours does);
+--keep DIR writes, per file, a PNG with the three renderings side by side (browser edges, ours, vpype; ink pixels
+far from any edge in red, edges far from any ink in blue) for finding the causes of a loss.
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+ROOT = "/usr/share/openclipart/svg"
+CHROMIUM = "/usr/bin/chromium"
+HAIRLINE = b"<style>*{stroke-width:1px !important;vector-effect:non-scaling-stroke !important}</style>"
+REACH = 3  # px: how near ink and edge must be to count
+UNIT_PX = {"": 1.0, "px": 1.0, "mm": 96 / 25.4, "cm": 96 / 2.54, "in": 96.0, "pt": 96 / 72, "pc": 16.0}
+
+
+# ---------------------------------------------------------------- the document's frame and the browser's rendering
+
+ROOT_TAG = re.compile(rb"<svg\b[^>]*>", re.S)
+
+
+def attr(tag, name):
+    m = re.search(rb"\s" + name + rb"\s*=\s*(\"[^\"]*\"|'[^']*')", tag)
+    return m.group(1)[1:-1].decode("utf-8", "replace").strip() if m else None
+
+
+def length_px(text):
+    """A root width/height in CSS px, or None when absent or relative (%)."""
+    if text is None:
+        return None
+    m = re.fullmatch(r"([-+0-9.eE]+)\s*([a-z]*)", text)
+    if not m or m.group(2) not in UNIT_PX:
+        return None
+    try:
+        v = float(m.group(1)) * UNIT_PX[m.group(2)]
+    except ValueError:
+        return None
+    return v if v > 0 else None
+
+
+def frame(data):
+    """(root tag span, viewBox (x, y, w, h), size (w, h) in CSS px) of an SVG document, or None when unknown."""
+    m = ROOT_TAG.search(data)
+    if not m:
+        return None
+    tag = m.group(0)
+    vb = attr(tag, rb"viewBox")
+    box = None
+    if vb:
+        try:
+            box = [float(v) for v in re.split(r"[\s,]+", vb.strip())]
+        except ValueError:
+            box = None
+        if box is None or len(box) != 4 or box[2] <= 0 or box[3] <= 0:
+            box = None
+    w, h = length_px(attr(tag, rb"width")), length_px(attr(tag, rb"height"))
+    if box is None:
+        if w is None or h is None:
+            return None
+        box = [0.0, 0.0, w, h]
+    w = w if w is not None else box[2]
+    h = h if h is not None else box[3]
+    return m.span(), box, (w, h)
+
+
+def pixel_size(size, longest):
+    w, h = size
+    s = longest / max(w, h)
+    return max(1, round(w * s)), max(1, round(h * s))
+
+
+def hairline_copy(data, px):
+    """The document with its root sized to `px` (viewBox kept or made explicit) and every stroke a 1 px hairline."""
+    (a, b), box, _ = frame(data)
+    tag = data[a:b]
+    tag = re.sub(rb"\s(width|height|viewBox)\s*=\s*(\"[^\"]*\"|'[^']*')", b"", tag)
+    tag = re.sub(rb"\sstyle\s*=\s*(\"[^\"]*\"|'[^']*')", b"", tag)  # a root style could size it again
+    end = -2 if tag.endswith(b"/>") else -1
+    extra = ' width="{}" height="{}" viewBox="{}"'.format(px[0], px[1], " ".join(repr(v) for v in box)).encode()
+    return data[:a] + tag[:end] + extra + tag[end:] + HAIRLINE + data[b:]
+
+
+def browser_png(data, px, out):
+    with tempfile.TemporaryDirectory() as tmp:
+        src = os.path.join(tmp, "in.svg")
+        with open(src, "wb") as fh:
+            fh.write(hairline_copy(data, px))
+        cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--mute-audio",
+               f"--user-data-dir={tmp}/profile", f"--window-size={px[0]},{px[1]}", f"--screenshot={out}",
+               "file://" + src]
+        try:
+            subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=120)
+        except subprocess.TimeoutExpired:
+            return False
+    return os.path.exists(out)
+
+
+def edges(png, px, threshold):
+    """Visible-edge mask of a rendering: colour steps above `threshold` between 4-neighbours."""
+    im = Image.open(png).convert("RGBA")
+    white = Image.new("RGBA", im.size, (255, 255, 255, 255))
+    rgb = np.asarray(Image.alpha_composite(white, im).convert("RGB"), dtype=np.int16)[: px[1], : px[0]]
+    e = np.zeros(rgb.shape[:2], dtype=bool)
+    dx = np.abs(rgb[:, 1:] - rgb[:, :-1]).max(axis=2) > threshold
+    dy = np.abs(rgb[1:, :] - rgb[:-1, :]).max(axis=2) > threshold
+    e[:, 1:] |= dx
+    e[:, :-1] |= dx
+    e[1:, :] |= dy
+    e[:-1, :] |= dy
+    return e
+
+
+# ---------------------------------------------------------------- ink: the polylines of a plain output SVG
+
+
+def local(tag):
+    return tag.rsplit("}", 1)[-1]
+
+
+def numbers(text):
+    return [float(v) for v in re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", text or "")]
+
+
+def ink(svg_file, px):
+    """Mask of the polylines, polygons and lines of a plain SVG (ours or vpype's), its viewBox mapped onto `px`."""
+    root = ET.parse(svg_file).getroot()
+    box = numbers(root.get("viewBox"))
+    sx, sy = px[0] / box[2], px[1] / box[3]
+    im = Image.new("1", px, 0)
+    draw = ImageDraw.Draw(im)
+    for el in root.iter():
+        name = local(el.tag)
+        if el.get("transform"):
+            raise ValueError(f"{svg_file}: unexpected transform on <{name}>")
+        if name in ("polyline", "polygon"):
+            v = numbers(el.get("points"))
+            pts = list(zip(v[0::2], v[1::2]))
+            if name == "polygon" and pts:
+                pts.append(pts[0])
+        elif name == "line":
+            pts = [(float(el.get("x1", 0)), float(el.get("y1", 0))), (float(el.get("x2", 0)), float(el.get("y2", 0)))]
+        elif name == "path":
+            raise ValueError(f"{svg_file}: <path> in a plain output")
+        else:
+            continue
+        pts = [((x - box[0]) * sx, (y - box[1]) * sy) for x, y in pts]
+        if len(pts) == 1:
+            draw.point(pts, fill=1)
+        elif pts:
+            draw.line(pts, fill=1, width=1)
+    return np.asarray(im, dtype=bool)
+
+
+# ---------------------------------------------------------------- the measure
+
+DISC = [(dx, dy) for dx in range(-REACH, REACH + 1) for dy in range(-REACH, REACH + 1) if dx * dx + dy * dy <= REACH**2]
+
+
+def near(mask):
+    """Pixels within REACH px (Euclidean) of a set pixel of `mask`."""
+    h, w = mask.shape
+    pad = np.pad(mask, REACH)
+    out = np.zeros_like(mask)
+    for dx, dy in DISC:
+        out |= pad[REACH + dy : REACH + dy + h, REACH + dx : REACH + dx + w]
+    return out
+
+
+def score(edge, inked):
+    """(ink px, ink px near an edge, edge px, edge px near ink)."""
+    return (int(inked.sum()), int((inked & near(edge)).sum()), int(edge.sum()), int((edge & near(inked)).sum()))
+
+
+def ratio(a, b):
+    return a / b if b else None
+
+
+def run(cmd):
+    try:
+        r = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, timeout=300)
+    except subprocess.TimeoutExpired:
+        return "timed out"
+    return None if r.returncode == 0 else (r.stderr.decode("utf-8", "replace").strip().splitlines() or ["?"])[-1]
+
+
+def side_by_side(edge, sides, out):
+    """Browser edges | ours | vpype: ink near an edge black, ink far from every edge red, edges far from ink blue."""
+    tiles = []
+    e_near = near(edge)
+    tile = np.full(edge.shape + (3,), 255, np.uint8)
+    tile[edge] = (0, 0, 0)
+    tiles.append(tile)
+    for inked in sides:
+        tile = np.full(edge.shape + (3,), 255, np.uint8)
+        if inked is not None:
+            tile[edge & ~near(inked)] = (80, 140, 255)
+            tile[inked & e_near] = (0, 0, 0)
+            tile[inked & ~e_near] = (230, 0, 0)
+        tiles.append(tile)
+    gap = np.full((edge.shape[0], 6, 3), 128, np.uint8)
+    Image.fromarray(np.hstack([tiles[0], gap, tiles[1], gap, tiles[2]])).save(out)
+
+
+def measure(path, a, cache, tmp):
+    """One file's row, or a string saying why it has none."""
+    with open(path, "rb") as fh:
+        data = fh.read()
+    fr = frame(data)
+    if fr is None:
+        return "no document size (neither viewBox nor absolute width/height)"
+    px = pixel_size(fr[2], a.size)
+    digest = hashlib.md5(data).hexdigest()
+    png = os.path.join(cache, f"{digest}-{px[0]}x{px[1]}.png")
+    if not os.path.exists(png) and not browser_png(data, px, png):
+        return "the browser rendered nothing"
+    edge = edges(png, px, a.threshold)
+    row = {"file": os.path.relpath(path, ROOT), "edge_px": int(edge.sum()), "px": px}
+    if row["edge_px"] == 0:
+        return "blank"
+    ours = os.path.join(tmp, "ours.svg")
+    err = run([a.plotter, "convert", path, "-o", ours])
+    vp = os.path.join(cache, f"{digest}-vpype.svg")
+    vp_err_file = vp + ".err"
+    if not os.path.exists(vp) and not os.path.exists(vp_err_file):
+        verr = run([a.vpype, "read", path, "write", vp])
+        if verr:
+            with open(vp_err_file, "w") as fh:
+                fh.write(verr)
+    verr = open(vp_err_file).read() if os.path.exists(vp_err_file) else None
+    masks = []
+    for side, out, e in (("ours", ours, err), ("vpype", vp, verr)):
+        if e:
+            row[side + "_error"] = e
+            masks.append(None)
+            continue
+        m = ink(out, px)
+        masks.append(m)
+        n_ink, n_ink_near, n_edge, n_edge_near = score(edge, m)
+        row[side] = {"ink_px": n_ink, "ink_near": n_ink_near, "edge_near": n_edge_near,
+                     "precision": ratio(n_ink_near, n_ink), "recall": ratio(n_edge_near, n_edge)}
+    if a.keep:
+        stem = re.sub(r"[^A-Za-z0-9_.-]", "_", row["file"])[:-4]
+        side_by_side(edge, masks, os.path.join(a.keep, stem + ".png"))
+    return row
+
+
+def choose(a):
+    rows, seen = [], set()
+    for d, _, files in os.walk(ROOT):
+        for f in files:
+            p = os.path.join(d, f)
+            if not f.endswith(".svg") or not (a.min_kb * 1024 <= os.path.getsize(p) <= a.max_kb * 1024):
+                continue
+            rows.append(p)
+    rows.sort()
+    unique = []
+    for p in rows:
+        with open(p, "rb") as fh:
+            digest = hashlib.md5(fh.read()).hexdigest()
+        if digest not in seen:
+            seen.add(digest)
+            unique.append(p)
+    k = max(1, len(unique) // a.n)
+    return unique[::k][: a.n]
+
+
+def totals(rows, side):
+    ok = [r for r in rows if side in r]
+    ink_px = sum(r[side]["ink_px"] for r in ok)
+    edge_px = sum(r["edge_px"] for r in ok)
+    ps = [r[side]["precision"] for r in ok if r[side]["precision"] is not None]
+    rs = [r[side]["recall"] for r in ok]
+    return {
+        "files": len(ok),
+        "pooled_precision": ratio(sum(r[side]["ink_near"] for r in ok), ink_px),
+        "pooled_recall": ratio(sum(r[side]["edge_near"] for r in ok), edge_px),
+        "mean_precision": ratio(sum(ps), len(ps)),
+        "mean_recall": ratio(sum(rs), len(rs)),
+    }
+
+
+def selftest(a):
+    """Hand-made files with known answers: a black square (ink = its outline = the browser's edge), a framed offset."""
+    cases = {
+        "square": '<svg xmlns="http://www.w3.org/2000/svg" width="200" height="100">'
+        '<rect x="20" y="10" width="50" height="60" fill="black"/></svg>',
+        "offset-mm": '<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="50mm" viewBox="-50 -20 200 100">'
+        '<rect x="-40" y="-10" width="50" height="30" fill="#123"/>'
+        '<path d="M100 70 L140 20" stroke="red" stroke-width="9" fill="none"/></svg>',
+        "no-size": '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 300 400">'
+        '<circle cx="150" cy="200" r="100" fill="none" stroke="blue" stroke-width="30"/></svg>',
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, text in cases.items():
+            p = os.path.join(tmp, name + ".svg")
+            with open(p, "w") as fh:
+                fh.write(text)
+            r = measure(p, a, tmp, tmp)
+            print(name, json.dumps(r))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    here = os.path.dirname(os.path.abspath(__file__))
+    ap.add_argument("--plotter", default=os.path.join(here, "../../target/release/plotter"))
+    ap.add_argument("--vpype", default=shutil.which("vpype") or "vpype")
+    ap.add_argument("--n", type=int, default=130)
+    ap.add_argument("--min-kb", type=float, default=2)
+    ap.add_argument("--max-kb", type=float, default=250)
+    ap.add_argument("--size", type=int, default=800)
+    ap.add_argument("--threshold", type=int, default=40)
+    ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "edges-vs-browser-cache"))
+    ap.add_argument("--keep")
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--selftest", action="store_true")
+    ap.add_argument("--worst", type=int, default=15, help="how many losing files to name")
+    ap.add_argument("files", nargs="*", help="measure these files instead of the openclipart choice")
+    a = ap.parse_args()
+    os.makedirs(a.cache, exist_ok=True)
+    if a.keep:
+        os.makedirs(a.keep, exist_ok=True)
+    if a.selftest:
+        selftest(a)
+        return
+    files = a.files or choose(a)
+    rows, blank, refused = [], [], []
+    fmt = lambda v: "   -" if v is None else f"{v:.2f}"
+    if not a.json:
+        print(f"{'file':58} {'edges':>6} {'ours P':>6} {'ours R':>6} {'vp P':>6} {'vp R':>6}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for p in files:
+            r = measure(p, a, a.cache, tmp)
+            if isinstance(r, str):
+                (blank if r == "blank" else refused).append((p, r))
+                continue
+            for side in ("ours", "vpype"):
+                if side + "_error" in r:
+                    refused.append((p, f"{side}: {r[side + '_error']}"))
+            rows.append(r)
+            o, v = r.get("ours", {}), r.get("vpype", {})
+            print(f"{r['file'][-58:]:58} {r['edge_px']:6} {fmt(o.get('precision')):>6} "
+                  f"{fmt(o.get('recall')):>6} {fmt(v.get('precision')):>6} {fmt(v.get('recall')):>6}",
+                  file=sys.stderr if a.json else sys.stdout, flush=True)
+    both = [r for r in rows if "ours" in r and "vpype" in r]
+    summary = {
+        "chosen": len(files),
+        "measured_both": len(both),
+        "blank_in_browser": len(blank),
+        "refused": [f"{os.path.relpath(p, ROOT)}: {why}" for p, why in refused],
+        "ours": totals(both, "ours"),
+        "vpype": totals(both, "vpype"),
+    }
+    losing = sorted(both, key=lambda r: r["ours"]["recall"] - r["vpype"]["recall"])
+    summary["losing"] = [
+        {"file": r["file"], "ours_recall": round(r["ours"]["recall"], 3), "vpype_recall": round(r["vpype"]["recall"], 3)}
+        for r in losing[: a.worst] if r["ours"]["recall"] < r["vpype"]["recall"]
+    ]
+    summary["files_ours_recall_below_vpype"] = sum(1 for r in both if r["ours"]["recall"] < r["vpype"]["recall"])
+    if a.json:
+        print(json.dumps({"summary": summary, "rows": rows}, indent=1))
+    else:
+        print("\n" + json.dumps(summary, indent=1))
+
+
+if __name__ == "__main__":
+    main()
