@@ -4,7 +4,8 @@
 The measure, per SVG file:
   * visible edges: the file rendered by headless Chromium at a fixed pixel size (longest side --size px, default 800)
     after every stroke is made a 1 px hairline (an injected `* { stroke-width: 1px !important; vector-effect:
-    non-scaling-stroke !important }`: a pen draws a stroke's centre line, not its width). A pixel is a visible-edge
+    non-scaling-stroke !important }`: a pen draws a stroke's centre line, not its width; strokes of zero width, which
+    draw nothing, are turned off first so the hairline rule does not show them). A pixel is a visible-edge
     pixel when its painted colour differs from its right or lower neighbour's by more than --threshold (default 40 of
     255, the largest of the three channel differences); both pixels of such a pair are marked.
   * ink: what each side would draw, as 1 px lines (Bresenham, no smoothing) in the same pixel frame:
@@ -28,7 +29,9 @@ Set-up (not a CI dependency): Chromium at /usr/bin/chromium, vpype on PATH, and 
   /tmp/edges-venv/bin/python plotter-path/benches/edges_vs_browser.py --plotter target/debug/plotter \
       [--n 130] [--cache DIR] [--keep DIR] [--json] [--selftest]
 --cache DIR keeps the browser renderings and vpype's outputs between runs (they do not change when ours does);
---keep DIR writes, per file, a PNG with the three renderings side by side (browser edges, ours, vpype; ink pixels
+--match-tolerance flattens ours to a quarter of a rendering pixel (at most the default 0.05 mm): a 16 mm icon shown
+800 px wide magnifies our 0.05 mm chord error to 2.5 px, which the 3 px reach then counts against us although it is
+invisible on paper (vpype cuts curves into 0.1 mm pieces, fine at any magnification). --keep DIR writes, per file, a PNG with the three renderings side by side (browser edges, ours, vpype; ink pixels
 far from any edge in red, edges far from any ink in blue) for finding the causes of a loss.
 """
 
@@ -48,7 +51,11 @@ from PIL import Image, ImageDraw
 
 ROOT = "/usr/share/openclipart/svg"
 CHROMIUM = "/usr/bin/chromium"
-HAIRLINE = b"<style>*{stroke-width:1px !important;vector-effect:non-scaling-stroke !important}</style>"
+HAIRLINE = (b"<style>*{stroke-width:1px !important;vector-effect:non-scaling-stroke !important}"
+            b'[stroke-width="0"],[stroke-width="0"] *,[stroke-width="0px"],[stroke-width="0px"] *{stroke:none !important}'
+            b"</style>")
+# A zero stroke width draws nothing; the hairline rule must not make it visible (inline styles: rewritten).
+ZERO_WIDTH = re.compile(rb"stroke-width\s*:\s*0*\.?0+(px)?\s*(?=;|\"|'|!)")
 REACH = 3  # px: how near ink and edge must be to count
 UNIT_PX = {"": 1.0, "px": 1.0, "mm": 96 / 25.4, "cm": 96 / 2.54, "in": 96.0, "pt": 96 / 72, "pc": 16.0}
 
@@ -116,7 +123,8 @@ def hairline_copy(data, px):
     tag = re.sub(rb"\sstyle\s*=\s*(\"[^\"]*\"|'[^']*')", b"", tag)  # a root style could size it again
     end = -2 if tag.endswith(b"/>") else -1
     extra = ' width="{}" height="{}" viewBox="{}"'.format(px[0], px[1], " ".join(repr(v) for v in box)).encode()
-    return data[:a] + tag[:end] + extra + tag[end:] + HAIRLINE + data[b:]
+    rest = re.sub(rb"\sstyle\s*=\s*(\"[^\"]*\"|'[^']*')", lambda m: ZERO_WIDTH.sub(b"stroke:none", m.group(0)), data[b:])
+    return data[:a] + tag[:end] + extra + tag[end:] + HAIRLINE + rest
 
 
 def browser_png(data, px, out):
@@ -249,7 +257,7 @@ def measure(path, a, cache, tmp):
         return "no document size (neither viewBox nor absolute width/height)"
     px = pixel_size(fr[2], a.size)
     digest = hashlib.md5(data).hexdigest()
-    png = os.path.join(cache, f"{digest}-{px[0]}x{px[1]}.png")
+    png = os.path.join(cache, f"{digest}-{px[0]}x{px[1]}-v2.png")
     if not os.path.exists(png) and not browser_png(data, px, png):
         return "the browser rendered nothing"
     edge = edges(png, px, a.threshold)
@@ -257,11 +265,21 @@ def measure(path, a, cache, tmp):
     if row["edge_px"] == 0:
         return "blank"
     ours = os.path.join(tmp, "ours.svg")
-    err = run([a.plotter, "convert", path, "-o", ours])
+    if os.path.exists(ours):
+        os.remove(ours)
+    cmd = [a.plotter, "convert", path, "-o", ours]
+    if a.match_tolerance:
+        mm_per_px = fr[2][0] * 25.4 / 96 / px[0]
+        cmd += ["--tolerance", f"{min(0.05, 0.25 * mm_per_px):.6g}"]
+    err = run(cmd)
+    if err is None and not os.path.exists(ours):
+        err = "exited 0 but wrote no file"
     vp = os.path.join(cache, f"{digest}-vpype.svg")
     vp_err_file = vp + ".err"
     if not os.path.exists(vp) and not os.path.exists(vp_err_file):
         verr = run([a.vpype, "read", path, "write", vp])
+        if verr is None and not os.path.exists(vp):
+            verr = "exited 0 but wrote no file"
         if verr:
             with open(vp_err_file, "w") as fh:
                 fh.write(verr)
@@ -350,6 +368,9 @@ def main():
     ap.add_argument("--threshold", type=int, default=40)
     ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "edges-vs-browser-cache"))
     ap.add_argument("--keep")
+    ap.add_argument("--match-tolerance", action="store_true",
+                    help="flatten ours to a quarter pixel of the rendering (at most 0.05 mm), so that small drawings "
+                    "magnified to --size px are not judged by chord errors invisible on paper")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--selftest", action="store_true")
     ap.add_argument("--worst", type=int, default=15, help="how many losing files to name")
