@@ -5,7 +5,8 @@ The measure, per SVG file:
   * visible edges: the file rendered by headless Chromium at a fixed pixel size (longest side --size px, default 800)
     after every stroke is made a 1 px hairline (an injected `* { stroke-width: 1px !important; vector-effect:
     non-scaling-stroke !important }`: a pen draws a stroke's centre line, not its width; strokes of zero width, which
-    draw nothing, are turned off first so the hairline rule does not show them). A pixel is a visible-edge
+    draw nothing, are turned off first so the hairline rule does not show them; dashed strokes keep their scale, so
+    that their dashes keep their length, and are one pixel wide at the root's scale). A pixel is a visible-edge
     pixel when its painted colour differs from its right or lower neighbour's by more than --threshold (default 40 of
     255, the largest of the three channel differences); both pixels of such a pair are marked.
   * ink: what each side would draw, as 1 px lines (Bresenham, no smoothing) in the same pixel frame:
@@ -124,14 +125,21 @@ def hairline_copy(data, px):
     end = -2 if tag.endswith(b"/>") else -1
     extra = ' width="{}" height="{}" viewBox="{}"'.format(px[0], px[1], " ".join(repr(v) for v in box)).encode()
     rest = re.sub(rb"\sstyle\s*=\s*(\"[^\"]*\"|'[^']*')", lambda m: ZERO_WIDTH.sub(b"stroke:none", m.group(0)), data[b:])
-    return data[:a] + tag[:end] + extra + tag[end:] + HAIRLINE + rest
+    style = HAIRLINE
+    if b"dasharray" in rest:
+        # Under non-scaling-stroke a dash array is in screen pixels: dashed strokes keep their own scale instead,
+        # one pixel wide at the root's scale (a transformed group widens or narrows them).
+        width = min(px[0] / box[2], px[1] / box[3]) ** -1
+        style += (b'<style>[stroke-dasharray]:not([stroke-dasharray="none"]),[style*="dasharray"]:not([style*="dasharray:none"])'
+                  b"{vector-effect:none !important;stroke-width:%.6gpx !important}</style>" % width)
+    return data[:a] + tag[:end] + extra + tag[end:] + style + rest
 
 
-def browser_png(data, px, out):
+def browser_png(copy, px, out):
     with tempfile.TemporaryDirectory() as tmp:
         src = os.path.join(tmp, "in.svg")
         with open(src, "wb") as fh:
-            fh.write(hairline_copy(data, px))
+            fh.write(copy)
         cmd = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--mute-audio",
                f"--user-data-dir={tmp}/profile", f"--window-size={px[0]},{px[1]}", f"--screenshot={out}",
                "file://" + src]
@@ -257,8 +265,9 @@ def measure(path, a, cache, tmp):
         return "no document size (neither viewBox nor absolute width/height)"
     px = pixel_size(fr[2], a.size)
     digest = hashlib.md5(data).hexdigest()
-    png = os.path.join(cache, f"{digest}-{px[0]}x{px[1]}-v2.png")
-    if not os.path.exists(png) and not browser_png(data, px, png):
+    copy = hairline_copy(data, px)
+    png = os.path.join(cache, f"{hashlib.md5(copy).hexdigest()}-browser.png")
+    if not os.path.exists(png) and not browser_png(copy, px, png):
         return "the browser rendered nothing"
     edge = edges(png, px, a.threshold)
     row = {"file": os.path.relpath(path, ROOT), "edge_px": int(edge.sum()), "px": px}
