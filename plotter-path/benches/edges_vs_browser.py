@@ -22,7 +22,10 @@ The measure, per SVG file:
   sides' figures.
 
 Inputs: every SVG under /usr/share/openclipart/svg (Debian's openclipart-svg package) of --min-kb..--max-kb
-(default 2..250 KB), sorted by path, duplicates by content dropped; then every k-th so that --n (default 130) remain.
+(default 2..250 KB), sorted by path, duplicates by content dropped, at most --per-folder (default 2) per folder
+(picked by a hash of the path: series of near-identical files would fill the sample otherwise); then every k-th so
+that --n (default 130) remain. A root without the SVG namespace (a browser would show the XML tree) gets it in the
+rendered copy.
 
 Set-up (not a CI dependency): Chromium at /usr/bin/chromium, vpype on PATH, and a venv with Pillow and numpy:
   python3 -m venv /tmp/edges-venv && /tmp/edges-venv/bin/pip install pillow numpy
@@ -124,6 +127,10 @@ def hairline_copy(data, px):
     tag = re.sub(rb"\sstyle\s*=\s*(\"[^\"]*\"|'[^']*')", b"", tag)  # a root style could size it again
     end = -2 if tag.endswith(b"/>") else -1
     extra = ' width="{}" height="{}" viewBox="{}"'.format(px[0], px[1], " ".join(repr(v) for v in box)).encode()
+    if not re.search(rb"\sxmlns\s*=", tag):
+        # Without the SVG namespace a browser shows the file as an XML tree; the drawing is what is meant.
+        extra += b' xmlns="http://www.w3.org/2000/svg"'
+
     rest = re.sub(rb"\sstyle\s*=\s*(\"[^\"]*\"|'[^']*')", lambda m: ZERO_WIDTH.sub(b"stroke:none", m.group(0)), data[b:])
     style = HAIRLINE
     if b"dasharray" in rest:
@@ -326,8 +333,16 @@ def choose(a):
         if digest not in seen:
             seen.add(digest)
             unique.append(p)
-    k = max(1, len(unique) // a.n)
-    return unique[::k][: a.n]
+    # At most --per-folder files of a folder (picked by a hash of the path), so that a series of near-identical
+    # files (e.g. 90 generated stars) does not fill the sample.
+    by_folder = {}
+    for p in unique:
+        by_folder.setdefault(os.path.dirname(p), []).append(p)
+    spread = sorted(
+        p for ps in by_folder.values() for p in sorted(ps, key=lambda q: hashlib.md5(q.encode()).hexdigest())[: a.per_folder]
+    )
+    k = max(1, len(spread) // a.n)
+    return spread[::k][: a.n]
 
 
 def totals(rows, side):
@@ -373,6 +388,7 @@ def main():
     ap.add_argument("--n", type=int, default=130)
     ap.add_argument("--min-kb", type=float, default=2)
     ap.add_argument("--max-kb", type=float, default=250)
+    ap.add_argument("--per-folder", type=int, default=2)
     ap.add_argument("--size", type=int, default=800)
     ap.add_argument("--threshold", type=int, default=40)
     ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "edges-vs-browser-cache"))
