@@ -124,7 +124,6 @@ def hairline_copy(data, px):
     (a, b), box, _ = frame(data)
     tag = data[a:b]
     tag = re.sub(rb"\s(width|height|viewBox)\s*=\s*(\"[^\"]*\"|'[^']*')", b"", tag)
-    tag = re.sub(rb"\sstyle\s*=\s*(\"[^\"]*\"|'[^']*')", b"", tag)  # a root style could size it again
     end = -2 if tag.endswith(b"/>") else -1
     extra = ' width="{}" height="{}" viewBox="{}"'.format(px[0], px[1], " ".join(repr(v) for v in box)).encode()
     if not re.search(rb"\sxmlns\s*=", tag):
@@ -133,6 +132,9 @@ def hairline_copy(data, px):
 
     rest = re.sub(rb"\sstyle\s*=\s*(\"[^\"]*\"|'[^']*')", lambda m: ZERO_WIDTH.sub(b"stroke:none", m.group(0)), data[b:])
     style = HAIRLINE
+    if attr(tag, rb"style") is not None:
+        # The root's style stays (its fill and the like are inherited), but must not size the root again.
+        style += b"<style>:root{width:%dpx !important;height:%dpx !important}</style>" % px
     if b"dasharray" in rest:
         # Under non-scaling-stroke a dash array is in screen pixels: dashed strokes keep their own scale instead,
         # one pixel wide at the root's scale (a transformed group widens or narrows them).
