@@ -363,7 +363,8 @@ def totals(rows, side):
 
 
 def selftest(a):
-    """Hand-made files with known answers: a black square (ink = its outline = the browser's edge), a framed offset."""
+    """Hand-made files whose ink is exactly the browser's edges (a black square; a mm-sized page whose viewBox is
+    offset; a page sized by its viewBox alone), so both sides must score ~1: checks that the frames align."""
     cases = {
         "square": '<svg xmlns="http://www.w3.org/2000/svg" width="200" height="100">'
         '<rect x="20" y="10" width="50" height="60" fill="black"/></svg>',
@@ -373,13 +374,19 @@ def selftest(a):
         "no-size": '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 300 400">'
         '<circle cx="150" cy="200" r="100" fill="none" stroke="blue" stroke-width="30"/></svg>',
     }
+    failed = False
     with tempfile.TemporaryDirectory() as tmp:
         for name, text in cases.items():
             p = os.path.join(tmp, name + ".svg")
             with open(p, "w") as fh:
                 fh.write(text)
             r = measure(p, a, tmp, tmp)
-            print(name, json.dumps(r))
+            figures = [r[side][k] for side in ("ours", "vpype") for k in ("precision", "recall")]
+            ok = all(f is not None and f >= 0.98 for f in figures)
+            failed |= not ok
+            print(f"{name:10} ours P/R {figures[0]:.3f}/{figures[1]:.3f}  vpype P/R {figures[2]:.3f}/{figures[3]:.3f}  "
+                  f"{'ok' if ok else 'FAILED (expected >= 0.98: the frames do not align)'}")
+    sys.exit(1 if failed else 0)
 
 
 def main():
