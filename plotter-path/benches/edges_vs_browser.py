@@ -21,6 +21,17 @@ The measure, per SVG file:
   (no edge pixel) are excluded and counted; files our importer or vpype refuses are listed and left out of both
   sides' figures.
 
+Known biases of the measure (each seen on the openclipart sample; see --keep):
+  * Hairlines reveal what wide strokes hide: the browser draws every stroke 1 px wide, so a line passing under a
+    wide opaque stroke painted later (a thick ring over spokes, a door frame over the door's backing) shows in the
+    rendering although it is covered on the real page, where our hidden-line removal rightly cuts it. This counts
+    against our recall only; --ours-arg=--no-occlusion bounds what occlusion costs in recall (and gains in
+    precision).
+  * Magnification: the rendering is --size px whatever the drawing's size, so a 10 mm icon is magnified ~80 times
+    and our 0.05 mm chord error becomes pixels (see --match-tolerance).
+  * Edges inside gradients (a radial gradient with a sharp stop) and half-transparent layers seen through are
+    edges that no outline follows, for either side.
+
 Inputs: every SVG under /usr/share/openclipart/svg (Debian's openclipart-svg package) of --min-kb..--max-kb
 (default 2..250 KB), sorted by path, duplicates by content dropped, at most --per-folder (default 2) per folder
 (picked by a hash of the path: series of near-identical files would fill the sample otherwise); then every k-th so
@@ -286,6 +297,7 @@ def measure(path, a, cache, tmp):
     if os.path.exists(ours):
         os.remove(ours)
     cmd = [a.plotter, "convert", path, "-o", ours]
+    cmd += a.ours_arg
     if a.match_tolerance:
         mm_per_px = fr[2][0] * 25.4 / 96 / px[0]
         cmd += ["--tolerance", f"{min(0.05, 0.25 * mm_per_px):.6g}"]
@@ -402,6 +414,8 @@ def main():
     ap.add_argument("--threshold", type=int, default=40)
     ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "edges-vs-browser-cache"))
     ap.add_argument("--keep")
+    ap.add_argument("--ours-arg", action="append", default=[],
+                    help="one more argument for `plotter convert` (repeat for several), e.g. --ours-arg=--no-occlusion")
     ap.add_argument("--match-tolerance", action="store_true",
                     help="flatten ours to a quarter pixel of the rendering (at most 0.05 mm), so that small drawings "
                     "magnified to --size px are not judged by chord errors invisible on paper")
