@@ -32,6 +32,13 @@ Known biases of the measure (each seen on the openclipart sample; see --keep):
   * Edges inside gradients (a radial gradient with a sharp stop) and half-transparent layers seen through are
     edges that no outline follows, for either side.
 
+Measured on main at 1cfc22b (debug build; 130 files, all shown by the browser, none refused; pooled / mean):
+  default:                                ours P 0.815/0.847 R 0.988/0.985   vpype P 0.724/0.774 R 0.971/0.971
+  --match-tolerance:                      ours P 0.815/0.847 R 0.989/0.988
+  --match-tolerance, ours --no-occlusion: ours P 0.741/0.787 R 0.995/0.992
+Our recall is below vpype's on 30 files (29 with --match-tolerance, 10 also without occlusion, none of those by
+more than 0.025).
+
 Inputs: every SVG under /usr/share/openclipart/svg (Debian's openclipart-svg package) of --min-kb..--max-kb
 (default 2..250 KB), sorted by path, duplicates by content dropped, at most --per-folder (default 2) per folder
 (picked by a hash of the path: series of near-identical files would fill the sample otherwise); then every k-th so
