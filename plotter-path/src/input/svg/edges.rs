@@ -1,7 +1,8 @@
 //! The edge rule for fill-only shapes: a browser shows a filled shape's boundary only where the colour on its two
 //! sides differs, so its outline is drawn exactly there. Inside, the colour is the shape's fill; outside, it is
-//! what was painted before it at that place — the topmost earlier paint more than half opaque
-//! ([`super::walk::Paint`]: fills, wide strokes), or the paper where there is none. (What is painted later is
+//! what was painted before it at that place — the topmost earlier paint ([`super::walk::Paint`]: fills, wide
+//! strokes; a fill at most half opaque counts with its colour blended with the paper's, so a white shape on a
+//! 25 % black shadow is outlined), or the paper where there is none. (What is painted later is
 //! hidden-line removal's business, [`super::occlude`].) So a white shape on white paper draws nothing, on a black
 //! square its whole outline, half over each exactly the half over black; a red shape on a red one draws no edge.
 //! A fill that is not one colour (a gradient of several) matches nothing, so its outline is drawn wherever it is
