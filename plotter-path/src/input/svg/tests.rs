@@ -597,6 +597,14 @@ fn a_white_shape_on_a_faint_shadow_is_outlined_where_it_lies_on_it() {
            <rect x="10" y="10" width="20" height="20" fill="white"/>"#,
     );
     assert_len(&import(&shadow).drawing, 140.0);
+    // A tint never takes an edge away: over a black 40 mm square (160 mm), a 25 % white tint x, y 5..35 (its 120 mm
+    // outline shows, light grey on black) and a white square 10..30 on it (80 mm, white on dark grey): 360 mm.
+    let over_black = mm_doc(
+        r#"<rect x="0" y="0" width="40" height="40" fill="black"/>
+           <rect x="5" y="5" width="30" height="30" fill="white" fill-opacity="0.25"/>
+           <rect x="10" y="10" width="20" height="20" fill="white"/>"#,
+    );
+    assert_len(&import(&over_black).drawing, 360.0);
     // A white tint on the paper stays paper-coloured: the square over it draws nothing, nor does the tint.
     let tint = shadow.replace(r#"fill="black""#, r#"fill="white""#);
     let err = import_svg(tint.as_bytes(), "t.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default())
