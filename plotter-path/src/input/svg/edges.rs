@@ -1,7 +1,8 @@
 //! The edge rule for fill-only shapes: a browser shows a filled shape's boundary only where the colour on its two
 //! sides differs, so its outline is drawn exactly there. Inside, the colour is the shape's fill; outside, it is
-//! what was painted before it at that place — the topmost earlier paint more than half opaque
-//! ([`super::walk::Paint`]: fills, wide strokes), or the paper where there is none. (What is painted later is
+//! what was painted before it at that place — the topmost earlier paint ([`super::walk::Paint`]: fills, wide
+//! strokes; a fill at most half opaque counts with its colour blended with the paper's, so a white shape on a
+//! 25 % black shadow is outlined), or the paper where there is none. (What is painted later is
 //! hidden-line removal's business, [`super::occlude`].) So a white shape on white paper draws nothing, on a black
 //! square its whole outline, half over each exactly the half over black; a red shape on a red one draws no edge.
 //! A fill that is not one colour (a gradient of several) matches nothing, so its outline is drawn wherever it is
@@ -41,13 +42,13 @@ pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
             if beneath.is_empty() {
                 Vec::new()
             } else {
-                let other = visible_where(items, &beneath, |c| c != color);
+                let other = visible_where(items, &beneath, true, |c| c != color);
                 cut(outline.lines, &[&other], Keep::Inside)
             }
         } else if color.is_none() || !beneath.iter().any(|&(k, p)| items[k].paints[p].color == color) {
             outline.lines
         } else {
-            let same = visible_where(items, &beneath, |c| c == color);
+            let same = visible_where(items, &beneath, false, |c| c == color);
             cut(outline.lines, &[&same], Keep::Outside)
         };
         if kept.iter().all(|l| l.len() < 2) {
@@ -59,11 +60,26 @@ pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
 }
 
 /// The union of the visible parts of the paints `beneath` (listed from the top down) whose colour `wanted` accepts.
-fn visible_where(items: &[Item], beneath: &[(usize, usize)], wanted: impl Fn(Option<Rgb>) -> bool) -> Region {
+/// Tints (fills at most half opaque) cover nothing, since what lies under them still shows; they count only when
+/// `tints` is set — when looking for a different colour, so a tint can add an edge but never take one away (its
+/// colour is a blend with the paper, which is only an estimate over other paint).
+fn visible_where(
+    items: &[Item],
+    beneath: &[(usize, usize)],
+    tints: bool,
+    wanted: impl Fn(Option<Rgb>) -> bool,
+) -> Region {
     let mut covered = Region::default();
     let mut found = Region::default();
     for &(k, p) in beneath {
         let paint = &items[k].paints[p];
+        if !paint.hides {
+            if tints && wanted(paint.color) {
+                let visible = if covered.is_empty() { paint.area.clone() } else { paint.area.difference(&covered) };
+                found = found.union(&visible);
+            }
+            continue;
+        }
         if wanted(paint.color) {
             let visible = if covered.is_empty() { paint.area.clone() } else { paint.area.difference(&covered) };
             found = found.union(&visible);

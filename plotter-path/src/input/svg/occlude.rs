@@ -1,7 +1,8 @@
 //! Hidden-line removal: the parts of an item's pen lines that lie under an opaque fill painted after it are
 //! removed, as a browser's painter's algorithm would hide them.
 //!
-//! For item `i` the occluders are the paints (fills more than half opaque, wide opaque strokes) of items `j > i`
+//! For item `i` the occluders are the paints that hide (fills more than half opaque, wide opaque strokes; fainter
+//! fills only tint, see [`super::walk::Paint`]) of items `j > i`
 //! whose bounding boxes meet the item's lines; they are found through a [`super::grid::BoxGrid`] over the paints'
 //! bounding boxes, and the lines are cut against them one by one, skipping those the remaining lines no longer
 //! reach. Cost: per item, one cut per overlapping later fill, each linear in the vertices involved up to a log
@@ -25,7 +26,12 @@ pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
         let Some(bbox) = items[i].lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
             continue;
         };
-        let hits: Vec<(usize, usize)> = grid.query(bbox).into_iter().map(|k| paints[k]).filter(|h| h.0 > i).collect();
+        let hits: Vec<(usize, usize)> = grid
+            .query(bbox)
+            .into_iter()
+            .map(|k| paints[k])
+            .filter(|h| h.0 > i && items[h.0].paints[h.1].hides)
+            .collect();
         if hits.is_empty() {
             continue;
         }

@@ -585,6 +585,34 @@ fn a_fill_under_half_opacity_hides_nothing() {
     assert_len(&import(&doc("0.75")).drawing, 220.0);
 }
 
+#[test]
+fn a_white_shape_on_a_faint_shadow_is_outlined_where_it_lies_on_it() {
+    // A 25 % black 40 × 20 rectangle (light grey on the paper; its outline, 120 mm, is drawn as any fill's) and a
+    // white square x 10..30, y 10..30 straddling its bottom edge: the browser shows the square's edge over the
+    // grey, so its top (20 mm) and its sides down to y = 20 (2 × 10 mm) are drawn; below, white on white, nothing.
+    // The opaque square hides the 20 mm of the shadow's bottom edge under it: 120 − 20 + 40 = 140 mm (before the
+    // shadow counted as a colour, the square drew nothing: 100 mm).
+    let shadow = mm_doc(
+        r#"<rect x="0" y="0" width="40" height="20" fill="black" fill-opacity="0.25"/>
+           <rect x="10" y="10" width="20" height="20" fill="white"/>"#,
+    );
+    assert_len(&import(&shadow).drawing, 140.0);
+    // A tint never takes an edge away: over a black 40 mm square (160 mm), a 25 % white tint x, y 5..35 (its 120 mm
+    // outline shows, light grey on black) and a white square 10..30 on it (80 mm, white on dark grey): 360 mm.
+    let over_black = mm_doc(
+        r#"<rect x="0" y="0" width="40" height="40" fill="black"/>
+           <rect x="5" y="5" width="30" height="30" fill="white" fill-opacity="0.25"/>
+           <rect x="10" y="10" width="20" height="20" fill="white"/>"#,
+    );
+    assert_len(&import(&over_black).drawing, 360.0);
+    // A white tint on the paper stays paper-coloured: the square over it draws nothing, nor does the tint.
+    let tint = shadow.replace(r#"fill="black""#, r#"fill="white""#);
+    let err = import_svg(tint.as_bytes(), "t.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("nothing to draw"), "{err}");
+}
+
 /// Pen-down length of the part of a circle (centre at distance `d` from `c`, radius `r`) inside the circle of
 /// radius `big` around `c`: the points at angle φ from the direction towards `c` lie within `big` when
 /// d² + r² − 2dr·cos φ ≤ big², so the inside arc spans 2·acos((d² + r² − big²) / 2dr).

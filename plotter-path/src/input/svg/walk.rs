@@ -82,13 +82,18 @@ pub(super) struct Outline {
     pub(super) color: Option<Rgb>,
 }
 
-/// An area painted more than half opaque, in mm.
+/// An area painted over what lies beneath, in mm.
 #[derive(Debug, Clone)]
 pub(super) struct Paint {
     /// The area.
     pub(super) area: Region,
-    /// Its colour; `None` when it is not one colour.
+    /// Its colour as seen; `None` when it is not one colour. A translucent fill's colour is its blend with the
+    /// paper at its opacity (a 25 % black shadow is light grey): what lies beneath it besides the paper is not
+    /// known here, so this is exact on the paper and an approximation over other paint.
     pub(super) color: Option<Rgb>,
+    /// More than half opaque: it hides the lines under it ([`super::occlude`]). A fainter fill hides nothing but
+    /// still tints what lies beneath, which the edge rule ([`super::edges`]) sees as a colour of its own.
+    pub(super) hides: bool,
 }
 
 /// Counts of what was skipped, for warnings.
@@ -193,6 +198,15 @@ fn paint_color(p: &usvg::Paint) -> (Rgb, bool) {
         usvg::Paint::RadialGradient(g) => stops(g.stops()),
         usvg::Paint::Pattern(_) => (Rgb::BLACK, false),
     }
+}
+
+/// `top` painted at opacity `alpha` over `under`, per channel (source-over compositing, rounded).
+fn blend(top: Rgb, under: Rgb, alpha: f32) -> Rgb {
+    let a = alpha.clamp(0.0, 1.0);
+    // The result lies between the two channel values, so it is within 0..=255.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let mix = |t: u8, u: u8| (f32::from(t) * a + f32::from(u) * (1.0 - a)).round() as u8;
+    Rgb(mix(top.0, under.0), mix(top.1, under.1), mix(top.2, under.2))
 }
 
 /// Luminance of an sRGB colour, 0..1 (the coefficients of the SVG mask luminance).
@@ -344,7 +358,7 @@ impl<'a> Walker<'a> {
             let paper = paint_is(f.paint(), self.options.paper_color);
             // More than half opaque: it hides what lies under it (a fainter fill lets the eye see through).
             let hides = alpha * paint_alpha(f.paint()) > HIDING_ALPHA;
-            (color, hides, alpha > 0.0, f.rule(), paper)
+            (color, hides, alpha > 0.0, f.rule(), paper, alpha)
         });
         let stroke = p.stroke().filter(|s| s.opacity().get() * ctx.opacity > 0.0);
         let fill_visible = fill.is_some_and(|f| f.2);
@@ -409,13 +423,16 @@ impl<'a> Walker<'a> {
         let layer = self.item_layer(ctx, color);
         let mut paints = Vec::new();
         let mut outline = None;
-        if let Some((_, hides, visible, r, paper)) = fill
+        if let Some((_, hides, visible, r, paper, alpha)) = fill
             && visible
             && let Some(f) = p.fill()
         {
             // Paper-coloured fills are not hatched: no ink belongs inside them.
             let fill_hatch = if paper { None } else { self.fill_hatch(layer, color) };
-            let needs_area = hides || fill_hatch.is_some();
+            let is_pattern = matches!(f.paint(), usvg::Paint::Pattern(_));
+            // A translucent plain fill tints what lies beneath: the edge rule needs its area too.
+            let tints = !hides && !is_pattern;
+            let needs_area = hides || tints || fill_hatch.is_some();
             let area = needs_area.then(|| self.area(p.data(), ctx.t, rule(r)));
             let uniform = uniform_color(f.paint());
             if let usvg::Paint::Pattern(pattern) = f.paint() {
@@ -432,13 +449,18 @@ impl<'a> Walker<'a> {
                     None => self.skipped.hatch_refused += 1,
                 }
             }
-            if hides && let Some(a) = area {
-                paints.push(Paint { area: a, color: uniform });
+            if let Some(a) = area {
+                if hides {
+                    paints.push(Paint { area: a, color: uniform, hides: true });
+                } else if tints {
+                    let seen = uniform.map(|c| blend(c, self.options.paper_color, alpha * paint_alpha(f.paint())));
+                    paints.push(Paint { area: a, color: seen, hides: false });
+                }
             }
         }
         if let Some(s) = stroke_area {
             let color = stroke.and_then(|s| uniform_color(s.paint()));
-            paints.push(Paint { area: s, color });
+            paints.push(Paint { area: s, color, hides: true });
         }
         for paint in &mut paints {
             for c in &ctx.clips {
