@@ -925,6 +925,23 @@ mod tests {
         assert!(improved <= 0.80 * greedy, "{improved} vs greedy {greedy}");
     }
 
+    /// A layer big enough to compute its bound on a second thread gives the same drawing on every run and the
+    /// same bound as computing it alone.
+    #[test]
+    fn threaded_bound_is_deterministic_and_equals_the_sequential_bound() {
+        let d = synth::random_segments(3 * PARALLEL_BOUND_MIN_PATHS, 11);
+        let opts =
+            OptimizeOptions { merge: false, time_budget: None, kicks_per_path: 0.5, ..OptimizeOptions::default() };
+        let (mut a, mut b) = (d.clone(), d.clone());
+        let ra = optimize(&mut a, &opts).unwrap();
+        let rb = optimize(&mut b, &opts).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(ra.pen_up_lower_bound_mm, rb.pen_up_lower_bound_mm);
+        let alone = travel_lower_bound(&d, opts.seam, opts.start, None).0;
+        assert_eq!(ra.pen_up_lower_bound_mm, Some(alone));
+        assert!(alone > 0.0 && alone <= ra.pen_up_after_mm);
+    }
+
     #[test]
     fn same_seed_same_drawing() {
         let d = synth::text_like(9);
