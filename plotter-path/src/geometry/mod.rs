@@ -9,6 +9,7 @@ pub mod hatch;
 pub mod hpgl_devices;
 pub mod layout;
 pub mod limits;
+pub mod parallel;
 pub mod region;
 pub mod steps;
 pub mod travel;

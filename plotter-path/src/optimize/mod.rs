@@ -51,7 +51,11 @@ pub use improve::ImproveStats;
 pub use seam::SeamMode;
 pub use travel::drawing_travel;
 
+use crate::geometry::parallel;
 use crate::{Drawing, Polyline};
+
+/// Layers with at least this many paths compute their lower bound on a second thread during the improvement.
+const PARALLEL_BOUND_MIN_PATHS: usize = 500;
 
 /// How one path is drawn: which path, in which direction, and (closed paths) from which vertex.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -500,7 +504,7 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
         if opts.improve && out_of_time {
             lr.improve.budget_exhausted = true;
         }
-        if opts.improve && !out_of_time {
+        let improve_step = |visits: &mut Vec<Visit>| {
             let n = visits.len();
             #[allow(clippy::cast_precision_loss, reason = "path counts are far below 2^52")]
             let nf = n as f64;
@@ -520,7 +524,20 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
                 free_start: at_after.is_none(),
                 end,
             };
-            lr.improve = improve::improve(&paths, &mut visits, at_after.unwrap_or(Point::ZERO), &objective, params);
+            improve::improve(&paths, visits, at_after.unwrap_or(Point::ZERO), &objective, params)
+        };
+        // The lower bound does not depend on the order: it runs beside the improvement (on another core when the
+        // layer is big enough to pay for a thread), which leaves the result unchanged.
+        let bound_start = if li == 0 { opts.start } else { None };
+        let bound_step = || opts.lower_bound.then(|| layer_bound_parts(&paths, &ids, opts.seam, bound_start));
+        let improving = opts.improve && !out_of_time;
+        let (improved, bound_parts) = if improving && ids.len() >= PARALLEL_BOUND_MIN_PATHS {
+            parallel::join(|| Some(improve_step(&mut visits)), bound_step)
+        } else {
+            (improving.then(|| improve_step(&mut visits)), bound_step())
+        };
+        if let Some(stats) = improved {
+            lr.improve = stats;
         }
         // With improvement on, never worse than the input order under the objective (plain greedy stays plain).
         if opts.improve
@@ -531,9 +548,7 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
             lr.kept_input_order = true;
         }
         improved_total += visits_cost_to(&paths, &visits, at_after, end, &objective);
-        if opts.lower_bound {
-            let start = if li == 0 { opts.start } else { None };
-            let parts = layer_bound_parts(&paths, &ids, opts.seam, start);
+        if let Some(parts) = bound_parts {
             lr.pen_up_lower_bound_mm = Some(parts.under(&CostModel::Distance).value());
             lr.travel_time_lower_bound_s = time_cost.map(|c| parts.under(&c).value());
         }
@@ -908,6 +923,23 @@ mod tests {
             improved += r.pen_up_after_mm;
         }
         assert!(improved <= 0.80 * greedy, "{improved} vs greedy {greedy}");
+    }
+
+    /// A layer big enough to compute its bound on a second thread gives the same drawing on every run and the
+    /// same bound as computing it alone.
+    #[test]
+    fn threaded_bound_is_deterministic_and_equals_the_sequential_bound() {
+        let d = synth::random_segments(3 * PARALLEL_BOUND_MIN_PATHS, 11);
+        let opts =
+            OptimizeOptions { merge: false, time_budget: None, kicks_per_path: 0.5, ..OptimizeOptions::default() };
+        let (mut a, mut b) = (d.clone(), d.clone());
+        let ra = optimize(&mut a, &opts).unwrap();
+        let rb = optimize(&mut b, &opts).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(ra.pen_up_lower_bound_mm, rb.pen_up_lower_bound_mm);
+        let alone = travel_lower_bound(&d, opts.seam, opts.start, None).0;
+        assert_eq!(ra.pen_up_lower_bound_mm, Some(alone));
+        assert!(alone > 0.0 && alone <= ra.pen_up_after_mm);
     }
 
     #[test]

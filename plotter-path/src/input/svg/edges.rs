@@ -16,19 +16,25 @@
 //! paper-coloured shape, it goes.
 
 use super::grid::paint_grid;
-use super::walk::Item;
+use super::walk::{Item, Outline};
 use crate::geometry::drawing::Rgb;
+use crate::geometry::parallel::for_each_mut;
 use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
+use kurbo::Point;
 
 /// Apply the edge rule to every item's outline and move what remains into its lines. Returns how many shapes lost
 /// their whole outline to it (they match what lies beneath everywhere, e.g. white on the paper).
 pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
     let (paints, grid) = paint_grid(items);
-    let mut vanished = 0;
-    for i in 0..items.len() {
-        let Some(outline) = items[i].outline.take() else { continue };
+    // Each item reads only the paints of earlier items, which this does not change: the outlines are cut on all
+    // cores, with the same result as one after the other.
+    let mut work: Vec<(Option<Outline>, Vec<Vec<Point>>, bool)> =
+        items.iter_mut().map(|it| (it.outline.take(), Vec::new(), false)).collect();
+    let shared: &[Item] = items;
+    for_each_mut(&mut work, |i, (outline, kept_out, vanished)| {
+        let Some(outline) = outline.take() else { return };
         let Some(bbox) = outline.lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
-            continue;
+            return;
         };
         // Earlier paints under the outline, from the top down (later items and, within one, the stroke first).
         let mut beneath: Vec<(usize, usize)> = grid
@@ -42,19 +48,22 @@ pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
             if beneath.is_empty() {
                 Vec::new()
             } else {
-                let other = visible_where(items, &beneath, true, |c| c != color);
+                let other = visible_where(shared, &beneath, true, |c| c != color);
                 cut(outline.lines, &[&other], Keep::Inside)
             }
-        } else if color.is_none() || !beneath.iter().any(|&(k, p)| items[k].paints[p].color == color) {
+        } else if color.is_none() || !beneath.iter().any(|&(k, p)| shared[k].paints[p].color == color) {
             outline.lines
         } else {
-            let same = visible_where(items, &beneath, false, |c| c == color);
+            let same = visible_where(shared, &beneath, false, |c| c == color);
             cut(outline.lines, &[&same], Keep::Outside)
         };
-        if kept.iter().all(|l| l.len() < 2) {
-            vanished += 1;
-        }
-        items[i].lines.extend(kept);
+        *vanished = kept.iter().all(|l| l.len() < 2);
+        *kept_out = kept;
+    });
+    let mut vanished = 0;
+    for (item, (_, kept, gone)) in items.iter_mut().zip(work) {
+        vanished += usize::from(gone);
+        item.lines.extend(kept);
     }
     vanished
 }
@@ -69,9 +78,16 @@ fn visible_where(
     tints: bool,
     wanted: impl Fn(Option<Rgb>) -> bool,
 ) -> Region {
+    // Paints below the last one that can count cannot add to the result: the cover is not built under it.
+    let Some(last) = beneath.iter().rposition(|&(k, p)| {
+        let paint = &items[k].paints[p];
+        wanted(paint.color) && (paint.hides || tints)
+    }) else {
+        return Region::default();
+    };
     let mut covered = Region::default();
     let mut found = Region::default();
-    for &(k, p) in beneath {
+    for &(k, p) in &beneath[..=last] {
         let paint = &items[k].paints[p];
         if !paint.hides {
             if tints && wanted(paint.color) {

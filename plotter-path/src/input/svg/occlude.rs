@@ -11,20 +11,26 @@
 use super::grid::paint_grid;
 use super::walk::Item;
 use crate::geometry::cancel::Cancel;
+use crate::geometry::parallel::for_each_mut;
 use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
 
 /// Remove hidden parts in place; returns how many items lost some of their lines. Stops between items once
 /// `cancel` is set (the items are then only partly processed, for a caller that discards them).
+///
+/// Items are independent (each reads only the paints of later items), so they are cut on all cores; the result is
+/// the same as one item after the other.
 pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
     let (paints, grid) = paint_grid(items);
     let Some(grid) = grid else { return 0 };
-    let mut changed = 0;
-    for i in 0..items.len() {
+    let mut work: Vec<(Vec<Vec<kurbo::Point>>, bool)> =
+        items.iter_mut().map(|it| (std::mem::take(&mut it.lines), false)).collect();
+    let shared: &[Item] = items;
+    for_each_mut(&mut work, |i, (lines, changed)| {
         if cancel.is_cancelled() {
-            break;
+            return;
         }
-        let Some(bbox) = items[i].lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
-            continue;
+        let Some(bbox) = lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
+            return;
         };
         let hits: Vec<(usize, usize)> = grid
             .query(bbox)
@@ -33,27 +39,30 @@ pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
             .filter(|h| h.0 > i && items[h.0].paints[h.1].hides)
             .collect();
         if hits.is_empty() {
-            continue;
+            return;
         }
-        let mut lines = std::mem::take(&mut items[i].lines);
-        let before: f64 = total_length(&lines);
+        let mut kept = std::mem::take(lines);
+        let before: f64 = total_length(&kept);
         // One occluder at a time: cutting against all at once makes i_overlay intersect the occluders' edges with
         // each other too, which is quadratic where many shapes are stacked (seconds on some clip art); one by one,
         // each cut only meets the lines that are still visible.
         for (j, p) in hits {
-            let region: &Region = &items[j].paints[p].area;
-            let Some(bbox) = lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else { break };
+            let region: &Region = &shared[j].paints[p].area;
+            let Some(bbox) = kept.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else { break };
             let r = region.bbox().expect("paints with a box only");
             if super::grid::meet(r, bbox) {
-                lines = cut(lines, &[region], Keep::Outside);
+                kept = cut(kept, &[region], Keep::Outside);
             }
         }
-        if total_length(&lines) < before - 1e-9 {
-            changed += 1;
-        }
-        items[i].lines = lines;
+        *changed = total_length(&kept) < before - 1e-9;
+        *lines = kept;
+    });
+    let mut count = 0;
+    for (item, (lines, changed)) in items.iter_mut().zip(work) {
+        item.lines = lines;
+        count += usize::from(changed);
     }
-    changed
+    count
 }
 
 fn total_length(lines: &[Vec<kurbo::Point>]) -> f64 {

@@ -79,9 +79,13 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         }
     };
     let pen_up_from_home = legs(&drawing);
-    let est = estimate(&drawing);
     let mut optimized = drawing.clone();
-    let report = optimize_quietly(&mut optimized, &args.optimize, Some(&profile))?;
+    // The input's estimate and the optimization are independent: side by side on two cores.
+    let (est, report) = plotter_path::geometry::parallel::join(
+        || estimate(&drawing),
+        || optimize_quietly(&mut optimized, &args.optimize, Some(&profile)),
+    );
+    let report = report?;
     let est_optimized = report.as_ref().and_then(|_| est.and_then(|_| estimate(&optimized)));
     let pen_up_optimized = report.as_ref().map(|_| legs(&optimized));
     if args.json {
