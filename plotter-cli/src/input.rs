@@ -241,6 +241,51 @@ pub fn load_decoded(path: &Path, args: &InputArgs, profile: &MachineProfile) -> 
     Ok(decoded)
 }
 
+/// The finest flattening tolerance a magnifying layout asks the SVG import for, mm: bounds the work an absurd
+/// `--scale` could cause (at most √(0.05/0.0001) ≈ 22 times the points of the default tolerance).
+pub const FINEST_TOLERANCE_MM: f64 = 0.0001;
+
+/// [`load_decoded`], then laid out by `layout`. An SVG's curves are flattened at `--tolerance` in the document's
+/// own size; when the layout then magnifies the drawing (`--fit` of a small icon onto a page, `--scale 4`) their
+/// chord error grows by the same factor, so the SVG is decoded once more at the tolerance divided by the factor
+/// (at least [`FINEST_TOLERANCE_MM`]) and laid out again — unless that finer drawing breaks the size limits, in
+/// which case the first one is kept with a warning. Warnings are printed once, for the decode that is kept.
+pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, layout: &LayoutArgs) -> Result<Decoded> {
+    let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
+    if path.to_str().is_some_and(|p| p.starts_with(GEN_PREFIX)) {
+        let mut decoded = load_decoded(path, args, profile)?;
+        layout.apply(&mut decoded.drawing)?;
+        return Ok(decoded);
+    }
+    let data = read_input(path)?;
+    let resources = if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) };
+    let decode = |args: &InputArgs| -> Result<Decoded> {
+        let decoded = decode_drawing(&data, path, &shown, &resources, args, profile, &Cancel::never())?;
+        plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown)?;
+        Ok(decoded)
+    };
+    let mut decoded = decode(args)?;
+    let factor = layout.apply(&mut decoded.drawing)?;
+    let finer = (args.tolerance / factor).max(FINEST_TOLERANCE_MM);
+    let is_svg = input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg;
+    if is_svg && finer < args.tolerance * (1.0 - 1e-9) {
+        let finer_args = InputArgs { tolerance: finer, ..args.clone() };
+        match decode(&finer_args) {
+            Ok(mut again) => {
+                layout.apply(&mut again.drawing)?;
+                decoded = again;
+            }
+            Err(e) => decoded.warnings.push(format!(
+                "{shown}: magnified {factor:.2}× by the layout, but flattening its curves at {finer:.4} mm fails                  ({e:#}): kept at {} mm, so curves may show chords up to {:.3} mm",
+                args.tolerance,
+                args.tolerance * factor
+            )),
+        }
+    }
+    warn_all(&decoded.warnings);
+    Ok(decoded)
+}
+
 fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineProfile) -> Result<Decoded> {
     let shown = shown.to_string();
     if let Some(spec) = path.to_str().and_then(|p| p.strip_prefix(GEN_PREFIX)) {
@@ -340,9 +385,7 @@ impl Source {
 
     /// [`Source::load`] with what the import left out ([`Decoded::skipped`]).
     pub fn load_decoded(&self, profile: &MachineProfile) -> Result<Decoded> {
-        let mut decoded = load_decoded(&self.input, &self.read, profile)?;
-        self.layout.apply(&mut decoded.drawing)?;
-        Ok(decoded)
+        load_laid_out(&self.input, &self.read, profile, &self.layout)
     }
 }
 

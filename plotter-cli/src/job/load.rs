@@ -12,7 +12,7 @@ use plotter_path::{Drawing, MachineProfile};
 
 use crate::error::BadInput;
 pub use crate::input::load_profile;
-use crate::input::{InputArgs, InputKind, input_kind, load_drawing};
+use crate::input::{InputArgs, InputKind, input_kind, load_laid_out};
 use crate::link::machine::PlotMachine;
 use crate::options::layout::LayoutArgs;
 use crate::options::optimize::OptimizeArgs;
@@ -50,8 +50,7 @@ pub fn load_steps(
             return Ok((trajectory::import(&text, &shown).map_err(|e| bad(e.into()))?, None));
         }
     }
-    let mut drawing = load_drawing(input, input_args, profile).map_err(bad)?;
-    layout.apply(&mut drawing)?;
+    let mut drawing = load_laid_out(input, input_args, profile, layout).map_err(bad)?.drawing;
     if optimize.enabled() {
         let options = OptimizeOptions { time_budget: None, ..optimize.options_from(Some(profile), pen_at)? };
         let report = optimize::optimize(&mut drawing, &options).with_context(|| format!("cannot optimize {shown}"))?;
@@ -85,6 +84,58 @@ mod tests {
         layout: LayoutArgs,
         #[command(flatten)]
         optimize: OptimizeArgs,
+    }
+
+    /// Worst chord error (mm) of the circle of `radius` about `center` drawn by `drawing`: the largest
+    /// r − (distance of a chord's midpoint from the centre).
+    fn worst_chord_error(drawing: &Drawing, center: Point, radius: f64) -> (usize, f64) {
+        let points: Vec<Point> = drawing.paths().flat_map(|p| p.points.iter().copied()).collect();
+        let mut worst: f64 = 0.0;
+        for pair in points.windows(2) {
+            // SVG's circle is four cubic Béziers, off the true circle by up to 0.027 % of r.
+            assert!((pair[0].distance(center) - radius).abs() < 3e-4 * radius, "{:?} off the circle", pair[0]);
+            worst = worst.max(radius - pair[0].midpoint(pair[1]).distance(center));
+        }
+        (points.len(), worst)
+    }
+
+    /// A 2 mm circle fitted onto A4 with 10 mm margins is magnified 95× (the 190 × 277 mm area over its 2 × 2 mm
+    /// box: min(190/2, 277/2) = 95) to a 95 mm radius about the page's centre (105, 148.5). Flattened at the
+    /// default 0.05 mm before the layout, its chords would miss the circle by up to ~95 · 0.05 = 4.75 mm; decoded
+    /// again at 0.05/95 mm it is drawn as finely as the same circle drawn 95 mm large in the first place.
+    #[test]
+    fn a_magnifying_layout_flattens_curves_at_the_page_tolerance() {
+        let dir = std::env::temp_dir().join(format!("plotter-load-fit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let svg = |name: &str, size: f64, r: f64| {
+            let path = dir.join(name);
+            let c = size / 2.0;
+            std::fs::write(
+                &path,
+                format!(
+                    r#"<svg xmlns="http://www.w3.org/2000/svg" width="{size}mm" height="{size}mm" viewBox="0 0 {size} {size}">
+<circle cx="{c}" cy="{c}" r="{r}" fill="none" stroke="black"/></svg>"#
+                ),
+            )
+            .unwrap();
+            path
+        };
+        let profile = MachineProfile::default_plotter();
+        let fit = Wrap::try_parse_from(["t", "--paper", "a4", "--fit", "--margin", "10"]).unwrap();
+        let small = crate::input::load_laid_out(&svg("dot.svg", 4.0, 1.0), &fit.input, &profile, &fit.layout).unwrap();
+        let (n, worst) = worst_chord_error(&small.drawing, Point::new(105.0, 148.5), 95.0);
+        // Drawn 95 mm large to begin with, no layout.
+        let plain = Wrap::try_parse_from(["t"]).unwrap();
+        let big =
+            crate::input::load_laid_out(&svg("big.svg", 200.0, 95.0), &plain.input, &profile, &plain.layout).unwrap();
+        let (n_big, worst_big) = worst_chord_error(&big.drawing, Point::new(100.0, 100.0), 95.0);
+        // Unmagnified flattening of the 1 mm circle would give about 2π/(2·√(2·0.05/1)) ≈ 10 chords.
+        assert!(n > 50 && n.abs_diff(n_big) <= n_big / 20, "{n} vs {n_big} points");
+        assert!(
+            worst > 0.0 && worst <= worst_big * 1.05 && worst < 0.15,
+            "worst chord error {worst} vs {worst_big} mm"
+        );
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// Two 20 mm lines, A from (10, 10) to (30, 10) and B from (80, 50) to (100, 50) (page mm). From home (0, 0)

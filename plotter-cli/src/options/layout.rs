@@ -76,9 +76,8 @@ impl LayoutArgs {
         })
     }
 
-    /// Lay `drawing` out in place.
-    pub fn apply(&self, drawing: &mut plotter_path::Drawing) -> Result<()> {
-        layout::apply(drawing, &self.options()?)?;
-        Ok(())
+    /// Lay `drawing` out in place; returns the scale factor applied (1 when none, see [`layout::apply`]).
+    pub fn apply(&self, drawing: &mut plotter_path::Drawing) -> Result<f64> {
+        Ok(layout::apply(drawing, &self.options()?)?)
     }
 }

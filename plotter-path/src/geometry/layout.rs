@@ -194,8 +194,9 @@ impl LayoutOptions {
     }
 }
 
-/// Lay out `drawing` in place according to `options`.
-pub fn apply(drawing: &mut Drawing, options: &LayoutOptions) -> Result<(), LayoutError> {
+/// Lay out `drawing` in place according to `options`. Returns the scale factor applied (`--scale`, or the one
+/// `--fit` chose; 1 when neither), so that an importer can flatten curves finer when the layout magnifies them.
+pub fn apply(drawing: &mut Drawing, options: &LayoutOptions) -> Result<f64, LayoutError> {
     if let Some(s) = options.scale
         && !(s.is_finite() && s > 0.0)
     {
@@ -233,7 +234,7 @@ pub fn apply(drawing: &mut Drawing, options: &LayoutOptions) -> Result<(), Layou
     }
     let needs_page = options.fit || options.center;
     if !needs_page && options.scale.is_none() && options.translate == Vec2::ZERO {
-        return Ok(());
+        return Ok(1.0);
     }
     let bbox = drawing.bbox().ok_or(LayoutError::Empty)?;
     // 3. scale or fit, about the bounding box's top-left corner
@@ -271,7 +272,7 @@ pub fn apply(drawing: &mut Drawing, options: &LayoutOptions) -> Result<(), Layou
         drawing.map_points(|p| p + t);
         within_reach(drawing, "--translate")?;
     }
-    Ok(())
+    Ok(factor.unwrap_or(1.0))
 }
 
 /// Refuse a drawing that `step` moved beyond ±[`MAX_COORD_MM`]: every later stage would drop or refuse it, so
