@@ -234,7 +234,7 @@ pub fn load_drawing(path: &Path, args: &InputArgs, profile: &MachineProfile) -> 
 
 /// [`load_drawing`] with what the import left out ([`Decoded::skipped`]); the warnings are printed.
 pub fn load_decoded(path: &Path, args: &InputArgs, profile: &MachineProfile) -> Result<Decoded> {
-    let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
+    let shown = shown_name(path);
     let decoded = load_unchecked(path, &shown, args, profile)?;
     // Every input passes the size limits before any later stage works on it.
     plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown)?;
@@ -251,32 +251,36 @@ pub const FINEST_TOLERANCE_MM: f64 = 0.0001;
 /// (at least [`FINEST_TOLERANCE_MM`]) and laid out again — unless that finer drawing breaks the size limits, in
 /// which case the first one is kept with a warning. Warnings are printed once, for the decode that is kept.
 pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, layout: &LayoutArgs) -> Result<Decoded> {
-    let shown = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
     if path.to_str().is_some_and(|p| p.starts_with(GEN_PREFIX)) {
         let mut decoded = load_decoded(path, args, profile)?;
         layout.apply(&mut decoded.drawing)?;
         return Ok(decoded);
     }
     let data = read_input(path)?;
-    let resources = if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) };
-    let decode = |args: &InputArgs| -> Result<Decoded> {
-        let decoded = decode_drawing(&data, path, &shown, &resources, args, profile, &Cancel::never())?;
-        plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown)?;
-        Ok(decoded)
-    };
-    let mut decoded = decode(args)?;
+    let shown = shown_name(path);
+    let mut decoded = decode_bytes(&data, path, &shown, args, profile)?;
+    if let Err(e) = plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown) {
+        warn_all(&decoded.warnings);
+        return Err(e.into());
+    }
     let factor = layout.apply(&mut decoded.drawing)?;
     let finer = (args.tolerance / factor).max(FINEST_TOLERANCE_MM);
+    // Only an SVG is flattened at --tolerance.
     let is_svg = input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg;
     if is_svg && finer < args.tolerance * (1.0 - 1e-9) {
         let finer_args = InputArgs { tolerance: finer, ..args.clone() };
-        match decode(&finer_args) {
+        let again = decode_bytes(&data, path, &shown, &finer_args, profile).and_then(|d| {
+            plotter_path::geometry::limits::check_drawing(&d.drawing, &shown)?;
+            Ok(d)
+        });
+        match again {
             Ok(mut again) => {
                 layout.apply(&mut again.drawing)?;
                 decoded = again;
             }
             Err(e) => decoded.warnings.push(format!(
-                "{shown}: magnified {factor:.2}× by the layout, but flattening its curves at {finer:.4} mm fails                  ({e:#}): kept at {} mm, so curves may show chords up to {:.3} mm",
+                "{shown}: magnified {factor:.2}× by the layout, but flattening its curves at {finer:.4} mm fails \
+                 ({e:#}): kept at {} mm, so curves may show chords up to {:.3} mm",
                 args.tolerance,
                 args.tolerance * factor
             )),
@@ -286,16 +290,24 @@ pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, la
     Ok(decoded)
 }
 
+/// How an input is named in messages: its path, or `<stdin>` for `-`.
+fn shown_name(path: &Path) -> String {
+    if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() }
+}
+
+/// Decode `data` read from `path` (warnings returned, not printed). A file may use images beside it; stdin has no
+/// folder, so only data: URLs.
+fn decode_bytes(data: &[u8], path: &Path, shown: &str, args: &InputArgs, profile: &MachineProfile) -> Result<Decoded> {
+    let resources = if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) };
+    decode_drawing(data, path, shown, &resources, args, profile, &Cancel::never())
+}
+
 fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineProfile) -> Result<Decoded> {
-    let shown = shown.to_string();
     if let Some(spec) = path.to_str().and_then(|p| p.strip_prefix(GEN_PREFIX)) {
         let drawing = r#gen::from_spec(spec).with_context(|| format!("cannot generate {spec}"))?;
         return Ok(Decoded::plain(drawing, Vec::new()));
     }
-    let data = read_input(path)?;
-    // A file may use images beside it; stdin has no folder, so only data: URLs.
-    let resources = if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) };
-    let decoded = decode_drawing(&data, path, &shown, &resources, args, profile, &Cancel::never())?;
+    let decoded = decode_bytes(&read_input(path)?, path, shown, args, profile)?;
     warn_all(&decoded.warnings);
     Ok(decoded)
 }

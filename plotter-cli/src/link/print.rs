@@ -136,10 +136,11 @@ pub enum Played {
 }
 
 impl Played {
-    fn noun(self) -> &'static str {
+    /// The machine and its job, as messages name them.
+    fn names(self) -> (&'static str, &'static str) {
         match self {
-            Self::Printer => "printer",
-            Self::Plotter { .. } => "plotter",
+            Self::Printer => ("printer", "print"),
+            Self::Plotter { .. } => ("plotter", "plot"),
         }
     }
 }
@@ -222,7 +223,7 @@ fn stream<T: Transport>(
     if machine == Played::Printer {
         session.command_checked("M155 S1", COMMAND_TIMEOUT).context("cannot switch on the temperature reports")?;
     }
-    let noun = machine.noun();
+    let (noun, job) = machine.names();
     let base = session.status()?.seq;
     let wire = wire_items(plan, base).map_err(|e| anyhow::anyhow!(e))?;
     let rx = session.info.rx_bytes;
@@ -350,7 +351,7 @@ fn stream<T: Transport>(
             }
             Reply::Alarm { code, text } => bail!("{noun} alarm {code}: {text}"),
             Reply::Banner(_) => {
-                bail!("the firmware restarted during the {}", if noun == "printer" { "print" } else { "plot" })
+                bail!("the firmware restarted during the {job}")
             }
             // Completion reports (framed mode) count blocks; the print follows its lines' answers instead.
             Reply::Completed(_) => {}
