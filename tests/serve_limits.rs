@@ -348,4 +348,3 @@ fn an_uploaded_image_naming_a_file_gets_the_same_answer_whether_the_file_exists_
     assert!(read.contains("partly transparent") && !read.contains("not loaded"), "{read}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
-
