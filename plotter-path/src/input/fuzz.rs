@@ -268,7 +268,7 @@ proptest! {
             }
             Err(e) => {
                 let e = e.to_string();
-                prop_assert!(!(v.abs() <= MAX_COORD_MM), "X{} = {} refused: {}", text, v, e);
+                prop_assert!(v.abs() > MAX_COORD_MM, "X{} = {} refused: {}", text, v, e);
                 let range = if v.is_finite() { "mm is beyond ±1000000 mm (1 km)" } else { "number out of range" };
                 prop_assert!(e.starts_with("t.gcode:4: X") && e.contains(range), "X{}: {}", text, e);
             }
