@@ -2,7 +2,8 @@
 //! silent connections are closed after the header timeout, connections over the cap are answered 503 and closed at
 //! once, a declared oversize body is refused before it is sent, a body that does not arrive in time gets 408, a
 //! claim of control without an event stream lapses, cross-site requests without an `Origin` are refused, and a
-//! listen address off loopback needs `--allow-remote`. The limits are set small by flag so this runs in seconds.
+//! listen address off loopback needs `--allow-remote`, and an upload's `<image>` naming a file gets the same answer
+//! whether the file exists or not. The limits are set small by flag so this runs in seconds.
 
 use std::io::{BufRead as _, BufReader, Read as _, Write as _};
 use std::net::TcpStream;
@@ -287,4 +288,63 @@ impl OutputWithin for Command {
         }
         child.wait_with_output().expect("output")
     }
+}
+
+/// A line under a mask holding a white square and an `<image>` naming `href`: imported with the image, the mask
+/// turns partly transparent (a warning says so) — what made the file-existence oracle of issue 22, item 1.
+fn masked_image(href: &str) -> String {
+    format!(
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="100" height="100"><mask id="m" maskUnits="userSpaceOnUse" x="0" y="0" width="100" height="100"><rect width="100" height="100" fill="white"/><image x="0" y="0" width="10" height="10" href="{href}"/></mask><g mask="url(#m)"><line x1="0" y1="50" x2="100" y2="50" stroke="black"/></g></svg>"#
+    )
+}
+
+/// Upload `svg` as `m.svg` with control `token`; the upload's answer, the drawing's warnings and the layers of
+/// the view, with `href` replaced by `HREF` so answers about different files compare equal when they say the same.
+fn upload_masked(served: &Served, token: &str, href: &str) -> (u16, String) {
+    let (status, answer) =
+        request(served, "POST", "/api/drawing?name=m.svg", &[("X-Plotter-Token", token)], &masked_image(href));
+    let (_, state) = request(served, "GET", "/api/state", &[], "");
+    let (_, view) = request(served, "GET", "/api/view", &[], "");
+    let seen = format!("{answer} {} {} {}", state["drawing"]["warnings"], state["prepared"]["stats"], view["layers"]);
+    (status, seen.replace(href, "HREF"))
+}
+
+/// Issue 22, item 1 through `plotter serve`: an upload's `<image>` naming an existing file, a missing one,
+/// `/dev/zero`, a FIFO or a path relative to the server's folder gets the same answer at once — nothing on the
+/// machine is opened or looked up — while the same image inline as a `data:` URL is read.
+#[cfg(unix)]
+#[test]
+fn an_uploaded_image_naming_a_file_gets_the_same_answer_whether_the_file_exists_or_not() {
+    let dir = plotter_e2e::scratch("serve-image-oracle");
+    let png = std::fs::read(plotter_e2e::sample("line-art.png")).unwrap();
+    std::fs::write(dir.join("there.png"), &png).unwrap();
+    let fifo = dir.join("fifo.png");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let served = Served::start(&["--listen", "127.0.0.1:0"]);
+    let token = claim(&served);
+    let path = |name: &str| dir.join(name).display().to_string();
+    // Relative to the server's working folder (the tests package): an existing image and a missing one.
+    let relative = "../samples/line-art.png";
+    assert!(std::path::Path::new(relative).is_file());
+    let hrefs = [path("there.png"), path("missing.png"), "/dev/zero".into(), path("fifo.png"), relative.into()];
+    let mut answers = Vec::new();
+    for href in &hrefs {
+        let t0 = Instant::now();
+        answers.push(upload_masked(&served, &token, href));
+        assert!(t0.elapsed() < Duration::from_secs(5), "{href}: answered after {:?}", t0.elapsed());
+    }
+    let (status, first) = &answers[0];
+    assert_eq!(*status, 200, "{first}");
+    assert!(first.contains(r#"m.svg: image \"HREF\" not loaded: only data: URLs are read here"#), "{first}");
+    assert!(!first.contains("partly transparent"), "{first}");
+    for (href, answer) in hrefs.iter().zip(&answers) {
+        assert_eq!(answer, &answers[0], "{href}");
+    }
+    // The same image inline is read: the mask turns partly transparent, and the answer differs.
+    let inline: String = png.iter().map(|b| format!("%{b:02X}")).collect();
+    let inline = format!("data:image/png,{inline}");
+    let (status, read) = upload_masked(&served, &token, &inline);
+    assert_eq!(status, 200, "{read}");
+    assert!(read.contains("partly transparent") && !read.contains("not loaded"), "{read}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

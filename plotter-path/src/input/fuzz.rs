@@ -6,14 +6,18 @@
 //! kind — `data:` URLs (raster, nested SVG, mutated nested SVG, nested again), relative names (a regular file, a
 //! FIFO, a link to `/dev/zero`, a directory, a missing file, `..`), absolute paths and URLs — under both resource
 //! policies: each import must end (an error or a drawing within the limits) without hanging or panicking.
+//! [`gcode_numbers_read_as_rust_parses_them`] writes well-formed decimals, with and without an exponent, as an X
+//! word and checks what each import makes of it against Rust's own `f64` parse: a plotter draws to that X (an
+//! exponent is part of the number), a printer refuses a number run into an `e` as ambiguous (never an E word), and
+//! beyond each import's range the error names the line.
 
 use proptest::prelude::*;
 
 use crate::MachineProfile;
-use crate::geometry::limits::check_drawing;
+use crate::geometry::limits::{MAX_COORD_MM, check_drawing};
 use crate::geometry::steps::StepMapper;
 use crate::input::svg::{ResourcePolicy, SvgOptions, import_svg};
-use crate::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
+use crate::input::{gcode_in, gcode_print, r#gen, hpgl_in, raster, trajectory};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -229,6 +233,64 @@ proptest! {
         for k in [kind.as_str(), "circle", "rose", "spiral", "lissajous", "epicycloid"] {
             if let Ok(d) = r#gen::from_spec(&format!("{k}?{}", q.join("&"))) {
                 let _ = check_drawing(&d, "gen");
+            }
+        }
+    }
+}
+
+/// A well-formed decimal as a script or a slicer writes it: sign, digits and a fraction (at least one digit in
+/// all), and sometimes an exponent (`e`/`E`, sign, 1–3 digits). Returns the text and whether it has an exponent.
+fn decimal() -> impl Strategy<Value = (String, bool)> {
+    ("[-+]?", "[0-9]{0,8}", "(\\.[0-9]{0,8})?", "([eE][-+]?[0-9]{1,3})?")
+        .prop_filter("a digit before any exponent", |(_, i, f, _)| {
+            i.bytes().chain(f.bytes()).any(|b| b.is_ascii_digit())
+        })
+        .prop_map(|(s, i, f, e)| (format!("{s}{i}{f}{e}"), !e.is_empty()))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(cases(256)))]
+
+    #[test]
+    fn gcode_numbers_read_as_rust_parses_them((text, exponent) in decimal()) {
+        let v: f64 = text.parse().expect("a well-formed decimal parses");
+        // A plotter (no E axis): the number whole, exponent included, as Rust reads it.
+        let plotter = MachineProfile::default_plotter();
+        let drawing = format!("G0 Z1\nG0 X0 Y0\nG1 Z0\nG1 X{text} Y1\n");
+        match gcode_in::import(&drawing, "t.gcode", &plotter) {
+            Ok(i) => {
+                prop_assert!(v.abs() <= MAX_COORD_MM, "X{} = {} accepted", text, v);
+                let end = i.drawing.paths().last().and_then(|p| p.end()).expect("a line is drawn");
+                let want = plotter.machine_to_page(kurbo::Point::new(v, 1.0));
+                prop_assert!((end.x - want.x).abs() <= 1e-9 * (1.0 + v.abs()), "X{}: {:?} vs {:?}", text, end, want);
+                prop_assert!((end.y - want.y).abs() <= 1e-9, "X{}: {:?} vs {:?}", text, end, want);
+                prop_assert!(i.warnings.is_empty(), "X{}: {:?}", text, i.warnings);
+            }
+            Err(e) => {
+                let e = e.to_string();
+                prop_assert!(v.abs() > MAX_COORD_MM, "X{} = {} refused: {}", text, v, e);
+                let range = if v.is_finite() { "mm is beyond ±1000000 mm (1 km)" } else { "number out of range" };
+                prop_assert!(e.starts_with("t.gcode:4: X") && e.contains(range), "X{}: {}", text, e);
+            }
+        }
+        // A printer (E is a word, as in Marlin): an exponent is ambiguous and refused, never extruded; otherwise
+        // the move goes to X as Rust reads it, within the printer's ±10⁷ mm.
+        let printer = MachineProfile::from_toml(include_str!("../../../samples/printer.toml"), "printer.toml")
+            .expect("the sample printer profile");
+        match gcode_print::import_print(&format!("G28\nG1 X{text} Y1 F600\n"), "t.gcode", &printer) {
+            Ok(p) => {
+                prop_assert!(!exponent && v.abs() < 1e7, "X{} accepted", text);
+                let to = p.ops.iter().find_map(|o| match o {
+                    gcode_print::PrintOp::Move { to, .. } => Some(*to),
+                    _ => None,
+                });
+                prop_assert_eq!(to.map(|t| (t[0], t[1], t[3])), Some((v, 1.0, 0.0)), "X{}", text);
+            }
+            Err(e) => {
+                let e = e.to_string();
+                let why = if exponent { "ambiguous number: X" } else { "position out of range" };
+                prop_assert!(e.starts_with("t.gcode:2: ") && e.contains(why), "X{}: {}", text, e);
+                prop_assert!(exponent || v.abs() >= 1e7, "X{}: {}", text, e);
             }
         }
     }

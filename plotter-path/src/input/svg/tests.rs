@@ -814,6 +814,22 @@ fn off_page_geometry_is_reported_and_cropped() {
     assert_len(&cropped.drawing, 50.0);
 }
 
+/// Issue 22, item 11 (nothing dropped silently): a crop that removes every line is an error naming why — the
+/// 30 mm line lies wholly beyond the 100 mm page — not an empty drawing; without the crop the line is kept.
+#[test]
+fn a_crop_that_removes_everything_is_an_error_naming_why() {
+    let svg = mm_doc(r#"<line id="away" x1="120" y1="50" x2="150" y2="50" stroke="black"/>"#);
+    assert_len(&import(&svg).drawing, 30.0);
+    let crop = SvgOptions { crop: true, ..SvgOptions::default() };
+    let err = import_svg(svg.as_bytes(), "t.svg", &ResourcePolicy::DataUrlsOnly, &crop).unwrap_err();
+    assert!(matches!(err, SvgError::Empty { .. }), "{err:?}");
+    assert_eq!(
+        err.to_string(),
+        "t.svg: nothing to draw: no visible shapes (t.svg: 30.0 mm of pen-down lines in 1 element(s) (<path \
+         id=\"away\">) were cut at the page edge (--crop) (100.0 × 100.0 mm))"
+    );
+}
+
 #[test]
 fn single_stroke_text() {
     // Hershey Roman Simplex "L": stem from y −12 to 9 (21 units) and foot from x −6 to 6 (12 units), 33 units.
