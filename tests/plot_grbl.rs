@@ -141,14 +141,14 @@ fn grbl_alarm_mid_plot_leaves_a_journal_that_resumes() {
 
 /// Plot the three-pen sample straight through (`--pen-change none`) on the GRBL emulator started with
 /// `--grbl-fault fault`, with `extra` arguments; when `interrupt_on` appears on stderr, send the plot SIGINT (as
-/// Ctrl-C does). Returns whether it succeeded, its stderr, how long it took, and the emulator's end position
+/// Ctrl-C does). Returns its exit status, its stderr, how long it took, and the emulator's end position
 /// (`# position x y z`, steps).
 fn plot_with_fault(
     name: &str,
     fault: &str,
     extra: &[&str],
     interrupt_on: Option<&str>,
-) -> (bool, String, f64, Vec<i64>) {
+) -> (Option<i32>, String, f64, Vec<i64>) {
     let dir = scratch(name);
     let sim = SimPty::start(&dir, &["--grbl", "--fast", "--grbl-fault", fault]);
     let svg = sample("three-pens.svg");
@@ -192,7 +192,7 @@ fn plot_with_fault(
         .find(|c| c.starts_with("position"))
         .map(|c| c.split_whitespace().skip(1).map(|v| v.parse::<i64>().expect("int")).collect())
         .unwrap_or_default();
-    (status.success(), err, secs, pos)
+    (status.code(), err, secs, pos)
 }
 
 /// Whether `err` says `what` followed by GRBL's hold state: `Hold:1` while decelerating, `Hold:0` once held.
@@ -205,8 +205,8 @@ const PEN_UP_Z: i64 = 1600;
 
 #[test]
 fn grbl_hold_nobody_resumes_ends_with_a_message_and_the_pen_up() {
-    let (ok, err, secs, pos) = plot_with_fault("grbl-hold", "hold@40", &["--hold-timeout", "2"], None);
-    assert!(!ok);
+    let (code, err, secs, pos) = plot_with_fault("grbl-hold", "hold@40", &["--hold-timeout", "2"], None);
+    assert_eq!(code, Some(1), "a stall is none of the typed troubles: {err}");
     // The first status seen may still be decelerating (Hold:1) or already held (Hold:0); both are a hold.
     assert!(held(&err, "reports a feed hold") && err.contains("stops by itself after 2 s on hold"), "{err}");
     assert!(held(&err, "has been in a feed hold") && err.contains("for 2 s and nobody resumed it"), "{err}");
@@ -217,8 +217,8 @@ fn grbl_hold_nobody_resumes_ends_with_a_message_and_the_pen_up() {
 
 #[test]
 fn grbl_reset_mid_plot_ends_with_alarm_3_and_the_pen_up() {
-    let (ok, err, secs, pos) = plot_with_fault("grbl-reset", "reset@40", &[], None);
-    assert!(!ok);
+    let (code, err, secs, pos) = plot_with_fault("grbl-reset", "reset@40", &[], None);
+    assert_eq!(code, Some(3), "an alarm exits with 3: {err}");
     assert!(err.contains("alarm 3 (reset while moving; the position is probably lost"), "{err}");
     assert!(err.contains("stopped (soft reset, unlocked with $X (home before the next plot"), "{err}");
     assert!(err.contains("the pen is up (G91 G0 Z"), "lifted from the paper: {err}");
@@ -228,8 +228,8 @@ fn grbl_reset_mid_plot_ends_with_alarm_3_and_the_pen_up() {
 
 #[test]
 fn grbl_hard_limit_mid_plot_ends_with_the_pen_up() {
-    let (ok, err, secs, pos) = plot_with_fault("grbl-limit", "hard-limit@40", &[], None);
-    assert!(!ok);
+    let (code, err, secs, pos) = plot_with_fault("grbl-limit", "hard-limit@40", &[], None);
+    assert_eq!(code, Some(3), "an alarm exits with 3: {err}");
     assert!(err.contains("alarm 1 (hard limit switch triggered"), "{err}");
     assert!(err.contains("stopped (soft reset, unlocked with $X") && err.contains("the pen is up (G91 G0 Z"), "{err}");
     assert_eq!(pos.get(2), Some(&PEN_UP_Z), "{pos:?}");
@@ -239,8 +239,8 @@ fn grbl_hard_limit_mid_plot_ends_with_the_pen_up() {
 #[test]
 fn grbl_ctrl_c_while_held_stops_at_once_with_the_pen_up() {
     // The hold would last 30 s; Ctrl-C as soon as the plot says the controller is held.
-    let (ok, err, secs, pos) = plot_with_fault("grbl-hold-ctrl-c", "hold@40", &[], Some("reports a feed hold"));
-    assert!(!ok);
+    let (code, err, secs, pos) = plot_with_fault("grbl-hold-ctrl-c", "hold@40", &[], Some("reports a feed hold"));
+    assert_eq!(code, Some(5), "stopped by the user exits with 5: {err}");
     assert!(held(&err, "stopped at once on a pause request (Ctrl-C) during a feed hold"), "{err}");
     assert!(err.contains("the pen is up (G91 G0 Z"), "lifted from the paper: {err}");
     assert_eq!(pos.get(2), Some(&PEN_UP_Z), "{pos:?}");

@@ -227,6 +227,7 @@ fn missing_port_and_garbage_port() {
     let svg = write_sample(&dir);
     let out = plotter(&dir, &["plot", svg.to_str().unwrap(), "--port", "/dev/no-such-plotter"]);
     assert_fails(&out, "serial port /dev/no-such-plotter does not exist");
+    assert_eq!(out.status.code(), Some(4), "a port that is not there is link trouble");
 
     // A device that answers everything with noise.
     let pty = nix::pty::openpty(None, None).unwrap();
@@ -247,6 +248,7 @@ fn missing_port_and_garbage_port() {
     let out = plotter(&dir, &["plot", svg.to_str().unwrap(), "--port", path.to_str().unwrap()]);
     assert_fails(&out, "does not answer like plotter-fw");
     assert_fails(&out, "garbage");
+    assert_eq!(out.status.code(), Some(4), "a device that is not plotter-fw is link trouble");
 }
 
 #[test]

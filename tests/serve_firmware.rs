@@ -330,3 +330,33 @@ fn an_hpgl_plot_paused_and_cancelled_from_the_page_puts_the_pen_away() {
     assert_eq!(SimPty::figure(&trace, "hpgl", "pen_up"), Some(1));
     assert_eq!(SimPty::figure(&trace, "hpgl", "pen"), Some(0));
 }
+
+#[test]
+fn a_port_lost_mid_plot_is_told_as_link_trouble_and_the_link_is_dropped() {
+    let dir = scratch("serve-lost");
+    // Real time (not --fast): a 250 mm circle takes seconds, time to pull the plug half-way.
+    let sim = SimPty::start(&dir, &["--grbl"]);
+    let served = Served::start(&["--listen", "127.0.0.1:0", "--port", sim.port.as_str()]);
+    let page = Page::open(&served);
+    let (status, v) = page.post(&served, "/api/gen", json!({ "spec": "circle?r=40&cx=100&cy=100" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "a prepared drawing", Duration::from_secs(60), |s| !s["prepared"].is_null());
+    let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "grbl" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "connected", Duration::from_secs(60), |s| !s["machine"]["connected"].is_null());
+    let (status, v) = page.post(&served, "/api/plot", json!({}));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "plotting", Duration::from_secs(60), |s| s["machine"]["activity"] == "plotting");
+    std::thread::sleep(Duration::from_millis(1500));
+    // The emulator goes away, as an unplugged USB adapter does.
+    drop(sim.stop());
+    let mut log = Vec::new();
+    let done = page.wait_event("done", Duration::from_secs(60), &mut log);
+    assert_eq!(done["ok"], false, "{done}");
+    assert_eq!(done["trouble"], "link", "{done}; log: {log:#?}");
+    let message = done["message"].as_str().unwrap_or_default();
+    assert!(message.contains("lost the connection to") && message.contains("connect again"), "{message}");
+    // The page is told it is no longer connected, so it offers to connect again.
+    let state = page.wait_state(&served, "idle", Duration::from_secs(30), |s| s["machine"]["activity"] == "idle");
+    assert!(state["machine"]["connected"].is_null(), "{state}");
+}

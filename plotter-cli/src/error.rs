@@ -91,6 +91,9 @@ pub enum Error {
         /// Its first few lines, quoted.
         heard: String,
     },
+    /// The serial port could not be opened: it does not exist, is busy or is not permitted (the message says which).
+    #[error(transparent)]
+    PortUnavailable(anyhow::Error),
     /// Nothing answered on the port.
     #[error("no answer from {name}: is it a plotter running plotter-fw (or `plotter sim --pty`)?")]
     NoAnswer {
@@ -106,6 +109,65 @@ pub enum Error {
     /// Anything else, as a message with its causes.
     #[error(transparent)]
     Other(anyhow::Error),
+}
+
+/// What kind of trouble an [`Error`] is: what a front end decides on (an exit status, whether the link is still
+/// worth using, whether the drawing or the machine needs attention).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Trouble {
+    /// The machine said no: a refused block, an alarm, a restart during the plot.
+    Machine,
+    /// The link is gone or was never what it should be: a lost port, no answer, not the expected firmware.
+    Link,
+    /// The user stopped the plot (at a pause, at once, or at a pen change).
+    Stopped,
+    /// A bad input file, a plan that cannot be made, or anything else.
+    Other,
+}
+
+impl Trouble {
+    /// The first trouble other than [`Trouble::Other`] among the typed [`Error`]s in `e`'s chain of causes (a lost
+    /// port stays a lost port under "homing failed"); [`Trouble::Other`] when there is none.
+    pub fn of(e: &anyhow::Error) -> Trouble {
+        e.chain()
+            .filter_map(|cause| cause.downcast_ref::<Error>())
+            .map(Error::trouble)
+            .find(|t| *t != Trouble::Other)
+            .unwrap_or(Trouble::Other)
+    }
+
+    /// A short lowercase name (`machine`, `link`, `stopped`, `other`), as the web app sends it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Trouble::Machine => "machine",
+            Trouble::Link => "link",
+            Trouble::Stopped => "stopped",
+            Trouble::Other => "other",
+        }
+    }
+}
+
+impl Error {
+    /// The port to `name` failed with `cause` in the middle of a conversation; `hint` says what to check (e.g.
+    /// "was the board unplugged?"). A [`Error::PortLost`] whose message names the port, the cause and the hint.
+    pub fn lost(name: &str, cause: &std::io::Error, hint: &str) -> Error {
+        let cause = std::io::Error::new(cause.kind(), format!("lost the connection to {name}: {cause} ({hint})"));
+        Error::PortLost { cause, after: String::new() }
+    }
+
+    /// What kind of trouble this is.
+    pub fn trouble(&self) -> Trouble {
+        match self {
+            Error::Refused { .. } | Error::Alarm { .. } | Error::Restarted { .. } => Trouble::Machine,
+            Error::PortLost { .. }
+            | Error::PortUnavailable(_)
+            | Error::FirmwareMismatch { .. }
+            | Error::NoAnswer { .. } => Trouble::Link,
+            Error::Aborted { .. } | Error::StoppedAtOnce { .. } | Error::StoppedAtPenChange { .. } => Trouble::Stopped,
+            Error::Plan(_) | Error::BadInput(_) => Trouble::Other,
+            Error::Other(e) => Trouble::of(e),
+        }
+    }
 }
 
 /// A result of this library.
@@ -198,6 +260,47 @@ mod tests {
         assert_eq!(
             format!("{:#}", anyhow::Error::from(e)),
             "plotting duck.svg: the firmware refused block 4: error 7: soft limit"
+        );
+    }
+
+    #[test]
+    fn the_trouble_is_found_under_added_context_and_is_other_without_a_typed_error() {
+        let alarm = Error::Alarm { code: 1, text: "hard limit".into(), executed: 3, after: String::new() };
+        assert_eq!(alarm.trouble(), Trouble::Machine);
+        let wrapped: anyhow::Result<()> = Err(alarm).context("plotting duck.svg");
+        assert_eq!(Trouble::of(&wrapped.unwrap_err()), Trouble::Machine);
+        let gone = anyhow::Error::from(Error::from(lost())).context("plotting");
+        assert_eq!(Trouble::of(&gone), Trouble::Link);
+        assert_eq!(Error::NoAnswer { name: "p".into() }.trouble(), Trouble::Link);
+        assert_eq!(Error::PortUnavailable(anyhow::anyhow!("busy")).trouble(), Trouble::Link);
+        assert_eq!(Error::FirmwareMismatch { name: "p".into(), heard: "x".into() }.trouble(), Trouble::Link);
+        let stop = Error::StoppedAtPenChange { layer: "2".into(), pen: "red".into(), after: String::new() };
+        assert_eq!(Trouble::of(&anyhow::Error::from(stop)), Trouble::Stopped);
+        assert_eq!(Error::Aborted { executed: 0, after: String::new() }.trouble(), Trouble::Stopped);
+        let refused = Error::Refused { block: 1, code: 2, text: "x".into(), after: String::new() };
+        assert_eq!(refused.trouble(), Trouble::Machine);
+        assert_eq!(Error::Restarted { executed: 0, after: String::new() }.trouble(), Trouble::Machine);
+        let e = Error::lost("/dev/ttyACM0", &lost(), "was the board unplugged?");
+        assert_eq!(
+            e.to_string(),
+            "lost the connection to /dev/ttyACM0: the device went away (was the board unplugged?)"
+        );
+        assert!(matches!(&e, Error::PortLost { cause, .. } if cause.kind() == std::io::ErrorKind::BrokenPipe));
+        assert_eq!(Trouble::of(&anyhow::Error::from(e)), Trouble::Link);
+        // Under added context the error is Other, and its trouble still the lost port's.
+        let homing = anyhow::Error::from(Error::lost("p", &lost(), "h")).context("homing ($H) failed");
+        let e = Error::from(homing);
+        assert!(matches!(e, Error::Other(_)), "{e:?}");
+        assert_eq!(e.trouble(), Trouble::Link);
+        assert_eq!(Trouble::of(&anyhow::Error::from(e).context("plot")), Trouble::Link);
+        assert_eq!(Error::Other(anyhow::anyhow!("stalled")).trouble(), Trouble::Other);
+        // A bare I/O error from a file is not taken for a lost port: only a typed error says so.
+        assert_eq!(Trouble::of(&anyhow::Error::from(lost())), Trouble::Other);
+        let bad = Error::from(BadInput::new("a.svg", anyhow::anyhow!("not a valid SVG")));
+        assert_eq!(Trouble::of(&anyhow::Error::from(bad)), Trouble::Other);
+        assert_eq!(
+            [Trouble::Machine, Trouble::Link, Trouble::Stopped, Trouble::Other].map(Trouble::name),
+            ["machine", "link", "stopped", "other"]
         );
     }
 

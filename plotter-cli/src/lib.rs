@@ -48,4 +48,4 @@ pub mod job;
 pub mod link;
 pub mod options;
 
-pub use error::{Error, Result};
+pub use error::{Error, Result, Trouble};

@@ -34,7 +34,7 @@ pub fn open_port(
     firmware: Firmware,
     profile: &MachineProfile,
 ) -> crate::Result<Connected<SerialTransport>> {
-    let transport = SerialTransport::open(port, baud)?;
+    let transport = SerialTransport::open(port, baud).map_err(crate::Error::PortUnavailable)?;
     Connected::connect(transport, port, firmware, profile)
 }
 

@@ -80,7 +80,20 @@ fn main() {
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
-        std::process::exit(1);
+        std::process::exit(exit_status(&e));
+    }
+}
+
+/// The exit status for an error, by what kind of trouble it is, so that a script can tell them apart:
+/// 1 a bad input or anything else, 3 the machine refused a block, raised an alarm or restarted, 4 the link was lost,
+/// nothing answered or the firmware is not the expected one, 5 the user stopped the plot. (0 is success and 2 a
+/// command line clap refused.)
+fn exit_status(e: &anyhow::Error) -> i32 {
+    match plotter_host::Trouble::of(e) {
+        plotter_host::Trouble::Other => 1,
+        plotter_host::Trouble::Machine => 3,
+        plotter_host::Trouble::Link => 4,
+        plotter_host::Trouble::Stopped => 5,
     }
 }
 

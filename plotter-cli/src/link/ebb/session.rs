@@ -78,7 +78,7 @@ pub struct EbbSession<T: Transport> {
 }
 
 fn lost(name: &str, e: std::io::Error) -> anyhow::Error {
-    anyhow::anyhow!("lost the connection to {name}: {e} (was the board unplugged or the emulator stopped?)")
+    crate::Error::lost(name, &e, "was the board unplugged or the emulator stopped?").into()
 }
 
 impl<T: Transport> EbbSession<T> {

@@ -86,7 +86,7 @@ pub struct GrblSession<T: Transport> {
 }
 
 fn transport_error(name: &str, e: std::io::Error) -> anyhow::Error {
-    anyhow::anyhow!("lost the connection to {name}: {e} (was the device unplugged or the emulator stopped?)")
+    crate::Error::lost(name, &e, "was the device unplugged or the emulator stopped?").into()
 }
 
 /// Step position (XYZ) of millimetres.

@@ -80,7 +80,7 @@ pub struct HpglSession<L: HpglLink> {
 }
 
 fn lost(name: &str, e: std::io::Error) -> anyhow::Error {
-    anyhow::anyhow!("lost the connection to {name}: {e} (was the plotter switched off or the cable pulled?)")
+    crate::Error::lost(name, &e, "was the plotter switched off or the cable pulled?").into()
 }
 
 impl<L: HpglLink> HpglSession<L> {

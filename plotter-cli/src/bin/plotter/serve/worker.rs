@@ -9,6 +9,7 @@ use std::sync::Arc;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
+use plotter_host::Trouble;
 use plotter_host::job::page::view_with_travel;
 use plotter_host::job::prepare::Prepared;
 use plotter_host::job::progress::{JobProgress, PlotEvents};
@@ -248,7 +249,7 @@ impl Worker {
                 events.flush();
                 match result {
                     Ok(message) => self.done(true, message, false),
-                    Err(e) => self.done(false, format!("plot stopped: {e:#}"), false),
+                    Err(e) => self.stopped(&e),
                 }
                 return;
             }
@@ -282,20 +283,44 @@ impl Worker {
                 );
                 self.done(true, message, stepped);
             }
-            Err(e) => self.done(false, format!("plot stopped: {e:#}"), false),
+            Err(e) => self.stopped(&anyhow::Error::from(e)),
         }
     }
 
+    /// A plot ended by `e`: told to the page with its kind of trouble; a lost link is dropped, so the page offers
+    /// to connect again instead of sending commands to a port that is gone.
+    fn stopped(&mut self, e: &anyhow::Error) {
+        let trouble = Trouble::of(e);
+        let mut message = format!("plot stopped: {e:#}");
+        if trouble == Trouble::Link {
+            self.link = None;
+            let mut i = self.shared.lock();
+            i.machine.connected = None;
+            i.machine.hpgl = false;
+            message.push_str(" (disconnected: connect again once the plotter is back)");
+        }
+        self.done_as(false, message, false, Some(trouble));
+    }
+
     fn done(&self, ok: bool, message: String, stepped: bool) {
+        self.done_as(ok, message, stepped, None);
+    }
+
+    /// The `done` event; `trouble` names what kind of trouble ended a failed plot (`machine`, `link`, `stopped`,
+    /// `other`).
+    fn done_as(&self, ok: bool, message: String, stepped: bool, trouble: Option<Trouble>) {
         #[derive(Serialize)]
         struct Done {
             ok: bool,
             message: String,
             stepped: bool,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            trouble: Option<&'static str>,
         }
         self.shared.lock().prompt = None;
         self.shared.hub.log(if ok { "info" } else { "error" }, message.clone());
-        self.shared.hub.send(Event::new("done", &Done { ok, message, stepped }));
+        let trouble = trouble.map(Trouble::name);
+        self.shared.hub.send(Event::new("done", &Done { ok, message, stepped, trouble }));
     }
 }
 
