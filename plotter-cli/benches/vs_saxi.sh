@@ -69,7 +69,7 @@ for f in "$@"; do
   t_ours=$(on_board "" "$PLOTTER" plot "$conv" --port PORT --firmware ebb --profile "$PROFILE" \
     --pen-change none)
   # The board's time beyond our plan's.
-  pad=$(awk '/planned time/ { p = $NF } /EBB: board time/ { b = $4 } END { printf "%.3f", b - p }' \
+  pad=$(awk '/planned time/ { p = $(NF - 1) } /EBB: board time/ { b = $4 } END { printf "%.3f", b - p }' \
     "$WORK/out.txt" | tr -d ';')
   # Our optimized plan's pen lifts and the plot-time lower bound `plotter stats` proves for it (pen-down length at
   # the draw feed and the profile's drawing acceleration with the least corner losses, each lift's settles, the

@@ -402,8 +402,7 @@ mod tests {
     fn without_the_curve_model_every_vertex_is_a_corner() {
         // saxi's limits: drawing at 50 mm/s and 200 mm/s², junction deviation 0.127 mm, a servo pen (strokes end
         // at rest). One stroke of two 10 mm legs turning by 60°.
-        let mut p =
-            MachineProfile::from_toml(include_str!("../../../samples/axidraw-saxi.toml"), "saxi.toml").unwrap();
+        let mut p = MachineProfile::from_toml(include_str!("../../../samples/axidraw-saxi.toml"), "saxi.toml").unwrap();
         let stroke = StepDrawing::from_strokes(vec![StepStroke {
             start: StepPos::new(800, 800),
             moves: vec![StepDelta { dx: 800, dy: 0 }, StepDelta { dx: 400, dy: 693 }],
@@ -440,5 +439,4 @@ mod tests {
             assert!(b.draw_s <= draw_s && draw_s < b.draw_s * slack, "{dev}: {b:?} vs {draw_s}");
         }
     }
-
 }

@@ -1298,7 +1298,10 @@ mod tests {
         };
         for e in [1, 100, 500, 900, 999] {
             let (a, b) = split_block(&whole, e);
-            assert_eq!((a.steps[0], a.steps[0] + b.steps[0], a.steps[1] + b.steps[1]), (e as i32, 1000, -400));
+            assert_eq!(
+                (a.steps[0], a.steps[0] + b.steps[0], a.steps[1] + b.steps[1]),
+                (i32::try_from(e).unwrap(), 1000, -400)
+            );
             // Axis Y keeps to the line: within half a step of 0.4 × e.
             assert!((f64::from(a.steps[1]) + 0.4 * f64::from(e)).abs() <= 0.5, "{e}: {a:?}");
             // The rate at the cut: √(2·a·x) on the ramps, the cruise between (quantized down by under 0.2 %).

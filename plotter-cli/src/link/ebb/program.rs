@@ -560,9 +560,8 @@ mod tests {
         assert_eq!(prog.commands[drop].line, "SP,0,0,1", "commanded with no delay");
         // The LM before it ends moving: its start rate plus its acceleration over its intervals is well above
         // zero (motor 1 carries the whole 45° travel; the carriage passes at about 32 mm/s = 2560 steps/s).
-        let before: Vec<i64> =
-            prog.commands[drop - 1].line.split(',').skip(1).map(|x| x.parse().unwrap()).collect();
-        let end_rate = (before[0] + before[2] * prog.commands[drop - 1].intervals as i64) as f64;
+        let before: Vec<i64> = prog.commands[drop - 1].line.split(',').skip(1).map(|x| x.parse().unwrap()).collect();
+        let end_rate = (before[0] + before[2] * i64::try_from(prog.commands[drop - 1].intervals).unwrap()) as f64;
         let steps_s = end_rate / 2f64.powi(31) * 25_000.0;
         assert!(steps_s > 2000.0, "{steps_s} steps/s at the drop: {:?}", &prog.commands[drop - 1]);
         // On the emulator, from the first move to the first pen-down move: the 20·√2 mm travel from rest to rest at
