@@ -15,7 +15,10 @@
 //! drop taken as the lift run backwards). Servo blocks carry no steps, so the drop command splits the travel: the
 //! travel stops, the servo is commanded (a 1-tick block), the last part follows and a dwell completes the settle
 //! time counted from the command. The split is only made where it pays, and a drop is never commanded before the
-//! previous lift has had its full settle time (so the servo always falls from the pen-up angle).
+//! previous lift has had its full settle time (so the servo always falls from the pen-up angle). On an EBB
+//! (a profile with an `[ebb]` section), whose servo command is a queue entry between two moves that does not stop
+//! the motors, the travel does not stop for the command: it is planned whole and cut, and the carriage passes the
+//! command at the speed it has there (`RawPlan::flying_servo_hop`).
 //!
 //! Every move becomes a [`PlanBlock`] of the firmware's own planner
 //! ([`plotter_fw::planner`]: per-axis limits, junction deviation, reverse/forward passes), planned here over the
