@@ -16,7 +16,10 @@
 # - ours: `plotter plot --firmware ebb --profile samples/axidraw-saxi.toml --pen-change none` (our optimizer's
 #   order, our planner; no pauses between colours, as saxi plots them all with one pen).
 # Prints one row per drawing (its paths, saxi's pen lifts / ours, both board times in seconds, ours/saxi, the lower
-# bound `plotter stats` proves for our plan and its ratio to saxi's time) and the sums.
+# bound `plotter stats` proves for our plan and its ratio to saxi's time) and the sums; then where the time goes,
+# per drawing and summed, seconds: saxi's plan (pen-down drawing, pen-up travel with the trip home, pen moves),
+# ours (`plotter stats`' optimized plan: drawing, travel, pen moves with their settle dwells; and the board's time
+# beyond our plan, e.g. moves lengthened to what the board sustains) and the lower bound's parts.
 set -euo pipefail
 PLOTTER=${PLOTTER:-target/release/plotter}
 SAXI_DIR=${SAXI_DIR:-target/ci-node/node_modules/saxi}
@@ -62,21 +65,37 @@ for f in "$@"; do
   conv=$WORK/$name.svg
   "$PLOTTER" convert "$f" --paper a4 --landscape --fit -o "$conv" 2>/dev/null
   t_saxi=$(on_board "--ebb-pen-contact 16725" node "$HERE/vs_saxi_drive.js" "$SAXI_DIR" PORT "$conv")
-  read -r _ paths _ lifts _ <"$WORK/out.txt"
+  read -r _ paths _ lifts _ _ _ s_draw _ s_travel _ s_pen _ <"$WORK/out.txt"
   t_ours=$(on_board "" "$PLOTTER" plot "$conv" --port PORT --firmware ebb --profile "$PROFILE" \
     --pen-change none)
+  # The board's time beyond our plan's.
+  pad=$(awk '/planned time/ { p = $(NF - 1) } /EBB: board time/ { b = $4 } END { printf "%.3f", b - p }' \
+    "$WORK/out.txt" | tr -d ';')
   # Our optimized plan's pen lifts and the plot-time lower bound `plotter stats` proves for it (pen-down length at
   # the draw feed and the profile's drawing acceleration with the least corner losses, each lift's settles, the
   # shortest hops at the travel feed and acceleration): no plan can beat it.
-  stats=$("$PLOTTER" stats "$conv" --profile "$PROFILE" 2>/dev/null | grep '^optimized' || true)
+  stats=$("$PLOTTER" stats "$conv" --profile "$PROFILE" 2>/dev/null | grep -A1 "^optimized" || true)
   ours_lifts=$(echo "$stats" | awk '{ for (i = 1; i < NF; i++) if ($(i+1) == "pen" && $(i+2) == "lifts,") print $i }')
   lb=$(echo "$stats" | awk '{ for (i = 1; i < NF; i++) if ($i == "bound" && $(i-1) == "lower" && $(i-3) == "time") {
     n = split($(i+1), t, ":"); s = 0; for (j = 1; j <= n; j++) s = s * 60 + t[j]; print s } }')
   printf '%-38s %7s %7s %9s %9s %6.3f %8s %6.3f\n' "${name:0:38}" "$paths" "$lifts/${ours_lifts:-?}" "$t_saxi" \
     "$t_ours" "$(echo "$t_ours / $t_saxi" | bc -l)" "${lb:-0}" "$(echo "${lb:-0} / $t_saxi" | bc -l)"
+  # `time parts, planned / lower bound: pen down P / B s (..), travel P / B s (..), lifts P / B s (..)`.
+  parts=$(echo "$stats" | awk -F'[:,]' '/time parts/ { for (i = 3; i <= 5; i++) { split($i, w, " ");
+    n = length(w); printf "%s %s ", w[n - 5], w[n - 3] } }')
+  echo "$name $s_draw $s_travel $s_pen $parts $pad" >>"$WORK/parts.txt"
   sum_saxi=$(echo "$sum_saxi + $t_saxi" | bc -l)
   sum_ours=$(echo "$sum_ours + $t_ours" | bc -l)
   sum_lb=$(echo "$sum_lb + ${lb:-0}" | bc -l)
 done
 printf '%-38s %7s %7s %9.3f %9.3f %6.3f %8.1f %6.3f\n' sum '' '' "$sum_saxi" "$sum_ours" \
   "$(echo "$sum_ours / $sum_saxi" | bc -l)" "$sum_lb" "$(echo "$sum_lb / $sum_saxi" | bc -l)"
+echo
+printf '%-30s %23s %31s %23s\n' '' 'saxi (plan)' 'ours (plan; board - plan)' 'lower bound'
+printf '%-30s %7s %7s %7s %7s %7s %7s %7s %7s %7s %7s\n' drawing draw travel pen draw travel pen board+ draw \
+  travel pen
+awk '{ printf "%-30s %7.1f %7.1f %7.1f %7.1f %7.1f %7.1f %7.3f %7.1f %7.1f %7.1f\n", substr($1, 1, 30), $2, $3, $4,
+    $5, $7, $9, $11, $6, $8, $10
+    for (i = 2; i <= 11; i++) s[i] += $i }
+  END { printf "%-30s %7.1f %7.1f %7.1f %7.1f %7.1f %7.1f %7.3f %7.1f %7.1f %7.1f\n", "sum", s[2], s[3], s[4], s[5],
+    s[7], s[9], s[11], s[6], s[8], s[10] }' "$WORK/parts.txt"

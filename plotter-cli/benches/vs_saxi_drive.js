@@ -32,4 +32,23 @@ const unitsPerMm = planning.Device.Axidraw.stepsPerMm;
 paths = paths.map((ps) => ps.map((p) => ({ x: p.x * unitsPerMm, y: p.y * unitsPerMm })));
 const plan = planning.plan(paths, planning.AxidrawFast);
 
-board.run(ebb, plan, () => `paths ${input} lifts ${paths.length} planned ${plan.duration().toFixed(3)}`);
+// Where saxi's planned time goes: saxi's plan is, per path, [travel, drop, draw, lift], then the travel home and
+// the last pen move; XY motions between a drop and a lift draw.
+const parts = { draw: 0, travel: 0, pen: 0 };
+let down = false; // the pen after the last pen motion
+for (const m of plan.motions) {
+  if (m instanceof planning.PenMotion) {
+    parts.pen += m.duration();
+    down = m.finalPos === planning.AxidrawFast.penDownPos;
+  } else {
+    parts[down ? 'draw' : 'travel'] += m.duration();
+  }
+}
+const fmt = (x) => x.toFixed(3);
+board.run(
+  ebb,
+  plan,
+  () =>
+    `paths ${input} lifts ${paths.length} planned ${fmt(plan.duration())} draw ${fmt(parts.draw)} ` +
+    `travel ${fmt(parts.travel)} pen ${fmt(parts.pen)}`,
+);

@@ -9,6 +9,9 @@
 //!   direction allows, an over-estimate). Where a stroke
 //!   turns by more than 90° it is a corner for the planner, whose speed there is at most junction deviation's
 //!   (computed here with the largest acceleration any direction allows, so it over-estimates); a reversal stops.
+//!   A profile without the curve model (`motion.curve_deviation_mm = 0`, saxi's rule) has the planner judge every
+//!   vertex so, and then every vertex caps the speed here too. The speeds at the caps are carried from piece to
+//!   piece (forward and backward passes), so each stroke's part is the least time its caps allow.
 //!   Each piece between such vertices takes at least the fastest one-dimensional motion over its length that
 //!   starts and ends within those speeds, never exceeds the draw feed and accelerates at most at
 //!   `√(a_x² + a_y²)` (the largest acceleration the per-axis limits allow along any direction), or at the
@@ -143,6 +146,10 @@ pub fn plot_time_lower_bound(
         (rise + drop + settle, settle)
     };
     let v_lift = if servo { 0.0 } else { corner(accel) };
+    // With no curve model (`motion.curve_deviation_mm = 0`) the planner judges every vertex by junction deviation
+    // alone, so every vertex caps the speed; otherwise only turns above 90° (a smooth curve's vertices are planned
+    // from its radius instead).
+    let every_vertex = profile.motion.curve_deviation_mm == 0.0;
     let mut strokes = 0usize;
     for s in &steps.strokes {
         let segs: Vec<(f64, f64)> =
@@ -151,24 +158,42 @@ pub fn plot_time_lower_bound(
             continue;
         }
         strokes += 1;
+        // Pieces between the vertices that cap the speed, and the cap at each piece's end.
+        let mut pieces: Vec<(f64, f64)> = Vec::new();
         let mut piece = 0.0;
-        let mut v_in = 0.0;
         for (k, &(dx, dy)) in segs.iter().enumerate() {
             piece += dx.hypot(dy);
             let Some(&(nx, ny)) = segs.get(k + 1) else { break };
             let (l0, l1) = (dx.hypot(dy), nx.hypot(ny));
             let cos = (dx * nx + dy * ny) / (l0 * l1);
-            if cos < 0.0 {
-                // Turn above 90°: junction deviation's speed with the largest acceleration (sin(θ/2) for θ the
-                // angle between the reversed incoming and the outgoing direction).
+            if cos < 0.0 || every_vertex {
+                // Junction deviation's speed with the largest acceleration (sin(θ/2) for θ the angle between the
+                // reversed incoming and the outgoing direction); no cap when the stroke goes straight on.
                 let sin_half = ((1.0 + cos) / 2.0).sqrt();
-                let v_c = if sin_half < 1e-4 { 0.0 } else { (accel * deviation * sin_half / (1.0 - sin_half)).sqrt() };
-                bound.draw_s += min_time(piece, v_in, v_c, draw, accel);
+                let v_c = if sin_half < 1e-4 {
+                    0.0
+                } else if sin_half > 1.0 - 1e-12 {
+                    f64::INFINITY
+                } else {
+                    (accel * deviation * sin_half / (1.0 - sin_half)).sqrt()
+                };
+                pieces.push((piece, v_c));
                 piece = 0.0;
-                v_in = v_c;
             }
         }
-        bound.draw_s += min_time(piece, v_in, v_lift, draw, accel);
+        pieces.push((piece, v_lift));
+        // The fastest speeds the caps and the acceleration allow at the pieces' ends (forward and backward passes
+        // from rest at the start), then each piece at its fastest between them.
+        let mut v = vec![0.0; pieces.len() + 1];
+        for (i, &(len, cap)) in pieces.iter().enumerate() {
+            v[i + 1] = cap.min(draw).min((v[i] * v[i] + 2.0 * accel * len).sqrt());
+        }
+        for (i, &(len, _)) in pieces.iter().enumerate().rev() {
+            v[i] = v[i].min((v[i + 1] * v[i + 1] + 2.0 * accel * len).sqrt());
+        }
+        for (i, &(len, _)) in pieces.iter().enumerate() {
+            bound.draw_s += min_time(len, v[i], v[i + 1], draw, accel);
+        }
     }
     #[allow(clippy::cast_precision_loss, reason = "stroke counts are far below 2^52")]
     {
@@ -371,5 +396,47 @@ mod tests {
         p.pens[0].down_z_mm = Some(2.5);
         assert!((at(&p) - lifts(1.5)).abs() < 1e-12);
         assert!(lifts(1.5) < lifts(2.0));
+    }
+
+    #[test]
+    fn without_the_curve_model_every_vertex_is_a_corner() {
+        // saxi's limits: drawing at 50 mm/s and 200 mm/s², junction deviation 0.127 mm, a servo pen (strokes end
+        // at rest). One stroke of two 10 mm legs turning by 60°.
+        let mut p = MachineProfile::from_toml(include_str!("../../../samples/axidraw-saxi.toml"), "saxi.toml").unwrap();
+        let stroke = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(800, 800),
+            moves: vec![StepDelta { dx: 800, dy: 0 }, StepDelta { dx: 400, dy: 693 }],
+        }]);
+        // The second leg is 10.0005 mm long at 60.0° (693 ≈ 400·√3 = 692.8 steps).
+        let l2 = (400.0f64).hypot(693.0) / 80.0;
+        p.motion.curve_deviation_mm = 0.0;
+        let b = plot_time_lower_bound(&p, &stroke, 0.0).unwrap();
+        // The corner: cos = 400/800.02 between the legs' directions, sin(θ/2) = √((1 + cos)/2) ≈ √0.75, and
+        // v² = 200·0.127·sin(θ/2)/(1 − sin(θ/2)) ≈ 164.2 (12.81 mm/s). Each leg from or to rest is a triangle
+        // (peak √((2·200·10 + v²)/2) ≈ 45.6 mm/s, below the feed).
+        let cos = 400.0 / (400.0f64).hypot(693.0);
+        let sh = ((1.0 + cos) / 2.0).sqrt();
+        let vc2 = 200.0 * 0.127 * sh / (1.0 - sh);
+        assert!((vc2.sqrt() - 12.81).abs() < 0.01, "{}", vc2.sqrt());
+        let tri = |len: f64| {
+            let peak = ((2.0 * 200.0 * len + vc2) / 2.0).sqrt();
+            (2.0 * peak - vc2.sqrt()) / 200.0
+        };
+        assert!((b.draw_s - tri(10.0) - tri(l2)).abs() < 1e-9, "{b:?}");
+        assert!((b.draw_s - 0.7846).abs() < 1e-3, "{b:?}");
+        // With the curve model the 60° vertex may be a curve's: 20 mm from rest to rest at 50 mm/s, 6.25 mm to
+        // speed up, 6.25 mm to stop and 7.5 mm (plus the second leg's 0.5 µm) cruising: 0.65 s.
+        p.motion.curve_deviation_mm = 0.1;
+        let b = plot_time_lower_bound(&p, &stroke, 0.0).unwrap();
+        assert!((b.draw_s - (0.25 + 0.25 + (7.5 + l2 - 10.0) / 50.0)).abs() < 1e-9, "{b:?}");
+        // Both below what the planner makes of it (which corners here either way: two legs are no curve), the
+        // first within the rounding of rates to whole steps per second.
+        for (dev, slack) in [(0.0, 1.001), (0.1, 1.25)] {
+            p.motion.curve_deviation_mm = dev;
+            let b = plot_time_lower_bound(&p, &stroke, 0.0).unwrap();
+            let planned = plan(&p, &stroke, [0; 4], Lookahead::Whole).unwrap();
+            let draw_s = planned.breakdown().draw_s();
+            assert!(b.draw_s <= draw_s && draw_s < b.draw_s * slack, "{dev}: {b:?} vs {draw_s}");
+        }
     }
 }

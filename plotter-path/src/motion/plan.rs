@@ -15,7 +15,10 @@
 //! drop taken as the lift run backwards). Servo blocks carry no steps, so the drop command splits the travel: the
 //! travel stops, the servo is commanded (a 1-tick block), the last part follows and a dwell completes the settle
 //! time counted from the command. The split is only made where it pays, and a drop is never commanded before the
-//! previous lift has had its full settle time (so the servo always falls from the pen-up angle).
+//! previous lift has had its full settle time (so the servo always falls from the pen-up angle). On an EBB
+//! (a profile with an `[ebb]` section), whose servo command is a queue entry between two moves that does not stop
+//! the motors, the travel does not stop for the command: it is planned whole and cut, and the carriage passes the
+//! command at the speed it has there (`RawPlan::flying_servo_hop`).
 //!
 //! Every move becomes a [`PlanBlock`] of the firmware's own planner
 //! ([`plotter_fw::planner`]: per-axis limits, junction deviation, reverse/forward passes), planned here over the
@@ -445,6 +448,8 @@ struct RawPlan<'c> {
     changes: Vec<PenChange>,
     /// The profile's path acceleration caps (drawing, travel), mm/s²; `f32::MAX` where it sets none.
     accel_caps: [f32; 2],
+    /// A servo drop may be commanded while the carriage moves (see [`RawPlan::servo_hop`]).
+    flying_drop: bool,
 }
 
 impl<'c> RawPlan<'c> {
@@ -461,6 +466,7 @@ impl<'c> RawPlan<'c> {
             settle: settle_ticks(profile),
             changes: Vec::new(),
             accel_caps: [cap(profile.pen.draw_accel_mm_s2), cap(profile.pen.travel_accel_mm_s2)],
+            flying_drop: profile.ebb.is_some(),
         }
     }
 
@@ -545,6 +551,10 @@ impl<'c> RawPlan<'c> {
         let t_full = self.rest_to_rest_ticks(StepPos::new(delta.dx, delta.dy), feed);
         // Splitting pays when the carriage would still be travelling once the lift has fully ended.
         let worth = n > 0 && budget > 0 && (lift.is_none() || clear.saturating_add(t_full) > settle);
+        if worth && self.flying_drop {
+            self.flying_servo_hop(lift, down, delta, feed, stroke, (clear, budget));
+            return;
+        }
         // The longest last part that fits in the budget (durations grow with the length).
         let (mut lo, mut hi) = (0i64, if worth { n } else { 0 });
         while lo < hi {
@@ -574,6 +584,91 @@ impl<'c> RawPlan<'c> {
             self.fixed(StepBlock::dwell(rest), MoveKind::Settle, stroke);
         }
     }
+
+    /// [`RawPlan::servo_hop`] on a board that runs the servo command between two queued moves without stopping the
+    /// motors (the EBB: its `SP` is a FIFO entry like a move): the travel is planned in one piece from rest to rest
+    /// and cut where the rest of it fits in `budget` ticks ([`split_block`]), the drop command (a 1-tick servo
+    /// block) sits at the cut and the carriage passes it at the speed it has there, so the hop loses no time to
+    /// stopping for the command. The parts are fixed blocks (the planner would plan the whole travel from rest to
+    /// rest anyway, between the two servo blocks). `timing` is `(clear, budget)`.
+    fn flying_servo_hop(
+        &mut self,
+        lift: Option<u16>,
+        down: u16,
+        delta: crate::geometry::steps::StepDelta,
+        feed: f32,
+        stroke: usize,
+        (clear, budget): (u32, u32),
+    ) {
+        let settle = self.settle;
+        let whole = self.line_block([delta.dx, delta.dy, 0, 0], feed, MoveKind::Travel);
+        let (first, last) = whole
+            .map_or((None, None), |b| split_for_budget(&protocol::quantize(&planner::to_step_block(&b, 0.0)), budget));
+        let t1 = first.map_or(0, |b| b.duration_ticks());
+        let t2 = last.map_or(0, |b| b.duration_ticks());
+        if let Some(u) = lift {
+            self.fixed(StepBlock::servo(u, clear.max(settle.saturating_sub(t1))), MoveKind::PenUp, stroke - 1);
+        }
+        for (part, servo) in [(first, None), (None, Some(down)), (last, None)] {
+            if let Some(b) = part {
+                self.fixed(b, MoveKind::Travel, stroke);
+                self.pos[0] += b.steps[0];
+                self.pos[1] += b.steps[1];
+            }
+            if let Some(d) = servo {
+                let drop = if last.is_some() { 1 } else { settle };
+                self.fixed(StepBlock::servo(d, drop), MoveKind::PenDown, stroke);
+            }
+        }
+        let rest = settle.saturating_sub(1 + t2);
+        if last.is_some() && rest > 0 {
+            self.fixed(StepBlock::dwell(rest), MoveKind::Settle, stroke);
+        }
+    }
+}
+
+/// `block` cut after its first `e` step events (0 < `e` < its events) into two blocks that run one after the
+/// other as the whole does: each axis's steps split in proportion, rounded once (so the parts add up exactly and
+/// keep within half a step of the line), the first part ending and the second starting at the trapezoid's rate
+/// at the cut (rounded down as a wire frame carries it, [`protocol::quantize`]).
+fn split_block(block: &StepBlock, e: u32) -> (StepBlock, StepBlock) {
+    let n = i64::from(block.events().max(1));
+    let first: [i32; NUM_AXES] = core::array::from_fn(|i| {
+        let s = i64::from(block.steps[i]) * i64::from(e);
+        // |s / n| ≤ |steps[i]|, inside i32; rounded half away from zero.
+        i32::try_from((s + s.signum() * n / 2) / n).unwrap_or(block.steps[i])
+    });
+    let second: [i32; NUM_AXES] = core::array::from_fn(|i| block.steps[i] - first[i]);
+    // A rate in events/s, non-negative and far below u32::MAX.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let at = block.profile().rate_at(e).max(0.0) as u32;
+    let a = StepBlock { steps: first, exit_rate: at, ..*block };
+    let b = StepBlock { steps: second, entry_rate: at, ..*block };
+    (protocol::quantize(&a), protocol::quantize(&b))
+}
+
+/// A rest-to-rest travel `block` cut so that its last part is the longest that takes at most `budget` ticks: the
+/// first part (`None` when the whole travel fits) and the last (`None` when not even one event fits).
+fn split_for_budget(block: &StepBlock, budget: u32) -> (Option<StepBlock>, Option<StepBlock>) {
+    let n = block.events();
+    if n == 0 {
+        return (None, None);
+    }
+    if block.duration_ticks() <= budget {
+        return (None, Some(*block));
+    }
+    // The smallest cut whose rest fits: the rest's duration falls as the cut moves on.
+    let fits = |e: u32| split_block(block, e).1.duration_ticks() <= budget;
+    let (mut lo, mut hi) = (1u32, n);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if fits(mid) { hi = mid } else { lo = mid + 1 }
+    }
+    if lo >= n || !fits(lo) {
+        return (Some(*block), None);
+    }
+    let (a, b) = split_block(block, lo);
+    (Some(a), Some(b))
 }
 
 fn build_blocks<'c>(
@@ -699,14 +794,20 @@ pub fn plan_resume(
     check_work_area(profile, steps)?;
     let full = build_blocks(profile, &cfg, steps, original_start, return_home)?;
     let mut done = done.min(full.blocks.len());
-    // A servo pen's drop is commanded before the last part of its travel: resuming on that part starts again at
-    // the drop command, so that the part is travelled with the pen up and the pen then comes down in full.
+    // A servo pen's drop is commanded before the last part of its travel, which the carriage enters moving:
+    // resuming on the drop command or on that part goes on from the stroke's start instead (the preamble travels
+    // there with the pen up and lowers it in full), skipping the part and the rest of the settle.
+    let kind = |i: usize| full.meta.get(i).map(|m| m.0);
     let last_pen = full.meta[..done].iter().rposition(|m| matches!(m.0, MoveKind::PenUp | MoveKind::PenDown));
-    if let Some(j) = last_pen
-        && full.meta[j].0 == MoveKind::PenDown
-        && full.meta.get(done).is_some_and(|m| m.0 == MoveKind::Travel)
-    {
-        done = j;
+    let after_drop =
+        last_pen.is_some_and(|j| full.meta[j].0 == MoveKind::PenDown) && kind(done) == Some(MoveKind::Travel);
+    if after_drop || (kind(done) == Some(MoveKind::PenDown) && kind(done + 1) == Some(MoveKind::Travel)) {
+        if kind(done) == Some(MoveKind::PenDown) {
+            done += 1;
+        }
+        while matches!(kind(done), Some(MoveKind::Travel | MoveKind::Settle)) {
+            done += 1;
+        }
     }
     let mut target = original_start;
     for b in &full.blocks[..done] {
@@ -1129,13 +1230,98 @@ mod tests {
         let r = plan_resume(&p, &steps, start, 10, start, false).unwrap();
         let pre: Vec<MoveKind> = r.blocks[..r.preamble].iter().map(|b| b.kind).collect();
         assert_eq!(pre, [PenUp, Travel]);
-        // Resumed on the last part of that travel (block 12, after the drop command): it starts again at the drop
-        // command, so the part is travelled with the pen up.
-        let r = plan_resume(&p, &steps, start, 12, start, false).unwrap();
-        assert_eq!(r.resumed_from, 11);
-        let pre: Vec<MoveKind> = r.blocks[..r.preamble].iter().map(|b| b.kind).collect();
-        assert_eq!(pre, [PenUp, Travel]);
-        assert_eq!(r.blocks[r.preamble].block.servo, Some(300));
+        // Resumed on the drop command (block 11) or the last part of that travel (block 12): it goes on from the
+        // second square's first side (block 14) after a travel there with the pen up and a full drop.
+        for at in [11, 12] {
+            let r = plan_resume(&p, &steps, start, at, start, false).unwrap();
+            assert_eq!(r.resumed_from, 14);
+            let pre: Vec<(MoveKind, Option<StepBlock>)> =
+                r.blocks[..r.preamble].iter().map(|b| (b.kind, b.block.servo.map(|_| b.block))).collect();
+            assert_eq!(pre, [(PenUp, up), (Travel, None), (PenDown, Some(StepBlock::servo(300, 120_000)))]);
+            assert_eq!(r.position_after(r.preamble - 1), full.position_after(13));
+            assert_eq!(r.blocks[r.preamble].kind, Draw);
+        }
+    }
+
+    #[test]
+    fn an_ebb_commands_the_drop_while_the_carriage_travels() {
+        // saxi's limits: travel at 400 mm/s², the pen settling 120 ms, clear of the paper 40 ms after a lift.
+        let p = MachineProfile::from_toml(include_str!("../../../samples/axidraw-saxi.toml"), "saxi.toml").unwrap();
+        let l =
+            |x: f64| Polyline::new(vec![Point::new(x, 20.0), Point::new(x + 10.0, 20.0), Point::new(x + 10.0, 30.0)]);
+        let d = Drawing::single_layer("l", vec![l(20.0), l(60.0)]);
+        let steps = drawing_to_steps(&p, &d).unwrap();
+        let plan = plan(&p, &steps, [0; 4], Lookahead::Whole).unwrap();
+        use MoveKind::*;
+        let kinds: Vec<MoveKind> = plan.blocks.iter().map(|b| b.kind).collect();
+        let hop = [Travel, PenDown, Travel, Settle];
+        let mut expected = vec![PenUp];
+        expected.extend(hop.iter().chain(&[Draw, Draw, PenUp]).chain(&hop).chain(&[Draw, Draw, PenUp]));
+        assert_eq!(kinds, expected);
+        let t = |i: usize| u64::from(plan.blocks[i].block.duration_ticks());
+        for (lift, first) in [(0, 1), (7, 8)] {
+            let (a, drop, b) = (plan.blocks[first].block, plan.blocks[first + 1].block, plan.blocks[first + 2].block);
+            // The carriage passes the drop command moving: the first part ends at the rate the second starts with.
+            assert_eq!(drop, StepBlock::servo(300, 1));
+            assert!(a.exit_rate > 0 && a.exit_rate == b.entry_rate, "{a:?} {b:?}");
+            // The tip falls to the clearance height in 120 − 40 ms: the carriage has arrived by then; the stroke
+            // starts 120 ms after the command.
+            assert!(t(first + 1) + t(first + 2) <= 80_000);
+            assert_eq!(t(first + 1) + t(first + 2) + t(first + 3), 120_000);
+            // From the lift command, the drop waits for the lift's whole settle.
+            assert!(t(lift) + t(first) >= 120_000);
+        }
+        // The hop from home to (20, 20) mm is the rest-to-rest travel of 20·√2 mm at 400 mm/s² (2·√(d/a), the
+        // feed of 200 mm/s never reached) and then the tip's last 40 ms: the drop costs no stop.
+        let hop_s = (t(1) + t(2) + t(3) + t(4)) as f64 / 1e6;
+        let by_hand = 2.0 * (20.0 * std::f64::consts::SQRT_2 / 400.0f64).sqrt() + 0.040;
+        assert!((hop_s - by_hand).abs() < 0.002, "{hop_s} s, by hand {by_hand} s");
+        // The second hop, from (30, 30) to (60, 20) mm (√1000 mm) likewise, after the lift's 40 ms.
+        let hop_s = (t(7) + t(8) + t(9) + t(10) + t(11)) as f64 / 1e6;
+        let by_hand = 0.040 + 2.0 * (1000.0f64.sqrt() / 400.0).sqrt() + 0.040;
+        assert!((hop_s - by_hand).abs() < 0.002, "{hop_s} s, by hand {by_hand} s");
+        // Without an [ebb] section the drop stops the carriage, which costs time.
+        let mut other = p.clone();
+        other.ebb = None;
+        let stopping = super::plan(&other, &steps, [0; 4], Lookahead::Whole).unwrap();
+        assert!(stopping.total_ticks > plan.total_ticks + 2 * 40_000, "{} {}", stopping.total_ticks, plan.total_ticks);
+    }
+
+    #[test]
+    fn a_split_block_runs_as_the_whole_did() {
+        // 1000 × 400 steps from rest at 20 000 events/s² to a cruise of 8000/s and back to rest.
+        let whole = StepBlock {
+            steps: [1000, -400, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 8000,
+            exit_rate: 0,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        for e in [1, 100, 500, 900, 999] {
+            let (a, b) = split_block(&whole, e);
+            assert_eq!(
+                (a.steps[0], a.steps[0] + b.steps[0], a.steps[1] + b.steps[1]),
+                (i32::try_from(e).unwrap(), 1000, -400)
+            );
+            // Axis Y keeps to the line: within half a step of 0.4 × e.
+            assert!((f64::from(a.steps[1]) + 0.4 * f64::from(e)).abs() <= 0.5, "{e}: {a:?}");
+            // The rate at the cut: √(2·a·x) on the ramps, the cruise between (quantized down by under 0.2 %).
+            let ideal = (2.0 * 20_000.0 * f64::from(e.min(1000 - e))).sqrt().min(8000.0);
+            assert!(f64::from(a.exit_rate) <= ideal && f64::from(a.exit_rate) > 0.998 * ideal, "{e}: {a:?}");
+            assert_eq!(a.exit_rate, b.entry_rate);
+            let parts = a.duration_ticks() + b.duration_ticks();
+            assert!(parts.abs_diff(whole.duration_ticks()) <= 200, "{e}: {parts} vs {}", whole.duration_ticks());
+        }
+        // The longest last part within 50 ms: the end of the final ramp, ½·a·t² = 25 events.
+        let (a, b) = split_for_budget(&whole, 50_000);
+        let (a, b) = (a.unwrap(), b.unwrap());
+        assert!(b.duration_ticks() <= 50_000 && b.duration_ticks() > 49_000, "{b:?}");
+        assert_eq!(b.steps[0], 25);
+        assert_eq!(a.steps[0], 975);
+        // A travel that fits whole is not cut.
+        assert_eq!(split_for_budget(&whole, whole.duration_ticks()), (None, Some(whole)));
     }
 
     #[test]

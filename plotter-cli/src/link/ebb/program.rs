@@ -547,6 +547,45 @@ mod tests {
     }
 
     #[test]
+    fn the_pen_drop_is_commanded_between_two_lms_at_speed() {
+        use crate::link::ebb::emulator::EbbEmulator;
+        use crate::link::ebb::messages::EbbVersion;
+        let text = include_str!("../../../../samples/axidraw-saxi.toml");
+        let profile = MachineProfile::from_toml(text, "axidraw-saxi.toml").unwrap();
+        let l = Polyline::new(vec![Point::new(20.0, 20.0), Point::new(30.0, 20.0), Point::new(30.0, 30.0)]);
+        let steps = drawing_to_steps(&profile, &Drawing::single_layer("l", vec![l])).unwrap();
+        let plan = make_plan(&profile, &steps, [0; 4], Lookahead::Whole).unwrap();
+        let prog = program(&profile, &plan, [0, 0], MotionStyle::Lm).unwrap();
+        let drop = prog.commands.iter().position(|c| c.line.starts_with("SP,0,")).unwrap();
+        assert_eq!(prog.commands[drop].line, "SP,0,0,1", "commanded with no delay");
+        // The LM before it ends moving: its start rate plus its acceleration over its intervals is well above
+        // zero (motor 1 carries the whole 45° travel; the carriage passes at about 32 mm/s = 2560 steps/s).
+        let before: Vec<i64> = prog.commands[drop - 1].line.split(',').skip(1).map(|x| x.parse().unwrap()).collect();
+        let end_rate = (before[0] + before[2] * i64::try_from(prog.commands[drop - 1].intervals).unwrap()) as f64;
+        let steps_s = end_rate / 2f64.powi(31) * 25_000.0;
+        assert!(steps_s > 2000.0, "{steps_s} steps/s at the drop: {:?}", &prog.commands[drop - 1]);
+        // On the emulator, from the first move to the first pen-down move: the 20·√2 mm travel from rest to rest at
+        // 400 mm/s² (2·√(d/a)) and the tip's last 40 ms, to within the 40 µs intervals.
+        let mut e = EbbEmulator::new(EbbVersion(3, 0, 2));
+        let first_draw = prog.commands.iter().position(|c| plan.blocks[c.block].kind == MoveKind::Draw).unwrap();
+        let mut at = [0u64; 2];
+        for (k, c) in prog.commands.iter().enumerate() {
+            if k == 1 || k == first_draw {
+                at[usize::from(k == first_draw)] = e.busy_intervals();
+            }
+            e.feed(format!("{}\r", c.line).as_bytes());
+            while !e.is_idle() {
+                e.run_for(1);
+            }
+            e.run_for(1);
+        }
+        let hop_s = (at[1] - at[0]) as f64 * 40e-6;
+        let by_hand = 2.0 * (20.0 * std::f64::consts::SQRT_2 / 400.0f64).sqrt() + 0.040;
+        assert!((hop_s - by_hand).abs() < 0.002, "{hop_s} s, by hand {by_hand} s");
+        assert!(prog.intervals.abs_diff(e.busy_intervals()) <= prog.commands.len() as u64);
+    }
+
+    #[test]
     fn sm_slices_follow_the_ramp_and_keep_every_step() {
         // 1000 steps accelerating from rest over 2 s (50 000 intervals), slices of at least 2 × 4 ms: eight
         // slices of 250 ms, covering (j/8)² of the distance by the end of slice j.
