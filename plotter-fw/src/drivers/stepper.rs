@@ -35,18 +35,21 @@ enum HoldState {
 /// No stop inside the block.
 const NO_STOP: u32 = u32::MAX;
 
-/// Slots of the block ring: the executing block and the queue.
-const SLOTS: usize = STEPPER_QUEUE + 1;
+/// Slots of the block ring: the executing block and the queue, rounded up to a power of two so that a slot index
+/// is wrapped (and known to be in range) by a mask: no division, no bounds check in the interrupt.
+const SLOTS: usize = (STEPPER_QUEUE + 1).next_power_of_two();
 
-/// The ring slot after `i` (no division: this runs in the interrupt at each block change).
+/// Wraps a ring slot index.
+const SLOT_MASK: usize = SLOTS - 1;
+
+/// The ring slot after `i`.
 fn after(i: usize) -> usize {
-    if i + 1 >= SLOTS { 0 } else { i + 1 }
+    (i + 1) & SLOT_MASK
 }
 
-/// The ring slot `k` places after `i` (`k < SLOTS`).
+/// The ring slot `k` places after `i`.
 fn nth_after(i: usize, k: usize) -> usize {
-    let j = i + k;
-    if j >= SLOTS { j - SLOTS } else { j }
+    (i + k) & SLOT_MASK
 }
 
 /// Most axes that step on some events only (every block has a major axis that steps at each event).
@@ -57,9 +60,10 @@ const _: () = assert!(MINORS == 3);
 
 /// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term.
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(C)]
 struct Minor {
-    delta: u32,
     err: u32,
+    delta: u32,
     /// Its [`Axis::bit`].
     bit: u8,
     /// Its [`Axis::index`].
@@ -69,6 +73,7 @@ struct Minor {
 /// What the interrupt does at each event of a block, laid out when the block is pushed: the axes that step at
 /// every event, and the few that do not, in a packed list (no per-axis loop, no match at each event).
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(C)]
 struct Layout {
     /// Axes with `|Δ| = n`: they step at every event.
     always: u8,
@@ -174,17 +179,20 @@ struct Carry {
 /// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
 /// interval. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing event,
 /// the idle stepper — is one `countdown == 0` test away, on the slow path.
+///
+/// Laid out in C order, the fields of the fast path first (near the struct's start: short load offsets).
 #[derive(Debug, Clone, Copy)]
+#[repr(C)]
 struct Active {
     /// Events the fast path may still emit before the event at `target`.
     countdown: u32,
+    /// Events in the block.
+    n: u32,
+    cursor: Cursor,
+    layout: Layout,
     /// The next event the slow path handles: the block's last, or where a hold stops; for a homing block (all its
     /// events on the slow path) the next event.
     target: u32,
-    /// Events in the block.
-    n: u32,
-    layout: Layout,
-    cursor: Cursor,
     /// Ring slot of the block.
     slot: usize,
     /// A block is executing.
@@ -248,7 +256,9 @@ pub enum StepperFault {
 
 /// The stepper: a queue of [`StepBlock`]s and the executing block's Bresenham state.
 #[derive(Debug)]
+#[repr(C)]
 pub struct Stepper {
+    /// First: the interrupt's fields at the struct's start.
     act: Active,
     /// The executing block's slot (when one executes) is the one before `first`; `queued` blocks follow it.
     ring: [Queued; SLOTS],
@@ -307,7 +317,7 @@ impl Stepper {
         let mut pos = self.position;
         if self.act.live && !self.act.counted && self.act.n > 0 {
             let done = self.act.layout.steps_after(self.act.emitted(), self.act.n);
-            let steps = &self.ring[self.act.slot].block.steps;
+            let steps = &self.ring[self.act.slot & SLOT_MASK].block.steps;
             for i in 0..NUM_AXES {
                 let d = i32::try_from(done[i]).unwrap_or(i32::MAX);
                 pos[i] += if steps[i] < 0 { -d } else { d };
@@ -449,7 +459,7 @@ impl Stepper {
         }
         let k = act.emitted();
         let scheduled = k + 1;
-        let slot = &mut self.ring[act.slot];
+        let slot = &mut self.ring[act.slot & SLOT_MASK];
         if slot.block.accel == 0 {
             // No acceleration to slow down with: stop after the event already scheduled.
             act.stop_at = scheduled;
@@ -508,7 +518,7 @@ impl Stepper {
         let act = &mut self.act;
         let k = act.emitted();
         act.offset = k;
-        let slot = &mut self.ring[act.slot];
+        let slot = &mut self.ring[act.slot & SLOT_MASK];
         slot.profile = Profile::new(act.n - k, 0, slot.block.cruise_rate, 0, slot.block.accel);
         act.stop_at = NO_STOP;
         act.arm(k);
@@ -523,7 +533,7 @@ impl Stepper {
         let slot = self.first;
         self.first = after(slot);
         self.queued -= 1;
-        let q = &self.ring[slot];
+        let q = &self.ring[slot & SLOT_MASK];
         let block = &q.block;
         let n = q.n;
         let home_mask = match q.switches {
@@ -571,7 +581,7 @@ impl Stepper {
     /// The executing block is done: count it and go on with the next one, unless a hold stops here.
     fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if !self.act.counted {
-            let steps = &self.ring[self.act.slot].block.steps;
+            let steps = &self.ring[self.act.slot & SLOT_MASK].block.steps;
             // Written out per axis (no loop through a copy).
             self.position[0] += steps[0];
             self.position[1] += steps[1];
@@ -580,7 +590,7 @@ impl Stepper {
         }
         self.act.live = false;
         self.completed = self.completed.wrapping_add(1);
-        if self.hold != HoldState::Running && !(self.queued > 0 && self.ring[self.first].hold) {
+        if self.hold != HoldState::Running && !(self.queued > 0 && self.ring[self.first & SLOT_MASK].hold) {
             self.hold = HoldState::Stopped;
             return None;
         }
@@ -599,10 +609,15 @@ impl Stepper {
         }
         act.countdown -= 1;
         hal.step_axes(act.layout.event(act.n));
-        Some(match act.cursor.advance() {
-            Some(interval) => interval,
-            None => act.cursor.next(self.ring[act.slot].profile.times()),
-        })
+        if act.cursor.segment_done() {
+            // The next segment, read in place from the block's ring slot.
+            let times = self.ring[act.slot & SLOT_MASK].profile.times();
+            match times.segments().get(act.cursor.next_segment()) {
+                Some(seg) => act.cursor.enter(seg),
+                None => return Some(1),
+            }
+        }
+        Some(act.cursor.step())
     }
 
     /// Everything but a plain event in the middle of a block.
@@ -631,7 +646,7 @@ impl Stepper {
                 }
             }
             mask &= !act.locked;
-            let steps = &self.ring[act.slot].block.steps;
+            let steps = &self.ring[act.slot & SLOT_MASK].block.steps;
             for axis in Axis::ALL {
                 let i = axis.index();
                 if mask & axis.bit() != 0 {
@@ -654,7 +669,7 @@ impl Stepper {
         }
         let act = &mut self.act;
         act.arm(k);
-        Some(act.cursor.next(self.ring[act.slot].profile.times()))
+        Some(act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times()))
     }
 }
 
@@ -957,8 +972,9 @@ mod tests {
 
     #[test]
     fn ring_slots_wrap_without_division() {
-        assert_eq!([after(0), after(1), after(2)], [1, 2, 0]);
-        assert_eq!([nth_after(1, 0), nth_after(1, 1), nth_after(1, 2), nth_after(2, 2)], [1, 2, 0, 1]);
+        assert_eq!(SLOTS, 4);
+        assert_eq!([after(0), after(1), after(2), after(3)], [1, 2, 3, 0]);
+        assert_eq!([nth_after(1, 0), nth_after(1, 2), nth_after(2, 2), nth_after(3, 1), nth_after(3, 3)], [1, 3, 0, 0, 2]);
     }
 
     #[test]

@@ -191,6 +191,7 @@ pub struct StepTimes {
 /// of the current interval `d` plus the carry out of adding its fraction to the time's (the same tick as the
 /// difference of the two times' high words, with no 64-bit time and no subtraction), then `d` grows by `add`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(C)]
 pub struct Cursor {
     /// Events left in the current segment.
     left: u32,
@@ -218,14 +219,11 @@ impl Cursor {
         self.step()
     }
 
-    /// [`Cursor::next`] within the current segment (the step interrupt's path: a 32-bit add with carry, a 64-bit
-    /// add and a decrement); `None` when the segment is used up and the next one must be [`Cursor::enter`]ed.
+    /// Whether the current segment is used up: the next event needs the next segment ([`Cursor::enter`]) before
+    /// its [`Cursor::step`].
     #[inline(always)]
-    pub fn advance(&mut self) -> Option<u32> {
-        if self.left == 0 {
-            return None;
-        }
-        Some(self.step())
+    pub fn segment_done(&self) -> bool {
+        self.left == 0
     }
 
     /// Index of the next segment to [`Cursor::enter`] (into [`StepTimes::segments`]).
@@ -703,13 +701,17 @@ mod tests {
         assert_eq!(intervals, [2, 1, 2, 4, 4]);
         assert_eq!(times.duration_ticks(), 13);
         assert_eq!(times.segments().len(), 2);
-        // Within a segment `advance` is `next`; at a segment's end it leaves the switch to `next`.
+        // Within a segment `step` is `next`; at a segment's end the caller enters the next one.
         let mut c = times.cursor();
-        assert_eq!(c.advance(), None, "no segment entered yet");
-        assert_eq!(c.next(&times), 2);
-        assert_eq!([c.advance(), c.advance(), c.advance()], [Some(1), Some(2), None]);
+        assert!(c.segment_done(), "no segment entered yet");
+        assert_eq!(c.next_segment(), 0);
+        c.enter(&times.segments()[0]);
+        assert_eq!((c.segment_done(), c.next_segment()), (false, 1));
+        assert_eq!([c.step(), c.step(), c.step()], [2, 1, 2]);
+        assert!(c.segment_done());
         assert_eq!(c.time(), 3 * quarter);
         assert_eq!([c.next(&times), c.next(&times), c.next(&times)], [4, 4, 1]);
+        assert_eq!(c.next_segment(), 2);
     }
 
     #[test]
