@@ -15,8 +15,8 @@
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::fmath::sqrt;
-use crate::hal::{Endstops, StepPins};
-use crate::step_block::{Cursor, Profile, StepBlock, StepTimes, Switches};
+use crate::hal::{Endstops, StepPins, StepTimer};
+use crate::step_block::{Cursor, FRAC_BITS, Profile, Segment, StepBlock, StepTimes, Switches};
 
 /// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
 /// frozen; the planner keeps re-planning the rest.
@@ -31,6 +31,9 @@ enum HoldState {
     /// Stopped with the queue kept.
     Stopped,
 }
+
+/// What the cursor steps by past a block's last segment (never reached: the stepper counts the events): 1 tick.
+const PAST_THE_END: Segment = Segment { count: u32::MAX, interval: 1 << FRAC_BITS, add: 0 };
 
 /// No stop inside the block.
 const NO_STOP: u32 = u32::MAX;
@@ -598,26 +601,64 @@ impl Stepper {
     }
 
     /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
-    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only: the fast path
-    /// is a countdown, the Bresenham terms of the block's moving axes, the pin write and the time recurrence,
-    /// inlined into the board's interrupt handler.
+    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only.
     #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
-        let act = &mut self.act;
-        if act.countdown == 0 {
+        if self.act.countdown == 0 {
             return self.tick_slow(hal);
         }
+        Some(self.plain_event(hal))
+    }
+
+    /// The step timer's interrupt: [`Stepper::tick`], then the timer aimed at the next event
+    /// ([`StepTimer::schedule_next`]) or stopped. Returns whether it runs on. The plain event in the middle of a
+    /// block is inlined into the board's interrupt handler, straight through to the timer's compare register.
+    #[inline(always)]
+    pub fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
+        if self.act.countdown == 0 {
+            return self.on_timer_slow(hal);
+        }
+        let interval = self.plain_event(hal);
+        hal.schedule_next(interval);
+        true
+    }
+
+    /// [`Stepper::on_timer`] off the fast path.
+    #[inline(never)]
+    fn on_timer_slow<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
+        match self.tick_slow(hal) {
+            Some(interval) => {
+                hal.schedule_next(interval);
+                true
+            }
+            None => {
+                hal.cancel();
+                false
+            }
+        }
+    }
+
+    /// The fast path (`countdown > 0`): a countdown, the Bresenham terms of the block's moving axes, the pin
+    /// write and the time recurrence.
+    #[inline(always)]
+    fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> u32 {
+        let act = &mut self.act;
         act.countdown -= 1;
         hal.step_axes(act.layout.event(act.n));
         if act.cursor.segment_done() {
-            // The next segment, read in place from the block's ring slot.
-            let times = self.ring[act.slot & SLOT_MASK].profile.times();
-            match times.segments().get(act.cursor.next_segment()) {
-                Some(seg) => act.cursor.enter(seg),
-                None => return Some(1),
-            }
+            self.enter_segment();
         }
-        Some(act.cursor.step())
+        self.act.cursor.step()
+    }
+
+    /// The executing block's next segment, read in place from its ring slot (off the fast path's straight line:
+    /// a segment lasts several events). Past the last one (never: the events are counted) the cursor steps by 1.
+    #[inline(always)]
+    fn enter_segment(&mut self) {
+        let act = &mut self.act;
+        let times = self.ring[act.slot & SLOT_MASK].profile.times();
+        let seg = times.segments().get(act.cursor.next_segment()).copied();
+        act.cursor.enter(&seg.unwrap_or(PAST_THE_END));
     }
 
     /// Everything but a plain event in the middle of a block.

@@ -282,6 +282,7 @@ impl StepTimes {
     }
 
     /// The segments.
+    #[inline(always)]
     pub fn segments(&self) -> &[Segment] {
         &self.segments[..usize::from(self.len)]
     }

@@ -33,15 +33,24 @@ impl Deadline {
     /// `now + lead`. Returns its absolute time (wrapping).
     #[inline(always)]
     pub fn schedule(&mut self, now: u32, ticks: u32) -> u32 {
-        // Ticks since the previous event (the interrupt runs at or after it); from now when idle.
-        let base = if self.running { self.at } else { now };
-        let elapsed = now.wrapping_sub(base);
+        // From the previous event (the interrupt runs at or after it); from now when idle.
+        if !self.running {
+            self.at = now;
+            self.running = true;
+        }
+        self.next(now, ticks)
+    }
+
+    /// [`Deadline::schedule`] while running (from the timer's interrupt): `ticks` after the previous event, never
+    /// earlier than `now + lead`.
+    #[inline(always)]
+    pub fn next(&mut self, now: u32, ticks: u32) -> u32 {
+        let elapsed = now.wrapping_sub(self.at);
         self.at = if ticks >= elapsed.saturating_add(self.lead) {
-            base.wrapping_add(ticks)
+            self.at.wrapping_add(ticks)
         } else {
             now.wrapping_add(self.lead)
         };
-        self.running = true;
         self.at
     }
 
