@@ -61,11 +61,13 @@ const MINORS: usize = NUM_AXES - 1;
 // `Layout::event` is written out for three minor axes.
 const _: () = assert!(MINORS == 3);
 
-/// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term.
+/// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term `e`, kept as the
+/// room left below the step, `room = n − 1 − e`. An event takes `|Δ|` from it; when that borrows (`e + |Δ| ≥ n`)
+/// the axis steps and `n` is added back — a subtraction, and on a step an add and an OR.
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(C)]
 struct Minor {
-    err: u32,
+    room: u32,
     delta: u32,
     /// Its [`Axis::bit`].
     bit: u8,
@@ -95,7 +97,7 @@ impl Layout {
             } else if d > 0 && usize::from(l.minors) < MINORS {
                 #[allow(clippy::cast_possible_truncation, reason = "an axis index is below NUM_AXES")]
                 let index = axis.index() as u8;
-                l.minor[usize::from(l.minors)] = Minor { delta: d, err: n / 2, bit: axis.bit(), axis: index };
+                l.minor[usize::from(l.minors)] = Minor { room: n - 1 - n / 2, delta: d, bit: axis.bit(), axis: index };
                 l.minors += 1;
             }
         }
@@ -128,7 +130,8 @@ impl Layout {
             }
         }
         for m in &self.minor[..usize::from(self.minors)] {
-            let sum = u64::from(k) * u64::from(m.delta) + u64::from(n / 2) - u64::from(m.err);
+            // The error term e = n − 1 − room; k·|Δ| + ⌊n/2⌋ = steps·n + e.
+            let sum = u64::from(k) * u64::from(m.delta) + u64::from(n / 2) + u64::from(m.room) + 1 - u64::from(n);
             steps[usize::from(m.axis)] = u32::try_from(sum / u64::from(n.max(1))).unwrap_or(u32::MAX);
         }
         steps
@@ -138,12 +141,12 @@ impl Layout {
 impl Minor {
     #[inline(always)]
     fn event(&mut self, n: u32) -> u8 {
-        let e = self.err + self.delta;
-        if e >= n {
-            self.err = e - n;
+        let (room, borrow) = self.room.overflowing_sub(self.delta);
+        if borrow {
+            self.room = room.wrapping_add(n);
             self.bit
         } else {
-            self.err = e;
+            self.room = room;
             0
         }
     }
@@ -157,7 +160,10 @@ struct Queued {
     profile: Profile,
     /// Step events.
     n: u32,
-    layout: Layout,
+    /// The executing state at the block's first event, and the interval to it ([`Queued::prepare`]): loading the
+    /// block in the interrupt is a copy.
+    start: Active,
+    first: u32,
     /// Axes that move, and the level of their direction pin (inversion applied).
     dir_axes: u8,
     dir_levels: u8,
@@ -166,6 +172,41 @@ struct Queued {
     hold: bool,
     /// Event after which the hold stops ([`NO_STOP`]: none).
     stop_at: u32,
+}
+
+impl Queued {
+    /// Compute the executing state at the block's first event and the interval to it (main context, whenever the
+    /// block's step times or stop change while it is queued).
+    fn prepare(&mut self) {
+        let home_mask = match self.switches {
+            Switches::Limits => 0,
+            Switches::Homing { axes } => axes,
+        };
+        let n = self.n;
+        let mut act = Active {
+            countdown: 0,
+            n,
+            cursor: self.profile.times().cursor(),
+            layout: Layout::of(&self.block, n),
+            target: 1,
+            slot: 0,
+            live: true,
+            counted: home_mask != 0,
+            limits: self.switches == Switches::Limits,
+            offset: 0,
+            home_mask,
+            locked: 0,
+            stop_at: self.stop_at,
+        };
+        self.first = if n == 0 {
+            // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
+            self.block.dwell_ticks.max(1)
+        } else {
+            act.arm(0);
+            act.cursor.next(self.profile.times())
+        };
+        self.start = act;
+    }
 }
 
 /// The rate a decelerating hold carries out of the last block it has re-timed.
@@ -292,7 +333,8 @@ impl Stepper {
             block: empty,
             profile: empty.profile(),
             n: 0,
-            layout: Layout::default(),
+            start: Active::idle(),
+            first: 1,
             dir_axes: 0,
             dir_levels: 0,
             switches: Switches::Limits,
@@ -391,7 +433,8 @@ impl Stepper {
             block,
             profile: block.profile(),
             n,
-            layout: Layout::of(&block, n),
+            start: Active::idle(),
+            first: 1,
             dir_axes,
             dir_levels,
             switches,
@@ -401,6 +444,7 @@ impl Stepper {
         if self.hold == HoldState::Decelerating {
             self.carry = self.carry.and_then(|c| continue_hold(c, &mut q));
         }
+        q.prepare();
         // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
         self.ring[nth_after(self.first, self.queued)] = q;
         self.queued += 1;
@@ -514,6 +558,7 @@ impl Stepper {
             q.profile = q.block.profile();
             q.hold = false;
             q.stop_at = NO_STOP;
+            q.prepare();
         }
         if !self.act.live {
             return self.load_next(hal);
@@ -529,6 +574,7 @@ impl Stepper {
         Some(act.cursor.next(slot.profile.times()))
     }
 
+    /// Start the next queued block (its state was prepared when it was queued): directions, servo, a copy.
     fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if self.queued == 0 {
             return None;
@@ -537,48 +583,20 @@ impl Stepper {
         self.first = after(slot);
         self.queued -= 1;
         let q = &self.ring[slot & SLOT_MASK];
-        let block = &q.block;
-        let n = q.n;
-        let home_mask = match q.switches {
-            Switches::Limits => 0,
-            Switches::Homing { axes } => axes,
-        };
         for axis in Axis::ALL {
             if q.dir_axes & axis.bit() != 0 {
                 hal.set_dir(axis, q.dir_levels & axis.bit() != 0);
             }
         }
-        if home_mask != 0 {
+        if q.start.home_mask != 0 {
             self.homing_hits = 0;
         }
-        if let Some(tenths) = block.servo {
+        if let Some(tenths) = q.block.servo {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
-        // Field by field (no whole-struct copy in the interrupt).
-        let act = &mut self.act;
-        act.n = n;
-        act.layout.always = q.layout.always;
-        act.layout.minors = q.layout.minors;
-        for (a, b) in act.layout.minor.iter_mut().zip(&q.layout.minor) {
-            *a = *b;
-        }
-        act.cursor = q.profile.times().cursor();
-        act.slot = slot;
-        act.live = true;
-        act.counted = home_mask != 0;
-        act.limits = q.switches == Switches::Limits;
-        act.offset = 0;
-        act.home_mask = home_mask;
-        act.locked = 0;
-        act.stop_at = q.stop_at;
-        act.countdown = 0;
-        act.target = 1;
-        if n == 0 {
-            // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
-            return Some(block.dwell_ticks.max(1));
-        }
-        act.arm(0);
-        Some(act.cursor.next(q.profile.times()))
+        self.act = q.start;
+        self.act.slot = slot;
+        Some(q.first)
     }
 
     /// The executing block is done: count it and go on with the next one, unless a hold stops here.
@@ -731,13 +749,15 @@ fn continue_hold(carry: Carry, q: &mut Queued) -> Option<Carry> {
     }
     q.profile.set_times(times);
     q.hold = true;
-    match left {
+    let carried = match left {
         None => {
             q.stop_at = times.events();
             None
         }
         Some(v_sq) => Some(Carry { v_sq, planned_exit: q.block.exit_rate }),
-    }
+    };
+    q.prepare();
+    carried
 }
 
 #[cfg(test)]
@@ -997,7 +1017,8 @@ mod tests {
         let b = StepBlock { steps: [5, -5, 3, 0], cruise_rate: 100, ..StepBlock::default() };
         let l = Layout::of(&b, 5);
         assert_eq!((l.always, l.minors), (0b0011, 1));
-        assert_eq!((l.minor[0].delta, l.minor[0].err, l.minor[0].bit, l.minor[0].axis), (3, 2, 0b0100, 2));
+        // Error term ⌊5/2⌋ = 2: room 5 − 1 − 2 = 2.
+        assert_eq!((l.minor[0].delta, l.minor[0].room, l.minor[0].bit, l.minor[0].axis), (3, 2, 0b0100, 2));
         let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
         let l = Layout::of(&b, 7);
         assert_eq!((l.always, l.minors), (0b1000, 3));
