@@ -274,6 +274,27 @@ impl Active {
         }
     }
 
+    /// Become `from` (a prepared start), field by field: the compiler's whole-struct copy is a slow library call.
+    #[inline(always)]
+    fn load(&mut self, from: &Active) {
+        self.countdown = from.countdown;
+        self.n = from.n;
+        self.cursor.set(&from.cursor);
+        self.layout.always = from.layout.always;
+        self.layout.minors = from.layout.minors;
+        self.layout.minor[0] = from.layout.minor[0];
+        self.layout.minor[1] = from.layout.minor[1];
+        self.layout.minor[2] = from.layout.minor[2];
+        self.target = from.target;
+        self.live = from.live;
+        self.counted = from.counted;
+        self.limits = from.limits;
+        self.offset = from.offset;
+        self.home_mask = from.home_mask;
+        self.locked = from.locked;
+        self.stop_at = from.stop_at;
+    }
+
     /// Events emitted so far.
     fn emitted(&self) -> u32 {
         self.target - 1 - self.countdown
@@ -583,18 +604,18 @@ impl Stepper {
         self.first = after(slot);
         self.queued -= 1;
         let q = &self.ring[slot & SLOT_MASK];
-        for axis in Axis::ALL {
-            if q.dir_axes & axis.bit() != 0 {
-                hal.set_dir(axis, q.dir_levels & axis.bit() != 0);
-            }
-        }
+        // Written out per axis (no loop through an array of the axes).
+        set_dir(hal, Axis::X, q.dir_axes, q.dir_levels);
+        set_dir(hal, Axis::Y, q.dir_axes, q.dir_levels);
+        set_dir(hal, Axis::Z, q.dir_axes, q.dir_levels);
+        set_dir(hal, Axis::E, q.dir_axes, q.dir_levels);
         if q.start.home_mask != 0 {
             self.homing_hits = 0;
         }
         if let Some(tenths) = q.block.servo {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
-        self.act = q.start;
+        self.act.load(&q.start);
         self.act.slot = slot;
         Some(q.first)
     }
@@ -729,6 +750,14 @@ impl Stepper {
         let act = &mut self.act;
         act.arm(k);
         Some(act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times()))
+    }
+}
+
+/// Set `axis`'s direction pin to its bit of `levels` if it is one of `axes`.
+#[inline(always)]
+fn set_dir<H: StepPins>(hal: &mut H, axis: Axis, axes: u8, levels: u8) {
+    if axes & axis.bit() != 0 {
+        hal.set_dir(axis, levels & axis.bit() != 0);
     }
 }
 

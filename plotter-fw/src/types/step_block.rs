@@ -253,6 +253,16 @@ impl Cursor {
         interval
     }
 
+    /// Become `from`, field by field (a whole-struct copy can become a slow library call in the interrupt).
+    #[inline(always)]
+    pub fn set(&mut self, from: &Cursor) {
+        self.left = from.left;
+        self.frac = from.frac;
+        self.d = from.d;
+        self.e = from.e;
+        self.seg = from.seg;
+    }
+
     /// Fixed-point time of the last event returned (the start, before the first), modulo one tick: its fraction,
     /// all that the following intervals depend on.
     pub fn time(&self) -> u64 {
