@@ -690,13 +690,13 @@ impl Stepper {
         self.act.cursor.step()
     }
 
-    /// The executing block's next segment, read in place from its ring slot (off the fast path's straight line:
-    /// a segment lasts several events). Past the last one (never: the events are counted) the cursor steps by 1.
+    /// The executing block's next segment, read in place from its ring slot. Past the last one (never: the events
+    /// are counted) the cursor steps by 1 tick.
     #[inline(always)]
     fn enter_segment(&mut self) {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        let seg = times.segments().get(act.cursor.next_segment()).copied();
+        let seg = times.segment(act.cursor.next_segment()).copied();
         act.cursor.enter(&seg.unwrap_or(PAST_THE_END));
     }
 

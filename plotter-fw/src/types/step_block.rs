@@ -302,6 +302,12 @@ impl StepTimes {
         self.events
     }
 
+    /// Segment `i` (of [`StepTimes::segments`]), if there is one.
+    #[inline(always)]
+    pub fn segment(&self, i: usize) -> Option<&Segment> {
+        if i < usize::from(self.len) { self.segments.get(i) } else { None }
+    }
+
     /// Ticks from the start to the last event, exactly as [`Cursor::next`] adds them up (saturated at `u32::MAX`).
     pub fn duration_ticks(&self) -> u32 {
         let end = (u128::from(self.start) + self.span) >> FRAC_BITS;
