@@ -1062,10 +1062,99 @@ mod tests {
     }
 
     #[test]
+    fn a_minor_axis_steps_on_the_midpoint_bresenham_pattern() {
+        // n = 5, |Δ| = 3: after k events ⌊(3k + 2)/5⌋ = 1, 1, 2, 2, 3 steps, i.e. steps at events 1, 3 and 5.
+        let b = StepBlock { steps: [5, 3, 0, 0], cruise_rate: 100, ..StepBlock::default() };
+        let mut l = Layout::of(&b, 5);
+        let masks: std::vec::Vec<u8> = (0..5).map(|_| l.event(5)).collect();
+        assert_eq!(masks, [0b11, 0b01, 0b11, 0b01, 0b11]);
+        // n = 4, |Δ| = 1: ⌊(k + 2)/4⌋ = 0, 1, 1, 1 — the one step at event 2; room n − 1 − ⌊n/2⌋ = 1 at the start.
+        let b = StepBlock { steps: [0, 0, -1, 4], cruise_rate: 100, ..StepBlock::default() };
+        let mut l = Layout::of(&b, 4);
+        assert_eq!(l.minor[0].room, 1);
+        let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(4)).collect();
+        assert_eq!(masks, [0b1000, 0b1100, 0b1000, 0b1000]);
+        assert_eq!(l.steps_after(4, 4), [0, 0, 1, 4]);
+    }
+
+    #[test]
+    fn on_timer_schedules_from_the_interrupt_and_stops_at_the_end() {
+        /// Records how the timer was driven.
+        #[derive(Default)]
+        struct Timed(Rec, std::vec::Vec<(char, u32)>);
+        impl StepPins for Timed {
+            fn set_dir(&mut self, axis: Axis, level: bool) {
+                self.0.set_dir(axis, level);
+            }
+            fn step(&mut self, axis: Axis) {
+                self.0.step(axis);
+            }
+            fn enable_motors(&mut self, _on: bool) {}
+        }
+        impl Endstops for Timed {
+            fn pressed(&mut self) -> u8 {
+                0
+            }
+        }
+        impl StepTimer for Timed {
+            fn schedule(&mut self, ticks: u32) {
+                self.1.push(('s', ticks));
+            }
+            fn schedule_next(&mut self, ticks: u32) {
+                self.1.push(('n', ticks));
+            }
+            fn cancel(&mut self) {
+                self.1.push(('c', 0));
+            }
+        }
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Timed::default();
+        // 3 events at 1000 events/s, then a 7-tick dwell: the block change happens inside the interrupt.
+        s.push(StepBlock { steps: [3, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
+        s.push(StepBlock::dwell(7), Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(1000));
+        let mut runs = 0;
+        while s.on_timer(&mut hal) {
+            runs += 1;
+            assert!(runs < 10);
+        }
+        assert_eq!(hal.1, [('n', 1000), ('n', 1000), ('n', 7), ('c', 0)]);
+        assert_eq!((hal.0.pos, s.completed()), ([3, 0, 0, 0], 2));
+        assert!(s.is_idle());
+    }
+
+    #[test]
+    fn a_queued_block_starts_from_its_prepared_state() {
+        // The prepared first interval is the profile's: √(2/a) = 14 142 µs from rest at 10⁴ events/s².
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let b = StepBlock { steps: [100, 40, 0, 0], cruise_rate: 1000, accel: 10_000, ..StepBlock::default() };
+        s.push(b, Switches::Limits).unwrap();
+        let q = &s.ring[s.first];
+        assert_eq!((q.first, q.start.n, q.start.countdown, q.start.target), (14_142, 100, 99, 100));
+        assert_eq!((q.start.layout.always, q.start.layout.minors), (0b0001, 1));
+        assert!(q.start.live && q.start.limits && !q.start.counted);
+        assert_eq!(s.start(&mut hal), Some(14_142));
+        // A homing block: every event on the slow path.
+        let mut s = Stepper::new(0, 0);
+        s.push(
+            StepBlock { steps: [0, 8, 0, 0], cruise_rate: 100, ..StepBlock::default() },
+            Switches::Homing { axes: 2 },
+        )
+        .unwrap();
+        let q = &s.ring[s.first];
+        assert_eq!((q.first, q.start.countdown, q.start.home_mask), (10_000, 0, 2));
+        assert!(q.start.counted && !q.start.limits);
+    }
+
+    #[test]
     fn ring_slots_wrap_without_division() {
         assert_eq!(SLOTS, 4);
         assert_eq!([after(0), after(1), after(2), after(3)], [1, 2, 3, 0]);
-        assert_eq!([nth_after(1, 0), nth_after(1, 2), nth_after(2, 2), nth_after(3, 1), nth_after(3, 3)], [1, 3, 0, 0, 2]);
+        assert_eq!(
+            [nth_after(1, 0), nth_after(1, 2), nth_after(2, 2), nth_after(3, 1), nth_after(3, 3)],
+            [1, 3, 0, 0, 2]
+        );
     }
 
     #[test]

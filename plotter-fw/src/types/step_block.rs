@@ -729,6 +729,18 @@ mod tests {
         assert_eq!(c.time(), 3 * quarter);
         assert_eq!([c.next(&times), c.next(&times), c.next(&times)], [4, 4, 1]);
         assert_eq!(c.next_segment(), 2);
+        // Segments by index: the two in use, then none (the unused rest of the array is not a segment).
+        assert_eq!(times.segment(1), Some(&Segment { count: 2, interval: 4 << 32, add: 0 }));
+        assert_eq!((times.segment(2), times.segment(MAX_SEGMENTS)), (None, None));
+        // A copy made with `set` goes on exactly as the original: 4, 4 after the first three events.
+        let mut c = times.cursor();
+        for _ in 0..3 {
+            c.next(&times);
+        }
+        let mut copy = Cursor::default();
+        copy.set(&c);
+        assert_eq!(copy, c);
+        assert_eq!([copy.next(&times), copy.next(&times)], [4, 4]);
     }
 
     #[test]

@@ -111,6 +111,23 @@ mod tests {
     }
 
     #[test]
+    fn next_is_schedule_while_running() {
+        let mut d = Deadline::new(5);
+        assert_eq!(d.schedule(1_000, 40), 1_040);
+        // From the interrupt (running): the previous deadline plus the interval, as `schedule` gives.
+        assert_eq!(d.next(1_043, 25), 1_065);
+        assert_eq!(d.next(1_066, 10), 1_075);
+        // Late: 1_075 + 6 = 1_081 is closer than 1_077 + 5 = 1_082; an interval just the lead away is in time.
+        assert_eq!(d.next(1_077, 6), 1_082);
+        assert_eq!(d.next(1_082, 5), 1_087);
+        assert!(d.is_running());
+        // Across the clock's wrap.
+        let mut d = Deadline::new(1);
+        assert_eq!(d.schedule(u32::MAX - 2, 2), u32::MAX);
+        assert_eq!(d.next(u32::MAX, 4), 3);
+    }
+
+    #[test]
     fn the_32_bit_clock_wraps_between_events() {
         let mut d = Deadline::new(1);
         assert_eq!(d.schedule(u32::MAX - 5, 4), u32::MAX - 1);
