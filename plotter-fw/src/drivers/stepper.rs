@@ -94,10 +94,13 @@ impl Layout {
             let d = block.steps[axis.index()].unsigned_abs();
             if d == n && n > 0 {
                 l.always |= axis.bit();
-            } else if d > 0 && usize::from(l.minors) < MINORS {
+            } else if d > 0
+                // At most NUM_AXES − 1 axes are minor: the major one steps at every event.
+                && let Some(m) = l.minor.get_mut(usize::from(l.minors))
+            {
                 #[allow(clippy::cast_possible_truncation, reason = "an axis index is below NUM_AXES")]
                 let index = axis.index() as u8;
-                l.minor[usize::from(l.minors)] = Minor { room: n - 1 - n / 2, delta: d, bit: axis.bit(), axis: index };
+                *m = Minor { room: n - 1 - n / 2, delta: d, bit: axis.bit(), axis: index };
                 l.minors += 1;
             }
         }
@@ -1145,6 +1148,45 @@ mod tests {
         let q = &s.ring[s.first];
         assert_eq!((q.first, q.start.countdown, q.start.home_mask), (10_000, 0, 2));
         assert!(q.start.counted && !q.start.limits);
+    }
+
+    #[test]
+    fn direction_levels_follow_the_sign_and_the_inversion() {
+        // X and Y inverted: X backwards is high ^ inverted = low, Y forwards low ^ inverted = high; Z backwards high.
+        let mut s = Stepper::new(Axis::X.bit() | Axis::Y.bit(), 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [-4, 4, -2, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.start(&mut hal);
+        assert_eq!(hal.dir, [false, true, true, false]);
+    }
+
+    #[test]
+    fn start_does_nothing_while_a_block_runs_or_a_fault_is_latched() {
+        let mut s = Stepper::new(0, Axis::X.bit());
+        let mut hal = Rec::default();
+        let b = StepBlock { steps: [5, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() };
+        s.push(b, Switches::Limits).unwrap();
+        s.push(b, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(1000));
+        assert_eq!(s.start(&mut hal), None, "running: the queued block waits");
+        assert_eq!(s.pending(), 2);
+        assert!(s.limit_switches(Axis::X.bit()));
+        s.push(b, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), None, "faulted: nothing starts");
+        assert_eq!(s.pending(), 1);
+    }
+
+    #[test]
+    fn past_the_last_segment_the_cursor_steps_by_one_tick() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [2, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(1000));
+        assert_eq!(s.act.cursor.step(), 1000);
+        // The block's one segment is used up: entering the next one finds none.
+        s.enter_segment();
+        assert_eq!([s.act.cursor.step(), s.act.cursor.step()], [1, 1]);
     }
 
     #[test]
