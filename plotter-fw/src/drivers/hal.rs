@@ -62,6 +62,12 @@ pub trait StepTimer {
     /// Fire the timer interrupt `ticks` timer ticks after the previous timer event (or after now, when the
     /// stepper was idle). `ticks ≥ 1`.
     fn schedule(&mut self, ticks: u32);
+    /// [`StepTimer::schedule`] from the timer interrupt itself: the timer is running, so the next event is `ticks`
+    /// after the one being handled (a board may skip its idle check here; the default is `schedule`).
+    #[inline(always)]
+    fn schedule_next(&mut self, ticks: u32) {
+        self.schedule(ticks);
+    }
     /// Stop the timer (the stepper went idle).
     fn cancel(&mut self);
 }

@@ -15,8 +15,8 @@
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::fmath::sqrt;
-use crate::hal::{Endstops, StepPins};
-use crate::step_block::{Cursor, Profile, StepBlock, StepTimes, Switches};
+use crate::hal::{Endstops, StepPins, StepTimer};
+use crate::step_block::{Cursor, FRAC_BITS, Profile, Segment, StepBlock, StepTimes, Switches};
 
 /// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
 /// frozen; the planner keeps re-planning the rest.
@@ -32,21 +32,27 @@ enum HoldState {
     Stopped,
 }
 
+/// What the cursor steps by past a block's last segment (never reached: the stepper counts the events): 1 tick.
+const PAST_THE_END: Segment = Segment { count: u32::MAX, interval: 1 << FRAC_BITS, add: 0 };
+
 /// No stop inside the block.
 const NO_STOP: u32 = u32::MAX;
 
-/// Slots of the block ring: the executing block and the queue.
-const SLOTS: usize = STEPPER_QUEUE + 1;
+/// Slots of the block ring: the executing block and the queue, rounded up to a power of two so that a slot index
+/// is wrapped (and known to be in range) by a mask: no division, no bounds check in the interrupt.
+const SLOTS: usize = (STEPPER_QUEUE + 1).next_power_of_two();
 
-/// The ring slot after `i` (no division: this runs in the interrupt at each block change).
+/// Wraps a ring slot index.
+const SLOT_MASK: usize = SLOTS - 1;
+
+/// The ring slot after `i`.
 fn after(i: usize) -> usize {
-    if i + 1 >= SLOTS { 0 } else { i + 1 }
+    (i + 1) & SLOT_MASK
 }
 
-/// The ring slot `k` places after `i` (`k < SLOTS`).
+/// The ring slot `k` places after `i`.
 fn nth_after(i: usize, k: usize) -> usize {
-    let j = i + k;
-    if j >= SLOTS { j - SLOTS } else { j }
+    (i + k) & SLOT_MASK
 }
 
 /// Most axes that step on some events only (every block has a major axis that steps at each event).
@@ -55,11 +61,14 @@ const MINORS: usize = NUM_AXES - 1;
 // `Layout::event` is written out for three minor axes.
 const _: () = assert!(MINORS == 3);
 
-/// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term.
+/// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term `e`, kept as the
+/// room left below the step, `room = n − 1 − e`. An event takes `|Δ|` from it; when that borrows (`e + |Δ| ≥ n`)
+/// the axis steps and `n` is added back — a subtraction, and on a step an add and an OR.
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(C)]
 struct Minor {
+    room: u32,
     delta: u32,
-    err: u32,
     /// Its [`Axis::bit`].
     bit: u8,
     /// Its [`Axis::index`].
@@ -69,6 +78,7 @@ struct Minor {
 /// What the interrupt does at each event of a block, laid out when the block is pushed: the axes that step at
 /// every event, and the few that do not, in a packed list (no per-axis loop, no match at each event).
 #[derive(Debug, Clone, Copy, Default)]
+#[repr(C)]
 struct Layout {
     /// Axes with `|Δ| = n`: they step at every event.
     always: u8,
@@ -84,10 +94,13 @@ impl Layout {
             let d = block.steps[axis.index()].unsigned_abs();
             if d == n && n > 0 {
                 l.always |= axis.bit();
-            } else if d > 0 && usize::from(l.minors) < MINORS {
+            } else if d > 0
+                // At most NUM_AXES − 1 axes are minor: the major one steps at every event.
+                && let Some(m) = l.minor.get_mut(usize::from(l.minors))
+            {
                 #[allow(clippy::cast_possible_truncation, reason = "an axis index is below NUM_AXES")]
                 let index = axis.index() as u8;
-                l.minor[usize::from(l.minors)] = Minor { delta: d, err: n / 2, bit: axis.bit(), axis: index };
+                *m = Minor { room: n - 1 - n / 2, delta: d, bit: axis.bit(), axis: index };
                 l.minors += 1;
             }
         }
@@ -120,7 +133,8 @@ impl Layout {
             }
         }
         for m in &self.minor[..usize::from(self.minors)] {
-            let sum = u64::from(k) * u64::from(m.delta) + u64::from(n / 2) - u64::from(m.err);
+            // The error term e = n − 1 − room; k·|Δ| + ⌊n/2⌋ = steps·n + e.
+            let sum = u64::from(k) * u64::from(m.delta) + u64::from(n / 2) + u64::from(m.room) + 1 - u64::from(n);
             steps[usize::from(m.axis)] = u32::try_from(sum / u64::from(n.max(1))).unwrap_or(u32::MAX);
         }
         steps
@@ -130,12 +144,12 @@ impl Layout {
 impl Minor {
     #[inline(always)]
     fn event(&mut self, n: u32) -> u8 {
-        let e = self.err + self.delta;
-        if e >= n {
-            self.err = e - n;
+        let (room, borrow) = self.room.overflowing_sub(self.delta);
+        if borrow {
+            self.room = room.wrapping_add(n);
             self.bit
         } else {
-            self.err = e;
+            self.room = room;
             0
         }
     }
@@ -149,7 +163,10 @@ struct Queued {
     profile: Profile,
     /// Step events.
     n: u32,
-    layout: Layout,
+    /// The executing state at the block's first event, and the interval to it ([`Queued::prepare`]): loading the
+    /// block in the interrupt is a copy.
+    start: Active,
+    first: u32,
     /// Axes that move, and the level of their direction pin (inversion applied).
     dir_axes: u8,
     dir_levels: u8,
@@ -158,6 +175,41 @@ struct Queued {
     hold: bool,
     /// Event after which the hold stops ([`NO_STOP`]: none).
     stop_at: u32,
+}
+
+impl Queued {
+    /// Compute the executing state at the block's first event and the interval to it (main context, whenever the
+    /// block's step times or stop change while it is queued).
+    fn prepare(&mut self) {
+        let home_mask = match self.switches {
+            Switches::Limits => 0,
+            Switches::Homing { axes } => axes,
+        };
+        let n = self.n;
+        let mut act = Active {
+            countdown: 0,
+            n,
+            cursor: self.profile.times().cursor(),
+            layout: Layout::of(&self.block, n),
+            target: 1,
+            slot: 0,
+            live: true,
+            counted: home_mask != 0,
+            limits: self.switches == Switches::Limits,
+            offset: 0,
+            home_mask,
+            locked: 0,
+            stop_at: self.stop_at,
+        };
+        self.first = if n == 0 {
+            // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
+            self.block.dwell_ticks.max(1)
+        } else {
+            act.arm(0);
+            act.cursor.next(self.profile.times())
+        };
+        self.start = act;
+    }
 }
 
 /// The rate a decelerating hold carries out of the last block it has re-timed.
@@ -174,17 +226,20 @@ struct Carry {
 /// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
 /// interval. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing event,
 /// the idle stepper — is one `countdown == 0` test away, on the slow path.
+///
+/// Laid out in C order, the fields of the fast path first (near the struct's start: short load offsets).
 #[derive(Debug, Clone, Copy)]
+#[repr(C)]
 struct Active {
     /// Events the fast path may still emit before the event at `target`.
     countdown: u32,
+    /// Events in the block.
+    n: u32,
+    cursor: Cursor,
+    layout: Layout,
     /// The next event the slow path handles: the block's last, or where a hold stops; for a homing block (all its
     /// events on the slow path) the next event.
     target: u32,
-    /// Events in the block.
-    n: u32,
-    layout: Layout,
-    cursor: Cursor,
     /// Ring slot of the block.
     slot: usize,
     /// A block is executing.
@@ -222,6 +277,27 @@ impl Active {
         }
     }
 
+    /// Become `from` (a prepared start), field by field: the compiler's whole-struct copy is a slow library call.
+    #[inline(always)]
+    fn load(&mut self, from: &Active) {
+        self.countdown = from.countdown;
+        self.n = from.n;
+        self.cursor.set(&from.cursor);
+        self.layout.always = from.layout.always;
+        self.layout.minors = from.layout.minors;
+        self.layout.minor[0] = from.layout.minor[0];
+        self.layout.minor[1] = from.layout.minor[1];
+        self.layout.minor[2] = from.layout.minor[2];
+        self.target = from.target;
+        self.live = from.live;
+        self.counted = from.counted;
+        self.limits = from.limits;
+        self.offset = from.offset;
+        self.home_mask = from.home_mask;
+        self.locked = from.locked;
+        self.stop_at = from.stop_at;
+    }
+
     /// Events emitted so far.
     fn emitted(&self) -> u32 {
         self.target - 1 - self.countdown
@@ -248,7 +324,9 @@ pub enum StepperFault {
 
 /// The stepper: a queue of [`StepBlock`]s and the executing block's Bresenham state.
 #[derive(Debug)]
+#[repr(C)]
 pub struct Stepper {
+    /// First: the interrupt's fields at the struct's start.
     act: Active,
     /// The executing block's slot (when one executes) is the one before `first`; `queued` blocks follow it.
     ring: [Queued; SLOTS],
@@ -279,7 +357,8 @@ impl Stepper {
             block: empty,
             profile: empty.profile(),
             n: 0,
-            layout: Layout::default(),
+            start: Active::idle(),
+            first: 1,
             dir_axes: 0,
             dir_levels: 0,
             switches: Switches::Limits,
@@ -307,7 +386,7 @@ impl Stepper {
         let mut pos = self.position;
         if self.act.live && !self.act.counted && self.act.n > 0 {
             let done = self.act.layout.steps_after(self.act.emitted(), self.act.n);
-            let steps = &self.ring[self.act.slot].block.steps;
+            let steps = &self.ring[self.act.slot & SLOT_MASK].block.steps;
             for i in 0..NUM_AXES {
                 let d = i32::try_from(done[i]).unwrap_or(i32::MAX);
                 pos[i] += if steps[i] < 0 { -d } else { d };
@@ -378,7 +457,8 @@ impl Stepper {
             block,
             profile: block.profile(),
             n,
-            layout: Layout::of(&block, n),
+            start: Active::idle(),
+            first: 1,
             dir_axes,
             dir_levels,
             switches,
@@ -388,6 +468,7 @@ impl Stepper {
         if self.hold == HoldState::Decelerating {
             self.carry = self.carry.and_then(|c| continue_hold(c, &mut q));
         }
+        q.prepare();
         // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
         self.ring[nth_after(self.first, self.queued)] = q;
         self.queued += 1;
@@ -449,7 +530,7 @@ impl Stepper {
         }
         let k = act.emitted();
         let scheduled = k + 1;
-        let slot = &mut self.ring[act.slot];
+        let slot = &mut self.ring[act.slot & SLOT_MASK];
         if slot.block.accel == 0 {
             // No acceleration to slow down with: stop after the event already scheduled.
             act.stop_at = scheduled;
@@ -501,6 +582,7 @@ impl Stepper {
             q.profile = q.block.profile();
             q.hold = false;
             q.stop_at = NO_STOP;
+            q.prepare();
         }
         if !self.act.live {
             return self.load_next(hal);
@@ -508,7 +590,7 @@ impl Stepper {
         let act = &mut self.act;
         let k = act.emitted();
         act.offset = k;
-        let slot = &mut self.ring[act.slot];
+        let slot = &mut self.ring[act.slot & SLOT_MASK];
         slot.profile = Profile::new(act.n - k, 0, slot.block.cruise_rate, 0, slot.block.accel);
         act.stop_at = NO_STOP;
         act.arm(k);
@@ -516,6 +598,7 @@ impl Stepper {
         Some(act.cursor.next(slot.profile.times()))
     }
 
+    /// Start the next queued block (its state was prepared when it was queued): directions, servo, a copy.
     fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if self.queued == 0 {
             return None;
@@ -523,55 +606,27 @@ impl Stepper {
         let slot = self.first;
         self.first = after(slot);
         self.queued -= 1;
-        let q = &self.ring[slot];
-        let block = &q.block;
-        let n = q.n;
-        let home_mask = match q.switches {
-            Switches::Limits => 0,
-            Switches::Homing { axes } => axes,
-        };
-        for axis in Axis::ALL {
-            if q.dir_axes & axis.bit() != 0 {
-                hal.set_dir(axis, q.dir_levels & axis.bit() != 0);
-            }
-        }
-        if home_mask != 0 {
+        let q = &self.ring[slot & SLOT_MASK];
+        // Written out per axis (no loop through an array of the axes).
+        set_dir(hal, Axis::X, q.dir_axes, q.dir_levels);
+        set_dir(hal, Axis::Y, q.dir_axes, q.dir_levels);
+        set_dir(hal, Axis::Z, q.dir_axes, q.dir_levels);
+        set_dir(hal, Axis::E, q.dir_axes, q.dir_levels);
+        if q.start.home_mask != 0 {
             self.homing_hits = 0;
         }
-        if let Some(tenths) = block.servo {
+        if let Some(tenths) = q.block.servo {
             hal.set_servo(f32::from(tenths) / 10.0);
         }
-        // Field by field (no whole-struct copy in the interrupt).
-        let act = &mut self.act;
-        act.n = n;
-        act.layout.always = q.layout.always;
-        act.layout.minors = q.layout.minors;
-        for (a, b) in act.layout.minor.iter_mut().zip(&q.layout.minor) {
-            *a = *b;
-        }
-        act.cursor = q.profile.times().cursor();
-        act.slot = slot;
-        act.live = true;
-        act.counted = home_mask != 0;
-        act.limits = q.switches == Switches::Limits;
-        act.offset = 0;
-        act.home_mask = home_mask;
-        act.locked = 0;
-        act.stop_at = q.stop_at;
-        act.countdown = 0;
-        act.target = 1;
-        if n == 0 {
-            // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
-            return Some(block.dwell_ticks.max(1));
-        }
-        act.arm(0);
-        Some(act.cursor.next(q.profile.times()))
+        self.act.load(&q.start);
+        self.act.slot = slot;
+        Some(q.first)
     }
 
     /// The executing block is done: count it and go on with the next one, unless a hold stops here.
     fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if !self.act.counted {
-            let steps = &self.ring[self.act.slot].block.steps;
+            let steps = &self.ring[self.act.slot & SLOT_MASK].block.steps;
             // Written out per axis (no loop through a copy).
             self.position[0] += steps[0];
             self.position[1] += steps[1];
@@ -580,7 +635,7 @@ impl Stepper {
         }
         self.act.live = false;
         self.completed = self.completed.wrapping_add(1);
-        if self.hold != HoldState::Running && !(self.queued > 0 && self.ring[self.first].hold) {
+        if self.hold != HoldState::Running && !(self.queued > 0 && self.ring[self.first & SLOT_MASK].hold) {
             self.hold = HoldState::Stopped;
             return None;
         }
@@ -588,21 +643,64 @@ impl Stepper {
     }
 
     /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
-    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only: the fast path
-    /// is a countdown, the Bresenham terms of the block's moving axes, the pin write and the time recurrence,
-    /// inlined into the board's interrupt handler.
+    /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only.
     #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
-        let act = &mut self.act;
-        if act.countdown == 0 {
+        if self.act.countdown == 0 {
             return self.tick_slow(hal);
         }
+        Some(self.plain_event(hal))
+    }
+
+    /// The step timer's interrupt: [`Stepper::tick`], then the timer aimed at the next event
+    /// ([`StepTimer::schedule_next`]) or stopped. Returns whether it runs on. The plain event in the middle of a
+    /// block is inlined into the board's interrupt handler, straight through to the timer's compare register.
+    #[inline(always)]
+    pub fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
+        if self.act.countdown == 0 {
+            return self.on_timer_slow(hal);
+        }
+        let interval = self.plain_event(hal);
+        hal.schedule_next(interval);
+        true
+    }
+
+    /// [`Stepper::on_timer`] off the fast path.
+    #[inline(never)]
+    fn on_timer_slow<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
+        match self.tick_slow(hal) {
+            Some(interval) => {
+                hal.schedule_next(interval);
+                true
+            }
+            None => {
+                hal.cancel();
+                false
+            }
+        }
+    }
+
+    /// The fast path (`countdown > 0`): a countdown, the Bresenham terms of the block's moving axes, the pin
+    /// write and the time recurrence.
+    #[inline(always)]
+    fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> u32 {
+        let act = &mut self.act;
         act.countdown -= 1;
         hal.step_axes(act.layout.event(act.n));
-        Some(match act.cursor.advance() {
-            Some(interval) => interval,
-            None => act.cursor.next(self.ring[act.slot].profile.times()),
-        })
+        if act.cursor.segment_done() {
+            self.enter_segment();
+        }
+        self.act.cursor.step()
+    }
+
+    /// The executing block's next segment, read in place from its ring slot. Past the last one (never: the events
+    /// are counted) the cursor steps by 1 tick.
+    #[inline(always)]
+    fn enter_segment(&mut self) {
+        let act = &mut self.act;
+        let times = self.ring[act.slot & SLOT_MASK].profile.times();
+        let seg = times.segment(act.cursor.next_segment()).copied();
+        act.cursor.enter(&seg.unwrap_or(PAST_THE_END));
     }
 
     /// Everything but a plain event in the middle of a block.
@@ -631,7 +729,7 @@ impl Stepper {
                 }
             }
             mask &= !act.locked;
-            let steps = &self.ring[act.slot].block.steps;
+            let steps = &self.ring[act.slot & SLOT_MASK].block.steps;
             for axis in Axis::ALL {
                 let i = axis.index();
                 if mask & axis.bit() != 0 {
@@ -654,7 +752,15 @@ impl Stepper {
         }
         let act = &mut self.act;
         act.arm(k);
-        Some(act.cursor.next(self.ring[act.slot].profile.times()))
+        Some(act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times()))
+    }
+}
+
+/// Set `axis`'s direction pin to its bit of `levels` if it is one of `axes`.
+#[inline(always)]
+fn set_dir<H: StepPins>(hal: &mut H, axis: Axis, axes: u8, levels: u8) {
+    if axes & axis.bit() != 0 {
+        hal.set_dir(axis, levels & axis.bit() != 0);
     }
 }
 
@@ -675,13 +781,15 @@ fn continue_hold(carry: Carry, q: &mut Queued) -> Option<Carry> {
     }
     q.profile.set_times(times);
     q.hold = true;
-    match left {
+    let carried = match left {
         None => {
             q.stop_at = times.events();
             None
         }
         Some(v_sq) => Some(Carry { v_sq, planned_exit: q.block.exit_rate }),
-    }
+    };
+    q.prepare();
+    carried
 }
 
 #[cfg(test)]
@@ -941,7 +1049,8 @@ mod tests {
         let b = StepBlock { steps: [5, -5, 3, 0], cruise_rate: 100, ..StepBlock::default() };
         let l = Layout::of(&b, 5);
         assert_eq!((l.always, l.minors), (0b0011, 1));
-        assert_eq!((l.minor[0].delta, l.minor[0].err, l.minor[0].bit, l.minor[0].axis), (3, 2, 0b0100, 2));
+        // Error term ⌊5/2⌋ = 2: room 5 − 1 − 2 = 2.
+        assert_eq!((l.minor[0].delta, l.minor[0].room, l.minor[0].bit, l.minor[0].axis), (3, 2, 0b0100, 2));
         let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
         let l = Layout::of(&b, 7);
         assert_eq!((l.always, l.minors), (0b1000, 3));
@@ -956,9 +1065,138 @@ mod tests {
     }
 
     #[test]
+    fn a_minor_axis_steps_on_the_midpoint_bresenham_pattern() {
+        // n = 5, |Δ| = 3: after k events ⌊(3k + 2)/5⌋ = 1, 1, 2, 2, 3 steps, i.e. steps at events 1, 3 and 5.
+        let b = StepBlock { steps: [5, 3, 0, 0], cruise_rate: 100, ..StepBlock::default() };
+        let mut l = Layout::of(&b, 5);
+        let masks: std::vec::Vec<u8> = (0..5).map(|_| l.event(5)).collect();
+        assert_eq!(masks, [0b11, 0b01, 0b11, 0b01, 0b11]);
+        // n = 4, |Δ| = 1: ⌊(k + 2)/4⌋ = 0, 1, 1, 1 — the one step at event 2; room n − 1 − ⌊n/2⌋ = 1 at the start.
+        let b = StepBlock { steps: [0, 0, -1, 4], cruise_rate: 100, ..StepBlock::default() };
+        let mut l = Layout::of(&b, 4);
+        assert_eq!(l.minor[0].room, 1);
+        let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(4)).collect();
+        assert_eq!(masks, [0b1000, 0b1100, 0b1000, 0b1000]);
+        assert_eq!(l.steps_after(4, 4), [0, 0, 1, 4]);
+    }
+
+    #[test]
+    fn on_timer_schedules_from_the_interrupt_and_stops_at_the_end() {
+        /// Records how the timer was driven.
+        #[derive(Default)]
+        struct Timed(Rec, std::vec::Vec<(char, u32)>);
+        impl StepPins for Timed {
+            fn set_dir(&mut self, axis: Axis, level: bool) {
+                self.0.set_dir(axis, level);
+            }
+            fn step(&mut self, axis: Axis) {
+                self.0.step(axis);
+            }
+            fn enable_motors(&mut self, _on: bool) {}
+        }
+        impl Endstops for Timed {
+            fn pressed(&mut self) -> u8 {
+                0
+            }
+        }
+        impl StepTimer for Timed {
+            fn schedule(&mut self, ticks: u32) {
+                self.1.push(('s', ticks));
+            }
+            fn schedule_next(&mut self, ticks: u32) {
+                self.1.push(('n', ticks));
+            }
+            fn cancel(&mut self) {
+                self.1.push(('c', 0));
+            }
+        }
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Timed::default();
+        // 3 events at 1000 events/s, then a 7-tick dwell: the block change happens inside the interrupt.
+        s.push(StepBlock { steps: [3, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
+        s.push(StepBlock::dwell(7), Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(1000));
+        let mut runs = 0;
+        while s.on_timer(&mut hal) {
+            runs += 1;
+            assert!(runs < 10);
+        }
+        assert_eq!(hal.1, [('n', 1000), ('n', 1000), ('n', 7), ('c', 0)]);
+        assert_eq!((hal.0.pos, s.completed()), ([3, 0, 0, 0], 2));
+        assert!(s.is_idle());
+    }
+
+    #[test]
+    fn a_queued_block_starts_from_its_prepared_state() {
+        // The prepared first interval is the profile's: √(2/a) = 14 142 µs from rest at 10⁴ events/s².
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let b = StepBlock { steps: [100, 40, 0, 0], cruise_rate: 1000, accel: 10_000, ..StepBlock::default() };
+        s.push(b, Switches::Limits).unwrap();
+        let q = &s.ring[s.first];
+        assert_eq!((q.first, q.start.n, q.start.countdown, q.start.target), (14_142, 100, 99, 100));
+        assert_eq!((q.start.layout.always, q.start.layout.minors), (0b0001, 1));
+        assert!(q.start.live && q.start.limits && !q.start.counted);
+        assert_eq!(s.start(&mut hal), Some(14_142));
+        // A homing block: every event on the slow path.
+        let mut s = Stepper::new(0, 0);
+        s.push(
+            StepBlock { steps: [0, 8, 0, 0], cruise_rate: 100, ..StepBlock::default() },
+            Switches::Homing { axes: 2 },
+        )
+        .unwrap();
+        let q = &s.ring[s.first];
+        assert_eq!((q.first, q.start.countdown, q.start.home_mask), (10_000, 0, 2));
+        assert!(q.start.counted && !q.start.limits);
+    }
+
+    #[test]
+    fn direction_levels_follow_the_sign_and_the_inversion() {
+        // X and Y inverted: X backwards is high ^ inverted = low, Y forwards low ^ inverted = high; Z backwards high.
+        let mut s = Stepper::new(Axis::X.bit() | Axis::Y.bit(), 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [-4, 4, -2, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.start(&mut hal);
+        assert_eq!(hal.dir, [false, true, true, false]);
+    }
+
+    #[test]
+    fn start_does_nothing_while_a_block_runs_or_a_fault_is_latched() {
+        let mut s = Stepper::new(0, Axis::X.bit());
+        let mut hal = Rec::default();
+        let b = StepBlock { steps: [5, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() };
+        s.push(b, Switches::Limits).unwrap();
+        s.push(b, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(1000));
+        assert_eq!(s.start(&mut hal), None, "running: the queued block waits");
+        assert_eq!(s.pending(), 2);
+        assert!(s.limit_switches(Axis::X.bit()));
+        s.push(b, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), None, "faulted: nothing starts");
+        assert_eq!(s.pending(), 1);
+    }
+
+    #[test]
+    fn past_the_last_segment_the_cursor_steps_by_one_tick() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [2, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(1000));
+        assert_eq!(s.act.cursor.step(), 1000);
+        // The block's one segment is used up: entering the next one finds none.
+        s.enter_segment();
+        assert_eq!([s.act.cursor.step(), s.act.cursor.step()], [1, 1]);
+    }
+
+    #[test]
     fn ring_slots_wrap_without_division() {
-        assert_eq!([after(0), after(1), after(2)], [1, 2, 0]);
-        assert_eq!([nth_after(1, 0), nth_after(1, 1), nth_after(1, 2), nth_after(2, 2)], [1, 2, 0, 1]);
+        assert_eq!(SLOTS, 4);
+        assert_eq!([after(0), after(1), after(2), after(3)], [1, 2, 3, 0]);
+        assert_eq!(
+            [nth_after(1, 0), nth_after(1, 2), nth_after(2, 2), nth_after(3, 1), nth_after(3, 3)],
+            [1, 3, 0, 0, 2]
+        );
     }
 
     #[test]

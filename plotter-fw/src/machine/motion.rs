@@ -150,12 +150,8 @@ impl<const Q: usize> MotionQueue<Q> {
     /// The step timer interrupt.
     #[inline(always)]
     pub(crate) fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
-        match self.stepper.tick(hal) {
-            Some(t) => hal.schedule(t),
-            None => {
-                self.timer_running = false;
-                hal.cancel();
-            }
+        if !self.stepper.on_timer(hal) {
+            self.timer_running = false;
         }
     }
 

@@ -25,9 +25,10 @@
 //! stepper (main context), [`Profile::new`] cuts its events into at most [`MAX_SEGMENTS`] [`Segment`]s
 //! `(count, interval, add)`, in the form Klipper's step queue uses: the segment's first event comes `interval`
 //! after the previous one, and each following interval is `add` longer. Times are fixed point (`2^32` units per
-//! tick, [`FRAC_BITS`]), so per event the executor ([`Cursor::next`]) does two 64-bit adds, a decrement and a
-//! compare; the event fires at the high word of the running time, which starts half a tick in so that the high
-//! word is the time rounded to a tick.
+//! tick, [`FRAC_BITS`]); the event fires at the high word of the running time, which starts half a tick in so
+//! that the high word is the time rounded to a tick. The executor ([`Cursor::step`]) keeps only the time's
+//! fraction: per event one 32-bit add whose carry joins the interval's integer part (that is the difference of
+//! the high words), one 64-bit add of `add` to the interval, and a decrement.
 //!
 //! The segments: each ramp (acceleration, deceleration) gets at most [`RAMP_SEGMENTS`], their boundaries spaced
 //! geometrically in the distance from the point where the ramp's rate would be zero (`t ∝ √distance` there, so
@@ -184,15 +185,24 @@ pub struct StepTimes {
     events: u32,
 }
 
-/// The per-event state of a [`StepTimes`] being executed: integer adds and a compare per event.
+/// The per-event state of a [`StepTimes`] being executed: a few 32-bit adds and a decrement per event.
+///
+/// It keeps the fraction of the running fixed-point time only: the interval to the next event is the integer part
+/// of the current interval `d` plus the carry out of adding its fraction to the time's (the same tick as the
+/// difference of the two times' high words, with no 64-bit time and no subtraction), then `d` grows by `add`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(C)]
 pub struct Cursor {
-    seg: u8,
+    /// Events left in the current segment.
     left: u32,
-    t: u64,
+    /// Fraction of the time of the last event returned (of the start, before the first).
+    frac: u32,
+    /// The next interval, fixed point.
     d: u64,
+    /// Its change per event, fixed point.
     e: i64,
-    last: u32,
+    /// Index of the next segment to enter.
+    seg: u8,
 }
 
 impl Cursor {
@@ -200,42 +210,63 @@ impl Cursor {
     /// Past the last event it returns 1 (never reached by the stepper, which counts the events).
     #[inline]
     pub fn next(&mut self, times: &StepTimes) -> u32 {
-        match self.advance() {
-            Some(interval) => interval,
-            None => self.next_segment(times),
-        }
-    }
-
-    /// [`Cursor::next`] within the current segment (the step interrupt's path: two 64-bit adds, a decrement and a
-    /// compare); `None` when the segment is used up and the next one must be read from the [`StepTimes`].
-    #[inline(always)]
-    pub fn advance(&mut self) -> Option<u32> {
         if self.left == 0 {
-            return None;
+            match times.segments().get(usize::from(self.seg)) {
+                Some(s) => self.enter(s),
+                None => return 1,
+            }
         }
-        self.left -= 1;
-        self.t = self.t.wrapping_add(self.d);
-        self.d = self.d.wrapping_add_signed(self.e);
-        let tick = high_word(self.t);
-        let interval = tick.wrapping_sub(self.last);
-        self.last = tick;
-        Some(interval)
+        self.step()
     }
 
-    /// Enter the next segment and return its first interval (1 past the last event).
-    #[inline(never)]
-    fn next_segment(&mut self, times: &StepTimes) -> u32 {
-        let Some(s) = times.segments().get(usize::from(self.seg)) else { return 1 };
-        self.seg += 1;
+    /// Whether the current segment is used up: the next event needs the next segment ([`Cursor::enter`]) before
+    /// its [`Cursor::step`].
+    #[inline(always)]
+    pub fn segment_done(&self) -> bool {
+        self.left == 0
+    }
+
+    /// Index of the next segment to [`Cursor::enter`] (into [`StepTimes::segments`]).
+    #[inline(always)]
+    pub fn next_segment(&self) -> usize {
+        usize::from(self.seg)
+    }
+
+    /// Enter segment `s` (the next one of its [`StepTimes`]): its first event comes `s.interval` after the last.
+    #[inline(always)]
+    pub fn enter(&mut self, s: &Segment) {
+        self.seg = self.seg.wrapping_add(1);
         self.left = s.count;
         self.d = s.interval;
         self.e = s.add;
-        self.advance().unwrap_or(1)
     }
 
-    /// Fixed-point time of the last event returned (the start, before the first).
+    /// One event of the current segment (which has one left): the interval to it, ticks.
+    #[inline(always)]
+    pub fn step(&mut self) -> u32 {
+        self.left = self.left.wrapping_sub(1);
+        #[allow(clippy::cast_possible_truncation, reason = "the low word of the interval")]
+        let (frac, carry) = self.frac.overflowing_add(self.d as u32);
+        self.frac = frac;
+        let interval = high_word(self.d).wrapping_add(u32::from(carry));
+        self.d = self.d.wrapping_add_signed(self.e);
+        interval
+    }
+
+    /// Become `from`, field by field (a whole-struct copy can become a slow library call in the interrupt).
+    #[inline(always)]
+    pub fn set(&mut self, from: &Cursor) {
+        self.left = from.left;
+        self.frac = from.frac;
+        self.d = from.d;
+        self.e = from.e;
+        self.seg = from.seg;
+    }
+
+    /// Fixed-point time of the last event returned (the start, before the first), modulo one tick: its fraction,
+    /// all that the following intervals depend on.
     pub fn time(&self) -> u64 {
-        self.t
+        u64::from(self.frac)
     }
 }
 
@@ -261,6 +292,7 @@ impl StepTimes {
     }
 
     /// The segments.
+    #[inline(always)]
     pub fn segments(&self) -> &[Segment] {
         &self.segments[..usize::from(self.len)]
     }
@@ -268,6 +300,12 @@ impl StepTimes {
     /// Number of events timed.
     pub fn events(&self) -> u32 {
         self.events
+    }
+
+    /// Segment `i` (of [`StepTimes::segments`]), if there is one.
+    #[inline(always)]
+    pub fn segment(&self, i: usize) -> Option<&Segment> {
+        if i < usize::from(self.len) { self.segments.get(i) } else { None }
     }
 
     /// Ticks from the start to the last event, exactly as [`Cursor::next`] adds them up (saturated at `u32::MAX`).
@@ -279,7 +317,9 @@ impl StepTimes {
 
     /// A cursor at the start.
     pub fn cursor(&self) -> Cursor {
-        Cursor { seg: 0, left: 0, t: self.start, d: 0, e: 0, last: high_word(self.start) }
+        #[allow(clippy::cast_possible_truncation, reason = "the fraction of the start: the low word")]
+        let frac = self.start as u32;
+        Cursor { left: 0, frac, d: 0, e: 0, seg: 0 }
     }
 
     /// Append a segment of `m` events ending at relative time `t_end` (ticks after `start`), whose event at
@@ -665,26 +705,42 @@ mod tests {
         times.len = 2;
         times.events = 5;
         times.span = (13 << 32) + (1 << 31) - u128::from(HALF);
-        // Event times 2.0, 3.75, 5.75, 9.75, 13.75 ticks: ticks 2, 3, 5, 9, 13.
+        // Event times 2.0, 3.75, 5.75, 9.75, 13.75 ticks: ticks 2, 3, 5, 9, 13, fractions 0 and then 0.75.
         let quarter = 1u64 << 30;
-        let expect_t = [8 * quarter, 15 * quarter, 23 * quarter, 39 * quarter, 55 * quarter];
+        let expect_frac = [0, 3 * quarter, 3 * quarter, 3 * quarter, 3 * quarter];
         let mut c = times.cursor();
         assert_eq!(c.time(), HALF);
         let mut intervals = Vec::new();
-        for t in expect_t {
+        for frac in expect_frac {
             intervals.push(c.next(&times));
-            assert_eq!(c.time(), t);
+            assert_eq!(c.time(), frac);
         }
         assert_eq!(intervals, [2, 1, 2, 4, 4]);
         assert_eq!(times.duration_ticks(), 13);
         assert_eq!(times.segments().len(), 2);
-        // Within a segment `advance` is `next`; at a segment's end it leaves the switch to `next`.
+        // Within a segment `step` is `next`; at a segment's end the caller enters the next one.
         let mut c = times.cursor();
-        assert_eq!(c.advance(), None, "no segment entered yet");
-        assert_eq!(c.next(&times), 2);
-        assert_eq!([c.advance(), c.advance(), c.advance()], [Some(1), Some(2), None]);
-        assert_eq!(c.time(), 23 * quarter);
+        assert!(c.segment_done(), "no segment entered yet");
+        assert_eq!(c.next_segment(), 0);
+        c.enter(&times.segments()[0]);
+        assert_eq!((c.segment_done(), c.next_segment()), (false, 1));
+        assert_eq!([c.step(), c.step(), c.step()], [2, 1, 2]);
+        assert!(c.segment_done());
+        assert_eq!(c.time(), 3 * quarter);
         assert_eq!([c.next(&times), c.next(&times), c.next(&times)], [4, 4, 1]);
+        assert_eq!(c.next_segment(), 2);
+        // Segments by index: the two in use, then none (the unused rest of the array is not a segment).
+        assert_eq!(times.segment(1), Some(&Segment { count: 2, interval: 4 << 32, add: 0 }));
+        assert_eq!((times.segment(2), times.segment(MAX_SEGMENTS)), (None, None));
+        // A copy made with `set` goes on exactly as the original: 4, 4 after the first three events.
+        let mut c = times.cursor();
+        for _ in 0..3 {
+            c.next(&times);
+        }
+        let mut copy = Cursor::default();
+        copy.set(&c);
+        assert_eq!(copy, c);
+        assert_eq!([copy.next(&times), copy.next(&times)], [4, 4]);
     }
 
     #[test]

@@ -33,15 +33,24 @@ impl Deadline {
     /// `now + lead`. Returns its absolute time (wrapping).
     #[inline(always)]
     pub fn schedule(&mut self, now: u32, ticks: u32) -> u32 {
-        // Ticks since the previous event (the interrupt runs at or after it); from now when idle.
-        let base = if self.running { self.at } else { now };
-        let elapsed = now.wrapping_sub(base);
+        // From the previous event (the interrupt runs at or after it); from now when idle.
+        if !self.running {
+            self.at = now;
+            self.running = true;
+        }
+        self.next(now, ticks)
+    }
+
+    /// [`Deadline::schedule`] while running (from the timer's interrupt): `ticks` after the previous event, never
+    /// earlier than `now + lead`.
+    #[inline(always)]
+    pub fn next(&mut self, now: u32, ticks: u32) -> u32 {
+        let elapsed = now.wrapping_sub(self.at);
         self.at = if ticks >= elapsed.saturating_add(self.lead) {
-            base.wrapping_add(ticks)
+            self.at.wrapping_add(ticks)
         } else {
             now.wrapping_add(self.lead)
         };
-        self.running = true;
         self.at
     }
 
@@ -99,6 +108,23 @@ mod tests {
         d.cancel();
         assert_eq!(d.schedule(200, 2), 205);
         assert_eq!(Deadline::new(0).schedule(7, 0), 8, "a lead of 0 is 1");
+    }
+
+    #[test]
+    fn next_is_schedule_while_running() {
+        let mut d = Deadline::new(5);
+        assert_eq!(d.schedule(1_000, 40), 1_040);
+        // From the interrupt (running): the previous deadline plus the interval, as `schedule` gives.
+        assert_eq!(d.next(1_043, 25), 1_065);
+        assert_eq!(d.next(1_066, 10), 1_075);
+        // Late: 1_075 + 6 = 1_081 is closer than 1_077 + 5 = 1_082; an interval just the lead away is in time.
+        assert_eq!(d.next(1_077, 6), 1_082);
+        assert_eq!(d.next(1_082, 5), 1_087);
+        assert!(d.is_running());
+        // Across the clock's wrap.
+        let mut d = Deadline::new(1);
+        assert_eq!(d.schedule(u32::MAX - 2, 2), u32::MAX);
+        assert_eq!(d.next(u32::MAX, 4), 3);
     }
 
     #[test]

@@ -175,6 +175,13 @@ impl StepOutputs {
         }
     }
 
+    /// [`StepOutputs::schedule`] from the timer's interrupt (the timer runs): the next event's compare value only.
+    #[inline(always)]
+    pub fn schedule_next(&self, deadline: &mut Deadline, ticks: u32) {
+        let at = deadline.next(read(self.tim + tim::CNT), ticks);
+        write(self.tim + tim::CCR1, at);
+    }
+
     /// Stop the step events.
     pub fn cancel(&self, deadline: &mut Deadline) {
         let dier = read(self.tim + tim::DIER);

@@ -101,6 +101,10 @@ impl StepTimer for BenchHal {
     fn schedule(&mut self, ticks: u32) {
         STEP_OUT.schedule(&mut self.deadline, ticks);
     }
+    #[inline(always)]
+    fn schedule_next(&mut self, ticks: u32) {
+        STEP_OUT.schedule_next(&mut self.deadline, ticks);
+    }
     fn cancel(&mut self) {
         STEP_OUT.cancel(&mut self.deadline);
     }
