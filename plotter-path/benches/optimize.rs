@@ -51,7 +51,7 @@ fn run(d: &Drawing, converge: bool) -> Row {
 
     // Local search alone, run to convergence without a budget: the n log n growth figure.
     let (converge_cpu, converge_mm) = if converge {
-        let opts = OptimizeOptions { lower_bound: false, time_budget: None, kicks_per_path: 0.0, ..default_opts };
+        let opts = OptimizeOptions { lower_bound: false, work_per_path: None, kicks_per_path: 0.0, ..default_opts };
         let mut c = d.clone();
         let (rc, _, cpu) = timed(|| optimize(&mut c, &opts).expect("valid input"));
         (cpu, rc.pen_up_after_mm)

@@ -5,10 +5,10 @@
 //!
 //! `cargo bench -p plotter-path --bench order -- FILE.svg ...` or `-- --list FILE` (one path a line, e.g. the list
 //! `benches/vs_vpype.py --list FILE` writes); `--repeat R` runs each file R times and reports the median wall time
-//! (the pen-up figures of the last run); `--budget S` sets the improvement's time budget (default: as the CLI,
-//! 1.5 s; 0 = none); `--kicks K` kicks per path (default as the CLI, 2).
+//! (the pen-up figures of the last run); `--work W[,W…]` sets the improvement's work budget in candidate moves per
+//! path (default: as the CLI; 0 = none; several: one row per budget, the import shared); `--kicks K` kicks per path (default as the CLI, 2).
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use plotter_path::MachineProfile;
 use plotter_path::input::svg::{self, SvgOptions};
@@ -29,7 +29,7 @@ fn cpu_s() -> f64 {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
     let mut files = Vec::new();
-    let (mut repeat, mut budget, mut kicks) = (1usize, 1.5f64, 2.0f64);
+    let (mut repeat, mut budget, mut kicks) = (1usize, vec![plotter_path::optimize::DEFAULT_WORK_PER_PATH], 2.0f64);
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -38,37 +38,41 @@ fn main() {
                 files.extend(list.lines().map(str::trim).filter(|l| !l.is_empty()).map(String::from));
             }
             "--repeat" => repeat = it.next().and_then(|v| v.parse().ok()).expect("--repeat N"),
-            "--budget" => budget = it.next().and_then(|v| v.parse().ok()).expect("--budget S"),
+            "--work" => {
+                let list = it.next().expect("--work W[,W…]");
+                budget = list.split(',').map(|v| v.trim().parse().expect("--work W[,W…]: numbers")).collect();
+            }
             "--kicks" => kicks = it.next().and_then(|v| v.parse().ok()).expect("--kicks K"),
             f => files.push(f.to_string()),
         }
     }
     let profile = MachineProfile::default_plotter();
     let width = profile.pen.width_mm;
-    let opts = OptimizeOptions {
+    let base = OptimizeOptions {
         merge_tolerance_mm: width / 2.0,
         bridge_mm: width,
         start: Some(plotter_path::motion::plan::home_on_page(&profile).expect("kit profile has a home")),
         objective: Objective::Time,
         time_model: Some(TravelTimeModel::from_profile(&profile)),
-        time_budget: (budget > 0.0).then(|| Duration::from_secs_f64(budget)),
         kicks_per_path: kicks,
         ..OptimizeOptions::default()
     };
     let svg_opts = SvgOptions { pen_width_mm: width, pens: profile.pens.clone(), ..SvgOptions::default() };
     println!(
-        "| input | paths | import s | optimize wall s (median) | cpu s | pen-up mm | pen-up time s | kicks kept/tried |"
+        "| input | paths | import s | work/path | optimize wall s (median) | cpu s | pen-up mm | pen-up time s | kicks kept/tried | work done |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let (mut tw, mut tmm, mut ts) = (0.0, 0.0, 0.0);
     for f in files {
         let t = Instant::now();
         let Ok(imported) = svg::load_svg(std::path::Path::new(&f), &svg_opts) else {
-            println!("| {f} | import failed | | | | | | |");
+            println!("| {f} | import failed | | | | | | | | |");
             continue;
         };
         let import_s = t.elapsed().as_secs_f64();
         let d = imported.drawing;
+        for &w in &budget {
+        let opts = OptimizeOptions { work_per_path: (w > 0.0).then_some(w), ..base.clone() };
         let mut walls = Vec::with_capacity(repeat);
         let mut last = None;
         let mut cpu = 0.0;
@@ -88,14 +92,16 @@ fn main() {
         ts += r.travel_time_after_s.unwrap_or(0.0);
         let name = std::path::Path::new(&f).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         println!(
-            "| {name} | {} | {import_s:.3} | {wall:.3} | {cpu:.2} | {:.1} | {:.1} | {}/{}{} |",
+            "| {name} | {} | {import_s:.3} | {w} | {wall:.3} | {cpu:.2} | {:.1} | {:.1} | {}/{}{} | {} |",
             d.path_count(),
             r.pen_up_after_mm,
             r.travel_time_after_s.unwrap_or(f64::NAN),
             r.improve.kicks_kept,
             r.improve.kicks_tried,
-            if r.improve.budget_exhausted { " (budget)" } else { "" }
+            if r.improve.budget_exhausted { " (budget)" } else { "" },
+            r.improve.work
         );
+        }
     }
-    println!("| **total** | | | {tw:.3} | | {tmm:.1} | {ts:.1} | |");
+    println!("| **total** | | | | {tw:.3} | | {tmm:.1} | {ts:.1} | | |");
 }

@@ -52,7 +52,7 @@ pub fn load_steps(
     }
     let mut drawing = load_laid_out(input, input_args, profile, layout).map_err(bad)?.drawing;
     if optimize.enabled() {
-        let options = OptimizeOptions { time_budget: None, ..optimize.options_from(Some(profile), pen_at)? };
+        let options = OptimizeOptions { work_per_path: None, ..optimize.options_from(Some(profile), pen_at)? };
         let report = optimize::optimize(&mut drawing, &options).with_context(|| format!("cannot optimize {shown}"))?;
         eprintln!(
             "path order: pen-up travel {:.1} mm -> {:.1} mm (lower bound {})",

@@ -1,8 +1,6 @@
 //! Path-optimization options shared by every front end: the flags `plot`, `preview`, `stats` and `optimize`
 //! flatten into their own arguments, [`OptimizeArgs::options`] turns them into library options.
 
-use std::time::Duration;
-
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use plotter_path::MachineProfile;
@@ -71,10 +69,10 @@ pub struct OptimizeArgs {
     /// Skip the 2-opt / Or-opt improvement (greedy order only)
     #[arg(long, help_heading = "Optimization")]
     pub no_improve: bool,
-    /// Time budget of the improvement, seconds (0 = run until no move improves; the result then depends only on
-    /// the seed)
-    #[arg(long, default_value_t = 1.5, help_heading = "Optimization")]
-    pub opt_budget: f64,
+    /// Work budget of the improvement: candidate moves evaluated per path (0 = run until no move improves). A
+    /// count, not a time: the order depends only on the drawing, the options and the seed, never on the machine
+    #[arg(long, default_value_t = optimize::DEFAULT_WORK_PER_PATH, help_heading = "Optimization")]
+    pub opt_work: f64,
     /// Seed of the improvement's random choices
     #[arg(long, default_value_t = 1, help_heading = "Optimization")]
     pub opt_seed: u64,
@@ -125,8 +123,8 @@ impl OptimizeArgs {
     /// [`options`](Self::options) with the order starting at `pen_at` (page mm) instead of home, unless
     /// `--start-at` says otherwise: for a plot on a machine that is not homed first.
     pub fn options_from(&self, profile: Option<&MachineProfile>, pen_at: Option<Point>) -> Result<OptimizeOptions> {
-        if !(self.opt_budget.is_finite() && self.opt_budget >= 0.0) {
-            bail!("--opt-budget must be a number of seconds ≥ 0, got {}", self.opt_budget);
+        if !(self.opt_work.is_finite() && self.opt_work >= 0.0) {
+            bail!("--opt-work must be a number ≥ 0 (candidate moves per path), got {}", self.opt_work);
         }
         let width = profile.map_or(plotter_path::config::profile::DEFAULT_PEN_WIDTH_MM, |p| p.pen.width_mm);
         let start = self.start_from(profile, pen_at)?;
@@ -153,7 +151,7 @@ impl OptimizeArgs {
                 SeamArg::Corners => SeamMode::Corners { min_turn_deg: self.seam_angle },
             },
             improve: !self.no_improve,
-            time_budget: (self.opt_budget > 0.0).then(|| Duration::from_secs_f64(self.opt_budget)),
+            work_per_path: (self.opt_work > 0.0).then_some(self.opt_work),
             seed: self.opt_seed,
             kicks_per_path: self.opt_kicks,
             objective,
@@ -163,7 +161,7 @@ impl OptimizeArgs {
     }
 }
 
-/// Optimise `drawing` in place when the flags allow (returns the report), with the flags' time budget.
+/// Optimise `drawing` in place when the flags allow (returns the report), with the flags' work budget.
 pub fn optimize_quietly(
     drawing: &mut plotter_path::Drawing,
     args: &OptimizeArgs,

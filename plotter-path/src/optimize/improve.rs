@@ -27,10 +27,13 @@
 //! **Kicks.** Once at a local optimum, the remaining budget goes to a simple iterated local search: swap two short
 //! adjacent stretches of the cycle (a segment-insertion "double bridge" no sequence of improving 2-opt moves finds),
 //! re-optimize around the cut points, and keep the result only if the total cost went down; otherwise undo it.
-//! All randomness comes from the seed, so the result is fixed by the seed unless the time budget cuts the run short.
+//! All randomness comes from the seed.
+//!
+//! **Budget.** The work is measured, not timed: every candidate a move looks at (a neighbour of an end, a seam
+//! vertex) counts one unit, and the search stops once the units reach the limit. So the result is fixed by the
+//! input, the seed and the limit — never by the machine's speed or load.
 
 use std::collections::VecDeque;
-use std::time::Instant;
 
 use kurbo::Point;
 
@@ -48,8 +51,8 @@ const EPS: f64 = 1e-9;
 pub(crate) struct ImproveParams {
     /// Neighbour-list length per end.
     pub(crate) neighbours: usize,
-    /// Stop at this instant even if not converged.
-    pub(crate) deadline: Option<Instant>,
+    /// Stop once this many candidates have been evaluated, even if not converged; `None`: run to the end.
+    pub(crate) work_limit: Option<u64>,
     /// Seed of the queue order and of the kicks.
     pub(crate) seed: u64,
     /// Number of kicks after the first local optimum.
@@ -81,8 +84,10 @@ pub struct ImproveStats {
     pub kicks_tried: usize,
     /// Kicks that lowered the cost and were kept.
     pub kicks_kept: usize,
-    /// The time budget ran out before the search finished.
+    /// The work budget ran out before the search finished.
     pub budget_exhausted: bool,
+    /// Candidates evaluated (neighbours of ends, seam vertices): the work the budget counts.
+    pub work: u64,
 }
 
 impl ImproveStats {
@@ -94,6 +99,7 @@ impl ImproveStats {
         self.kicks_tried += o.kicks_tried;
         self.kicks_kept += o.kicks_kept;
         self.budget_exhausted |= o.budget_exhausted;
+        self.work += o.work;
     }
 }
 
@@ -381,9 +387,9 @@ impl<'a> Tour<'a> {
         (self.nbr_off[e] as usize, self.nbr_off[e + 1] as usize)
     }
 
-    fn out_of_time(&mut self) -> bool {
-        if let Some(d) = self.params.deadline
-            && Instant::now() >= d
+    fn out_of_work(&mut self) -> bool {
+        if let Some(limit) = self.params.work_limit
+            && self.stats.work >= limit
         {
             self.stats.budget_exhausted = true;
             return true;
@@ -408,6 +414,7 @@ impl<'a> Tour<'a> {
             let (lo, hi) = self.nbr_range(x1);
             let extra = usize::from(self.is_wild(depot_out));
             for i in lo..hi + extra {
+                self.stats.work += 1;
                 let y = if i < hi { self.nbrs[i] } else { depot_out };
                 let cn = y / 2;
                 if cn == a || (!self.closed[cn as usize] && y != self.out_end(cn)) {
@@ -442,6 +449,7 @@ impl<'a> Tour<'a> {
             let (lo, hi) = self.nbr_range(x1);
             let extra = usize::from(self.is_wild(depot_in));
             for i in lo..hi + extra {
+                self.stats.work += 1;
                 let y = if i < hi { self.nbrs[i] } else { depot_in };
                 let cn = y / 2;
                 if cn == a || (!self.closed[cn as usize] && y != self.in_end(cn)) {
@@ -512,6 +520,7 @@ impl<'a> Tour<'a> {
                     }
                     let (lo, hi) = self.nbr_range(x);
                     for i in lo..hi {
+                        self.stats.work += 1;
                         let y = self.nbrs[i];
                         let cn = y / 2;
                         if in_seg(self, cn) {
@@ -579,6 +588,7 @@ impl<'a> Tour<'a> {
         if !self.closed[ai] {
             return false;
         }
+        self.stats.work += u64::from(self.seam_off[ai + 1] - self.seam_off[ai]);
         let cands = &self.seam_list[self.seam_off[ai] as usize..self.seam_off[ai + 1] as usize];
         if cands.len() < 2 {
             return false;
@@ -612,13 +622,12 @@ impl<'a> Tour<'a> {
 
     // ---- drivers ---------------------------------------------------------------------------------------------
 
-    /// Run until the queue is empty (local optimum) or the budget is gone. Returns false when out of time.
+    /// Run until the queue is empty (local optimum) or the budget is gone. Returns false when out of work.
     fn local_search(&mut self) -> bool {
-        let mut steps = 0u32;
         while let Some(a) = self.queue.pop_front() {
             self.queued[a as usize] = false;
-            steps = steps.wrapping_add(1);
-            if steps.is_multiple_of(64) && self.out_of_time() {
+            self.stats.work += 1;
+            if self.out_of_work() {
                 return false;
             }
             while self.try_two_opt(a) || self.try_or_opt(a) || self.try_seam(a) {}
@@ -646,7 +655,7 @@ impl<'a> Tour<'a> {
         let mut rng = SplitMix64::new(self.params.seed ^ 0x6b69_636b);
         let mut log = Vec::new();
         for _ in 0..self.params.kicks {
-            if self.out_of_time() {
+            if self.out_of_work() {
                 return;
             }
             let l1 = 1 + rng.below(MAX_RUN.min((self.n - 4) / 2));
@@ -708,7 +717,7 @@ mod tests {
     fn params(verify: bool, kicks: usize) -> ImproveParams {
         ImproveParams {
             neighbours: 6,
-            deadline: None,
+            work_limit: None,
             seed: 1,
             kicks,
             max_reversal: usize::MAX,

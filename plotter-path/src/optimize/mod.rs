@@ -9,7 +9,8 @@
 //! 2. **Order** — greedy nearest neighbour over every place a path can be entered: either end of an open path
 //!    (entering at the end draws it reversed) and, for closed paths, any allowed seam vertex;
 //! 3. **Improve** — 2-opt and Or-opt moves with reversal, seam re-choice and seeded kicks on neighbour lists,
-//!    within a time budget;
+//!    within a work budget (candidate moves evaluated, in proportion to the paths: never a clock, so the same
+//!    input gives the same order however loaded the machine is);
 //! 4. **Bound** — a lower bound on the travel of any order, so the report can state the worst-case gap.
 //!
 //! The cost minimized is pen-up distance or pen-up time ([`CostModel`]). Every step can be switched off. The
@@ -53,6 +54,9 @@ pub use travel::drawing_travel;
 
 use crate::geometry::parallel;
 use crate::{Drawing, Polyline};
+
+/// Default improvement budget: candidate moves evaluated per path (see [`OptimizeOptions::work_per_path`]).
+pub const DEFAULT_WORK_PER_PATH: f64 = 4000.0;
 
 /// Layers with at least this many paths compute their lower bound on a second thread during the improvement.
 const PARALLEL_BOUND_MIN_PATHS: usize = 500;
@@ -137,9 +141,10 @@ pub struct OptimizeOptions {
     pub seam: SeamMode,
     /// Run 2-opt / Or-opt improvement after ordering.
     pub improve: bool,
-    /// Wall-clock budget of the improvement over the whole drawing; `None` runs to convergence (and then the
-    /// result depends on the seed only).
-    pub time_budget: Option<Duration>,
+    /// Work budget of the improvement over the whole drawing, per path: the search stops once it has evaluated
+    /// this many candidate moves per (merged, drawn) path in all, even if not converged. `None` runs to
+    /// convergence. Either way the result depends only on the input, the options and the seed — not on time.
+    pub work_per_path: Option<f64>,
     /// Seed of the improvement's randomness.
     pub seed: u64,
     /// Random kicks after the first local optimum, per path (iterated local search; 0 disables).
@@ -174,7 +179,7 @@ impl Default for OptimizeOptions {
             reverse: true,
             seam: SeamMode::Any,
             improve: true,
-            time_budget: Some(Duration::from_millis(1500)),
+            work_per_path: Some(DEFAULT_WORK_PER_PATH),
             seed: 1,
             kicks_per_path: 2.0,
             neighbours: 8,
@@ -301,6 +306,9 @@ fn check(drawing: &Drawing, opts: &OptimizeOptions) -> Result<(), OptimizeError>
     }
     if opts.return_home && opts.start.is_none() {
         return bad("return_home", "needs a start position");
+    }
+    if opts.work_per_path.is_some_and(|w| !(w.is_finite() && w >= 0.0)) {
+        return bad("work_per_path", "must be a finite number ≥ 0");
     }
     if !(opts.kicks_per_path.is_finite() && opts.kicks_per_path >= 0.0) {
         return bad("kicks_per_path", "must be a finite number ≥ 0");
@@ -437,7 +445,15 @@ fn drawing_bound_parts(
 pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<OptimizeReport, OptimizeError> {
     check(drawing, opts)?;
     let t0 = Instant::now();
-    let deadline = opts.time_budget.map(|b| t0 + b);
+    // The work left for the improvement of the remaining layers (shared by all layers, in drawing order).
+    let mut work_left: Option<u64> = opts.work_per_path.map(|w| {
+        let paths = drawing.layers.iter().map(|l| l.paths.len()).sum::<usize>();
+        #[allow(clippy::cast_precision_loss, reason = "path counts are far below 2^52")]
+        let total = w * paths as f64;
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "finite, ≥ 0, clamped")]
+        let units = total.min(1e18) as u64;
+        units
+    });
     let objective = match (opts.objective, opts.time_model) {
         (Objective::Time, Some(m)) => CostModel::Time(m),
         _ => CostModel::Distance,
@@ -500,8 +516,8 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
                 }
             }
         }
-        let out_of_time = deadline.is_some_and(|d| Instant::now() >= d);
-        if opts.improve && out_of_time {
+        let out_of_work = work_left == Some(0);
+        if opts.improve && out_of_work {
             lr.improve.budget_exhausted = true;
         }
         let improve_step = |visits: &mut Vec<Visit>| {
@@ -514,7 +530,7 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
             let auto_cap = (50.0 * nf.sqrt()) as usize;
             let params = improve::ImproveParams {
                 neighbours: opts.neighbours,
-                deadline,
+                work_limit: work_left,
                 seed: opts.seed ^ (li as u64).wrapping_mul(0x9E37_79B9),
                 kicks,
                 max_reversal: opts.max_reversal.unwrap_or(auto_cap.max(1000)),
@@ -530,13 +546,16 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
         // layer is big enough to pay for a thread), which leaves the result unchanged.
         let bound_start = if li == 0 { opts.start } else { None };
         let bound_step = || opts.lower_bound.then(|| layer_bound_parts(&paths, &ids, opts.seam, bound_start));
-        let improving = opts.improve && !out_of_time;
+        let improving = opts.improve && !out_of_work;
         let (improved, bound_parts) = if improving && ids.len() >= PARALLEL_BOUND_MIN_PATHS {
             parallel::join(|| Some(improve_step(&mut visits)), bound_step)
         } else {
             (improving.then(|| improve_step(&mut visits)), bound_step())
         };
         if let Some(stats) = improved {
+            if let Some(left) = work_left.as_mut() {
+                *left = left.saturating_sub(stats.work);
+            }
             lr.improve = stats;
         }
         // With improvement on, never worse than the input order under the objective (plain greedy stays plain).
@@ -765,7 +784,7 @@ mod tests {
             d in arb_drawing(), reverse in any::<bool>(), seam in arb_seam(), start in any::<bool>(), seed in 0u64..4,
         ) {
             let opts = OptimizeOptions {
-                merge: false, reverse, seam, seed, time_budget: None,
+                merge: false, reverse, seam, seed, work_per_path: None,
                 start: start.then_some(Point::new(3.0, 7.0)),
                 ..OptimizeOptions::default()
             };
@@ -800,7 +819,7 @@ mod tests {
         fn merging_keeps_every_segment_and_bridges_only_small_gaps(
             d in arb_drawing(), reverse in any::<bool>(), tol in prop_oneof![Just(0.0), Just(1.0), Just(3.0)],
         ) {
-            let opts = OptimizeOptions { merge_tolerance_mm: tol, reverse, time_budget: None, ..OptimizeOptions::default() };
+            let opts = OptimizeOptions { merge_tolerance_mm: tol, reverse, work_per_path: None, ..OptimizeOptions::default() };
             let mut out = d.clone();
             let report = optimize(&mut out, &opts).unwrap();
             let before = segments(&d);
@@ -866,7 +885,7 @@ mod tests {
         assert!(merged.path_count() < n / 2 && r.layers[0].joins == n - merged.path_count());
         // Improvement on the input order (no greedy) still helps and never hurts.
         let mut improved = d.clone();
-        let r = optimize(&mut improved, &OptimizeOptions { improve: true, time_budget: None, ..none }).unwrap();
+        let r = optimize(&mut improved, &OptimizeOptions { improve: true, work_per_path: None, ..none }).unwrap();
         assert!(r.pen_up_after_mm < 0.5 * r.pen_up_before_mm, "{r:?}");
         assert_eq!(improved.path_count(), n);
     }
@@ -879,7 +898,7 @@ mod tests {
         let opts = OptimizeOptions {
             objective: Objective::Time,
             time_model: Some(model),
-            time_budget: None,
+            work_per_path: None,
             ..OptimizeOptions::default()
         };
         let r = optimize(&mut a, &opts).unwrap();
@@ -901,7 +920,7 @@ mod tests {
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples").join(name);
             let d = crate::input::svg::load_svg(&path, &crate::input::svg::SvgOptions::default()).unwrap().drawing;
             let mut out = d.clone();
-            let r = optimize(&mut out, &OptimizeOptions { time_budget: None, ..OptimizeOptions::default() }).unwrap();
+            let r = optimize(&mut out, &OptimizeOptions { work_per_path: None, ..OptimizeOptions::default() }).unwrap();
             let greedy = r.pen_up_greedy_mm.unwrap();
             assert!(r.pen_up_after_mm <= greedy + 1e-9, "{name}: {} > {greedy}", r.pen_up_after_mm);
             assert!((crate::geometry::travel::pen_up_length(&out) - r.pen_up_after_mm).abs() < 1e-6, "{name}");
@@ -916,7 +935,7 @@ mod tests {
         let (mut greedy, mut improved) = (0.0, 0.0);
         for (name, d) in synth::realistic_set(1) {
             let mut out = d.clone();
-            let r = optimize(&mut out, &OptimizeOptions { time_budget: None, ..OptimizeOptions::default() }).unwrap();
+            let r = optimize(&mut out, &OptimizeOptions { work_per_path: None, ..OptimizeOptions::default() }).unwrap();
             let g = r.pen_up_greedy_mm.unwrap();
             assert!(r.pen_up_after_mm <= g, "{name}");
             greedy += g;
@@ -931,7 +950,7 @@ mod tests {
     fn threaded_bound_is_deterministic_and_equals_the_sequential_bound() {
         let d = synth::random_segments(3 * PARALLEL_BOUND_MIN_PATHS, 11);
         let opts =
-            OptimizeOptions { merge: false, time_budget: None, kicks_per_path: 0.5, ..OptimizeOptions::default() };
+            OptimizeOptions { merge: false, work_per_path: None, kicks_per_path: 0.5, ..OptimizeOptions::default() };
         let (mut a, mut b) = (d.clone(), d.clone());
         let ra = optimize(&mut a, &opts).unwrap();
         let rb = optimize(&mut b, &opts).unwrap();
@@ -942,10 +961,47 @@ mod tests {
         assert!(alone > 0.0 && alone <= ra.pen_up_after_mm);
     }
 
+    /// The improvement's budget counts work, not time: a budget that stops the search spends exactly what it was
+    /// given (give or take one node's scan), repeats bit for bit, and more of it never gives a longer travel — the
+    /// search only ever keeps improvements, so a shorter run is a prefix of a longer one.
+    #[test]
+    fn work_budget_is_deterministic_and_monotone() {
+        let d = synth::random_segments(400, 3);
+        let run = |work: Option<f64>| {
+            let opts = OptimizeOptions { merge: false, work_per_path: work, ..OptimizeOptions::default() };
+            let mut out = d.clone();
+            let r = optimize(&mut out, &opts).unwrap();
+            (out, r)
+        };
+        let (full, rf) = run(None);
+        assert!(!rf.improve.budget_exhausted && rf.improve.work > 0);
+        let mut last = f64::INFINITY;
+        for per_path in [0.5, 5.0, 50.0] {
+            let (a, ra) = run(Some(per_path));
+            let (b, rb) = run(Some(per_path));
+            assert_eq!(a, b, "{per_path}");
+            assert_eq!(ra.improve, rb.improve);
+            assert!(ra.improve.budget_exhausted, "{per_path}: {:?}", ra.improve);
+            // 400 paths × per_path units; the budget is checked between nodes, so the last node's scans (until no
+            // move around it applies) may run over by a few hundred candidates.
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "small positive values")]
+            let limit = (400.0 * per_path) as u64;
+            assert!(ra.improve.work >= limit && ra.improve.work < limit + 2000, "{per_path}: {}", ra.improve.work);
+            assert!(ra.pen_up_after_mm <= last + 1e-9, "{per_path}: {} > {last}", ra.pen_up_after_mm);
+            last = ra.pen_up_after_mm;
+        }
+        assert!(rf.pen_up_after_mm <= last + 1e-9);
+        // A budget above what convergence needs changes nothing.
+        #[allow(clippy::cast_precision_loss, reason = "small count")]
+        let ample = 2.0 * rf.improve.work as f64 / 400.0;
+        let (c, rc) = run(Some(ample));
+        assert_eq!((c, rc.improve), (full, rf.improve));
+    }
+
     #[test]
     fn same_seed_same_drawing() {
         let d = synth::text_like(9);
-        let opts = OptimizeOptions { time_budget: None, seed: 5, ..OptimizeOptions::default() };
+        let opts = OptimizeOptions { work_per_path: None, seed: 5, ..OptimizeOptions::default() };
         let (mut a, mut b) = (d.clone(), d.clone());
         optimize(&mut a, &opts).unwrap();
         optimize(&mut b, &opts).unwrap();

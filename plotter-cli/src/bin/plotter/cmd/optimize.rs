@@ -42,13 +42,14 @@ pub(crate) fn report_text(r: &OptimizeReport) -> String {
     }
     let i = &r.improve;
     s += &format!(
-        "moves         2-opt {}, or-opt {}, seam {}, kicks kept {}/{}{}\n",
+        "moves         2-opt {}, or-opt {}, seam {}, kicks kept {}/{}, {} candidates evaluated{}\n",
         i.two_opt_moves,
         i.or_opt_moves,
         i.seam_moves,
         i.kicks_kept,
         i.kicks_tried,
-        if i.budget_exhausted { " (time budget reached)" } else { "" }
+        i.work,
+        if i.budget_exhausted { " (work budget reached)" } else { "" }
     );
     s += &format!("time          {:.3} s", r.elapsed.as_secs_f64());
     s
@@ -120,7 +121,7 @@ mod tests {
             "corners",
             "--seam-angle",
             "90",
-            "--opt-budget",
+            "--opt-work",
             "0",
             "--opt-seed",
             "7",
@@ -131,7 +132,7 @@ mod tests {
         .unwrap();
         assert!(!o.merge && !o.reverse && o.reorder && o.improve);
         assert_eq!(o.seam, SeamMode::Corners { min_turn_deg: 90.0 });
-        assert_eq!((o.time_budget, o.seed, o.objective), (None, 7, Objective::Time));
+        assert_eq!((o.work_per_path, o.seed, o.objective), (None, 7, Objective::Time));
         assert!(o.time_model.is_some());
         let err = parse(&["--opt-cost", "time"]).options(None).unwrap_err().to_string();
         assert!(err.contains("profile"), "{err}");
@@ -139,7 +140,7 @@ mod tests {
         assert_eq!(parse(&[]).options(Some(&p)).unwrap().objective, Objective::Time);
         assert_eq!(parse(&[]).options(None).unwrap().objective, Objective::Distance);
         assert_eq!(parse(&["--opt-cost", "distance"]).options(Some(&p)).unwrap().objective, Objective::Distance);
-        assert!(parse(&["--opt-budget=-1"]).options(None).is_err());
+        assert!(parse(&["--opt-work=-1"]).options(None).is_err());
         assert!(!parse(&["--no-optimize"]).enabled());
     }
 
@@ -147,7 +148,7 @@ mod tests {
     fn report_text_names_the_figures() {
         let mut d = plotter_path::optimize::synth::maze(1);
         let r =
-            optimize::optimize(&mut d, &OptimizeOptions { time_budget: None, ..OptimizeOptions::default() }).unwrap();
+            optimize::optimize(&mut d, &OptimizeOptions { work_per_path: None, ..OptimizeOptions::default() }).unwrap();
         let t = report_text(&r);
         for key in ["pen up", "greedy", "lower bound", "moves", "2-opt"] {
             assert!(t.contains(key), "{key} missing in {t}");
