@@ -72,35 +72,36 @@ fn main() {
         let import_s = t.elapsed().as_secs_f64();
         let d = imported.drawing;
         for &w in &budget {
-        let opts = OptimizeOptions { work_per_path: (w > 0.0).then_some(w), ..base.clone() };
-        let mut walls = Vec::with_capacity(repeat);
-        let mut last = None;
-        let mut cpu = 0.0;
-        for _ in 0..repeat.max(1) {
-            let mut out = d.clone();
-            let (w, c) = (Instant::now(), cpu_s());
-            let r = optimize(&mut out, &opts).expect("valid drawing");
-            walls.push(w.elapsed().as_secs_f64());
-            cpu = cpu_s() - c;
-            last = Some(r);
-        }
-        walls.sort_by(f64::total_cmp);
-        let wall = walls[walls.len() / 2];
-        let Some(r) = last else { continue };
-        tw += wall;
-        tmm += r.pen_up_after_mm;
-        ts += r.travel_time_after_s.unwrap_or(0.0);
-        let name = std::path::Path::new(&f).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        println!(
-            "| {name} | {} | {import_s:.3} | {w} | {wall:.3} | {cpu:.2} | {:.1} | {:.1} | {}/{}{} | {} |",
-            d.path_count(),
-            r.pen_up_after_mm,
-            r.travel_time_after_s.unwrap_or(f64::NAN),
-            r.improve.kicks_kept,
-            r.improve.kicks_tried,
-            if r.improve.budget_exhausted { " (budget)" } else { "" },
-            r.improve.work
-        );
+            let opts = OptimizeOptions { work_per_path: (w > 0.0).then_some(w), ..base.clone() };
+            let mut walls = Vec::with_capacity(repeat);
+            let mut last = None;
+            let mut cpu = 0.0;
+            for _ in 0..repeat.max(1) {
+                let mut out = d.clone();
+                let (w, c) = (Instant::now(), cpu_s());
+                let r = optimize(&mut out, &opts).expect("valid drawing");
+                walls.push(w.elapsed().as_secs_f64());
+                cpu = cpu_s() - c;
+                last = Some(r);
+            }
+            walls.sort_by(f64::total_cmp);
+            let wall = walls[walls.len() / 2];
+            let Some(r) = last else { continue };
+            tw += wall;
+            tmm += r.pen_up_after_mm;
+            ts += r.travel_time_after_s.unwrap_or(0.0);
+            let name =
+                std::path::Path::new(&f).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            println!(
+                "| {name} | {} | {import_s:.3} | {w} | {wall:.3} | {cpu:.2} | {:.1} | {:.1} | {}/{}{} | {} |",
+                d.path_count(),
+                r.pen_up_after_mm,
+                r.travel_time_after_s.unwrap_or(f64::NAN),
+                r.improve.kicks_kept,
+                r.improve.kicks_tried,
+                if r.improve.budget_exhausted { " (budget)" } else { "" },
+                r.improve.work
+            );
         }
     }
     println!("| **total** | | | | {tw:.3} | | {tmm:.1} | {ts:.1} | | |");
