@@ -1049,6 +1049,8 @@ mod tests {
         assert!(locally_smooth(&a, &b, 1.0));
         let b = seg_deg(91.0, 0.001);
         assert!(!locally_smooth(&a, &b, 1.0));
+        // Exactly 90° (cos(φ/2) = cos 45°, the limit itself) still passes.
+        assert!(locally_smooth(&a, &seg_xy(0.0, 1.0, 0.001), 1.0));
         // Straight on is smooth even with no deviation allowed.
         assert!(locally_smooth(&seg_xy(1.0, 0.0, 5.0), &seg_xy(1.0, 0.0, 5.0), 0.0));
     }
@@ -1233,14 +1235,20 @@ mod tests {
     /// Ten chords of 0.25 mm along `rot − kink/2` degrees, then ten along `rot + kink/2` (100 mm/s, 1000 mm/s²):
     /// vertex 10 turns by `kink`.
     fn kinked(kink: f32, rot: f32) -> Vec<Seg> {
+        kinked_runs(kink, rot, 10, 0.25)
+    }
+
+    /// `n` chords of `len` mm along `rot − kink/2` degrees, then `n` along `rot + kink/2` (100 mm/s, 1000 mm/s²):
+    /// vertex `n` turns by `kink`.
+    fn kinked_runs(kink: f32, rot: f32, n: usize, len: f32) -> Vec<Seg> {
         let h = (kink / 2.0).to_radians();
         let (c, s) = (rot.to_radians().cos(), rot.to_radians().sin());
         let dir = |y: f32| {
             let (ux, uy) = (h.cos(), y);
-            Seg { nominal: 100.0, ..seg_xy(ux * c - uy * s, ux * s + uy * c, 0.25) }
+            Seg { nominal: 100.0, ..seg_xy(ux * c - uy * s, ux * s + uy * c, len) }
         };
-        let mut v = std::vec![dir(-h.sin()); 10];
-        v.extend([dir(h.sin()); 10]);
+        let mut v = std::vec![dir(-h.sin()); n];
+        v.extend(std::vec![dir(h.sin()); n]);
         v
     }
 
@@ -1337,5 +1345,93 @@ mod tests {
         // Reverse pass: a long move, then 0.5 mm to a stop: the last block enters at most at 2·1500·0.5 = 1500.
         let v = build(&c, &[([8000, 0, 0, 0], 100.0), ([40, 0, 0, 0], 100.0)]);
         assert_eq!(v[1].entry_speed_sqr, 1500.0);
+    }
+
+    #[test]
+    fn the_kink_rule_weighs_the_rounding_by_each_short_chord() {
+        // Runs of 0.125 mm chords (20 a side) meeting at a turn κ, 80 steps/mm (a step of 0.0125 mm). The 2 mm spans
+        // are 16 whole chords, so r = |p − q|/(2·sin κ) = 4·cos(κ/2)/(2·sin κ) = 1/sin(κ/2); the spans of 24 steps
+        // (0.3 mm) take three whole chords, 0.375 mm, so rule 3 allows a turn of
+        // 1.5·0.75/r + 1.5·0.0125·(1/0.375 + 1/0.375) = 1.125·sin(κ/2) + 0.1 against the turn 2·sin(κ/2).
+        let c = MachineConfig::xy_plotter();
+        // κ = 15°: 2·sin 7.5° = 0.261 052 > 0.146 842 + 0.1: a corner, 1000·0.02·cos 7.5°/(1 − cos 7.5°) = 2317.78.
+        let j = verdict(&kinked_runs(15.0, 0.0, 20, 0.125), 20, &c);
+        assert_eq!(j.curve, None, "{j:?}");
+        assert!(close(j.speed_sqr, 2317.78, 0.5), "{j:?}");
+        // κ = 12°: 2·sin 6° = 0.209 057 ≤ 0.117 595 + 0.1: a curve of radius 1/sin 6° = 9.566 772 mm, its normal
+        // along Y (1500 mm/s²: 14 350.2 mm²/s², above the chords' 100² mm²/s²).
+        let j = verdict(&kinked_runs(12.0, 0.0, 20, 0.125), 20, &c);
+        let curve = j.curve.unwrap();
+        assert!(close(curve.radius, 9.566_772, 2e-3), "{j:?}");
+        assert!(close(curve.speed_sqr, 14_350.2, 4.0) && j.speed_sqr == 10_000.0, "{j:?}");
+    }
+
+    #[test]
+    fn line_feeds_without_a_speed_take_the_axis_limits_and_the_step_rate_caps() {
+        let c = MachineConfig::xy_plotter();
+        // 10 mm of X: a feed of 0, negative, infinite or NaN sets no speed, so X's 150 mm/s is the nominal.
+        for feed in [0.0, -5.0, f32::INFINITY, f32::NAN] {
+            let b = PlanBlock::line(&c, [800, 0, 0, 0], feed).unwrap();
+            assert_eq!(b.nominal_speed, 150.0, "feed {feed}");
+        }
+        // With 3000 steps/mm on X, 30 000 steps (10 mm) asked at 100 mm/s: 3000 step events per mm, and the
+        // stepper's 250 000 events/s allow 83.333 mm/s.
+        let mut fine = c;
+        fine.axes[0].steps_per_mm = 3000.0;
+        let b = PlanBlock::line(&fine, [30_000, 0, 0, 0], 100.0).unwrap();
+        assert_eq!(b.events_per_mm, 3000.0);
+        assert!(close(b.nominal_speed, 83.333_33, 1e-3), "{}", b.nominal_speed);
+    }
+
+    #[test]
+    fn a_chord_of_a_curve_cruises_at_the_curve_speed_never_above_nominal() {
+        let c = MachineConfig::xy_plotter();
+        let mut b = PlanBlock::line(&c, [800, 0, 0, 0], 60.0).unwrap();
+        assert_eq!(b.cruise_speed(), 60.0);
+        // The curve allows 50 mm/s: the chord cruises at 50 (80 steps/mm: 4000 events/s); at 60.01 mm/s the
+        // nominal 60 caps it.
+        b.curve_speed_sqr = 2500.0;
+        assert_eq!(b.cruise_speed(), 50.0);
+        assert_eq!(to_step_block(&b, 0.0).cruise_rate, 4000);
+        b.curve_speed_sqr = 3601.2;
+        assert_eq!(b.cruise_speed(), 60.0);
+        // A curve limit equal to the nominal speed² gives the nominal speed itself, not its square root taken
+        // back (for 45.278 866 mm/s the root of its f32 square comes out one ulp above).
+        let mut b = PlanBlock::line(&c, [800, 0, 0, 0], 45.278_866).unwrap();
+        b.curve_speed_sqr = b.nominal_speed * b.nominal_speed;
+        assert_eq!(b.cruise_speed(), b.nominal_speed);
+    }
+
+    #[test]
+    fn junction_speed_by_deviation_alone_capped_by_both_chords() {
+        let c = MachineConfig::xy_plotter();
+        let x = PlanBlock::line(&c, [800, 0, 0, 0], 100.0).unwrap();
+        let y = PlanBlock::line(&c, [0, 800, 0, 0], 100.0).unwrap();
+        // A right angle: 1500·0.02·sin 45°/(1 − sin 45°) = 72.426 mm²/s²; straight on: the chords' 100².
+        assert!(close(junction_speed_sqr(&x, &y, 0.02), 72.426, 0.01));
+        assert_eq!(junction_speed_sqr(&x, &x, 0.02), 10_000.0);
+        // A chord at 5 mm/s on either side caps the corner at 25 mm²/s².
+        let slow = PlanBlock::line(&c, [0, 800, 0, 0], 5.0).unwrap();
+        assert_eq!(junction_speed_sqr(&x, &slow, 0.02), 25.0);
+        assert_eq!(junction_speed_sqr(&slow, &x, 0.02), 25.0);
+        // A fixed block on either side: a stop, whatever geometry it carries.
+        let held = PlanBlock { fixed: Some(StepBlock::dwell(10)), ..y };
+        assert_eq!(junction_speed_sqr(&x, &held, 0.02), 0.0);
+        assert_eq!(junction_speed_sqr(&held, &x, 0.02), 0.0);
+    }
+
+    #[test]
+    fn deviation_switches_to_straight_on_above_the_threshold() {
+        // Two equal vectors (s, 0, 0, 0) make |u_prev + u_next|/2 = s exactly (not unit vectors: this sets the
+        // half-angle term directly). 1000 mm/s², 0.02 mm, chords at 10⁵ mm/s (cap 10¹⁰ mm²/s²).
+        let seg = |s: f32| Seg { unit: [s, 0.0, 0.0, 0.0], len: 1.0, accel: 1000.0, nominal: 1e5, fixed: false };
+        let dev = |s: f32| deviation_speed_sqr(&seg(s), &seg(s), 0.02);
+        // At 0.999 999 (in f32 1 − 17·2⁻²⁴ = 1 − 1.013 279·10⁻⁶) still the formula: 20·0.999 999/1.013 279·10⁻⁶
+        // = 1.973 79·10⁷; one step above (0.999 999 9) straight on: the cap.
+        assert!((dev(0.999_999) / 1.973_79e7 - 1.0).abs() < 1e-4, "{}", dev(0.999_999));
+        assert_eq!(dev(0.999_999_9), 1e10);
+        // Below 10⁻⁴ a reversal: a stop; at 0.01 the formula, 20·0.01/0.99 = 0.202 02.
+        assert_eq!(dev(5e-5), 0.0);
+        assert!(close(dev(0.01), 0.202_02, 1e-5), "{}", dev(0.01));
     }
 }
