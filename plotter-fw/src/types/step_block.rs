@@ -754,6 +754,9 @@ mod tests {
         let iv: Vec<u32> = (0..4).map(|_| c.next(&t)).collect();
         assert_eq!(iv, [1056, 1198, 1421, 1853]);
         assert_eq!(t.duration_ticks(), 5528);
+        // The same stop from an event 7 whole ticks later lasts as long: the start's whole ticks are not counted.
+        let (t, _) = StepTimes::hold((7 << FRAC_BITS) + HALF, 1000, 1000.0, 100_000);
+        assert_eq!(t.duration_ticks(), 5528);
         // From 1000 events/s at 10⁴ events/s²: 49 events, the last at 0.1·(1 − √0.02) s = 85 857.9 µs.
         let (t, left) = StepTimes::hold(HALF, 1000, 1000.0, 10_000);
         assert_eq!((t.events(), left), (49, None));
