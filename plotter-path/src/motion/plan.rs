@@ -522,8 +522,14 @@ impl<'c> RawPlan<'c> {
     /// Exact duration (ticks, quantized as on the wire) of an XY move by `delta` at `feed` from rest to rest: what
     /// a move between two fixed blocks takes. 0 when nothing moves.
     fn rest_to_rest_ticks(&self, delta: StepPos, feed: f32) -> u32 {
-        let Some(b) = self.line_block([delta.x, delta.y, 0, 0], feed, MoveKind::Travel) else { return 0 };
-        protocol::quantize(&planner::to_step_block(&b, 0.0)).duration_ticks()
+        self.rest_to_rest_block(delta, feed).map_or(0, |b| b.duration_ticks())
+    }
+
+    /// The step block of an XY travel by `delta` at `feed` from rest to rest, quantized as on the wire; `None`
+    /// when nothing moves.
+    fn rest_to_rest_block(&self, delta: StepPos, feed: f32) -> Option<StepBlock> {
+        let b = self.line_block([delta.x, delta.y, 0, 0], feed, MoveKind::Travel)?;
+        Some(protocol::quantize(&planner::to_step_block(&b, 0.0)))
     }
 
     fn fixed(&mut self, block: StepBlock, kind: MoveKind, stroke: usize) {
@@ -539,8 +545,7 @@ impl<'c> RawPlan<'c> {
         let settle = self.settle;
         let from = StepPos::new(self.pos[0], self.pos[1]);
         let delta = from.delta_to(to);
-        // The drop command is a 1-tick servo block; the carriage must then arrive within this budget.
-        const DROP_TICK: u32 = 1;
+        // The carriage must arrive within this budget after the drop command.
         let budget = settle.saturating_sub(clear.saturating_add(DROP_TICK));
         let at = |k: i64, n: i64| {
             // The point k/n of the way back from `to` towards `from` (`to` itself for a hop of no length).
@@ -548,11 +553,12 @@ impl<'c> RawPlan<'c> {
             StepPos::new(to.x - back(delta.dx), to.y - back(delta.dy))
         };
         let n = i64::from(delta.dx.unsigned_abs().max(delta.dy.unsigned_abs()));
-        let t_full = self.rest_to_rest_ticks(StepPos::new(delta.dx, delta.dy), feed);
+        let whole = self.rest_to_rest_block(StepPos::new(delta.dx, delta.dy), feed);
+        let t_full = whole.map_or(0, |b| b.duration_ticks());
         // Splitting pays when the carriage would still be travelling once the lift has fully ended.
         let worth = n > 0 && budget > 0 && (lift.is_none() || clear.saturating_add(t_full) > settle);
         if worth && self.flying_drop {
-            self.flying_servo_hop(lift, down, delta, feed, stroke, (clear, budget));
+            self.flying_servo_hop(lift, down, whole, stroke, (clear, budget));
             return;
         }
         // The longest last part that fits in the budget (durations grow with the length).
@@ -590,42 +596,47 @@ impl<'c> RawPlan<'c> {
     /// and cut where the rest of it fits in `budget` ticks ([`split_block`]), the drop command (a 1-tick servo
     /// block) sits at the cut and the carriage passes it at the speed it has there, so the hop loses no time to
     /// stopping for the command. The parts are fixed blocks (the planner would plan the whole travel from rest to
-    /// rest anyway, between the two servo blocks). `timing` is `(clear, budget)`.
+    /// rest anyway, between the two servo blocks). `whole` is that travel ([`RawPlan::rest_to_rest_block`]),
+    /// `timing` is `(clear, budget)`.
     fn flying_servo_hop(
         &mut self,
         lift: Option<u16>,
         down: u16,
-        delta: crate::geometry::steps::StepDelta,
-        feed: f32,
+        whole: Option<StepBlock>,
         stroke: usize,
         (clear, budget): (u32, u32),
     ) {
         let settle = self.settle;
-        let whole = self.line_block([delta.dx, delta.dy, 0, 0], feed, MoveKind::Travel);
-        let (first, last) = whole
-            .map_or((None, None), |b| split_for_budget(&protocol::quantize(&planner::to_step_block(&b, 0.0)), budget));
+        let (first, last) = whole.map_or((None, None), |b| split_for_budget(&b, budget));
         let t1 = first.map_or(0, |b| b.duration_ticks());
-        let t2 = last.map_or(0, |b| b.duration_ticks());
         if let Some(u) = lift {
             self.fixed(StepBlock::servo(u, clear.max(settle.saturating_sub(t1))), MoveKind::PenUp, stroke - 1);
         }
-        for (part, servo) in [(first, None), (None, Some(down)), (last, None)] {
-            if let Some(b) = part {
-                self.fixed(b, MoveKind::Travel, stroke);
-                self.pos[0] += b.steps[0];
-                self.pos[1] += b.steps[1];
-            }
-            if let Some(d) = servo {
-                let drop = if last.is_some() { 1 } else { settle };
-                self.fixed(StepBlock::servo(d, drop), MoveKind::PenDown, stroke);
-            }
+        if let Some(b) = first {
+            self.fixed_travel(b, stroke);
         }
-        let rest = settle.saturating_sub(1 + t2);
-        if last.is_some() && rest > 0 {
+        let Some(b) = last else {
+            self.fixed(StepBlock::servo(down, settle), MoveKind::PenDown, stroke);
+            return;
+        };
+        self.fixed(StepBlock::servo(down, DROP_TICK), MoveKind::PenDown, stroke);
+        self.fixed_travel(b, stroke);
+        let rest = settle.saturating_sub(DROP_TICK + b.duration_ticks());
+        if rest > 0 {
             self.fixed(StepBlock::dwell(rest), MoveKind::Settle, stroke);
         }
     }
+
+    /// A fixed travel block, the position moved on by its XY steps.
+    fn fixed_travel(&mut self, b: StepBlock, stroke: usize) {
+        self.fixed(b, MoveKind::Travel, stroke);
+        self.pos[0] += b.steps[0];
+        self.pos[1] += b.steps[1];
+    }
 }
+
+/// The servo's drop command is a 1-tick block: the part of the travel after it follows at once.
+const DROP_TICK: u32 = 1;
 
 /// `block` cut after its first `e` step events (0 < `e` < its events) into two blocks that run one after the
 /// other as the whole does: each axis's steps split in proportion, rounded once (so the parts add up exactly and
