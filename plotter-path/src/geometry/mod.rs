@@ -11,5 +11,6 @@ pub mod layout;
 pub mod limits;
 pub mod parallel;
 pub mod region;
+pub mod split;
 pub mod steps;
 pub mod travel;

@@ -193,6 +193,43 @@ impl Region {
         w
     }
 
+    /// Whether `p` lies inside (winding number not zero; a point exactly on the boundary may go either way). Looks
+    /// only at the edges of `p`'s band, so it is cheap enough to ask for many points.
+    pub fn contains(&self, p: Point) -> bool {
+        self.winding_banded(p) != 0
+    }
+
+    /// Push to `out` the parameters `t ∈ [0, 1]` along `p`–`q` where it meets the boundary (both ends of an edge
+    /// running along it); an edge reaching into several bands may be reported more than once.
+    pub fn crossings(&self, p: Point, q: Point, out: &mut Vec<f64>) {
+        let Some(b) = self.bbox else { return };
+        if p.x.max(q.x) < b.x0 || p.x.min(q.x) > b.x1 || p.y.max(q.y) < b.y0 || p.y.min(q.y) > b.y1 {
+            return;
+        }
+        let d = q - p;
+        let (lo, hi) = self.band_range(p.y.min(q.y), p.y.max(q.y), b);
+        for band in &self.bands[lo..=hi] {
+            for &k in band {
+                let e = self.edges[k as usize];
+                let (a, c) = (Point::new(e[0], e[1]), Point::new(e[2], e[3]));
+                if !segments_meet(p, q, a, c) {
+                    continue;
+                }
+                let f = c - a;
+                let den = d.cross(f);
+                if den == 0.0 {
+                    // Collinear: where the edge's ends project onto p–q.
+                    let dd = d.dot(d);
+                    if dd > 0.0 {
+                        out.extend([a, c].map(|v| ((v - p).dot(d) / dd).clamp(0.0, 1.0)));
+                    }
+                } else {
+                    out.push(((a - p).cross(f) / den).clamp(0.0, 1.0));
+                }
+            }
+        }
+    }
+
     /// True when the region covers no area.
     pub fn is_empty(&self) -> bool {
         self.shapes.is_empty()

@@ -532,12 +532,21 @@ fn survey(xml: &roxmltree::Document<'_>, skip_images: bool, prefix: &str) -> Sur
             s.max_user_unit_px = (len / vb_w).max(1.0);
         }
     }
+    // Where each line starts, built the first time a line number is asked for (then one binary search each, where
+    // `roxmltree`'s own lookup scans the text from its start every time: quadratic over a large file).
+    let line_starts: std::cell::OnceCell<Vec<usize>> = std::cell::OnceCell::new();
+    let line_at = |pos: usize| {
+        let starts = line_starts.get_or_init(|| {
+            std::iter::once(0).chain(xml.input_text().match_indices('\n').map(|(i, _)| i + 1)).collect()
+        });
+        starts.partition_point(|&s| s <= pos)
+    };
     for node in xml.descendants().filter(roxmltree::Node::is_element) {
         let tag = node.tag_name().name();
-        // Where the element is, for warnings only: finding the line scans the text, so it is done on demand.
+        // Where the element is, for warnings only.
         let at = || {
             let id = node.attribute("id").map(|i| format!(" id=\"{i}\"")).unwrap_or_default();
-            format!("<{tag}{id}> at line {}", xml.text_pos_at(node.range().start).row)
+            format!("<{tag}{id}> at line {}", line_at(node.range().start))
         };
         if tag == "g"
             && let Some(id) = node.attribute("id")
@@ -545,7 +554,7 @@ fn survey(xml: &roxmltree::Document<'_>, skip_images: bool, prefix: &str) -> Sur
             let label = match node.attribute((INKSCAPE, "label")) {
                 Some(l) => l.to_string(),
                 None if id.starts_with(prefix) => {
-                    format!("group at line {}", xml.text_pos_at(node.range().start).row)
+                    format!("group at line {}", line_at(node.range().start))
                 }
                 None => id.to_string(),
             };

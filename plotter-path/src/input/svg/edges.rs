@@ -8,19 +8,29 @@
 //! A fill that is not one colour (a gradient of several) matches nothing, so its outline is drawn wherever it is
 //! visible. Translucent fills are compared by their colour, as if opaque: a faint red on red shows no edge either.
 //!
-//! For a shape of colour `c`, the earlier paints meeting its outline's bounding box are visited from the top down,
-//! each contributing the part not covered by those above it: to `same` when its colour is `c`, else to `other`.
-//! When `c` is the paper's colour the outline is kept inside `other` (everything uncovered is paper, the same);
-//! otherwise it is cut away inside `same` (uncovered paper differs). Shortcuts: with nothing of colour `c` beneath
-//! and `c` not the paper's, the outline stays whole without any area operation; with nothing at all beneath a
-//! paper-coloured shape, it goes.
+//! At a point beside the outline, the colour there is decided by the earlier paints, from the top down
+//! ([`topmost_counts`]): tints (fills at most half opaque) cover nothing and count only when looking for a colour
+//! different from the shape's, the first opaque paint decides, and with none the paper shows. The outline is cut
+//! where it crosses the boundary of any earlier paint near it ([`crate::geometry::split`]) and each piece kept or
+//! dropped by that verdict at two points beside its middle, one on each side; no union or difference of areas is
+//! built, so a shape on a deep stack of paints costs the boundary edges near its outline, not the stack's area
+//! operations.
+//!
+//! A piece running along an earlier paint's edge has a different verdict on each side. It is dropped when either
+//! side shows the shape's own colour: that edge is already drawn as the earlier paint's outline (a red square laid
+//! over the left half of a red rectangle draws nothing, and the rectangle's outline stays whole: one line where the
+//! browser shows one). For a paper-coloured shape it is kept when either side shows another colour.
+//!
+//! Shortcuts: with nothing of colour `c` beneath and `c` not the paper's, the outline stays whole without any cut;
+//! with nothing at all beneath a paper-coloured shape, it goes.
 
-use super::grid::paint_grid;
-use super::walk::{Item, Outline};
+use super::grid::{BoxGrid, paint_grid};
+use super::walk::{Item, Outline, Paint};
 use crate::geometry::drawing::Rgb;
 use crate::geometry::parallel::for_each_mut;
-use crate::geometry::region::{Keep, Region, cut, polyline_bbox};
-use kurbo::Point;
+use crate::geometry::region::{Region, polyline_bbox};
+use crate::geometry::split::{Near, split_where};
+use kurbo::{Point, Rect};
 
 /// Apply the edge rule to every item's outline and move what remains into its lines. Returns how many shapes lost
 /// their whole outline to it (they match what lies beneath everywhere, e.g. white on the paper).
@@ -36,26 +46,31 @@ pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
         let Some(bbox) = outline.lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
             return;
         };
-        // Earlier paints under the outline, from the top down (later items and, within one, the stroke first).
-        let mut beneath: Vec<(usize, usize)> = grid
-            .as_ref()
-            .map(|g| g.query(bbox).into_iter().map(|k| paints[k]).filter(|h| h.0 < i).collect())
-            .unwrap_or_default();
-        beneath.reverse();
+        let Some(grid) = grid.as_ref() else {
+            // Nothing painted anywhere: only the paper lies beneath.
+            *kept_out = if outline.color == Some(paper) { Vec::new() } else { outline.lines };
+            *vanished = kept_out.is_empty();
+            return;
+        };
+        let beneath = Beneath { items: shared, paints: &paints, grid, below: i };
+        let under: Vec<usize> = grid.query(bbox).into_iter().filter(|&k| paints[k].0 < i).collect();
         let color = outline.color;
-        let on_paper = color == Some(paper);
-        let kept = if on_paper {
-            if beneath.is_empty() {
+        let kept = if color == Some(paper) {
+            if under.is_empty() {
                 Vec::new()
             } else {
-                let other = visible_where(shared, &beneath, true, |c| c != color);
-                cut(outline.lines, &[&other], Keep::Inside)
+                split_where(outline.lines, &beneath, |near, l, r| {
+                    let other = |p| topmost_counts(&beneath, near, p, true, |c| c != color);
+                    other(l) || other(r)
+                })
             }
-        } else if color.is_none() || !beneath.iter().any(|&(k, p)| shared[k].paints[p].color == color) {
+        } else if color.is_none() || !under.iter().any(|&k| beneath.paint(k).color == color) {
             outline.lines
         } else {
-            let same = visible_where(shared, &beneath, false, |c| c == color);
-            cut(outline.lines, &[&same], Keep::Outside)
+            split_where(outline.lines, &beneath, |near, l, r| {
+                let same = |p| topmost_counts(&beneath, near, p, false, |c| c == color);
+                !same(l) && !same(r)
+            })
         };
         *vanished = kept.iter().all(|l| l.len() < 2);
         *kept_out = kept;
@@ -68,39 +83,136 @@ pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
     vanished
 }
 
-/// The union of the visible parts of the paints `beneath` (listed from the top down) whose colour `wanted` accepts.
-/// Tints (fills at most half opaque) cover nothing, since what lies under them still shows; they count only when
-/// `tints` is set — when looking for a different colour, so a tint can add an edge but never take one away (its
-/// colour is a blend with the paper, which is only an estimate over other paint).
-fn visible_where(
-    items: &[Item],
-    beneath: &[(usize, usize)],
+/// The paints of the items before item `below`, found through the paint grid.
+struct Beneath<'a> {
+    items: &'a [Item],
+    paints: &'a [(usize, usize)],
+    grid: &'a BoxGrid,
+    below: usize,
+}
+
+impl Beneath<'_> {
+    fn paint(&self, k: usize) -> &Paint {
+        let (i, p) = self.paints[k];
+        &self.items[i].paints[p]
+    }
+}
+
+impl Near for Beneath<'_> {
+    /// An index into the paint list; ascending is the paint order, so the topmost comes last.
+    type Item = usize;
+
+    fn near(&self, bbox: Rect, out: &mut Vec<usize>) {
+        out.clear();
+        out.extend(self.grid.query(bbox).into_iter().filter(|&k| self.paints[k].0 < self.below));
+    }
+
+    fn region(&self, k: usize) -> &Region {
+        &self.paint(k).area
+    }
+}
+
+/// Whether the paints `near` (ascending paint order), looked at from the top down at `p`, show a colour `wanted`
+/// accepts: the first opaque paint containing `p` decides; a tint containing `p` above it counts when `tints` is
+/// set (looking for a different colour: a tint can add an edge but never take one away, its colour being a blend
+/// with the paper, only an estimate over other paint) and is looked through otherwise. With no paint, no.
+fn topmost_counts(
+    beneath: &Beneath,
+    near: &[usize],
+    p: Point,
     tints: bool,
     wanted: impl Fn(Option<Rgb>) -> bool,
-) -> Region {
-    // Paints below the last one that can count cannot add to the result: the cover is not built under it.
-    let Some(last) = beneath.iter().rposition(|&(k, p)| {
-        let paint = &items[k].paints[p];
-        wanted(paint.color) && (paint.hides || tints)
-    }) else {
-        return Region::default();
-    };
-    let mut covered = Region::default();
-    let mut found = Region::default();
-    for &(k, p) in &beneath[..=last] {
-        let paint = &items[k].paints[p];
-        if !paint.hides {
-            if tints && wanted(paint.color) {
-                let visible = if covered.is_empty() { paint.area.clone() } else { paint.area.difference(&covered) };
-                found = found.union(&visible);
-            }
+) -> bool {
+    for &k in near.iter().rev() {
+        let paint = beneath.paint(k);
+        if !paint.area.contains(p) {
             continue;
         }
-        if wanted(paint.color) {
-            let visible = if covered.is_empty() { paint.area.clone() } else { paint.area.difference(&covered) };
-            found = found.union(&visible);
+        if paint.hides {
+            return wanted(paint.color);
         }
-        covered = covered.union(&paint.area);
+        if tints && wanted(paint.color) {
+            return true;
+        }
     }
-    found
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::drawing::Pen;
+    use crate::geometry::region::{FillRule, Keep, cut};
+    use proptest::prelude::*;
+
+    const PAPER: Rgb = Rgb(255, 255, 255);
+    const COLOURS: [Rgb; 3] = [Rgb(255, 0, 0), Rgb(0, 0, 255), PAPER];
+
+    fn rect(x: f64, y: f64, w: f64, h: f64) -> Vec<Point> {
+        vec![Point::new(x, y), Point::new(x + w, y), Point::new(x + w, y + h), Point::new(x, y + h), Point::new(x, y)]
+    }
+
+    /// A fill-only rectangle: its outline waiting for the rule, its fill a paint.
+    fn item(r: Vec<Point>, color: Rgb, hides: bool) -> Item {
+        let area = Region::from_contours([&r[..4]], FillRule::NonZero);
+        Item {
+            layer: 0,
+            pen: Pen { color, width_mm: 0.3 },
+            lines: Vec::new(),
+            outline: Some(Outline { lines: vec![r], color: Some(color) }),
+            paints: vec![Paint { area, color: Some(color), hides }],
+            element: "<rect>".into(),
+        }
+    }
+
+    fn length(lines: &[Vec<Point>]) -> f64 {
+        lines.iter().flat_map(|l| l.windows(2)).map(|w| w[0].distance(w[1])).sum()
+    }
+
+    /// The rule computed with area operations (i_overlay's booleans and its polyline clipping), independently of
+    /// the point tests: the union of the visible parts of the earlier paints of the wanted colours, then a cut.
+    fn by_areas(items: &[Item], i: usize) -> Vec<Vec<Point>> {
+        let outline = items[i].outline.clone().expect("an outline");
+        let color = outline.color;
+        let visible = |tints: bool, wanted: &dyn Fn(Option<Rgb>) -> bool| {
+            let mut covered = Region::default();
+            let mut found = Region::default();
+            for paint in items[..i].iter().rev().flat_map(|it| it.paints.iter().rev()) {
+                if (paint.hides || tints) && wanted(paint.color) {
+                    found = found.union(&paint.area.difference(&covered));
+                }
+                if paint.hides {
+                    covered = covered.union(&paint.area);
+                }
+            }
+            found
+        };
+        if color == Some(PAPER) {
+            cut(outline.lines, &[&visible(true, &|c| c != color)], Keep::Inside)
+        } else {
+            cut(outline.lines, &[&visible(false, &|c| c == color)], Keep::Outside)
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+        /// On stacks of rectangles in general position (no shared edges), cutting by the topmost paint beside each
+        /// piece keeps what the area operations keep, to rounding.
+        #[test]
+        fn the_point_rule_agrees_with_area_operations(
+            shapes in prop::collection::vec(
+                (0.0..40.0f64, 0.0..40.0f64, 1.0..30.0f64, 1.0..30.0f64, 0..3usize, prop::bool::weighted(0.8)),
+                2..7,
+            )
+        ) {
+            let mut items: Vec<Item> =
+                shapes.iter().map(|&(x, y, w, h, c, hides)| item(rect(x, y, w, h), COLOURS[c], hides)).collect();
+            let expected: Vec<f64> = (0..items.len()).map(|i| length(&by_areas(&items, i))).collect();
+            draw_edges(&mut items, PAPER);
+            for (i, it) in items.iter().enumerate() {
+                let got = length(&it.lines);
+                prop_assert!((got - expected[i]).abs() < 1e-6, "shape {i}: {got} mm, area operations {} mm", expected[i]);
+            }
+        }
+    }
 }

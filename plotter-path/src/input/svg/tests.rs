@@ -507,6 +507,38 @@ fn white_fill_only_shape_masks_a_line_and_is_not_drawn() {
     assert_eq!(d.path_count(), 2);
 }
 
+/// Where a fill-only shape's outline runs along the edge of an earlier paint of its colour, that edge is drawn once,
+/// by the earlier paint's outline (issue 25).
+#[test]
+fn an_outline_along_an_earlier_edge_of_its_colour_is_drawn_once() {
+    // A red rectangle x 0..40, y 0..20, then a red square over its left half, sharing three of its edges: the
+    // square draws nothing (its shared edges lie on the rectangle's, its right edge on red), and the rectangle's
+    // outline stays whole (the square's fill hides nothing of it that lies on the square's edge): 120 mm.
+    let doc = mm_doc(
+        r#"<rect x="0" y="0" width="40" height="20" fill="red"/>
+           <rect x="0" y="0" width="20" height="20" fill="red"/>"#,
+    );
+    let imported = import(&doc);
+    assert_len(&imported.drawing, 120.0);
+    assert!(
+        imported.warnings.iter().any(|w| w.contains("1 fill-only shape(s) not outlined")),
+        "{:?}",
+        imported.warnings
+    );
+    // The same square on a blue rectangle: its whole outline (80 mm), and the rectangle's 120 mm.
+    assert_len(&import(&doc.replacen("red", "blue", 1)).drawing, 200.0);
+    // A red square beside the red rectangle, sharing its edge x = 40 from the outside: the square draws its other
+    // three sides (60 mm), the rectangle all of its 120 mm.
+    let beside = mm_doc(
+        r#"<rect x="0" y="0" width="40" height="20" fill="red"/>
+           <rect x="40" y="0" width="20" height="20" fill="red"/>"#,
+    );
+    assert_len(&import(&beside).drawing, 180.0);
+    // A white square over the rectangle's left half, on white paper: its edges along the rectangle's outer edges
+    // have red on one side (kept), its right edge red on both sides (kept): 80 mm, and the rectangle 120 mm.
+    assert_len(&import(&doc.replacen("red", "white", 2).replacen("white", "red", 1)).drawing, 200.0);
+}
+
 /// Fill-only shapes are outlined where their colour differs from what lies beneath (issue 24).
 #[test]
 fn a_fill_only_shape_draws_its_edge_where_the_colours_differ() {
