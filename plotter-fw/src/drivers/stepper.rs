@@ -1026,6 +1026,37 @@ mod tests {
     }
 
     #[test]
+    fn a_hold_ending_with_a_dwell_stops_before_a_queued_block_it_did_not_retime() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+        let mv = StepBlock {
+            steps: [5, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 1000,
+            exit_rate: 0,
+            accel: 0,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        s.push(mv, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(10));
+        // A hold during the dwell stops at its end; the queued move (not a hold continuation) waits, unstarted.
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!((s.completed(), s.pending(), hal.pos[0]), (1, 1, 0));
+        // Resumed, the move runs from rest: 5 events 1 ms apart.
+        assert_eq!(s.resume(&mut hal), Some(1000));
+        let mut intervals = std::vec::Vec::new();
+        while let Some(iv) = s.tick(&mut hal) {
+            intervals.push(iv);
+        }
+        assert_eq!(intervals, [1000; 4]);
+        assert_eq!((s.completed(), hal.pos[0]), (2, 5));
+    }
+
+    #[test]
     fn feed_hold_without_acceleration_stops_after_the_scheduled_event() {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();
