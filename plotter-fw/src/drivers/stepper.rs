@@ -188,6 +188,7 @@ impl Queued {
         let n = self.n;
         let mut act = Active {
             countdown: 0,
+            pending: 0,
             n,
             cursor: self.profile.times().cursor(),
             layout: Layout::of(&self.block, n),
@@ -205,8 +206,9 @@ impl Queued {
             // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
             self.block.dwell_ticks.max(1)
         } else {
+            let first = act.cursor.next(self.profile.times());
             act.arm(0);
-            act.cursor.next(self.profile.times())
+            first
         };
         self.start = act;
     }
@@ -224,15 +226,19 @@ struct Carry {
 /// The executing block's state (the block itself stays in its ring slot).
 ///
 /// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
-/// interval. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing event,
-/// the idle stepper — is one `countdown == 0` test away, on the slow path.
+/// interval from the current segment of the step times, whose events it has taken ([`Cursor::reserve`]) for
+/// the run. When the run ends before the target (`pending > 0`), the next segment is entered and the next run
+/// taken from it. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing
+/// event, the idle stepper — is when both are 0, on the slow path.
 ///
 /// Laid out in C order, the fields of the fast path first (near the struct's start: short load offsets).
 #[derive(Debug, Clone, Copy)]
 #[repr(C)]
 struct Active {
-    /// Events the fast path may still emit before the event at `target`.
+    /// Events the fast path may still emit in the current run (the current segment's events it has taken).
     countdown: u32,
+    /// Events after the run before the event at `target` (runs in the following segments).
+    pending: u32,
     /// Events in the block.
     n: u32,
     cursor: Cursor,
@@ -262,6 +268,7 @@ impl Active {
     fn idle() -> Self {
         Active {
             countdown: 0,
+            pending: 0,
             target: 1,
             n: 0,
             layout: Layout::default(),
@@ -281,6 +288,7 @@ impl Active {
     #[inline(always)]
     fn load(&mut self, from: &Active) {
         self.countdown = from.countdown;
+        self.pending = from.pending;
         self.n = from.n;
         self.cursor.set(&from.cursor);
         self.layout.always = from.layout.always;
@@ -300,17 +308,22 @@ impl Active {
 
     /// Events emitted so far.
     fn emitted(&self) -> u32 {
-        self.target - 1 - self.countdown
+        self.target - 1 - self.countdown - self.pending
     }
 
-    /// After `k` events: hand the events before the next stop (block end or hold) to the fast path.
+    /// After `k` events, the cursor at the interval after event `k`: hand the events before the next stop (block
+    /// end or hold) to the fast path, the first run from the cursor's current segment.
     fn arm(&mut self, k: u32) {
+        self.cursor.give_back(self.countdown);
         if self.counted {
             self.target = k + 1;
             self.countdown = 0;
+            self.pending = 0;
         } else {
             self.target = self.n.min(self.stop_at).max(k + 1);
-            self.countdown = self.target - k - 1;
+            let avail = self.target - k - 1;
+            self.countdown = self.cursor.reserve(avail);
+            self.pending = avail - self.countdown;
         }
     }
 }
@@ -539,6 +552,8 @@ impl Stepper {
         }
         let v = slot.profile.rate_at(scheduled - act.offset);
         let (times, left) = StepTimes::hold(act.cursor.time(), act.n - scheduled, v, slot.block.accel);
+        // The new step times start with the interval after the scheduled event: nothing is taken from them yet.
+        act.countdown = 0;
         act.cursor = times.cursor();
         slot.profile.set_times(times);
         match left {
@@ -547,6 +562,7 @@ impl Stepper {
                 act.arm(k);
             }
             Some(v_sq) => {
+                act.arm(k);
                 let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
                 for i in 0..self.queued {
                     carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
@@ -593,9 +609,11 @@ impl Stepper {
         let slot = &mut self.ring[act.slot & SLOT_MASK];
         slot.profile = Profile::new(act.n - k, 0, slot.block.cruise_rate, 0, slot.block.accel);
         act.stop_at = NO_STOP;
-        act.arm(k);
+        act.countdown = 0;
         act.cursor = slot.profile.times().cursor();
-        Some(act.cursor.next(slot.profile.times()))
+        let first = act.cursor.next(slot.profile.times());
+        act.arm(k);
+        Some(first)
     }
 
     /// Start the next queued block (its state was prepared when it was queued): directions, servo, a copy.
@@ -647,7 +665,10 @@ impl Stepper {
     #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
         if self.act.countdown == 0 {
-            return self.tick_slow(hal);
+            if self.act.pending == 0 {
+                return self.tick_slow(hal);
+            }
+            self.next_run();
         }
         Some(self.plain_event(hal))
     }
@@ -658,7 +679,10 @@ impl Stepper {
     #[inline(always)]
     pub fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
         if self.act.countdown == 0 {
-            return self.on_timer_slow(hal);
+            if self.act.pending == 0 {
+                return self.on_timer_slow(hal);
+            }
+            self.next_run();
         }
         let interval = self.plain_event(hal);
         hal.schedule_next(interval);
@@ -681,16 +705,24 @@ impl Stepper {
     }
 
     /// The fast path (`countdown > 0`): a countdown, the Bresenham terms of the block's moving axes, the pin
-    /// write and the time recurrence.
+    /// write and the time recurrence (an event of the run, already taken from its segment).
     #[inline(always)]
     fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> u32 {
         let act = &mut self.act;
         act.countdown -= 1;
         hal.step_axes(act.layout.event(act.n));
-        if act.cursor.segment_done() {
-            self.enter_segment();
-        }
-        self.act.cursor.step()
+        act.cursor.advance()
+    }
+
+    /// The run ended before the target (`countdown == 0 < pending`): enter the next segment and take the next run
+    /// from it.
+    #[inline(always)]
+    fn next_run(&mut self) {
+        self.enter_segment();
+        let act = &mut self.act;
+        let run = act.cursor.reserve(act.pending);
+        act.countdown = run;
+        act.pending -= run;
     }
 
     /// The executing block's next segment, read in place from its ring slot. Past the last one (never: the events
@@ -743,6 +775,7 @@ impl Stepper {
         // `k` events emitted (what a hold that stops here leaves).
         self.act.target = k + 1;
         self.act.countdown = 0;
+        self.act.pending = 0;
         if k == self.act.n {
             return self.finish_block(hal);
         }
@@ -751,8 +784,9 @@ impl Stepper {
             return None;
         }
         let act = &mut self.act;
+        let interval = act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times());
         act.arm(k);
-        Some(act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times()))
+        Some(interval)
     }
 }
 
@@ -1165,7 +1199,11 @@ mod tests {
         let b = StepBlock { steps: [100, 40, 0, 0], cruise_rate: 1000, accel: 10_000, ..StepBlock::default() };
         s.push(b, Switches::Limits).unwrap();
         let q = &s.ring[s.first];
-        assert_eq!((q.first, q.start.n, q.start.countdown, q.start.target), (14_142, 100, 99, 100));
+        assert_eq!((q.first, q.start.n, q.start.target), (14_142, 100, 100));
+        // The first segment from rest is the first event alone (its interval is `first`): no run taken from it
+        // yet: the 99 events before the last one run on the intervals of the later segments.
+        assert_eq!(q.profile.times().segments()[0].count, 1);
+        assert_eq!((q.start.countdown, q.start.pending, q.start.emitted()), (0, 99, 0));
         assert_eq!((q.start.layout.always, q.start.layout.minors), (0b0001, 1));
         assert!(q.start.live && q.start.limits && !q.start.counted);
         assert_eq!(s.start(&mut hal), Some(14_142));

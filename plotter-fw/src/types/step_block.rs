@@ -245,6 +245,27 @@ impl Cursor {
     #[inline(always)]
     pub fn step(&mut self) -> u32 {
         self.left = self.left.wrapping_sub(1);
+        self.advance()
+    }
+
+    /// Take up to `max` of the current segment's events for [`Cursor::advance`] (which does not count them):
+    /// returns how many were taken.
+    #[inline(always)]
+    pub fn reserve(&mut self, max: u32) -> u32 {
+        let taken = self.left.min(max);
+        self.left -= taken;
+        taken
+    }
+
+    /// Give `n` events taken by [`Cursor::reserve`] and not advanced through back to the segment.
+    #[inline(always)]
+    pub fn give_back(&mut self, n: u32) {
+        self.left = self.left.wrapping_add(n);
+    }
+
+    /// One event taken by [`Cursor::reserve`]: the interval to it, ticks ([`Cursor::step`] without the count).
+    #[inline(always)]
+    pub fn advance(&mut self) -> u32 {
         #[allow(clippy::cast_possible_truncation, reason = "the low word of the interval")]
         let (frac, carry) = self.frac.overflowing_add(self.d as u32);
         self.frac = frac;
