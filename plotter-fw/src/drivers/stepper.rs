@@ -16,7 +16,7 @@
 use crate::axis::{Axis, NUM_AXES};
 use crate::fmath::sqrt;
 use crate::hal::{Endstops, StepPins, StepTimer};
-use crate::step_block::{Cursor, FRAC_BITS, Profile, Segment, StepBlock, StepTimes, Switches};
+use crate::step_block::{Cursor, Profile, StepBlock, StepTimes, Switches};
 
 /// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
 /// frozen; the planner keeps re-planning the rest.
@@ -31,9 +31,6 @@ enum HoldState {
     /// Stopped with the queue kept.
     Stopped,
 }
-
-/// What the cursor steps by past a block's last segment (never reached: the stepper counts the events): 1 tick.
-const PAST_THE_END: Segment = Segment { count: u32::MAX, interval: 1 << FRAC_BITS, add: 0 };
 
 /// No stop inside the block.
 const NO_STOP: u32 = u32::MAX;
@@ -731,8 +728,7 @@ impl Stepper {
     fn enter_segment(&mut self) {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        let seg = times.segment(act.cursor.next_segment()).copied();
-        act.cursor.enter(&seg.unwrap_or(PAST_THE_END));
+        act.cursor.enter(times.segment_or_end(act.cursor.next_segment()));
     }
 
     /// Everything but a plain event in the middle of a block.

@@ -172,6 +172,10 @@ pub struct Segment {
     pub add: i64,
 }
 
+/// What a cursor steps by past a block's last segment (never reached by the stepper, which counts the events):
+/// one tick, for ever. The unused entries of [`StepTimes`]' segment array hold it.
+pub const PAST_THE_END: Segment = Segment { count: u32::MAX, interval: 1 << FRAC_BITS, add: 0 };
+
 /// The integer recurrence that times a block's step events: a short list of [`Segment`]s (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StepTimes {
@@ -309,7 +313,7 @@ fn to_fixed(t: f32) -> u64 {
 impl StepTimes {
     /// No events yet, starting at fixed-point time `start` (which includes the half tick).
     fn empty(start: u64) -> Self {
-        StepTimes { segments: [Segment::default(); MAX_SEGMENTS], len: 0, start, span: 0, events: 0 }
+        StepTimes { segments: [PAST_THE_END; MAX_SEGMENTS], len: 0, start, span: 0, events: 0 }
     }
 
     /// The segments.
@@ -327,6 +331,12 @@ impl StepTimes {
     #[inline(always)]
     pub fn segment(&self, i: usize) -> Option<&Segment> {
         if i < usize::from(self.len) { self.segments.get(i) } else { None }
+    }
+
+    /// Segment `i`, or [`PAST_THE_END`] past the last one (one bounds check: the unused entries hold it).
+    #[inline(always)]
+    pub fn segment_or_end(&self, i: usize) -> &Segment {
+        self.segments.get(i).unwrap_or(&PAST_THE_END)
     }
 
     /// Ticks from the start to the last event, exactly as [`Cursor::next`] adds them up (saturated at `u32::MAX`).
@@ -753,6 +763,10 @@ mod tests {
         // Segments by index: the two in use, then none (the unused rest of the array is not a segment).
         assert_eq!(times.segment(1), Some(&Segment { count: 2, interval: 4 << 32, add: 0 }));
         assert_eq!((times.segment(2), times.segment(MAX_SEGMENTS)), (None, None));
+        // Or past the last one, the sentinel of one tick for ever; the same beyond the array.
+        assert_eq!(times.segment_or_end(1), &Segment { count: 2, interval: 4 << 32, add: 0 });
+        assert_eq!((times.segment_or_end(2), times.segment_or_end(MAX_SEGMENTS)), (&PAST_THE_END, &PAST_THE_END));
+        assert_eq!(PAST_THE_END, Segment { count: u32::MAX, interval: 1 << 32, add: 0 });
         // A copy made with `set` goes on exactly as the original: 4, 4 after the first three events.
         let mut c = times.cursor();
         for _ in 0..3 {
