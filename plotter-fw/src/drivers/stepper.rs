@@ -715,20 +715,11 @@ impl Stepper {
     /// from it.
     #[inline(always)]
     fn next_run(&mut self) {
-        self.enter_segment();
-        let act = &mut self.act;
-        let run = act.cursor.reserve(act.pending);
-        act.countdown = run;
-        act.pending -= run;
-    }
-
-    /// The executing block's next segment, read in place from its ring slot. Past the last one (never: the events
-    /// are counted) the cursor steps by 1 tick.
-    #[inline(always)]
-    fn enter_segment(&mut self) {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        act.cursor.enter(times.segment_or_end(act.cursor.next_segment()));
+        let run = act.cursor.enter_for(times.segment_or_end(act.cursor.next_segment()), act.pending);
+        act.countdown = run;
+        act.pending -= run;
     }
 
     /// Everything but a plain event in the middle of a block.
@@ -1248,10 +1239,14 @@ mod tests {
         let mut hal = Rec::default();
         s.push(StepBlock { steps: [2, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
         assert_eq!(s.start(&mut hal), Some(1000));
-        assert_eq!(s.act.cursor.step(), 1000);
-        // The block's one segment is used up: entering the next one finds none.
-        s.enter_segment();
-        assert_eq!([s.act.cursor.step(), s.act.cursor.step()], [1, 1]);
+        // The first run took the segment's other interval.
+        assert_eq!((s.act.countdown, s.act.pending), (1, 0));
+        assert_eq!(s.act.cursor.advance(), 1000);
+        // The block's one segment is used up: a run after it (never asked for) finds no segment, 1 tick each.
+        s.act.pending = 2;
+        s.next_run();
+        assert_eq!((s.act.countdown, s.act.pending), (2, 0));
+        assert_eq!([s.act.cursor.advance(), s.act.cursor.advance()], [1, 1]);
     }
 
     #[test]

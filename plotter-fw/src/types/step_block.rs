@@ -245,6 +245,18 @@ impl Cursor {
         self.e = s.add;
     }
 
+    /// [`Cursor::enter`] segment `s` and [`Cursor::reserve`] up to `max` (≥ 1) of its events at once: returns how
+    /// many were taken.
+    #[inline(always)]
+    pub fn enter_for(&mut self, s: &Segment, max: u32) -> u32 {
+        let taken = s.count.min(max);
+        self.seg = self.seg.wrapping_add(1);
+        self.left = s.count - taken;
+        self.d = s.interval;
+        self.e = s.add;
+        taken
+    }
+
     /// One event of the current segment (which has one left): the interval to it, ticks.
     #[inline(always)]
     pub fn step(&mut self) -> u32 {
