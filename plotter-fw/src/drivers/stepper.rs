@@ -1078,6 +1078,35 @@ mod tests {
     }
 
     #[test]
+    fn re_arming_in_the_middle_of_a_run_gives_its_events_back() {
+        // 0 → 2000 → 0 events/s at 40 000 events/s²: 50 events each way, the cruise's intervals (to events
+        // 51..=150) one segment.
+        let b = StepBlock { steps: [200, 0, 0, 0], cruise_rate: 2000, accel: 40_000, ..StepBlock::default() };
+        let (mut s, mut twin) = (Stepper::new(0, 0), Stepper::new(0, 0));
+        let mut hal = Rec::default();
+        for st in [&mut s, &mut twin] {
+            st.push(b, Switches::Limits).unwrap();
+            st.start(&mut hal);
+            for _ in 0..80 {
+                st.tick(&mut hal).unwrap();
+            }
+        }
+        // 80 events emitted: events 81..=149 compute their next interval in the cruise; 150..=199 in the
+        // deceleration, then the last event.
+        assert_eq!((s.act.emitted(), s.act.countdown, s.act.pending), (80, 69, 50));
+        // Arming again (what a hold that cannot slow down does) takes the same run: the events taken before are
+        // given back first.
+        s.act.arm(80);
+        s.act.arm(80);
+        assert_eq!((s.act.emitted(), s.act.countdown, s.act.pending), (80, 69, 50));
+        let rest = |st: &mut Stepper, hal: &mut Rec| core::iter::from_fn(|| st.tick(hal)).collect::<std::vec::Vec<_>>();
+        let (mine, theirs) = (rest(&mut s, &mut hal), rest(&mut twin, &mut hal));
+        assert_eq!(mine.len(), 119);
+        assert_eq!(mine, theirs);
+        assert_eq!(mine[..69], [500; 69]);
+    }
+
+    #[test]
     fn feed_hold_without_acceleration_stops_after_the_scheduled_event() {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();
