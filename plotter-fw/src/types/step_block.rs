@@ -960,7 +960,6 @@ mod tests {
         (1u32..3000, 0u32..20_000, 1u32..20_000, 0u32..20_000, prop_oneof![Just(0u32), 1u32..200_000])
     }
 
-
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2000))]
         /// Every event of the recurrence is within [`bound`] of the analytic t(k); the duration is the sum of the
