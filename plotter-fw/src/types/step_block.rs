@@ -509,13 +509,12 @@ fn greedy_ramp(len: u32, c: f32, two_a: f32, dist: &mut [u32; RAMP_SEGMENTS + 1]
     let c = if c > 0.0 { c } else { 0.0 };
     let tol = RAMP_TOL_TICKS + RAMP_TOL_REL * k * (sqrt(c + len as f32) - sqrt(c));
     let mut done = 0;
-    for segs in 1..=RAMP_SEGMENTS {
+    for (segs, boundary) in dist.iter_mut().enumerate().skip(1) {
         let u = c + done as f32;
         // m³ ≤ tol·u^(5/2)/(0.0061·K).
         let room = tol * u * u * sqrt(u) / (0.0061 * k);
-        let m = cube_floor(room, len - done);
-        done += m;
-        dist[segs] = done;
+        done += cube_floor(room, len - done);
+        *boundary = done;
         if done == len {
             return Some(segs);
         }

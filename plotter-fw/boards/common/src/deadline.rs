@@ -73,6 +73,12 @@ impl<const LEAD: u32> Deadline<LEAD> {
     }
 }
 
+impl<const LEAD: u32> Default for Deadline<LEAD> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
