@@ -639,7 +639,13 @@ impl Profile {
             times.fit(1, at(ka as f32), 0.0, at(kc as f32), true);
         }
         times.cruise(kc, kd, at);
-        times.ramp(kd, n, true, c1, two_a, at);
+        // The interval that holds x_d (from the cruise or the peak into the deceleration) is not on the
+        // deceleration's square root: a segment of its own, so that no fitted segment spans the bend.
+        let ke = if (kd as f32) < xd && kd < n { kd + 1 } else { kd };
+        if ke > kd {
+            times.fit(1, at(kd as f32), 0.0, at(ke as f32), true);
+        }
+        times.ramp(ke, n, true, c1, two_a, at);
         p.times = times;
         p
     }
