@@ -1107,6 +1107,71 @@ mod tests {
     }
 
     #[test]
+    fn a_block_sets_only_the_direction_pins_of_its_moving_axes() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [0, -3, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.push(StepBlock { steps: [2, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        while s.tick(&mut hal).is_some() {}
+        // Y's pin stays high (backwards) through the X move; one pin written per block.
+        assert_eq!(hal.dir, [false, true, false, false]);
+        assert_eq!((hal.dir_changes_during_block, hal.pos), (2, [2, -3, 0, 0]));
+    }
+
+    /// A 3000-event cruise at 4000 events/s (20 000 events/s²) and `next` queued; a hold with event 2900
+    /// scheduled needs 399 more events (v² − 2aj > 0 for j < 400), 100 of them in this block: v² = 16·10⁶ −
+    /// 40 000·100 = 12·10⁶ is carried into `next`. Returns the stepper run until it stops.
+    fn hold_carried_into(next: StepBlock) -> (Stepper, Rec) {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let first = StepBlock {
+            steps: [3000, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 4000,
+            exit_rate: 4000,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        s.push(first, Switches::Limits).unwrap();
+        s.push(next, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..2899 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        while s.tick(&mut hal).is_some() {}
+        (s, hal)
+    }
+
+    #[test]
+    fn a_hold_carried_to_a_dwell_stops_before_it_even_with_an_acceleration_set() {
+        let (s, hal) = hold_carried_into(StepBlock { accel: 20_000, ..StepBlock::dwell(10) });
+        assert!(s.is_held());
+        assert_eq!((s.completed(), s.pending(), hal.pos[0]), (1, 1, 3000));
+    }
+
+    #[test]
+    fn a_hold_carried_across_a_junction_converts_the_rate_to_the_next_blocks_units() {
+        // The next block enters at 3000 of its events/s where the first left at 4000: the rate carried is
+        // √(12·10⁶)·3/4 = 2598.1, v²/2a = 6.75·10⁶/40 000 = 168.75, so 168 more events.
+        let next = StepBlock {
+            steps: [3000, 0, 0, 0],
+            entry_rate: 3000,
+            cruise_rate: 4000,
+            exit_rate: 0,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let (s, hal) = hold_carried_into(next);
+        assert!(s.is_held());
+        assert_eq!((s.completed(), hal.pos[0]), (1, 3168));
+    }
+
+    #[test]
     fn feed_hold_without_acceleration_stops_after_the_scheduled_event() {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();

@@ -140,8 +140,9 @@ impl StepBlock {
 /// Most segments an acceleration or deceleration ramp is cut into (a cruise is one more segment).
 pub const RAMP_SEGMENTS: usize = 16;
 
-/// Most segments a block's step times have: two ramps, a cruise and the event where the cruise begins.
-pub const MAX_SEGMENTS: usize = 2 * RAMP_SEGMENTS + 2;
+/// Most segments a block's step times have: two ramps, a cruise, and the events where the cruise begins and where
+/// the deceleration begins.
+pub const MAX_SEGMENTS: usize = 2 * RAMP_SEGMENTS + 3;
 
 /// Fixed-point time: one timer tick is `1 << FRAC_BITS` units.
 pub const FRAC_BITS: u32 = 32;
@@ -807,6 +808,32 @@ mod tests {
         assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 2_000_000);
         let mut dist = [0; RAMP_SEGMENTS + 1];
         assert_eq!(greedy_ramp(1_000_000, 0.0, 400.0, &mut dist), None);
+    }
+
+    #[test]
+    fn every_segment_fits_when_both_ramps_fall_back_and_both_bends_are_between_events() {
+        // 0 → 20 000 → 0 events/s at 201 events/s²: x_a = 4·10⁸/402 = 995 024.9 and x_d = n − x_a = 1 504 976.1,
+        // both between events; each ramp ~995 000 events from rest (geometric fallback, q = 2.37: 16 distinct
+        // segments), the event after x_a, the cruise, the event after x_d: 35 segments, every event timed.
+        let p = Profile::new(2_500_001, 0, 20_000, 0, 201);
+        assert_eq!(p.times().segments().len(), 2 * RAMP_SEGMENTS + 3);
+        assert_eq!(MAX_SEGMENTS, 35);
+        assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 2_500_001);
+        assert_eq!(p.times().events(), 2_500_001);
+    }
+
+    #[test]
+    fn fit_ignores_an_empty_segment_and_a_full_list() {
+        let mut t = StepTimes::empty(HALF);
+        t.fit(0, 0.0, 0.0, 5.0, false);
+        assert_eq!((t.segments().len(), t.events(), t.duration_ticks()), (0, 0, 0));
+        for i in 1..=MAX_SEGMENTS {
+            t.fit(1, 0.0, 0.0, i as f32, true);
+        }
+        assert_eq!((t.segments().len(), t.duration_ticks()), (MAX_SEGMENTS, 35));
+        // No room left: ignored.
+        t.fit(1, 0.0, 0.0, 100.0, true);
+        assert_eq!((t.segments().len(), t.events(), t.duration_ticks()), (MAX_SEGMENTS, 35, 35));
     }
 
     #[test]
