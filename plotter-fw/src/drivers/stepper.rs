@@ -1172,6 +1172,33 @@ mod tests {
     }
 
     #[test]
+    fn a_second_hold_after_a_resume_slows_down_from_the_rate_at_its_place_in_the_rest() {
+        // 0 → 2000 → 0 events/s at 20 000 events/s² over 6000 events: a hold at a cruise event stops
+        // v²/2a − 1 = 99 events later (v² − 2aj > 0 for j < 100).
+        let b = StepBlock { steps: [6000, 0, 0, 0], cruise_rate: 2000, accel: 20_000, ..StepBlock::default() };
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(b, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..999 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(hal.pos[0], 1099);
+        // The rest (4901 events) restarts from rest: cruise from its event 100 to 4801. Event 4100 of the block
+        // is its 3001st: cruising, so the second hold again takes 99 events.
+        assert!(s.resume(&mut hal).is_some());
+        for _ in 0..3000 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        while s.tick(&mut hal).is_some() {}
+        assert!(s.is_held());
+        assert_eq!(hal.pos[0], 4199);
+    }
+
+    #[test]
     fn feed_hold_without_acceleration_stops_after_the_scheduled_event() {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();

@@ -820,6 +820,10 @@ mod tests {
         assert_eq!(MAX_SEGMENTS, 35);
         assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 2_500_001);
         assert_eq!(p.times().events(), 2_500_001);
+        // The acceleration's geometric boundaries from base 1: q = 995 024^(1/16) = 2.3707, round(q^i) = 2, 6, 13,
+        // 32, 75: segments of 2, 4, 7, 19 and 43 events.
+        let counts: std::vec::Vec<u32> = p.times().segments()[..5].iter().map(|s| s.count).collect();
+        assert_eq!(counts, [2, 4, 7, 19, 43]);
     }
 
     #[test]
@@ -975,6 +979,11 @@ mod tests {
         t.fit(4, 0.0, 3.9, 4.0, false);
         assert_eq!(t.segments(), &[Segment { count: 4, interval: 1 << 32, add: 0 }]);
         assert_eq!((t.events(), t.duration_ticks()), (4, 4));
+        // A last interval of exactly 0 is not negative: kept (2 events over 4 ticks, the middle one at 4: E = −4,
+        // D = 4).
+        let mut t = StepTimes::empty(HALF);
+        t.fit(2, 0.0, 4.0, 4.0, false);
+        assert_eq!(t.segments(), &[Segment { count: 2, interval: 4 << 32, add: -(4 << 32) }]);
         // Convex (middle at 1.0): E = 4·(4 − 2)/16 = 0.5 tick, D = (4 − 0.5·6)/4 = 0.25, intervals 0.25 … 1.75.
         let mut t = StepTimes::empty(HALF);
         t.fit(4, 0.0, 1.0, 4.0, false);
