@@ -16,7 +16,7 @@
 use crate::axis::{Axis, NUM_AXES};
 use crate::fmath::sqrt;
 use crate::hal::{Endstops, StepPins, StepTimer};
-use crate::step_block::{Cursor, FRAC_BITS, Profile, Segment, StepBlock, StepTimes, Switches};
+use crate::step_block::{Cursor, Profile, StepBlock, StepTimes, Switches};
 
 /// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
 /// frozen; the planner keeps re-planning the rest.
@@ -31,9 +31,6 @@ enum HoldState {
     /// Stopped with the queue kept.
     Stopped,
 }
-
-/// What the cursor steps by past a block's last segment (never reached: the stepper counts the events): 1 tick.
-const PAST_THE_END: Segment = Segment { count: u32::MAX, interval: 1 << FRAC_BITS, add: 0 };
 
 /// No stop inside the block.
 const NO_STOP: u32 = u32::MAX;
@@ -188,6 +185,7 @@ impl Queued {
         let n = self.n;
         let mut act = Active {
             countdown: 0,
+            pending: 0,
             n,
             cursor: self.profile.times().cursor(),
             layout: Layout::of(&self.block, n),
@@ -205,8 +203,9 @@ impl Queued {
             // A dwell of 0 ticks still takes one (the timer needs a delay ≥ 1).
             self.block.dwell_ticks.max(1)
         } else {
+            let first = act.cursor.next(self.profile.times());
             act.arm(0);
-            act.cursor.next(self.profile.times())
+            first
         };
         self.start = act;
     }
@@ -224,15 +223,19 @@ struct Carry {
 /// The executing block's state (the block itself stays in its ring slot).
 ///
 /// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
-/// interval. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing event,
-/// the idle stepper — is one `countdown == 0` test away, on the slow path.
+/// interval from the current segment of the step times, whose events it has taken ([`Cursor::reserve`]) for
+/// the run. When the run ends before the target (`pending > 0`), the next segment is entered and the next run
+/// taken from it. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing
+/// event, the idle stepper — is when both are 0, on the slow path.
 ///
 /// Laid out in C order, the fields of the fast path first (near the struct's start: short load offsets).
 #[derive(Debug, Clone, Copy)]
 #[repr(C)]
 struct Active {
-    /// Events the fast path may still emit before the event at `target`.
+    /// Events the fast path may still emit in the current run (the current segment's events it has taken).
     countdown: u32,
+    /// Events after the run before the event at `target` (runs in the following segments).
+    pending: u32,
     /// Events in the block.
     n: u32,
     cursor: Cursor,
@@ -262,6 +265,7 @@ impl Active {
     fn idle() -> Self {
         Active {
             countdown: 0,
+            pending: 0,
             target: 1,
             n: 0,
             layout: Layout::default(),
@@ -281,6 +285,7 @@ impl Active {
     #[inline(always)]
     fn load(&mut self, from: &Active) {
         self.countdown = from.countdown;
+        self.pending = from.pending;
         self.n = from.n;
         self.cursor.set(&from.cursor);
         self.layout.always = from.layout.always;
@@ -300,17 +305,22 @@ impl Active {
 
     /// Events emitted so far.
     fn emitted(&self) -> u32 {
-        self.target - 1 - self.countdown
+        self.target - 1 - self.countdown - self.pending
     }
 
-    /// After `k` events: hand the events before the next stop (block end or hold) to the fast path.
+    /// After `k` events, the cursor at the interval after event `k`: hand the events before the next stop (block
+    /// end or hold) to the fast path, the first run from the cursor's current segment.
     fn arm(&mut self, k: u32) {
+        self.cursor.give_back(self.countdown);
         if self.counted {
             self.target = k + 1;
             self.countdown = 0;
+            self.pending = 0;
         } else {
             self.target = self.n.min(self.stop_at).max(k + 1);
-            self.countdown = self.target - k - 1;
+            let avail = self.target - k - 1;
+            self.countdown = self.cursor.reserve(avail);
+            self.pending = avail - self.countdown;
         }
     }
 }
@@ -539,6 +549,8 @@ impl Stepper {
         }
         let v = slot.profile.rate_at(scheduled - act.offset);
         let (times, left) = StepTimes::hold(act.cursor.time(), act.n - scheduled, v, slot.block.accel);
+        // The new step times start with the interval after the scheduled event: nothing is taken from them yet.
+        act.countdown = 0;
         act.cursor = times.cursor();
         slot.profile.set_times(times);
         match left {
@@ -547,6 +559,7 @@ impl Stepper {
                 act.arm(k);
             }
             Some(v_sq) => {
+                act.arm(k);
                 let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
                 for i in 0..self.queued {
                     carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
@@ -593,9 +606,11 @@ impl Stepper {
         let slot = &mut self.ring[act.slot & SLOT_MASK];
         slot.profile = Profile::new(act.n - k, 0, slot.block.cruise_rate, 0, slot.block.accel);
         act.stop_at = NO_STOP;
-        act.arm(k);
+        act.countdown = 0;
         act.cursor = slot.profile.times().cursor();
-        Some(act.cursor.next(slot.profile.times()))
+        let first = act.cursor.next(slot.profile.times());
+        act.arm(k);
+        Some(first)
     }
 
     /// Start the next queued block (its state was prepared when it was queued): directions, servo, a copy.
@@ -647,7 +662,10 @@ impl Stepper {
     #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
         if self.act.countdown == 0 {
-            return self.tick_slow(hal);
+            if self.act.pending == 0 {
+                return self.tick_slow(hal);
+            }
+            self.next_run();
         }
         Some(self.plain_event(hal))
     }
@@ -658,7 +676,10 @@ impl Stepper {
     #[inline(always)]
     pub fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
         if self.act.countdown == 0 {
-            return self.on_timer_slow(hal);
+            if self.act.pending == 0 {
+                return self.on_timer_slow(hal);
+            }
+            self.next_run();
         }
         let interval = self.plain_event(hal);
         hal.schedule_next(interval);
@@ -681,26 +702,24 @@ impl Stepper {
     }
 
     /// The fast path (`countdown > 0`): a countdown, the Bresenham terms of the block's moving axes, the pin
-    /// write and the time recurrence.
+    /// write and the time recurrence (an event of the run, already taken from its segment).
     #[inline(always)]
     fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> u32 {
         let act = &mut self.act;
         act.countdown -= 1;
         hal.step_axes(act.layout.event(act.n));
-        if act.cursor.segment_done() {
-            self.enter_segment();
-        }
-        self.act.cursor.step()
+        act.cursor.advance()
     }
 
-    /// The executing block's next segment, read in place from its ring slot. Past the last one (never: the events
-    /// are counted) the cursor steps by 1 tick.
+    /// The run ended before the target (`countdown == 0 < pending`): enter the next segment and take the next run
+    /// from it.
     #[inline(always)]
-    fn enter_segment(&mut self) {
+    fn next_run(&mut self) {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        let seg = times.segment(act.cursor.next_segment()).copied();
-        act.cursor.enter(&seg.unwrap_or(PAST_THE_END));
+        let run = act.cursor.enter_for(times.segment_or_end(act.cursor.next_segment()), act.pending);
+        act.countdown = run;
+        act.pending -= run;
     }
 
     /// Everything but a plain event in the middle of a block.
@@ -743,6 +762,7 @@ impl Stepper {
         // `k` events emitted (what a hold that stops here leaves).
         self.act.target = k + 1;
         self.act.countdown = 0;
+        self.act.pending = 0;
         if k == self.act.n {
             return self.finish_block(hal);
         }
@@ -751,8 +771,9 @@ impl Stepper {
             return None;
         }
         let act = &mut self.act;
+        let interval = act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times());
         act.arm(k);
-        Some(act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times()))
+        Some(interval)
     }
 }
 
@@ -1026,6 +1047,158 @@ mod tests {
     }
 
     #[test]
+    fn a_hold_ending_with_a_dwell_stops_before_a_queued_block_it_did_not_retime() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+        let mv = StepBlock {
+            steps: [5, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 1000,
+            exit_rate: 0,
+            accel: 0,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        s.push(mv, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(10));
+        // A hold during the dwell stops at its end; the queued move (not a hold continuation) waits, unstarted.
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!((s.completed(), s.pending(), hal.pos[0]), (1, 1, 0));
+        // Resumed, the move runs from rest: 5 events 1 ms apart.
+        assert_eq!(s.resume(&mut hal), Some(1000));
+        let mut intervals = std::vec::Vec::new();
+        while let Some(iv) = s.tick(&mut hal) {
+            intervals.push(iv);
+        }
+        assert_eq!(intervals, [1000; 4]);
+        assert_eq!((s.completed(), hal.pos[0]), (2, 5));
+    }
+
+    #[test]
+    fn re_arming_in_the_middle_of_a_run_gives_its_events_back() {
+        // 0 → 2000 → 0 events/s at 40 000 events/s²: 50 events each way, the cruise's intervals (to events
+        // 51..=150) one segment.
+        let b = StepBlock { steps: [200, 0, 0, 0], cruise_rate: 2000, accel: 40_000, ..StepBlock::default() };
+        let (mut s, mut twin) = (Stepper::new(0, 0), Stepper::new(0, 0));
+        let mut hal = Rec::default();
+        for st in [&mut s, &mut twin] {
+            st.push(b, Switches::Limits).unwrap();
+            st.start(&mut hal);
+            for _ in 0..80 {
+                st.tick(&mut hal).unwrap();
+            }
+        }
+        // 80 events emitted: events 81..=149 compute their next interval in the cruise; 150..=199 in the
+        // deceleration, then the last event.
+        assert_eq!((s.act.emitted(), s.act.countdown, s.act.pending), (80, 69, 50));
+        // Arming again (what a hold that cannot slow down does) takes the same run: the events taken before are
+        // given back first.
+        s.act.arm(80);
+        s.act.arm(80);
+        assert_eq!((s.act.emitted(), s.act.countdown, s.act.pending), (80, 69, 50));
+        let rest = |st: &mut Stepper, hal: &mut Rec| core::iter::from_fn(|| st.tick(hal)).collect::<std::vec::Vec<_>>();
+        let (mine, theirs) = (rest(&mut s, &mut hal), rest(&mut twin, &mut hal));
+        assert_eq!(mine.len(), 119);
+        assert_eq!(mine, theirs);
+        assert_eq!(mine[..69], [500; 69]);
+    }
+
+    #[test]
+    fn a_block_sets_only_the_direction_pins_of_its_moving_axes() {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(StepBlock { steps: [0, -3, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits)
+            .unwrap();
+        s.push(StepBlock { steps: [2, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        while s.tick(&mut hal).is_some() {}
+        // Y's pin stays high (backwards) through the X move; one pin written per block.
+        assert_eq!(hal.dir, [false, true, false, false]);
+        assert_eq!((hal.dir_changes_during_block, hal.pos), (2, [2, -3, 0, 0]));
+    }
+
+    /// A 3000-event cruise at 4000 events/s (20 000 events/s²) and `next` queued; a hold with event 2900
+    /// scheduled needs 399 more events (v² − 2aj > 0 for j < 400), 100 of them in this block: v² = 16·10⁶ −
+    /// 40 000·100 = 12·10⁶ is carried into `next`. Returns the stepper run until it stops.
+    fn hold_carried_into(next: StepBlock) -> (Stepper, Rec) {
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let first = StepBlock {
+            steps: [3000, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 4000,
+            exit_rate: 4000,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        s.push(first, Switches::Limits).unwrap();
+        s.push(next, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..2899 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        while s.tick(&mut hal).is_some() {}
+        (s, hal)
+    }
+
+    #[test]
+    fn a_hold_carried_to_a_dwell_stops_before_it_even_with_an_acceleration_set() {
+        let (s, hal) = hold_carried_into(StepBlock { accel: 20_000, ..StepBlock::dwell(10) });
+        assert!(s.is_held());
+        assert_eq!((s.completed(), s.pending(), hal.pos[0]), (1, 1, 3000));
+    }
+
+    #[test]
+    fn a_hold_carried_across_a_junction_converts_the_rate_to_the_next_blocks_units() {
+        // The next block enters at 3000 of its events/s where the first left at 4000: the rate carried is
+        // √(12·10⁶)·3/4 = 2598.1, v²/2a = 6.75·10⁶/40 000 = 168.75, so 168 more events.
+        let next = StepBlock {
+            steps: [3000, 0, 0, 0],
+            entry_rate: 3000,
+            cruise_rate: 4000,
+            exit_rate: 0,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let (s, hal) = hold_carried_into(next);
+        assert!(s.is_held());
+        assert_eq!((s.completed(), hal.pos[0]), (1, 3168));
+    }
+
+    #[test]
+    fn a_second_hold_after_a_resume_slows_down_from_the_rate_at_its_place_in_the_rest() {
+        // 0 → 2000 → 0 events/s at 20 000 events/s² over 6000 events: a hold at a cruise event stops
+        // v²/2a − 1 = 99 events later (v² − 2aj > 0 for j < 100).
+        let b = StepBlock { steps: [6000, 0, 0, 0], cruise_rate: 2000, accel: 20_000, ..StepBlock::default() };
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(b, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..999 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(hal.pos[0], 1099);
+        // The rest (4901 events) restarts from rest: cruise from its event 100 to 4801. Event 4100 of the block
+        // is its 3001st: cruising, so the second hold again takes 99 events.
+        assert!(s.resume(&mut hal).is_some());
+        for _ in 0..3000 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        while s.tick(&mut hal).is_some() {}
+        assert!(s.is_held());
+        assert_eq!(hal.pos[0], 4199);
+    }
+
+    #[test]
     fn feed_hold_without_acceleration_stops_after_the_scheduled_event() {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();
@@ -1134,7 +1307,11 @@ mod tests {
         let b = StepBlock { steps: [100, 40, 0, 0], cruise_rate: 1000, accel: 10_000, ..StepBlock::default() };
         s.push(b, Switches::Limits).unwrap();
         let q = &s.ring[s.first];
-        assert_eq!((q.first, q.start.n, q.start.countdown, q.start.target), (14_142, 100, 99, 100));
+        assert_eq!((q.first, q.start.n, q.start.target), (14_142, 100, 100));
+        // The first segment from rest is the first event alone (its interval is `first`): no run taken from it
+        // yet: the 99 events before the last one run on the intervals of the later segments.
+        assert_eq!(q.profile.times().segments()[0].count, 1);
+        assert_eq!((q.start.countdown, q.start.pending, q.start.emitted()), (0, 99, 0));
         assert_eq!((q.start.layout.always, q.start.layout.minors), (0b0001, 1));
         assert!(q.start.live && q.start.limits && !q.start.counted);
         assert_eq!(s.start(&mut hal), Some(14_142));
@@ -1183,10 +1360,14 @@ mod tests {
         let mut hal = Rec::default();
         s.push(StepBlock { steps: [2, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
         assert_eq!(s.start(&mut hal), Some(1000));
-        assert_eq!(s.act.cursor.step(), 1000);
-        // The block's one segment is used up: entering the next one finds none.
-        s.enter_segment();
-        assert_eq!([s.act.cursor.step(), s.act.cursor.step()], [1, 1]);
+        // The first run took the segment's other interval.
+        assert_eq!((s.act.countdown, s.act.pending), (1, 0));
+        assert_eq!(s.act.cursor.advance(), 1000);
+        // The block's one segment is used up: a run after it (never asked for) finds no segment, 1 tick each.
+        s.act.pending = 2;
+        s.next_run();
+        assert_eq!((s.act.countdown, s.act.pending), (2, 0));
+        assert_eq!([s.act.cursor.advance(), s.act.cursor.advance()], [1, 1]);
     }
 
     #[test]

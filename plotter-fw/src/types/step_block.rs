@@ -26,19 +26,23 @@
 //! `(count, interval, add)`, in the form Klipper's step queue uses: the segment's first event comes `interval`
 //! after the previous one, and each following interval is `add` longer. Times are fixed point (`2^32` units per
 //! tick, [`FRAC_BITS`]); the event fires at the high word of the running time, which starts half a tick in so
-//! that the high word is the time rounded to a tick. The executor ([`Cursor::step`]) keeps only the time's
+//! that the high word is the time rounded to a tick. The executor ([`Cursor::advance`]) keeps only the time's
 //! fraction: per event one 32-bit add whose carry joins the interval's integer part (that is the difference of
-//! the high words), one 64-bit add of `add` to the interval, and a decrement.
+//! the high words) and one 64-bit add of `add` to the interval; the stepper takes the events of a segment as
+//! one run ([`Cursor::reserve`]), so it counts them with the count it keeps anyway.
 //!
-//! The segments: each ramp (acceleration, deceleration) gets at most [`RAMP_SEGMENTS`], their boundaries spaced
-//! geometrically in the distance from the point where the ramp's rate would be zero (`t ∝ √distance` there, so
-//! each segment has the same relative error); the cruise is one segment with `add = 0` (exact), plus a one-event
-//! segment for the event where the cruise begins. Each segment's `add` is fitted through `t(k)` at its start,
-//! middle and end, and its `interval` so that its last event lands on `t(end)` (to `2^-32` tick). Measured
-//! against `t(k)` in f64 (the proptest in this file, blocks up to 3000 events, rates up to 20 000/s): every
-//! event is within 2 ticks + 0.05 % of the block's ramp time + 2·10⁻⁶ of `t(k)` (f32 rounding), and no interval
-//! is more than 2 % (plus one tick of rounding) shorter than the cruise rate's — the largest such deviation sits
-//! at the fast end of a long ramp.
+//! The segments: each ramp (acceleration, deceleration) is cut from its slow end on into segments as long as
+//! their estimated interpolation error allows (at most [`RAMP_SEGMENTS`]; the bound of the error of a quadratic
+//! through three points of `t ∝ √distance`, see `greedy_ramp`): single events near a standstill, where the
+//! square root bends most, ever longer segments towards the fast end. A ramp that would need more (very long
+//! ramps from rest) gets [`RAMP_SEGMENTS`] with boundaries spaced geometrically in the distance from the point
+//! where its rate would be zero. The cruise is one segment with `add = 0` (exact), plus a one-event segment for
+//! the event where the cruise begins. Each segment's `add` is fitted through `t(k)` at its start, middle and
+//! end, and its `interval` so that its last event lands on `t(end)` (to `2^-32` tick). Measured against `t(k)`
+//! in f64 (the proptest in this file, blocks up to 3000 events, rates up to 20 000/s): every event is within
+//! 1 tick + 0.025 % of the block's ramp time + 2·10⁻⁶ of `t(k)` (f32 rounding) — on 20 000 random blocks the
+//! worst event used 72 % of that —, and no interval is more than 2 % (plus one tick of rounding) shorter than
+//! the cruise rate's.
 //!
 //! The contract: a block lasts exactly the sum of its recurrence's intervals, [`StepBlock::duration_ticks`],
 //! computed in closed form from the segments (`count·interval + add·count(count−1)/2`, exact integers); the next
@@ -133,11 +137,12 @@ impl StepBlock {
     }
 }
 
-/// Segments each acceleration or deceleration ramp is cut into (a cruise is one more segment).
+/// Most segments an acceleration or deceleration ramp is cut into (a cruise is one more segment).
 pub const RAMP_SEGMENTS: usize = 16;
 
-/// Most segments a block's step times have: two ramps, a cruise and the event where the cruise begins.
-pub const MAX_SEGMENTS: usize = 2 * RAMP_SEGMENTS + 2;
+/// Most segments a block's step times have: two ramps, a cruise, and the events where the cruise begins and where
+/// the deceleration begins.
+pub const MAX_SEGMENTS: usize = 2 * RAMP_SEGMENTS + 3;
 
 /// Fixed-point time: one timer tick is `1 << FRAC_BITS` units.
 pub const FRAC_BITS: u32 = 32;
@@ -171,6 +176,10 @@ pub struct Segment {
     /// Change of the interval from one event to the next, fixed-point ticks.
     pub add: i64,
 }
+
+/// What a cursor steps by past a block's last segment (never reached by the stepper, which counts the events):
+/// one tick, for ever. The unused entries of [`StepTimes`]' segment array hold it.
+pub const PAST_THE_END: Segment = Segment { count: u32::MAX, interval: 1 << FRAC_BITS, add: 0 };
 
 /// The integer recurrence that times a block's step events: a short list of [`Segment`]s (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -241,10 +250,43 @@ impl Cursor {
         self.e = s.add;
     }
 
+    /// [`Cursor::enter`] segment `s` and [`Cursor::reserve`] up to `max` (≥ 1) of its events at once: returns how
+    /// many were taken.
+    #[inline(always)]
+    pub fn enter_for(&mut self, s: &Segment, max: u32) -> u32 {
+        let taken = s.count.min(max);
+        self.seg = self.seg.wrapping_add(1);
+        self.left = s.count - taken;
+        self.d = s.interval;
+        self.e = s.add;
+        taken
+    }
+
     /// One event of the current segment (which has one left): the interval to it, ticks.
     #[inline(always)]
     pub fn step(&mut self) -> u32 {
         self.left = self.left.wrapping_sub(1);
+        self.advance()
+    }
+
+    /// Take up to `max` of the current segment's events for [`Cursor::advance`] (which does not count them):
+    /// returns how many were taken.
+    #[inline(always)]
+    pub fn reserve(&mut self, max: u32) -> u32 {
+        let taken = self.left.min(max);
+        self.left -= taken;
+        taken
+    }
+
+    /// Give `n` events taken by [`Cursor::reserve`] and not advanced through back to the segment.
+    #[inline(always)]
+    pub fn give_back(&mut self, n: u32) {
+        self.left = self.left.wrapping_add(n);
+    }
+
+    /// One event taken by [`Cursor::reserve`]: the interval to it, ticks ([`Cursor::step`] without the count).
+    #[inline(always)]
+    pub fn advance(&mut self) -> u32 {
         #[allow(clippy::cast_possible_truncation, reason = "the low word of the interval")]
         let (frac, carry) = self.frac.overflowing_add(self.d as u32);
         self.frac = frac;
@@ -288,7 +330,7 @@ fn to_fixed(t: f32) -> u64 {
 impl StepTimes {
     /// No events yet, starting at fixed-point time `start` (which includes the half tick).
     fn empty(start: u64) -> Self {
-        StepTimes { segments: [Segment::default(); MAX_SEGMENTS], len: 0, start, span: 0, events: 0 }
+        StepTimes { segments: [PAST_THE_END; MAX_SEGMENTS], len: 0, start, span: 0, events: 0 }
     }
 
     /// The segments.
@@ -306,6 +348,12 @@ impl StepTimes {
     #[inline(always)]
     pub fn segment(&self, i: usize) -> Option<&Segment> {
         if i < usize::from(self.len) { self.segments.get(i) } else { None }
+    }
+
+    /// Segment `i`, or [`PAST_THE_END`] past the last one (one bounds check: the unused entries hold it).
+    #[inline(always)]
+    pub fn segment_or_end(&self, i: usize) -> &Segment {
+        self.segments.get(i).unwrap_or(&PAST_THE_END)
     }
 
     /// Ticks from the start to the last event, exactly as [`Cursor::next`] adds them up (saturated at `u32::MAX`).
@@ -360,26 +408,35 @@ impl StepTimes {
 
     /// Cut the events `from..to` of a ramp into at most [`RAMP_SEGMENTS`] segments fitted to `time` (relative
     /// ticks of a real event position). The ramp is slowest at `to` when `slow_end`, else at `from`, where the
-    /// motion is `c = v²/2a` events past the point where its rate would be zero. Segment boundaries are spaced
-    /// geometrically in the distance from that point (each segment the same ratio `q` longer than the distance
-    /// before it): `t ∝ √distance` there, so every segment then has the same relative interpolation error.
-    fn ramp(&mut self, from: u32, to: u32, slow_end: bool, c: f32, time: impl Fn(f32) -> f32) {
+    /// motion is `c = v²/2a` events past the point where its rate would be zero (`two_a = 2a`, events/s²).
+    ///
+    /// The segments are as long as their estimated interpolation error allows ([`greedy_ramp`]), from the slow
+    /// end on; when that takes more than [`RAMP_SEGMENTS`], their boundaries are spaced geometrically in the
+    /// distance from the zero-rate point instead (each segment the same ratio `q` longer than the distance before
+    /// it): `t ∝ √distance` there, so every segment then has the same relative interpolation error.
+    fn ramp(&mut self, from: u32, to: u32, slow_end: bool, c: f32, two_a: f32, time: impl Fn(f32) -> f32) {
         if to <= from {
             return;
         }
         let len = to - from;
-        let base = if c > 1.0 { c } else { 1.0 };
-        // q = ((len + c)/base)^(1/16), the 16th root as four square roots.
-        let q = sqrt(sqrt(sqrt(sqrt((len as f32 + c) / base))));
         let mut dist = [0u32; RAMP_SEGMENTS + 1];
-        let mut g = base;
-        for i in 1..=RAMP_SEGMENTS {
-            g *= q;
-            dist[i] = if i == RAMP_SEGMENTS { len } else { round_u32(g - c).clamp(dist[i - 1], len) };
-        }
+        let segs = match greedy_ramp(len, c, two_a, &mut dist) {
+            Some(segs) => segs,
+            None => {
+                let base = if c > 1.0 { c } else { 1.0 };
+                // q = ((len + c)/base)^(1/16), the 16th root as four square roots.
+                let q = sqrt(sqrt(sqrt(sqrt((len as f32 + c) / base))));
+                let mut g = base;
+                for i in 1..=RAMP_SEGMENTS {
+                    g *= q;
+                    dist[i] = if i == RAMP_SEGMENTS { len } else { round_u32(g - c).clamp(dist[i - 1], len) };
+                }
+                RAMP_SEGMENTS
+            }
+        };
         let mut prev = from;
-        for i in 1..=RAMP_SEGMENTS {
-            let b = if slow_end { to - dist[RAMP_SEGMENTS - i] } else { from + dist[i] };
+        for i in 1..=segs {
+            let b = if slow_end { to - dist[segs - i] } else { from + dist[i] };
             if b > prev {
                 let m = b - prev;
                 let mid = prev as f32 + m as f32 * 0.5;
@@ -412,7 +469,7 @@ impl StepTimes {
         let time = |x: f32| ramp_time(x, v, vsq, -two_a) * f;
         let mut times = StepTimes::empty(start);
         let count = stop.min(avail);
-        times.ramp(0, count, true, q - count as f32, time);
+        times.ramp(0, count, true, q - count as f32, two_a, time);
         let left = if stop < avail { None } else { Some(vsq - two_a * avail as f32) };
         (times, left)
     }
@@ -427,6 +484,67 @@ fn ramp_time(x: f32, v: f32, v_sq: f32, two_a: f32) -> f32 {
     }
     let den = sqrt(v_sq + two_a * x) + v;
     if den > 0.0 { 2.0 * x / den } else { 0.0 }
+}
+
+/// Interpolation error a ramp's segment may have: a fixed part, ticks, …
+const RAMP_TOL_TICKS: f32 = 1.0;
+/// … and a part of the ramp's duration (the stated accuracy, in the module docs, is 2 ticks + 0.05 % of the
+/// block's ramps).
+const RAMP_TOL_REL: f32 = 4.0e-4;
+
+/// Cut a ramp of `len` events, from `c` events past its zero-rate point (`two_a = 2a`), into segments from its
+/// slow end on, each as long as its estimated interpolation error stays within [`RAMP_TOL_TICKS`] +
+/// [`RAMP_TOL_REL`] of the ramp's duration: `dist[1..=segs]` are the boundaries' distances from the slow end
+/// (the last one `len`). `None` when that needs more than [`RAMP_SEGMENTS`].
+///
+/// The estimate: near the slow end the ideal time is `t = K√u` (`u` events from the zero-rate point,
+/// `K = 2·10⁶/√(2a)` ticks); a segment of `m` events from `u` on, fitted through its start, middle and end, errs
+/// between them by at most `max|t‴|·m³·√3/108 = (3/8)·K·u^(−5/2)·m³·√3/108 < 0.0061·K·m³/u^(5/2)` (the
+/// remainder of the interpolation through three equally spaced points; `|t‴|` is largest at the slow end `u`).
+/// A one-event segment is exact; one starting at the zero-rate point is never longer.
+fn greedy_ramp(len: u32, c: f32, two_a: f32, dist: &mut [u32; RAMP_SEGMENTS + 1]) -> Option<usize> {
+    if two_a <= 0.0 {
+        return None;
+    }
+    let k = 2.0 * TICK_HZ as f32 / sqrt(two_a);
+    let c = if c > 0.0 { c } else { 0.0 };
+    let tol = RAMP_TOL_TICKS + RAMP_TOL_REL * k * (sqrt(c + len as f32) - sqrt(c));
+    let mut done = 0;
+    for (segs, boundary) in dist.iter_mut().enumerate().skip(1) {
+        let u = c + done as f32;
+        // m³ ≤ tol·u^(5/2)/(0.0061·K).
+        let room = tol * u * u * sqrt(u) / (0.0061 * k);
+        done += cube_floor(room, len - done);
+        *boundary = done;
+        if done == len {
+            return Some(segs);
+        }
+    }
+    None
+}
+
+/// The largest `m` in `1..=cap` with `m³ ≤ x` (1 when none).
+fn cube_floor(x: f32, cap: u32) -> u32 {
+    let fits = |m: u32| {
+        let f = m as f32;
+        f * f * f <= x
+    };
+    // Double while it fits, then halve the gap.
+    let (mut lo, mut hi) = (1u32, 2u32);
+    while hi <= cap && fits(hi) {
+        lo = hi;
+        hi = hi.saturating_mul(2);
+    }
+    let mut hi = hi.min(cap.saturating_add(1));
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if fits(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo.min(cap.max(1))
 }
 
 /// The trapezoid of one block (see the module docs for the formulas), and its step times.
@@ -515,14 +633,20 @@ impl Profile {
         let two_a = 2.0 * a;
         let c0 = if a > 0.0 { v0 * v0 / two_a } else { 0.0 };
         let c1 = if a > 0.0 { v1 * v1 / two_a } else { 0.0 };
-        times.ramp(0, ka, false, c0, at);
+        times.ramp(0, ka, false, c0, two_a, at);
         // The event after x_a is the first of the cruise, but the interval before it still partly accelerates.
         let kc = if (ka as f32) < xa && ka < kd { ka + 1 } else { ka };
         if kc > ka {
             times.fit(1, at(ka as f32), 0.0, at(kc as f32), true);
         }
         times.cruise(kc, kd, at);
-        times.ramp(kd, n, true, c1, at);
+        // The interval that holds x_d (from the cruise or the peak into the deceleration) is not on the
+        // deceleration's square root: a segment of its own, so that no fitted segment spans the bend.
+        let ke = if (kd as f32) < xd && kd < n { kd + 1 } else { kd };
+        if ke > kd {
+            times.fit(1, at(kd as f32), 0.0, at(ke as f32), true);
+        }
+        times.ramp(ke, n, true, c1, two_a, at);
         p.times = times;
         p
     }
@@ -675,13 +799,70 @@ mod tests {
     }
 
     #[test]
-    fn a_long_trapezoid_fills_every_segment() {
-        // 0 → 10⁴ → 0 events/s at 9·10⁴ events/s²: each ramp is 555.6 events (16 distinct geometric boundaries),
-        // the cruise begins at the fractional x_a (one event of its own), then one cruise segment.
-        let p = Profile::new(3000, 0, 10_000, 0, 90_000);
-        assert_eq!(p.times().segments().len(), MAX_SEGMENTS);
-        assert_eq!(MAX_SEGMENTS, 34);
-        assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 3000);
+    fn a_ramp_too_long_for_the_greedy_cut_fills_every_segment() {
+        // 0 → 20 000 → 0 events/s at 200 events/s²: each ramp is 10⁶ events from rest, more than 16 greedy
+        // segments cover; the geometric cut then has q = (10⁶)^(1/16) = 2.37 > 1.5, so its 16 boundaries round to
+        // distinct events: 16 segments per ramp, no cruise (x_a = x_d is a whole event).
+        let p = Profile::new(2_000_000, 0, 20_000, 0, 200);
+        assert_eq!(p.times().segments().len(), 2 * RAMP_SEGMENTS);
+        assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 2_000_000);
+        let mut dist = [0; RAMP_SEGMENTS + 1];
+        assert_eq!(greedy_ramp(1_000_000, 0.0, 400.0, &mut dist), None);
+    }
+
+    #[test]
+    fn every_segment_fits_when_both_ramps_fall_back_and_both_bends_are_between_events() {
+        // 0 → 20 000 → 0 events/s at 201 events/s²: x_a = 4·10⁸/402 = 995 024.9 and x_d = n − x_a = 1 504 976.1,
+        // both between events; each ramp ~995 000 events from rest (geometric fallback, q = 2.37: 16 distinct
+        // segments), the event after x_a, the cruise, the event after x_d: 35 segments, every event timed.
+        let p = Profile::new(2_500_001, 0, 20_000, 0, 201);
+        assert_eq!(p.times().segments().len(), 2 * RAMP_SEGMENTS + 3);
+        assert_eq!(MAX_SEGMENTS, 35);
+        assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 2_500_001);
+        assert_eq!(p.times().events(), 2_500_001);
+        // The acceleration's geometric boundaries from base 1: q = 995 024^(1/16) = 2.3707, round(q^i) = 2, 6, 13,
+        // 32, 75: segments of 2, 4, 7, 19 and 43 events.
+        let counts: std::vec::Vec<u32> = p.times().segments()[..5].iter().map(|s| s.count).collect();
+        assert_eq!(counts, [2, 4, 7, 19, 43]);
+    }
+
+    #[test]
+    fn fit_ignores_an_empty_segment_and_a_full_list() {
+        let mut t = StepTimes::empty(HALF);
+        t.fit(0, 0.0, 0.0, 5.0, false);
+        assert_eq!((t.segments().len(), t.events(), t.duration_ticks()), (0, 0, 0));
+        for i in 1..=MAX_SEGMENTS {
+            t.fit(1, 0.0, 0.0, i as f32, true);
+        }
+        assert_eq!((t.segments().len(), t.duration_ticks()), (MAX_SEGMENTS, 35));
+        // No room left: ignored.
+        t.fit(1, 0.0, 0.0, 100.0, true);
+        assert_eq!((t.segments().len(), t.events(), t.duration_ticks()), (MAX_SEGMENTS, 35, 35));
+    }
+
+    #[test]
+    fn greedy_ramp_segments_by_hand() {
+        // K = 2·10⁶/√(2a) = 1000 ticks at 2a = 4·10⁶. From c = 100 over 1000 events: tol = 1 + 4·10⁻⁴·1000·(√1100
+        // − 10) = 10.27 ticks; the first segment m³ ≤ 10.27·100^2.5/6.1 = 168 300: 55 (55³ = 166 375, 56³ = 175 616);
+        // the second from u = 155: 10.27·155^2.5/6.1 = 503 600: 79 (79³ = 493 039, 80³ = 512 000).
+        let mut dist = [0; RAMP_SEGMENTS + 1];
+        let segs = greedy_ramp(1000, 100.0, 4e6, &mut dist).unwrap();
+        assert_eq!(&dist[..3], [0, 55, 134]);
+        assert_eq!(dist[segs], 1000);
+        assert!(segs < RAMP_SEGMENTS, "{segs}");
+        // From rest: the first events each alone (a segment from the zero-rate point is one event; at u = 1..3 the
+        // room 1.8·u^2.5/6.1 = 0.30, 1.67, 4.60 is below 2³).
+        let segs = greedy_ramp(4, 0.0, 4e6, &mut dist).unwrap();
+        assert_eq!((segs, &dist[..5]), (4, &[0, 1, 2, 3, 4][..]));
+        // No acceleration: no greedy cut.
+        assert_eq!(greedy_ramp(4, 0.0, 0.0, &mut dist), None);
+    }
+
+    #[test]
+    fn cube_floor_is_the_integer_cube_root_capped() {
+        assert_eq!([cube_floor(27.0, 100), cube_floor(26.9, 100), cube_floor(0.0, 5)], [3, 2, 1]);
+        assert_eq!([cube_floor(1e9, 2000), cube_floor(1e9, 7), cube_floor(999_000_000.0, 2000)], [1000, 7, 999]);
+        assert_eq!(cube_floor(8.0, 0), 1, "never below one event");
     }
 
     #[test]
@@ -732,6 +913,10 @@ mod tests {
         // Segments by index: the two in use, then none (the unused rest of the array is not a segment).
         assert_eq!(times.segment(1), Some(&Segment { count: 2, interval: 4 << 32, add: 0 }));
         assert_eq!((times.segment(2), times.segment(MAX_SEGMENTS)), (None, None));
+        // Or past the last one, the sentinel of one tick for ever; the same beyond the array.
+        assert_eq!(times.segment_or_end(1), &Segment { count: 2, interval: 4 << 32, add: 0 });
+        assert_eq!((times.segment_or_end(2), times.segment_or_end(MAX_SEGMENTS)), (&PAST_THE_END, &PAST_THE_END));
+        assert_eq!(PAST_THE_END, Segment { count: u32::MAX, interval: 1 << 32, add: 0 });
         // A copy made with `set` goes on exactly as the original: 4, 4 after the first three events.
         let mut c = times.cursor();
         for _ in 0..3 {
@@ -794,6 +979,11 @@ mod tests {
         t.fit(4, 0.0, 3.9, 4.0, false);
         assert_eq!(t.segments(), &[Segment { count: 4, interval: 1 << 32, add: 0 }]);
         assert_eq!((t.events(), t.duration_ticks()), (4, 4));
+        // A last interval of exactly 0 is not negative: kept (2 events over 4 ticks, the middle one at 4: E = −4,
+        // D = 4).
+        let mut t = StepTimes::empty(HALF);
+        t.fit(2, 0.0, 4.0, 4.0, false);
+        assert_eq!(t.segments(), &[Segment { count: 2, interval: 4 << 32, add: -(4 << 32) }]);
         // Convex (middle at 1.0): E = 4·(4 − 2)/16 = 0.5 tick, D = (4 − 0.5·6)/4 = 0.25, intervals 0.25 … 1.75.
         let mut t = StepTimes::empty(HALF);
         t.fit(4, 0.0, 1.0, 4.0, false);
@@ -801,10 +991,10 @@ mod tests {
         assert_eq!((t.events(), t.duration_ticks()), (4, 4));
     }
 
-    /// The stated bound: each event within 2 ticks + 0.05 % of the time spent ramping (accelerating plus
+    /// The stated bound: each event within 1 tick + 0.025 % of the time spent ramping (accelerating plus
     /// decelerating) + 2·10⁻⁶ of its own time (the f32 arithmetic) of the ideal trapezoid.
     fn bound(ramp_ticks: f64, t_ticks: f64) -> f64 {
-        2.0 + 5e-4 * ramp_ticks + 2e-6 * t_ticks
+        1.0 + 2.5e-4 * ramp_ticks + 2e-6 * t_ticks
     }
 
     fn rates() -> impl Strategy<Value = (u32, u32, u32, u32, u32)> {

@@ -15,18 +15,21 @@
 //! on those), and the lead keeps a step pulse's low time (see the board's pulse timing) even then.
 
 /// The deadline of the last scheduled step event, in [`plotter_fw::TICK_HZ`] ticks of the board's clock (low 32
-/// bits).
+/// bits). A late event fires `LEAD` ticks after now (a lead of 0 is 1); the lead is a constant of the board, an
+/// immediate operand in the step interrupt.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Deadline {
+pub struct Deadline<const LEAD: u32> {
     at: u32,
     running: bool,
-    lead: u32,
 }
 
-impl Deadline {
-    /// Idle: the next [`Deadline::schedule`] counts from now. A late event fires `lead` (≥ 1) ticks after now.
-    pub const fn new(lead: u32) -> Self {
-        Deadline { at: 0, running: false, lead: if lead == 0 { 1 } else { lead } }
+impl<const LEAD: u32> Deadline<LEAD> {
+    /// The lead, ticks (≥ 1).
+    const LEAD: u32 = if LEAD == 0 { 1 } else { LEAD };
+
+    /// Idle: the next [`Deadline::schedule`] counts from now.
+    pub const fn new() -> Self {
+        Deadline { at: 0, running: false }
     }
 
     /// The next event: `ticks` after the previous one (or after `now` when idle), never earlier than
@@ -46,10 +49,10 @@ impl Deadline {
     #[inline(always)]
     pub fn next(&mut self, now: u32, ticks: u32) -> u32 {
         let elapsed = now.wrapping_sub(self.at);
-        self.at = if ticks >= elapsed.saturating_add(self.lead) {
+        self.at = if ticks >= elapsed.saturating_add(Self::LEAD) {
             self.at.wrapping_add(ticks)
         } else {
-            now.wrapping_add(self.lead)
+            now.wrapping_add(Self::LEAD)
         };
         self.at
     }
@@ -70,13 +73,19 @@ impl Deadline {
     }
 }
 
+impl<const LEAD: u32> Default for Deadline<LEAD> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn events_follow_the_previous_deadline_not_the_interrupt_time() {
-        let mut d = Deadline::new(1);
+        let mut d = Deadline::<1>::new();
         // Idle: from now.
         assert_eq!(d.schedule(1_000, 40), 1_040);
         // The interrupt ran at 1_043 (3 ticks of latency): the next event still lands at 1_040 + 25.
@@ -91,7 +100,7 @@ mod tests {
 
     #[test]
     fn a_late_deadline_fires_after_the_lead_without_a_burst() {
-        let mut d = Deadline::new(1);
+        let mut d = Deadline::<1>::new();
         assert_eq!(d.schedule(0, 10), 10);
         // Interrupt 100 ticks late: 10 + 10 = 20 is past; fire at once, then measure from there.
         assert_eq!(d.schedule(110, 10), 111);
@@ -99,7 +108,7 @@ mod tests {
         // Exactly now is also past: an interrupt cannot be scheduled at the current tick.
         assert_eq!(d.schedule(131, 10), 132);
         // A lead of 5: 140 + 3 = 143 is closer than 141 + 5.
-        let mut d = Deadline::new(5);
+        let mut d = Deadline::<5>::new();
         assert_eq!(d.schedule(135, 5), 140);
         assert_eq!(d.schedule(141, 3), 146);
         // Exactly the lead away is in time.
@@ -107,12 +116,12 @@ mod tests {
         // From idle, a delay below the lead is stretched to it.
         d.cancel();
         assert_eq!(d.schedule(200, 2), 205);
-        assert_eq!(Deadline::new(0).schedule(7, 0), 8, "a lead of 0 is 1");
+        assert_eq!(Deadline::<0>::new().schedule(7, 0), 8, "a lead of 0 is 1");
     }
 
     #[test]
     fn next_is_schedule_while_running() {
-        let mut d = Deadline::new(5);
+        let mut d = Deadline::<5>::new();
         assert_eq!(d.schedule(1_000, 40), 1_040);
         // From the interrupt (running): the previous deadline plus the interval, as `schedule` gives.
         assert_eq!(d.next(1_043, 25), 1_065);
@@ -122,23 +131,23 @@ mod tests {
         assert_eq!(d.next(1_082, 5), 1_087);
         assert!(d.is_running());
         // Across the clock's wrap.
-        let mut d = Deadline::new(1);
+        let mut d = Deadline::<1>::new();
         assert_eq!(d.schedule(u32::MAX - 2, 2), u32::MAX);
         assert_eq!(d.next(u32::MAX, 4), 3);
     }
 
     #[test]
     fn the_32_bit_clock_wraps_between_events() {
-        let mut d = Deadline::new(1);
+        let mut d = Deadline::<1>::new();
         assert_eq!(d.schedule(u32::MAX - 5, 4), u32::MAX - 1);
         // The interrupt ran 2 ticks late, after the counter wrapped: 9 ticks after the deadline is 7.
         assert_eq!(d.schedule(0, 9), 7);
         // Late across the wrap: fires at now + 1.
-        let mut d = Deadline::new(1);
+        let mut d = Deadline::<1>::new();
         d.schedule(u32::MAX - 1, 1);
         assert_eq!(d.schedule(3, 2), 4);
         // A delay longer than half the counter is not mistaken for a late one.
-        let mut d = Deadline::new(1);
+        let mut d = Deadline::<1>::new();
         d.schedule(0, 10);
         assert_eq!(d.schedule(12, 3_000_000_000), 3_000_000_010);
     }

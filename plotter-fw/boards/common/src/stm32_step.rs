@@ -164,7 +164,7 @@ impl StepOutputs {
     /// Aim compare 1 at the next event, `ticks` after the previous one ([`Deadline`]); from idle, also enable its
     /// interrupt.
     #[inline(always)]
-    pub fn schedule(&self, deadline: &mut Deadline, ticks: u32) {
+    pub fn schedule<const LEAD: u32>(&self, deadline: &mut Deadline<LEAD>, ticks: u32) {
         let idle = !deadline.is_running();
         let at = deadline.schedule(read(self.tim + tim::CNT), ticks);
         write(self.tim + tim::CCR1, at);
@@ -177,13 +177,13 @@ impl StepOutputs {
 
     /// [`StepOutputs::schedule`] from the timer's interrupt (the timer runs): the next event's compare value only.
     #[inline(always)]
-    pub fn schedule_next(&self, deadline: &mut Deadline, ticks: u32) {
+    pub fn schedule_next<const LEAD: u32>(&self, deadline: &mut Deadline<LEAD>, ticks: u32) {
         let at = deadline.next(read(self.tim + tim::CNT), ticks);
         write(self.tim + tim::CCR1, at);
     }
 
     /// Stop the step events.
-    pub fn cancel(&self, deadline: &mut Deadline) {
+    pub fn cancel<const LEAD: u32>(&self, deadline: &mut Deadline<LEAD>) {
         let dier = read(self.tim + tim::DIER);
         write(self.tim + tim::DIER, dier & !tim::CC1);
         write(self.tim + tim::SR, !tim::CC1);
@@ -219,9 +219,10 @@ mod tests {
     #[test]
     fn pulses_stay_high_and_low_long_enough_at_every_latency_and_rate() {
         let (pulse, low) = (3u32, 2u32);
+        assert_eq!(pulse + low, 5, "the deadline's lead");
         for interval in 1..12u32 {
             for latency in [0u32, 30, 90, 100, 170, 250, 400, 470, 600, 990, 1500] {
-                let mut d = Deadline::new(pulse + low);
+                let mut d = Deadline::<5>::new();
                 let mut deadline = d.schedule(0, interval);
                 let mut last_end: Option<u32> = None;
                 for _ in 0..20 {

@@ -264,7 +264,7 @@ pub(crate) fn usart2_idle() -> bool {
 
 /// The board as the core sees it.
 pub(crate) struct NucleoHal {
-    deadline: Deadline,
+    deadline: Deadline<{ PULSE_TICKS + LOW_TICKS }>,
     debounce: Debouncer,
     tx: heapless::Deque<u8, 512>,
     servo: Option<ServoPen>,
@@ -291,7 +291,7 @@ impl NucleoHal {
             )
         });
         NucleoHal {
-            deadline: Deadline::new(PULSE_TICKS + LOW_TICKS),
+            deadline: Deadline::new(),
             debounce: Debouncer::new(DEBOUNCE_TICKS),
             tx: heapless::Deque::new(),
             servo,

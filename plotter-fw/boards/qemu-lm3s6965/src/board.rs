@@ -177,14 +177,14 @@ pub(crate) fn uart_write(bytes: &[u8]) {
 
 /// The board as the core sees it.
 pub(crate) struct QemuHal {
-    deadline: Deadline,
+    deadline: Deadline<1>,
     debounce: Debouncer,
 }
 
 impl QemuHal {
     /// After [`init`].
     pub(crate) fn new() -> Self {
-        QemuHal { deadline: Deadline::new(1), debounce: Debouncer::new(DEBOUNCE_TICKS) }
+        QemuHal { deadline: Deadline::new(), debounce: Debouncer::new(DEBOUNCE_TICKS) }
     }
 }
 

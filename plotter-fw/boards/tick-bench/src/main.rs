@@ -62,7 +62,7 @@ fn endstop_low<const I: usize>() -> u8 {
 }
 
 struct BenchHal {
-    deadline: Deadline,
+    deadline: Deadline<LEAD>,
     debounce: Debouncer,
 }
 
@@ -174,7 +174,7 @@ fn main() -> ! {
         write(port + IDR, 0xFFFF);
     }
     let cfg = MachineConfig::xy_plotter();
-    let hal = BenchHal { deadline: Deadline::new(LEAD), debounce: Debouncer::new(1_000) };
+    let hal = BenchHal { deadline: Deadline::new(), debounce: Debouncer::new(1_000) };
     MACHINE.install(Machine::new(hal, cfg));
     let mut ticks = 0u32;
     let mut steps = 0u32;
