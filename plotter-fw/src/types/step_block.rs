@@ -811,6 +811,18 @@ mod tests {
     }
 
     #[test]
+    fn the_fallback_cut_of_a_ramp_from_a_moving_start_measures_from_the_zero_rate_point() {
+        // 100 → 20 000 → 0 events/s at 200 events/s²: the acceleration starts c = 100²/400 = 25 events past the
+        // point where its rate would be zero and runs ~999 975 events, too long for the greedy cut. The geometric
+        // cut grows from base c: q = ((999 975 + 25)/25)^(1/16) = 1.939 23, boundaries round(25·qⁱ − 25) = 23, 69,
+        // 157, 329: segments of 23, 46, 88 and 172 events (from base 1 the first ones would be empty).
+        let p = Profile::new(2_000_000, 100, 20_000, 0, 200);
+        let counts: std::vec::Vec<u32> = p.times().segments()[..4].iter().map(|s| s.count).collect();
+        assert_eq!(counts, [23, 46, 88, 172]);
+        assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 2_000_000);
+    }
+
+    #[test]
     fn every_segment_fits_when_both_ramps_fall_back_and_both_bends_are_between_events() {
         // 0 → 20 000 → 0 events/s at 201 events/s²: x_a = 4·10⁸/402 = 995 024.9 and x_d = n − x_a = 1 504 976.1,
         // both between events; each ramp ~995 000 events from rest (geometric fallback, q = 2.37: 16 distinct
