@@ -984,8 +984,21 @@ mod tests {
         assert!(s.is_held());
         // Stopping from 4000 steps/s at 20000 steps/s² takes 400 steps.
         assert!((395..=401).contains(&during), "{during}");
-        assert!(s.resume(&mut hal).is_some());
-        while s.tick(&mut hal).is_some() {}
+        // The rest of the first block runs from rest to rest: its first and its last interval are both
+        // √(2/a) = √(2/20 000) s = 10 000 µs (to the ramps' accuracy: 1 tick + 0.025 % of the 0.2 s ramp at each end).
+        // (`tick` returns the interval to the next event: the one before the event that ends the block is the
+        // value returned by the tick before it.)
+        let first = s.resume(&mut hal).expect("resumed");
+        assert!((9_898..=10_102).contains(&first), "{first}");
+        let (mut before, mut last_of_first) = (first, None);
+        while let Some(iv) = s.tick(&mut hal) {
+            if hal.pos[0] == 4000 && last_of_first.is_none() {
+                last_of_first = Some(before);
+            }
+            before = iv;
+        }
+        let last = last_of_first.expect("the first block ends");
+        assert!((9_898..=10_102).contains(&last), "{last}");
         assert!(s.is_idle());
         assert_eq!(hal.pos, [8000, 2000, 0, 0]);
     }
