@@ -1004,6 +1004,37 @@ mod tests {
     }
 
     #[test]
+    fn a_block_pushed_while_a_hold_decelerates_continues_the_hold() {
+        // As in `feed_hold_decelerates_through_a_block_boundary`, but the second block arrives only after the hold
+        // began: it is re-timed as the hold's continuation when pushed, so the stop is the same 399 events after
+        // the scheduled one, 299 of them in the second block.
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let block = |entry, exit| StepBlock {
+            steps: [3000, 0, 0, 0],
+            entry_rate: entry,
+            cruise_rate: 4000,
+            exit_rate: exit,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        s.push(block(0, 4000), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..2899 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        for _ in 0..10 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.push(block(4000, 0), Switches::Limits).unwrap();
+        while s.tick(&mut hal).is_some() {}
+        assert!(s.is_held());
+        assert_eq!((hal.pos[0], s.completed()), (2900 + 399, 1));
+    }
+
+    #[test]
     fn feed_hold_decelerates_through_a_block_boundary() {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();
