@@ -553,19 +553,17 @@ impl Stepper {
         act.countdown = 0;
         act.cursor = times.cursor();
         slot.profile.set_times(times);
-        match left {
-            None => {
-                act.stop_at = scheduled + times.events();
-                act.arm(k);
+        if left.is_none() {
+            // The stop comes within this block.
+            act.stop_at = scheduled + times.events();
+        }
+        act.arm(k);
+        if let Some(v_sq) = left {
+            let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
+            for i in 0..self.queued {
+                carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
             }
-            Some(v_sq) => {
-                act.arm(k);
-                let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
-                for i in 0..self.queued {
-                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
-                }
-                self.carry = carry;
-            }
+            self.carry = carry;
         }
     }
 
@@ -1003,14 +1001,9 @@ mod tests {
         assert_eq!(hal.pos, [8000, 2000, 0, 0]);
     }
 
-    #[test]
-    fn a_block_pushed_while_a_hold_decelerates_continues_the_hold() {
-        // As in `feed_hold_decelerates_through_a_block_boundary`, but the second block arrives only after the hold
-        // began: it is re-timed as the hold's continuation when pushed, so the stop is the same 399 events after
-        // the scheduled one, 299 of them in the second block.
-        let mut s = Stepper::new(0, 0);
-        let mut hal = Rec::default();
-        let block = |entry, exit| StepBlock {
+    /// 3000 X events toward 4000 events/s at 20 000 events/s², entering and leaving at the given rates.
+    fn ramp_3000(entry: u32, exit: u32) -> StepBlock {
+        StepBlock {
             steps: [3000, 0, 0, 0],
             entry_rate: entry,
             cruise_rate: 4000,
@@ -1018,8 +1011,17 @@ mod tests {
             accel: 20_000,
             dwell_ticks: 0,
             servo: None,
-        };
-        s.push(block(0, 4000), Switches::Limits).unwrap();
+        }
+    }
+
+    #[test]
+    fn a_block_pushed_while_a_hold_decelerates_continues_the_hold() {
+        // As in `feed_hold_decelerates_through_a_block_boundary`, but the second block arrives only after the hold
+        // began: it is re-timed as the hold's continuation when pushed, so the stop is the same 399 events after
+        // the scheduled one, 299 of them in the second block.
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(ramp_3000(0, 4000), Switches::Limits).unwrap();
         s.start(&mut hal);
         for _ in 0..2899 {
             s.tick(&mut hal).unwrap();
@@ -1028,7 +1030,7 @@ mod tests {
         for _ in 0..10 {
             s.tick(&mut hal).unwrap();
         }
-        s.push(block(4000, 0), Switches::Limits).unwrap();
+        s.push(ramp_3000(4000, 0), Switches::Limits).unwrap();
         while s.tick(&mut hal).is_some() {}
         assert!(s.is_held());
         assert_eq!((hal.pos[0], s.completed()), (2900 + 399, 1));
@@ -1038,17 +1040,8 @@ mod tests {
     fn feed_hold_decelerates_through_a_block_boundary() {
         let mut s = Stepper::new(0, 0);
         let mut hal = Rec::default();
-        let block = |entry, exit| StepBlock {
-            steps: [3000, 0, 0, 0],
-            entry_rate: entry,
-            cruise_rate: 4000,
-            exit_rate: exit,
-            accel: 20_000,
-            dwell_ticks: 0,
-            servo: None,
-        };
-        s.push(block(0, 4000), Switches::Limits).unwrap();
-        s.push(block(4000, 0), Switches::Limits).unwrap();
+        s.push(ramp_3000(0, 4000), Switches::Limits).unwrap();
+        s.push(ramp_3000(4000, 0), Switches::Limits).unwrap();
         s.start(&mut hal);
         for _ in 0..2899 {
             s.tick(&mut hal).unwrap();

@@ -254,12 +254,8 @@ impl Cursor {
     /// many were taken.
     #[inline(always)]
     pub fn enter_for(&mut self, s: &Segment, max: u32) -> u32 {
-        let taken = s.count.min(max);
-        self.seg = self.seg.wrapping_add(1);
-        self.left = s.count - taken;
-        self.d = s.interval;
-        self.e = s.add;
-        taken
+        self.enter(s);
+        self.reserve(max)
     }
 
     /// One event of the current segment (which has one left): the interval to it, ticks.
@@ -488,7 +484,7 @@ fn ramp_time(x: f32, v: f32, v_sq: f32, two_a: f32) -> f32 {
 
 /// Interpolation error a ramp's segment may have: a fixed part, ticks, …
 const RAMP_TOL_TICKS: f32 = 1.0;
-/// … and a part of the ramp's duration (the stated accuracy, in the module docs, is 2 ticks + 0.05 % of the
+/// … and a part of the ramp's duration (the stated accuracy, in the module docs, is 1 tick + 0.025 % of the
 /// block's ramps).
 const RAMP_TOL_REL: f32 = 4.0e-4;
 
