@@ -53,7 +53,8 @@ pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
             return;
         };
         let beneath = Beneath { items: shared, paints: &paints, grid, below: i };
-        let under: Vec<usize> = grid.query(bbox).into_iter().filter(|&k| paints[k].0 < i).collect();
+        let mut under = Vec::new();
+        beneath.near(bbox, &mut under);
         let color = outline.color;
         let kept = if color == Some(paper) {
             if under.is_empty() {
