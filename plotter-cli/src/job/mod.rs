@@ -307,7 +307,7 @@ fn truncated(plan: &MotionPlan, len: usize) -> MotionPlan {
     if len == 0 {
         p.end = p.start;
     }
-    p.total_ticks = p.blocks.iter().map(|b| u64::from(b.block.duration_ticks())).sum();
+    p.total_ticks = p.blocks.iter().map(|b| u64::from(b.ticks)).sum();
     p
 }
 

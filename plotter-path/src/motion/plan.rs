@@ -41,6 +41,7 @@ use plotter_fw::{Axis, MachineConfig, NUM_AXES, StepBlock, TICK_HZ};
 use crate::MachineProfile;
 use crate::config::pens::{self, LayerPen};
 use crate::config::profile::{AxisProfile, HomeEnd};
+use crate::geometry::parallel::for_each_mut;
 use crate::geometry::steps::{PenHeightsError, StepDrawing, StepMapper, StepPos};
 use crate::motion::hop::{self, HopHeights};
 
@@ -140,6 +141,9 @@ pub struct PlannedBlock {
     pub kind: MoveKind,
     /// The stroke it belongs to (the travel to a stroke belongs to that stroke).
     pub stroke: usize,
+    /// How long the firmware takes to run `block` (ticks): its [`StepBlock::duration_ticks`], taken once when the
+    /// plan is made, since the stepper's timing is not free to compute.
+    pub ticks: u32,
 }
 
 /// A pen change between two layers: the plot stops with the pen up before block `block` (the travel to the new
@@ -248,14 +252,14 @@ impl MotionPlan {
 
     /// Exact execution time of the blocks from `from` on (ticks).
     pub fn ticks_from(&self, from: usize) -> u64 {
-        self.blocks.iter().skip(from).map(|b| u64::from(b.block.duration_ticks())).sum()
+        self.blocks.iter().skip(from).map(|b| u64::from(b.ticks)).sum()
     }
 
     /// Where the time goes: drawing, travel, and lifts with their settles (see [`PlanBreakdown`]).
     pub fn breakdown(&self) -> PlanBreakdown {
         let mut b = PlanBreakdown::default();
         for p in &self.blocks {
-            let t = u64::from(p.block.duration_ticks());
+            let t = u64::from(p.ticks);
             match p.kind {
                 MoveKind::Draw => b.draw_ticks += t,
                 MoveKind::Travel => b.travel_ticks += t,
@@ -876,16 +880,21 @@ fn finish(
         }
         Lookahead::Window(w) => windowed(&raw, w.max(1)),
     };
-    let mut blocks = Vec::with_capacity(step_blocks.len());
+    // Each block is quantized and timed on its own, so the (costly) timing runs on all cores.
+    let mut timed: Vec<(StepBlock, u32)> = step_blocks.into_iter().map(|b| (b, 0)).collect();
+    for_each_mut(&mut timed, |_, (b, ticks)| {
+        *b = protocol::quantize(b);
+        *ticks = b.duration_ticks();
+    });
+    let mut blocks = Vec::with_capacity(timed.len());
     let mut total = 0u64;
     let mut end = start;
-    for (b, (kind, stroke)) in step_blocks.iter().zip(meta) {
-        let q = protocol::quantize(b);
-        total += u64::from(q.duration_ticks());
+    for ((q, ticks), (kind, stroke)) in timed.into_iter().zip(meta) {
+        total += u64::from(ticks);
         for (e, s) in end.iter_mut().zip(q.steps) {
             *e += s;
         }
-        blocks.push(PlannedBlock { block: q, kind, stroke });
+        blocks.push(PlannedBlock { block: q, kind, stroke, ticks });
     }
     let mapper = StepMapper::new(profile);
     let mut draw_mm = 0.0;
@@ -977,6 +986,10 @@ mod tests {
         let sum: u64 = plan.blocks.iter().map(|b| u64::from(b.block.duration_ticks())).sum();
         assert_eq!(plan.total_ticks, sum);
         assert_eq!(plan.ticks_from(0), sum);
+        // From the last lift on: the lift and its settle.
+        let last_two = [7, 8].map(|i| u64::from(plan.blocks[i].block.duration_ticks()));
+        assert_eq!(plan.ticks_from(7), last_two[0] + last_two[1]);
+        assert!(plan.blocks.iter().all(|b| b.ticks == b.block.duration_ticks()));
         // Every block is representable on the wire.
         let mut enc = protocol::Encoder::new();
         let mut buf = [0u8; protocol::MAX_FRAME];
