@@ -66,11 +66,12 @@ impl TravelTimeModel {
 
     /// Time of the XY part of a hop from `a` to `b` (no lift/drop), seconds.
     ///
-    /// This runs for every candidate move of the improvement, so the common case skips the speed caps. Along the
-    /// unit direction `u = (dx, dy)/d` the acceleration is `A = min(aₓ/uₓ, a_y/u_y)`, so `d/A = max(dx/aₓ, dy/a_y)`
-    /// (= `m`). The hop is a triangle when `d·A < v²`, i.e. `d² < v²·m`; the speed `v` is never below
-    /// `v₀ = min(F, vₓ, v_y)` (each axis cap `vᵢ/uᵢ ≥ vᵢ`), so `d² < v₀²·m` settles it without computing `v`. Only
-    /// longer hops take the full formula.
+    /// This runs for every candidate move of the improvement, so the common case skips the speed caps and the
+    /// length. Along the unit direction `u = (dx, dy)/d` the acceleration is `A = min(aₓ/uₓ, a_y/u_y)`, so
+    /// `d/A = max(dx/aₓ, dy/a_y)` (= `m`). The hop is a triangle when `d·A < v²`, i.e. `d² < v²·m`; the speed `v` is
+    /// never below `v₀ = min(F, vₓ, v_y)` (each axis cap `vᵢ/uᵢ ≥ vᵢ`), so `d² < v₀²·m` settles it without
+    /// computing `v`, and the triangle's time `2·√(d/A)` is `2·√m`: one square root. Only longer hops take the full
+    /// formula.
     pub fn move_time(&self, a: Point, b: Point) -> f64 {
         let dx = (b.x - a.x).abs();
         let dy = (b.y - a.y).abs();
@@ -78,22 +79,14 @@ impl TravelTimeModel {
         if d2 <= 0.0 {
             return 0.0;
         }
-        // sqrt of the sum of squares rather than `hypot`: the libm routine guards against overflow that page
-        // coordinates never reach and costs several times more.
-        let d = d2.sqrt();
         let m = (dx / self.accel_x_mm_s2).max(dy / self.accel_y_mm_s2);
         let v0 = self.feed_mm_s.min(self.max_feed_x_mm_s).min(self.max_feed_y_mm_s);
         if d2 < v0 * v0 * m {
-            // A triangle for sure; evaluated as below (not as 2·√m) so the value is the same to the last bit.
-            let mut acc = f64::INFINITY;
-            if dx > 0.0 {
-                acc = acc.min(self.accel_x_mm_s2 / (dx / d));
-            }
-            if dy > 0.0 {
-                acc = acc.min(self.accel_y_mm_s2 / (dy / d));
-            }
-            return 2.0 * (d / acc).sqrt();
+            return 2.0 * m.sqrt();
         }
+        // sqrt of the sum of squares rather than `hypot`: the libm routine guards against overflow that page
+        // coordinates never reach and costs several times more.
+        let d = d2.sqrt();
         let (ux, uy) = (dx / d, dy / d);
         let mut v = self.feed_mm_s;
         let mut acc = f64::INFINITY;
