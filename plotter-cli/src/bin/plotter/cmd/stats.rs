@@ -48,9 +48,14 @@ fn estimate(
     start: Option<Point>,
 ) -> Result<(f64, PlanBreakdown, TimeBound)> {
     let steps = drawing_to_steps(profile, drawing)?;
-    let plan = plan::plan_returning(profile, &steps, plan::homed_position(profile)?, Lookahead::Whole, return_home)?;
-    let bound = drawing_time_lower_bound(profile, &steps, drawing, seam, start)?;
-    Ok((plan.seconds(), plan.breakdown(), bound))
+    let home = plan::homed_position(profile)?;
+    // The plan and the bound are independent: side by side on two cores.
+    let (plan, bound) = plotter_path::geometry::parallel::join(
+        || plan::plan_returning(profile, &steps, home, Lookahead::Whole, return_home),
+        || drawing_time_lower_bound(profile, &steps, drawing, seam, start),
+    );
+    let plan = plan?;
+    Ok((plan.seconds(), plan.breakdown(), bound?))
 }
 
 /// Run `plotter stats`.
