@@ -316,9 +316,16 @@ impl<'a> Tour<'a> {
         }
     }
 
+    /// Steps forward along the cycle from position `i` to position `j` (both below `n`); no division, as this runs
+    /// for every candidate.
+    #[inline]
+    fn forward(&self, i: usize, j: usize) -> usize {
+        if j >= i { j - i } else { j + self.n - i }
+    }
+
     /// Nodes a reversal of cycle positions `i..=j` (forward) really touches (the shorter side).
     fn rev_len(&self, i: u32, j: u32) -> usize {
-        let len = (j as usize + self.n - i as usize) % self.n + 1;
+        let len = self.forward(i as usize, j as usize) + 1;
         len.min(self.n - len)
     }
 
@@ -512,7 +519,7 @@ impl<'a> Tour<'a> {
                     continue;
                 }
                 let seg_start = self.pos[s1 as usize] as usize;
-                let in_seg = |t: &Self, k: u32| (t.pos[k as usize] as usize + t.n - seg_start) % t.n < len;
+                let in_seg = |t: &Self, k: u32| t.forward(seg_start, t.pos[k as usize] as usize) < len;
                 for head in [true, false] {
                     let x = if head { self.in_end(s1) } else { self.out_end(s2) };
                     if self.is_wild(x) {
