@@ -11,7 +11,8 @@
 //! the "fixed edge" variant where each path is an edge the tour must contain):
 //! * 2-opt: drop two hops, reconnect by reversing everything between them;
 //! * Or-opt: move a run of one to three paths elsewhere, as it is or reversed;
-//! * seam: move a closed path's seam to the vertex cheapest between its neighbours.
+//! * seam: move a closed path's seam to the vertex cheapest between its neighbours (searched again only once a
+//!   neighbouring hop has changed).
 //!
 //! Candidate moves come from the `k` nearest other ends of each end (a static k-d tree query), and a move is only
 //! tried when its first new hop is cheaper than the hop it replaces — the standard neighbour-list pruning of Johnson
@@ -122,6 +123,9 @@ struct Tour<'a> {
     seam: Vec<u32>,
     seam_off: Vec<u32>,
     seam_list: Vec<u32>,
+    /// For each closed path, the points its neighbouring hops meet and its seam when the seam was last found best
+    /// between them ([`Tour::try_seam`] skips asking again).
+    seam_settled: Vec<Option<([f64; 4], u32)>>,
     nbr_off: Vec<u32>,
     nbrs: Vec<u32>,
     cost: &'a CostModel,
@@ -262,6 +266,7 @@ impl<'a> Tour<'a> {
             seam,
             seam_off,
             seam_list,
+            seam_settled: vec![None; n],
             nbr_off,
             nbrs,
             cost,
@@ -590,17 +595,31 @@ impl<'a> Tour<'a> {
         }
     }
 
+    /// The points of ends `a` and `b` (a wildcard as infinity), in a fixed order whichever comes first.
+    fn hop_ends(&self, a: u32, b: u32) -> [f64; 4] {
+        let at = |e: u32| {
+            if self.is_wild(e) { [f64::INFINITY; 2] } else { [self.pts[e as usize].x, self.pts[e as usize].y] }
+        };
+        let (p, q) = (at(a), at(b));
+        if p <= q { [p[0], p[1], q[0], q[1]] } else { [q[0], q[1], p[0], p[1]] }
+    }
+
     fn try_seam(&mut self, a: u32) -> bool {
         let ai = a as usize;
         if !self.closed[ai] {
             return false;
         }
-        self.stats.work += u64::from(self.seam_off[ai + 1] - self.seam_off[ai]);
-        let cands = &self.seam_list[self.seam_off[ai] as usize..self.seam_off[ai + 1] as usize];
-        if cands.len() < 2 {
+        if self.seam_off[ai + 1] - self.seam_off[ai] < 2 {
             return false;
         }
         let (pe, ne) = (self.out_end(self.prev(a)), self.in_end(self.next(a)));
+        // The answer depends only on where the two neighbouring hops come from and go to, and on the seam.
+        let settled = Some((self.hop_ends(pe, ne), self.seam[ai]));
+        if self.seam_settled[ai] == settled {
+            return false;
+        }
+        self.stats.work += u64::from(self.seam_off[ai + 1] - self.seam_off[ai]);
+        let cands = &self.seam_list[self.seam_off[ai] as usize..self.seam_off[ai + 1] as usize];
         let hop = |t: &Self, e: u32, q: Point| if t.is_wild(e) { 0.0 } else { t.cost.cost(t.pts[e as usize], q) };
         let now = self.pts[2 * ai];
         let current = hop(self, pe, now) + hop(self, ne, now);
@@ -614,6 +633,8 @@ impl<'a> Tour<'a> {
             }
         }
         let gain = current - best.0;
+        // The best seam between these neighbours: asked again, the same search finds no gain.
+        self.seam_settled[ai] = Some((self.hop_ends(pe, ne), if gain > EPS { best.1 } else { self.seam[ai] }));
         if gain > EPS {
             let before = self.params.verify.then(|| self.total_cost());
             self.set_seam(a, best.1);
@@ -786,6 +807,32 @@ mod tests {
             seen.sort_unstable();
             assert_eq!(seen, ids);
         }
+    }
+
+    #[test]
+    fn a_seam_settled_between_the_same_neighbours_is_not_searched_again() {
+        // Between a line ending at (−1, 0) and one starting at (5, 5), the square's corner (4, 4) is cheapest:
+        // 6.40 + 1.41 mm, against 1 + 7.07 at (0, 0), 5 + 5.10 at (4, 0), 4.12 + 5.10 at (0, 4).
+        let square = vec![Point::ZERO, Point::new(4.0, 0.0), Point::new(4.0, 4.0), Point::new(0.0, 4.0), Point::ZERO];
+        let paths = vec![
+            Polyline::new(vec![Point::new(-10.0, 0.0), Point::new(-1.0, 0.0)]),
+            Polyline::new(square),
+            Polyline::new(vec![Point::new(5.0, 5.0), Point::new(10.0, 5.0)]),
+        ];
+        let visits: Vec<Visit> = (0..3).map(|path| Visit { path, reversed: false, seam: 0 }).collect();
+        let start = Point::new(-10.0, 0.0);
+        let mut t = Tour::new(&paths, &visits, start, &CostModel::Distance, params(true, 0));
+        assert!(t.try_seam(1));
+        assert_eq!(t.seam[1], 2);
+        // Asked again with nothing changed: no candidate is looked at.
+        let work = t.stats.work;
+        assert!(!t.try_seam(1));
+        assert_eq!(t.stats.work, work);
+        // The next line now starts at (0, 5): the search runs again and moves the seam to (0, 4) (4.12 + 1 mm).
+        t.pts[4] = Point::new(0.0, 5.0);
+        assert!(t.try_seam(1));
+        assert_eq!(t.seam[1], 3);
+        assert!(t.stats.work > work);
     }
 
     #[test]
