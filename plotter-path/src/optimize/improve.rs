@@ -39,7 +39,7 @@ use std::collections::VecDeque;
 use kurbo::Point;
 
 use super::Visit;
-use super::cost::CostModel;
+use super::cost::{CostModel, HopCost};
 use super::kdtree::KdTree;
 use super::rng::SplitMix64;
 use super::seam::{SeamMode, seam_candidates};
@@ -128,7 +128,7 @@ struct Tour<'a> {
     seam_settled: Vec<Option<([f64; 4], u32)>>,
     nbr_off: Vec<u32>,
     nbrs: Vec<u32>,
-    cost: &'a CostModel,
+    cost: HopCost,
     params: ImproveParams,
     queue: VecDeque<u32>,
     queued: Vec<bool>,
@@ -269,7 +269,7 @@ impl<'a> Tour<'a> {
             seam_settled: vec![None; n],
             nbr_off,
             nbrs,
-            cost,
+            cost: HopCost::new(*cost),
             params,
             queue: order.into(),
             queued: vec![true; n],
