@@ -1070,17 +1070,22 @@ mod tests {
         assert!(s.is_idle());
         assert_eq!(hal.pos[0], 6000);
         assert_eq!(s.completed(), 2);
-        // Later, a hold during a dwell stops at its end, whatever the ring slots still remember of the re-timed
-        // block (the slot after the dwell's is the second block's, which the hold above had marked).
+        // Later, a hold during a dwell with nothing queued stops at its end, whatever the ring slots still
+        // remember of the re-timed block: the blocks went into slots 0 and 1, the dwells go into 2, 3 and 0, so
+        // during the third the slot after it is the second block's, which the hold above had marked.
+        for _ in 0..2 {
+            s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+            s.start(&mut hal);
+            assert_eq!(s.tick(&mut hal), None);
+        }
         s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
         s.start(&mut hal);
-        assert_eq!(s.tick(&mut hal), None);
-        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
-        s.start(&mut hal);
+        assert_eq!((s.act.slot, s.first, s.queued), (0, 1, 0));
+        assert!(s.ring[1].hold, "the stale mark");
         s.feed_hold();
         assert_eq!(s.tick(&mut hal), None);
         assert!(s.is_held());
-        assert_eq!(s.completed(), 4);
+        assert_eq!(s.completed(), 5);
     }
 
     #[test]
@@ -1517,6 +1522,45 @@ mod tests {
         while s.tick(&mut hal).is_some() {}
         assert_eq!(s.position(), [-100, -250, -100, -5]);
         assert_eq!(s.homing_hits(), 0);
+    }
+
+    #[test]
+    fn a_homing_block_is_timed_by_its_own_slot() {
+        // Every event of a homing block is on the slow path, which reads the step times of the block's ring slot.
+        // The block goes into slot 1 (after a dwell); the other slots hold other times (the empty dwell's: one
+        // tick per event). Its intervals are those of the same block as a normal move, and add up to its duration.
+        let block = StepBlock {
+            steps: [0, 0, 0, 300],
+            entry_rate: 0,
+            cruise_rate: 2000,
+            exit_rate: 0,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let intervals = |switches: Switches| {
+            let mut s = Stepper::new(0, 0);
+            let mut hal = Rec::default();
+            s.push(StepBlock::dwell(7), Switches::Limits).unwrap();
+            s.push(block, switches).unwrap();
+            assert_eq!(s.start(&mut hal), Some(7));
+            let mut v = std::vec::Vec::new();
+            while let Some(iv) = s.tick(&mut hal) {
+                v.push(iv);
+                assert_eq!(s.act.slot, 1);
+            }
+            assert_eq!((hal.pos, s.completed()), ([0, 0, 0, 300], 2));
+            v
+        };
+        let homing = intervals(Switches::Homing { axes: Axis::E.bit() });
+        // The dwell's end returns the interval to the block's first event; the block's last event returns None.
+        assert_eq!(homing.len(), 300);
+        assert_eq!(homing.iter().map(|&iv| u64::from(iv)).sum::<u64>(), u64::from(block.duration_ticks()));
+        // 0 → 2000 events/s at 20 000 events/s²: 100 events each way, 100 cruise events 500 µs apart; the first
+        // interval is √(2/a) = 10 000 µs (1 tick + 0.025 % of the ramp).
+        assert!((9_997..=10_003).contains(&homing[0]), "{}", homing[0]);
+        assert_eq!(homing[150], 500);
+        assert_eq!(homing, intervals(Switches::Limits));
     }
 
     #[test]
