@@ -45,11 +45,12 @@ impl<const LEAD: u32> Deadline<LEAD> {
     }
 
     /// [`Deadline::schedule`] while running (from the timer's interrupt): `ticks` after the previous event, never
-    /// earlier than `now + lead`.
+    /// earlier than `now + lead`. `now` is at most `2³² − lead` ticks after the previous event (the interrupt
+    /// runs at most 71 minutes late), so `elapsed + lead` does not wrap: a plain add, no saturation.
     #[inline(always)]
     pub fn next(&mut self, now: u32, ticks: u32) -> u32 {
         let elapsed = now.wrapping_sub(self.at);
-        self.at = if ticks >= elapsed.saturating_add(Self::LEAD) {
+        self.at = if ticks >= elapsed.wrapping_add(Self::LEAD) {
             self.at.wrapping_add(ticks)
         } else {
             now.wrapping_add(Self::LEAD)
