@@ -1388,7 +1388,7 @@ mod tests {
         // 0x7FFF events with every axis's |Δ| different: each lane borrows exactly when its minor term does (the
         // same error terms), over the whole block, and both end with exactly |Δ| steps.
         let n = 0x7FFF;
-        let b = StepBlock { steps: [n as i32, -12_345, 1, 32_766], cruise_rate: 100, ..StepBlock::default() };
+        let b = StepBlock { steps: [0x7FFF, -12_345, 1, 32_766], cruise_rate: 100, ..StepBlock::default() };
         let mut lanes = Layout::of(&b, n);
         let mut list = Layout { lanes: false, ..Layout::of(&StepBlock { steps: [40_000, 0, 0, 0], ..b }, 40_000) };
         list.always = 1;
