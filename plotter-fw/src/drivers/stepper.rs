@@ -55,7 +55,7 @@ fn nth_after(i: usize, k: usize) -> usize {
 /// Most axes that step on some events only (every block has a major axis that steps at each event).
 const MINORS: usize = NUM_AXES - 1;
 
-// `Layout::event` is written out for three minor axes.
+// `Layout::minor_event` is written out for three minor axes.
 const _: () = assert!(MINORS == 3);
 
 /// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term `e`, kept as the
@@ -167,17 +167,8 @@ impl Layout {
     #[cold]
     #[inline(never)]
     fn minor_event(&mut self, n: u32) -> u8 {
-        let mut mask = self.always;
-        if self.minors > 0 {
-            mask |= self.minor[0].event(n);
-            if self.minors > 1 {
-                mask |= self.minor[1].event(n);
-                if self.minors > 2 {
-                    mask |= self.minor[2].event(n);
-                }
-            }
-        }
-        mask
+        // All three: an unused entry has |Δ| = 0 and bit 0, so it never borrows and adds nothing.
+        self.always | self.minor[0].event(n) | self.minor[1].event(n) | self.minor[2].event(n)
     }
 
     /// Steps made by each axis (unsigned) after `k` of the `n` events: `k` for the axes of every event, and

@@ -419,7 +419,7 @@ impl StepTimes {
         let segs = match greedy_ramp(len, c, two_a, &mut dist) {
             Some(segs) => segs,
             None => {
-                let base = if c > 1.0 { c } else { 1.0 };
+                let base = c.max(1.0);
                 // q = ((len + c)/base)^(1/16), the 16th root as four square roots.
                 let q = sqrt(sqrt(sqrt(sqrt((len as f32 + c) / base))));
                 let mut g = base;
