@@ -96,8 +96,6 @@ struct Layout {
     rooms: [u32; 2],
     /// The lanes' `|Δ|`.
     deltas: [u32; 2],
-    /// The block uses the lanes.
-    lanes: bool,
     /// Otherwise: axes with `|Δ| = n`, which step at every event, …
     always: u8,
     /// … and the minor axes; `minors` of them are used.
@@ -119,7 +117,6 @@ impl Layout {
     fn of(block: &StepBlock, n: u32) -> Self {
         let mut l = Layout::default();
         if n <= LANE_MAX {
-            l.lanes = true;
             for axis in Axis::ALL {
                 let i = axis.index();
                 let d = block.steps[i].unsigned_abs();
@@ -151,7 +148,8 @@ impl Layout {
     /// One event of the Bresenham error terms: the mask of the axes that step.
     #[inline(always)]
     fn event(&mut self, n: u32) -> u8 {
-        if !self.lanes {
+        // The lanes' limit is a compare of `n`, already loaded: no flag to load.
+        if n > LANE_MAX {
             return self.minor_event(n);
         }
         let low = lane_event(&mut self.rooms[0], self.deltas[0], n);
@@ -175,7 +173,7 @@ impl Layout {
     /// `(k·|Δ| + ⌊n/2⌋ − err)/n` for the others (exact: the error term is that sum's remainder). Main context.
     fn steps_after(&self, k: u32, n: u32) -> [u32; NUM_AXES] {
         let mut steps = [0; NUM_AXES];
-        if self.lanes {
+        if n <= LANE_MAX {
             for (i, s) in steps.iter_mut().enumerate() {
                 let shift = 16 * (i % 2);
                 let room = (self.rooms[i / 2] >> shift) & LANE_MAX;
@@ -355,7 +353,6 @@ impl Active {
         self.cursor.set(&from.cursor);
         self.layout.rooms = from.layout.rooms;
         self.layout.deltas = from.layout.deltas;
-        self.layout.lanes = from.layout.lanes;
         self.layout.always = from.layout.always;
         self.layout.minors = from.layout.minors;
         self.layout.minor[0] = from.layout.minor[0];
@@ -1332,7 +1329,7 @@ mod tests {
         // Longer than the lanes (n = 40 000 > 0x7FFF events): the axes of every event, and a list of the others.
         let b = StepBlock { steps: [40_000, -40_000, 3, 0], cruise_rate: 100, ..StepBlock::default() };
         let l = Layout::of(&b, 40_000);
-        assert!(!l.lanes);
+        assert_eq!(l.rooms, [0; 2]);
         assert_eq!((l.always, l.minors), (0b0011, 1));
         // Error term ⌊n/2⌋ = 20 000: room n − 1 − 20 000 = 19 999.
         assert_eq!((l.minor[0].delta, l.minor[0].room, l.minor[0].bit, l.minor[0].axis), (3, 19_999, 0b0100, 2));
@@ -1350,15 +1347,17 @@ mod tests {
         // The same proportions in 7 events fit the lanes: the same steps, no list.
         let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
         let mut l = Layout::of(&b, 7);
-        assert!(l.lanes && l.minors == 0);
+        assert_eq!((l.always, l.minors), (0, 0));
         // Rooms 7 − 1 − 3 = 3 plus the guard 0x8000 in every lane.
         assert_eq!((l.rooms, l.deltas), ([0x8003_8003; 2], [2 << 16 | 1, 7 << 16 | 3]));
         let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(7)).collect();
         assert_eq!(masks, [0b1000, 0b1110, 0b1000, 0b1101]);
         assert_eq!(l.steps_after(4, 7), [1, 1, 2, 4]);
         // The largest block the lanes take, and the smallest they do not.
-        assert!(Layout::of(&StepBlock { steps: [0x7FFF, 1, 0, 0], ..b }, 0x7FFF).lanes);
-        assert!(!Layout::of(&StepBlock { steps: [0x8000, 1, 0, 0], ..b }, 0x8000).lanes);
+        let l = Layout::of(&StepBlock { steps: [0x7FFF, 1, 0, 0], ..b }, 0x7FFF);
+        assert_eq!((l.rooms[0] & 0xFFFF, l.deltas[0], l.minors), (0x8000 + 0x3FFF, 1 << 16 | 0x7FFF, 0));
+        let l = Layout::of(&StepBlock { steps: [0x8000, 1, 0, 0], ..b }, 0x8000);
+        assert_eq!((l.rooms, l.always, l.minors), ([0; 2], 1, 1));
         assert_eq!(Layout::of(&StepBlock::dwell(5), 0).rooms, [0x8000_8000; 2]);
     }
 
@@ -1381,7 +1380,7 @@ mod tests {
         let n = 0x7FFF;
         let b = StepBlock { steps: [0x7FFF, -12_345, 1, 32_766], cruise_rate: 100, ..StepBlock::default() };
         let mut lanes = Layout::of(&b, n);
-        let mut list = Layout { lanes: false, ..Layout::of(&StepBlock { steps: [40_000, 0, 0, 0], ..b }, 40_000) };
+        let mut list = Layout::of(&StepBlock { steps: [40_000, 0, 0, 0], ..b }, 40_000);
         list.always = 1;
         list.minors = 3;
         for (i, d) in [(1u8, 12_345u32), (2, 1), (3, 32_766)] {
@@ -1390,7 +1389,7 @@ mod tests {
         let mut steps = [0u32; NUM_AXES];
         for k in 1..=n {
             let mask = lanes.event(n);
-            assert_eq!(mask, list.event(n), "event {k}");
+            assert_eq!(mask, list.minor_event(n), "event {k}");
             for (i, s) in steps.iter_mut().enumerate() {
                 *s += u32::from(mask >> i & 1);
             }
@@ -1479,7 +1478,6 @@ mod tests {
         assert_eq!((q.start.countdown, q.start.pending, q.start.emitted()), (0, 99, 0));
         // 100 events: the lanes, X's |Δ| = 100 and Y's 40 in the low word; rooms 100 − 1 − 50 = 49 with the guard.
         let l = q.start.layout;
-        assert!(l.lanes);
         assert_eq!((l.rooms, l.deltas), ([0x8031_8031, 0x8031_8031], [40 << 16 | 100, 0]));
         assert!(q.start.live && q.start.limits && !q.start.counted);
         assert_eq!(s.start(&mut hal), Some(14_142));
