@@ -154,10 +154,11 @@ impl Layout {
         }
         let low = lane_event(&mut self.rooms[0], self.deltas[0], n);
         let high = lane_event(&mut self.rooms[1], self.deltas[1], n);
-        // Guard bits 15, 31 of the low word are axes 0, 1; of the high word axes 2, 3.
+        // Guard bits 15, 31 of the low word are axes 0, 1; of the high word axes 2, 3 (the shifts leave nothing else
+        // in the low byte: bit 31 of the low word goes to 16, bit 31 of the high word to 18).
         let mask = (low >> 15) | (low >> 30) | (high >> 13) | (high >> 28);
-        #[allow(clippy::cast_possible_truncation, reason = "four bits")]
-        let mask = (mask & 0xF) as u8;
+        #[allow(clippy::cast_possible_truncation, reason = "the low byte holds the four bits")]
+        let mask = mask as u8;
         mask
     }
 
