@@ -8,8 +8,8 @@
 //!    port from a table indexed by the axis mask, then the pulse end: the counter read once, plus the pulse
 //!    length, stored into the two compare channels that end the pulse (channel 2 for the first port, channel 3
 //!    for the second);
-//! 3. [`StepOutputs::schedule`]: the next event's compare value, the previous deadline plus the interval
-//!    ([`crate::deadline`]), one add and one compare against the counter.
+//! 3. [`StepOutputs::schedule_next`]: the next event's compare value, the previous deadline (read back from
+//!    compare 1) plus the interval ([`crate::deadline`]), one add and one compare against the counter.
 //!
 //! **Pulse end in hardware.** Each of the two pulse compare channels raises a DMA request when the counter
 //! matches it; its DMA channel (circular, one word, memory to peripheral) stores the port's "all step pins low"
