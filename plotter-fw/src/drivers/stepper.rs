@@ -354,11 +354,14 @@ impl Active {
         self.cursor.set(&from.cursor);
         self.layout.rooms = from.layout.rooms;
         self.layout.deltas = from.layout.deltas;
-        self.layout.always = from.layout.always;
-        self.layout.minors = from.layout.minors;
-        self.layout.minor[0] = from.layout.minor[0];
-        self.layout.minor[1] = from.layout.minor[1];
-        self.layout.minor[2] = from.layout.minor[2];
+        if from.n > LANE_MAX {
+            // The list of a block too long for the lanes (a block on the lanes never reads it).
+            self.layout.always = from.layout.always;
+            self.layout.minors = from.layout.minors;
+            self.layout.minor[0] = from.layout.minor[0];
+            self.layout.minor[1] = from.layout.minor[1];
+            self.layout.minor[2] = from.layout.minor[2];
+        }
         self.target = from.target;
         self.live = from.live;
         self.counted = from.counted;
