@@ -1378,6 +1378,34 @@ mod tests {
     }
 
     #[test]
+    fn blocks_on_the_lanes_and_on_the_list_follow_each_other() {
+        // A short block, a long one (its list loaded), a short one again (the list left behind is not read), and
+        // the position derived from the executing block's error terms at every event.
+        let short = StepBlock { steps: [7, -3, 2, 0], cruise_rate: 1000, ..StepBlock::default() };
+        let long = StepBlock { steps: [1, 33_000, -5, 2], cruise_rate: 20_000, ..StepBlock::default() };
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(short, Switches::Limits).unwrap();
+        s.push(long, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        let mut pushed = false;
+        let mut events = 0;
+        while s.tick(&mut hal).is_some() {
+            events += 1;
+            assert_eq!(s.position(), as_i32(&hal.pos), "event {events}");
+            if !pushed && s.has_room() {
+                s.push(short, Switches::Limits).unwrap();
+                pushed = true;
+            }
+        }
+        // The last event's tick returns None (not counted above).
+        assert_eq!((events + 1, s.completed()), (7 + 33_000 + 7, 3));
+        assert_eq!(s.position(), as_i32(&hal.pos));
+        assert_eq!(hal.pos, [15, 33_000 - 6, -1, 2]);
+        assert_eq!(hal.steps, [15, 33_006, 9, 2]);
+    }
+
+    #[test]
     fn the_lanes_step_like_the_list_at_every_event_of_a_long_block() {
         // 0x7FFF events with every axis's |Δ| different: each lane borrows exactly when its minor term does (the
         // same error terms), over the whole block, and both end with exactly |Δ| steps.
