@@ -123,14 +123,15 @@ impl Layout {
                 let shift = 16 * (i % 2);
                 // Every lane starts with the error term ⌊n/2⌋: room n − 1 − ⌊n/2⌋ (none for a dwell).
                 let room = if n > 0 { n - 1 - n / 2 } else { 0 };
-                l.rooms[i / 2] |= (room | 0x8000) << shift;
+                l.rooms[i / 2] |= (room + 0x8000) << shift;
                 l.deltas[i / 2] |= d << shift;
             }
             return l;
         }
         for axis in Axis::ALL {
             let d = block.steps[axis.index()].unsigned_abs();
-            if d == n && n > 0 {
+            // n > LANE_MAX here: an axis with |Δ| = n moves.
+            if d == n {
                 l.always |= axis.bit();
             } else if d > 0
                 // At most NUM_AXES − 1 axes are minor: the major one steps at every event.
