@@ -55,7 +55,7 @@ fn nth_after(i: usize, k: usize) -> usize {
 /// Most axes that step on some events only (every block has a major axis that steps at each event).
 const MINORS: usize = NUM_AXES - 1;
 
-// `Layout::event` is written out for three minor axes.
+// `Layout::minor_event` is written out for three minor axes.
 const _: () = assert!(MINORS == 3);
 
 /// An axis that steps on some of its block's events (`0 < |Δ| < n`): its Bresenham error term `e`, kept as the
@@ -72,24 +72,66 @@ struct Minor {
     axis: u8,
 }
 
-/// What the interrupt does at each event of a block, laid out when the block is pushed: the axes that step at
-/// every event, and the few that do not, in a packed list (no per-axis loop, no match at each event).
+/// Most events of a block whose error terms fit the 16-bit lanes of [`Layout::rooms`] (a guard bit above 15 bits).
+const LANE_MAX: u32 = 0x7FFF;
+
+/// The guard bit of each 16-bit lane of a [`Layout::rooms`] word.
+const GUARD: u32 = 0x8000_8000;
+
+// The lanes hold the four axes, two per word.
+const _: () = assert!(NUM_AXES == 4);
+
+/// What the interrupt does at each event of a block, laid out when the block is pushed.
+///
+/// A block of at most [`LANE_MAX`] events keeps the error terms of all four axes in 16-bit lanes, two per word
+/// (axis `i` in word `i / 2`, bits `16·(i % 2)..`), each as its room below the step (as a [`Minor`]) plus a guard bit
+/// `0x8000`: one subtraction per word takes every axis's `|Δ|`; a lane whose guard bit it clears has borrowed (the
+/// axis steps) and gets `n` back — no branch, no per-axis work (an axis with `|Δ| = n` borrows at every event, one
+/// with `|Δ| = 0` never). The lanes cannot borrow from each other: a lane holds at least `0x8000` and loses at
+/// most `n < 0x8000`. Longer blocks list the axes that step at every event, and the few that do not, as [`Minor`]s.
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(C)]
 struct Layout {
-    /// Axes with `|Δ| = n`: they step at every event.
+    /// The lanes' rooms with their guard bits (a block of at most [`LANE_MAX`] events).
+    rooms: [u32; 2],
+    /// The lanes' `|Δ|`.
+    deltas: [u32; 2],
+    /// Otherwise: axes with `|Δ| = n`, which step at every event, …
     always: u8,
-    /// Packed minor axes; `minors` of them are used.
-    minor: [Minor; MINORS],
+    /// … and the minor axes; `minors` of them are used.
     minors: u8,
+    minor: [Minor; MINORS],
+}
+
+/// One event of two lanes (see [`Layout`]): takes `delta` from `room`, gives `n` back to the lanes that borrowed;
+/// returns their guard bits.
+#[inline(always)]
+fn lane_event(room: &mut u32, delta: u32, n: u32) -> u32 {
+    let x = room.wrapping_sub(delta);
+    let borrowed = !x & GUARD;
+    *room = x.wrapping_add((borrowed >> 15).wrapping_mul(n));
+    borrowed
 }
 
 impl Layout {
     fn of(block: &StepBlock, n: u32) -> Self {
         let mut l = Layout::default();
+        if n <= LANE_MAX {
+            for axis in Axis::ALL {
+                let i = axis.index();
+                let d = block.steps[i].unsigned_abs();
+                let shift = 16 * (i % 2);
+                // Every lane starts with the error term ⌊n/2⌋: room n − 1 − ⌊n/2⌋ (none for a dwell).
+                let room = if n > 0 { n - 1 - n / 2 } else { 0 };
+                l.rooms[i / 2] |= (room + 0x8000) << shift;
+                l.deltas[i / 2] |= d << shift;
+            }
+            return l;
+        }
         for axis in Axis::ALL {
             let d = block.steps[axis.index()].unsigned_abs();
-            if d == n && n > 0 {
+            // n > LANE_MAX here: an axis with |Δ| = n moves.
+            if d == n {
                 l.always |= axis.bit();
             } else if d > 0
                 // At most NUM_AXES − 1 axes are minor: the major one steps at every event.
@@ -107,35 +149,58 @@ impl Layout {
     /// One event of the Bresenham error terms: the mask of the axes that step.
     #[inline(always)]
     fn event(&mut self, n: u32) -> u8 {
-        let mut mask = self.always;
-        if self.minors > 0 {
-            mask |= self.minor[0].event(n);
-            if self.minors > 1 {
-                mask |= self.minor[1].event(n);
-                if self.minors > 2 {
-                    mask |= self.minor[2].event(n);
-                }
-            }
+        // The lanes' limit is a compare of `n`, already loaded: no flag to load.
+        if n > LANE_MAX {
+            return self.minor_event(n);
         }
+        let low = lane_event(&mut self.rooms[0], self.deltas[0], n);
+        let high = lane_event(&mut self.rooms[1], self.deltas[1], n);
+        // Guard bits 15, 31 of the low word are axes 0, 1; of the high word axes 2, 3 (the shifts leave nothing else
+        // in the low byte: bit 31 of the low word goes to 16, bit 31 of the high word to 18).
+        let mask = (low >> 15) | (low >> 30) | (high >> 13) | (high >> 28);
+        #[allow(clippy::cast_possible_truncation, reason = "the low byte holds the four bits")]
+        let mask = mask as u8;
         mask
+    }
+
+    /// [`Layout::event`] of a block too long for the lanes (out of line: the lanes are the straight path).
+    #[cold]
+    #[inline(never)]
+    fn minor_event(&mut self, n: u32) -> u8 {
+        // All three: an unused entry has |Δ| = 0 and bit 0, so it never borrows and adds nothing.
+        self.always | self.minor[0].event(n) | self.minor[1].event(n) | self.minor[2].event(n)
     }
 
     /// Steps made by each axis (unsigned) after `k` of the `n` events: `k` for the axes of every event, and
     /// `(k·|Δ| + ⌊n/2⌋ − err)/n` for the others (exact: the error term is that sum's remainder). Main context.
     fn steps_after(&self, k: u32, n: u32) -> [u32; NUM_AXES] {
         let mut steps = [0; NUM_AXES];
+        if n <= LANE_MAX {
+            for (i, s) in steps.iter_mut().enumerate() {
+                let shift = 16 * (i % 2);
+                let room = (self.rooms[i / 2] >> shift) & LANE_MAX;
+                let delta = (self.deltas[i / 2] >> shift) & 0xFFFF;
+                *s = steps_of(k, n, room, delta);
+            }
+            return steps;
+        }
         for axis in Axis::ALL {
             if self.always & axis.bit() != 0 {
                 steps[axis.index()] = k;
             }
         }
         for m in &self.minor[..usize::from(self.minors)] {
-            // The error term e = n − 1 − room; k·|Δ| + ⌊n/2⌋ = steps·n + e.
-            let sum = u64::from(k) * u64::from(m.delta) + u64::from(n / 2) + u64::from(m.room) + 1 - u64::from(n);
-            steps[usize::from(m.axis)] = u32::try_from(sum / u64::from(n.max(1))).unwrap_or(u32::MAX);
+            steps[usize::from(m.axis)] = steps_of(k, n, m.room, m.delta);
         }
         steps
     }
+}
+
+/// Steps of an axis with `|Δ| = delta` after `k` of `n` events, from its room: the error term is
+/// `e = n − 1 − room` and `k·|Δ| + ⌊n/2⌋ = steps·n + e`.
+fn steps_of(k: u32, n: u32, room: u32, delta: u32) -> u32 {
+    let sum = (u64::from(k) * u64::from(delta) + u64::from(n / 2) + u64::from(room) + 1).saturating_sub(u64::from(n));
+    u32::try_from(sum / u64::from(n.max(1))).unwrap_or(u32::MAX)
 }
 
 impl Minor {
@@ -288,11 +353,16 @@ impl Active {
         self.pending = from.pending;
         self.n = from.n;
         self.cursor.set(&from.cursor);
-        self.layout.always = from.layout.always;
-        self.layout.minors = from.layout.minors;
-        self.layout.minor[0] = from.layout.minor[0];
-        self.layout.minor[1] = from.layout.minor[1];
-        self.layout.minor[2] = from.layout.minor[2];
+        self.layout.rooms = from.layout.rooms;
+        self.layout.deltas = from.layout.deltas;
+        if from.n > LANE_MAX {
+            // The list of a block too long for the lanes (a block on the lanes never reads it).
+            self.layout.always = from.layout.always;
+            self.layout.minors = from.layout.minors;
+            self.layout.minor[0] = from.layout.minor[0];
+            self.layout.minor[1] = from.layout.minor[1];
+            self.layout.minor[2] = from.layout.minor[2];
+        }
         self.target = from.target;
         self.live = from.live;
         self.counted = from.counted;
@@ -1070,17 +1140,22 @@ mod tests {
         assert!(s.is_idle());
         assert_eq!(hal.pos[0], 6000);
         assert_eq!(s.completed(), 2);
-        // Later, a hold during a dwell stops at its end, whatever the ring slots still remember of the re-timed
-        // block (the slot after the dwell's is the second block's, which the hold above had marked).
+        // Later, a hold during a dwell with nothing queued stops at its end, whatever the ring slots still
+        // remember of the re-timed block: the blocks went into slots 0 and 1, the dwells go into 2, 3 and 0, so
+        // during the third the slot after it is the second block's, which the hold above had marked.
+        for _ in 0..2 {
+            s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+            s.start(&mut hal);
+            assert_eq!(s.tick(&mut hal), None);
+        }
         s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
         s.start(&mut hal);
-        assert_eq!(s.tick(&mut hal), None);
-        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
-        s.start(&mut hal);
+        assert_eq!((s.act.slot, s.first, s.queued), (0, 1, 0));
+        assert!(s.ring[1].hold, "the stale mark");
         s.feed_hold();
         assert_eq!(s.tick(&mut hal), None);
         assert!(s.is_held());
-        assert_eq!(s.completed(), 4);
+        assert_eq!(s.completed(), 5);
     }
 
     #[test]
@@ -1256,22 +1331,107 @@ mod tests {
 
     #[test]
     fn layout_packs_the_axes_of_every_event_and_the_minor_ones() {
-        let b = StepBlock { steps: [5, -5, 3, 0], cruise_rate: 100, ..StepBlock::default() };
-        let l = Layout::of(&b, 5);
+        // Longer than the lanes (n = 40 000 > 0x7FFF events): the axes of every event, and a list of the others.
+        let b = StepBlock { steps: [40_000, -40_000, 3, 0], cruise_rate: 100, ..StepBlock::default() };
+        let l = Layout::of(&b, 40_000);
+        assert_eq!(l.rooms, [0; 2]);
         assert_eq!((l.always, l.minors), (0b0011, 1));
-        // Error term ⌊5/2⌋ = 2: room 5 − 1 − 2 = 2.
-        assert_eq!((l.minor[0].delta, l.minor[0].room, l.minor[0].bit, l.minor[0].axis), (3, 2, 0b0100, 2));
-        let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
-        let l = Layout::of(&b, 7);
+        // Error term ⌊n/2⌋ = 20 000: room n − 1 − 20 000 = 19 999.
+        assert_eq!((l.minor[0].delta, l.minor[0].room, l.minor[0].bit, l.minor[0].axis), (3, 19_999, 0b0100, 2));
+        let b = StepBlock { steps: [10_000, -20_000, 30_000, 70_000], cruise_rate: 100, ..StepBlock::default() };
+        let l = Layout::of(&b, 70_000);
         assert_eq!((l.always, l.minors), (0b1000, 3));
-        assert_eq!(l.minor.map(|m| (m.delta, m.bit, m.axis)), [(1, 1, 0), (2, 2, 1), (3, 4, 2)]);
-        // Steps after k events: k for the major axis, ⌊(k·d + ⌊n/2⌋)/n⌋ for the others (n = 7, k = 4: 1, 1, 2).
+        assert_eq!(l.minor.map(|m| (m.delta, m.bit, m.axis)), [(10_000, 1, 0), (20_000, 2, 1), (30_000, 4, 2)]);
+        // Steps after k events: k for the major axis, ⌊(k·d + ⌊n/2⌋)/n⌋ for the others: Y and Z step at event 2
+        // (⌊75 000/70 000⌋, ⌊95 000/70 000⌋), X and Z at event 4; after 4 events 1, 1, 2 — ⌊(40 000 + 35 000)/70 000⌋,
+        // ⌊(80 000 + 35 000)/70 000⌋, ⌊(120 000 + 35 000)/70 000⌋.
         let mut l2 = l;
-        for _ in 0..4 {
-            l2.event(7);
+        let masks: std::vec::Vec<u8> = (0..4).map(|_| l2.event(70_000)).collect();
+        assert_eq!(masks, [0b1000, 0b1110, 0b1000, 0b1101]);
+        assert_eq!(l2.steps_after(4, 70_000), [1, 1, 2, 4]);
+        // The same proportions in 7 events fit the lanes: the same steps, no list.
+        let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
+        let mut l = Layout::of(&b, 7);
+        assert_eq!((l.always, l.minors), (0, 0));
+        // Rooms 7 − 1 − 3 = 3 plus the guard 0x8000 in every lane.
+        assert_eq!((l.rooms, l.deltas), ([0x8003_8003; 2], [2 << 16 | 1, 7 << 16 | 3]));
+        let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(7)).collect();
+        assert_eq!(masks, [0b1000, 0b1110, 0b1000, 0b1101]);
+        assert_eq!(l.steps_after(4, 7), [1, 1, 2, 4]);
+        // The largest block the lanes take, and the smallest they do not.
+        let l = Layout::of(&StepBlock { steps: [0x7FFF, 1, 0, 0], ..b }, 0x7FFF);
+        assert_eq!((l.rooms[0] & 0xFFFF, l.deltas[0], l.minors), (0x8000 + 0x3FFF, 1 << 16 | 0x7FFF, 0));
+        let l = Layout::of(&StepBlock { steps: [0x8000, 1, 0, 0], ..b }, 0x8000);
+        assert_eq!((l.rooms, l.always, l.minors), ([0; 2], 1, 1));
+        assert_eq!(Layout::of(&StepBlock::dwell(5), 0).rooms, [0x8000_8000; 2]);
+    }
+
+    #[test]
+    fn a_block_longer_than_the_lanes_runs_on_the_list() {
+        // 40 000 events (> 0x7FFF): exact counts, the position derived from the list's error terms at every event
+        // (checked by `run`), and the time the contract gives.
+        let b =
+            StepBlock { steps: [-40_000, 15_001, 0, 3], cruise_rate: 20_000, accel: 200_000, ..StepBlock::default() };
+        let (hal, t) = run(b, |_, _| {});
+        assert_eq!(hal.pos, [-40_000, 15_001, 0, 3]);
+        assert_eq!(hal.steps, [40_000, 15_001, 0, 3]);
+        assert_eq!(t, u64::from(b.duration_ticks()));
+    }
+
+    #[test]
+    fn blocks_on_the_lanes_and_on_the_list_follow_each_other() {
+        // A short block, a long one (its list loaded), a short one again (the list left behind is not read), and
+        // the position derived from the executing block's error terms at every event.
+        let short = StepBlock { steps: [7, -3, 2, 0], cruise_rate: 1000, ..StepBlock::default() };
+        let long = StepBlock { steps: [1, 33_000, -5, 2], cruise_rate: 20_000, ..StepBlock::default() };
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(short, Switches::Limits).unwrap();
+        s.push(long, Switches::Limits).unwrap();
+        s.start(&mut hal);
+        let mut pushed = false;
+        let mut events = 0;
+        while s.tick(&mut hal).is_some() {
+            events += 1;
+            assert_eq!(s.position(), as_i32(&hal.pos), "event {events}");
+            if !pushed && s.has_room() {
+                s.push(short, Switches::Limits).unwrap();
+                pushed = true;
+            }
         }
-        assert_eq!(l2.steps_after(4, 7), [1, 1, 2, 4]);
-        assert_eq!(Layout::of(&StepBlock::dwell(5), 0).always, 0);
+        // The last event's tick returns None (not counted above).
+        assert_eq!((events + 1, s.completed()), (7 + 33_000 + 7, 3));
+        assert_eq!(s.position(), as_i32(&hal.pos));
+        assert_eq!(hal.pos, [15, 33_000 - 6, -1, 2]);
+        assert_eq!(hal.steps, [15, 33_006, 9, 2]);
+    }
+
+    #[test]
+    fn the_lanes_step_like_the_list_at_every_event_of_a_long_block() {
+        // 0x7FFF events with every axis's |Δ| different: each lane borrows exactly when its minor term does (the
+        // same error terms), over the whole block, and both end with exactly |Δ| steps.
+        let n = 0x7FFF;
+        let b = StepBlock { steps: [0x7FFF, -12_345, 1, 32_766], cruise_rate: 100, ..StepBlock::default() };
+        let mut lanes = Layout::of(&b, n);
+        let mut list = Layout::of(&StepBlock { steps: [40_000, 0, 0, 0], ..b }, 40_000);
+        list.always = 1;
+        list.minors = 3;
+        for (i, d) in [(1u8, 12_345u32), (2, 1), (3, 32_766)] {
+            list.minor[usize::from(i) - 1] = Minor { room: n - 1 - n / 2, delta: d, bit: 1 << i, axis: i };
+        }
+        let mut steps = [0u32; NUM_AXES];
+        for k in 1..=n {
+            let mask = lanes.event(n);
+            assert_eq!(mask, list.minor_event(n), "event {k}");
+            for (i, s) in steps.iter_mut().enumerate() {
+                *s += u32::from(mask >> i & 1);
+            }
+            if k % 4099 == 0 {
+                assert_eq!(lanes.steps_after(k, n), steps, "event {k}");
+            }
+        }
+        assert_eq!(steps, [n, 12_345, 1, 32_766]);
+        assert_eq!(lanes.steps_after(n, n), steps);
     }
 
     #[test]
@@ -1284,7 +1444,7 @@ mod tests {
         // n = 4, |Δ| = 1: ⌊(k + 2)/4⌋ = 0, 1, 1, 1 — the one step at event 2; room n − 1 − ⌊n/2⌋ = 1 at the start.
         let b = StepBlock { steps: [0, 0, -1, 4], cruise_rate: 100, ..StepBlock::default() };
         let mut l = Layout::of(&b, 4);
-        assert_eq!(l.minor[0].room, 1);
+        assert_eq!(l.rooms[1] & 0x7FFF, 1);
         let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(4)).collect();
         assert_eq!(masks, [0b1000, 0b1100, 0b1000, 0b1000]);
         assert_eq!(l.steps_after(4, 4), [0, 0, 1, 4]);
@@ -1349,7 +1509,9 @@ mod tests {
         // yet: the 99 events before the last one run on the intervals of the later segments.
         assert_eq!(q.profile.times().segments()[0].count, 1);
         assert_eq!((q.start.countdown, q.start.pending, q.start.emitted()), (0, 99, 0));
-        assert_eq!((q.start.layout.always, q.start.layout.minors), (0b0001, 1));
+        // 100 events: the lanes, X's |Δ| = 100 and Y's 40 in the low word; rooms 100 − 1 − 50 = 49 with the guard.
+        let l = q.start.layout;
+        assert_eq!((l.rooms, l.deltas), ([0x8031_8031, 0x8031_8031], [40 << 16 | 100, 0]));
         assert!(q.start.live && q.start.limits && !q.start.counted);
         assert_eq!(s.start(&mut hal), Some(14_142));
         // A homing block: every event on the slow path.
@@ -1517,6 +1679,45 @@ mod tests {
         while s.tick(&mut hal).is_some() {}
         assert_eq!(s.position(), [-100, -250, -100, -5]);
         assert_eq!(s.homing_hits(), 0);
+    }
+
+    #[test]
+    fn a_homing_block_is_timed_by_its_own_slot() {
+        // Every event of a homing block is on the slow path, which reads the step times of the block's ring slot.
+        // The block goes into slot 1 (after a dwell); the other slots hold other times (the empty dwell's: one
+        // tick per event). Its intervals are those of the same block as a normal move, and add up to its duration.
+        let block = StepBlock {
+            steps: [0, 0, 0, 300],
+            entry_rate: 0,
+            cruise_rate: 2000,
+            exit_rate: 0,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let intervals = |switches: Switches| {
+            let mut s = Stepper::new(0, 0);
+            let mut hal = Rec::default();
+            s.push(StepBlock::dwell(7), Switches::Limits).unwrap();
+            s.push(block, switches).unwrap();
+            assert_eq!(s.start(&mut hal), Some(7));
+            let mut v = std::vec::Vec::new();
+            while let Some(iv) = s.tick(&mut hal) {
+                v.push(iv);
+                assert_eq!(s.act.slot, 1);
+            }
+            assert_eq!((hal.pos, s.completed()), ([0, 0, 0, 300], 2));
+            v
+        };
+        let homing = intervals(Switches::Homing { axes: Axis::E.bit() });
+        // The dwell's end returns the interval to the block's first event; the block's last event returns None.
+        assert_eq!(homing.len(), 300);
+        assert_eq!(homing.iter().map(|&iv| u64::from(iv)).sum::<u64>(), u64::from(block.duration_ticks()));
+        // 0 → 2000 events/s at 20 000 events/s²: 100 events each way, 100 cruise events 500 µs apart; the first
+        // interval is √(2/a) = 10 000 µs (1 tick + 0.025 % of the ramp).
+        assert!((9_997..=10_003).contains(&homing[0]), "{}", homing[0]);
+        assert_eq!(homing[150], 500);
+        assert_eq!(homing, intervals(Switches::Limits));
     }
 
     #[test]

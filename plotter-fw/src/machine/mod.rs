@@ -57,12 +57,14 @@ enum Outcome {
 /// The firmware. `RX` is the receive buffer capacity (bytes), `Q` the planner queue capacity (blocks); the sizes
 /// announced to the host are the configured ones, clamped to these. `T` is the printer's heater I/O
 /// ([`NoHeaters`] on plotters).
+#[repr(C)]
 pub struct Machine<H: Hal, const RX: usize = 256, const Q: usize = 32, T: Heaters = NoHeaters> {
+    /// First: the stepper's interrupt state (see [`MotionQueue`]), then the board's step timer.
+    motion: MotionQueue<Q>,
     hal: H,
     heaters: HeaterUnit<T>,
     cfg: MachineConfig,
     link: Link<RX>,
-    motion: MotionQueue<Q>,
     alarm: Option<AlarmCode>,
     homing: Homing,
     program: Program,

@@ -23,7 +23,10 @@ use crate::step_block::{StepBlock, Switches};
 use crate::stepper::Stepper;
 
 /// The planner queue (capacity `Q` blocks) and the stepper.
+#[repr(C)]
 pub(crate) struct MotionQueue<const Q: usize> {
+    /// First: the step interrupt's state at the start of the machine (short load offsets, `ldrd`/`ldm` in reach).
+    stepper: Stepper,
     planner: Deque<PlanBlock, Q>,
     /// Cornering memory of the planner (the last blocks' geometry, for curve radii).
     linker: Linker,
@@ -35,7 +38,6 @@ pub(crate) struct MotionQueue<const Q: usize> {
     hold_replanned: bool,
     /// `~` arrived while a feed hold was still decelerating: resume as soon as it has stopped.
     resume_after_hold: bool,
-    stepper: Stepper,
     timer_running: bool,
 }
 

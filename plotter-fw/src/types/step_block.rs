@@ -419,7 +419,7 @@ impl StepTimes {
         let segs = match greedy_ramp(len, c, two_a, &mut dist) {
             Some(segs) => segs,
             None => {
-                let base = if c > 1.0 { c } else { 1.0 };
+                let base = c.max(1.0);
                 // q = ((len + c)/base)^(1/16), the 16th root as four square roots.
                 let q = sqrt(sqrt(sqrt(sqrt((len as f32 + c) / base))));
                 let mut g = base;
@@ -804,6 +804,39 @@ mod tests {
         assert_eq!(p.times().segments().iter().map(|s| s.count).sum::<u32>(), 2_000_000);
         let mut dist = [0; RAMP_SEGMENTS + 1];
         assert_eq!(greedy_ramp(1_000_000, 0.0, 400.0, &mut dist), None);
+    }
+
+    #[test]
+    fn a_hold_too_long_for_the_greedy_cut_falls_back_measured_from_its_stop() {
+        // From 20 000 events/s at 300 events/s²: v²/2a = 4·10⁸/600 = 666 666.67, so the stop comes after 666 666
+        // events, c = 0.67 events before the zero-rate point (too long for the greedy cut: 16 segments reach
+        // ~242 000 events). The geometric cut from its slow end: base 1 (c < 1), q = 666 666.67^(1/16) = 2.3120,
+        // boundaries round(qⁱ − 0.67) = 2, 5, 12, 28, 65 (measured from q/count ≈ 1.0 instead they would be 1, 4,
+        // 11, 28, 65): its last segments hold 37, 16, 7, 3 and 2 events.
+        let (times, left) = StepTimes::hold(HALF, 1_000_000, 20_000.0, 300);
+        assert_eq!((times.events(), left), (666_666, None));
+        let counts: Vec<u32> = times.segments().iter().rev().take(5).map(|s| s.count).collect();
+        assert_eq!(counts, [2, 3, 7, 16, 37]);
+        assert_eq!(times.segments().len(), RAMP_SEGMENTS);
+    }
+
+    #[test]
+    fn a_fit_whose_first_interval_would_be_negative_is_linear() {
+        // 3 events over 10 ticks, the middle one at the start: the curve through them, E = 4·(10 − 0)/9 = 4.44
+        // ticks, would need a first interval of (10 − 3E)/3 = −1.11 ticks. The fit falls back to a constant
+        // interval of 10/3 tick: ⌊10·2³²/3⌋ = 14 316 557 653 units, no add.
+        let mut times = StepTimes::empty(HALF);
+        times.fit(3, 0.0, 0.0, 10.0, false);
+        assert_eq!(times.segments(), [Segment { count: 3, interval: 14_316_557_653, add: 0 }]);
+        let mut cursor = times.cursor();
+        let intervals: Vec<u32> = (0..3).map(|_| cursor.next(&times)).collect();
+        // Events at 3.33, 6.67 and 10 ticks after a start at half a tick: ticks 3, 7 and 10.
+        assert_eq!(intervals, [3, 4, 3]);
+        // Only a negative interval is refused: 3 events over 3 ticks with the middle one at 0.375 give
+        // E = 4·(3 − 0.75)/9 = 1 tick exactly and a first interval of (3 − 3E)/3 = 0, which the curve keeps.
+        let mut times = StepTimes::empty(HALF);
+        times.fit(3, 0.0, 0.375, 3.0, false);
+        assert_eq!(times.segments(), [Segment { count: 3, interval: 0, add: 1 << FRAC_BITS }]);
     }
 
     #[test]

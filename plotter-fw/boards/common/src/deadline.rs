@@ -45,16 +45,20 @@ impl<const LEAD: u32> Deadline<LEAD> {
     }
 
     /// [`Deadline::schedule`] while running (from the timer's interrupt): `ticks` after the previous event, never
-    /// earlier than `now + lead`.
+    /// earlier than `now + lead` ([`Deadline::after`] the deadline kept here).
     #[inline(always)]
     pub fn next(&mut self, now: u32, ticks: u32) -> u32 {
-        let elapsed = now.wrapping_sub(self.at);
-        self.at = if ticks >= elapsed.saturating_add(Self::LEAD) {
-            self.at.wrapping_add(ticks)
-        } else {
-            now.wrapping_add(Self::LEAD)
-        };
+        self.at = Self::after(self.at, now, ticks);
         self.at
+    }
+
+    /// The event `ticks` after the previous one at `prev`, never earlier than `now + lead`, for a board that keeps
+    /// the previous deadline elsewhere (its compare register). `now` is at most `2³² − lead` ticks after `prev`
+    /// (the interrupt runs at most 71 minutes late), so `elapsed + lead` does not wrap: a plain add, no saturation.
+    #[inline(always)]
+    pub fn after(prev: u32, now: u32, ticks: u32) -> u32 {
+        let elapsed = now.wrapping_sub(prev);
+        if ticks >= elapsed.wrapping_add(Self::LEAD) { prev.wrapping_add(ticks) } else { now.wrapping_add(Self::LEAD) }
     }
 
     /// The stepper went idle.
@@ -67,7 +71,7 @@ impl<const LEAD: u32> Deadline<LEAD> {
         self.running
     }
 
-    /// Absolute time of the scheduled (or last) event.
+    /// Absolute time of the event last scheduled through this value ([`Deadline::schedule`], [`Deadline::next`]).
     pub fn at(&self) -> u32 {
         self.at
     }
@@ -134,6 +138,16 @@ mod tests {
         let mut d = Deadline::<1>::new();
         assert_eq!(d.schedule(u32::MAX - 2, 2), u32::MAX);
         assert_eq!(d.next(u32::MAX, 4), 3);
+    }
+
+    #[test]
+    fn after_is_next_from_a_deadline_kept_elsewhere() {
+        // As in `next_is_schedule_while_running`, with the previous deadline passed in.
+        assert_eq!(Deadline::<5>::after(1_040, 1_043, 25), 1_065);
+        assert_eq!(Deadline::<5>::after(1_075, 1_077, 6), 1_082);
+        assert_eq!(Deadline::<5>::after(1_082, 1_082, 5), 1_087);
+        assert_eq!(Deadline::<1>::after(u32::MAX, u32::MAX, 4), 3);
+        assert_eq!(Deadline::<0>::after(7, 7, 0), 8, "a lead of 0 is 1");
     }
 
     #[test]

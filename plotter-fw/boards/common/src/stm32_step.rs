@@ -8,8 +8,8 @@
 //!    port from a table indexed by the axis mask, then the pulse end: the counter read once, plus the pulse
 //!    length, stored into the two compare channels that end the pulse (channel 2 for the first port, channel 3
 //!    for the second);
-//! 3. [`StepOutputs::schedule`]: the next event's compare value, the previous deadline plus the interval
-//!    ([`crate::deadline`]), one add and one compare against the counter.
+//! 3. [`StepOutputs::schedule_next`]: the next event's compare value, the previous deadline (read back from
+//!    compare 1) plus the interval ([`crate::deadline`]), one add and one compare against the counter.
 //!
 //! **Pulse end in hardware.** Each of the two pulse compare channels raises a DMA request when the counter
 //! matches it; its DMA channel (circular, one word, memory to peripheral) stores the port's "all step pins low"
@@ -162,11 +162,14 @@ impl StepOutputs {
     }
 
     /// Aim compare 1 at the next event, `ticks` after the previous one ([`Deadline`]); from idle, also enable its
-    /// interrupt.
+    /// interrupt. While the timer runs, the previous deadline is the one compare 1 holds (see
+    /// [`StepOutputs::schedule_next`]).
     #[inline(always)]
     pub fn schedule<const LEAD: u32>(&self, deadline: &mut Deadline<LEAD>, ticks: u32) {
         let idle = !deadline.is_running();
-        let at = deadline.schedule(read(self.tim + tim::CNT), ticks);
+        let now = read(self.tim + tim::CNT);
+        let at =
+            if idle { deadline.schedule(now, ticks) } else { Deadline::<LEAD>::after(self.deadline(), now, ticks) };
         write(self.tim + tim::CCR1, at);
         if idle {
             write(self.tim + tim::SR, !tim::CC1);
@@ -175,11 +178,20 @@ impl StepOutputs {
         }
     }
 
-    /// [`StepOutputs::schedule`] from the timer's interrupt (the timer runs): the next event's compare value only.
+    /// [`StepOutputs::schedule`] from the timer's interrupt (the timer runs): the next event's compare value only,
+    /// from the previous one read back from compare 1 (written without preload, it reads back as written), so the
+    /// deadline is not also kept in RAM: one register load instead of a load and a store. `deadline` is the
+    /// board's [`Deadline`] (its lead; it stays running).
     #[inline(always)]
-    pub fn schedule_next<const LEAD: u32>(&self, deadline: &mut Deadline<LEAD>, ticks: u32) {
-        let at = deadline.next(read(self.tim + tim::CNT), ticks);
+    pub fn schedule_next<const LEAD: u32>(&self, _deadline: &Deadline<LEAD>, ticks: u32) {
+        let at = Deadline::<LEAD>::after(self.deadline(), read(self.tim + tim::CNT), ticks);
         write(self.tim + tim::CCR1, at);
+    }
+
+    /// The deadline compare 1 holds: the scheduled step event (or the last one, when stopped).
+    #[inline(always)]
+    pub fn deadline(&self) -> u32 {
+        read(self.tim + tim::CCR1)
     }
 
     /// Stop the step events.

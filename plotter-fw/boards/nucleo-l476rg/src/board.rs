@@ -371,7 +371,7 @@ impl StepTimer for NucleoHal {
 
     #[inline(always)]
     fn schedule_next(&mut self, ticks: u32) {
-        STEP_OUT.schedule_next(&mut self.deadline, ticks);
+        STEP_OUT.schedule_next(&self.deadline, ticks);
     }
     fn cancel(&mut self) {
         STEP_OUT.cancel(&mut self.deadline);

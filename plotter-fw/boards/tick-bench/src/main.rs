@@ -103,7 +103,7 @@ impl StepTimer for BenchHal {
     }
     #[inline(always)]
     fn schedule_next(&mut self, ticks: u32) {
-        STEP_OUT.schedule_next(&mut self.deadline, ticks);
+        STEP_OUT.schedule_next(&self.deadline, ticks);
     }
     fn cancel(&mut self) {
         STEP_OUT.cancel(&mut self.deadline);
@@ -182,7 +182,7 @@ fn main() -> ! {
     let mut held = false;
     loop {
         // The timer "fires": the counter jumps to the compare value.
-        let due = MACHINE.with(|m| m.hal().deadline.is_running().then(|| m.hal().deadline.at())).flatten();
+        let due = MACHINE.with(|m| m.hal().deadline.is_running().then(|| STEP_OUT.deadline())).flatten();
         if let Some(at) = due {
             // The counter reaches the compare value: the flag goes up, the interrupt runs.
             write(TIM2 + tim::CNT, at);
