@@ -780,12 +780,13 @@ impl Stepper {
     }
 
     /// The run ended before the target (`countdown == 0 < pending`): enter the next segment and take the next run
-    /// from it.
+    /// from it. That segment exists (the `pending` events before the target are in the segments after the current
+    /// one), so it is read by its index ([`StepTimes::segment_known`]), with no fallback past the last.
     #[inline(always)]
     fn next_run(&mut self) {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        let run = act.cursor.enter_for(times.segment_or_end(act.cursor.next_segment()), act.pending);
+        let run = act.cursor.enter_for(times.segment_known(act.cursor.next_segment()), act.pending);
         act.countdown = run;
         act.pending -= run;
     }
