@@ -707,6 +707,7 @@ impl Stepper {
     }
 
     /// The executing block is done: count it and go on with the next one, unless a hold stops here.
+    #[inline(always)]
     fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if !self.act.counted {
             let steps = &self.ring[self.act.slot & SLOT_MASK].block.steps;
