@@ -792,8 +792,9 @@ impl Stepper {
         act.pending -= run;
     }
 
-    /// Everything but a plain event in the middle of a block.
-    #[inline(never)]
+    /// Everything but a plain event in the middle of a block. Inlined into its callers: the interrupt reaches it
+    /// through [`Stepper::on_timer_slow`], already out of line, so a second call there would only save registers twice.
+    #[inline(always)]
     fn tick_slow<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
         if !self.act.live {
             return self.load_next(hal);
