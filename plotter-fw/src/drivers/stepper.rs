@@ -736,12 +736,14 @@ impl Stepper {
             }
             self.next_run();
         }
-        Some(self.plain_event(hal))
+        Some(self.plain_event(hal).1)
     }
 
     /// The step timer's interrupt: [`Stepper::tick`], then the timer aimed at the next event
     /// ([`StepTimer::schedule_next`]) or stopped. Returns whether it runs on. The plain event in the middle of a
-    /// block is inlined into the board's interrupt handler, straight through to the timer's compare register.
+    /// block is inlined into the board's interrupt handler, straight through to the timer's compare register, and
+    /// schedules with what its pin write returned ([`StepTimer::schedule_next_from`]: a board reads its counter
+    /// once per event).
     #[inline(always)]
     pub fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
         if self.act.countdown == 0 {
@@ -750,8 +752,8 @@ impl Stepper {
             }
             self.next_run();
         }
-        let interval = self.plain_event(hal);
-        hal.schedule_next(interval);
+        let (read, interval) = self.plain_event(hal);
+        hal.schedule_next_from(read, interval);
         true
     }
 
@@ -771,13 +773,14 @@ impl Stepper {
     }
 
     /// The fast path (`countdown > 0`): a countdown, the Bresenham terms of the block's moving axes, the pin
-    /// write and the time recurrence (an event of the run, already taken from its segment).
+    /// write and the time recurrence (an event of the run, already taken from its segment). Returns what the pin
+    /// write returned ([`StepPins::step_axes_read`], for [`StepTimer::schedule_next_from`]) and the interval.
     #[inline(always)]
-    fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> u32 {
+    fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> (u32, u32) {
         let act = &mut self.act;
         act.countdown -= 1;
-        hal.step_axes(act.layout.event(act.n));
-        act.cursor.advance()
+        let read = hal.step_axes_read(act.layout.event(act.n));
+        (read, act.cursor.advance())
     }
 
     /// The run ended before the target (`countdown == 0 < pending`): enter the next segment and take the next run
@@ -1497,6 +1500,51 @@ mod tests {
         assert_eq!(hal.1, [('n', 1000), ('n', 1000), ('n', 7), ('c', 0)]);
         assert_eq!((hal.0.pos, s.completed()), ([3, 0, 0, 0], 2));
         assert!(s.is_idle());
+    }
+
+    #[test]
+    fn on_timer_hands_the_pin_writes_reading_to_the_same_events_schedule() {
+        /// A board whose pin write returns a reading (here: 100 + the events stepped so far) and whose timer
+        /// records what it was scheduled from.
+        #[derive(Default)]
+        struct Board(Rec, u32, std::vec::Vec<(Option<u32>, u32)>);
+        impl StepPins for Board {
+            fn set_dir(&mut self, axis: Axis, level: bool) {
+                self.0.set_dir(axis, level);
+            }
+            fn step(&mut self, axis: Axis) {
+                self.0.step(axis);
+            }
+            fn step_axes_read(&mut self, mask: u8) -> u32 {
+                self.step_axes(mask);
+                self.1 += 1;
+                100 + self.1
+            }
+            fn enable_motors(&mut self, _on: bool) {}
+        }
+        impl Endstops for Board {
+            fn pressed(&mut self) -> u8 {
+                0
+            }
+        }
+        impl StepTimer for Board {
+            fn schedule(&mut self, ticks: u32) {
+                self.2.push((None, ticks));
+            }
+            fn schedule_next_from(&mut self, read: u32, ticks: u32) {
+                self.2.push((Some(read), ticks));
+            }
+            fn cancel(&mut self) {}
+        }
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Board::default();
+        // 4 events at 500 events/s: the first three are plain events (each hands on its own reading), the last is
+        // the block end (slow path: stepped through `step_axes`, scheduled without a reading — none follows).
+        s.push(StepBlock { steps: [4, 0, 0, 0], cruise_rate: 500, ..StepBlock::default() }, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(2000));
+        while s.on_timer(&mut hal) {}
+        assert_eq!(hal.2, [(Some(101), 2000), (Some(102), 2000), (Some(103), 2000)]);
+        assert_eq!((hal.0.pos, hal.1), ([4, 0, 0, 0], 3));
     }
 
     #[test]
