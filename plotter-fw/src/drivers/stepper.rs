@@ -72,10 +72,10 @@ struct Minor {
     axis: u8,
 }
 
-/// Most events of a block whose error terms fit the 16-bit lanes of [`Layout::rooms`] (a guard bit above 15 bits).
+/// Most events of a block whose error terms fit the 16-bit lanes of [`Layout::fills`] (a guard bit above 15 bits).
 const LANE_MAX: u32 = 0x7FFF;
 
-/// The guard bit of each 16-bit lane of a [`Layout::rooms`] word.
+/// The guard bit of each 16-bit lane of a [`Layout::fills`] word.
 const GUARD: u32 = 0x8000_8000;
 
 // The lanes hold the four axes, two per word.
@@ -84,16 +84,18 @@ const _: () = assert!(NUM_AXES == 4);
 /// What the interrupt does at each event of a block, laid out when the block is pushed.
 ///
 /// A block of at most [`LANE_MAX`] events keeps the error terms of all four axes in 16-bit lanes, two per word
-/// (axis `i` in word `i / 2`, bits `16·(i % 2)..`), each as its room below the step (as a [`Minor`]) plus a guard bit
-/// `0x8000`: one subtraction per word takes every axis's `|Δ|`; a lane whose guard bit it clears has borrowed (the
-/// axis steps) and gets `n` back — no branch, no per-axis work (an axis with `|Δ| = n` borrows at every event, one
-/// with `|Δ| = 0` never). The lanes cannot borrow from each other: a lane holds at least `0x8000` and loses at
-/// most `n < 0x8000`. Longer blocks list the axes that step at every event, and the few that do not, as [`Minor`]s.
+/// (axis `i` in word `i / 2`, bits `16·(i % 2)..`), each as its *fill* `0x7FFF − room` (the room below the step as
+/// a [`Minor`] keeps it, complemented: `e + 0x8000 − n`), below the lane's guard bit `0x8000`: one addition per word
+/// gives every axis its `|Δ|`; a lane whose guard bit that sets has reached the step (the axis steps) and gives `n`
+/// back — no branch, no per-axis work (an axis with `|Δ| = n` steps at every event, one with `|Δ| = 0` never). The
+/// lanes cannot carry into each other: a fill stays below `0x8000` between events and gains at most
+/// `n ≤ 0x7FFF`. (Guard bits that an addition sets are tested with an immediate mask: no register holds a
+/// constant.) Longer blocks list the axes that step at every event, and the few that do not, as [`Minor`]s.
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(C)]
 struct Layout {
-    /// The lanes' rooms with their guard bits (a block of at most [`LANE_MAX`] events).
-    rooms: [u32; 2],
+    /// The lanes' fills below their guard bits (a block of at most [`LANE_MAX`] events).
+    fills: [u32; 2],
     /// The lanes' `|Δ|`.
     deltas: [u32; 2],
     /// Otherwise: axes with `|Δ| = n`, which step at every event, …
@@ -103,14 +105,14 @@ struct Layout {
     minor: [Minor; MINORS],
 }
 
-/// One event of two lanes (see [`Layout`]): takes `delta` from `room`, gives `n` back to the lanes that borrowed;
-/// returns their guard bits.
+/// One event of two lanes (see [`Layout`]): adds `delta` to `fill`, takes `n` back from the lanes that reached
+/// their guard bit; returns those guard bits.
 #[inline(always)]
-fn lane_event(room: &mut u32, delta: u32, n: u32) -> u32 {
-    let x = room.wrapping_sub(delta);
-    let borrowed = !x & GUARD;
-    *room = x.wrapping_add((borrowed >> 15).wrapping_mul(n));
-    borrowed
+fn lane_event(fill: &mut u32, delta: u32, n: u32) -> u32 {
+    let x = fill.wrapping_add(delta);
+    let stepped = x & GUARD;
+    *fill = x.wrapping_sub((stepped >> 15).wrapping_mul(n));
+    stepped
 }
 
 impl Layout {
@@ -123,7 +125,7 @@ impl Layout {
                 let shift = 16 * (i % 2);
                 // Every lane starts with the error term ⌊n/2⌋: room n − 1 − ⌊n/2⌋ (none for a dwell).
                 let room = if n > 0 { n - 1 - n / 2 } else { 0 };
-                l.rooms[i / 2] |= (room + 0x8000) << shift;
+                l.fills[i / 2] |= (LANE_MAX - room) << shift;
                 l.deltas[i / 2] |= d << shift;
             }
             return l;
@@ -153,8 +155,8 @@ impl Layout {
         if n > LANE_MAX {
             return self.minor_event(n);
         }
-        let low = lane_event(&mut self.rooms[0], self.deltas[0], n);
-        let high = lane_event(&mut self.rooms[1], self.deltas[1], n);
+        let low = lane_event(&mut self.fills[0], self.deltas[0], n);
+        let high = lane_event(&mut self.fills[1], self.deltas[1], n);
         // Guard bits 15, 31 of the low word are axes 0, 1; of the high word axes 2, 3 (the shifts leave nothing else
         // in the low byte: bit 31 of the low word goes to 16, bit 31 of the high word to 18).
         let mask = (low >> 15) | (low >> 30) | (high >> 13) | (high >> 28);
@@ -178,7 +180,7 @@ impl Layout {
         if n <= LANE_MAX {
             for (i, s) in steps.iter_mut().enumerate() {
                 let shift = 16 * (i % 2);
-                let room = (self.rooms[i / 2] >> shift) & LANE_MAX;
+                let room = LANE_MAX - ((self.fills[i / 2] >> shift) & LANE_MAX);
                 let delta = (self.deltas[i / 2] >> shift) & 0xFFFF;
                 *s = steps_of(k, n, room, delta);
             }
@@ -353,7 +355,7 @@ impl Active {
         self.pending = from.pending;
         self.n = from.n;
         self.cursor.set(&from.cursor);
-        self.layout.rooms = from.layout.rooms;
+        self.layout.fills = from.layout.fills;
         self.layout.deltas = from.layout.deltas;
         if from.n > LANE_MAX {
             // The list of a block too long for the lanes (a block on the lanes never reads it).
@@ -1340,7 +1342,7 @@ mod tests {
         // Longer than the lanes (n = 40 000 > 0x7FFF events): the axes of every event, and a list of the others.
         let b = StepBlock { steps: [40_000, -40_000, 3, 0], cruise_rate: 100, ..StepBlock::default() };
         let l = Layout::of(&b, 40_000);
-        assert_eq!(l.rooms, [0; 2]);
+        assert_eq!(l.fills, [0; 2]);
         assert_eq!((l.always, l.minors), (0b0011, 1));
         // Error term ⌊n/2⌋ = 20 000: room n − 1 − 20 000 = 19 999.
         assert_eq!((l.minor[0].delta, l.minor[0].room, l.minor[0].bit, l.minor[0].axis), (3, 19_999, 0b0100, 2));
@@ -1359,17 +1361,17 @@ mod tests {
         let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
         let mut l = Layout::of(&b, 7);
         assert_eq!((l.always, l.minors), (0, 0));
-        // Rooms 7 − 1 − 3 = 3 plus the guard 0x8000 in every lane.
-        assert_eq!((l.rooms, l.deltas), ([0x8003_8003; 2], [2 << 16 | 1, 7 << 16 | 3]));
+        // Rooms 7 − 1 − 3 = 3: fills 0x7FFF − 3 in every lane.
+        assert_eq!((l.fills, l.deltas), ([0x7FFC_7FFC; 2], [2 << 16 | 1, 7 << 16 | 3]));
         let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(7)).collect();
         assert_eq!(masks, [0b1000, 0b1110, 0b1000, 0b1101]);
         assert_eq!(l.steps_after(4, 7), [1, 1, 2, 4]);
         // The largest block the lanes take, and the smallest they do not.
         let l = Layout::of(&StepBlock { steps: [0x7FFF, 1, 0, 0], ..b }, 0x7FFF);
-        assert_eq!((l.rooms[0] & 0xFFFF, l.deltas[0], l.minors), (0x8000 + 0x3FFF, 1 << 16 | 0x7FFF, 0));
+        assert_eq!((l.fills[0] & 0xFFFF, l.deltas[0], l.minors), (0x7FFF - 0x3FFF, 1 << 16 | 0x7FFF, 0));
         let l = Layout::of(&StepBlock { steps: [0x8000, 1, 0, 0], ..b }, 0x8000);
-        assert_eq!((l.rooms, l.always, l.minors), ([0; 2], 1, 1));
-        assert_eq!(Layout::of(&StepBlock::dwell(5), 0).rooms, [0x8000_8000; 2]);
+        assert_eq!((l.fills, l.always, l.minors), ([0; 2], 1, 1));
+        assert_eq!(Layout::of(&StepBlock::dwell(5), 0).fills, [0x7FFF_7FFF; 2]);
     }
 
     #[test]
@@ -1414,7 +1416,7 @@ mod tests {
 
     #[test]
     fn the_lanes_step_like_the_list_at_every_event_of_a_long_block() {
-        // 0x7FFF events with every axis's |Δ| different: each lane borrows exactly when its minor term does (the
+        // 0x7FFF events with every axis's |Δ| different: each lane steps exactly when its minor term does (the
         // same error terms), over the whole block, and both end with exactly |Δ| steps.
         let n = 0x7FFF;
         let b = StepBlock { steps: [0x7FFF, -12_345, 1, 32_766], cruise_rate: 100, ..StepBlock::default() };
@@ -1450,7 +1452,7 @@ mod tests {
         // n = 4, |Δ| = 1: ⌊(k + 2)/4⌋ = 0, 1, 1, 1 — the one step at event 2; room n − 1 − ⌊n/2⌋ = 1 at the start.
         let b = StepBlock { steps: [0, 0, -1, 4], cruise_rate: 100, ..StepBlock::default() };
         let mut l = Layout::of(&b, 4);
-        assert_eq!(l.rooms[1] & 0x7FFF, 1);
+        assert_eq!(0x7FFF - (l.fills[1] & 0x7FFF), 1);
         let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(4)).collect();
         assert_eq!(masks, [0b1000, 0b1100, 0b1000, 0b1000]);
         assert_eq!(l.steps_after(4, 4), [0, 0, 1, 4]);
@@ -1560,9 +1562,9 @@ mod tests {
         // yet: the 99 events before the last one run on the intervals of the later segments.
         assert_eq!(q.profile.times().segments()[0].count, 1);
         assert_eq!((q.start.countdown, q.start.pending, q.start.emitted()), (0, 99, 0));
-        // 100 events: the lanes, X's |Δ| = 100 and Y's 40 in the low word; rooms 100 − 1 − 50 = 49 with the guard.
+        // 100 events: the lanes, X's |Δ| = 100 and Y's 40 in the low word; rooms 100 − 1 − 50 = 49, fills 0x7FFF − 49.
         let l = q.start.layout;
-        assert_eq!((l.rooms, l.deltas), ([0x8031_8031, 0x8031_8031], [40 << 16 | 100, 0]));
+        assert_eq!((l.fills, l.deltas), ([0x7FCE_7FCE, 0x7FCE_7FCE], [40 << 16 | 100, 0]));
         assert!(q.start.live && q.start.limits && !q.start.counted);
         assert_eq!(s.start(&mut hal), Some(14_142));
         // A homing block: every event on the slow path.
