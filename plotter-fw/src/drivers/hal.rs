@@ -34,6 +34,15 @@ pub trait StepPins {
             }
         }
     }
+    /// [`StepPins::step_axes`] for the step interrupt's event in the middle of a block, returning a value that the
+    /// board's [`StepTimer::schedule_next_from`] receives right after, for the same event: a board that reads its
+    /// timer's counter here (for the pulse end) hands the reading on, so the interrupt reads the counter once. The
+    /// default steps and returns 0.
+    #[inline(always)]
+    fn step_axes_read(&mut self, mask: u8) -> u32 {
+        self.step_axes(mask);
+        0
+    }
     /// Energise (`true`, M17) or release (`false`, M18) the motor drivers.
     fn enable_motors(&mut self, on: bool);
     /// Drive the pen-lift hobby servo to `angle_deg` (0–180°, `M3 S<angle>` / `M5`): a 50 Hz PWM whose pulse is
@@ -67,6 +76,13 @@ pub trait StepTimer {
     #[inline(always)]
     fn schedule_next(&mut self, ticks: u32) {
         self.schedule(ticks);
+    }
+    /// [`StepTimer::schedule_next`] right after [`StepPins::step_axes_read`] in the same interrupt, with the value
+    /// it returned (only the next interval's integer adds run in between). The default ignores it.
+    #[inline(always)]
+    fn schedule_next_from(&mut self, read: u32, ticks: u32) {
+        let _ = read;
+        self.schedule_next(ticks);
     }
     /// Stop the timer (the stepper went idle).
     fn cancel(&mut self);

@@ -72,10 +72,10 @@ struct Minor {
     axis: u8,
 }
 
-/// Most events of a block whose error terms fit the 16-bit lanes of [`Layout::rooms`] (a guard bit above 15 bits).
+/// Most events of a block whose error terms fit the 16-bit lanes of [`Layout::fills`] (a guard bit above 15 bits).
 const LANE_MAX: u32 = 0x7FFF;
 
-/// The guard bit of each 16-bit lane of a [`Layout::rooms`] word.
+/// The guard bit of each 16-bit lane of a [`Layout::fills`] word.
 const GUARD: u32 = 0x8000_8000;
 
 // The lanes hold the four axes, two per word.
@@ -84,16 +84,18 @@ const _: () = assert!(NUM_AXES == 4);
 /// What the interrupt does at each event of a block, laid out when the block is pushed.
 ///
 /// A block of at most [`LANE_MAX`] events keeps the error terms of all four axes in 16-bit lanes, two per word
-/// (axis `i` in word `i / 2`, bits `16·(i % 2)..`), each as its room below the step (as a [`Minor`]) plus a guard bit
-/// `0x8000`: one subtraction per word takes every axis's `|Δ|`; a lane whose guard bit it clears has borrowed (the
-/// axis steps) and gets `n` back — no branch, no per-axis work (an axis with `|Δ| = n` borrows at every event, one
-/// with `|Δ| = 0` never). The lanes cannot borrow from each other: a lane holds at least `0x8000` and loses at
-/// most `n < 0x8000`. Longer blocks list the axes that step at every event, and the few that do not, as [`Minor`]s.
+/// (axis `i` in word `i / 2`, bits `16·(i % 2)..`), each as its *fill* `0x7FFF − room` (the room below the step as
+/// a [`Minor`] keeps it, complemented: `e + 0x8000 − n`), below the lane's guard bit `0x8000`: one addition per word
+/// gives every axis its `|Δ|`; a lane whose guard bit that sets has reached the step (the axis steps) and gives `n`
+/// back — no branch, no per-axis work (an axis with `|Δ| = n` steps at every event, one with `|Δ| = 0` never). The
+/// lanes cannot carry into each other: a fill stays below `0x8000` between events and gains at most
+/// `n ≤ 0x7FFF`. (Guard bits that an addition sets are tested with an immediate mask: no register holds a
+/// constant.) Longer blocks list the axes that step at every event, and the few that do not, as [`Minor`]s.
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(C)]
 struct Layout {
-    /// The lanes' rooms with their guard bits (a block of at most [`LANE_MAX`] events).
-    rooms: [u32; 2],
+    /// The lanes' fills below their guard bits (a block of at most [`LANE_MAX`] events).
+    fills: [u32; 2],
     /// The lanes' `|Δ|`.
     deltas: [u32; 2],
     /// Otherwise: axes with `|Δ| = n`, which step at every event, …
@@ -103,14 +105,14 @@ struct Layout {
     minor: [Minor; MINORS],
 }
 
-/// One event of two lanes (see [`Layout`]): takes `delta` from `room`, gives `n` back to the lanes that borrowed;
-/// returns their guard bits.
+/// One event of two lanes (see [`Layout`]): adds `delta` to `fill`, takes `n` back from the lanes that reached
+/// their guard bit; returns those guard bits.
 #[inline(always)]
-fn lane_event(room: &mut u32, delta: u32, n: u32) -> u32 {
-    let x = room.wrapping_sub(delta);
-    let borrowed = !x & GUARD;
-    *room = x.wrapping_add((borrowed >> 15).wrapping_mul(n));
-    borrowed
+fn lane_event(fill: &mut u32, delta: u32, n: u32) -> u32 {
+    let x = fill.wrapping_add(delta);
+    let stepped = x & GUARD;
+    *fill = x.wrapping_sub((stepped >> 15).wrapping_mul(n));
+    stepped
 }
 
 impl Layout {
@@ -123,7 +125,7 @@ impl Layout {
                 let shift = 16 * (i % 2);
                 // Every lane starts with the error term ⌊n/2⌋: room n − 1 − ⌊n/2⌋ (none for a dwell).
                 let room = if n > 0 { n - 1 - n / 2 } else { 0 };
-                l.rooms[i / 2] |= (room + 0x8000) << shift;
+                l.fills[i / 2] |= (LANE_MAX - room) << shift;
                 l.deltas[i / 2] |= d << shift;
             }
             return l;
@@ -153,8 +155,8 @@ impl Layout {
         if n > LANE_MAX {
             return self.minor_event(n);
         }
-        let low = lane_event(&mut self.rooms[0], self.deltas[0], n);
-        let high = lane_event(&mut self.rooms[1], self.deltas[1], n);
+        let low = lane_event(&mut self.fills[0], self.deltas[0], n);
+        let high = lane_event(&mut self.fills[1], self.deltas[1], n);
         // Guard bits 15, 31 of the low word are axes 0, 1; of the high word axes 2, 3 (the shifts leave nothing else
         // in the low byte: bit 31 of the low word goes to 16, bit 31 of the high word to 18).
         let mask = (low >> 15) | (low >> 30) | (high >> 13) | (high >> 28);
@@ -178,7 +180,7 @@ impl Layout {
         if n <= LANE_MAX {
             for (i, s) in steps.iter_mut().enumerate() {
                 let shift = 16 * (i % 2);
-                let room = (self.rooms[i / 2] >> shift) & LANE_MAX;
+                let room = LANE_MAX - ((self.fills[i / 2] >> shift) & LANE_MAX);
                 let delta = (self.deltas[i / 2] >> shift) & 0xFFFF;
                 *s = steps_of(k, n, room, delta);
             }
@@ -353,7 +355,7 @@ impl Active {
         self.pending = from.pending;
         self.n = from.n;
         self.cursor.set(&from.cursor);
-        self.layout.rooms = from.layout.rooms;
+        self.layout.fills = from.layout.fills;
         self.layout.deltas = from.layout.deltas;
         if from.n > LANE_MAX {
             // The list of a block too long for the lanes (a block on the lanes never reads it).
@@ -707,6 +709,7 @@ impl Stepper {
     }
 
     /// The executing block is done: count it and go on with the next one, unless a hold stops here.
+    #[inline(always)]
     fn finish_block<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if !self.act.counted {
             let steps = &self.ring[self.act.slot & SLOT_MASK].block.steps;
@@ -735,12 +738,14 @@ impl Stepper {
             }
             self.next_run();
         }
-        Some(self.plain_event(hal))
+        Some(self.plain_event(hal).1)
     }
 
     /// The step timer's interrupt: [`Stepper::tick`], then the timer aimed at the next event
     /// ([`StepTimer::schedule_next`]) or stopped. Returns whether it runs on. The plain event in the middle of a
-    /// block is inlined into the board's interrupt handler, straight through to the timer's compare register.
+    /// block is inlined into the board's interrupt handler, straight through to the timer's compare register, and
+    /// schedules with what its pin write returned ([`StepTimer::schedule_next_from`]: a board reads its counter
+    /// once per event).
     #[inline(always)]
     pub fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
         if self.act.countdown == 0 {
@@ -749,8 +754,8 @@ impl Stepper {
             }
             self.next_run();
         }
-        let interval = self.plain_event(hal);
-        hal.schedule_next(interval);
+        let (read, interval) = self.plain_event(hal);
+        hal.schedule_next_from(read, interval);
         true
     }
 
@@ -770,28 +775,31 @@ impl Stepper {
     }
 
     /// The fast path (`countdown > 0`): a countdown, the Bresenham terms of the block's moving axes, the pin
-    /// write and the time recurrence (an event of the run, already taken from its segment).
+    /// write and the time recurrence (an event of the run, already taken from its segment). Returns what the pin
+    /// write returned ([`StepPins::step_axes_read`], for [`StepTimer::schedule_next_from`]) and the interval.
     #[inline(always)]
-    fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> u32 {
+    fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> (u32, u32) {
         let act = &mut self.act;
         act.countdown -= 1;
-        hal.step_axes(act.layout.event(act.n));
-        act.cursor.advance()
+        let read = hal.step_axes_read(act.layout.event(act.n));
+        (read, act.cursor.advance())
     }
 
     /// The run ended before the target (`countdown == 0 < pending`): enter the next segment and take the next run
-    /// from it.
+    /// from it. That segment exists (the `pending` events before the target are in the segments after the current
+    /// one), so it is read by its index ([`StepTimes::segment_known`]), with no fallback past the last.
     #[inline(always)]
     fn next_run(&mut self) {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        let run = act.cursor.enter_for(times.segment_or_end(act.cursor.next_segment()), act.pending);
+        let run = act.cursor.enter_for(times.segment_known(act.cursor.next_segment()), act.pending);
         act.countdown = run;
         act.pending -= run;
     }
 
-    /// Everything but a plain event in the middle of a block.
-    #[inline(never)]
+    /// Everything but a plain event in the middle of a block. Inlined into its callers: the interrupt reaches it
+    /// through [`Stepper::on_timer_slow`], already out of line, so a second call there would only save registers twice.
+    #[inline(always)]
     fn tick_slow<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
         if !self.act.live {
             return self.load_next(hal);
@@ -1334,7 +1342,7 @@ mod tests {
         // Longer than the lanes (n = 40 000 > 0x7FFF events): the axes of every event, and a list of the others.
         let b = StepBlock { steps: [40_000, -40_000, 3, 0], cruise_rate: 100, ..StepBlock::default() };
         let l = Layout::of(&b, 40_000);
-        assert_eq!(l.rooms, [0; 2]);
+        assert_eq!(l.fills, [0; 2]);
         assert_eq!((l.always, l.minors), (0b0011, 1));
         // Error term ⌊n/2⌋ = 20 000: room n − 1 − 20 000 = 19 999.
         assert_eq!((l.minor[0].delta, l.minor[0].room, l.minor[0].bit, l.minor[0].axis), (3, 19_999, 0b0100, 2));
@@ -1353,17 +1361,17 @@ mod tests {
         let b = StepBlock { steps: [1, -2, 3, 7], cruise_rate: 100, ..StepBlock::default() };
         let mut l = Layout::of(&b, 7);
         assert_eq!((l.always, l.minors), (0, 0));
-        // Rooms 7 − 1 − 3 = 3 plus the guard 0x8000 in every lane.
-        assert_eq!((l.rooms, l.deltas), ([0x8003_8003; 2], [2 << 16 | 1, 7 << 16 | 3]));
+        // Rooms 7 − 1 − 3 = 3: fills 0x7FFF − 3 in every lane.
+        assert_eq!((l.fills, l.deltas), ([0x7FFC_7FFC; 2], [2 << 16 | 1, 7 << 16 | 3]));
         let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(7)).collect();
         assert_eq!(masks, [0b1000, 0b1110, 0b1000, 0b1101]);
         assert_eq!(l.steps_after(4, 7), [1, 1, 2, 4]);
         // The largest block the lanes take, and the smallest they do not.
         let l = Layout::of(&StepBlock { steps: [0x7FFF, 1, 0, 0], ..b }, 0x7FFF);
-        assert_eq!((l.rooms[0] & 0xFFFF, l.deltas[0], l.minors), (0x8000 + 0x3FFF, 1 << 16 | 0x7FFF, 0));
+        assert_eq!((l.fills[0] & 0xFFFF, l.deltas[0], l.minors), (0x7FFF - 0x3FFF, 1 << 16 | 0x7FFF, 0));
         let l = Layout::of(&StepBlock { steps: [0x8000, 1, 0, 0], ..b }, 0x8000);
-        assert_eq!((l.rooms, l.always, l.minors), ([0; 2], 1, 1));
-        assert_eq!(Layout::of(&StepBlock::dwell(5), 0).rooms, [0x8000_8000; 2]);
+        assert_eq!((l.fills, l.always, l.minors), ([0; 2], 1, 1));
+        assert_eq!(Layout::of(&StepBlock::dwell(5), 0).fills, [0x7FFF_7FFF; 2]);
     }
 
     #[test]
@@ -1408,7 +1416,7 @@ mod tests {
 
     #[test]
     fn the_lanes_step_like_the_list_at_every_event_of_a_long_block() {
-        // 0x7FFF events with every axis's |Δ| different: each lane borrows exactly when its minor term does (the
+        // 0x7FFF events with every axis's |Δ| different: each lane steps exactly when its minor term does (the
         // same error terms), over the whole block, and both end with exactly |Δ| steps.
         let n = 0x7FFF;
         let b = StepBlock { steps: [0x7FFF, -12_345, 1, 32_766], cruise_rate: 100, ..StepBlock::default() };
@@ -1444,7 +1452,7 @@ mod tests {
         // n = 4, |Δ| = 1: ⌊(k + 2)/4⌋ = 0, 1, 1, 1 — the one step at event 2; room n − 1 − ⌊n/2⌋ = 1 at the start.
         let b = StepBlock { steps: [0, 0, -1, 4], cruise_rate: 100, ..StepBlock::default() };
         let mut l = Layout::of(&b, 4);
-        assert_eq!(l.rooms[1] & 0x7FFF, 1);
+        assert_eq!(0x7FFF - (l.fills[1] & 0x7FFF), 1);
         let masks: std::vec::Vec<u8> = (0..4).map(|_| l.event(4)).collect();
         assert_eq!(masks, [0b1000, 0b1100, 0b1000, 0b1000]);
         assert_eq!(l.steps_after(4, 4), [0, 0, 1, 4]);
@@ -1497,6 +1505,51 @@ mod tests {
     }
 
     #[test]
+    fn on_timer_hands_the_pin_writes_reading_to_the_same_events_schedule() {
+        /// A board whose pin write returns a reading (here: 100 + the events stepped so far) and whose timer
+        /// records what it was scheduled from.
+        #[derive(Default)]
+        struct Board(Rec, u32, std::vec::Vec<(Option<u32>, u32)>);
+        impl StepPins for Board {
+            fn set_dir(&mut self, axis: Axis, level: bool) {
+                self.0.set_dir(axis, level);
+            }
+            fn step(&mut self, axis: Axis) {
+                self.0.step(axis);
+            }
+            fn step_axes_read(&mut self, mask: u8) -> u32 {
+                self.step_axes(mask);
+                self.1 += 1;
+                100 + self.1
+            }
+            fn enable_motors(&mut self, _on: bool) {}
+        }
+        impl Endstops for Board {
+            fn pressed(&mut self) -> u8 {
+                0
+            }
+        }
+        impl StepTimer for Board {
+            fn schedule(&mut self, ticks: u32) {
+                self.2.push((None, ticks));
+            }
+            fn schedule_next_from(&mut self, read: u32, ticks: u32) {
+                self.2.push((Some(read), ticks));
+            }
+            fn cancel(&mut self) {}
+        }
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Board::default();
+        // 4 events at 500 events/s: the first three are plain events (each hands on its own reading), the last is
+        // the block end (slow path: stepped through `step_axes`, scheduled without a reading — none follows).
+        s.push(StepBlock { steps: [4, 0, 0, 0], cruise_rate: 500, ..StepBlock::default() }, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), Some(2000));
+        while s.on_timer(&mut hal) {}
+        assert_eq!(hal.2, [(Some(101), 2000), (Some(102), 2000), (Some(103), 2000)]);
+        assert_eq!((hal.0.pos, hal.1), ([4, 0, 0, 0], 3));
+    }
+
+    #[test]
     fn a_queued_block_starts_from_its_prepared_state() {
         // The prepared first interval is the profile's: √(2/a) = 14 142 µs from rest at 10⁴ events/s².
         let mut s = Stepper::new(0, 0);
@@ -1509,9 +1562,9 @@ mod tests {
         // yet: the 99 events before the last one run on the intervals of the later segments.
         assert_eq!(q.profile.times().segments()[0].count, 1);
         assert_eq!((q.start.countdown, q.start.pending, q.start.emitted()), (0, 99, 0));
-        // 100 events: the lanes, X's |Δ| = 100 and Y's 40 in the low word; rooms 100 − 1 − 50 = 49 with the guard.
+        // 100 events: the lanes, X's |Δ| = 100 and Y's 40 in the low word; rooms 100 − 1 − 50 = 49, fills 0x7FFF − 49.
         let l = q.start.layout;
-        assert_eq!((l.rooms, l.deltas), ([0x8031_8031, 0x8031_8031], [40 << 16 | 100, 0]));
+        assert_eq!((l.fills, l.deltas), ([0x7FCE_7FCE, 0x7FCE_7FCE], [40 << 16 | 100, 0]));
         assert!(q.start.live && q.start.limits && !q.start.counted);
         assert_eq!(s.start(&mut hal), Some(14_142));
         // A homing block: every event on the slow path.

@@ -346,10 +346,11 @@ impl StepTimes {
         if i < usize::from(self.len) { self.segments.get(i) } else { None }
     }
 
-    /// Segment `i`, or [`PAST_THE_END`] past the last one (one bounds check: the unused entries hold it).
+    /// Segment `i`, which the caller knows exists (`i <` [`StepTimes::segments`]`.len()`): no fallback to load, the
+    /// index is only clamped to the array (an `i` past it gives the last entry).
     #[inline(always)]
-    pub fn segment_or_end(&self, i: usize) -> &Segment {
-        self.segments.get(i).unwrap_or(&PAST_THE_END)
+    pub fn segment_known(&self, i: usize) -> &Segment {
+        &self.segments[i.min(MAX_SEGMENTS - 1)]
     }
 
     /// Ticks from the start to the last event, exactly as [`Cursor::next`] adds them up (saturated at `u32::MAX`).
@@ -954,9 +955,11 @@ mod tests {
         // Segments by index: the two in use, then none (the unused rest of the array is not a segment).
         assert_eq!(times.segment(1), Some(&Segment { count: 2, interval: 4 << 32, add: 0 }));
         assert_eq!((times.segment(2), times.segment(MAX_SEGMENTS)), (None, None));
-        // Or past the last one, the sentinel of one tick for ever; the same beyond the array.
-        assert_eq!(times.segment_or_end(1), &Segment { count: 2, interval: 4 << 32, add: 0 });
-        assert_eq!((times.segment_or_end(2), times.segment_or_end(MAX_SEGMENTS)), (&PAST_THE_END, &PAST_THE_END));
+        // A segment known to exist, by index with no fallback; past the two in use the array's unused entries hold
+        // the sentinel of one tick for ever, and an index beyond the array gets its last entry (the sentinel here).
+        assert_eq!(times.segment_known(0), &Segment { count: 3, interval: 3 << 31, add: 1 << 30 });
+        assert_eq!(times.segment_known(1), &Segment { count: 2, interval: 4 << 32, add: 0 });
+        assert_eq!((times.segment_known(2), times.segment_known(MAX_SEGMENTS + 7)), (&PAST_THE_END, &PAST_THE_END));
         assert_eq!(PAST_THE_END, Segment { count: u32::MAX, interval: 1 << 32, add: 0 });
         // A copy made with `set` goes on exactly as the original: 4, 4 after the first three events.
         let mut c = times.cursor();

@@ -8,8 +8,9 @@
 //!    port from a table indexed by the axis mask, then the pulse end: the counter read once, plus the pulse
 //!    length, stored into the two compare channels that end the pulse (channel 2 for the first port, channel 3
 //!    for the second);
-//! 3. [`StepOutputs::schedule_next`]: the next event's compare value, the previous deadline (read back from
-//!    compare 1) plus the interval ([`crate::deadline`]), one add and one compare against the counter.
+//! 3. [`StepOutputs::schedule_next_from`]: the next event's compare value, the previous deadline (read back from
+//!    compare 1) plus the interval ([`crate::deadline`]), one add and one compare against the counter as step 2
+//!    read it (not read again; [`StepOutputs::schedule_next`], off the plain event's path, reads it anew).
 //!
 //! **Pulse end in hardware.** Each of the two pulse compare channels raises a DMA request when the counter
 //! matches it; its DMA channel (circular, one word, memory to peripheral) stores the port's "all step pins low"
@@ -122,26 +123,31 @@ impl StepOutputs {
 
     /// Raise the step pins of the axes in `mask` and arm the pulse end (the hardware lowers them `pulse` ticks
     /// later).
+    /// Returns the counter as read for the pulse end ([`StepOutputs::schedule_next_from`] takes it).
     #[inline(always)]
-    pub fn raise(&self, mask: u8) {
+    pub fn raise(&self, mask: u8) -> u32 {
         let words = &self.raise[usize::from(mask) & ((1 << NUM_AXES) - 1)];
         write(self.bsrr[0], words[0]);
         write(self.bsrr[1], words[1]);
-        let end = read(self.tim + tim::CNT).wrapping_add(self.pulse);
+        let now = read(self.tim + tim::CNT);
+        let end = now.wrapping_add(self.pulse);
         write(self.tim + tim::CCR2, end);
         write(self.tim + tim::CCR3, end);
+        now
     }
 
     /// A step event's outputs ([`plotter_fw::hal::StepPins::step_axes`]): [`StepOutputs::raise`], then a servo pen
     /// (if fitted) follows the Z step.
+    /// Returns the counter as read for the pulse end ([`StepOutputs::raise`]).
     #[inline(always)]
-    pub fn step_event(&self, mask: u8, servo: Option<&mut ServoPen>) {
-        self.raise(mask);
+    pub fn step_event(&self, mask: u8, servo: Option<&mut ServoPen>) -> u32 {
+        let now = self.raise(mask);
         if mask & Axis::Z.bit() != 0
             && let Some(s) = servo
         {
             write(self.servo_ccr, u32::from(s.step()));
         }
+        now
     }
 
     /// Lower every step pin now (fault path).
@@ -183,8 +189,19 @@ impl StepOutputs {
     /// deadline is not also kept in RAM: one register load instead of a load and a store. `deadline` is the
     /// board's [`Deadline`] (its lead; it stays running).
     #[inline(always)]
-    pub fn schedule_next<const LEAD: u32>(&self, _deadline: &Deadline<LEAD>, ticks: u32) {
-        let at = Deadline::<LEAD>::after(self.deadline(), read(self.tim + tim::CNT), ticks);
+    pub fn schedule_next<const LEAD: u32>(&self, deadline: &Deadline<LEAD>, ticks: u32) {
+        self.schedule_next_from(deadline, read(self.tim + tim::CNT), ticks);
+    }
+
+    /// [`StepOutputs::schedule_next`] with the counter read `now` by this event's [`StepOutputs::raise`] (the
+    /// event in the middle of a block: [`plotter_fw::hal::StepTimer::schedule_next_from`]), not read again. Safe
+    /// because only the next interval's adds (and a servo step) run between that read and this compare store —
+    /// tens of cycles, under one tick at 80 MHz, while a deadline is at least the lead (5 ticks) after `now` — and
+    /// nothing preempts the step interrupt (the board's interrupts share one priority). It is also exactly the
+    /// pulse timing's reference: the next event is at least `lead` after the counter read of the pulse before.
+    #[inline(always)]
+    pub fn schedule_next_from<const LEAD: u32>(&self, _deadline: &Deadline<LEAD>, now: u32, ticks: u32) {
+        let at = Deadline::<LEAD>::after(self.deadline(), now, ticks);
         write(self.tim + tim::CCR1, at);
     }
 

@@ -340,8 +340,14 @@ impl StepPins for NucleoHal {
     /// All the event's step pins at once; the timer and DMA end the pulse.
     #[inline(always)]
     fn step_axes(&mut self, mask: u8) {
+        self.step_axes_read(mask);
+    }
+
+    /// [`StepPins::step_axes`], handing on the counter read for the pulse end.
+    #[inline(always)]
+    fn step_axes_read(&mut self, mask: u8) -> u32 {
         // Without the `servo-pen` feature there is no servo: the check folds away.
-        STEP_OUT.step_event(mask, self.servo.as_mut().filter(|_| cfg!(feature = "servo-pen")));
+        STEP_OUT.step_event(mask, self.servo.as_mut().filter(|_| cfg!(feature = "servo-pen")))
     }
 
     fn enable_motors(&mut self, on: bool) {
@@ -372,6 +378,12 @@ impl StepTimer for NucleoHal {
     #[inline(always)]
     fn schedule_next(&mut self, ticks: u32) {
         STEP_OUT.schedule_next(&self.deadline, ticks);
+    }
+
+    /// The counter read by this event's pulse end, not read again.
+    #[inline(always)]
+    fn schedule_next_from(&mut self, read: u32, ticks: u32) {
+        STEP_OUT.schedule_next_from(&self.deadline, read, ticks);
     }
     fn cancel(&mut self) {
         STEP_OUT.cancel(&mut self.deadline);

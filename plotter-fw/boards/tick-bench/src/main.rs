@@ -79,7 +79,11 @@ impl StepPins for BenchHal {
     /// As the Nucleo board (built without the `servo-pen` feature).
     #[inline(always)]
     fn step_axes(&mut self, mask: u8) {
-        STEP_OUT.step_event(mask, None);
+        self.step_axes_read(mask);
+    }
+    #[inline(always)]
+    fn step_axes_read(&mut self, mask: u8) -> u32 {
+        STEP_OUT.step_event(mask, None)
     }
     fn enable_motors(&mut self, _on: bool) {}
 }
@@ -104,6 +108,10 @@ impl StepTimer for BenchHal {
     #[inline(always)]
     fn schedule_next(&mut self, ticks: u32) {
         STEP_OUT.schedule_next(&self.deadline, ticks);
+    }
+    #[inline(always)]
+    fn schedule_next_from(&mut self, read: u32, ticks: u32) {
+        STEP_OUT.schedule_next_from(&self.deadline, read, ticks);
     }
     fn cancel(&mut self) {
         STEP_OUT.cancel(&mut self.deadline);
