@@ -836,6 +836,22 @@ mod tests {
     }
 
     #[test]
+    fn cycle_distances_by_hand() {
+        // Three paths and the depot: a cycle of four positions.
+        let paths: Vec<Polyline> =
+            (0..3).map(|i| Polyline::new(vec![Point::new(f64::from(i), 0.0), Point::new(f64::from(i), 1.0)])).collect();
+        let visits: Vec<Visit> = (0..3).map(|path| Visit { path, reversed: false, seam: 0 }).collect();
+        let t = Tour::new(&paths, &visits, Point::ZERO, &CostModel::Distance, params(false, 0));
+        assert_eq!(
+            [t.forward(1, 3), t.forward(0, 3), t.forward(3, 1), t.forward(3, 0), t.forward(2, 2)],
+            [2, 3, 2, 1, 0]
+        );
+        // Reversing positions 1..=3 touches three nodes, or one going the other way round: one.
+        assert_eq!(t.rev_len(1, 3), 1);
+        assert_eq!(t.rev_len(1, 2), 2);
+    }
+
+    #[test]
     fn same_seed_same_result_and_no_reverse_is_respected() {
         let paths = random_paths(300, 5);
         let ids: Vec<u32> = (0..300).collect();
