@@ -837,18 +837,15 @@ mod tests {
 
     #[test]
     fn cycle_distances_by_hand() {
-        // Three paths and the depot: a cycle of four positions.
+        // Five paths and the depot: a cycle of six positions.
         let paths: Vec<Polyline> =
-            (0..3).map(|i| Polyline::new(vec![Point::new(f64::from(i), 0.0), Point::new(f64::from(i), 1.0)])).collect();
-        let visits: Vec<Visit> = (0..3).map(|path| Visit { path, reversed: false, seam: 0 }).collect();
+            (0..5).map(|i| Polyline::new(vec![Point::new(f64::from(i), 0.0), Point::new(f64::from(i), 1.0)])).collect();
+        let visits: Vec<Visit> = (0..5).map(|path| Visit { path, reversed: false, seam: 0 }).collect();
         let t = Tour::new(&paths, &visits, Point::ZERO, &CostModel::Distance, params(false, 0));
-        assert_eq!(
-            [t.forward(1, 3), t.forward(0, 3), t.forward(3, 1), t.forward(3, 0), t.forward(2, 2)],
-            [2, 3, 2, 1, 0]
-        );
-        // Reversing positions 1..=3 touches three nodes, or one going the other way round: one.
-        assert_eq!(t.rev_len(1, 3), 1);
-        assert_eq!(t.rev_len(1, 2), 2);
+        let steps = [(1, 3), (0, 5), (4, 1), (5, 0), (2, 2)].map(|(i, j)| t.forward(i, j));
+        assert_eq!(steps, [2, 5, 3, 1, 0]);
+        // Reversing positions 1..=5 touches five nodes, or one going the other way round: one.
+        assert_eq!([t.rev_len(1, 5), t.rev_len(1, 3), t.rev_len(1, 2)], [1, 3, 2]);
     }
 
     #[test]
