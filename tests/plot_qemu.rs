@@ -25,8 +25,8 @@ use plotter_path::motion::plan::{self, Lookahead};
 use plotter_path::{MachineProfile, input::svg};
 
 const SCALE: f64 = 0.3;
-// How long the line stays silent before a chunk's replies count as complete: far above what the emulated board needs
-// on an idle machine (well under 100 ms), so a loaded machine does not split one chunk's replies into the next.
+// How long the line stays silent before a chunk's replies count as complete: three times the 0.4 s that sufficed on an
+// idle machine, so a loaded one does not split one chunk's replies into the next.
 const QUIET: Duration = Duration::from_millis(1200);
 const LIMIT: Duration = Duration::from_secs(30);
 
