@@ -143,19 +143,12 @@ impl HopCost {
     /// The cost of a hop from `a` to `b`.
     #[inline]
     pub(crate) fn cost(&self, a: Point, b: Point) -> f64 {
-        match &self.model {
-            CostModel::Distance => {
-                let (dx, dy) = (b.x - a.x, b.y - a.y);
-                (dx * dx + dy * dy).sqrt()
-            }
-            CostModel::Time(m) => {
-                let (dx, dy) = ((b.x - a.x).abs(), (b.y - a.y).abs());
-                let d2 = dx * dx + dy * dy;
-                match m.triangle(dx, dy, d2, self.inv_accel.0, self.inv_accel.1) {
-                    Some(t) => m.lift_drop_s + t,
-                    _ => m.hop_time(a, b),
-                }
-            }
+        let CostModel::Time(m) = &self.model else { return self.model.cost(a, b) };
+        let (dx, dy) = ((b.x - a.x).abs(), (b.y - a.y).abs());
+        let d2 = dx * dx + dy * dy;
+        match m.triangle(dx, dy, d2, self.inv_accel.0, self.inv_accel.1) {
+            Some(t) => m.lift_drop_s + t,
+            None => m.hop_time(a, b),
         }
     }
 }

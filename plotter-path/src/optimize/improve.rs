@@ -614,8 +614,8 @@ impl<'a> Tour<'a> {
         }
         let (pe, ne) = (self.out_end(self.prev(a)), self.in_end(self.next(a)));
         // The answer depends only on where the two neighbouring hops come from and go to, and on the seam.
-        let settled = Some((self.hop_ends(pe, ne), self.seam[ai]));
-        if self.seam_settled[ai] == settled {
+        let ends = self.hop_ends(pe, ne);
+        if self.seam_settled[ai] == Some((ends, self.seam[ai])) {
             return false;
         }
         self.stats.work += u64::from(self.seam_off[ai + 1] - self.seam_off[ai]);
@@ -634,7 +634,7 @@ impl<'a> Tour<'a> {
         }
         let gain = current - best.0;
         // The best seam between these neighbours: asked again, the same search finds no gain.
-        self.seam_settled[ai] = Some((self.hop_ends(pe, ne), if gain > EPS { best.1 } else { self.seam[ai] }));
+        self.seam_settled[ai] = Some((ends, if gain > EPS { best.1 } else { self.seam[ai] }));
         if gain > EPS {
             let before = self.params.verify.then(|| self.total_cost());
             self.set_seam(a, best.1);
