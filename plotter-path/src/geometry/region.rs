@@ -48,10 +48,12 @@ type Shape = Vec<Contour>;
 pub struct Region {
     shapes: Vec<Shape>,
     bbox: Option<Rect>,
-    /// Every contour edge, and for each horizontal band of the bounding box the edges reaching into it: lets
-    /// [`Region::classify`] test a polyline against the boundary without looking at every edge.
-    edges: Vec<[f64; 4]>,
-    bands: Vec<Vec<u32>>,
+    /// For each horizontal band of the bounding box, the contour edges reaching into it, band after band (band `b`
+    /// holds `band_edges[band_start[b]..band_start[b + 1]]`; an edge spanning several bands is in each): lets
+    /// [`Region::classify`] and the point tests look at the edges near a place only, read in one sweep of memory.
+    band_start: Vec<u32>,
+    band_edges: Vec<[f64; 4]>,
+    bands: Bands,
 }
 
 /// Where a polyline lies relative to a region.
@@ -119,29 +121,45 @@ impl Region {
                 })
             })
             .collect();
-        let mut region = Region { shapes, bbox, edges, bands: Vec::new() };
+        let mut region =
+            Region { shapes, bbox, band_start: Vec::new(), band_edges: Vec::new(), bands: Bands::default() };
         if let Some(b) = bbox {
             // About √E bands (at most 1024): each holds few edges, and a band lookup is one division.
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            let n = ((region.edges.len() as f64).sqrt().ceil() as usize).clamp(1, 1024);
-            region.bands = vec![Vec::new(); n];
-            for (k, e) in region.edges.iter().enumerate() {
-                let (lo, hi) = region.band_range(e[1].min(e[3]), e[1].max(e[3]), b);
-                for band in &mut region.bands[lo..=hi] {
-                    band.push(u32::try_from(k).expect("fewer than 2³² edges"));
+            let n = ((edges.len() as f64).sqrt().ceil() as usize).clamp(1, 1024);
+            // Counted first, then placed: band b's edges end up in their contour order.
+            region.bands = Bands::new(n, b);
+            region.band_start = vec![0; n + 1];
+            let ranges: Vec<(usize, usize)> =
+                edges.iter().map(|e| region.band_range(e[1].min(e[3]), e[1].max(e[3]))).collect();
+            for &(lo, hi) in &ranges {
+                for count in &mut region.band_start[lo + 1..=hi + 1] {
+                    *count += 1;
+                }
+            }
+            for i in 0..n {
+                region.band_start[i + 1] += region.band_start[i];
+            }
+            let mut fill: Vec<u32> = region.band_start[..n].to_vec();
+            region.band_edges = vec![[0.0; 4]; region.band_start[n] as usize];
+            for (e, &(lo, hi)) in edges.iter().zip(&ranges) {
+                for at in &mut fill[lo..=hi] {
+                    region.band_edges[*at as usize] = *e;
+                    *at += 1;
                 }
             }
         }
         region
     }
 
-    fn band_range(&self, y0: f64, y1: f64, b: Rect) -> (usize, usize) {
-        let n = self.bands.len();
-        let h = b.height().max(1e-12) / n as f64;
-        // Clamped to 0..n-1 before the cast.
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let at = |y: f64| (((y - b.y0) / h).floor().max(0.0) as usize).min(n - 1);
-        (at(y0), at(y1))
+    /// The edges of bands `lo..=hi`.
+    #[inline]
+    fn edges_of_bands(&self, lo: usize, hi: usize) -> &[[f64; 4]] {
+        &self.band_edges[self.band_start[lo] as usize..self.band_start[hi + 1] as usize]
+    }
+
+    fn band_range(&self, y0: f64, y1: f64) -> (usize, usize) {
+        (self.bands.at(y0), self.bands.at(y1))
     }
 
     /// Whether `line` lies wholly outside, wholly inside, or meets the boundary (touching counts as meeting).
@@ -156,13 +174,10 @@ impl Region {
             if p.y.max(q.y) < b.y0 || p.y.min(q.y) > b.y1 {
                 continue;
             }
-            let (lo, hi) = self.band_range(p.y.min(q.y), p.y.max(q.y), b);
-            for band in &self.bands[lo..=hi] {
-                for &k in band {
-                    let e = self.edges[k as usize];
-                    if segments_meet(p, q, Point::new(e[0], e[1]), Point::new(e[2], e[3])) {
-                        return Class::Crosses;
-                    }
+            let (lo, hi) = self.band_range(p.y.min(q.y), p.y.max(q.y));
+            for e in self.edges_of_bands(lo, hi) {
+                if segments_meet(p, q, Point::new(e[0], e[1]), Point::new(e[2], e[3])) {
+                    return Class::Crosses;
                 }
             }
         }
@@ -176,10 +191,9 @@ impl Region {
         if p.y < b.y0 || p.y > b.y1 || p.x < b.x0 || p.x > b.x1 {
             return 0;
         }
-        let (band, _) = self.band_range(p.y, p.y, b);
+        let band = self.bands.at(p.y);
         let mut w = 0;
-        for &k in &self.bands[band] {
-            let e = self.edges[k as usize];
+        for e in self.edges_of_bands(band, band) {
             let (a, c) = ([e[0], e[1]], [e[2], e[3]]);
             let cross = (c[0] - a[0]) * (p.y - a[1]) - (p.x - a[0]) * (c[1] - a[1]);
             if a[1] <= p.y {
@@ -207,25 +221,22 @@ impl Region {
             return;
         }
         let d = q - p;
-        let (lo, hi) = self.band_range(p.y.min(q.y), p.y.max(q.y), b);
-        for band in &self.bands[lo..=hi] {
-            for &k in band {
-                let e = self.edges[k as usize];
-                let (a, c) = (Point::new(e[0], e[1]), Point::new(e[2], e[3]));
-                if !segments_meet(p, q, a, c) {
-                    continue;
+        let (lo, hi) = self.band_range(p.y.min(q.y), p.y.max(q.y));
+        for e in self.edges_of_bands(lo, hi) {
+            let (a, c) = (Point::new(e[0], e[1]), Point::new(e[2], e[3]));
+            if !segments_meet(p, q, a, c) {
+                continue;
+            }
+            let f = c - a;
+            let den = d.cross(f);
+            if den == 0.0 {
+                // Collinear: where the edge's ends project onto p–q.
+                let dd = d.dot(d);
+                if dd > 0.0 {
+                    out.extend([a, c].map(|v| ((v - p).dot(d) / dd).clamp(0.0, 1.0)));
                 }
-                let f = c - a;
-                let den = d.cross(f);
-                if den == 0.0 {
-                    // Collinear: where the edge's ends project onto p–q.
-                    let dd = d.dot(d);
-                    if dd > 0.0 {
-                        out.extend([a, c].map(|v| ((v - p).dot(d) / dd).clamp(0.0, 1.0)));
-                    }
-                } else {
-                    out.push(((a - p).cross(f) / den).clamp(0.0, 1.0));
-                }
+            } else {
+                out.push(((a - p).cross(f) / den).clamp(0.0, 1.0));
             }
         }
     }
@@ -317,6 +328,31 @@ impl Region {
     /// True when `p` lies inside by more than `margin` (used by property tests).
     pub fn strictly_contains(&self, p: Point, margin: f64) -> bool {
         self.winding(p) != 0 && self.boundary_distance(p) > margin
+    }
+}
+
+/// How a height maps to one of `n` equal horizontal bands of a bounding box: band `⌊(y − y0)·scale⌋`, clamped.
+/// One multiplication and a truncating cast (no division, no call to `floor`), the same map for placing edges and
+/// for looking points up — so an edge reaching from `y0` to `y1` is in every band a height between them maps to.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Bands {
+    y0: f64,
+    scale: f64,
+    last: usize,
+}
+
+impl Bands {
+    fn new(n: usize, b: Rect) -> Bands {
+        Bands { y0: b.y0, scale: n as f64 / b.height().max(1e-12), last: n - 1 }
+    }
+
+    /// The band of height `y` (the first or the last outside the box).
+    #[inline]
+    fn at(&self, y: f64) -> usize {
+        // Negative (and NaN) become 0 before the cast, which truncates like `floor` at or above 0.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let band = ((y - self.y0) * self.scale).max(0.0) as usize;
+        band.min(self.last)
     }
 }
 
@@ -467,5 +503,41 @@ mod tests {
         let line = vec![Point::new(5.1, 5.3), Point::new(7.7, 9.9), Point::new(5.1, 5.3)];
         assert_eq!(cut(vec![line.clone()], &[&r], Keep::Outside), vec![line.clone()]);
         assert!(cut(vec![line], &[&r], Keep::Inside).is_empty());
+    }
+
+    #[test]
+    fn a_height_maps_to_its_band_by_hand() {
+        // Four bands over y 10..30, 5 mm each.
+        let b = Bands::new(4, Rect::new(0.0, 10.0, 1.0, 30.0));
+        let at = |y: f64| b.at(y);
+        assert_eq!(
+            [at(-3.0), at(9.9), at(10.0), at(14.99), at(15.0), at(24.0), at(25.0), at(30.0)],
+            [0, 0, 0, 0, 1, 2, 3, 3]
+        );
+        assert_eq!((at(1e300), at(f64::NAN), at(f64::NEG_INFINITY)), (3, 0, 0));
+    }
+
+    proptest::proptest! {
+        /// The banded point test sees every edge the full winding count sees: the same answer at random points and
+        /// at every vertex height (where edges start and end, the places a band map could drop one).
+        #[test]
+        fn banded_contains_agrees_with_the_full_winding_count(
+            pts in proptest::collection::vec((0.0..100.0f64, 0.0..100.0f64), 3..80),
+            probes in proptest::collection::vec((-5.0..105.0f64, -5.0..105.0f64), 1..40),
+            even_odd in proptest::bool::ANY,
+        ) {
+            let contour: Vec<Point> = pts.iter().map(|&(x, y)| Point::new(x, y)).collect();
+            let rule = if even_odd { FillRule::EvenOdd } else { FillRule::NonZero };
+            let r = Region::from_contours([contour.as_slice()], rule);
+            let vertices: Vec<Point> = r.contours().flatten().collect();
+            let mut at = probes.iter().map(|&(x, y)| Point::new(x, y)).collect::<Vec<_>>();
+            // Each vertex height, probed left of, at and right of the vertex.
+            for v in &vertices {
+                at.extend([Point::new(v.x - 0.5, v.y), *v, Point::new(v.x + 0.5, v.y)]);
+            }
+            for p in at {
+                proptest::prop_assert_eq!(r.contains(p), r.winding(p) != 0, "at {:?}", p);
+            }
+        }
     }
 }

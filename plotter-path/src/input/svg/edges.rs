@@ -104,8 +104,10 @@ impl Near for Beneath<'_> {
     type Item = usize;
 
     fn near(&self, bbox: Rect, out: &mut Vec<usize>) {
-        out.clear();
-        out.extend(self.grid.query(bbox).into_iter().filter(|&k| self.paints[k].0 < self.below));
+        self.grid.query_into(bbox, out);
+        // Ascending paint indices are in item order: the earlier items' paints come first.
+        let earlier = out.partition_point(|&k| self.paints[k].0 < self.below);
+        out.truncate(earlier);
     }
 
     fn region(&self, k: usize) -> &Region {

@@ -64,18 +64,26 @@ impl BoxGrid {
 
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     fn cell_range(&self, r: Rect) -> (usize, usize, usize, usize) {
-        let cx = |x: f64| (((x - self.area.x0) / self.cell).floor().max(0.0) as usize).min(self.nx - 1);
-        let cy = |y: f64| (((y - self.area.y0) / self.cell).floor().max(0.0) as usize).min(self.ny - 1);
+        // Negative (and NaN) become 0 before the cast, which truncates like `floor` at or above 0.
+        let cx = |x: f64| (((x - self.area.x0) / self.cell).max(0.0) as usize).min(self.nx - 1);
+        let cy = |y: f64| (((y - self.area.y0) / self.cell).max(0.0) as usize).min(self.ny - 1);
         (cx(r.x0), cx(r.x1), cy(r.y0), cy(r.y1))
     }
 
     /// The indices of the boxes meeting `query`, ascending, each once.
     pub(super) fn query(&self, query: Rect) -> Vec<usize> {
+        let mut hits = Vec::new();
+        self.query_into(query, &mut hits);
+        hits
+    }
+
+    /// [`BoxGrid::query`] into `hits` (cleared first), reusing its memory.
+    pub(super) fn query_into(&self, query: Rect, hits: &mut Vec<usize>) {
+        hits.clear();
         if !meet(query, self.area) {
-            return Vec::new();
+            return;
         }
         let (x0, x1, y0, y1) = self.cell_range(query);
-        let mut hits: Vec<usize> = Vec::new();
         for y in y0..=y1 {
             for x in x0..=x1 {
                 hits.extend(
@@ -83,9 +91,11 @@ impl BoxGrid {
                 );
             }
         }
-        hits.sort_unstable();
-        hits.dedup();
-        hits
+        // One cell lists its boxes ascending, each once; several may share boxes.
+        if x0 != x1 || y0 != y1 {
+            hits.sort_unstable();
+            hits.dedup();
+        }
     }
 }
 
