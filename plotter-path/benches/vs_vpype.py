@@ -8,9 +8,14 @@ with the most drawing elements (duplicates by content or by file name dropped); 
 
 Per file, ours and vpype's run alternately R times (default 3; the machine may be shared, so each side's median is
 reported):
-  ours:   plotter stats FILE --json              (import, merge, order, improve; the pen-up figure after ordering)
+  ours:   plotter optimize FILE -o /dev/null     (import, merge, order, improve, and the SVG written: import + order)
+  stats:  plotter stats FILE --json              (all that, plus both plot-time estimates — the input order's and the
+                                                  result's, each a whole motion plan and a lower bound — and the
+                                                  pen-up figure after ordering)
   vpype:  vpype read FILE linemerge linesort --two-opt
-With --base BIN, an older build of ours runs in the same rotation, and its pen-up travel is shown next to ours
+The ratio is vpype's time over ours (import + order, what vpype does); ratio_stats the same over `stats`.
+With --base BIN, an older build of ours runs `stats` in the same rotation (its time is comparable with the stats
+column), and its pen-up travel is shown next to ours
 ("before" / "after"): the ordering must not get worse.
 
 Usage (after `cargo build --release -p plotter-cli`):
@@ -96,15 +101,18 @@ def main():
     files = choose(a.plotter, a.n, a.list)
     rows = []
     if not a.json:
-        print(f"{'input':36} {'paths':>6} {'ours s':>7} {'base s':>7} {'vpype s':>8} {'ratio':>6} "
+        print(f"{'input':36} {'paths':>6} {'ours s':>7} {'stats s':>7} {'base s':>7} {'vpype s':>8} {'ratio':>6} "
               f"{'pen-up before':>13} {'pen-up after':>12}")
     for f in files:
-        ours, base, vp = [], [], []
+        ours, stats, base, vp = [], [], [], []
         pen_up, pen_up_base, paths = None, None, None
         for _ in range(a.repeat):
-            dt, out = run([a.plotter, "stats", f, "--json"])
+            dt, _ = run([a.plotter, "optimize", f, "-o", os.devnull])
             if dt is not None:
                 ours.append(dt)
+            dt, out = run([a.plotter, "stats", f, "--json"])
+            if dt is not None:
+                stats.append(dt)
                 j = json.loads(out)
                 pen_up, paths = j["pen_up_mm_optimized"], j["paths"]
             if a.base:
@@ -115,28 +123,32 @@ def main():
             dt, _ = run([a.vpype, "read", f, "linemerge", "linesort", "--two-opt"])
             if dt is not None:
                 vp.append(dt)
-        if not ours or not vp:
+        if not ours or not stats or not vp:
             print(f"skip {f} (a side failed)", file=sys.stderr)
             continue
         row = {
             "input": os.path.basename(f),
             "paths": paths,
             "ours_s": statistics.median(ours),
+            "stats_s": statistics.median(stats),
             "base_s": statistics.median(base) if base else None,
             "vpype_s": statistics.median(vp),
             "pen_up_before_mm": pen_up_base,
             "pen_up_after_mm": pen_up,
         }
         row["ratio"] = row["vpype_s"] / row["ours_s"]
+        row["ratio_stats"] = row["vpype_s"] / row["stats_s"]
         rows.append(row)
         if not a.json:
             fmt = lambda v, spec: "-" if v is None else format(v, spec)
-            print(f"{row['input'][:36]:36} {paths:>6} {row['ours_s']:7.3f} {fmt(row['base_s'], '7.3f'):>7} "
+            print(f"{row['input'][:36]:36} {paths:>6} {row['ours_s']:7.3f} {row['stats_s']:7.3f} "
+                  f"{fmt(row['base_s'], '7.3f'):>7} "
                   f"{row['vpype_s']:8.3f} {row['ratio']:6.1f} {fmt(pen_up_base, '13.1f'):>13} {pen_up:12.1f}",
                   flush=True)
     total = {
         "drawings": len(rows),
         "ours_s": sum(r["ours_s"] for r in rows),
+        "stats_s": sum(r["stats_s"] for r in rows),
         "vpype_s": sum(r["vpype_s"] for r in rows),
         "worst_ratio": min((r["ratio"] for r in rows), default=None),
         "median_ratio": statistics.median([r["ratio"] for r in rows]) if rows else None,
@@ -147,8 +159,9 @@ def main():
         total["base_s"] = sum(r["base_s"] or 0.0 for r in rows)
         total["pen_up_before_mm"] = sum(r["pen_up_before_mm"] or 0.0 for r in rows)
     total["pen_up_after_mm"] = sum(r["pen_up_after_mm"] for r in rows)
-    if total["ours_s"] > 0:
+    if total["ours_s"] > 0 and total["stats_s"] > 0:
         total["ratio"] = total["vpype_s"] / total["ours_s"]
+        total["ratio_stats"] = total["vpype_s"] / total["stats_s"]
     if a.json:
         print(json.dumps({"total": total, "rows": rows}, indent=1))
     else:
