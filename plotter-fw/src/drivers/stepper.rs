@@ -801,8 +801,11 @@ impl Stepper {
     /// through [`Stepper::on_timer_slow`], already out of line, so a second call there would only save registers twice.
     #[inline(always)]
     fn tick_slow<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
-        if !self.act.live {
-            return self.load_next(hal);
+        if !self.act.live || self.hold == HoldState::Stopped {
+            // Not running (idle, held, or stopped by an abort): the timer was stopped when it stopped, so this is a
+            // stale event (a board that does not mask its timer's flags with the interrupt enables may see one).
+            // Nothing to emit, and no block to start: only `start` and `resume` start the stepper.
+            return None;
         }
         if self.act.n == 0 {
             // A dwell ended.
@@ -1195,6 +1198,62 @@ mod tests {
         }
         assert_eq!(intervals, [1000; 4]);
         assert_eq!((s.completed(), hal.pos[0]), (2, 5));
+    }
+
+    /// A timer event the stepper did not ask for (a board that does not mask its timer's flags may pass on a stale
+    /// compare flag) while it is idle, held at a block end, held in the middle of a block or stopped by an abort:
+    /// nothing steps, nothing starts, and it asks for the timer to stop.
+    #[test]
+    fn a_stale_timer_event_while_stopped_steps_nothing_and_starts_nothing() {
+        let mv = StepBlock { steps: [40, 7, 0, 0], cruise_rate: 1000, ..StepBlock::default() };
+        let stale = |s: &mut Stepper, hal: &mut Rec| {
+            let (pos, pending, completed) = (hal.pos, s.pending(), s.completed());
+            for _ in 0..3 {
+                assert_eq!(s.tick(hal), None);
+            }
+            assert_eq!((hal.pos, s.pending(), s.completed()), (pos, pending, completed));
+        };
+        // Idle with a block queued but not started.
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(mv, Switches::Limits).unwrap();
+        stale(&mut s, &mut hal);
+        assert_eq!(hal.pos, [0; NUM_AXES]);
+        // Held at the end of a dwell, the move queued behind it.
+        let mut s = Stepper::new(0, 0);
+        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+        s.push(mv, Switches::Limits).unwrap();
+        s.start(&mut hal).unwrap();
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        stale(&mut s, &mut hal);
+        // Held in the middle of a move without acceleration: it stops after the event already scheduled (the 11th).
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(mv, Switches::Limits).unwrap();
+        s.start(&mut hal).unwrap();
+        for _ in 0..10 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!(hal.pos, [11, 2, 0, 0]);
+        stale(&mut s, &mut hal);
+        // The resume goes on from there and ends exactly.
+        assert!(s.resume(&mut hal).is_some());
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(hal.pos, [40, 7, 0, 0]);
+        // Stopped by an abort in the middle of a move, another block queued afterwards.
+        s.push(mv, Switches::Limits).unwrap();
+        s.start(&mut hal).unwrap();
+        s.tick(&mut hal).unwrap();
+        s.abort();
+        s.push(mv, Switches::Limits).unwrap();
+        stale(&mut s, &mut hal);
+        // One event of the aborted move (its Y steps come from the third event on).
+        assert_eq!((hal.pos, s.position()), ([41, 7, 0, 0], [41, 7, 0, 0]));
     }
 
     #[test]

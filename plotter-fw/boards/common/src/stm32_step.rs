@@ -157,9 +157,16 @@ impl StepOutputs {
     }
 
     /// The timer's interrupt: clear its flags, count an overflow in `wraps`; returns whether a step event is due.
+    ///
+    /// The flags are not masked with the interrupt enables (one register read less per event): compare 1's flag
+    /// also rises while its interrupt is off (the stepper stopped, the counter passing the old deadline), so an
+    /// overflow interrupt may find it up. That stale event reaches the stepper, which is not running then (every
+    /// path that stops the timer — the stepper's last event, a hold's stop, an abort — leaves it idle or held) and
+    /// emits nothing ([`plotter_fw::stepper::Stepper::tick`]). The fault path turns the timer's interrupts off and
+    /// clears its flags.
     #[inline(always)]
     pub fn timer_interrupt(&self, wraps: &AtomicU32) -> bool {
-        let sr = read(self.tim + tim::SR) & read(self.tim + tim::DIER);
+        let sr = read(self.tim + tim::SR);
         write(self.tim + tim::SR, !sr);
         if sr & tim::UIF != 0 {
             count_wrap(wraps);

@@ -222,6 +222,8 @@ pub(crate) fn enable_drivers() {
 /// Fault path: no more timer interrupts, drivers released, step pins low, the servo pen up.
 pub(crate) fn emergency_stop() {
     regs::write(tim::TIM2 + tim::DIER, 0);
+    // No flag left for an interrupt already pending (the step interrupt does not mask the flags with DIER).
+    regs::write(tim::TIM2 + tim::SR, 0);
     set(pins::ENABLE);
     STEP_OUT.lower_all();
     if cfg!(feature = "servo-pen") {

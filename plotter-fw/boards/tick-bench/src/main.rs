@@ -192,9 +192,12 @@ fn main() -> ! {
         // The timer "fires": the counter jumps to the compare value.
         let due = MACHINE.with(|m| m.hal().deadline.is_running().then(|| STEP_OUT.deadline())).flatten();
         if let Some(at) = due {
-            // The counter reaches the compare value: the flag goes up, the interrupt runs.
+            // The counter reaches the compare value: the flag goes up, the interrupt runs. The flags of the real
+            // register are cleared by writing 0 (writing 1 leaves them): the interrupt's clearing write `!flags`
+            // leaves none up there, while in this RAM stand-in it leaves the complement, so the flags are set
+            // afresh here, compare 1's alone.
             write(TIM2 + tim::CNT, at);
-            write(TIM2 + tim::SR, read(TIM2 + tim::SR) | tim::CC1);
+            write(TIM2 + tim::SR, tim::CC1);
             bench_tick();
             bench_tick_done();
             steps += step_pins().count_ones();
