@@ -115,6 +115,19 @@ fn lane_event(fill: &mut u32, delta: u32, n: u32) -> u32 {
     stepped
 }
 
+/// The axis mask of the guard bits [`lane_event`] returned for the low word (axes 0, 1 at bits 15, 31) and the high
+/// word (axes 2, 3). `(low >> 2) | high` puts axes 0..=3 at bits 13, 29, 15, 31, all distinct; adding that word
+/// shifted left by 15 copies bits 13 and 15 to 28 and 30 (no carries: the bits added are 0) and drops 29 and 31
+/// off the top, so bits 28..=31 are axes 0..=3 in order: a shift, a shifted add and a shift, nothing above bit 3.
+#[inline(always)]
+fn gather_guards(low: u32, high: u32) -> u8 {
+    let t = (low >> 2) | high;
+    let top = t.wrapping_add(t << 15) >> 28;
+    #[allow(clippy::cast_possible_truncation, reason = "the shift leaves four bits")]
+    let mask = top as u8;
+    mask
+}
+
 impl Layout {
     fn of(block: &StepBlock, n: u32) -> Self {
         let mut l = Layout::default();
@@ -157,12 +170,7 @@ impl Layout {
         }
         let low = lane_event(&mut self.fills[0], self.deltas[0], n);
         let high = lane_event(&mut self.fills[1], self.deltas[1], n);
-        // Guard bits 15, 31 of the low word are axes 0, 1; of the high word axes 2, 3 (the shifts leave nothing else
-        // in the low byte: bit 31 of the low word goes to 16, bit 31 of the high word to 18).
-        let mask = (low >> 15) | (low >> 30) | (high >> 13) | (high >> 28);
-        #[allow(clippy::cast_possible_truncation, reason = "the low byte holds the four bits")]
-        let mask = mask as u8;
-        mask
+        gather_guards(low, high)
     }
 
     /// [`Layout::event`] of a block too long for the lanes (out of line: the lanes are the straight path).
@@ -1254,6 +1262,17 @@ mod tests {
         stale(&mut s, &mut hal);
         // One event of the aborted move (its Y steps come from the third event on).
         assert_eq!((hal.pos, s.position()), ([41, 7, 0, 0], [41, 7, 0, 0]));
+    }
+
+    #[test]
+    fn the_guard_bits_gather_into_the_axis_mask() {
+        // Every combination of the four guard bits: axis 0 at bit 15 and axis 1 at bit 31 of the low word, axes 2
+        // and 3 at the same bits of the high word.
+        for mask in 0..16u8 {
+            let bit = |axis: u8, at: u32| u32::from(mask >> axis & 1) << at;
+            let (low, high) = (bit(0, 15) | bit(1, 31), bit(2, 15) | bit(3, 31));
+            assert_eq!(gather_guards(low, high), mask, "{low:#x} {high:#x}");
+        }
     }
 
     #[test]
