@@ -123,8 +123,9 @@ fn main() -> ! {
 fn TIM2() {
     if board::tim2_events() {
         // SAFETY: the only caller is this handler (TIM2 never preempts itself), and every other access to the
-        // machine — the USART2, DMA1 and SysTick handlers, the main loop — goes through `with`, which masks it.
-        unsafe { MACHINE.on_timer_unmasked() };
+        // machine — the USART2, DMA1 and SysTick handlers, the main loop — goes through `with`, which masks it;
+        // `main` installs the machine before it unmasks TIM2 in the NVIC.
+        unsafe { MACHINE.on_timer_installed() };
     }
 }
 

@@ -137,8 +137,9 @@ static MACHINE: Shared<BenchHal> = Shared::new();
 #[inline(never)]
 pub extern "C" fn bench_tick() {
     if STEP_OUT.timer_interrupt(&TIM2_WRAPS) {
-        // SAFETY: as on the Nucleo: only this function runs the step path, everything else goes through `with`.
-        unsafe { MACHINE.on_timer_unmasked() };
+        // SAFETY: as on the Nucleo: only this function runs the step path, everything else goes through `with`;
+        // `main` installs the machine before the first tick.
+        unsafe { MACHINE.on_timer_installed() };
     }
 }
 
