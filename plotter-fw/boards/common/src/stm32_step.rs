@@ -2,8 +2,8 @@
 //! pulse ended by the timer and DMA, not by an interrupt.
 //!
 //! Per step event the interrupt does, and nothing else:
-//! 1. [`StepOutputs::timer_interrupt`]: read and clear the timer's flags (counting an overflow for the board's
-//!    64-bit clock);
+//! 1. [`StepOutputs::step_interrupt`]: clear compare 1's flag, the timer's only interrupt (the board counts the
+//!    overflows for its 64-bit clock from its periodic tick: [`StepOutputs::count_overflow`]);
 //! 2. the stepper's event ([`plotter_fw::stepper::Stepper::tick`]) and [`StepOutputs::raise`]: one BSRR store per
 //!    port from a table indexed by the axis mask, then the pulse end: the counter read once, plus the pulse
 //!    length, stored into the two compare channels that end the pulse (channel 2 for the first port, channel 3
@@ -156,22 +156,26 @@ impl StepOutputs {
         write(self.bsrr[1], self.lower[1]);
     }
 
-    /// The timer's interrupt: clear its flags, count an overflow in `wraps`; returns whether a step event is due.
+    /// The timer's interrupt: compare 1 reached the next event; acknowledge it (one constant store, no read).
     ///
-    /// The flags are not masked with the interrupt enables (one register read less per event): compare 1's flag
-    /// also rises while its interrupt is off (the stepper stopped, the counter passing the old deadline), so an
-    /// overflow interrupt may find it up. That stale event reaches the stepper, which is not running then (every
-    /// path that stops the timer — the stepper's last event, a hold's stop, an abort — leaves it idle or held) and
-    /// emits nothing ([`plotter_fw::stepper::Stepper::tick`]). The fault path turns the timer's interrupts off and
-    /// clears its flags.
+    /// Compare 1 is the only interrupt the timer raises: its overflow is counted from the board's periodic tick
+    /// ([`StepOutputs::count_overflow`]) and the pulse ends are DMA requests, so the handler runs only when compare
+    /// 1's flag rose with its interrupt enabled: a step event is due. [`StepOutputs::cancel`] disables it, and the
+    /// board's cancel also drops an interrupt left pending then (an event stale by then reaches a stepper that is
+    /// not running and emits nothing: [`plotter_fw::stepper::Stepper::tick`]).
     #[inline(always)]
-    pub fn timer_interrupt(&self, wraps: &AtomicU32) -> bool {
-        let sr = read(self.tim + tim::SR);
-        write(self.tim + tim::SR, !sr);
-        if sr & tim::UIF != 0 {
-            count_wrap(wraps);
+    pub fn step_interrupt(&self) {
+        write(self.tim + tim::SR, !tim::CC1);
+    }
+
+    /// The timer's overflow, from the board's periodic tick (far more often than every 2³² ticks, at the step
+    /// interrupt's priority): if its flag is up, clear it and count it in `wraps`. Writing 0 clears a flag and
+    /// writing 1 leaves it, so this never clears compare 1's flag.
+    pub fn count_overflow(&self, wraps: &AtomicU32) {
+        if read(self.tim + tim::SR) & tim::UIF != 0 {
+            write(self.tim + tim::SR, !tim::UIF);
+            wraps.fetch_add(1, Ordering::Relaxed);
         }
-        sr & tim::CC1 != 0
     }
 
     /// Aim compare 1 at the next event, `ticks` after the previous one ([`Deadline`]); from idle, also enable its
@@ -227,13 +231,6 @@ impl StepOutputs {
     }
 }
 
-/// One more overflow of the timer (once every 2³² ticks: out of the step path's way).
-#[cold]
-#[inline(never)]
-fn count_wrap(wraps: &AtomicU32) {
-    wraps.fetch_add(1, Ordering::Relaxed);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -247,6 +244,28 @@ mod tests {
         assert_eq!(o.raise[0b1111], [(1 << 10) | (1 << 6), (1 << 3) | (1 << 5)]);
         assert_eq!(o.raise[0], [0, 0]);
         assert_eq!(o.pulse_end_transfers(), [((1 << 26) | (1 << 22), 0x118), ((1 << 19) | (1 << 21), 0x218)]);
+    }
+
+    /// The flag writes, on a RAM stand-in for the timer (a write shows as written: on the chip a 0 bit clears its flag
+    /// and a 1 bit leaves it).
+    #[test]
+    fn the_step_interrupt_clears_compare_1_alone_and_the_overflow_is_counted_once() {
+        let mut timer = [0u32; 16];
+        let base = timer.as_mut_ptr() as usize;
+        let o = StepOutputs::new([0x100, 0x200], [(0, 10), (1, 3), (1, 5), (0, 6)], base, 3, 0x400);
+        let sr = |t: &[u32; 16]| t[tim::SR / 4];
+        let wraps = AtomicU32::new(7);
+        // No overflow flag: nothing written, nothing counted.
+        timer[tim::SR / 4] = tim::CC1;
+        o.count_overflow(&wraps);
+        assert_eq!((sr(&timer), wraps.load(Ordering::Relaxed)), (tim::CC1, 7));
+        // The overflow flag up (and compare 1's): cleared by a write whose other bits keep every other flag.
+        timer[tim::SR / 4] = tim::UIF | tim::CC1;
+        o.count_overflow(&wraps);
+        assert_eq!((sr(&timer), wraps.load(Ordering::Relaxed)), (!tim::UIF, 8));
+        // The step interrupt: compare 1's flag cleared, every other flag kept.
+        o.step_interrupt();
+        assert_eq!(sr(&timer), !tim::CC1);
     }
 
     /// Pulse and gap at the ticks' resolution (times in hundredths of a tick): the pins go up at `set`, the counter
