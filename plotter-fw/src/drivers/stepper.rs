@@ -750,26 +750,49 @@ impl Stepper {
     }
 
     /// The step timer's interrupt: [`Stepper::tick`], then the timer aimed at the next event
-    /// ([`StepTimer::schedule_next`]) or stopped. Returns whether it runs on. The plain event in the middle of a
-    /// block is inlined into the board's interrupt handler, straight through to the timer's compare register, and
-    /// schedules with what its pin write returned ([`StepTimer::schedule_next_from`]: a board reads its counter
-    /// once per event).
+    /// ([`StepTimer::schedule_next`]) or stopped. Returns whether it runs on: [`Stepper::on_timer_fast`], else
+    /// [`Stepper::on_timer_slow`].
     #[inline(always)]
     pub fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
+        self.on_timer_fast(hal) || self.on_timer_slow(hal)
+    }
+
+    /// [`Stepper::on_timer`]'s events in the middle of a block (a plain event, or one that enters the next segment):
+    /// returns whether it was one (and handled it); `false` leaves the event to [`Stepper::on_timer_slow`]. Inlined
+    /// into the board's interrupt handler, straight through to the timer's compare register, and schedules with
+    /// what its pin write returned ([`StepTimer::schedule_next_from`]: a board reads its counter once per event).
+    /// It calls nothing but in tail position (a block too long for the lanes), so the handler needs no stack
+    /// alignment and no more saved registers than its own work.
+    #[inline(always)]
+    pub fn on_timer_fast<H: StepPins + StepTimer>(&mut self, hal: &mut H) -> bool {
         if self.act.countdown == 0 {
             if self.act.pending == 0 {
-                return self.on_timer_slow(hal);
+                return false;
             }
             self.next_run();
+        }
+        if self.act.n > LANE_MAX {
+            return self.on_timer_long(hal);
         }
         let (read, interval) = self.plain_event(hal);
         hal.schedule_next_from(read, interval);
         true
     }
 
-    /// [`Stepper::on_timer`] off the fast path.
+    /// [`Stepper::on_timer_fast`]'s event of a block too long for the lanes, out of line.
+    #[cold]
     #[inline(never)]
-    fn on_timer_slow<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
+    fn on_timer_long<H: StepPins + StepTimer>(&mut self, hal: &mut H) -> bool {
+        let (read, interval) = self.plain_event(hal);
+        hal.schedule_next_from(read, interval);
+        true
+    }
+
+    /// [`Stepper::on_timer`] off the fast path (when [`Stepper::on_timer_fast`] returned `false`): the block's last
+    /// event, a hold's stop, a dwell's end, a homing event, a stale event. Returns whether the timer runs on. The
+    /// caller keeps it out of its interrupt handler's straight path.
+    #[inline(always)]
+    pub fn on_timer_slow<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
         match self.tick_slow(hal) {
             Some(interval) => {
                 hal.schedule_next(interval);
@@ -806,7 +829,8 @@ impl Stepper {
     }
 
     /// Everything but a plain event in the middle of a block. Inlined into its callers: the interrupt reaches it
-    /// through [`Stepper::on_timer_slow`], already out of line, so a second call there would only save registers twice.
+    /// through [`Stepper::on_timer_slow`], which its caller keeps out of line, so a second call there would only save
+    /// registers twice.
     #[inline(always)]
     fn tick_slow<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
         if !self.act.live || self.hold == HoldState::Stopped {
