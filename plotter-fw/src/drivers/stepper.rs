@@ -1651,6 +1651,72 @@ mod tests {
         assert_eq!((hal.0.pos, hal.1), ([4, 0, 0, 0], 3));
     }
 
+    /// `on_timer` (its fast path inline, a block too long for the lanes out of line, the slow path) drives the same
+    /// events as `tick`: a 40 000-event block with ramps between two short ones, every interval and every step.
+    #[test]
+    fn on_timer_and_tick_agree_on_long_and_short_blocks() {
+        /// Records the intervals the timer was given.
+        #[derive(Default)]
+        struct Timed(Rec, std::vec::Vec<u32>);
+        impl StepPins for Timed {
+            fn set_dir(&mut self, axis: Axis, level: bool) {
+                self.0.set_dir(axis, level);
+            }
+            fn step(&mut self, axis: Axis) {
+                self.0.step(axis);
+            }
+            fn enable_motors(&mut self, _on: bool) {}
+        }
+        impl Endstops for Timed {
+            fn pressed(&mut self) -> u8 {
+                0
+            }
+        }
+        impl StepTimer for Timed {
+            fn schedule(&mut self, ticks: u32) {
+                self.1.push(ticks);
+            }
+            fn cancel(&mut self) {}
+        }
+        let short = StepBlock { steps: [30, -7, 2, 0], cruise_rate: 3000, accel: 90_000, ..StepBlock::default() };
+        let long =
+            StepBlock { steps: [-40_000, 15_001, 0, 3], cruise_rate: 20_000, accel: 200_000, ..StepBlock::default() };
+        let (mut a, mut b) = (Stepper::new(0, 0), Stepper::new(0, 0));
+        let (mut timed, mut rec) = (Timed::default(), Rec::default());
+        for st in [&mut a, &mut b] {
+            st.push(short, Switches::Limits).unwrap();
+            st.push(long, Switches::Limits).unwrap();
+        }
+        let mut ticked = std::vec![b.start(&mut rec).unwrap()];
+        let first = a.start(&mut timed).unwrap();
+        timed.1.push(first);
+        let mut third = (Some(short), Some(short));
+        loop {
+            let on = a.on_timer(&mut timed);
+            let iv = b.tick(&mut rec);
+            assert_eq!(on, iv.is_some());
+            ticked.extend(iv);
+            assert_eq!(timed.0.pos, rec.pos, "event {}", ticked.len());
+            if a.has_room()
+                && let Some(blk) = third.0.take()
+            {
+                a.push(blk, Switches::Limits).unwrap();
+            }
+            if b.has_room()
+                && let Some(blk) = third.1.take()
+            {
+                b.push(blk, Switches::Limits).unwrap();
+            }
+            if !on {
+                break;
+            }
+        }
+        assert_eq!(timed.1, ticked);
+        assert_eq!(rec.pos, [-40_000 + 60, 15_001 - 14, 4, 3]);
+        // 40 060 events: the interval to the first from the start, then one after each event but the last.
+        assert_eq!(ticked.len(), 40_000 + 60);
+    }
+
     #[test]
     fn a_queued_block_starts_from_its_prepared_state() {
         // The prepared first interval is the profile's: √(2/a) = 14 142 µs from rest at 10⁴ events/s².
