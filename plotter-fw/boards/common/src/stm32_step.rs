@@ -97,7 +97,12 @@ pub struct StepOutputs {
 impl StepOutputs {
     /// Step pins `steps[axis] = (port, pin)` with `port` 0 or 1 of `ports` (GPIO base addresses), the timer at
     /// `tim`, pulses of `pulse` ticks; a servo pen's PWM compare register at `servo_ccr`.
+    ///
+    /// # Panics
+    /// If `tim` is not 8-byte aligned (a timer's register block is; [`StepOutputs::raise`] stores compare 2 and 3
+    /// at once) — at compile time for a `const`.
     pub const fn new(ports: [usize; 2], steps: [(u8, u8); NUM_AXES], tim: usize, pulse: u32, servo_ccr: usize) -> Self {
+        assert!(tim.is_multiple_of(8), "the timer's register block is 8-byte aligned");
         let mut raise = [[0u32; 2]; 1 << NUM_AXES];
         let mut lower = [0u32; 2];
         let mut a = 0;
@@ -131,8 +136,9 @@ impl StepOutputs {
         write(self.bsrr[1], words[1]);
         let now = read(self.tim + tim::CNT);
         let end = now.wrapping_add(self.pulse);
-        write(self.tim + tim::CCR2, end);
-        write(self.tim + tim::CCR3, end);
+        // Compare 2 and 3 are adjacent: one store of both (two word transfers on the bus).
+        // SAFETY: as for `write`; CCR2 is 8-byte aligned (0x38) in the timer's aligned register block.
+        unsafe { ((self.tim + tim::CCR2) as *mut u64).write_volatile(u64::from(end) << 32 | u64::from(end)) };
         now
     }
 
@@ -250,22 +256,41 @@ mod tests {
     /// and a 1 bit leaves it).
     #[test]
     fn the_step_interrupt_clears_compare_1_alone_and_the_overflow_is_counted_once() {
-        let mut timer = [0u32; 16];
-        let base = timer.as_mut_ptr() as usize;
+        #[repr(align(8))]
+        struct Timer([u32; 16]);
+        let mut timer = Timer([0; 16]);
+        let base = timer.0.as_mut_ptr() as usize;
         let o = StepOutputs::new([0x100, 0x200], [(0, 10), (1, 3), (1, 5), (0, 6)], base, 3, 0x400);
-        let sr = |t: &[u32; 16]| t[tim::SR / 4];
+        let sr = |t: &Timer| t.0[tim::SR / 4];
         let wraps = AtomicU32::new(7);
         // No overflow flag: nothing written, nothing counted.
-        timer[tim::SR / 4] = tim::CC1;
+        timer.0[tim::SR / 4] = tim::CC1;
         o.count_overflow(&wraps);
         assert_eq!((sr(&timer), wraps.load(Ordering::Relaxed)), (tim::CC1, 7));
         // The overflow flag up (and compare 1's): cleared by a write whose other bits keep every other flag.
-        timer[tim::SR / 4] = tim::UIF | tim::CC1;
+        timer.0[tim::SR / 4] = tim::UIF | tim::CC1;
         o.count_overflow(&wraps);
         assert_eq!((sr(&timer), wraps.load(Ordering::Relaxed)), (!tim::UIF, 8));
         // The step interrupt: compare 1's flag cleared, every other flag kept.
         o.step_interrupt();
         assert_eq!(sr(&timer), !tim::CC1);
+    }
+
+    /// The pulse end: both compare channels get the counter plus the pulse, in one store (RAM stand-ins again:
+    /// the step ports' BSRR and the timer).
+    #[test]
+    fn raising_the_pins_arms_both_pulse_ends_from_one_counter_read() {
+        #[repr(align(8))]
+        struct Block([u32; 256]);
+        let mut ports = Block([0; 256]);
+        let mut timer = Block([0; 256]);
+        let (a, b) = (ports.0.as_mut_ptr() as usize, ports.0.as_mut_ptr() as usize + 0x200);
+        let o = StepOutputs::new([a, b], [(0, 10), (1, 3), (1, 5), (0, 6)], timer.0.as_mut_ptr() as usize, 3, 0x400);
+        timer.0[tim::CNT / 4] = 0xFFFF_FFFE;
+        assert_eq!(o.raise(0b0101), 0xFFFF_FFFE);
+        // X on port 0 (pin 10), Z on port 1 (pin 5); the pulse ends wrap past 0.
+        assert_eq!((ports.0[BSRR / 4], ports.0[(0x200 + BSRR) / 4]), (1 << 10, 1 << 5));
+        assert_eq!((timer.0[tim::CCR2 / 4], timer.0[tim::CCR3 / 4], timer.0[tim::CCR1 / 4]), (1, 1, 0));
     }
 
     /// Pulse and gap at the ticks' resolution (times in hundredths of a tick): the pins go up at `set`, the counter
