@@ -260,7 +260,7 @@ impl Queued {
         let n = self.n;
         let mut act = Active {
             countdown: 0,
-            pending: 0,
+            runs: 0,
             n,
             cursor: self.profile.times().cursor(),
             layout: Layout::of(&self.block, n),
@@ -279,7 +279,7 @@ impl Queued {
             self.block.dwell_ticks.max(1)
         } else {
             let first = act.cursor.next(self.profile.times());
-            act.arm(0);
+            act.arm(0, self.profile.times());
             first
         };
         self.start = act;
@@ -299,9 +299,10 @@ struct Carry {
 ///
 /// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
 /// interval from the current segment of the step times, whose events it has taken ([`Cursor::reserve`]) for
-/// the run. When the run ends before the target (`pending > 0`), the next segment is entered and the next run
-/// taken from it. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing
-/// event, the idle stepper — is when both are 0, on the slow path.
+/// the run. When the run ends and `runs > 0`, the next segment is entered and all its events are the next run: a
+/// copy and a decrement, no comparison (the runs are whole segments: [`Active::arm`] ends them where a segment
+/// ends, and the segment's events not taken stay 0 meanwhile). Everything else — the last event of the block, a
+/// hold's last event, a dwell's end, a homing event, the idle stepper — is when both are 0, on the slow path.
 ///
 /// Laid out in C order, the fields of the fast path first (near the struct's start: short load offsets).
 #[derive(Debug, Clone, Copy)]
@@ -309,8 +310,8 @@ struct Carry {
 struct Active {
     /// Events the fast path may still emit in the current run (the current segment's events it has taken).
     countdown: u32,
-    /// Events after the run before the event at `target` (runs in the following segments).
-    pending: u32,
+    /// Whole segments after the current run, each the next run, before the event at `target`.
+    runs: u32,
     /// Events in the block.
     n: u32,
     cursor: Cursor,
@@ -340,7 +341,7 @@ impl Active {
     fn idle() -> Self {
         Active {
             countdown: 0,
-            pending: 0,
+            runs: 0,
             target: 1,
             n: 0,
             layout: Layout::default(),
@@ -360,7 +361,7 @@ impl Active {
     #[inline(always)]
     fn load(&mut self, from: &Active) {
         self.countdown = from.countdown;
-        self.pending = from.pending;
+        self.runs = from.runs;
         self.n = from.n;
         self.cursor.set(&from.cursor);
         self.layout.fills = from.layout.fills;
@@ -383,25 +384,41 @@ impl Active {
         self.stop_at = from.stop_at;
     }
 
-    /// Events emitted so far.
-    fn emitted(&self) -> u32 {
-        self.target - 1 - self.countdown - self.pending
+    /// Events emitted so far, with `times` the block's step times (main context: it adds up the runs left).
+    fn emitted(&self, times: &StepTimes) -> u32 {
+        let seg = self.cursor.next_segment();
+        let later: u32 = (0..self.runs as usize).map(|j| times.segment_known(seg + j).count).sum();
+        self.target - 1 - self.countdown - later
     }
 
-    /// After `k` events, the cursor at the interval after event `k`: hand the events before the next stop (block
-    /// end or hold) to the fast path, the first run from the cursor's current segment.
-    fn arm(&mut self, k: u32) {
+    /// After `k` events, the cursor at the interval after event `k` of `times`: hand the events before the next
+    /// stop (block end or hold) to the fast path, the first run from the cursor's current segment, then whole
+    /// segments. The slow path's next event (`target`) is the stop, or, should the stop fall inside a segment after
+    /// the first (never, as the step times are cut: a block's and a hold's segments end at its last event), the
+    /// event after the last whole segment before it: the slow path then goes on one event at a time.
+    fn arm(&mut self, k: u32, times: &StepTimes) {
         self.cursor.give_back(self.countdown);
         if self.counted {
             self.target = k + 1;
             self.countdown = 0;
-            self.pending = 0;
-        } else {
-            self.target = self.n.min(self.stop_at).max(k + 1);
-            let avail = self.target - k - 1;
-            self.countdown = self.cursor.reserve(avail);
-            self.pending = avail - self.countdown;
+            self.runs = 0;
+            return;
         }
+        let goal = self.n.min(self.stop_at).max(k + 1);
+        let avail = goal - k - 1;
+        self.countdown = self.cursor.reserve(avail);
+        // The current segment is used up when more is left (the cursor's events not taken are 0).
+        let mut rest = avail - self.countdown;
+        let mut runs = 0;
+        while let Some(s) = times.segment(self.cursor.next_segment() + runs as usize)
+            && rest > 0
+            && s.count <= rest
+        {
+            rest -= s.count;
+            runs += 1;
+        }
+        self.runs = runs;
+        self.target = goal - rest;
     }
 }
 
@@ -475,7 +492,8 @@ impl Stepper {
     pub fn position(&self) -> [i32; NUM_AXES] {
         let mut pos = self.position;
         if self.act.live && !self.act.counted && self.act.n > 0 {
-            let done = self.act.layout.steps_after(self.act.emitted(), self.act.n);
+            let times = self.ring[self.act.slot & SLOT_MASK].profile.times();
+            let done = self.act.layout.steps_after(self.act.emitted(times), self.act.n);
             let steps = &self.ring[self.act.slot & SLOT_MASK].block.steps;
             for i in 0..NUM_AXES {
                 let d = i32::try_from(done[i]).unwrap_or(i32::MAX);
@@ -618,13 +636,13 @@ impl Stepper {
             // A dwell: the hold stops at its end.
             return;
         }
-        let k = act.emitted();
-        let scheduled = k + 1;
         let slot = &mut self.ring[act.slot & SLOT_MASK];
+        let k = act.emitted(slot.profile.times());
+        let scheduled = k + 1;
         if slot.block.accel == 0 {
             // No acceleration to slow down with: stop after the event already scheduled.
             act.stop_at = scheduled;
-            act.arm(k);
+            act.arm(k, slot.profile.times());
             return;
         }
         let v = slot.profile.rate_at(scheduled - act.offset);
@@ -637,7 +655,7 @@ impl Stepper {
             // The stop comes within this block.
             act.stop_at = scheduled + times.events();
         }
-        act.arm(k);
+        act.arm(k, slot.profile.times());
         if let Some(v_sq) = left {
             let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
             for i in 0..self.queued {
@@ -679,15 +697,15 @@ impl Stepper {
             return self.load_next(hal);
         }
         let act = &mut self.act;
-        let k = act.emitted();
-        act.offset = k;
         let slot = &mut self.ring[act.slot & SLOT_MASK];
+        let k = act.emitted(slot.profile.times());
+        act.offset = k;
         slot.profile = Profile::new(act.n - k, 0, slot.block.cruise_rate, 0, slot.block.accel);
         act.stop_at = NO_STOP;
         act.countdown = 0;
         act.cursor = slot.profile.times().cursor();
         let first = act.cursor.next(slot.profile.times());
-        act.arm(k);
+        act.arm(k, slot.profile.times());
         Some(first)
     }
 
@@ -741,7 +759,7 @@ impl Stepper {
     #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
         if self.act.countdown == 0 {
-            if self.act.pending == 0 {
+            if self.act.runs == 0 {
                 return self.tick_slow(hal);
             }
             self.next_run();
@@ -766,7 +784,7 @@ impl Stepper {
     #[inline(always)]
     pub fn on_timer_fast<H: StepPins + StepTimer>(&mut self, hal: &mut H) -> bool {
         if self.act.countdown == 0 {
-            if self.act.pending == 0 {
+            if self.act.runs == 0 {
                 return false;
             }
             self.next_run();
@@ -816,16 +834,15 @@ impl Stepper {
         (read, act.cursor.advance())
     }
 
-    /// The run ended before the target (`countdown == 0 < pending`): enter the next segment and take the next run
-    /// from it. That segment exists (the `pending` events before the target are in the segments after the current
-    /// one), so it is read by its index ([`StepTimes::segment_known`]), with no fallback past the last.
+    /// The run ended with runs left (`countdown == 0 < runs`): enter the next segment, all its events the next run.
+    /// That segment exists (the runs are segments after the current one), so it is read by its index
+    /// ([`StepTimes::segment_known`]), with no fallback past the last.
     #[inline(always)]
     fn next_run(&mut self) {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        let run = act.cursor.enter_for(times.segment_known(act.cursor.next_segment()), act.pending);
-        act.countdown = run;
-        act.pending -= run;
+        act.countdown = act.cursor.enter_whole(times.segment_known(act.cursor.next_segment()));
+        act.runs -= 1;
     }
 
     /// Everything but a plain event in the middle of a block. Inlined into its callers: the interrupt reaches it
@@ -873,7 +890,7 @@ impl Stepper {
         // `k` events emitted (what a hold that stops here leaves).
         self.act.target = k + 1;
         self.act.countdown = 0;
-        self.act.pending = 0;
+        self.act.runs = 0;
         if k == self.act.n {
             return self.finish_block(hal);
         }
@@ -882,8 +899,9 @@ impl Stepper {
             return None;
         }
         let act = &mut self.act;
-        let interval = act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times());
-        act.arm(k);
+        let times = self.ring[act.slot & SLOT_MASK].profile.times();
+        let interval = act.cursor.next(times);
+        act.arm(k, times);
         Some(interval)
     }
 }
@@ -1314,13 +1332,21 @@ mod tests {
             }
         }
         // 80 events emitted: events 81..=149 compute their next interval in the cruise; 150..=199 in the
-        // deceleration, then the last event.
-        assert_eq!((s.act.emitted(), s.act.countdown, s.act.pending), (80, 69, 50));
+        // deceleration (its segments, whole runs), then the last event.
+        let times = *s.ring[s.act.slot].profile.times();
+        let decel = times.segments().len() - 1 - s.act.cursor.next_segment() + 1;
+        let runs_events = |act: &Active| {
+            (0..act.runs as usize).map(|j| times.segments()[act.cursor.next_segment() + j].count).sum::<u32>()
+        };
+        assert!(decel > 1, "{decel}");
+        assert_eq!((s.act.emitted(&times), s.act.countdown, s.act.runs as usize), (80, 69, decel));
+        assert_eq!((runs_events(&s.act), s.act.target), (50, 200));
         // Arming again (what a hold that cannot slow down does) takes the same run: the events taken before are
         // given back first.
-        s.act.arm(80);
-        s.act.arm(80);
-        assert_eq!((s.act.emitted(), s.act.countdown, s.act.pending), (80, 69, 50));
+        s.act.arm(80, &times);
+        s.act.arm(80, &times);
+        assert_eq!((s.act.emitted(&times), s.act.countdown, s.act.runs as usize), (80, 69, decel));
+        assert_eq!((runs_events(&s.act), s.act.target), (50, 200));
         let rest = |st: &mut Stepper, hal: &mut Rec| core::iter::from_fn(|| st.tick(hal)).collect::<std::vec::Vec<_>>();
         let (mine, theirs) = (rest(&mut s, &mut hal), rest(&mut twin, &mut hal));
         assert_eq!(mine.len(), 119);
@@ -1729,7 +1755,12 @@ mod tests {
         // The first segment from rest is the first event alone (its interval is `first`): no run taken from it
         // yet: the 99 events before the last one run on the intervals of the later segments.
         assert_eq!(q.profile.times().segments()[0].count, 1);
-        assert_eq!((q.start.countdown, q.start.pending, q.start.emitted()), (0, 99, 0));
+        let times = q.profile.times();
+        assert_eq!(
+            (q.start.countdown, q.start.runs as usize, q.start.emitted(times)),
+            (0, times.segments().len() - 1, 0)
+        );
+        assert_eq!(times.segments()[1..].iter().map(|s| s.count).sum::<u32>(), 99);
         // 100 events: the lanes, X's |Δ| = 100 and Y's 40 in the low word; rooms 100 − 1 − 50 = 49, fills 0x7FFF − 49.
         let l = q.start.layout;
         assert_eq!((l.fills, l.deltas), ([0x7FCE_7FCE, 0x7FCE_7FCE], [40 << 16 | 100, 0]));
@@ -1781,12 +1812,13 @@ mod tests {
         s.push(StepBlock { steps: [2, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
         assert_eq!(s.start(&mut hal), Some(1000));
         // The first run took the segment's other interval.
-        assert_eq!((s.act.countdown, s.act.pending), (1, 0));
+        assert_eq!((s.act.countdown, s.act.runs), (1, 0));
         assert_eq!(s.act.cursor.advance(), 1000);
-        // The block's one segment is used up: a run after it (never asked for) finds no segment, 1 tick each.
-        s.act.pending = 2;
+        // The block's one segment is used up: a run after it (never asked for) finds the sentinel past the last
+        // segment, 1 tick each.
+        s.act.runs = 1;
         s.next_run();
-        assert_eq!((s.act.countdown, s.act.pending), (2, 0));
+        assert_eq!((s.act.countdown, s.act.runs), (u32::MAX, 0));
         assert_eq!([s.act.cursor.advance(), s.act.cursor.advance()], [1, 1]);
     }
 
