@@ -1317,6 +1317,49 @@ mod tests {
         }
     }
 
+    /// A stop inside a segment after the current run (the step times never put one there, but `arm` must not
+    /// run past it): the fast path's runs end at the last whole segment before it, the slow path takes the events
+    /// from there one at a time, and the stepper stops after exactly the stop's event, on the same intervals.
+    #[test]
+    fn a_stop_inside_a_later_segment_is_reached_event_by_event() {
+        let b = StepBlock { steps: [200, 70, 0, 0], cruise_rate: 2000, accel: 40_000, ..StepBlock::default() };
+        let (mut s, mut twin) = (Stepper::new(0, 0), Stepper::new(0, 0));
+        let (mut hal, mut twin_hal) = (Rec::default(), Rec::default());
+        s.push(b, Switches::Limits).unwrap();
+        twin.push(b, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), twin.start(&mut twin_hal));
+        for _ in 0..80 {
+            assert_eq!(s.tick(&mut hal), twin.tick(&mut twin_hal));
+        }
+        // The first event of a segment of at least 3 events, well after the current run; the stop one event later.
+        let times = *s.ring[s.act.slot].profile.times();
+        let (mut first, mut at) = (1, None);
+        for seg in times.segments() {
+            if first > 160 && seg.count >= 3 {
+                at = Some(first);
+                break;
+            }
+            first += seg.count;
+        }
+        let first = at.expect("a long enough segment in the deceleration");
+        let stop = first + 1;
+        s.act.stop_at = stop;
+        s.act.arm(80, &times);
+        // The runs' last interval is the one to event `first − 1`, the last of the segment before: the slow path
+        // takes that event, and from there one at a time.
+        assert_eq!(s.act.target, first - 1, "the runs end before the segment with the stop");
+        assert_eq!(s.act.emitted(&times), 80);
+        let mut events = 80;
+        while let Some(iv) = s.tick(&mut hal) {
+            events += 1;
+            assert_eq!(Some(iv), twin.tick(&mut twin_hal), "event {events}");
+            assert_eq!(hal.pos, twin_hal.pos);
+        }
+        // The stop's event is emitted (its interval was the one before), then the stepper holds.
+        twin.tick(&mut twin_hal);
+        assert_eq!((events + 1, s.is_held(), hal.pos, s.position()), (stop, true, twin_hal.pos, as_i32(&hal.pos)));
+    }
+
     #[test]
     fn re_arming_in_the_middle_of_a_run_gives_its_events_back() {
         // 0 → 2000 → 0 events/s at 40 000 events/s²: 50 events each way, the cruise's intervals (to events
