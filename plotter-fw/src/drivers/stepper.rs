@@ -758,13 +758,14 @@ impl Stepper {
     /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only.
     #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
-        if self.act.countdown == 0 {
+        let mut run = self.act.countdown;
+        if run == 0 {
             if self.act.runs == 0 {
                 return self.tick_slow(hal);
             }
-            self.next_run();
+            run = self.next_run();
         }
-        Some(self.plain_event(hal).1)
+        Some(self.plain_event(hal, run).1)
     }
 
     /// The step timer's interrupt: [`Stepper::tick`], then the timer aimed at the next event
@@ -783,16 +784,17 @@ impl Stepper {
     /// alignment and no more saved registers than its own work.
     #[inline(always)]
     pub fn on_timer_fast<H: StepPins + StepTimer>(&mut self, hal: &mut H) -> bool {
-        if self.act.countdown == 0 {
+        let mut run = self.act.countdown;
+        if run == 0 {
             if self.act.runs == 0 {
                 return false;
             }
-            self.next_run();
+            run = self.next_run();
         }
         if self.act.n > LANE_MAX {
-            return self.on_timer_long(hal);
+            return self.on_timer_long(hal, run);
         }
-        let (read, interval) = self.plain_event(hal);
+        let (read, interval) = self.plain_event(hal, run);
         hal.schedule_next_from(read, interval);
         true
     }
@@ -800,8 +802,8 @@ impl Stepper {
     /// [`Stepper::on_timer_fast`]'s event of a block too long for the lanes, out of line.
     #[cold]
     #[inline(never)]
-    fn on_timer_long<H: StepPins + StepTimer>(&mut self, hal: &mut H) -> bool {
-        let (read, interval) = self.plain_event(hal);
+    fn on_timer_long<H: StepPins + StepTimer>(&mut self, hal: &mut H, run: u32) -> bool {
+        let (read, interval) = self.plain_event(hal, run);
         hal.schedule_next_from(read, interval);
         true
     }
@@ -823,26 +825,28 @@ impl Stepper {
         }
     }
 
-    /// The fast path (`countdown > 0`): a countdown, the Bresenham terms of the block's moving axes, the pin
-    /// write and the time recurrence (an event of the run, already taken from its segment). Returns what the pin
-    /// write returned ([`StepPins::step_axes_read`], for [`StepTimer::schedule_next_from`]) and the interval.
+    /// The fast path, `run` (≥ 1) events left in the current run (`countdown`, or a run just entered): a countdown,
+    /// the Bresenham terms of the block's moving axes, the pin write and the time recurrence (an event of the run,
+    /// already taken from its segment). Returns what the pin write returned ([`StepPins::step_axes_read`], for
+    /// [`StepTimer::schedule_next_from`]) and the interval.
     #[inline(always)]
-    fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> (u32, u32) {
+    fn plain_event<H: StepPins>(&mut self, hal: &mut H, run: u32) -> (u32, u32) {
         let act = &mut self.act;
-        act.countdown -= 1;
+        act.countdown = run - 1;
         let read = hal.step_axes_read(act.layout.event(act.n));
         (read, act.cursor.advance())
     }
 
-    /// The run ended with runs left (`countdown == 0 < runs`): enter the next segment, all its events the next run.
-    /// That segment exists (the runs are segments after the current one), so it is read by its index
-    /// ([`StepTimes::segment_known`]), with no fallback past the last.
+    /// The run ended with runs left (`countdown == 0 < runs`): enter the next segment, all its events the next run;
+    /// returns them (the caller's event takes the first and stores the countdown). That segment exists (the runs
+    /// are segments after the current one), so it is read by its index ([`StepTimes::segment_known`]), with no
+    /// fallback past the last.
     #[inline(always)]
-    fn next_run(&mut self) {
+    fn next_run(&mut self) -> u32 {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        act.countdown = act.cursor.enter_whole(times.segment_known(act.cursor.next_segment()));
         act.runs -= 1;
+        act.cursor.enter_whole(times.segment_known(act.cursor.next_segment()))
     }
 
     /// Everything but a plain event in the middle of a block. Inlined into its callers: the interrupt reaches it
@@ -1860,8 +1864,7 @@ mod tests {
         // The block's one segment is used up: a run after it (never asked for) finds the sentinel past the last
         // segment, 1 tick each.
         s.act.runs = 1;
-        s.next_run();
-        assert_eq!((s.act.countdown, s.act.runs), (u32::MAX, 0));
+        assert_eq!((s.next_run(), s.act.runs), (u32::MAX, 0));
         assert_eq!([s.act.cursor.advance(), s.act.cursor.advance()], [1, 1]);
     }
 
