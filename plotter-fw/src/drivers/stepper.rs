@@ -436,7 +436,6 @@ pub struct Stepper {
     /// First: the interrupt's fields at the struct's start.
     act: Active,
     /// The executing block's slot (when one executes) is the one before `first`; `queued` blocks follow it.
-    ring: [Queued; SLOTS],
     first: usize,
     queued: usize,
     /// Position in steps before the executing block's steps (which are added when it ends, or counted per event
@@ -453,6 +452,8 @@ pub struct Stepper {
     completed: u32,
     /// Result of the last homing block: axes whose switch stopped them.
     homing_hits: u8,
+    /// Last: the block ring (the fields the slow path reads at a block end come before it, at short offsets).
+    ring: [Queued; SLOTS],
 }
 
 impl Stepper {
