@@ -712,6 +712,13 @@ impl Stepper {
 
     /// Start the next queued block (its state was prepared when it was queued): directions, servo, a copy.
     fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
+        self.load_next_inline(hal)
+    }
+
+    /// [`Stepper::load_next`] inlined into the caller: the block end in the interrupt's slow path, which is already
+    /// out of line (a call there would save registers a second time).
+    #[inline(always)]
+    fn load_next_inline<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if self.queued == 0 {
             return None;
         }
@@ -752,7 +759,7 @@ impl Stepper {
             self.hold = HoldState::Stopped;
             return None;
         }
-        self.load_next(hal)
+        self.load_next_inline(hal)
     }
 
     /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
