@@ -410,8 +410,8 @@ impl Active {
         // The current segment is used up when more is left (the cursor's events not taken are 0).
         let mut rest = avail - self.countdown;
         let mut runs = 0;
+        // (A segment has at least one event: none fits once nothing is left.)
         while let Some(s) = times.segment(self.cursor.next_segment() + runs as usize)
-            && rest > 0
             && s.count <= rest
         {
             rest -= s.count;

@@ -5,8 +5,8 @@
 //! machine through one critical section (interrupts masked), as the core's docs prescribe: the interrupts can
 //! never see a half-done `poll`, and `poll` is short (one line, one re-plan) so the step timer is delayed by at
 //! most that long; the [`crate::deadline`] scheme keeps a late event from shifting the ones after it. The step
-//! interrupt itself ([`Shared::on_timer_unmasked`]) needs no critical section of its own: since every other
-//! access masks it, it never finds the machine in use.
+//! interrupt itself ([`Shared::on_timer_unmasked`], or [`Shared::on_timer_installed`] once a machine is installed)
+//! needs no critical section of its own: since every other access masks it, it never finds the machine in use.
 
 use core::cell::RefCell;
 

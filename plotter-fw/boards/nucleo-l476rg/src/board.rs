@@ -101,8 +101,8 @@ fn pull_up(p: Pin) {
     regs::modify(p.port + gpio::PUPDR, 0b11 << shift, 0b01 << shift);
 }
 
-/// µs since start. Correct inside critical sections too: an overflow whose interrupt is still pending is
-/// counted from the flag.
+/// µs since start. Correct inside critical sections too: an overflow SysTick has not counted yet
+/// ([`count_tim2_overflow`]) is counted from the flag.
 pub(crate) fn now() -> u64 {
     let wraps = TIM2_WRAPS.load(Ordering::Relaxed);
     let cnt = regs::read(tim::TIM2 + tim::CNT);
