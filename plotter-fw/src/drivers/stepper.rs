@@ -115,6 +115,19 @@ fn lane_event(fill: &mut u32, delta: u32, n: u32) -> u32 {
     stepped
 }
 
+/// The axis mask of the guard bits [`lane_event`] returned for the low word (axes 0, 1 at bits 15, 31) and the high
+/// word (axes 2, 3). `(low >> 2) | high` puts axes 0..=3 at bits 13, 29, 15, 31, all distinct; adding that word
+/// shifted left by 15 copies bits 13 and 15 to 28 and 30 (no carries: the bits added are 0) and drops 29 and 31
+/// off the top, so bits 28..=31 are axes 0..=3 in order: a shift, a shifted add and a shift, nothing above bit 3.
+#[inline(always)]
+fn gather_guards(low: u32, high: u32) -> u8 {
+    let t = (low >> 2) | high;
+    let top = t.wrapping_add(t << 15) >> 28;
+    #[allow(clippy::cast_possible_truncation, reason = "the shift leaves four bits")]
+    let mask = top as u8;
+    mask
+}
+
 impl Layout {
     fn of(block: &StepBlock, n: u32) -> Self {
         let mut l = Layout::default();
@@ -157,12 +170,7 @@ impl Layout {
         }
         let low = lane_event(&mut self.fills[0], self.deltas[0], n);
         let high = lane_event(&mut self.fills[1], self.deltas[1], n);
-        // Guard bits 15, 31 of the low word are axes 0, 1; of the high word axes 2, 3 (the shifts leave nothing else
-        // in the low byte: bit 31 of the low word goes to 16, bit 31 of the high word to 18).
-        let mask = (low >> 15) | (low >> 30) | (high >> 13) | (high >> 28);
-        #[allow(clippy::cast_possible_truncation, reason = "the low byte holds the four bits")]
-        let mask = mask as u8;
-        mask
+        gather_guards(low, high)
     }
 
     /// [`Layout::event`] of a block too long for the lanes (out of line: the lanes are the straight path).
@@ -252,7 +260,7 @@ impl Queued {
         let n = self.n;
         let mut act = Active {
             countdown: 0,
-            pending: 0,
+            runs: 0,
             n,
             cursor: self.profile.times().cursor(),
             layout: Layout::of(&self.block, n),
@@ -271,7 +279,7 @@ impl Queued {
             self.block.dwell_ticks.max(1)
         } else {
             let first = act.cursor.next(self.profile.times());
-            act.arm(0);
+            act.arm(0, self.profile.times());
             first
         };
         self.start = act;
@@ -291,9 +299,10 @@ struct Carry {
 ///
 /// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
 /// interval from the current segment of the step times, whose events it has taken ([`Cursor::reserve`]) for
-/// the run. When the run ends before the target (`pending > 0`), the next segment is entered and the next run
-/// taken from it. Everything else — the last event of the block, a hold's last event, a dwell's end, a homing
-/// event, the idle stepper — is when both are 0, on the slow path.
+/// the run. When the run ends and `runs > 0`, the next segment is entered and all its events are the next run: a
+/// copy and a decrement, no comparison (the runs are whole segments: [`Active::arm`] ends them where a segment
+/// ends, and the segment's events not taken stay 0 meanwhile). Everything else — the last event of the block, a
+/// hold's last event, a dwell's end, a homing event, the idle stepper — is when both are 0, on the slow path.
 ///
 /// Laid out in C order, the fields of the fast path first (near the struct's start: short load offsets).
 #[derive(Debug, Clone, Copy)]
@@ -301,8 +310,8 @@ struct Carry {
 struct Active {
     /// Events the fast path may still emit in the current run (the current segment's events it has taken).
     countdown: u32,
-    /// Events after the run before the event at `target` (runs in the following segments).
-    pending: u32,
+    /// Whole segments after the current run, each the next run, before the event at `target`.
+    runs: u32,
     /// Events in the block.
     n: u32,
     cursor: Cursor,
@@ -332,7 +341,7 @@ impl Active {
     fn idle() -> Self {
         Active {
             countdown: 0,
-            pending: 0,
+            runs: 0,
             target: 1,
             n: 0,
             layout: Layout::default(),
@@ -352,7 +361,7 @@ impl Active {
     #[inline(always)]
     fn load(&mut self, from: &Active) {
         self.countdown = from.countdown;
-        self.pending = from.pending;
+        self.runs = from.runs;
         self.n = from.n;
         self.cursor.set(&from.cursor);
         self.layout.fills = from.layout.fills;
@@ -375,25 +384,41 @@ impl Active {
         self.stop_at = from.stop_at;
     }
 
-    /// Events emitted so far.
-    fn emitted(&self) -> u32 {
-        self.target - 1 - self.countdown - self.pending
+    /// Events emitted so far, with `times` the block's step times (main context: it adds up the runs left).
+    fn emitted(&self, times: &StepTimes) -> u32 {
+        let seg = self.cursor.next_segment();
+        let later: u32 = (0..self.runs as usize).map(|j| times.segment_known(seg + j).count).sum();
+        self.target - 1 - self.countdown - later
     }
 
-    /// After `k` events, the cursor at the interval after event `k`: hand the events before the next stop (block
-    /// end or hold) to the fast path, the first run from the cursor's current segment.
-    fn arm(&mut self, k: u32) {
+    /// After `k` events, the cursor at the interval after event `k` of `times`: hand the events before the next
+    /// stop (block end or hold) to the fast path, the first run from the cursor's current segment, then whole
+    /// segments. The slow path's next event (`target`) is the stop, or, should the stop fall inside a segment after
+    /// the first (never, as the step times are cut: a block's and a hold's segments end at its last event), the
+    /// event after the last whole segment before it: the slow path then goes on one event at a time.
+    fn arm(&mut self, k: u32, times: &StepTimes) {
         self.cursor.give_back(self.countdown);
         if self.counted {
             self.target = k + 1;
             self.countdown = 0;
-            self.pending = 0;
-        } else {
-            self.target = self.n.min(self.stop_at).max(k + 1);
-            let avail = self.target - k - 1;
-            self.countdown = self.cursor.reserve(avail);
-            self.pending = avail - self.countdown;
+            self.runs = 0;
+            return;
         }
+        let goal = self.n.min(self.stop_at).max(k + 1);
+        let avail = goal - k - 1;
+        self.countdown = self.cursor.reserve(avail);
+        // The current segment is used up when more is left (the cursor's events not taken are 0).
+        let mut rest = avail - self.countdown;
+        let mut runs = 0;
+        // (A segment has at least one event: none fits once nothing is left.)
+        while let Some(s) = times.segment(self.cursor.next_segment() + runs as usize)
+            && s.count <= rest
+        {
+            rest -= s.count;
+            runs += 1;
+        }
+        self.runs = runs;
+        self.target = goal - rest;
     }
 }
 
@@ -411,7 +436,6 @@ pub struct Stepper {
     /// First: the interrupt's fields at the struct's start.
     act: Active,
     /// The executing block's slot (when one executes) is the one before `first`; `queued` blocks follow it.
-    ring: [Queued; SLOTS],
     first: usize,
     queued: usize,
     /// Position in steps before the executing block's steps (which are added when it ends, or counted per event
@@ -428,6 +452,8 @@ pub struct Stepper {
     completed: u32,
     /// Result of the last homing block: axes whose switch stopped them.
     homing_hits: u8,
+    /// Last: the block ring (the fields the slow path reads at a block end come before it, at short offsets).
+    ring: [Queued; SLOTS],
 }
 
 impl Stepper {
@@ -467,7 +493,8 @@ impl Stepper {
     pub fn position(&self) -> [i32; NUM_AXES] {
         let mut pos = self.position;
         if self.act.live && !self.act.counted && self.act.n > 0 {
-            let done = self.act.layout.steps_after(self.act.emitted(), self.act.n);
+            let times = self.ring[self.act.slot & SLOT_MASK].profile.times();
+            let done = self.act.layout.steps_after(self.act.emitted(times), self.act.n);
             let steps = &self.ring[self.act.slot & SLOT_MASK].block.steps;
             for i in 0..NUM_AXES {
                 let d = i32::try_from(done[i]).unwrap_or(i32::MAX);
@@ -610,13 +637,13 @@ impl Stepper {
             // A dwell: the hold stops at its end.
             return;
         }
-        let k = act.emitted();
-        let scheduled = k + 1;
         let slot = &mut self.ring[act.slot & SLOT_MASK];
+        let k = act.emitted(slot.profile.times());
+        let scheduled = k + 1;
         if slot.block.accel == 0 {
             // No acceleration to slow down with: stop after the event already scheduled.
             act.stop_at = scheduled;
-            act.arm(k);
+            act.arm(k, slot.profile.times());
             return;
         }
         let v = slot.profile.rate_at(scheduled - act.offset);
@@ -629,7 +656,7 @@ impl Stepper {
             // The stop comes within this block.
             act.stop_at = scheduled + times.events();
         }
-        act.arm(k);
+        act.arm(k, slot.profile.times());
         if let Some(v_sq) = left {
             let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
             for i in 0..self.queued {
@@ -671,20 +698,27 @@ impl Stepper {
             return self.load_next(hal);
         }
         let act = &mut self.act;
-        let k = act.emitted();
-        act.offset = k;
         let slot = &mut self.ring[act.slot & SLOT_MASK];
+        let k = act.emitted(slot.profile.times());
+        act.offset = k;
         slot.profile = Profile::new(act.n - k, 0, slot.block.cruise_rate, 0, slot.block.accel);
         act.stop_at = NO_STOP;
         act.countdown = 0;
         act.cursor = slot.profile.times().cursor();
         let first = act.cursor.next(slot.profile.times());
-        act.arm(k);
+        act.arm(k, slot.profile.times());
         Some(first)
     }
 
     /// Start the next queued block (its state was prepared when it was queued): directions, servo, a copy.
     fn load_next<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
+        self.load_next_inline(hal)
+    }
+
+    /// [`Stepper::load_next`] inlined into the caller: the block end in the interrupt's slow path, which is already
+    /// out of line (a call there would save registers a second time).
+    #[inline(always)]
+    fn load_next_inline<H: StepPins>(&mut self, hal: &mut H) -> Option<u32> {
         if self.queued == 0 {
             return None;
         }
@@ -725,43 +759,68 @@ impl Stepper {
             self.hold = HoldState::Stopped;
             return None;
         }
-        self.load_next(hal)
+        self.load_next_inline(hal)
     }
 
     /// The timer interrupt: emit the due step event and return the ticks until the next one (`None`: idle,
     /// held or faulted — the caller stops the timer). Integer adds, compares and pin writes only.
     #[inline(always)]
     pub fn tick<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
-        if self.act.countdown == 0 {
-            if self.act.pending == 0 {
+        let mut run = self.act.countdown;
+        if run == 0 {
+            if self.act.runs == 0 {
                 return self.tick_slow(hal);
             }
-            self.next_run();
+            run = self.next_run();
         }
-        Some(self.plain_event(hal).1)
+        Some(self.plain_event(hal, run).1)
     }
 
     /// The step timer's interrupt: [`Stepper::tick`], then the timer aimed at the next event
-    /// ([`StepTimer::schedule_next`]) or stopped. Returns whether it runs on. The plain event in the middle of a
-    /// block is inlined into the board's interrupt handler, straight through to the timer's compare register, and
-    /// schedules with what its pin write returned ([`StepTimer::schedule_next_from`]: a board reads its counter
-    /// once per event).
+    /// ([`StepTimer::schedule_next`]) or stopped. Returns whether it runs on: [`Stepper::on_timer_fast`], else
+    /// [`Stepper::on_timer_slow`].
     #[inline(always)]
     pub fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
-        if self.act.countdown == 0 {
-            if self.act.pending == 0 {
-                return self.on_timer_slow(hal);
+        self.on_timer_fast(hal) || self.on_timer_slow(hal)
+    }
+
+    /// [`Stepper::on_timer`]'s events in the middle of a block (a plain event, or one that enters the next segment):
+    /// returns whether it was one (and handled it); `false` leaves the event to [`Stepper::on_timer_slow`]. Inlined
+    /// into the board's interrupt handler, straight through to the timer's compare register, and schedules with
+    /// what its pin write returned ([`StepTimer::schedule_next_from`]: a board reads its counter once per event).
+    /// It calls nothing but in tail position (a block too long for the lanes), so the handler needs no stack
+    /// alignment and no more saved registers than its own work.
+    #[inline(always)]
+    pub fn on_timer_fast<H: StepPins + StepTimer>(&mut self, hal: &mut H) -> bool {
+        let mut run = self.act.countdown;
+        if run == 0 {
+            if self.act.runs == 0 {
+                return false;
             }
-            self.next_run();
+            run = self.next_run();
         }
-        let (read, interval) = self.plain_event(hal);
+        if self.act.n > LANE_MAX {
+            return self.on_timer_long(hal, run);
+        }
+        let (read, interval) = self.plain_event(hal, run);
         hal.schedule_next_from(read, interval);
         true
     }
 
-    /// [`Stepper::on_timer`] off the fast path.
+    /// [`Stepper::on_timer_fast`]'s event of a block too long for the lanes, out of line.
+    #[cold]
     #[inline(never)]
-    fn on_timer_slow<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
+    fn on_timer_long<H: StepPins + StepTimer>(&mut self, hal: &mut H, run: u32) -> bool {
+        let (read, interval) = self.plain_event(hal, run);
+        hal.schedule_next_from(read, interval);
+        true
+    }
+
+    /// [`Stepper::on_timer`] off the fast path (when [`Stepper::on_timer_fast`] returned `false`): the block's last
+    /// event, a hold's stop, a dwell's end, a homing event, a stale event. Returns whether the timer runs on. The
+    /// caller keeps it out of its interrupt handler's straight path.
+    #[inline(always)]
+    pub fn on_timer_slow<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) -> bool {
         match self.tick_slow(hal) {
             Some(interval) => {
                 hal.schedule_next(interval);
@@ -774,35 +833,40 @@ impl Stepper {
         }
     }
 
-    /// The fast path (`countdown > 0`): a countdown, the Bresenham terms of the block's moving axes, the pin
-    /// write and the time recurrence (an event of the run, already taken from its segment). Returns what the pin
-    /// write returned ([`StepPins::step_axes_read`], for [`StepTimer::schedule_next_from`]) and the interval.
+    /// The fast path, `run` (≥ 1) events left in the current run (`countdown`, or a run just entered): a countdown,
+    /// the Bresenham terms of the block's moving axes, the pin write and the time recurrence (an event of the run,
+    /// already taken from its segment). Returns what the pin write returned ([`StepPins::step_axes_read`], for
+    /// [`StepTimer::schedule_next_from`]) and the interval.
     #[inline(always)]
-    fn plain_event<H: StepPins>(&mut self, hal: &mut H) -> (u32, u32) {
+    fn plain_event<H: StepPins>(&mut self, hal: &mut H, run: u32) -> (u32, u32) {
         let act = &mut self.act;
-        act.countdown -= 1;
+        act.countdown = run - 1;
         let read = hal.step_axes_read(act.layout.event(act.n));
         (read, act.cursor.advance())
     }
 
-    /// The run ended before the target (`countdown == 0 < pending`): enter the next segment and take the next run
-    /// from it. That segment exists (the `pending` events before the target are in the segments after the current
-    /// one), so it is read by its index ([`StepTimes::segment_known`]), with no fallback past the last.
+    /// The run ended with runs left (`countdown == 0 < runs`): enter the next segment, all its events the next run;
+    /// returns them (the caller's event takes the first and stores the countdown). That segment exists (the runs
+    /// are segments after the current one), so it is read by its index ([`StepTimes::segment_known`]), with no
+    /// fallback past the last.
     #[inline(always)]
-    fn next_run(&mut self) {
+    fn next_run(&mut self) -> u32 {
         let act = &mut self.act;
         let times = self.ring[act.slot & SLOT_MASK].profile.times();
-        let run = act.cursor.enter_for(times.segment_known(act.cursor.next_segment()), act.pending);
-        act.countdown = run;
-        act.pending -= run;
+        act.runs -= 1;
+        act.cursor.enter_whole(times.segment_known(act.cursor.next_segment()))
     }
 
     /// Everything but a plain event in the middle of a block. Inlined into its callers: the interrupt reaches it
-    /// through [`Stepper::on_timer_slow`], already out of line, so a second call there would only save registers twice.
+    /// through [`Stepper::on_timer_slow`], which its caller keeps out of line, so a second call there would only save
+    /// registers twice.
     #[inline(always)]
     fn tick_slow<H: StepPins + Endstops>(&mut self, hal: &mut H) -> Option<u32> {
-        if !self.act.live {
-            return self.load_next(hal);
+        if !self.act.live || self.hold == HoldState::Stopped {
+            // Not running (idle, held, or stopped by an abort): the timer was stopped when it stopped, so this is a
+            // stale event (a board that does not mask its timer's flags with the interrupt enables may see one).
+            // Nothing to emit, and no block to start: only `start` and `resume` start the stepper.
+            return None;
         }
         if self.act.n == 0 {
             // A dwell ended.
@@ -838,7 +902,7 @@ impl Stepper {
         // `k` events emitted (what a hold that stops here leaves).
         self.act.target = k + 1;
         self.act.countdown = 0;
-        self.act.pending = 0;
+        self.act.runs = 0;
         if k == self.act.n {
             return self.finish_block(hal);
         }
@@ -847,8 +911,9 @@ impl Stepper {
             return None;
         }
         let act = &mut self.act;
-        let interval = act.cursor.next(self.ring[act.slot & SLOT_MASK].profile.times());
-        act.arm(k);
+        let times = self.ring[act.slot & SLOT_MASK].profile.times();
+        let interval = act.cursor.next(times);
+        act.arm(k, times);
         Some(interval)
     }
 }
@@ -1197,6 +1262,116 @@ mod tests {
         assert_eq!((s.completed(), hal.pos[0]), (2, 5));
     }
 
+    /// A timer event the stepper did not ask for (a board that does not mask its timer's flags may pass on a stale
+    /// compare flag) while it is idle, held at a block end, held in the middle of a block or stopped by an abort:
+    /// nothing steps, nothing starts, and it asks for the timer to stop.
+    #[test]
+    fn a_stale_timer_event_while_stopped_steps_nothing_and_starts_nothing() {
+        let mv = StepBlock { steps: [40, 7, 0, 0], cruise_rate: 1000, ..StepBlock::default() };
+        let stale = |s: &mut Stepper, hal: &mut Rec| {
+            let (pos, pending, completed) = (hal.pos, s.pending(), s.completed());
+            for _ in 0..3 {
+                assert_eq!(s.tick(hal), None);
+            }
+            assert_eq!((hal.pos, s.pending(), s.completed()), (pos, pending, completed));
+        };
+        // Idle with a block queued but not started.
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(mv, Switches::Limits).unwrap();
+        stale(&mut s, &mut hal);
+        assert_eq!(hal.pos, [0; NUM_AXES]);
+        // Held at the end of a dwell, the move queued behind it.
+        let mut s = Stepper::new(0, 0);
+        s.push(StepBlock::dwell(10), Switches::Limits).unwrap();
+        s.push(mv, Switches::Limits).unwrap();
+        s.start(&mut hal).unwrap();
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        stale(&mut s, &mut hal);
+        // Held in the middle of a move without acceleration: it stops after the event already scheduled (the 11th).
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(mv, Switches::Limits).unwrap();
+        s.start(&mut hal).unwrap();
+        for _ in 0..10 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        assert_eq!(s.tick(&mut hal), None);
+        assert!(s.is_held());
+        assert_eq!(hal.pos, [11, 2, 0, 0]);
+        stale(&mut s, &mut hal);
+        // The resume goes on from there and ends exactly.
+        assert!(s.resume(&mut hal).is_some());
+        while s.tick(&mut hal).is_some() {}
+        assert_eq!(hal.pos, [40, 7, 0, 0]);
+        // Stopped by an abort in the middle of a move, another block queued afterwards.
+        s.push(mv, Switches::Limits).unwrap();
+        s.start(&mut hal).unwrap();
+        s.tick(&mut hal).unwrap();
+        s.abort();
+        s.push(mv, Switches::Limits).unwrap();
+        stale(&mut s, &mut hal);
+        // One event of the aborted move (its Y steps come from the third event on).
+        assert_eq!((hal.pos, s.position()), ([41, 7, 0, 0], [41, 7, 0, 0]));
+    }
+
+    #[test]
+    fn the_guard_bits_gather_into_the_axis_mask() {
+        // Every combination of the four guard bits: axis 0 at bit 15 and axis 1 at bit 31 of the low word, axes 2
+        // and 3 at the same bits of the high word.
+        for mask in 0..16u8 {
+            let bit = |axis: u8, at: u32| u32::from(mask >> axis & 1) << at;
+            let (low, high) = (bit(0, 15) | bit(1, 31), bit(2, 15) | bit(3, 31));
+            assert_eq!(gather_guards(low, high), mask, "{low:#x} {high:#x}");
+        }
+    }
+
+    /// A stop inside a segment after the current run (the step times never put one there, but `arm` must not
+    /// run past it): the fast path's runs end at the last whole segment before it, the slow path takes the events
+    /// from there one at a time, and the stepper stops after exactly the stop's event, on the same intervals.
+    #[test]
+    fn a_stop_inside_a_later_segment_is_reached_event_by_event() {
+        let b = StepBlock { steps: [200, 70, 0, 0], cruise_rate: 2000, accel: 40_000, ..StepBlock::default() };
+        let (mut s, mut twin) = (Stepper::new(0, 0), Stepper::new(0, 0));
+        let (mut hal, mut twin_hal) = (Rec::default(), Rec::default());
+        s.push(b, Switches::Limits).unwrap();
+        twin.push(b, Switches::Limits).unwrap();
+        assert_eq!(s.start(&mut hal), twin.start(&mut twin_hal));
+        for _ in 0..80 {
+            assert_eq!(s.tick(&mut hal), twin.tick(&mut twin_hal));
+        }
+        // The first event of a segment of at least 3 events, well after the current run; the stop one event later.
+        let times = *s.ring[s.act.slot].profile.times();
+        let (mut first, mut at) = (1, None);
+        for seg in times.segments() {
+            if first > 160 && seg.count >= 3 {
+                at = Some(first);
+                break;
+            }
+            first += seg.count;
+        }
+        let first = at.expect("a long enough segment in the deceleration");
+        let stop = first + 1;
+        s.act.stop_at = stop;
+        s.act.arm(80, &times);
+        // The runs' last interval is the one to event `first − 1`, the last of the segment before: the slow path
+        // takes that event, and from there one at a time.
+        assert_eq!(s.act.target, first - 1, "the runs end before the segment with the stop");
+        assert_eq!(s.act.emitted(&times), 80);
+        let mut events = 80;
+        while let Some(iv) = s.tick(&mut hal) {
+            events += 1;
+            assert_eq!(Some(iv), twin.tick(&mut twin_hal), "event {events}");
+            assert_eq!(hal.pos, twin_hal.pos);
+        }
+        // The stop's event is emitted (its interval was the one before), then the stepper holds.
+        twin.tick(&mut twin_hal);
+        assert_eq!((events + 1, s.is_held(), hal.pos, s.position()), (stop, true, twin_hal.pos, as_i32(&hal.pos)));
+    }
+
     #[test]
     fn re_arming_in_the_middle_of_a_run_gives_its_events_back() {
         // 0 → 2000 → 0 events/s at 40 000 events/s²: 50 events each way, the cruise's intervals (to events
@@ -1212,13 +1387,21 @@ mod tests {
             }
         }
         // 80 events emitted: events 81..=149 compute their next interval in the cruise; 150..=199 in the
-        // deceleration, then the last event.
-        assert_eq!((s.act.emitted(), s.act.countdown, s.act.pending), (80, 69, 50));
+        // deceleration (its segments, whole runs), then the last event.
+        let times = *s.ring[s.act.slot].profile.times();
+        let decel = times.segments().len() - 1 - s.act.cursor.next_segment() + 1;
+        let runs_events = |act: &Active| {
+            (0..act.runs as usize).map(|j| times.segments()[act.cursor.next_segment() + j].count).sum::<u32>()
+        };
+        assert!(decel > 1, "{decel}");
+        assert_eq!((s.act.emitted(&times), s.act.countdown, s.act.runs as usize), (80, 69, decel));
+        assert_eq!((runs_events(&s.act), s.act.target), (50, 200));
         // Arming again (what a hold that cannot slow down does) takes the same run: the events taken before are
         // given back first.
-        s.act.arm(80);
-        s.act.arm(80);
-        assert_eq!((s.act.emitted(), s.act.countdown, s.act.pending), (80, 69, 50));
+        s.act.arm(80, &times);
+        s.act.arm(80, &times);
+        assert_eq!((s.act.emitted(&times), s.act.countdown, s.act.runs as usize), (80, 69, decel));
+        assert_eq!((runs_events(&s.act), s.act.target), (50, 200));
         let rest = |st: &mut Stepper, hal: &mut Rec| core::iter::from_fn(|| st.tick(hal)).collect::<std::vec::Vec<_>>();
         let (mine, theirs) = (rest(&mut s, &mut hal), rest(&mut twin, &mut hal));
         assert_eq!(mine.len(), 119);
@@ -1549,6 +1732,72 @@ mod tests {
         assert_eq!((hal.0.pos, hal.1), ([4, 0, 0, 0], 3));
     }
 
+    /// `on_timer` (its fast path inline, a block too long for the lanes out of line, the slow path) drives the same
+    /// events as `tick`: a 40 000-event block with ramps between two short ones, every interval and every step.
+    #[test]
+    fn on_timer_and_tick_agree_on_long_and_short_blocks() {
+        /// Records the intervals the timer was given.
+        #[derive(Default)]
+        struct Timed(Rec, std::vec::Vec<u32>);
+        impl StepPins for Timed {
+            fn set_dir(&mut self, axis: Axis, level: bool) {
+                self.0.set_dir(axis, level);
+            }
+            fn step(&mut self, axis: Axis) {
+                self.0.step(axis);
+            }
+            fn enable_motors(&mut self, _on: bool) {}
+        }
+        impl Endstops for Timed {
+            fn pressed(&mut self) -> u8 {
+                0
+            }
+        }
+        impl StepTimer for Timed {
+            fn schedule(&mut self, ticks: u32) {
+                self.1.push(ticks);
+            }
+            fn cancel(&mut self) {}
+        }
+        let short = StepBlock { steps: [30, -7, 2, 0], cruise_rate: 3000, accel: 90_000, ..StepBlock::default() };
+        let long =
+            StepBlock { steps: [-40_000, 15_001, 0, 3], cruise_rate: 20_000, accel: 200_000, ..StepBlock::default() };
+        let (mut a, mut b) = (Stepper::new(0, 0), Stepper::new(0, 0));
+        let (mut timed, mut rec) = (Timed::default(), Rec::default());
+        for st in [&mut a, &mut b] {
+            st.push(short, Switches::Limits).unwrap();
+            st.push(long, Switches::Limits).unwrap();
+        }
+        let mut ticked = std::vec![b.start(&mut rec).unwrap()];
+        let first = a.start(&mut timed).unwrap();
+        timed.1.push(first);
+        let mut third = (Some(short), Some(short));
+        loop {
+            let on = a.on_timer(&mut timed);
+            let iv = b.tick(&mut rec);
+            assert_eq!(on, iv.is_some());
+            ticked.extend(iv);
+            assert_eq!(timed.0.pos, rec.pos, "event {}", ticked.len());
+            if a.has_room()
+                && let Some(blk) = third.0.take()
+            {
+                a.push(blk, Switches::Limits).unwrap();
+            }
+            if b.has_room()
+                && let Some(blk) = third.1.take()
+            {
+                b.push(blk, Switches::Limits).unwrap();
+            }
+            if !on {
+                break;
+            }
+        }
+        assert_eq!(timed.1, ticked);
+        assert_eq!(rec.pos, [-40_000 + 60, 15_001 - 14, 4, 3]);
+        // 40 060 events: the interval to the first from the start, then one after each event but the last.
+        assert_eq!(ticked.len(), 40_000 + 60);
+    }
+
     #[test]
     fn a_queued_block_starts_from_its_prepared_state() {
         // The prepared first interval is the profile's: √(2/a) = 14 142 µs from rest at 10⁴ events/s².
@@ -1561,7 +1810,12 @@ mod tests {
         // The first segment from rest is the first event alone (its interval is `first`): no run taken from it
         // yet: the 99 events before the last one run on the intervals of the later segments.
         assert_eq!(q.profile.times().segments()[0].count, 1);
-        assert_eq!((q.start.countdown, q.start.pending, q.start.emitted()), (0, 99, 0));
+        let times = q.profile.times();
+        assert_eq!(
+            (q.start.countdown, q.start.runs as usize, q.start.emitted(times)),
+            (0, times.segments().len() - 1, 0)
+        );
+        assert_eq!(times.segments()[1..].iter().map(|s| s.count).sum::<u32>(), 99);
         // 100 events: the lanes, X's |Δ| = 100 and Y's 40 in the low word; rooms 100 − 1 − 50 = 49, fills 0x7FFF − 49.
         let l = q.start.layout;
         assert_eq!((l.fills, l.deltas), ([0x7FCE_7FCE, 0x7FCE_7FCE], [40 << 16 | 100, 0]));
@@ -1613,12 +1867,12 @@ mod tests {
         s.push(StepBlock { steps: [2, 0, 0, 0], cruise_rate: 1000, ..StepBlock::default() }, Switches::Limits).unwrap();
         assert_eq!(s.start(&mut hal), Some(1000));
         // The first run took the segment's other interval.
-        assert_eq!((s.act.countdown, s.act.pending), (1, 0));
+        assert_eq!((s.act.countdown, s.act.runs), (1, 0));
         assert_eq!(s.act.cursor.advance(), 1000);
-        // The block's one segment is used up: a run after it (never asked for) finds no segment, 1 tick each.
-        s.act.pending = 2;
-        s.next_run();
-        assert_eq!((s.act.countdown, s.act.pending), (2, 0));
+        // The block's one segment is used up: a run after it (never asked for) finds the sentinel past the last
+        // segment, 1 tick each.
+        s.act.runs = 1;
+        assert_eq!((s.next_run(), s.act.runs), (u32::MAX, 0));
         assert_eq!([s.act.cursor.advance(), s.act.cursor.advance()], [1, 1]);
     }
 

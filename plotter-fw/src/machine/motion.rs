@@ -149,10 +149,19 @@ impl<const Q: usize> MotionQueue<Q> {
         }
     }
 
-    /// The step timer interrupt.
+    /// The step timer interrupt: the stepper's fast path inline, the rest out of line in a call that ends the
+    /// handler (a tail call: the handler's straight path calls nothing).
     #[inline(always)]
     pub(crate) fn on_timer<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
-        if !self.stepper.on_timer(hal) {
+        if !self.stepper.on_timer_fast(hal) {
+            self.on_timer_slow(hal);
+        }
+    }
+
+    /// [`MotionQueue::on_timer`] off the fast path.
+    #[inline(never)]
+    fn on_timer_slow<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
+        if !self.stepper.on_timer_slow(hal) {
             self.timer_running = false;
         }
     }

@@ -250,12 +250,15 @@ impl Cursor {
         self.e = s.add;
     }
 
-    /// [`Cursor::enter`] segment `s` and [`Cursor::reserve`] up to `max` (≥ 1) of its events at once: returns how
-    /// many were taken.
+    /// Enter segment `s` (the next one) and take all its events at once for [`Cursor::advance`]: returns how many.
+    /// Its events not taken are 0, as they were (the current segment is used up): nothing to store for them.
     #[inline(always)]
-    pub fn enter_for(&mut self, s: &Segment, max: u32) -> u32 {
-        self.enter(s);
-        self.reserve(max)
+    pub fn enter_whole(&mut self, s: &Segment) -> u32 {
+        debug_assert_eq!(self.left, 0, "the current segment is used up");
+        self.seg = self.seg.wrapping_add(1);
+        self.d = s.interval;
+        self.e = s.add;
+        s.count
     }
 
     /// One event of the current segment (which has one left): the interval to it, ticks.
@@ -952,6 +955,14 @@ mod tests {
         assert_eq!(c.time(), 3 * quarter);
         assert_eq!([c.next(&times), c.next(&times), c.next(&times)], [4, 4, 1]);
         assert_eq!(c.next_segment(), 2);
+        // A whole segment at once: entered, all its events taken (none left for `next`), the same intervals.
+        let mut c = times.cursor();
+        assert_eq!(c.enter_whole(&times.segments()[0]), 3);
+        assert_eq!((c.segment_done(), c.next_segment()), (true, 1));
+        assert_eq!([c.advance(), c.advance(), c.advance()], [2, 1, 2]);
+        assert_eq!(c.enter_whole(&times.segments()[1]), 2);
+        assert_eq!([c.advance(), c.advance()], [4, 4]);
+        assert_eq!((c.time(), c.next_segment()), (3 * quarter, 2));
         // Segments by index: the two in use, then none (the unused rest of the array is not a segment).
         assert_eq!(times.segment(1), Some(&Segment { count: 2, interval: 4 << 32, add: 0 }));
         assert_eq!((times.segment(2), times.segment(MAX_SEGMENTS)), (None, None));

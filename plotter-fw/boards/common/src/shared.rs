@@ -5,8 +5,8 @@
 //! machine through one critical section (interrupts masked), as the core's docs prescribe: the interrupts can
 //! never see a half-done `poll`, and `poll` is short (one line, one re-plan) so the step timer is delayed by at
 //! most that long; the [`crate::deadline`] scheme keeps a late event from shifting the ones after it. The step
-//! interrupt itself ([`Shared::on_timer_unmasked`]) needs no critical section of its own: since every other
-//! access masks it, it never finds the machine in use.
+//! interrupt itself ([`Shared::on_timer_unmasked`], or [`Shared::on_timer_installed`] once a machine is installed)
+//! needs no critical section of its own: since every other access masks it, it never finds the machine in use.
 
 use core::cell::RefCell;
 
@@ -72,6 +72,25 @@ impl<H: Hal> Shared<H> {
         // SAFETY: no borrow of the cell exists while this runs (see the contract), so this is the only reference.
         if let Slot::Full(m) = unsafe { &mut *self.cell.borrow(cs).as_ptr() } {
             m.on_timer();
+        }
+    }
+
+    /// [`Shared::on_timer_unmasked`] without asking whether a machine is installed (a test and a branch less per
+    /// step event): the board installs its machine before it unmasks the step interrupt, and an installed machine
+    /// is never taken out again ([`Shared::install`] only replaces it).
+    ///
+    /// # Safety
+    /// As for [`Shared::on_timer_unmasked`], and [`Shared::install`] has been called before (this reads the
+    /// machine without looking whether there is one).
+    #[inline(always)]
+    pub unsafe fn on_timer_installed(&self) {
+        // SAFETY: as in `on_timer_unmasked`.
+        let cs = unsafe { critical_section::CriticalSection::new() };
+        // SAFETY: as in `on_timer_unmasked`.
+        match unsafe { &mut *self.cell.borrow(cs).as_ptr() } {
+            Slot::Full(m) => m.on_timer(),
+            // SAFETY: a machine was installed (the contract), and nothing empties the slot again.
+            Slot::Empty => unsafe { core::hint::unreachable_unchecked() },
         }
     }
 
@@ -159,12 +178,14 @@ mod tests {
         // Fire the step timer as the interrupt would, until the stepper stops it.
         let mut events = 0;
         while M.with(|m| m.hal().armed.is_some()).unwrap() {
-            // Alternately as the boards' step interrupt does (no critical section) and through one.
-            if events % 2 == 0 {
+            // In turn as the boards' step interrupt does (no critical section, with and without the look whether
+            // a machine is installed) and through one.
+            match events % 3 {
                 // SAFETY: single-threaded test; nothing else holds the machine.
-                unsafe { M.on_timer_unmasked() };
-            } else {
-                M.on_timer();
+                0 => unsafe { M.on_timer_unmasked() },
+                // SAFETY: as above, and the machine is installed.
+                1 => unsafe { M.on_timer_installed() },
+                _ => M.on_timer(),
             }
             events += 1;
             while M.poll() {}

@@ -2,8 +2,8 @@
 //! pulse ended by the timer and DMA, not by an interrupt.
 //!
 //! Per step event the interrupt does, and nothing else:
-//! 1. [`StepOutputs::timer_interrupt`]: read and clear the timer's flags (counting an overflow for the board's
-//!    64-bit clock);
+//! 1. [`StepOutputs::step_interrupt`]: clear compare 1's flag, the timer's only interrupt (the board counts the
+//!    overflows for its 64-bit clock from its periodic tick: [`StepOutputs::count_overflow`]);
 //! 2. the stepper's event ([`plotter_fw::stepper::Stepper::tick`]) and [`StepOutputs::raise`]: one BSRR store per
 //!    port from a table indexed by the axis mask, then the pulse end: the counter read once, plus the pulse
 //!    length, stored into the two compare channels that end the pulse (channel 2 for the first port, channel 3
@@ -97,7 +97,12 @@ pub struct StepOutputs {
 impl StepOutputs {
     /// Step pins `steps[axis] = (port, pin)` with `port` 0 or 1 of `ports` (GPIO base addresses), the timer at
     /// `tim`, pulses of `pulse` ticks; a servo pen's PWM compare register at `servo_ccr`.
+    ///
+    /// # Panics
+    /// If `tim` is not 8-byte aligned (a timer's register block is; [`StepOutputs::raise`] stores compare 2 and 3
+    /// at once) — at compile time for a `const`.
     pub const fn new(ports: [usize; 2], steps: [(u8, u8); NUM_AXES], tim: usize, pulse: u32, servo_ccr: usize) -> Self {
+        assert!(tim.is_multiple_of(8), "the timer's register block is 8-byte aligned");
         let mut raise = [[0u32; 2]; 1 << NUM_AXES];
         let mut lower = [0u32; 2];
         let mut a = 0;
@@ -131,8 +136,9 @@ impl StepOutputs {
         write(self.bsrr[1], words[1]);
         let now = read(self.tim + tim::CNT);
         let end = now.wrapping_add(self.pulse);
-        write(self.tim + tim::CCR2, end);
-        write(self.tim + tim::CCR3, end);
+        // Compare 2 and 3 are adjacent: one store of both (two word transfers on the bus).
+        // SAFETY: as for `write`; CCR2 is 8-byte aligned (0x38) in the timer's aligned register block.
+        unsafe { ((self.tim + tim::CCR2) as *mut u64).write_volatile(u64::from(end) << 32 | u64::from(end)) };
         now
     }
 
@@ -156,15 +162,26 @@ impl StepOutputs {
         write(self.bsrr[1], self.lower[1]);
     }
 
-    /// The timer's interrupt: clear its flags, count an overflow in `wraps`; returns whether a step event is due.
+    /// The timer's interrupt: compare 1 reached the next event; acknowledge it (one constant store, no read).
+    ///
+    /// Compare 1 is the only interrupt the timer raises: its overflow is counted from the board's periodic tick
+    /// ([`StepOutputs::count_overflow`]) and the pulse ends are DMA requests, so the handler runs only when compare
+    /// 1's flag rose with its interrupt enabled: a step event is due. [`StepOutputs::cancel`] disables it, and the
+    /// board's cancel also drops an interrupt left pending then (an event stale by then reaches a stepper that is
+    /// not running and emits nothing: [`plotter_fw::stepper::Stepper::tick`]).
     #[inline(always)]
-    pub fn timer_interrupt(&self, wraps: &AtomicU32) -> bool {
-        let sr = read(self.tim + tim::SR) & read(self.tim + tim::DIER);
-        write(self.tim + tim::SR, !sr);
-        if sr & tim::UIF != 0 {
-            count_wrap(wraps);
+    pub fn step_interrupt(&self) {
+        write(self.tim + tim::SR, !tim::CC1);
+    }
+
+    /// The timer's overflow, from the board's periodic tick (far more often than every 2³² ticks, at the step
+    /// interrupt's priority): if its flag is up, clear it and count it in `wraps`. Writing 0 clears a flag and
+    /// writing 1 leaves it, so this never clears compare 1's flag.
+    pub fn count_overflow(&self, wraps: &AtomicU32) {
+        if read(self.tim + tim::SR) & tim::UIF != 0 {
+            write(self.tim + tim::SR, !tim::UIF);
+            wraps.fetch_add(1, Ordering::Relaxed);
         }
-        sr & tim::CC1 != 0
     }
 
     /// Aim compare 1 at the next event, `ticks` after the previous one ([`Deadline`]); from idle, also enable its
@@ -220,13 +237,6 @@ impl StepOutputs {
     }
 }
 
-/// One more overflow of the timer (once every 2³² ticks: out of the step path's way).
-#[cold]
-#[inline(never)]
-fn count_wrap(wraps: &AtomicU32) {
-    wraps.fetch_add(1, Ordering::Relaxed);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,6 +250,47 @@ mod tests {
         assert_eq!(o.raise[0b1111], [(1 << 10) | (1 << 6), (1 << 3) | (1 << 5)]);
         assert_eq!(o.raise[0], [0, 0]);
         assert_eq!(o.pulse_end_transfers(), [((1 << 26) | (1 << 22), 0x118), ((1 << 19) | (1 << 21), 0x218)]);
+    }
+
+    /// The flag writes, on a RAM stand-in for the timer (a write shows as written: on the chip a 0 bit clears its flag
+    /// and a 1 bit leaves it).
+    #[test]
+    fn the_step_interrupt_clears_compare_1_alone_and_the_overflow_is_counted_once() {
+        #[repr(align(8))]
+        struct Timer([u32; 16]);
+        let mut timer = Timer([0; 16]);
+        let base = timer.0.as_mut_ptr() as usize;
+        let o = StepOutputs::new([0x100, 0x200], [(0, 10), (1, 3), (1, 5), (0, 6)], base, 3, 0x400);
+        let sr = |t: &Timer| t.0[tim::SR / 4];
+        let wraps = AtomicU32::new(7);
+        // No overflow flag: nothing written, nothing counted.
+        timer.0[tim::SR / 4] = tim::CC1;
+        o.count_overflow(&wraps);
+        assert_eq!((sr(&timer), wraps.load(Ordering::Relaxed)), (tim::CC1, 7));
+        // The overflow flag up (and compare 1's): cleared by a write whose other bits keep every other flag.
+        timer.0[tim::SR / 4] = tim::UIF | tim::CC1;
+        o.count_overflow(&wraps);
+        assert_eq!((sr(&timer), wraps.load(Ordering::Relaxed)), (!tim::UIF, 8));
+        // The step interrupt: compare 1's flag cleared, every other flag kept.
+        o.step_interrupt();
+        assert_eq!(sr(&timer), !tim::CC1);
+    }
+
+    /// The pulse end: both compare channels get the counter plus the pulse, in one store (RAM stand-ins again:
+    /// the step ports' BSRR and the timer).
+    #[test]
+    fn raising_the_pins_arms_both_pulse_ends_from_one_counter_read() {
+        #[repr(align(8))]
+        struct Block([u32; 256]);
+        let mut ports = Block([0; 256]);
+        let mut timer = Block([0; 256]);
+        let (a, b) = (ports.0.as_mut_ptr() as usize, ports.0.as_mut_ptr() as usize + 0x200);
+        let o = StepOutputs::new([a, b], [(0, 10), (1, 3), (1, 5), (0, 6)], timer.0.as_mut_ptr() as usize, 3, 0x400);
+        timer.0[tim::CNT / 4] = 0xFFFF_FFFE;
+        assert_eq!(o.raise(0b0101), 0xFFFF_FFFE);
+        // X on port 0 (pin 10), Z on port 1 (pin 5); the pulse ends wrap past 0.
+        assert_eq!((ports.0[BSRR / 4], ports.0[(0x200 + BSRR) / 4]), (1 << 10, 1 << 5));
+        assert_eq!((timer.0[tim::CCR2 / 4], timer.0[tim::CCR3 / 4], timer.0[tim::CCR1 / 4]), (1, 1, 0));
     }
 
     /// Pulse and gap at the ticks' resolution (times in hundredths of a tick): the pins go up at `set`, the counter

@@ -21,6 +21,9 @@
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
+use cortex_m::peripheral::NVIC;
+use stm32l4xx_hal::pac::Interrupt;
+
 use plotter_board::deadline::Deadline;
 use plotter_board::debounce::Debouncer;
 use plotter_board::note::ResetCause;
@@ -98,8 +101,8 @@ fn pull_up(p: Pin) {
     regs::modify(p.port + gpio::PUPDR, 0b11 << shift, 0b01 << shift);
 }
 
-/// µs since start. Correct inside critical sections too: an overflow whose interrupt is still pending is
-/// counted from the flag.
+/// µs since start. Correct inside critical sections too: an overflow SysTick has not counted yet
+/// ([`count_tim2_overflow`]) is counted from the flag.
 pub(crate) fn now() -> u64 {
     let wraps = TIM2_WRAPS.load(Ordering::Relaxed);
     let cnt = regs::read(tim::TIM2 + tim::CNT);
@@ -145,13 +148,14 @@ pub(crate) fn init() {
         mode(*p, 0);
     }
 
-    // TIM2: 1 MHz, free-running over 32 bits; overflow interrupt for the clock's upper half.
+    // TIM2: 1 MHz, free-running over 32 bits; its overflows (the clock's upper half) are counted by SysTick
+    // (`count_tim2_overflow`), so its only interrupt is the step event's compare 1 (enabled while stepping).
     let t = tim::TIM2;
     regs::write(t + tim::PSC, SYSCLK_HZ / plotter_fw::TICK_HZ - 1);
     regs::write(t + tim::ARR, u32::MAX);
     regs::write(t + tim::EGR, 1);
     regs::write(t + tim::SR, 0);
-    regs::write(t + tim::DIER, tim::UIF | plotter_board::stm32_step::tim::CC2DE_CC3DE);
+    regs::write(t + tim::DIER, plotter_board::stm32_step::tim::CC2DE_CC3DE);
     regs::write(t + tim::CR1, 1);
     // Pulse ends: TIM2 compare 2 → DMA1 channel 7 → port A's BSRR, compare 3 → channel 1 → port B's (request 4).
     regs::modify(dma1::CSELR, (0xF << 24) | 0xF, (4 << 24) | 4);
@@ -222,6 +226,8 @@ pub(crate) fn enable_drivers() {
 /// Fault path: no more timer interrupts, drivers released, step pins low, the servo pen up.
 pub(crate) fn emergency_stop() {
     regs::write(tim::TIM2 + tim::DIER, 0);
+    // No flag left for an interrupt already pending (the step interrupt does not mask the flags with DIER).
+    regs::write(tim::TIM2 + tim::SR, 0);
     set(pins::ENABLE);
     STEP_OUT.lower_all();
     if cfg!(feature = "servo-pen") {
@@ -229,10 +235,15 @@ pub(crate) fn emergency_stop() {
     }
 }
 
-/// TIM2 interrupt: returns whether the step event (compare 1) is due; counts an overflow.
+/// TIM2 interrupt: the step event (compare 1, its only interrupt) is due; acknowledge it.
 #[inline(always)]
-pub(crate) fn tim2_events() -> bool {
-    STEP_OUT.timer_interrupt(&TIM2_WRAPS)
+pub(crate) fn tim2_step_event() {
+    STEP_OUT.step_interrupt();
+}
+
+/// SysTick (1 kHz): count a TIM2 overflow (every 71 minutes) for [`now`].
+pub(crate) fn count_tim2_overflow() {
+    STEP_OUT.count_overflow(&TIM2_WRAPS);
 }
 
 /// Hand the bytes the DMA has written since the last call to `f` (USART2 idle and DMA half/complete
@@ -387,6 +398,8 @@ impl StepTimer for NucleoHal {
     }
     fn cancel(&mut self) {
         STEP_OUT.cancel(&mut self.deadline);
+        // An event that came due while interrupts were masked is stale now: drop it.
+        NVIC::unpend(Interrupt::TIM2);
     }
 }
 

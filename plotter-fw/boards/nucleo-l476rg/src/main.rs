@@ -14,8 +14,8 @@
 //!
 //! **Wiring of the core**: USART2's idle-line and DMA1 channel 6's half/complete interrupts hand received bytes
 //! to `Machine::receive`; TIM2's compare-1 interrupt calls `Machine::on_timer`; the main loop feeds the
-//! independent watchdog, calls `Machine::poll` and sleeps (WFI) when nothing is waiting; SysTick (1 kHz) samples the
-//! switches into `Machine::check_limits`.
+//! independent watchdog, calls `Machine::poll` and sleeps (WFI) when nothing is waiting; SysTick (1 kHz) counts TIM2's
+//! overflows (the clock's upper half) and samples the switches into `Machine::check_limits`.
 //!
 //! **Faults**: a panic or hard fault stops the step timer, releases the drivers, lifts a servo pen, stores the
 //! reason in no-init RAM and resets; the start-up note before the next banner reports it with the reset cause.
@@ -121,11 +121,11 @@ fn main() -> ! {
 
 #[interrupt]
 fn TIM2() {
-    if board::tim2_events() {
-        // SAFETY: the only caller is this handler (TIM2 never preempts itself), and every other access to the
-        // machine — the USART2, DMA1 and SysTick handlers, the main loop — goes through `with`, which masks it.
-        unsafe { MACHINE.on_timer_unmasked() };
-    }
+    board::tim2_step_event();
+    // SAFETY: the only caller is this handler (TIM2 never preempts itself), and every other access to the
+    // machine — the USART2, DMA1 and SysTick handlers, the main loop — goes through `with`, which masks it;
+    // `main` installs the machine before it unmasks TIM2 in the NVIC.
+    unsafe { MACHINE.on_timer_installed() };
 }
 
 #[interrupt]
@@ -146,6 +146,7 @@ fn DMA1_CH6() {
 /// The switches at 1 kHz: debounced, then the hard-limit check (the step interrupt reads them only when homing).
 #[exception]
 fn SysTick() {
+    board::count_tim2_overflow();
     MACHINE.with(|m| m.check_limits());
 }
 
