@@ -390,7 +390,7 @@ pub fn polyline_bbox(points: &[Point]) -> Option<Rect> {
 pub enum Keep {
     /// The parts inside the region (clip paths, masks, hatching); parts running along the boundary are kept.
     Inside,
-    /// The parts outside every region (hidden-line removal); parts running along a boundary are kept.
+    /// The parts outside every region (e.g. what lies off the page); parts running along a boundary are kept.
     Outside,
 }
 

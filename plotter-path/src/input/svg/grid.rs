@@ -70,14 +70,7 @@ impl BoxGrid {
         (cx(r.x0), cx(r.x1), cy(r.y0), cy(r.y1))
     }
 
-    /// The indices of the boxes meeting `query`, ascending, each once.
-    pub(super) fn query(&self, query: Rect) -> Vec<usize> {
-        let mut hits = Vec::new();
-        self.query_into(query, &mut hits);
-        hits
-    }
-
-    /// [`BoxGrid::query`] into `hits` (cleared first), reusing its memory.
+    /// Put into `hits` (cleared first) the indices of the boxes meeting `query`, ascending, each once.
     pub(super) fn query_into(&self, query: Rect, hits: &mut Vec<usize>) {
         hits.clear();
         if !meet(query, self.area) {
@@ -114,14 +107,19 @@ mod tests {
             .collect();
         boxes.push(Rect::new(0.0, 30.0, 19.0, 31.0));
         let grid = BoxGrid::new(boxes.clone()).unwrap();
+        let query = |q: Rect| {
+            let mut hits = vec![7];
+            grid.query_into(q, &mut hits);
+            hits
+        };
         for q in [Rect::new(1.5, 1.5, 4.5, 2.5), Rect::new(-5.0, -5.0, 0.0, 0.0), Rect::new(10.0, 25.0, 11.0, 40.0)] {
             let brute: Vec<usize> = (0..boxes.len()).filter(|&k| meet(boxes[k], q)).collect();
-            assert_eq!(grid.query(q), brute, "{q:?}");
+            assert_eq!(query(q), brute, "{q:?}");
         }
         // (1.5..4.5) × (1.5..2.5) meets the boxes at x 2..3 and 4..5 on row y 2..3: indices 11 and 12.
-        assert_eq!(grid.query(Rect::new(1.5, 1.5, 4.5, 2.5)), [11, 12]);
-        assert_eq!(grid.query(Rect::new(10.0, 25.0, 11.0, 40.0)), [100]);
-        assert!(grid.query(Rect::new(50.0, 50.0, 60.0, 60.0)).is_empty());
+        assert_eq!(query(Rect::new(1.5, 1.5, 4.5, 2.5)), [11, 12]);
+        assert_eq!(query(Rect::new(10.0, 25.0, 11.0, 40.0)), [100]);
+        assert!(query(Rect::new(50.0, 50.0, 60.0, 60.0)).is_empty());
         assert!(BoxGrid::new(Vec::new()).is_none());
     }
 }
