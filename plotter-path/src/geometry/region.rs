@@ -185,6 +185,11 @@ impl Region {
         if self.winding_banded(line[0]) != 0 { Class::Inside } else { Class::Outside }
     }
 
+    /// Whether all of `line` lies inside, not touching the boundary (a line along it is not covered).
+    pub fn covers(&self, line: &[Point]) -> bool {
+        !line.is_empty() && self.classify(line) == Class::Inside
+    }
+
     /// [`Region::winding`] using only the edges of `p`'s band.
     fn winding_banded(&self, p: Point) -> i32 {
         let Some(b) = self.bbox else { return 0 };

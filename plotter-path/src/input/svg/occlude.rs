@@ -43,6 +43,15 @@ pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
             return;
         }
         let before: f64 = total_length(lines);
+        // A line wholly inside one occluder goes without splitting (deep stacks bury most lines that way): only the
+        // occluders whose box holds the line's box are asked.
+        lines.retain(|l| {
+            let Some(lb) = polyline_bbox(l) else { return true };
+            !hits.iter().any(|&k| {
+                let r = above.region(k);
+                r.bbox().is_some_and(|b| b.contains_rect(lb)) && r.covers(l)
+            })
+        });
         let kept = split_where(std::mem::take(lines), &above, |near, l, r| {
             let covered = |p: Point| near.iter().any(|&k| above.region(k).contains(p));
             !covered(l) || !covered(r)
@@ -131,6 +140,14 @@ mod tests {
         assert_eq!(items[1].lines, vec![vec![Point::new(12.0, 10.0), Point::new(18.0, 10.0)]]);
         // The square's own outline is painted last: nothing hides it.
         assert_eq!(total_length(&items[2].lines), 40.0);
+
+        // Lines wholly under a later fill go, whole, without a cut.
+        let inside = lines(vec![vec![Point::new(2.0, 2.0), Point::new(8.0, 8.0)], rect(3.0, 3.0, 2.0, 2.0)]);
+        let square =
+            Item { paints: vec![item(rect(0.0, 0.0, 10.0, 10.0), true).paints.remove(0)], ..lines(Vec::new()) };
+        let mut items = vec![inside, square];
+        assert_eq!(occlude(&mut items, &Cancel::never()), 1);
+        assert!(items[0].lines.is_empty());
 
         // An element's own fill is painted before its lines: a line of it inside its fill (a subpath) stays.
         let mut own = item(rect(0.0, 0.0, 10.0, 10.0), true);
