@@ -19,6 +19,51 @@ pub const DECIMALS: usize = 4;
 
 /// Write `value` with at most [`DECIMALS`] decimals and no trailing zeros.
 pub(crate) fn push_number(out: &mut String, value: f64) {
+    if let Some(units) = ten_thousandths(value) {
+        push_units(out, units);
+        return;
+    }
+    push_number_formatted(out, value);
+}
+
+/// `value` in ten-thousandths, rounded to the nearest as `{:.4}` rounds it, when that is certain without the exact
+/// decimal expansion: below 10⁶ in size (the product's rounding error is under 2·10⁻⁶ of a unit) and not within
+/// 10⁻⁴ of a unit of half-way. `None` otherwise (and for NaN and infinities): the caller formats it.
+fn ten_thousandths(value: f64) -> Option<i64> {
+    const _: () = assert!(DECIMALS == 4, "the fast path writes four decimals");
+    if value.is_nan() || value.abs() >= 1e6 {
+        return None;
+    }
+    let scaled = value * 1e4;
+    let frac = scaled - scaled.floor();
+    if (frac - 0.5).abs() < 1e-4 {
+        return None;
+    }
+    // |scaled| < 10¹⁰: the cast is exact.
+    #[allow(clippy::cast_possible_truncation)]
+    Some(scaled.round() as i64)
+}
+
+/// Write `units` ten-thousandths as a decimal number without trailing zeros (`0` for zero).
+fn push_units(out: &mut String, units: i64) {
+    if units < 0 {
+        out.push('-');
+    }
+    let magnitude = units.unsigned_abs();
+    let _ = write!(out, "{}", magnitude / 10_000);
+    let mut frac = magnitude % 10_000;
+    if frac > 0 {
+        let mut digits = 4;
+        while frac.is_multiple_of(10) {
+            frac /= 10;
+            digits -= 1;
+        }
+        let _ = write!(out, ".{frac:0digits$}");
+    }
+}
+
+/// [`push_number`] through the standard library's exact formatting.
+fn push_number_formatted(out: &mut String, value: f64) {
     let start = out.len();
     // Writing into a String cannot fail.
     let _ = write!(out, "{value:.DECIMALS$}");
@@ -127,6 +172,58 @@ pub fn write_svg(drawing: &Drawing, mut w: impl Write) -> io::Result<()> {
 mod tests {
     use super::*;
     use crate::geometry::drawing::{Layer, Rgb};
+
+    #[test]
+    fn the_fast_path_writes_what_exact_formatting_writes() {
+        let check = |v: f64| {
+            let (mut fast, mut exact) = (String::new(), String::new());
+            push_number(&mut fast, v);
+            push_number_formatted(&mut exact, v);
+            assert_eq!(fast, exact, "{v:e}");
+        };
+        // Half-way cases, signs, zeros, carries into the integer part, the size limit and beyond.
+        for v in [
+            0.0,
+            -0.0,
+            0.00005,
+            -0.00005,
+            0.00015,
+            1.23455,
+            2.5,
+            9.99995,
+            9.99994,
+            -9.99996,
+            0.1,
+            0.2,
+            0.3,
+            1234.5678,
+            999_999.999_94,
+            999_999.999_96,
+            1e6,
+            -1e6,
+            3e9,
+            1e-9,
+            -1e-9,
+            0.00049999,
+            12.0001,
+            f64::MAX,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ] {
+            check(v);
+        }
+        use rand::{RngExt, SeedableRng};
+        let mut r = rand::rngs::StdRng::seed_from_u64(3);
+        for _ in 0..200_000 {
+            let scale = [1e-3, 1.0, 1e3, 1e6][r.random_range(0..4)];
+            check(r.random_range(-1.0..1.0) * scale);
+            // Values on the grid of ten-thousandths and half-way between, as coordinates typed in a file are.
+            let k = f64::from(r.random_range(-10_000_000..10_000_000));
+            check(k / 1e4);
+            check((k + 0.5) / 1e4);
+        }
+    }
 
     #[test]
     fn numbers_are_short_and_exact_enough() {
