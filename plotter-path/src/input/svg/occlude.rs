@@ -25,7 +25,6 @@ use kurbo::{Point, Rect};
 pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
     let (paints, grid) = paint_grid(items);
     let Some(grid) = grid else { return 0 };
-    let hides: Vec<bool> = paints.iter().map(|&(j, p)| items[j].paints[p].hides).collect();
     let mut work: Vec<(Vec<Vec<Point>>, bool)> =
         items.iter_mut().map(|it| (std::mem::take(&mut it.lines), false)).collect();
     let shared: &[Item] = items;
@@ -36,7 +35,7 @@ pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
         let Some(bbox) = lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
             return;
         };
-        let above = Above { items: shared, paints: &paints, hides: &hides, grid: &grid, over: i };
+        let above = Above { items: shared, paints: &paints, grid: &grid, over: i };
         let mut hits = Vec::new();
         above.near(bbox, &mut hits);
         if hits.is_empty() {
@@ -71,8 +70,6 @@ pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
 struct Above<'a> {
     items: &'a [Item],
     paints: &'a [(usize, usize)],
-    /// Whether each paint hides.
-    hides: &'a [bool],
     grid: &'a BoxGrid,
     over: usize,
 }
@@ -86,7 +83,10 @@ impl Near for Above<'_> {
         // Ascending paint indices are in item order: the later items' paints come last.
         let later = out.partition_point(|&k| self.paints[k].0 <= self.over);
         out.drain(..later);
-        out.retain(|&k| self.hides[k]);
+        out.retain(|&k| {
+            let (j, p) = self.paints[k];
+            self.items[j].paints[p].hides
+        });
     }
 
     fn region(&self, k: usize) -> &Region {
