@@ -345,6 +345,14 @@ pub fn import_svg(
     }
     let layer_names = std::mem::take(&mut walker.layer_names);
     let mut items = std::mem::take(&mut walker.items);
+    if let Some(w) = bounds::cut_far(&mut items) {
+        warnings.push(format!("{name}: {w}"));
+    }
+    // Hidden parts go first, outlines included: the edge rule then only looks at what can be seen.
+    if options.occlusion {
+        occlude::occlude(&mut items, &options.cancel);
+        options.cancel.check().map_err(cancelled)?;
+    }
     let unseen = edges::draw_edges(&mut items, options.paper_color);
     summary.add(SkipReason::SameColourFill, unseen);
     if unseen > 0 {
@@ -352,13 +360,6 @@ pub fn import_svg(
             "{name}: {unseen} fill-only shape(s) not outlined: their colour is that of what lies beneath (e.g. white \
              on the paper); they only hide what lies under them"
         ));
-    }
-    if let Some(w) = bounds::cut_far(&mut items) {
-        warnings.push(format!("{name}: {w}"));
-    }
-    if options.occlusion {
-        occlude::occlude(&mut items, &options.cancel);
-        options.cancel.check().map_err(cancelled)?;
     }
     // The page in f64 from the document's absolute width and height when it has them, else usvg's (f32) size.
     let size = tree.size();

@@ -80,22 +80,32 @@ fn clip_polyline(line: &[Point], m: f64) -> Option<Vec<Vec<Point>>> {
     Some(out)
 }
 
-/// Cut every item's lines to ±1 km; returns a warning naming the elements that lost lines, if any did.
+/// Cut `lines` to ±1 km in place; whether any was cut.
+fn cut_lines_far(lines: &mut Vec<Vec<Point>>) -> bool {
+    let mut changed = false;
+    let mut kept = Vec::with_capacity(lines.len());
+    for line in std::mem::take(lines) {
+        match clip_polyline(&line, MAX_COORD_MM) {
+            None => kept.push(line),
+            Some(parts) => {
+                changed = true;
+                kept.extend(parts);
+            }
+        }
+    }
+    *lines = kept;
+    changed
+}
+
+/// Cut every item's lines (and the outline waiting for the edge rule) to ±1 km; returns a warning naming the
+/// elements that lost lines, if any did.
 pub(super) fn cut_far(items: &mut [Item]) -> Option<String> {
     let mut elements: Vec<String> = Vec::new();
     for item in items.iter_mut() {
-        let mut changed = false;
-        let mut kept = Vec::with_capacity(item.lines.len());
-        for line in std::mem::take(&mut item.lines) {
-            match clip_polyline(&line, MAX_COORD_MM) {
-                None => kept.push(line),
-                Some(parts) => {
-                    changed = true;
-                    kept.extend(parts);
-                }
-            }
+        let mut changed = cut_lines_far(&mut item.lines);
+        if let Some(outline) = item.outline.as_mut() {
+            changed |= cut_lines_far(&mut outline.lines);
         }
-        item.lines = kept;
         if changed && !elements.contains(&item.element) {
             elements.push(item.element.clone());
         }
@@ -200,5 +210,12 @@ mod tests {
         let w = cut_far(&mut six).unwrap();
         assert!(w.starts_with("6 element(s) (<1>, <2>, <3>, <4>, <5>, …) reach"), "{w}");
         assert_eq!(cut_far(&mut six), None, "already cut");
+        // A fill-only shape's outline, still waiting for the edge rule, is cut the same way and named.
+        let mut outlined = item("<g>", Vec::new());
+        outlined.outline = Some(super::super::walk::Outline { lines: vec![far()], color: None });
+        let mut items = vec![outlined];
+        let w = cut_far(&mut items).unwrap();
+        assert!(w.starts_with("1 element(s) (<g>)"), "{w}");
+        assert_eq!(items[0].outline.as_ref().map(|o| o.lines.clone()), Some(vec![vec![p(0.0, 0.0), p(1.0e6, 0.0)]]));
     }
 }

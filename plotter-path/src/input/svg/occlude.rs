@@ -8,6 +8,10 @@
 //! ([`crate::geometry::split`]): no area operation is computed, so the cost is that of the boundary edges near each
 //! segment, whatever the number of occluders stacked there. A piece running along an occluder's edge stays (one of
 //! its sides is open).
+//!
+//! A fill-only shape's outline is hidden the same way before the edge rule ([`super::edges`]) looks at it: the two
+//! rules keep a piece only when both do, so the order does not change what is drawn, and on a deep stack of shapes
+//! most of each outline is buried and never needs the edge rule's look at the paints beneath.
 
 use super::grid::{BoxGrid, paint_grid};
 use super::walk::Item;
@@ -25,14 +29,20 @@ use kurbo::{Point, Rect};
 pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
     let (paints, grid) = paint_grid(items);
     let Some(grid) = grid else { return 0 };
-    let mut work: Vec<(Vec<Vec<Point>>, bool)> =
-        items.iter_mut().map(|it| (std::mem::take(&mut it.lines), false)).collect();
+    // Each item's pen lines and the outline still waiting for the edge rule: both are hidden alike.
+    let mut work: Vec<([Vec<Vec<Point>>; 2], bool)> = items
+        .iter_mut()
+        .map(|it| {
+            let outline = it.outline.as_mut().map(|o| std::mem::take(&mut o.lines)).unwrap_or_default();
+            ([std::mem::take(&mut it.lines), outline], false)
+        })
+        .collect();
     let shared: &[Item] = items;
-    for_each_mut(&mut work, |i, (lines, changed)| {
+    for_each_mut(&mut work, |i, (sets, changed)| {
         if cancel.is_cancelled() {
             return;
         }
-        let Some(bbox) = lines.iter().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
+        let Some(bbox) = sets.iter().flatten().filter_map(|l| polyline_bbox(l)).reduce(|a, b| a.union(b)) else {
             return;
         };
         let above = Above { items: shared, paints: &paints, grid: &grid, over: i };
@@ -41,26 +51,31 @@ pub(super) fn occlude(items: &mut [Item], cancel: &Cancel) -> usize {
         if hits.is_empty() {
             return;
         }
-        let before: f64 = total_length(lines);
-        // A line wholly inside one occluder goes without splitting (deep stacks bury most lines that way): only the
-        // occluders whose box holds the line's box are asked.
-        lines.retain(|l| {
-            let Some(lb) = polyline_bbox(l) else { return true };
-            !hits.iter().any(|&k| {
-                let r = above.region(k);
-                r.bbox().is_some_and(|b| b.contains_rect(lb)) && r.covers(l)
-            })
-        });
-        let kept = split_where(std::mem::take(lines), &above, |near, l, r| {
-            let covered = |p: Point| near.iter().any(|&k| above.region(k).contains(p));
-            !covered(l) || !covered(r)
-        });
-        *changed = total_length(&kept) < before - 1e-9;
-        *lines = kept;
+        for lines in sets.iter_mut().filter(|s| !s.is_empty()) {
+            let before: f64 = total_length(lines);
+            // A line wholly inside one occluder goes without splitting (deep stacks bury most lines that way): only
+            // the occluders whose box holds the line's box are asked.
+            lines.retain(|l| {
+                let Some(lb) = polyline_bbox(l) else { return true };
+                !hits.iter().any(|&k| {
+                    let r = above.region(k);
+                    r.bbox().is_some_and(|b| b.contains_rect(lb)) && r.covers(l)
+                })
+            });
+            let kept = split_where(std::mem::take(lines), &above, |near, l, r| {
+                let covered = |p: Point| near.iter().any(|&k| above.region(k).contains(p));
+                !covered(l) || !covered(r)
+            });
+            *changed |= total_length(&kept) < before - 1e-9;
+            *lines = kept;
+        }
     });
     let mut count = 0;
-    for (item, (lines, changed)) in items.iter_mut().zip(work) {
+    for (item, ([lines, outline], changed)) in items.iter_mut().zip(work) {
         item.lines = lines;
+        if let Some(o) = item.outline.as_mut() {
+            o.lines = outline;
+        }
         count += usize::from(changed);
     }
     count

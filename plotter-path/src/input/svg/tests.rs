@@ -539,6 +539,36 @@ fn an_outline_along_an_earlier_edge_of_its_colour_is_drawn_once() {
     assert_len(&import(&doc.replacen("red", "white", 2).replacen("white", "red", 1)).drawing, 200.0);
 }
 
+/// Hidden-line removal takes a fill-only shape's outline before the edge rule does, so the edge rule is asked only
+/// about what can be seen (issue 25): a shape buried under a later one is hidden, not "not outlined".
+#[test]
+fn a_buried_outline_is_hidden_before_the_edge_rule_looks_at_it() {
+    let warned = |i: &Imported| i.warnings.iter().any(|w| w.contains("not outlined"));
+    // A white 20 mm square on the paper under a black 40 mm square painted later: only the black outline, 160 mm,
+    // and no shape reported as matching what lies beneath (nothing of the white one is visible).
+    let buried = import(&mm_doc(
+        r#"<rect x="10" y="10" width="20" height="20" fill="white"/>
+           <rect x="0" y="0" width="40" height="40" fill="black"/>"#,
+    ));
+    assert_len(&buried.drawing, 160.0);
+    assert!(!warned(&buried), "{:?}", buried.warnings);
+    // Half buried (the black square x 20..60): the visible half of the white one lies on the paper, so it still
+    // draws nothing and is reported; the black square draws its 160 mm.
+    let half = import(&mm_doc(
+        r#"<rect x="10" y="10" width="20" height="20" fill="white"/>
+           <rect x="20" y="0" width="40" height="40" fill="black"/>"#,
+    ));
+    assert_len(&half.drawing, 160.0);
+    assert!(half.warnings.iter().any(|w| w.contains("1 fill-only shape(s) not outlined")), "{:?}", half.warnings);
+    // A red square half under a later blue one: the 40 mm of its outline that lie under blue go, the rest (two
+    // 10 mm halves of its sides and its 20 mm left side) stays, with the blue square's 160 mm: 200 mm.
+    let red = import(&mm_doc(
+        r#"<rect x="10" y="10" width="20" height="20" fill="red"/>
+           <rect x="20" y="0" width="40" height="40" fill="blue"/>"#,
+    ));
+    assert_len(&red.drawing, 200.0);
+}
+
 /// Fill-only shapes are outlined where their colour differs from what lies beneath (issue 24).
 #[test]
 fn a_fill_only_shape_draws_its_edge_where_the_colours_differ() {
