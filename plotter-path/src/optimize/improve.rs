@@ -28,7 +28,7 @@
 //! **Kicks.** Once at a local optimum, the remaining budget goes to a simple iterated local search: swap two short
 //! adjacent stretches of the cycle (a segment-insertion "double bridge" no sequence of improving 2-opt moves finds),
 //! re-optimize around the cut points, and keep the result only if the total cost went down; otherwise undo it.
-//! All randomness comes from the seed.
+//! On large drawings the kicks are tried in two lanes at once ([`kicks`]). All randomness comes from the seed.
 //!
 //! **Budget.** The work is measured, not timed: every candidate a move looks at (a neighbour of an end, a seam
 //! vertex) counts one unit, and the search stops once the units reach the limit. So the result is fixed by the
@@ -44,6 +44,8 @@ use super::kdtree::KdTree;
 use super::rng::SplitMix64;
 use super::seam::{SeamMode, seam_candidates};
 use crate::Polyline;
+
+mod kicks;
 
 const EPS: f64 = 1e-9;
 
@@ -107,9 +109,11 @@ impl ImproveStats {
 #[derive(Debug, Clone, Copy)]
 enum Op {
     Exchange(u32, u32, u32, u32),
-    Seam(u32, u32),
+    /// A closed path's seam changed: the path, the old seam, the new one.
+    Seam(u32, u32, u32),
 }
 
+#[derive(Clone)]
 struct Tour<'a> {
     n: usize,
     depot: u32,
@@ -591,7 +595,7 @@ impl<'a> Tour<'a> {
         self.pts[2 * a as usize + 1] = p;
         let old = std::mem::replace(&mut self.seam[a as usize], v);
         if let Some(log) = &mut self.log {
-            log.push(Op::Seam(a, old));
+            log.push(Op::Seam(a, old, v));
         }
     }
 
@@ -663,64 +667,6 @@ impl<'a> Tour<'a> {
         true
     }
 
-    fn undo(&mut self, log: &[Op]) {
-        for &op in log.iter().rev() {
-            match op {
-                Op::Exchange(a, b, c, d) => self.exchange(a, c, b, d),
-                Op::Seam(k, v) => self.set_seam(k, v),
-            }
-        }
-        while let Some(k) = self.queue.pop_front() {
-            self.queued[k as usize] = false;
-        }
-    }
-
-    fn kick_phase(&mut self) {
-        const MAX_RUN: usize = 30;
-        if self.stats.budget_exhausted || self.n < 8 {
-            return;
-        }
-        let mut rng = SplitMix64::new(self.params.seed ^ 0x6b69_636b);
-        let mut log = Vec::new();
-        for _ in 0..self.params.kicks {
-            if self.out_of_work() {
-                return;
-            }
-            let l1 = 1 + rng.below(MAX_RUN.min((self.n - 4) / 2));
-            let l2 = 1 + rng.below(MAX_RUN.min((self.n - 4) / 2));
-            let i = rng.below(self.n);
-            let at = |t: &Self, k: usize| t.tour[(i + k) % t.n];
-            let (p, s1, s2, nn, cc, dn) =
-                (at(self, 0), at(self, 1), at(self, l1), at(self, l1 + 1), at(self, l1 + l2), at(self, l1 + l2 + 1));
-            let old = self.c(self.out_end(p), self.in_end(s1))
-                + self.c(self.out_end(s2), self.in_end(nn))
-                + self.c(self.out_end(cc), self.in_end(dn));
-            let new = self.c(self.out_end(p), self.in_end(nn))
-                + self.c(self.out_end(cc), self.in_end(s1))
-                + self.c(self.out_end(s2), self.in_end(dn));
-            self.stats.kicks_tried += 1;
-            let before = self.params.verify.then(|| self.total_cost());
-            log.clear();
-            self.log = Some(std::mem::take(&mut log));
-            self.gained = 0.0;
-            self.apply_or(s1, s2, cc, dn, false);
-            self.applied(old - new, before);
-            let finished = self.local_search();
-            log = self.log.take().unwrap_or_default();
-            if self.gained > EPS {
-                self.stats.kicks_kept += 1;
-            } else {
-                let before = self.params.verify.then(|| self.total_cost());
-                let undone = self.gained;
-                self.undo(&log);
-                self.applied(-undone, before);
-            }
-            if !finished {
-                return;
-            }
-        }
-    }
-
     /// Read the cycle from the depot in the direction that leaves it through the start position.
     fn extract(&self) -> Vec<Visit> {
         let d = self.depot;
@@ -742,7 +688,7 @@ mod tests {
     use super::*;
     use crate::optimize::order::greedy_order;
 
-    fn params(verify: bool, kicks: usize) -> ImproveParams {
+    pub(super) fn params(verify: bool, kicks: usize) -> ImproveParams {
         ImproveParams {
             neighbours: 6,
             work_limit: None,
@@ -757,7 +703,7 @@ mod tests {
         }
     }
 
-    fn random_paths(n: usize, seed: u64) -> Vec<Polyline> {
+    pub(super) fn random_paths(n: usize, seed: u64) -> Vec<Polyline> {
         let mut r = SplitMix64::new(seed);
         (0..n)
             .map(|i| {
@@ -774,7 +720,7 @@ mod tests {
             .collect()
     }
 
-    fn cost_of(paths: &[Polyline], visits: &[Visit], start: Point, cost: &CostModel) -> f64 {
+    pub(super) fn cost_of(paths: &[Polyline], visits: &[Visit], start: Point, cost: &CostModel) -> f64 {
         let mut at = start;
         let mut total = 0.0;
         for v in visits {
