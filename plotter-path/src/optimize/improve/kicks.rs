@@ -54,6 +54,8 @@ struct Report {
     finished: bool,
     /// The lane's work so far.
     work: u64,
+    /// Kicks it tried in the batch.
+    tried: usize,
 }
 
 /// What the first lane tells the second at a meeting, before its next batch.
@@ -73,22 +75,23 @@ impl Tour<'_> {
         if self.stats.budget_exhausted || self.n < 8 {
             return;
         }
-        let kicks = draw_kicks(self.n, self.params.kicks, self.params.seed);
-        if self.n < TWO_LANES_MIN_NODES {
-            let mut log = Vec::new();
-            for &k in &kicks {
-                if self.out_of_work() {
-                    return;
-                }
-                let (kept, finished) = self.try_kick(k, &mut log);
-                self.stats.kicks_kept += usize::from(kept);
-                if !finished {
-                    return;
-                }
-            }
+        if self.n >= TWO_LANES_MIN_NODES {
+            // Up to half as many again in reserve, for the second lane's kicks that are dropped.
+            let kicks = draw_kicks(self.n, self.params.kicks.saturating_add(self.params.kicks / 2), self.params.seed);
+            self.two_lanes(&kicks, self.params.kicks);
             return;
         }
-        self.two_lanes(&kicks);
+        let mut log = Vec::new();
+        for k in draw_kicks(self.n, self.params.kicks, self.params.seed) {
+            if self.out_of_work() {
+                return;
+            }
+            let (kept, finished) = self.try_kick(k, &mut log);
+            self.stats.kicks_kept += usize::from(kept);
+            if !finished {
+                return;
+            }
+        }
     }
 
     /// Apply kick `k`, re-optimize and keep it when the cost went down, else undo it. Returns whether it was kept
@@ -155,12 +158,14 @@ impl Tour<'_> {
     fn run_batch(&mut self, batch: &[Kick]) -> Report {
         let mut kept = Vec::new();
         let mut finished = true;
+        let mut tried = 0;
         for &k in batch {
             if self.out_of_work() {
                 finished = false;
                 break;
             }
             let mut log = Vec::new();
+            tried += 1;
             let (keep, fin) = self.try_kick(k, &mut log);
             if keep {
                 kept.push(log);
@@ -170,11 +175,13 @@ impl Tour<'_> {
                 break;
             }
         }
-        Report { kept, finished, work: self.stats.work }
+        Report { kept, finished, work: self.stats.work, tried }
     }
 
     /// The kicks in two lanes (see the module docs): `self` is the first lane and ends in the phase's result.
-    fn two_lanes(&mut self, kicks: &[Kick]) {
+    /// Kicks are taken from `kicks` in order until `count` of them have been tried with a result that could stand
+    /// (the second lane's dropped at a meeting do not count), so the phase tries as many as one lane would.
+    fn two_lanes(&mut self, kicks: &[Kick], count: usize) {
         let mut second = self.clone();
         second.stats = ImproveStats::default();
         let limit = self.params.work_limit;
@@ -210,7 +217,11 @@ impl Tour<'_> {
             });
             let (mut undo_own, mut replay) = (false, Vec::new());
             let mut second_work = 0;
+            let mut counted = 0;
             for b in 0..batches {
+                if counted >= count {
+                    break;
+                }
                 // Each lane may use what the two have left of the budget: the limits follow from the work done so
                 // far, so they are the same on any machine.
                 let left = limit.map(|l| l.saturating_sub(self.stats.work + second_work));
@@ -231,7 +242,9 @@ impl Tour<'_> {
                 let first = self.run_batch(lane(b, 0));
                 let Ok(other) = from_second.recv() else { break };
                 second_work = other.work;
+                counted += first.tried;
                 if first.kept.is_empty() {
+                    counted += other.tried;
                     kept += other.kept.len();
                     for log in &other.kept {
                         self.replay(log);
@@ -326,7 +339,8 @@ mod tests {
         let (b, sb) = run(600, false);
         assert_eq!(a, b, "the same order whatever the threads' timing");
         assert_eq!((sa.kicks_tried, sa.kicks_kept), (sb.kicks_tried, sb.kicks_kept));
-        assert_eq!(sa.kicks_tried, 600);
+        // 600 kicks count; the second lane's dropped at a meeting come on top.
+        assert!((600..=900).contains(&sa.kicks_tried), "{sa:?}");
         assert!(sa.kicks_kept > 0, "{sa:?}");
         let mut seen: Vec<u32> = a.iter().map(|v: &Visit| v.path).collect();
         seen.sort_unstable();
