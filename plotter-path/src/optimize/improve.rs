@@ -87,6 +87,9 @@ pub struct ImproveStats {
     pub kicks_tried: usize,
     /// Kicks that lowered the cost and were kept.
     pub kicks_kept: usize,
+    /// Kicks tried in the second of two lanes and dropped because the first lane kept one of its own at the same
+    /// meeting (see the kicks module); they come on top of the kicks asked for.
+    pub kicks_dropped: usize,
     /// The work budget ran out before the search finished.
     pub budget_exhausted: bool,
     /// Candidates evaluated (neighbours of ends, seam vertices): the work the budget counts.
@@ -101,6 +104,7 @@ impl ImproveStats {
         self.seam_moves += o.seam_moves;
         self.kicks_tried += o.kicks_tried;
         self.kicks_kept += o.kicks_kept;
+        self.kicks_dropped += o.kicks_dropped;
         self.budget_exhausted |= o.budget_exhausted;
         self.work += o.work;
     }
