@@ -188,7 +188,6 @@ impl Tour<'_> {
         second.stats = ImproveStats::default();
         let limit = self.params.work_limit;
         let lane = |b: usize, l: usize| &kicks[batch_range(kicks.len(), b, l)];
-        let batches = kicks.len().div_ceil(2 * BATCH);
         let (to_second, orders) = mpsc::channel::<Meeting>();
         let (reports, from_second) = mpsc::channel::<Report>();
         let mut kept = 0;
@@ -216,8 +215,8 @@ impl Tour<'_> {
             let (mut undo_own, mut replay) = (false, Vec::new());
             let mut second_work = 0;
             let mut counted = 0;
-            for b in 0..batches {
-                if counted >= count {
+            for b in 0.. {
+                if counted >= count || batch_range(kicks.len(), b, 0).is_empty() {
                     break;
                 }
                 // Each lane may use what the two have left of the budget: the limits follow from the work done so
