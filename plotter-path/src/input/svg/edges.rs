@@ -2,9 +2,10 @@
 //! sides differs, so its outline is drawn exactly there. Inside, the colour is the shape's fill; outside, it is
 //! what was painted before it at that place — the topmost earlier paint ([`super::walk::Paint`]: fills, wide
 //! strokes; a fill at most half opaque counts with its colour blended with the paper's, so a white shape on a
-//! 25 % black shadow is outlined), or the paper where there is none. (What is painted later is
-//! hidden-line removal's business, [`super::occlude`].) So a white shape on white paper draws nothing, on a black
-//! square its whole outline, half over each exactly the half over black; a red shape on a red one draws no edge.
+//! 25 % black shadow is outlined), or the paper where there is none. (What is painted later is hidden-line
+//! removal's business, [`super::occlude`], which has already taken the outline's hidden parts away.) So a white
+//! shape on white paper draws nothing, on a black square its whole outline, half over each exactly the half over
+//! black; a red shape on a red one draws no edge.
 //! A fill that is not one colour (a gradient of several) matches nothing, so its outline is drawn wherever it is
 //! visible. Translucent fills are compared by their colour, as if opaque: a faint red on red shows no edge either.
 //!

@@ -63,8 +63,9 @@ pub(super) struct Item {
     pub(super) pen: Pen,
     /// Pen-down lines in page millimetres, already cut to the clips above the shape.
     pub(super) lines: Vec<Vec<Point>>,
-    /// The outline of a fill-only shape, cut to its clips: drawn only where the fill's colour differs from what
-    /// lies beneath ([`super::edges`]), after which it joins `lines`.
+    /// The outline of a fill-only shape, cut to its clips: its hidden parts are removed with the lines'
+    /// ([`super::occlude`]), then it is drawn only where the fill's colour differs from what lies beneath
+    /// ([`super::edges`]), after which it joins `lines`.
     pub(super) outline: Option<Outline>,
     /// The areas the shape paints over what lies beneath, in paint order (fill, then a wide stroke), cut to its
     /// clips: each hides the lines under it and has a colour for the edge rule.
