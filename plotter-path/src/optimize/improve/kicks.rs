@@ -216,7 +216,7 @@ impl Tour<'_> {
             let mut second_work = 0;
             let mut counted = 0;
             for b in 0.. {
-                if counted >= count || batch_range(kicks.len(), b, 0).is_empty() {
+                if counted >= count || lane(b, 0).is_empty() {
                     break;
                 }
                 // Each lane may use what the two have left of the budget: the limits follow from the work done so
@@ -266,7 +266,7 @@ impl Tour<'_> {
 #[cfg(test)]
 mod tests {
     use super::super::tests::{cost_of, params, random_paths};
-    use super::super::{Visit, improve};
+    use super::super::{ImproveParams, Visit, improve};
     use super::*;
     use crate::optimize::cost::CostModel;
     use crate::optimize::order::greedy_order;
@@ -279,6 +279,21 @@ mod tests {
     /// The state of `t`, to compare two copies.
     fn state(t: &Tour) -> State {
         (t.tour.clone(), t.pos.clone(), t.rev.clone(), t.seam.clone(), t.pts.clone())
+    }
+
+    /// `n` random paths from `seed`, their ids, and the greedy route through them from the origin.
+    fn greedy_route(n: usize, seed: u64) -> (Vec<crate::Polyline>, Vec<u32>, Vec<Visit>) {
+        let paths = random_paths(n, seed);
+        let ids: Vec<u32> = (0..u32::try_from(n).unwrap()).collect();
+        let greedy = greedy_order(&paths, &ids, Point::ZERO, SeamMode::Any, true);
+        (paths, ids, greedy)
+    }
+
+    /// `route` improved with `p` (distance cost, from the origin), and what the improvement did.
+    fn improved(paths: &[crate::Polyline], route: &[Visit], p: ImproveParams) -> (Vec<Visit>, ImproveStats) {
+        let mut v = route.to_vec();
+        let stats = improve(paths, &mut v, Point::ZERO, &CostModel::Distance, p);
+        (v, stats)
     }
 
     #[test]
@@ -322,14 +337,8 @@ mod tests {
         // whole cycle's cost; the result never costs more than the first local optimum (no kicks).
         let n = 1200;
         assert!(n + 1 >= TWO_LANES_MIN_NODES);
-        let paths = random_paths(n, 21);
-        let ids: Vec<u32> = (0..u32::try_from(n).unwrap()).collect();
-        let greedy = greedy_order(&paths, &ids, Point::ZERO, SeamMode::Any, true);
-        let run = |kicks: usize, verify: bool| {
-            let mut v = greedy.clone();
-            let stats = improve(&paths, &mut v, Point::ZERO, &CostModel::Distance, params(verify, kicks));
-            (v, stats)
-        };
+        let (paths, ids, greedy) = greedy_route(n, 21);
+        let run = |kicks: usize, verify: bool| improved(&paths, &greedy, params(verify, kicks));
         let (settled, _) = run(0, false);
         let (a, sa) = run(600, true);
         let (b, sb) = run(600, false);
@@ -361,14 +370,11 @@ mod tests {
 
     #[test]
     fn a_budget_of_one_unit_past_the_local_optimum_lets_each_lane_start_one_kick() {
-        let n = 1100;
-        let paths = random_paths(n, 9);
-        let ids: Vec<u32> = (0..u32::try_from(n).unwrap()).collect();
-        let greedy = greedy_order(&paths, &ids, Point::ZERO, SeamMode::Any, true);
-        let settled = improve(&paths, &mut greedy.clone(), Point::ZERO, &CostModel::Distance, params(false, 0));
+        let (paths, _, greedy) = greedy_route(1100, 9);
+        let (_, settled) = improved(&paths, &greedy, params(false, 0));
         let mut p = params(false, 500);
         p.work_limit = Some(settled.work + 1);
-        let stats = improve(&paths, &mut greedy.clone(), Point::ZERO, &CostModel::Distance, p);
+        let (_, stats) = improved(&paths, &greedy, p);
         // Both lanes meet with one unit left: each may start one kick, whose re-optimization then runs out.
         assert!(stats.budget_exhausted);
         assert_eq!(stats.kicks_tried, 2, "{stats:?}");
@@ -376,23 +382,15 @@ mod tests {
 
     #[test]
     fn two_lanes_share_the_work_budget() {
-        let n = 1100;
-        let paths = random_paths(n, 5);
-        let ids: Vec<u32> = (0..u32::try_from(n).unwrap()).collect();
-        let greedy = greedy_order(&paths, &ids, Point::ZERO, SeamMode::Any, true);
-        let mut v = greedy.clone();
-        let free = improve(&paths, &mut v, Point::ZERO, &CostModel::Distance, params(false, 2000));
+        let (paths, _, greedy) = greedy_route(1100, 5);
+        let (_, free) = improved(&paths, &greedy, params(false, 2000));
+        let (_, settled) = improved(&paths, &greedy, params(false, 0));
         // A limit a third of the way into the kicks stops them, both lanes counted: the work stays within one
         // batch's worth of the limit.
-        let limit = free.work
-            - (free.work
-                - improve(&paths, &mut greedy.clone(), Point::ZERO, &CostModel::Distance, params(false, 0)).work)
-                * 2
-                / 3;
+        let limit = free.work - (free.work - settled.work) * 2 / 3;
         let mut p = params(false, 2000);
         p.work_limit = Some(limit);
-        let mut w = greedy;
-        let capped = improve(&paths, &mut w, Point::ZERO, &CostModel::Distance, p);
+        let (_, capped) = improved(&paths, &greedy, p);
         assert!(capped.budget_exhausted && !free.budget_exhausted);
         assert!(capped.kicks_tried < free.kicks_tried, "{capped:?} vs {free:?}");
         assert!(capped.work >= limit && capped.work < limit + free.work / 20, "{} vs limit {limit}", capped.work);
