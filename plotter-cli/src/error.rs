@@ -130,8 +130,13 @@ impl Trouble {
     /// port stays a lost port under "homing failed"); [`Trouble::Other`] when there is none.
     pub fn of(e: &anyhow::Error) -> Trouble {
         e.chain()
-            .filter_map(|cause| cause.downcast_ref::<Error>())
-            .map(Error::trouble)
+            .filter_map(|cause| {
+                // A wait the user stopped (see `crate::stop`) is a stop, under whatever context.
+                if cause.downcast_ref::<crate::stop::Stopped>().is_some() {
+                    return Some(Trouble::Stopped);
+                }
+                cause.downcast_ref::<Error>().map(Error::trouble)
+            })
             .find(|t| *t != Trouble::Other)
             .unwrap_or(Trouble::Other)
     }

@@ -47,5 +47,6 @@ pub mod input;
 pub mod job;
 pub mod link;
 pub mod options;
+pub mod stop;
 
 pub use error::{Error, Result, Trouble};

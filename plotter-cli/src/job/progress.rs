@@ -106,6 +106,11 @@ pub trait PlotEvents {
     /// Something the user should know now, while the plot runs (a feed hold the controller reports, and how to
     /// get out of it).
     fn notice(&mut self, _text: &str) {}
+    /// Whether the plot must stop now, with the pen up and the journal kept (by default: whether the process was
+    /// asked to, see [`crate::stop`]).
+    fn stop_requested(&mut self) -> Option<crate::stop::StopCause> {
+        crate::stop::Stop::process().stop_cause()
+    }
 }
 
 /// Turns the stream's raw progress into [`JobProgress`] for the front end and keeps the journal up to date.
@@ -233,6 +238,10 @@ impl Control for Tracker<'_> {
 
     fn notice(&mut self, text: &str) {
         self.events.notice(text);
+    }
+
+    fn stop_requested(&mut self) -> Option<crate::stop::StopCause> {
+        self.events.stop_requested()
     }
 }
 

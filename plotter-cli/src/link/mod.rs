@@ -18,6 +18,7 @@ pub mod serial;
 pub mod session;
 pub mod sim;
 pub mod stream;
+pub mod wait;
 
 use std::io;
 use std::time::Duration;

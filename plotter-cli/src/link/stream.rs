@@ -133,6 +133,12 @@ pub trait Control {
     fn paused(&mut self, held: bool) -> PauseChoice;
     /// Something the user should know now (a feed hold the controller reports, and how to get out of it).
     fn notice(&mut self, _text: &str) {}
+    /// Whether the plot must stop now (the dialect's stop, the pen up): by default, whether the process was asked
+    /// to ([`crate::stop`]: SIGTERM, SIGHUP, SIGQUIT, a second Ctrl-C). Every dialect's stream loop asks it as
+    /// often as it asks [`Control::pause_requested`], and ends with [`StreamError::StoppedAtOnce`].
+    fn stop_requested(&mut self) -> Option<crate::stop::StopCause> {
+        crate::stop::Stop::process().stop_cause()
+    }
 }
 
 /// Statistics of a finished stream.
@@ -455,6 +461,11 @@ pub fn stream<T: Transport>(
             accept_elapsed = session.transport.now() - t0;
             break Ok(());
         }
+        // A stop (SIGTERM, SIGHUP, a second Ctrl-C): at once, whatever the firmware is doing.
+        if let Some(cause) = control.stop_requested() {
+            let why = cause.to_string();
+            break Err(StreamError::StoppedAtOnce { name: session.name.clone(), why, executed: st.executed });
+        }
         // Pause requests: a pause at the next pen-up, a feed hold, or (a second request, or one while the
         // firmware is held) a stop at once.
         if let Some(now) = control.pause_requested() {
@@ -627,6 +638,10 @@ pub fn stream<T: Transport>(
     // at once; a feed hold works as before.
     let mut pause_scheduled = pause_at.is_some();
     loop {
+        if let Some(cause) = control.stop_requested() {
+            let why = cause.to_string();
+            return Err(StreamError::StoppedAtOnce { name: session.name.clone(), why, executed: st.executed });
+        }
         if let Some(now) = control.pause_requested() {
             if let Some(why) = stop_at_once(held_state(fw_state.as_deref()), pause_scheduled) {
                 return Err(StreamError::StoppedAtOnce { name: session.name.clone(), why, executed: st.executed });

@@ -4,5 +4,6 @@
 
 pub mod color;
 pub mod heaters;
+pub mod interrupt;
 pub mod pens;
 pub mod profile;

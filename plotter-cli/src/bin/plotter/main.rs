@@ -6,7 +6,6 @@
 mod cmd;
 mod serve;
 mod sim_qemu;
-mod stop_signals;
 mod time_parts;
 
 use clap::{Parser, Subcommand};

@@ -24,7 +24,7 @@ use std::io::{BufRead as _, BufReader, BufWriter, Write as _};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
+
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -231,13 +231,13 @@ fn gpio_ports(qmp: &mut Qmp) -> anyhow::Result<Vec<String>> {
 }
 
 /// Run `plotter sim --qemu`.
-/// Runs until `stop` is set (a termination signal, see [`crate::stop_signals`]) or QEMU ends; QEMU is killed on
+/// Runs until `stop` is set (a termination signal, see [`plotter_host::stop`]) or QEMU ends; QEMU is killed on
 /// every way out.
 pub(crate) fn run(
     cfg: &MachineConfig,
     image_arg: Option<&Path>,
     trace: Option<&Path>,
-    stop: &AtomicBool,
+    stop: &plotter_host::stop::Stop,
 ) -> anyhow::Result<()> {
     let elf = image(image_arg)?;
     let dir = std::env::temp_dir().join(format!("plotter-qemu-{}", std::process::id()));
@@ -267,7 +267,7 @@ fn serve(
     cfg: &MachineConfig,
     qmp_path: &Path,
     trace: Option<&Path>,
-    stop: &AtomicBool,
+    stop: &plotter_host::stop::Stop,
 ) -> anyhow::Result<()> {
     let stdout = qemu.stdout.take().context("QEMU's stdout")?;
     let stderr = qemu.stderr.take().context("QEMU's stderr")?;
@@ -353,7 +353,7 @@ fn serve(
     println!("{pty}");
     std::io::stdout().flush()?;
     let mut died = None;
-    while !stop.load(Ordering::SeqCst) {
+    while !stop.any() {
         if let Some(status) = qemu.try_wait()? {
             died = Some(status);
             break;

@@ -448,6 +448,10 @@ impl<T: Transport> GrblSession<T> {
                     st.acked
                 )));
             }
+            if let Some(cause) = control.stop_requested() {
+                let why = cause.to_string();
+                break Err(StreamError::StoppedAtOnce { name: self.name.clone(), why, executed: st.executed });
+            }
             if let Some(now) = control.pause_requested() {
                 let held = st.report.as_ref().map(|r| r.0.as_str()).filter(|s| s.starts_with("Hold"));
                 if let Some(why) = stop_at_once(held, pause_at.is_some()) {

@@ -5,8 +5,6 @@
 
 use std::io::{BufRead as _, IsTerminal as _, Write as _};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -25,6 +23,7 @@ use plotter_host::link::sim::SimTransport;
 use plotter_host::link::stream::PauseChoice;
 use plotter_host::options::layout::LayoutArgs;
 use plotter_host::options::optimize::OptimizeArgs;
+use plotter_host::stop::Stop;
 use plotter_path::MachineProfile;
 use plotter_path::config::pens::LayerPen;
 use plotter_path::input::trajectory;
@@ -146,36 +145,46 @@ fn hold_seconds(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Ctrl-C handling shared by the plot loop: a flag set by the signal handler.
-fn interrupt_flag() -> Arc<AtomicBool> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let f = Arc::clone(&flag);
-    // A second registration (tests, repeated calls) fails harmlessly: Ctrl-C then simply ends the process.
-    let _ = ctrlc::set_handler(move || f.store(true, Ordering::SeqCst));
-    flag
-}
-
-/// The terminal's side of a plot: progress bar, Ctrl-C pause requests, and the resume-or-abort prompt.
+/// The terminal's side of a plot: progress bar, Ctrl-C pause requests (SIGTERM, SIGHUP, SIGQUIT and a second
+/// Ctrl-C stop the plot: [`plotter_host::stop`]), and the resume-or-abort prompt.
 struct Terminal {
     bar: ProgressBar,
-    interrupt: Arc<AtomicBool>,
+    stop: &'static Stop,
     immediately: bool,
     pen_change: PenChangeMode,
 }
 
-/// One answer line from the user (`None` at the end of input).
-fn ask(prompt: &str) -> Option<String> {
+/// One answer line from the user: `None` at the end of input, or when a stop arrives while waiting for it (any
+/// signal, a Ctrl-C included: nobody resumes a prompt they interrupted).
+fn ask(stop: &Stop, prompt: &str) -> Option<String> {
+    use std::os::fd::AsFd as _;
     eprint!("{prompt}");
     let _ = std::io::stderr().flush();
+    let stdin = std::io::stdin();
+    loop {
+        if stop.stop_cause_or_interrupt().is_some() {
+            eprintln!();
+            return None;
+        }
+        let mut fds = [nix::poll::PollFd::new(stdin.as_fd(), nix::poll::PollFlags::POLLIN)];
+        match nix::poll::poll(&mut fds, nix::poll::PollTimeout::from(100u8)) {
+            Ok(0) | Err(nix::errno::Errno::EINTR) => {}
+            Ok(_) => break,
+            Err(_) => return None,
+        }
+    }
     let mut line = String::new();
-    match std::io::stdin().lock().read_line(&mut line) {
+    match stdin.lock().read_line(&mut line) {
         Ok(n) if n > 0 => Some(line.trim().to_string()),
         _ => None,
     }
 }
 
 impl Terminal {
-    fn new(interrupt: Arc<AtomicBool>, immediately: bool, pen_change: PenChangeMode) -> Self {
+    /// The terminal of a plot about to stream: from now on one Ctrl-C pauses the plot (before, it ends the command).
+    fn new(immediately: bool, pen_change: PenChangeMode) -> anyhow::Result<Self> {
+        let stop = Stop::install_signals().context("cannot take the termination signals")?;
+        stop.set_pausable(true);
         let target = if std::io::stderr().is_terminal() {
             ProgressDrawTarget::stderr_with_hz(5)
         } else {
@@ -187,7 +196,7 @@ impl Terminal {
         {
             bar.set_style(style);
         }
-        Terminal { bar, interrupt, immediately, pen_change }
+        Ok(Terminal { bar, stop, immediately, pen_change })
     }
 }
 
@@ -208,12 +217,12 @@ impl PlotEvents for Terminal {
     }
 
     fn pause_requested(&mut self) -> Option<bool> {
-        self.interrupt.swap(false, Ordering::SeqCst).then_some(self.immediately)
+        self.stop.take_pause().then_some(self.immediately)
     }
 
     fn paused(&mut self, held: bool) -> PauseChoice {
         let what = if held { "feed hold (pen where it stopped)" } else { "paused with the pen up" };
-        self.bar.suspend(|| match ask(&format!("\n{what}: [r]esume or [a]bort? ")) {
+        self.bar.suspend(|| match ask(self.stop, &format!("\n{what}: [r]esume or [a]bort? ")) {
             Some(l) if l.starts_with(['r', 'R']) => PauseChoice::Resume,
             _ => PauseChoice::Abort,
         })
@@ -247,7 +256,7 @@ impl PlotEvents for Terminal {
                 c.layer_name
             );
             loop {
-                match ask("[Enter] continue, [s] skip this layer, [q] stop (the journal keeps the plot): ") {
+                match ask(self.stop, "[Enter] continue, [s] skip this layer, [q] stop (the journal keeps the plot): ") {
                     Some(l) if l.is_empty() => return PenChangeChoice::Continue,
                     Some(l) if l.eq_ignore_ascii_case("s") => return PenChangeChoice::SkipLayer,
                     Some(l) if l.eq_ignore_ascii_case("q") => return PenChangeChoice::Stop,
@@ -268,7 +277,7 @@ impl PlotEvents for Terminal {
     fn unlock_alarm(&mut self, what: &str) -> bool {
         self.bar.suspend(|| {
             eprintln!("{what}");
-            matches!(ask("unlock it ($X)? The position may be wrong after some alarms. [y/N] "), Some(l) if l.eq_ignore_ascii_case("y"))
+            matches!(ask(self.stop, "unlock it ($X)? The position may be wrong after some alarms. [y/N] "), Some(l) if l.eq_ignore_ascii_case("y"))
         })
     }
 }
@@ -461,7 +470,7 @@ fn plot_hpgl(
             (journal::Journal::create(&path, &serde_json::to_string(&source)?, hash, cmds.list.len())?, 0, path)
         }
     };
-    let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately, PenChangeMode::None);
+    let mut terminal = Terminal::new(args.pause_immediately, PenChangeMode::None)?;
     let outcome = hplot::plot(&mut s, &cmds, &paper, from, Some(journal), Some(&path), &mut terminal);
     terminal.bar.finish_and_clear();
     let o = outcome?;
@@ -492,6 +501,9 @@ fn plot_hpgl(
 
 /// Run `plotter plot`.
 pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
+    // From the start: a signal while loading or connecting ends the command (imports stop early), one during the
+    // plot pauses it or stops it with the pen up (see `Terminal`).
+    Stop::install_signals().context("cannot take the termination signals")?;
     if let Some(j) = &args.resume {
         return resume(args, j);
     }
@@ -560,7 +572,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         println!("{} strokes, {} moves written to {}", steps.strokes.len(), steps.move_count(), out.display());
         return Ok(());
     }
-    let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately, args.pen_change);
+    let mut terminal = Terminal::new(args.pause_immediately, args.pen_change)?;
     match connected.as_mut() {
         None => {
             let mut session = simulated.context("the simulated plotter is not connected")?;
@@ -664,7 +676,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
             journal_path.display()
         );
     }
-    let mut terminal = Terminal::new(interrupt_flag(), args.pause_immediately, original.pen_change);
+    let mut terminal = Terminal::new(args.pause_immediately, original.pen_change)?;
     let outcome = job::resume(
         c.machine(),
         &profile,

@@ -12,8 +12,6 @@
 //! raised.
 
 use std::path::Path;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context as _, bail};
 use plotter_fw::TICK_HZ;
@@ -31,7 +29,7 @@ use plotter_path::motion::print_plan::{PrintPlan, plan_print};
 
 /// Progress on stderr (one line per 10 %), Ctrl-C as a stop request.
 struct Console {
-    interrupt: Arc<AtomicBool>,
+    interrupt: &'static plotter_host::stop::Stop,
     shown_tenths: usize,
 }
 
@@ -47,7 +45,7 @@ impl PrintControl for Console {
         eprintln!("{message}");
     }
     fn stop_requested(&mut self) -> bool {
-        self.interrupt.load(Ordering::SeqCst)
+        self.interrupt.any()
     }
 }
 
@@ -77,7 +75,7 @@ fn play<T: Transport>(
     plan: &PrintPlan,
     machine: Played,
     busy: impl Fn(&Session<T>) -> Option<u64>,
-    interrupt: Arc<AtomicBool>,
+    interrupt: &'static plotter_host::stop::Stop,
 ) -> anyhow::Result<()> {
     session.home()?;
     let before = busy(&session);
@@ -103,8 +101,8 @@ pub(crate) fn run(input: &Path, profile: &MachineProfile, port: Option<&str>, ba
     if profile.pen.command != PenCommand::Z {
         bail!("--as-written needs a Z-lift pen (the profile's pen.command is servo): plot the file without it");
     }
-    // Ctrl-C, SIGTERM and SIGHUP stop the run the safe way (taken before the first thread starts).
-    let interrupt = crate::stop_signals::stop_flag()?;
+    // Ctrl-C, SIGTERM and SIGHUP stop the run the safe way.
+    let interrupt = plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     let plan = plan_file(input, profile)?;
     let machine = Played::Plotter { up_z_mm: profile.pen.up_z_mm, z_steps_per_mm: profile.axes.z.steps_per_mm };
     let cfg = plan::machine_config(profile)?;

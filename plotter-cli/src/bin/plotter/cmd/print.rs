@@ -11,8 +11,6 @@
 
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -84,7 +82,7 @@ struct Display {
     bar: ProgressBar,
     layers: usize,
     /// Set by Ctrl-C, SIGTERM or SIGHUP: the print stops, heaters off.
-    stop: Arc<AtomicBool>,
+    stop: &'static plotter_host::stop::Stop,
 }
 
 impl PrintControl for Display {
@@ -101,14 +99,13 @@ impl PrintControl for Display {
         self.bar.suspend(|| eprintln!("{message}"));
     }
     fn stop_requested(&mut self) -> bool {
-        self.stop.load(Ordering::SeqCst)
+        self.stop.any()
     }
 }
 
 /// Run `plotter print`.
 pub(crate) fn run(args: &PrintArgs) -> anyhow::Result<()> {
-    // Taken before any thread starts (see stop_signals).
-    let stop = crate::stop_signals::stop_flag()?;
+    let stop = plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     let profile = load_profile(Some(&args.profile))?;
     if profile.axes.e.is_none() {
         bail!("{}: not a printer profile (no axes.e)", args.profile.display());

@@ -26,7 +26,6 @@
 use std::fs::File;
 use std::io::{Read as _, Write as _};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::Ordering;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -276,13 +275,13 @@ pub(crate) fn write_trace(sim: &Sim, path: &Path) -> anyhow::Result<()> {
 /// Run `plotter sim`.
 pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
     // Before any thread starts: SIGTERM and SIGHUP end the simulator as Ctrl-C does.
-    let stop = crate::stop_signals::stop_flag()?;
+    let stop = plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     if args.qemu {
         if args.profile.is_some() {
             bail!("--profile: the QEMU image carries the built-in XY plotter kit configuration; drop --profile");
         }
         let cfg = plotter_fw::MachineConfig::xy_plotter();
-        return crate::sim_qemu::run(&cfg, args.image.as_deref(), args.trace.as_deref(), &stop);
+        return crate::sim_qemu::run(&cfg, args.image.as_deref(), args.trace.as_deref(), stop);
     }
     if !args.pty {
         bail!(
@@ -366,7 +365,7 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
 
     let mut last = Instant::now();
     let mut pending_out = sim.take_output();
-    while !stop.load(Ordering::SeqCst) {
+    while !stop.any() {
         if !pending_out.is_empty() {
             // A client that is not there yet loses the line, as on a real port.
             let _ = writer.write_all(&std::mem::take(&mut pending_out));
