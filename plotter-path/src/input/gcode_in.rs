@@ -38,6 +38,8 @@ use kurbo::Point;
 use super::gcode_words::{Exponents, code10, echo, num, record_warning, strip_comments, words};
 pub use super::gcode_words::{GcodeError, GcodeWarning};
 use crate::config::color::parse_hex_color;
+use crate::config::interrupt;
+use crate::geometry::cancel::Cancel;
 use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS};
 use crate::{Drawing, Layer, MachineProfile, Polyline};
 
@@ -46,6 +48,14 @@ pub const ARC_TOLERANCE_MM: f64 = 0.005;
 
 /// Most chords one arc may become (guards against absurd radii).
 const MAX_ARC_CHORDS: f64 = 200_000.0;
+
+/// Lines read between two looks at the stop flags ([`interrupt`], [`Cancel`]).
+pub(crate) const CHECK_EVERY: usize = 4096;
+
+// The warning bookkeeping both G-code importers and the HP-GL importer share (`input/warn_tally.rs`).
+#[path = "warn_tally.rs"]
+pub(crate) mod warn_tally;
+use warn_tally::Tally;
 
 /// How the imported file lifts its pen (decided by the second pass).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -75,6 +85,8 @@ struct Segment {
     from: Point,
     to: Point,
     z: f64,
+    /// Source line (saturating), for the point limit of pass 2.
+    line: u32,
     spindle: bool,
     rapid: bool,
 }
@@ -105,7 +117,7 @@ struct Machine<'a> {
     segments: Vec<Segment>,
     /// Layer breaks from `M0`/`M1` pauses: the layer starts with segment `.0`.
     layer_starts: Vec<(usize, Layer)>,
-    warnings: Vec<GcodeWarning>,
+    warnings: Tally,
 }
 
 /// The comment of a G-code line (the text in parentheses, or after `;`), trimmed; `None` when it has none.
@@ -141,8 +153,20 @@ fn pause_layer(raw: &str, n: usize) -> Layer {
 }
 
 impl Machine<'_> {
-    fn warn(&mut self, line: usize, message: impl Into<String>) {
-        record_warning(&mut self.warnings, line, message.into());
+    /// A warning whose text is also its kind.
+    fn warn(&mut self, line: usize, message: &'static str) {
+        self.warnings.note(line, message, "", message.to_string());
+    }
+
+    /// A warning of `kind` whose text varies (it quotes the input).
+    fn warn_as(&mut self, line: usize, kind: &'static str, message: String) {
+        self.warnings.note(line, kind, "", message);
+    }
+
+    /// Push a segment made on `line`.
+    fn segment(&mut self, line: usize, from: Point, to: Point, z: f64, spindle: bool, rapid: bool) {
+        let line = u32::try_from(line).unwrap_or(u32::MAX);
+        self.segments.push(Segment { from, to, z, line, spindle, rapid });
     }
 
     fn malformed(&self, line: usize, message: impl Into<String>) -> GcodeError {
@@ -162,8 +186,9 @@ impl Machine<'_> {
         let exponents = if self.printer { Exponents::EWords } else { Exponents::Numbers };
         let ws = words(code, self.origin, line, exponents)?;
         for pair in ws.windows(2).filter(|p| p[0].runs_into_e) {
-            self.warn(
+            self.warn_as(
                 line,
+                "ambiguous number run into E",
                 format!(
                     "ambiguous number: {} runs into {}, read as two words as Marlin does (a script may have meant an \
                      exponent); put a space before E",
@@ -249,8 +274,7 @@ impl Machine<'_> {
         }
         if self.spindle != spindle_before {
             let at = Point::new(self.pos[0], self.pos[1]);
-            let seg = Segment { from: at, to: at, z: self.pos[2], spindle: self.spindle, rapid: true };
-            self.segments.push(seg);
+            self.segment(line, at, at, self.pos[2], self.spindle, true);
         }
         let any_axis = axes.iter().any(Option::is_some);
         if g92 {
@@ -268,7 +292,7 @@ impl Machine<'_> {
             // Homing: the pen travels (lifted) to the machine origin.
             self.warn(line, "G28 taken as a pen-up move to the machine origin");
             let from = Point::new(self.pos[0], self.pos[1]);
-            self.segments.push(Segment { from, to: Point::ZERO, z: f64::NAN, spindle: false, rapid: true });
+            self.segment(line, from, Point::ZERO, f64::NAN, false, true);
             self.pos[0] = 0.0;
             self.pos[1] = 0.0;
             return Ok(());
@@ -312,8 +336,7 @@ impl Machine<'_> {
             Motion::Rapid | Motion::Linear => {
                 // Z-only moves are kept as zero-length segments: they mark pen lifts between touching strokes.
                 if from != to || target[2] != self.pos[2] {
-                    let seg = Segment { from, to, z: target[2], spindle: self.spindle, rapid: motion == Motion::Rapid };
-                    self.segments.push(seg);
+                    self.segment(line, from, to, target[2], self.spindle, motion == Motion::Rapid);
                 }
             }
             Motion::Cw | Motion::Ccw => self.arc(line, motion == Motion::Cw, from, to, target[2], (i, j, r))?,
@@ -336,22 +359,7 @@ impl Machine<'_> {
             if i.is_some() || j.is_some() {
                 return Err(self.malformed(line, "an arc takes either R or I/J, not both"));
             }
-            let r_mm = r * u;
-            let chord = to - from;
-            let d = chord.hypot();
-            if d == 0.0 {
-                return Err(self.malformed(line, "an R-form arc cannot start and end at the same point"));
-            }
-            let half = d / 2.0;
-            let h2 = r_mm * r_mm - half * half;
-            if h2 < -(ARC_TOLERANCE_MM * r_mm.abs()).max(1e-9) {
-                return Err(self.malformed(line, format!("arc radius {} is smaller than half the chord", num(r))));
-            }
-            let h = h2.max(0.0).sqrt();
-            // Centre to the right of the chord for a clockwise minor arc (Y up); G3 or a negative R flips it.
-            let right = kurbo::Vec2::new(chord.y, -chord.x) / d;
-            let sign = if cw == (r_mm >= 0.0) { 1.0 } else { -1.0 };
-            from.midpoint(to) + right * (h * sign)
+            r_arc_centre(from, to, r, u, cw).map_err(|m| self.malformed(line, m))?
         } else {
             let (ci, cj) = (i.unwrap_or(0.0) * u, j.unwrap_or(0.0) * u);
             if self.arc_center_absolute {
@@ -360,12 +368,7 @@ impl Machine<'_> {
                 Point::new(from.x + ci, from.y + cj)
             }
         };
-        if !(center.x.abs() <= MAX_COORD_MM && center.y.abs() <= MAX_COORD_MM) {
-            return Err(self.malformed(
-                line,
-                format!("arc centre ({}, {}) mm is beyond ±{MAX_COORD_MM} mm (1 km)", num(center.x), num(center.y)),
-            ));
-        }
+        check_arc_centre(center).map_err(|m| self.malformed(line, m))?;
         let r0 = (from - center).hypot();
         let r1 = (to - center).hypot();
         if r0 == 0.0 {
@@ -413,7 +416,7 @@ impl Machine<'_> {
                 Point::new(center.x + r0 * a.cos(), center.y + r0 * a.sin())
             };
             if p != prev {
-                self.segments.push(Segment { from: prev, to: p, z, spindle: self.spindle, rapid: false });
+                self.segment(line, prev, p, z, self.spindle, false);
             }
             prev = p;
         }
@@ -421,9 +424,79 @@ impl Machine<'_> {
     }
 }
 
+/// The centre of an `R`-form arc from `from` to `to` (machine mm), `r` in file units of `mm_per_unit` mm, clockwise
+/// when `cw` (a negative `R` asks for the major arc). Shared by the drawing and the print import. An error text
+/// (without the line) when the chord is empty, the radius is shorter than half the chord, or the centre would lie
+/// beyond ±[`MAX_COORD_MM`] — which is where an overflowing radius (`R1e200`) ends up, instead of at a NaN centre
+/// that draws nothing.
+pub(crate) fn r_arc_centre(from: Point, to: Point, r: f64, mm_per_unit: f64, cw: bool) -> Result<Point, String> {
+    let r_mm = r * mm_per_unit;
+    let chord = to - from;
+    let d = chord.hypot();
+    if d == 0.0 {
+        return Err("an R-form arc cannot start and end at the same point".into());
+    }
+    let half = d / 2.0;
+    // (|r| − d/2)(|r| + d/2) rather than r² − d²/4: the same height, without overflowing for radii up to 1e300.
+    let h2 = (r_mm.abs() - half) * (r_mm.abs() + half);
+    if h2 < -(ARC_TOLERANCE_MM * r_mm.abs()).max(1e-9) {
+        return Err(format!("arc radius {} is smaller than half the chord", short(r)));
+    }
+    let h = h2.max(0.0).sqrt();
+    // Centre to the right of the chord for a clockwise minor arc (Y up); G3 or a negative R flips it.
+    let right = kurbo::Vec2::new(chord.y, -chord.x) / d;
+    let sign = if cw == (r_mm >= 0.0) { 1.0 } else { -1.0 };
+    let centre = from.midpoint(to) + right * (h * sign);
+    if check_arc_centre(centre).is_err() {
+        // An overflowing radius (`R1e200`) gets here too, with an infinite height, instead of a NaN centre.
+        return Err(format!("arc centre for radius {} lies beyond ±{MAX_COORD_MM} mm (1 km)", short(r)));
+    }
+    Ok(centre)
+}
+
+/// An arc's centre must be a number within ±[`MAX_COORD_MM`] (an `I`/`J` of `1e200` is not), else an error text.
+pub(crate) fn check_arc_centre(centre: Point) -> Result<(), String> {
+    if centre.x.abs() <= MAX_COORD_MM && centre.y.abs() <= MAX_COORD_MM {
+        Ok(())
+    } else {
+        Err(format!("arc centre ({}, {}) mm is beyond ±{MAX_COORD_MM} mm (1 km)", short(centre.x), short(centre.y)))
+    }
+}
+
+/// A number as an importer's message shows it: as written when that is short (`12.5`, `2539999974.6`), else with
+/// four significant digits and an exponent (`1.000e200`), never hundreds of digits.
+pub(crate) fn short(v: f64) -> String {
+    let plain = num(v);
+    if plain.len() <= 16 { plain } else { format!("{v:.3e}") }
+}
+
+/// The error a stop (a termination signal, or the requester gone) ends an import with, naming the line.
+fn stopped(origin: &str, line: usize, cancel: &Cancel) -> Result<(), GcodeError> {
+    let why = if cancel.is_cancelled() {
+        Some("cancelled: the import was no longer wanted".to_string())
+    } else {
+        interrupt::check(|| format!("reading line {line} of {origin}")).err().map(|e| e.to_string())
+    };
+    match why {
+        Some(message) => Err(GcodeError::Malformed { origin: origin.into(), line, message }),
+        None => Ok(()),
+    }
+}
+
 /// Import G-code text (`origin` names it in errors); machine coordinates are mapped to page coordinates through
 /// `profile`.
 pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<ImportedGcode, GcodeError> {
+    import_cancellable(text, origin, profile, &Cancel::never())
+}
+
+/// [`import`] that ends early with an error naming the line once `cancel` is set or the process is asked to stop
+/// ([`interrupt`]), looked at every [`CHECK_EVERY`] lines.
+pub fn import_cancellable(
+    text: &str,
+    origin: &str,
+    profile: &MachineProfile,
+    cancel: &Cancel,
+) -> Result<ImportedGcode, GcodeError> {
     let mut m = Machine {
         origin,
         printer: profile.axes.e.is_some(),
@@ -438,21 +511,30 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
         ended: false,
         segments: Vec::new(),
         layer_starts: Vec::new(),
-        warnings: Vec::new(),
+        warnings: Tally::default(),
     };
     for (idx, raw) in text.lines().enumerate() {
+        if idx.is_multiple_of(CHECK_EVERY) {
+            stopped(origin, idx + 1, cancel)?;
+        }
         m.run_line(idx + 1, raw)?;
     }
     // Pass 2: how is the pen lifted?
     let zs = m.segments.iter().map(|s| s.z).filter(|z| z.is_finite());
     let (zmin, zmax) = zs.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| (lo.min(z), hi.max(z)));
+    let mut warnings: Vec<GcodeWarning> = std::mem::take(&mut m.warnings)
+        .finish()
+        .into_iter()
+        .map(|n| GcodeWarning { line: n.at, count: n.count, message: n.message })
+        .collect();
     let pen = if zmax - zmin > 1e-6 {
         PenDetection::ZBelow((zmin + zmax) / 2.0)
     } else if m.used_spindle {
         PenDetection::Spindle
     } else {
         if !m.segments.is_empty() {
-            m.warn(0, "no pen lift found (no Z changes, no M3/M5): G1/G2/G3 moves draw, G0 moves travel");
+            let message = "no pen lift found (no Z changes, no M3/M5): G1/G2/G3 moves draw, G0 moves travel";
+            record_warning(&mut warnings, 0, message.into());
         }
         PenDetection::FeedMoves
     };
@@ -466,7 +548,16 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
     let mut breaks = std::mem::take(&mut m.layer_starts).into_iter().peekable();
     let mut paths: Vec<Polyline> = Vec::new();
     let mut current: Vec<Point> = Vec::new();
+    // Points made so far (each segment adds one or two): the drawing's limit, checked where a point is made.
+    let mut points = 0usize;
     for (k, s) in m.segments.iter().enumerate() {
+        if points > MAX_POINTS {
+            return Err(GcodeError::Malformed {
+                origin: origin.into(),
+                line: usize::try_from(s.line).unwrap_or(usize::MAX),
+                message: format!("more than {MAX_POINTS} points in the drawing (the limit that keeps memory bounded)"),
+            });
+        }
         while let Some((_, layer)) = breaks.next_if(|b| b.0 <= k) {
             // A pause (pen change) ends the stroke and the layer.
             if current.len() > 1 {
@@ -502,8 +593,18 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
             }
             current.clear();
             current.push(a);
+            points += 1;
         }
         current.push(b);
+        points += 1;
+    }
+    if points > MAX_POINTS {
+        let line = m.segments.last().map_or(0, |s| usize::try_from(s.line).unwrap_or(usize::MAX));
+        return Err(GcodeError::Malformed {
+            origin: origin.into(),
+            line,
+            message: format!("more than {MAX_POINTS} points in the drawing (the limit that keeps memory bounded)"),
+        });
     }
     if current.len() > 1 {
         paths.push(Polyline::new(current));
@@ -516,7 +617,7 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
     if layers.is_empty() {
         layers.push(Layer::new(name));
     }
-    Ok(ImportedGcode { drawing: Drawing { layers, page_mm: None }, pen, warnings: m.warnings })
+    Ok(ImportedGcode { drawing: Drawing { layers, page_mm: None }, pen, warnings })
 }
 
 #[cfg(test)]
@@ -743,6 +844,42 @@ mod tests {
         assert_eq!(echo("short"), "short");
         assert_eq!(echo(&"x".repeat(41)), format!("{}…", "x".repeat(40)));
         assert_eq!(echo(&"é".repeat(40)), "é".repeat(40));
+    }
+
+    #[test]
+    fn ambiguous_numbers_on_a_printer_are_counted_not_listed_one_by_one() {
+        let printer = MachineProfile::from_toml(include_str!("../../../samples/printer.toml"), "printer.toml").unwrap();
+        let g: String = (0..3000).map(|n| format!("G1 X{}e{n}\n", n % 100)).collect();
+        let r = import(&g, "t.gcode", &printer).unwrap();
+        let w: Vec<String> = r.warnings.iter().map(ToString::to_string).collect();
+        let ambiguous: Vec<&String> = w.iter().filter(|w| w.contains("ambiguous number")).collect();
+        // Besides: the E values dropped (one message, 3000 times) and the lack of a pen lift.
+        assert_eq!((ambiguous.len(), w.len()), (21, 23), "{:?}", &w[..w.len().min(25)]);
+        assert!(ambiguous[0].starts_with("line 1: ambiguous number: X0 runs into e0"), "{}", ambiguous[0]);
+        assert_eq!(
+            ambiguous[20],
+            "line 21: and 2980 more like it (ambiguous number run into E; only the first 20 different ones are listed)"
+        );
+    }
+
+    #[test]
+    fn a_cancelled_import_stops_naming_the_line() {
+        let cancel = Cancel::new();
+        cancel.cancel();
+        let g = "G1 X1\n".repeat(2 * CHECK_EVERY);
+        let e = import_cancellable(&g, "t.gcode", &profile(), &cancel).unwrap_err().to_string();
+        assert_eq!(e, "t.gcode:1: cancelled: the import was no longer wanted");
+        assert!(import_cancellable(&g, "t.gcode", &profile(), &Cancel::new()).is_ok());
+    }
+
+    #[test]
+    fn arc_numbers_are_shown_short() {
+        assert_eq!(short(1e300), "1e300");
+        assert_eq!(short(-0.125), "-0.125");
+        assert_eq!(short(1.234_567_890_123_456_7e-7), "1.235e-7");
+        // R1e200: the radius squared overflowed; the centre is said to be too far, with the radius short.
+        let e = err("G0 X0 Y0\nG1 Z0\nG2 X50 Y0 R1e200\n");
+        assert_eq!(e, "t.gcode:3: arc centre for radius 1e200 lies beyond ±1000000 mm (1 km)");
     }
 
     /// A number-like text: sign, digits (sometimes a huge run), point, fraction, exponent.

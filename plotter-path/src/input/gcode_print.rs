@@ -30,10 +30,13 @@
 //! drawing import, `G4 P` is in seconds and `G0` runs at the machine's top speed, as GRBL reads them (Marlin, for
 //! printers: milliseconds, and the modal feed).
 
-use super::gcode_words::{
-    Exponents, GcodeError, GcodeWarning, Word, code10, echo, num, record_warning, strip_comments, words,
-};
+use kurbo::Point;
+
+use super::gcode_in::warn_tally::Tally;
+use super::gcode_in::{CHECK_EVERY, check_arc_centre, r_arc_centre};
+use super::gcode_words::{Exponents, GcodeError, GcodeWarning, Word, code10, echo, num, strip_comments, words};
 use crate::MachineProfile;
+use crate::config::interrupt;
 use crate::geometry::steps::StepMapper;
 
 /// Maximum chord error when flattening arcs, millimetres.
@@ -141,7 +144,7 @@ struct Player<'a> {
     layer_z: f64,
     ended: bool,
     ops: Vec<PrintOp>,
-    warnings: Vec<GcodeWarning>,
+    warnings: Tally,
     net_e: f64,
     high_e: f64,
     /// The machine has an extruder (a printer profile); without one, E words and heater commands are errors.
@@ -185,8 +188,14 @@ fn slicer_comment(raw: &str, figures: &mut SlicerFigures) {
 }
 
 impl Player<'_> {
-    fn warn(&mut self, line: usize, message: impl Into<String>) {
-        record_warning(&mut self.warnings, line, message.into());
+    /// A warning whose text is also its kind.
+    fn warn(&mut self, line: usize, message: &'static str) {
+        self.warnings.note(line, message, "", message.to_string());
+    }
+
+    /// A warning of `kind` whose text varies (it quotes the input).
+    fn warn_as(&mut self, line: usize, kind: &'static str, message: String) {
+        self.warnings.note(line, kind, "", message);
     }
 
     fn malformed(&self, line: usize, message: impl Into<String>) -> GcodeError {
@@ -218,7 +227,11 @@ impl Player<'_> {
                 let head: String = body.chars().take_while(|c| *c == 'M' || c.is_ascii_digit() || *c == '.').collect();
                 let sent = ["M104", "M109", "M140", "M190", "M106", "M107", "M105", "M155", "M301", "M303", "M304"];
                 if head.starts_with('M') && head.len() > 1 && !sent.contains(&head.as_str()) {
-                    self.warn(line, format!("{}: not supported, ignored", echo(&head)));
+                    self.warn_as(
+                        line,
+                        "unsupported M codes, ignored",
+                        format!("{}: not supported, ignored", echo(&head)),
+                    );
                     return Ok(());
                 }
                 return Err(e);
@@ -349,14 +362,16 @@ impl Player<'_> {
                     return Ok(());
                 }
                 100 | 110 => {
-                    self.warn(
-                        line,
-                        format!("{}: firmware retraction not supported, ignored", echo(&text.to_uppercase())),
-                    );
+                    let message = format!("{}: firmware retraction not supported, ignored", echo(&text.to_uppercase()));
+                    self.warn_as(line, "firmware retraction, ignored", message);
                     return Ok(());
                 }
                 290 | 800 => {
-                    self.warn(line, format!("{}: bed levelling ignored", echo(&text.to_uppercase())));
+                    self.warn_as(
+                        line,
+                        "bed levelling, ignored",
+                        format!("{}: bed levelling ignored", echo(&text.to_uppercase())),
+                    );
                     return Ok(());
                 }
                 180 | 190 => {
@@ -435,19 +450,18 @@ impl Player<'_> {
     ) -> Result<(), GcodeError> {
         let u = self.mm_per_unit;
         let (fx, fy) = (self.pos[0], self.pos[1]);
-        let (center_x, center_y) = if let Some(r) = r {
-            let r = r * u;
-            let (dx, dy) = (to[0] - fx, to[1] - fy);
-            let d = dx.hypot(dy);
-            if d == 0.0 || (r.abs() < d / 2.0 - ARC_TOLERANCE_MM) {
-                return Err(self.malformed(line, "R arc: radius smaller than half the chord, or no chord"));
+        // The drawing import's checks ([`r_arc_centre`], [`check_arc_centre`]): an overflowing radius or offset is an
+        // error naming the line, never a NaN centre whose arc has no chords (and vanishes).
+        let centre = if let Some(r) = r {
+            if i.is_some() || j.is_some() {
+                return Err(self.malformed(line, "an arc takes either R or I/J, not both"));
             }
-            let h = (r * r - d * d / 4.0).max(0.0).sqrt();
-            let sign = if cw == (r >= 0.0) { 1.0 } else { -1.0 };
-            ((fx + to[0]) / 2.0 + dy / d * h * sign, (fy + to[1]) / 2.0 - dx / d * h * sign)
+            r_arc_centre(Point::new(fx, fy), Point::new(to[0], to[1]), r, u, cw)
         } else {
-            (fx + i.unwrap_or(0.0) * u, fy + j.unwrap_or(0.0) * u)
+            let c = Point::new(fx + i.unwrap_or(0.0) * u, fy + j.unwrap_or(0.0) * u);
+            check_arc_centre(c).map(|()| c)
         };
+        let Point { x: center_x, y: center_y } = centre.map_err(|m| self.malformed(line, m))?;
         let r0 = (fx - center_x).hypot(fy - center_y);
         let r1 = (to[0] - center_x).hypot(to[1] - center_y);
         if r0 == 0.0 || (r0 - r1).abs() > 0.005f64.max(0.001 * r0) {
@@ -519,7 +533,7 @@ impl Player<'_> {
         }
         if v.fract() != 0.0 {
             // M862.1 and friends (Prusa printer checks).
-            self.warn(line, format!("{upper}: printer check ignored"));
+            self.warn_as(line, "printer checks, ignored", format!("{upper}: printer check ignored"));
             return Ok(());
         }
         let op = match code10(v) / 10 {
@@ -540,7 +554,8 @@ impl Player<'_> {
             17 => send(false, &[]),
             18 | 84 => {
                 if ws.iter().any(|w| matches!(w.letter, 'S' | 'X' | 'Y' | 'Z' | 'E')) {
-                    self.warn(line, format!("{upper} arguments ignored: all motors are switched off"));
+                    let message = format!("{upper} arguments ignored: all motors are switched off");
+                    self.warn_as(line, "motor-off arguments, ignored", message);
                 }
                 send(true, &[])
             }
@@ -554,7 +569,7 @@ impl Player<'_> {
                 return Ok(());
             }
             73 | 117 | 486 => {
-                self.warn(line, format!("{upper}: progress/message ignored"));
+                self.warn_as(line, "progress and messages, ignored", format!("{upper}: progress/message ignored"));
                 return Ok(());
             }
             900 => {
@@ -562,20 +577,26 @@ impl Player<'_> {
                 return Ok(());
             }
             201 | 203 | 204 | 205 | 566 => {
-                self.warn(line, format!("{upper}: machine limits ignored, the profile's limits apply"));
+                let message = format!("{upper}: machine limits ignored, the profile's limits apply");
+                self.warn_as(line, "machine limits, ignored", message);
                 return Ok(());
             }
             220 | 221 => {
                 let pct = ws.iter().find(|w| w.letter == 'S').map_or(100.0, |w| w.value);
                 if pct != 100.0 {
-                    self.warn(line, format!("{upper} S{}: feed/flow override ignored, printing at 100 %", num(pct)));
+                    let message = format!("{upper} S{}: feed/flow override ignored, printing at 100 %", num(pct));
+                    self.warn_as(line, "feed/flow overrides, ignored", message);
                 } else {
-                    self.warn(line, format!("{upper}: override at 100 % ignored"));
+                    self.warn_as(line, "feed/flow overrides, ignored", format!("{upper}: override at 100 % ignored"));
                 }
                 return Ok(());
             }
             _ => {
-                self.warn(line, format!("{upper}: not supported, ignored ({})", echo(code)));
+                self.warn_as(
+                    line,
+                    "unsupported M codes, ignored",
+                    format!("{upper}: not supported, ignored ({})", echo(code)),
+                );
                 return Ok(());
             }
         };
@@ -615,24 +636,28 @@ pub fn import_print(text: &str, origin: &str, profile: &MachineProfile) -> Resul
         layer_z: f64::NEG_INFINITY,
         ended: false,
         ops: Vec::new(),
-        warnings: Vec::new(),
+        warnings: Tally::default(),
         net_e: 0.0,
         high_e: 0.0,
         extruder: profile.axes.e.is_some(),
     };
     let mut slicer = SlicerFigures::default();
     for (idx, raw) in text.lines().enumerate() {
+        if idx.is_multiple_of(CHECK_EVERY) {
+            // A termination signal ends a long import (the host raises the flag; see `config::interrupt`).
+            interrupt::check(|| format!("reading line {} of {origin}", idx + 1))
+                .map_err(|e| GcodeError::Malformed { origin: origin.into(), line: idx + 1, message: e.to_string() })?;
+        }
         slicer_comment(raw, &mut slicer);
         p.run_line(idx + 1, raw)?;
     }
-    Ok(PrintProgram {
-        ops: p.ops,
-        warnings: p.warnings,
-        layers: p.layer,
-        extruded_mm: p.high_e,
-        net_e_mm: p.net_e,
-        slicer,
-    })
+    let warnings = p
+        .warnings
+        .finish()
+        .into_iter()
+        .map(|n| GcodeWarning { line: n.at, count: n.count, message: n.message })
+        .collect();
+    Ok(PrintProgram { ops: p.ops, warnings, layers: p.layer, extruded_mm: p.high_e, net_e_mm: p.net_e, slicer })
 }
 
 #[cfg(test)]
@@ -803,5 +828,34 @@ mod tests {
             ]
         );
         assert_eq!((p.extruded_mm, p.layers), (0.0, 0));
+    }
+
+    #[test]
+    fn an_overflowing_arc_is_an_error_naming_the_line_not_a_vanished_move() {
+        // R1e200 squares to infinity: the centre became NaN, the arc got no chords and the 50 mm move vanished.
+        let plotter = MachineProfile::default_plotter();
+        for (arc, shown) in [("G2 X50 Y0 R1e200", "radius 1e200"), ("G2 X50 Y0 I1e200 J0", "(1e200, 0)")] {
+            let g = format!("G1 Z0 F1500\nG1 X0 Y0\n{arc}\nG0 Z4\n");
+            let e = import_print(&g, "a.gcode", &plotter).unwrap_err().to_string();
+            assert!(e.starts_with("a.gcode:3: arc centre") && e.contains(shown) && e.len() < 120, "{e}");
+        }
+        // A large but sane radius still draws its arc, ending exactly at the target.
+        let p = import_print("G1 Z0 F1500\nG1 X0 Y0\nG2 X50 Y0 R1000\n", "a.gcode", &plotter).unwrap();
+        assert_eq!(moves(&p).last().map(|m| [m[0], m[1]]), Some([50.0, 0.0]));
+    }
+
+    #[test]
+    fn distinct_warnings_of_one_kind_are_capped_and_counted() {
+        // Each line warns with its own text (the echo of the line): kept are the first 20, then one summary line.
+        let g: String = (0..5000).map(|n| format!("M5000 P{n}\n")).collect();
+        let p = import_print(&g, "m.gcode", &MachineProfile::default_plotter()).unwrap();
+        let w: Vec<String> = p.warnings.iter().map(ToString::to_string).collect();
+        assert_eq!(w.len(), 21, "{w:?}");
+        assert_eq!(w[0], "line 1: M5000: not supported, ignored (M5000 P0)");
+        assert_eq!(w[19], "line 20: M5000: not supported, ignored (M5000 P19)");
+        assert_eq!(
+            w[20],
+            "line 21: and 4980 more like it (unsupported M codes, ignored; only the first 20 different ones are listed)"
+        );
     }
 }

@@ -18,7 +18,12 @@
 //!
 //! Garbage (a byte that cannot start a mnemonic, a malformed number, an odd coordinate count) is an error naming
 //! the file, the command index and its byte offset. Bounded work: every coordinate must lie within
-//! ±[`MAX_COORD_MM`] and the file may produce at most [`MAX_POINTS`] points.
+//! ±[`MAX_COORD_MM`] and the file may produce at most [`MAX_POINTS`] points — counted wherever a point is made: a
+//! coordinate, the start of a stroke at the pen's position, and the second point of a dot (`PD;PU;` in place), so
+//! 16 MB of `PDPU` is refused at the limit rather than becoming eight million points. The strokes are kept in one
+//! flat list of points while reading (16 bytes a point, no allocation per stroke), and warnings are counted by
+//! kind with a bounded list of distinct messages ([`super::gcode_in::warn_tally`]). A termination signal
+//! ([`crate::config::interrupt`]) or a [`Cancel`] ends a long import, looked at every few thousand commands.
 //!
 //! Y is flipped back to our page (Y down) on a sheet: the one given, else the first known sheet
 //! ([`crate::geometry::hpgl_devices::DEVICES`]) whose hard-clip rectangle equals the file's `IW` window (this
@@ -27,6 +32,11 @@
 
 use kurbo::Point;
 
+use super::gcode_in::CHECK_EVERY;
+use super::gcode_in::short;
+use super::gcode_in::warn_tally::Tally;
+use crate::config::interrupt;
+use crate::geometry::cancel::Cancel;
 use crate::geometry::hpgl_devices::{DEVICES, HpglPaper, PLU_PER_MM};
 use crate::geometry::limits::{MAX_COORD_MM, MAX_POINTS};
 use crate::{Drawing, Layer, Polyline, Rgb};
@@ -48,6 +58,18 @@ pub enum HpglError {
         offset: usize,
         /// What is wrong.
         message: String,
+    },
+    /// The import was stopped before the end: the process was asked to end, or the result was no longer wanted.
+    #[error("{origin}: stopped at command {command} (byte {offset}): {why}")]
+    Stopped {
+        /// File name.
+        origin: String,
+        /// 1-based index of the command reached.
+        command: usize,
+        /// Its byte offset.
+        offset: usize,
+        /// Why ("interrupted while reading …", "cancelled …").
+        why: String,
     },
 }
 
@@ -85,9 +107,6 @@ pub struct ImportedHpgl {
     pub warnings: Vec<HpglWarning>,
 }
 
-/// A stroke in plotter units.
-type PluPath = Vec<(f64, f64)>;
-
 /// Parser and plotter state, coordinates in plotter units.
 struct State<'a> {
     origin: &'a str,
@@ -100,13 +119,17 @@ struct State<'a> {
     pen: Option<u32>,
     /// `None` after a command that moves the pen where this importer does not follow (labels, arcs).
     pos: Option<(f64, f64)>,
-    path: Vec<(f64, f64)>,
-    /// (pen, paths) in order of first use.
-    layers: Vec<(u32, Vec<PluPath>)>,
-    points: usize,
+    /// The points of every stroke, one after another, in plotter units; the stroke being drawn is the tail from
+    /// `path_start`.
+    pts: Vec<(f64, f64)>,
+    path_start: usize,
+    /// Finished strokes: (index into `pens`, start in `pts`); each ends where the next starts.
+    strokes: Vec<(usize, usize)>,
+    /// Pens in order of first use.
+    pens: Vec<u32>,
     /// The last clip window and the index of its command.
     iw: Option<([f64; 4], usize)>,
-    warnings: Vec<HpglWarning>,
+    warnings: Tally,
 }
 
 impl State<'_> {
@@ -119,57 +142,65 @@ impl State<'_> {
         }
     }
 
-    /// Record a warning for the current mnemonic, counted with the earlier ones of the same message.
-    fn warn(&mut self, message: String) {
-        if let Some(w) = self.warnings.iter_mut().find(|w| w.mnemonic == self.mnemonic && w.message == message) {
-            w.count += 1;
-        } else {
-            self.warnings.push(HpglWarning {
-                command: self.command,
-                mnemonic: self.mnemonic.clone(),
-                count: 1,
-                message,
-            });
-        }
+    /// Record a warning of `kind` for the current mnemonic, counted with the earlier ones of the same message.
+    fn warn(&mut self, kind: &'static str, message: String) {
+        self.warnings.note(self.command, kind, &self.mnemonic, message);
     }
 
-    fn finish_path(&mut self) {
-        let mut path = std::mem::take(&mut self.path);
-        if path.is_empty() {
-            return;
+    /// Whether a stroke is being drawn.
+    fn in_path(&self) -> bool {
+        self.pts.len() > self.path_start
+    }
+
+    fn finish_path(&mut self) -> Result<(), HpglError> {
+        let len = self.pts.len() - self.path_start;
+        if len == 0 {
+            return Ok(());
         }
-        if path.len() == 1 {
-            // The pen went down and up again in place: a dot.
-            path.push(path[0]);
+        if len == 1 {
+            // The pen went down and up again in place: a dot, drawn as two equal points (both count).
+            self.push(self.pts[self.path_start])?;
         }
         let pen = self.pen.unwrap_or(1);
-        match self.layers.iter_mut().find(|(p, _)| *p == pen) {
-            Some((_, paths)) => paths.push(path),
-            None => self.layers.push((pen, vec![path])),
-        }
+        let layer = match self.pens.iter().position(|&p| p == pen) {
+            Some(i) => i,
+            None => {
+                self.pens.push(pen);
+                self.pens.len() - 1
+            }
+        };
+        self.strokes.push((layer, self.path_start));
+        self.path_start = self.pts.len();
+        Ok(())
     }
 
-    fn pen_down(&mut self) {
+    fn pen_down(&mut self) -> Result<(), HpglError> {
         self.down = true;
         if self.pen == Some(0) {
-            self.warn("pen-down moves with no pen selected (after SP0) are not drawn".into());
-            return;
+            self.warn("pen-down without a pen", "pen-down moves with no pen selected (after SP0) are not drawn".into());
+            return Ok(());
         }
-        if self.path.is_empty()
+        if !self.in_path()
             && let Some(p) = self.pos
         {
-            self.push(p);
+            self.push(p)?;
         }
+        Ok(())
     }
 
-    fn pen_up(&mut self) {
+    fn pen_up(&mut self) -> Result<(), HpglError> {
         self.down = false;
-        self.finish_path();
+        self.finish_path()
     }
 
-    fn push(&mut self, p: (f64, f64)) {
-        self.path.push(p);
-        self.points += 1;
+    /// Add a point to the stroke: the one place points are made, so the limit holds for all of them.
+    fn push(&mut self, p: (f64, f64)) -> Result<(), HpglError> {
+        if self.pts.len() >= MAX_POINTS {
+            return Err(self
+                .error(format!("more than {MAX_POINTS} points in the drawing (the limit that keeps memory bounded)")));
+        }
+        self.pts.push(p);
+        Ok(())
     }
 
     fn move_to(&mut self, x: f64, y: f64) -> Result<(), HpglError> {
@@ -188,22 +219,18 @@ impl State<'_> {
         if !(target.0.abs() <= limit && target.1.abs() <= limit) {
             return Err(self.error(format!(
                 "target ({}, {}) plotter units is beyond ±{MAX_COORD_MM} mm (1 km); no plotter draws that",
-                target.0, target.1
+                short(target.0),
+                short(target.1)
             )));
         }
         if self.down && self.pen != Some(0) {
-            if self.path.is_empty() {
+            if !self.in_path() {
                 // Pen down at an unknown position (after a label): the stroke starts at its first known point.
                 if let Some(p) = self.pos {
-                    self.push(p);
+                    self.push(p)?;
                 }
             }
-            self.push(target);
-            if self.points > MAX_POINTS {
-                return Err(self.error(format!(
-                    "more than {MAX_POINTS} points in the drawing (the limit that keeps memory bounded)"
-                )));
-            }
+            self.push(target)?;
         }
         // Pen-down moves without a pen were warned about by the PD that lowered it.
         self.pos = Some(target);
@@ -223,17 +250,17 @@ impl State<'_> {
     fn command(&mut self, params: &[f64]) -> Result<(), HpglError> {
         match self.mnemonic.as_str() {
             "IN" | "DF" => {
-                self.pen_up();
+                self.pen_up()?;
                 self.absolute = true;
                 if self.mnemonic == "IN" {
                     self.iw = None;
                 }
             }
             "SP" => {
-                self.pen_up();
+                self.pen_up()?;
                 let n = params.first().copied().unwrap_or(0.0);
                 if !(0.0..=255.0).contains(&n) || n.fract() != 0.0 {
-                    return Err(self.error(format!("pen number {n} is not a whole number from 0 to 255")));
+                    return Err(self.error(format!("pen number {} is not a whole number from 0 to 255", short(n))));
                 }
                 // A whole number from 0 to 255, checked just above.
                 #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -241,11 +268,11 @@ impl State<'_> {
                 self.pen = Some(n);
             }
             "PU" => {
-                self.pen_up();
+                self.pen_up()?;
                 self.moves(params)?;
             }
             "PD" => {
-                self.pen_down();
+                self.pen_down()?;
                 self.moves(params)?;
             }
             "PA" | "PR" => {
@@ -265,18 +292,19 @@ impl State<'_> {
             }
             "CI" | "AA" | "AR" | "EA" | "ER" | "EW" | "RA" | "RR" | "WG" => {
                 if matches!(self.mnemonic.as_str(), "AA" | "AR") {
-                    self.pen_up();
+                    self.pen_up()?;
                     self.pos = None;
                 }
-                self.warn("circles, arcs, wedges and rectangles are not supported: not drawn".into());
+                let message = "circles, arcs, wedges and rectangles are not supported: not drawn";
+                self.warn(message, message.into());
             }
             // Speeds come from the profile; the pen draws the same lines at any speed. `PS` (the 7550A's paper
             // size) does not move a line either.
             "VS" | "FS" | "VA" | "VN" | "PS" => {}
-            "LT" => self.warn("line type (LT) ignored: drawn solid".into()),
+            "LT" => self.warn("line types", "line type (LT) ignored: drawn solid".into()),
             m => {
-                let m = m.to_string();
-                self.warn(format!("{m} is not supported: ignored"));
+                let message = format!("{m} is not supported: ignored");
+                self.warn("unsupported commands", message);
             }
         }
         Ok(())
@@ -286,6 +314,17 @@ impl State<'_> {
 /// Import HP-GL `data` (named `origin` in messages). `paper` places the plotter units on the page; `None` picks
 /// one as the module docs say.
 pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<ImportedHpgl, HpglError> {
+    import_cancellable(data, origin, paper, &Cancel::never())
+}
+
+/// [`import`] that ends early with [`HpglError::Stopped`] once `cancel` is set or the process is asked to stop
+/// ([`interrupt`]), looked at every [`CHECK_EVERY`] commands.
+pub fn import_cancellable(
+    data: &[u8],
+    origin: &str,
+    paper: Option<&HpglPaper>,
+    cancel: &Cancel,
+) -> Result<ImportedHpgl, HpglError> {
     let mut st = State {
         origin,
         command: 0,
@@ -295,11 +334,12 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
         down: false,
         pen: None,
         pos: Some((0.0, 0.0)),
-        path: Vec::new(),
-        layers: Vec::new(),
-        points: 0,
+        pts: Vec::new(),
+        path_start: 0,
+        strokes: Vec::new(),
+        pens: Vec::new(),
         iw: None,
-        warnings: Vec::new(),
+        warnings: Tally::default(),
     };
     let mut terminator = 0x03u8;
     let mut i = 0;
@@ -312,6 +352,16 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
         }
         st.command += 1;
         st.offset = i;
+        if st.command.is_multiple_of(CHECK_EVERY) {
+            let why = if cancel.is_cancelled() {
+                Some("cancelled: the import was no longer wanted".to_string())
+            } else {
+                interrupt::check(|| format!("reading command {} of {origin}", st.command)).err().map(|e| e.to_string())
+            };
+            if let Some(why) = why {
+                return Err(HpglError::Stopped { origin: origin.into(), command: st.command, offset: i, why });
+            }
+        }
         if b == 0x1b {
             // Device control: ESC . letter [parameters] [:]
             st.mnemonic = format!("ESC.{}", data.get(i + 2).map_or('?', |&c| char::from(c)));
@@ -322,7 +372,7 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
                     break;
                 }
             }
-            st.warn("device-control sequence ignored".into());
+            st.warn("device control", "device-control sequence ignored".into());
             continue;
         }
         let (Some(&a), Some(&c)) = (data.get(i), data.get(i + 1)) else {
@@ -339,9 +389,9 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
                 return Err(st.error("label (LB) without its terminator"));
             };
             i += len + 1;
-            st.pen_up();
+            st.pen_up()?;
             st.pos = None;
-            st.warn("labels (LB) are not supported: text not drawn".into());
+            st.warn("labels", "labels (LB) are not supported: text not drawn".into());
             continue;
         }
         if st.mnemonic == "DT" {
@@ -358,12 +408,17 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
         i = read_params(data, i, &mut params).map_err(|m| st.error(m))?;
         st.command(&params)?;
     }
-    st.pen_up();
+    st.pen_up()?;
+    let mut warnings: Vec<HpglWarning> = std::mem::take(&mut st.warnings)
+        .finish()
+        .into_iter()
+        .map(|n| HpglWarning { command: n.at, mnemonic: n.tag, count: n.count, message: n.message })
+        .collect();
     if let Some(([x0, y0, x1, y1], command)) = st.iw {
         let outside = |&&(x, y): &&(f64, f64)| x < x0.min(x1) || x > x0.max(x1) || y < y0.min(y1) || y > y0.max(y1);
-        let n = st.layers.iter().flat_map(|(_, paths)| paths.iter().flatten()).filter(outside).count();
+        let n = st.pts.iter().filter(outside).count();
         if n > 0 {
-            st.warnings.push(HpglWarning {
+            warnings.push(HpglWarning {
                 command,
                 mnemonic: "IW".into(),
                 count: 1,
@@ -378,27 +433,25 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
         None => choose_paper(&st),
     };
     let mut drawing = Drawing::default();
-    for (pen, paths) in &st.layers {
+    for pen in &st.pens {
         let mut layer = Layer::new(format!("pen {pen}"));
         layer.pen.color = pen_color(*pen);
-        layer.paths = paths
+        drawing.layers.push(layer);
+    }
+    let ends = st.strokes.iter().skip(1).map(|s| s.1).chain(std::iter::once(st.pts.len()));
+    for (&(layer, start), end) in st.strokes.iter().zip(ends) {
+        let points = st.pts[start..end]
             .iter()
-            .map(|path| {
-                Polyline::new(
-                    path.iter()
-                        .map(|&(x, y)| {
-                            let (px, py) = paper.to_page(x, y);
-                            Point::new(px, py)
-                        })
-                        .collect(),
-                )
+            .map(|&(x, y)| {
+                let (px, py) = paper.to_page(x, y);
+                Point::new(px, py)
             })
             .collect();
-        drawing.layers.push(layer);
+        drawing.layers[layer].paths.push(Polyline::new(points));
     }
     drawing.page_mm = Some(paper.size_mm);
     if paper.name == "page" {
-        st.warnings.push(HpglWarning {
+        warnings.push(HpglWarning {
             command: 0,
             mnemonic: String::new(),
             count: 1,
@@ -409,7 +462,7 @@ pub fn import(data: &[u8], origin: &str, paper: Option<&HpglPaper>) -> Result<Im
             ),
         });
     }
-    Ok(ImportedHpgl { drawing, paper, warnings: st.warnings })
+    Ok(ImportedHpgl { drawing, paper, warnings })
 }
 
 /// The colour a pen's layer gets, so that previews tell the pens apart and a re-export keeps them in their own
@@ -472,9 +525,8 @@ fn choose_paper(st: &State<'_>) -> HpglPaper {
     {
         return *p;
     }
-    let points = || st.layers.iter().flat_map(|(_, paths)| paths.iter().flatten());
     let (mut lo, mut hi) = ((0.0f64, 0.0f64), (0.0f64, 0.0f64));
-    for &(x, y) in points() {
+    for &(x, y) in &st.pts {
         lo = (lo.0.min(x), lo.1.min(y));
         hi = (hi.0.max(x), hi.1.max(y));
     }
@@ -572,5 +624,72 @@ mod tests {
         assert_eq!((g.paper.name, g.paper.size_mm), ("page", (500.0, 100.0)));
         assert_eq!(points(&g.drawing.layers[0].paths[0]), [(0.0, 100.0), (500.0, 0.0)]);
         assert!(g.warnings[0].to_string().starts_with("the coordinates fit no known sheet: placed on a 500 × 100"));
+    }
+
+    #[test]
+    fn every_point_counts_toward_the_limit_dots_included() {
+        // PD;PU in place makes a dot of two points: 2,097,152 of them reach the limit, the next PD is refused.
+        let pairs = MAX_POINTS / 2 + 1;
+        let text = format!("PA10,10;{}", "PDPU".repeat(pairs));
+        let e = import(text.as_bytes(), "t.hpgl", Some(&a4())).unwrap_err().to_string();
+        let command = 1 + 2 * pairs - 1;
+        let byte = 8 + 4 * (pairs - 1);
+        assert_eq!(
+            e,
+            format!(
+                "t.hpgl: command {command} (byte {byte}): more than 4194304 points in the drawing (the limit that \
+                 keeps memory bounded)"
+            )
+        );
+        // Just under the limit, the dots are all there.
+        let text = format!("PA10,10;{}", "PDPU".repeat(1000));
+        let r = import(text.as_bytes(), "t.hpgl", Some(&a4())).unwrap();
+        assert_eq!((r.drawing.path_count(), r.drawing.paths().map(|p| p.points.len()).sum::<usize>()), (1000, 2000));
+    }
+
+    #[test]
+    fn many_different_unsupported_commands_are_capped_and_counted() {
+        let mut text = String::new();
+        for a in b'Q'..=b'Z' {
+            for b in b'A'..=b'Z' {
+                text.push_str(&format!("{}{};", char::from(a), char::from(b)));
+            }
+        }
+        let r = import_a4(&text);
+        let shown: Vec<String> = r.warnings.iter().map(ToString::to_string).collect();
+        // QA..ZZ: 260 mnemonics. RA, RR and WG are shapes (a kind of their own), SC, SP, VA, VN and VS are read;
+        // the other 252 are unsupported, each with its own message: 20 listed, 232 counted.
+        assert_eq!(shown.len(), 24, "{shown:?}");
+        assert_eq!(shown[0], "command 1 (QA): QA is not supported: ignored");
+        assert_eq!(shown[19], "command 20 (QT): QT is not supported: ignored");
+        assert!(shown[20..23].iter().all(|w| w.contains("circles, arcs")), "{shown:?}");
+        assert_eq!(
+            shown[23],
+            "command 21 (QU): and 232 more like it (unsupported commands; only the first 20 different ones are listed)"
+        );
+    }
+
+    #[test]
+    fn huge_numbers_are_shown_short_and_a_cancel_stops_the_import() {
+        let e = err(&format!("PA1{},0;", "0".repeat(39)));
+        assert_eq!(
+            e,
+            "t.hpgl: command 1 (byte 0): target (1e39, 0) plotter units is beyond ±1000000 mm (1 km); no plotter draws that"
+        );
+        assert_eq!(
+            err(&format!("SP{};", "9".repeat(30))),
+            format!("t.hpgl: command 1 (byte 0): pen number 1e30 is not a whole number from 0 to 255")
+        );
+        let cancel = Cancel::new();
+        cancel.cancel();
+        let text = "PA1,1;".repeat(2 * CHECK_EVERY);
+        let e = import_cancellable(text.as_bytes(), "t.hpgl", Some(&a4()), &cancel).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "t.hpgl: stopped at command {CHECK_EVERY} (byte {}): cancelled: the import was no longer wanted",
+                6 * (CHECK_EVERY - 1)
+            )
+        );
     }
 }
