@@ -379,3 +379,125 @@ fn a_line_bound_drawing_keeps_the_line_busy_under_each_handshake() {
         assert!(bps <= 960.0);
     }
 }
+
+/// Eight 40 mm strokes on A4 at the export's 6 cm/s: about 2 s for the first pen and 6 s of plotting on the
+/// model in real time, a 450-byte program.
+const STROKES: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="297mm" height="210mm" viewBox="0 0 297 210">
+<path d="M40 40 H80 M40 50 H80 M40 60 H80 M40 70 H80 M40 80 H80 M40 90 H80 M40 100 H80 M40 110 H80" fill="none"
+ stroke="black"/></svg>"#;
+
+/// `plotter plot strokes.svg --firmware hpgl` on `sim` (a child: the test signals it), with the journal at
+/// `dir/plot.journal`.
+fn spawn_plot(dir: &std::path::Path, port: &str) -> std::process::Child {
+    std::process::Command::new(plotter_bin())
+        .args(["plot", "strokes.svg", "--no-optimize", "--firmware", "hpgl", "--journal", "plot.journal", "--port"])
+        .arg(port)
+        .current_dir(dir)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Wait (at most 20 s) until the journal says `ready(accepted, executed, commands)`.
+fn wait_for_journal(path: &std::path::Path, ready: impl Fn(usize, usize, usize) -> bool) -> journal::JournalState {
+    let t0 = std::time::Instant::now();
+    loop {
+        if let Ok(j) = journal::load(path)
+            && ready(j.accepted, j.executed, j.blocks)
+        {
+            return j;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(20), "the plot never got there");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The pen-down segments of a model's trace.
+fn traced(t: &plotter_e2e::Trace) -> HashSet<((i32, i32), (i32, i32))> {
+    let lines: Lines = t
+        .pen_down_lines
+        .iter()
+        .map(|l| l.iter().map(|&(x, y)| (i32::try_from(x).unwrap(), i32::try_from(y).unwrap())).collect())
+        .collect();
+    segments(&lines)
+}
+
+/// A signal to `plotter plot --firmware hpgl` once the journal says `when`: the plotter's buffer is aborted
+/// (`ESC . K`) and the pen lifted, the host says why and exits with the stop status (5), and `--resume` on a
+/// plotter switched on afresh draws the rest: the two runs together drew every segment of the export.
+fn signal_an_hpgl_plot(
+    name: &str,
+    signal: nix::sys::signal::Signal,
+    buffer: &str,
+    when: impl Fn(usize, usize, usize) -> bool,
+    says: &str,
+) {
+    let dir = scratch(name);
+    std::fs::write(dir.join("strokes.svg"), STROKES).unwrap();
+    let out = plotter(&dir, &["plot", "strokes.svg", "--no-optimize", "--export", "strokes.hpgl"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let want = segments(&drawn_by(&std::fs::read_to_string(dir.join("strokes.hpgl")).unwrap()));
+    let sim = plotter_e2e::SimPty::start(&dir, &["--hpgl", "--hpgl-buffer", buffer]);
+    let host = spawn_plot(&dir, &sim.port);
+    let journal_path = dir.join("plot.journal");
+    let at = wait_for_journal(&journal_path, when);
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(host.id()).unwrap());
+    let t0 = std::time::Instant::now();
+    nix::sys::signal::kill(pid, signal).unwrap();
+    let out = host.wait_with_output().unwrap();
+    let took = t0.elapsed();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(5), "the stop status: {stderr}");
+    assert!(stderr.contains(&format!("stopped by {says}")), "{stderr}");
+    assert!(stderr.contains("stopped with ESC . K") && stderr.contains("--resume"), "{stderr}");
+    assert!(took < Duration::from_secs(2), "the host stopped at once: {took:?}");
+    let first = sim.stop();
+    let figure = |k| plotter_e2e::SimPty::figure(&first, "hpgl", k);
+    assert_eq!((figure("aborts"), figure("pen_up"), figure("overflow")), (Some(1), Some(1), Some(0)), "{at:?}");
+    let state = journal::load(&journal_path).unwrap();
+    assert!(!state.complete && state.executed >= at.executed && state.executed < state.blocks, "{state:?}");
+
+    // Resumed on a plotter switched on afresh (running ahead of the clock).
+    let sim = plotter_e2e::SimPty::start(&dir, &["--hpgl", "--hpgl-buffer", buffer, "--fast"]);
+    let out = plotter(&dir, &["plot", "--resume", "plot.journal", "--port", &sim.port]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(journal::load(&journal_path).unwrap().complete);
+    let second = sim.stop();
+    assert_eq!(plotter_e2e::SimPty::figure(&second, "hpgl", "pen_up"), Some(1));
+    let mut got = traced(&first);
+    assert!(!got.is_empty() && got.len() < want.len(), "the first run drew part of the strokes");
+    got.extend(traced(&second));
+    assert_eq!(got, want, "together the two runs drew the export");
+}
+
+#[test]
+fn sigterm_mid_plot_aborts_lifts_the_pen_and_the_journal_resumes() {
+    // A 60-byte buffer: the host is still sending when the third stroke is under way.
+    signal_an_hpgl_plot("hpgl-sigterm", nix::sys::signal::Signal::SIGTERM, "60", |a, e, n| e >= 9 && a < n, "SIGTERM");
+}
+
+#[test]
+fn sighup_mid_plot_aborts_lifts_the_pen_and_the_journal_resumes() {
+    signal_an_hpgl_plot(
+        "hpgl-sighup",
+        nix::sys::signal::Signal::SIGHUP,
+        "60",
+        |a, e, n| e >= 9 && a < n,
+        "SIGHUP (the terminal closed)",
+    );
+}
+
+#[test]
+fn ctrl_c_after_the_last_byte_aborts_the_plotters_buffer() {
+    // The whole program sits in the 1024-byte buffer long before the plotter has drawn it: a pause cannot come,
+    // so Ctrl-C aborts what the plotter holds.
+    signal_an_hpgl_plot(
+        "hpgl-sigint-end",
+        nix::sys::signal::Signal::SIGINT,
+        "1024",
+        |a, e, n| a == n && e >= 9,
+        "Ctrl-C (SIGINT)",
+    );
+}

@@ -7,7 +7,17 @@
 //! - **Pause** (Ctrl-C): the current command is finished, then `PU;` and a pen-up move to the park corner (the
 //!   far corner of the plotting area) are sent and the plotter is let to finish; to continue, the pen travels
 //!   back to where it was (and goes down again if it was down) and the next command follows.
-//! - **Cancel** (abort at the pause prompt, or any failure): `ESC . K`, then `PU;SP0;` ([`HpglSession::cancel`]).
+//! - **Cancel** (abort at the pause prompt, or any failure): `ESC . K`, then `PU;SP0;` written raw, whatever the
+//!   plotter answers ([`HpglSession::cancel`]).
+//! - **Stops**: a stop ([`PlotEvents::stop_requested`]: SIGTERM, SIGHUP, SIGQUIT, a second Ctrl-C) is checked
+//!   between commands and inside every wait on the plotter, and cancels the plot as above with a message naming
+//!   the signal. An HP-GL plotter cannot pause in the middle of its buffer, so a pause request (one Ctrl-C) is a
+//!   stop where a pause cannot come: once the last byte is sent (the program sits in the plotter's buffer), and
+//!   when the plotter has withheld room for longer than what its buffer holds should take (plus
+//!   [`PAUSE_GRACE`]); a pause asked during an ordinary wait for room is kept for the next command.
+//! - **The end**: the job waits until the plotter has parsed everything (polling `ESC . B`, reporting progress,
+//!   saying what it waits for when it takes long), then reads its errors; only then is the plot a success.
+//!   Every wait is bounded by [`patience`] of the estimated time of the work outstanding.
 //! - **Journal**: `accepted` = commands sent, `executed` = commands the plotter has certainly parsed (its buffer
 //!   drained past them). A resumed plot starts at the executed count, after a preamble that restores the set-up,
 //!   pen, speed and position ([`Commands::resume_preamble`]): a plotter that ran on after the host died draws a
@@ -26,15 +36,22 @@ use plotter_path::{Drawing, MachineProfile};
 use super::progress::{JobProgress, PlotEvents};
 use crate::link::hpgl::HpglLink;
 use crate::link::hpgl::commands::Commands;
-use crate::link::hpgl::sender::{HpglSession, SendStats};
+use crate::link::hpgl::sender::{HpglSession, SendStats, Waiting};
+use crate::link::hpgl::timing::patience;
 use crate::link::journal::Journal;
 use crate::link::stream::PauseChoice;
+use crate::link::wait::{Wait, WaitError};
+use crate::stop::{StopCause, Stopped};
 
 /// Bytes sent between two error checks.
 pub const CHECK_BYTES: u64 = 4096;
 
-/// Margin on top of the estimated plotter time when waiting for an `OE` answer.
-const CHECK_MARGIN: Duration = Duration::from_secs(60);
+/// How long a pause request may wait for room, beyond the estimated time of what the plotter's buffer holds,
+/// before it is taken as a stop (the plotter withholds room: it cannot pause).
+pub const PAUSE_GRACE: Duration = Duration::from_secs(2);
+
+/// How often the end of a plot asks the plotter how far it is (`ESC . B`).
+const DRAIN_POLL: Duration = Duration::from_millis(250);
 
 /// How a plot went.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -142,11 +159,16 @@ impl Run<'_> {
         Ok(())
     }
 
-    /// How long the plotter may take to parse everything sent: the estimated time of the commands not yet
-    /// parsed, plus a margin.
+    /// The estimated plotter time of the commands sent and not yet certainly parsed, and of `more` commands
+    /// after them (the one being sent).
+    fn work_ahead(&self, more: usize) -> Duration {
+        let at = |k: usize| if k == 0 { 0.0 } else { self.cmds.list[k.min(self.cmds.list.len()) - 1].seconds_after };
+        Duration::from_secs_f64((at(self.accepted + more) - at(self.executed)).clamp(0.0, 1e9))
+    }
+
+    /// How long the plotter may take to parse everything sent ([`patience`] of its estimated time).
     fn wait(&self) -> Duration {
-        let at = |k: usize| if k == 0 { 0.0 } else { self.cmds.list[k - 1].seconds_after };
-        CHECK_MARGIN + Duration::from_secs_f64((at(self.accepted) - at(self.executed)).max(0.0))
+        patience(self.work_ahead(0))
     }
 
     fn hint(&self) -> String {
@@ -177,13 +199,17 @@ pub fn plot<L: HpglLink>(
             Ok(done) => format!("\n{done}"),
             Err(c) => format!("\n(could not stop the plotter: {c:#})"),
         };
-        return Err(anyhow::anyhow!(
-            "{}: {e:#}; the plot stopped after command {} of {}{note}{}",
-            s.name,
-            run.executed,
-            cmds.list.len(),
-            run.hint()
-        ));
+        // What the plotter had certainly parsed stands in the journal: a resume starts there.
+        if let Some(j) = run.journal.as_mut() {
+            let _ = j.record(run.accepted, run.executed, 0);
+        }
+        let after =
+            format!("the plot stopped after command {} of {}{note}{}", run.executed, cmds.list.len(), run.hint());
+        // A stop stays a stop (its cause named first; the exit status and the web app tell it from a failure).
+        if let Some(stopped) = e.downcast_ref::<Stopped>() {
+            return Err(Stopped { cause: stopped.cause, doing: format!("{}; {after}", stopped.doing) }.into());
+        }
+        return Err(anyhow::anyhow!("{}: {e:#}; {after}", s.name));
     }
     if let Some(j) = run.journal.as_mut() {
         j.complete()?;
@@ -214,27 +240,94 @@ fn stream<L: HpglLink>(
     let total = cmds.list.len();
     if from > 0 {
         for p in cmds.resume_preamble(from) {
-            s.send(p.as_bytes())?;
+            s.send_guarded(p.as_bytes(), &mut |_| events.stop_requested())?;
         }
     }
     let start_off = if from == 0 { 0 } else { run.ends[from - 1] };
     run.base = i64::try_from(s.sent_bytes()).unwrap_or(i64::MAX) - i64::try_from(start_off).unwrap_or(0);
     run.report(events)?;
     let mut last_check = s.sent_bytes();
+    let mut pause_asked = false;
     for k in from..total {
-        if events.pause_requested().is_some() {
+        if let Some(cause) = events.stop_requested() {
+            let doing = format!("plotting on {} (before command {} of {total})", s.name, k + 1);
+            return Err(Stopped { cause, doing }.into());
+        }
+        if pause_asked || events.pause_requested().is_some() {
+            pause_asked = false;
             pause(s, run, k, events)?;
         }
-        s.send(cmds.list[k].text.as_bytes())?;
+        s.set_work_ahead(run.work_ahead(1));
+        // A pause asked while waiting for room comes at the next command, unless the plotter withholds room for
+        // longer than what it holds should take: it cannot pause, so that is a stop.
+        let grace = run.work_ahead(1) + PAUSE_GRACE;
+        let mut guard = |w: Waiting| {
+            if let Some(c) = events.stop_requested() {
+                return Some(c);
+            }
+            pause_asked = pause_asked || events.pause_requested().is_some();
+            match w {
+                Waiting::Room { stalled } if pause_asked && stalled >= grace => Some(StopCause::Interrupt),
+                _ => None,
+            }
+        };
+        s.send_guarded(cmds.list[k].text.as_bytes(), &mut guard)?;
         run.accepted = k + 1;
         if s.sent_bytes() - last_check >= CHECK_BYTES {
-            s.check(run.wait())?;
+            s.set_work_ahead(run.work_ahead(0));
+            s.check_guarded(run.wait(), &mut guard)?;
             last_check = s.sent_bytes();
         }
         run.executed = run.executed_of(s.parsed_bytes()).clamp(run.executed, run.accepted);
         run.report(events)?;
     }
-    s.check(run.wait())?;
+    finish(s, run, events)
+}
+
+/// The guard of the waits once everything is sent: any stop, and a pause request too (the program sits in the
+/// plotter's buffer: it cannot pause, only abort).
+fn end_guard(events: &mut dyn PlotEvents, _: Waiting) -> Option<StopCause> {
+    events.stop_requested().or_else(|| events.pause_requested().map(|_| StopCause::Interrupt))
+}
+
+/// The end of a plot: wait until the plotter has parsed everything (asking `ESC . B` every [`DRAIN_POLL`],
+/// reporting progress), then read its errors (`OE` answers once the last command has run). Bounded by
+/// [`patience`] of the estimated time left, interruptible by a stop or a pause request.
+fn finish<L: HpglLink>(s: &mut HpglSession<L>, run: &mut Run<'_>, events: &mut dyn PlotEvents) -> anyhow::Result<()> {
+    let total = run.cmds.list.len();
+    let work = run.work_ahead(0);
+    let limit = patience(work);
+    let what = format!(
+        "the plotter to draw the {} commands left in its buffer (about {:.0} s)",
+        run.accepted - run.executed,
+        work.as_secs_f64()
+    );
+    let mut wait = Wait::new(&s.name, what, s.link.now(), limit);
+    while s.parsed_bytes() < s.sent_bytes() {
+        match wait.next(s.link.now(), DRAIN_POLL) {
+            Ok(slice) => s.listen(slice, &mut |w| end_guard(events, w))?,
+            Err(WaitError::TimedOut { .. }) => bail!(
+                "{}: the plotter still held {} bytes after {:.0} s, though what it held should take about {:.0} s                  (1.5 × that + {:.0} s allowed); is it paused (its front-panel pause) or out of paper?",
+                s.name,
+                s.sent_bytes() - s.parsed_bytes(),
+                limit.as_secs_f64(),
+                work.as_secs_f64(),
+                crate::link::hpgl::timing::PATIENCE_MARGIN.as_secs_f64()
+            ),
+            Err(e) => return Err(e.into()),
+        }
+        s.poll_space(&mut |w| end_guard(events, w))?;
+        run.executed = run.executed_of(s.parsed_bytes()).clamp(run.executed, run.accepted);
+        run.report(events)?;
+    }
+    // The last command may still be running: OE answers once it has.
+    let last = match run.cmds.list.as_slice() {
+        [.., a, b] => b.seconds_after - a.seconds_after,
+        [b] => b.seconds_after,
+        [] => 0.0,
+    };
+    s.set_work_ahead(Duration::from_secs_f64(last.clamp(0.0, 1e9)));
+    s.check_guarded(s.stall_limit(), &mut |w| end_guard(events, w))?;
     run.executed = total;
     run.report(events)
 }
@@ -247,8 +340,10 @@ fn pause<L: HpglLink>(
     events: &mut dyn PlotEvents,
 ) -> anyhow::Result<()> {
     let park = run.paper.clip_plu;
-    s.send(format!("PU;PU{},{};", park.0, park.1).as_bytes())?;
-    s.check(run.wait())?;
+    let mut guard = |_: Waiting| events.stop_requested();
+    s.send_guarded(format!("PU;PU{},{};", park.0, park.1).as_bytes(), &mut guard)?;
+    s.set_work_ahead(run.work_ahead(0));
+    s.check_guarded(run.wait(), &mut guard)?;
     // Only the park commands are past command k − 1.
     run.executed = k;
     run.report(events)?;
@@ -256,7 +351,7 @@ fn pause<L: HpglLink>(
         PauseChoice::Resume => {
             let st = run.cmds.list[k].before;
             let back = format!("PU{},{};{}", st.pos.0, st.pos.1, if st.down { "PD;" } else { "" });
-            s.send(back.as_bytes())?;
+            s.send_guarded(back.as_bytes(), &mut |_| events.stop_requested())?;
             // The park and return moves are not commands of the program.
             run.base += i64::try_from(format!("PU;PU{},{};", park.0, park.1).len() + back.len()).unwrap_or(0);
             Ok(())
@@ -274,5 +369,119 @@ mod tests {
         // Published FNV-1a 64 vectors: "" and "a".
         assert_eq!(program_hash(""), 0xcbf2_9ce4_8422_2325);
         assert_eq!(program_hash("a"), 0xaf63_dc4c_8601_ec8c);
+    }
+
+    use crate::link::hpgl::handshake::Handshake;
+    use crate::link::hpgl::model::{HpglModel, Lie, ModelConfig};
+    use crate::link::hpgl::model_link::ModelLink;
+    use plotter_path::geometry::hpgl_devices::device;
+
+    /// A 100 mm square at 2 cm/s (20 s of drawing): 101 bytes, all in the 1024-byte buffer within 0.2 s.
+    const SQUARE: &str = "IN;PU;SP1;VS2;PU1000,1000;PD5000,1000,5000,5000,1000,5000,1000,1000;PU;SP0;";
+
+    /// A front end that asks for a stop (or a pause) once `after` commands were accepted (and, with `stuck`, once
+    /// it is asked that many times without progress: the plot is waiting), counting the pauses asked.
+    struct Asks {
+        after: usize,
+        stop: Option<StopCause>,
+        pause: bool,
+        accepted: usize,
+        asked: usize,
+        stuck: usize,
+        unchanged: usize,
+    }
+
+    impl Asks {
+        fn new(after: usize, stop: Option<StopCause>, pause: bool) -> Asks {
+            Asks { after, stop, pause, accepted: 0, asked: 0, stuck: 0, unchanged: 0 }
+        }
+    }
+
+    impl PlotEvents for Asks {
+        fn progress(&mut self, p: &JobProgress) {
+            self.accepted = p.accepted;
+            self.unchanged = 0;
+        }
+        fn stop_requested(&mut self) -> Option<StopCause> {
+            self.stop.filter(|_| self.accepted >= self.after)
+        }
+        fn pause_requested(&mut self) -> Option<bool> {
+            self.unchanged += 1;
+            let due = self.pause && self.accepted >= self.after && self.unchanged >= self.stuck;
+            self.asked += usize::from(due);
+            self.pause &= !due;
+            due.then_some(false)
+        }
+    }
+
+    fn run(lie: Option<(Lie, u64)>, program: &str, events: &mut Asks) -> (HpglSession<ModelLink>, String) {
+        let d = device("7475a").unwrap();
+        let mut model = HpglModel::new(ModelConfig::new(d));
+        if let Some((lie, from)) = lie {
+            model.set_lie(lie, from);
+        }
+        let mut s = HpglSession::connect(ModelLink::new(model, 9600), "model", d, Handshake::Escb).unwrap();
+        let cmds = Commands::split(program, d);
+        let paper = d.paper("a4").unwrap();
+        let e = plot(&mut s, &cmds, paper, 0, None, None, events).expect_err("the plot is stopped");
+        (s, format!("{e:#}"))
+    }
+
+    #[test]
+    fn a_stop_or_a_pause_after_the_last_byte_aborts_the_buffer_and_lifts_the_pen() {
+        let n = Commands::split(SQUARE, device("7475a").unwrap()).list.len();
+        let stop = Asks::new(n, Some(StopCause::Terminate), false);
+        let pause = Asks::new(n, None, true);
+        for (mut events, cause) in [(stop, "SIGTERM"), (pause, "Ctrl-C (SIGINT)")] {
+            let (mut s, e) = run(None, SQUARE, &mut events);
+            assert!(e.contains(&format!("stopped by {cause} while waiting for")), "{e}");
+            assert!(e.contains("stopped with ESC . K") && e.contains("confirmed by OE"), "{e}");
+            let t = s.link.now();
+            assert!(t < Duration::from_secs(5), "stopped at once, not after the 20 s square: {t:?}");
+            s.link.finish(30.0);
+            let m = s.link.model();
+            assert_eq!(m.stats().aborts, 1);
+            assert!(m.pen_up() && m.pen() == 0, "{e}");
+            assert!(m.trace().iter().map(Vec::len).sum::<usize>() < 5, "the square was not finished");
+        }
+    }
+
+    #[test]
+    fn the_end_of_a_plot_waits_for_the_plotter_with_progress() {
+        // The square plotted to its end: the plot returns when the plotter has drawn it, not when it was sent.
+        let d = device("7475a").unwrap();
+        let mut s = HpglSession::connect(
+            ModelLink::new(HpglModel::new(ModelConfig::new(d)), 9600),
+            "model",
+            d,
+            Handshake::Escb,
+        )
+        .unwrap();
+        let cmds = Commands::split(SQUARE, d);
+        let mut events = Asks::new(usize::MAX, None, false);
+        let o = plot(&mut s, &cmds, d.paper("a4").unwrap(), 0, None, None, &mut events).unwrap();
+        let m = s.link.model();
+        assert!(m.idle() && m.pen_up() && m.trace()[0].len() == 5, "drawn to its end before the plot returned");
+        assert!(o.seconds > 20.0 && o.seconds < 30.0, "{}", o.seconds);
+        assert!(o.stats.space_queries > 20 * 3, "polled during the 20 s drawing: {}", o.stats.space_queries);
+    }
+
+    #[test]
+    fn a_pause_while_the_plotter_withholds_room_stops_the_plot() {
+        // 200 short strokes (about 2.4 KB): the plotter stops taking bytes after 300 of them.
+        let mut program = String::from("IN;SP1;");
+        for i in 0..200 {
+            program.push_str(&format!("PU{},1000;PD{},1100;", 1000 + 10 * i, 1000 + 10 * i));
+        }
+        program.push_str("PU;SP0;");
+        // The pause is asked during the wait (ten asks without progress).
+        let mut events = Asks { stuck: 10, ..Asks::new(0, None, true) };
+        let (mut s, e) = run(Some((Lie::NoRoom, 300)), &program, &mut events);
+        assert_eq!(events.asked, 1);
+        assert!(e.contains("stopped by Ctrl-C (SIGINT) while waiting for room"), "{e}");
+        assert!(s.link.now() < Duration::from_secs(30), "within the grace, not 300 s: {:?}", s.link.now());
+        s.link.finish(30.0);
+        let m = s.link.model();
+        assert!(m.pen_up() && m.stats().aborts == 1, "{e}");
     }
 }

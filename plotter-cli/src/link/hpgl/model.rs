@@ -12,6 +12,12 @@
 //!
 //! The trace is what was drawn: every pen-down polyline in plotter units, in order.
 //!
+//! A model can also **lie** ([`Lie`], `plotter sim --pty --hpgl --hpgl-lie MODE[@N]`), from the moment `N` HP-GL
+//! bytes have entered its buffer: withhold buffer space (`ESC . B` answering 0, or an Xoff never followed by an
+//! Xon), babble (a line every 20 ms, as a wrong port or an auto-reporting GRBL does), or answer the buffer
+//! queries with garbage or not at all. The host must end every one of these with a message, within a deadline,
+//! and still lift the pen.
+//!
 //! Time is in seconds of the model's own clock, advanced by [`HpglModel::run_until`]; bytes arrive with
 //! [`HpglModel::receive`] (device-control instructions are executed on arrival, everything else enters the buffer).
 
@@ -47,6 +53,52 @@ impl ModelConfig {
         ModelConfig { device, buffer: device.buffer_bytes, xon_xoff: true }
     }
 }
+
+/// A way for the model to misbehave, for the tests of the host's waits and stops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Lie {
+    /// An honest plotter.
+    #[default]
+    None,
+    /// `ESC . B` always answers 0 (no room), whatever the buffer holds.
+    NoRoom,
+    /// An Xoff (whether or not Xon/Xoff was asked for), and never an Xon after it.
+    XoffForever,
+    /// A junk line (a GRBL status report) every 20 ms, whatever it is asked.
+    Chatter,
+    /// `ESC . B` and `ESC . K` answered with garbage (`ESC . K` still empties the buffer).
+    EscbGarbage,
+    /// `ESC . B` never answered.
+    EscbSilent,
+}
+
+impl Lie {
+    /// The lies by their command-line names.
+    pub const NAMES: [(&'static str, Lie); 5] = [
+        ("no-room", Lie::NoRoom),
+        ("xoff-forever", Lie::XoffForever),
+        ("chatter", Lie::Chatter),
+        ("escb-garbage", Lie::EscbGarbage),
+        ("escb-silent", Lie::EscbSilent),
+    ];
+
+    /// Parse `MODE` or `MODE@N` (the lie starts once `N` HP-GL bytes have entered the buffer; 0 by default).
+    pub fn parse(spec: &str) -> Result<(Lie, u64), String> {
+        let (name, at) = spec.split_once('@').unwrap_or((spec, "0"));
+        let names = || Lie::NAMES.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ");
+        let lie =
+            Lie::NAMES.iter().find(|(n, _)| *n == name).map(|(_, l)| *l).ok_or_else(|| {
+                format!("{spec:?}: not a lie the model tells (use {} with an optional @BYTES)", names())
+            })?;
+        let at = at.parse().map_err(|_| format!("{spec:?}: @{at} is not a byte count"))?;
+        Ok((lie, at))
+    }
+}
+
+/// Seconds between two lines of [`Lie::Chatter`].
+pub const CHATTER_S: f64 = 0.02;
+/// The line [`Lie::Chatter`] sends (a GRBL 1.1 status report, with the LF a GRBL ends it with).
+pub const CHATTER_LINE: &[u8] = b"<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n";
 
 /// What the model counted.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -100,6 +152,9 @@ pub struct HpglModel {
     xoff_threshold: usize,
     xoff_sent: bool,
     stats: ModelStats,
+    lie: Lie,
+    lie_from: u64,
+    chatter_at: f64,
 }
 
 impl HpglModel {
@@ -126,7 +181,30 @@ impl HpglModel {
             xoff_threshold: threshold(cfg.buffer),
             xoff_sent: false,
             stats: ModelStats::default(),
+            lie: Lie::None,
+            lie_from: 0,
+            chatter_at: CHATTER_S,
         }
+    }
+
+    /// Tell `lie` once `from` HP-GL bytes have entered the buffer (see [`Lie`]).
+    pub fn set_lie(&mut self, lie: Lie, from: u64) {
+        self.lie = lie;
+        self.lie_from = from;
+        self.lying_now();
+    }
+
+    /// The lie being told now, if any (an Xoff-forever sends its Xoff when it starts).
+    fn lying_now(&mut self) -> Lie {
+        if self.lie == Lie::None || self.stats.buffered < self.lie_from {
+            return Lie::None;
+        }
+        if self.lie == Lie::XoffForever && !self.xoff_sent {
+            self.out.push(XOFF);
+            self.xoff_sent = true;
+            self.stats.xoffs += 1;
+        }
+        self.lie
     }
 
     /// How it was built.
@@ -227,13 +305,23 @@ impl HpglModel {
             if stop_on_output && !self.out.is_empty() {
                 return;
             }
+            // A babbling plotter speaks at its own times, whatever it is doing.
+            let mut until = t;
+            if self.lying_now() == Lie::Chatter {
+                if self.clock >= self.chatter_at {
+                    self.out.extend_from_slice(CHATTER_LINE);
+                    self.chatter_at = self.clock + CHATTER_S;
+                    continue;
+                }
+                until = until.min(self.chatter_at);
+            }
             if self.busy_until > self.clock {
-                self.clock = self.busy_until.min(t);
+                self.clock = self.busy_until.min(until);
                 continue;
             }
             let Some(b) = self.buffer.pop_front() else {
-                self.clock = t;
-                break;
+                self.clock = until;
+                continue;
             };
             self.flow();
             self.parse_byte(b);
@@ -250,7 +338,10 @@ impl HpglModel {
             self.out.push(XOFF);
             self.xoff_sent = true;
             self.stats.xoffs += 1;
-        } else if self.xoff_sent && free >= (2 * self.xoff_threshold).min(self.cfg.buffer) {
+        } else if self.xoff_sent
+            && free >= (2 * self.xoff_threshold).min(self.cfg.buffer)
+            && self.lying_now() != Lie::XoffForever
+        {
             self.out.push(XON);
             self.xoff_sent = false;
         }
@@ -273,8 +364,15 @@ impl HpglModel {
         let done = |s: &mut Self| s.esc = None;
         match letter {
             b'B' => {
-                let f = self.free();
-                self.answer(&f.to_string());
+                match self.lying_now() {
+                    Lie::NoRoom => self.answer("0"),
+                    Lie::EscbGarbage => self.answer("#?&"),
+                    Lie::EscbSilent => {}
+                    _ => {
+                        let f = self.free();
+                        self.answer(&f.to_string());
+                    }
+                }
                 done(self);
             }
             b'L' => {
@@ -293,6 +391,9 @@ impl HpglModel {
                 self.busy_until = self.clock;
                 self.stats.aborts += 1;
                 self.flow();
+                if self.lying_now() == Lie::EscbGarbage {
+                    self.answer("K?");
+                }
                 done(self);
             }
             b'R' => {
@@ -583,5 +684,52 @@ mod tests {
         m.run_until(10.0);
         assert!(m.pen_up() && m.pen() == 0 && m.stats().aborts == 1);
         assert_eq!(m.position(), (4000, 4000), "the move under way stops (here: at its end), PU0,0 is dropped");
+    }
+
+    #[test]
+    fn each_lie_starts_at_its_byte_count() {
+        assert_eq!(Lie::parse("no-room"), Ok((Lie::NoRoom, 0)));
+        assert_eq!(Lie::parse("escb-garbage@300"), Ok((Lie::EscbGarbage, 300)));
+        assert!(Lie::parse("sulk").unwrap_err().contains("no-room, xoff-forever, chatter"));
+        assert!(Lie::parse("chatter@x").is_err());
+        // No room: honest until 10 bytes have entered the buffer, then ESC . B answers 0 with 1014 bytes free.
+        let mut m = model(1024, true);
+        m.set_lie(Lie::NoRoom, 10);
+        feed(&mut m, b"\x1b.BPU100,100;\x1b.B");
+        assert_eq!(m.take_output(), b"1024\r0\r");
+        // Garbage: ESC . B and ESC . K answer what no plotter says; ESC . K still empties the buffer.
+        let mut m = model(1024, true);
+        m.set_lie(Lie::EscbGarbage, 0);
+        feed(&mut m, b"PU100,100;\x1b.B\x1b.K");
+        assert_eq!(m.take_output(), b"#?&\rK?\r");
+        assert_eq!((m.free(), m.stats().aborts), (1024, 1));
+        // Silent: no answer at all.
+        let mut m = model(1024, true);
+        m.set_lie(Lie::EscbSilent, 0);
+        feed(&mut m, b"\x1b.B\x1b.L");
+        assert_eq!(m.take_output(), b"1024\r");
+    }
+
+    #[test]
+    fn xoff_forever_never_sends_xon_and_chatter_speaks_every_20_ms() {
+        let mut m = model(40, true);
+        feed(&mut m, b"\x1b.I10;;17:\x1b.N;19:");
+        m.set_lie(Lie::XoffForever, 5);
+        feed(&mut m, b"PU1,1;");
+        m.run_until(1.0);
+        assert_eq!(m.take_output(), vec![XOFF], "an Xoff once the lie starts");
+        assert!(m.idle() && m.free() == 40);
+        m.run_until(2.0);
+        assert!(m.take_output().is_empty(), "no Xon with an empty buffer");
+        let mut m = model(1024, true);
+        m.set_lie(Lie::Chatter, 0);
+        m.run_until(0.101);
+        let out = m.take_output();
+        assert_eq!(out.len(), 5 * CHATTER_LINE.len(), "at 20, 40, 60, 80 and 100 ms");
+        assert!(out.starts_with(CHATTER_LINE));
+        // It still plots.
+        feed(&mut m, b"PU100,100;");
+        m.run_until(1.0);
+        assert_eq!(m.position(), (100, 100));
     }
 }

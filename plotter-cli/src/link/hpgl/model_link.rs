@@ -41,6 +41,11 @@ impl Wire {
         &self.model
     }
 
+    /// The plotter, to change it (make it lie).
+    pub fn model_mut(&mut self) -> &mut HpglModel {
+        &mut self.model
+    }
+
     /// Seconds one byte takes on the line.
     pub fn byte_seconds(&self) -> f64 {
         self.byte_s
@@ -145,6 +150,11 @@ impl ModelLink {
     /// The plotter.
     pub fn model(&self) -> &HpglModel {
         self.wire.model()
+    }
+
+    /// The plotter, to change it (make it lie).
+    pub fn model_mut(&mut self) -> &mut HpglModel {
+        self.wire.model_mut()
     }
 
     /// Let the plotter finish what it holds (at most `limit` s); returns the time.

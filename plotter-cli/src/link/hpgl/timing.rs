@@ -3,6 +3,8 @@
 //! pen-up moves at the device's top speed; lifting or lowering the pen and changing pens take fixed times.
 //! Used by the plotter model (its clock) and the sender (time left).
 
+use std::time::Duration;
+
 use plotter_path::geometry::hpgl_devices::{HpglDevice, PLU_PER_MM};
 
 /// Lifting or lowering the pen, s. Estimated, for every device: none of the sources the device table cites
@@ -11,6 +13,19 @@ pub const PEN_LIFT_S: f64 = 0.03;
 /// A pen change (`SP n`): put the pen back in the carousel and take another, s. Estimated, for every device:
 /// not in the sources the device table cites; 2 s covers a carousel turning half way and the two pen strokes.
 pub const PEN_CHANGE_S: f64 = 2.0;
+
+/// Fixed part of [`patience`]: a plotter's own hesitations the estimate does not know (a slow pen carousel,
+/// an answer's round trip, the last move braking).
+pub const PATIENCE_MARGIN: Duration = Duration::from_secs(20);
+
+/// How long to wait for a plotter that should be done with `work` (the estimated time of what its buffer holds)
+/// before calling it stuck: half as long again as the estimate (the devices' accelerations and pen times are
+/// estimates too), plus [`PATIENCE_MARGIN`]. Every wait of the HP-GL link for the plotter's progress (room in its
+/// buffer, its buffer draining, an `OE` that waits its turn) is bounded by this, so the limit follows from the
+/// work queued instead of a fixed constant.
+pub fn patience(work: Duration) -> Duration {
+    work.mul_f64(1.5) + PATIENCE_MARGIN
+}
 
 /// Standard gravity, m/s².
 const G: f64 = 9.806_65;
@@ -51,5 +66,7 @@ mod tests {
         let d = device("7475a").unwrap();
         assert!((accel_plu(d) - 784_532.0).abs() < 1e-6);
         assert!((cm_s_to_plu(38.1) - 15_240.0).abs() < 1e-9);
+        assert_eq!(patience(Duration::from_secs(10)), Duration::from_secs(35));
+        assert_eq!(patience(Duration::ZERO), PATIENCE_MARGIN);
     }
 }

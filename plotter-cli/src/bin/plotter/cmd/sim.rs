@@ -21,7 +21,8 @@
 //! With `--hpgl` the pty serves the project's HP-GL plotter model ([`plotter_host::link::hpgl::model`]) of
 //! `--hpgl-device` with a `--hpgl-buffer`-byte input buffer behind a 9600-baud line (`--baud`); its trace lists
 //! the pen-down polylines (`pd x,y x,y …` in plotter units), then `# hpgl buffered <n> overflow <n> peak <n>
-//! instructions <n> errors <n> xoffs <n> aborts <n> pen_up <0|1> pen <n> busy_s <s>`.
+//! instructions <n> errors <n> xoffs <n> aborts <n> pen_up <0|1> pen <n> busy_s <s>`. `--hpgl-lie MODE[@BYTES]`
+//! makes the model misbehave ([`plotter_host::link::hpgl::model::Lie`]).
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -109,6 +110,12 @@ pub(crate) struct SimArgs {
     /// HP-GL: the line's baud rate.
     #[arg(long, requires = "hpgl", default_value_t = 9600)]
     pub(crate) baud: u32,
+    /// HP-GL: make the model lie, for tests of the host's waits and stops: `MODE` or `MODE@BYTES` (from the
+    /// moment BYTES HP-GL bytes have entered its buffer). MODE: no-room (ESC . B answers 0), xoff-forever (an
+    /// Xoff, never an Xon), chatter (a junk line every 20 ms), escb-garbage (ESC . B and ESC . K answered with
+    /// garbage), escb-silent (ESC . B never answered).
+    #[arg(long, requires = "hpgl")]
+    pub(crate) hpgl_lie: Option<String>,
 }
 
 /// Parse `--grbl-fault`.
@@ -311,7 +318,13 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
             Some(Handshake::Escb) => false,
             Some(Handshake::Xonxoff) | None => true,
         };
-        Backend::Hpgl(Box::new(Wire::new(HpglModel::new(ModelConfig { device, buffer, xon_xoff }), args.baud)), 0)
+        let mut model = HpglModel::new(ModelConfig { device, buffer, xon_xoff });
+        if let Some(spec) = &args.hpgl_lie {
+            let (lie, from) =
+                plotter_host::link::hpgl::model::Lie::parse(spec).map_err(|e| anyhow::anyhow!("--hpgl-lie {e}"))?;
+            model.set_lie(lie, from);
+        }
+        Backend::Hpgl(Box::new(Wire::new(model, args.baud)), 0)
     } else if args.ebb {
         let version = EbbVersion::parse(&format!("EB Firmware Version {}", args.ebb_version))
             .filter(|v| [EbbVersion(2, 8, 1), EbbVersion(3, 0, 2)].contains(v))
