@@ -427,77 +427,84 @@ impl MachineProfile {
             field: field.to_string(),
             problem: problem.to_string(),
         };
+        // Every number against its physical range (see `limits`), named with its dotted key.
+        let within = |field: &str, v: f64, r: &Range| -> Result<(), ProfileError> {
+            if v.is_finite() && (r.lo..=r.hi).contains(&v) { Ok(()) } else { Err(bad(field, &r.refusal(v))) }
+        };
         let axes = [("x", Some(self.axes.x)), ("y", Some(self.axes.y)), ("z", Some(self.axes.z)), ("e", self.axes.e)];
         for (name, axis) in axes {
             let Some(a) = axis else { continue };
-            for (field, v) in [
-                ("steps_per_mm", a.steps_per_mm),
-                ("max_feed_mm_s", a.max_feed_mm_s),
-                ("max_accel_mm_s2", a.max_accel_mm_s2),
-            ] {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(bad(&format!("axes.{name}.{field}"), "must be a positive number"));
-                }
-            }
-            if !(a.travel_mm.is_finite() && a.travel_mm >= 0.0) {
-                return Err(bad(&format!("axes.{name}.travel_mm"), "must be zero or positive"));
+            let key = |field: &str| format!("axes.{name}.{field}");
+            within(&key("steps_per_mm"), a.steps_per_mm, &limits::STEPS_PER_MM)?;
+            let travel = if matches!(name, "x" | "y") { &limits::XY_TRAVEL } else { &limits::ZE_TRAVEL };
+            within(&key("travel_mm"), a.travel_mm, travel)?;
+            within(&key("max_feed_mm_s"), a.max_feed_mm_s, &limits::FEED)?;
+            within(&key("max_accel_mm_s2"), a.max_accel_mm_s2, &limits::ACCEL)?;
+            let rate = a.max_feed_mm_s * a.steps_per_mm;
+            if rate > limits::MAX_STEP_RATE {
+                return Err(bad(
+                    &key("max_feed_mm_s"),
+                    &format!(
+                        "{} mm/s at {} steps/mm is {} steps/s, above the {} steps/s a step generator runs",
+                        short(a.max_feed_mm_s),
+                        short(a.steps_per_mm),
+                        short(rate),
+                        short(limits::MAX_STEP_RATE)
+                    ),
+                ));
             }
         }
-        let positive = [
+        // Feeds along the page: at least one step per second on the coarser of X and Y, the slowest rate a step
+        // block carries (rates are whole steps per second); slower, the machine could not run what the plan says.
+        let xy_spm = self.axes.x.steps_per_mm.min(self.axes.y.steps_per_mm);
+        let slowest = |field: &str, feed: f64| -> Result<(), ProfileError> {
+            if feed * xy_spm < 1.0 {
+                return Err(bad(
+                    field,
+                    &format!(
+                        "{} mm/s at {} steps/mm is below one step per second, the slowest rate a step block carries",
+                        short(feed),
+                        short(xy_spm)
+                    ),
+                ));
+            }
+            Ok(())
+        };
+        for (field, v) in [
             ("pen.draw_feed_mm_s", self.pen.draw_feed_mm_s),
             ("pen.travel_feed_mm_s", self.pen.travel_feed_mm_s),
-            ("motion.junction_deviation_mm", self.motion.junction_deviation_mm),
             ("homing.seek_mm_s", self.homing.seek_mm_s),
             ("homing.locate_mm_s", self.homing.locate_mm_s),
-        ];
-        for (field, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(bad(field, "must be a positive number"));
-            }
+        ] {
+            within(field, v, &limits::FEED)?;
+            slowest(field, v)?;
         }
         for (field, v) in [
             ("pen.draw_accel_mm_s2", self.pen.draw_accel_mm_s2),
             ("pen.travel_accel_mm_s2", self.pen.travel_accel_mm_s2),
         ] {
-            if v.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
-                return Err(bad(field, "must be a positive number"));
+            if let Some(v) = v {
+                within(field, v, &limits::ACCEL)?;
             }
         }
-        for (field, v) in [
-            ("pen.settle_ms", self.pen.settle_ms),
-            ("homing.pull_off_mm", self.homing.pull_off_mm),
-            ("homing.debounce_ms", self.homing.debounce_ms),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(field, "must be zero or positive"));
-            }
-        }
-        for (field, v, max) in [
-            ("motion.curve_deviation_mm", self.motion.curve_deviation_mm, 10.0),
-            ("pen.width_mm", self.pen.width_mm, 10.0),
-        ] {
-            if !(v.is_finite() && (0.0..=max).contains(&v)) {
-                return Err(bad(field, "must lie in 0..=10 mm"));
-            }
-        }
+        within("motion.junction_deviation_mm", self.motion.junction_deviation_mm, &limits::JUNCTION_DEVIATION)?;
+        within("motion.curve_deviation_mm", self.motion.curve_deviation_mm, &limits::CURVE_DEVIATION)?;
+        within("pen.settle_ms", self.pen.settle_ms, &limits::SETTLE)?;
+        within("pen.width_mm", self.pen.width_mm, &limits::PEN_WIDTH)?;
+        within("pen.clearance_mm", self.pen.clearance_mm, &limits::CLEARANCE)?;
+        within("homing.pull_off_mm", self.homing.pull_off_mm, &limits::PULL_OFF)?;
+        within("homing.debounce_ms", self.homing.debounce_ms, &limits::DEBOUNCE)?;
+        let z_travel = Range { hi: self.axes.z.travel_mm, why: "the Z travel (axes.z.travel_mm)", ..limits::Z_HEIGHT };
         for (field, z) in [("pen.up_z_mm", self.pen.up_z_mm), ("pen.down_z_mm", self.pen.down_z_mm)] {
-            if !(z.is_finite() && (0.0..=self.axes.z.travel_mm).contains(&z)) {
-                return Err(bad(field, "must lie within the Z travel"));
-            }
+            within(field, z, &z_travel)?;
         }
-        if !(self.pen.clearance_mm.is_finite() && self.pen.clearance_mm > 0.0) {
-            return Err(bad("pen.clearance_mm", "must be a positive number"));
-        }
-        if let Some(c) = self.pen.clear_ms
-            && !(c.is_finite() && (0.0..=self.pen.settle_ms).contains(&c))
-        {
-            return Err(bad("pen.clear_ms", "must lie in 0..=pen.settle_ms"));
+        if let Some(c) = self.pen.clear_ms {
+            let r = Range { hi: self.pen.settle_ms, why: "up to pen.settle_ms", ..limits::SETTLE };
+            within("pen.clear_ms", c, &r)?;
         }
         for (field, a) in [("pen.servo_up_deg", self.pen.servo_up_deg), ("pen.servo_down_deg", self.pen.servo_down_deg)]
         {
-            if !(a.is_finite() && (0.0..=180.0).contains(&a)) {
-                return Err(bad(field, "must be an angle from 0 to 180 degrees"));
-            }
+            within(field, a, &limits::SERVO_ANGLE)?;
         }
         for (i, pen) in self.pens.iter().enumerate() {
             let f = |name: &str| format!("pens[{i}] ({}).{name}", pen.name);
@@ -509,21 +516,21 @@ impl MachineProfile {
             {
                 return Err(bad(&f("color"), "must be #rrggbb"));
             }
-            for (name, v) in [("width_mm", pen.width_mm), ("draw_feed_mm_s", pen.draw_feed_mm_s)] {
-                if v.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
-                    return Err(bad(&f(name), "must be a positive number"));
-                }
+            if let Some(w) = pen.width_mm {
+                within(&f("width_mm"), w, &Range { lo: 0.01, ..limits::PEN_WIDTH })?;
             }
-            if pen.down_z_mm.is_some_and(|z| !(z.is_finite() && (0.0..=self.axes.z.travel_mm).contains(&z))) {
-                return Err(bad(&f("down_z_mm"), "must lie within the Z travel"));
+            if let Some(v) = pen.draw_feed_mm_s {
+                within(&f("draw_feed_mm_s"), v, &limits::FEED)?;
+                slowest(&f("draw_feed_mm_s"), v)?;
             }
-            if pen.servo_down_deg.is_some_and(|a| !(a.is_finite() && (0.0..=180.0).contains(&a))) {
-                return Err(bad(&f("servo_down_deg"), "must be an angle from 0 to 180 degrees"));
+            if let Some(z) = pen.down_z_mm {
+                within(&f("down_z_mm"), z, &z_travel)?;
+            }
+            if let Some(a) = pen.servo_down_deg {
+                within(&f("servo_down_deg"), a, &limits::SERVO_ANGLE)?;
             }
             if let Some(h) = pen.hatch {
-                if !(h.spacing_mm.is_finite() && (0.01..=100.0).contains(&h.spacing_mm)) {
-                    return Err(bad(&f("hatch.spacing_mm"), "must lie in 0.01..=100 mm"));
-                }
+                within(&f("hatch.spacing_mm"), h.spacing_mm, &limits::HATCH_SPACING)?;
                 if !h.angle_deg.is_finite() {
                     return Err(bad(&f("hatch.angle_deg"), "must be a finite number of degrees"));
                 }
@@ -537,22 +544,16 @@ impl MachineProfile {
         {
             return Err(bad("park", "must lie within the X and Y travel"));
         }
-        if self.link.baud == 0 || self.link.rx_buffer_bytes < 64 || self.link.queue_blocks == 0 {
-            return Err(bad("link", "baud and queue_blocks must be positive, rx_buffer_bytes at least 64"));
-        }
+        within("link.baud", f64::from(self.link.baud), &limits::BAUD)?;
+        within("link.rx_buffer_bytes", f64::from(self.link.rx_buffer_bytes), &limits::RX_BUFFER)?;
+        within("link.queue_blocks", f64::from(self.link.queue_blocks), &limits::QUEUE_BLOCKS)?;
         if let Some(e) = &self.ebb {
-            if e.pen_up_position == 0 || e.pen_down_position == 0 {
-                return Err(bad("ebb.pen_up_position", "servo positions must lie in 1..=65535"));
-            }
-            if !(0..=7).contains(&e.pen_pin) {
-                return Err(bad("ebb.pen_pin", "must be a PortB pin, 0..=7"));
-            }
-            if !(1..=5).contains(&e.step_mode) {
-                return Err(bad("ebb.step_mode", "must be 1 (1/16 step) ..= 5 (full step)"));
-            }
-            if !(e.min_move_ms.is_finite() && (0.0..=100.0).contains(&e.min_move_ms)) {
-                return Err(bad("ebb.min_move_ms", "must lie in 0..=100 ms"));
-            }
+            within("ebb.pen_up_position", f64::from(e.pen_up_position), &limits::SERVO_PULSE)?;
+            within("ebb.pen_down_position", f64::from(e.pen_down_position), &limits::SERVO_PULSE)?;
+            within("ebb.pen_pin", f64::from(e.pen_pin), &limits::EBB_PEN_PIN)?;
+            within("ebb.servo_timeout_ms", f64::from(e.servo_timeout_ms), &limits::SERVO_TIMEOUT)?;
+            within("ebb.step_mode", f64::from(e.step_mode), &limits::EBB_STEP_MODE)?;
+            within("ebb.min_move_ms", e.min_move_ms, &limits::MIN_MOVE)?;
             if !self.pen.uses_servo() {
                 return Err(bad("pen.command", "an EBB machine lifts its pen with a servo: set it to \"servo\""));
             }
@@ -568,6 +569,100 @@ impl MachineProfile {
         }
         Ok(())
     }
+}
+
+/// The range a profile number must lie in, its unit, and what it is (shown in the refusal).
+#[derive(Debug, Clone, Copy)]
+struct Range {
+    lo: f64,
+    hi: f64,
+    unit: &'static str,
+    /// What the range is, when it is not a plain physical range (e.g. "the Z travel").
+    why: &'static str,
+}
+
+impl Range {
+    const fn new(lo: f64, hi: f64, unit: &'static str) -> Self {
+        Range { lo, hi, unit, why: "" }
+    }
+
+    /// `v is outside 1..=100000 steps/mm`, with the value printed short.
+    fn refusal(&self, v: f64) -> String {
+        let unit = if self.unit.is_empty() { String::new() } else { format!(" {}", self.unit) };
+        let why = if self.why.is_empty() { String::new() } else { format!(" ({})", self.why) };
+        format!("{} is outside the accepted range {}..={}{unit}{why}", short(v), short(self.lo), short(self.hi))
+    }
+}
+
+/// A number as a person reads it: as written for ordinary magnitudes (`80`, `0.127`), in scientific notation
+/// beyond them (`1e-9`, `1e300`), never as hundreds of digits.
+fn short(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&v.abs()) { format!("{v}") } else { format!("{v:e}") }
+}
+
+/// The accepted ranges of a profile's numbers. Each admits every real machine we know of — hobby servo kits and
+/// AxiDraw-class EBB plotters (80 steps/mm, 300 × 218 mm), belt and lead-screw XY kits, big floor and wall
+/// plotters (several metres), bed-slinger and fast CoreXY 3D printers (Z lead screws at 400 steps/mm and more,
+/// 20 000 mm/s² and beyond), vintage HP-GL plotters (75 baud upwards) — with a wide margin, and refuses only
+/// values no machine has, which collapse a drawing (a step every kilometre), stall it for ever (a feed of
+/// 10⁻³⁰⁰ mm/s) or overflow the step counters.
+mod limits {
+    use super::Range;
+
+    /// Microstepped belts give 40–160, AxiDraws 80, lead screws 400 (8 mm lead, 1/16) up to 25 600 (2 mm lead at
+    /// 1/256), geared extruders several hundred; full-stepped large pulleys a few. Below one step per millimetre
+    /// a plotter cannot draw millimetre detail.
+    pub(super) const STEPS_PER_MM: Range = Range::new(1.0, 100_000.0, "steps/mm");
+    /// From a postcard plotter (~100 mm) to a 10 m wall or floor plotter; with the largest steps/mm above the
+    /// position still fits the step counters (10⁹ steps).
+    pub(super) const XY_TRAVEL: Range = Range::new(1.0, 10_000.0, "mm");
+    /// Z (a servo's nominal 10 mm, a printer's 250 mm) and E (0: an extruder has no travel limit).
+    pub(super) const ZE_TRAVEL: Range = Range::new(0.0, 10_000.0, "mm");
+    /// Feeds: slow Z lead screws run at 2–5 mm/s and brush pens draw at a few mm/s; the fastest printers travel
+    /// at about 1 m/s. 0.1 mm/s to 5 m/s.
+    pub(super) const FEED: Range = Range::new(0.1, 5_000.0, "mm/s");
+    /// From a wobbly Z (tens of mm/s²) to CoreXY printers tuned to 20 000–50 000 mm/s².
+    pub(super) const ACCEL: Range = Range::new(1.0, 100_000.0, "mm/s²");
+    /// The firmware's step generator limit (`MachineConfig::validate`): an axis's top feed in steps per second.
+    pub(super) const MAX_STEP_RATE: f64 = 1.0e6;
+    /// grbl's default is 0.01 mm, Marlin's 0.013, saxi's cornering 0.127; 10 µm below the smallest and far above
+    /// the largest still plan (every corner a stop, or none).
+    pub(super) const JUNCTION_DEVIATION: Range = Range::new(0.0001, 10.0, "mm");
+    /// As the firmware takes it: 0 plans corner by corner, 10 mm is far beyond any flattening tolerance.
+    pub(super) const CURVE_DEVIATION: Range = Range::new(0.0, 10.0, "mm");
+    /// Pen lift settle: 0 (a Z axis that is done when its move is) to seconds for a slow solenoid or pneumatic
+    /// lift; 10 s each way is already an hour per 180 lifts.
+    pub(super) const SETTLE: Range = Range::new(0.0, 10_000.0, "ms");
+    /// Nib widths: 0 turns joining off; a 10 mm marker is the widest.
+    pub(super) const PEN_WIDTH: Range = Range::new(0.0, 10.0, "mm");
+    /// How far above the pen-down height the tip is clear (capped at the pen-up height when planned).
+    pub(super) const CLEARANCE: Range = Range::new(0.01, 100.0, "mm");
+    /// Pen heights, within the Z travel (the upper end is the profile's own `axes.z.travel_mm`).
+    pub(super) const Z_HEIGHT: Range = Range::new(0.0, 10_000.0, "mm");
+    /// Servo angles, as `M3 S<angle>` takes them.
+    pub(super) const SERVO_ANGLE: Range = Range::new(0.0, 180.0, "degrees");
+    /// The switch has to release (the firmware needs a pull-off above 0); 100 mm is a tenth of a large frame.
+    pub(super) const PULL_OFF: Range = Range::new(0.01, 100.0, "mm");
+    /// Switch debounce: mechanical switches bounce for a few milliseconds; a second is far beyond any.
+    pub(super) const DEBOUNCE: Range = Range::new(0.0, 1_000.0, "ms");
+    /// Hatch spacing of a pen's filled areas.
+    pub(super) const HATCH_SPACING: Range = Range::new(0.01, 100.0, "mm");
+    /// Serial speeds: an HP 7475A can be switched down to 75 baud; USB-serial bridges reach 12 Mbaud.
+    pub(super) const BAUD: Range = Range::new(75.0, 12_000_000.0, "baud");
+    /// The firmware's receive buffer: 64 bytes (an EBB command) up to 1 MiB (grblHAL and FluidNC use a few KiB).
+    pub(super) const RX_BUFFER: Range = Range::new(64.0, 1_048_576.0, "bytes");
+    /// Planner queue: 4 on an EBB, 16 on grbl, 32 on ours, hundreds on grblHAL.
+    pub(super) const QUEUE_BLOCKS: Range = Range::new(1.0, 10_000.0, "blocks");
+    /// EBB servo pulse widths, 1/12 µs units (0 would switch the servo output off).
+    pub(super) const SERVO_PULSE: Range = Range::new(1.0, 65_535.0, "");
+    /// PortB pins 0..=7 (B1 the standard servo, B2 the brushless lift).
+    pub(super) const EBB_PEN_PIN: Range = Range::new(0.0, 7.0, "");
+    /// `SR`: 0 keeps the servo powered; a day is longer than any plot's pause.
+    pub(super) const SERVO_TIMEOUT: Range = Range::new(0.0, 86_400_000.0, "ms");
+    /// `EM` step modes: 1 = 1/16 step … 5 = full step.
+    pub(super) const EBB_STEP_MODE: Range = Range::new(1.0, 5.0, "");
+    /// Shortest move the EBB sustains (4 ms measured on firmware 3).
+    pub(super) const MIN_MOVE: Range = Range::new(0.0, 100.0, "ms");
 }
 
 /// The heaters of `profile` for the firmware ([`ThermalConfig::NONE`] without a `[heaters]` section).
@@ -644,6 +739,114 @@ mod tests {
             let err = MachineProfile::from_toml(&with(line), "c.toml").unwrap_err().to_string();
             assert!(err.contains(field) && err.contains("c.toml"), "{err}");
         }
+    }
+
+    #[test]
+    fn collapsing_numbers_are_refused_with_the_field_value_and_range() {
+        let with = |from: &str, to: &str| {
+            assert!(DEFAULT_PROFILE_TOML.contains(from), "{from}");
+            let text = DEFAULT_PROFILE_TOML.replacen(from, to, 1);
+            MachineProfile::from_toml(&text, "mine.toml").unwrap_err().to_string()
+        };
+        // A step every kilometre: the drawing collapsed to the home corner.
+        let err = with("steps_per_mm = 80.0", "steps_per_mm = 1e-9");
+        assert_eq!(
+            err,
+            "invalid machine profile mine.toml: axes.x.steps_per_mm: 1e-9 is outside the accepted range \
+             1..=100000 steps/mm"
+        );
+        // A feed that never arrives: short numbers, never 300 digits.
+        let err = with("draw_feed_mm_s = 60.0", "draw_feed_mm_s = 1e-300");
+        assert_eq!(
+            err,
+            "invalid machine profile mine.toml: pen.draw_feed_mm_s: 1e-300 is outside the accepted range \
+             0.1..=5000 mm/s"
+        );
+        let err = with("baud = 115200", "baud = 0");
+        assert!(err.contains("link.baud: 0 is outside the accepted range 75..=12000000 baud"), "{err}");
+        let err = with("up_z_mm = 4.0", "up_z_mm = 11.0");
+        assert!(err.contains("pen.up_z_mm: 11 is outside the accepted range 0..=10 mm (the Z travel"), "{err}");
+        // Each in range alone, but together half a step per second along the page.
+        let text = DEFAULT_PROFILE_TOML.replacen("steps_per_mm = 80.0", "steps_per_mm = 1.0", 1).replacen(
+            "draw_feed_mm_s = 60.0",
+            "draw_feed_mm_s = 0.5",
+            1,
+        );
+        let err = MachineProfile::from_toml(&text, "mine.toml").unwrap_err().to_string();
+        assert!(err.contains("pen.draw_feed_mm_s: 0.5 mm/s at 1 steps/mm is below one step per second"), "{err}");
+        let text = DEFAULT_PROFILE_TOML.replacen("steps_per_mm = 400.0", "steps_per_mm = 100000", 1);
+        let err = MachineProfile::from_toml(&text, "mine.toml").unwrap_err().to_string();
+        assert!(err.contains("axes.z.max_feed_mm_s: 25 mm/s at 100000 steps/mm is 2500000 steps/s"), "{err}");
+    }
+
+    #[test]
+    fn every_number_of_the_profile_is_range_checked() {
+        // Each key of the kit's profile set to a value no machine has, one at a time: refused, naming the key.
+        let keys = [
+            ("steps_per_mm = 80.0", "axes.x.steps_per_mm"),
+            ("travel_mm = 420.0", "axes.x.travel_mm"),
+            ("max_feed_mm_s = 150.0", "axes.x.max_feed_mm_s"),
+            ("max_accel_mm_s2 = 1500.0", "axes.x.max_accel_mm_s2"),
+            ("steps_per_mm = 400.0", "axes.z.steps_per_mm"),
+            ("travel_mm = 10.0", "axes.z.travel_mm"),
+            ("max_feed_mm_s = 25.0", "axes.z.max_feed_mm_s"),
+            ("max_accel_mm_s2 = 500.0", "axes.z.max_accel_mm_s2"),
+            ("settle_ms = 50.0", "pen.settle_ms"),
+            ("clearance_mm = 1.0", "pen.clearance_mm"),
+            ("draw_feed_mm_s = 60.0", "pen.draw_feed_mm_s"),
+            ("travel_feed_mm_s = 120.0", "pen.travel_feed_mm_s"),
+            ("width_mm = 0.3\n\n[motion]", "pen.width_mm"),
+            ("junction_deviation_mm = 0.02", "motion.junction_deviation_mm"),
+            ("curve_deviation_mm = 0.1", "motion.curve_deviation_mm"),
+            ("seek_mm_s = 40.0", "homing.seek_mm_s"),
+            ("locate_mm_s = 4.0", "homing.locate_mm_s"),
+            ("pull_off_mm = 2.0", "homing.pull_off_mm"),
+            ("debounce_ms = 5.0", "homing.debounce_ms"),
+            ("baud = 115200", "link.baud"),
+            ("rx_buffer_bytes = 256", "link.rx_buffer_bytes"),
+            ("queue_blocks = 32", "link.queue_blocks"),
+            ("draw_feed_mm_s = 30.0", "pens[2] (blue brush pen).draw_feed_mm_s"),
+            ("width_mm = 0.8", "pens[2] (blue brush pen).width_mm"),
+        ];
+        for (line, key) in keys {
+            assert!(DEFAULT_PROFILE_TOML.contains(line), "{line}");
+            let (name, _) = line.split_once(" = ").unwrap();
+            let rest = line.split_once('\n').map_or(String::new(), |(_, r)| format!("\n{r}"));
+            let huge = if name == "baud" || name.ends_with("bytes") || name.ends_with("blocks") {
+                "4000000000".to_string()
+            } else {
+                "1e300".to_string()
+            };
+            let text = DEFAULT_PROFILE_TOML.replacen(line, &format!("{name} = {huge}{rest}"), 1);
+            let err = MachineProfile::from_toml(&text, "k.toml").unwrap_err().to_string();
+            assert!(err.contains(&format!("k.toml: {key}: ")) && err.contains("accepted range"), "{line}: {err}");
+        }
+        // The EBB's own numbers.
+        let v3 = include_str!("../../../samples/axidraw-v3.toml");
+        for (line, to, key) in [
+            ("pen_up_position = 20641", "pen_up_position = 0", "ebb.pen_up_position"),
+            ("pen_pin = 1", "pen_pin = 9", "ebb.pen_pin"),
+            ("step_mode = 1", "step_mode = 0", "ebb.step_mode"),
+            ("min_move_ms = 4.0", "min_move_ms = 1e9", "ebb.min_move_ms"),
+            ("servo_timeout_ms = 60000", "servo_timeout_ms = 4000000000", "ebb.servo_timeout_ms"),
+        ] {
+            let err = MachineProfile::from_toml(&v3.replacen(line, to, 1), "v3.toml").unwrap_err().to_string();
+            assert!(err.contains(&format!("v3.toml: {key}: ")), "{line}: {err}");
+        }
+    }
+
+    #[test]
+    fn every_sample_profile_loads() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples");
+        let mut loaded = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                MachineProfile::load(&path).unwrap_or_else(|e| panic!("{e}"));
+                loaded += 1;
+            }
+        }
+        assert!(loaded >= 8, "{loaded} sample profiles");
     }
 
     #[test]

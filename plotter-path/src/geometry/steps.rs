@@ -44,7 +44,33 @@ pub enum StepError {
         /// Page Y, mm.
         y: f64,
     },
+    /// Rounding to whole steps lost the drawing: its pen-down length in steps is a small fraction of its length
+    /// in millimetres (steps far too coarse for the drawing's size: a tiny layout, or a profile's steps/mm).
+    #[error(
+        "the drawing's {drawn_mm} mm of pen-down lines come out as {stepped_mm} mm in whole steps ({x_steps_per_mm} \
+         × {y_steps_per_mm} steps/mm): the steps are too coarse for a drawing this small (check the profile's \
+         steps_per_mm and the layout's scale)"
+    )]
+    Collapsed {
+        /// Pen-down length of the drawing, mm (rounded to 0.001 for the message).
+        drawn_mm: f64,
+        /// Pen-down length after rounding every point to steps, mm.
+        stepped_mm: f64,
+        /// X steps per mm.
+        x_steps_per_mm: f64,
+        /// Y steps per mm.
+        y_steps_per_mm: f64,
+    },
 }
+
+/// A drawing whose pen-down length in whole steps is below this fraction of its length in millimetres has lost
+/// its shape to rounding ([`StepError::Collapsed`]). Rounding each point moves it by at most half a step, so an
+/// honest conversion keeps nearly all of the length; losing half of it means most strokes became dots.
+pub const COLLAPSE_FRACTION: f64 = 0.5;
+
+/// Below this many steps of pen-down length (on the coarser axis) a drawing is too short to judge: a few dots or
+/// a tiny mark may legitimately round away.
+pub const COLLAPSE_MIN_STEPS: f64 = 20.0;
 
 /// An absolute machine position in integer steps (X, Y; Z is handled by the pen).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -279,7 +305,33 @@ pub fn drawing_to_steps(profile: &MachineProfile, drawing: &Drawing) -> Result<S
             layers.push(StepLayer { name: layer.name.clone(), pen: layer.pen, first_stroke });
         }
     }
-    Ok(StepDrawing { strokes, layers })
+    let out = StepDrawing { strokes, layers };
+    check_not_collapsed(&mapper, drawing, &out)?;
+    Ok(out)
+}
+
+/// Refuse a conversion that lost the drawing to rounding ([`StepError::Collapsed`]): pen-down length in whole
+/// steps below [`COLLAPSE_FRACTION`] of the length in millimetres, for a drawing of at least
+/// [`COLLAPSE_MIN_STEPS`] steps' length.
+fn check_not_collapsed(mapper: &StepMapper, drawing: &Drawing, steps: &StepDrawing) -> Result<(), StepError> {
+    let (sx, sy) = mapper.steps_per_mm();
+    let drawn_mm: f64 = drawing.paths().map(Polyline::length).sum();
+    let length_steps = drawn_mm * sx.min(sy);
+    if length_steps.is_nan() || length_steps < COLLAPSE_MIN_STEPS {
+        return Ok(());
+    }
+    let stepped_mm: f64 =
+        steps.strokes.iter().flat_map(|s| &s.moves).map(|d| (f64::from(d.dx) / sx).hypot(f64::from(d.dy) / sy)).sum();
+    if stepped_mm >= COLLAPSE_FRACTION * drawn_mm {
+        return Ok(());
+    }
+    let short = |v: f64| (v * 1000.0).round() / 1000.0 + 0.0;
+    Err(StepError::Collapsed {
+        drawn_mm: short(drawn_mm),
+        stepped_mm: short(stepped_mm),
+        x_steps_per_mm: sx,
+        y_steps_per_mm: sy,
+    })
 }
 
 #[cfg(test)]
@@ -290,6 +342,35 @@ mod tests {
 
     fn profile() -> MachineProfile {
         MachineProfile::default_plotter()
+    }
+
+    #[test]
+    fn a_drawing_lost_to_rounding_is_an_error() {
+        // Forty small circles (r = 0.3 mm, 75 mm of ink in all) at 1 step/mm: every point rounds to its centre's
+        // step, so every stroke collapses to a dot.
+        let mut p = profile();
+        p.axes.x.steps_per_mm = 1.0;
+        p.axes.y.steps_per_mm = 1.0;
+        let circle = |c: Point| {
+            let pts = (0..=32).map(|k| c + kurbo::Vec2::from_angle(f64::from(k) * std::f64::consts::TAU / 32.0) * 0.3);
+            Polyline::new(pts.collect())
+        };
+        let circles: Vec<Polyline> = (0..40).map(|i| circle(Point::new(f64::from(10 + 2 * i), 10.0))).collect();
+        let d = Drawing::single_layer("c", circles);
+        let err = drawing_to_steps(&p, &d).unwrap_err();
+        let StepError::Collapsed { drawn_mm, stepped_mm, .. } = err else { panic!("{err}") };
+        // 40 circles of 32 chords of 2 · 0.3 · sin(π/32) mm.
+        let ink = 40.0 * 32.0 * 0.6 * (std::f64::consts::PI / 32.0).sin();
+        assert!((drawn_mm - ink).abs() < 1e-3 && stepped_mm == 0.0, "{drawn_mm} {stepped_mm}");
+        assert!(err.to_string().contains("75.277 mm of pen-down lines come out as 0 mm"), "{err}");
+        // The same drawing at the kit's 80 steps/mm keeps its shape.
+        assert!(drawing_to_steps(&profile(), &d).is_ok());
+        // A few dots (too short to judge) and an ordinary line are fine at 1 step/mm.
+        let dots =
+            (0..5).map(|i| Polyline::new(vec![Point::new(f64::from(i), 0.0), Point::new(f64::from(i) + 0.1, 0.0)]));
+        let line = Polyline::new(vec![Point::new(0.0, 5.0), Point::new(40.0, 5.0)]);
+        assert!(drawing_to_steps(&p, &Drawing::single_layer("d", dots.collect())).is_ok());
+        assert!(drawing_to_steps(&p, &Drawing::single_layer("l", vec![line])).is_ok());
     }
 
     #[test]
