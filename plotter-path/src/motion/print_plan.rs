@@ -95,6 +95,26 @@ impl PrintPlan {
         t / f64::from(TICK_HZ)
     }
 
+    /// Time spent standing still in dwell blocks (`G4`, settles), ticks ([`TICK_HZ`]): part of
+    /// [`Self::total_ticks`], known before anything moves.
+    pub fn dwell_ticks(&self) -> u64 {
+        self.items
+            .iter()
+            .filter_map(|i| match i {
+                PrintItem::Block { block, .. } if block.is_dwell() => Some(u64::from(block.duration_ticks())),
+                _ => None,
+            })
+            .sum()
+    }
+
+    /// Dwell time in seconds ([`Self::dwell_ticks`]).
+    pub fn dwell_seconds(&self) -> f64 {
+        // Tick counts of a print fit f64's mantissa.
+        #[allow(clippy::cast_precision_loss)]
+        let t = self.dwell_ticks() as f64;
+        t / f64::from(TICK_HZ)
+    }
+
     /// Number of step blocks.
     pub fn block_count(&self) -> usize {
         self.items.iter().filter(|i| matches!(i, PrintItem::Block { .. })).count()
@@ -296,6 +316,7 @@ mod tests {
         let p = plan_print(&kit, &import_print(g, "v.gcode", &kit).unwrap()).unwrap();
         let t = p.total_ticks as f64;
         assert!((t - 470_352.0).abs() < 3.0, "{t} {:?}", p.items);
+        assert_eq!(p.dwell_ticks(), 50_000, "the G4 alone");
         assert_eq!((p.e_steps, p.end[2]), (0, 1600));
         let blocks: Vec<i32> = p
             .items
@@ -303,6 +324,18 @@ mod tests {
             .filter_map(|i| if let PrintItem::Block { block, .. } = i { Some(block.steps[2]) } else { None })
             .collect();
         assert_eq!(blocks, [-1600, 0, 1600]);
+    }
+
+    #[test]
+    fn a_long_dwell_is_counted_whole() {
+        // 48 hours of G4 (an hour each, split into blocks of at most DWELL_MAX ticks on the wire) between two
+        // moves.
+        let kit = MachineProfile::default_plotter();
+        let g = format!("G1 Z0 F1500\n{}G0 Z4\n", "G4 P3600\n".repeat(48));
+        let p = plan_print(&kit, &import_print(&g, "d.gcode", &kit).unwrap()).unwrap();
+        assert_eq!(p.dwell_ticks(), 172_800 * u64::from(TICK_HZ));
+        assert_eq!(p.dwell_seconds(), 172_800.0);
+        assert!(p.total_ticks > p.dwell_ticks() && p.total_ticks - p.dwell_ticks() < 500_000, "{}", p.total_ticks);
     }
 
     #[test]

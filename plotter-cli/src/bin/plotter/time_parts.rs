@@ -1,14 +1,90 @@
-//! One line comparing where a plan's time goes (drawing, travel, lifts) with the lower bound of each part, so the
-//! gap to the machine's limit shows per part. Shared by `plot` and `stats`.
+//! A plan's time as people see it: one line comparing where the time goes (drawing, travel, lifts) with the lower
+//! bound of each part, so the gap to the machine's limit shows per part (`plot`, `stats`); durations as a clock
+//! (`h:mm:ss.s`); and the announcement of a plan before anything moves, with its dwell and the long-dwell guard
+//! (`plot`, `plot --as-written`).
+//!
+//! The guard: a plan that spends more than [`LONG_DWELL_S`] (an hour) standing still in dwells — `G4` in a file
+//! played as written, or the pen's settle time over many lifts — is announced with a loud warning before the
+//! machine homes. Someone at a terminal sees it and can stop with Ctrl-C; a run without a terminal on stdin (a
+//! script, a service) is refused unless `--allow-long-dwell` says the wait is meant, because nobody would see the
+//! warning before the machine sat still for hours.
+
+use std::io::IsTerminal as _;
 
 use plotter_path::motion::bound::TimeBound;
-use plotter_path::motion::plan::PlanBreakdown;
+use plotter_path::motion::plan::{MotionPlan, PlanBreakdown};
+use plotter_path::output::stats::{fixed, percent_above};
+
+/// Pure dwell, seconds, above which a plan is announced with a warning and, without a terminal on stdin, refused
+/// unless `--allow-long-dwell` is given.
+pub(crate) const LONG_DWELL_S: f64 = 3600.0;
+
+/// Seconds of `ticks` of the step timer. Display only: tick counts of any plot fit f64's mantissa.
+#[allow(clippy::cast_precision_loss)]
+fn ticks_s(ticks: u64) -> f64 {
+    ticks as f64 / f64::from(plotter_fw::TICK_HZ)
+}
+
+/// The time `plan` stands still in dwells (pen settles, servo moves), seconds.
+pub(crate) fn dwell_s(plan: &MotionPlan) -> f64 {
+    ticks_s(plan.blocks.iter().filter(|b| b.block.is_dwell()).map(|b| u64::from(b.ticks)).sum())
+}
+
+/// Say, before anything moves, how long the plan of `what` takes and how much of it is dwell; a plan with more
+/// than [`LONG_DWELL_S`] of dwell gets a loud warning and, unless `allow_long_dwell` or stdin is a terminal, is
+/// refused (see the module docs).
+pub(crate) fn announce(what: &str, total_s: f64, dwell_s: f64, allow_long_dwell: bool) -> anyhow::Result<()> {
+    eprintln!("{}", announcement(what, total_s, dwell_s));
+    if dwell_s <= LONG_DWELL_S {
+        return Ok(());
+    }
+    eprintln!(
+        "warning: ***** this plan stands still for {} in dwells: the machine will wait that long with the pen \
+         where it is *****",
+        clock(dwell_s)
+    );
+    if allow_long_dwell {
+        return Ok(());
+    }
+    if std::io::stdin().is_terminal() {
+        eprintln!("warning: press Ctrl-C now if that wait is not meant (or plot with --allow-long-dwell)");
+        return Ok(());
+    }
+    anyhow::bail!(
+        "{what}: refused to start a plan with {} of dwell (over {}) without a terminal to warn: pass \
+         --allow-long-dwell if the wait is meant",
+        clock(dwell_s),
+        clock(LONG_DWELL_S)
+    )
+}
+
+/// `planned time 1:02:05.0, dwell 0:50.0 (the machine standing still)`.
+fn announcement(what: &str, total_s: f64, dwell_s: f64) -> String {
+    format!("{what}: planned time {}, of which dwell {} (standing still)", clock(total_s), clock(dwell_s))
+}
+
+/// `h:mm:ss.s` or `m:ss.s`, rounded to the tenth (`n/a` for a time that is not a number; never negative).
+pub(crate) fn clock(seconds: f64) -> String {
+    if !seconds.is_finite() {
+        return "n/a".to_string();
+    }
+    // Whole tenths, counted in f64 (exact for any plot's length): no `0:60.0` from rounding 59.96 s up.
+    let tenths = (seconds.max(0.0) * 10.0).round();
+    let h = (tenths / 36_000.0).floor();
+    let m = ((tenths - h * 36_000.0) / 600.0).floor();
+    let s = (tenths - h * 36_000.0 - m * 600.0) / 10.0;
+    if h > 0.0 { format!("{h:.0}:{m:02.0}:{s:04.1}") } else { format!("{m:.0}:{s:04.1}") }
+}
 
 /// `planned / bound` per part, with how far above its bound each part is.
 pub(crate) fn line(plan: &PlanBreakdown, bound: &TimeBound) -> String {
     let part = |name: &str, t: f64, b: f64| {
-        let above = if b > 0.0 { format!(" (+{:.1} %)", 100.0 * (t / b - 1.0)) } else { String::new() };
-        format!("{name} {t:.1} / {b:.1} s{above}")
+        // No percentage against a zero bound (a part that takes no time).
+        let above = percent_above(t, b).map_or(String::new(), |p| {
+            let p = fixed(p, 1);
+            if p.starts_with('-') { format!(" ({p} %)") } else { format!(" (+{p} %)") }
+        });
+        format!("{name} {} / {} s{above}", fixed(t, 1), fixed(b, 1))
     };
     format!(
         "time parts, planned / lower bound: {}, {}, {}",
@@ -23,6 +99,33 @@ mod tests {
     use super::*;
 
     #[test]
+    fn clock_format() {
+        assert_eq!(clock(75.25), "1:15.2");
+        assert_eq!(clock(3725.0), "1:02:05.0");
+        assert_eq!(clock(4.0), "0:04.0");
+        assert_eq!(clock(59.96), "1:00.0");
+        assert_eq!(clock(3599.96), "1:00:00.0");
+        assert_eq!(clock(172_800.0), "48:00:00.0");
+        assert_eq!(clock(-0.0), "0:00.0");
+        assert_eq!(clock(f64::NAN), "n/a");
+    }
+
+    #[test]
+    fn long_dwell_is_refused_unless_allowed() {
+        assert_eq!(
+            announcement("f.gcode", 172_801.5, 172_800.0),
+            "f.gcode: planned time 48:00:01.5, of which dwell 48:00:00.0 (standing still)"
+        );
+        // An hour exactly passes; above it, only with the flag (the test's stdin is not a terminal).
+        assert!(announce("f.gcode", 3700.0, LONG_DWELL_S, false).is_ok());
+        if !std::io::stdin().is_terminal() {
+            let err = announce("f.gcode", 172_801.5, 172_800.0, false).unwrap_err().to_string();
+            assert!(err.contains("48:00:00.0 of dwell") && err.contains("--allow-long-dwell"), "{err}");
+        }
+        assert!(announce("f.gcode", 172_801.5, 172_800.0, true).is_ok());
+    }
+
+    #[test]
     fn parts_and_gaps() {
         let plan = PlanBreakdown { draw_ticks: 12_000_000, travel_ticks: 3_000_000, lift_ticks: 2_000_000 };
         let bound = TimeBound { draw_s: 10.0, lifts_s: 2.0, travel_s: 0.0 };
@@ -30,6 +133,12 @@ mod tests {
             line(&plan, &bound),
             "time parts, planned / lower bound: pen down 12.0 / 10.0 s (+20.0 %), travel 3.0 / 0.0 s, lifts 2.0 / 2.0 s \
              (+0.0 %)"
+        );
+        // Nothing drawn: no NaN, no -0.0, no percentage against a zero bound.
+        let bound = TimeBound { draw_s: -0.0, lifts_s: 0.0, travel_s: f64::NAN };
+        assert_eq!(
+            line(&PlanBreakdown::default(), &bound),
+            "time parts, planned / lower bound: pen down 0.0 / 0.0 s, travel 0.0 / n/a s, lifts 0.0 / 0.0 s"
         );
     }
 }

@@ -107,6 +107,10 @@ pub(crate) struct PlotArgs {
     /// dwells — instead of reading it as a drawing to order and plan (the simulator or our firmware; Z-lift pens).
     #[arg(long, conflicts_with_all = ["resume", "export"])]
     pub(crate) as_written: bool,
+    /// Start a plan that stands still for over an hour in dwells (G4 with --as-written, or pen settles) even
+    /// without a terminal on stdin; at a terminal such a plan starts after a loud warning.
+    #[arg(long)]
+    pub(crate) allow_long_dwell: bool,
     /// Simulated plot only: corrupt this fraction of the bytes on the simulated link (flip a bit or drop), to
     /// watch the resends at work.
     #[arg(long, default_value_t = 0.0)]
@@ -368,16 +372,19 @@ fn print_lower_bound(
     args: &PlotArgs,
     start: Option<plotter_path::kurbo::Point>,
 ) -> anyhow::Result<()> {
+    use plotter_path::output::stats::{fixed, percent_above};
     let seam = args.optimize.options(Some(profile))?.seam;
     let b = plotter_path::motion::bound::drawing_time_lower_bound(profile, steps, drawing, seam, start)?;
+    // Nothing to compare with when the bound is zero (nothing to draw).
+    let above = percent_above(plan.seconds(), b.total_s())
+        .map_or(String::new(), |p| format!(": planned time is {} % above it", fixed(p, 1)));
     println!(
-        "lower bound {:.3} s (pen down {:.1} s, {} lifts {:.1} s, travel {:.1} s): planned time is {:.1} % above it",
-        b.total_s(),
-        b.draw_s,
+        "lower bound {} s (pen down {} s, {} lifts {} s, travel {} s){above}",
+        fixed(b.total_s(), 3),
+        fixed(b.draw_s, 1),
         steps.strokes.len(),
-        b.lifts_s,
-        b.travel_s,
-        100.0 * (plan.seconds() / b.total_s() - 1.0)
+        fixed(b.lifts_s, 1),
+        fixed(b.travel_s, 1),
     );
     println!("{}", crate::time_parts::line(&plan.breakdown(), &b));
     Ok(())
@@ -516,7 +523,13 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
                  takes the file from any G-code sender"
             );
         }
-        return crate::cmd::plot_as_written::run(input, &profile, args.port.as_deref(), args.baud);
+        return crate::cmd::plot_as_written::run(
+            input,
+            &profile,
+            args.port.as_deref(),
+            args.baud,
+            args.allow_long_dwell,
+        );
     }
     if args.firmware == Firmware::Hpgl && args.export.is_none() {
         let port = args.port.as_deref().context(
@@ -572,6 +585,18 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         println!("{} strokes, {} moves written to {}", steps.strokes.len(), steps.move_count(), out.display());
         return Ok(());
     }
+    // The plan's time and its dwell before anything moves (planned from home here; the job plans again from the
+    // position the machine reports, which differs by the first travel at most).
+    let ahead = plan::plan_returning(
+        &profile,
+        &steps,
+        plan::homed_position(&profile)?,
+        plan::Lookahead::Whole,
+        args.optimize.return_home,
+    )?;
+    let what = format!("{} ({} blocks)", input.display(), ahead.blocks.len());
+    crate::time_parts::announce(&what, ahead.seconds(), crate::time_parts::dwell_s(&ahead), args.allow_long_dwell)?;
+    drop(ahead);
     let mut terminal = Terminal::new(args.pause_immediately, args.pen_change)?;
     match connected.as_mut() {
         None => {

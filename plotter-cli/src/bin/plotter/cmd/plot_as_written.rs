@@ -96,14 +96,24 @@ fn play<T: Transport>(
 }
 
 /// Run `plotter plot INPUT --as-written` on the simulated plotter, or on our firmware at `port` (the caller has
-/// checked that the firmware is ours); `baud` overrides the profile's.
-pub(crate) fn run(input: &Path, profile: &MachineProfile, port: Option<&str>, baud: Option<u32>) -> anyhow::Result<()> {
+/// checked that the firmware is ours); `baud` overrides the profile's. The planned time and its dwell are printed
+/// before the machine is even connected; a plan standing still for over an hour needs a terminal or
+/// `allow_long_dwell` (see [`crate::time_parts::announce`]).
+pub(crate) fn run(
+    input: &Path,
+    profile: &MachineProfile,
+    port: Option<&str>,
+    baud: Option<u32>,
+    allow_long_dwell: bool,
+) -> anyhow::Result<()> {
     if profile.pen.command != PenCommand::Z {
         bail!("--as-written needs a Z-lift pen (the profile's pen.command is servo): plot the file without it");
     }
     // Ctrl-C, SIGTERM and SIGHUP stop the run the safe way.
     let interrupt = plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     let plan = plan_file(input, profile)?;
+    let what = format!("{} as written ({} blocks)", input.display(), plan.block_count());
+    crate::time_parts::announce(&what, plan.seconds(), plan.dwell_seconds(), allow_long_dwell)?;
     let machine = Played::Plotter { up_z_mm: profile.pen.up_z_mm, z_steps_per_mm: profile.axes.z.steps_per_mm };
     let cfg = plan::machine_config(profile)?;
     let baud = baud.unwrap_or(profile.link.baud);

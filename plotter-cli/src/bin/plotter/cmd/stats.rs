@@ -11,12 +11,14 @@ use plotter_path::kurbo::Point;
 use plotter_path::motion::bound::{TimeBound, drawing_time_lower_bound};
 use plotter_path::motion::plan::{self, Lookahead, PlanBreakdown};
 use plotter_path::optimize::{CostModel, SeamMode, drawing_travel};
-use plotter_path::output::stats::Stats;
+use plotter_path::output::stats::{Stats, fixed, percent_above, unsigned_zero};
 use plotter_path::{Drawing, MachineProfile};
 
 use plotter_host::input::Source;
 use plotter_host::job::load::load_profile;
 use plotter_host::options::optimize::{OptimizeArgs, optimize_quietly};
+
+use crate::time_parts::clock;
 
 /// Print figures about a drawing.
 #[derive(Debug, Args)]
@@ -97,19 +99,19 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         let mut value = serde_json::to_value(&stats)?;
         value["layer_names"] = serde_json::json!(names);
         value["skipped"] = skipped.iter().map(|(reason, n)| (reason.key().to_string(), serde_json::json!(n))).collect();
-        value["pen_up_mm_from_home"] = serde_json::json!(pen_up_from_home);
-        value["pen_up_mm_optimized"] = serde_json::json!(pen_up_optimized);
-        value["pen_up_lower_bound_mm"] = serde_json::json!(report.as_ref().and_then(|r| r.pen_up_lower_bound_mm));
+        value["pen_up_mm_from_home"] = num(Some(pen_up_from_home));
+        value["pen_up_mm_optimized"] = num(pen_up_optimized);
+        value["pen_up_lower_bound_mm"] = num(report.as_ref().and_then(|r| r.pen_up_lower_bound_mm));
         value["pen_lifts_optimized"] = serde_json::json!(report.as_ref().map(|r| r.paths_out));
-        value["est_time_s"] = serde_json::json!(est.map(|e| e.0));
-        value["est_time_lower_bound_s"] = serde_json::json!(est.map(|e| e.2.total_s()));
-        value["est_time_s_optimized"] = serde_json::json!(est_optimized.map(|e| e.0));
-        value["est_time_lower_bound_s_optimized"] = serde_json::json!(est_optimized.map(|e| e.2.total_s()));
+        value["est_time_s"] = num(est.map(|e| e.0));
+        value["est_time_lower_bound_s"] = num(est.map(|e| e.2.total_s()));
+        value["est_time_s_optimized"] = num(est_optimized.map(|e| e.0));
+        value["est_time_lower_bound_s_optimized"] = num(est_optimized.map(|e| e.2.total_s()));
         let parts = |e: &(f64, PlanBreakdown, TimeBound)| {
             serde_json::json!({
-                "draw_s": e.1.draw_s(), "travel_s": e.1.travel_s(), "lifts_s": e.1.lift_s(),
-                "draw_lower_bound_s": e.2.draw_s, "travel_lower_bound_s": e.2.travel_s,
-                "lifts_lower_bound_s": e.2.lifts_s,
+                "draw_s": num(Some(e.1.draw_s())), "travel_s": num(Some(e.1.travel_s())),
+                "lifts_s": num(Some(e.1.lift_s())), "draw_lower_bound_s": num(Some(e.2.draw_s)),
+                "travel_lower_bound_s": num(Some(e.2.travel_s)), "lifts_lower_bound_s": num(Some(e.2.lifts_s)),
             })
         };
         value["est_time_parts"] = serde_json::json!(est.as_ref().map(parts));
@@ -119,7 +121,8 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
     }
     println!("{stats}");
     println!(
-        "pen up, home  {pen_up_from_home:.2} mm (with the travel from home{})",
+        "pen up, home  {} mm (with the travel from home{})",
+        fixed(pen_up_from_home, 2),
         if back { " and back" } else { "" }
     );
     println!("layer names   {}", names.join(", "));
@@ -129,18 +132,17 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         println!("              {}", crate::time_parts::line(parts, b));
     }
     if let Some(r) = &report {
-        print!("optimized     pen up {:.2} mm", pen_up_optimized.unwrap_or(r.pen_up_after_mm));
+        print!("optimized     pen up {} mm", fixed(pen_up_optimized.unwrap_or(r.pen_up_after_mm), 2));
         if let Some(lb) = r.pen_up_lower_bound_mm {
-            print!(", lower bound {lb:.2} mm");
+            print!(", lower bound {} mm", fixed(lb, 2));
         }
         print!(", {} pen lifts", r.paths_out);
         if let Some((t, _, b)) = &est_optimized {
-            print!(
-                ", plot time {}, lower bound {} ({:.1} % above)",
-                clock(*t),
-                clock(b.total_s()),
-                100.0 * (t / b.total_s() - 1.0)
-            );
+            print!(", plot time {}, lower bound {}", clock(*t), clock(b.total_s()));
+            // Nothing to compare with when the bound is zero (nothing to draw).
+            if let Some(p) = percent_above(*t, b.total_s()) {
+                print!(" ({} % above)", fixed(p, 1));
+            }
         }
         println!();
         if let Some((_, parts, b)) = &est_optimized {
@@ -150,13 +152,9 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
     Ok(())
 }
 
-/// `h:mm:ss.s` or `m:ss.s`.
-fn clock(seconds: f64) -> String {
-    let whole = seconds.max(0.0);
-    let h = (whole / 3600.0).floor();
-    let m = ((whole - h * 3600.0) / 60.0).floor();
-    let s = whole - h * 3600.0 - m * 60.0;
-    if h > 0.0 { format!("{h:.0}:{m:02.0}:{s:04.1}") } else { format!("{m:.0}:{s:04.1}") }
+/// A figure for JSON: `null` when absent or not a number (JSON has no NaN), never -0.0.
+fn num(v: Option<f64>) -> serde_json::Value {
+    v.filter(|v| v.is_finite()).map_or(serde_json::Value::Null, |v| serde_json::json!(unsigned_zero(v)))
 }
 
 #[cfg(test)]
@@ -164,9 +162,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn clock_format() {
-        assert_eq!(clock(75.25), "1:15.2");
-        assert_eq!(clock(3725.0), "1:02:05.0");
-        assert_eq!(clock(4.0), "0:04.0");
+    fn json_figures_are_numbers_or_null() {
+        assert_eq!(num(Some(-0.0)).to_string(), "0.0");
+        assert_eq!(num(Some(f64::INFINITY)), serde_json::Value::Null);
     }
 }
