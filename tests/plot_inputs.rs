@@ -100,3 +100,60 @@ fn ctrl_c_stops_an_as_written_plot_with_the_pen_up() {
     assert!(last[0] > 0 && last[0] < 200 * 80, "{last:?}");
     assert_eq!(last[2], 1600, "{last:?}");
 }
+
+/// Issue 37, class 10: an arc whose radius overflows (`R1e200`) is refused by `--as-written`, naming the line, where
+/// its 50 mm pen-down move vanished and the plot "succeeded"; the radius is shown short.
+#[test]
+fn as_written_refuses_an_overflowing_arc_naming_the_line() {
+    let dir = scratch("as-written-arc");
+    std::fs::write(dir.join("arc.gcode"), "G1 Z0 F1500\nG1 X0 Y0\nG2 X50 Y0 R1e200\nG0 Z4\n").unwrap();
+    let out = plotter(&dir, &["plot", "arc.gcode", "--as-written"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("arc.gcode:3: arc centre for radius 1e200 lies beyond"), "{err}");
+    assert!(err.len() < 400, "{err}");
+}
+
+/// Issue 37, class 13: images and documents that are not read are named as what they are, with the formats that
+/// are, instead of being read as broken G-code.
+#[test]
+fn unread_image_formats_are_named_not_read_as_gcode() {
+    let dir = scratch("unread-formats");
+    let files: [(&str, &[u8], &str); 4] = [
+        (
+            "a.gif",
+            b"GIF89a\x01\x00\x01\x00\x80\x00\x00\x00\x00\x00\xff\xff\xff,\x00\x00\x00\x00\x01\x00\x01\x00;",
+            "a GIF image",
+        ),
+        ("scan", b"II*\x00\x08\x00\x00\x00\x00\x00", "a TIFF image"),
+        ("photo.gcode", b"RIFF\x24\x00\x00\x00WEBPVP8 \x00\x00", "a WebP image"),
+        ("doc.nc", b"%PDF-1.4\n%\xe2\xe3\xcf\xd3\n", "a PDF document"),
+    ];
+    for (name, bytes, format) in files {
+        std::fs::write(dir.join(name), bytes).unwrap();
+        let out = plotter(&dir, &["stats", name]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{name}: {err}");
+        assert!(err.contains(&format!("{name} is {format}, which is not read here")), "{name}: {err}");
+        assert!(err.contains("SVG") && err.contains("PNG and JPEG") && err.contains("HP-GL"), "{name}: {err}");
+        assert!(!err.contains("G-code is not UTF-8") && !err.contains("needs a number"), "{name}: {err}");
+    }
+}
+
+/// Issue 37, class 8: 60,000 lines that each warn in their own words (`M5000 P<n>`, an unsupported M code) under
+/// `--as-written` are listed as 20 lines and one "more like it", not 60,000 (which also took quadratic time).
+#[test]
+fn as_written_lists_a_bounded_number_of_distinct_warnings() {
+    let dir = scratch("as-written-warnings");
+    let text: String = (0..60_000).map(|n| format!("M5000 P{n}\n")).collect();
+    std::fs::write(dir.join("m.gcode"), text).unwrap();
+    let out = plotter(&dir, &["plot", "m.gcode", "--as-written"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    let warnings: Vec<&str> = err.lines().filter(|l| l.starts_with("warning: ")).collect();
+    assert_eq!(warnings.len(), 21, "{}", &err[..err.len().min(3000)]);
+    assert!(
+        warnings[20].contains("line 21: and 59980 more like it (unsupported M codes, ignored;"),
+        "{}",
+        warnings[20]
+    );
+}

@@ -42,8 +42,14 @@ fn request(served: &Served, method: &str, path: &str, headers: &[(&str, &str)], 
 /// [`request`]'s raw answer, or the error reading it (a server refusing the connection while the request is still
 /// unread resets it).
 fn send(served: &Served, method: &str, path: &str, headers: &[(&str, &str)], body: &str) -> std::io::Result<String> {
-    let mut stream = connect(served);
-    let mut head = format!("{method} {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n", served.authority);
+    send_to(&served.authority, method, path, headers, body)
+}
+
+/// [`send`] to the server at `authority`.
+fn send_to(authority: &str, method: &str, path: &str, headers: &[(&str, &str)], body: &str) -> std::io::Result<String> {
+    let mut stream = TcpStream::connect(authority)?;
+    stream.set_read_timeout(Some(Duration::from_secs(60)))?;
+    let mut head = format!("{method} {path} HTTP/1.1\r\nHost: {authority}\r\nConnection: close\r\n");
     for (name, value) in headers {
         head.push_str(&format!("{name}: {value}\r\n"));
     }
@@ -347,4 +353,92 @@ fn an_uploaded_image_naming_a_file_gets_the_same_answer_whether_the_file_exists_
     assert_eq!(status, 200, "{read}");
     assert!(read.contains("partly transparent") && !read.contains("not loaded"), "{read}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The server's peak resident memory so far (`VmHWM`), KiB.
+#[cfg(target_os = "linux")]
+fn peak_rss_kib(pid: u32) -> u64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).expect("the server runs");
+    let line = status.lines().find(|l| l.starts_with("VmHWM:")).expect("VmHWM");
+    line.split_whitespace().nth(1).and_then(|v| v.parse().ok()).expect("a number")
+}
+
+/// `plotter serve` started here rather than by [`Served`], to read its memory by pid; killed when dropped.
+#[cfg(target_os = "linux")]
+struct OwnServer {
+    child: std::process::Child,
+    authority: String,
+}
+
+#[cfg(target_os = "linux")]
+impl OwnServer {
+    fn start(args: &[&str]) -> OwnServer {
+        let mut child = Command::new(plotter_bin())
+            .arg("serve")
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("plotter serve starts");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("the URL");
+        let authority = line.trim().trim_start_matches("plotter serve: http://").trim_end_matches('/').to_string();
+        OwnServer { child, authority }
+    }
+
+    fn request(&self, method: &str, path: &str, headers: &[(&str, &str)], body: &str) -> (u16, Value) {
+        parse(&send_to(&self.authority, method, path, headers, body).expect("an answer"))
+    }
+}
+
+#[cfg(target_os = "linux")]
+impl Drop for OwnServer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Issue 37, class 7: two 16 MB HP-GL uploads of `PDPU` (pen down and up in place: a dot of two points per four
+/// bytes, eight million points each) at once. Each is answered with the point-limit error, and the server's peak
+/// memory stays far under 1 GB (it took 3.4 GB, and aborted when memory ran out).
+#[cfg(target_os = "linux")]
+#[test]
+fn two_16_mb_hpgl_floods_at_once_are_refused_at_the_point_limit_within_the_memory_budget() {
+    let served = OwnServer::start(&["--listen", "127.0.0.1:0", "--max-upload-mb", "17"]);
+    let (status, v) = served.request("POST", "/api/control/claim", &[], "");
+    assert_eq!(status, 200, "{v}");
+    let token = v["token"].as_str().expect("a token").to_string();
+    let flood = format!("IN;SP1;PA100,100;{}", "PDPU".repeat(4_150_000));
+    assert!(flood.len() > 16_500_000);
+    let t0 = Instant::now();
+    let answers: Vec<(u16, Value)> = std::thread::scope(|s| {
+        let uploads: Vec<_> = (0..2)
+            .map(|k| {
+                let (served, token, flood) = (&served, &token, &flood);
+                s.spawn(move || {
+                    let path = format!("/api/drawing?name=flood{k}.hpgl");
+                    served.request("POST", &path, &[("X-Plotter-Token", token)], flood)
+                })
+            })
+            .collect();
+        uploads.into_iter().map(|u| u.join().expect("upload thread")).collect()
+    });
+    let took = t0.elapsed();
+    for (k, (status, v)) in answers.iter().enumerate() {
+        let e = v["error"].as_str().unwrap_or_default();
+        // The point-limit error names the file, the command and the limit; or, if the other upload held the
+        // memory budget, a 503 saying so.
+        let limit = status == &400
+            && e.starts_with(&format!("flood{k}.hpgl: command "))
+            && e.contains("more than 4194304 points in the drawing");
+        let busy = status == &503 && e.starts_with("busy:") && e.contains("memory budget");
+        assert!(limit || busy, "upload {k}: {status} {v}");
+    }
+    assert!(answers.iter().any(|(status, _)| *status == 400), "{answers:?}");
+    let peak = peak_rss_kib(served.child.id());
+    assert!(peak < 1_000_000, "peak RSS {peak} KiB");
+    assert!(took < Duration::from_secs(60), "answered after {took:?}");
+    // The server goes on answering.
+    assert_eq!(served.request("GET", "/api/state", &[], "").0, 200);
 }

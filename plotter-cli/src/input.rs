@@ -156,20 +156,67 @@ pub enum InputKind {
     Trajectory,
     /// HP-GL plot file.
     Hpgl,
+    /// A file format recognised by its signature but not read (GIF, TIFF, WebP, BMP, PDF, …): named, so that it
+    /// is refused as what it is rather than as broken G-code.
+    Unread(&'static str),
+}
+
+/// The formats the loader reads, as messages list them.
+pub const READ_FORMATS: &str = "SVG (also .svgz), PNG and JPEG images (traced), G-code, HP-GL, the seed plotter's \
+                                trajectory files, and generated figures (gen:KIND?...)";
+
+/// File signatures of formats that are recognised but not read: (leading bytes, the format's name).
+const UNREAD_SIGNATURES: &[(&[u8], &str)] = &[
+    (b"GIF87a", "a GIF image"),
+    (b"GIF89a", "a GIF image"),
+    (b"II*\0", "a TIFF image"),
+    (b"MM\0*", "a TIFF image"),
+    (b"BM", "a BMP image"),
+    (b"%PDF", "a PDF document"),
+    (b"%!PS", "a PostScript document"),
+    (b"\0\0\x01\0", "an ICO icon"),
+    (b"8BPS", "a Photoshop image"),
+    (b"PK\x03\x04", "a ZIP archive (or a file in one, such as DOCX or ODG)"),
+    (b"\xd0\xcf\x11\xe0", "an old Microsoft Office file"),
+    (b"AC10", "a DWG drawing"),
+    (b"\x7fELF", "a program (ELF)"),
+];
+
+/// The name of a recognised format that is not read, from the first bytes; `None` when nothing matches.
+fn unread_format(head: &[u8]) -> Option<&'static str> {
+    if head.len() >= 12 && head.starts_with(b"RIFF") && &head[8..12] == b"WEBP" {
+        return Some("a WebP image");
+    }
+    if head.len() >= 12
+        && &head[4..8] == b"ftyp"
+        && matches!(&head[8..12], b"avif" | b"avis" | b"heic" | b"heix" | b"mif1")
+    {
+        return Some("an AVIF/HEIF image");
+    }
+    if head.starts_with(b"BM") {
+        // "BM" is also how a text file may start; a BMP has its file size and a known header size after it.
+        let header = head.get(14..18).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        return header.filter(|h| matches!(h, 12 | 40 | 52 | 56 | 64 | 108 | 124)).map(|_| "a BMP image");
+    }
+    UNREAD_SIGNATURES.iter().find(|(sig, _)| head.starts_with(sig)).map(|(_, name)| *name)
 }
 
 /// Prefix of generated-figure inputs.
 pub const GEN_PREFIX: &str = "gen:";
 
 /// Decide what the file `path` holds: by its first bytes where they say it for sure (gzip → compressed SVG,
-/// PNG/JPEG signatures, an XML start in UTF-8 or UTF-16), else by its extension, else by its text. (Generated
-/// figures are not files: [`load_drawing`] recognises their `gen:` prefix before reading anything.)
+/// PNG/JPEG signatures, an XML start in UTF-8 or UTF-16, and the signatures of formats that are not read: GIF,
+/// TIFF, WebP, BMP, PDF, …), else by its extension, else by its text. (Generated figures are not files:
+/// [`load_drawing`] recognises their `gen:` prefix before reading anything.)
 pub fn input_kind(path: &Path, head: &[u8]) -> InputKind {
     if head.starts_with(&[0x1f, 0x8b]) {
         return InputKind::Svg;
     }
     if head.starts_with(b"\x89PNG\r\n\x1a\n") || head.starts_with(&[0xff, 0xd8, 0xff]) {
         return InputKind::Image;
+    }
+    if let Some(name) = unread_format(head) {
+        return InputKind::Unread(name);
     }
     if head.starts_with(&[0xff, 0xfe]) || head.starts_with(&[0xfe, 0xff]) {
         return InputKind::Svg;
@@ -186,6 +233,14 @@ pub fn input_kind(path: &Path, head: &[u8]) -> InputKind {
         "gcode" | "nc" | "ngc" | "g" | "gco" | "tap" => return InputKind::Gcode,
         "traj" | "trj" => return InputKind::Trajectory,
         "hpgl" | "plt" | "hgl" => return InputKind::Hpgl,
+        "gif" => return InputKind::Unread("a GIF image"),
+        "tif" | "tiff" => return InputKind::Unread("a TIFF image"),
+        "webp" => return InputKind::Unread("a WebP image"),
+        "bmp" => return InputKind::Unread("a BMP image"),
+        "pdf" => return InputKind::Unread("a PDF document"),
+        "eps" | "ps" => return InputKind::Unread("a PostScript document"),
+        "dxf" => return InputKind::Unread("a DXF drawing"),
+        "dwg" => return InputKind::Unread("a DWG drawing"),
         _ => {}
     }
     if t.starts_with('<') {
@@ -344,7 +399,26 @@ pub fn decode_drawing(
     profile: &MachineProfile,
     cancel: &Cancel,
 ) -> Result<Decoded> {
+    let decoded = decode_kind(data, name, shown, resources, args, profile, cancel)?;
+    // Every decoded drawing passes the size limits here, whoever asked (a file, an upload), before any later
+    // stage works on it.
+    plotter_path::geometry::limits::check_drawing(&decoded.drawing, shown)?;
+    Ok(decoded)
+}
+
+fn decode_kind(
+    data: &[u8],
+    name: &Path,
+    shown: &str,
+    resources: &ResourcePolicy,
+    args: &InputArgs,
+    profile: &MachineProfile,
+    cancel: &Cancel,
+) -> Result<Decoded> {
     match input_kind(name, &data[..data.len().min(512)]) {
+        InputKind::Unread(format) => {
+            bail!("{shown} is {format}, which is not read here; the formats read are {READ_FORMATS}")
+        }
         InputKind::Svg => {
             let options = SvgOptions { cancel: cancel.clone(), ..args.svg_options(profile)? };
             let imported = svg::import_svg(data, shown, resources, &options)?;
@@ -359,12 +433,12 @@ pub fn decode_drawing(
         }
         InputKind::Gcode => {
             let text = std::str::from_utf8(data).with_context(|| format!("{shown}: G-code is not UTF-8 text"))?;
-            let imported = gcode_in::import(text, shown, profile)?;
+            let imported = gcode_in::import_cancellable(text, shown, profile, cancel)?;
             let warnings = imported.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
             Ok(Decoded::plain(imported.drawing, warnings))
         }
         InputKind::Hpgl => {
-            let imported = hpgl_in::import(data, shown, None)?;
+            let imported = hpgl_in::import_cancellable(data, shown, None, cancel)?;
             let warnings = imported.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
             Ok(Decoded::plain(imported.drawing, warnings))
         }
@@ -380,6 +454,7 @@ pub fn decode_drawing(
 #[derive(Debug, Clone, Args)]
 pub struct Source {
     /// Input: SVG, PNG/JPEG (traced), G-code, HP-GL, trajectory file, `gen:KIND?param=value&...`, or `-` for stdin
+    /// (GIF, TIFF, WebP, BMP and PDF are recognised and refused by name)
     pub input: PathBuf,
     /// Input flags.
     #[command(flatten)]
@@ -439,5 +514,53 @@ mod tests {
         assert_eq!(input_kind(Path::new("a.png"), b"\xef\xbb\xbf<svg/>"), InputKind::Svg);
         assert_eq!(input_kind(Path::new("a.svg"), b"\x89PNG\r\n\x1a\n"), InputKind::Image);
         assert_eq!(input_kind(Path::new("x"), &[0xff, 0xfe, b'<', 0]), InputKind::Svg);
+    }
+
+    #[test]
+    fn images_and_documents_that_are_not_read_are_named_by_their_signature() {
+        let gif = b"GIF89a\x01\x00\x01\x00\x80\x00\x00";
+        let webp = b"RIFF\x24\x00\x00\x00WEBPVP8 ";
+        let mut bmp = b"BM\x3a\x00\x00\x00\x00\x00\x00\x00\x36\x00\x00\x00".to_vec();
+        bmp.extend_from_slice(&40u32.to_le_bytes());
+        let cases: [(&str, &[u8], &str); 9] = [
+            ("up.gcode", gif, "a GIF image"),
+            ("a", b"GIF87a....", "a GIF image"),
+            ("scan.nc", b"II*\x00\x08\x00\x00\x00", "a TIFF image"),
+            ("scan", b"MM\x00*\x00\x00\x00\x08", "a TIFF image"),
+            ("photo.hpgl", webp, "a WebP image"),
+            ("x", &bmp, "a BMP image"),
+            ("doc", b"%PDF-1.7\n", "a PDF document"),
+            ("pic.gif", b"", "a GIF image"),
+            ("pic.TIFF", b"", "a TIFF image"),
+        ];
+        for (name, head, format) in cases {
+            assert_eq!(input_kind(Path::new(name), head), InputKind::Unread(format), "{name}");
+        }
+        // G-code that happens to start with B or M is still G-code; so is an HP-GL file called .plt.
+        assert_eq!(input_kind(Path::new("a.gcode"), b"BM? no: M3 S90\n"), InputKind::Gcode);
+        assert_eq!(input_kind(Path::new("a.txt"), b"MM\n"), InputKind::Gcode);
+        // Decoding one says what it is and what is read.
+        let e = decode_drawing(
+            gif,
+            Path::new("up.gcode"),
+            "up.gcode",
+            &ResourcePolicy::DataUrlsOnly,
+            &test_args(),
+            &MachineProfile::default_plotter(),
+            &Cancel::never(),
+        )
+        .unwrap_err();
+        let e = format!("{e:#}");
+        assert!(e.starts_with("up.gcode is a GIF image, which is not read here; the formats read are SVG"), "{e}");
+        assert!(e.contains("PNG and JPEG") && e.contains("G-code") && e.contains("HP-GL"), "{e}");
+    }
+
+    fn test_args() -> InputArgs {
+        #[derive(clap::Parser)]
+        struct W {
+            #[command(flatten)]
+            input: InputArgs,
+        }
+        <W as clap::Parser>::parse_from(["t"]).input
     }
 }

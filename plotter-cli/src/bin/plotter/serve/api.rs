@@ -4,7 +4,9 @@
 //!
 //! Bodies are bounded in size — a declared size over the limit is refused before any of the body is read
 //! ([`declared_size`]) — and in time ([`super::deadline`]). Decoding and preparing a drawing run on the blocking
-//! pool in a limited number of slots ([`heavy`]), so no number of uploads can occupy every thread.
+//! pool in a limited number of slots ([`heavy`]), so no number of uploads can occupy every thread, and each first
+//! reserves its estimated memory in the server's budget ([`super::budget`]), so that concurrent uploads cannot
+//! together exhaust the machine's memory.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -35,6 +37,7 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::broadcast::error::RecvError;
 
+use super::budget::{self, Budget};
 use super::command::{Command, firmware_choice, hpgl_choice, hpgl_refusal, hpgl_table};
 use super::control;
 use super::deadline::body_deadline;
@@ -357,11 +360,14 @@ impl Drop for CancelOnDrop {
 /// a [`Cancel`] flag that a guard held by the request's future sets when that future is dropped (hyper drops the
 /// handler when its client goes away): the work then stops at its next coarse check (per SVG element, between
 /// stages; see [`plotter_path::geometry::cancel`]) and frees its slot, instead of running to an end nobody waits
-/// for.
+/// for. Before it starts, the work reserves `memory` (an estimate in bytes, named `what` in the refusal) in the
+/// server's [`Budget`], held while it runs: `503` when the budget cannot hold it beside the work in flight.
 async fn heavy<T: Send + 'static>(
     shared: &Shared,
+    (memory, what): (u64, &str),
     work: impl FnOnce(&Cancel) -> T + Send + 'static,
 ) -> Result<T, ApiError> {
+    let reserved = Budget::process().reserve(memory, what)?;
     let Ok(slot) = Arc::clone(&shared.imports).try_acquire_owned() else {
         let n = shared.config.limits.max_imports;
         return Err(ApiError(
@@ -372,7 +378,7 @@ async fn heavy<T: Send + 'static>(
     let cancel = Cancel::new();
     let mut guard = CancelOnDrop(Some(cancel.clone()));
     let result = tokio::task::spawn_blocking(move || {
-        let _slot = slot;
+        let _held = (slot, reserved);
         work(&cancel)
     })
     .await;
@@ -389,7 +395,11 @@ async fn decode(
     profile: MachineProfile,
 ) -> Result<Loaded, ApiError> {
     let input = input_args(settings)?;
-    heavy(shared, move |cancel| {
+    let memory = match &source {
+        Source::Upload { name, bytes } => (budget::decode_estimate(name, bytes), name.clone()),
+        Source::Gen(spec) => (budget::decode_estimate("gen.svg", b""), format!("gen:{spec}")),
+    };
+    heavy(shared, (memory.0, &memory.1), move |cancel| {
         let (name, decoded) = match &source {
             Source::Upload { name, bytes } => {
                 // An upload may use only data: URLs inside it: no path on this machine is opened or looked up.
@@ -418,7 +428,9 @@ async fn reprepare(shared: &Arc<Shared>) -> ApiResult {
     let layers = layer_choices(&settings, &drawing)?;
     let layout = layout_args(&settings)?;
     let optimize = optimize_args(&settings)?;
-    let result = heavy(shared, move |cancel| prepare(drawing, &profile, &layers, &layout, &optimize, cancel)).await;
+    let memory = (budget::prepare_estimate(&drawing), "preparing the drawing");
+    let result =
+        heavy(shared, memory, move |cancel| prepare(drawing, &profile, &layers, &layout, &optimize, cancel)).await;
     let answer = {
         let mut i = shared.lock();
         i.view_version += 1;

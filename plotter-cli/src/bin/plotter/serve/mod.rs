@@ -3,6 +3,7 @@
 //!
 //! - [`listen`]: the accept loop, with its connection limit and header timeout;
 //! - [`api`]: routes, the Host/Origin/controller guard, handlers;
+//! - [`budget`]: the memory budget of the drawings being decoded or prepared;
 //! - [`error`]: the error answer;
 //! - [`deadline`]: the time limit on request bodies;
 //! - [`events`]: the event channel to the pages;
@@ -17,6 +18,7 @@
 //! events, so a long plot, a homing cycle or a slow serial port never holds up a page.
 
 pub(crate) mod api;
+pub(crate) mod budget;
 pub(crate) mod command;
 pub(crate) mod control;
 pub(crate) mod deadline;
