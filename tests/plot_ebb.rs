@@ -4,7 +4,7 @@
 //! time) tells whether the board ran the plan in the planned time, closed closed curves, and ended with the pen up.
 
 use std::process::{Command, Stdio};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use plotter_e2e::{SimPty, Trace, plotter_bin, plotter_with_input, sample, scratch};
 
@@ -189,6 +189,136 @@ fn ctrl_c_stops_the_board_with_es_and_the_pen_up_and_the_journal_resumes() {
     let r = runs(&trace);
     assert_eq!(r.len(), 2, "{}", r.len());
     assert_closes(&trace, "the circle");
+}
+
+/// Run `plotter` with `args` in `dir`, stdin closed, its output to files; send it `signal` after `signal_after`
+/// (when given), and kill it if it has not ended after `limit`. Returns (exit status or `None` when killed,
+/// stdout, stderr, how long it ran).
+fn run_bounded(
+    dir: &std::path::Path,
+    args: &[&str],
+    signal: Option<(nix::sys::signal::Signal, Duration)>,
+    limit: Duration,
+) -> (Option<std::process::ExitStatus>, String, String, Duration) {
+    let (out, err) = (dir.join("plot.out"), dir.join("plot.err"));
+    let mut child = Command::new(plotter_bin())
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(&out).expect("stdout file"))
+        .stderr(std::fs::File::create(&err).expect("stderr file"))
+        .spawn()
+        .expect("plotter runs");
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).expect("pid"));
+    let t0 = Instant::now();
+    let mut signalled = signal.is_none();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for plotter") {
+            break Some(status);
+        }
+        if let Some((sig, after)) = signal
+            && !signalled
+            && t0.elapsed() >= after
+        {
+            nix::sys::signal::kill(pid, sig).expect("signal the plot");
+            signalled = true;
+        }
+        if t0.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let took = t0.elapsed();
+    let read = |p: &std::path::Path| std::fs::read_to_string(p).unwrap_or_default();
+    (status, read(&out), read(&err), took)
+}
+
+/// A termination signal in the middle of a plot (a service manager's stop, a closed terminal) ends it like a stop:
+/// `ES` interrupts the running move, the pen goes up, the journal stays, and `--resume` draws the rest.
+fn a_signal_mid_plot_stops_the_board_with_the_pen_up_and_the_journal_resumes(
+    signal: nix::sys::signal::Signal,
+    named: &str,
+) {
+    let dir = scratch(&format!("ebb-{named}"));
+    // Real time: the pen draws the circle from about 1.3 s to 3.6 s after the start; the signal comes at 2.
+    let sim = SimPty::start(&dir, &["--ebb"]);
+    let profile = axidraw();
+    let journal = dir.join("circle.journal");
+    let args = [
+        "plot",
+        "gen:circle?r=20&cx=40&cy=40",
+        "--port",
+        &sim.port,
+        "--firmware",
+        "ebb",
+        "--profile",
+        &profile,
+        "--journal",
+        journal.to_str().unwrap(),
+    ];
+    let (status, _, stderr, _) =
+        run_bounded(&dir, &args, Some((signal, Duration::from_millis(2000))), Duration::from_secs(30));
+    let status = status.expect("the plot ends");
+    assert!(!status.success(), "{stderr}");
+    assert!(
+        stderr.contains(&format!("stopped at once on {named}"))
+            && stderr.contains("--resume")
+            && stderr.contains("motion stopped (ES); the pen is up (SP,2,0,1)"),
+        "{stderr}"
+    );
+    let (ok, stdout, stderr) = plot(&dir, &["plot", "--resume", journal.to_str().unwrap(), "--port", &sim.port], "");
+    assert!(ok, "{stderr}\n{stdout}");
+    assert!(stderr.contains("resuming at block"), "{stderr}");
+    assert!(std::fs::read_to_string(&journal).unwrap().contains("complete"));
+    let trace = sim.stop();
+    assert_eq!(SimPty::figure(&trace, "ebb", "estops"), Some(1), "ES interrupted the running move");
+    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1));
+    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
+    let r = runs(&trace);
+    assert_eq!(r.len(), 2, "{}", r.len());
+    assert_closes(&trace, "the circle");
+}
+
+#[test]
+fn sigterm_mid_plot_stops_the_board_with_es_and_the_pen_up_and_the_journal_resumes() {
+    a_signal_mid_plot_stops_the_board_with_the_pen_up_and_the_journal_resumes(
+        nix::sys::signal::Signal::SIGTERM,
+        "SIGTERM",
+    );
+}
+
+#[test]
+fn sighup_mid_plot_stops_the_board_with_es_and_the_pen_up_and_the_journal_resumes() {
+    a_signal_mid_plot_stops_the_board_with_the_pen_up_and_the_journal_resumes(
+        nix::sys::signal::Signal::SIGHUP,
+        "SIGHUP",
+    );
+}
+
+#[test]
+fn a_board_that_falls_into_blank_lines_mid_plot_is_given_up_in_seconds_with_the_pen_up() {
+    let dir = scratch("ebb-blank");
+    // After 60 commands (connecting and homing take about 20) the board obeys but answers only blank lines, one
+    // every millisecond.
+    let sim = SimPty::start(&dir, &["--ebb", "--ebb-lie", "blank@60"]);
+    let profile = axidraw();
+    let args = ["plot", "gen:circle?r=20&cx=40&cy=40", "--port", &sim.port, "--firmware", "ebb", "--profile", &profile];
+    let (status, _, stderr, took) = run_bounded(&dir, &args, None, Duration::from_secs(30));
+    let status = status.unwrap_or_else(|| panic!("the plot still waited after 30 s:\n{stderr}"));
+    assert!(!status.success(), "{stderr}");
+    // The answer's deadline (3 s and the queued moves ahead), then ES and the lift (about 1 s each).
+    assert!(took < Duration::from_secs(15), "{took:?}");
+    assert!(
+        stderr.contains("gave up waiting for the answer to ")
+            && stderr.contains("blank line(s)")
+            && stderr.contains("SP,2,0,1"),
+        "{stderr}"
+    );
+    let trace = sim.stop();
+    assert!(!runs(&trace).is_empty(), "the lie came mid-plot, with the pen down");
+    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1), "the board still obeyed the lift");
 }
 
 #[test]

@@ -15,6 +15,10 @@
 //!   duration; `QG` bit 4 reports the commanded pen state.
 //! - **Trace**: every step, with its interval and both motor positions and the pen state, like our simulator's.
 //!
+//! - **Lies** ([`Lie`], `plotter sim --pty --ebb --ebb-lie MODE`): a board that misbehaves in one documented way,
+//!   for tests of the host's robustness: an unreadable `ES` answer, a reply path that dies into blank lines, a
+//!   device that chatters, a board busy for ever, an absurd `QS` position.
+//!
 //! With `CU,251,1` (the firmware's test mode that prints each move's figures) a move's seventh argument is the
 //! accumulators' starting value and every finished move is recorded as the firmware's regression scripts log it
 //! ([`MoveRecord`]).
@@ -91,6 +95,54 @@ enum Running {
     Wait(u64),
 }
 
+/// How an emulated board misbehaves (none by default), for tests of the host: every wait on the board must end
+/// within its deadline, and every stop must leave the pen up, whatever the board answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Lie {
+    /// `ES` stops and flushes as usual, but its answer is one unreadable line (no count, no `OK`).
+    EsGarbage,
+    /// After this many commands the board still obeys, but answers nothing any more: a blank line every
+    /// millisecond instead (a crashed reply path, a bootloader, line noise).
+    Blank {
+        /// Commands answered normally first.
+        after: u64,
+    },
+    /// A junk line every 20 ms from the start, besides the answers (a wrong port, an auto-reporting GRBL).
+    Chatter,
+    /// `QG` (and `QM`) report a command executing and both motors moving for ever.
+    Busy,
+    /// `QS` reports this motor position whatever the motors did.
+    Qs([i64; 2]),
+}
+
+/// The junk line of [`Lie::Chatter`]: what an auto-reporting GRBL sends.
+pub const CHATTER_LINE: &str = "<Idle|MPos:0.000,0.000,0.000|FS:0,0>";
+
+/// The answer to `ES` under [`Lie::EsGarbage`].
+pub const ES_GARBAGE: &str = "~?%E\u{7}S#";
+
+impl Lie {
+    /// Parse a lie as `--ebb-lie` gives it: `es-garbage`, `blank@N`, `chatter`, `busy` or `qs=X,Y`.
+    pub fn parse(spec: &str) -> Result<Lie, String> {
+        let bad = || format!("--ebb-lie {spec:?}: use es-garbage, blank@N, chatter, busy or qs=X,Y");
+        Ok(match spec {
+            "es-garbage" => Lie::EsGarbage,
+            "chatter" => Lie::Chatter,
+            "busy" => Lie::Busy,
+            _ => {
+                if let Some(n) = spec.strip_prefix("blank@") {
+                    Lie::Blank { after: n.parse().map_err(|_| bad())? }
+                } else if let Some(xy) = spec.strip_prefix("qs=") {
+                    let (x, y) = xy.split_once(',').ok_or_else(bad)?;
+                    Lie::Qs([x.trim().parse().map_err(|_| bad())?, y.trim().parse().map_err(|_| bad())?])
+                } else {
+                    return Err(bad());
+                }
+            }
+        })
+    }
+}
+
 /// Counters for tests and the trace summary.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct EbbStats {
@@ -102,6 +154,8 @@ pub struct EbbStats {
     pub peak_fifo: usize,
     /// `ES` stops that interrupted something.
     pub estops: u64,
+    /// Motion commands queued (`LM`, `LT`, `T3`, `SM`/`XM` with steps, `HM`).
+    pub moves: u64,
 }
 
 /// The emulated board.
@@ -140,6 +194,8 @@ pub struct EbbEmulator {
     stats: EbbStats,
     /// Commands of every kind answered so far (in order), for tests.
     log: Vec<String>,
+    /// How it misbehaves.
+    lie: Option<Lie>,
 }
 
 fn bad(code: u8) -> String {
@@ -207,7 +263,23 @@ impl EbbEmulator {
             trace: Vec::new(),
             stats: EbbStats::default(),
             log: Vec::new(),
+            lie: None,
         }
+    }
+
+    /// Misbehave from now on (see [`Lie`]); `None` behaves.
+    pub fn set_lie(&mut self, lie: Option<Lie>) {
+        self.lie = lie;
+    }
+
+    /// The lie told, if any.
+    pub fn lie(&self) -> Option<Lie> {
+        self.lie
+    }
+
+    /// Whether the reply path is dead ([`Lie::Blank`] after its commands).
+    fn muted(&self) -> bool {
+        matches!(self.lie, Some(Lie::Blank { after }) if self.stats.commands > after)
     }
 
     /// Bytes from the host.
@@ -297,6 +369,9 @@ impl EbbEmulator {
     }
 
     fn reply(&mut self, text: &str) {
+        if self.muted() {
+            return;
+        }
         self.out.extend_from_slice(text.as_bytes());
     }
 
@@ -372,6 +447,9 @@ impl EbbEmulator {
 
     /// Queue `q` for command `name`, answering once it has a FIFO slot.
     fn enqueue(&mut self, name: &str, q: Queued, needs_idle: bool) {
+        if matches!(q, Queued::Move { .. } | Queued::Home { .. }) {
+            self.stats.moves += 1;
+        }
         self.stuck = Some((name.to_string(), q, needs_idle));
         self.unstick();
     }
@@ -551,7 +629,11 @@ impl EbbEmulator {
                 if p.first() == Some(&1) {
                     self.enabled = [false; 2];
                 }
-                self.data("ES", if interrupted { "1" } else { "0" }, "\n\r", true);
+                if self.lie == Some(Lie::EsGarbage) {
+                    self.reply(&format!("{ES_GARBAGE}\r\n"));
+                } else {
+                    self.data("ES", if interrupted { "1" } else { "0" }, "\n\r", true);
+                }
             }
             "CS" => {
                 params(args, 0, 0)?;
@@ -561,7 +643,11 @@ impl EbbEmulator {
             }
             "QS" => {
                 params(args, 0, 0)?;
-                let d = format!("{},{}", self.pos[0], self.pos[1]);
+                let p = match self.lie {
+                    Some(Lie::Qs(p)) => p,
+                    _ => self.pos,
+                };
+                let d = format!("{},{}", p[0], p[1]);
                 self.data("QS", &d, "\n\r", true);
             }
             "QG" => {
@@ -643,8 +729,8 @@ impl EbbEmulator {
                     self.clock,
                     self.busy,
                 );
-                let out = std::mem::take(&mut self.out);
-                *self = EbbEmulator { trace, log, stats, clock, busy, out, ..EbbEmulator::new(v) };
+                let (out, lie) = (std::mem::take(&mut self.out), self.lie);
+                *self = EbbEmulator { trace, log, stats, clock, busy, out, lie, ..EbbEmulator::new(v) };
             }
             "QT" => {
                 params(args, 0, 0)?;
@@ -756,6 +842,9 @@ impl EbbEmulator {
     fn general_status(&self) -> u8 {
         let moving = |m: usize| matches!(self.current, Some(Running::Move { axes }) if axes[m].active());
         let waiting = !self.fifo.is_empty() || self.stuck.is_some();
+        if self.lie == Some(Lie::Busy) {
+            return u8::from(self.pen_up) << 4 | 0x0F;
+        }
         u8::from(self.pen_up) << 4
             | u8::from(self.current.is_some() || waiting) << 3
             | u8::from(moving(0)) << 2
@@ -834,6 +923,13 @@ impl EbbEmulator {
     #[allow(clippy::needless_range_loop)]
     fn tick(&mut self) {
         self.clock += 1;
+        // The lies that talk: a blank line every millisecond (25 intervals), a junk line every 20 ms.
+        if self.muted() && self.clock.is_multiple_of(25) {
+            self.out.extend_from_slice(b"\r\n");
+        }
+        if self.lie == Some(Lie::Chatter) && self.clock.is_multiple_of(500) {
+            self.out.extend_from_slice(format!("{CHATTER_LINE}\r\n").as_bytes());
+        }
         if self.clock.is_multiple_of(SERVO_CYCLE) {
             self.servo_step();
         }

@@ -40,10 +40,16 @@ pub fn mix(x: i64, y: i64) -> [i64; 2] {
     [x + y, x - y]
 }
 
-/// XY steps of a motor move or position, when it is one (both sums even).
+/// XY steps of a motor move or position, when it is one (both sums even). The sums are taken in 128 bits, so any
+/// pair of counters a board may report maps without wrapping (half of an even sum of two `i64` fits an `i64`).
 pub fn unmix(m: [i64; 2]) -> Option<(i64, i64)> {
-    let (s, d) = (m[0] + m[1], m[0] - m[1]);
-    (s % 2 == 0 && d % 2 == 0).then_some((s / 2, d / 2))
+    let (a, b) = (i128::from(m[0]), i128::from(m[1]));
+    let (s, d) = (a + b, a - b);
+    if s % 2 != 0 {
+        // The sum and the difference differ by 2·b: both odd.
+        return None;
+    }
+    Some((i64::try_from(s / 2).ok()?, i64::try_from(d / 2).ok()?))
 }
 
 /// A step frequency (steps/s) as accumulator units per interval (`Rate ≈ 85 899.35 s × F`).
@@ -254,6 +260,11 @@ mod tests {
         assert_eq!(mix(3, 1), [4, 2]);
         assert_eq!(unmix([4, 2]), Some((3, 1)));
         assert_eq!(unmix([3, 2]), None, "odd sums are no XY position");
+        // Counters at the ends of their range do not wrap (i64::MAX + i64::MAX once read as (-1, 0): near home).
+        assert_eq!(unmix([i64::MAX, i64::MAX]), Some((i64::MAX, 0)));
+        assert_eq!(unmix([i64::MIN, i64::MIN]), Some((i64::MIN, 0)));
+        assert_eq!(unmix([i64::MAX, i64::MIN + 1]), Some((0, i64::MAX)));
+        assert_eq!(unmix([i64::MAX, i64::MIN]), None, "an odd sum");
         for (x, y) in [(0, 0), (-7, 12), (1000, -3)] {
             assert_eq!(unmix(mix(x, y)), Some((x, y)));
         }

@@ -16,7 +16,8 @@
 //! With `--ebb` the pty serves the project's EiBotBoard emulator ([`plotter_host::link::ebb::emulator`]) running
 //! firmware `--ebb-version` (2.8.1 or 3.0.2); its trace lists the motor positions instead (`t m1 m2 pen`, time in
 //! µs, pen 1 = up), then `# busy_ticks <µs> steps <n>`, `# ebb commands <n> errors <n> estops <n> peak_fifo <n>
-//! pen_up <0|1>` and `# position <m1> <m2>`.
+//! pen_up <0|1>` and `# position <m1> <m2>`. `--ebb-lie` makes the board misbehave for tests: `es-garbage`,
+//! `blank@N`, `chatter`, `busy` or `qs=X,Y` ([`plotter_host::link::ebb::emulator::Lie`]).
 //!
 //! With `--hpgl` the pty serves the project's HP-GL plotter model ([`plotter_host::link::hpgl::model`]) of
 //! `--hpgl-device` with a `--hpgl-buffer`-byte input buffer behind a 9600-baud line (`--baud`); its trace lists
@@ -36,7 +37,7 @@ use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use plotter_fw::sim::{Sim, SimOptions};
 
 use plotter_host::job::load::load_profile;
-use plotter_host::link::ebb::emulator::EbbEmulator;
+use plotter_host::link::ebb::emulator::{EbbEmulator, Lie};
 use plotter_host::link::ebb::messages::EbbVersion;
 use plotter_host::link::faults::Noise;
 use plotter_host::link::grbl::emulator::{Faults, GrblEmulator};
@@ -93,6 +94,11 @@ pub(crate) struct SimArgs {
     /// is where `SP`/`TP` last put it.
     #[arg(long, requires = "ebb")]
     pub(crate) ebb_pen_contact: Option<u16>,
+    /// Make the EBB misbehave, for tests: es-garbage (ES answered with an unreadable line), blank@N (after N
+    /// commands no more answers, a blank line every ms), chatter (a junk line every 20 ms), busy (QG always
+    /// busy) or qs=X,Y (QS reports X,Y).
+    #[arg(long, requires = "ebb")]
+    pub(crate) ebb_lie: Option<String>,
     /// Emulate a vintage HP-GL plotter instead of our firmware.
     #[arg(long, conflicts_with_all = ["grbl", "qemu", "noise", "ebb"])]
     pub(crate) hpgl: bool,
@@ -331,6 +337,7 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
             .with_context(|| format!("--ebb-version {}: emulated are 2.8.1 and 3.0.2", args.ebb_version))?;
         let mut board = EbbEmulator::new(version);
         board.set_pen_contact(args.ebb_pen_contact);
+        board.set_lie(args.ebb_lie.as_deref().map(Lie::parse).transpose().map_err(anyhow::Error::msg)?);
         Backend::Ebb(Box::new(board), 0)
     } else if args.grbl {
         let faults = args.grbl_fault.as_deref().map(parse_fault).transpose()?.unwrap_or_default();
