@@ -254,27 +254,51 @@ pub fn detect<T: Transport>(transport: &mut T) -> anyhow::Result<Firmware> {
             None
         }
     };
-    while let Some(l) = transport.recv_line(Duration::from_millis(300))? {
-        if let Some(f) = name_of(&l) {
-            return Ok(f);
+    // Each listen lasts until a quiet gap, and at most a second and a half however much the device says (a wrong
+    // port that babbles); a stop (any signal) ends it.
+    let listen = |transport: &mut T, quiet: Duration, each: &mut dyn FnMut(&str) -> bool| -> anyhow::Result<()> {
+        let mut wait = super::wait::Wait::new("the port", "its answers", transport.now(), Duration::from_millis(1500))
+            .interruptible()
+            .on_any_interrupt();
+        loop {
+            let slice = match wait.next(transport.now(), quiet) {
+                Ok(slice) => slice,
+                Err(super::wait::WaitError::TimedOut { .. }) => return Ok(()),
+                Err(e) => return Err(e.into()),
+            };
+            match transport.recv_line(slice)? {
+                Some(l) if each(&l) => return Ok(()),
+                Some(_) => {}
+                None => return Ok(()),
+            }
         }
+    };
+    let mut found = None;
+    listen(transport, Duration::from_millis(300), &mut |l| {
+        found = name_of(l);
+        found.is_some()
+    })?;
+    if let Some(f) = found {
+        return Ok(f);
     }
     transport.send(b"$I\n")?;
     let mut found = Firmware::Ours;
     let mut ebb_error = false;
-    while let Some(l) = transport.recv_line(Duration::from_millis(500))? {
-        if let Some(f) = name_of(&l) {
+    listen(transport, Duration::from_millis(500), &mut |l| {
+        if let Some(f) = name_of(l) {
             found = f;
         }
         ebb_error |= l.starts_with("!8 Err:");
-    }
+        false
+    })?;
     if ebb_error {
         transport.send(b"V\r")?;
-        while let Some(l) = transport.recv_line(Duration::from_millis(500))? {
-            if super::ebb::messages::EbbVersion::parse(&l).is_some() {
+        listen(transport, Duration::from_millis(500), &mut |l| {
+            if super::ebb::messages::EbbVersion::parse(l).is_some() {
                 found = Firmware::Ebb;
             }
-        }
+            false
+        })?;
     }
     Ok(found)
 }

@@ -4,6 +4,7 @@
 //! job drives ([`machine`]); what the front ends share to reach and drive a plotter by hand: connecting to a port
 //! of any dialect ([`connect`]), jogging ([`jog`]) and the console's real-time keys ([`console`]).
 
+pub mod babble;
 pub mod connect;
 pub mod console;
 pub mod ebb;

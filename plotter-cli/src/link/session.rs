@@ -8,6 +8,7 @@ use plotter_fw::framing::{self, rt_sequence};
 use plotter_fw::protocol::{RT_STATUS, Reply};
 
 use super::Transport;
+use super::wait::{Wait, WaitError};
 
 /// What the firmware says about itself.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -99,6 +100,8 @@ pub struct Session<T: Transport> {
 pub const COMMAND_TIMEOUT: Duration = Duration::from_secs(5);
 /// How long a homing cycle may take.
 pub const HOMING_TIMEOUT: Duration = Duration::from_secs(180);
+/// How long the handshake may take in all, however much the device says.
+pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(12);
 
 fn parse_m115(line: &str) -> Option<FirmwareInfo> {
     if !line.starts_with("FIRMWARE_NAME:plotter-fw") {
@@ -115,10 +118,23 @@ fn parse_m115(line: &str) -> Option<FirmwareInfo> {
 
 impl<T: Transport> Session<T> {
     /// Handshake: flush any half-received line, ask `M115` (up to three times, for boards that reset when the port
-    /// opens), read the buffer sizes. A device that never answers like plotter-fw is an error naming what it sent.
+    /// opens), read the buffer sizes. A device that never answers like plotter-fw is an error naming what it sent;
+    /// the whole handshake takes at most [`CONNECT_TIMEOUT`] however much the device says (a wrong port that
+    /// babbles), and ends on a stop (any signal, Ctrl-C included: nothing to pause yet).
     pub fn connect(mut transport: T, name: &str) -> crate::Result<Self> {
         let mut heard: Vec<String> = Vec::new();
         transport.send(b"\n").with_context(|| format!("cannot write to {name}"))?;
+        let mut wait = Wait::new(name, "a firmware description (M115)", transport.now(), CONNECT_TIMEOUT)
+            .interruptible()
+            .on_any_interrupt();
+        let gave_up = |e: WaitError, heard: &[String]| match e {
+            WaitError::TimedOut { .. } if heard.is_empty() => crate::Error::NoAnswer { name: name.to_string() },
+            WaitError::TimedOut { .. } => {
+                let shown: Vec<String> = heard.iter().take(3).map(|l| format!("{l:?}")).collect();
+                crate::Error::FirmwareMismatch { name: name.to_string(), heard: shown.join(", ") }
+            }
+            e @ WaitError::Stopped(_) => crate::Error::Other(e.into()),
+        };
         // Plain replies are unchecked, so the firmware's description only counts when two answers agree (line noise
         // could change a digit of a buffer size); framed mode later reads it again, verified.
         let mut previous: Option<FirmwareInfo> = None;
@@ -135,8 +151,11 @@ impl<T: Transport> Session<T> {
             if attempt >= 3 && heard.is_empty() && previous.is_none() {
                 break;
             }
-            // Drain whatever answers the flush (or a banner) produced.
-            while let Some(l) = transport.recv_line(Duration::from_millis(150))? {
+            // Drain whatever answers the flush (or a banner) produced: until a quiet 150 ms, for at most 300 ms.
+            let drain_end = transport.now() + Duration::from_millis(300);
+            while transport.now() < drain_end {
+                let slice = wait.next(transport.now(), Duration::from_millis(150)).map_err(|e| gave_up(e, &heard))?;
+                let Some(l) = transport.recv_line(slice)? else { break };
                 framed_seen |= framing::parse_reply(&l).is_some();
                 if heard.len() < 8 && !l.is_empty() && !l.starts_with("plotter-fw ") && Reply::parse(&l) != Reply::Ok {
                     heard.push(l);
@@ -144,7 +163,11 @@ impl<T: Transport> Session<T> {
             }
             transport.send(b"M115\n")?;
             let mut info = None;
-            while let Some(l) = transport.recv_line(Duration::from_secs(1))? {
+            // The answer: until its `ok`, a quiet second, or 2 s of other talk.
+            let answer_end = transport.now() + Duration::from_secs(2);
+            while transport.now() < answer_end {
+                let slice = wait.next(transport.now(), Duration::from_secs(1)).map_err(|e| gave_up(e, &heard))?;
+                let Some(l) = transport.recv_line(slice)? else { break };
                 framed_seen |= framing::parse_reply(&l).is_some();
                 if let Some(i) = parse_m115(&l) {
                     info = Some(i);
@@ -162,16 +185,15 @@ impl<T: Transport> Session<T> {
                         previous = Some(info);
                         break;
                     }
-                } else if heard.len() < 8 && !l.starts_with("plotter-fw ") {
+                } else if heard.len() < 8 && !l.is_empty() && !l.starts_with("plotter-fw ") {
                     heard.push(l);
                 }
             }
         }
-        if heard.is_empty() {
-            return Err(crate::Error::NoAnswer { name: name.to_string() });
-        }
-        let shown: Vec<String> = heard.iter().take(3).map(|l| format!("{l:?}")).collect();
-        Err(crate::Error::FirmwareMismatch { name: name.to_string(), heard: shown.join(", ") })
+        Err(gave_up(
+            WaitError::TimedOut { name: name.to_string(), what: String::new(), limit: CONNECT_TIMEOUT },
+            &heard,
+        ))
     }
 
     /// The next line from the firmware within `timeout` (see [`Incoming`]).
@@ -318,7 +340,10 @@ impl<T: Transport> Session<T> {
         let mut damaged = 0;
         for _ in 0..30 {
             self.send_realtime(RT_STATUS)?;
-            while let Some(l) = self.recv(Duration::from_millis(500))? {
+            // Until a quiet half second, or a second of other lines (a babbling device must not hold us).
+            let end = self.transport.now() + Duration::from_secs(1);
+            while self.transport.now() < end {
+                let Some(l) = self.recv(Duration::from_millis(500))? else { break };
                 let Incoming::Reply(_, l) = l else {
                     damaged += 1;
                     continue;
@@ -342,16 +367,34 @@ impl<T: Transport> Session<T> {
     /// number), so that a line damaged on the way is detected and resent instead of being misread; wait for its
     /// `ok`. Returns the report lines before it.
     pub fn command_checked(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
+        self.command_checked_within(line, timeout, false)
+    }
+
+    /// [`Session::command_checked`]; when `interruptible`, a stop (any signal) ends the wait for the answer.
+    fn command_checked_within(
+        &mut self,
+        line: &str,
+        timeout: Duration,
+        interruptible: bool,
+    ) -> anyhow::Result<Vec<String>> {
         let mut out = Vec::new();
         let mut seq = self.status()?.seq;
         for _attempt in 0..10 {
             let body = format!("N{seq} {line}");
             let cs = plotter_fw::gcode::xor_checksum(body.as_bytes());
             self.transport.send(format!("{body}*{cs}\n").as_bytes())?;
-            let deadline = self.transport.now() + timeout;
+            let mut wait = Wait::new(&self.name, format!("the answer to {line}"), self.transport.now(), timeout);
+            if interruptible {
+                wait = wait.interruptible().on_any_interrupt();
+            }
             loop {
-                let left = deadline.saturating_sub(self.transport.now());
-                let got = self.recv(left.max(Duration::from_millis(1)))?;
+                let left = match wait.next(self.transport.now(), timeout) {
+                    Ok(left) => left,
+                    // Past the deadline: one last read of zero length settles it below, as before.
+                    Err(WaitError::TimedOut { .. }) => Duration::from_millis(1),
+                    Err(e) => return Err(e.into()),
+                };
+                let got = self.recv(left)?;
                 let Some(Incoming::Reply(n, l)) = got else {
                     if got.is_some() {
                         // Damaged: perhaps our answer. Wait on; the status below settles it.
@@ -430,7 +473,15 @@ impl<T: Transport> Session<T> {
 
     /// Run the homing cycle (`G28`, sent checked).
     pub fn home(&mut self) -> anyhow::Result<()> {
-        self.command_checked("G28", HOMING_TIMEOUT).map(|_| ()).context("homing failed")
+        match self.command_checked_within("G28", HOMING_TIMEOUT, true) {
+            Ok(_) => Ok(()),
+            Err(e) if e.downcast_ref::<WaitError>().is_some_and(|w| matches!(w, WaitError::Stopped(_))) => {
+                // Stopped while homing: the firmware stops the cycle where it is (the pen went up first).
+                let reset = self.reset().map_or_else(|r| format!("; the reset failed: {r:#}"), |()| String::new());
+                Err(e.context(format!("homing stopped (the firmware was reset){reset}")))
+            }
+            Err(e) => Err(e.context("homing failed")),
+        }
     }
 
     /// Wait until the machine is idle (everything queued executed), polling the status every `every`. A machine
@@ -632,5 +683,68 @@ mod tests {
             "{e:?}"
         );
         assert_eq!(e.to_string(), "device unplugged");
+    }
+
+    /// A port where nothing answers, on a clock that reading advances (virtual time).
+    #[derive(Default)]
+    struct Mute(Duration);
+    impl Transport for Mute {
+        fn send(&mut self, _: &[u8]) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn recv_line(&mut self, timeout: Duration) -> std::io::Result<Option<String>> {
+            self.0 += timeout;
+            Ok(None)
+        }
+        fn now(&self) -> Duration {
+            self.0
+        }
+    }
+
+    #[test]
+    fn a_device_that_only_babbles_is_given_up_within_the_connect_deadline_naming_what_it_said() {
+        use crate::link::babble::{Babble, BabbleKind, Babbling};
+        // Blank lines every millisecond: heard as nothing at all.
+        let t = Babbling::new(Mute::default(), Babble::new(BabbleKind::Blank, 0));
+        let e = Session::connect(t, "/dev/ttyUSB3").err().unwrap();
+        assert!(matches!(&e, crate::Error::NoAnswer { name } if name == "/dev/ttyUSB3"), "{e:?}");
+        // A line every 20 ms (a wrong port): its lines are quoted, and the handshake gives up in time.
+        let mut t = Babbling::new(Mute::default(), Babble::new(BabbleKind::Chatter, 0));
+        t.send(b"").unwrap();
+        let e = Session::connect(t, "/dev/ttyUSB3").err().unwrap();
+        match e {
+            crate::Error::FirmwareMismatch { heard, .. } => {
+                assert_eq!(heard, r##""#%& line noise &%#", "#%& line noise &%#", "#%& line noise &%#""##)
+            }
+            e => panic!("{e:?}"),
+        }
+    }
+
+    #[test]
+    fn the_handshake_ends_by_its_deadline_on_a_babbling_port_and_goes_through_chatter() {
+        use crate::link::babble::{Babble, BabbleKind, Babbling};
+        // Our firmware behind a chattering line still connects, and reads its status through the noise.
+        let sim = SimTransport::new(MachineConfig::xy_plotter(), None);
+        let mut s = Session::connect(Babbling::new(sim, Babble::new(BabbleKind::Chatter, 0)), "sim").unwrap();
+        assert_eq!((s.info.rx_bytes, s.info.queue_blocks), (256, 32));
+        // Homing takes simulated seconds: many lines of noise come between its answers.
+        s.home().unwrap();
+        assert!(s.status().unwrap().is_idle());
+        assert!(s.transport.babble().babbled > 100, "{}", s.transport.babble().babbled);
+    }
+
+    #[test]
+    fn a_board_that_turns_to_blank_lines_mid_session_fails_its_status_in_bounded_time() {
+        use crate::link::babble::{Babble, BabbleKind, Babbling};
+        let sim = SimTransport::new(MachineConfig::xy_plotter(), None);
+        // The handshake sends three lines (the flush and M115 twice); the board babbles from the next one on.
+        let mut s = Session::connect(Babbling::new(sim, Babble::new(BabbleKind::Blank, 4)), "sim").unwrap();
+        s.transport.send(b"\n").unwrap();
+        let t0 = s.transport.now();
+        let e = s.status().unwrap_err().to_string();
+        let took = s.transport.now() - t0;
+        assert!(e.contains("no readable status report"), "{e}");
+        // 30 asks of at most a second each.
+        assert!(took <= Duration::from_secs(31), "{took:?}");
     }
 }

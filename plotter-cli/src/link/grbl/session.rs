@@ -47,6 +47,7 @@ use super::settings::GrblSettings;
 use crate::link::Transport;
 use crate::link::session::WAIT_STALL;
 use crate::link::stream::{Control, PauseChoice, Progress, StreamError, StreamStats, stop_at_once};
+use crate::stop::{Stop, Stopped};
 
 /// How long a plain command may take.
 pub const COMMAND_TIMEOUT: Duration = Duration::from_secs(10);
@@ -102,7 +103,16 @@ impl<T: Transport> GrblSession<T> {
         let mut heard = Vec::new();
         let mut version = None;
         let mut messages = Vec::new();
-        while let Some(l) = transport.recv_line(Duration::from_millis(300)).map_err(|e| transport_error(name, e))? {
+        // The start-up banner and messages: until a quiet 300 ms, for at most a second (a controller that reports
+        // on its own, or a wrong port that babbles, must not hold the handshake).
+        let end = transport.now() + Duration::from_secs(1);
+        while transport.now() < end {
+            if let Some(cause) = Stop::process().stop_cause_or_interrupt() {
+                return Err(Stopped { cause, doing: format!("connecting to {name}") }.into());
+            }
+            let Some(l) = transport.recv_line(Duration::from_millis(300)).map_err(|e| transport_error(name, e))? else {
+                break;
+            };
             match GrblLine::parse(&l) {
                 GrblLine::Banner(v) => version = Some(v),
                 GrblLine::Msg(m) => messages.push(m),
@@ -172,11 +182,22 @@ impl<T: Transport> GrblSession<T> {
 
     /// Send one line and wait for its `ok`; returns the feedback lines (`[…]` without brackets) before it.
     pub fn command(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
+        self.command_within(line, timeout, false)
+    }
+
+    /// [`GrblSession::command`]; when `interruptible`, a stop (any signal) ends the wait with
+    /// [`crate::stop::Stopped`].
+    fn command_within(&mut self, line: &str, timeout: Duration, interruptible: bool) -> anyhow::Result<Vec<String>> {
         self.transport.send(format!("{line}\n").as_bytes()).map_err(|e| transport_error(&self.name, e))?;
         let deadline = self.transport.now() + timeout;
         let mut out = Vec::new();
         loop {
-            let Some(l) = self.recv(deadline)? else {
+            if interruptible && let Some(cause) = Stop::process().stop_cause_or_interrupt() {
+                return Err(
+                    Stopped { cause, doing: format!("waiting for the answer to {line} from {}", self.name) }.into()
+                );
+            }
+            let Some(l) = self.recv(deadline.min(self.transport.now() + Duration::from_millis(200)))? else {
                 if self.transport.now() >= deadline {
                     bail!("{}: no answer to {line:?} within {:.0} s", self.name, timeout.as_secs_f64());
                 }
@@ -232,7 +253,14 @@ impl<T: Transport> GrblSession<T> {
     /// the homed corner. Then declare the homed position as the plot's coordinates.
     pub fn home(&mut self) -> anyhow::Result<()> {
         if self.settings.homing_enabled() {
-            self.command("$H", HOMING_TIMEOUT).context("homing ($H) failed")?;
+            if let Err(e) = self.command_within("$H", HOMING_TIMEOUT, true) {
+                if e.downcast_ref::<Stopped>().is_some() {
+                    // Stopped while homing: a soft reset ends the cycle where it is (GRBL then asks for `$H` again).
+                    let reset = self.reset().map_or_else(|r| format!("; the reset failed: {r:#}"), |()| String::new());
+                    return Err(e.context(format!("homing stopped (soft reset){reset}")));
+                }
+                return Err(e.context("homing ($H) failed"));
+            }
         } else {
             eprintln!(
                 "{}: homing is disabled on the controller ($22=0); the current position is taken as the home corner",
@@ -734,9 +762,13 @@ impl<T: Transport> GrblSession<T> {
                 if self.reports_wpos {
                     self.offset = None;
                 }
-                // Let the banner's follow-up messages arrive.
-                while let Some(l) =
-                    self.transport.recv_line(Duration::from_millis(100)).map_err(|e| transport_error(&self.name, e))?
+                // Let the banner's follow-up messages arrive (a quiet 100 ms, at most a second of talk).
+                let end = self.transport.now() + Duration::from_secs(1);
+                while self.transport.now() < end
+                    && let Some(l) = self
+                        .transport
+                        .recv_line(Duration::from_millis(100))
+                        .map_err(|e| transport_error(&self.name, e))?
                 {
                     if let GrblLine::Msg(m) = GrblLine::parse(&l) {
                         self.messages.push(m);

@@ -37,6 +37,7 @@ use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use plotter_fw::sim::{Sim, SimOptions};
 
 use plotter_host::job::load::load_profile;
+use plotter_host::link::babble::Babble;
 use plotter_host::link::ebb::emulator::{EbbEmulator, Lie};
 use plotter_host::link::ebb::messages::EbbVersion;
 use plotter_host::link::faults::Noise;
@@ -74,9 +75,18 @@ pub(crate) struct SimArgs {
     /// Seed of the noise.
     #[arg(long, default_value_t = 1)]
     pub(crate) seed: u64,
+    /// Make the device babble, to test the host's deadlines: `blank[@N]` (after N lines from the host it stops
+    /// answering and sends a blank line every millisecond, like a crashed board) or `chatter[@N]` (it adds a line
+    /// of noise every 20 ms, like a wrong port or a controller that reports on its own).
+    #[arg(long, conflicts_with = "qemu")]
+    pub(crate) babble: Option<String>,
     /// Write the step trace here on exit.
     #[arg(long)]
     pub(crate) trace: Option<PathBuf>,
+    /// Append a line `<ms since start> up|down` here each time the pen goes up or down (flushed at once), so that
+    /// a test can read the pen's state after each host it ran against the device.
+    #[arg(long, conflicts_with = "qemu")]
+    pub(crate) pen_log: Option<PathBuf>,
     /// Emulate a GRBL 1.1 controller instead of our firmware.
     #[arg(long)]
     pub(crate) grbl: bool,
@@ -200,6 +210,20 @@ impl Backend {
                 *us += ticks;
                 w.run_until(secs(*us));
             }
+        }
+    }
+    /// Whether the pen is up (our firmware and GRBL: Z at or above the middle of the profile's pen-up and
+    /// pen-down heights).
+    fn pen_up(&self, profile: &plotter_path::MachineProfile) -> bool {
+        let z_up = |z_steps: i32| {
+            let middle = (profile.pen.up_z_mm + profile.pen.down_z_mm) / 2.0;
+            f64::from(z_steps) / profile.axes.z.steps_per_mm >= middle
+        };
+        match self {
+            Backend::Ours(s) => z_up(s.machine().stepper().position()[2]),
+            Backend::Grbl(g) => z_up(g.backend().machine().stepper().position()[2]),
+            Backend::Ebb(e, _) => e.pen_up(),
+            Backend::Hpgl(w, _) => w.model().pen_up(),
         }
     }
     fn sim(&self) -> Option<&Sim> {
@@ -351,6 +375,8 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         Backend::Ours(Box::new(Sim::with_options(cfg, opts)))
     };
     let mut noise = (args.noise > 0.0).then(|| Noise::new(args.noise, args.seed));
+    let mut babble =
+        args.babble.as_deref().map(Babble::parse).transpose().map_err(|e| anyhow::anyhow!("--babble {e}"))?;
 
     let pty = openpty(None, None).context("cannot open a pseudo-terminal")?;
     let mut tio = tcgetattr(&pty.slave).context("cannot read the pty settings")?;
@@ -384,6 +410,11 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
     });
 
     let mut last = Instant::now();
+    let started = last;
+    let mut pen_log = match &args.pen_log {
+        Some(p) => Some((File::create(p).with_context(|| format!("cannot create {}", p.display()))?, None)),
+        None => None,
+    };
     let mut pending_out = sim.take_output();
     while !stop.any() {
         if !pending_out.is_empty() {
@@ -393,10 +424,15 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         let busy = sim.busy();
         let wait = if busy { Duration::from_micros(200) } else { Duration::from_millis(5) };
         match rx.recv_timeout(wait) {
-            Ok(bytes) => match noise.as_mut() {
-                Some(n) => sim.feed(&n.apply(&bytes)),
-                None => sim.feed(&bytes),
-            },
+            Ok(bytes) => {
+                if let Some(b) = babble.as_mut() {
+                    b.host_sent(&bytes);
+                }
+                match noise.as_mut() {
+                    Some(n) => sim.feed(&n.apply(&bytes)),
+                    None => sim.feed(&bytes),
+                }
+            }
             Err(mpsc::RecvTimeoutError::Timeout) => {}
             Err(mpsc::RecvTimeoutError::Disconnected) => break,
         }
@@ -409,6 +445,16 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
             sim.run_for(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX));
         }
         pending_out = sim.take_output();
+        if let Some(b) = babble.as_mut() {
+            pending_out = b.filter(pending_out, started.elapsed());
+        }
+        if let Some((file, was)) = pen_log.as_mut() {
+            let up = sim.pen_up(&profile);
+            if *was != Some(up) {
+                *was = Some(up);
+                writeln!(file, "{} {}", started.elapsed().as_millis(), if up { "up" } else { "down" })?;
+            }
+        }
     }
     if let (Some(t), Backend::Hpgl(w, _)) = (&args.trace, &sim) {
         write_hpgl_trace(w.model(), t)?;
