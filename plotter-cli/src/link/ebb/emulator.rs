@@ -1136,4 +1136,40 @@ mod tests {
             assert_eq!([i64::from(r.t), i64::from(r.s), i64::from(r.c), i64::from(r.r), r.p], want, "{cmd}");
         }
     }
+
+    #[test]
+    fn lies_parse_and_misbehave_as_named() {
+        assert_eq!(Lie::parse("es-garbage"), Ok(Lie::EsGarbage));
+        assert_eq!(Lie::parse("blank@12"), Ok(Lie::Blank { after: 12 }));
+        assert_eq!(Lie::parse("qs=-5,9223372036854775807"), Ok(Lie::Qs([-5, i64::MAX])));
+        for bad in ["blank@", "qs=1", "qs=1,x", "loud"] {
+            assert!(Lie::parse(bad).unwrap_err().contains("use es-garbage, blank@N, chatter, busy or qs=X,Y"));
+        }
+        let lying = |lie| {
+            let mut e = board(V3);
+            e.set_lie(Some(lie));
+            e
+        };
+        let mut e = lying(Lie::Qs([100_000_000, 7]));
+        assert_eq!(say(&mut e, "QS"), "100000000,7\n\rOK\r\n");
+        let mut e = lying(Lie::Busy);
+        assert_eq!(say(&mut e, "QG"), "1F\r\n", "idle and pen up, reported busy");
+        let mut e = lying(Lie::EsGarbage);
+        say(&mut e, "SM,1000,100,0");
+        assert_eq!(say(&mut e, "ES"), format!("{ES_GARBAGE}\r\n"));
+        assert!(e.is_idle() && e.stats().estops == 1, "it still stops");
+        // Two commands answered, then only a blank line every millisecond (25 intervals) while it still obeys.
+        let mut e = lying(Lie::Blank { after: 2 });
+        assert_eq!(say(&mut e, "QS"), "0,0\n\rOK\r\n");
+        assert_eq!(say(&mut e, "SM,10,5,5"), "OK\r\n");
+        assert_eq!(say(&mut e, "SM,10,5,5"), "");
+        e.run_for(50);
+        assert_eq!(e.take_output(), b"\r\n\r\n");
+        e.run_for(1_000);
+        assert_eq!(e.position(), [10, 10]);
+        assert_eq!(e.stats().moves, 2);
+        let mut e = lying(Lie::Chatter);
+        e.run_for(1_000);
+        assert_eq!(String::from_utf8(e.take_output()).unwrap(), format!("{CHATTER_LINE}\r\n").repeat(2));
+    }
 }
