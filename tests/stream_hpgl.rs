@@ -501,3 +501,20 @@ fn ctrl_c_after_the_last_byte_aborts_the_plotters_buffer() {
         "Ctrl-C (SIGINT)",
     );
 }
+
+/// A port where something else talks (`--hpgl-lie chatter`: a GRBL status line every 20 ms): `--firmware hpgl`
+/// gives up within a few seconds and quotes what it heard, instead of draining the line for ever.
+#[test]
+fn a_babbling_port_is_refused_within_seconds_with_what_it_said() {
+    let dir = scratch("hpgl-chatter");
+    std::fs::write(dir.join("strokes.svg"), STROKES).unwrap();
+    let sim = plotter_e2e::SimPty::start(&dir, &["--hpgl", "--hpgl-lie", "chatter"]);
+    let t0 = std::time::Instant::now();
+    let out = plotter(&dir, &["plot", "strokes.svg", "--firmware", "hpgl", "--journal", "j", "--port", &sim.port]);
+    let took = t0.elapsed();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("does not answer ESC . L like an HP-GL plotter"), "{stderr}");
+    assert!(stderr.contains("it kept sending \"<Idle|MPos:0.000,0.000,0.000|FS:0,0>\\r\\n<Idle"), "{stderr}");
+    assert!(took < Duration::from_secs(5), "{took:?}");
+}

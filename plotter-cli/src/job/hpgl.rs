@@ -209,7 +209,11 @@ pub fn plot<L: HpglLink>(
         if let Some(stopped) = e.downcast_ref::<Stopped>() {
             return Err(Stopped { cause: stopped.cause, doing: format!("{}; {after}", stopped.doing) }.into());
         }
-        return Err(anyhow::anyhow!("{}: {e:#}; {after}", s.name));
+        let e = format!("{e:#}");
+        return Err(match e.starts_with(&s.name) {
+            true => anyhow::anyhow!("{e}; {after}"),
+            false => anyhow::anyhow!("{}: {e}; {after}", s.name),
+        });
     }
     if let Some(j) = run.journal.as_mut() {
         j.complete()?;
@@ -261,11 +265,26 @@ fn stream<L: HpglLink>(
         // A pause asked while waiting for room comes at the next command, unless the plotter withholds room for
         // longer than what it holds should take: it cannot pause, so that is a stop.
         let grace = run.work_ahead(1) + PAUSE_GRACE;
+        let mut told = false;
         let mut guard = |w: Waiting| {
             if let Some(c) = events.stop_requested() {
                 return Some(c);
             }
             pause_asked = pause_asked || events.pause_requested().is_some();
+            // Said once the wait is longer than an ordinary one (a command running out).
+            if let Waiting::Room { stalled } = w
+                && pause_asked
+                && !told
+                && stalled >= PAUSE_GRACE / 2
+            {
+                told = true;
+                events.notice(&format!(
+                    "pause asked: the plotter has taken no byte for {:.0} s; if it takes none within {:.0} s it \
+                     cannot pause and the plot is stopped (ESC . K, pen up). Ctrl-C again stops now.",
+                    stalled.as_secs_f64(),
+                    grace.saturating_sub(stalled).as_secs_f64()
+                ));
+            }
             match w {
                 Waiting::Room { stalled } if pause_asked && stalled >= grace => Some(StopCause::Interrupt),
                 _ => None,
@@ -340,7 +359,14 @@ fn pause<L: HpglLink>(
     events: &mut dyn PlotEvents,
 ) -> anyhow::Result<()> {
     let park = run.paper.clip_plu;
-    let mut guard = |_: Waiting| events.stop_requested();
+    // A plotter that withholds room past what it holds cannot take the park either: the pause becomes a stop.
+    s.set_work_ahead(run.work_ahead(0));
+    let grace = run.work_ahead(0) + PAUSE_GRACE;
+    let mut guard = |w: Waiting| {
+        events
+            .stop_requested()
+            .or_else(|| matches!(w, Waiting::Room { stalled } if stalled >= grace).then_some(StopCause::Interrupt))
+    };
     s.send_guarded(format!("PU;PU{},{};", park.0, park.1).as_bytes(), &mut guard)?;
     s.set_work_ahead(run.work_ahead(0));
     s.check_guarded(run.wait(), &mut guard)?;
@@ -483,5 +509,13 @@ mod tests {
         s.link.finish(30.0);
         let m = s.link.model();
         assert!(m.pen_up() && m.stats().aborts == 1, "{e}");
+        // Asked between two commands just before the plotter stops taking bytes: the park cannot be sent.
+        let stuck_at = events.accepted;
+        let mut events = Asks::new(stuck_at, None, true);
+        let (mut s, e) = run(Some((Lie::NoRoom, 300)), &program, &mut events);
+        assert!(e.contains("stopped by Ctrl-C (SIGINT) while waiting for room"), "{e}");
+        assert!(s.link.now() < Duration::from_secs(30), "{:?}", s.link.now());
+        s.link.finish(30.0);
+        assert!(s.link.model().pen_up() && s.link.model().stats().aborts == 1, "{e}");
     }
 }
