@@ -518,4 +518,91 @@ mod tests {
         s.link.finish(30.0);
         assert!(s.link.model().pen_up() && s.link.model().stats().aborts == 1, "{e}");
     }
+
+    /// Segments drawn by a model, whichever polyline they belong to.
+    fn segments(m: &HpglModel) -> std::collections::HashSet<((i32, i32), (i32, i32))> {
+        m.trace().iter().flat_map(|l| l.windows(2).map(|w| (w[0], w[1]))).collect()
+    }
+
+    /// Stops at 20 points of a plot for each way of asking (SIGTERM, SIGHUP, a pause the front end then aborts):
+    /// the model ends with the pen up and one abort every time, and the journal resumes the plot on a plotter
+    /// switched on afresh, the two runs together drawing every segment.
+    #[test]
+    fn a_stop_anywhere_lifts_the_pen_and_the_journal_resumes() {
+        let d = device("7475a").unwrap();
+        let paper = d.paper("a4").unwrap();
+        let mut program = String::from("IN;SP1;VS20;");
+        for i in 0..12 {
+            program.push_str(&format!("PU{},1000;PD{},2000,{},2000;", 1000 + 300 * i, 1000 + 300 * i, 1200 + 300 * i));
+        }
+        program.push_str("PU;SP0;");
+        let cmds = Commands::split(&program, d);
+        let fresh = || {
+            let model = HpglModel::new(ModelConfig { device: d, buffer: 60, xon_xoff: true });
+            HpglSession::connect(ModelLink::new(model, 9600), "model", d, Handshake::Escb).unwrap()
+        };
+        let mut whole = fresh();
+        plot(&mut whole, &cmds, paper, 0, None, None, &mut Asks::new(usize::MAX, None, false)).unwrap();
+        let want = segments(whole.link.model());
+        assert_eq!(want.len(), 24);
+        let dir = std::env::temp_dir().join(format!("plotter-hpgl-stops-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut resumed_from = std::collections::BTreeSet::new();
+        for round in 0..60 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            let asks = usize::try_from(seed % 400).unwrap();
+            let (stop, pause) = match round % 3 {
+                0 => (Some(StopCause::Terminate), false),
+                1 => (Some(StopCause::Hangup), false),
+                _ => (None, true),
+            };
+            // The stop comes at the `asks`-th question the plot asks its front end.
+            struct At(Asks, usize);
+            impl PlotEvents for At {
+                fn progress(&mut self, p: &JobProgress) {
+                    self.0.progress(p);
+                }
+                fn stop_requested(&mut self) -> Option<StopCause> {
+                    self.1 = self.1.saturating_sub(1);
+                    self.0.stop.filter(|_| self.1 == 0)
+                }
+                fn pause_requested(&mut self) -> Option<bool> {
+                    (self.0.pause && self.1 == 0).then(|| {
+                        self.0.pause = false;
+                        false
+                    })
+                }
+            }
+            let path = dir.join(format!("{round}.journal"));
+            let journal = Journal::create(&path, "{}", program_hash(&program), cmds.list.len()).unwrap();
+            let mut s = fresh();
+            let mut events = At(Asks::new(0, stop, pause), asks.max(1));
+            let e = plot(&mut s, &cmds, paper, 0, Some(journal), Some(&path), &mut events);
+            let Err(e) = e else {
+                assert!(asks > 150, "round {round}: only a late stop finds the plot over ({asks} asks)");
+                continue;
+            };
+            let e = format!("{e:#}");
+            s.link.finish(60.0);
+            let first = s.link.model();
+            assert!(first.pen_up() && first.stats().aborts == 1, "round {round}: {e}");
+            let state = crate::link::journal::load(&path).unwrap();
+            assert!(!state.complete, "round {round}");
+            let from = resume_point(state.executed, &cmds);
+            resumed_from.insert(from);
+            let journal = Journal::append(&path, &state).unwrap();
+            let mut again = fresh();
+            let mut events = Asks::new(usize::MAX, None, false);
+            plot(&mut again, &cmds, paper, from, Some(journal), Some(&path), &mut events).unwrap();
+            assert!(crate::link::journal::load(&path).unwrap().complete);
+            let mut got = segments(first);
+            got.extend(segments(again.link.model()));
+            assert_eq!(got, want, "round {round}: stopped with {e}, resumed from command {from}");
+        }
+        assert!(resumed_from.len() > 10, "stops all over the plot: {resumed_from:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
