@@ -440,6 +440,26 @@ impl Served {
     }
 }
 
+impl Served {
+    /// Send `signal` to the server and wait (at most `limit`) for it to exit; its exit status.
+    pub fn stop_with(
+        mut self,
+        signal: nix::sys::signal::Signal,
+        limit: std::time::Duration,
+    ) -> std::process::ExitStatus {
+        let pid = nix::unistd::Pid::from_raw(i32::try_from(self.child.id()).expect("pid fits"));
+        nix::sys::signal::kill(pid, signal).expect("signal the server");
+        let start = std::time::Instant::now();
+        loop {
+            if let Some(status) = self.child.try_wait().expect("wait for the server") {
+                return status;
+            }
+            assert!(start.elapsed() < limit, "plotter serve still runs {limit:?} after {signal:?}");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    }
+}
+
 impl Drop for Served {
     fn drop(&mut self) {
         let _ = self.child.kill();

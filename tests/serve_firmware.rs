@@ -360,3 +360,34 @@ fn a_port_lost_mid_plot_is_told_as_link_trouble_and_the_link_is_dropped() {
     let state = page.wait_state(&served, "idle", Duration::from_secs(30), |s| s["machine"]["activity"] == "idle");
     assert!(state["machine"]["connected"].is_null(), "{state}");
 }
+
+#[test]
+fn sigterm_to_the_server_mid_plot_stops_the_plot_with_the_pen_up_and_ends_the_server() {
+    let dir = scratch("serve-sigterm");
+    let log = dir.join("pen.log");
+    // Our firmware in real time: the circle takes seconds, the signal comes while the pen is down.
+    let sim = SimPty::start(&dir, &["--pen-log", log.to_str().expect("utf-8")]);
+    let served = Served::start(&["--listen", "127.0.0.1:0", "--port", sim.port.as_str()]);
+    let page = Page::open(&served);
+    let (status, v) = page.post(&served, "/api/gen", json!({ "spec": "circle?r=20&cx=60&cy=60" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "a prepared drawing", Duration::from_secs(60), |s| !s["prepared"].is_null());
+    let (status, v) = page.post(&served, "/api/connect", json!({ "target": sim.port, "firmware": "ours" }));
+    assert_eq!(status, 200, "{v}");
+    page.wait_state(&served, "connected", Duration::from_secs(60), |s| !s["machine"]["connected"].is_null());
+    let (status, v) = page.post(&served, "/api/plot", json!({}));
+    assert_eq!(status, 200, "{v}");
+    let mut seen = Vec::new();
+    loop {
+        let p = page.wait_event("progress", Duration::from_secs(60), &mut seen);
+        if p["pen_down"] == true {
+            break;
+        }
+    }
+    assert!(std::fs::read_to_string(&log).unwrap().ends_with("down\n"), "the pen is on the paper");
+    let status = served.stop_with(nix::sys::signal::Signal::SIGTERM, Duration::from_secs(30));
+    assert!(!status.success(), "a server stopped by a signal says so: {status}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.ends_with("up\n"), "the pen went up before the server ended: {text}");
+    drop(sim);
+}

@@ -97,6 +97,8 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
     // In (0, 1024] MB: far inside usize.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let max_upload = (args.max_upload_mb * 1_048_576.0) as usize;
+    // Before the runtime's threads: a signal stops the plot with the pen up, then the server (see serve::shutdown).
+    plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -128,8 +130,10 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
             profiles,
             limits,
         };
-        serve::serve(listener, config).await;
-        Ok(())
+        match serve::serve(listener, config).await {
+            Some(cause) => anyhow::bail!("stopped by {cause}"),
+            None => Ok(()),
+        }
     })
 }
 

@@ -12,7 +12,8 @@
 //! - [`control`]: which page drives the machine;
 //! - [`command`]: what the HTTP side asks the worker;
 //! - [`worker`]: the thread that owns the link to the machine and runs plots;
-//! - [`paced`]: the simulator paced to the wall clock.
+//! - [`paced`]: the simulator paced to the wall clock;
+//! - [`shutdown`]: ending on a signal with the plot stopped and the pen up.
 //!
 //! The HTTP side never blocks on the machine: it sends commands to the worker and the worker reports through
 //! events, so a long plot, a homing cycle or a slow serial port never holds up a page.
@@ -27,6 +28,7 @@ pub(crate) mod events;
 pub(crate) mod listen;
 pub(crate) mod paced;
 pub(crate) mod safety;
+pub(crate) mod shutdown;
 pub(crate) mod state;
 pub(crate) mod worker;
 
@@ -47,11 +49,14 @@ pub(crate) fn app(config: Config) -> (Arc<Shared>, axum::Router) {
     (shared, router)
 }
 
-/// Serve on `listener` until the process ends.
-pub(crate) async fn serve(listener: tokio::net::TcpListener, config: Config) {
+/// Serve on `listener` until a stop signal (see [`shutdown`]); returns what stopped it.
+pub(crate) async fn serve(listener: tokio::net::TcpListener, config: Config) -> Option<plotter_host::stop::StopCause> {
     let limits = config.limits;
-    let (_shared, router) = app(config);
-    listen::serve(listener, router, limits).await;
+    let (shared, router) = app(config);
+    tokio::select! {
+        () = listen::serve(listener, router, limits) => None,
+        cause = shutdown::on_stop(shared) => Some(cause),
+    }
 }
 
 #[cfg(test)]
