@@ -36,6 +36,7 @@ use plotter_path::{Drawing, MachineProfile};
 use super::progress::{JobProgress, PlotEvents};
 use crate::link::hpgl::HpglLink;
 use crate::link::hpgl::commands::Commands;
+use crate::link::hpgl::handshake::Handshake;
 use crate::link::hpgl::sender::{HpglSession, SendStats, Waiting};
 use crate::link::hpgl::timing::patience;
 use crate::link::journal::Journal;
@@ -50,7 +51,8 @@ pub const CHECK_BYTES: u64 = 4096;
 /// before it is taken as a stop (the plotter withholds room: it cannot pause).
 pub const PAUSE_GRACE: Duration = Duration::from_secs(2);
 
-/// How often the end of a plot asks the plotter how far it is (`ESC . B`).
+/// How often the end of a plot (and, under the xonxoff and hardware handshakes, the whole plot) asks the plotter
+/// how far it is (`ESC . B`).
 const DRAIN_POLL: Duration = Duration::from_millis(250);
 
 /// How a plot went.
@@ -252,6 +254,7 @@ fn stream<L: HpglLink>(
     run.report(events)?;
     let mut last_check = s.sent_bytes();
     let mut pause_asked = false;
+    let mut next_poll = s.link.now();
     for k in from..total {
         if let Some(cause) = events.stop_requested() {
             let doing = format!("plotting on {} (before command {} of {total})", s.name, k + 1);
@@ -292,6 +295,12 @@ fn stream<L: HpglLink>(
         };
         s.send_guarded(cmds.list[k].text.as_bytes(), &mut guard)?;
         run.accepted = k + 1;
+        // Under escb every query tells how far the plotter is; under the other handshakes ask now and then, so
+        // that progress and the journal (where a resume starts) follow the plotter.
+        if s.handshake != Handshake::Escb && s.link.now() >= next_poll {
+            s.poll_space(&mut guard)?;
+            next_poll = s.link.now() + DRAIN_POLL;
+        }
         if s.sent_bytes() - last_check >= CHECK_BYTES {
             s.set_work_ahead(run.work_ahead(0));
             s.check_guarded(run.wait(), &mut guard)?;
@@ -397,7 +406,6 @@ mod tests {
         assert_eq!(program_hash("a"), 0xaf63_dc4c_8601_ec8c);
     }
 
-    use crate::link::hpgl::handshake::Handshake;
     use crate::link::hpgl::model::{HpglModel, Lie, ModelConfig};
     use crate::link::hpgl::model_link::ModelLink;
     use plotter_path::geometry::hpgl_devices::device;

@@ -6,10 +6,13 @@
 //! - [`commands`]: a program split into commands, with the plotter's state before each (for progress, pauses and
 //!   resuming at command granularity);
 //! - [`handshake`]: the three ways of keeping the buffer from overflowing, chosen by `--handshake`;
-//! - [`sender`]: the session with a plotter — identify (`OI`), send bytes under the handshake, read errors back;
+//! - [`sender`]: the session with a plotter — identify (`OI`), send bytes under the handshake, read errors back,
+//!   stop (`ESC . K` and the pen-up, whatever the plotter answers); every wait bounded by a deadline from the work
+//!   queued ([`timing::patience`]) and cut short by a stop;
 //! - the plot job over a session (progress, pause, cancel, journal and resume) is [`crate::job::hpgl`], above the link;
 //! - [`port`]: a serial port (or a pty) as an [`HpglLink`];
-//! - [`model`] and [`model_link`]: a plotter of our own for tests and `plotter sim --pty --hpgl`.
+//! - [`model`] and [`model_link`]: a plotter of our own for tests and `plotter sim --pty --hpgl`, which can also
+//!   lie ([`model::Lie`]: withhold room, babble, garble its answers).
 //!
 //! HP-GL replies are not lines of the other dialects' kind (they end with a CR, and Xon/Xoff arrive as single
 //! bytes between them), so this dialect has its own byte-level link trait, [`HpglLink`], instead of
