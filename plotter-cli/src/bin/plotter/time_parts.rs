@@ -100,7 +100,9 @@ mod tests {
 
     #[test]
     fn clock_format() {
-        assert_eq!(clock(75.25), "1:15.2");
+        // Tenths rounded half away from zero (75.25 s is exact in binary).
+        assert_eq!(clock(75.25), "1:15.3");
+        assert_eq!(clock(75.24), "1:15.2");
         assert_eq!(clock(3725.0), "1:02:05.0");
         assert_eq!(clock(4.0), "0:04.0");
         assert_eq!(clock(59.96), "1:00.0");
