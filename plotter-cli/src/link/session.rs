@@ -387,14 +387,22 @@ impl<T: Transport> Session<T> {
             if interruptible {
                 wait = wait.interruptible().on_any_interrupt();
             }
+            // An interruptible wait reads in short slices, so that a stop is seen within one.
+            let slice = if interruptible { Duration::from_millis(100) } else { timeout };
             loop {
-                let left = match wait.next(self.transport.now(), timeout) {
+                let left = match wait.next(self.transport.now(), slice) {
                     Ok(left) => left,
                     // Past the deadline: one last read of zero length settles it below, as before.
                     Err(WaitError::TimedOut { .. }) => Duration::from_millis(1),
                     Err(e) => return Err(e.into()),
                 };
+                let before = self.transport.now();
                 let got = self.recv(left)?;
+                let now = self.transport.now();
+                if got.is_none() && interruptible && now > before && wait.elapsed(now) < timeout {
+                    // Only a slice passed: the answer may still come.
+                    continue;
+                }
                 let Some(Incoming::Reply(n, l)) = got else {
                     if got.is_some() {
                         // Damaged: perhaps our answer. Wait on; the status below settles it.

@@ -1,5 +1,6 @@
 //! `plotter home`: run the homing cycle on a connected plotter (our firmware or GRBL) and report where it is.
 
+use anyhow::Context as _;
 use plotter_host::link::connect::{LinkArgs, open_port};
 use plotter_host::link::machine::{Connected, Firmware, home_machine};
 use plotter_host::link::serial::SerialTransport;
@@ -26,6 +27,8 @@ pub(crate) fn connect(args: &LinkArgs) -> anyhow::Result<(MachineProfile, Connec
 
 /// Run `plotter home`.
 pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
+    // A signal ends the handshake or the homing cycle the firmware's way (a reset or ES), not the process mid-move.
+    plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     let (_, mut c) = connect(args)?;
     let p = home_machine(c.machine())?;
     println!("homed; position {p:?} steps");

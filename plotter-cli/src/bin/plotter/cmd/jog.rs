@@ -1,5 +1,6 @@
 //! `plotter jog`: move one axis by a distance, or lift/lower the pen, on a connected plotter.
 
+use anyhow::Context as _;
 use plotter_host::link::connect::LinkArgs;
 use plotter_host::link::jog::{Jog, run_jog};
 
@@ -14,6 +15,8 @@ pub(crate) struct JogArgs {
 
 /// Run `plotter jog`.
 pub(crate) fn run(args: &JogArgs) -> anyhow::Result<()> {
+    // A signal ends the handshake; a jog already sent runs to its end (it is short and pen-up).
+    plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     let (profile, mut c) = crate::cmd::home::connect(&args.link)?;
     println!("{}", run_jog(&mut c, &args.jog, &profile, &mut |_| {})?);
     Ok(())

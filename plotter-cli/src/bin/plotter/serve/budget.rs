@@ -118,7 +118,7 @@ mod tests {
     fn reservations_share_the_budget_and_a_large_job_runs_alone() {
         let b = Budget::new(100);
         let first = b.reserve(60 << 20, "a.hpgl").ok().expect("fits");
-        let e = b.reserve(50 << 20, "b.hpgl").err().expect("over the budget");
+        let Err(e) = b.reserve(50 << 20, "b.hpgl") else { panic!("over the budget") };
         assert_eq!(e.0, StatusCode::SERVICE_UNAVAILABLE);
         assert!(
             e.1.starts_with("busy: b.hpgl needs about 50 MB of the server's 100 MB memory budget, and 60 MB"),
