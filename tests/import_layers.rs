@@ -553,17 +553,23 @@ fn plotter_path_stages_import_only_downstream() {
     assert!(problems.is_empty(), "plotter-path imports:\n{}", problems.join("\n"));
 }
 
-/// plotter-cli's library (`plotter_host`), lowest first: the error every part returns; the option groups; the
-/// input loader; the link to the machine (transports, sessions, dialects, connecting, jogging); the plot job,
-/// which drives the link.
-const PLOTTER_CLI_LIB: Layers<'static> =
-    &[("error", &["error"]), ("options", &["options"]), ("input", &["input"]), ("link", &["link"]), ("job", &["job"])];
+/// plotter-cli's library (`plotter_host`), lowest first: the stop flag every wait reads; the error every part
+/// returns; the option groups; the input loader; the link to the machine (transports, sessions, dialects,
+/// connecting, jogging); the plot job, which drives the link.
+const PLOTTER_CLI_LIB: Layers<'static> = &[
+    ("stop", &["stop"]),
+    ("error", &["error"]),
+    ("options", &["options"]),
+    ("input", &["input"]),
+    ("link", &["link"]),
+    ("job", &["job"]),
+];
 
 /// The `plotter` binary, above the library (which it reaches only as the external crate `plotter_host`): helpers,
 /// the web app, and the subcommands — of which `plotter serve` starts the web app; the web app never imports a
 /// subcommand.
 const PLOTTER_CLI_BIN: Layers<'static> =
-    &[("helpers", &["time_parts", "stop_signals", "sim_qemu"]), ("web app", &["serve"]), ("commands", &["cmd"])];
+    &[("helpers", &["time_parts", "sim_qemu"]), ("web app", &["serve"]), ("commands", &["cmd"])];
 
 #[test]
 fn plotter_cli_library_imports_only_downstream() {

@@ -52,10 +52,7 @@ const MAX_ARC_CHORDS: f64 = 200_000.0;
 /// Lines read between two looks at the stop flags ([`interrupt`], [`Cancel`]).
 pub(crate) const CHECK_EVERY: usize = 4096;
 
-// The warning bookkeeping both G-code importers and the HP-GL importer share (`input/warn_tally.rs`).
-#[path = "warn_tally.rs"]
-pub(crate) mod warn_tally;
-use warn_tally::Tally;
+use super::warn_tally::Tally;
 
 /// How the imported file lifts its pen (decided by the second pass).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -32,9 +32,9 @@
 
 use kurbo::Point;
 
-use super::gcode_in::warn_tally::Tally;
 use super::gcode_in::{CHECK_EVERY, check_arc_centre, r_arc_centre};
 use super::gcode_words::{Exponents, GcodeError, GcodeWarning, Word, code10, echo, num, strip_comments, words};
+use super::warn_tally::Tally;
 use crate::MachineProfile;
 use crate::config::interrupt;
 use crate::geometry::steps::StepMapper;

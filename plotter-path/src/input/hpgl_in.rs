@@ -22,7 +22,7 @@
 //! coordinate, the start of a stroke at the pen's position, and the second point of a dot (`PD;PU;` in place), so
 //! 16 MB of `PDPU` is refused at the limit rather than becoming eight million points. The strokes are kept in one
 //! flat list of points while reading (16 bytes a point, no allocation per stroke), and warnings are counted by
-//! kind with a bounded list of distinct messages ([`super::gcode_in::warn_tally`]). A termination signal
+//! kind with a bounded list of distinct messages ([`super::warn_tally`]). A termination signal
 //! ([`crate::config::interrupt`]) or a [`Cancel`] ends a long import, looked at every few thousand commands.
 //!
 //! Y is flipped back to our page (Y down) on a sheet: the one given, else the first known sheet
@@ -34,7 +34,7 @@ use kurbo::Point;
 
 use super::gcode_in::CHECK_EVERY;
 use super::gcode_in::short;
-use super::gcode_in::warn_tally::Tally;
+use super::warn_tally::Tally;
 use crate::config::interrupt;
 use crate::geometry::cancel::Cancel;
 use crate::geometry::hpgl_devices::{DEVICES, HpglPaper, PLU_PER_MM};

@@ -10,6 +10,7 @@ pub mod raster;
 pub mod skipped;
 pub mod svg;
 pub mod trajectory;
+pub(crate) mod warn_tally;
 
 #[cfg(test)]
 mod fuzz;
