@@ -43,3 +43,19 @@ pub trait HpglLink {
     /// pseudo-terminal, a three-wire cable, an adapter without modem lines).
     fn clear_to_send(&mut self) -> io::Result<Option<bool>>;
 }
+
+/// A borrowed link is a link (a test, or a caller that keeps the port across sessions).
+impl<L: HpglLink + ?Sized> HpglLink for &mut L {
+    fn write(&mut self, bytes: &[u8]) -> io::Result<()> {
+        (**self).write(bytes)
+    }
+    fn read(&mut self, timeout: Duration) -> io::Result<Vec<u8>> {
+        (**self).read(timeout)
+    }
+    fn now(&self) -> Duration {
+        (**self).now()
+    }
+    fn clear_to_send(&mut self) -> io::Result<Option<bool>> {
+        (**self).clear_to_send()
+    }
+}

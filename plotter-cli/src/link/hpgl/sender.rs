@@ -165,6 +165,25 @@ impl<L: HpglLink> HpglSession<L> {
             space_asked_at: None,
             work_ahead: Duration::ZERO,
         };
+        match s.open(guard) {
+            Ok(()) => Ok(s),
+            Err(e) => {
+                // `OI;` or `OE;` may wait in the buffer (behind a pen change an earlier session asked for): drop
+                // them, so that their late answers cannot be taken for the answers of the next session.
+                if s.stats.bytes > 0 {
+                    let _ = s.write_raw(ABORT_GRAPHICS);
+                }
+                Err(e)
+            }
+        }
+    }
+
+    /// The conversation of [`HpglSession::connect_guarded`].
+    fn open(&mut self, guard: &mut Guard<'_>) -> anyhow::Result<()> {
+        let name = self.name.clone();
+        let name = name.as_str();
+        let (handshake, device) = (self.handshake, self.device);
+        let s = self;
         // Whatever an earlier session left on the line: until it is quiet for 100 ms, for a few seconds at most.
         let start = s.link.now();
         let (mut heard, mut heard_bytes, mut babbling) = (Vec::new(), 0usize, false);
@@ -242,7 +261,7 @@ impl<L: HpglLink> HpglSession<L> {
                 s.identity, device.name
             ));
         }
-        Ok(s)
+        Ok(())
     }
 
     /// `Err(Stopped)` when `guard` says so.
@@ -758,5 +777,28 @@ mod tests {
         let a = s.exchange(b"OI;", Duration::from_millis(500)).unwrap();
         assert_eq!(a.len(), 16, "at most 16 answers");
         assert!(s.link.now() - t0 < Duration::from_secs(1));
+    }
+
+    #[test]
+    fn a_connect_stopped_while_the_plotter_is_busy_leaves_no_late_answer_to_the_next() {
+        let d = device("7475a").unwrap();
+        let mut l = link(1024, true);
+        // An earlier session's last words: a pen change (2 s) the plotter is still making.
+        l.write(b"SP1;").unwrap();
+        let mut calls = 0;
+        let mut guard = |_: Waiting| {
+            calls += 1;
+            (calls >= 20).then_some(StopCause::Terminate)
+        };
+        let e = HpglSession::connect_guarded(&mut l, "model", d, Handshake::Escb, &mut guard).err().unwrap();
+        assert!(format!("{e:#}").contains("stopped by SIGTERM while waiting for the answer to OI"), "{e:#}");
+        // Whatever answers the stopped session's OI; OE would have given now comes too late for the next one.
+        let mut s = HpglSession::connect(&mut l, "model", d, Handshake::Escb).unwrap();
+        assert_eq!(s.identity, "7475A");
+        s.send(b"PU100,100;").unwrap();
+        s.check(Duration::from_secs(10)).unwrap();
+        assert_eq!(s.exchange(b"OE;", Duration::from_millis(500)).unwrap(), ["0"]);
+        assert_eq!(s.exchange(b"OI;", Duration::from_millis(500)).unwrap(), ["7475A"]);
+        assert_eq!(s.link.model().stats().aborts, 1);
     }
 }
