@@ -273,7 +273,13 @@ fn stream<L: HpglLink>(
             if let Some(c) = events.stop_requested() {
                 return Some(c);
             }
-            pause_asked = pause_asked || events.pause_requested().is_some();
+            if events.pause_requested().is_some() {
+                if pause_asked {
+                    // Asked again before the first could be taken: a stop.
+                    return Some(StopCause::Interrupt);
+                }
+                pause_asked = true;
+            }
             // Said once the wait is longer than an ordinary one (a command running out).
             if let Waiting::Room { stalled } = w
                 && pause_asked
@@ -371,10 +377,12 @@ fn pause<L: HpglLink>(
     // A plotter that withholds room past what it holds cannot take the park either: the pause becomes a stop.
     s.set_work_ahead(run.work_ahead(0));
     let grace = run.work_ahead(0) + PAUSE_GRACE;
+    // Another pause request while parking (a second Ctrl-C) is a stop.
     let mut guard = |w: Waiting| {
-        events
-            .stop_requested()
-            .or_else(|| matches!(w, Waiting::Room { stalled } if stalled >= grace).then_some(StopCause::Interrupt))
+        events.stop_requested().or_else(|| {
+            let again = events.pause_requested().is_some();
+            (again || matches!(w, Waiting::Room { stalled } if stalled >= grace)).then_some(StopCause::Interrupt)
+        })
     };
     s.send_guarded(format!("PU;PU{},{};", park.0, park.1).as_bytes(), &mut guard)?;
     s.set_work_ahead(run.work_ahead(0));
@@ -423,11 +431,13 @@ mod tests {
         asked: usize,
         stuck: usize,
         unchanged: usize,
+        /// Ask for a pause again at every question once due (a second Ctrl-C, the web app's cancel).
+        again: bool,
     }
 
     impl Asks {
         fn new(after: usize, stop: Option<StopCause>, pause: bool) -> Asks {
-            Asks { after, stop, pause, accepted: 0, asked: 0, stuck: 0, unchanged: 0 }
+            Asks { after, stop, pause, accepted: 0, asked: 0, stuck: 0, unchanged: 0, again: false }
         }
     }
 
@@ -443,7 +453,7 @@ mod tests {
             self.unchanged += 1;
             let due = self.pause && self.accepted >= self.after && self.unchanged >= self.stuck;
             self.asked += usize::from(due);
-            self.pause &= !due;
+            self.pause &= !due || self.again;
             due.then_some(false)
         }
     }
@@ -517,6 +527,12 @@ mod tests {
         s.link.finish(30.0);
         let m = s.link.model();
         assert!(m.pen_up() && m.stats().aborts == 1, "{e}");
+        let stalled_at = s.link.now();
+        // Asked twice (Ctrl-C again): a stop at once, not after the grace.
+        let mut events = Asks { stuck: 10, again: true, ..Asks::new(0, None, true) };
+        let (s, e) = run(Some((Lie::NoRoom, 300)), &program, &mut events);
+        assert!(e.contains("stopped by Ctrl-C (SIGINT) while waiting for"), "{e}");
+        assert!(s.link.now() + PAUSE_GRACE < stalled_at, "{:?} {stalled_at:?}", s.link.now());
         // Asked between two commands just before the plotter stops taking bytes: the park cannot be sent.
         let stuck_at = events.accepted;
         let mut events = Asks::new(stuck_at, None, true);
