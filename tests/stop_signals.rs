@@ -131,6 +131,7 @@ fn interrupt_plots(name: &str, sim_args: &[&str], flags: &[&str], input: &str, s
             }
         }
     }
+    eprintln!("{name}: {SIGNALS} signals in {runs} runs, {mid_plot} mid-plot");
     // Enough of the signals came mid-plot to exercise the journal, and the last resume finishes the plot.
     assert!(mid_plot >= SIGNALS / 4, "{name}: only {mid_plot} of {SIGNALS} signals came during a plot");
     if journal.exists() && !complete(&journal) {
@@ -145,22 +146,22 @@ fn interrupt_plots(name: &str, sim_args: &[&str], flags: &[&str], input: &str, s
 
 #[test]
 fn our_firmware_ends_every_stop_with_the_pen_up() {
-    interrupt_plots("ours", &[], &["--firmware", "ours"], "gen:circle?r=20&cx=60&cy=60", 1, 2500);
+    interrupt_plots("ours", &[], &["--firmware", "ours"], "gen:circle?r=20&cx=60&cy=60", 1, 1800);
 }
 
 #[test]
 fn grbl_ends_every_stop_with_the_pen_up() {
-    interrupt_plots("grbl", &["--grbl"], &["--firmware", "grbl"], "gen:circle?r=20&cx=60&cy=60", 2, 2500);
+    interrupt_plots("grbl", &["--grbl"], &["--firmware", "grbl"], "gen:circle?r=20&cx=60&cy=60", 2, 1800);
 }
 
 #[test]
 fn an_eibotboard_ends_every_stop_with_the_pen_up() {
     let profile = sample("axidraw-v3.toml");
     let p = profile.to_str().expect("utf-8");
-    interrupt_plots("ebb", &["--ebb"], &["--firmware", "ebb", "--profile", p], "gen:circle?r=30&cx=100&cy=80", 3, 2500);
+    interrupt_plots("ebb", &["--ebb"], &["--firmware", "ebb", "--profile", p], "gen:circle?r=30&cx=100&cy=80", 3, 1800);
 }
 
 #[test]
 fn an_hpgl_plotter_ends_every_stop_with_the_pen_up() {
-    interrupt_plots("hpgl", &["--hpgl"], &["--firmware", "hpgl"], "gen:circle?r=30&cx=100&cy=80", 4, 2500);
+    interrupt_plots("hpgl", &["--hpgl"], &["--firmware", "hpgl"], "gen:circle?r=15&cx=100&cy=80", 4, 1800);
 }
