@@ -441,6 +441,11 @@ impl Served {
 }
 
 impl Served {
+    /// The server's process id.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
     /// Send `signal` to the server and wait (at most `limit`) for it to exit; its exit status.
     pub fn stop_with(
         mut self,

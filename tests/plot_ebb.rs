@@ -175,17 +175,21 @@ fn ctrl_c_stops_the_board_with_es_and_the_pen_up_and_the_journal_resumes() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(stderr.contains("aborted") && stderr.contains("--resume"), "{stderr}");
-    // The rest of the circle from the journal: the board kept its step counters, so the resume returns to the
-    // home corner with HM and continues.
-    let (ok, stdout, stderr) = plot(&dir, &["plot", "--resume", journal.to_str().unwrap(), "--port", &sim.port], "");
+    resume_after_one_stop(&dir, &journal, sim);
+}
+
+/// The rest of the circle from the journal (the board kept its step counters, so the resume returns to where the
+/// stop left it with HM and continues); the board then shows one `ES`, the pen up, no error, and two pen-down runs
+/// (before the stop, after the resume) of a circle that closes where its first run began.
+fn resume_after_one_stop(dir: &std::path::Path, journal: &std::path::Path, sim: SimPty) {
+    let (ok, stdout, stderr) = plot(dir, &["plot", "--resume", journal.to_str().unwrap(), "--port", &sim.port], "");
     assert!(ok, "{stderr}\n{stdout}");
     assert!(stderr.contains("resuming at block"), "{stderr}");
-    assert!(std::fs::read_to_string(&journal).unwrap().contains("complete"));
+    assert!(std::fs::read_to_string(journal).unwrap().contains("complete"));
     let trace = sim.stop();
     assert_eq!(SimPty::figure(&trace, "ebb", "estops"), Some(1), "ES interrupted the running move");
     assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1));
     assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
-    // Two pen-down runs (before the stop, after the resume); the circle closes where its first run began.
     let r = runs(&trace);
     assert_eq!(r.len(), 2, "{}", r.len());
     assert_closes(&trace, "the circle");
@@ -268,17 +272,7 @@ fn a_signal_mid_plot_stops_the_board_with_the_pen_up_and_the_journal_resumes(
             && stderr.contains("motion stopped (ES); the pen is up (SP,2,0,1)"),
         "{stderr}"
     );
-    let (ok, stdout, stderr) = plot(&dir, &["plot", "--resume", journal.to_str().unwrap(), "--port", &sim.port], "");
-    assert!(ok, "{stderr}\n{stdout}");
-    assert!(stderr.contains("resuming at block"), "{stderr}");
-    assert!(std::fs::read_to_string(&journal).unwrap().contains("complete"));
-    let trace = sim.stop();
-    assert_eq!(SimPty::figure(&trace, "ebb", "estops"), Some(1), "ES interrupted the running move");
-    assert_eq!(SimPty::figure(&trace, "ebb", "pen_up"), Some(1));
-    assert_eq!(SimPty::figure(&trace, "ebb", "errors"), Some(0));
-    let r = runs(&trace);
-    assert_eq!(r.len(), 2, "{}", r.len());
-    assert_closes(&trace, "the circle");
+    resume_after_one_stop(&dir, &journal, sim);
 }
 
 #[test]

@@ -363,50 +363,17 @@ fn peak_rss_kib(pid: u32) -> u64 {
     line.split_whitespace().nth(1).and_then(|v| v.parse().ok()).expect("a number")
 }
 
-/// `plotter serve` started here rather than by [`Served`], to read its memory by pid; killed when dropped.
-#[cfg(target_os = "linux")]
-struct OwnServer {
-    child: std::process::Child,
-    authority: String,
-}
-
-#[cfg(target_os = "linux")]
-impl OwnServer {
-    fn start(args: &[&str]) -> OwnServer {
-        let mut child = Command::new(plotter_bin())
-            .arg("serve")
-            .args(args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("plotter serve starts");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("the URL");
-        let authority = line.trim().trim_start_matches("plotter serve: http://").trim_end_matches('/').to_string();
-        OwnServer { child, authority }
-    }
-
-    fn request(&self, method: &str, path: &str, headers: &[(&str, &str)], body: &str) -> (u16, Value) {
-        parse(&send_to(&self.authority, method, path, headers, body).expect("an answer"))
-    }
-}
-
-#[cfg(target_os = "linux")]
-impl Drop for OwnServer {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
 /// Issue 37, class 7: two 16 MB HP-GL uploads of `PDPU` (pen down and up in place: a dot of two points per four
 /// bytes, eight million points each) at once. Each is answered with the point-limit error, and the server's peak
 /// memory stays far under 1 GB (it took 3.4 GB, and aborted when memory ran out).
 #[cfg(target_os = "linux")]
 #[test]
 fn two_16_mb_hpgl_floods_at_once_are_refused_at_the_point_limit_within_the_memory_budget() {
-    let served = OwnServer::start(&["--listen", "127.0.0.1:0", "--max-upload-mb", "17"]);
-    let (status, v) = served.request("POST", "/api/control/claim", &[], "");
+    let served = Served::start(&["--listen", "127.0.0.1:0", "--max-upload-mb", "17"]);
+    let request = |method: &str, path: &str, headers: &[(&str, &str)], body: &str| {
+        parse(&send_to(&served.authority, method, path, headers, body).expect("an answer"))
+    };
+    let (status, v) = request("POST", "/api/control/claim", &[], "");
     assert_eq!(status, 200, "{v}");
     let token = v["token"].as_str().expect("a token").to_string();
     let flood = format!("IN;SP1;PA100,100;{}", "PDPU".repeat(4_150_000));
@@ -415,10 +382,10 @@ fn two_16_mb_hpgl_floods_at_once_are_refused_at_the_point_limit_within_the_memor
     let answers: Vec<(u16, Value)> = std::thread::scope(|s| {
         let uploads: Vec<_> = (0..2)
             .map(|k| {
-                let (served, token, flood) = (&served, &token, &flood);
+                let (request, token, flood) = (&request, &token, &flood);
                 s.spawn(move || {
                     let path = format!("/api/drawing?name=flood{k}.hpgl");
-                    served.request("POST", &path, &[("X-Plotter-Token", token)], flood)
+                    request("POST", &path, &[("X-Plotter-Token", token)], flood)
                 })
             })
             .collect();
@@ -436,9 +403,9 @@ fn two_16_mb_hpgl_floods_at_once_are_refused_at_the_point_limit_within_the_memor
         assert!(limit || busy, "upload {k}: {status} {v}");
     }
     assert!(answers.iter().any(|(status, _)| *status == 400), "{answers:?}");
-    let peak = peak_rss_kib(served.child.id());
+    let peak = peak_rss_kib(served.pid());
     assert!(peak < 1_000_000, "peak RSS {peak} KiB");
     assert!(took < Duration::from_secs(60), "answered after {took:?}");
     // The server goes on answering.
-    assert_eq!(served.request("GET", "/api/state", &[], "").0, 200);
+    assert_eq!(request("GET", "/api/state", &[], "").0, 200);
 }
