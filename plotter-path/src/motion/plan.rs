@@ -386,7 +386,7 @@ pub fn plan_travel(profile: &MachineProfile, from: MachinePos, to: StepPos) -> R
     }
     raw.line_to(to, travel, MoveKind::Travel, 0);
     let first = pens::resolve(profile, "", &crate::Pen::default());
-    Ok(finish(profile, &cfg, raw.blocks, raw.meta, from, Lookahead::Whole, (0, 0), first, Vec::new()))
+    Ok(finish(profile, &cfg, &raw.raw, from, Lookahead::Whole, (0, 0), first, Vec::new()))
 }
 
 /// The position after homing: X and Y at their switch end, Z at the pen-up height.
@@ -442,11 +442,127 @@ fn ms_ticks(ms: f64) -> u32 {
     ticks
 }
 
+/// What a raw block is: a move at a feed (its [`PlanBlock`] is made again from the steps when it is planned), or
+/// a fixed block (an index into [`RawBlocks::fixed`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum RawWhat {
+    /// A straight move at this feed, mm/s.
+    Line(f32),
+    /// A fixed step block: index into [`RawBlocks::fixed`].
+    Fixed(u32),
+}
+
+/// One raw (unplanned) block, compact: 32 bytes where its [`PlanBlock`] with the kind and stroke took 120. At the
+/// pipeline's point limit (4 Mi points, one block each) the raw plan is 128 MB instead of 480 MB; the planning
+/// data ([`PlanBlock::line`]: unit vector, length, limits) is made again from the steps and the feed when the
+/// block is planned ([`RawBlocks::plan_block`]), which is the same pure function of the same inputs, so the plan
+/// is the same to the bit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct RawBlock {
+    steps: MachinePos,
+    what: RawWhat,
+    kind: MoveKind,
+    /// The stroke; a `u32` as the pipeline's point limit (4,194,304) keeps stroke numbers far below `u32::MAX`.
+    stroke: u32,
+}
+
+/// A raw block sequence ([`RawBlock`]s and the fixed blocks they refer to).
+#[derive(Debug, Clone, Default)]
+struct RawBlocks {
+    blocks: Vec<RawBlock>,
+    fixed: Vec<StepBlock>,
+}
+
+impl RawBlocks {
+    fn len(&self) -> usize {
+        self.blocks.len()
+    }
+
+    fn kind(&self, i: usize) -> Option<MoveKind> {
+        self.blocks.get(i).map(|b| b.kind)
+    }
+
+    fn push_fixed(&mut self, block: StepBlock, kind: MoveKind, stroke: usize) {
+        let index = u32::try_from(self.fixed.len()).unwrap_or(u32::MAX);
+        self.fixed.push(block);
+        self.blocks.push(RawBlock {
+            steps: block.steps,
+            what: RawWhat::Fixed(index),
+            kind,
+            stroke: stroke_u32(stroke),
+        });
+    }
+
+    /// Append `other`'s blocks from `from` on.
+    fn extend_from(&mut self, other: &RawBlocks, from: usize) {
+        for b in &other.blocks[from.min(other.len())..] {
+            match b.what {
+                RawWhat::Line(_) => self.blocks.push(*b),
+                RawWhat::Fixed(k) => self.push_fixed(other.fixed[k as usize], b.kind, b.stroke as usize),
+            }
+        }
+    }
+
+    /// The planner block of block `i`, unlinked (as [`RawPlan::push`] or [`RawPlan::fixed`] made it).
+    fn plan_block(&self, i: usize, cfg: &MachineConfig, caps: [f32; 2]) -> PlanBlock {
+        let b = &self.blocks[i];
+        match b.what {
+            RawWhat::Fixed(k) => PlanBlock::fixed(self.fixed[k as usize]),
+            // A stored line moves (`push` keeps only those), so `line` gives a block; rest for safety.
+            RawWhat::Line(feed) => {
+                line_block(cfg, caps, b.steps, feed, b.kind).unwrap_or_else(|| PlanBlock::fixed(StepBlock::dwell(0)))
+            }
+        }
+    }
+
+    /// Blocks `range` as planner blocks, linked ([`planner::link_all`]) exactly as over the whole sequence: the
+    /// limits of a block depend on the [`planner::CURVE_SPAN_BLOCKS`] blocks on either side of the vertices at its
+    /// ends (and on where the sequence starts and ends), so the range is linked with [`LINK_MARGIN`] blocks of
+    /// context on each side and only the range is kept. `scratch` is reused between calls.
+    fn linked(
+        &self,
+        range: std::ops::Range<usize>,
+        cfg: &MachineConfig,
+        caps: [f32; 2],
+        scratch: &mut Vec<PlanBlock>,
+        out: &mut Vec<PlanBlock>,
+    ) {
+        let lo = range.start.saturating_sub(LINK_MARGIN);
+        let hi = (range.end + LINK_MARGIN).min(self.len());
+        scratch.clear();
+        scratch.extend((lo..hi).map(|i| self.plan_block(i, cfg, caps)));
+        planner::link_all(scratch, cfg);
+        out.extend_from_slice(&scratch[range.start - lo..range.end - lo]);
+    }
+}
+
+/// Blocks of context on each side of a range linked on its own ([`RawBlocks::linked`]): a block's limits read the
+/// junctions at its start, at its end and at the previous block's start, each of which reads up to
+/// [`planner::CURVE_SPAN_BLOCKS`] blocks on either side (so 17 would do).
+const LINK_MARGIN: usize = planner::CURVE_SPAN_BLOCKS + 8;
+
+/// A stroke number as stored in a [`RawBlock`].
+fn stroke_u32(stroke: usize) -> u32 {
+    u32::try_from(stroke).unwrap_or(u32::MAX)
+}
+
+/// The block of an XY(Z) move of `kind`: the axes' limits, and the profile's acceleration cap (`caps`: drawing,
+/// travel) for drawing or travel.
+fn line_block(cfg: &MachineConfig, caps: [f32; 2], delta: MachinePos, feed: f32, kind: MoveKind) -> Option<PlanBlock> {
+    let mut b = PlanBlock::line(cfg, delta, feed)?;
+    let cap = match kind {
+        MoveKind::Draw => caps[0],
+        MoveKind::Travel => caps[1],
+        _ => f32::MAX,
+    };
+    b.acceleration = b.acceleration.min(cap);
+    Some(b)
+}
+
 /// The raw (unplanned) block sequence with each block's kind and stroke, built move by move.
 struct RawPlan<'c> {
     cfg: &'c MachineConfig,
-    blocks: Vec<PlanBlock>,
-    meta: Vec<(MoveKind, usize)>,
+    raw: RawBlocks,
     pos: MachinePos,
     settle: u32,
     changes: Vec<PenChange>,
@@ -464,8 +580,7 @@ impl<'c> RawPlan<'c> {
         let cap = |a: Option<f64>| a.map_or(f32::MAX, |a| a as f32);
         RawPlan {
             cfg,
-            blocks: Vec::with_capacity(capacity),
-            meta: Vec::with_capacity(capacity),
+            raw: RawBlocks { blocks: Vec::with_capacity(capacity), fixed: Vec::new() },
             pos,
             settle: settle_ticks(profile),
             changes: Vec::new(),
@@ -477,20 +592,17 @@ impl<'c> RawPlan<'c> {
     /// The block of an XY(Z) move of `kind`: the axes' limits, and the profile's acceleration cap for drawing or
     /// travel.
     fn line_block(&self, delta: MachinePos, feed: f32, kind: MoveKind) -> Option<PlanBlock> {
-        let mut b = PlanBlock::line(self.cfg, delta, feed)?;
-        let cap = match kind {
-            MoveKind::Draw => self.accel_caps[0],
-            MoveKind::Travel => self.accel_caps[1],
-            _ => f32::MAX,
-        };
-        b.acceleration = b.acceleration.min(cap);
-        Some(b)
+        line_block(self.cfg, self.accel_caps, delta, feed, kind)
     }
 
     fn push(&mut self, delta: MachinePos, feed: f32, kind: MoveKind, stroke: usize) -> bool {
-        let Some(b) = self.line_block(delta, feed, kind) else { return false };
-        self.blocks.push(b);
-        self.meta.push((kind, stroke));
+        // Only whether it moves: the planner block is made again when the plan is made (`RawBlocks::plan_block`).
+        // (`PlanBlock::line` makes a block exactly when some axis moves.)
+        if delta.iter().all(|&d| d == 0) {
+            return false;
+        }
+        let stroke = stroke_u32(stroke);
+        self.raw.blocks.push(RawBlock { steps: delta, what: RawWhat::Line(feed), kind, stroke });
         for (p, d) in self.pos.iter_mut().zip(delta) {
             *p += d;
         }
@@ -503,14 +615,10 @@ impl<'c> RawPlan<'c> {
             PenAt::Z(z) => {
                 let feed = self.cfg.axis(Axis::Z).max_feed_mm_s;
                 if self.push([0, 0, z - self.pos[2], 0], feed, kind, stroke) && self.settle > 0 {
-                    self.blocks.push(PlanBlock::fixed(StepBlock::dwell(self.settle)));
-                    self.meta.push((MoveKind::Settle, stroke));
+                    self.raw.push_fixed(StepBlock::dwell(self.settle), MoveKind::Settle, stroke);
                 }
             }
-            PenAt::Servo(tenths) => {
-                self.blocks.push(PlanBlock::fixed(StepBlock::servo(tenths, self.settle)));
-                self.meta.push((kind, stroke));
-            }
+            PenAt::Servo(tenths) => self.raw.push_fixed(StepBlock::servo(tenths, self.settle), kind, stroke),
         }
     }
 
@@ -537,8 +645,7 @@ impl<'c> RawPlan<'c> {
     }
 
     fn fixed(&mut self, block: StepBlock, kind: MoveKind, stroke: usize) {
-        self.blocks.push(PlanBlock::fixed(block));
-        self.meta.push((kind, stroke));
+        self.raw.push_fixed(block, kind, stroke);
     }
 
     /// A servo pen's hop to `to` (see the module docs): the lift (when `lift` gives its angle) waits only until the
@@ -717,7 +824,7 @@ fn build_blocks<'c>(
         }
         if change {
             raw.changes.push(PenChange {
-                block: raw.blocks.len(),
+                block: raw.raw.len(),
                 layer: l,
                 layer_name: steps.layers.get(l).map(|x| x.name.clone()).unwrap_or_default(),
                 pen: pens[l].clone(),
@@ -788,9 +895,10 @@ pub fn plan_returning(
 ) -> Result<MotionPlan, PlanError> {
     let cfg = machine_config(profile)?;
     check_work_area(profile, steps)?;
-    let raw = build_blocks(profile, &cfg, steps, start, return_home)?;
+    let mut raw = build_blocks(profile, &cfg, steps, start, return_home)?;
     let first = layer_pens(profile, steps).swap_remove(0);
-    Ok(finish(profile, &cfg, raw.blocks, raw.meta, start, lookahead, (0, 0), first, raw.changes))
+    let changes = std::mem::take(&mut raw.changes);
+    Ok(finish(profile, &cfg, &raw.raw, start, lookahead, (0, 0), first, changes))
 }
 
 /// Plan the rest of a drawing after its first `done` blocks (as numbered by [`plan`] from `original_start`) were
@@ -808,14 +916,15 @@ pub fn plan_resume(
     let cfg = machine_config(profile)?;
     check_work_area(profile, steps)?;
     let full = build_blocks(profile, &cfg, steps, original_start, return_home)?;
-    let mut done = done.min(full.blocks.len());
+    let (raw, changes) = (&full.raw, full.changes.clone());
+    let mut done = done.min(raw.len());
     // A servo pen's drop is commanded before the last part of its travel, which the carriage enters moving:
     // resuming on the drop command or on that part goes on from the stroke's start instead (the preamble travels
     // there with the pen up and lowers it in full), skipping the part and the rest of the settle.
-    let kind = |i: usize| full.meta.get(i).map(|m| m.0);
-    let last_pen = full.meta[..done].iter().rposition(|m| matches!(m.0, MoveKind::PenUp | MoveKind::PenDown));
-    let after_drop =
-        last_pen.is_some_and(|j| full.meta[j].0 == MoveKind::PenDown) && kind(done) == Some(MoveKind::Travel);
+    let kind = |i: usize| raw.kind(i);
+    let is_pen = |b: &&RawBlock| matches!(b.kind, MoveKind::PenUp | MoveKind::PenDown);
+    let last_pen = raw.blocks[..done].iter().rev().find(is_pen).map(|b| b.kind);
+    let after_drop = last_pen == Some(MoveKind::PenDown) && kind(done) == Some(MoveKind::Travel);
     if after_drop || (kind(done) == Some(MoveKind::PenDown) && kind(done + 1) == Some(MoveKind::Travel)) {
         if kind(done) == Some(MoveKind::PenDown) {
             done += 1;
@@ -825,19 +934,19 @@ pub fn plan_resume(
         }
     }
     let mut target = original_start;
-    for b in &full.blocks[..done] {
+    for b in &raw.blocks[..done] {
         for (t, s) in target.iter_mut().zip(b.steps) {
             *t += s;
         }
     }
     let pens = layer_pens(profile, steps);
     let (up, downs) = pen_targets(profile, &pens)?;
-    let stroke = full.meta.get(done).map_or(0, |m| m.1);
+    let stroke = raw.blocks.get(done).map_or(0, |b| b.stroke as usize);
     // The pen at block `done`: as the last pen block before it left it.
-    let pen_down = full.meta[..done].iter().rev().find(|m| matches!(m.0, MoveKind::PenUp | MoveKind::PenDown));
+    let pen_down = raw.blocks[..done].iter().rev().find(is_pen).map(|b| (b.kind, b.stroke as usize));
     let resume_pen = match (up, pen_down) {
         (PenAt::Z(_), _) => PenAt::Z(target[2]),
-        (PenAt::Servo(_), Some((MoveKind::PenDown, s))) => downs[steps.layer_of(*s)],
+        (PenAt::Servo(_), Some((MoveKind::PenDown, s))) => downs[steps.layer_of(s)],
         (PenAt::Servo(_), _) => up,
     };
     #[allow(clippy::cast_possible_truncation)]
@@ -850,56 +959,67 @@ pub fn plan_resume(
     if resume_pen != up {
         pre.pen(resume_pen, MoveKind::PenDown, stroke);
     }
-    let preamble = pre.blocks.len();
-    let mut blocks = pre.blocks;
-    let mut meta = pre.meta;
-    blocks.extend_from_slice(&full.blocks[done..]);
-    meta.extend_from_slice(&full.meta[done..]);
+    let preamble = pre.raw.len();
+    let mut blocks = pre.raw;
+    blocks.blocks.reserve_exact(raw.len() - done);
+    blocks.extend_from(raw, done);
+    drop(full);
     let first = layer_pens(profile, steps).swap_remove(0);
-    Ok(finish(profile, &cfg, blocks, meta, now, Lookahead::Whole, (done, preamble), first, full.changes))
+    Ok(finish(profile, &cfg, &blocks, now, Lookahead::Whole, (done, preamble), first, changes))
 }
 
-/// Link, plan and quantize a raw block sequence.
+/// Link, plan, quantize and time a raw block sequence.
+///
+/// Memory: the whole-drawing plan never holds the planner blocks of the whole drawing (104 bytes each; at the
+/// pipeline's point limit 420 MB, and the step blocks and timed blocks made from them were 340 MB more). It plans
+/// a window of blocks at a time ([`plan_whole`]) straight into the plan's own [`PlannedBlock`]s, which are then
+/// quantized and timed in place on all cores. The result is the plan the planner makes over the whole drawing at
+/// once, to the bit.
 #[allow(clippy::too_many_arguments)]
 fn finish(
     profile: &MachineProfile,
     cfg: &MachineConfig,
-    mut raw: Vec<PlanBlock>,
-    meta: Vec<(MoveKind, usize)>,
+    raw: &RawBlocks,
     start: MachinePos,
     lookahead: Lookahead,
     (resumed_from, preamble): (usize, usize),
     first_pen: LayerPen,
     pen_changes: Vec<PenChange>,
 ) -> MotionPlan {
-    planner::link_all(&mut raw, cfg);
-    let step_blocks: Vec<StepBlock> = match lookahead {
-        Lookahead::Whole => {
-            planner::plan(&mut raw, 0.0);
-            planner::step_blocks(&raw).collect()
-        }
-        Lookahead::Window(w) => windowed(&raw, w.max(1)),
+    // Accelerations are physical values, far inside f32.
+    #[allow(clippy::cast_possible_truncation)]
+    let cap = |a: Option<f64>| a.map_or(f32::MAX, |a| a as f32);
+    let caps = [cap(profile.pen.draw_accel_mm_s2), cap(profile.pen.travel_accel_mm_s2)];
+    let mut blocks = Vec::with_capacity(raw.len());
+    let planned = |i: usize, block: StepBlock| {
+        let r = &raw.blocks[i];
+        PlannedBlock { block, kind: r.kind, stroke: r.stroke as usize, ticks: 0 }
     };
+    match lookahead {
+        Lookahead::Whole => plan_whole(raw, cfg, caps, WHOLE_WINDOW, |i, b| blocks.push(planned(i, b))),
+        Lookahead::Window(w) => {
+            let mut all = Vec::with_capacity(raw.len());
+            raw.linked(0..raw.len(), cfg, caps, &mut Vec::new(), &mut all);
+            let step_blocks = windowed(&all, w.max(1));
+            drop(all);
+            blocks.extend(step_blocks.into_iter().enumerate().map(|(i, b)| planned(i, b)));
+        }
+    }
     // Each block is quantized and timed on its own, so the (costly) timing runs on all cores.
-    let mut timed: Vec<(StepBlock, u32)> = step_blocks.into_iter().map(|b| (b, 0)).collect();
-    for_each_mut(&mut timed, |_, (b, ticks)| {
-        *b = protocol::quantize(b);
-        *ticks = b.duration_ticks();
+    for_each_mut(&mut blocks, |_, p| {
+        p.block = protocol::quantize(&p.block);
+        p.ticks = p.block.duration_ticks();
     });
-    let mut blocks = Vec::with_capacity(timed.len());
     let mut total = 0u64;
     let mut end = start;
-    for ((q, ticks), (kind, stroke)) in timed.into_iter().zip(meta) {
-        total += u64::from(ticks);
-        for (e, s) in end.iter_mut().zip(q.steps) {
-            *e += s;
-        }
-        blocks.push(PlannedBlock { block: q, kind, stroke, ticks });
-    }
     let mapper = StepMapper::new(profile);
     let mut draw_mm = 0.0;
     let mut travel_mm = 0.0;
     for b in &blocks {
+        total += u64::from(b.ticks);
+        for (e, s) in end.iter_mut().zip(b.block.steps) {
+            *e += s;
+        }
         let d = mapper.steps_to_machine(StepPos::new(b.block.steps[0], b.block.steps[1]));
         let len = d.to_vec2().hypot();
         match b.kind {
@@ -919,6 +1039,69 @@ fn finish(
         preamble,
         first_pen,
         pen_changes,
+    }
+}
+
+/// Blocks [`plan_whole`] plans at a time, at first (a window grows when it has to).
+const WHOLE_WINDOW: usize = 8192;
+
+/// The whole-drawing plan of `raw` ([`planner::link_all`] and [`planner::plan`] over all of it, then
+/// [`planner::step_blocks`]), computed a window at a time: `emit(i, block)` gets the step block of every block in
+/// order.
+///
+/// Why a window gives the same plan. The planner's reverse pass lowers each entry speed² to
+/// `min(max_entry, next_entry + 2·a·L)` from the last block back; the forward pass then lowers it to what the
+/// previous block reaches. Planning a window `[s, e)` on its own ends it at rest, so its reverse-pass values are at
+/// most the whole drawing's (f32 `+` and `min` are monotone). Where the window's final entry speed² of block `k`
+/// equals its `max_entry_speed_sqr` (or `k` is a fixed block, a stop either way), its reverse-pass value was the
+/// cap in the window, so it is the cap over the whole drawing too, and from `k` back the two reverse passes are
+/// the same computation; the forward pass from `s` (entered at the exact speed carried over) is then the same up
+/// to `k`. So the blocks before the last such `k` are final: they are emitted, and the next window starts at `k`,
+/// entered at its planned speed. A window with no such block grows (doubles) until it has one or reaches the end
+/// of the drawing, where the window's end at rest is the drawing's. The windows' planner blocks are linked with
+/// enough context to be exactly [`planner::link_all`]'s ([`RawBlocks::linked`]).
+fn plan_whole(
+    raw: &RawBlocks,
+    cfg: &MachineConfig,
+    caps: [f32; 2],
+    window: usize,
+    mut emit: impl FnMut(usize, StepBlock),
+) {
+    let n = raw.len();
+    let mut win: Vec<PlanBlock> = Vec::new();
+    let mut scratch = Vec::new();
+    // `win[0]` is block `s`; blocks `s..linked` are in `win`; `entry` is block `s`'s planned entry speed².
+    let (mut s, mut linked, mut entry) = (0usize, 0usize, 0.0f32);
+    let mut want = window.max(2);
+    while s < n {
+        let upto = (s + want).min(n);
+        if upto > linked {
+            raw.linked(linked..upto, cfg, caps, &mut scratch, &mut win);
+            linked = upto;
+        }
+        planner::plan(&mut win, entry);
+        let last = win.len();
+        let k = if linked == n {
+            last
+        } else {
+            match (1..last).rev().find(|&k| {
+                let b = &win[k];
+                b.fixed.is_some() || b.entry_speed_sqr == b.max_entry_speed_sqr
+            }) {
+                Some(k) => k,
+                None => {
+                    want = want.saturating_mul(2);
+                    continue;
+                }
+            }
+        };
+        for i in 0..k {
+            emit(s + i, planner::to_step_block(&win[i], planner::exit_speed_sqr(&win, i)));
+        }
+        entry = win.get(k).map_or(0.0, |b| b.entry_speed_sqr);
+        win.drain(..k);
+        s += k;
+        want = window.max(2);
     }
 }
 
@@ -1411,5 +1594,81 @@ mod tests {
         let printer = MachineProfile::from_toml(include_str!("../../../samples/printer.toml"), "printer.toml").unwrap();
         let c = machine_config(&printer).unwrap();
         assert!(c.axis(Axis::E).enabled);
+    }
+
+    /// The plan as made before windows: every planner block of the drawing at once, linked, planned, stepped.
+    fn whole_at_once(raw: &RawBlocks, cfg: &MachineConfig, caps: [f32; 2]) -> Vec<StepBlock> {
+        let mut all: Vec<PlanBlock> = (0..raw.len()).map(|i| raw.plan_block(i, cfg, caps)).collect();
+        planner::link_all(&mut all, cfg);
+        planner::plan(&mut all, 0.0);
+        planner::step_blocks(&all).collect()
+    }
+
+    /// Curves (a spiral of fine chords, circles of coarse ones), corners (a zigzag), dots and long straight runs,
+    /// in several strokes, with random wiggles.
+    fn busy_drawing(seed: u64) -> Drawing {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let mut paths = Vec::new();
+        let spiral = (0..3000)
+            .map(|i| {
+                let t = f64::from(i) * 0.02;
+                let r = 60.0 - t * 0.9;
+                Point::new(100.0 + r * t.cos(), 90.0 + r * t.sin())
+            })
+            .collect();
+        paths.push(Polyline::new(spiral));
+        let zig = (0..400).map(|i| Point::new(10.0 + f64::from(i) * 0.5, 20.0 + f64::from(i % 2) * 3.0)).collect();
+        paths.push(Polyline::new(zig));
+        for k in 0..6 {
+            let n = [3, 8, 40, 200, 7, 1000][k];
+            let r = rng.random_range(1.0..25.0);
+            let (cx, cy) = (rng.random_range(30.0..170.0), rng.random_range(30.0..120.0));
+            let pts = (0..=n)
+                .map(|i| {
+                    let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+                    let w = rng.random_range(-0.05..0.05);
+                    Point::new(cx + (r + w) * a.cos(), cy + (r + w) * a.sin())
+                })
+                .collect();
+            paths.push(Polyline::new(pts));
+        }
+        paths.push(Polyline::new(vec![Point::new(5.0, 5.0), Point::new(5.0, 5.0)]));
+        paths.push(Polyline::new(vec![Point::new(5.0, 150.0), Point::new(200.0, 150.0), Point::new(200.0, 10.0)]));
+        Drawing::single_layer("busy", paths)
+    }
+
+    #[test]
+    fn planning_a_window_at_a_time_is_planning_the_whole_drawing() {
+        for profile in [
+            profile(),
+            MachineProfile::from_toml(include_str!("../../../samples/servo-plotter.toml"), "servo.toml").unwrap(),
+            MachineProfile::from_toml(include_str!("../../../samples/axidraw-saxi.toml"), "saxi.toml").unwrap(),
+        ] {
+            let cfg = machine_config(&profile).unwrap();
+            #[allow(clippy::cast_possible_truncation)]
+            let cap = |a: Option<f64>| a.map_or(f32::MAX, |a| a as f32);
+            let caps = [cap(profile.pen.draw_accel_mm_s2), cap(profile.pen.travel_accel_mm_s2)];
+            for seed in 0..3 {
+                let steps = drawing_to_steps(&profile, &busy_drawing(seed)).unwrap();
+                let start = homed_position(&profile).unwrap();
+                let raw = build_blocks(&profile, &cfg, &steps, start, true).unwrap().raw;
+                let want = whole_at_once(&raw, &cfg, caps);
+                assert!(want.len() > 4000);
+                for window in [2, 3, 5, 16, 100, 1000, WHOLE_WINDOW] {
+                    let mut got = Vec::new();
+                    plan_whole(&raw, &cfg, caps, window, |i, b| {
+                        assert_eq!(i, got.len());
+                        got.push(b);
+                    });
+                    assert!(got == want, "{}: window {window}, seed {seed}", profile.name);
+                }
+                // And the plan's blocks are those, quantized and timed.
+                let plan = plan_returning(&profile, &steps, start, Lookahead::Whole, true).unwrap();
+                let q: Vec<StepBlock> = want.iter().map(protocol::quantize).collect();
+                assert!(plan.blocks.iter().map(|b| b.block).eq(q.iter().copied()));
+                assert!(plan.blocks.iter().all(|b| b.ticks == b.block.duration_ticks()));
+            }
+        }
     }
 }
