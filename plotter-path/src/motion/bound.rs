@@ -152,18 +152,19 @@ pub fn plot_time_lower_bound(
     let every_vertex = profile.motion.curve_deviation_mm == 0.0;
     let mut strokes = 0usize;
     for s in &steps.strokes {
-        let segs: Vec<(f64, f64)> =
-            s.moves.iter().filter(|d| !d.is_zero()).map(|d| (f64::from(d.dx) / sx, f64::from(d.dy) / sy)).collect();
-        if segs.is_empty() {
+        // The stroke's segments in mm, read as they go (a stroke may have millions: no copy of them is kept).
+        let mut segs =
+            s.moves.iter().filter(|d| !d.is_zero()).map(|d| (f64::from(d.dx) / sx, f64::from(d.dy) / sy)).peekable();
+        if segs.peek().is_none() {
             continue;
         }
         strokes += 1;
         // Pieces between the vertices that cap the speed, and the cap at each piece's end.
         let mut pieces: Vec<(f64, f64)> = Vec::new();
         let mut piece = 0.0;
-        for (k, &(dx, dy)) in segs.iter().enumerate() {
+        while let Some((dx, dy)) = segs.next() {
             piece += dx.hypot(dy);
-            let Some(&(nx, ny)) = segs.get(k + 1) else { break };
+            let Some(&(nx, ny)) = segs.peek() else { break };
             let (l0, l1) = (dx.hypot(dy), nx.hypot(ny));
             let cos = (dx * nx + dy * ny) / (l0 * l1);
             if cos < 0.0 || every_vertex {
