@@ -23,7 +23,10 @@
 //! Every move becomes a [`PlanBlock`] of the firmware's own planner
 //! ([`plotter_fw::planner`]: per-axis limits, junction deviation, reverse/forward passes), planned here over the
 //! **whole drawing** at once — the host has unlimited look-ahead, the firmware only its queue. Dwells are fixed
-//! blocks and therefore stop points, so the pen never moves sideways while it is settling.
+//! blocks and therefore stop points, so the pen never moves sideways while it is settling. The raw blocks are kept
+//! compact until they are planned (`RawBlock`, 32 bytes) and the whole-drawing plan is computed a window at a time
+//! (`plan_whole`: the same plan to the bit, but a drawing at the pipeline's point limit no longer holds 104-byte
+//! planner blocks for all of it), so the plan's peak memory is about its own blocks plus the compact raw ones.
 //!
 //! Every planned block is then rounded down to what a wire frame carries ([`protocol::quantize`]) *before* its
 //! duration is taken with the stepper's own timing ([`StepBlock::duration_ticks`]), so [`MotionPlan::total_ticks`]
