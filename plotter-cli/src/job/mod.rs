@@ -13,6 +13,7 @@ pub mod prepare;
 pub mod progress;
 pub mod stepped;
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use plotter_path::MachineProfile;
@@ -99,8 +100,9 @@ pub fn plot<M: PlotMachine + ?Sized>(
     };
     events.plot_started(&plan.first_pen, plan.pen_changes.len());
     let busy_before = machine.busy_ticks();
-    let run = Run { profile, steps, start, full: &plan.clone(), journal_path: journal.map(|j| j.path), return_home };
-    run.stream(machine, plan, journal_file, busy_before, None, events)
+    let run = Run { profile, steps, start, full: &plan, journal_path: journal.map(|j| j.path), return_home };
+    let streamed = run.stream(machine, &plan, journal_file, None, events)?;
+    Ok(streamed.outcome(plan, busy_before))
 }
 
 /// Resume the plot recorded in the journal at `journal_path` (already loaded as `state`, and checked by the caller
@@ -143,7 +145,22 @@ pub fn resume<M: PlotMachine + ?Sized>(
     let ask_first = (!full.pen_changes.is_empty()).then_some(first);
     let now = machine.position()?;
     let plan = plan::plan_resume(profile, steps, start, done, now, return_home)?;
-    run.stream(machine, plan, Some(journal), busy_before, ask_first, events)
+    let streamed = run.stream(machine, &plan, Some(journal), ask_first, events)?;
+    Ok(streamed.outcome(plan, busy_before))
+}
+
+/// What streaming a plan did: the link's figures and the pen changes it stopped for or skipped.
+struct Streamed {
+    stats: StreamStats,
+    pen_stops: usize,
+    skipped: Vec<String>,
+}
+
+impl Streamed {
+    /// The job's outcome for `plan` (the plan streamed), with the simulator's busy time before it.
+    fn outcome(self, plan: MotionPlan, busy_before: u64) -> JobOutcome {
+        JobOutcome { plan, stats: self.stats, busy_before, pen_stops: self.pen_stops, skipped: self.skipped }
+    }
 }
 
 /// A plot being streamed, part by part between pen changes.
@@ -177,20 +194,21 @@ fn add(total: &mut StreamStats, s: &StreamStats) {
 
 impl Run<'_> {
     /// Stream `plan` (the whole plot or a resume), stopping at each pen change when the front end wants it;
-    /// `ask_first` is a pen change to ask for before anything moves (a resumed multi-pen plot).
+    /// `ask_first` is a pen change to ask for before anything moves (a resumed multi-pen plot). The plan is only
+    /// borrowed, and its parts too unless they must be cut at a pen change: a plan at the point limit takes a
+    /// quarter of a gigabyte, so no copy of it is made.
     fn stream<M: PlotMachine + ?Sized>(
         &self,
         machine: &mut M,
-        plan: MotionPlan,
+        plan: &MotionPlan,
         mut journal: Option<Journal>,
-        busy_before: u64,
         ask_first: Option<PenChange>,
         events: &mut dyn PlotEvents,
-    ) -> crate::Result<JobOutcome> {
+    ) -> crate::Result<Streamed> {
         let pause = events.pen_change_mode() == PenChangeMode::Pause;
         let total_changes = plan.pen_changes.len();
         let mut stats = StreamStats::default();
-        let mut current = plan.clone();
+        let mut current = Cow::Borrowed(plan);
         let (mut pen_stops, mut skipped) = (0, Vec::new());
         let mut pending = if pause { ask_first.map(|c| (c, true)) } else { None };
         loop {
@@ -240,14 +258,15 @@ impl Run<'_> {
                     from += 1;
                 }
                 let now = machine.position()?;
-                current = plan::plan_resume(self.profile, self.steps, self.start, from, now, self.return_home)?;
+                current =
+                    Cow::Owned(plan::plan_resume(self.profile, self.steps, self.start, from, now, self.return_home)?);
             }
             // Stream up to the next pen change (or to the end).
             let next =
                 if pause { current.pen_changes.iter().find(|c| c.block > current.resumed_from).cloned() } else { None };
             let part = match &next {
-                Some(c) => truncated(&current, c.block - current.resumed_from + current.preamble),
-                None => current.clone(),
+                Some(c) => Cow::Owned(truncated(&current, c.block - current.resumed_from + current.preamble)),
+                None => Cow::Borrowed(&*current),
             };
             let mut tracker = Tracker::new(&part, self.profile, journal.take(), events);
             let result = machine.stream(&part, &mut tracker).map_err(|e| locate_refusal(e, &part, self.profile));
@@ -283,7 +302,7 @@ impl Run<'_> {
             j.complete()?;
         }
         machine.end()?;
-        Ok(JobOutcome { plan, stats, busy_before, pen_stops, skipped })
+        Ok(Streamed { stats, pen_stops, skipped })
     }
 
     /// Move to the park position with the pen up; returns it (machine mm).
