@@ -161,6 +161,9 @@ impl<T: Transport> GrblSession<T> {
         self.transport.send(b"$$\n").map_err(|e| transport_error(&self.name, e))?;
         let deadline = self.transport.now() + COMMAND_TIMEOUT;
         loop {
+            if self.transport.now() >= deadline {
+                bail!("{}: no complete answer to $$ within {:.0} s", self.name, COMMAND_TIMEOUT.as_secs_f64());
+            }
             let Some(l) = self.recv(deadline)? else { bail!("{}: no answer to $$", self.name) };
             match GrblLine::parse(&l) {
                 GrblLine::Setting(k, v) => {
@@ -197,10 +200,11 @@ impl<T: Transport> GrblSession<T> {
                     Stopped { cause, doing: format!("waiting for the answer to {line} from {}", self.name) }.into()
                 );
             }
+            // Checked before every read, not only after a quiet one: a line that babbles must not hold us.
+            if self.transport.now() >= deadline {
+                bail!("{}: no answer to {line:?} within {:.0} s", self.name, timeout.as_secs_f64());
+            }
             let Some(l) = self.recv(deadline.min(self.transport.now() + Duration::from_millis(200)))? else {
-                if self.transport.now() >= deadline {
-                    bail!("{}: no answer to {line:?} within {:.0} s", self.name, timeout.as_secs_f64());
-                }
                 continue;
             };
             match GrblLine::parse(&l) {
@@ -1226,5 +1230,40 @@ mod tests {
         let plan = plan_for(&mut s);
         let e = s.stream(&plan, &mut Record::default()).unwrap_err().to_string();
         assert!(e.contains("lost the connection to /dev/ttyUSB0") && e.contains("unplugged"), "{e}");
+    }
+
+    /// A GRBL controller behind a line that babbles as `kind` from the start.
+    fn babbling(kind: crate::link::babble::BabbleKind) -> crate::link::babble::Babbling<EmulatorTransport> {
+        let profile = MachineProfile::default_plotter();
+        let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
+        let emu =
+            GrblEmulator::with_settings(cfg, GrblSettings::for_profile(&profile), Some(115_200), Faults::default());
+        crate::link::babble::Babbling::new(EmulatorTransport::new(emu), crate::link::babble::Babble::new(kind, 0))
+    }
+
+    #[test]
+    fn a_controller_behind_chatter_connects_homes_and_plots_and_a_mute_one_is_given_up_in_seconds() {
+        use crate::link::babble::BabbleKind;
+        let profile = MachineProfile::default_plotter();
+        // A line of noise every 20 ms (a controller set to report on its own): the start-up listen ends after a
+        // second however much it says, and the answers are found between the noise.
+        let mut s = GrblSession::connect(babbling(BabbleKind::Chatter), "emulator", &profile).unwrap();
+        assert_eq!(s.rx_bytes, 128);
+        s.home().unwrap();
+        let plan = plan_for_babbling(&mut s);
+        s.stream(&plan, &mut User::default()).unwrap();
+        assert!(s.transport.babble().babbled > 50, "{}", s.transport.babble().babbled);
+        // Mute but for a blank line every millisecond: no answer to `$I`, given up within its timeout.
+        let t = babbling(BabbleKind::Blank);
+        let e = GrblSession::connect(t, "/dev/ttyUSB1", &profile).err().unwrap().to_string();
+        assert!(e.contains("/dev/ttyUSB1 does not answer like GRBL") && e.contains("$I"), "{e}");
+        // And the firmware detection gives up listening too (it finds nothing: our firmware is the default).
+        let mut t = babbling(BabbleKind::Blank);
+        assert_eq!(crate::link::machine::detect(&mut t).unwrap(), crate::link::machine::Firmware::Ours);
+        assert!(t.now() <= Duration::from_secs(5), "{:?}", t.now());
+    }
+
+    fn plan_for_babbling(s: &mut GrblSession<crate::link::babble::Babbling<EmulatorTransport>>) -> MotionPlan {
+        make_plan(&MachineProfile::default_plotter(), &drawing(), s.position().unwrap(), Lookahead::Whole).unwrap()
     }
 }
