@@ -19,7 +19,7 @@ use crate::options::optimize::OptimizeArgs;
 
 /// Where `machine` reports its pen, page mm (the firmware's status, mapped through the profile).
 pub fn pen_on_page(machine: &mut dyn PlotMachine, profile: &MachineProfile) -> anyhow::Result<Point> {
-    let at = machine.position().context("cannot read the machine's position")?;
+    let at = super::position_within_travel(machine, profile).context("cannot use the machine's position")?;
     Ok(page_of(profile, at))
 }
 

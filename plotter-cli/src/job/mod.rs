@@ -92,7 +92,7 @@ pub fn plot<M: PlotMachine + ?Sized>(
     if home {
         machine.home()?;
     }
-    let start = machine.position()?;
+    let start = position_within_travel(machine, profile)?;
     let plan = plan::plan_returning(profile, steps, start, Lookahead::Whole, return_home)?;
     let journal_file = match journal {
         Some(j) => Some(Journal::create(j.path, &(j.source)(start)?, plan.geometry_hash(), plan.blocks.len())?),
@@ -143,7 +143,7 @@ pub fn resume<M: PlotMachine + ?Sized>(
         previous: full.first_pen.clone(),
     };
     let ask_first = (!full.pen_changes.is_empty()).then_some(first);
-    let now = machine.position()?;
+    let now = position_within_travel(machine, profile)?;
     let plan = plan::plan_resume(profile, steps, start, done, now, return_home)?;
     let streamed = run.stream(machine, &plan, Some(journal), ask_first, events)?;
     Ok(streamed.outcome(plan, busy_before))
@@ -161,6 +161,35 @@ impl Streamed {
     fn outcome(self, plan: MotionPlan, busy_before: u64) -> JobOutcome {
         JobOutcome { plan, stats: self.stats, busy_before, pen_stops: self.pen_stops, skipped: self.skipped }
     }
+}
+
+/// How far outside its travel a machine may report its pen before the report is taken for a lie, mm (a carriage
+/// pushed against a frame beyond its endstop; a board's counters that went wild are kilometres out).
+pub const POSITION_MARGIN_MM: f64 = 10.0;
+
+/// Where `machine` reports its pen, checked against the profile's travel (X and Y within 0..travel, give or take
+/// [`POSITION_MARGIN_MM`]): a position outside is refused before any move is planned from it (a board answering
+/// kilometres away would get a move of that length), naming the position and the travel.
+pub fn position_within_travel<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+) -> anyhow::Result<MachinePos> {
+    let at = machine.position()?;
+    let axes = [&profile.axes.x, &profile.axes.y];
+    for (i, (&p, axis)) in at.iter().zip(axes).enumerate() {
+        let mm = f64::from(p) / axis.steps_per_mm;
+        if !(-POSITION_MARGIN_MM..=axis.travel_mm + POSITION_MARGIN_MM).contains(&mm) {
+            anyhow::bail!(
+                "{} reports the pen at {} = {} steps ({} mm), outside its travel 0..{} mm (+/- {POSITION_MARGIN_MM}                  mm): refusing to move from there. Home the machine (or power-cycle it and move the carriage home by                  hand) before plotting; do not use --no-home or --trust-position",
+                machine.name(),
+                ["X", "Y"][i],
+                p,
+                plotter_path::output::stats::fixed(mm, 1),
+                axis.travel_mm
+            );
+        }
+    }
+    Ok(at)
 }
 
 /// A plot being streamed, part by part between pen changes.
@@ -257,7 +286,7 @@ impl Run<'_> {
                     // The carriage is parked: travel from there straight to the layer's first stroke.
                     from += 1;
                 }
-                let now = machine.position()?;
+                let now = position_within_travel(machine, self.profile)?;
                 current =
                     Cow::Owned(plan::plan_resume(self.profile, self.steps, self.start, from, now, self.return_home)?);
             }
@@ -308,7 +337,7 @@ impl Run<'_> {
     /// Move to the park position with the pen up; returns it (machine mm).
     fn park<M: PlotMachine + ?Sized>(&self, machine: &mut M) -> anyhow::Result<(f64, f64)> {
         let to = plan::park_position(self.profile)?;
-        let now = machine.position()?;
+        let now = position_within_travel(machine, self.profile)?;
         let travel = plan::plan_travel(self.profile, now, to)?;
         if !travel.blocks.is_empty() {
             machine.stream(&travel, &mut Quiet).map_err(|e| anyhow::anyhow!("cannot park for the pen change: {e}"))?;
@@ -726,5 +755,88 @@ mod tests {
         let firsts: Vec<(i64, i64)> = runs.iter().map(|r| r[0]).collect();
         assert_eq!(firsts, [(1600, 3200), (4000, 3200), (6400, 3200)], "black before the stop, red and blue after");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A machine that reports `at` and must never be asked to move.
+    struct Liar {
+        at: MachinePos,
+    }
+
+    impl PlotMachine for Liar {
+        fn name(&self) -> &str {
+            "/dev/ttyLIAR"
+        }
+        fn firmware(&self) -> crate::link::machine::Firmware {
+            crate::link::machine::Firmware::Grbl
+        }
+        fn home(&mut self) -> anyhow::Result<()> {
+            Ok(())
+        }
+        fn position(&mut self) -> anyhow::Result<MachinePos> {
+            Ok(self.at)
+        }
+        fn stream(
+            &mut self,
+            _: &MotionPlan,
+            _: &mut dyn crate::link::stream::Control,
+        ) -> Result<StreamStats, StreamError> {
+            panic!("asked to move from a position it lied about")
+        }
+        fn resume_point(&mut self, state: &JournalState, _: &MotionPlan) -> anyhow::Result<usize> {
+            Ok(state.executed)
+        }
+    }
+
+    #[test]
+    fn a_position_outside_the_travel_is_refused_before_anything_moves() {
+        let profile = MachineProfile::default_plotter();
+        let steps = three_pens(&profile);
+        // The built-in kit: 80 steps/mm; X travels 0..420 mm: 33,600 steps, and 10 mm more (800 steps) is let by.
+        let (x_max, y_max) = (profile.axes.x.travel_mm, profile.axes.y.travel_mm);
+        assert_eq!((profile.axes.x.steps_per_mm, x_max), (80.0, 420.0));
+        for at in [[100_000_000, 0, 0, 0], [0, i32::MIN, 0, 0], [34_401, 0, 0, 0], [-801, 10, 0, 0]] {
+            let e = plot(
+                &mut Liar { at },
+                &profile,
+                &steps,
+                false,
+                false,
+                None,
+                &mut Script { answers: Vec::new(), seen: Vec::new() },
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(e.contains("/dev/ttyLIAR reports the pen at") && e.contains("outside its travel"), "{at:?}: {e}");
+        }
+        let e = plot(
+            &mut Liar { at: [100_000_000, 0, 0, 0] },
+            &profile,
+            &steps,
+            false,
+            false,
+            None,
+            &mut Script { answers: Vec::new(), seen: Vec::new() },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("X = 100000000 steps (1250000.0 mm), outside its travel 0..420 mm"), "{e}");
+        // At the margin's edge it is taken (and the stream is asked: the liar panics there).
+        // Y travels 0..297 mm: 23,760 steps.
+        assert_eq!(y_max, 297.0);
+        let y_edge = 23_760 + 800;
+        for at in [[34_400, 0, 0, 0], [-800, 0, 0, 0], [0, y_edge, 0, 0]] {
+            let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                let _ = plot(
+                    &mut Liar { at },
+                    &profile,
+                    &steps,
+                    false,
+                    false,
+                    None,
+                    &mut Script { answers: Vec::new(), seen: Vec::new() },
+                );
+            }));
+            assert!(caught.is_err(), "{at:?} is within the travel and its margin");
+        }
     }
 }
