@@ -36,6 +36,22 @@ fn preview_writes_a_png() {
 }
 
 #[test]
+fn a_preview_that_cannot_be_written_warns_and_the_finished_plot_succeeds() {
+    // A side output (issue 38): the plot on the simulator finishes; its as-stepped preview has nowhere to go.
+    let dir = out_dir("preview-unwritable");
+    let blocked = dir.join("not-a-directory");
+    std::fs::write(&blocked, "a file where the preview's folder should be").unwrap();
+    let o = run(plotter()
+        .current_dir(&dir)
+        .args(["plot", "gen:circle?r=5&cx=20&cy=20", "--preview"])
+        .arg(blocked.join("circle.png")));
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("executed"), "the plot ran");
+    assert!(err.contains("warning: the plot finished, but its as-stepped preview was not written"), "{err}");
+}
+
+#[test]
 fn stats_json_has_the_documented_keys() {
     let o = run(plotter().args(["stats", "--json"]).arg(sample("duck.svg")));
     assert!(o.status.success(), "{}", stderr(&o));

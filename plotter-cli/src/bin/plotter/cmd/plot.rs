@@ -615,17 +615,30 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             let sim = session.transport.sim();
             let executed = sim.hal().busy_ticks() - outcome.busy_before;
             println!("{}", summary(&outcome, Some(executed)));
+            // The plot is done: the figures and the preview that follow are side outputs, which warn rather than
+            // turn a finished plot into a failure.
             if let Some(d) = &drawing {
-                let start = args.optimize.start_from(Some(&profile), pen_at)?;
-                print_lower_bound(&profile, &steps, d, &outcome.plan, args, start)?;
+                let bound = args
+                    .optimize
+                    .start_from(Some(&profile), pen_at)
+                    .and_then(|start| print_lower_bound(&profile, &steps, d, &outcome.plan, args, start));
+                if let Err(e) = bound {
+                    eprintln!("warning: no lower bound for the plot time: {e:#}");
+                }
             }
-            let (mut stepped, travel) = stepped_drawing(sim, &profile);
-            stepped.page_mm = drawing.as_ref().and_then(|d| d.page_mm);
             let out = args.preview.clone().unwrap_or_else(|| default_beside(input, ".stepped.png"));
-            let opts = preview::PreviewOptions { travel: args.travel, ..preview::PreviewOptions::default() };
-            let pixmap = preview::render_with_travel(&stepped, &travel, &opts)?;
-            preview::save_pixmap(&pixmap, &out)?;
-            println!("as-stepped preview: {}", out.display());
+            let written = (|| -> anyhow::Result<()> {
+                let (mut stepped, travel) = stepped_drawing(sim, &profile);
+                stepped.page_mm = drawing.as_ref().and_then(|d| d.page_mm);
+                let opts = preview::PreviewOptions { travel: args.travel, ..preview::PreviewOptions::default() };
+                let pixmap = preview::render_with_travel(&stepped, &travel, &opts)?;
+                preview::save_pixmap(&pixmap, &out)?;
+                Ok(())
+            })();
+            match written {
+                Ok(()) => println!("as-stepped preview: {}", out.display()),
+                Err(e) => eprintln!("warning: the plot finished, but its as-stepped preview was not written: {e:#}"),
+            }
             Ok(())
         }
         Some(c) => {
