@@ -188,6 +188,12 @@ impl Terminal {
     /// The terminal of a plot about to stream: from now on one Ctrl-C pauses the plot (before, it ends the command).
     fn new(immediately: bool, pen_change: PenChangeMode) -> anyhow::Result<Self> {
         let stop = Stop::install_signals().context("cannot take the termination signals")?;
+        // A signal while the drawing was loaded, ordered or planned (work that does not stop midway) ends the
+        // command before anything moves, rather than pausing the plot it was meant to prevent.
+        if let Some(cause) = stop.stop_cause() {
+            let doing = "the plot was prepared (nothing moved)".to_string();
+            return Err(plotter_host::stop::Stopped { cause, doing }.into());
+        }
         stop.set_pausable(true);
         let target = if std::io::stderr().is_terminal() {
             ProgressDrawTarget::stderr_with_hz(5)
