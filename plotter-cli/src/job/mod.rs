@@ -794,48 +794,23 @@ mod tests {
         // The built-in kit: 80 steps/mm; X travels 0..420 mm: 33,600 steps, and 10 mm more (800 steps) is let by.
         let (x_max, y_max) = (profile.axes.x.travel_mm, profile.axes.y.travel_mm);
         assert_eq!((profile.axes.x.steps_per_mm, x_max), (80.0, 420.0));
+        // A plot from a machine standing at `at`; its error's text.
+        let plot_at = |at: MachinePos| {
+            let mut events = Script { answers: Vec::new(), seen: Vec::new() };
+            plot(&mut Liar { at }, &profile, &steps, false, false, None, &mut events).map_err(|e| e.to_string())
+        };
         for at in [[100_000_000, 0, 0, 0], [0, i32::MIN, 0, 0], [34_401, 0, 0, 0], [-801, 10, 0, 0]] {
-            let e = plot(
-                &mut Liar { at },
-                &profile,
-                &steps,
-                false,
-                false,
-                None,
-                &mut Script { answers: Vec::new(), seen: Vec::new() },
-            )
-            .unwrap_err()
-            .to_string();
+            let e = plot_at(at).unwrap_err();
             assert!(e.contains("/dev/ttyLIAR reports the pen at") && e.contains("outside its travel"), "{at:?}: {e}");
         }
-        let e = plot(
-            &mut Liar { at: [100_000_000, 0, 0, 0] },
-            &profile,
-            &steps,
-            false,
-            false,
-            None,
-            &mut Script { answers: Vec::new(), seen: Vec::new() },
-        )
-        .unwrap_err()
-        .to_string();
+        let e = plot_at([100_000_000, 0, 0, 0]).unwrap_err();
         assert!(e.contains("X = 100000000 steps (1250000.0 mm), outside its travel 0..420 mm"), "{e}");
         // At the margin's edge it is taken (and the stream is asked: the liar panics there).
         // Y travels 0..297 mm: 23,760 steps.
         assert_eq!(y_max, 297.0);
         let y_edge = 23_760 + 800;
         for at in [[34_400, 0, 0, 0], [-800, 0, 0, 0], [0, y_edge, 0, 0]] {
-            let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                let _ = plot(
-                    &mut Liar { at },
-                    &profile,
-                    &steps,
-                    false,
-                    false,
-                    None,
-                    &mut Script { answers: Vec::new(), seen: Vec::new() },
-                );
-            }));
+            let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| plot_at(at)));
             assert!(caught.is_err(), "{at:?} is within the travel and its margin");
         }
     }
