@@ -127,12 +127,16 @@ impl<T: Transport> Session<T> {
         let mut wait = Wait::new(name, "a firmware description (M115)", transport.now(), CONNECT_TIMEOUT)
             .interruptible()
             .on_any_interrupt();
-        let gave_up = |e: WaitError, heard: &[String]| match e {
-            WaitError::TimedOut { .. } if heard.is_empty() => crate::Error::NoAnswer { name: name.to_string() },
-            WaitError::TimedOut { .. } => {
-                let shown: Vec<String> = heard.iter().take(3).map(|l| format!("{l:?}")).collect();
-                crate::Error::FirmwareMismatch { name: name.to_string(), heard: shown.join(", ") }
+        // No firmware description: nothing heard at all, or lines that are not plotter-fw's (the first three quoted).
+        let not_found = |heard: &[String]| {
+            if heard.is_empty() {
+                return crate::Error::NoAnswer { name: name.to_string() };
             }
+            let shown: Vec<String> = heard.iter().take(3).map(|l| format!("{l:?}")).collect();
+            crate::Error::FirmwareMismatch { name: name.to_string(), heard: shown.join(", ") }
+        };
+        let gave_up = |e: WaitError, heard: &[String]| match e {
+            WaitError::TimedOut { .. } => not_found(heard),
             e @ WaitError::Stopped(_) => crate::Error::Other(e.into()),
         };
         // Plain replies are unchecked, so the firmware's description only counts when two answers agree (line noise
@@ -190,10 +194,7 @@ impl<T: Transport> Session<T> {
                 }
             }
         }
-        Err(gave_up(
-            WaitError::TimedOut { name: name.to_string(), what: String::new(), limit: CONNECT_TIMEOUT },
-            &heard,
-        ))
+        Err(not_found(&heard))
     }
 
     /// The next line from the firmware within `timeout` (see [`Incoming`]).
