@@ -132,7 +132,10 @@ impl Trouble {
         e.chain()
             .filter_map(|cause| {
                 // A wait the user stopped (see `crate::stop`) is a stop, under whatever context.
-                if cause.downcast_ref::<crate::stop::Stopped>().is_some() {
+                let waited = cause.downcast_ref::<crate::stop::WaitError>();
+                if cause.downcast_ref::<crate::stop::Stopped>().is_some()
+                    || matches!(waited, Some(crate::stop::WaitError::Stopped(_)))
+                {
                     return Some(Trouble::Stopped);
                 }
                 cause.downcast_ref::<Error>().map(Error::trouble)
@@ -299,6 +302,19 @@ mod tests {
         assert_eq!(e.trouble(), Trouble::Link);
         assert_eq!(Trouble::of(&anyhow::Error::from(e).context("plot")), Trouble::Link);
         assert_eq!(Error::Other(anyhow::anyhow!("stalled")).trouble(), Trouble::Other);
+        // A wait ended by a stop is a stop, bare or under context (the wait's error shows the stop through, so the
+        // stop itself is not in the chain); a wait that timed out is not.
+        let stopped = crate::stop::Stopped { cause: crate::stop::StopCause::Terminate, doing: "homing".into() };
+        let waited = anyhow::Error::from(crate::stop::WaitError::Stopped(stopped.clone()));
+        assert_eq!(Trouble::of(&waited), Trouble::Stopped);
+        assert_eq!(Trouble::of(&waited.context("homing failed")), Trouble::Stopped);
+        assert_eq!(Trouble::of(&anyhow::Error::from(stopped)), Trouble::Stopped);
+        let timed_out = crate::stop::WaitError::TimedOut {
+            name: "p".into(),
+            what: "QG".into(),
+            limit: std::time::Duration::from_secs(3),
+        };
+        assert_eq!(Trouble::of(&anyhow::Error::from(timed_out)), Trouble::Other);
         // A bare I/O error from a file is not taken for a lost port: only a typed error says so.
         assert_eq!(Trouble::of(&anyhow::Error::from(lost())), Trouble::Other);
         let bad = Error::from(BadInput::new("a.svg", anyhow::anyhow!("not a valid SVG")));

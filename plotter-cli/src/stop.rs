@@ -21,6 +21,7 @@
 use std::fmt;
 use std::sync::atomic::{AtomicBool, AtomicI32, AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
+use std::time::Duration;
 
 use signal_hook::consts::{SIGHUP, SIGINT, SIGQUIT, SIGTERM};
 
@@ -78,6 +79,26 @@ pub struct Stopped {
     pub cause: StopCause,
     /// What was going on ("waiting for the answer to QG", "importing lines.gcode").
     pub doing: String,
+}
+
+/// Why a wait on a device ([`crate::link::wait::Wait`]) ended without what it waited for: its deadline, or a
+/// stop. Beside [`Stopped`] so that the error's kinds ([`crate::Trouble`]) can tell a stopped wait, whatever
+/// wraps it.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum WaitError {
+    /// The deadline passed.
+    #[error("{name}: gave up waiting for {what} after {:.1} s", limit.as_secs_f64())]
+    TimedOut {
+        /// The device.
+        name: String,
+        /// What was waited for.
+        what: String,
+        /// The deadline, from the start of the wait.
+        limit: Duration,
+    },
+    /// A stop was asked.
+    #[error(transparent)]
+    Stopped(#[from] Stopped),
 }
 
 #[derive(Debug, Default)]

@@ -8,6 +8,7 @@
 
 use std::time::Duration;
 
+pub use crate::stop::WaitError;
 use crate::stop::{Stop, StopCause, Stopped};
 
 /// After how long a wait tells the user what it waits for.
@@ -27,24 +28,6 @@ fn notice(text: &str) {
         Some(sink) => sink(text),
         None => eprintln!("{text}"),
     }
-}
-
-/// Why a wait ended without what it waited for.
-#[derive(Debug, Clone, thiserror::Error)]
-pub enum WaitError {
-    /// The deadline passed.
-    #[error("{name}: gave up waiting for {what} after {:.1} s", limit.as_secs_f64())]
-    TimedOut {
-        /// The device.
-        name: String,
-        /// What was waited for.
-        what: String,
-        /// The deadline, from the start of the wait.
-        limit: Duration,
-    },
-    /// A stop was asked.
-    #[error(transparent)]
-    Stopped(#[from] Stopped),
 }
 
 /// One bounded wait (see the module docs).
