@@ -1,13 +1,11 @@
 //! Reaching a plotter on a serial port, whatever its firmware (ours, GRBL, an EiBotBoard): the `clap` flags that
 //! name it and the connection they open (shared by `plotter home`, `jog`, `console` and `plot --port`).
 
-use std::path::PathBuf;
-
 use plotter_path::MachineProfile;
 
 use super::machine::{Connected, Firmware};
 use super::serial::SerialTransport;
-use crate::input::load_profile;
+use crate::options::machine::MachineArgs;
 
 /// How to reach a plotter.
 #[derive(clap::Args, Debug, Clone)]
@@ -15,9 +13,9 @@ pub struct LinkArgs {
     /// Serial device of the plotter (or the path printed by `plotter sim --pty`).
     #[arg(long)]
     pub port: String,
-    /// Machine profile (TOML) [default: the built-in XY plotter kit].
-    #[arg(long)]
-    pub profile: Option<PathBuf>,
+    /// The machine: its model or profile.
+    #[command(flatten)]
+    pub machine: MachineArgs,
     /// Baud rate [default: the profile's].
     #[arg(long)]
     pub baud: Option<u32>,
@@ -41,7 +39,7 @@ pub fn open_port(
 impl LinkArgs {
     /// The profile and the open connection (at the profile's baud rate unless `--baud` says otherwise).
     pub fn connect(&self) -> crate::Result<(MachineProfile, Connected<SerialTransport>)> {
-        let profile = load_profile(self.profile.as_deref())?;
+        let profile = self.machine.load()?;
         let c = open_port(&self.port, self.baud.unwrap_or(profile.link.baud), self.firmware, &profile)?;
         Ok((profile, c))
     }

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
+use plotter_host::options::machine::MachineArgs;
 use plotter_host::options::optimize::{OptimizeArgs, optimize_quietly};
 use plotter_path::MachineProfile;
 use plotter_path::optimize::OptimizeReport;
@@ -63,9 +64,9 @@ pub(crate) struct OptimizeCmdArgs {
     /// Output SVG (`-` writes stdout)
     #[arg(short, long)]
     pub(crate) output: PathBuf,
-    /// Machine profile (TOML) for pen-up time figures and --opt-cost time
-    #[arg(long)]
-    pub(crate) profile: Option<PathBuf>,
+    /// The machine for pen-up time figures and --opt-cost time.
+    #[command(flatten)]
+    pub(crate) machine: MachineArgs,
     #[command(flatten)]
     pub(crate) optimize: OptimizeArgs,
 }
@@ -73,10 +74,7 @@ pub(crate) struct OptimizeCmdArgs {
 /// Run `plotter optimize`; the report goes to stderr.
 pub(crate) fn run(args: &OptimizeCmdArgs) -> Result<()> {
     // The machine (the given profile, else the built-in one) says where the pen starts and how wide it draws.
-    let profile = Some(match args.profile.as_deref() {
-        Some(p) => MachineProfile::load(p)?,
-        None => MachineProfile::default_plotter(),
-    });
+    let profile = Some(args.machine.load()?);
     let mut drawing = args.source.load(profile.as_ref().unwrap_or(&MachineProfile::default_plotter()))?;
     if let Some(report) = optimize_quietly(&mut drawing, &args.optimize, profile.as_ref())? {
         eprintln!("{}", report_text(&report));

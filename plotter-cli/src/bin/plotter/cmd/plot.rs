@@ -10,7 +10,7 @@ use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_fw::TICK_HZ;
 use plotter_host::input::InputArgs;
-use plotter_host::job::load::{load_profile, load_steps, page_of, pen_on_page};
+use plotter_host::job::load::{load_steps, page_of, pen_on_page};
 use plotter_host::job::progress::{JobProgress, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self, JobOutcome, JournalSpec};
@@ -22,6 +22,7 @@ use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
 use plotter_host::link::stream::PauseChoice;
 use plotter_host::options::layout::LayoutArgs;
+use plotter_host::options::machine::MachineArgs;
 use plotter_host::options::optimize::OptimizeArgs;
 use plotter_host::stop::Stop;
 use plotter_path::MachineProfile;
@@ -42,9 +43,8 @@ pub(crate) struct PlotArgs {
     /// the plot runs on the built-in simulated plotter.
     #[arg(long)]
     pub(crate) port: Option<String>,
-    /// Machine profile (TOML); the built-in XY plotter kit profile by default.
-    #[arg(long)]
-    pub(crate) profile: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) machine: MachineArgs,
     /// Do not home before plotting (the machine must already know where it is).
     #[arg(long)]
     pub(crate) no_home: bool,
@@ -521,7 +521,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         return resume(args, j);
     }
     let input = args.input.as_deref().context("an input file is required")?;
-    let mut profile = load_profile(args.profile.as_deref())?;
+    let mut profile = args.machine.load()?;
     if args.as_written {
         if !matches!(args.firmware, Firmware::Ours | Firmware::Auto) {
             bail!(
@@ -693,7 +693,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     std::env::set_current_dir(&source.cwd)
         .with_context(|| format!("cannot enter {}, where the plot was started", source.cwd.display()))?;
     let input = original.input.as_deref().context("the recorded plot has no input")?;
-    let mut profile = load_profile(original.profile.as_deref())?;
+    let mut profile = original.machine.load()?;
     let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
     if original.firmware == Firmware::Hpgl {
         let (steps, drawing) =

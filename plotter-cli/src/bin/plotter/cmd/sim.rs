@@ -36,7 +36,6 @@ use nix::pty::openpty;
 use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use plotter_fw::sim::{Sim, SimOptions};
 
-use plotter_host::job::load::load_profile;
 use plotter_host::link::babble::Babble;
 use plotter_host::link::ebb::emulator::{EbbEmulator, Lie};
 use plotter_host::link::ebb::messages::EbbVersion;
@@ -47,6 +46,7 @@ use plotter_host::link::grbl::settings::GrblSettings;
 use plotter_host::link::hpgl::handshake::Handshake;
 use plotter_host::link::hpgl::model::{HpglModel, ModelConfig};
 use plotter_host::link::hpgl::model_link::Wire;
+use plotter_host::options::machine::MachineArgs;
 use plotter_path::motion::plan;
 
 /// Arguments of `plotter sim`.
@@ -63,9 +63,8 @@ pub(crate) struct SimArgs {
     /// With --qemu: the firmware image to run [default: built with `cargo xtask firmware`].
     #[arg(long, requires = "qemu")]
     pub(crate) image: Option<PathBuf>,
-    /// Machine profile (TOML); the built-in XY plotter kit profile by default.
-    #[arg(long)]
-    pub(crate) profile: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) machine: MachineArgs,
     /// Run as fast as possible instead of in real time.
     #[arg(long)]
     pub(crate) fast: bool,
@@ -314,7 +313,7 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
     // Before any thread starts: SIGTERM and SIGHUP end the simulator as Ctrl-C does.
     let stop = plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     if args.qemu {
-        if args.profile.is_some() {
+        if args.machine.chosen() {
             bail!("--profile: the QEMU image carries the built-in XY plotter kit configuration; drop --profile");
         }
         let cfg = plotter_fw::MachineConfig::xy_plotter();
@@ -326,7 +325,7 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
              `plotter plot` without --port)"
         );
     }
-    let profile = load_profile(args.profile.as_deref())?;
+    let profile = args.machine.load()?;
     let cfg = plan::machine_config(&profile)?;
     let mut sim = if args.hpgl {
         let device = plotter_path::geometry::hpgl_devices::device(&args.hpgl_device).with_context(|| {

@@ -2,8 +2,6 @@
 //! optimisation and the motion planner make of the drawing: pen-up length after ordering, a lower bound on it, and
 //! the estimated plot time before and after, and what the import left out and why (text or JSON).
 
-use std::path::PathBuf;
-
 use anyhow::Result;
 use clap::Args;
 use plotter_path::geometry::steps::drawing_to_steps;
@@ -15,7 +13,7 @@ use plotter_path::output::stats::{Stats, fixed, percent_above, unsigned_zero};
 use plotter_path::{Drawing, MachineProfile};
 
 use plotter_host::input::Source;
-use plotter_host::job::load::load_profile;
+use plotter_host::options::machine::MachineArgs;
 use plotter_host::options::optimize::{OptimizeArgs, optimize_quietly};
 
 use crate::time_parts::clock;
@@ -32,9 +30,9 @@ pub(crate) struct StatsArgs {
     /// est_time_parts_optimized: draw_s, travel_s, lifts_s and their *_lower_bound_s)
     #[arg(long)]
     pub(crate) json: bool,
-    /// Machine profile for the time estimate (TOML) [default: the built-in XY plotter kit]
-    #[arg(long)]
-    pub(crate) profile: Option<PathBuf>,
+    /// The machine the time estimate is for.
+    #[command(flatten)]
+    pub(crate) machine: MachineArgs,
     #[command(flatten)]
     pub(crate) optimize: OptimizeArgs,
 }
@@ -62,7 +60,7 @@ fn estimate(
 
 /// Run `plotter stats`.
 pub(crate) fn run(args: &StatsArgs) -> Result<()> {
-    let profile = load_profile(args.profile.as_deref())?;
+    let profile = args.machine.load()?;
     let decoded = args.source.load_decoded(&profile)?;
     let (drawing, skipped) = (decoded.drawing, decoded.skipped);
     let stats = Stats::of(&drawing);
