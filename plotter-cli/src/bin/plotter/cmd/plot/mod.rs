@@ -3,30 +3,33 @@
 //! running our firmware or GRBL. Between layers drawn with different pens the plot parks and asks for the pen
 //! (Enter continue, `s` skip the layer, `q` stop and keep the journal).
 
-use std::io::{BufRead as _, IsTerminal as _, Write as _};
+mod hpgl;
+mod summary;
+mod terminal;
+
+use hpgl::{export_hpgl, plot_hpgl};
+use summary::{print_lower_bound, summary};
+use terminal::Terminal;
+
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use plotter_fw::TICK_HZ;
 use plotter_host::input::InputArgs;
 use plotter_host::job::load::{load_steps, page_of, pen_on_page};
-use plotter_host::job::progress::{JobProgress, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents};
+use plotter_host::job::progress::PenChangeMode;
 use plotter_host::job::stepped::stepped_drawing;
-use plotter_host::job::{self, JobOutcome, JournalSpec};
+use plotter_host::job::{self, JournalSpec};
 use plotter_host::link::hpgl::handshake::Handshake;
 use plotter_host::link::journal;
 use plotter_host::link::machine::{Connected, Firmware};
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
-use plotter_host::link::stream::PauseChoice;
 use plotter_host::options::layout::LayoutArgs;
 use plotter_host::options::machine::MachineArgs;
 use plotter_host::options::optimize::OptimizeArgs;
 use plotter_host::stop::Stop;
 use plotter_path::MachineProfile;
-use plotter_path::config::pens::LayerPen;
 use plotter_path::input::trajectory;
 use plotter_path::motion::plan;
 use plotter_path::output::preview;
@@ -135,7 +138,7 @@ struct PlotOnly {
 /// What a plot was made from: stored in the journal so that `--resume` rebuilds exactly the same plan (the
 /// `plot` arguments as given, the directory they are relative to, and where the plan started).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-struct PlotSource {
+pub(super) struct PlotSource {
     cwd: PathBuf,
     args: Vec<String>,
     start: [i32; 4],
@@ -148,189 +151,6 @@ fn hold_seconds(s: &str) -> Result<f64, String> {
         _ => Err(format!("{s:?} is not a number of seconds between 0 and 86400")),
     }
 }
-
-/// The terminal's side of a plot: progress bar, Ctrl-C pause requests (SIGTERM, SIGHUP, SIGQUIT and a second
-/// Ctrl-C stop the plot: [`plotter_host::stop`]), and the resume-or-abort prompt.
-struct Terminal {
-    bar: ProgressBar,
-    stop: &'static Stop,
-    immediately: bool,
-    pen_change: PenChangeMode,
-}
-
-/// One answer line from the user: `None` at the end of input, or when a stop arrives while waiting for it (any
-/// signal, a Ctrl-C included: nobody resumes a prompt they interrupted).
-fn ask(stop: &Stop, prompt: &str) -> Option<String> {
-    use std::os::fd::AsFd as _;
-    eprint!("{prompt}");
-    let _ = std::io::stderr().flush();
-    let stdin = std::io::stdin();
-    loop {
-        if stop.stop_cause_or_interrupt().is_some() {
-            eprintln!();
-            return None;
-        }
-        let mut fds = [nix::poll::PollFd::new(stdin.as_fd(), nix::poll::PollFlags::POLLIN)];
-        match nix::poll::poll(&mut fds, nix::poll::PollTimeout::from(100u8)) {
-            Ok(0) | Err(nix::errno::Errno::EINTR) => {}
-            Ok(_) => break,
-            Err(_) => return None,
-        }
-    }
-    let mut line = String::new();
-    match stdin.lock().read_line(&mut line) {
-        Ok(n) if n > 0 => Some(line.trim().to_string()),
-        _ => None,
-    }
-}
-
-impl Terminal {
-    /// The terminal of a plot about to stream: from now on one Ctrl-C pauses the plot (before, it ends the command).
-    fn new(immediately: bool, pen_change: PenChangeMode) -> anyhow::Result<Self> {
-        let stop = Stop::install_signals().context("cannot take the termination signals")?;
-        // A signal while the drawing was loaded, ordered or planned (work that does not stop midway) ends the
-        // command before anything moves, rather than pausing the plot it was meant to prevent.
-        if let Some(cause) = stop.stop_cause() {
-            let doing = "the plot was prepared (nothing moved)".to_string();
-            return Err(plotter_host::stop::Stopped { cause, doing }.into());
-        }
-        stop.set_pausable(true);
-        let target = if std::io::stderr().is_terminal() {
-            ProgressDrawTarget::stderr_with_hz(5)
-        } else {
-            ProgressDrawTarget::hidden()
-        };
-        let bar = ProgressBar::with_draw_target(None, target);
-        if let Ok(style) = ProgressStyle::with_template("{bar:30} {percent:>3}% {pos}/{len} blocks  {msg}")
-            .map(|s| s.progress_chars("█▉ "))
-        {
-            bar.set_style(style);
-        }
-        Ok(Terminal { bar, stop, immediately, pen_change })
-    }
-}
-
-impl PlotEvents for Terminal {
-    fn progress(&mut self, p: &JobProgress) {
-        self.bar.set_length(u64::try_from(p.total).unwrap_or(u64::MAX));
-        self.bar.set_position(u64::try_from(p.executed).unwrap_or(u64::MAX));
-        self.bar.set_message(format!(
-            "pen-down {:.0}/{:.0} mm  ETA {:.0} s  resends {}  pen {} at X {:.1}, Y {:.1} mm",
-            p.draw_done_mm,
-            p.draw_total_mm,
-            p.eta_s,
-            p.resends,
-            if p.pen_down { "down" } else { "up" },
-            p.pen_mm.x,
-            p.pen_mm.y
-        ));
-    }
-
-    fn pause_requested(&mut self) -> Option<bool> {
-        self.stop.take_pause().then_some(self.immediately)
-    }
-
-    fn paused(&mut self, held: bool) -> PauseChoice {
-        let what = if held { "feed hold (pen where it stopped)" } else { "paused with the pen up" };
-        self.bar.suspend(|| match ask(self.stop, &format!("\n{what}: [r]esume or [a]bort? ")) {
-            Some(l) if l.starts_with(['r', 'R']) => PauseChoice::Resume,
-            _ => PauseChoice::Abort,
-        })
-    }
-
-    fn pen_change_mode(&self) -> PenChangeMode {
-        self.pen_change
-    }
-
-    fn plot_started(&mut self, first_pen: &LayerPen, pen_changes: usize) {
-        if pen_changes > 0 && self.pen_change == PenChangeMode::Pause {
-            self.bar.suspend(|| {
-                eprintln!("this plot uses {} pens: start with {}", pen_changes + 1, first_pen.label());
-            });
-        }
-    }
-
-    fn pen_change(&mut self, c: &PenChangeRequest) -> PenChangeChoice {
-        self.bar.suspend(|| {
-            let whence = if c.park_mm.0.is_finite() {
-                format!("parked at X{:.1} Y{:.1} with the pen up", c.park_mm.0, c.park_mm.1)
-            } else {
-                "before the plot continues".to_string()
-            };
-            let from = c.previous.as_ref().map(|p| format!(" (replacing {})", p.label())).unwrap_or_default();
-            eprintln!(
-                "\npen change {}/{}: {whence}; load pen {}{from} for layer {:?}",
-                c.number,
-                c.total,
-                c.pen.label(),
-                c.layer_name
-            );
-            loop {
-                match ask(self.stop, "[Enter] continue, [s] skip this layer, [q] stop (the journal keeps the plot): ") {
-                    Some(l) if l.is_empty() => return PenChangeChoice::Continue,
-                    Some(l) if l.eq_ignore_ascii_case("s") => return PenChangeChoice::SkipLayer,
-                    Some(l) if l.eq_ignore_ascii_case("q") => return PenChangeChoice::Stop,
-                    Some(l) => eprintln!("{l:?}: answer with Enter, s or q"),
-                    None => {
-                        eprintln!("no answer (input closed): stopping");
-                        return PenChangeChoice::Stop;
-                    }
-                }
-            }
-        })
-    }
-
-    fn notice(&mut self, text: &str) {
-        self.bar.suspend(|| eprintln!("\n{text}"));
-    }
-
-    fn unlock_alarm(&mut self, what: &str) -> bool {
-        self.bar.suspend(|| {
-            eprintln!("{what}");
-            matches!(ask(self.stop, "unlock it ($X)? The position may be wrong after some alarms. [y/N] "), Some(l) if l.eq_ignore_ascii_case("y"))
-        })
-    }
-}
-
-/// Human summary of a finished plot.
-fn summary(outcome: &JobOutcome, executed_ticks: Option<u64>) -> String {
-    let stops = if outcome.pen_stops > 0 {
-        let skipped = if outcome.skipped.is_empty() {
-            String::new()
-        } else {
-            format!(", skipped {}", outcome.skipped.iter().map(|l| format!("{l:?}")).collect::<Vec<_>>().join(", "))
-        };
-        format!("\npen changes: {}{skipped}", outcome.pen_stops)
-    } else {
-        String::new()
-    };
-    let (plan, stats) = (&outcome.plan, &outcome.stats);
-    // Display only.
-    #[allow(clippy::cast_precision_loss)]
-    let per_block = if stats.frames > 0 { stats.frame_bytes as f64 / stats.frames as f64 } else { 0.0 };
-    let mut s = format!(
-        "{} blocks, {:.1} mm pen-down, {:.1} mm travel; planned time {:.3} s",
-        plan.blocks.len(),
-        plan.draw_mm,
-        plan.travel_mm,
-        plan.seconds()
-    );
-    if let Some(t) = executed_ticks {
-        // Display only.
-        #[allow(clippy::cast_precision_loss)]
-        let secs = t as f64 / f64::from(TICK_HZ);
-        s += &format!(", executed {secs:.3} s");
-    }
-    s += &format!("\nlink: {per_block:.1} bytes/block, {} resends", stats.resends);
-    if stats.resyncs > 0 {
-        s += &format!(", {} resyncs", stats.resyncs);
-    }
-    if let Some(u) = stats.underruns {
-        s += &format!(", {u} queue underruns");
-    }
-    s + &stops
-}
-
 /// Connect to the port, check GRBL's settings against `profile` (or build the profile from them).
 fn connect(args: &PlotArgs, port: &str, profile: &mut MachineProfile) -> anyhow::Result<Connected<SerialTransport>> {
     let baud = args.baud.unwrap_or(profile.link.baud);
@@ -358,7 +178,7 @@ fn connect(args: &PlotArgs, port: &str, profile: &mut MachineProfile) -> anyhow:
     Ok(c)
 }
 
-fn default_beside(input: &Path, suffix: &str) -> PathBuf {
+pub(super) fn default_beside(input: &Path, suffix: &str) -> PathBuf {
     // A generated figure `gen:KIND?params` is named after its kind.
     let generated = input.to_str().and_then(|p| p.strip_prefix(plotter_host::input::GEN_PREFIX));
     let stem = match generated {
@@ -367,151 +187,6 @@ fn default_beside(input: &Path, suffix: &str) -> PathBuf {
     };
     PathBuf::from(format!("{stem}{suffix}"))
 }
-
-/// Print the plot-time lower bound next to the planned time, and both split into drawing, travel and lifts (see
-/// [`plotter_path::motion::bound`]); the order's travel bound is taken from `start`, where the order started.
-fn print_lower_bound(
-    profile: &plotter_path::MachineProfile,
-    steps: &plotter_path::geometry::steps::StepDrawing,
-    drawing: &plotter_path::Drawing,
-    plan: &plotter_path::motion::plan::MotionPlan,
-    args: &PlotArgs,
-    start: Option<plotter_path::kurbo::Point>,
-) -> anyhow::Result<()> {
-    use plotter_path::output::stats::{fixed, percent_above};
-    let seam = args.optimize.options(Some(profile))?.seam;
-    let b = plotter_path::motion::bound::drawing_time_lower_bound(profile, steps, drawing, seam, start)?;
-    // Nothing to compare with when the bound is zero (nothing to draw).
-    let above = percent_above(plan.seconds(), b.total_s())
-        .map_or(String::new(), |p| format!(": planned time is {} % above it", fixed(p, 1)));
-    println!(
-        "lower bound {} s (pen down {} s, {} lifts {} s, travel {} s){above}",
-        fixed(b.total_s(), 3),
-        fixed(b.draw_s, 1),
-        steps.strokes.len(),
-        fixed(b.lifts_s, 1),
-        fixed(b.travel_s, 1),
-    );
-    println!("{}", crate::time_parts::line(&plan.breakdown(), &b));
-    Ok(())
-}
-
-/// The page drawing as HP-GL for `--hpgl-device` on `--hpgl-paper` (or the first of its sheets that holds the
-/// drawing), with the device and the sheet.
-fn hpgl_program(
-    args: &PlotArgs,
-    profile: &MachineProfile,
-    steps: &plotter_path::geometry::steps::StepDrawing,
-    drawing: Option<plotter_path::Drawing>,
-) -> anyhow::Result<(
-    plotter_path::output::hpgl_out::HpglProgram,
-    &'static plotter_path::geometry::hpgl_devices::HpglDevice,
-    plotter_path::geometry::hpgl_devices::HpglPaper,
-    usize,
-)> {
-    use plotter_path::geometry::hpgl_devices;
-    let device = hpgl_devices::device(&args.hpgl_device).with_context(|| {
-        format!("--hpgl-device {}: not a known plotter (known: {})", args.hpgl_device, hpgl_devices::device_names())
-    })?;
-    let drawing = drawing
-        .unwrap_or_else(|| steps.to_drawing(&plotter_path::geometry::steps::StepMapper::new(profile), "trajectory"));
-    let paper = match (&args.hpgl_paper, device.papers.is_empty()) {
-        (Some(name), false) => Some(
-            device
-                .paper(name)
-                .with_context(|| format!("--hpgl-paper {name}: the {} takes {}", device.name, device.paper_names()))?,
-        ),
-        (Some(_), true) => bail!("--hpgl-paper: the {} plots on the drawing's own page", device.name),
-        (None, _) => None,
-    };
-    let (program, paper) = plotter_host::job::hpgl::program_for(profile, &drawing, device, paper)?;
-    plotter_host::input::warn_all(&program.warnings);
-    Ok((program, device, paper, drawing.path_count()))
-}
-
-/// `--export FILE.hpgl`: write the HP-GL program.
-fn export_hpgl(
-    args: &PlotArgs,
-    profile: &MachineProfile,
-    steps: &plotter_path::geometry::steps::StepDrawing,
-    drawing: Option<plotter_path::Drawing>,
-    out: &Path,
-) -> anyhow::Result<()> {
-    let (program, device, paper, strokes) = hpgl_program(args, profile, steps, drawing)?;
-    std::fs::write(out, &program.text).with_context(|| format!("cannot write {}", out.display()))?;
-    println!("{strokes} strokes for the {} on {} written to {}", device.name, paper.name, out.display());
-    Ok(())
-}
-
-/// `--firmware hpgl --port DEV`: stream the HP-GL program to the plotter (or, with `resume`, continue the plot a
-/// journal recorded).
-fn plot_hpgl(
-    args: &PlotArgs,
-    input: &Path,
-    port: &str,
-    profile: &MachineProfile,
-    steps: &plotter_path::geometry::steps::StepDrawing,
-    drawing: Option<plotter_path::Drawing>,
-    resume: Option<(&journal::JournalState, &Path)>,
-) -> anyhow::Result<()> {
-    use plotter_host::job::hpgl as hplot;
-    use plotter_host::link::hpgl::{commands::Commands, port::HpglPort, sender::HpglSession};
-    let (program, device, paper, _) = hpgl_program(args, profile, steps, drawing)?;
-    let cmds = Commands::split(&program.text, device);
-    let hash = hplot::program_hash(&program.text);
-    if let Some((state, path)) = resume
-        && (state.plan_hash != hash || state.blocks != cmds.list.len())
-    {
-        bail!("{} no longer gives the HP-GL program recorded in {}", input.display(), path.display());
-    }
-    let mut s = HpglSession::connect(HpglPort::open(port, args.baud.unwrap_or(9600))?, port, device, args.handshake)?;
-    eprintln!("{} on {port} (buffer {} bytes, handshake {})", s.identity, s.buffer_bytes, args.handshake.name());
-    for w in &s.warnings {
-        eprintln!("warning: {w}");
-    }
-    let (journal, from, path) = match resume {
-        Some((state, path)) => {
-            (journal::Journal::append(path, state)?, hplot::resume_point(state.executed, &cmds), path.to_path_buf())
-        }
-        None => {
-            let path = args.journal.clone().unwrap_or_else(|| default_beside(input, ".journal"));
-            let source = PlotSource {
-                cwd: std::env::current_dir().context("no current directory")?,
-                args: std::env::args().skip_while(|a| a != "plot").skip(1).collect(),
-                start: [0; 4],
-            };
-            (journal::Journal::create(&path, &serde_json::to_string(&source)?, hash, cmds.list.len())?, 0, path)
-        }
-    };
-    let mut terminal = Terminal::new(args.pause_immediately, PenChangeMode::None)?;
-    let outcome = hplot::plot(&mut s, &cmds, &paper, from, Some(journal), Some(&path), &mut terminal);
-    terminal.bar.finish_and_clear();
-    let o = outcome?;
-    // Display only.
-    #[allow(clippy::cast_precision_loss)]
-    let (bytes, cmds_sent) = (o.stats.bytes as f64, (o.commands - o.from) as f64);
-    println!(
-        "{} commands (from command {}), {:.1} mm pen-down; {} bytes in {:.1} s: {:.0} bytes/s, {:.1} commands/s \
-         (the program's estimated plotter time {:.1} s)",
-        o.commands,
-        o.from + 1,
-        o.draw_mm,
-        o.stats.bytes,
-        o.seconds,
-        bytes / o.seconds.max(1e-9),
-        cmds_sent / o.seconds.max(1e-9),
-        o.estimated_s
-    );
-    println!(
-        "handshake {}: {} ESC . B queries, {} Xoffs, {} waits for room",
-        args.handshake.name(),
-        o.stats.space_queries,
-        o.stats.xoffs,
-        o.stats.waits
-    );
-    Ok(())
-}
-
 /// Run `plotter plot`.
 pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     // From the start: a signal while loading or connecting ends the command (imports stop early), one during the
