@@ -16,6 +16,7 @@
 //! - [`link`]: the byte transports (serial port, in-process simulator, fault injection), the session with the
 //!   firmware, block streaming with flow control and resends, and the resume journal; connecting to a port of any
 //!   firmware dialect, jogging and the console's keys, which both front ends offer;
+//! - [`state_dir`]: where the plotter keeps its own files (resume journals), in the user's state directory;
 //! - [`error`]: the typed [`Error`] its functions return, with the causes a front end acts on (a refused block,
 //!   an alarm, a lost port, a firmware that is not the expected one, a bad input file, a plot the user stopped).
 //!
@@ -47,6 +48,7 @@ pub mod input;
 pub mod job;
 pub mod link;
 pub mod options;
+pub mod state_dir;
 pub mod stop;
 
 pub use error::{Error, Result, Trouble};
