@@ -75,6 +75,86 @@ pub struct JobProgress {
     pub pen_down: bool,
 }
 
+/// `seconds` as `h:mm:ss` (rounded to the second; negative or not a number: `0:00:00`), the way a person reads a
+/// time left: `0:00:00`, `0:01:05`, `2:00:00`, `27:46:40`.
+pub fn hms(seconds: f64) -> String {
+    let s = if seconds.is_finite() && seconds > 0.0 { seconds.round() } else { 0.0 };
+    // Rounded, non-negative, and below 2^64 for any plot (u64::MAX seconds is longer than the universe).
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let s = s.min(9.0e15) as u64;
+    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+impl JobProgress {
+    /// Whole per cent of the blocks executed (0 to 100; 100 for an empty plan).
+    pub fn percent(&self) -> u32 {
+        if self.total == 0 {
+            return 100;
+        }
+        let p = self.executed.min(self.total).saturating_mul(100) / self.total;
+        u32::try_from(p).unwrap_or(100)
+    }
+
+    /// One line for a person: per cent done, time left (h:mm:ss), pen-down millimetres drawn of the total, the
+    /// pen (up or down) and where it is, and resends when there were any. With `width` (a terminal's columns) a
+    /// bar comes first and the line fits in `width - 1` columns (never reaching the last column, so it never
+    /// wraps): the least useful figures are left out first — resends, the pen, the bar, the millimetres, the time
+    /// — and the per cent is always there. Without `width` (a log), no bar and every figure.
+    pub fn line(&self, width: Option<usize>) -> String {
+        const BAR: usize = 20;
+        let pct = self.percent();
+        let mut fields: Vec<(u8, String)> = Vec::with_capacity(6);
+        if width.is_some() {
+            let full = usize::try_from(pct).unwrap_or(100) * BAR / 100;
+            fields.push((3, format!("[{}{}]", "#".repeat(full), "-".repeat(BAR - full))));
+        }
+        fields.push((0, format!("{pct:>3}%")));
+        fields.push((1, format!("{} left", hms(self.eta_s))));
+        fields.push((2, format!("pen-down {:.0}/{:.0} mm", self.draw_done_mm, self.draw_total_mm)));
+        let pen = if self.pen_down { "down" } else { "up" };
+        fields.push((4, format!("pen {pen} at X {:.1} Y {:.1} mm", self.pen_mm.x, self.pen_mm.y)));
+        if self.resends > 0 {
+            fields.push((5, format!("{} resends", self.resends)));
+        }
+        let join = |f: &[(u8, String)]| f.iter().map(|(_, t)| t.as_str()).collect::<Vec<_>>().join("  ");
+        let Some(width) = width else { return join(&fields) };
+        let room = width.saturating_sub(1);
+        loop {
+            let line = join(&fields);
+            if line.chars().count() <= room {
+                return line;
+            }
+            match fields.iter().enumerate().filter(|(_, (rank, _))| *rank > 0).max_by_key(|(_, (rank, _))| *rank) {
+                Some((i, _)) => {
+                    fields.remove(i);
+                }
+                None => return line.chars().take(room).collect(),
+            }
+        }
+    }
+}
+
+/// When a log (not a terminal) gets a progress line: each time the plot passes another 5 % of its blocks, and
+/// at its end, once each.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct LogCadence {
+    /// The per cent already logged (`None` before the first line).
+    logged: Option<u32>,
+}
+
+impl LogCadence {
+    /// Whether `p` deserves a line: its per cent reached a multiple of 5 past the last one logged (a jump over
+    /// several gives one line).
+    pub fn due(&mut self, p: &JobProgress) -> bool {
+        let step = p.percent() / 5 * 5;
+        if p.executed == 0 || self.logged.is_some_and(|l| step <= l) || (step == 0 && p.percent() < 100) {
+            return false;
+        }
+        self.logged = Some(step);
+        true
+    }
+}
+
 /// A front end's side of a plot job: it sees progress and decides about pauses.
 pub trait PlotEvents {
     /// The plot advanced.
@@ -260,6 +340,76 @@ mod tests {
         fn progress(&mut self, p: &JobProgress) {
             self.0 = Some(*p);
         }
+    }
+
+    fn progress(executed: usize, total: usize) -> JobProgress {
+        JobProgress {
+            executed,
+            accepted: executed,
+            total,
+            draw_done_mm: 120.4,
+            draw_total_mm: 300.0,
+            eta_s: 754.4,
+            resends: 0,
+            pen_mm: Point::new(10.0, 20.24),
+            pen_down: true,
+        }
+    }
+
+    #[test]
+    fn hours_minutes_seconds() {
+        assert_eq!(hms(0.0), "0:00:00");
+        assert_eq!(hms(0.4), "0:00:00");
+        assert_eq!(hms(59.5), "0:01:00");
+        assert_eq!(hms(65.0), "0:01:05");
+        assert_eq!(hms(2484.0), "0:41:24");
+        assert_eq!(hms(3600.0), "1:00:00");
+        assert_eq!(hms(100_000.0), "27:46:40");
+        assert_eq!(hms(-3.0), "0:00:00");
+        assert_eq!(hms(f64::NAN), "0:00:00");
+    }
+
+    #[test]
+    fn the_line_fits_the_width_by_leaving_figures_out() {
+        let p = progress(42, 100);
+        let full = "[########------------]   42%  0:12:34 left  pen-down 120/300 mm  pen down at X 10.0 Y 20.2 mm";
+        assert_eq!(p.line(Some(200)), full);
+        assert_eq!(p.line(Some(full.len() + 1)), full);
+        // One column less: the pen goes first.
+        assert_eq!(p.line(Some(full.len())), "[########------------]   42%  0:12:34 left  pen-down 120/300 mm");
+        assert_eq!(p.line(Some(80)), "[########------------]   42%  0:12:34 left  pen-down 120/300 mm");
+        assert_eq!(p.line(Some(60)), " 42%  0:12:34 left  pen-down 120/300 mm");
+        assert_eq!(p.line(Some(40)), " 42%  0:12:34 left  pen-down 120/300 mm");
+        assert_eq!(p.line(Some(39)), " 42%  0:12:34 left");
+        assert_eq!(p.line(Some(10)), " 42%");
+        assert_eq!(p.line(Some(3)), " 4");
+        assert_eq!(p.line(Some(0)), "");
+        for w in 0..200 {
+            assert!(p.line(Some(w)).chars().count() < w.max(1), "width {w}");
+        }
+        // Resends, when there are any, are the first to go.
+        let r = JobProgress { resends: 3, ..progress(100, 100) };
+        assert_eq!(r.line(None), "100%  0:12:34 left  pen-down 120/300 mm  pen down at X 10.0 Y 20.2 mm  3 resends");
+        assert_eq!(
+            r.line(Some(100)),
+            "[####################]  100%  0:12:34 left  pen-down 120/300 mm  pen down at X 10.0 Y 20.2 mm"
+        );
+        assert_eq!(progress(0, 0).percent(), 100);
+    }
+
+    #[test]
+    fn a_log_gets_a_line_every_five_per_cent_and_at_the_end() {
+        let mut c = LogCadence::default();
+        let logged: Vec<usize> = (0..=1000).filter(|&e| c.due(&progress(e, 1000))).collect();
+        let every_50: Vec<usize> = (1..=20).map(|k| k * 50).collect();
+        assert_eq!(logged, every_50);
+        // Jumps log once; a plan of 7 blocks logs at each block past a multiple of 5 %, and its end.
+        let mut c = LogCadence::default();
+        let logged: Vec<usize> = [0, 3, 40, 41, 97, 100].into_iter().filter(|&e| c.due(&progress(e, 100))).collect();
+        assert_eq!(logged, [40, 97, 100]);
+        let mut c = LogCadence::default();
+        let logged: Vec<usize> = (0..=7).filter(|&e| c.due(&progress(e, 7))).collect();
+        assert_eq!(logged, [1, 2, 3, 4, 5, 6, 7]);
     }
 
     #[test]
