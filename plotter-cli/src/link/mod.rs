@@ -14,6 +14,7 @@ pub mod hpgl;
 pub mod jog;
 pub mod journal;
 pub mod machine;
+pub mod paced;
 pub mod print;
 pub mod serial;
 pub mod session;

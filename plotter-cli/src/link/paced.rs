@@ -1,5 +1,6 @@
 //! The in-process simulator at the pace of a real machine: virtual time may not run ahead of the wall clock
-//! (times a speed factor), so a page watching the plot sees it move as a plotter would, and has time to pause it.
+//! (times a speed factor), so someone watching the plot (the web page, `plotter plot --sim-speed`) sees it move
+//! as a plotter would, and has time to pause it.
 //!
 //! The simulator itself runs on virtual time as fast as it can; this wrapper only hands it slices of at most
 //! [`SLICE`] of virtual time and sleeps whenever virtual time is ahead of `wall elapsed × speed`. After a pause
@@ -8,16 +9,16 @@
 use std::io;
 use std::time::{Duration, Instant};
 
-use plotter_host::link::Transport;
-use plotter_host::link::sim::SimTransport;
+use super::Transport;
+use super::sim::SimTransport;
 
 /// The most virtual time simulated in one go.
 const SLICE: Duration = Duration::from_millis(10);
 /// Falling further behind than this (virtual time) restarts the pace instead of catching up.
 const MAX_LAG: Duration = Duration::from_millis(200);
 
-/// A [`SimTransport`] paced to the wall clock.
-pub(crate) struct PacedSim {
+/// A [`SimTransport`] paced to the wall clock (or not at all, at an infinite speed).
+pub struct PacedSim {
     inner: SimTransport,
     speed: f64,
     base_wall: Instant,
@@ -25,19 +26,23 @@ pub(crate) struct PacedSim {
 }
 
 impl PacedSim {
-    /// Pace `inner` at `speed` × real time (`speed` > 0; e.g. 4 runs a 20 s plot in 5 s).
-    pub(crate) fn new(inner: SimTransport, speed: f64) -> Self {
+    /// Pace `inner` at `speed` × real time (`speed` > 0; e.g. 4 runs a 20 s plot in 5 s; infinity: as fast as
+    /// the simulator runs).
+    pub fn new(inner: SimTransport, speed: f64) -> Self {
         let base_virtual = inner.now();
         PacedSim { inner, speed: speed.max(1e-3), base_wall: Instant::now(), base_virtual }
     }
 
     /// The simulator (trace, executed time).
-    pub(crate) fn inner(&self) -> &SimTransport {
+    pub fn inner(&self) -> &SimTransport {
         &self.inner
     }
 
     /// Sleep until the wall clock allows virtual time to pass `self.inner.now()`.
     fn keep_pace(&mut self) {
+        if !self.speed.is_finite() {
+            return;
+        }
         let now_virtual = self.inner.now();
         let allowed = self.base_virtual + self.base_wall.elapsed().mul_f64(self.speed);
         if now_virtual > allowed {
@@ -86,7 +91,7 @@ impl Transport for PacedSim {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use plotter_host::link::session::Session;
+    use crate::link::session::Session;
     use plotter_path::MachineProfile;
     use plotter_path::motion::plan::machine_config;
 

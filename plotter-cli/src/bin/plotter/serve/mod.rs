@@ -12,7 +12,6 @@
 //! - [`control`]: which page drives the machine;
 //! - [`command`]: what the HTTP side asks the worker;
 //! - [`worker`]: the thread that owns the link to the machine and runs plots;
-//! - [`paced`]: the simulator paced to the wall clock;
 //! - [`shutdown`]: ending on a signal with the plot stopped and the pen up.
 //!
 //! The HTTP side never blocks on the machine: it sends commands to the worker and the worker reports through
@@ -26,7 +25,6 @@ pub(crate) mod deadline;
 pub(crate) mod error;
 pub(crate) mod events;
 pub(crate) mod listen;
-pub(crate) mod paced;
 pub(crate) mod safety;
 pub(crate) mod shutdown;
 pub(crate) mod state;

@@ -32,7 +32,7 @@ use serde::Serialize;
 
 use super::command::{Command, HpglChoice, hpgl_refusal};
 use super::events::{Event, Hub, ProgressEvent, Prompt};
-use super::paced::PacedSim;
+use plotter_host::link::paced::PacedSim;
 use super::state::Shared;
 
 /// The open link (boxed: the simulator is large, and the link moves only when it opens): the simulator runs our
