@@ -260,3 +260,31 @@ fn sigterm_ends_the_simulator_as_ctrl_c_does_with_its_trace_written() {
     let trace = sim.stop_with(nix::sys::signal::Signal::SIGTERM);
     assert!(!trace.positions.is_empty() && trace.busy_ticks > 0, "{trace:?}");
 }
+
+/// `home` and `jog` say where the machine stands in millimetres and the pen as up or down (steps only with
+/// `--json`), on our firmware and on an EiBotBoard, whose pen is asked with `QP`. The built-in kit: 80 steps/mm on
+/// X and Y, the pen up at Z 4 mm = 1600 steps of 400/mm.
+#[test]
+fn home_and_jog_speak_millimetres_and_the_pen() {
+    let dir = scratch("pty-home-jog-mm");
+    let sim = SimPty::start(&dir, &["--fast"]);
+    let home = ok(&plotter(&dir, &["home", "--port", &sim.port]));
+    assert_eq!(home.trim(), "homed: X 0.00 Y 0.00 mm, pen up");
+    let jog = ok(&plotter(&dir, &["jog", "--port", &sim.port, "x", "10"]));
+    assert_eq!(jog.trim(), "at X 10.00 Y 0.00 mm, pen up");
+    let down = ok(&plotter(&dir, &["jog", "--port", &sim.port, "down"]));
+    assert_eq!(down.trim(), "at X 10.00 Y 0.00 mm, pen down");
+    let json = ok(&plotter(&dir, &["jog", "--port", &sim.port, "y", "2.5", "--json"]));
+    let v: serde_json::Value = serde_json::from_str(json.trim()).expect("jog --json prints JSON");
+    assert_eq!(v, serde_json::json!({"x_mm": 10.0, "y_mm": 2.5, "pen": "down", "steps": [800, 200, 0, 0]}));
+    drop(sim);
+
+    let axidraw = plotter_e2e::sample("axidraw-v3.toml");
+    let ebb = SimPty::start(&dir, &["--ebb", "--fast", "--profile", axidraw.to_str().unwrap()]);
+    let link = ["--port", ebb.port.as_str(), "--firmware", "ebb", "--profile", axidraw.to_str().unwrap()];
+    let home = ok(&plotter(&dir, &[&["home"][..], &link].concat()));
+    assert_eq!(home.trim(), "homed: X 0.00 Y 0.00 mm, pen up");
+    ok(&plotter(&dir, &[&["jog"][..], &link, &["down"]].concat()));
+    let jog = ok(&plotter(&dir, &[&["jog"][..], &link, &["x", "12.5"]].concat()));
+    assert_eq!(jog.trim(), "at X 12.50 Y 0.00 mm, pen down");
+}

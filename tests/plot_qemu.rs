@@ -96,7 +96,7 @@ fn duck_on_the_emulated_board_steps_exactly_the_plan() {
     let sim = SimPty::start_qemu(&dir);
     // Homing against the endstops `sim --qemu` drives from the counted pulses.
     let home = ok(&plotter(&dir, &["home", "--port", &sim.port]));
-    assert!(home.contains("homed; position [0, 0, 1600, 0]"), "{home}");
+    assert!(home.contains("homed: X 0.00 Y 0.00 mm, pen up"), "{home}");
     let homing = settled_trace(sim.trace_path());
     assert!(homing.len() > 1_000, "homing moved every axis to its switch and back: {} pulses", homing.len());
     let start_phys = *homing.last().expect("homing pulses");

@@ -92,13 +92,13 @@ pub fn jog_lines(
 /// Run `jog` on the connected machine: its lines for the machine's dialect ([`jog_lines`]), each handed to `sent`
 /// before it goes out (for a log), then back to absolute mode (even after a refused move) and wait until the move
 /// is done. An EiBotBoard has no soft limits, so its jog is checked against the profile's travel first. Returns
-/// where the machine then stands, as a line for the user.
+/// where the machine then stands.
 pub fn run_jog<T: Transport + 'static>(
     c: &mut Connected<T>,
     jog: &Jog,
     profile: &plotter_path::MachineProfile,
     sent: &mut dyn FnMut(&str),
-) -> anyhow::Result<String> {
+) -> anyhow::Result<super::standing::Standing> {
     let firmware = c.machine().firmware();
     let lines = jog_lines(jog, profile, firmware)?;
     if let Connected::Ebb(e) = c {
@@ -127,18 +127,16 @@ pub fn run_jog<T: Transport + 'static>(
         let _ = c.command("G90");
     }
     result?;
-    Ok(match c {
-        Connected::Ours(s) => format!("position {:?} steps", s.wait_idle(Duration::from_millis(50))?.steps),
+    match c {
+        Connected::Ours(s) => {
+            s.wait_idle(Duration::from_millis(50))?;
+        }
         Connected::Grbl(g) => {
-            let st = g.wait_idle()?;
-            let pos = st.mpos.map(|p| format!("MPos {p:?}")).or(st.wpos.map(|p| format!("WPos {p:?}")));
-            format!("position {} mm", pos.unwrap_or_default())
+            g.wait_idle()?;
         }
-        Connected::Ebb(e) => {
-            e.drain(Duration::from_secs(600))?;
-            format!("position {:?} steps (motors {:?})", e.position()?, e.motors()?)
-        }
-    })
+        Connected::Ebb(e) => e.drain(Duration::from_secs(600))?,
+    }
+    super::standing::standing(c, profile)
 }
 
 /// A jog as EBB commands: `XM,<ms>,<x steps>,<y steps>` (the board mixes them onto its two motors) or `SP`.

@@ -104,6 +104,10 @@ fn qs_shape(l: &str) -> bool {
     numbers(l, "QS,", 2)
 }
 
+fn qp_shape(l: &str) -> bool {
+    numbers(l, "QP,", 1)
+}
+
 fn qe_shape(l: &str) -> bool {
     numbers(l, "QE,", 2)
 }
@@ -492,6 +496,12 @@ impl<T: Transport> EbbSession<T> {
         let m = <[i64; 2]>::try_from(v).map_err(|_| anyhow::anyhow!("{}: unreadable QS answer {l:?}", self.name))?;
         self.check_motors(m)?;
         Ok(m)
+    }
+
+    /// Whether the pen is up, as the board last commanded its servo (`QP`: 1 up, 0 down).
+    pub fn pen_is_up(&mut self) -> anyhow::Result<bool> {
+        let l = self.exchange("QP", Expect::LineOk(qp_shape), COMMAND_TIMEOUT)?;
+        Ok(l.trim().trim_start_matches("QP,").trim() == "1")
     }
 
     /// Refuse motor positions whose XY position lies outside the work area by more than [`TRAVEL_MARGIN_MM`] on

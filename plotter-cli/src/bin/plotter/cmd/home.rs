@@ -1,10 +1,22 @@
-//! `plotter home`: run the homing cycle on a connected plotter (our firmware or GRBL) and report where it is.
+//! `plotter home`: run the homing cycle on a connected plotter (our firmware, GRBL or an EiBotBoard) and say where
+//! it stands, in millimetres (`--json`: with the raw steps, for scripts).
 
 use anyhow::Context as _;
 use plotter_host::link::connect::{LinkArgs, open_port};
 use plotter_host::link::machine::{Connected, Firmware, home_machine};
 use plotter_host::link::serial::SerialTransport;
+use plotter_host::link::standing::standing;
 use plotter_path::MachineProfile;
+
+/// Arguments of `plotter home`.
+#[derive(clap::Args, Debug, Clone)]
+pub(crate) struct HomeArgs {
+    #[command(flatten)]
+    pub(crate) link: LinkArgs,
+    /// Print where the machine stands as JSON (x_mm, y_mm, pen, steps) instead of a sentence.
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 /// Open `port` and connect to `firmware`; prints what answered.
 pub(crate) fn open(
@@ -26,11 +38,16 @@ pub(crate) fn connect(args: &LinkArgs) -> anyhow::Result<(MachineProfile, Connec
 }
 
 /// Run `plotter home`.
-pub(crate) fn run(args: &LinkArgs) -> anyhow::Result<()> {
+pub(crate) fn run(args: &HomeArgs) -> anyhow::Result<()> {
     // A signal ends the handshake or the homing cycle the firmware's way (a reset or ES), not the process mid-move.
     plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
-    let (_, mut c) = connect(args)?;
-    let p = home_machine(c.machine())?;
-    println!("homed; position {p:?} steps");
+    let (profile, mut c) = connect(&args.link)?;
+    home_machine(c.machine())?;
+    let at = standing(&mut c, &profile)?;
+    if args.json {
+        println!("{}", at.json());
+    } else {
+        println!("homed: {at}");
+    }
     Ok(())
 }
