@@ -37,6 +37,19 @@ pub enum Error {
         /// What happened next, and how to continue.
         after: String,
     },
+    /// The machine ended a job that is not a block stream (a print, played line by line) with an alarm or a
+    /// restart; the text says which and what the machine did.
+    #[error("{0}")]
+    Halted(String),
+    /// A job ended early after the machine was made safe: the text says why and what was done; `trouble` is the
+    /// kind of the cause (so that a stop stays a stop and an alarm an alarm under the added words).
+    #[error("{text}")]
+    Ended {
+        /// Why the job ended and what was done about it.
+        text: String,
+        /// The kind of trouble that ended it.
+        trouble: Trouble,
+    },
     /// The firmware restarted during a plot (its banner appeared).
     #[error("the firmware restarted during the plot after {executed} executed block(s){after}")]
     Restarted {
@@ -166,7 +179,10 @@ impl Error {
     /// What kind of trouble this is.
     pub fn trouble(&self) -> Trouble {
         match self {
-            Error::Refused { .. } | Error::Alarm { .. } | Error::Restarted { .. } => Trouble::Machine,
+            Error::Ended { trouble, .. } => *trouble,
+            Error::Refused { .. } | Error::Alarm { .. } | Error::Restarted { .. } | Error::Halted(_) => {
+                Trouble::Machine
+            }
             Error::PortLost { .. }
             | Error::PortUnavailable(_)
             | Error::FirmwareMismatch { .. }

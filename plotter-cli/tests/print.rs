@@ -47,11 +47,12 @@ fn prusaslicer_cube_prints_with_both_estimates() {
 fn a_broken_thermistor_stops_the_print_naming_the_sensor() {
     let o = print(&["--fault", "hotend-open@300"], "samples/printer.toml");
     let err = text(&o.stderr);
-    assert!(!o.status.success());
+    // A machine alarm: exit status 3, as the README's list of statuses says (it was 1, "anything else").
+    assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(err.contains("printer alarm 5: MINTEMP") && err.contains("hot end sensor T0"), "{err}");
     let o = print(&["--fault", "bed-cartridge@100"], "samples/printer.toml");
     let err = text(&o.stderr);
-    assert!(!o.status.success());
+    assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(err.contains("bed sensor B") && err.contains("thermal runaway"), "{err}");
 }
 

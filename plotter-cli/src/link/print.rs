@@ -178,15 +178,19 @@ pub fn stream_print<T: Transport>(
     machine: Played,
     control: &mut dyn PrintControl,
 ) -> anyhow::Result<PrintStats> {
-    let stats = stream(session, plan, machine, control).map_err(|why| match (machine, shut_down(session, machine)) {
-        (Played::Printer, Ok(())) => anyhow::anyhow!("{why:#}; print stopped: motion stopped, heaters and fan off"),
-        (Played::Printer, Err(e)) => anyhow::anyhow!(
-            "{why:#}; print stopped, but the heaters could not be switched off ({e:#}): switch the printer off"
-        ),
-        (Played::Plotter { .. }, Ok(())) => anyhow::anyhow!("{why:#}; plot stopped: motion stopped, pen up"),
-        (Played::Plotter { .. }, Err(e)) => anyhow::anyhow!(
-            "{why:#}; plot stopped, but the pen could not be raised ({e:#}): lift it by hand before moving the carriage"
-        ),
+    let stats = stream(session, plan, machine, control).map_err(|why| {
+        let text = match (machine, shut_down(session, machine)) {
+            (Played::Printer, Ok(())) => format!("{why:#}; print stopped: motion stopped, heaters and fan off"),
+            (Played::Printer, Err(e)) => format!(
+                "{why:#}; print stopped, but the heaters could not be switched off ({e:#}): switch the printer off"
+            ),
+            (Played::Plotter { .. }, Ok(())) => format!("{why:#}; plot stopped: motion stopped, pen up"),
+            (Played::Plotter { .. }, Err(e)) => format!(
+                "{why:#}; plot stopped, but the pen could not be raised ({e:#}): lift it by hand before moving the \
+                 carriage"
+            ),
+        };
+        crate::Error::Ended { text, trouble: crate::Trouble::of(&why) }
     })?;
     if let Played::Plotter { up_z_mm, z_steps_per_mm } = machine {
         // The plan's end is in steps; half a step of slack for the rounding of the height.
@@ -349,16 +353,18 @@ fn stream<T: Transport>(
                 }
                 control.progress(&progress);
             }
-            Reply::Alarm { code, text } => bail!("{noun} alarm {code}: {text}"),
+            Reply::Alarm { code, text } => {
+                return Err(crate::Error::Halted(format!("{noun} alarm {code}: {text}")).into());
+            }
             Reply::Banner(_) => {
-                bail!("the firmware restarted during the {job}")
+                return Err(crate::Error::Halted(format!("the firmware restarted during the {job}")).into());
             }
             // Completion reports (framed mode) count blocks; the print follows its lines' answers instead.
             Reply::Completed(_) => {}
             Reply::Status(s) => {
                 if let Some(st) = Status::parse(s) {
                     if st.state == "Alarm" {
-                        bail!("the {noun} is in alarm");
+                        return Err(crate::Error::Halted(format!("the {noun} is in alarm")).into());
                     }
                     if done_sending && st.is_idle() {
                         break;
