@@ -30,8 +30,8 @@ pub enum Firmware {
     Grbl,
     /// The EiBotBoard (AxiDraw, NextDraw, iDraw): `LM`/`SM` moves, servo pen.
     Ebb,
-    /// A vintage HP-GL plotter (HP 7475A and kin): the HP-GL export streamed under a buffer handshake
-    /// ([`super::hpgl`]), driven by `plotter plot` and `plotter serve` through an HP-GL session, not [`Connected`].
+    /// A vintage HP-GL plotter (HP 7475A and kin), sent the HP-GL export under a buffer handshake (by `plotter plot`
+    /// and `plotter serve`, which drive it through an HP-GL session of their own).
     Hpgl,
 }
 
