@@ -276,6 +276,15 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
 /// plotter kit profile.
 pub fn load_profile(path: Option<&Path>) -> crate::Result<MachineProfile> {
     match path {
+        // A model's name (or its sample file, which an installed program does not have) given as a file.
+        Some(p) if !p.exists() && plotter_path::config::models::meant_by_path(p).is_some() => {
+            let name = plotter_path::config::models::meant_by_path(p).map_or("", |m| m.name);
+            let e = anyhow::anyhow!(
+                "cannot read machine profile {}: no such file; did you mean --model {name} (built in)?",
+                p.display()
+            );
+            Err(BadInput::new(p, e).into())
+        }
         Some(p) => MachineProfile::load(p).map_err(|e| BadInput::new(p, e.into()).into()),
         None => Ok(MachineProfile::default_plotter()),
     }

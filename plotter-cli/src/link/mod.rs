@@ -2,7 +2,8 @@
 //! session (handshake, homing, status), block streaming with flow control and resends, and the resume journal;
 //! GRBL ([`grbl`]) and the EiBotBoard ([`ebb`]) as further firmware dialects, and the machine interface the plot
 //! job drives ([`machine`]); what the front ends share to reach and drive a plotter by hand: connecting to a port
-//! of any dialect ([`connect`]), jogging ([`jog`]) and the console's real-time keys ([`console`]).
+//! of any dialect ([`connect`]), jogging ([`jog`]), the manual commands ([`manual`]) and the console's real-time
+//! keys ([`console`]).
 
 pub mod babble;
 pub mod connect;
@@ -14,6 +15,7 @@ pub mod hpgl;
 pub mod jog;
 pub mod journal;
 pub mod machine;
+pub mod manual;
 pub mod paced;
 pub mod print;
 pub mod serial;

@@ -17,12 +17,13 @@ use crate::config::heaters::HeatersProfile;
 #[derive(Debug, thiserror::Error)]
 pub enum ProfileError {
     /// The file could not be read.
-    #[error("cannot read machine profile {path}: {source}")]
+    // The OS error is part of the message, not a source: a chain printed with its sources said it twice.
+    #[error("cannot read machine profile {path}: {error}")]
     Read {
         /// The file.
         path: String,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The TOML did not parse or did not match the schema.
     #[error("invalid machine profile {path}: {message}")]
@@ -381,9 +382,25 @@ pub const DEFAULT_PROFILE_TOML: &str = include_str!("../../../samples/xy-plotter
 
 impl MachineProfile {
     /// Parse a profile from TOML text; `origin` names the source in errors.
+    /// A profile that says `model = "NAME"` extends that built-in model (see [`crate::config::models`]).
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ProfileError> {
-        let profile: MachineProfile = toml::from_str(text)
-            .map_err(|e| ProfileError::Parse { path: origin.to_string(), message: e.to_string() })?;
+        let parse = |e: toml::de::Error| ProfileError::Parse { path: origin.to_string(), message: e.to_string() };
+        let table: toml::Table = toml::from_str(text).map_err(parse)?;
+        if table.contains_key("model") {
+            return Self::from_table(table, origin);
+        }
+        // Parsed from the text itself, so that a schema error names its line and column.
+        let profile: MachineProfile = toml::from_str(text).map_err(parse)?;
+        profile.validate(origin)?;
+        Ok(profile)
+    }
+
+    /// A profile from parsed TOML (its `model = "NAME"` key expanded), validated; `origin` names it in errors.
+    pub fn from_table(table: toml::Table, origin: &str) -> Result<Self, ProfileError> {
+        let table = crate::config::models::expand(table, origin)?;
+        let profile: MachineProfile = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| ProfileError::Parse { path: origin.to_string(), message: e.to_string() })?;
         profile.validate(origin)?;
         Ok(profile)
     }
@@ -391,8 +408,7 @@ impl MachineProfile {
     /// Load a profile from a TOML file.
     pub fn load(path: &Path) -> Result<Self, ProfileError> {
         let shown = path.display().to_string();
-        let text =
-            std::fs::read_to_string(path).map_err(|source| ProfileError::Read { path: shown.clone(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|error| ProfileError::Read { path: shown.clone(), error })?;
         Self::from_toml(&text, &shown)
     }
 
@@ -421,7 +437,9 @@ impl MachineProfile {
         self.page_to_machine(p)
     }
 
-    fn validate(&self, origin: &str) -> Result<(), ProfileError> {
+    /// Check every number against its physical range (and the sections against each other), as loading does;
+    /// `origin` names the profile in errors. For a profile changed after loading (command-line overrides).
+    pub fn validate(&self, origin: &str) -> Result<(), ProfileError> {
         let bad = |field: &str, problem: &str| ProfileError::Invalid {
             path: origin.to_string(),
             field: field.to_string(),
@@ -847,6 +865,16 @@ mod tests {
             }
         }
         assert!(loaded >= 8, "{loaded} sample profiles");
+    }
+
+    #[test]
+    fn a_missing_file_says_its_os_error_once() {
+        let err = MachineProfile::load(Path::new("no-such-dir/axidraw-v3")).unwrap_err();
+        // The OS error is in the message only: printed with its sources, the chain said it twice.
+        assert!(std::error::Error::source(&err).is_none());
+        let text = err.to_string();
+        assert!(text.starts_with("cannot read machine profile no-such-dir/axidraw-v3: "), "{text}");
+        assert_eq!(text.matches("os error 2").count(), 1, "{text}");
     }
 
     #[test]

@@ -43,6 +43,16 @@ enum Command {
     Jog(cmd::jog::JogArgs),
     /// Type G-code to a connected plotter and see its replies
     Console(plotter_host::link::connect::LinkArgs),
+    /// Raise, lower or cycle the pen of a connected plotter
+    Pen(cmd::manual::PenArgs),
+    /// Turn a connected plotter's motors off (to push the carriage by hand) or on
+    Motors(cmd::manual::MotorsArgs),
+    /// Raise the pen and move back to the home corner, without a homing cycle
+    WalkHome(plotter_host::link::connect::LinkArgs),
+    /// Print the firmware's version of a connected plotter
+    Version(plotter_host::link::connect::LinkArgs),
+    /// List the machine models built in (for --model), with their work areas and speeds
+    Models(cmd::models::ModelsArgs),
     /// Benchmark the serial link on a dense drawing (simulated 115200-baud link)
     #[command(hide = true)]
     BenchLink(cmd::bench::BenchArgs),
@@ -71,6 +81,11 @@ fn main() {
         Command::Home(args) => cmd::home::run(args),
         Command::Jog(args) => cmd::jog::run(args),
         Command::Console(args) => cmd::console::run(args),
+        Command::Pen(args) => cmd::manual::run_pen(args),
+        Command::Motors(args) => cmd::manual::run_motors(args),
+        Command::WalkHome(args) => cmd::manual::run_walk_home(args),
+        Command::Version(args) => cmd::manual::run_version(args),
+        Command::Models(args) => cmd::models::run(args),
         Command::BenchLink(args) => cmd::bench::run(args),
         Command::Gen(args) => cmd::generate::run(args),
         Command::Trace(args) => cmd::trace::run(args),
@@ -108,6 +123,7 @@ impl Command {
                 | Command::Gen(_)
                 | Command::Trace(_)
                 | Command::Optimize(_)
+                | Command::Models(_)
         )
     }
 }

@@ -75,13 +75,20 @@ impl PenSetup {
     }
 }
 
+/// The built-in EiBotBoard models as `--model` options: `--model axidraw-v3 (AxiDraw V3 and SE/A4), …`.
+fn ebb_models() -> String {
+    let models = plotter_path::config::models::for_firmware(plotter_path::config::models::ModelFirmware::Ebb);
+    models.map(|m| format!("--model {} ({})", m.name, m.description)).collect::<Vec<_>>().join(", ")
+}
+
 /// Why a plan cannot be sent to an EBB.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ProgramError {
     /// The profile has no `[ebb]` section.
     #[error(
-        "the machine profile has no [ebb] section (pen servo positions and rates): use one of \
-         samples/axidraw-*.toml"
+        "the machine profile has no [ebb] section (pen servo positions and rates): choose the EiBotBoard machine \
+         with {}, or add an [ebb] section to your profile",
+        ebb_models()
     )]
     NoEbbSection,
     /// A pen block moves a Z axis.

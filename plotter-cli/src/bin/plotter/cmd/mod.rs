@@ -6,6 +6,8 @@ pub(crate) mod convert;
 pub(crate) mod generate;
 pub(crate) mod home;
 pub(crate) mod jog;
+pub(crate) mod manual;
+pub(crate) mod models;
 pub(crate) mod optimize;
 pub(crate) mod plot;
 pub(crate) mod plot_as_written;
