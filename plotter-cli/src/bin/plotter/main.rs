@@ -38,7 +38,7 @@ enum Command {
     /// print its device path
     Sim(cmd::sim::SimArgs),
     /// Home a connected plotter
-    Home(plotter_host::link::connect::LinkArgs),
+    Home(cmd::home::HomeArgs),
     /// Move an axis by a distance, or lift/lower the pen
     Jog(cmd::jog::JogArgs),
     /// Type G-code to a connected plotter and see its replies
@@ -145,4 +145,69 @@ fn quiet_on_closed_stdout() {
         }
         default(info);
     }));
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory as _;
+
+    /// Every option and argument of every subcommand, with the subcommand's name.
+    fn every_arg() -> Vec<(String, clap::Arg)> {
+        fn walk(cmd: &clap::Command, path: &str, out: &mut Vec<(String, clap::Arg)>) {
+            for a in cmd.get_arguments() {
+                out.push((path.to_string(), a.clone()));
+            }
+            for sub in cmd.get_subcommands() {
+                walk(sub, &format!("{path} {}", sub.get_name()), out);
+            }
+        }
+        let mut out = Vec::new();
+        walk(&super::Cli::command(), "plotter", &mut out);
+        out
+    }
+
+    /// The help a user reads: every option of every command is described, in words for people — no rustdoc links
+    /// (`[`Connected`]`, `[`super::hpgl`]`) or code paths leaking from the source's doc comments.
+    #[test]
+    fn every_option_is_described_for_people() {
+        let mut missing = Vec::new();
+        let mut leaks = Vec::new();
+        let args = every_arg();
+        assert!(args.len() > 150, "the command line lost its options: {}", args.len());
+        for (cmd, a) in &args {
+            if a.is_hide_set() || matches!(a.get_id().as_str(), "help" | "version") {
+                continue;
+            }
+            let name = a.get_long().map_or_else(|| a.get_id().to_string(), |l| format!("--{l}"));
+            let help = a.get_long_help().or(a.get_help()).map(ToString::to_string).unwrap_or_default();
+            if help.trim().is_empty() {
+                missing.push(format!("{cmd} {name}"));
+            }
+            let values: Vec<String> = a
+                .get_possible_values()
+                .iter()
+                .filter(|v| !v.is_hide_set())
+                .map(|v| v.get_help().map(ToString::to_string).unwrap_or_default())
+                .collect();
+            for text in std::iter::once(&help).chain(&values) {
+                if text.contains("[`") || text.contains("super::") || text.contains("crate::") {
+                    leaks.push(format!("{cmd} {name}: {text}"));
+                }
+            }
+        }
+        assert!(missing.is_empty(), "options without a description:\n{}", missing.join("\n"));
+        assert!(leaks.is_empty(), "help text that speaks code:\n{}", leaks.join("\n"));
+    }
+
+    /// Every subcommand says what it does in one line.
+    #[test]
+    fn every_command_is_described() {
+        let cli = super::Cli::command();
+        let bare: Vec<&str> = cli
+            .get_subcommands()
+            .filter(|s| !s.is_hide_set() && s.get_about().is_none_or(|a| a.to_string().trim().is_empty()))
+            .map(clap::Command::get_name)
+            .collect();
+        assert!(bare.is_empty(), "subcommands without a description: {bare:?}");
+    }
 }
