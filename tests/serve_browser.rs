@@ -3,6 +3,8 @@
 //! estimate, plot on the simulator and watch progress reach 100 % and the as-stepped drawing appear, with the pen
 //! marker on the duck's strokes all along; a second test pauses and resumes, then fills the connect form's HP-GL
 //! device, sheet and handshake selectors from the server's table. A screenshot of the page mid-plot is saved to `target/serve-mid-plot.png`.
+//! After the first plot the same page moves a speed slider, switches the simulator's motors off, sets a custom
+//! paper size and downloads the G-code export; `target/serve-controls.png` shows the page with those controls.
 //!
 //! Needs `chromium` (or `PLOTTER_CHROMIUM=/path`); without it the tests say so and pass, except under CI
 //! (`CI` set), where a missing browser is a failure.
@@ -118,6 +120,14 @@ impl Cdp {
                 return v["result"].clone();
             }
         }
+    }
+
+    /// Send a command to the browser itself (not the page) and wait for its result.
+    fn call_browser(&mut self, method: &str, params: Value) -> Value {
+        let session = std::mem::take(&mut self.session);
+        let result = self.call(method, params);
+        self.session = session;
+        result
     }
 
     /// Evaluate `expr` in the page; its value.
@@ -298,10 +308,88 @@ fn upload_preview_plot_to_the_end_on_the_simulator() {
     let end = pen(&mut cdp);
     check_pen(&end);
     assert_eq!(end.readout, "X 8.0 mm, Y 82.0 mm, pen up");
-    assert!(cdp.text("#machine-status").contains("position 640, 6560,"), "{}", cdp.text("#machine-status"));
+    // The machine's position in millimetres (the simulator reports 640, 6560 steps at 80 steps/mm), not steps.
+    assert_eq!(cdp.text("#machine-pos"), "X 8.0 mm, Y 82.0 mm, pen up");
+    assert!(!cdp.text("#machine-status").contains("steps"), "{}", cdp.text("#machine-status"));
     assert!(cdp.text("#message").starts_with("done:"), "{}", cdp.text("#message"));
     cdp.screenshot(&workspace_root().join("target").join("serve-done.png"));
+    new_controls(&mut cdp, &profile);
     let _ = std::fs::remove_dir_all(profile);
+}
+
+/// The controls a saxi user reaches for, in the open page after the plot (to spare a browser start): a speed
+/// slider moved and sent, motors off on the simulator, a custom paper size that changes the preview's page, and the
+/// G-code export downloaded as a file. A screenshot of the page with them is saved to `target/serve-controls.png`.
+fn new_controls(cdp: &mut Cdp, scratch_dir: &Path) {
+    let set = |cdp: &mut Cdp, id: &str, value: &str, events: &[&str]| {
+        let fire: String = events.iter().map(|e| format!("e.dispatchEvent(new Event('{e}'));")).collect();
+        cdp.eval(&format!(
+            "(() => {{ const e = document.getElementById('{id}'); e.value = '{value}'; {fire} return e.value; }})()"
+        ))
+    };
+    // The drawing-speed slider starts at the profile's own 40 % and, once moved, is what the server plans with.
+    assert_eq!(cdp.eval("document.getElementById('speed-pendown-pct').value"), json!("40"));
+    assert_eq!(set(cdp, "speed-pendown-pct", "20", &["input", "change"]), json!("20"));
+    assert_eq!(cdp.text("#speed-pendown-pct-v"), "20 %");
+    cdp.wait_for("the server to take the speed", "snap.pen_speed.speed_pendown_pct === 20", Duration::from_secs(10));
+    // Drawing the duck's 565.5 mm at 30 mm/s instead of 60: the estimate grows (13.2 s before).
+    cdp.wait_for(
+        "a longer estimate",
+        "parseFloat(document.getElementById('estimate').textContent.split(':')[1]) > 20",
+        Duration::from_secs(10),
+    );
+    // Motors off on the simulator: our firmware's M18, and the status says so.
+    cdp.click("motors-off");
+    cdp.wait_for(
+        "the motors to be off",
+        "document.getElementById('machine-status').textContent.includes('motors off') && document.getElementById('console').textContent.includes('motors off (M18)')",
+        Duration::from_secs(10),
+    );
+    // A custom paper, 30 × 20 cm: the row appears, and the preview's page becomes 300 × 200 mm.
+    assert_eq!(set(cdp, "paper", "custom", &["change"]), json!("custom"));
+    assert_eq!(cdp.eval("document.getElementById('custom-paper').hidden"), json!(false));
+    cdp.wait_for("the custom paper setting", "snap.settings.paper === 'custom'", Duration::from_secs(10));
+    // Typed in one go (a state arriving between two fields would otherwise show the server's values again).
+    cdp.eval(
+        "(() => { const v = { 'paper-unit': 'cm', 'paper-width': '30', 'paper-height': '20' }; \
+         for (const id in v) document.getElementById(id).value = v[id]; \
+         document.getElementById('paper-height').dispatchEvent(new Event('change')); })()",
+    );
+    cdp.wait_for(
+        "the 30 × 20 cm page",
+        "document.getElementById('paper-rect').getAttribute('width') === '300' && document.getElementById('paper-rect').getAttribute('height') === '200'",
+        Duration::from_secs(10),
+    );
+    // The G-code export downloads as a file named after the drawing, starting with its header.
+    let downloads = scratch_dir.join("downloads");
+    std::fs::create_dir_all(&downloads).expect("download folder");
+    cdp.call_browser(
+        "Browser.setDownloadBehavior",
+        json!({ "behavior": "allow", "downloadPath": downloads.display().to_string() }),
+    );
+    // Tall enough to show the machine panel's sliders and buttons below the layout.
+    cdp.call(
+        "Emulation.setDeviceMetricsOverride",
+        json!({ "width": 1400, "height": 1450, "deviceScaleFactor": 1, "mobile": false }),
+    );
+    let shot = workspace_root().join("target").join("serve-controls.png");
+    cdp.screenshot(&shot);
+    assert!(std::fs::read(&shot).expect("screenshot").starts_with(b"\x89PNG"));
+    cdp.click("export-gcode");
+    let file = downloads.join("duck.gcode");
+    let t0 = Instant::now();
+    while !file.exists() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "no {} downloaded; page says {}",
+            file.display(),
+            cdp.text("#message")
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let gcode = std::fs::read_to_string(&file).expect("the download");
+    assert!(gcode.starts_with("; XY plotter kit (A3 frame)"), "{}", &gcode[..gcode.len().min(200)]);
+    assert!(gcode.contains("G21"), "millimetres");
 }
 
 #[test]

@@ -75,6 +75,7 @@ function onState(s) {
   fillLayers(s);
   fillStats(s);
   fillMachine(s);
+  fillPenSpeed(s);
   showPrompt(s.prompt);
   if (s.progress) onProgress(s.progress);
   if (s.view_version !== viewVersion) { viewVersion = s.view_version; loadView(); }
@@ -87,6 +88,32 @@ function fillSettings(st) {
   if (st.paper && ![...paper.options].some((o) => o.value === st.paper)) paper.add(new Option(st.paper, st.paper));
   set('paper', st.paper); set('orientation', st.orientation); set('margin', st.margin); set('rotate', String(((st.rotate % 4) + 4) % 4));
   set('fit', st.fit); set('center', st.center); set('optimize', st.optimize); set('trace', st.trace);
+  set('paper-width', st.paper_width); set('paper-height', st.paper_height); set('paper-unit', st.paper_unit);
+  set('hatch', st.hatch_mm); set('cross-hatch', st.cross_hatch); set('hidden-lines', st.hidden_lines);
+  showCustomPaper();
+}
+function showCustomPaper() { $('custom-paper').hidden = $('paper').value !== 'custom'; }
+
+// The pen and speed sliders: what the page chose, else the profile's own values.
+const SLIDERS = ['pen_up_pct', 'pen_down_pct', 'speed_pendown_pct', 'speed_penup_pct'];
+const sliderId = (k) => k.replace(/_/g, '-');
+function fillPenSpeed(s) {
+  for (const k of SLIDERS) {
+    const el = $(sliderId(k));
+    const v = s.pen_speed[k] != null ? s.pen_speed[k] : s.pen_speed_profile[k];
+    if (document.activeElement !== el && v != null) el.value = v;
+    $(sliderId(k) + '-v').textContent = el.value + ' %';
+  }
+}
+function sendPenSpeed() {
+  const body = {};
+  for (const k of SLIDERS) body[k] = Number($(sliderId(k)).value);
+  api('/api/pen-speed', body).catch(() => {});
+}
+for (const k of SLIDERS) {
+  const el = $(sliderId(k));
+  el.oninput = () => { $(sliderId(k) + '-v').textContent = el.value + ' %'; };
+  el.onchange = sendPenSpeed;
 }
 
 function fillLayers(s) {
@@ -133,16 +160,22 @@ function fillMachine(s) {
     p.replaceChildren(...s.profiles.map((n) => new Option(n, n, false, n === s.profile)));
   }
   const m = s.machine;
+  const plotting = m.activity === 'plotting' || m.activity === 'paused';
   // Text nodes: the connected name holds what the machine answered (an HP-GL plotter's identity).
   const activity = document.createElement('span');
   activity.id = 'activity';
   activity.textContent = m.activity;
+  const where = document.createElement('span');
+  where.id = 'machine-pos';
+  where.textContent = m.connected && m.position_mm ? standing(m.position_mm, m.pen_down) : '';
   $('machine-status').replaceChildren((m.connected ? m.connected : 'not connected') + ' — ', activity,
-    m.position ? ' — position ' + m.position.slice(0, 3).join(', ') + ' steps' : '');
+    where.textContent ? ' — ' : '', where, m.motors_off ? ' — motors off' : '');
+  $('test-pen').disabled = !m.connected || plotting;
+  $('motors-off').disabled = !m.connected || plotting || !!m.hpgl;
+  $('downloads').classList.toggle('disabled', !s.prepared);
   // An HP-GL plotter has no homing and no jogging.
   $('home').disabled = !!m.hpgl;
   document.querySelectorAll('.jog-btn').forEach((b) => { b.disabled = !!m.hpgl; });
-  const plotting = m.activity === 'plotting' || m.activity === 'paused';
   $('plot').disabled = !m.connected || plotting || !s.prepared;
   $('pause').disabled = $('pause-now').disabled = m.activity !== 'plotting';
   $('resume').disabled = !(s.prompt && s.prompt.kind === 'pause');
@@ -242,6 +275,14 @@ function onProgress(p) {
   $('eta').textContent = 'ETA ' + fmtTime(p.eta_s) + (p.resends ? ', ' + p.resends + ' resends' : '');
   if (ink.paths.length) inkTo(p.draw_done_mm);
   showPen(p.pen_mm, p.pen_down);
+  // The machine's position follows the plot, in millimetres from the home corner as outside a plot.
+  const where = $('machine-pos');
+  if (where && snap && snap.machine.activity !== 'idle') where.textContent = standing(p.machine_mm, p.pen_down);
+}
+
+// Where the machine stands, for people: millimetres from the home corner and the pen.
+function standing([x, y], down) {
+  return 'X ' + x.toFixed(1) + ' mm, Y ' + y.toFixed(1) + ' mm' + (down == null ? '' : down ? ', pen down' : ', pen up');
 }
 
 // The pen marker on the drawing (filled while the pen is down) and its position in the status bar.
@@ -313,9 +354,14 @@ function sendSettings() {
     paper: $('paper').value, orientation: $('orientation').value, margin: Number($('margin').value) || 0,
     fit: $('fit').checked, center: $('center').checked, rotate: Number($('rotate').value),
     optimize: $('optimize').checked, trace: $('trace').value, layers,
+    paper_width: Number($('paper-width').value) || 0, paper_height: Number($('paper-height').value) || 0,
+    paper_unit: $('paper-unit').value, hatch_mm: Number($('hatch').value) || 0,
+    cross_hatch: $('cross-hatch').checked, hidden_lines: $('hidden-lines').checked,
   }).catch(() => {});
 }
-['paper', 'orientation', 'margin', 'rotate', 'fit', 'center', 'optimize', 'trace'].forEach((id) => { $(id).onchange = sendSettings; });
+['paper', 'orientation', 'margin', 'rotate', 'fit', 'center', 'optimize', 'trace', 'paper-width', 'paper-height',
+  'paper-unit', 'hatch', 'cross-hatch', 'hidden-lines'].forEach((id) => { $(id).onchange = sendSettings; });
+$('paper').addEventListener('change', showCustomPaper);
 
 $('profile').onchange = () => api('/api/profile', { name: $('profile').value }).catch(() => {});
 $('profile-file').onchange = async (e) => {
@@ -373,6 +419,21 @@ $('disconnect').onclick = () => api('/api/disconnect').catch(() => {});
 $('home').onclick = () => api('/api/home').catch(() => {});
 $('pen-up').onclick = () => api('/api/pen', { down: false }).catch(() => {});
 $('pen-down').onclick = () => api('/api/pen', { down: true }).catch(() => {});
+$('test-pen').onclick = () => api('/api/test-pen').then(() => say('testing the pen…')).catch(() => {});
+$('motors-off').onclick = () => api('/api/motors-off').then(() => say('motors off: the carriage can be pushed by hand')).catch(() => {});
+// A download that fails says why on the page instead of saving the error as the file.
+for (const a of document.querySelectorAll('#downloads a')) {
+  a.onclick = async (e) => {
+    e.preventDefault();
+    const r = await fetch(a.href);
+    if (!r.ok) { let d = {}; try { d = await r.json(); } catch (_) { /* none */ } say(d.error || r.statusText, true); return; }
+    const name = (r.headers.get('Content-Disposition') || '').match(/filename="([^"]+)"/);
+    const url = URL.createObjectURL(await r.blob());
+    const save = Object.assign(document.createElement('a'), { href: url, download: name ? name[1] : 'drawing' });
+    document.body.appendChild(save); save.click(); save.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10000);
+  };
+}
 document.querySelectorAll('.jog-btn').forEach((b) => {
   b.onclick = () => api('/api/jog', { axis: b.dataset.axis, mm: Number(b.dataset.dir) * Number($('jog-step').value) }).catch(() => {});
 });

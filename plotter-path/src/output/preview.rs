@@ -2,6 +2,10 @@
 //! (or its layer's pen), and
 //! optionally the pen-up travel as a thin dashed overlay.
 //!
+//! A preview of what a machine will draw first passes the drawing through [`use_plotting_pens`]: every line is then
+//! drawn at the width of the pen that plots it (the profile's pen table, else its `[pen]` width) in the layer's pen
+//! colour, not at the stroke width the source file gave it (a 0.01 mm hairline, a 1.69 mm drop shadow).
+//!
 //! The same renderer serves every stage: the ideal paths of a drawing, a generated figure, and the "as-stepped"
 //! preview that the plot command builds from the simulator's step trace (pass those polylines as a drawing and
 //! the recorded pen-up moves as `travel`).
@@ -20,6 +24,8 @@ use std::path::Path;
 use kurbo::{Line, Rect};
 use tiny_skia::{Color, FillRule, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Stroke, StrokeDash, Transform};
 
+use crate::config::pens::{self, Pen};
+use crate::config::profile::MachineProfile;
 use crate::geometry::drawing::{Drawing, Rgb};
 use crate::geometry::limits::{self, LimitError};
 use crate::geometry::travel::pen_up_moves;
@@ -89,6 +95,27 @@ impl Default for PreviewOptions {
             paper: true,
             min_stroke_px: 1.0,
             max_stroke_mm: 1.0,
+        }
+    }
+}
+
+/// The pen that plots a layer named `name` whose own pen is `own`, as a preview draws it: the profile's pen table
+/// pen for that layer (by name, else by colour; see [`pens::resolve`]) with its width when the table gives one,
+/// else the profile's `[pen]` width; the colour is the table pen's, else the layer's. The source's stroke width
+/// never counts: the pen draws the line, not the file.
+pub fn plotting_pen(profile: &MachineProfile, name: &str, own: &Pen) -> Pen {
+    let resolved = pens::resolve(profile, name, own);
+    let table_width = resolved.table.and_then(|i| profile.pens.get(i)).and_then(|t| t.width_mm);
+    Pen { color: resolved.color, width_mm: table_width.unwrap_or(profile.pen.width_mm) }
+}
+
+/// Make `drawing` look as `profile` plots it: every layer gets its [`plotting_pen`], and paths lose the colour
+/// and width their source gave each of them (one pen draws the whole layer).
+pub fn use_plotting_pens(drawing: &mut Drawing, profile: &MachineProfile) {
+    for layer in &mut drawing.layers {
+        layer.pen = plotting_pen(profile, &layer.name, &layer.pen);
+        for path in &mut layer.paths {
+            path.pen = None;
         }
     }
 }
@@ -348,7 +375,7 @@ pub fn save_pixmap(pixmap: &Pixmap, path: &Path) -> Result<(), PreviewError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::drawing::{Pen, Polyline};
+    use crate::geometry::drawing::{Layer, Polyline};
     use kurbo::Point;
 
     fn pixel(p: &Pixmap, x: u32, y: u32) -> (u8, u8, u8) {
@@ -411,6 +438,56 @@ mod tests {
         assert_eq!(at(50.0, 20.3), (255, 0, 0));
         // White ink is shown grey so it does not vanish.
         assert_eq!(at(50.0, 80.0), (170, 170, 170));
+    }
+
+    /// Rows of column `x` painted in `ink`.
+    fn rows_of(p: &Pixmap, x: u32, ink: (u8, u8, u8)) -> Vec<u32> {
+        (0..p.height()).filter(|&y| pixel(p, x, y) == ink).collect()
+    }
+
+    /// The pen table decides the width: a 0.01 mm hairline and a 1.69 mm grey drop shadow are both drawn at the
+    /// profile's 0.5 mm pen in the layer's colour. At 254 dpi (10 px/mm) with the view starting 1 mm before a
+    /// 20 × 10 mm page, a line at y = 5.05 mm is centred on pixel row edge 60.5 px, so a 0.5 mm (5 px) pen covers
+    /// rows 58..=62 exactly: five rows, fully inked.
+    #[test]
+    fn lines_are_drawn_at_the_pen_tables_width_not_the_files() {
+        let mut profile = MachineProfile::default_plotter();
+        profile.pen.width_mm = 0.5;
+        // No pen table at first: the `[pen]` width draws every layer.
+        profile.pens.clear();
+        let line = |y: f64, pen: Pen| Polyline::with_pen(vec![Point::new(2.0, y), Point::new(18.0, y)], pen);
+        let hairline = Pen { color: Rgb(0, 0, 0), width_mm: 0.01 };
+        let shadow = Pen { color: Rgb(128, 128, 128), width_mm: 1.69 };
+        let mut d = Drawing::single_layer("ink", vec![line(5.05, hairline)]);
+        d.layers.push(Layer {
+            name: "shadow".into(),
+            pen: Pen { color: Rgb(0, 0, 255), width_mm: 1.69 },
+            paths: vec![line(8.05, shadow)],
+        });
+        d.page_mm = Some((20.0, 10.0));
+        let opts = PreviewOptions { dpi: 254.0, ..PreviewOptions::default() };
+        // As the file says: a one-pixel hairline and a grey stroke clamped to 1 mm.
+        let as_filed = render(&d, &opts).unwrap();
+        assert_eq!(rows_of(&as_filed, 100, (0, 0, 0)).len(), 1, "the hairline is one pixel");
+        assert_eq!(rows_of(&as_filed, 100, (0, 0, 255)), Vec::<u32>::new(), "the shadow is grey");
+        use_plotting_pens(&mut d, &profile);
+        let p = render(&d, &opts).unwrap();
+        assert_eq!(rows_of(&p, 100, (0, 0, 0)), vec![58, 59, 60, 61, 62]);
+        // The shadow's layer pen is blue: at y = 8.05 mm, rows 88..=92.
+        assert_eq!(rows_of(&p, 100, (0, 0, 255)), vec![88, 89, 90, 91, 92]);
+        // A table pen of that layer's name brings its own width: 0.3 mm = 3 px, rows 89..=91.
+        profile.pens = vec![crate::config::profile::PenSpec {
+            name: "shadow".into(),
+            color: None,
+            width_mm: Some(0.3),
+            down_z_mm: None,
+            servo_down_deg: None,
+            draw_feed_mm_s: None,
+            hatch: None,
+        }];
+        use_plotting_pens(&mut d, &profile);
+        let p = render(&d, &opts).unwrap();
+        assert_eq!(rows_of(&p, 100, (0, 0, 255)), vec![89, 90, 91]);
     }
 
     #[test]

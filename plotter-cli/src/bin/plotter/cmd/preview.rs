@@ -37,6 +37,8 @@ pub(crate) fn run(args: &PreviewArgs) -> Result<()> {
     let profile = MachineProfile::default_plotter();
     let mut drawing = args.source.load(&profile)?;
     optimize_quietly(&mut drawing, &args.optimize, None)?;
+    // Every line at the width of the pen that plots it, not the file's stroke width.
+    plotter_path::output::preview::use_plotting_pens(&mut drawing, &profile);
     let options = PreviewOptions { dpi: args.dpi, width_px: args.width_px, travel: args.travel, ..Default::default() };
     if let Some(note) = plotter_path::output::preview::reduction_note(&drawing, &options) {
         eprintln!("note: {note}");

@@ -32,6 +32,7 @@ use plotter_host::options::optimize::OptimizeArgs;
 use plotter_host::options::trace::ModeArg;
 use plotter_path::geometry::cancel::Cancel;
 use plotter_path::input::r#gen;
+use plotter_path::output::preview::plotting_pen;
 use plotter_path::{MachineProfile, Pen, Rgb};
 use serde::Deserialize;
 use serde_json::json;
@@ -43,6 +44,7 @@ use super::control;
 use super::deadline::body_deadline;
 use super::error::ApiError;
 use super::events::Event;
+use super::pen_speed::PenSpeed;
 use super::safety::{self, TOKEN_HEADER};
 use super::state::{Loaded, Settings, Shared, Source};
 
@@ -105,6 +107,10 @@ pub(crate) fn router(shared: Arc<Shared>) -> Router {
         .route("/api/jog", post(jog))
         .route("/api/pen", post(pen))
         .route("/api/console", post(console))
+        .route("/api/pen-speed", post(pen_speed))
+        .route("/api/test-pen", post(test_pen))
+        .route("/api/motors-off", post(motors_off))
+        .route("/api/export", get(super::export::download))
         .layer(DefaultBodyLimit::max(JSON_LIMIT))
         .layer(middleware::from_fn_with_state((JSON_LIMIT, false), declared_size))
         .merge(uploads)
@@ -167,10 +173,25 @@ async fn events(
     Sse::new(s).keep_alive(KeepAlive::default())
 }
 
+/// The prepared drawing for the page's preview, every layer drawn with the pen that plots it: the width and colour
+/// the page's layer table chose, else the profile's pen table, else its `[pen]` width — never the file's stroke
+/// width (see [`plotting_pen`]).
 async fn drawing_view(State(shared): State<Arc<Shared>>) -> ApiResult {
-    let prepared = shared.lock().prepared.clone();
+    let (prepared, profile, chosen) = {
+        let i = shared.lock();
+        (i.prepared.clone(), i.profile.clone(), i.settings.layers.clone())
+    };
     let p = prepared.ok_or_else(|| ApiError(StatusCode::NOT_FOUND, "no drawing loaded".into()))?;
-    Ok(Json(view(&p.drawing)).into_response())
+    let mut v = view(&p.drawing);
+    for (shown, layer) in v.layers.iter_mut().zip(&p.drawing.layers) {
+        let pen = plotting_pen(&profile, &layer.name, &layer.pen);
+        let choice = chosen.iter().find(|c| c.name == layer.name);
+        shown.width_mm = choice.map(|c| c.width_mm).filter(|w| *w > 0.0).unwrap_or(pen.width_mm);
+        // A colour chosen on the page is the layer's pen colour by now (see `layer_choices`).
+        let color = if choice.is_some_and(|c| !c.color.is_empty()) { layer.pen.color } else { pen.color };
+        shown.color = color.to_hex();
+    }
+    Ok(Json(v).into_response())
 }
 
 async fn stepped_view(State(shared): State<Arc<Shared>>) -> ApiResult {
@@ -284,12 +305,55 @@ fn input_args(settings: &Settings) -> Result<InputArgs, ApiError> {
         "hatch" => ModeArg::Hatch,
         other => return Err(bad(format!("unknown tracing mode {other:?} (outline, centerline, edges, hatch)"))),
     };
+    let h = settings.hatch_mm;
+    if !(h == 0.0 || (h.is_finite() && (MIN_HATCH_MM..=MAX_HATCH_MM).contains(&h))) {
+        return Err(bad(format!(
+            "hatch spacing {h} mm is not in {MIN_HATCH_MM}..{MAX_HATCH_MM} mm (0 turns hatching off)"
+        )));
+    }
+    args.hatch = (h > 0.0).then_some(h);
+    args.cross_hatch = args.hatch.is_some() && settings.cross_hatch;
+    args.no_occlusion = !settings.hidden_lines;
     Ok(args)
+}
+
+/// Closest hatch spacing the page may ask for, mm (finer multiplies the lines beyond use and bounds the work).
+const MIN_HATCH_MM: f64 = 0.1;
+/// Widest hatch spacing, mm.
+const MAX_HATCH_MM: f64 = 50.0;
+
+/// Smallest side of a custom paper, mm.
+const MIN_PAPER_MM: f64 = 10.0;
+/// Largest side of a custom paper, mm (an A0 roll and more).
+const MAX_PAPER_MM: f64 = 5000.0;
+
+/// The paper the settings name, as the layout flag takes it: a named size, or a custom `W × H` converted from its
+/// unit (mm, cm, in) to millimetres and checked against [`MIN_PAPER_MM`]..[`MAX_PAPER_MM`].
+fn paper_arg(s: &Settings) -> Result<Option<String>, ApiError> {
+    let paper = s.paper.trim();
+    if paper != "custom" {
+        return Ok(Some(paper.to_string()).filter(|p| !p.is_empty()));
+    }
+    let unit = s.paper_unit.trim();
+    let mm_per_unit = match unit {
+        "mm" => 1.0,
+        "cm" => 10.0,
+        "in" => 25.4,
+        other => return Err(bad(format!("custom paper unit {other:?} is not mm, cm or in"))),
+    };
+    for (side, v) in [("width", s.paper_width), ("height", s.paper_height)] {
+        let mm = v * mm_per_unit;
+        if !(mm.is_finite() && (MIN_PAPER_MM..=MAX_PAPER_MM).contains(&mm)) {
+            return Err(bad(format!("custom paper {side} {v} {unit} is not in {MIN_PAPER_MM}..{MAX_PAPER_MM} mm")));
+        }
+    }
+    let (w, h) = (s.paper_width * mm_per_unit, s.paper_height * mm_per_unit);
+    Ok(Some(format!("{}x{}", (w * 1000.0).round() / 1000.0, (h * 1000.0).round() / 1000.0)))
 }
 
 fn layout_args(s: &Settings) -> Result<LayoutArgs, ApiError> {
     Ok(LayoutArgs {
-        paper: Some(s.paper.trim().to_string()).filter(|p| !p.is_empty()),
+        paper: paper_arg(s)?,
         orientation: match s.orientation.as_str() {
             "" => None,
             "portrait" => Some(OrientationArg::Portrait),
@@ -299,7 +363,7 @@ fn layout_args(s: &Settings) -> Result<LayoutArgs, ApiError> {
         margin: s.margin,
         fit: s.fit,
         center: s.center,
-        rotate: s.rotate,
+        rotate: f64::from(s.rotate) * 90.0,
         ..LayoutArgs::default()
     })
 }
@@ -362,7 +426,7 @@ impl Drop for CancelOnDrop {
 /// stages; see [`plotter_path::geometry::cancel`]) and frees its slot, instead of running to an end nobody waits
 /// for. Before it starts, the work reserves `memory` (an estimate in bytes, named `what` in the refusal) in the
 /// server's [`Budget`], held while it runs: `503` when the budget cannot hold it beside the work in flight.
-async fn heavy<T: Send + 'static>(
+pub(crate) async fn heavy<T: Send + 'static>(
     shared: &Shared,
     (memory, what): (u64, &str),
     work: impl FnOnce(&Cancel) -> T + Send + 'static,
@@ -423,7 +487,7 @@ async fn reprepare(shared: &Arc<Shared>) -> ApiResult {
     let (drawing, settings, profile) = {
         let i = shared.lock();
         let Some(l) = &i.loaded else { return ok() };
-        (l.decoded.drawing.clone(), i.settings.clone(), i.profile.clone())
+        (l.decoded.drawing.clone(), i.settings.clone(), i.machine_profile())
     };
     let layers = layer_choices(&settings, &drawing)?;
     let layout = layout_args(&settings)?;
@@ -470,7 +534,7 @@ async fn load(shared: &Arc<Shared>, source: Source) -> ApiResult {
     refuse_while_plotting(shared)?;
     let (mut settings, profile) = {
         let i = shared.lock();
-        (i.settings.clone(), i.profile.clone())
+        (i.settings.clone(), i.machine_profile())
     };
     let loaded = decode(shared, source, &settings, profile).await?;
     let warnings = loaded.decoded.warnings.clone();
@@ -516,14 +580,14 @@ async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) ->
     // Check before storing, so a bad value never sticks.
     input_args(&s)?;
     layout_args(&s)?.options().map_err(|e| bad(format!("{e:#}")))?;
+    let wanted = input_args(&s)?;
     let retrace = {
         let mut i = shared.lock();
-        let retrace = i
-            .loaded
-            .as_ref()
-            .is_some_and(|l| l.input.trace.mode != input_args(&s).map(|a| a.trace.mode).unwrap_or_default());
+        // Tracing, hatching and hidden lines are decided when the drawing is read: read it again when they change.
+        let decoded_as = |a: &InputArgs| (a.trace.mode, a.hatch, a.cross_hatch, a.no_occlusion);
+        let retrace = i.loaded.as_ref().is_some_and(|l| decoded_as(&l.input) != decoded_as(&wanted));
         i.settings = s.clone();
-        retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.profile.clone()))).flatten()
+        retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.machine_profile()))).flatten()
     };
     if let Some((source, profile)) = retrace {
         let loaded = decode(&shared, source, &s, profile).await?;
@@ -612,7 +676,7 @@ async fn connect(State(shared): State<Arc<Shared>>, body: Result<Json<ConnectBod
         }
         Some(b.target)
     };
-    let profile = Box::new(shared.lock().profile.clone());
+    let profile = Box::new(shared.lock().machine_profile());
     shared.command(Command::Connect(port, firmware, profile, hpgl)).map_err(conflict)?;
     ok()
 }
@@ -644,8 +708,12 @@ async fn plot(State(shared): State<Arc<Shared>>) -> ApiResult {
         return Err(conflict(prepared.warnings.join("; ")));
     }
     // Mark it at once, so a second press is refused before the worker picks it up.
-    shared.lock().machine.activity = "plotting";
-    shared.command(Command::Plot(prepared)).map_err(conflict)?;
+    let profile = {
+        let mut i = shared.lock();
+        i.machine.activity = "plotting";
+        Box::new(i.machine_profile())
+    };
+    shared.command(Command::Plot(prepared, profile)).map_err(conflict)?;
     ok()
 }
 
@@ -757,5 +825,37 @@ async fn console(State(shared): State<Arc<Shared>>, Json(b): Json<ConsoleBody>) 
         return Err(bad("a console line is 1-256 printable characters"));
     }
     shared.command(Command::Console(line.to_string())).map_err(conflict)?;
+    ok()
+}
+
+/// The pen-height and speed sliders: checked, stored for the next plot (and the pen test), and the drawing planned
+/// again (its time estimate depends on the speeds).
+async fn pen_speed(State(shared): State<Arc<Shared>>, body: Result<Json<PenSpeed>, JsonRejection>) -> ApiResult {
+    let Json(b) = body.map_err(|e| bad(format!("pen and speed settings: {}", e.body_text())))?;
+    refuse_while_plotting(&shared)?;
+    b.check().map_err(bad)?;
+    let applied = b.apply(&shared.lock().profile).map_err(bad)?;
+    plotter_path::motion::plan::machine_config(&applied).map_err(|e| bad(format!("with these settings: {e}")))?;
+    shared.lock().pen_speed = b;
+    reprepare(&shared).await
+}
+
+/// Lower the pen, wait, raise it, with the sliders' pen positions.
+async fn test_pen(State(shared): State<Arc<Shared>>) -> ApiResult {
+    ready(&shared)?;
+    let profile = Box::new(shared.lock().machine_profile());
+    shared.command(Command::TestPen(profile)).map_err(conflict)?;
+    ok()
+}
+
+/// Switch the motors off so the carriage can be pushed by hand (never during a plot).
+async fn motors_off(State(shared): State<Arc<Shared>>) -> ApiResult {
+    ready(&shared)?;
+    if shared.lock().machine.hpgl {
+        return Err(conflict(
+            "an HP-GL plotter has no command that turns its motors off; switch it off and on instead",
+        ));
+    }
+    shared.command(Command::MotorsOff).map_err(conflict)?;
     ok()
 }

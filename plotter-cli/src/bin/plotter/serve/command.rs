@@ -22,8 +22,12 @@ pub(crate) enum Command {
     Jog(JogTarget, Option<f64>),
     /// Send a console line.
     Console(String),
-    /// Plot.
-    Plot(Arc<Prepared>),
+    /// Lower the pen, wait a moment, raise it, with this profile's pen settings (the sliders').
+    TestPen(Box<MachineProfile>),
+    /// Switch the motors off, so the carriage can be pushed by hand.
+    MotorsOff,
+    /// Plot with this profile (the sliders applied).
+    Plot(Arc<Prepared>, Box<MachineProfile>),
 }
 
 /// How to drive an HP-GL plotter: the device the program is written for (as the CLI's `--hpgl-device`), the

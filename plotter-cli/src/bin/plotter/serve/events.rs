@@ -57,6 +57,8 @@ pub(crate) struct ProgressEvent {
     pub(crate) pen_mm: [f64; 2],
     /// Whether the pen is down there.
     pub(crate) pen_down: bool,
+    /// The same place in machine mm from the home corner (as the machine's position is shown outside a plot).
+    pub(crate) machine_mm: [f64; 2],
 }
 
 /// A question the running job waits on.

@@ -7,6 +7,8 @@
 //! - [`error`]: the error answer;
 //! - [`deadline`]: the time limit on request bodies;
 //! - [`events`]: the event channel to the pages;
+//! - [`export`]: downloads of the prepared drawing (G-code, HP-GL, SVG);
+//! - [`pen_speed`]: the pen-height and speed sliders and what they change in the profile;
 //! - [`state`]: the shared state, the limits on clients, and what a page is sent;
 //! - [`safety`]: Host/Origin/Referer checks and control tokens;
 //! - [`control`]: which page drives the machine;
@@ -24,7 +26,9 @@ pub(crate) mod control;
 pub(crate) mod deadline;
 pub(crate) mod error;
 pub(crate) mod events;
+pub(crate) mod export;
 pub(crate) mod listen;
+pub(crate) mod pen_speed;
 pub(crate) mod safety;
 pub(crate) mod shutdown;
 pub(crate) mod state;

@@ -9,10 +9,12 @@ use plotter_host::input::{Decoded, InputArgs};
 use plotter_host::job::page::PageView;
 use plotter_host::job::prepare::Prepared;
 use plotter_path::MachineProfile;
+use plotter_path::output::preview::plotting_pen;
 use serde::{Deserialize, Serialize};
 
 use super::command::Command;
 use super::events::{Event, Hub, ProgressEvent, Prompt};
+use super::pen_speed::PenSpeed;
 
 /// The page in control.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -80,8 +82,15 @@ impl Default for Limits {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub(crate) struct Settings {
-    /// `a3`, `a4`, `a5`, `letter`, `WxH` (mm), or empty for the drawing's own page.
+    /// `a3`, `a4`, `a5`, `letter`, `WxH` (mm), `custom` (then `paper_width` × `paper_height` in `paper_unit`),
+    /// or empty for the drawing's own page.
     pub(crate) paper: String,
+    /// Custom paper width, in `paper_unit`.
+    pub(crate) paper_width: f64,
+    /// Custom paper height, in `paper_unit`.
+    pub(crate) paper_height: f64,
+    /// Unit of the custom paper size: `mm`, `cm` or `in`.
+    pub(crate) paper_unit: String,
     /// `portrait`, `landscape`, or empty (named papers default to portrait).
     pub(crate) orientation: String,
     /// Margin, mm.
@@ -96,6 +105,12 @@ pub(crate) struct Settings {
     pub(crate) optimize: bool,
     /// Raster tracing mode: `outline`, `centerline`, `edges`, `hatch`.
     pub(crate) trace: String,
+    /// Shade filled SVG areas with lines this far apart, mm (0: no hatching).
+    pub(crate) hatch_mm: f64,
+    /// With hatching: a second family of lines at right angles.
+    pub(crate) cross_hatch: bool,
+    /// Remove the lines an opaque fill painted later hides (the command line's default; off is `--no-occlusion`).
+    pub(crate) hidden_lines: bool,
     /// Per-layer choices.
     pub(crate) layers: Vec<LayerSetting>,
 }
@@ -104,6 +119,9 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             paper: String::new(),
+            paper_width: 210.0,
+            paper_height: 297.0,
+            paper_unit: "mm".into(),
             orientation: String::new(),
             margin: 10.0,
             fit: false,
@@ -111,6 +129,9 @@ impl Default for Settings {
             rotate: 0,
             optimize: true,
             trace: "outline".into(),
+            hatch_mm: 0.0,
+            cross_hatch: false,
+            hidden_lines: true,
             layers: Vec::new(),
         }
     }
@@ -160,8 +181,15 @@ pub(crate) struct MachineState {
     pub(crate) connected: Option<String>,
     /// `idle`, `busy` (a command), `plotting`, `paused`, `connecting`.
     pub(crate) activity: &'static str,
-    /// Position in steps, last known.
+    /// Position in steps, last known (for scripts; people are shown `position_mm`).
     pub(crate) position: Option<[i32; 4]>,
+    /// Where the pen is, page mm (X, Y): during a plot the end of the last block the machine executed, else the
+    /// position the machine last reported.
+    pub(crate) position_mm: Option<[f64; 2]>,
+    /// Whether the pen is down (`None`: not known).
+    pub(crate) pen_down: Option<bool>,
+    /// The motors were switched off (the carriage may have been pushed: home before plotting).
+    pub(crate) motors_off: bool,
     /// The connected machine is an HP-GL plotter (no homing, no jogging; the console speaks HP-GL).
     pub(crate) hpgl: bool,
     /// Last error.
@@ -182,8 +210,10 @@ pub(crate) struct Inner {
     pub(crate) prepare_error: Option<String>,
     /// Bumped whenever `prepared` changes.
     pub(crate) view_version: u64,
-    /// The chosen machine profile (index in the config's list, or an uploaded one).
+    /// The chosen machine profile (index in the config's list, or an uploaded one), before the sliders.
     pub(crate) profile: MachineProfile,
+    /// The pen-height and speed sliders, applied to `profile` for the next plot ([`Inner::machine_profile`]).
+    pub(crate) pen_speed: PenSpeed,
     /// An uploaded profile, offered after the configured ones.
     pub(crate) uploaded_profile: Option<MachineProfile>,
     /// The machine.
@@ -196,6 +226,14 @@ pub(crate) struct Inner {
     pub(crate) stepped: Option<Arc<PageView>>,
     /// Bumped whenever `stepped` changes.
     pub(crate) stepped_version: u64,
+}
+
+impl Inner {
+    /// The profile plots are planned and run with: the chosen one with the sliders applied.
+    pub(crate) fn machine_profile(&self) -> MachineProfile {
+        // The sliders were applied to this profile when they were set; a later profile they do not fit keeps its own.
+        self.pen_speed.apply(&self.profile).unwrap_or_else(|_| self.profile.clone())
+    }
 }
 
 /// Requests from the HTTP side to a running plot, and answers to its prompts.
@@ -272,8 +310,18 @@ impl Shared {
                 prepare_error: None,
                 view_version: 0,
                 profile,
+                pen_speed: PenSpeed::default(),
                 uploaded_profile: None,
-                machine: MachineState { connected: None, activity: "idle", position: None, hpgl: false, error: None },
+                machine: MachineState {
+                    connected: None,
+                    activity: "idle",
+                    position: None,
+                    position_mm: None,
+                    pen_down: None,
+                    motors_off: false,
+                    hpgl: false,
+                    error: None,
+                },
                 progress: None,
                 prompt: None,
                 stepped: None,
@@ -325,10 +373,11 @@ impl Shared {
                     .drawing
                     .layers
                     .iter()
-                    .map(|layer| LayerInfo {
+                    .map(|layer| (layer, plotting_pen(&i.profile, &layer.name, &layer.pen)))
+                    .map(|(layer, pen)| LayerInfo {
                         name: layer.name.clone(),
-                        color: layer.pen.color.to_hex(),
-                        width_mm: layer.pen.width_mm,
+                        color: pen.color.to_hex(),
+                        width_mm: pen.width_mm,
                         paths: layer.paths.iter().filter(|p| p.points.len() >= 2).count(),
                     })
                     .collect(),
@@ -346,6 +395,8 @@ impl Shared {
             view_version: i.view_version,
             profile: i.profile.name.clone(),
             profiles,
+            pen_speed: i.pen_speed,
+            pen_speed_profile: PenSpeed::of(&i.profile),
             machine: i.machine.clone(),
             progress: i.progress,
             prompt: i.prompt.clone(),
@@ -374,6 +425,10 @@ pub(crate) struct Snapshot {
     pub(crate) profile: String,
     /// Profiles on offer.
     pub(crate) profiles: Vec<String>,
+    /// The pen-height and speed sliders.
+    pub(crate) pen_speed: PenSpeed,
+    /// What the sliders stand at with nothing chosen: the profile's own values.
+    pub(crate) pen_speed_profile: PenSpeed,
     /// The machine.
     pub(crate) machine: MachineState,
     /// The last plot's progress.
@@ -402,9 +457,9 @@ pub(crate) struct DrawingInfo {
 pub(crate) struct LayerInfo {
     /// Name.
     pub(crate) name: String,
-    /// Its own pen colour.
+    /// The colour of the pen that plots it (the profile's pen table, else the layer's own).
     pub(crate) color: String,
-    /// Its own pen width, mm.
+    /// The width of the pen that plots it, mm (the pen table's, else the profile's `[pen]` width).
     pub(crate) width_mm: f64,
     /// Paths with something to draw.
     pub(crate) paths: usize,

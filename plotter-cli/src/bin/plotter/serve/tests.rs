@@ -280,6 +280,9 @@ async fn plot_on_the_simulator_pause_resume_and_finish() {
     let steps_per_mm = plotter_path::MachineProfile::default_plotter().axes.x.steps_per_mm;
     let moved = after["machine"]["position"][0].as_i64().unwrap() - x0;
     assert_eq!(moved as f64, (10.0 * steps_per_mm).round());
+    // People are shown millimetres: the same position, 10 mm further along X.
+    let mm = |s: &Value, axis: usize| s["machine"]["position_mm"][axis].as_f64().unwrap();
+    assert!((mm(&after, 0) - mm(&before, 0) - 10.0).abs() < 1e-9, "{after}");
     // Plot, pause at the next pen-up, resume, finish.
     let (s, v) = c.post("/api/plot", json!({})).await;
     assert_eq!(s, StatusCode::OK, "{v}");
@@ -290,6 +293,11 @@ async fn plot_on_the_simulator_pause_resume_and_finish() {
     assert_eq!(s, StatusCode::OK, "{v}");
     let paused = wait_state(&c, "the pause prompt", |s| s["prompt"]["kind"] == "pause").await;
     assert_eq!(paused["machine"]["activity"], "paused");
+    // The machine's position followed the plot, in millimetres (it was frozen in steps until the plot ended).
+    let m = &paused["machine"];
+    assert_eq!(m["position_mm"], paused["progress"]["machine_mm"], "{paused}");
+    assert_ne!(m["position_mm"], after["machine"]["position_mm"], "{paused}");
+    assert_eq!(m["pen_down"], paused["progress"]["pen_down"], "{paused}");
     assert_eq!(paused["prompt"]["choices"], json!(["resume", "cancel"]));
     let (s, _) = c.post("/api/prompt", json!({ "id": paused["prompt"]["id"], "answer": "skip" })).await;
     assert_eq!(s, StatusCode::BAD_REQUEST, "not one of the choices");
@@ -302,6 +310,10 @@ async fn plot_on_the_simulator_pause_resume_and_finish() {
     assert!((p["draw_done_mm"].as_f64().unwrap() - 565.5).abs() < 1.0, "{p}");
     // The pen ends up where the ordered duck's last stroke (the water, right to left) ends: (8, 82) mm.
     assert_eq!((&p["pen_mm"], &p["pen_down"]), (&json!([8.0, 82.0]), &json!(false)), "{p}");
+    // The machine reports the same place after the plot: 640, 6560 steps at 80 steps/mm; the pen (a Z pen) up.
+    let m = &done["machine"];
+    assert_eq!((&m["position_mm"], &m["pen_down"]), (&json!([8.0, 82.0]), &json!(false)), "{m}");
+    assert_eq!((&m["position"][0], &m["position"][1]), (&json!(640), &json!(6560)), "{m}");
     // The as-stepped drawing covers the duck's box (x 8..116, y 9..82 mm in samples/duck.svg) within a step, and
     // its staircase is at least as long as the straight pen-down length and at most sqrt(2) times it.
     let (s, stepped) = c.get("/api/stepped").await;
@@ -411,4 +423,231 @@ async fn a_client_that_hangs_up_mid_decode_loads_nothing_and_frees_its_slot_prom
     assert!(freed < uncancelled / 3, "freed after {freed:?}, the uncancelled decode takes {uncancelled:?}");
     let (_, st) = c.get("/api/state").await;
     assert!(st["drawing"].is_null(), "the abandoned drawing was not loaded: {st}");
+}
+
+/// A GET's status, headers and body text.
+async fn fetch(c: &Client, uri: &str) -> (StatusCode, axum::http::HeaderMap, String) {
+    let res = c.router.clone().oneshot(c.request("GET", uri).body(Body::empty()).unwrap()).await.unwrap();
+    let (status, headers) = (res.status(), res.headers().clone());
+    let bytes = to_bytes(res.into_body(), 1 << 24).await.unwrap();
+    (status, headers, String::from_utf8_lossy(&bytes).into_owned())
+}
+
+#[tokio::test]
+async fn pen_and_speed_sliders_are_checked_and_change_the_next_plot() {
+    let (shared, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, v) = c.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    let planned = st["prepared"]["estimate_s"].as_f64().unwrap();
+    // The sliders start at the profile's own values: the XY kit draws at 60 of its 150 mm/s (40 %).
+    let own = &st["pen_speed_profile"];
+    assert_eq!(own["speed_pendown_pct"], 40.0, "{own}");
+    assert!(st["pen_speed"]["speed_pendown_pct"].is_null(), "{st}");
+    // Out of range, not a number, unknown: refused with what is wrong.
+    for (body, says) in [
+        (json!({ "pen_up_pct": 120 }), "pen up position 120 % is not in 0..100 %"),
+        (json!({ "speed_pendown_pct": 0 }), "pen-down speed 0 % is not in 1..100 %"),
+        (json!({ "pen_up_pct": 30, "pen_down_pct": 30 }), "the pen would not lift"),
+        (json!({ "speed_penup_pct": "fast" }), "pen and speed settings:"),
+        (json!({ "pen_height": 50 }), "unknown field `pen_height`"),
+    ] {
+        let (s, v) = c.post("/api/pen-speed", body.clone()).await;
+        assert_eq!(s, StatusCode::BAD_REQUEST, "{body}: {v}");
+        assert!(v["error"].as_str().unwrap().contains(says), "{body}: {v}");
+    }
+    let (_, st) = c.get("/api/state").await;
+    assert!(st["pen_speed"]["speed_pendown_pct"].is_null(), "a refused setting does not stick: {st}");
+    // Drawing at 10 % (15 mm/s) instead of 40 %: the 565.5 mm of the duck take longer to plot.
+    let (s, v) = c.post("/api/pen-speed", json!({ "speed_pendown_pct": 10, "pen_down_pct": 5 })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert_eq!(st["pen_speed"]["speed_pendown_pct"], 10.0);
+    let slower = st["prepared"]["estimate_s"].as_f64().unwrap();
+    assert!(slower > planned + 565.5 / 15.0 - 565.5 / 60.0 - 1.0, "{planned} s -> {slower} s");
+    // The pen test needs a machine.
+    let (s, v) = c.post("/api/test-pen", json!({})).await;
+    assert_eq!(s, StatusCode::CONFLICT);
+    assert!(v["error"].as_str().unwrap().contains("not connected"), "{v}");
+    c.post("/api/connect", json!({ "target": "sim" })).await;
+    wait_state(&c, "connected", |s| s["machine"]["connected"].is_string() && s["machine"]["activity"] == "idle").await;
+    let mut events = shared.hub.subscribe();
+    let (s, v) = c.post("/api/test-pen", json!({})).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    // The pen goes down to the slider's 5 % of the Z travel, then back up to the profile's pen-up height.
+    let profile = plotter_path::MachineProfile::default_plotter();
+    let down = format!("G1 Z{:.4} ", 0.05 * profile.axes.z.travel_mm);
+    let up = format!("G1 Z{:.4} ", profile.pen.up_z_mm);
+    let mut moves = Vec::new();
+    while moves.len() < 2 {
+        let e = tokio::time::timeout(Duration::from_secs(20), events.recv()).await.expect("the pen moves").unwrap();
+        let line: Value = serde_json::from_str(&e.data).unwrap();
+        if e.name == "log" && line["dir"] == "out" && line["text"].as_str().unwrap().starts_with("G1 Z") {
+            moves.push(line["text"].as_str().unwrap().to_string());
+        }
+    }
+    assert!(moves[0].starts_with(&down) && moves[1].starts_with(&up), "{moves:?}");
+    let st = wait_state(&c, "the pen test's end", |s| s["machine"]["activity"] == "idle").await;
+    assert!(st["machine"]["error"].is_null(), "{st}");
+    assert_eq!(st["machine"]["pen_down"], false, "{st}");
+}
+
+#[tokio::test]
+async fn motors_off_on_a_connected_idle_machine_only() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, v) = c.post("/api/motors-off", json!({})).await;
+    assert_eq!(s, StatusCode::CONFLICT);
+    assert!(v["error"].as_str().unwrap().contains("not connected"), "{v}");
+    c.post("/api/connect", json!({ "target": "sim" })).await;
+    wait_state(&c, "connected", |s| s["machine"]["connected"].is_string() && s["machine"]["activity"] == "idle").await;
+    let (s, v) = c.post("/api/motors-off", json!({})).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let st = wait_state(&c, "motors off", |s| s["machine"]["motors_off"] == true).await;
+    assert!(st["machine"]["error"].is_null(), "{st}");
+    // Homing puts them back to work.
+    c.post("/api/home", json!({})).await;
+    wait_state(&c, "homed", |s| s["machine"]["motors_off"] == false && s["machine"]["activity"] == "idle").await;
+}
+
+#[tokio::test]
+async fn custom_paper_hatching_and_hidden_lines_are_settings() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    c.upload("duck.svg", DUCK).await;
+    // 11 × 8.5 in is 279.4 × 215.9 mm.
+    let letter = json!({ "paper": "custom", "paper_width": 11, "paper_height": 8.5, "paper_unit": "in", "orientation": "landscape" });
+    let (s, v) = c.post("/api/settings", letter).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, view) = c.get("/api/view").await;
+    assert_eq!(view["page_mm"], json!([279.4, 215.9]));
+    let (s, _) = c
+        .post("/api/settings", json!({ "paper": "custom", "paper_width": 30, "paper_height": 20, "paper_unit": "cm" }))
+        .await;
+    assert_eq!(s, StatusCode::OK);
+    let (_, view) = c.get("/api/view").await;
+    assert_eq!(view["page_mm"], json!([300.0, 200.0]));
+    for (body, says) in [
+        (
+            json!({ "paper": "custom", "paper_width": 0.5, "paper_height": 20, "paper_unit": "cm" }),
+            "custom paper width 0.5 cm is not in 10..5000 mm",
+        ),
+        (
+            json!({ "paper": "custom", "paper_width": 210, "paper_height": 1e9, "paper_unit": "mm" }),
+            "custom paper height 1000000000 mm is not in 10..5000 mm",
+        ),
+        (
+            json!({ "paper": "custom", "paper_width": 8, "paper_height": 10, "paper_unit": "ft" }),
+            "custom paper unit \"ft\" is not mm, cm or in",
+        ),
+        (json!({ "hatch_mm": 0.01 }), "hatch spacing 0.01 mm is not in 0.1..50 mm (0 turns hatching off)"),
+        (json!({ "hatch_mm": -1 }), "hatch spacing -1 mm"),
+    ] {
+        let (s, v) = c.post("/api/settings", body.clone()).await;
+        assert_eq!(s, StatusCode::BAD_REQUEST, "{body}: {v}");
+        assert!(v["error"].as_str().unwrap().contains(says), "{body}: {v}");
+    }
+    // Hatching shades the filled 20 mm square of this SVG with 20 mm lines 1 mm apart, about 400 mm of ink (the
+    // optimizer may join them into fewer paths); cross-hatching as much again at right angles. Hidden lines: the
+    // filled square drawn over the 100 mm line hides 20 mm of it.
+    const FILLED: &[u8] =
+        br#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
+        <path d="M 0 50 L 100 50" stroke="black" fill="none"/>
+        <rect x="40" y="40" width="20" height="20" fill="black" stroke="black"/></svg>"#;
+    c.upload("filled.svg", FILLED).await;
+    let pen_down = |st: &Value| st["prepared"]["stats"]["pen_down_mm"].as_f64().unwrap();
+    let (_, plain) = c.get("/api/state").await;
+    let (s, v) = c.post("/api/settings", json!({ "hatch_mm": 1.0 })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, hatched) = c.get("/api/state").await;
+    assert!(pen_down(&hatched) >= pen_down(&plain) + 350.0, "{} -> {} mm", pen_down(&plain), pen_down(&hatched));
+    c.post("/api/settings", json!({ "hatch_mm": 1.0, "cross_hatch": true })).await;
+    let (_, crossed) = c.get("/api/state").await;
+    assert!(pen_down(&crossed) >= pen_down(&hatched) + 350.0, "{} -> {} mm", pen_down(&hatched), pen_down(&crossed));
+    c.post("/api/settings", json!({ "hidden_lines": false })).await;
+    let (_, all) = c.get("/api/state").await;
+    // The line under the square: 100 mm in full, 80 mm with the 20 mm under the square hidden.
+    assert!((pen_down(&all) - pen_down(&plain) - 20.0).abs() < 0.5, "{} vs {}", pen_down(&all), pen_down(&plain));
+}
+
+#[tokio::test]
+async fn the_export_downloads_as_an_attachment() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, _, body) = fetch(&c, "/api/export?format=gcode").await;
+    assert_eq!(s, StatusCode::CONFLICT, "{body}");
+    assert!(body.contains("load a drawing first"), "{body}");
+    c.upload("duck.svg", DUCK).await;
+    // On A4 landscape with 20 mm margins, where an HP 7475A's A4 sheet holds it too.
+    let a4 = json!({ "paper": "a4", "orientation": "landscape", "fit": true, "margin": 20 });
+    let (s, v) = c.post("/api/settings", a4).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (s, _, body) = fetch(&c, "/api/export?format=pdf").await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(body.contains(r#"export format \"pdf\" is not gcode, hpgl or svg"#), "{body}");
+    let (s, _, body) = fetch(&c, "/api/export").await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(body.contains("export:") && body.contains("format"), "{body}");
+    let (s, _, body) = fetch(&c, "/api/export?format=hpgl&hpgl_device=7470b").await;
+    assert_eq!(s, StatusCode::BAD_REQUEST);
+    assert!(body.contains("not a known plotter"), "{body}");
+    // Each format is the file the command line's --export writes for the same layout.
+    for (format, name, starts) in
+        [("gcode", "duck.gcode", "G21"), ("svg", "duck.svg", "<svg"), ("hpgl", "duck.hpgl", "IN;")]
+    {
+        let (s, headers, body) = fetch(&c, &format!("/api/export?format={format}")).await;
+        assert_eq!(s, StatusCode::OK, "{format}: {body}");
+        assert_eq!(headers[header::CONTENT_DISPOSITION], format!("attachment; filename=\"{name}\""));
+        assert!(
+            body.trim_start().starts_with(starts) || body.contains(starts),
+            "{format}: {}",
+            &body[..body.len().min(200)]
+        );
+    }
+    let (_, _, gcode) = fetch(&c, "/api/export?format=gcode").await;
+    let profile = plotter_path::MachineProfile::default_plotter();
+    let (_, st) = c.get("/api/state").await;
+    assert!(st["prepared"].is_object());
+    // Six strokes: six drops of the pen after the first travel of each.
+    let drops = gcode
+        .lines()
+        .filter(|l| {
+            l.starts_with(&format!("G1 Z{}", plotter_path::output::gcode_out::fmt_mm(profile.pen.down_z_mm, 2)))
+        })
+        .count();
+    assert_eq!(drops, 6, "{gcode}");
+}
+
+#[tokio::test]
+async fn the_preview_draws_each_layer_with_the_pen_that_plots_it() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    // A 0.01 mm black hairline and a 1.69 mm grey drop shadow.
+    const SVG: &[u8] = br##"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
+        <path d="M 10 10 L 90 10" stroke="#000000" stroke-width="0.01" fill="none"/>
+        <path d="M 12 12 L 92 12" stroke="#808080" stroke-width="1.69" fill="none"/></svg>"##;
+    let (s, v) = c.upload("shadow.svg", SVG).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, view) = c.get("/api/view").await;
+    let profile = plotter_path::MachineProfile::default_plotter();
+    for layer in view["layers"].as_array().unwrap() {
+        let w = layer["width_mm"].as_f64().unwrap();
+        // The XY kit's pen table: a 0.3 mm black fineliner; a grey layer matches no pen and takes [pen] 0.3 mm.
+        assert!(w == 0.3 && w == profile.pen.width_mm, "{layer}");
+    }
+    let (_, st) = c.get("/api/state").await;
+    for l in st["drawing"]["layers"].as_array().unwrap() {
+        assert_eq!(l["width_mm"], 0.3, "{l}");
+    }
+    // A width chosen for a layer on the page wins.
+    let name = view["layers"][0]["name"].as_str().unwrap().to_string();
+    c.post("/api/settings", json!({ "layers": [{ "name": name, "visible": true, "width_mm": 0.8 }] })).await;
+    let (_, view) = c.get("/api/view").await;
+    assert_eq!(view["layers"][0]["width_mm"], 0.8);
 }

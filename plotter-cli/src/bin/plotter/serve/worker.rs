@@ -23,8 +23,10 @@ use plotter_host::link::hpgl::port::HpglPort;
 use plotter_host::link::hpgl::sender::HpglSession;
 use plotter_host::link::jog::{Jog, JogTarget, run_jog};
 use plotter_host::link::machine::{Connected, Firmware, PlotMachine, home_machine};
+use plotter_host::link::manual::motors;
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::sim::SimTransport;
+use plotter_host::link::standing::{Pen as StandingPen, standing};
 use plotter_host::link::stream::PauseChoice;
 use plotter_path::MachineProfile;
 use plotter_path::motion::plan;
@@ -32,8 +34,8 @@ use serde::Serialize;
 
 use super::command::{Command, HpglChoice, hpgl_refusal};
 use super::events::{Event, Hub, ProgressEvent, Prompt};
-use plotter_host::link::paced::PacedSim;
 use super::state::Shared;
+use plotter_host::link::paced::PacedSim;
 
 /// The open link (boxed: the simulator is large, and the link moves only when it opens): the simulator runs our
 /// firmware; a serial port any dialect [`Connected`] speaks, or an HP-GL plotter's session.
@@ -120,9 +122,18 @@ impl Worker {
                 }
                 self.shared.hub.log("info", "disconnected");
             }
-            Command::Plot(prepared) => {
+            Command::Plot(prepared, profile) => {
                 self.set_activity("plotting");
-                self.plot(&prepared);
+                match self.use_profile(*profile) {
+                    Ok(()) => self.plot(&prepared),
+                    Err(e) => self.done(false, format!("plot not started: {e:#}"), false),
+                }
+            }
+            Command::TestPen(profile) => {
+                self.set_activity("busy");
+                if let Err(e) = self.use_profile(*profile).and_then(|()| self.test_pen()) {
+                    self.fail("pen test failed", &e);
+                }
             }
             other => {
                 self.set_activity("busy");
@@ -178,11 +189,49 @@ impl Worker {
         })
     }
 
+    /// Plot and move the pen with `profile` from now on (the sliders may have changed it since the connect). An
+    /// EiBotBoard holds its pen positions and rates itself (`SC,4/5/11/12`, sent at the connect): they are sent
+    /// again when they changed.
+    fn use_profile(&mut self, profile: MachineProfile) -> anyhow::Result<()> {
+        if let (Some(new), Some(old)) = (profile.ebb, self.profile.ebb)
+            && new != old
+            && let Some(Link::Serial(c)) = self.link.as_mut()
+            && c.machine().firmware() == Firmware::Ebb
+        {
+            for line in [
+                format!("SC,4,{}", new.pen_up_position),
+                format!("SC,5,{}", new.pen_down_position),
+                format!("SC,11,{}", new.pen_rate_up),
+                format!("SC,12,{}", new.pen_rate_down),
+            ] {
+                self.shared.hub.log("out", line.clone());
+                c.command(&line)?;
+            }
+        }
+        self.profile = profile;
+        Ok(())
+    }
+
+    /// Read where the machine stands: steps for scripts, millimetres and the pen for people.
     fn refresh_position(&mut self) {
         let Some(link) = self.link.as_mut() else { return };
-        if let Ok(p) = on_link!(link, c => c.machine().position(), _h => return) {
-            self.shared.lock().machine.position = Some(p);
+        let profile = &self.profile;
+        if let Ok(at) = on_link!(link, c => standing(c, profile), _h => return) {
+            let mut i = self.shared.lock();
+            i.machine.position = Some(at.steps);
+            i.machine.position_mm = Some([at.x_mm, at.y_mm]);
+            if let Some(pen) = at.pen {
+                i.machine.pen_down = Some(pen == StandingPen::Down);
+            }
         }
+    }
+
+    /// Lower the pen, wait for it to settle and a moment more, raise it.
+    fn test_pen(&mut self) -> anyhow::Result<()> {
+        let wait = Duration::from_secs_f64((self.profile.pen.settle_ms.max(0.0) / 1000.0).min(2.0) + 0.5);
+        self.machine_command(Command::Jog(JogTarget::Down, None))?;
+        std::thread::sleep(wait);
+        self.machine_command(Command::Jog(JogTarget::Up, None))
     }
 
     fn machine_command(&mut self, c: Command) -> anyhow::Result<()> {
@@ -192,14 +241,19 @@ impl Worker {
         match c {
             Command::Home => {
                 hub.log("out", "home");
-                let at = on_link!(link, c => home_machine(c.machine()), _h => anyhow::bail!(hpgl_refusal("home")))?;
-                hub.log("info", format!("homed; position {at:?} steps"));
+                let at = on_link!(
+                    link,
+                    c => home_machine(c.machine()).and_then(|_| plotter_host::link::standing::standing(c, &profile)),
+                    _h => anyhow::bail!(hpgl_refusal("home"))
+                )?;
+                hub.log("info", format!("homed: {at}"));
+                self.shared.lock().machine.motors_off = false;
             }
             Command::Jog(target, distance) => {
                 let jog = Jog { target, distance, feed: None };
                 let at = on_link!(
                     link,
-                    c => run_jog(c, &jog, &profile, &mut |l| hub.log("out", l.to_string())),
+                    c => run_jog(c, &jog, &profile, &mut |l| hub.log("out", l.to_string())).map(|at| format!("at {at}")),
                     h => {
                         // The pen lifts and lowers by HP-GL where it stands; moving it is no jog of steps.
                         let pu_pd = match target {
@@ -213,6 +267,16 @@ impl Worker {
                     }
                 )?;
                 hub.log("info", at);
+                if matches!(target, JogTarget::Up | JogTarget::Down) {
+                    self.shared.lock().machine.pen_down = Some(target == JogTarget::Down);
+                }
+            }
+            Command::MotorsOff => {
+                let done = on_link!(link, c => motors(c, false, &profile), _h => anyhow::bail!(
+                    "an HP-GL plotter has no command that turns its motors off; switch it off and on instead"
+                ))?;
+                self.shared.lock().machine.motors_off = true;
+                hub.log("info", format!("{done}; home before the next plot"));
             }
             Command::Console(line) => {
                 hub.log("out", line.clone());
@@ -224,7 +288,7 @@ impl Worker {
                     Ok(())
                 })?;
             }
-            Command::Connect(..) | Command::Disconnect | Command::Plot(_) => {}
+            Command::Connect(..) | Command::Disconnect | Command::Plot(..) | Command::TestPen(_) => {}
         }
         Ok(())
     }
@@ -241,7 +305,8 @@ impl Worker {
             self.done(false, "not connected: connect to a plotter first".into(), false);
             return;
         };
-        let mut events = WebEvents { shared: Arc::clone(&shared), last_sent: None, prompt_id: 0 };
+        let mut events =
+            WebEvents { shared: Arc::clone(&shared), profile: self.profile.clone(), last_sent: None, prompt_id: 0 };
         let profile = &self.profile;
         let machine: &mut dyn PlotMachine = match &mut *link {
             Link::Hpgl(h) => {
@@ -375,6 +440,8 @@ fn console_line<T: Transport + 'static>(c: &mut Connected<T>, line: &str, hub: &
 /// The page's side of a plot: progress to every page, pause and cancel from the controlling one.
 struct WebEvents {
     shared: Arc<Shared>,
+    /// The plot's profile (maps the page to the machine).
+    profile: MachineProfile,
     last_sent: Option<(Instant, ProgressEvent)>,
     prompt_id: u64,
 }
@@ -384,7 +451,13 @@ const PROGRESS_INTERVAL: Duration = Duration::from_millis(100);
 
 impl WebEvents {
     fn send(&mut self, p: ProgressEvent) {
-        self.shared.lock().progress = Some(p);
+        {
+            let mut i = self.shared.lock();
+            i.progress = Some(p);
+            // The machine's position follows the plot, so a page or a script reading the state sees it live.
+            i.machine.position_mm = Some(p.machine_mm);
+            i.machine.pen_down = Some(p.pen_down);
+        }
         self.shared.hub.send(Event::new("progress", &p));
         self.last_sent = Some((Instant::now(), p));
     }
@@ -435,6 +508,10 @@ impl PlotEvents for WebEvents {
             resends: p.resends,
             pen_mm: [p.pen_mm.x, p.pen_mm.y],
             pen_down: p.pen_down,
+            machine_mm: {
+                let m = self.profile.page_to_machine(p.pen_mm);
+                [m.x, m.y]
+            },
         };
         let due = self.last_sent.is_none_or(|(t, _)| t.elapsed() >= PROGRESS_INTERVAL) || p.executed == p.total;
         if due {
