@@ -72,9 +72,10 @@ pub struct HpglOutcome {
     pub estimated_s: f64,
 }
 
-/// The page drawing (mm) as the HP-GL program for `device` with `paper` loaded, or, without one, on the first
-/// of the device's sheets whose plotting area holds the drawing (a device without a sheet table plots on the
-/// drawing's own page). The program's warnings are the caller's to show.
+/// The page drawing (mm) as the HP-GL program for `device` with `paper` loaded, or, without one, on the sheet
+/// the page is (the sheet of the page's size as the plotter takes it: where the layout placed a paper), else the
+/// first of the device's sheets whose plotting area holds the drawing (a device without a sheet table plots on
+/// the drawing's own page). The program's warnings are the caller's to show.
 pub fn program_for(
     profile: &MachineProfile,
     drawing: &Drawing,
@@ -83,7 +84,12 @@ pub fn program_for(
 ) -> anyhow::Result<(HpglProgram, HpglPaper)> {
     let papers: Vec<HpglPaper> = match (paper, device.papers.is_empty()) {
         (Some(p), _) => vec![*p],
-        (None, false) => device.papers.to_vec(),
+        (None, false) => {
+            let (w, h) = drawing.page_mm.unwrap_or((0.0, 0.0));
+            let mut papers = device.papers.to_vec();
+            papers.sort_by_key(|s| !plotter_path::geometry::bed::is_sheet(s, w, h));
+            papers
+        }
         (None, true) => {
             let (w, h) = drawing.page_mm.or_else(|| drawing.bbox().map(|b| (b.x1, b.y1))).unwrap_or((0.0, 0.0));
             vec![HpglPaper::generic(w, h)]

@@ -3,10 +3,11 @@
 use std::path::Path;
 
 use anyhow::Context as _;
+use plotter_path::geometry::bed::Bed;
 use plotter_path::geometry::steps::{StepDrawing, StepMapper, StepPos, drawing_to_steps};
 use plotter_path::input::trajectory;
 use plotter_path::kurbo::Point;
-use plotter_path::motion::plan::MachinePos;
+use plotter_path::motion::plan::{self, MachinePos};
 use plotter_path::optimize::{self, OptimizeOptions};
 use plotter_path::{Drawing, MachineProfile};
 
@@ -28,29 +29,64 @@ pub fn page_of(profile: &MachineProfile, at: MachinePos) -> Point {
     StepMapper::new(profile).steps_to_page(StepPos::new(at[0], at[1]))
 }
 
-/// Load any supported input as steps (and the millimetre drawing for previews), laid out as the options say,
-/// printing warnings. A trajectory file is already in steps and is used exactly as stored unless the layout
-/// options ask for a change. The optimizer runs to convergence (no time budget), so that a resumed plot rebuilds
-/// exactly the same order. The order starts at `pen_at` (page mm) when given — where a machine that is not homed
-/// before the plot reports the pen ([`pen_on_page`]) — else at home (or `--start-at`).
-pub fn load_steps(
+/// A drawing loaded and laid out on the machine's page, not yet ordered ([`load_page`]).
+#[derive(Debug, Clone)]
+pub enum Page {
+    /// A trajectory file used exactly as stored (no layout flags): already in steps.
+    Steps(StepDrawing),
+    /// Any other input, laid out, in page millimetres.
+    Drawing(Drawing),
+}
+
+/// Load any supported input and lay it out for the machine (`layout.bed` when the command set one, e.g. an HP-GL
+/// plotter's sheets; else the profile's work area) as the options say, printing warnings and the layout's note (a paper turned to lie on the machine). The page meets
+/// the machine here, before anything is ordered, connected or moved: a drawing laid out beyond what the pen
+/// reaches is an error naming the fix. A trajectory file is already in steps and is used exactly as stored unless
+/// the layout options ask for a change (checked against the work area as stored).
+pub fn load_page(
     input: &Path,
     profile: &MachineProfile,
     input_args: &InputArgs,
     layout: &LayoutArgs,
-    optimize: &OptimizeArgs,
-    pen_at: Option<Point>,
-) -> crate::Result<(StepDrawing, Option<Drawing>)> {
+) -> crate::Result<Page> {
+    let bed = layout.bed.clone().unwrap_or_else(|| Bed::work_area(profile));
     let shown = input.display().to_string();
     let bad = |e: anyhow::Error| crate::Error::from(BadInput::new(input, e));
     if input != Path::new("-") && layout.options()?.is_identity() {
         let head = std::fs::read(input).map(|b| b[..b.len().min(512)].to_vec()).unwrap_or_default();
         if input_kind(input, &head) == InputKind::Trajectory {
             let text = std::fs::read_to_string(input).with_context(|| format!("{shown}: cannot read")).map_err(bad)?;
-            return Ok((trajectory::import(&text, &shown).map_err(|e| bad(e.into()))?, None));
+            let steps = trajectory::import(&text, &shown).map_err(|e| bad(e.into()))?;
+            if matches!(bed, Bed::WorkArea { .. }) {
+                plan::check_work_area(profile, &steps).map_err(|e| bad(e.into()))?;
+            }
+            return Ok(Page::Steps(steps));
         }
     }
-    let mut drawing = load_laid_out(input, input_args, profile, layout).map_err(bad)?.drawing;
+    let (layout, note) = layout.on_bed(bed).map_err(bad)?;
+    if let Some(note) = note {
+        eprintln!("{note}");
+    }
+    Ok(Page::Drawing(load_laid_out(input, input_args, profile, &layout).map_err(bad)?.drawing))
+}
+
+/// Order a loaded page's paths and convert them to steps (and keep the millimetre drawing for previews). The
+/// optimizer runs to convergence (no time budget), so that a resumed plot rebuilds exactly the same order. The
+/// order starts at `pen_at` (page mm) when given — where a machine that is not homed before the plot reports the
+/// pen ([`pen_on_page`]) — else at home (or `--start-at`).
+pub fn order_steps(
+    page: Page,
+    input: &Path,
+    profile: &MachineProfile,
+    optimize: &OptimizeArgs,
+    pen_at: Option<Point>,
+) -> crate::Result<(StepDrawing, Option<Drawing>)> {
+    let mut drawing = match page {
+        Page::Steps(steps) => return Ok((steps, None)),
+        Page::Drawing(d) => d,
+    };
+    let shown = input.display().to_string();
+    let bad = |e: anyhow::Error| crate::Error::from(BadInput::new(input, e));
     if optimize.enabled() {
         let options = OptimizeOptions { work_per_path: None, ..optimize.options_from(Some(profile), pen_at)? };
         let report = optimize::optimize(&mut drawing, &options).with_context(|| format!("cannot optimize {shown}"))?;
@@ -64,6 +100,18 @@ pub fn load_steps(
     let steps =
         drawing_to_steps(profile, &drawing).with_context(|| format!("cannot convert {shown} to steps")).map_err(bad)?;
     Ok((steps, Some(drawing)))
+}
+
+/// [`load_page`] then [`order_steps`]: any supported input as steps, laid out for the machine and ordered.
+pub fn load_steps(
+    input: &Path,
+    profile: &MachineProfile,
+    input_args: &InputArgs,
+    layout: &LayoutArgs,
+    optimize: &OptimizeArgs,
+    pen_at: Option<Point>,
+) -> crate::Result<(StepDrawing, Option<Drawing>)> {
+    order_steps(load_page(input, profile, input_args, layout)?, input, profile, optimize, pen_at)
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! and their hatching, page layout, size limits, pen-up travel, the sheets HP-GL plotters address, the flag
 //! that cancels long work, and the drift-free conversion of millimetres to whole motor steps.
 
+pub mod bed;
 pub mod cancel;
 pub mod drawing;
 pub mod flatten;

@@ -6,7 +6,11 @@ use std::path::Path;
 use anyhow::{Context as _, bail};
 use plotter_host::job::progress::PenChangeMode;
 use plotter_host::link::journal;
+use plotter_host::link::machine::Firmware;
+use plotter_host::options::layout::{LayoutArgs, journal_args};
 use plotter_path::MachineProfile;
+use plotter_path::geometry::bed::Bed;
+use plotter_path::geometry::hpgl_devices::HpglDevice;
 
 use super::terminal::Terminal;
 use super::{PlotArgs, PlotSource, default_beside};
@@ -24,12 +28,22 @@ fn hpgl_program(
     plotter_path::geometry::hpgl_devices::HpglPaper,
     usize,
 )> {
+    let (device, paper) = device_and_sheet(args)?;
+    let drawing = drawing
+        .unwrap_or_else(|| steps.to_drawing(&plotter_path::geometry::steps::StepMapper::new(profile), "trajectory"));
+    let (program, paper) = plotter_host::job::hpgl::program_for(profile, &drawing, device, paper)?;
+    plotter_host::input::warn_all(&program.warnings);
+    Ok((program, device, paper, drawing.path_count()))
+}
+
+/// The plotter `--hpgl-device` names and the sheet `--hpgl-paper` names (none: the one that suits the page).
+fn device_and_sheet(
+    args: &PlotArgs,
+) -> anyhow::Result<(&'static HpglDevice, Option<&'static plotter_path::geometry::hpgl_devices::HpglPaper>)> {
     use plotter_path::geometry::hpgl_devices;
     let device = hpgl_devices::device(&args.hpgl_device).with_context(|| {
         format!("--hpgl-device {}: not a known plotter (known: {})", args.hpgl_device, hpgl_devices::device_names())
     })?;
-    let drawing = drawing
-        .unwrap_or_else(|| steps.to_drawing(&plotter_path::geometry::steps::StepMapper::new(profile), "trajectory"));
     let paper = match (&args.hpgl_paper, device.papers.is_empty()) {
         (Some(name), false) => Some(
             device
@@ -39,9 +53,23 @@ fn hpgl_program(
         (Some(_), true) => bail!("--hpgl-paper: the {} plots on the drawing's own page", device.name),
         (None, _) => None,
     };
-    let (program, paper) = plotter_host::job::hpgl::program_for(profile, &drawing, device, paper)?;
-    plotter_host::input::warn_all(&program.warnings);
-    Ok((program, device, paper, drawing.path_count()))
+    Ok((device, paper))
+}
+
+/// The layout flags with the machine the page is laid out for: for a plot that goes to an HP-GL plotter (an
+/// `.hpgl`/`.plt`/`.hgl` export, or `--firmware hpgl`) its sheets, or the one `--hpgl-paper` names; otherwise as
+/// given (the profile's work area).
+pub(super) fn layout_for(args: &PlotArgs) -> anyhow::Result<LayoutArgs> {
+    let ext = args.export.as_ref().and_then(|o| o.extension()).and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let to_hpgl = match ext {
+        Some(e) => matches!(e.as_str(), "hpgl" | "plt" | "hgl"),
+        None => args.firmware == Firmware::Hpgl,
+    };
+    if !to_hpgl {
+        return Ok(args.layout.clone());
+    }
+    let (device, sheet) = device_and_sheet(args)?;
+    Ok(LayoutArgs { bed: Some(Bed::hpgl(device, sheet)), ..args.layout.clone() })
 }
 
 /// `--export FILE.hpgl`: write the HP-GL program.
@@ -92,7 +120,7 @@ pub(super) fn plot_hpgl(
             let path = args.journal.clone().unwrap_or_else(|| default_beside(input, ".journal"));
             let source = PlotSource {
                 cwd: std::env::current_dir().context("no current directory")?,
-                args: std::env::args().skip_while(|a| a != "plot").skip(1).collect(),
+                args: journal_args(std::env::args().skip_while(|a| a != "plot").skip(1)),
                 start: [0; 4],
             };
             (journal::Journal::create(&path, &serde_json::to_string(&source)?, hash, cmds.list.len())?, 0, path)

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use plotter_host::input::InputArgs;
-use plotter_host::job::load::{load_steps, page_of, pen_on_page};
+use plotter_host::job::load::{load_page, load_steps, order_steps, page_of, pen_on_page};
 use plotter_host::job::progress::PenChangeMode;
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self, JournalSpec};
@@ -25,7 +25,7 @@ use plotter_host::link::machine::{Connected, Firmware};
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
-use plotter_host::options::layout::LayoutArgs;
+use plotter_host::options::layout::{LayoutArgs, journal_args, refuse_quarter_turns};
 use plotter_host::options::machine::MachineArgs;
 use plotter_host::options::optimize::OptimizeArgs;
 use plotter_host::stop::Stop;
@@ -216,13 +216,21 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         let port = args.port.as_deref().context(
             "--firmware hpgl needs --port (a plotter, or the model `plotter sim --pty --hpgl` serves on a pty)",
         )?;
-        let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize, None)?;
+        let layout = hpgl::layout_for(args)?;
+        let (steps, drawing) = load_steps(input, &profile, &args.input_args, &layout, &args.optimize, None)?;
         return plot_hpgl(args, input, port, &profile, &steps, drawing, None);
     }
     if args.export.is_none() && args.port.is_none() && args.profile_from_machine {
         bail!("--profile-from-machine needs --port (a GRBL controller to read the settings from)");
     }
-    // A GRBL controller may supply the profile, so connect before converting the drawing.
+    // The page meets the machine before anything connects: loaded and laid out on the profile's work area (or
+    // an HP-GL export's sheets), refused with the fix when it cannot be drawn. A GRBL controller may supply the
+    // profile (--profile-from-machine), so that plot is laid out and checked once connected.
+    let layout = hpgl::layout_for(args)?;
+    let early = match args.profile_from_machine {
+        false => Some(load_page(input, &profile, &args.input_args, &layout)?),
+        true => None,
+    };
     let mut connected = match (&args.port, &args.export) {
         (Some(port), None) => Some(connect(args, port, &mut profile)?),
         _ => None,
@@ -246,7 +254,11 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
         (true, None, Some(s)) => Some(pen_on_page(s, &profile)?),
         _ => None,
     };
-    let (steps, drawing) = load_steps(input, &profile, &args.input_args, &args.layout, &args.optimize, pen_at)?;
+    let page = match early {
+        Some(page) => page,
+        None => load_page(input, &profile, &args.input_args, &layout)?,
+    };
+    let (steps, drawing) = order_steps(page, input, &profile, &args.optimize, pen_at)?;
     let export_ext = args
         .export
         .as_ref()
@@ -327,7 +339,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             let source = |start: [i32; 4]| -> anyhow::Result<String> {
                 let source = PlotSource {
                     cwd: std::env::current_dir().context("no current directory")?,
-                    args: std::env::args().skip_while(|a| a != "plot").skip(1).collect(),
+                    args: journal_args(std::env::args().skip_while(|a| a != "plot").skip(1)),
                     start,
                 };
                 Ok(serde_json::to_string(&source)?)
@@ -360,6 +372,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     }
     let source: PlotSource = serde_json::from_str(&state.source)
         .with_context(|| format!("{}: unreadable source line", journal_path.display()))?;
+    refuse_quarter_turns(&source.args).with_context(|| format!("{}: cannot resume", journal_path.display()))?;
     let original = <PlotOnly as clap::Parser>::try_parse_from(std::iter::once("plot".to_string()).chain(source.args))
         .with_context(|| format!("{}: the recorded plot arguments no longer parse", journal_path.display()))?
         .args;
@@ -371,8 +384,8 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
     let mut profile = original.machine.load()?;
     let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
     if original.firmware == Firmware::Hpgl {
-        let (steps, drawing) =
-            load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize, None)?;
+        let layout = hpgl::layout_for(&original)?;
+        let (steps, drawing) = load_steps(input, &profile, &original.input_args, &layout, &original.optimize, None)?;
         let link = PlotArgs { baud: args.baud.or(original.baud), ..original.clone() };
         return plot_hpgl(&link, input, port, &profile, &steps, drawing, Some((&state, journal_path)));
     }
@@ -382,10 +395,19 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
         hold_timeout: args.hold_timeout,
         ..original.clone()
     };
+    // Laid out and checked before connecting, as `run` does (with --profile-from-machine, once connected).
+    let early = match original.profile_from_machine {
+        false => Some(load_page(input, &profile, &original.input_args, &original.layout)?),
+        true => None,
+    };
     let mut c = connect(&link, port, &mut profile)?;
     // The order started where the original plot's plan did when that plot did not home.
     let pen_at = original.no_home.then(|| page_of(&profile, source.start));
-    let (steps, _) = load_steps(input, &profile, &original.input_args, &original.layout, &original.optimize, pen_at)?;
+    let page = match early {
+        Some(page) => page,
+        None => load_page(input, &profile, &original.input_args, &original.layout)?,
+    };
+    let (steps, _) = order_steps(page, input, &profile, &original.optimize, pen_at)?;
     let back = original.optimize.return_home;
     let full = plan::plan_returning(&profile, &steps, source.start, plan::Lookahead::Whole, back)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
