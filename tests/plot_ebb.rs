@@ -120,7 +120,7 @@ fn three_pens_stop_for_two_pen_changes_on_the_board() {
         &profile,
         "--no-optimize",
         "--pen-change",
-        "pause",
+        "prompt",
     ];
     let (ok, stdout, stderr) = plot(&dir, &args, "\n\n");
     assert!(ok, "plot failed:\n{stderr}\n{stdout}");

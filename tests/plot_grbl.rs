@@ -57,7 +57,17 @@ fn three_pens_over_a_grbl_pty_with_two_pen_changes() {
     let dir = scratch("grbl-three-pens");
     let sim = SimPty::start(&dir, &["--grbl", "--fast"]);
     let svg = sample("three-pens.svg");
-    let args = ["plot", svg.to_str().unwrap(), "--port", &sim.port, "--firmware", "grbl", "--no-optimize"];
+    let args = [
+        "plot",
+        svg.to_str().unwrap(),
+        "--port",
+        &sim.port,
+        "--firmware",
+        "grbl",
+        "--no-optimize",
+        "--pen-change",
+        "prompt",
+    ];
     let (ok, stdout, stderr, prompts) = scripted(&dir, &args, &["", ""]);
     assert!(ok, "plot failed:\n{stderr}\n{stdout}");
     assert_eq!(prompts, 2, "{stderr}");

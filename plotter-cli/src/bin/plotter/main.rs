@@ -32,6 +32,8 @@ enum Command {
     Convert(cmd::convert::ConvertArgs),
     /// Plot a drawing on the simulated plotter (default) or a serial plotter (--port)
     Plot(cmd::plot::PlotArgs),
+    /// List the plots interrupted on a port (--list), or continue one where it stopped
+    Resume(cmd::resume::ResumeArgs),
     /// Print slicer G-code (PrusaSlicer/Cura, Marlin flavour) on the simulated printer (default) or a serial one
     Print(cmd::print::PrintArgs),
     /// Run the simulated firmware (`--pty`) or the firmware image under QEMU (`--qemu`) on a pseudo-terminal and
@@ -76,6 +78,7 @@ fn main() {
         Command::Stats(args) => cmd::stats::run(args),
         Command::Convert(args) => cmd::convert::run(args),
         Command::Plot(args) => cmd::plot::run(args),
+        Command::Resume(args) => cmd::resume::run(args),
         Command::Print(args) => cmd::print::run(args),
         Command::Sim(args) => cmd::sim::run(args),
         Command::Home(args) => cmd::home::run(args),

@@ -4,16 +4,15 @@
 use std::path::Path;
 
 use anyhow::{Context as _, bail};
-use plotter_host::job::progress::PenChangeMode;
 use plotter_host::link::journal;
 use plotter_host::link::machine::Firmware;
-use plotter_host::options::layout::{LayoutArgs, journal_args};
+use plotter_host::options::layout::LayoutArgs;
 use plotter_path::MachineProfile;
 use plotter_path::geometry::bed::Bed;
 use plotter_path::geometry::hpgl_devices::HpglDevice;
 
-use super::terminal::Terminal;
-use super::{PlotArgs, PlotSource, default_beside};
+use super::terminal::{PenChange, Terminal};
+use super::{PlotArgs, PlotSource, journal_path};
 
 /// The page drawing as HP-GL for `--hpgl-device` on `--hpgl-paper` (or the first of its sheets that holds the
 /// drawing), with the device and the sheet.
@@ -117,16 +116,13 @@ pub(super) fn plot_hpgl(
             (journal::Journal::append(path, state)?, hplot::resume_point(state.executed, &cmds), path.to_path_buf())
         }
         None => {
-            let path = args.journal.clone().unwrap_or_else(|| default_beside(input, ".journal"));
-            let source = PlotSource {
-                cwd: std::env::current_dir().context("no current directory")?,
-                args: journal_args(std::env::args().skip_while(|a| a != "plot").skip(1)),
-                start: [0; 4],
-            };
+            let machine = device.name;
+            let path = journal_path(args, input, machine)?;
+            let source = PlotSource::here(input, machine, [0; 4])?;
             (journal::Journal::create(&path, &serde_json::to_string(&source)?, hash, cmds.list.len())?, 0, path)
         }
     };
-    let mut terminal = Terminal::new(args.pause_immediately, PenChangeMode::None)?;
+    let mut terminal = Terminal::new(args.pause_immediately, PenChange::None)?;
     let outcome = hplot::plot(&mut s, &cmds, &paper, from, Some(journal), Some(&path), &mut terminal);
     terminal.bar.finish_and_clear();
     let o = outcome?;

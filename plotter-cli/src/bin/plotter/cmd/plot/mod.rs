@@ -1,7 +1,8 @@
 //! `plotter plot`: load a drawing (SVG, G-code or trajectory file), plan it with the firmware's planner, and run it
 //! on the built-in simulated plotter (default, writes the as-stepped preview) or stream it to a serial device
 //! running our firmware or GRBL. Between layers drawn with different pens the plot parks and asks for the pen
-//! (Enter continue, `s` skip the layer, `q` stop and keep the journal).
+//! (Enter continue, `s` skip the layer, `q` stop and keep the journal), or as `--pen-change` says. On a port the
+//! journal goes to the user's state directory (`plotter resume` lists and continues interrupted plots).
 
 mod hpgl;
 mod summary;
@@ -9,19 +10,19 @@ mod terminal;
 
 use hpgl::{export_hpgl, plot_hpgl};
 use summary::{print_lower_bound, summary};
-use terminal::Terminal;
+use terminal::{PenChange, Terminal};
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use plotter_host::input::InputArgs;
 use plotter_host::job::load::{load_page, load_steps, order_steps, page_of, pen_on_page};
-use plotter_host::job::progress::PenChangeMode;
 use plotter_host::job::stepped::stepped_drawing;
 use plotter_host::job::{self, JournalSpec};
 use plotter_host::link::hpgl::handshake::Handshake;
 use plotter_host::link::journal;
 use plotter_host::link::machine::{Connected, Firmware};
+use plotter_host::link::paced::PacedSim;
 use plotter_host::link::serial::SerialTransport;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
@@ -57,10 +58,12 @@ pub(crate) struct PlotArgs {
     /// Show pen-up travel in the as-stepped preview.
     #[arg(long)]
     pub(crate) travel: bool,
-    /// Resume journal [default with --port: <input>.journal].
+    /// Where to write the plot's resume journal [default with --port: in the state directory,
+    /// ~/.local/state/plotter/journals, named after the drawing and the machine; `plotter resume --list` shows
+    /// them].
     #[arg(long)]
     pub(crate) journal: Option<PathBuf>,
-    /// Resume the plot recorded in this journal.
+    /// Resume the plot recorded in this journal (as `plotter resume JOURNAL` does).
     #[arg(long, conflicts_with = "input")]
     pub(crate) resume: Option<PathBuf>,
     /// With --resume: trust the position the firmware reports instead of homing again.
@@ -81,10 +84,12 @@ pub(crate) struct PlotArgs {
     /// its answers).
     #[arg(long, value_enum, default_value_t = Firmware::Auto)]
     pub(crate) firmware: Firmware,
-    /// Between layers drawn with different pens: park with the pen up and wait for the new pen (pause), or plot
-    /// straight through (none).
-    #[arg(long, value_enum, default_value_t = PenChangeMode::Pause)]
-    pub(crate) pen_change: PenChangeMode,
+    /// Between layers drawn with different pens: prompt (park with the pen up and ask for the next pen: Enter
+    /// continues, s skips the layer, q stops), pause (park and end the plot there; on a port `plotter resume`
+    /// continues with the next pen), none (plot straight through), or auto: prompt when stdin is a terminal, else
+    /// none with a warning, so that a script is never stopped by a question nobody can answer.
+    #[arg(long, value_enum, default_value_t = PenChange::Auto)]
+    pub(crate) pen_change: PenChange,
     /// GRBL: take steps/mm, maximum rates, accelerations and travel from the machine's `$$` settings instead of
     /// the profile (the pen settings still come from the profile).
     #[arg(long)]
@@ -118,6 +123,10 @@ pub(crate) struct PlotArgs {
     /// watch the resends at work.
     #[arg(long, default_value_t = 0.0)]
     pub(crate) sim_noise: f64,
+    /// Simulated plot only: run at this many times the real machine's speed (e.g. 1 to watch it as it would
+    /// plot, 10 for ten times faster) [default: as fast as the computer can].
+    #[arg(long, value_parser = sim_speed)]
+    pub(crate) sim_speed: Option<f64>,
     #[command(flatten)]
     pub(crate) input_args: InputArgs,
     #[command(flatten)]
@@ -142,10 +151,57 @@ pub(super) struct PlotSource {
     cwd: PathBuf,
     args: Vec<String>,
     start: [i32; 4],
+    /// The drawing and the machine, as `plotter resume --list` shows them.
+    #[serde(default)]
+    drawing: String,
+    #[serde(default)]
+    machine: String,
+}
+
+impl PlotSource {
+    /// This command's plot: its arguments after `plot`, the current directory, where the plan starts.
+    pub(super) fn here(input: &Path, machine: &str, start: [i32; 4]) -> anyhow::Result<PlotSource> {
+        Ok(PlotSource {
+            cwd: std::env::current_dir().context("no current directory")?,
+            args: journal_args(std::env::args().skip_while(|a| a != "plot").skip(1)),
+            start,
+            drawing: drawing_name(input),
+            machine: machine.to_string(),
+        })
+    }
+}
+
+/// The drawing as a journal names it: a `gen:` figure as written, a file by its absolute path.
+fn drawing_name(input: &Path) -> String {
+    match input.to_str().filter(|p| p.starts_with(plotter_host::input::GEN_PREFIX)) {
+        Some(generated) => generated.to_string(),
+        None => std::path::absolute(input).unwrap_or_else(|_| input.to_path_buf()).display().to_string(),
+    }
+}
+
+/// Where a plot on a port keeps its journal: `--journal`, else the state directory's file for this drawing and
+/// machine (finished plots' old journals there are pruned on the way).
+pub(super) fn journal_path(args: &PlotArgs, input: &Path, machine: &str) -> anyhow::Result<PathBuf> {
+    if let Some(j) = &args.journal {
+        return Ok(j.clone());
+    }
+    let path = plotter_host::state_dir::journal_for(&drawing_name(input), machine)?;
+    if let Some(dir) = path.parent() {
+        let _ = plotter_host::state_dir::prune_finished(dir, plotter_host::state_dir::KEEP_FINISHED);
+    }
+    Ok(path)
+}
+
+/// `--sim-speed`: a positive factor of the machine's speed.
+fn sim_speed(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("{s:?} is not a positive speed factor (1 = the machine's own speed)")),
+    }
 }
 
 /// `--hold-timeout`: a positive number of seconds, at most a day.
-fn hold_seconds(s: &str) -> Result<f64, String> {
+pub(crate) fn hold_seconds(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v > 0.0 && v <= 86_400.0 => Ok(v),
         _ => Err(format!("{s:?} is not a number of seconds between 0 and 86400")),
@@ -193,7 +249,14 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     // plot pauses it or stops it with the pen up (see `Terminal`).
     Stop::install_signals().context("cannot take the termination signals")?;
     if let Some(j) = &args.resume {
-        return resume(args, j);
+        let link = ResumeLink {
+            port: args.port.as_deref(),
+            baud: args.baud,
+            hold_timeout: args.hold_timeout,
+            pause_immediately: args.pause_immediately,
+            trust_position: args.trust_position,
+        };
+        return resume(&link, j);
     }
     let input = args.input.as_deref().context("an input file is required")?;
     let mut profile = args.machine.load()?;
@@ -223,6 +286,15 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     if args.export.is_none() && args.port.is_none() && args.profile_from_machine {
         bail!("--profile-from-machine needs --port (a GRBL controller to read the settings from)");
     }
+    if args.export.is_none() && args.port.is_none() && args.pen_change == PenChange::Pause {
+        bail!(
+            "--pen-change pause ends the plot at the first pen change for `plotter resume`, which needs --port \
+             (the simulated plotter keeps no journal); use --pen-change prompt or none"
+        );
+    }
+    if args.sim_speed.is_some() && (args.port.is_some() || args.export.is_some()) {
+        bail!("--sim-speed paces the simulated plotter: it has no effect with --port or --export");
+    }
     // The page meets the machine before anything connects: loaded and laid out on the profile's work area (or
     // an HP-GL export's sheets), refused with the fix when it cannot be drawn. A GRBL controller may supply the
     // profile (--profile-from-machine), so that plot is laid out and checked once connected.
@@ -244,7 +316,8 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             if args.sim_noise > 0.0 {
                 transport = transport.with_noise(plotter_host::link::faults::Noise::new(args.sim_noise, 1));
             }
-            Some(Session::connect(transport, "simulated plotter")?)
+            let paced = PacedSim::new(transport, args.sim_speed.unwrap_or(f64::INFINITY));
+            Some(Session::connect(paced, "simulated plotter")?)
         }
         _ => None,
     };
@@ -305,7 +378,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             );
             terminal.bar.finish_and_clear();
             let outcome = outcome?;
-            let sim = session.transport.sim();
+            let sim = session.transport.inner().sim();
             let executed = sim.hal().busy_ticks() - outcome.busy_before;
             println!("{}", summary(&outcome, Some(executed)));
             // The plot is done: the figures and the preview that follow are side outputs, which warn rather than
@@ -335,14 +408,9 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             Ok(())
         }
         Some(c) => {
-            let journal_path = args.journal.clone().unwrap_or_else(|| default_beside(input, ".journal"));
+            let journal_path = journal_path(args, input, &profile.name)?;
             let source = |start: [i32; 4]| -> anyhow::Result<String> {
-                let source = PlotSource {
-                    cwd: std::env::current_dir().context("no current directory")?,
-                    args: journal_args(std::env::args().skip_while(|a| a != "plot").skip(1)),
-                    start,
-                };
-                Ok(serde_json::to_string(&source)?)
+                Ok(serde_json::to_string(&PlotSource::here(input, &profile.name, start)?)?)
             };
             let spec = JournalSpec { path: &journal_path, source: &source };
             let back = args.optimize.return_home;
@@ -364,11 +432,28 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     }
 }
 
-/// `plotter plot --resume JOURNAL`.
-fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
+/// How a resumed plot reaches the machine: the options of `plot --resume` and `plotter resume` (everything else
+/// comes from the journal).
+pub(crate) struct ResumeLink<'a> {
+    /// `--port`.
+    pub(crate) port: Option<&'a str>,
+    /// `--baud`, when given.
+    pub(crate) baud: Option<u32>,
+    /// `--hold-timeout`, seconds.
+    pub(crate) hold_timeout: f64,
+    /// `--pause-immediately`.
+    pub(crate) pause_immediately: bool,
+    /// `--trust-position`.
+    pub(crate) trust_position: bool,
+}
+
+/// `plotter plot --resume JOURNAL` and `plotter resume`: continue the plot recorded in the journal on
+/// `args.port` (a finished plot is said to be finished, and that is a success).
+pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Result<()> {
     let state = journal::load(journal_path)?;
     if state.complete {
-        bail!("{}: that plot already finished", journal_path.display());
+        println!("{}: that plot already finished; nothing to resume", journal_path.display());
+        return Ok(());
     }
     let source: PlotSource = serde_json::from_str(&state.source)
         .with_context(|| format!("{}: unreadable source line", journal_path.display()))?;
@@ -382,7 +467,7 @@ fn resume(args: &PlotArgs, journal_path: &Path) -> anyhow::Result<()> {
         .with_context(|| format!("cannot enter {}, where the plot was started", source.cwd.display()))?;
     let input = original.input.as_deref().context("the recorded plot has no input")?;
     let mut profile = original.machine.load()?;
-    let port = args.port.as_deref().context("--resume needs --port (the simulated plotter keeps no state)")?;
+    let port = args.port.context("resuming needs --port (the simulated plotter keeps no state)")?;
     if original.firmware == Firmware::Hpgl {
         let layout = hpgl::layout_for(&original)?;
         let (steps, drawing) = load_steps(input, &profile, &original.input_args, &layout, &original.optimize, None)?;

@@ -1,0 +1,139 @@
+//! The pause prompt takes one key, without Enter, when stdin is a terminal: `plotter plot`, with stdin and stderr
+//! on a pseudo-terminal, is sent SIGINT (a Ctrl-C) while it plots, shows `[r]esume or [a]bort?`, and is typed a
+//! single `r` (the plot finishes, exit 0) or a single `a` (the plot stops, exit 5, and the emulator's pen log ends
+//! with the pen up) — no newline in either case. The first plot runs on the built-in simulator paced with
+//! `--sim-speed` (so that it is still plotting when asked), the second on `plotter sim --pty --pen-log`, whose own
+//! record of the pen is the witness. The terminal is back in line mode with echo after either.
+
+use std::fs::File;
+use std::io::{Read as _, Write as _};
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use nix::sys::signal::{Signal, kill};
+use nix::sys::termios::{LocalFlags, tcgetattr};
+use nix::unistd::Pid;
+use plotter_e2e::{SimPty, plotter_bin, sample, scratch};
+
+const PROMPT: &str = "[r]esume or [a]bort? ";
+
+/// A plot on a pseudo-terminal: the child, the master side to type on, and everything it wrote to stderr so far.
+struct OnPty {
+    child: std::process::Child,
+    master: File,
+    seen: Arc<Mutex<String>>,
+    slave: std::os::fd::OwnedFd,
+}
+
+impl OnPty {
+    /// `plotter plot duck.svg` with `extra` arguments in `dir`, its stdin and stderr on a new pseudo-terminal.
+    fn start(dir: &std::path::Path, extra: &[&str]) -> OnPty {
+        let pty = nix::pty::openpty(None, None).expect("openpty");
+        let slave = pty.slave;
+        let child = Command::new(plotter_bin())
+            .args(["plot", sample("duck.svg").to_str().unwrap()])
+            .args(extra)
+            .env("PLOTTER_STATE_DIR", dir.join("state"))
+            .current_dir(dir)
+            .stdin(Stdio::from(slave.try_clone().expect("dup")))
+            .stderr(Stdio::from(slave.try_clone().expect("dup")))
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("plotter runs");
+        let master = File::from(pty.master);
+        let seen = Arc::new(Mutex::new(String::new()));
+        let (mut reader, theirs) = (master.try_clone().expect("dup master"), Arc::clone(&seen));
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            // Ends with EIO once every slave copy is closed.
+            while let Ok(n) = reader.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                theirs.lock().unwrap().push_str(&String::from_utf8_lossy(&buf[..n]));
+            }
+        });
+        OnPty { child, master, seen, slave }
+    }
+
+    /// Wait (at most `limit`) until the output contains `what`.
+    fn wait_for(&self, what: &str, limit: Duration) {
+        let start = Instant::now();
+        while !self.seen.lock().unwrap().contains(what) {
+            assert!(start.elapsed() < limit, "no {what:?} after {limit:?}; the terminal shows:\n{}", self.seen());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn seen(&self) -> String {
+        self.seen.lock().unwrap().clone()
+    }
+
+    /// Ctrl-C once the plot runs, then the prompt; returns the terminal's local flags while the prompt waits.
+    fn pause(&mut self) -> LocalFlags {
+        // The progress line shows once the plot streams.
+        self.wait_for(" left", Duration::from_secs(8));
+        kill(Pid::from_raw(i32::try_from(self.child.id()).unwrap()), Signal::SIGINT).expect("SIGINT");
+        self.wait_for(PROMPT, Duration::from_secs(8));
+        tcgetattr(&self.slave).expect("tcgetattr").local_flags
+    }
+
+    /// Type `key` (no newline) and wait for the exit; returns the exit code, stdout and the terminal's text.
+    fn answer(mut self, key: &[u8]) -> (Option<i32>, String, String) {
+        self.master.write_all(key).expect("type");
+        let start = Instant::now();
+        let status = loop {
+            if let Some(s) = self.child.try_wait().expect("wait") {
+                break s;
+            }
+            if start.elapsed() > Duration::from_secs(10) {
+                let _ = self.child.kill();
+                panic!("the plot did not end after the key; the terminal shows:\n{}", self.seen());
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let mut out = String::new();
+        self.child.stdout.take().expect("stdout").read_to_string(&mut out).expect("stdout");
+        // The terminal is back in line mode with echo.
+        let flags = tcgetattr(&self.slave).expect("tcgetattr").local_flags;
+        assert!(flags.contains(LocalFlags::ICANON | LocalFlags::ECHO), "{flags:?}");
+        std::thread::sleep(Duration::from_millis(50));
+        (status.code(), out, self.seen())
+    }
+}
+
+#[test]
+fn one_r_resumes_the_plot_without_enter() {
+    let dir = scratch("pause-key-r");
+    let mut plot = OnPty::start(&dir, &["--sim-speed", "2"]);
+    let before = tcgetattr(&plot.slave).expect("tcgetattr").local_flags;
+    assert!(before.contains(LocalFlags::ICANON | LocalFlags::ECHO));
+    let waiting = plot.pause();
+    assert!(!waiting.contains(LocalFlags::ICANON) && !waiting.contains(LocalFlags::ECHO), "{waiting:?}");
+    // Ctrl-C still signals while the prompt waits.
+    assert!(waiting.contains(LocalFlags::ISIG));
+    let (code, stdout, terminal) = plot.answer(b"r");
+    assert_eq!(code, Some(0), "{terminal}\n{stdout}");
+    assert!(terminal.contains("paused with the pen up: [r]esume or [a]bort? r"), "{terminal}");
+    assert!(stdout.contains("as-stepped preview"), "{stdout}");
+}
+
+#[test]
+fn one_a_aborts_with_the_pen_up() {
+    let dir = scratch("pause-key-a");
+    let log = dir.join("pen.log");
+    // The emulator runs in real time: the 13 s duck is still plotting when the Ctrl-C comes.
+    let sim = SimPty::start(&dir, &["--pen-log", log.to_str().unwrap()]);
+    let mut plot = OnPty::start(&dir, &["--port", &sim.port]);
+    plot.pause();
+    let (code, stdout, terminal) = plot.answer(b"a");
+    assert_eq!(code, Some(5), "{terminal}\n{stdout}");
+    assert!(terminal.contains("paused with the pen up: [r]esume or [a]bort? a"), "{terminal}");
+    assert!(terminal.contains("aborted by the user"), "{terminal}");
+    // The emulator's record: the pen went down while plotting, and its last move was up.
+    let pen = std::fs::read_to_string(&log).expect("pen log");
+    assert!(pen.lines().any(|l| l.ends_with(" down")), "{pen}");
+    assert!(pen.lines().last().is_some_and(|l| l.ends_with(" up")), "{pen}");
+    drop(sim);
+}
