@@ -34,8 +34,11 @@
 //! documentation. Coordinates: machine 0 is the homed (pulled-off) switch position, positive into the work area
 //! (real GRBL uses negative machine space; the sender never relies on either, it works in `G92` coordinates).
 //!
-//! Not emulated: arcs (G2/G3: `error:20`), the `Bf:` buffer field, probing, overrides, coolant, check mode (`$C`), startup lines (`$N`),
-//! sleep. Settings changed with `$n=` are listed at once but drive the motion only after a soft reset.
+//! - `$SLP` sleep: motors off, state `Sleep`, every line left unanswered until a soft reset, which wakes it in
+//!   alarm (it cannot know where it is) whatever `$22` says.
+//!
+//! Not emulated: arcs (G2/G3: `error:20`), the `Bf:` buffer field, probing, overrides, coolant, check mode (`$C`), startup lines (`$N`).
+//! Settings changed with `$n=` are listed at once but drive the motion only after a soft reset.
 
 use std::collections::VecDeque;
 
@@ -140,6 +143,8 @@ pub struct GrblEmulator {
     alarm: Option<u8>,
     /// An alarm that needs a reset before `$X` (hard limit).
     needs_reset: bool,
+    /// Asleep after `$SLP`: only a soft reset wakes it.
+    sleeping: bool,
     homed: bool,
     paused: bool,
     status_wanted: bool,
@@ -250,6 +255,7 @@ impl GrblEmulator {
             out: Vec::new(),
             alarm: None,
             needs_reset: false,
+            sleeping: false,
             homed: false,
             paused: false,
             status_wanted: false,
@@ -409,6 +415,11 @@ impl GrblEmulator {
         if self.needs_reset {
             self.needs_reset = false;
         }
+        if std::mem::take(&mut self.sleeping) {
+            // The motors were off: the position is lost.
+            self.homed = false;
+            self.alarm = Some(0);
+        }
         self.start_up(false);
     }
 
@@ -467,6 +478,9 @@ impl GrblEmulator {
     }
 
     fn state_name(&self) -> &'static str {
+        if self.sleeping {
+            return "Sleep";
+        }
         if self.alarm.is_some() {
             return "Alarm";
         }
@@ -677,7 +691,7 @@ impl GrblEmulator {
                 }
                 return;
             }
-            if self.paused || self.needs_reset {
+            if self.paused || self.needs_reset || self.sleeping {
                 return;
             }
             let Some(end) = self.rx.iter().position(|&b| b == b'\n' || b == b'\r') else {
@@ -853,6 +867,14 @@ impl GrblEmulator {
             "G" => {
                 self.out.push("[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]".into());
                 self.answer("ok".into());
+            }
+            "SLP" => {
+                if !idle {
+                    return self.answer("error:8".into());
+                }
+                self.answer("ok".into());
+                self.out.push("[MSG:Sleeping]".into());
+                self.sleeping = true;
             }
             "X" => {
                 if self.needs_reset {
@@ -1085,6 +1107,21 @@ mod tests {
         e.feed(b"?");
         e.run_for(1);
         e.take_replies().into_iter().find(|l| l.starts_with('<')).unwrap()
+    }
+
+    #[test]
+    fn sleep_refuses_everything_until_a_reset_wakes_it_in_alarm() {
+        let mut e = emu();
+        let _ = say(&mut e, "$H");
+        assert_eq!(say(&mut e, "$SLP"), ["ok", "[MSG:Sleeping]"]);
+        assert!(status(&mut e).starts_with("<Sleep|"));
+        // A line waits unanswered.
+        assert!(say(&mut e, "G1 X10 F600").is_empty());
+        e.feed(&[RT_RESET]);
+        e.run_for(1000);
+        let r = e.take_replies();
+        assert!(r.contains(&"[MSG:'$H'|'$X' to unlock]".to_string()), "{r:?}");
+        assert!(status(&mut e).starts_with("<Alarm|"));
     }
 
     #[test]

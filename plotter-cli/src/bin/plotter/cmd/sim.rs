@@ -5,7 +5,8 @@
 //! feed the simulator's serial line (optionally through line noise), its replies are written back. Time runs at
 //! wall-clock speed by default (a plot takes as long as on the machine) or as fast as possible with `--fast`. On
 //! Ctrl-C (SIGINT), SIGTERM or SIGHUP, the step trace is written to `--trace` (one line per step: its time in µs and the position
-//! after it, `t x y z` in steps), followed by a summary line `# busy_ticks <motion time in µs> steps <count>`.
+//! after it, `t x y z` in steps), followed by a summary line `# busy_ticks <motion time in µs> steps <count>`
+//! and whether the motors are powered (`# motors on <0|1>`: `M18` releases them).
 //!
 //! With `--grbl` the pty serves the project's GRBL 1.1 emulator ([`plotter_host::link::grbl::emulator`])
 //! instead, set up from the profile; its trace adds `# grbl peak_rx <bytes> overflow <bytes> lines <n> errors
@@ -304,6 +305,7 @@ pub(crate) fn write_trace(sim: &Sim, path: &Path) -> anyhow::Result<()> {
         writeln!(out, "{} {} {} {}", e.time, pos[0], pos[1], pos[2])?;
     }
     writeln!(out, "# busy_ticks {} steps {}", sim.hal().busy_ticks(), sim.hal().steps().len())?;
+    writeln!(out, "# motors on {}", u8::from(sim.hal().motors_on()))?;
     out.flush()?;
     Ok(())
 }
