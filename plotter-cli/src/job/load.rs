@@ -57,8 +57,10 @@ pub fn load_page(
         if input_kind(input, &head) == InputKind::Trajectory {
             let text = std::fs::read_to_string(input).with_context(|| format!("{shown}: cannot read")).map_err(bad)?;
             let steps = trajectory::import(&text, &shown).map_err(|e| bad(e.into()))?;
-            if matches!(bed, Bed::WorkArea { .. }) {
-                plan::check_work_area(profile, &steps).map_err(|e| bad(e.into()))?;
+            if matches!(bed, Bed::WorkArea { .. })
+                && let Err(e) = plan::check_work_area(profile, &steps)
+            {
+                return Err(bad(anyhow::anyhow!("{e}; lay it out within it with --fit and a --paper")));
             }
             return Ok(Page::Steps(steps));
         }
@@ -222,6 +224,26 @@ mod tests {
         assert_eq!(steps.strokes[0].start, StepPos::new(800, 800), "A first, entered at (10, 10)");
         let travel = drawing_travel(&drawing.unwrap(), Some(Point::ZERO), &CostModel::Distance);
         assert!((travel - (200f64.sqrt() + 4100f64.sqrt())).abs() < 1e-4, "{travel}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A trajectory file is used as stored, checked against the work area before anything connects: 40000 steps
+    /// at the default profile's 80 steps/mm reach X 500 mm, past its 420 mm; the error names the fix.
+    #[test]
+    fn a_trajectory_beyond_the_work_area_is_refused_naming_the_fix() {
+        let profile = MachineProfile::default_plotter();
+        assert_eq!((profile.axes.x.steps_per_mm, profile.axes.x.travel_mm), (80.0, 420.0));
+        let dir = std::env::temp_dir().join(format!("plotter-load-traj-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let far = dir.join("far.traj");
+        std::fs::write(&far, "1\n2\n0 40000\n0 0\n").unwrap();
+        let w = Wrap::try_parse_from(["t"]).unwrap();
+        let e = load_page(&far, &profile, &w.input, &w.layout).unwrap_err().to_string();
+        assert!(e.contains("(500.000, 0.000) mm (machine) is outside the work area 0..420 × 0..297 mm"), "{e}");
+        assert!(e.ends_with("; lay it out within it with --fit and a --paper"), "{e}");
+        let near = dir.join("near.traj");
+        std::fs::write(&near, "1\n2\n0 4000\n0 0\n").unwrap();
+        assert!(matches!(load_page(&near, &profile, &w.input, &w.layout).unwrap(), Page::Steps(_)));
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -342,9 +342,10 @@ pub struct LayoutOptions {
 }
 
 impl LayoutOptions {
-    /// True when applying these options changes nothing (the machine check aside).
+    /// True when applying these options changes nothing (the machine check aside; the margin only matters to fit
+    /// and centre, so the command line's default 10 mm alone changes nothing either).
     pub fn is_identity(&self) -> bool {
-        LayoutOptions { bed: None, ..self.clone() } == LayoutOptions::default()
+        LayoutOptions { bed: None, margin_mm: 0.0, ..self.clone() } == LayoutOptions::default()
     }
 
     /// Whether the layout places the page on the machine's bed: a paper is given, or the drawing is fitted or
@@ -865,6 +866,7 @@ mod tests {
             ..Default::default()
         };
         assert!(!opts.is_identity() && LayoutOptions { bed: Some(v3), ..Default::default() }.is_identity());
+        assert!(LayoutOptions { margin_mm: 10.0, ..Default::default() }.is_identity());
         let settled = settle_on_bed(&opts).unwrap();
         assert_eq!(settled.turned, Some(Orientation::Landscape));
         assert_eq!(
