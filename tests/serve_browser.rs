@@ -16,7 +16,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use plotter_e2e::{Served, sample, scratch, workspace_root};
+use plotter_e2e::{Served, SimPty, sample, scratch, workspace_root};
 use serde_json::{Value, json};
 use tungstenite::{Message, WebSocket};
 
@@ -183,8 +183,26 @@ impl Cdp {
         assert_eq!(self.text("#drawing-name"), "duck.svg");
         assert_eq!(self.text("#estimate"), "0:13.2");
         assert_eq!(self.eval("document.querySelectorAll('#g-travel line').length"), json!(5));
+        self.connect_to("sim", "simulated plotter");
+    }
+
+    /// Connect to `target` (`sim` or a listed port) and wait until the status names `name` and the machine is idle.
+    fn connect_to(&mut self, target: &str, name: &str) {
+        self.wait_for(
+            "the target in the list",
+            &format!("[...document.getElementById('target').options].some((o) => o.value === '{target}')"),
+            Duration::from_secs(10),
+        );
+        self.eval(&format!("document.getElementById('target').value = '{target}'"));
         self.click("connect");
-        self.wait_for("the simulator", "document.getElementById('machine-status').textContent.startsWith('simulated plotter') && document.getElementById('activity').textContent === 'idle'", Duration::from_secs(20));
+        self.wait_for(
+            "the connection",
+            &format!(
+                "document.getElementById('machine-status').textContent.startsWith('{name}') && \
+                 document.getElementById('activity').textContent === 'idle'"
+            ),
+            Duration::from_secs(20),
+        );
     }
 
     fn screenshot(&mut self, path: &Path) {
@@ -466,4 +484,77 @@ fn hpgl_controls(cdp: &mut Cdp) {
         "document.getElementById('message').textContent.includes('plotter sim --pty --hpgl')",
         Duration::from_secs(10),
     );
+}
+
+/// An interrupted plot on a serial port is offered for resuming, and resumed from the page: `plotter serve` in
+/// front of `plotter sim --pty` (our firmware on a pseudo-terminal, in real time) with its journals in a scratch
+/// folder plots the duck at full speed (the sliders), is cancelled part-way, offers "Resume it" with how far it
+/// got, and finishes from there; the journal then says the plot is complete and the offer goes.
+#[test]
+fn an_interrupted_serial_plot_resumes_from_the_page() {
+    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let Some(browser) = chromium() else { return };
+    let dir = scratch("chromium-resume");
+    let sim = SimPty::start(&dir, &[]);
+    let journals = dir.join("journals");
+    let served = Served::start(&[
+        "--listen",
+        "127.0.0.1:0",
+        "--port",
+        &sim.port,
+        "--journal-dir",
+        journals.to_str().expect("a UTF-8 path"),
+    ]);
+    let (_chromium, mut cdp) = Cdp::launch(&browser, &dir.join("profile"));
+    cdp.load_duck(&served.url);
+    cdp.connect_to(&sim.port, "plotter-fw");
+    // Full speed both ways (the XY kit's 150 mm/s), so the real-time plot is short.
+    cdp.eval(
+        "(() => { for (const id of ['speed-pendown-pct', 'speed-penup-pct']) document.getElementById(id).value = '100'; \
+         document.getElementById('speed-penup-pct').dispatchEvent(new Event('change')); })()",
+    );
+    cdp.wait_for("full speed", "snap.pen_speed.speed_pendown_pct === 100", Duration::from_secs(10));
+    assert_eq!(cdp.eval("document.getElementById('resumable').hidden"), json!(true), "nothing to resume yet");
+    cdp.click("plot");
+    cdp.wait_for(
+        "the plot to be under way",
+        "parseFloat(document.getElementById('percent').textContent) >= 20",
+        Duration::from_secs(60),
+    );
+    cdp.click("cancel");
+    cdp.wait_for(
+        "the stop",
+        "document.getElementById('message').textContent.startsWith('plot stopped')",
+        Duration::from_secs(30),
+    );
+    cdp.wait_for(
+        "the offer to resume",
+        "!document.getElementById('resumable').hidden && !document.getElementById('resume-plot').disabled",
+        Duration::from_secs(10),
+    );
+    let offer = cdp.text("#resumable");
+    let at: f64 = offer
+        .strip_prefix("The last plot of this drawing on this machine stopped at ")
+        .and_then(|r| r.split(' ').next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("{offer}"));
+    assert!((15.0..100.0).contains(&at), "{offer}");
+    let journal: Vec<_> =
+        std::fs::read_dir(&journals).expect("the journal folder").flatten().map(|e| e.path()).collect();
+    assert_eq!(journal.len(), 1, "{journal:?}");
+    let name = journal[0].file_name().and_then(|n| n.to_str()).unwrap_or("").to_string();
+    assert!(name.starts_with("duck-xy-plotter-kit-a3-frame-") && name.ends_with(".journal"), "{name}");
+    cdp.click("resume-plot");
+    cdp.wait_for(
+        "the resumed plot's end",
+        "document.getElementById('message').textContent.startsWith('done:')",
+        Duration::from_secs(90),
+    );
+    assert_eq!(cdp.text("#percent"), "100 %");
+    cdp.wait_for("the offer to go", "document.getElementById('resumable').hidden", Duration::from_secs(10));
+    let text = std::fs::read_to_string(&journal[0]).expect("the journal");
+    assert!(text.lines().any(|l| l.trim() == "complete"), "{text}");
+    assert!(text.contains("\"front_end\":\"plotter serve\"") && text.contains("\"drawing\":\"duck.svg\""), "{text}");
+    drop(served);
+    let _ = std::fs::remove_dir_all(dir);
 }

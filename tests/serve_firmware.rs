@@ -145,7 +145,7 @@ fn plot_through_the_web_app(sim: SimPty, profile: Option<(&str, &str)>) -> (Stri
     let x0 = homed["machine"]["position"][0].as_i64().expect("x steps");
     let (status, v) = page.post(&served, "/api/jog", json!({ "axis": "x", "mm": 10.0 }));
     assert_eq!(status, 200, "{v}");
-    page.wait_log("position", Duration::from_secs(60));
+    page.wait_log("at X 10.00 Y 0.00 mm", Duration::from_secs(60));
     let jogged = page.wait_state(&served, "idle", Duration::from_secs(60), |s| s["machine"]["activity"] == "idle");
     assert_eq!(jogged["machine"]["position"][0].as_i64(), Some(x0 + 800), "{jogged}");
     let (status, v) = page.post(&served, "/api/plot", json!({}));

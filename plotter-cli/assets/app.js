@@ -173,6 +173,7 @@ function fillMachine(s) {
   $('test-pen').disabled = !m.connected || plotting;
   $('motors-off').disabled = !m.connected || plotting || !!m.hpgl;
   $('downloads').classList.toggle('disabled', !s.prepared);
+  fillResumable(s, plotting);
   // An HP-GL plotter has no homing and no jogging.
   $('home').disabled = !!m.hpgl;
   document.querySelectorAll('.jog-btn').forEach((b) => { b.disabled = !!m.hpgl; });
@@ -181,6 +182,19 @@ function fillMachine(s) {
   $('resume').disabled = !(s.prompt && s.prompt.kind === 'pause');
   $('cancel').disabled = !plotting;
   $('disconnect').disabled = !m.connected || plotting;
+}
+
+// An interrupted plot of this drawing on this machine (its journal in the state directory), offered to resume.
+function fillResumable(s, plotting) {
+  const row = $('resumable'), r = s.resumable;
+  row.hidden = !r;
+  if (!r) { row.replaceChildren(); return; }
+  const b = document.createElement('button');
+  b.id = 'resume-plot'; b.className = 'ctl'; b.textContent = 'Resume it';
+  b.title = 'continue where it stopped, on the plotter it ran on (it homes first)';
+  b.disabled = !s.machine.connected || !s.machine.journaled || plotting;
+  b.onclick = () => api('/api/resume-plot').then(() => say('resuming the interrupted plot…')).catch(() => {});
+  row.replaceChildren('The last plot of this drawing on this machine stopped at ' + Math.floor(r.percent) + ' %', b);
 }
 
 // ---- the drawing ---------------------------------------------------------------------------------------------

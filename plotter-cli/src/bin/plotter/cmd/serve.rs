@@ -25,7 +25,7 @@ pub(crate) struct ServeArgs {
     /// Open the page in the default browser.
     #[arg(long)]
     pub(crate) open: bool,
-    /// Machine profiles (TOML) to offer besides the built-in XY plotter kit (repeat the flag).
+    /// Machine profiles (TOML) to offer besides the built-in models (repeat the flag).
     #[arg(long)]
     pub(crate) profile: Vec<PathBuf>,
     /// Serial devices to offer besides those the system lists (e.g. the path printed by `plotter sim --pty`).
@@ -49,6 +49,10 @@ pub(crate) struct ServeArgs {
     /// Seconds a page that took control has to open its event stream before control lapses.
     #[arg(long, default_value_t = 15.0)]
     pub(crate) claim_grace_s: f64,
+    /// Folder for the resume journals of plots on a serial port [default: the journals folder of the user's
+    /// state directory, where `plotter resume --list` looks].
+    #[arg(long)]
+    pub(crate) journal_dir: Option<PathBuf>,
 }
 
 /// A duration flag's value, in (0, 3600] s.
@@ -90,10 +94,27 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
         ..serve::state::Limits::default()
     };
     check_listen(args.listen, args.allow_remote)?;
+    // The built-in kit first (the page starts with it), then every built-in model, then the files named.
     let mut profiles = vec![MachineProfile::default_plotter()];
+    for model in plotter_path::config::models::names().filter_map(plotter_path::config::models::find) {
+        let profile = model.profile();
+        if !profiles.iter().any(|p| p.name == profile.name) {
+            profiles.push(profile);
+        }
+    }
     for p in &args.profile {
         profiles.push(MachineProfile::load(p)?);
     }
+    let journals = match &args.journal_dir {
+        Some(dir) => {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create the journal folder {}", dir.display()))?;
+            Some(dir.clone())
+        }
+        None => plotter_host::state_dir::journals_dir()
+            .map_err(|e| eprintln!("warning: plots will keep no resume journal: {e}"))
+            .ok(),
+    };
     // In (0, 1024] MB: far inside usize.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let max_upload = (args.max_upload_mb * 1_048_576.0) as usize;
@@ -129,9 +150,17 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
             extra_ports: args.port.clone(),
             profiles,
             limits,
+            journals,
         };
         match serve::serve(listener, config).await {
-            Some(cause) => anyhow::bail!("stopped by {cause}"),
+            // A plot cut short is a stopped plot (exit 5); an idle server asked to end has done its job.
+            Some(ended) if ended.interrupted => {
+                Err(plotter_host::stop::Stopped { cause: ended.cause, doing: "a plot".into() }.into())
+            }
+            Some(ended) => {
+                println!("plotter serve: ended on {}", ended.cause);
+                Ok(())
+            }
             None => Ok(()),
         }
     })

@@ -39,7 +39,7 @@ use serde_json::json;
 use tokio::sync::broadcast::error::RecvError;
 
 use super::budget::{self, Budget};
-use super::command::{Command, firmware_choice, hpgl_choice, hpgl_refusal, hpgl_table};
+use super::command::{Command, PlotJob, firmware_choice, hpgl_choice, hpgl_refusal, hpgl_table};
 use super::control;
 use super::deadline::body_deadline;
 use super::error::ApiError;
@@ -108,6 +108,7 @@ pub(crate) fn router(shared: Arc<Shared>) -> Router {
         .route("/api/pen", post(pen))
         .route("/api/console", post(console))
         .route("/api/pen-speed", post(pen_speed))
+        .route("/api/resume-plot", post(resume_plot))
         .route("/api/test-pen", post(test_pen))
         .route("/api/motors-off", post(motors_off))
         .route("/api/export", get(super::export::download))
@@ -708,12 +709,8 @@ async fn plot(State(shared): State<Arc<Shared>>) -> ApiResult {
         return Err(conflict(prepared.warnings.join("; ")));
     }
     // Mark it at once, so a second press is refused before the worker picks it up.
-    let profile = {
-        let mut i = shared.lock();
-        i.machine.activity = "plotting";
-        Box::new(i.machine_profile())
-    };
-    shared.command(Command::Plot(prepared, profile)).map_err(conflict)?;
+    let job = plot_job(&shared, prepared);
+    shared.command(Command::Plot(job)).map_err(conflict)?;
     ok()
 }
 
@@ -857,5 +854,40 @@ async fn motors_off(State(shared): State<Arc<Shared>>) -> ApiResult {
         ));
     }
     shared.command(Command::MotorsOff).map_err(conflict)?;
+    ok()
+}
+
+/// The plot of `prepared` with the current profile and sliders; the machine is marked as plotting at once, so a
+/// second press is refused before the worker picks it up.
+fn plot_job(shared: &Shared, prepared: Arc<plotter_host::job::prepare::Prepared>) -> PlotJob {
+    let mut i = shared.lock();
+    i.machine.activity = "plotting";
+    let drawing = i.loaded.as_ref().map_or_else(String::new, |l| l.name.clone());
+    PlotJob { prepared, profile: Box::new(i.machine_profile()), drawing }
+}
+
+/// Continue the interrupted plot of the loaded drawing on the chosen machine (its journal in the state directory),
+/// on the connected serial port.
+async fn resume_plot(State(shared): State<Arc<Shared>>) -> ApiResult {
+    ready(&shared)?;
+    if !shared.lock().machine.journaled {
+        return Err(conflict(
+            "only a plot on a serial port (our firmware, GRBL or an EiBotBoard) keeps a journal to resume from; \
+             connect to the plotter it ran on",
+        ));
+    }
+    let Some(interrupted) = shared.resumable() else {
+        let i = shared.lock();
+        let drawing = i.loaded.as_ref().map_or("no drawing loaded", |l| l.name.as_str()).to_string();
+        return Err(conflict(format!("no interrupted plot of {drawing} on the {} to resume", i.profile.name)));
+    };
+    let prepared = {
+        let i = shared.lock();
+        i.prepared
+            .clone()
+            .ok_or_else(|| conflict(i.prepare_error.clone().unwrap_or_else(|| "load a drawing first".into())))?
+    };
+    let job = plot_job(&shared, prepared);
+    shared.command(Command::ResumePlot(job, interrupted.path)).map_err(conflict)?;
     ok()
 }

@@ -26,8 +26,20 @@ pub(crate) enum Command {
     TestPen(Box<MachineProfile>),
     /// Switch the motors off, so the carriage can be pushed by hand.
     MotorsOff,
-    /// Plot with this profile (the sliders applied).
-    Plot(Arc<Prepared>, Box<MachineProfile>),
+    /// Plot.
+    Plot(PlotJob),
+    /// Continue the interrupted plot whose journal is at this path.
+    ResumePlot(PlotJob, std::path::PathBuf),
+}
+
+/// A plot the worker is asked to run.
+pub(crate) struct PlotJob {
+    /// The drawing, laid out and planned.
+    pub(crate) prepared: Arc<Prepared>,
+    /// The profile to plot with (the sliders applied).
+    pub(crate) profile: Box<MachineProfile>,
+    /// The drawing's name, as the page shows it (and its journal is named by).
+    pub(crate) drawing: String,
 }
 
 /// How to drive an HP-GL plotter: the device the program is written for (as the CLI's `--hpgl-device`), the

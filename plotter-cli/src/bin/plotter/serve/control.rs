@@ -119,6 +119,7 @@ mod tests {
             extra_ports: Vec::new(),
             profiles: Vec::new(),
             limits: Limits { claim_grace, ..Limits::default() },
+            journals: None,
         };
         Arc::new(Shared::new(config, tx))
     }

@@ -36,10 +36,13 @@ pub(crate) struct Config {
     pub(crate) sim_speed: f64,
     /// Serial devices named on the command line (offered besides the detected ports).
     pub(crate) extra_ports: Vec<String>,
-    /// Machine profiles on offer: the built-in kit first, then those named on the command line.
+    /// Machine profiles on offer: the built-in kit first, the other built-in models, then those named on the
+    /// command line.
     pub(crate) profiles: Vec<MachineProfile>,
     /// Time and count limits on clients.
     pub(crate) limits: Limits,
+    /// Where plots on a serial port keep their resume journals (`None`: no journals).
+    pub(crate) journals: Option<std::path::PathBuf>,
 }
 
 /// What one client may hold of the server, so that no client — a hostile page, a port scanner, a half-open
@@ -192,6 +195,8 @@ pub(crate) struct MachineState {
     pub(crate) motors_off: bool,
     /// The connected machine is an HP-GL plotter (no homing, no jogging; the console speaks HP-GL).
     pub(crate) hpgl: bool,
+    /// Plots on the connected machine keep a resume journal (a serial port of our firmware, GRBL or an EBB).
+    pub(crate) journaled: bool,
     /// Last error.
     pub(crate) error: Option<String>,
 }
@@ -320,6 +325,7 @@ impl Shared {
                     pen_down: None,
                     motors_off: false,
                     hpgl: false,
+                    journaled: false,
                     error: None,
                 },
                 progress: None,
@@ -360,9 +366,25 @@ impl Shared {
         all
     }
 
+    /// The interrupted plot of the loaded drawing on the chosen machine, when its journal says it did not finish.
+    pub(crate) fn resumable(&self) -> Option<Resumable> {
+        let dir = self.config.journals.as_ref()?;
+        let (drawing, machine) = {
+            let i = self.lock();
+            (i.loaded.as_ref()?.name.clone(), i.profile.name.clone())
+        };
+        let path = super::worker::journal_path(dir, &drawing, &machine);
+        let state = plotter_host::link::journal::load(&path).ok()?;
+        // Block counts far below 2^53: exact in f64.
+        #[allow(clippy::cast_precision_loss)]
+        let percent = 100.0 * state.executed as f64 / state.blocks.max(1) as f64;
+        (!state.complete).then_some(Resumable { path, executed: state.executed, blocks: state.blocks, percent })
+    }
+
     /// The state every page sees.
     pub(crate) fn snapshot(&self) -> Snapshot {
         let profiles: Vec<String> = self.profiles().into_iter().map(|p| p.name).collect();
+        let resumable = self.resumable();
         let i = self.lock();
         Snapshot {
             controlled: i.controller.is_some(),
@@ -396,6 +418,7 @@ impl Shared {
             profile: i.profile.name.clone(),
             profiles,
             pen_speed: i.pen_speed,
+            resumable,
             pen_speed_profile: PenSpeed::of(&i.profile),
             machine: i.machine.clone(),
             progress: i.progress,
@@ -427,6 +450,8 @@ pub(crate) struct Snapshot {
     pub(crate) profiles: Vec<String>,
     /// The pen-height and speed sliders.
     pub(crate) pen_speed: PenSpeed,
+    /// An interrupted plot of this drawing on this machine that can be resumed.
+    pub(crate) resumable: Option<Resumable>,
     /// What the sliders stand at with nothing chosen: the profile's own values.
     pub(crate) pen_speed_profile: PenSpeed,
     /// The machine.
@@ -439,6 +464,20 @@ pub(crate) struct Snapshot {
     pub(crate) stepped_version: Option<u64>,
     /// Upload limit, bytes.
     pub(crate) max_upload: usize,
+}
+
+/// An interrupted plot, as the page offers to resume it.
+#[derive(Debug, Clone, Serialize)]
+pub(crate) struct Resumable {
+    /// Its journal (not sent: a page names no file).
+    #[serde(skip)]
+    pub(crate) path: std::path::PathBuf,
+    /// Blocks certainly executed.
+    pub(crate) executed: usize,
+    /// Blocks in the plot.
+    pub(crate) blocks: usize,
+    /// How far it got, per cent.
+    pub(crate) percent: f64,
 }
 
 /// The loaded drawing, for the layer list.

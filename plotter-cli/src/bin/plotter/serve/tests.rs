@@ -23,6 +23,7 @@ fn test_app(max_upload: usize, sim_speed: f64) -> (Arc<Shared>, Router) {
         extra_ports: Vec::new(),
         profiles: vec![plotter_path::MachineProfile::default_plotter()],
         limits: super::state::Limits::default(),
+        journals: None,
     })
 }
 

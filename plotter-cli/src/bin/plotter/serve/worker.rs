@@ -5,6 +5,7 @@
 //! same progress, pause and cancel; it has no homing and no jogging. A plot's pause, resume and cancel
 //! requests and prompt answers reach it through [`super::state::PlotControl`], which [`WebEvents`] reads.
 
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
@@ -14,7 +15,7 @@ use plotter_host::job::page::view_with_travel;
 use plotter_host::job::prepare::Prepared;
 use plotter_host::job::progress::{JobProgress, PlotEvents};
 use plotter_host::job::stepped::stepped_drawing;
-use plotter_host::job::{self};
+use plotter_host::job::{self, JournalSpec};
 use plotter_host::link::Transport;
 use plotter_host::link::connect::open_port;
 use plotter_host::link::console::{console_bytes, shown_reply};
@@ -30,9 +31,9 @@ use plotter_host::link::standing::{Pen as StandingPen, standing};
 use plotter_host::link::stream::PauseChoice;
 use plotter_path::MachineProfile;
 use plotter_path::motion::plan;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-use super::command::{Command, HpglChoice, hpgl_refusal};
+use super::command::{Command, HpglChoice, PlotJob, hpgl_refusal};
 use super::events::{Event, Hub, ProgressEvent, Prompt};
 use super::state::Shared;
 use plotter_host::link::paced::PacedSim;
@@ -104,11 +105,12 @@ impl Worker {
                 match self.connect(port.as_deref(), firmware, hpgl) {
                     Ok((link, name)) => {
                         self.shared.hub.log("info", format!("connected to {name}"));
-                        let is_hpgl = matches!(link, Link::Hpgl(_));
+                        let (is_hpgl, on_port) = (matches!(link, Link::Hpgl(_)), matches!(link, Link::Serial(_)));
                         self.link = Some(link);
                         let mut i = self.shared.lock();
                         i.machine.connected = Some(name);
                         i.machine.hpgl = is_hpgl;
+                        i.machine.journaled = on_port && self.shared.config.journals.is_some();
                     }
                     Err(e) => self.fail("cannot connect", &e),
                 }
@@ -119,16 +121,12 @@ impl Worker {
                     let mut i = self.shared.lock();
                     i.machine.connected = None;
                     i.machine.hpgl = false;
+                    i.machine.journaled = false;
                 }
                 self.shared.hub.log("info", "disconnected");
             }
-            Command::Plot(prepared, profile) => {
-                self.set_activity("plotting");
-                match self.use_profile(*profile) {
-                    Ok(()) => self.plot(&prepared),
-                    Err(e) => self.done(false, format!("plot not started: {e:#}"), false),
-                }
-            }
+            Command::Plot(job) => self.run_plot(job, None),
+            Command::ResumePlot(job, journal) => self.run_plot(job, Some(journal)),
             Command::TestPen(profile) => {
                 self.set_activity("busy");
                 if let Err(e) = self.use_profile(*profile).and_then(|()| self.test_pen()) {
@@ -288,13 +286,31 @@ impl Worker {
                     Ok(())
                 })?;
             }
-            Command::Connect(..) | Command::Disconnect | Command::Plot(..) | Command::TestPen(_) => {}
+            Command::Connect(..)
+            | Command::Disconnect
+            | Command::Plot(_)
+            | Command::ResumePlot(..)
+            | Command::TestPen(_) => {}
         }
         Ok(())
     }
 
-    fn plot(&mut self, prepared: &Prepared) {
+    /// Plot `job` (or continue the interrupted plot of its drawing whose journal is `resume`) with its profile.
+    fn run_plot(&mut self, job: PlotJob, resume: Option<PathBuf>) {
+        self.set_activity("plotting");
+        match self.use_profile(*job.profile) {
+            Ok(()) => self.plot(&job.prepared, &job.drawing, resume.as_deref()),
+            Err(e) => self.done(false, format!("plot not started: {e:#}"), false),
+        }
+    }
+
+    fn plot(&mut self, prepared: &Prepared, drawing: &str, resume: Option<&Path>) {
         let shared = Arc::clone(&self.shared);
+        // A plot on a serial port keeps a journal in the state directory, so that it can be resumed if it stops.
+        let journal = match (&self.link, &shared.config.journals) {
+            (Some(Link::Serial(_)), Some(dir)) => Some(journal_path(dir, drawing, &self.profile.name)),
+            _ => None,
+        };
         shared.control.reset();
         {
             let mut i = shared.lock();
@@ -321,9 +337,26 @@ impl Worker {
             Link::Sim(c) => c.machine(),
             Link::Serial(c) => c.machine(),
         };
-        let result = plan::check_work_area(profile, &prepared.steps)
-            .map_err(plotter_host::Error::from)
-            .and_then(|()| job::plot(machine, profile, &prepared.steps, true, false, None, &mut events));
+        let steps = &prepared.steps;
+        let result = match resume {
+            Some(path) => resume_plot(machine, profile, steps, path, &mut events),
+            None => {
+                let source = |start: [i32; 4]| {
+                    let record = WebJournal {
+                        front_end: WEB_FRONT_END.into(),
+                        drawing: drawing.into(),
+                        machine: profile.name.clone(),
+                        start,
+                    };
+                    Ok(serde_json::to_string(&record)?)
+                };
+                let spec = journal.as_deref().map(|path| JournalSpec { path, source: &source });
+                plan::check_work_area(profile, steps)
+                    .map_err(plotter_host::Error::from)
+                    .and_then(|()| job::plot(machine, profile, steps, true, false, spec, &mut events))
+                    .map_err(anyhow::Error::from)
+            }
+        };
         events.flush();
         match result {
             Ok(outcome) => {
@@ -348,7 +381,7 @@ impl Worker {
                 );
                 self.done(true, message, stepped);
             }
-            Err(e) => self.stopped(&anyhow::Error::from(e)),
+            Err(e) => self.stopped(&e),
         }
     }
 
@@ -387,6 +420,52 @@ impl Worker {
         let trouble = trouble.map(Trouble::name);
         self.shared.hub.send(Event::new("done", &Done { ok, message, stepped, trouble }));
     }
+}
+
+/// Who wrote a journal, in its source record (`plotter plot` records its arguments instead).
+pub(crate) const WEB_FRONT_END: &str = "plotter serve";
+
+/// What a web plot's journal records as its source: enough to list it (`plotter resume --list` reads `drawing`
+/// and `machine`) and to check, on resume, that the drawing prepared now is the one that was plotted from `start`.
+#[derive(Debug, Serialize, Deserialize)]
+struct WebJournal {
+    /// [`WEB_FRONT_END`].
+    front_end: String,
+    /// The drawing's name, as the page shows it.
+    drawing: String,
+    /// The machine profile's name.
+    machine: String,
+    /// Where the plan started, steps.
+    start: [i32; 4],
+}
+
+/// The journal of a web plot of `drawing` on `machine` in `dir`: the state directory's file for that pair, named
+/// apart from the command line's journals of the same file (whose records a web resume could not use).
+pub(crate) fn journal_path(dir: &Path, drawing: &str, machine: &str) -> PathBuf {
+    plotter_host::state_dir::journal_in(dir, &format!("{WEB_FRONT_END}/{drawing}"), machine)
+}
+
+/// Continue the plot whose journal is at `path`, once the drawing prepared now is known to be the one plotted: the
+/// same plan from the same start, to the bit (a changed layout, pen or speed would put the rest elsewhere).
+fn resume_plot(
+    machine: &mut dyn PlotMachine,
+    profile: &MachineProfile,
+    steps: &plotter_path::geometry::steps::StepDrawing,
+    path: &Path,
+    events: &mut WebEvents,
+) -> anyhow::Result<job::JobOutcome> {
+    let state = plotter_host::link::journal::load(path)?;
+    let record: WebJournal = serde_json::from_str(&state.source)
+        .map_err(|e| anyhow::anyhow!("{}: not a journal of this web app ({e})", path.display()))?;
+    let full = plan::plan_returning(profile, steps, record.start, plan::Lookahead::Whole, false)?;
+    if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
+        anyhow::bail!(
+            "{} is no longer the plot that was interrupted: its layout, pens, speeds or machine changed since; set \
+             them back as they were, or plot it anew",
+            record.drawing
+        );
+    }
+    Ok(job::resume(machine, profile, steps, record.start, &state, path, false, false, events)?)
 }
 
 /// Plot `prepared` on an HP-GL plotter: its page drawing exported for the chosen device and sheet, streamed
