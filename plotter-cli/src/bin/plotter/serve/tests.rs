@@ -652,3 +652,49 @@ async fn the_preview_draws_each_layer_with_the_pen_that_plots_it() {
     let (_, view) = c.get("/api/view").await;
     assert_eq!(view["layers"][0]["width_mm"], 0.8);
 }
+
+/// A gzip file of `data` in stored (uncompressed) deflate blocks, as RFC 1952 and RFC 1951 lay them out.
+fn gzip_stored(data: &[u8]) -> Vec<u8> {
+    let crc = data.iter().fold(!0u32, |mut c, &b| {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 == 1 { (c >> 1) ^ 0xedb8_8320 } else { c >> 1 };
+        }
+        c
+    }) ^ !0u32;
+    let mut out = vec![0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 255];
+    let chunks: Vec<&[u8]> = data.chunks(65_535).collect();
+    for (i, chunk) in chunks.iter().enumerate() {
+        out.push(u8::from(i + 1 == chunks.len()));
+        let len = u16::try_from(chunk.len()).unwrap();
+        out.extend(len.to_le_bytes());
+        out.extend((!len).to_le_bytes());
+        out.extend(*chunk);
+    }
+    out.extend(crc.to_le_bytes());
+    out.extend(u32::try_from(data.len()).unwrap().to_le_bytes());
+    out
+}
+
+/// What the page's file picker offers besides SVG and images is decoded: a compressed SVG and HP-GL files.
+#[tokio::test]
+async fn svgz_hpgl_and_plt_uploads_are_decoded() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, v) = c.upload("duck.svgz", &gzip_stored(DUCK)).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert_eq!((&st["drawing"]["name"], &st["prepared"]["stats"]["paths"]), (&json!("duck.svgz"), &json!(6)));
+    // A 10 mm square at 40 plotter units per mm: 40 mm of ink.
+    let square = b"IN;SP1;PU0,0;PD400,0,400,400,0,400,0,0;PU;SP0;";
+    for name in ["square.hpgl", "square.plt"] {
+        let (s, v) = c.upload(name, square).await;
+        assert_eq!(s, StatusCode::OK, "{name}: {v}");
+        let (_, st) = c.get("/api/state").await;
+        let ink = st["prepared"]["stats"]["pen_down_mm"].as_f64().unwrap();
+        assert!((ink - 40.0).abs() < 1e-6, "{name}: {ink} mm");
+    }
+    let page = fetch(&c, "/").await.2;
+    assert!(page.contains("accept=\".svg,.svgz,") && page.contains(".hpgl,.hgl,.plt,"), "the picker offers them");
+}
