@@ -215,8 +215,9 @@ fn bad_gcode_and_out_of_area_moves_execute_nothing() {
     let out = plotter(&dir, &["plot", "unknown.gcode", "--port", &sim.port]);
     assert_fails(&out, "unknown.gcode:4: unsupported command G7: unknown G code");
     let out = plotter(&dir, &["plot", "far.gcode", "--port", &sim.port]);
-    assert_fails(&out, "outside the work area");
-    assert_fails(&out, "(500.000, 10.000) mm");
+    // Refused by the layout, before connecting: the drawing's extent against the work area, and the fix.
+    assert_fails(&out, "the drawing (x 10..500, y 10..10 mm on the page) reaches beyond the XY plotter kit");
+    assert_fails(&out, "(A3 frame)'s 420 × 297 mm work area (x 0..420, y 0..297 mm); use --fit with a --paper");
     let trace = sim.stop();
     assert!(trace.positions.is_empty(), "nothing may move: {} steps", trace.positions.len());
 }
