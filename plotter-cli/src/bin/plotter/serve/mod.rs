@@ -52,7 +52,7 @@ pub(crate) fn app(config: Config) -> (Arc<Shared>, axum::Router) {
 }
 
 /// Serve on `listener` until a stop signal (see [`shutdown`]); returns what stopped it.
-pub(crate) async fn serve(listener: tokio::net::TcpListener, config: Config) -> Option<plotter_host::stop::StopCause> {
+pub(crate) async fn serve(listener: tokio::net::TcpListener, config: Config) -> Option<shutdown::Ended> {
     let limits = config.limits;
     let (shared, router) = app(config);
     tokio::select! {
