@@ -297,7 +297,7 @@ impl Run<'_> {
                 Some(c) => Cow::Owned(truncated(&current, c.block - current.resumed_from + current.preamble)),
                 None => Cow::Borrowed(&*current),
             };
-            let mut tracker = Tracker::new(&part, self.profile, journal.take(), events);
+            let mut tracker = Tracker::new(&part, self.profile, journal.take(), events).within(self.full, self.profile);
             let result = machine.stream(&part, &mut tracker).map_err(|e| locate_refusal(e, &part, self.profile));
             journal = tracker.journal.take();
             let journal_error = tracker.error.take();

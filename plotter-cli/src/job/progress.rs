@@ -193,6 +193,29 @@ pub trait PlotEvents {
     }
 }
 
+/// Cumulative pen-down millimetres after each block of `plan`.
+fn cumulative_draw(plan: &MotionPlan, mapper: &StepMapper) -> Vec<f64> {
+    let mut acc = 0.0;
+    plan.blocks
+        .iter()
+        .map(|b| {
+            if b.kind == MoveKind::Draw {
+                acc += mapper.steps_to_machine(StepPos::new(b.block.steps[0], b.block.steps[1])).to_vec2().hypot();
+            }
+            acc
+        })
+        .collect()
+}
+
+/// The whole plot around a streamed part: its blocks, its pen-down millimetres (cumulative per block, and in
+/// all), and the planned ticks after the part's last block.
+struct Whole {
+    total: usize,
+    draw_mm: Vec<f64>,
+    total_draw: f64,
+    after_part: u64,
+}
+
 /// Turns the stream's raw progress into [`JobProgress`] for the front end and keeps the journal up to date.
 pub(crate) struct Tracker<'a> {
     events: &'a mut dyn PlotEvents,
@@ -208,6 +231,8 @@ pub(crate) struct Tracker<'a> {
     total_draw: f64,
     resumed_from: usize,
     preamble: usize,
+    /// The whole plot this part belongs to (see [`Tracker::within`]).
+    whole: Option<Whole>,
     /// The first journal error: the plot stops on it (a plot whose journal cannot be written cannot resume).
     pub(crate) error: Option<anyhow::Error>,
 }
@@ -221,15 +246,9 @@ impl<'a> Tracker<'a> {
         events: &'a mut dyn PlotEvents,
     ) -> Self {
         let n = plan.blocks.len();
-        let mut draw_mm = Vec::with_capacity(n);
-        let mut acc = 0.0;
         let mapper = StepMapper::new(profile);
-        for b in &plan.blocks {
-            if b.kind == MoveKind::Draw {
-                acc += mapper.steps_to_machine(StepPos::new(b.block.steps[0], b.block.steps[1])).to_vec2().hypot();
-            }
-            draw_mm.push(acc);
-        }
+        let draw_mm = cumulative_draw(plan, &mapper);
+        let acc = draw_mm.last().copied().unwrap_or(0.0);
         let on_page = |p: MachinePos| mapper.steps_to_page(StepPos::new(p[0], p[1]));
         // Plans begin with the pen up (a first pen move lifts it when it is not).
         let mut down = false;
@@ -262,11 +281,29 @@ impl<'a> Tracker<'a> {
             total_draw: acc,
             resumed_from: plan.resumed_from,
             preamble: plan.preamble,
+            whole: None,
             error: None,
         }
     }
 
-    /// Block number in the original (un-resumed) plan of the `frames`-th frame of this run.
+    /// Report the figures of the whole plot `full` (the original plan) instead of this part's: blocks done of all
+    /// of them, pen-down millimetres of the whole drawing, the time left to the plot's end (this part's, then the
+    /// plan's after it) — so that a plot cut at pen changes, or resumed, counts towards its end, not the next stop.
+    pub(crate) fn within(mut self, full: &MotionPlan, profile: &MachineProfile) -> Self {
+        let draw_mm = cumulative_draw(full, &StepMapper::new(profile));
+        let part_end = (self.resumed_from + self.draw_mm.len().saturating_sub(self.preamble)).min(full.blocks.len());
+        let after_part = full.blocks[part_end..].iter().map(|b| u64::from(b.block.duration_ticks())).sum();
+        self.whole = Some(Whole {
+            total: full.blocks.len(),
+            total_draw: draw_mm.last().copied().unwrap_or(0.0),
+            draw_mm,
+            after_part,
+        });
+        self
+    }
+
+    /// Blocks of the original (un-resumed) plan done once `frames` frames of this run are (the number of the
+    /// original block the `frames`-th frame is).
     fn original(&self, frames: usize) -> usize {
         self.resumed_from + frames.saturating_sub(self.preamble)
     }
@@ -284,7 +321,7 @@ impl Control for Tracker<'_> {
         } else {
             self.pen_at.get(i).or(self.pen_at.last()).copied().unwrap_or((self.start_mm, false))
         };
-        self.events.progress(&JobProgress {
+        let mut shown = JobProgress {
             executed: p.executed,
             accepted: p.accepted,
             total: self.draw_mm.len(),
@@ -294,7 +331,23 @@ impl Control for Tracker<'_> {
             resends: p.resends,
             pen_mm,
             pen_down,
-        });
+        };
+        if let Some(w) = &self.whole {
+            let (executed, accepted) = (self.original(p.executed).min(w.total), self.original(p.accepted).min(w.total));
+            // Tick counts far below 2^53: exact in f64.
+            #[allow(clippy::cast_precision_loss)]
+            let after_s = w.after_part as f64 / f64::from(TICK_HZ);
+            shown = JobProgress {
+                executed,
+                accepted,
+                total: w.total,
+                draw_done_mm: executed.checked_sub(1).and_then(|k| w.draw_mm.get(k).copied()).unwrap_or(0.0),
+                draw_total_mm: w.total_draw,
+                eta_s: eta_s + after_s,
+                ..shown
+            };
+        }
+        self.events.progress(&shown);
         let (a, e) = (self.original(p.accepted), self.original(p.executed));
         // The journal pairs a block number with the sequence number after it; during a resume preamble that is
         // the number the firmware will have once the preamble is through.
@@ -410,6 +463,35 @@ mod tests {
         let mut c = LogCadence::default();
         let logged: Vec<usize> = (0..=7).filter(|&e| c.due(&progress(e, 7))).collect();
         assert_eq!(logged, [1, 2, 3, 4, 5, 6, 7]);
+    }
+
+    #[test]
+    fn a_part_reports_the_whole_plot() {
+        let profile = MachineProfile::default_plotter();
+        let line = |a: (f64, f64), b: (f64, f64)| Polyline::new(vec![Point::new(a.0, a.1), Point::new(b.0, b.1)]);
+        let d = Drawing::single_layer("a", vec![line((5.0, 10.0), (35.0, 10.0)), line((35.0, 20.0), (5.0, 20.0))]);
+        let steps = drawing_to_steps(&profile, &d).unwrap();
+        let full = plan(&profile, &steps, homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
+        // The first five blocks (travel, drop, settle, the first line, the lift) streamed as a part of their own,
+        // as at a pen change: at each block it must say what the whole plan says there.
+        let mut part = full.clone();
+        part.blocks.truncate(5);
+        for executed in 0..=5 {
+            let at = |plan: &MotionPlan, whole: bool| {
+                let mut last = Last::default();
+                let tracker = Tracker::new(plan, &profile, None, &mut last);
+                let mut tracker = if whole { tracker.within(&full, &profile) } else { tracker };
+                tracker.progress(&Progress { accepted: 5, executed, seq_after_accepted: 5, resends: 0 });
+                last.0.expect("progress reported")
+            };
+            let (whole, alone, reference) = (at(&part, true), at(&part, false), at(&full, false));
+            assert_eq!((whole.executed, whole.total), (executed, 12));
+            assert_eq!(whole.draw_total_mm, 60.0);
+            assert_eq!(whole.draw_done_mm, reference.draw_done_mm, "after {executed}");
+            assert!((whole.eta_s - reference.eta_s).abs() < 1e-9, "{} {}", whole.eta_s, reference.eta_s);
+            // Alone, the part counts to its own end.
+            assert_eq!((alone.total, alone.draw_total_mm), (5, 30.0));
+        }
     }
 
     #[test]

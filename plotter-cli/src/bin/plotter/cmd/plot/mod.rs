@@ -84,10 +84,8 @@ pub(crate) struct PlotArgs {
     /// its answers).
     #[arg(long, value_enum, default_value_t = Firmware::Auto)]
     pub(crate) firmware: Firmware,
-    /// Between layers drawn with different pens: prompt (park with the pen up and ask for the next pen: Enter
-    /// continues, s skips the layer, q stops), pause (park and end the plot there; on a port `plotter resume`
-    /// continues with the next pen), none (plot straight through), or auto: prompt when stdin is a terminal, else
-    /// none with a warning, so that a script is never stopped by a question nobody can answer.
+    /// What happens between layers drawn with different pens. The default asks at a terminal and, in a script or
+    /// a pipe, plots straight through with a warning, so that nothing waits for an answer nobody can give.
     #[arg(long, value_enum, default_value_t = PenChange::Auto)]
     pub(crate) pen_change: PenChange,
     /// GRBL: take steps/mm, maximum rates, accelerations and travel from the machine's `$$` settings instead of
