@@ -18,7 +18,9 @@ fn axidraw() -> String {
 
 /// Run a plot; returns (success, stdout, stderr). `answers` go to stdin (one line per pen-change prompt).
 fn plot(dir: &std::path::Path, args: &[&str], answers: &str) -> (bool, String, String) {
-    let out = plotter_with_input(dir, args, answers);
+    // --verbose: the tests read the planned time to the millisecond and the EBB's short moves.
+    let args: Vec<&str> = args.iter().copied().chain(["--verbose"]).collect();
+    let out = plotter_with_input(dir, &args, answers);
     (
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),

@@ -135,7 +135,8 @@ fn a_file_vpype_wrote_for_the_7475a_imports_and_plots() {
     assert!((got - expect).abs() < expect * 5e-3, "{got} vs {expect}");
 
     let dir = scratch("hpgl-vpype");
-    let summary = stdout_of(&plotter(&dir, &["plot", path.to_str().unwrap(), "--no-optimize", "--pen-change", "none"]));
+    let summary =
+        stdout_of(&plotter(&dir, &["plot", path.to_str().unwrap(), "--no-optimize", "--pen-change", "none", "-v"]));
     assert!(summary.contains("0 resends"), "{summary}");
     assert!((pen_down_mm(&summary) - got).abs() < 0.1, "{summary}");
 }

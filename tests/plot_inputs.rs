@@ -18,7 +18,7 @@ fn stdout_of(out: &std::process::Output) -> String {
 fn third_party_gcode_plays() {
     let dir = scratch("third-party");
     std::fs::write(dir.join("tool.nc"), THIRD_PARTY).unwrap();
-    let out = stdout_of(&plotter(&dir, &["plot", "tool.nc", "--preview", "tool.png"]));
+    let out = stdout_of(&plotter(&dir, &["plot", "tool.nc", "--preview", "tool.png", "--verbose"]));
     assert!(out.contains("0 resends"), "{out}");
     assert!(dir.join("tool.png").is_file());
     // Pen-down length: 40 + half circle (20π) + half circle (20π) + 40 + √125.

@@ -58,7 +58,7 @@ fn plot_over_pty(extra_sim: &[&str], extra_plot: &[&str]) -> (Trace, String) {
     let dir = scratch(&format!("pty{}-{}", extra_sim.len(), extra_plot.len()));
     let svg = write_sample(&dir);
     let sim = SimPty::start(&dir, &[&["--fast"], extra_sim].concat());
-    let out = plotter(&dir, &[&["plot", svg.to_str().unwrap(), "--port", &sim.port], extra_plot].concat());
+    let out = plotter(&dir, &[&["plot", svg.to_str().unwrap(), "--port", &sim.port, "--verbose"], extra_plot].concat());
     let stdout = ok(&out);
     (sim.stop(), stdout)
 }

@@ -105,7 +105,7 @@ fn duck_on_the_emulated_board_steps_exactly_the_plan() {
     let scale = SCALE.to_string();
     let out = ok(&plotter(
         &dir,
-        &["plot", duck.to_str().unwrap(), "--port", &sim.port, "--no-home", "--no-optimize", "--scale", &scale],
+        &["plot", duck.to_str().unwrap(), "--port", &sim.port, "--no-home", "--no-optimize", "--scale", &scale, "-v"],
     ));
     assert!(out.contains("0 resends"), "{out}");
 

@@ -107,7 +107,7 @@ fn stats_of_a_drawing_without_travel_show_no_nan_and_no_negative_zero() {
         }
     }
     // The plot's lower-bound lines of the travel-only file: no percentage against a zero bound.
-    let out = plotter(&dir, &["plot", "travel.gcode"]);
+    let out = plotter(&dir, &["plot", "travel.gcode", "--verbose"]);
     let shown = text(&out.stdout);
     assert!(out.status.success() && shown.contains("lower bound 0.000 s"), "{shown}{}", text(&out.stderr));
     assert!(!shown.contains("NaN") && !shown.contains("-0.0"), "{shown}");
@@ -127,7 +127,7 @@ fn the_plan_time_with_its_dwell_is_printed_before_anything_moves() {
 
     // The ordinary plot announces its plan (with the pen settles as its dwell) before the plot's summary.
     std::fs::write(dir.join("line.svg"), ONE_LINE).unwrap();
-    let (ok, log) = plotter_merged(&dir, &["plot", "line.svg"]);
+    let (ok, log) = plotter_merged(&dir, &["plot", "line.svg", "--verbose"]);
     assert!(ok, "{log}");
     let ahead = log.find("line.svg (6 blocks): planned time 0:01.3, of which dwell 0:00.1");
     let summary = log.find("6 blocks, 40.0 mm pen-down");

@@ -6,7 +6,9 @@
 //!
 //! * **Pen down**: every stroke starts at rest (after the pen's settle dwell) and ends at no more than the
 //!   junction speed of the 90° corner into the pen lift (junction deviation with the largest acceleration any
-//!   direction allows, an over-estimate). Where a stroke
+//!   direction allows, an over-estimate) — or, with the curve model on, at up to the Z feed: the planner may take
+//!   a short chord's join with a Z move as a point of a curve, capped only by both moves' feeds. Each stroke is
+//!   drawn at its pen's feed. Where a stroke
 //!   turns by more than 90° it is a corner for the planner, whose speed there is at most junction deviation's
 //!   (computed here with the largest acceleration any direction allows, so it over-estimates); a reversal stops.
 //!   A profile without the curve model (`motion.curve_deviation_mm = 0`, saxi's rule) has the planner judge every
@@ -22,14 +24,17 @@
 //!   least the clearance off the paper (entered no faster than the 90° corner from the drawing allows, left no
 //!   faster than the corner into a travel that climbs at up to twice the hop slope), a Z move of at least the
 //!   clearance down to it (entered likewise, ending at rest) and the settle dwell; and once, the settle after the
-//!   final lift. A servo pen's hop waits at least the clear time for the lift and the settle time for the drop,
+//!   final lift; with the curve model on, those joins are allowed up to the Z feed (and the travel feed on the
+//!   hop's side), as for the pen down. The clearance is taken as the plan rounds it to steps. Each part is a
+//!   bound of the part the plan's breakdown counts (its pen-up, pen-down and settle blocks), not only of the
+//!   total. A servo pen's hop waits at least the clear time for the lift and the settle time for the drop,
 //!   of which the travel may overlap no more than `settle − clear` (the drop is commanded before the carriage
 //!   arrives only when the rest of the travel fits in that): `2·clear` per stroke, and `2·settle − clear` once for
 //!   the plot's first lift and last lift. The drawing before a servo lift ends at rest (the servo block is a stop).
 //! * **Travel**: the pen-up hops span at least the travel lower bound's tree (see [`crate::optimize::bound`]),
 //!   each hop on its own: at no more than the travel feed and the travel acceleration (the axes' `√(a_x² + a_y²)`,
-//!   or `pen.travel_accel_mm_s2` where lower), from and into the corners with the pen's Z moves
-//!   ([`min_hop_seconds`]).
+//!   or `pen.travel_accel_mm_s2` where lower), from and into the corners with the pen's Z moves (up to the
+//!   slower feed with the curve model on) ([`min_hop_seconds`]).
 //!
 //! Curvature limits inside strokes and the direction limits of the feed are left out (each only adds time), so the
 //! bound is valid whatever the order; the gap between it and the plan is what any order and planner could gain.
@@ -103,10 +108,22 @@ fn path_accel(profile: &MachineProfile, cap: Option<f64>) -> f64 {
 /// ([`crate::optimize::travel_lower_bound_mapped`]).
 pub fn min_hop_seconds(profile: &MachineProfile) -> impl Fn(f64) -> f64 + use<> {
     let accel = path_accel(profile, profile.pen.travel_accel_mm_s2);
-    let v_end = hop_corner_speed(profile, accel);
     let feed = profile.pen.travel_feed_mm_s;
+    let v_end = if z_joins_may_curve(profile) {
+        feed.min(profile.axes.z.max_feed_mm_s)
+    } else {
+        hop_corner_speed(profile, accel)
+    };
     let slack = 2.0 * (1.0 / profile.axes.x.steps_per_mm).hypot(1.0 / profile.axes.y.steps_per_mm);
     move |d: f64| min_time((d - slack).max(0.0), v_end, v_end, feed, accel)
+}
+
+/// Whether the planner may take the vertex between an XY move and a Z move (a stroke's end into the pen's rise,
+/// the rise into the hop, the hop into the drop) as a point of a smooth curve rather than a 90° corner: with the
+/// curve model on (`motion.curve_deviation_mm > 0`) a short chord next to the Z move makes it one, and the speed
+/// there is then capped only by both moves' feeds. The bound then allows those feeds there.
+fn z_joins_may_curve(profile: &MachineProfile) -> bool {
+    profile.motion.curve_deviation_mm > 0.0
 }
 
 /// Lower bound on the time to plot `steps` (strokes as the plan draws them) whose pen-up hops take at least
@@ -121,7 +138,8 @@ pub fn plot_time_lower_bound(
     machine_config(profile)?;
     let accel = path_accel(profile, profile.pen.draw_accel_mm_s2);
     let (sx, sy) = (profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm);
-    let draw = profile.pen.draw_feed_mm_s;
+    // Each layer is drawn at its pen's feed.
+    let feeds: Vec<f64> = crate::motion::plan::layer_pens(profile, steps).iter().map(|p| p.draw_feed_mm_s).collect();
     let deviation = profile.motion.junction_deviation_mm;
     let mut bound = TimeBound::default();
     let z = &profile.axes.z;
@@ -134,24 +152,37 @@ pub fn plot_time_lower_bound(
         let clear = secs(crate::motion::plan::servo_clear_ticks(profile));
         (2.0 * clear, 2.0 * settle - clear)
     } else {
-        // The clearance, capped (as the plan caps it) by every pen's distance from the paper to the pen-up height.
-        let up = profile.pen.up_z_mm;
+        // The clearance as the plan rounds it to steps (at least one), capped (as the plan caps it) by every pen's
+        // distance from the paper to the pen-up height, less the step either end may round away.
+        let (up, sz) = (profile.pen.up_z_mm, z.steps_per_mm);
         let c_mm = std::iter::once(profile.pen.down_z_mm)
             .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
-            .fold(profile.pen.clearance_mm, |c, d| c.min((up - d).abs()));
+            .fold((profile.pen.clearance_mm * sz).round().max(1.0) / sz, |c, d| c.min((up - d).abs() - 1.0 / sz))
+            .max(0.0);
         let (vz, az) = (z.max_feed_mm_s, z.max_accel_mm_s2);
-        let v_hop = hop_corner_speed(profile, az);
-        let rise = min_time(c_mm, corner(az), v_hop, vz, az);
+        // Into the rise from the stroke, out of it into the hop, and into the drop: 90° corners, or (see
+        // [`z_joins_may_curve`]) curve points taken at up to the slower move's feed.
+        let (v_in, v_hop) = if z_joins_may_curve(profile) {
+            (vz, vz.min(profile.pen.travel_feed_mm_s))
+        } else {
+            (corner(az), hop_corner_speed(profile, az))
+        };
+        let rise = min_time(c_mm, v_in, v_hop, vz, az);
         let drop = min_time(c_mm, v_hop, 0.0, vz, az);
         (rise + drop + settle, settle)
     };
-    let v_lift = if servo { 0.0 } else { corner(accel) };
+    let v_lift = match (servo, z_joins_may_curve(profile)) {
+        (true, _) => 0.0,
+        (false, true) => z.max_feed_mm_s,
+        (false, false) => corner(accel),
+    };
     // With no curve model (`motion.curve_deviation_mm = 0`) the planner judges every vertex by junction deviation
     // alone, so every vertex caps the speed; otherwise only turns above 90° (a smooth curve's vertices are planned
     // from its radius instead).
     let every_vertex = profile.motion.curve_deviation_mm == 0.0;
     let mut strokes = 0usize;
-    for s in &steps.strokes {
+    for (si, s) in steps.strokes.iter().enumerate() {
+        let draw = feeds.get(steps.layer_of(si)).copied().unwrap_or(profile.pen.draw_feed_mm_s);
         // The stroke's segments in mm, read as they go (a stroke may have millions: no copy of them is kept).
         let mut segs =
             s.moves.iter().filter(|d| !d.is_zero()).map(|d| (f64::from(d.dx) / sx, f64::from(d.dy) / sy)).peekable();
@@ -223,6 +254,36 @@ mod tests {
     use crate::geometry::steps::{StepDelta, StepPos, StepStroke};
     use crate::motion::plan::{Lookahead, homed_position, plan};
 
+    /// The built-in profile without the curve model: every join of an XY move and a Z move is a 90° corner.
+    fn corners_only() -> MachineProfile {
+        let mut p = MachineProfile::default_plotter();
+        p.motion.curve_deviation_mm = 0.0;
+        p
+    }
+
+    #[test]
+    fn with_the_curve_model_the_z_joins_go_at_the_feeds() {
+        // The built-in profile plans with the curve model, so a short chord into the pen's rise may make that join
+        // a curve point, taken at up to the slower feed (Z's 25 mm/s): the rise of the 1 mm clearance may run at
+        // 25 mm/s throughout (0.04 s), the drop enter at 25 mm/s and stop at 500 mm/s² (0.04 + 25/1000 = 0.065 s),
+        // plus the drop's and the final lift's 50 ms settles: 0.205 s. The line may end at 25 mm/s into the rise:
+        // 100/60 + 60/(2a) + (60 − 25)²/(2a·60) with a = 1500·√2.
+        let p = MachineProfile::default_plotter();
+        let steps = StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(800, 800),
+            moves: vec![StepDelta { dx: 8000, dy: 0 }],
+        }]);
+        let b = plot_time_lower_bound(&p, &steps, 0.0).unwrap();
+        assert!((b.lifts_s - 0.205).abs() < 1e-12, "{b:?}");
+        let a = 1500f64.hypot(1500.0);
+        let draw = 100.0 / 60.0 + 60.0 / (2.0 * a) + 35.0 * 35.0 / (2.0 * a * 60.0);
+        assert!((b.draw_s - draw).abs() < 1e-9, "{b:?} vs {draw}");
+        // A hop may start and end at 25 mm/s too: 100 mm less the slack, from 25 to 120 mm/s and back.
+        let len = 100.0 - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0);
+        let t = 2.0 * (120.0 - 25.0) / a + (len - (120.0 * 120.0 - 625.0) / a) / 120.0;
+        assert!((min_hop_seconds(&p)(100.0) - t).abs() < 1e-9, "{} vs {t}", min_hop_seconds(&p)(100.0));
+    }
+
     #[test]
     fn one_dimensional_minimum_times() {
         // 100 mm at 60 mm/s, 1500 mm/s²: ramps of 1.2 mm each, 0.04 s each; 97.6 mm cruise → 1.6667 + 0.04.
@@ -235,7 +296,7 @@ mod tests {
 
     #[test]
     fn min_hop_by_hand() {
-        let p = MachineProfile::default_plotter();
+        let p = corners_only();
         let hop = min_hop_seconds(&p);
         // a = 1500·√2; the corners with the Z moves, a turn of 90° less the travel's tilt (up to twice the hop
         // slope 0.051 65: atan 0.1033 = 5.897°), v₁ = √(a·0.02·sin(θ/2)/(1 − sin(θ/2))) with
@@ -257,7 +318,7 @@ mod tests {
 
     #[test]
     fn the_bound_is_below_the_plan_and_tight_on_a_long_line() {
-        let p = MachineProfile::default_plotter();
+        let p = corners_only();
         // One 100 mm line from (10, 10) mm, reached from home by a 10·√2 mm hop.
         let steps = StepDrawing::from_strokes(vec![StepStroke {
             start: StepPos::new(800, 800),
@@ -325,7 +386,7 @@ mod tests {
     fn the_profiles_acceleration_caps_bound_drawing_and_travel() {
         // The axes allow 1500 mm/s² each (√2·1500 along a diagonal), but the profile caps drawing at 500 and travel
         // at 800 mm/s², as the plan does.
-        let mut p = MachineProfile::default_plotter();
+        let mut p = corners_only();
         (p.pen.draw_accel_mm_s2, p.pen.travel_accel_mm_s2) = (Some(500.0), Some(800.0));
         let steps = StepDrawing::from_strokes(vec![StepStroke {
             start: StepPos::new(800, 800),
@@ -350,7 +411,7 @@ mod tests {
         // Caps above what the axes allow change nothing.
         let mut loose = p.clone();
         (loose.pen.draw_accel_mm_s2, loose.pen.travel_accel_mm_s2) = (Some(1e6), Some(1e6));
-        let free = MachineProfile::default_plotter();
+        let free = corners_only();
         assert_eq!(plot_time_lower_bound(&loose, &steps, 0.0), plot_time_lower_bound(&free, &steps, 0.0));
         assert_eq!(min_hop_seconds(&loose)(100.0), min_hop_seconds(&free)(100.0));
     }
@@ -376,7 +437,7 @@ mod tests {
 
     #[test]
     fn the_z_moves_span_the_clearance_capped_by_the_pen_heights() {
-        let mut p = MachineProfile::default_plotter();
+        let mut p = corners_only();
         let steps = StepDrawing::from_strokes(vec![StepStroke {
             start: StepPos::new(800, 800),
             moves: vec![StepDelta { dx: 800, dy: 0 }],
@@ -388,14 +449,15 @@ mod tests {
         let at = |p: &MachineProfile| plot_time_lower_bound(p, &steps, 0.0).unwrap().lifts_s;
         // 1 mm of clearance, 4 mm from the paper to the pen-up height.
         assert!((at(&p) - lifts(1.0)).abs() < 1e-12);
-        // Only 0.4 mm between the paper and the pen-up height: the clearance is capped there.
+        // Only 0.4 mm between the paper and the pen-up height: the clearance is capped there, less the step (of
+        // 400 per mm) that rounding both heights may take off the span.
         (p.pen.down_z_mm, p.pen.up_z_mm) = (3.6, 4.0);
-        assert!((at(&p) - lifts(0.4)).abs() < 1e-12);
+        assert!((at(&p) - lifts(0.3975)).abs() < 1e-12);
         // A larger clearance, and a pen-table pen that sits higher and caps it.
         (p.pen.down_z_mm, p.pen.clearance_mm) = (0.0, 2.0);
         assert!((at(&p) - lifts(2.0)).abs() < 1e-12);
         p.pens[0].down_z_mm = Some(2.5);
-        assert!((at(&p) - lifts(1.5)).abs() < 1e-12);
+        assert!((at(&p) - lifts(1.4975)).abs() < 1e-12);
         assert!(lifts(1.5) < lifts(2.0));
     }
 
@@ -438,6 +500,100 @@ mod tests {
             let planned = plan(&p, &stroke, [0; 4], Lookahead::Whole).unwrap();
             let draw_s = planned.breakdown().draw_s();
             assert!(b.draw_s <= draw_s && draw_s < b.draw_s * slack, "{dev}: {b:?} vs {draw_s}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod every_part_is_a_bound {
+    //! Each part of the plan (pen down, travel, lifts as [`crate::motion::plan::PlanBreakdown`] counts them) is at
+    //! least its part of the bound, on the sample drawings and synthetic ones, with every sample profile.
+    use super::*;
+    use crate::geometry::drawing::{Drawing, Polyline};
+    use crate::geometry::steps::drawing_to_steps;
+    use crate::input::svg::{SvgOptions, load_svg};
+    use crate::motion::plan::{Lookahead, homed_position, plan};
+    use crate::optimize::SeamMode;
+    use kurbo::Point;
+
+    /// Short strokes of one to three tiny segments scattered over 150 mm, as a traced clip-art drawing has (the
+    /// pen lifts into and out of such strokes at more than the 90° corner speed, as the planner's curve rule lets
+    /// a short chord into a Z move go).
+    fn dashes() -> Drawing {
+        let mut paths = Vec::new();
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            f64::from(u32::try_from(seed >> 40).unwrap_or(0)) / f64::from(1u32 << 24)
+        };
+        for i in 0..120 {
+            let (x, y) = (10.0 + 150.0 * next(), 10.0 + 150.0 * next());
+            let mut pts = vec![Point::new(x, y)];
+            for k in 0..=(i % 3) {
+                let at = pts[k];
+                pts.push(Point::new(at.x + 0.1 + 0.4 * next(), at.y + 0.3 * next()));
+            }
+            paths.push(Polyline::new(pts));
+        }
+        Drawing::single_layer("dashes", paths)
+    }
+
+    fn drawings() -> Vec<(String, Drawing)> {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples");
+        let mut out = vec![("dashes".to_string(), dashes()), ("maze".to_string(), crate::optimize::synth::maze(3))];
+        for name in ["duck.svg", "layers.svg", "three-pens.svg", "transforms.svg", "gen/mickey-32.svg"] {
+            let d = load_svg(&dir.join(name), &SvgOptions::default()).unwrap().drawing;
+            out.push((name.to_string(), d));
+        }
+        out
+    }
+
+    /// Every plotter profile in samples/ (the printer's, with an extruder, plans another way).
+    fn profiles() -> Vec<(String, MachineProfile)> {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples");
+        let mut out = Vec::new();
+        for e in std::fs::read_dir(dir).unwrap() {
+            let path = e.unwrap().path();
+            if path.extension().and_then(|x| x.to_str()) != Some("toml") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).unwrap();
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            let p = MachineProfile::from_toml(&text, &name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            if p.axes.e.is_none() {
+                out.push((name, p));
+            }
+        }
+        out.sort_by(|a, b| a.0.cmp(&b.0));
+        out
+    }
+
+    #[test]
+    fn no_part_of_the_plan_is_below_its_bound() {
+        let profiles = profiles();
+        assert!(profiles.len() >= 6, "{:?}", profiles.iter().map(|p| &p.0).collect::<Vec<_>>());
+        let drawings = drawings();
+        for (pname, p) in &profiles {
+            for (dname, d) in &drawings {
+                // Scaled into the machine's work area, 5 mm in from its edges (the page's origin is the machine's).
+                let mut d = d.clone();
+                let r = d.bbox().unwrap();
+                let (w, h) = (p.axes.x.travel_mm - 10.0, p.axes.y.travel_mm - 10.0);
+                let k = (w / r.width()).min(h / r.height());
+                d.map_points(|q| Point::new(5.0 + k * (q.x - r.x0), 5.0 + k * (q.y - r.y0)));
+                let d = &d;
+                let steps = drawing_to_steps(p, d).unwrap();
+                let home = homed_position(p).unwrap();
+                let planned = plan(p, &steps, home, Lookahead::Whole).unwrap();
+                // Any order and seam, from anywhere: the weakest travel bound, which any plan must still meet.
+                let b = drawing_time_lower_bound(p, &steps, d, SeamMode::Any, None).unwrap();
+                let parts = planned.breakdown();
+                let what = format!("{pname} on {dname}: plan {parts:?}, bound {b:?}");
+                assert!(parts.draw_s() >= b.draw_s, "pen down: {what}");
+                assert!(parts.lift_s() >= b.lifts_s, "lifts: {what}");
+                assert!(parts.travel_s() >= b.travel_s, "travel: {what}");
+                assert!(planned.seconds() >= b.total_s(), "total: {what}");
+            }
         }
     }
 }

@@ -76,18 +76,19 @@ pub(crate) fn clock(seconds: f64) -> String {
     if h > 0.0 { format!("{h:.0}:{m:02.0}:{s:04.1}") } else { format!("{m:.0}:{s:04.1}") }
 }
 
-/// `planned / bound` per part, with how far above its bound each part is.
+/// Each part's planned time with its lower bound and how far above it the plan is, in words (`11.2 % above`), so no
+/// percentage carries a sign; a plan below its bound (which the bound's own tests rule out) would read `below`.
 pub(crate) fn line(plan: &PlanBreakdown, bound: &TimeBound) -> String {
     let part = |name: &str, t: f64, b: f64| {
         // No percentage against a zero bound (a part that takes no time).
-        let above = percent_above(t, b).map_or(String::new(), |p| {
-            let p = fixed(p, 1);
-            if p.starts_with('-') { format!(" ({p} %)") } else { format!(" (+{p} %)") }
+        let gap = percent_above(t, b).map_or(String::new(), |p| {
+            let side = if fixed(p, 1).starts_with('-') { "below" } else { "above" };
+            format!(", {} % {side}", fixed(p.abs(), 1))
         });
-        format!("{name} {} / {} s{above}", fixed(t, 1), fixed(b, 1))
+        format!("{name} {} s (bound {} s{gap})", fixed(t, 1), fixed(b, 1))
     };
     format!(
-        "time parts, planned / lower bound: {}, {}, {}",
+        "time parts, planned (lower bound): {}, {}, {}",
         part("pen down", plan.draw_s(), bound.draw_s),
         part("travel", plan.travel_s(), bound.travel_s),
         part("lifts", plan.lift_s(), bound.lifts_s)
@@ -133,14 +134,21 @@ mod tests {
         let bound = TimeBound { draw_s: 10.0, lifts_s: 2.0, travel_s: 0.0 };
         assert_eq!(
             line(&plan, &bound),
-            "time parts, planned / lower bound: pen down 12.0 / 10.0 s (+20.0 %), travel 3.0 / 0.0 s, lifts 2.0 / 2.0 s \
-             (+0.0 %)"
+            "time parts, planned (lower bound): pen down 12.0 s (bound 10.0 s, 20.0 % above), travel 3.0 s (bound \
+             0.0 s), lifts 2.0 s (bound 2.0 s, 0.0 % above)"
         );
         // Nothing drawn: no NaN, no -0.0, no percentage against a zero bound.
         let bound = TimeBound { draw_s: -0.0, lifts_s: 0.0, travel_s: f64::NAN };
         assert_eq!(
             line(&PlanBreakdown::default(), &bound),
-            "time parts, planned / lower bound: pen down 0.0 / 0.0 s, travel 0.0 / n/a s, lifts 0.0 / 0.0 s"
+            "time parts, planned (lower bound): pen down 0.0 s (bound 0.0 s), travel 0.0 s (bound n/a s), lifts 0.0 s \
+             (bound 0.0 s)"
         );
+        // Were a part below its bound, it would say so in words, never as `+-4.0 %`.
+        let plan = PlanBreakdown { draw_ticks: 0, travel_ticks: 0, lift_ticks: 34_000_000 };
+        let bound = TimeBound { draw_s: 0.0, lifts_s: 35.5, travel_s: 0.0 };
+        let shown = line(&plan, &bound);
+        assert!(shown.ends_with("lifts 34.0 s (bound 35.5 s, 4.2 % below)"), "{shown}");
+        assert!(!shown.contains("+-") && !shown.contains("-4"), "{shown}");
     }
 }

@@ -113,6 +113,11 @@ pub(crate) struct PlotArgs {
     /// dwells — instead of reading it as a drawing to order and plan (the simulator or our firmware; Z-lift pens).
     #[arg(long, conflicts_with_all = ["resume", "export"])]
     pub(crate) as_written: bool,
+    /// Also print the figures of the plan and the link once the plot has finished: blocks, bytes per block,
+    /// resends, queue underruns, the plot time's lower bound and its parts, GRBL's bytes in flight, the EBB's
+    /// moves too short for the board.
+    #[arg(long, short = 'v')]
+    pub(crate) verbose: bool,
     /// Start a plan that stands still for over an hour in dwells (G4 with --as-written, or pen settles) even
     /// without a terminal on stdin; at a terminal such a plan starts after a loud warning.
     #[arg(long)]
@@ -378,7 +383,7 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             let outcome = outcome?;
             let sim = session.transport.inner().sim();
             let executed = sim.hal().busy_ticks() - outcome.busy_before;
-            println!("{}", summary(&outcome, Some(executed)));
+            println!("{}", summary(&outcome, Some(executed), args.verbose));
             // The plot is done: the figures and the preview that follow are side outputs, which warn rather than
             // turn a finished plot into a failure.
             if let Some(d) = &drawing {
@@ -415,11 +420,11 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             let outcome = job::plot(c.machine(), &profile, &steps, !args.no_home, back, Some(spec), &mut terminal);
             terminal.bar.finish_and_clear();
             let outcome = outcome?;
-            println!("{}", summary(&outcome, None));
-            if let Connected::Grbl(g) = c {
+            println!("{}", summary(&outcome, None, args.verbose));
+            if let (Connected::Grbl(g), true) = (&c, args.verbose) {
                 println!("GRBL: at most {} bytes in flight (receive buffer {} bytes)", g.peak_in_flight, g.rx_bytes);
             }
-            if let Connected::Ebb(e) = c {
+            if let (Connected::Ebb(e), true) = (&c, args.verbose) {
                 println!(
                     "EBB: board time {:.3} s; {} move(s) shorter than the board sustains",
                     e.program_seconds, e.short_moves
@@ -513,6 +518,7 @@ pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Resu
         &mut terminal,
     );
     terminal.bar.finish_and_clear();
-    println!("{}", summary(&outcome?, None));
+    // As verbose as the plot it resumes.
+    println!("{}", summary(&outcome?, None, original.verbose));
     Ok(())
 }

@@ -1,22 +1,65 @@
-//! What `plotter plot` prints when a plot has finished: the summary, and the plan beside its lower bound.
+//! What `plotter plot` prints when a plot has finished: the summary for the person at the plotter (how long it
+//! took, how far the pen went down and up, how often it was lifted, the pen changes), and with `--verbose` the
+//! figures for whoever studies the link and the plan (blocks, bytes per block, resends, queue underruns, the plan
+//! beside its lower bound).
 
 use plotter_fw::TICK_HZ;
 use plotter_host::job::JobOutcome;
+use plotter_path::motion::plan::{MotionPlan, MoveKind};
+
+use crate::time_parts::clock;
 
 use super::PlotArgs;
 
-/// Human summary of a finished plot.
-pub(super) fn summary(outcome: &JobOutcome, executed_ticks: Option<u64>) -> String {
-    let stops = if outcome.pen_stops > 0 {
-        let skipped = if outcome.skipped.is_empty() {
-            String::new()
-        } else {
-            format!(", skipped {}", outcome.skipped.iter().map(|l| format!("{l:?}")).collect::<Vec<_>>().join(", "))
-        };
-        format!("\npen changes: {}{skipped}", outcome.pen_stops)
-    } else {
-        String::new()
+/// How many times the plan lowers the pen onto the paper (a servo drop made of several blocks counts once).
+fn pen_drops(plan: &MotionPlan) -> usize {
+    let mut last = None;
+    let mut n = 0;
+    for b in plan.blocks.iter().filter(|b| b.kind == MoveKind::PenDown) {
+        if last != Some(b.stroke) {
+            n += 1;
+            last = Some(b.stroke);
+        }
+    }
+    n
+}
+
+/// The summary of a finished plot for the person at the plotter: `plot time 2:05.3: 4623.2 mm pen-down,
+/// 781.6 mm pen-up, 130 pen lifts` (the time the plotter ran when it is known, else the plan's), the pen changes,
+/// and with `verbose` the figures of the plan and the link ([`details`]).
+pub(super) fn summary(outcome: &JobOutcome, executed_ticks: Option<u64>, verbose: bool) -> String {
+    let plan = &outcome.plan;
+    // Display only.
+    #[allow(clippy::cast_precision_loss)]
+    let ran = executed_ticks.map(|t| t as f64 / f64::from(TICK_HZ));
+    let time = match ran {
+        // The simulated plotter's own clock: the same as the plan's to the tenth unless something went wrong.
+        Some(t) if clock(t) != clock(plan.seconds()) => format!("{} (planned {})", clock(t), clock(plan.seconds())),
+        Some(t) => clock(t),
+        None => format!("{} (planned)", clock(plan.seconds())),
     };
+    let mut s = format!(
+        "plot time {time}: {:.1} mm pen-down, {:.1} mm pen-up, {} pen lifts",
+        plan.draw_mm,
+        plan.travel_mm,
+        pen_drops(plan)
+    );
+    if outcome.pen_stops > 0 {
+        s += &format!("\npen changes: {}", outcome.pen_stops);
+        if !outcome.skipped.is_empty() {
+            let skipped: Vec<String> = outcome.skipped.iter().map(|l| format!("{l:?}")).collect();
+            s += &format!(", skipped {}", skipped.join(", "));
+        }
+    }
+    if verbose {
+        s = format!("{s}\n{}", details(outcome, executed_ticks));
+    }
+    s
+}
+
+/// The plan's and the link's figures (`--verbose`): blocks, lengths and times to the millisecond, bytes per
+/// block, resends, resyncs and queue underruns.
+fn details(outcome: &JobOutcome, executed_ticks: Option<u64>) -> String {
     let (plan, stats) = (&outcome.plan, &outcome.stats);
     // Display only.
     #[allow(clippy::cast_precision_loss)]
@@ -41,11 +84,12 @@ pub(super) fn summary(outcome: &JobOutcome, executed_ticks: Option<u64>) -> Stri
     if let Some(u) = stats.underruns {
         s += &format!(", {u} queue underruns");
     }
-    s + &stops
+    s
 }
 
-/// Print the plot-time lower bound next to the planned time, and both split into drawing, travel and lifts (see
-/// [`plotter_path::motion::bound`]); the order's travel bound is taken from `start`, where the order started.
+/// With `--verbose`: print the plot-time lower bound next to the planned time, and both split into drawing,
+/// travel and lifts (see [`plotter_path::motion::bound`]); the order's travel bound is taken from `start`, where
+/// the order started. Without it, nothing (and nothing is computed).
 pub(super) fn print_lower_bound(
     profile: &plotter_path::MachineProfile,
     steps: &plotter_path::geometry::steps::StepDrawing,
@@ -55,6 +99,9 @@ pub(super) fn print_lower_bound(
     start: Option<plotter_path::kurbo::Point>,
 ) -> anyhow::Result<()> {
     use plotter_path::output::stats::{fixed, percent_above};
+    if !args.verbose {
+        return Ok(());
+    }
     let seam = args.optimize.options(Some(profile))?.seam;
     let b = plotter_path::motion::bound::drawing_time_lower_bound(profile, steps, drawing, seam, start)?;
     // Nothing to compare with when the bound is zero (nothing to draw).
