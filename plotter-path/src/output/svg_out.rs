@@ -6,13 +6,16 @@
 //! as `<polygon>` (without the repeated last point, which the polygon closes again on import). A path whose own
 //! colour or width (from its source) differs from its layer's pen carries them as its own `stroke` attributes, so
 //! the file looks like its source.
+//!
+//! [`to_preview_svg`] writes the same document with the pen-up travel as a dashed overlay layer (`plotter preview
+//! -o out.svg --travel`), and [`gzip`] makes an `.svgz` of either.
 
 use std::fmt::Write as _;
 use std::io::{self, Write};
 
-use kurbo::Point;
+use kurbo::{Line, Point};
 
-use crate::geometry::drawing::{Drawing, Pen, Polyline};
+use crate::geometry::drawing::{Drawing, Pen, Polyline, Rgb};
 
 /// Number of decimals written for coordinates (0.1 µm: far below any plotter's resolution).
 pub const DECIMALS: usize = 4;
@@ -130,6 +133,29 @@ fn push_path(out: &mut String, path: &Polyline, layer_pen: &Pen) {
 
 /// Render `drawing` as a plain SVG document.
 pub fn to_svg_string(drawing: &Drawing) -> String {
+    document(drawing, &[], Rgb::BLACK)
+}
+
+/// Width of the travel overlay's dashed lines, mm.
+const TRAVEL_WIDTH_MM: f64 = 0.2;
+
+/// Render `drawing` as [`to_svg_string`] does, with `travel` (the pen-up moves, e.g.
+/// [`crate::geometry::travel::pen_up_moves`]) drawn over it as a last layer of thin dashed lines in
+/// `travel_color`, labelled `travel (pen up)`.
+pub fn to_preview_svg(drawing: &Drawing, travel: &[Line], travel_color: Rgb) -> String {
+    document(drawing, travel, travel_color)
+}
+
+/// `svg` compressed with gzip, as an `.svgz` file holds it.
+pub fn gzip(svg: &str) -> Vec<u8> {
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    // Writing into a Vec cannot fail.
+    let _ = enc.write_all(svg.as_bytes());
+    enc.finish().unwrap_or_default()
+}
+
+/// The document of `drawing`, with a travel overlay layer when `travel` is not empty.
+fn document(drawing: &Drawing, travel: &[Line], travel_color: Rgb) -> String {
     let (w, h) = page_size(drawing);
     let mut out = String::with_capacity(256 + drawing.paths().map(|p| p.points.len() * 20).sum::<usize>());
     out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
@@ -159,6 +185,20 @@ pub fn to_svg_string(drawing: &Drawing) -> String {
         }
         out.push_str("  </g>\n");
     }
+    if !travel.is_empty() {
+        let _ = writeln!(
+            out,
+            "  <g id=\"travel\" inkscape:groupmode=\"layer\" inkscape:label=\"travel (pen up)\" fill=\"none\" \
+             stroke=\"{}\" stroke-width=\"{TRAVEL_WIDTH_MM}\" stroke-dasharray=\"1 1\">",
+            travel_color.to_hex()
+        );
+        for l in travel {
+            out.push_str("    <polyline points=\"");
+            push_points(&mut out, &[l.p0, l.p1]);
+            out.push_str("\"/>\n");
+        }
+        out.push_str("  </g>\n");
+    }
     out.push_str("</svg>\n");
     out
 }
@@ -171,7 +211,29 @@ pub fn write_svg(drawing: &Drawing, mut w: impl Write) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::drawing::{Layer, Rgb};
+    use crate::geometry::drawing::Layer;
+
+    #[test]
+    fn the_preview_document_adds_the_travel_as_a_dashed_layer() {
+        let line = |a: (f64, f64), b: (f64, f64)| Polyline::new(vec![Point::new(a.0, a.1), Point::new(b.0, b.1)]);
+        let mut d = Drawing::single_layer("ink", vec![line((1.0, 2.0), (11.0, 2.0)), line((11.0, 12.0), (1.0, 12.0))]);
+        d.page_mm = Some((20.0, 20.0));
+        let travel = [Line::new((11.0, 2.0), (11.0, 12.0))];
+        let svg = to_preview_svg(&d, &travel, Rgb(230, 40, 90));
+        let plain = to_svg_string(&d);
+        // The plain document, then the overlay before the end.
+        let overlay = "  <g id=\"travel\" inkscape:groupmode=\"layer\" inkscape:label=\"travel (pen up)\" fill=\"none\" \
+                       stroke=\"#e6285a\" stroke-width=\"0.2\" stroke-dasharray=\"1 1\">\n    <polyline points=\"11,2 \
+                       11,12\"/>\n  </g>\n</svg>\n";
+        assert_eq!(svg, format!("{}{overlay}", plain.strip_suffix("</svg>\n").unwrap()));
+        assert_eq!(to_preview_svg(&d, &[], Rgb::BLACK), plain);
+        // Gzip: the magic bytes, and the document back.
+        let z = gzip(&plain);
+        assert_eq!(&z[..2], &[0x1f, 0x8b]);
+        let mut back = String::new();
+        std::io::Read::read_to_string(&mut flate2::read::GzDecoder::new(&z[..]), &mut back).unwrap();
+        assert_eq!(back, plain);
+    }
 
     #[test]
     fn the_fast_path_writes_what_exact_formatting_writes() {
