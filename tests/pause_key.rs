@@ -3,7 +3,8 @@
 //! single `r` (the plot finishes, exit 0) or a single `a` (the plot stops, exit 5, and the emulator's pen log ends
 //! with the pen up) — no newline in either case. The first plot runs on the built-in simulator paced with
 //! `--sim-speed` (so that it is still plotting when asked), the second on `plotter sim --pty --pen-log`, whose own
-//! record of the pen is the witness. The terminal is back in line mode with echo after either.
+//! record of the pen is the witness. The terminal is back in line mode with echo after either, and after a stop
+//! signal (SIGTERM) that ends the plot while the prompt waits.
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -82,6 +83,11 @@ impl OnPty {
     /// Type `key` (no newline) and wait for the exit; returns the exit code, stdout and the terminal's text.
     fn answer(mut self, key: &[u8]) -> (Option<i32>, String, String) {
         self.master.write_all(key).expect("type");
+        self.end()
+    }
+
+    /// Wait for the exit; returns the exit code, stdout and the terminal's text.
+    fn end(mut self) -> (Option<i32>, String, String) {
         let start = Instant::now();
         let status = loop {
             if let Some(s) = self.child.try_wait().expect("wait") {
@@ -89,7 +95,7 @@ impl OnPty {
             }
             if start.elapsed() > Duration::from_secs(10) {
                 let _ = self.child.kill();
-                panic!("the plot did not end after the key; the terminal shows:\n{}", self.seen());
+                panic!("the plot did not end; the terminal shows:\n{}", self.seen());
             }
             std::thread::sleep(Duration::from_millis(20));
         };
@@ -136,4 +142,16 @@ fn one_a_aborts_with_the_pen_up() {
     assert!(pen.lines().any(|l| l.ends_with(" down")), "{pen}");
     assert!(pen.lines().last().is_some_and(|l| l.ends_with(" up")), "{pen}");
     drop(sim);
+}
+
+#[test]
+fn a_stop_signal_at_the_prompt_gives_the_terminal_back() {
+    let dir = scratch("pause-key-term");
+    let mut plot = OnPty::start(&dir, &["--sim-speed", "2"]);
+    let waiting = plot.pause();
+    assert!(!waiting.contains(LocalFlags::ICANON), "{waiting:?}");
+    kill(Pid::from_raw(i32::try_from(plot.child.id()).unwrap()), Signal::SIGTERM).expect("SIGTERM");
+    // `end` checks that the terminal is back in line mode with echo.
+    let (code, stdout, terminal) = plot.end();
+    assert_eq!(code, Some(5), "{terminal}\n{stdout}");
 }
