@@ -132,12 +132,14 @@ fn grbl_program_of_a_servo_plan_runs_on_the_emulator() {
     let start = plan::homed_position(&servo).unwrap();
     let plan = three_pens_plan(&servo, start);
     let prog = program(&servo, &plan);
-    let m5 = prog.lines.iter().filter(|l| l.starts_with("M5 G4 P")).count();
+    // The pen is lifted with `M3` at its up angle (90°), never let go with `M5` (stock GRBL's servo would go limp).
+    let lifts = prog.lines.iter().filter(|l| l.starts_with("M3 S90 G4 P")).count();
     let m3 = prog.lines.iter().filter(|l| l.starts_with("M3 S") && l.contains(" G4 P")).count();
-    assert_eq!((m5, m3), (STROKES + 1, STROKES), "{:?}", prog.lines);
+    assert_eq!((lifts, m3 - lifts), (STROKES + 1, STROKES), "{:?}", prog.lines);
+    assert!(!prog.lines.iter().any(|l| l.contains("M5")), "{:?}", prog.lines);
     // The first lift, the lifts before the two pen changes and the last keep their whole 150 ms; the four lifts
     // between strokes of one pen (black frame to horizon, red circle to rays) wait the 50 ms clear time only.
-    let whole = prog.lines.iter().filter(|l| l.as_str() == "M5 G4 P0.15").count();
+    let whole = prog.lines.iter().filter(|l| l.as_str() == "M3 S90 G4 P0.15").count();
     assert_eq!(whole, 4, "{:?}", prog.lines);
     let mut emu = GrblEmulator::new(&servo, None).unwrap();
     emu.take_replies();

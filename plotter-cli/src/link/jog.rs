@@ -35,7 +35,8 @@ pub struct Jog {
 }
 
 /// The G-code lines of a jog for `firmware`. GRBL jogs axes with `$J=` (its jog command, refused outside the
-/// travel instead of raising an alarm) and moves a servo pen with `M3 S<angle>` / `M5`; an EiBotBoard gets EBB
+/// travel instead of raising an alarm) and moves a servo pen with `M3 S<angle>`, up and down (never `M5`, which on
+/// stock GRBL stops the servo's pulses and lets the pen fall); an EiBotBoard gets EBB
 /// commands (`XM` for X/Y, `SP` for the pen).
 pub fn jog_lines(
     args: &Jog,
@@ -53,7 +54,7 @@ pub fn jog_lines(
     let servo = profile.pen.uses_servo();
     if servo && matches!(args.target, JogTarget::Up | JogTarget::Down) {
         return Ok(vec![match args.target {
-            JogTarget::Up => "M5".into(),
+            JogTarget::Up => format!("M3 S{}", profile.pen.servo_up_deg),
             _ => format!("M3 S{}", profile.pen.servo_down_deg),
         }]);
     }
@@ -180,7 +181,9 @@ mod tests {
         let mut servo = p.clone();
         servo.pen.command = plotter_path::config::profile::PenCommand::Servo;
         assert_eq!(jog_lines(&args(JogTarget::Down, None), &servo, grbl).unwrap(), ["M3 S30"]);
-        assert_eq!(jog_lines(&args(JogTarget::Up, None), &servo, ours).unwrap(), ["M5"]);
+        // Up: `M3` at the up angle (90°; `M5` would let a stock GRBL's servo go limp and the pen fall).
+        assert_eq!(jog_lines(&args(JogTarget::Up, None), &servo, ours).unwrap(), ["M3 S90"]);
+        assert_eq!(jog_lines(&args(JogTarget::Up, None), &servo, grbl).unwrap(), ["M3 S90"]);
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! printer's heaters, and the machine models built in. It imports nothing from the stages.
 
 pub mod color;
+pub mod gcode_template;
 pub mod heaters;
 pub mod interrupt;
 pub mod models;

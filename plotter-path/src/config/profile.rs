@@ -328,6 +328,9 @@ pub struct MachineProfile {
     /// EiBotBoard settings (AxiDraw-class machines driven with `--firmware ebb`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ebb: Option<EbbProfile>,
+    /// G-code export templates (`[gcode]`: header, footer, pen up and down, layer start and end, tool change).
+    #[serde(default)]
+    pub gcode: crate::config::gcode_template::GcodeTemplate,
 }
 
 /// The settings of an EiBotBoard machine (AxiDraw, NextDraw, iDraw): its pen servo in the board's own units

@@ -10,7 +10,9 @@
 //! The second pass decides how the file lifts its pen, because plotter tools disagree:
 //! 1. if the XY moves happen at two or more Z heights, the pen is down below the midpoint of the lowest and highest
 //!    of them (`Z` lift, the usual GRBL plotter convention and our own export);
-//! 2. otherwise, if the file uses `M3`/`M4`/`M5`, the pen is down while the spindle output is on (servo lift);
+//! 2. otherwise, if the file uses `M3`/`M4`/`M5`, the pen is down while the spindle output is on (servo lift) —
+//!    except that in a file that never says `M5`, `M3 S<angle>` at an angle nearer the profile's pen-up angle than
+//!    its pen-down angles holds the pen up (a hobby servo on stock GRBL is lifted so, as our export does);
 //! 3. otherwise feed moves (`G1`/`G2`/`G3`) draw and rapids (`G0`) travel, with a warning saying so.
 //!
 //! Consecutive pen-down segments become one polyline; machine coordinates go back to page coordinates through the
@@ -98,6 +100,10 @@ enum Motion {
 
 struct Machine<'a> {
     origin: &'a str,
+    /// The profile's servo angles, degrees: pen up, and every pen's down angle (`M3 S<angle>` lifts or drops in a
+    /// file that never lifts with `M5`); `NaN` for the up angle in a file that does (every `M3` drops).
+    servo_up_deg: f64,
+    servo_down_deg: Vec<f64>,
     /// The profile has an extruder: E is kept for `plotter print` ([`super::gcode_print`]).
     printer: bool,
     mm_per_unit: f64,
@@ -232,7 +238,13 @@ impl Machine<'_> {
                 }
                 'M' => match code10(w.value) {
                     30 | 40 => {
-                        self.spindle = true;
+                        // With an angle: down when it is nearer a pen's down angle than the pen-up angle.
+                        let near = |a: f64, b: f64| (a - b).abs();
+                        let s = ws.iter().find(|w| w.letter == 'S').map(|w| w.value);
+                        let up = self.servo_up_deg;
+                        self.spindle = s.is_none_or(|a| {
+                            up.is_nan() || self.servo_down_deg.iter().any(|&d| near(a, d) < near(a, up))
+                        });
                         self.used_spindle = true;
                     }
                     50 => {
@@ -486,6 +498,21 @@ pub fn import(text: &str, origin: &str, profile: &MachineProfile) -> Result<Impo
     import_cancellable(text, origin, profile, &Cancel::never())
 }
 
+/// Whether `text` has an `M5` (or `M05`) word outside comments: a file that lifts its servo pen so.
+fn lifts_with_m5(text: &str) -> bool {
+    text.lines().any(|raw| {
+        let code = raw.split([';', '(']).next().unwrap_or("").as_bytes();
+        code.windows(2).enumerate().any(|(i, w)| {
+            let zeros = code[i + 1..].iter().take_while(|&&b| b == b'0').count();
+            let after = code.get(i + 1 + zeros);
+            w[0].eq_ignore_ascii_case(&b'm')
+                && after == Some(&b'5')
+                && !code.get(i + 2 + zeros).is_some_and(u8::is_ascii_digit)
+                && !(i > 0 && code[i - 1].is_ascii_alphanumeric())
+        })
+    })
+}
+
 /// [`import`] that ends early with an error naming the line once `cancel` is set or the process is asked to stop
 /// ([`interrupt`]), looked at every [`CHECK_EVERY`] lines.
 pub fn import_cancellable(
@@ -496,6 +523,10 @@ pub fn import_cancellable(
 ) -> Result<ImportedGcode, GcodeError> {
     let mut m = Machine {
         origin,
+        servo_up_deg: if lifts_with_m5(text) { f64::NAN } else { profile.pen.servo_up_deg },
+        servo_down_deg: std::iter::once(profile.pen.servo_down_deg)
+            .chain(profile.pens.iter().filter_map(|p| p.servo_down_deg))
+            .collect(),
         printer: profile.axes.e.is_some(),
         mm_per_unit: 1.0,
         absolute: true,

@@ -6,8 +6,11 @@
 //! (`round(mm × steps/mm)`) lands on the same step, so the machine ends exactly where the plan ends. Travel and
 //! drawing are `G1` at the profile's travel feed and the pen's drawing feed (F in mm/min, written when it
 //! changes), travel with a `Z` where the plan's hop moves the pen on the way; the pen is a Z move at the Z axis's
-//! maximum rate, or `M3 S<angle>` / `M5` for a servo pen (with its settle dwell on the same line, `M5 G4 P0.15`,
-//! as the plan's servo block carries both); a settle dwell is `G4 P<seconds>`.
+//! maximum rate, or `M3 S<angle>` for a servo pen, down and up alike (with its settle dwell on the same line,
+//! `M3 S90 G4 P0.15`, as the plan's servo block carries both); a settle dwell is `G4 P<seconds>`. A servo pen is
+//! never lifted with `M5`: on stock GRBL, whose spindle PWM drives the hobby servo, `M5` stops the pulses and the
+//! pen may fall onto the paper; `M3 S<pen.servo_up_deg>` holds it up on GRBL servo builds and on our firmware
+//! alike (see [`plotter_path::output::gcode_out`]).
 
 use std::fmt::Write as _;
 
@@ -85,12 +88,10 @@ pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
                 with_feed(&mut line, &f);
             }
             MoveKind::PenUp | MoveKind::PenDown if servo => {
-                if b.kind == MoveKind::PenUp {
-                    line.push_str("M5");
-                } else {
-                    let deg = b.block.servo.map_or(pen.servo_down_deg, |t| f64::from(t) / 10.0);
-                    let _ = write!(line, "M3 S{}", fmt_mm(deg, 1));
-                }
+                // The servo block's own angle; the pen's up or down angle for a block without one.
+                let angle = if b.kind == MoveKind::PenUp { profile.pen.servo_up_deg } else { pen.servo_down_deg };
+                let deg = b.block.servo.map_or(angle, |t| f64::from(t) / 10.0);
+                let _ = write!(line, "M3 S{}", fmt_mm(deg, 1));
                 // A servo block carries its settle time: GRBL runs the spindle word, then the dwell, of one line.
                 if b.block.servo.is_some() {
                     let _ = write!(line, " G4 P{}", seconds(b.block.duration_ticks()));
@@ -117,12 +118,12 @@ pub fn program(profile: &MachineProfile, plan: &MotionPlan) -> Program {
 }
 
 /// The lines that lift the pen from Z `z_now` (steps of the plot's coordinates) with the command the plot lifts
-/// it with: `M5` for a servo pen; for a Z pen a move to the pen-up height written relative (`G91 G0 Z…`, then
+/// it with: `M3 S<up angle>` for a servo pen (never `M5`, which lets a stock GRBL's servo go limp); for a Z pen a move to the pen-up height written relative (`G91 G0 Z…`, then
 /// `G90`), so that it holds whatever work offsets a soft reset dropped — nothing when Z already stands at the
 /// pen-up height or beyond it (away from the paper).
 pub fn lift(profile: &MachineProfile, z_now: i32) -> Result<Vec<String>, plotter_path::motion::plan::PlanError> {
     if profile.pen.uses_servo() {
-        return Ok(vec!["M5".into()]);
+        return Ok(vec![format!("M3 S{}", fmt_mm(profile.pen.servo_up_deg, 1))]);
     }
     let up = plotter_path::motion::plan::homed_position(profile)?[2];
     let sz = profile.axes.z.steps_per_mm;
@@ -210,7 +211,7 @@ mod tests {
     }
 
     #[test]
-    fn servo_pens_use_m3_m5() {
+    fn servo_pens_are_lifted_and_lowered_with_m3_never_m5() {
         let mut p = MachineProfile::default_plotter();
         p.pen.command = plotter_path::config::profile::PenCommand::Servo;
         p.pen.servo_down_deg = 25.0;
@@ -223,22 +224,24 @@ mod tests {
         assert_eq!(
             prog.lines,
             [
-                "M5 G4 P0.05",
+                "M3 S90 G4 P0.05",
                 "G1 X9.5875 Y9.5875 F7200",
                 "M3 S25 G4 P0",
                 "G1 X10 Y10",
                 "G4 P0.017",
                 "G1 X12.5 Y10 F3600",
                 "G1 X12.5 Y11.0125",
-                "M5 G4 P0.05",
+                "M3 S90 G4 P0.05",
                 "G1 X20 Y10 F7200",
                 "M3 S25 G4 P0.05",
                 "G1 X21 Y10 F3600",
-                "M5 G4 P0.05",
+                "M3 S90 G4 P0.05",
             ]
         );
         assert_eq!(declare_position(&p, [8, 0, 1600, 0]), "G92 X0.1 Y0");
-        assert_eq!(lift(&p, 0).unwrap(), ["M5"], "a servo pen is lifted whatever Z says");
+        // At the profile's up angle (90°), whatever Z says; never `M5`, which lets a stock GRBL's servo go limp.
+        assert_eq!(lift(&p, 0).unwrap(), ["M3 S90"], "a servo pen is lifted whatever Z says");
+        assert!(prog.lines.iter().all(|l| !l.contains("M5")));
     }
 
     #[test]

@@ -24,7 +24,7 @@
 //! next pen-up is reached, stops the plot at once. Whichever way the stream ends early, the job then calls
 //! [`GrblSession::stop_and_lift`]: bring motion to rest with a feed hold (so that the reset keeps the position),
 //! soft-reset to drop what is queued, unlock (`$X`) if GRBL is in alarm, and lift the pen with the plot's own
-//! pen-up command (`M5`, or a relative Z move, which holds whatever offsets the reset dropped).
+//! pen-up command (`M3 S<up angle>`, or a relative Z move, which holds whatever offsets the reset dropped).
 //!
 //! # Progress
 //! `ok` means queued. What has been executed comes from the `?` status report (polled at 5 Hz, the rate GRBL's
@@ -795,7 +795,7 @@ impl<T: Transport> GrblSession<T> {
     pub fn stop_and_lift(&mut self) -> anyhow::Result<String> {
         self.try_stop_and_lift().map_err(|e| {
             let lift = if self.profile.pen.uses_servo() {
-                "send `M5`".to_string()
+                format!("send `M3 S{}` (the pen-up angle)", self.profile.pen.servo_up_deg)
             } else {
                 format!("raise Z to the pen-up height ({} mm)", self.profile.pen.up_z_mm)
             };
@@ -1179,12 +1179,12 @@ mod tests {
     }
 
     #[test]
-    fn a_servo_pen_is_lifted_with_m5_after_a_reset() {
+    fn a_servo_pen_is_lifted_with_m3_at_its_up_angle_after_a_reset() {
         let mut profile = MachineProfile::default_plotter();
         profile.pen.command = plotter_path::config::profile::PenCommand::Servo;
         (profile.pen.servo_up_deg, profile.pen.servo_down_deg) = (90.0, 25.0);
         let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
-        // Plan lines: `M5 G4 …`, then per square travel, `M3 S25 G4 …`, four strokes, `M5 G4 …`. The servo acts
+        // Plan lines: `M3 S90 G4 …`, then per square travel, `M3 S25 G4 …`, four strokes, `M3 S90 G4 …`. The servo acts
         // once the queue has run empty, so the `ok` of G-code line 20 (G21, G90, then the third square's first
         // stroke) comes with the pen down.
         let faults = Faults { realtime_after_lines: Some((20, RT_RESET)), ..Faults::default() };
@@ -1199,7 +1199,7 @@ mod tests {
         let done = s.stop_and_lift().unwrap();
         assert!(
             done.ends_with(
-                "unlocked with $X (home before the next plot: the position may be lost)); the pen is up (M5)"
+                "unlocked with $X (home before the next plot: the position may be lost)); the pen is up (M3 S90)"
             )
         );
         assert_eq!(s.transport.emulator().pen().servo_deg, Some(90.0));
