@@ -36,9 +36,21 @@ pub fn plotter_bin() -> &'static Path {
     })
 }
 
-/// Run `plotter` with `args` in `dir` and collect its output.
+/// Run `plotter` with `args` in `dir` and collect its output. Its state directory (resume journals of plots on a
+/// port) is [`test_state_dir`], not the user's.
 pub fn plotter(dir: &Path, args: &[&str]) -> Output {
-    Command::new(plotter_bin()).args(args).current_dir(dir).output().expect("plotter runs")
+    Command::new(plotter_bin())
+        .args(args)
+        .current_dir(dir)
+        .env("PLOTTER_STATE_DIR", test_state_dir())
+        .output()
+        .expect("plotter runs")
+}
+
+/// The state directory the harness gives `plotter` (`PLOTTER_STATE_DIR`): one per test process, in the temporary
+/// folder, so that tests never write journals into the user's own state directory.
+pub fn test_state_dir() -> PathBuf {
+    std::env::temp_dir().join(format!("plotter-e2e-{}-state", std::process::id()))
 }
 
 /// [`plotter`] with `input` on its standard input (e.g. one line per pen-change prompt).
@@ -47,6 +59,7 @@ pub fn plotter_with_input(dir: &Path, args: &[&str], input: &str) -> Output {
     let mut child = Command::new(plotter_bin())
         .args(args)
         .current_dir(dir)
+        .env("PLOTTER_STATE_DIR", test_state_dir())
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

@@ -83,7 +83,7 @@ fn an_interrupted_plot_is_listed_and_resumed_by_number() {
     let start = Instant::now();
     loop {
         let executed = |t: String| {
-            let last = t.lines().filter(|l| l.starts_with("progress ")).last().map(str::to_string);
+            let last = t.lines().rfind(|l| l.starts_with("progress ")).map(str::to_string);
             last.and_then(|l| l.split(' ').nth(2).and_then(|e| e.parse::<usize>().ok())).unwrap_or(0)
         };
         let progressed = files(&state.join("journals"))
