@@ -4,7 +4,8 @@
 //! with the pen up) — no newline in either case. The first plot runs on the built-in simulator paced with
 //! `--sim-speed` (so that it is still plotting when asked), the second on `plotter sim --pty --pen-log`, whose own
 //! record of the pen is the witness. The terminal is back in line mode with echo after either, and after a stop
-//! signal (SIGTERM) that ends the plot while the prompt waits.
+//! signal (SIGTERM) that ends the plot while the prompt waits. A pen change takes one key too (Enter), and the bar
+//! goes on from where it was after each prompt: it counts the whole plot, with no stale copy of the last layer's line.
 
 use std::fs::File;
 use std::io::{Read as _, Write as _};
@@ -30,10 +31,15 @@ struct OnPty {
 impl OnPty {
     /// `plotter plot duck.svg` with `extra` arguments in `dir`, its stdin and stderr on a new pseudo-terminal.
     fn start(dir: &std::path::Path, extra: &[&str]) -> OnPty {
+        OnPty::plot(dir, "duck.svg", extra)
+    }
+
+    /// `plotter plot SAMPLE` with `extra` arguments in `dir`, its stdin and stderr on a new pseudo-terminal.
+    fn plot(dir: &std::path::Path, drawing: &str, extra: &[&str]) -> OnPty {
         let pty = nix::pty::openpty(None, None).expect("openpty");
         let slave = pty.slave;
         let child = Command::new(plotter_bin())
-            .args(["plot", sample("duck.svg").to_str().unwrap()])
+            .args(["plot", sample(drawing).to_str().unwrap()])
             .args(extra)
             .env("PLOTTER_STATE_DIR", dir.join("state"))
             .current_dir(dir)
@@ -154,4 +160,38 @@ fn a_stop_signal_at_the_prompt_gives_the_terminal_back() {
     // `end` checks that the terminal is back in line mode with echo.
     let (code, stdout, terminal) = plot.end();
     assert_eq!(code, Some(5), "{terminal}\n{stdout}");
+}
+
+/// The per cents of the progress bars drawn on the terminal, in order.
+fn bar_percents(terminal: &str) -> Vec<u32> {
+    terminal
+        .split(['\r', '\n'])
+        .map(|l| l.replace("\u{1b}[2K", ""))
+        .filter(|l| l.starts_with('['))
+        .filter_map(|l| l.split_once("]")?.1.trim_start().split('%').next()?.parse().ok())
+        .collect()
+}
+
+#[test]
+fn a_pen_change_takes_one_key_and_the_bar_goes_on_from_where_it_was() {
+    let dir = scratch("pen-change-key");
+    let plot = OnPty::plot(&dir, "three-pens.svg", &["--sim-speed", "10", "--pen-change", "prompt"]);
+    const ASK: &str = "[q] stop (the journal keeps the plot): ";
+    for n in 1..=2 {
+        let start = Instant::now();
+        while plot.seen().matches(ASK).count() < n {
+            assert!(start.elapsed() < Duration::from_secs(10), "no pen change {n}:\n{}", plot.seen());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        // One key, the Enter key, no line editing.
+        (&plot.master).write_all(b"\r").expect("type");
+    }
+    let (code, stdout, terminal) = plot.end();
+    assert_eq!(code, Some(0), "{terminal}\n{stdout}");
+    assert!(stdout.contains("pen changes: 2"), "{stdout}");
+    // The bar counts the whole plot: after each pen change it goes on from where it was, never back to a part's
+    // start nor to a stale copy of the last layer's figures.
+    let percents = bar_percents(&terminal);
+    assert!(percents.windows(2).all(|w| w[0] <= w[1]), "{percents:?}\n{terminal}");
+    assert!(percents.len() > 3 && percents.iter().any(|&p| p > 50), "{percents:?}\n{terminal}");
 }
