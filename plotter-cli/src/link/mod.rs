@@ -21,6 +21,7 @@ pub mod print;
 pub mod serial;
 pub mod session;
 pub mod sim;
+pub mod standing;
 pub mod stream;
 pub mod wait;
 
