@@ -111,3 +111,21 @@ fn an_interrupted_plot_is_listed_and_resumed_by_number() {
     let list = run(&dir, &state, &["resume", "--list"]);
     assert!(text(&list).contains("no interrupted plots to resume"), "{}", text(&list));
 }
+
+/// A journal the web app wrote (its source names the front end) is listed, but `plotter resume` sends the user back
+/// to the page instead of failing on "an unreadable source line".
+#[test]
+fn a_web_plot_is_resumed_from_the_page() {
+    let dir = scratch("journal-dir-web");
+    let state = dir.join("state");
+    let journals = state.join("journals");
+    std::fs::create_dir_all(&journals).unwrap();
+    let path = journals.join("duck-web.journal");
+    let source = r#"{"front_end":"plotter serve","drawing":"duck.svg","machine":"XY plotter kit (A3 frame)","start":[0,0,1600,0]}"#;
+    let mut j = plotter_host::link::journal::Journal::create(&path, source, 7, 100).unwrap();
+    j.record(10, 5, 11).unwrap();
+    drop(j);
+    let out = run(&dir, &state, &["resume", path.to_str().unwrap(), "--port", "/dev/null"]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert!(text(&out).contains("that plot was started by plotter serve; resume it there"), "{}", text(&out));
+}

@@ -458,6 +458,17 @@ pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Resu
         println!("{}: that plot already finished; nothing to resume", journal_path.display());
         return Ok(());
     }
+    // A plot started from another front end (the web app's journals record who wrote them) is resumed there.
+    let written_by = serde_json::from_str::<serde_json::Value>(&state.source)
+        .ok()
+        .and_then(|v| v.get("front_end").and_then(serde_json::Value::as_str).map(str::to_string));
+    if let Some(front_end) = written_by {
+        bail!(
+            "{}: that plot was started by {front_end}; resume it there (load the same drawing on the same machine and \
+             press Resume)",
+            journal_path.display()
+        );
+    }
     let source: PlotSource = serde_json::from_str(&state.source)
         .with_context(|| format!("{}: unreadable source line", journal_path.display()))?;
     refuse_quarter_turns(&source.args).with_context(|| format!("{}: cannot resume", journal_path.display()))?;
