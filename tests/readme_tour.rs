@@ -360,7 +360,12 @@ fn every_tour_command_runs_as_pasted() {
         .filter(|n| n.ends_with(".journal"))
         .collect();
     assert!(leftovers.is_empty(), "journals were left beside the samples: {leftovers:?}");
-    assert!(failures.is_empty(), "{} of {ran} README tour commands failed:\n\n{}", failures.len(), failures.join("\n\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {ran} README tour commands failed:\n\n{}",
+        failures.len(),
+        failures.join("\n\n")
+    );
 }
 
 #[test]

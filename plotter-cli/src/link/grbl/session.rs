@@ -1197,11 +1197,9 @@ mod tests {
         // The reset switched the spindle output off: the servo got no new pulse and holds the pen down.
         assert_eq!(s.transport.emulator().pen().servo_deg, Some(25.0));
         let done = s.stop_and_lift().unwrap();
-        assert!(
-            done.ends_with(
-                "unlocked with $X (home before the next plot: the position may be lost)); the pen is up (M3 S90)"
-            )
-        );
+        assert!(done.ends_with(
+            "unlocked with $X (home before the next plot: the position may be lost)); the pen is up (M3 S90)"
+        ));
         assert_eq!(s.transport.emulator().pen().servo_deg, Some(90.0));
     }
 
