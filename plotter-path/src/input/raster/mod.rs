@@ -37,6 +37,7 @@ pub mod simplify;
 pub mod skeleton;
 pub mod synth;
 mod threshold;
+pub mod tone;
 
 pub use bitmap::Bitmap;
 pub use contour::{Contour, signed_area, trace_contours};
