@@ -61,6 +61,8 @@ fn the_default_output_speaks_to_the_plotter_owner() {
     let first = plain.lines().next().unwrap();
     assert!(first.starts_with("plot time ") && first.ends_with(" pen lifts"), "{plain}");
     assert!(first.contains(" mm pen-down, ") && first.contains(" mm pen-up, "), "{plain}");
+    // The simulated plot ran its planned time (counted from the end of homing): one time, no "(planned …)".
+    assert!(!first.contains("planned"), "{plain}");
     for developer in ["blocks", "bytes/block", "resends", "underruns", "lower bound", "time parts"] {
         assert!(!plain.contains(developer), "{developer} in the default output:\n{plain}");
     }

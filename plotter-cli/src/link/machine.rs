@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use anyhow::Context as _;
 
+use plotter_path::MachineProfile;
 use plotter_path::motion::plan::{MachinePos, MotionPlan};
 
 use super::Transport;
@@ -119,7 +120,11 @@ impl<T: Transport + 'static> PlotMachine for Session<T> {
     }
 
     fn busy_ticks(&self) -> u64 {
-        (&self.transport as &dyn std::any::Any).downcast_ref::<SimTransport>().map_or(0, |s| s.sim().hal().busy_ticks())
+        // The simulator, or the simulator paced to the wall clock (`plot --sim-speed`, and `plot` at full speed).
+        let t = &self.transport as &dyn std::any::Any;
+        let paced = || t.downcast_ref::<super::paced::PacedSim>().map(super::paced::PacedSim::inner);
+        let sim = t.downcast_ref::<SimTransport>().or_else(paced);
+        sim.map_or(0, |s| s.sim().hal().busy_ticks())
     }
 
     fn begin(&mut self) -> anyhow::Result<()> {
@@ -227,6 +232,37 @@ impl<T: Transport + 'static> PlotMachine for EbbSession<T> {
     fn stop_and_lift(&mut self, _profile: &plotter_path::MachineProfile) -> anyhow::Result<String> {
         EbbSession::stop_and_lift(self)
     }
+}
+
+/// How far outside its travel a machine may report its pen before the report is taken for a lie, mm (a carriage
+/// pushed against a frame beyond its endstop; a board's counters that went wild are kilometres out).
+pub const POSITION_MARGIN_MM: f64 = 10.0;
+
+/// Where `machine` reports its pen, checked against the profile's travel (X and Y within 0..travel, give or take
+/// [`POSITION_MARGIN_MM`]): a position outside is refused before any move is planned from it (a board answering
+/// kilometres away would get a move of that length), naming the position and the travel.
+pub fn position_within_travel<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+) -> anyhow::Result<MachinePos> {
+    let at = machine.position()?;
+    let axes = [&profile.axes.x, &profile.axes.y];
+    for (i, (&p, axis)) in at.iter().zip(axes).enumerate() {
+        let mm = f64::from(p) / axis.steps_per_mm;
+        if !(-POSITION_MARGIN_MM..=axis.travel_mm + POSITION_MARGIN_MM).contains(&mm) {
+            anyhow::bail!(
+                "{} reports the pen at {} = {} steps ({} mm), outside its travel 0..{} mm (± {POSITION_MARGIN_MM} mm): \
+                 refusing to move from there. Home the machine (or power-cycle it and move the carriage home by \
+                 hand) before plotting; do not use --no-home or --trust-position",
+                machine.name(),
+                ["X", "Y"][i],
+                p,
+                plotter_path::output::stats::fixed(mm, 1),
+                axis.travel_mm
+            );
+        }
+    }
+    Ok(at)
 }
 
 /// Home `m` (shared by `plotter home` and the web app): refused while the machine is in an alarm that homing
