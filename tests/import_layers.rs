@@ -555,13 +555,15 @@ fn plotter_path_stages_import_only_downstream() {
 
 /// plotter-cli's library (`plotter_host`), lowest first: the stop flag every wait reads; the error every part
 /// returns; the option groups; the input loader; the link to the machine (transports, sessions, dialects,
-/// connecting, jogging); the plot job, which drives the link.
+/// connecting, jogging); the user's state directory, where the link's journals are kept; the plot job, which
+/// drives the link.
 const PLOTTER_CLI_LIB: Layers<'static> = &[
     ("stop", &["stop"]),
     ("error", &["error"]),
     ("options", &["options"]),
     ("input", &["input"]),
     ("link", &["link"]),
+    ("state", &["state_dir"]),
     ("job", &["job"]),
 ];
 

@@ -16,7 +16,6 @@ use plotter_path::input::svg::{self, ImageTrace, LayerBy, ResourcePolicy, SvgOpt
 use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use plotter_path::{Drawing, MachineProfile};
 
-use crate::error::BadInput;
 use crate::options::layout::LayoutArgs;
 use crate::options::trace::TraceArgs;
 
@@ -272,23 +271,7 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     }
 }
 
-/// Load the machine profile at `path` (a TOML file, a bad one is [`crate::Error::BadInput`]), or the built-in XY
-/// plotter kit profile.
-pub fn load_profile(path: Option<&Path>) -> crate::Result<MachineProfile> {
-    match path {
-        // A model's name (or its sample file, which an installed program does not have) given as a file.
-        Some(p) if !p.exists() && plotter_path::config::models::meant_by_path(p).is_some() => {
-            let name = plotter_path::config::models::meant_by_path(p).map_or("", |m| m.name);
-            let e = anyhow::anyhow!(
-                "cannot read machine profile {}: no such file; did you mean --model {name} (built in)?",
-                p.display()
-            );
-            Err(BadInput::new(p, e).into())
-        }
-        Some(p) => MachineProfile::load(p).map_err(|e| BadInput::new(p, e.into()).into()),
-        None => Ok(MachineProfile::default_plotter()),
-    }
-}
+pub use crate::options::machine::load_profile;
 
 /// Load any supported input as a drawing in page millimetres (before layout). `profile` maps machine coordinates
 /// of G-code and trajectory files back to the page.

@@ -163,34 +163,7 @@ impl Streamed {
     }
 }
 
-/// How far outside its travel a machine may report its pen before the report is taken for a lie, mm (a carriage
-/// pushed against a frame beyond its endstop; a board's counters that went wild are kilometres out).
-pub const POSITION_MARGIN_MM: f64 = 10.0;
-
-/// Where `machine` reports its pen, checked against the profile's travel (X and Y within 0..travel, give or take
-/// [`POSITION_MARGIN_MM`]): a position outside is refused before any move is planned from it (a board answering
-/// kilometres away would get a move of that length), naming the position and the travel.
-pub fn position_within_travel<M: PlotMachine + ?Sized>(
-    machine: &mut M,
-    profile: &MachineProfile,
-) -> anyhow::Result<MachinePos> {
-    let at = machine.position()?;
-    let axes = [&profile.axes.x, &profile.axes.y];
-    for (i, (&p, axis)) in at.iter().zip(axes).enumerate() {
-        let mm = f64::from(p) / axis.steps_per_mm;
-        if !(-POSITION_MARGIN_MM..=axis.travel_mm + POSITION_MARGIN_MM).contains(&mm) {
-            anyhow::bail!(
-                "{} reports the pen at {} = {} steps ({} mm), outside its travel 0..{} mm (+/- {POSITION_MARGIN_MM}                  mm): refusing to move from there. Home the machine (or power-cycle it and move the carriage home by                  hand) before plotting; do not use --no-home or --trust-position",
-                machine.name(),
-                ["X", "Y"][i],
-                p,
-                plotter_path::output::stats::fixed(mm, 1),
-                axis.travel_mm
-            );
-        }
-    }
-    Ok(at)
-}
+pub use crate::link::machine::{POSITION_MARGIN_MM, position_within_travel};
 
 /// A plot being streamed, part by part between pen changes.
 struct Run<'a> {

@@ -106,7 +106,7 @@ pub fn walk_home<T: Transport + 'static>(
     profile: &plotter_path::MachineProfile,
 ) -> anyhow::Result<String> {
     let m = c.machine();
-    let from = crate::job::position_within_travel(m, profile)?;
+    let from = super::machine::position_within_travel(m, profile)?;
     let home = plan::homed_position(profile)?;
     // The travel lifts the pen first (a servo's angle is not part of the position: always).
     let travel = plan::plan_travel(profile, from, StepPos::new(home[0], home[1]))?;

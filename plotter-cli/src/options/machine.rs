@@ -22,13 +22,12 @@
 //!   time for both, so the longer of the two is added to it; a servo pen's travel after a lift also starts the
 //!   raise delay later.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use plotter_path::MachineProfile;
 use plotter_path::config::models;
 
 use crate::error::BadInput;
-use crate::input::load_profile;
 
 /// The machine-choosing flags and the speed and pen settings laid over the machine's profile.
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -226,7 +225,8 @@ impl MachineArgs {
                 let text = std::fs::read_to_string(path).map_err(|e| {
                     BadInput::new(path, anyhow::anyhow!("cannot read machine profile {}: {e}", path.display()))
                 })?;
-                models::extend(m, &text, &path.display().to_string()).map_err(|e| BadInput::new(path, e.into()))?
+                plotter_path::config::profile::extend_model(m, &text, &path.display().to_string())
+                    .map_err(|e| BadInput::new(path, e.into()))?
             }
             (Some(m), None) => m.profile(),
             (None, path) => load_profile(path)?,
@@ -327,6 +327,24 @@ pub fn top_speed_mm_s(p: &MachineProfile) -> f64 {
         EBB_MAX_STEP_RATE / (p.axes.x.steps_per_mm * std::f64::consts::SQRT_2)
     } else {
         p.axes.x.max_feed_mm_s.max(p.axes.y.max_feed_mm_s)
+    }
+}
+
+/// Load the machine profile at `path` (a TOML file, a bad one is [`crate::Error::BadInput`]), or the built-in XY
+/// plotter kit profile.
+pub fn load_profile(path: Option<&Path>) -> crate::Result<MachineProfile> {
+    match path {
+        // A model's name (or its sample file, which an installed program does not have) given as a file.
+        Some(p) if !p.exists() && plotter_path::config::models::meant_by_path(p).is_some() => {
+            let name = plotter_path::config::models::meant_by_path(p).map_or("", |m| m.name);
+            let e = anyhow::anyhow!(
+                "cannot read machine profile {}: no such file; did you mean --model {name} (built in)?",
+                p.display()
+            );
+            Err(BadInput::new(p, e).into())
+        }
+        Some(p) => MachineProfile::load(p).map_err(|e| BadInput::new(p, e.into()).into()),
+        None => Ok(MachineProfile::default_plotter()),
     }
 }
 

@@ -6,8 +6,6 @@
 //! and lays the file's own keys over it (a deep merge: tables merge key by key, every other value, arrays such as
 //! `[[pens]]` included, replaces the model's). The sample profiles of the smaller variants do just that.
 
-use crate::config::profile::{MachineProfile, ProfileError};
-
 /// The firmware a model's controller speaks, as `--firmware` names it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ModelFirmware {
@@ -125,16 +123,20 @@ pub const MODELS: &[Model] = &[
     },
 ];
 
+/// A `model = …` key that names no model, or a chain of them that loops; `path` names the profile (or the built-in
+/// model) at fault. The profile reader turns it into its own parse error.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModelError {
+    /// The profile file or built-in model whose text is at fault.
+    pub path: String,
+    /// What is wrong.
+    pub message: String,
+}
+
 /// How deep `model = …` may chain (a model extending a model …): far more than the samples use, and a loop ends.
 const MAX_CHAIN: usize = 8;
 
 impl Model {
-    /// The model's profile. The built-in TOML is checked by a unit test (every model loads), so this cannot fail
-    /// at run time.
-    pub fn profile(&self) -> MachineProfile {
-        MachineProfile::from_toml(self.toml, &self.origin()).unwrap_or_else(|e| unreachable!("{e}"))
-    }
-
     /// How errors name the model.
     pub fn origin(&self) -> String {
         format!("built-in model {}", self.name)
@@ -216,11 +218,11 @@ pub fn merge(base: &mut toml::Table, over: toml::Table) {
 
 /// `table` with its `model = "…"` key (if any) replaced by that model's keys underneath it, as far as the chain
 /// goes; `origin` names the profile in errors.
-pub(crate) fn expand(mut table: toml::Table, origin: &str) -> Result<toml::Table, ProfileError> {
+pub(crate) fn expand(mut table: toml::Table, origin: &str) -> Result<toml::Table, ModelError> {
     let mut chain: Vec<&str> = Vec::new();
     let mut layers = Vec::new();
     while let Some(value) = table.remove("model") {
-        let bad = |message: String| ProfileError::Parse { path: origin.to_string(), message };
+        let bad = |message: String| ModelError { path: origin.to_string(), message };
         let Some(name) = value.as_str() else {
             return Err(bad(format!("model: must be the name of a built-in model in quotes, not {value}")));
         };
@@ -229,8 +231,8 @@ pub(crate) fn expand(mut table: toml::Table, origin: &str) -> Result<toml::Table
             return Err(bad(format!("model: the models extend each other in a loop ({})", chain.join(" → "))));
         }
         chain.push(model.name);
-        let base: toml::Table = toml::from_str(model.toml)
-            .map_err(|e| ProfileError::Parse { path: model.origin(), message: e.to_string() })?;
+        let base: toml::Table =
+            toml::from_str(model.toml).map_err(|e| ModelError { path: model.origin(), message: e.to_string() })?;
         layers.push(std::mem::replace(&mut table, base));
     }
     // `table` is now the innermost model; lay each extension over it, the file's own keys last.
@@ -240,30 +242,10 @@ pub(crate) fn expand(mut table: toml::Table, origin: &str) -> Result<toml::Table
     Ok(table)
 }
 
-/// The profile of `model` with the profile text `over` (named `origin` in errors) laid over it: what
-/// `--model M --profile FILE` loads. A file that names another model itself is refused (which one was meant?).
-pub fn extend(model: &Model, over: &str, origin: &str) -> Result<MachineProfile, ProfileError> {
-    let mut table: toml::Table =
-        toml::from_str(over).map_err(|e| ProfileError::Parse { path: origin.to_string(), message: e.to_string() })?;
-    match table.get("model").map(|v| v.as_str()) {
-        Some(Some(name)) if name != model.name => {
-            return Err(ProfileError::Parse {
-                path: origin.to_string(),
-                message: format!(
-                    "model: the file extends {name:?} but --model says {:?}; drop one of the two",
-                    model.name
-                ),
-            });
-        }
-        _ => {}
-    }
-    table.insert("model".into(), toml::Value::String(model.name.into()));
-    MachineProfile::from_table(table, origin)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::profile::{MachineProfile, extend_model as extend};
 
     #[test]
     fn every_model_loads_within_the_physical_ranges() {

@@ -12,6 +12,7 @@ use plotter_fw::thermal::ThermalConfig;
 use serde::{Deserialize, Serialize};
 
 use crate::config::heaters::HeatersProfile;
+use crate::config::models::Model;
 
 /// Errors loading a machine profile.
 #[derive(Debug, thiserror::Error)]
@@ -400,7 +401,8 @@ impl MachineProfile {
 
     /// A profile from parsed TOML (its `model = "NAME"` key expanded), validated; `origin` names it in errors.
     pub fn from_table(table: toml::Table, origin: &str) -> Result<Self, ProfileError> {
-        let table = crate::config::models::expand(table, origin)?;
+        let table = crate::config::models::expand(table, origin)
+            .map_err(|e| ProfileError::Parse { path: e.path, message: e.message })?;
         let profile: MachineProfile = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| ProfileError::Parse { path: origin.to_string(), message: e.to_string() })?;
@@ -689,6 +691,35 @@ mod limits {
 /// The heaters of `profile` for the firmware ([`ThermalConfig::NONE`] without a `[heaters]` section).
 pub fn thermal_config(profile: &MachineProfile) -> Result<ThermalConfig, String> {
     profile.heaters.as_ref().map_or(Ok(ThermalConfig::NONE), HeatersProfile::to_config)
+}
+
+impl Model {
+    /// The model's profile. The built-in TOML is checked by a unit test (every model loads), so this cannot fail
+    /// at run time.
+    pub fn profile(&self) -> MachineProfile {
+        MachineProfile::from_toml(self.toml, &self.origin()).unwrap_or_else(|e| unreachable!("{e}"))
+    }
+}
+
+/// The profile of `model` with the profile text `over` (named `origin` in errors) laid over it: what
+/// `--model M --profile FILE` loads. A file that names another model itself is refused (which one was meant?).
+pub fn extend_model(model: &Model, over: &str, origin: &str) -> Result<MachineProfile, ProfileError> {
+    let mut table: toml::Table =
+        toml::from_str(over).map_err(|e| ProfileError::Parse { path: origin.to_string(), message: e.to_string() })?;
+    match table.get("model").map(|v| v.as_str()) {
+        Some(Some(name)) if name != model.name => {
+            return Err(ProfileError::Parse {
+                path: origin.to_string(),
+                message: format!(
+                    "model: the file extends {name:?} but --model says {:?}; drop one of the two",
+                    model.name
+                ),
+            });
+        }
+        _ => {}
+    }
+    table.insert("model".into(), toml::Value::String(model.name.into()));
+    MachineProfile::from_table(table, origin)
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 //!
 //! Bodies are bounded in size — a declared size over the limit is refused before any of the body is read
 //! ([`declared_size`]) — and in time ([`super::deadline`]). Decoding and preparing a drawing run on the blocking
-//! pool in a limited number of slots ([`heavy`]), so no number of uploads can occupy every thread, and each first
+//! pool in a limited number of slots ([`super::heavy`]), so no number of uploads can occupy every thread, and each first
 //! reserves its estimated memory in the server's budget ([`super::budget`]), so that concurrent uploads cannot
 //! together exhaust the machine's memory.
 
@@ -30,7 +30,7 @@ use plotter_host::link::machine::Firmware;
 use plotter_host::options::layout::{LayoutArgs, OrientationArg};
 use plotter_host::options::optimize::OptimizeArgs;
 use plotter_host::options::trace::ModeArg;
-use plotter_path::geometry::cancel::Cancel;
+
 use plotter_path::input::r#gen;
 use plotter_path::output::preview::plotting_pen;
 use plotter_path::{MachineProfile, Pen, Rgb};
@@ -38,12 +38,13 @@ use serde::Deserialize;
 use serde_json::json;
 use tokio::sync::broadcast::error::RecvError;
 
-use super::budget::{self, Budget};
+use super::budget;
 use super::command::{Command, PlotJob, firmware_choice, hpgl_choice, hpgl_refusal, hpgl_table};
 use super::control;
 use super::deadline::body_deadline;
 use super::error::ApiError;
 use super::events::Event;
+use super::heavy::heavy;
 use super::pen_speed::PenSpeed;
 use super::safety::{self, TOKEN_HEADER};
 use super::state::{Loaded, Settings, Shared, Source};
@@ -406,50 +407,6 @@ fn layer_choices(s: &Settings, decoded: &plotter_path::Drawing) -> Result<Vec<La
             Ok(LayerChoice { name: l.name.clone(), visible: l.visible, pen })
         })
         .collect()
-}
-
-/// Sets its flag when dropped, unless the work it guards has ended.
-struct CancelOnDrop(Option<Cancel>);
-
-impl Drop for CancelOnDrop {
-    fn drop(&mut self) {
-        if let Some(c) = self.0.take() {
-            c.cancel();
-        }
-    }
-}
-
-/// Run CPU-bound work (decoding, preparing) on the blocking pool in one of the server's import slots
-/// ([`super::state::Limits::max_imports`]); `503 Service Unavailable` when every slot is taken, rather than a
-/// queue. The work itself holds the slot, so clients that upload and hang up cannot pile up threads; and it gets
-/// a [`Cancel`] flag that a guard held by the request's future sets when that future is dropped (hyper drops the
-/// handler when its client goes away): the work then stops at its next coarse check (per SVG element, between
-/// stages; see [`plotter_path::geometry::cancel`]) and frees its slot, instead of running to an end nobody waits
-/// for. Before it starts, the work reserves `memory` (an estimate in bytes, named `what` in the refusal) in the
-/// server's [`Budget`], held while it runs: `503` when the budget cannot hold it beside the work in flight.
-pub(crate) async fn heavy<T: Send + 'static>(
-    shared: &Shared,
-    (memory, what): (u64, &str),
-    work: impl FnOnce(&Cancel) -> T + Send + 'static,
-) -> Result<T, ApiError> {
-    let reserved = Budget::process().reserve(memory, what)?;
-    let Ok(slot) = Arc::clone(&shared.imports).try_acquire_owned() else {
-        let n = shared.config.limits.max_imports;
-        return Err(ApiError(
-            StatusCode::SERVICE_UNAVAILABLE,
-            format!("busy: {n} drawing(s) are being decoded or prepared, the most at once; try again when done"),
-        ));
-    };
-    let cancel = Cancel::new();
-    let mut guard = CancelOnDrop(Some(cancel.clone()));
-    let result = tokio::task::spawn_blocking(move || {
-        let _held = (slot, reserved);
-        work(&cancel)
-    })
-    .await;
-    // Ended: nothing left to cancel.
-    guard.0 = None;
-    result.map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()))
 }
 
 /// Decode `source` with `settings`, off the async threads.

@@ -15,7 +15,7 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 
-use super::api::heavy;
+use super::heavy::heavy;
 use super::budget;
 use super::command::hpgl_choice;
 use super::error::ApiError;

@@ -8,12 +8,14 @@
 //! - [`deadline`]: the time limit on request bodies;
 //! - [`events`]: the event channel to the pages;
 //! - [`export`]: downloads of the prepared drawing (G-code, HP-GL, SVG);
+//! - [`heavy`]: CPU-bound work off the async threads, in bounded slots, cancelled with its client;
 //! - [`pen_speed`]: the pen-height and speed sliders and what they change in the profile;
 //! - [`state`]: the shared state, the limits on clients, and what a page is sent;
 //! - [`safety`]: Host/Origin/Referer checks and control tokens;
 //! - [`control`]: which page drives the machine;
 //! - [`command`]: what the HTTP side asks the worker;
 //! - [`worker`]: the thread that owns the link to the machine and runs plots;
+//! - [`web_journal`]: the resume journals of the web app's serial plots;
 //! - [`shutdown`]: ending on a signal with the plot stopped and the pen up.
 //!
 //! The HTTP side never blocks on the machine: it sends commands to the worker and the worker reports through
@@ -27,11 +29,13 @@ pub(crate) mod deadline;
 pub(crate) mod error;
 pub(crate) mod events;
 pub(crate) mod export;
+pub(crate) mod heavy;
 pub(crate) mod listen;
 pub(crate) mod pen_speed;
 pub(crate) mod safety;
 pub(crate) mod shutdown;
 pub(crate) mod state;
+pub(crate) mod web_journal;
 pub(crate) mod worker;
 
 use std::sync::Arc;

@@ -373,7 +373,7 @@ impl Shared {
             let i = self.lock();
             (i.loaded.as_ref()?.name.clone(), i.profile.name.clone())
         };
-        let path = super::worker::journal_path(dir, &drawing, &machine);
+        let path = super::web_journal::journal_path(dir, &drawing, &machine);
         let state = plotter_host::link::journal::load(&path).ok()?;
         // Block counts far below 2^53: exact in f64.
         #[allow(clippy::cast_precision_loss)]

@@ -31,11 +31,12 @@ use plotter_host::link::standing::{Pen as StandingPen, standing};
 use plotter_host::link::stream::PauseChoice;
 use plotter_path::MachineProfile;
 use plotter_path::motion::plan;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::command::{Command, HpglChoice, PlotJob, hpgl_refusal};
 use super::events::{Event, Hub, ProgressEvent, Prompt};
 use super::state::Shared;
+use super::web_journal::{WEB_FRONT_END, WebJournal, journal_path};
 use plotter_host::link::paced::PacedSim;
 
 /// The open link (boxed: the simulator is large, and the link moves only when it opens): the simulator runs our
@@ -420,29 +421,6 @@ impl Worker {
         let trouble = trouble.map(Trouble::name);
         self.shared.hub.send(Event::new("done", &Done { ok, message, stepped, trouble }));
     }
-}
-
-/// Who wrote a journal, in its source record (`plotter plot` records its arguments instead).
-pub(crate) const WEB_FRONT_END: &str = "plotter serve";
-
-/// What a web plot's journal records as its source: enough to list it (`plotter resume --list` reads `drawing`
-/// and `machine`) and to check, on resume, that the drawing prepared now is the one that was plotted from `start`.
-#[derive(Debug, Serialize, Deserialize)]
-struct WebJournal {
-    /// [`WEB_FRONT_END`].
-    front_end: String,
-    /// The drawing's name, as the page shows it.
-    drawing: String,
-    /// The machine profile's name.
-    machine: String,
-    /// Where the plan started, steps.
-    start: [i32; 4],
-}
-
-/// The journal of a web plot of `drawing` on `machine` in `dir`: the state directory's file for that pair, named
-/// apart from the command line's journals of the same file (whose records a web resume could not use).
-pub(crate) fn journal_path(dir: &Path, drawing: &str, machine: &str) -> PathBuf {
-    plotter_host::state_dir::journal_in(dir, &format!("{WEB_FRONT_END}/{drawing}"), machine)
 }
 
 /// Continue the plot whose journal is at `path`, once the drawing prepared now is known to be the one plotted: the
