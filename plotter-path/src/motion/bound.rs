@@ -126,6 +126,100 @@ fn z_joins_may_curve(profile: &MachineProfile) -> bool {
     profile.motion.curve_deviation_mm > 0.0
 }
 
+/// The pen's moves as the bound counts them, seconds: per stroke its lift, drop and settle, and once per plot
+/// (the final lift's settle; for a servo, the first and last lifts' whole settle time beyond their clear time).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct LiftParts {
+    /// Per stroke: the lift, the drop, the settle dwell.
+    pub(crate) per_stroke: [f64; 3],
+    /// Once per plot: lift, drop, settle.
+    pub(crate) once: [f64; 3],
+}
+
+impl LiftParts {
+    /// The lifts' part of the bound for `strokes` strokes (none without strokes).
+    pub(crate) fn total_s(&self, strokes: f64) -> f64 {
+        self.split(strokes).iter().sum()
+    }
+
+    /// Lifts, drops and settles for `strokes` strokes (nothing without strokes).
+    pub(crate) fn split(&self, strokes: f64) -> [f64; 3] {
+        if strokes <= 0.0 {
+            return [0.0; 3];
+        }
+        core::array::from_fn(|i| strokes * self.per_stroke[i] + self.once[i])
+    }
+}
+
+/// The lift, drop and settle parts of the bound (see the module docs).
+pub(crate) fn lift_parts(profile: &MachineProfile) -> LiftParts {
+    let z = &profile.axes.z;
+    let corner = |a: f64| corner_speed(a, profile.motion.junction_deviation_mm);
+    let secs = |ticks: u32| f64::from(ticks) / f64::from(plotter_fw::TICK_HZ);
+    let settle = secs(crate::motion::plan::settle_ticks(profile));
+    if profile.pen.uses_servo() {
+        // A servo pen moves no axis: its blocks are dwells. Per stroke the clear time of its lift and of its drop;
+        // once, the first and the last lift's settle beyond the clear time counted per stroke.
+        let clear = secs(crate::motion::plan::servo_clear_ticks(profile));
+        return LiftParts { per_stroke: [clear, clear, 0.0], once: [2.0 * settle - clear, 0.0, 0.0] };
+    }
+    // The clearance as the plan rounds it to steps (at least one), capped (as the plan caps it) by every pen's
+    // distance from the paper to the pen-up height, less the step either end may round away.
+    let (up, sz) = (profile.pen.up_z_mm, z.steps_per_mm);
+    let c_mm = std::iter::once(profile.pen.down_z_mm)
+        .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
+        .fold((profile.pen.clearance_mm * sz).round().max(1.0) / sz, |c, d| c.min((up - d).abs() - 1.0 / sz))
+        .max(0.0);
+    let (vz, az) = (z.max_feed_mm_s, z.max_accel_mm_s2);
+    // Into the rise from the stroke, out of it into the hop, and into the drop: 90° corners, or (see
+    // [`z_joins_may_curve`]) curve points taken at up to the slower move's feed.
+    let (v_in, v_hop) = if z_joins_may_curve(profile) {
+        (vz, vz.min(profile.pen.travel_feed_mm_s))
+    } else {
+        (corner(az), hop_corner_speed(profile, az))
+    };
+    let rise = min_time(c_mm, v_in, v_hop, vz, az);
+    let drop = min_time(c_mm, v_hop, 0.0, vz, az);
+    LiftParts { per_stroke: [rise, drop, settle], once: [0.0, 0.0, settle] }
+}
+
+/// The fastest a stroke may end into its pen lift, mm/s, drawing at acceleration `accel` (see the module docs).
+pub(crate) fn stroke_exit_speed(profile: &MachineProfile, accel: f64) -> f64 {
+    match (profile.pen.uses_servo(), z_joins_may_curve(profile)) {
+        (true, _) => 0.0,
+        (false, true) => profile.axes.z.max_feed_mm_s,
+        (false, false) => corner_speed(accel, profile.motion.junction_deviation_mm),
+    }
+}
+
+/// The speed cap the bound puts at a stroke's vertex whose directions have cosine `cos`, mm/s: junction
+/// deviation's with the largest acceleration `accel` (sin(θ/2) for θ the angle between the reversed incoming and
+/// the outgoing direction; a reversal stops) where the turn exceeds 90° or `every_vertex`; `None` where the bound
+/// puts none there, and where the stroke goes straight on.
+pub(crate) fn vertex_cap(accel: f64, deviation: f64, cos: f64, every_vertex: bool) -> Option<f64> {
+    if !(cos < 0.0 || every_vertex) {
+        return None;
+    }
+    let sin_half = ((1.0 + cos) / 2.0).sqrt();
+    Some(if sin_half < 1e-4 {
+        0.0
+    } else if sin_half > 1.0 - 1e-12 {
+        f64::INFINITY
+    } else {
+        (accel * deviation * sin_half / (1.0 - sin_half)).sqrt()
+    })
+}
+
+/// The acceleration the bound draws with: [`path_accel`] with the drawing cap.
+pub(crate) fn draw_accel(profile: &MachineProfile) -> f64 {
+    path_accel(profile, profile.pen.draw_accel_mm_s2)
+}
+
+/// Fastest motion over `len` mm starting at ≤ `v0`, ending at ≤ `v1`, top speed `v`, acceleration `a`, seconds.
+pub(crate) fn fastest_piece(len: f64, v0: f64, v1: f64, v: f64, a: f64) -> f64 {
+    min_time(len, v0, v1, v, a)
+}
+
 /// Lower bound on the time to plot `steps` (strokes as the plan draws them) whose pen-up hops take at least
 /// `travel_lb_s` (e.g. [`crate::optimize::travel_lower_bound_mapped`] with [`min_hop_seconds`]). See the module
 /// docs.
@@ -142,40 +236,8 @@ pub fn plot_time_lower_bound(
     let feeds: Vec<f64> = crate::motion::plan::layer_pens(profile, steps).iter().map(|p| p.draw_feed_mm_s).collect();
     let deviation = profile.motion.junction_deviation_mm;
     let mut bound = TimeBound::default();
-    let z = &profile.axes.z;
-    let corner = |a: f64| corner_speed(a, deviation);
-    let secs = |ticks: u32| f64::from(ticks) / f64::from(plotter_fw::TICK_HZ);
-    let settle = secs(crate::motion::plan::settle_ticks(profile));
-    // A servo pen moves no axis: its blocks are dwells, and fixed blocks, so drawing stops before them.
-    let servo = profile.pen.uses_servo();
-    let (cycle_s, once_s) = if servo {
-        let clear = secs(crate::motion::plan::servo_clear_ticks(profile));
-        (2.0 * clear, 2.0 * settle - clear)
-    } else {
-        // The clearance as the plan rounds it to steps (at least one), capped (as the plan caps it) by every pen's
-        // distance from the paper to the pen-up height, less the step either end may round away.
-        let (up, sz) = (profile.pen.up_z_mm, z.steps_per_mm);
-        let c_mm = std::iter::once(profile.pen.down_z_mm)
-            .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
-            .fold((profile.pen.clearance_mm * sz).round().max(1.0) / sz, |c, d| c.min((up - d).abs() - 1.0 / sz))
-            .max(0.0);
-        let (vz, az) = (z.max_feed_mm_s, z.max_accel_mm_s2);
-        // Into the rise from the stroke, out of it into the hop, and into the drop: 90° corners, or (see
-        // [`z_joins_may_curve`]) curve points taken at up to the slower move's feed.
-        let (v_in, v_hop) = if z_joins_may_curve(profile) {
-            (vz, vz.min(profile.pen.travel_feed_mm_s))
-        } else {
-            (corner(az), hop_corner_speed(profile, az))
-        };
-        let rise = min_time(c_mm, v_in, v_hop, vz, az);
-        let drop = min_time(c_mm, v_hop, 0.0, vz, az);
-        (rise + drop + settle, settle)
-    };
-    let v_lift = match (servo, z_joins_may_curve(profile)) {
-        (true, _) => 0.0,
-        (false, true) => z.max_feed_mm_s,
-        (false, false) => corner(accel),
-    };
+    let lifts = lift_parts(profile);
+    let v_lift = stroke_exit_speed(profile, accel);
     // With no curve model (`motion.curve_deviation_mm = 0`) the planner judges every vertex by junction deviation
     // alone, so every vertex caps the speed; otherwise only turns above 90° (a smooth curve's vertices are planned
     // from its radius instead).
@@ -198,17 +260,7 @@ pub fn plot_time_lower_bound(
             let Some(&(nx, ny)) = segs.peek() else { break };
             let (l0, l1) = (dx.hypot(dy), nx.hypot(ny));
             let cos = (dx * nx + dy * ny) / (l0 * l1);
-            if cos < 0.0 || every_vertex {
-                // Junction deviation's speed with the largest acceleration (sin(θ/2) for θ the angle between the
-                // reversed incoming and the outgoing direction); no cap when the stroke goes straight on.
-                let sin_half = ((1.0 + cos) / 2.0).sqrt();
-                let v_c = if sin_half < 1e-4 {
-                    0.0
-                } else if sin_half > 1.0 - 1e-12 {
-                    f64::INFINITY
-                } else {
-                    (accel * deviation * sin_half / (1.0 - sin_half)).sqrt()
-                };
+            if let Some(v_c) = vertex_cap(accel, deviation, cos, every_vertex) {
                 pieces.push((piece, v_c));
                 piece = 0.0;
             }
@@ -229,7 +281,7 @@ pub fn plot_time_lower_bound(
     }
     #[allow(clippy::cast_precision_loss, reason = "stroke counts are far below 2^52")]
     {
-        bound.lifts_s = if strokes == 0 { 0.0 } else { strokes as f64 * cycle_s + once_s };
+        bound.lifts_s = if strokes == 0 { 0.0 } else { lifts.total_s(strokes as f64) };
     }
     bound.travel_s = travel_lb_s;
     Ok(bound)

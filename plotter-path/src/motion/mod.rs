@@ -2,6 +2,7 @@
 //! bound, and the print plan of slicer G-code.
 
 pub mod bound;
+pub mod gap;
 pub mod hop;
 pub mod plan;
 pub mod print_plan;

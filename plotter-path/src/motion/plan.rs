@@ -877,6 +877,34 @@ fn build_blocks<'c>(
     Ok(raw)
 }
 
+/// Planner blocks, each with its kind and stroke.
+pub(crate) type KindedBlocks = Vec<(PlanBlock, MoveKind, usize)>;
+
+/// The planner blocks of the whole-drawing plan of `steps` from `start` before they become step blocks: each
+/// linked ([`planner::link_all`], its junction and curve limits set) and speed-planned ([`planner::plan`], from
+/// rest), with its kind and stroke; and the machine configuration they were planned with. The same blocks
+/// [`plan_returning`] turns into its step blocks, kept whole (a plan's diagnostics read their limits, see
+/// [`crate::motion::gap`]).
+pub(crate) fn planner_blocks(
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    start: MachinePos,
+    return_home: bool,
+) -> Result<(MachineConfig, KindedBlocks), PlanError> {
+    let cfg = machine_config(profile)?;
+    check_work_area(profile, steps)?;
+    let raw = build_blocks(profile, &cfg, steps, start, return_home)?;
+    // Accelerations are physical values, far inside f32.
+    #[allow(clippy::cast_possible_truncation)]
+    let cap = |a: Option<f64>| a.map_or(f32::MAX, |a| a as f32);
+    let caps = [cap(profile.pen.draw_accel_mm_s2), cap(profile.pen.travel_accel_mm_s2)];
+    let mut all = Vec::with_capacity(raw.raw.len());
+    raw.raw.linked(0..raw.raw.len(), &cfg, caps, &mut Vec::new(), &mut all);
+    planner::plan(&mut all, 0.0);
+    let out = all.into_iter().zip(&raw.raw.blocks).map(|(b, r)| (b, r.kind, r.stroke as usize)).collect();
+    Ok((cfg, out))
+}
+
 /// Plan `steps` starting from machine position `start` (steps; see [`homed_position`]) with the given look-ahead.
 /// The work area is checked first; nothing is planned for a drawing that does not fit.
 pub fn plan(

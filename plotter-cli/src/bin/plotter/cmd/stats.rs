@@ -7,6 +7,7 @@ use clap::Args;
 use plotter_path::geometry::steps::drawing_to_steps;
 use plotter_path::kurbo::Point;
 use plotter_path::motion::bound::{TimeBound, drawing_time_lower_bound};
+use plotter_path::motion::gap::{TimeGap, time_gap};
 use plotter_path::motion::plan::{self, Lookahead, PlanBreakdown};
 use plotter_path::optimize::{CostModel, SeamMode, drawing_travel};
 use plotter_path::output::stats::{Stats, fixed, percent_above, unsigned_zero};
@@ -41,16 +42,19 @@ pub(crate) struct StatsArgs {
     pub(crate) optimize: OptimizeArgs,
 }
 
+/// A plot time, its parts, its lower bound and (when asked for) where the time above the bound goes.
+type Estimate = (f64, PlanBreakdown, TimeBound, Option<TimeGap>);
+
 /// Plot time of `drawing` as planned by the firmware's planner over the whole drawing, from the homed position
 /// (back home at the end with `return_home`), split into its parts, and a lower bound on it for any order of the
-/// drawing's paths from `start`.
+/// drawing's paths from `start`; with `gap`, the time above the bound by cause.
 fn estimate(
     profile: &MachineProfile,
     drawing: &Drawing,
     return_home: bool,
-    seam: SeamMode,
-    start: Option<Point>,
-) -> Result<(f64, PlanBreakdown, TimeBound)> {
+    (seam, start): (SeamMode, Option<Point>),
+    gap: bool,
+) -> Result<Estimate> {
     let steps = drawing_to_steps(profile, drawing)?;
     let home = plan::homed_position(profile)?;
     // The plan and the bound are independent: side by side on two cores.
@@ -58,8 +62,9 @@ fn estimate(
         || plan::plan_returning(profile, &steps, home, Lookahead::Whole, return_home),
         || drawing_time_lower_bound(profile, &steps, drawing, seam, start),
     );
-    let plan = plan?;
-    Ok((plan.seconds(), plan.breakdown(), bound?))
+    let (plan, bound) = (plan?, bound?);
+    let gap = if gap { Some(time_gap(profile, &steps, &plan, &bound, return_home)?) } else { None };
+    Ok((plan.seconds(), plan.breakdown(), bound, gap))
 }
 
 /// Run `plotter stats`.
@@ -80,7 +85,8 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         }
         mm
     };
-    let estimate = |d: &Drawing| match estimate(&profile, d, back, options.seam, options.start) {
+    let gap = args.verbose || args.json;
+    let estimate = |d: &Drawing| match estimate(&profile, d, back, (options.seam, options.start), gap) {
         Ok(s) => Some(s),
         Err(e) => {
             eprintln!("warning: no time estimate on profile '{}': {e:#}", profile.name);
@@ -109,11 +115,14 @@ pub(crate) fn run(args: &StatsArgs) -> Result<()> {
         value["est_time_lower_bound_s"] = num(est.map(|e| e.2.total_s()));
         value["est_time_s_optimized"] = num(est_optimized.map(|e| e.0));
         value["est_time_lower_bound_s_optimized"] = num(est_optimized.map(|e| e.2.total_s()));
-        let parts = |e: &(f64, PlanBreakdown, TimeBound)| {
+        let parts = |e: &Estimate| {
             serde_json::json!({
                 "draw_s": num(Some(e.1.draw_s())), "travel_s": num(Some(e.1.travel_s())),
                 "lifts_s": num(Some(e.1.lift_s())), "draw_lower_bound_s": num(Some(e.2.draw_s)),
                 "travel_lower_bound_s": num(Some(e.2.travel_s)), "lifts_lower_bound_s": num(Some(e.2.lifts_s)),
+                "above_lower_bound_s": e.3.map(|g| {
+                    g.parts().iter().map(|(k, v)| (k.replace(' ', "_") + "_s", num(Some(*v)))).collect::<serde_json::Map<_, _>>()
+                }),
             })
         };
         value["est_time_parts"] = serde_json::json!(est.as_ref().map(parts));
@@ -141,7 +150,7 @@ struct Optimized {
     /// Pen lifts after merging.
     pen_lifts: usize,
     /// Plot time, its parts and its lower bound.
-    est: Option<(f64, PlanBreakdown, TimeBound)>,
+    est: Option<Estimate>,
 }
 
 /// The figures `stats` prints as text that do not come from the plan.
@@ -160,7 +169,7 @@ impl Text<'_> {
         &self,
         back: bool,
         pen_up_from_home: f64,
-        est: Option<(f64, PlanBreakdown, TimeBound)>,
+        est: Option<Estimate>,
         optimized: Option<&Optimized>,
         verbose: bool,
     ) -> String {
@@ -169,7 +178,7 @@ impl Text<'_> {
         s += &format!("pen up, home  {} mm (with the travel from home{and_back})\n", fixed(pen_up_from_home, 2));
         s += &format!("layer names   {}\n", self.names.join(", "));
         s += &format!("skipped       {}\n", self.skipped);
-        if let Some((t, parts, b)) = &est {
+        if let Some((t, parts, b, gap)) = &est {
             s += &format!("plot time     {} (profile '{}')", clock(*t), self.profile);
             if verbose {
                 s += &format!(
@@ -177,6 +186,9 @@ impl Text<'_> {
                     clock(b.total_s()),
                     crate::time_parts::line(parts, b)
                 );
+                if let Some(g) = gap {
+                    s += &format!("\n              {}", crate::time_parts::gap_line(g));
+                }
             }
             s += "\n";
         }
@@ -191,9 +203,9 @@ impl Text<'_> {
             s += &format!(", lower bound {} mm", fixed(lb, 2));
         }
         s += &format!(", {} pen lifts", o.pen_lifts);
-        if let Some((t, _, b)) = &o.est {
+        if let Some((t, _, b, _)) = &o.est {
             s += &format!(", plot time {}", clock(*t));
-            if let Some((before, _, _)) = &est {
+            if let Some((before, _, _, _)) = &est {
                 let saved = before - t;
                 if clock(saved.abs()) != clock(0.0) {
                     let verb = if saved >= 0.0 { "saves" } else { "adds" };
@@ -210,8 +222,11 @@ impl Text<'_> {
             }
         }
         s += "\n";
-        if let (Some((_, parts, b)), true) = (&o.est, verbose) {
+        if let (Some((_, parts, b, gap)), true) = (&o.est, verbose) {
             s += &format!("              {}\n", crate::time_parts::line(parts, b));
+            if let Some(g) = gap {
+                s += &format!("              {}\n", crate::time_parts::gap_line(g));
+            }
         }
         s
     }
@@ -240,9 +255,9 @@ mod tests {
             pen_up_mm: 40.0,
             pen_up_lower_bound_mm: Some(35.0),
             pen_lifts: 2,
-            est: Some((90.0, parts, bound)),
+            est: Some((90.0, parts, bound, None)),
         };
-        let shown = text.render(false, 100.0, Some((125.3, parts, bound)), Some(&optimized), false);
+        let shown = text.render(false, 100.0, Some((125.3, parts, bound, None)), Some(&optimized), false);
         let tail: Vec<&str> = shown.lines().skip(7).collect();
         assert_eq!(
             tail,
@@ -256,7 +271,7 @@ mod tests {
         );
         // --verbose: the bounds, and each part beside its own in words (here the lifts are below theirs, which
         // the bound rules out in a real plan, and it reads `below`, never `+-`).
-        let shown = text.render(false, 100.0, Some((125.3, parts, bound)), Some(&optimized), true);
+        let shown = text.render(false, 100.0, Some((125.3, parts, bound, None)), Some(&optimized), true);
         let tail: Vec<&str> = shown.lines().skip(10).collect();
         assert_eq!(
             tail,
