@@ -28,11 +28,13 @@ pub(crate) struct StatsArgs {
     /// (count per reason: invisible, same_colour_fill, image_not_traced, pattern_too_fine…),
     /// pen_up_mm_from_home, pen_up_mm_optimized, pen_up_lower_bound_mm, pen_lifts_optimized, est_time_s,
     /// est_time_lower_bound_s, est_time_s_optimized, est_time_lower_bound_s_optimized, and est_time_parts /
-    /// est_time_parts_optimized: draw_s, travel_s, lifts_s and their *_lower_bound_s)
+    /// est_time_parts_optimized: draw_s, travel_s, lifts_s, their *_lower_bound_s, and above_lower_bound_s: the
+    /// time above the bound by cause, axis_limits_s, corners_s, curves_s, stroke_ends_s, step_timing_s, lifts_s,
+    /// drops_s, settles_s, hops_s, travel_order_s)
     #[arg(long)]
     pub(crate) json: bool,
-    /// Also print the lower bounds (of the pen-up distance and of the plot time) and where the plot time goes
-    /// (pen down, travel, lifts) against each part's bound.
+    /// Also print the lower bounds (of the pen-up distance and of the plot time), where the plot time goes (pen
+    /// down, travel, lifts) against each part's bound, and what the time above the bound is spent on.
     #[arg(long, short = 'v')]
     pub(crate) verbose: bool,
     /// The machine the time estimate is for.
