@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# How close each machine's plans come to their own limits (issue 39): for every pen-plotter profile in samples/ and
+# seven openclipart drawings (A4 landscape, fitted inside a 20 mm margin — on a machine smaller than that, its
+# own work area 10 mm in —, one layer as drawn), `plotter stats --json`
+# gives the optimized plan's time and the lower bound any order and planner must meet; this prints plan / bound per
+# drawing, and per profile the ratio of the sums and the worst drawing, then where the time above the bound goes
+# (seconds summed over the drawings, by cause, as `plotter stats --verbose` names them).
+#
+#   PLOTTER=target/release/plotter plotter-cli/benches/plan_vs_bound.sh [PROFILE.toml ...]
+#
+# The drawings come from the openclipart-svg package (apt-get install openclipart-svg).
+set -euo pipefail
+PLOTTER=${PLOTTER:-target/release/plotter}
+HERE=$(cd "$(dirname "$0")" && pwd)
+ROOT=$(cd "$HERE/../.." && pwd)
+OC=/usr/share/openclipart/svg
+DRAWINGS=(
+  "$OC/animals/bat_orlando_karam_.svg" "$OC/education/books/open_book_nae_02.svg"
+  "$OC/recreation/sports/volley-ball_andrea_bianc_01.svg" "$OC/computer/home13.svg"
+  "$OC/people/chibi_character_rick_.svg" "$OC/plants/sun_flower_ganson.svg" "$OC/food/desserts/cone2_ganson.svg"
+)
+for d in "${DRAWINGS[@]}"; do
+  [ -f "$d" ] || { echo "missing $d: apt-get install openclipart-svg" >&2; exit 1; }
+done
+if [ $# -eq 0 ]; then
+  set --
+  for p in "$ROOT"/samples/*.toml; do
+    # The printer's profile drives an extruder, not a pen.
+    grep -q '^\[axes\.e\]' "$p" || set -- "$@" "$p"
+  done
+fi
+CAUSES="axis_limits corners curves stroke_ends step_timing lifts drops settles hops travel_order"
+printf '%-26s %-34s %9s %9s %7s\n' profile drawing plan_s bound_s ratio
+for profile in "$@"; do
+  name=$(basename "$profile")
+  # A machine smaller than A4 landscape (the MiniKit) plots on paper its own size, 10 mm in.
+  layout=$(python3 -c '
+import sys, tomllib
+axes = tomllib.load(open(sys.argv[1], "rb")).get("axes", {})
+x, y = axes.get("x", {}).get("travel_mm", 1e9), axes.get("y", {}).get("travel_mm", 1e9)
+print("--paper %gx%gmm --margin 10" % (x, y) if x < 297 or y < 210 else "--paper a4 --landscape --margin 20")
+' "$profile")
+  rows=""
+  for d in "${DRAWINGS[@]}"; do
+    json=$("$PLOTTER" stats "$d" --profile "$profile" $layout --fit --json 2>/dev/null)
+    row=$(printf '%s' "$json" | python3 -c '
+import json, sys
+v = json.load(sys.stdin)
+g = v["est_time_parts_optimized"]["above_lower_bound_s"]
+causes = sys.argv[1].split()
+print(v["est_time_s_optimized"], v["est_time_lower_bound_s_optimized"], *[g[c + "_s"] for c in causes])
+' "$CAUSES")
+    rows+="$row"$'\n'
+    read -r plan bound _ <<<"$row"
+    printf '%-26s %-34s %9.2f %9.2f %7.3f\n' "$name" "$(basename "$d" .svg)" "$plan" "$bound" \
+      "$(python3 -c "print($plan / $bound)")"
+  done
+  printf '%s' "$rows" | python3 -c '
+import sys
+name, causes = sys.argv[1], sys.argv[2].split()
+rows = [list(map(float, l.split())) for l in sys.stdin if l.strip()]
+plan, bound = sum(r[0] for r in rows), sum(r[1] for r in rows)
+worst = max(r[0] / r[1] for r in rows)
+print("%-26s %-34s %9.2f %9.2f %7.3f   worst %.3f" % (name, "SUM", plan, bound, plan / bound, worst))
+parts = ["%s %.1f" % (c.replace("_", " "), round(sum(r[2 + i] for r in rows), 1) + 0.0) for i, c in enumerate(causes)]
+print("%-26s above the bound, s: %s" % (name, ", ".join(parts)))
+' "$name" "$CAUSES"
+done
