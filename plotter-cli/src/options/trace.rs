@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use plotter_path::Pen;
-use plotter_path::input::raster::{self, HatchOptions, HatchScheme, Mode, Threshold, TraceOptions};
+use plotter_path::input::raster::{self, HatchOptions, HatchScheme, Mode, Threshold, ToneCurve, TraceOptions};
 
 /// Tracing mode as a command-line value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
@@ -25,8 +25,10 @@ pub enum ModeArg {
 /// How darker hatch levels add lines.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
 pub enum SchemeArg {
-    /// Each level adds a direction (cross-hatching)
+    /// Spacing and crossings computed from each tone's darkness and the pen width, lines joined into zig-zags
     #[default]
+    Tone,
+    /// Each level adds a direction (cross-hatching)
     Directions,
     /// Each level halves the spacing
     Density,
@@ -71,17 +73,32 @@ pub struct TraceArgs {
     /// Canny high hysteresis threshold (edges mode)
     #[arg(long, default_value_t = TraceOptions::default().canny_high, help_heading = "Image tracing")]
     pub canny_high: f32,
+    /// Gray value 0-255 that plots as full black; darker tones are clipped to it
+    #[arg(long, default_value_t = ToneCurve::default().black, help_heading = "Image tracing")]
+    pub black_point: u8,
+    /// Gray value 0-255 that stays paper white; lighter tones are clipped to it
+    #[arg(long, default_value_t = ToneCurve::default().white, help_heading = "Image tracing")]
+    pub white_point: u8,
+    /// Mid-tone gamma: above 1 lightens the mid-tones, below 1 darkens them
+    #[arg(long, default_value_t = ToneCurve::default().gamma, help_heading = "Image tracing")]
+    pub gamma: f64,
+    /// Contrast around mid-gray: 1 keeps the picture's, 2 doubles it, below 1 flattens it
+    #[arg(long, default_value_t = ToneCurve::default().contrast, help_heading = "Image tracing")]
+    pub contrast: f64,
+    /// Closest spacing of hatch lines in mm for the tone scheme (default: 1.5 x the pen width)
+    #[arg(long, help_heading = "Image tracing")]
+    pub min_spacing: Option<f64>,
     /// Number of hatched gray levels, 1-8 (hatch mode)
     #[arg(long, default_value_t = HatchOptions::default().levels, help_heading = "Image tracing")]
     pub levels: u8,
-    /// Hatch line spacing in mm (hatch mode)
+    /// Hatch line spacing in mm (hatch mode, directions and density schemes; the tone scheme computes its own)
     #[arg(long, default_value_t = HatchOptions::default().spacing_mm, help_heading = "Image tracing")]
     pub spacing: f64,
     /// Hatch base angle in degrees, counter-clockwise (hatch mode)
     #[arg(long, default_value_t = HatchOptions::default().angle_deg, allow_negative_numbers = true, help_heading = "Image tracing")]
     pub angle: f64,
     /// How darker hatch levels add lines (hatch mode)
-    #[arg(long, value_enum, default_value_t = SchemeArg::Directions, help_heading = "Image tracing")]
+    #[arg(long, value_enum, default_value_t = SchemeArg::Tone, help_heading = "Image tracing")]
     pub hatch_scheme: SchemeArg,
 }
 
@@ -107,11 +124,19 @@ impl TraceArgs {
             canny_low: self.canny_low,
             canny_high: self.canny_high,
             cancel: plotter_path::geometry::cancel::Cancel::never(),
+            tone: ToneCurve {
+                black: self.black_point,
+                white: self.white_point,
+                gamma: self.gamma,
+                contrast: self.contrast,
+            },
+            min_spacing_mm: self.min_spacing,
             hatch: HatchOptions {
                 levels: self.levels,
                 spacing_mm: self.spacing,
                 angle_deg: self.angle,
                 scheme: match self.hatch_scheme {
+                    SchemeArg::Tone => HatchScheme::Tone,
                     SchemeArg::Directions => HatchScheme::Directions,
                     SchemeArg::Density => HatchScheme::Density,
                 },

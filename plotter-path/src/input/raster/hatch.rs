@@ -1,6 +1,13 @@
 //! Hatch mode: gray tones as parallel hatch lines clipped exactly to gray-level regions.
 //!
-//! The tone range is split into `levels` bands. Level `i` (0 = lightest) covers every pixel darker than
+//! The default scheme, [`HatchScheme::Tone`], reads the tone model ([`super::tone`]): the darkness range is cut
+//! into `levels` bands (band `j` holds the pixels whose darkness rounds to `j / levels`; band 0 is paper and gets
+//! nothing), and each band's region is hatched with the ladder rung for the band's mean darkness: one family at the
+//! spacing whose coverage `pen / spacing` equals it, then a second family crossing at 90°, then a third at 45°, each
+//! spacing computed so the crossed coverage `1 − (1 − c)^n` is the band's darkness. The bands do not nest; each
+//! region's lines are joined into zig-zags ([`zigzag`]) where the connector stays inside the band.
+//!
+//! The two older schemes split the gray range into `levels` cuts instead. The tone range is split into `levels` bands. Level `i` (0 = lightest) covers every pixel darker than
 //! `255 · (N − i) / (N + 1)`, so the regions nest: each darker level lies inside the lighter ones and adds hatching
 //! on top of them. Per level a family of parallel lines is added:
 //!
@@ -19,6 +26,8 @@
 use super::bitmap::Bitmap;
 use super::contour::trace_contours;
 use super::error::RasterError;
+use super::tone::{DarknessMap, Ladder, Rung};
+use super::zigzag;
 use image::GrayImage;
 use kurbo::Point;
 use std::fmt;
@@ -27,8 +36,11 @@ use std::str::FromStr;
 /// How darker levels add hatching.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum HatchScheme {
-    /// Each level adds a new direction (then repeats them, offset by half the spacing).
+    /// Spacing and crossings from the tone model: each tone band gets the families and spacing whose ink matches
+    /// its mean darkness ([`tone_hatch`]); lines are joined into zig-zags.
     #[default]
+    Tone,
+    /// Each level adds a new direction (then repeats them, offset by half the spacing).
     Directions,
     /// Each level halves the spacing of a single direction.
     Density,
@@ -39,9 +51,10 @@ impl FromStr for HatchScheme {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s.to_ascii_lowercase().as_str() {
+            "tone" => Ok(HatchScheme::Tone),
             "directions" | "cross" => Ok(HatchScheme::Directions),
             "density" => Ok(HatchScheme::Density),
-            _ => Err(format!("unknown hatch scheme `{s}` (expected directions or density)")),
+            _ => Err(format!("unknown hatch scheme `{s}` (expected tone, directions or density)")),
         }
     }
 }
@@ -49,6 +62,7 @@ impl FromStr for HatchScheme {
 impl fmt::Display for HatchScheme {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
+            HatchScheme::Tone => "tone",
             HatchScheme::Directions => "directions",
             HatchScheme::Density => "density",
         })
@@ -70,7 +84,7 @@ pub struct HatchOptions {
 
 impl Default for HatchOptions {
     fn default() -> Self {
-        HatchOptions { levels: 4, spacing_mm: 1.0, angle_deg: 45.0, scheme: HatchScheme::Directions }
+        HatchOptions { levels: 4, spacing_mm: 1.0, angle_deg: 45.0, scheme: HatchScheme::Tone }
     }
 }
 
@@ -147,7 +161,7 @@ pub struct HatchLevel {
 pub fn level_families(i: usize, opts: &HatchOptions, spacing_px: f64) -> Vec<LineFamily> {
     let base = opts.angle_deg.to_radians();
     match opts.scheme {
-        HatchScheme::Directions => {
+        HatchScheme::Directions | HatchScheme::Tone => {
             let turn = [0.0, 90.0, -45.0, 45.0][i % 4];
             let phase = if (i / 4) % 2 == 1 { spacing_px / 2.0 } else { 0.0 };
             vec![LineFamily { angle: base + f64::to_radians(turn), period: spacing_px, phase }]
@@ -208,8 +222,142 @@ pub fn hatch(
     out
 }
 
-/// The parts of the lines of `family` inside the even-odd region bounded by the closed `loops`.
-pub fn clip_lines(loops: &[Vec<Point>], family: &LineFamily) -> Vec<(Point, Point)> {
+/// One tone band of [`tone_hatch`]: its region, its rung of the ladder and its strokes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToneBand {
+    /// Band number, 1 = lightest.
+    pub band: usize,
+    /// Mean target darkness of the band's pixels.
+    pub darkness: f64,
+    /// The ladder rung drawn for it.
+    pub rung: Rung,
+    /// The region's boundary loops (pixel coordinates, closed, even-odd).
+    pub region: Vec<Vec<Point>>,
+    /// The line families drawn (pixel periods).
+    pub families: Vec<LineFamily>,
+    /// Zig-zag strokes, pixel coordinates.
+    pub strokes: Vec<Vec<Point>>,
+    /// Region loops smaller than the minimum area that were dropped.
+    pub specks_dropped: usize,
+}
+
+/// Turns between the ladder's families, degrees from the base angle.
+const FAMILY_TURNS: [f64; 3] = [0.0, 90.0, 45.0];
+
+/// The band (0 = paper … `levels`) of a darkness.
+fn band_of(d: f32, levels: usize) -> usize {
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_precision_loss)]
+    let b = (f64::from(d) * levels as f64 + 0.5).floor().max(0.0) as usize;
+    b.min(levels)
+}
+
+/// Hatch the darkness map with the tone ladder: `levels` bands, each region hatched at the rung of its mean
+/// darkness, lines at `angle_deg` (then +90°, +45°), spacing converted to pixels with `pixel_mm`. Region loops under
+/// `min_area_px` are dropped.
+pub fn tone_hatch(
+    map: &DarknessMap,
+    levels: u8,
+    ladder: &Ladder,
+    angle_deg: f64,
+    pixel_mm: f64,
+    min_area_px: f64,
+) -> Vec<ToneBand> {
+    let n = usize::from(levels.max(1));
+    let (w, h) = (map.width, map.height);
+    let smooth = smoothed(map, ladder.min_spacing_mm / pixel_mm);
+    let bands: Vec<u8> = smooth.iter().map(|&d| u8::try_from(band_of(d, n)).unwrap_or(u8::MAX)).collect();
+    let mut sums = vec![(0.0f64, 0usize); n + 1];
+    for (&b, &d) in bands.iter().zip(&map.data) {
+        let s = &mut sums[usize::from(b)];
+        s.0 += f64::from(d);
+        s.1 += 1;
+    }
+    let inked = Bitmap::from_fn(w, h, |x, y| bands[y * w + x] > 0);
+    let mut out = Vec::new();
+    for (band, &(sum, count)) in sums.iter().enumerate().skip(1) {
+        if count == 0 {
+            continue;
+        }
+        #[allow(clippy::cast_precision_loss)] // pixel counts are far below 2^53
+        let darkness = sum / count as f64;
+        let rung = ladder.rung(darkness);
+        if rung.families == 0 {
+            continue;
+        }
+        let mask = Bitmap::from_fn(w, h, |x, y| usize::from(bands[y * w + x]) == band);
+        let mut specks_dropped = 0;
+        let mut region = Vec::new();
+        for c in trace_contours(&mask) {
+            if c.signed_area.abs() < min_area_px {
+                specks_dropped += 1;
+            } else {
+                region.push(c.closed_points());
+            }
+        }
+        let period = rung.spacing_mm / pixel_mm;
+        let families: Vec<LineFamily> = FAMILY_TURNS[..usize::from(rung.families)]
+            .iter()
+            .map(|t| LineFamily { angle: (angle_deg + t).to_radians(), period, phase: 0.0 })
+            .collect();
+        let inside = |a: Point, b: Point| connector_inside(&inked, a, b);
+        let mut strokes = Vec::new();
+        for f in &families {
+            let lines = line_spans(&region, f);
+            strokes.extend(zigzag::join(&lines, f, 2.0 * period.max(1.0), inside));
+        }
+        out.push(ToneBand { band, darkness, rung, region, families, strokes, specks_dropped });
+    }
+    out
+}
+
+/// The darkness map blurred with a Gaussian of `sigma_px` (skipped below half a pixel), so that bands follow the
+/// tone at the scale of the hatch spacing rather than single noisy pixels.
+fn smoothed(map: &DarknessMap, sigma_px: f64) -> Vec<f32> {
+    if sigma_px.is_nan() || sigma_px < 0.5 || map.width == 0 || map.height == 0 {
+        return map.data.clone();
+    }
+    let (Ok(w), Ok(h)) = (u32::try_from(map.width), u32::try_from(map.height)) else {
+        return map.data.clone();
+    };
+    let Some(img) = image::ImageBuffer::<image::Luma<f32>, Vec<f32>>::from_raw(w, h, map.data.clone()) else {
+        return map.data.clone();
+    };
+    #[allow(clippy::cast_possible_truncation)] // a blur radius of a few pixels
+    let sigma = sigma_px as f32;
+    imageproc::filter::gaussian_blur_f32(&img, sigma).into_raw()
+}
+
+/// Whether the straight stroke from `a` to `b` (both on a region's boundary) runs through the mask's pixels: its
+/// points are sampled every half pixel, ends excluded.
+fn connector_inside(mask: &Bitmap, a: Point, b: Point) -> bool {
+    let len = a.distance(b);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // a short connector: a few samples
+    let steps = (len * 2.0).ceil().max(2.0) as u32;
+    // A sample on a pixel edge (a connector along the region's boundary) counts when a pixel on either side is set.
+    let e = 1e-9;
+    #[allow(clippy::cast_possible_truncation)] // inside the image
+    let px = |v: f64| v.floor() as isize;
+    (1..steps).all(|i| {
+        let p = a.lerp(b, f64::from(i) / f64::from(steps));
+        [(-e, -e), (-e, e), (e, -e), (e, e)].iter().any(|&(dx, dy)| mask.get(px(p.x + dx), px(p.y + dy)))
+    })
+}
+
+/// The inside spans of one line of a family: the line's slot (consecutive lines have consecutive slots), its
+/// offset `v` across the family, and the `(u_start, u_end)` intervals along it, sorted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineSpans {
+    /// The line's number counted from the region's first line.
+    pub slot: usize,
+    /// Offset across the family, pixels.
+    pub v: f64,
+    /// Inside intervals along the line, increasing.
+    pub spans: Vec<(f64, f64)>,
+}
+
+/// The inside spans of every line of `family` that crosses the even-odd region bounded by the closed `loops`, in
+/// line order.
+pub fn line_spans(loops: &[Vec<Point>], family: &LineFamily) -> Vec<LineSpans> {
     let (d, n) = family.frame();
     let to_uv = |p: Point| (p.x * d.0 + p.y * d.1, p.x * n.0 + p.y * n.1);
     let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -251,17 +399,31 @@ pub fn clip_lines(loops: &[Vec<Point>], family: &LineFamily) -> Vec<(Point, Poin
         }
     }
     let mut out = Vec::new();
-    for (j, mut us) in crossings.into_iter().enumerate() {
+    for (slot, mut us) in crossings.into_iter().enumerate() {
         if us.len() < 2 {
             continue;
         }
         us.sort_by(f64::total_cmp);
         #[allow(clippy::cast_precision_loss)] // line counts are small
-        let v = family.phase + (k0 + j as f64) * family.period;
+        let v = family.phase + (k0 + slot as f64) * family.period;
+        let spans: Vec<(f64, f64)> = us.chunks_exact(2).filter(|c| c[1] > c[0]).map(|c| (c[0], c[1])).collect();
+        if !spans.is_empty() {
+            out.push(LineSpans { slot, v, spans });
+        }
+    }
+    out
+}
+
+/// The parts of the lines of `family` inside the even-odd region bounded by the closed `loops`, every other line
+/// reversed (boustrophedon).
+pub fn clip_lines(loops: &[Vec<Point>], family: &LineFamily) -> Vec<(Point, Point)> {
+    let (d, n) = family.frame();
+    let mut out = Vec::new();
+    for line in line_spans(loops, family) {
+        let v = line.v;
         let at = |u: f64| Point::new(u * d.0 + v * n.0, u * d.1 + v * n.1);
-        let mut spans: Vec<(Point, Point)> =
-            us.chunks_exact(2).filter(|c| c[1] > c[0]).map(|c| (at(c[0]), at(c[1]))).collect();
-        if j % 2 == 1 {
+        let mut spans: Vec<(Point, Point)> = line.spans.iter().map(|&(a, b)| (at(a), at(b))).collect();
+        if line.slot % 2 == 1 {
             spans.reverse();
             for s in &mut spans {
                 *s = (s.1, s.0);
@@ -292,6 +454,7 @@ pub fn inside_even_odd(loops: &[Vec<Point>], p: Point) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::raster::ink::InkGrid;
     use crate::input::raster::simplify::point_segment_distance;
     use image::Luma;
     use proptest::prelude::*;
@@ -353,6 +516,61 @@ mod tests {
         let inv = hatch(&g, &opts, 2.0, true, 0.0);
         let x_of = |l: &HatchLevel| l.region[0].iter().map(|p| p.x).sum::<f64>() / l.region[0].len() as f64;
         assert!(x_of(&inv[0]) > x_of(&levels[0]));
+    }
+
+    fn tone_strokes_mm(g: &GrayImage, levels: u8, pixel_mm: f64) -> (Vec<ToneBand>, Vec<Vec<Point>>) {
+        let map = crate::input::raster::tone::ToneCurve::default().darkness_map(g, false);
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        let bands = tone_hatch(&map, levels, &ladder, 45.0, pixel_mm, 4.0);
+        let mm = bands
+            .iter()
+            .flat_map(|b| {
+                b.strokes.iter().map(|s| s.iter().map(|p| Point::new(p.x * pixel_mm, p.y * pixel_mm)).collect())
+            })
+            .collect();
+        (bands, mm)
+    }
+
+    #[test]
+    fn tone_hatch_inks_a_flat_gray_as_dark_as_its_linear_light() {
+        // Gray 128 asks for 1 − 0.21586 = 0.784 ink. Pen 0.3 mm, closest spacing 0.45 mm: one family covers at
+        // most 2/3, two 0.889, so two families at coverage 1 − √0.216 = 0.535 each, 0.561 mm apart.
+        let g = GrayImage::from_pixel(100, 100, Luma([128]));
+        let (bands, strokes) = tone_strokes_mm(&g, 4, 0.3);
+        assert_eq!(bands.len(), 1);
+        assert_eq!(bands[0].band, 3);
+        assert_eq!(bands[0].rung.families, 2);
+        assert!((bands[0].rung.spacing_mm - 0.3 / (1.0 - 0.216f64.sqrt())).abs() < 1e-3, "{:?}", bands[0].rung);
+        // Rendered at 0.3 mm on a 0.02 mm grid, away from the 30 mm square's edges: the ink fraction.
+        let mut grid = InkGrid::new(1500, 1500, 0.02);
+        grid.draw(&strokes, 0.3);
+        let f = grid.fraction(250, 1250, 250, 1250);
+        assert!((f - 0.784).abs() < 0.02, "ink fraction {f}");
+        // Joined: each family's lines are one zig-zag (two strokes for the square).
+        assert_eq!(strokes.len(), 2, "{} strokes", strokes.len());
+    }
+
+    #[test]
+    fn tone_hatch_leaves_white_empty_and_gives_black_the_darkest_rung() {
+        let white = GrayImage::from_pixel(50, 50, Luma([255]));
+        assert!(tone_strokes_mm(&white, 4, 0.3).0.is_empty());
+        // A light gray (250: darkness 0.04) rounds to paper with 4 bands and with 8 (0.04 · 8 < 0.5).
+        let light = GrayImage::from_pixel(50, 50, Luma([250]));
+        assert!(tone_strokes_mm(&light, 4, 0.3).0.is_empty());
+        assert_eq!(tone_strokes_mm(&light, 8, 0.3).0.len(), 0);
+        let g = GrayImage::from_fn(60, 60, |x, y| {
+            Luma([if (10..50).contains(&x) && (10..50).contains(&y) { 0 } else { 255 }])
+        });
+        let (bands, strokes) = tone_strokes_mm(&g, 4, 0.3);
+        // The square's edge, smoothed at the closest spacing (1.5 px), rings it with lighter bands.
+        let darkest = bands.last().unwrap();
+        assert_eq!((darkest.band, darkest.rung.families, darkest.rung.spacing_mm), (4, 3, 0.45));
+        // 1 − (1 − 2/3)³ = 0.963 of the square, nothing around it.
+        let mut grid = InkGrid::new(900, 900, 0.02);
+        grid.draw(&strokes, 0.3);
+        let f = grid.fraction(200, 700, 200, 700);
+        assert!((f - 26.0 / 27.0).abs() < 0.02, "ink fraction {f}");
+        assert_eq!(grid.fraction(0, 900, 0, 120), 0.0);
     }
 
     proptest! {

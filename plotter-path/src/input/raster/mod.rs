@@ -31,6 +31,7 @@ mod contour;
 pub mod edges;
 mod error;
 pub mod hatch;
+pub mod ink;
 mod load;
 pub mod outline;
 pub mod simplify;
@@ -38,6 +39,7 @@ pub mod skeleton;
 pub mod synth;
 mod threshold;
 pub mod tone;
+pub mod zigzag;
 
 pub use bitmap::Bitmap;
 pub use contour::{Contour, signed_area, trace_contours};
@@ -45,6 +47,7 @@ pub use error::{RasterError, RasterWarning};
 pub use hatch::{HatchOptions, HatchScheme};
 pub use load::{Prepared, decode_image, load_image, prepare};
 pub use threshold::{Threshold, binarize, cut_level};
+pub use tone::{Ladder, ToneCurve};
 
 use crate::geometry::cancel::Cancel;
 use crate::{Drawing, Layer, Pen, Polyline};
@@ -140,6 +143,10 @@ pub struct TraceOptions {
     pub canny_high: f32,
     /// Hatch levels, spacing and angle.
     pub hatch: HatchOptions,
+    /// The tone curve (levels, contrast, gamma) applied before darkness is read by the tone styles.
+    pub tone: ToneCurve,
+    /// Closest spacing of one family of lines in mm for the tone styles; `None` means 1.5 × the pen width.
+    pub min_spacing_mm: Option<f64>,
     /// Stops the tracing early with [`RasterError::Cancelled`] when set: checked between its stages (resizing,
     /// thresholding, tracing, scaling to millimetres).
     pub cancel: Cancel,
@@ -161,6 +168,8 @@ impl Default for TraceOptions {
             canny_low: 40.0,
             canny_high: 100.0,
             hatch: HatchOptions::default(),
+            tone: ToneCurve::default(),
+            min_spacing_mm: None,
             cancel: Cancel::never(),
         }
     }
@@ -170,6 +179,11 @@ impl TraceOptions {
     /// The pixel pitch in effect (explicit pitch or the pen width).
     pub fn pitch(&self) -> f64 {
         self.pitch_mm.unwrap_or(self.pen.width_mm)
+    }
+
+    /// The tone ladder for these options' pen and minimum spacing.
+    pub fn ladder(&self) -> Ladder {
+        Ladder { pen_mm: self.pen.width_mm, min_spacing_mm: self.min_spacing_mm.unwrap_or(1.5 * self.pen.width_mm) }
     }
 
     /// Check every option's range.
@@ -204,6 +218,15 @@ impl TraceOptions {
         if !(self.canny_high.is_finite() && self.canny_high >= self.canny_low) {
             return bad("--canny-high", self.canny_high, "must be ≥ --canny-low");
         }
+        if !(self.pen.width_mm.is_finite() && self.pen.width_mm > 0.0) {
+            return bad("--pen-width", self.pen.width_mm, "must be a positive number of mm");
+        }
+        if let Some(s) = self.min_spacing_mm
+            && !(s.is_finite() && s > 0.0)
+        {
+            return bad("--min-spacing", s, "must be a positive number of mm");
+        }
+        self.tone.validate()?;
         self.hatch.validate()
     }
 }
@@ -269,6 +292,22 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             );
             warnings.extend(w);
             vec![("edges".to_owned(), paths)]
+        }
+        Mode::Hatch if options.hatch.scheme == HatchScheme::Tone => {
+            let map = options.tone.darkness_map(&prepared.gray, options.invert);
+            let bands = hatch::tone_hatch(
+                &map,
+                options.hatch.levels,
+                &options.ladder(),
+                options.hatch.angle_deg,
+                prepared.pixel_mm,
+                options.min_area_px,
+            );
+            let dropped: usize = bands.iter().map(|b| b.specks_dropped).sum();
+            if dropped > 0 {
+                warnings.push(RasterWarning::SpecksDropped { count: dropped, min_area_px: options.min_area_px });
+            }
+            bands.into_iter().map(|b| (format!("hatch {}", b.band), b.strokes)).collect()
         }
         Mode::Hatch => {
             let spacing_px = options.hatch.spacing_mm / prepared.pixel_mm;
@@ -522,7 +561,9 @@ mod sample_tests {
             found += usize::from(d <= 2.0);
         }
         assert!(found >= 30, "{found}/36 silhouette points near an edge");
-        let opts = TraceOptions { mode: Mode::Hatch, ..TraceOptions::default() };
+        // The cut-level scheme: darker levels nest inside lighter ones.
+        let hatch = HatchOptions { scheme: HatchScheme::Directions, ..HatchOptions::default() };
+        let opts = TraceOptions { mode: Mode::Hatch, hatch, ..TraceOptions::default() };
         let t = trace_file(&sample("photo.png"), &opts).unwrap();
         assert_eq!(t.drawing.layers.len(), 4);
         // Darker levels cover less, so they have less line length.
