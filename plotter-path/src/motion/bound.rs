@@ -109,7 +109,10 @@ fn path_accel(profile: &MachineProfile, cap: Option<f64>) -> f64 {
 pub fn min_hop_seconds(profile: &MachineProfile) -> impl Fn(f64) -> f64 + use<> {
     let accel = path_accel(profile, profile.pen.travel_accel_mm_s2);
     let feed = profile.pen.travel_feed_mm_s;
-    let v_end = if z_joins_may_curve(profile) {
+    // A servo's blocks are stops (its Z feed is bookkeeping only), whatever the curve model says of Z joins.
+    let v_end = if profile.pen.uses_servo() {
+        0.0
+    } else if z_joins_may_curve(profile) {
         feed.min(profile.axes.z.max_feed_mm_s)
     } else {
         hop_corner_speed(profile, accel)
@@ -432,6 +435,11 @@ mod tests {
         assert!((b.lifts_s - 0.35).abs() < 1e-12, "{b:?}");
         let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
+        // The hop from home runs rest to rest between the servo's blocks (the Z feed, 25 mm/s, is no servo's
+        // speed): 14.142 mm less the two step diagonals (0.035 36 mm) at 120 mm/s and 2121.3 mm/s², reaching
+        // 120 mm/s within 3.39 mm at either end: 14.107/120 + 120/2121.3 = 0.174 13 s.
+        let t = (200f64.sqrt() - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0)) / 120.0 + 120.0 / a;
+        assert!((b.travel_s - t).abs() < 1e-9, "{b:?} vs {t}");
     }
 
     #[test]
