@@ -201,3 +201,13 @@ fn a_printing_command_ends_quietly_when_its_reader_goes_away() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
 }
+
+#[test]
+fn the_qemu_board_refuses_another_machine_naming_every_flag_that_chose_it() {
+    // The image's machine is compiled in: a model or a speed setting would be silently ignored.
+    for extra in [&["--model", "axidraw-v3"][..], &["--speed-pendown", "50"][..]] {
+        let o = run(plotter().args(["sim", "--qemu"]).args(extra));
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert!(stderr(&o).contains("drop --model, --profile and the speed and pen settings"), "{}", stderr(&o));
+    }
+}

@@ -316,7 +316,10 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
     let stop = plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     if args.qemu {
         if args.machine.chosen() {
-            bail!("--profile: the QEMU image carries the built-in XY plotter kit configuration; drop --profile");
+            bail!(
+                "the QEMU image carries the built-in XY plotter kit's configuration, compiled in: drop --model, \
+                 --profile and the speed and pen settings"
+            );
         }
         let cfg = plotter_fw::MachineConfig::xy_plotter();
         return crate::sim_qemu::run(&cfg, args.image.as_deref(), args.trace.as_deref(), stop);
