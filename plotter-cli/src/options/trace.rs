@@ -20,6 +20,8 @@ pub enum ModeArg {
     Edges,
     /// Hatch shading of the gray tones
     Hatch,
+    /// Pen dots, denser where the picture is darker (add --tsp for one continuous line)
+    Stipple,
 }
 
 /// How darker hatch levels add lines.
@@ -88,6 +90,9 @@ pub struct TraceArgs {
     /// Closest spacing of hatch lines in mm for the tone scheme (default: 1.5 x the pen width)
     #[arg(long, help_heading = "Image tracing")]
     pub min_spacing: Option<f64>,
+    /// Join every stipple dot into one continuous line (stipple mode)
+    #[arg(long, help_heading = "Image tracing")]
+    pub tsp: bool,
     /// Number of hatched gray levels, 1-8 (hatch mode)
     #[arg(long, default_value_t = HatchOptions::default().levels, help_heading = "Image tracing")]
     pub levels: u8,
@@ -111,6 +116,7 @@ impl TraceArgs {
                 ModeArg::Centerline => Mode::Centerline,
                 ModeArg::Edges => Mode::Edges,
                 ModeArg::Hatch => Mode::Hatch,
+                ModeArg::Stipple => Mode::Stipple,
             },
             width_mm: self.width,
             pitch_mm: self.pitch,
@@ -131,6 +137,7 @@ impl TraceArgs {
                 contrast: self.contrast,
             },
             min_spacing_mm: self.min_spacing,
+            stipple: raster::stipple::StippleOptions { tsp: self.tsp, ..raster::stipple::StippleOptions::default() },
             hatch: HatchOptions {
                 levels: self.levels,
                 spacing_mm: self.spacing,

@@ -6,7 +6,11 @@
 //! - [`Mode::Outline`]: boundaries of the thresholded regions, holes included ([`outline`]).
 //! - [`Mode::Centerline`]: line art thinned to a skeleton and walked into strokes drawn once ([`centerline`]).
 //! - [`Mode::Edges`]: Canny edges chained into polylines ([`edges`]).
-//! - [`Mode::Hatch`]: tone shading with hatch lines clipped exactly to gray-level regions ([`hatch`]).
+//! - [`Mode::Hatch`]: tone shading with hatch lines clipped exactly to tone regions ([`hatch`]).
+//! - [`Mode::Stipple`]: pen dots spread by weighted Voronoi stippling, or one line through them ([`stipple`]).
+//!
+//! The tone styles (hatch, stipple) read one tone model ([`tone`]): the target darkness of every pixel after the
+//! tone curve, and the ink a pen of the given width lays down.
 //!
 //! All tracing happens in pixel coordinates (pixel `(x, y)` covers `[x, x+1] × [y, y+1]`); the result is scaled to
 //! millimetres once at the end, so the [`Drawing`] is `columns × pixel_mm` wide with its origin at the image's
@@ -36,6 +40,7 @@ mod load;
 pub mod outline;
 pub mod simplify;
 pub mod skeleton;
+pub mod stipple;
 pub mod synth;
 mod threshold;
 pub mod tone;
@@ -77,6 +82,8 @@ pub enum Mode {
     Edges,
     /// Hatch shading of the gray tones.
     Hatch,
+    /// Pen dots, denser where darker.
+    Stipple,
 }
 
 impl Mode {
@@ -87,11 +94,12 @@ impl Mode {
             Mode::Centerline => "centerline",
             Mode::Edges => "edges",
             Mode::Hatch => "hatch",
+            Mode::Stipple => "stipple",
         }
     }
 
     /// Every mode, in documentation order.
-    pub const ALL: [Mode; 4] = [Mode::Outline, Mode::Centerline, Mode::Edges, Mode::Hatch];
+    pub const ALL: [Mode; 5] = [Mode::Outline, Mode::Centerline, Mode::Edges, Mode::Hatch, Mode::Stipple];
 }
 
 impl fmt::Display for Mode {
@@ -107,7 +115,7 @@ impl FromStr for Mode {
         Mode::ALL
             .into_iter()
             .find(|m| m.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| format!("unknown mode `{s}` (expected outline, centerline, edges or hatch)"))
+            .ok_or_else(|| format!("unknown mode `{s}` (expected outline, centerline, edges, hatch or stipple)"))
     }
 }
 
@@ -147,6 +155,8 @@ pub struct TraceOptions {
     pub tone: ToneCurve,
     /// Closest spacing of one family of lines in mm for the tone styles; `None` means 1.5 × the pen width.
     pub min_spacing_mm: Option<f64>,
+    /// Stipple settings (one line through the dots, relaxation rounds).
+    pub stipple: stipple::StippleOptions,
     /// Stops the tracing early with [`RasterError::Cancelled`] when set: checked between its stages (resizing,
     /// thresholding, tracing, scaling to millimetres).
     pub cancel: Cancel,
@@ -170,6 +180,7 @@ impl Default for TraceOptions {
             hatch: HatchOptions::default(),
             tone: ToneCurve::default(),
             min_spacing_mm: None,
+            stipple: stipple::StippleOptions::default(),
             cancel: Cancel::never(),
         }
     }
@@ -309,6 +320,12 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             }
             bands.into_iter().map(|b| (format!("hatch {}", b.band), b.strokes)).collect()
         }
+        Mode::Stipple => {
+            let map = options.tone.darkness_map(&prepared.gray, options.invert);
+            let dots =
+                stipple::stipple_dots(&map, options.pen.width_mm / prepared.pixel_mm, options.stipple.iterations);
+            vec![("stipple".to_owned(), stipple::strokes(&dots, options.stipple.tsp))]
+        }
         Mode::Hatch => {
             let spacing_px = options.hatch.spacing_mm / prepared.pixel_mm;
             let levels = hatch::hatch(&prepared.gray, &options.hatch, spacing_px, options.invert, options.min_area_px);
@@ -346,6 +363,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
         let reason = match options.mode {
             Mode::Edges => format!("no edges found with Canny thresholds {}/{}", options.canny_low, options.canny_high),
             Mode::Hatch => "no pixel is dark enough for the lightest hatch level".to_owned(),
+            Mode::Stipple => "the picture is too light for a single pen dot".to_owned(),
             _ => "every region was too small to keep".to_owned(),
         };
         let reason = if dropped.is_empty() { reason } else { format!("{reason}; {}", dropped.join("; ")) };
