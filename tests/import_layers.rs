@@ -565,6 +565,7 @@ const PLOTTER_CLI_LIB: Layers<'static> = &[
     ("link", &["link"]),
     ("state", &["state_dir"]),
     ("job", &["job"]),
+    ("studio", &["studio"]),
 ];
 
 /// The `plotter` binary, above the library (which it reaches only as the external crate `plotter_host`): helpers,

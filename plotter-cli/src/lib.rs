@@ -16,6 +16,8 @@
 //! - [`link`]: the byte transports (serial port, in-process simulator, fault injection), the session with the
 //!   firmware, block streaming with flow control and resends, and the resume journal; connecting to a port of any
 //!   firmware dialect, jogging and the console's keys, which both front ends offer;
+//! - [`studio`]: the plot studio's job queue for several machines, kept in a SQLite database in the state
+//!   directory so that it survives a crash;
 //! - [`state_dir`]: where the plotter keeps its own files (resume journals), in the user's state directory;
 //! - [`error`]: the typed [`Error`] its functions return, with the causes a front end acts on (a refused block,
 //!   an alarm, a lost port, a firmware that is not the expected one, a bad input file, a plot the user stopped).
@@ -50,5 +52,6 @@ pub mod link;
 pub mod options;
 pub mod state_dir;
 pub mod stop;
+pub mod studio;
 
 pub use error::{Error, Result, Trouble};
