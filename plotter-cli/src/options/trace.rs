@@ -22,6 +22,8 @@ pub enum ModeArg {
     Hatch,
     /// Pen dots, denser where the picture is darker (add --tsp for one continuous line)
     Stipple,
+    /// Rows of zig-zag waves growing with darkness, one stroke per row (rows twice --min-spacing apart)
+    Squiggle,
 }
 
 /// How darker hatch levels add lines.
@@ -117,6 +119,7 @@ impl TraceArgs {
                 ModeArg::Edges => Mode::Edges,
                 ModeArg::Hatch => Mode::Hatch,
                 ModeArg::Stipple => Mode::Stipple,
+                ModeArg::Squiggle => Mode::Squiggle,
             },
             width_mm: self.width,
             pitch_mm: self.pitch,

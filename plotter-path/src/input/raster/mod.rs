@@ -8,6 +8,7 @@
 //! - [`Mode::Edges`]: Canny edges chained into polylines ([`edges`]).
 //! - [`Mode::Hatch`]: tone shading with hatch lines clipped exactly to tone regions ([`hatch`]).
 //! - [`Mode::Stipple`]: pen dots spread by weighted Voronoi stippling, or one line through them ([`stipple`]).
+//! - [`Mode::Squiggle`]: rows of zig-zag waves growing with darkness, one stroke per row ([`squiggle`]).
 //!
 //! The tone styles (hatch, stipple) read one tone model ([`tone`]): the target darkness of every pixel after the
 //! tone curve, and the ink a pen of the given width lays down.
@@ -40,6 +41,7 @@ mod load;
 pub mod outline;
 pub mod simplify;
 pub mod skeleton;
+pub mod squiggle;
 pub mod stipple;
 pub mod synth;
 mod threshold;
@@ -84,6 +86,8 @@ pub enum Mode {
     Hatch,
     /// Pen dots, denser where darker.
     Stipple,
+    /// Rows of waves whose amplitude and frequency follow darkness.
+    Squiggle,
 }
 
 impl Mode {
@@ -95,11 +99,13 @@ impl Mode {
             Mode::Edges => "edges",
             Mode::Hatch => "hatch",
             Mode::Stipple => "stipple",
+            Mode::Squiggle => "squiggle",
         }
     }
 
     /// Every mode, in documentation order.
-    pub const ALL: [Mode; 5] = [Mode::Outline, Mode::Centerline, Mode::Edges, Mode::Hatch, Mode::Stipple];
+    pub const ALL: [Mode; 6] =
+        [Mode::Outline, Mode::Centerline, Mode::Edges, Mode::Hatch, Mode::Stipple, Mode::Squiggle];
 }
 
 impl fmt::Display for Mode {
@@ -112,10 +118,9 @@ impl FromStr for Mode {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Mode::ALL
-            .into_iter()
-            .find(|m| m.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| format!("unknown mode `{s}` (expected outline, centerline, edges, hatch or stipple)"))
+        Mode::ALL.into_iter().find(|m| m.name().eq_ignore_ascii_case(s)).ok_or_else(|| {
+            format!("unknown mode `{s}` (expected outline, centerline, edges, hatch, stipple or squiggle)")
+        })
     }
 }
 
@@ -326,6 +331,11 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
                 stipple::stipple_dots(&map, options.pen.width_mm / prepared.pixel_mm, options.stipple.iterations);
             vec![("stipple".to_owned(), stipple::strokes(&dots, options.stipple.tsp))]
         }
+        Mode::Squiggle => {
+            let map = options.tone.darkness_map(&prepared.gray, options.invert);
+            let row = 2.0 * options.ladder().min_spacing_mm / prepared.pixel_mm;
+            vec![("squiggle".to_owned(), squiggle::squiggle(&map, options.pen.width_mm / prepared.pixel_mm, row))]
+        }
         Mode::Hatch => {
             let spacing_px = options.hatch.spacing_mm / prepared.pixel_mm;
             let levels = hatch::hatch(&prepared.gray, &options.hatch, spacing_px, options.invert, options.min_area_px);
@@ -364,6 +374,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             Mode::Edges => format!("no edges found with Canny thresholds {}/{}", options.canny_low, options.canny_high),
             Mode::Hatch => "no pixel is dark enough for the lightest hatch level".to_owned(),
             Mode::Stipple => "the picture is too light for a single pen dot".to_owned(),
+            Mode::Squiggle => "the picture is too light for a squiggle line".to_owned(),
             _ => "every region was too small to keep".to_owned(),
         };
         let reason = if dropped.is_empty() { reason } else { format!("{reason}; {}", dropped.join("; ")) };
