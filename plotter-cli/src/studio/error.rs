@@ -16,6 +16,14 @@ pub enum StudioError {
         /// What the system said.
         source: std::io::Error,
     },
+    /// Another process (a studio or server started earlier) has the queue in this folder open.
+    #[error(
+        "{dir}: another plotter studio is using this folder; stop it first, or give this one another --state folder"
+    )]
+    InUse {
+        /// The state directory.
+        dir: PathBuf,
+    },
     /// The database file could not be opened or read.
     #[error("{path}: cannot open the studio's database: {source}")]
     Open {

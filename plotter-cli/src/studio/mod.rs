@@ -10,6 +10,7 @@
 //! - [`queue`]: what can be done to the queue — add, list, reorder, cancel, retry, claim a machine's next job,
 //!   record its end — and what a crash leaves behind: a job that was plotting comes back *interrupted*, waiting for
 //!   the operator to confirm the paper is still in place, never restarted on its own.
+//! - [`lock`]: one process at a time opens a folder's queue;
 //! - [`state`]: where a job is in its life (queued, plotting, paused, interrupted, done, failed, cancelled);
 //! - [`error`]: the studio's errors, each naming the job, machine or file concerned.
 //!
@@ -26,6 +27,7 @@
 //! ```
 
 pub mod error;
+pub mod lock;
 pub mod queue;
 pub mod state;
 pub mod store;

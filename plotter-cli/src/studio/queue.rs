@@ -25,6 +25,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use rusqlite::{OptionalExtension, Row, Transaction, params};
 
 use super::error::{Result, StudioError};
+use super::lock::StudioLock;
 use super::state::JobState;
 use super::store::Store;
 
@@ -180,6 +181,8 @@ pub enum Outcome {
 pub struct Queue {
     store: Store,
     interrupted: Vec<i64>,
+    /// This process's hold on the folder, while the queue is open ([`Queue::open_in`]).
+    _lock: Option<StudioLock>,
 }
 
 const SUMMARY_COLUMNS: &str = "id, created, machine, claimed_by, drawing_name, length(drawing), options, state, \
@@ -277,12 +280,18 @@ fn cut(text: &str, max: usize) -> &str {
 
 impl Queue {
     /// Opens the queue in the state directory `dir` (see [`Store::open_in`]) and marks the jobs a crash left on a
-    /// machine as interrupted ([`Queue::interrupted_at_open`] lists them).
+    /// machine as interrupted ([`Queue::interrupted_at_open`] lists them). Refused while another process has it
+    /// open (see [`StudioLock`]).
     pub fn open_in(dir: &Path) -> Result<Queue> {
-        Queue::with_store(Store::open_in(dir)?)
+        std::fs::create_dir_all(dir).map_err(|source| StudioError::Folder { path: dir.to_path_buf(), source })?;
+        let lock = StudioLock::take(dir)?;
+        let mut queue = Queue::with_store(Store::open_in(dir)?)?;
+        queue._lock = Some(lock);
+        Ok(queue)
     }
 
-    /// The queue over an open store; marks the jobs a crash left on a machine as interrupted.
+    /// The queue over an open store; marks the jobs a crash left on a machine as interrupted. The caller makes sure
+    /// no other process has the store's queue open ([`Queue::open_in`] does).
     pub fn with_store(mut store: Store) -> Result<Queue> {
         let interrupted = store.change(|tx| {
             let ids: Vec<i64> = tx
@@ -302,7 +311,7 @@ impl Queue {
             }
             Ok(ids)
         })?;
-        Ok(Queue { store, interrupted })
+        Ok(Queue { store, interrupted, _lock: None })
     }
 
     /// The jobs this open found on a machine (plotting or paused) and marked interrupted, in queue order.
@@ -875,12 +884,30 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_second_process_cannot_open_a_queue_in_use() {
+        let dir = temp_dir("in-use");
+        let first = Queue::open_in(&dir).unwrap();
+        // A second open file description stands for the second process (flock locks are per open file).
+        let err = Queue::open_in(&dir).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            format!(
+                "{}: another plotter studio is using this folder; stop it first, or give this one another --state folder",
+                dir.display()
+            )
+        );
+        drop(first);
+        Queue::open_in(&dir).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     /// Opens the killed child's queue and checks it is whole; returns how many jobs it holds and how many were
     /// found interrupted.
     fn check_whole(dir: &Path, reported: &BTreeSet<i64>) -> (usize, usize) {
-        let store = Store::open_in(dir).unwrap();
-        assert_eq!(store.integrity_check().unwrap(), "ok");
-        let q = Queue::with_store(store).unwrap();
+        // The killed child's hold on the folder went with it.
+        let q = Queue::open_in(dir).unwrap();
+        assert_eq!(q.store().integrity_check().unwrap(), "ok");
         let jobs = q.list().unwrap();
         let ids: BTreeSet<i64> = jobs.iter().map(|j| j.id).collect();
         let lost: Vec<_> = reported.difference(&ids).collect();
