@@ -24,6 +24,8 @@ pub enum ModeArg {
     Stipple,
     /// Rows of zig-zag waves growing with darkness, one stroke per row (rows twice --min-spacing apart)
     Squiggle,
+    /// One spiral from the centre whose waves grow with darkness (turns twice --min-spacing apart)
+    Spiral,
 }
 
 /// How darker hatch levels add lines.
@@ -120,6 +122,7 @@ impl TraceArgs {
                 ModeArg::Hatch => Mode::Hatch,
                 ModeArg::Stipple => Mode::Stipple,
                 ModeArg::Squiggle => Mode::Squiggle,
+                ModeArg::Spiral => Mode::Spiral,
             },
             width_mm: self.width,
             pitch_mm: self.pitch,

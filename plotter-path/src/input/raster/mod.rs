@@ -9,6 +9,7 @@
 //! - [`Mode::Hatch`]: tone shading with hatch lines clipped exactly to tone regions ([`hatch`]).
 //! - [`Mode::Stipple`]: pen dots spread by weighted Voronoi stippling, or one line through them ([`stipple`]).
 //! - [`Mode::Squiggle`]: rows of zig-zag waves growing with darkness, one stroke per row ([`squiggle`]).
+//! - [`Mode::Spiral`]: one spiral from the centre carrying the same waves ([`spiral`]).
 //!
 //! The tone styles (hatch, stipple) read one tone model ([`tone`]): the target darkness of every pixel after the
 //! tone curve, and the ink a pen of the given width lays down.
@@ -41,6 +42,7 @@ mod load;
 pub mod outline;
 pub mod simplify;
 pub mod skeleton;
+pub mod spiral;
 pub mod squiggle;
 pub mod stipple;
 pub mod synth;
@@ -88,6 +90,8 @@ pub enum Mode {
     Stipple,
     /// Rows of waves whose amplitude and frequency follow darkness.
     Squiggle,
+    /// One spiral from the centre whose waves follow darkness.
+    Spiral,
 }
 
 impl Mode {
@@ -100,12 +104,13 @@ impl Mode {
             Mode::Hatch => "hatch",
             Mode::Stipple => "stipple",
             Mode::Squiggle => "squiggle",
+            Mode::Spiral => "spiral",
         }
     }
 
     /// Every mode, in documentation order.
-    pub const ALL: [Mode; 6] =
-        [Mode::Outline, Mode::Centerline, Mode::Edges, Mode::Hatch, Mode::Stipple, Mode::Squiggle];
+    pub const ALL: [Mode; 7] =
+        [Mode::Outline, Mode::Centerline, Mode::Edges, Mode::Hatch, Mode::Stipple, Mode::Squiggle, Mode::Spiral];
 }
 
 impl fmt::Display for Mode {
@@ -119,7 +124,7 @@ impl FromStr for Mode {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Mode::ALL.into_iter().find(|m| m.name().eq_ignore_ascii_case(s)).ok_or_else(|| {
-            format!("unknown mode `{s}` (expected outline, centerline, edges, hatch, stipple or squiggle)")
+            format!("unknown mode `{s}` (expected outline, centerline, edges, hatch, stipple, squiggle or spiral)")
         })
     }
 }
@@ -336,6 +341,11 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             let row = 2.0 * options.ladder().min_spacing_mm / prepared.pixel_mm;
             vec![("squiggle".to_owned(), squiggle::squiggle(&map, options.pen.width_mm / prepared.pixel_mm, row))]
         }
+        Mode::Spiral => {
+            let map = options.tone.darkness_map(&prepared.gray, options.invert);
+            let row = 2.0 * options.ladder().min_spacing_mm / prepared.pixel_mm;
+            vec![("spiral".to_owned(), spiral::spiral(&map, options.pen.width_mm / prepared.pixel_mm, row))]
+        }
         Mode::Hatch => {
             let spacing_px = options.hatch.spacing_mm / prepared.pixel_mm;
             let levels = hatch::hatch(&prepared.gray, &options.hatch, spacing_px, options.invert, options.min_area_px);
@@ -374,7 +384,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             Mode::Edges => format!("no edges found with Canny thresholds {}/{}", options.canny_low, options.canny_high),
             Mode::Hatch => "no pixel is dark enough for the lightest hatch level".to_owned(),
             Mode::Stipple => "the picture is too light for a single pen dot".to_owned(),
-            Mode::Squiggle => "the picture is too light for a squiggle line".to_owned(),
+            Mode::Squiggle | Mode::Spiral => format!("the picture is too light for a {} line", options.mode),
             _ => "every region was too small to keep".to_owned(),
         };
         let reason = if dropped.is_empty() { reason } else { format!("{reason}; {}", dropped.join("; ")) };
