@@ -419,7 +419,8 @@ fn decode_kind(
         InputKind::Image => {
             let image = raster::decode_image(data, name)?;
             let options = raster::TraceOptions { cancel: cancel.clone(), ..args.trace.options() };
-            let traced = raster::trace_named(&image, shown, &options)?;
+            let mut traced = raster::trace_named(&image, shown, &options)?;
+            crate::options::trace::join_stipples(&mut traced.drawing, &options);
             let warnings = traced.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
             Ok(Decoded::plain(traced.drawing, warnings))
         }

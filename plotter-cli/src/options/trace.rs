@@ -161,9 +161,19 @@ impl TraceArgs {
 /// Trace the image at `path` with `args`, printing the tracer's warnings to stderr. `traced.drawing` is the result
 /// in mm (origin at the image's top-left corner, `page_mm` = the image size), ready for layout.
 pub fn trace_image(path: &Path, args: &TraceArgs) -> Result<raster::Traced> {
-    let traced = raster::trace_file(path, &args.options())?;
+    let options = args.options();
+    let mut traced = raster::trace_file(path, &options)?;
+    join_stipples(&mut traced.drawing, &options);
     for w in &traced.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }
     Ok(traced)
+}
+
+/// `--tsp`: a stippled drawing's dots joined into one continuous line, routed by the path optimizer (which comes
+/// after the inputs in the pipeline, so the join happens here, on the traced drawing).
+pub fn join_stipples(drawing: &mut plotter_path::Drawing, options: &raster::TraceOptions) {
+    if options.mode == raster::Mode::Stipple && options.stipple.tsp {
+        plotter_path::optimize::one_line::join_into_one_line(drawing);
+    }
 }

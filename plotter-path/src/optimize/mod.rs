@@ -36,6 +36,7 @@ pub mod cost;
 mod improve;
 mod kdtree;
 mod merge;
+pub mod one_line;
 mod order;
 mod rng;
 pub mod seam;

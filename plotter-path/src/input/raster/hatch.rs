@@ -33,6 +33,8 @@ use kurbo::Point;
 use std::fmt;
 use std::str::FromStr;
 
+pub use super::lines::{LineFamily, LineSpans, clip_lines, line_spans};
+
 /// How darker levels add hatching.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum HatchScheme {
@@ -113,32 +115,6 @@ impl HatchOptions {
             });
         }
         Ok(())
-    }
-}
-
-/// One family of parallel lines: direction and offsets `v = phase + k · period` across it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LineFamily {
-    /// Direction of the lines in radians (page angle: counter-clockwise as seen, i.e. Y up).
-    pub angle: f64,
-    /// Distance between neighbouring lines, in pixels.
-    pub period: f64,
-    /// Offset of line 0 across the lines, in pixels.
-    pub phase: f64,
-}
-
-impl LineFamily {
-    /// Unit direction along the lines and unit normal across them, in pixel coordinates (Y down).
-    pub fn frame(&self) -> ((f64, f64), (f64, f64)) {
-        let (s, c) = self.angle.sin_cos();
-        // Page angle is counter-clockwise as seen, so Y (down) flips the sine.
-        ((c, -s), (s, c))
-    }
-
-    /// Offset across the lines of `p`.
-    pub fn offset(&self, p: Point) -> f64 {
-        let (_, n) = self.frame();
-        p.x * n.0 + p.y * n.1
     }
 }
 
@@ -341,97 +317,6 @@ fn connector_inside(mask: &Bitmap, a: Point, b: Point) -> bool {
         let p = a.lerp(b, f64::from(i) / f64::from(steps));
         [(-e, -e), (-e, e), (e, -e), (e, e)].iter().any(|&(dx, dy)| mask.get(px(p.x + dx), px(p.y + dy)))
     })
-}
-
-/// The inside spans of one line of a family: the line's slot (consecutive lines have consecutive slots), its
-/// offset `v` across the family, and the `(u_start, u_end)` intervals along it, sorted.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LineSpans {
-    /// The line's number counted from the region's first line.
-    pub slot: usize,
-    /// Offset across the family, pixels.
-    pub v: f64,
-    /// Inside intervals along the line, increasing.
-    pub spans: Vec<(f64, f64)>,
-}
-
-/// The inside spans of every line of `family` that crosses the even-odd region bounded by the closed `loops`, in
-/// line order.
-pub fn line_spans(loops: &[Vec<Point>], family: &LineFamily) -> Vec<LineSpans> {
-    let (d, n) = family.frame();
-    let to_uv = |p: Point| (p.x * d.0 + p.y * d.1, p.x * n.0 + p.y * n.1);
-    let (mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY);
-    for p in loops.iter().flatten() {
-        let v = to_uv(*p).1;
-        vmin = vmin.min(v);
-        vmax = vmax.max(v);
-    }
-    if vmin > vmax || family.period <= 0.0 {
-        return Vec::new();
-    }
-    let k0 = ((vmin - family.phase) / family.period).floor();
-    let lines = ((vmax - family.phase) / family.period).floor() - k0 + 1.0;
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // lines ≥ 1, bounded by image size / period
-    let mut crossings: Vec<Vec<f64>> = vec![Vec::new(); lines.max(1.0) as usize];
-    for pl in loops {
-        for e in pl.windows(2) {
-            let ((ua, va), (ub, vb)) = (to_uv(e[0]), to_uv(e[1]));
-            if va == vb {
-                continue;
-            }
-            let (lo, hi) = (va.min(vb), va.max(vb));
-            let mut k = ((lo - family.phase) / family.period).ceil();
-            loop {
-                let v = family.phase + k * family.period;
-                if v >= hi {
-                    break;
-                }
-                if v >= lo {
-                    let u = ua + (v - va) / (vb - va) * (ub - ua);
-                    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // k ≥ k0 by construction
-                    let slot = (k - k0) as usize;
-                    if let Some(c) = crossings.get_mut(slot) {
-                        c.push(u);
-                    }
-                }
-                k += 1.0;
-            }
-        }
-    }
-    let mut out = Vec::new();
-    for (slot, mut us) in crossings.into_iter().enumerate() {
-        if us.len() < 2 {
-            continue;
-        }
-        us.sort_by(f64::total_cmp);
-        #[allow(clippy::cast_precision_loss)] // line counts are small
-        let v = family.phase + (k0 + slot as f64) * family.period;
-        let spans: Vec<(f64, f64)> = us.chunks_exact(2).filter(|c| c[1] > c[0]).map(|c| (c[0], c[1])).collect();
-        if !spans.is_empty() {
-            out.push(LineSpans { slot, v, spans });
-        }
-    }
-    out
-}
-
-/// The parts of the lines of `family` inside the even-odd region bounded by the closed `loops`, every other line
-/// reversed (boustrophedon).
-pub fn clip_lines(loops: &[Vec<Point>], family: &LineFamily) -> Vec<(Point, Point)> {
-    let (d, n) = family.frame();
-    let mut out = Vec::new();
-    for line in line_spans(loops, family) {
-        let v = line.v;
-        let at = |u: f64| Point::new(u * d.0 + v * n.0, u * d.1 + v * n.1);
-        let mut spans: Vec<(Point, Point)> = line.spans.iter().map(|&(a, b)| (at(a), at(b))).collect();
-        if line.slot % 2 == 1 {
-            spans.reverse();
-            for s in &mut spans {
-                *s = (s.1, s.0);
-            }
-        }
-        out.extend(spans);
-    }
-    out
 }
 
 /// Even-odd point-in-polygon test over closed loops (used by tests and available to callers that need it).

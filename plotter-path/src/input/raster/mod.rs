@@ -38,6 +38,7 @@ pub mod edges;
 mod error;
 pub mod hatch;
 pub mod ink;
+pub mod lines;
 mod load;
 pub mod outline;
 pub mod simplify;
@@ -334,7 +335,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             let map = options.tone.darkness_map(&prepared.gray, options.invert);
             let dots =
                 stipple::stipple_dots(&map, options.pen.width_mm / prepared.pixel_mm, options.stipple.iterations);
-            vec![("stipple".to_owned(), stipple::strokes(&dots, options.stipple.tsp))]
+            vec![("stipple".to_owned(), stipple::strokes(&dots))]
         }
         Mode::Squiggle => {
             let map = options.tone.darkness_map(&prepared.gray, options.invert);

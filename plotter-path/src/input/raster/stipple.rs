@@ -10,12 +10,11 @@
 //! nearest-vertex query on a Delaunay triangulation of the dots, from the `spade` crate), and each dot moves to the
 //! darkness-weighted centroid of its cell. A few rounds spread the dots evenly within each tone.
 //!
-//! **TSP line.** With `tsp`, the dots are visited in the order found by the path optimizer
-//! ([`crate::optimize`]: nearest neighbour then 2-opt/Or-opt) and drawn as one polyline through them.
+//! **TSP line.** With `tsp`, the dots are visited in the order found by the path optimizer (nearest neighbour then
+//! 2-opt/Or-opt) and drawn as one polyline through them; the optimizer comes after the inputs, so the front end
+//! does that join on the traced drawing (`optimize::one_line`).
 
 use super::tone::DarknessMap;
-use crate::optimize::{OptimizeOptions, optimize};
-use crate::{Drawing, Polyline};
 use kurbo::Point;
 use spade::{DelaunayTriangulation, HasPosition, HierarchyHintGenerator, Point2, Triangulation};
 
@@ -131,26 +130,11 @@ pub fn stipple_dots(map: &DarknessMap, pen_px: f64, iterations: u32) -> Vec<Poin
     dots
 }
 
-/// The dots as strokes: each a zero-length two-point path (one touch of the pen), or with `tsp` one polyline through
-/// every dot in the optimizer's order.
-pub fn strokes(dots: &[Point], tsp: bool) -> Vec<Vec<Point>> {
-    if !tsp || dots.len() < 2 {
-        return dots.iter().map(|&p| vec![p, p]).collect();
-    }
-    let paths = dots.iter().map(|&p| Polyline::new(vec![p, p])).collect();
-    let mut drawing = Drawing::single_layer("stipple", paths);
-    let opts =
-        OptimizeOptions { merge: false, lower_bound: false, work_per_path: Some(200.0), ..OptimizeOptions::default() };
-    if optimize(&mut drawing, &opts).is_err() {
-        return vec![dots.to_vec()];
-    }
-    let mut line: Vec<Point> = Vec::with_capacity(dots.len());
-    for layer in &drawing.layers {
-        for path in &layer.paths {
-            line.push(path.points[0]);
-        }
-    }
-    vec![line]
+/// The dots as strokes: each a zero-length two-point path (one touch of the pen). With `tsp` the caller joins them
+/// into one line afterwards through the path optimizer ([`crate::optimize`] comes after the inputs:
+/// `optimize::one_line::join_into_one_line`).
+pub fn strokes(dots: &[Point]) -> Vec<Vec<Point>> {
+    dots.iter().map(|&p| vec![p, p]).collect()
 }
 
 #[cfg(test)]
@@ -182,7 +166,7 @@ mod tests {
         let map = DarknessMap { width: 80, height: 80, data: vec![0.3; 6400] };
         let dots = stipple_dots(&map, 2.0, 10);
         assert!(dots.iter().all(|p| (0.0..=80.0).contains(&p.x) && (0.0..=80.0).contains(&p.y)));
-        let mm: Vec<Vec<Point>> = strokes(&dots, false)
+        let mm: Vec<Vec<Point>> = strokes(&dots)
             .into_iter()
             .map(|s| s.into_iter().map(|p| Point::new(p.x * 0.25, p.y * 0.25)).collect())
             .collect();
@@ -190,26 +174,5 @@ mod tests {
         grid.draw(&mm, 0.5);
         let f = grid.fraction(100, 900, 100, 900);
         assert!((f - 0.3).abs() < 0.03, "ink fraction {f}");
-    }
-
-    #[test]
-    fn the_tsp_line_visits_every_dot_once() {
-        let map = DarknessMap { width: 60, height: 60, data: vec![0.4; 3600] };
-        let dots = stipple_dots(&map, 2.0, 4);
-        let line = strokes(&dots, true);
-        assert_eq!(line.len(), 1);
-        assert_eq!(line[0].len(), dots.len());
-        let key = |p: &Point| (p.x.to_bits(), p.y.to_bits());
-        let mut a: Vec<_> = dots.iter().map(key).collect();
-        let mut b: Vec<_> = line[0].iter().map(key).collect();
-        a.sort_unstable();
-        b.sort_unstable();
-        assert_eq!(a, b);
-        // Routed, not in reading order: far shorter than visiting the seeds' rows back and forth would be, and no
-        // hop longer than a few dot spacings on average.
-        let len: f64 = line[0].windows(2).map(|w| w[0].distance(w[1])).sum();
-        #[allow(clippy::cast_precision_loss)]
-        let mean = len / (dots.len() - 1) as f64;
-        assert!(mean < 4.0, "mean hop {mean} px");
     }
 }

@@ -7,7 +7,7 @@
 //! chain. Every span is drawn exactly once, so the ink is that of the separate spans plus the connectors, which run
 //! close to the region's boundary.
 
-use super::hatch::{LineFamily, LineSpans};
+use super::lines::{LineFamily, LineSpans};
 use kurbo::Point;
 
 struct Chain {

@@ -15,10 +15,10 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 
-use super::heavy::heavy;
 use super::budget;
 use super::command::hpgl_choice;
 use super::error::ApiError;
+use super::heavy::heavy;
 use super::state::Shared;
 
 /// What a download may be.
