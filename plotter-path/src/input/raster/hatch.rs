@@ -179,15 +179,7 @@ pub fn hatch(
             let v = if invert { 255 - v } else { v };
             v < cut
         });
-        let mut specks_dropped = 0;
-        let mut region = Vec::new();
-        for c in trace_contours(&mask) {
-            if c.signed_area.abs() < min_area_px {
-                specks_dropped += 1;
-            } else {
-                region.push(c.closed_points());
-            }
-        }
+        let (region, specks_dropped) = region_of(&mask, min_area_px);
         let families = level_families(i, opts, spacing_px);
         let mut segments = Vec::new();
         for f in &families {
@@ -261,15 +253,7 @@ pub fn tone_hatch(
             continue;
         }
         let mask = Bitmap::from_fn(w, h, |x, y| usize::from(bands[y * w + x]) == band);
-        let mut specks_dropped = 0;
-        let mut region = Vec::new();
-        for c in trace_contours(&mask) {
-            if c.signed_area.abs() < min_area_px {
-                specks_dropped += 1;
-            } else {
-                region.push(c.closed_points());
-            }
-        }
+        let (region, specks_dropped) = region_of(&mask, min_area_px);
         let period = rung.spacing_mm / pixel_mm;
         let families: Vec<LineFamily> = FAMILY_TURNS[..usize::from(rung.families)]
             .iter()
@@ -317,6 +301,21 @@ fn connector_inside(mask: &Bitmap, a: Point, b: Point) -> bool {
         let p = a.lerp(b, f64::from(i) / f64::from(steps));
         [(-e, -e), (-e, e), (e, -e), (e, e)].iter().any(|&(dx, dy)| mask.get(px(p.x + dx), px(p.y + dy)))
     })
+}
+
+/// The closed boundary loops of `mask`'s set pixels (even-odd), leaving out specks smaller than `min_area_px`, and
+/// how many were left out.
+fn region_of(mask: &Bitmap, min_area_px: f64) -> (Vec<Vec<Point>>, usize) {
+    let mut specks_dropped = 0;
+    let mut region = Vec::new();
+    for c in trace_contours(mask) {
+        if c.signed_area.abs() < min_area_px {
+            specks_dropped += 1;
+        } else {
+            region.push(c.closed_points());
+        }
+    }
+    (region, specks_dropped)
 }
 
 /// Even-odd point-in-polygon test over closed loops (used by tests and available to callers that need it).
