@@ -36,6 +36,7 @@ pub mod centerline;
 mod contour;
 pub mod edges;
 mod error;
+pub mod fidelity;
 pub mod hatch;
 pub mod ink;
 pub mod lines;
