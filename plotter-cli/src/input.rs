@@ -10,6 +10,7 @@ use clap::{Args, ValueEnum};
 use plotter_path::geometry::cancel::Cancel;
 use plotter_path::geometry::hatch::FillHatch;
 use plotter_path::geometry::steps::StepMapper;
+use plotter_path::geometry::tone_hatch::ToneHatch;
 use plotter_path::input::raster::Mode;
 use plotter_path::input::skipped::Skipped;
 use plotter_path::input::svg::{self, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
@@ -59,6 +60,31 @@ pub enum ImagesArg {
     Hatch,
 }
 
+/// What `--hatch` asks for: one spacing for every fill, or each fill shaded by its lightness.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HatchArg {
+    /// Parallel lines this far apart in every fill, mm on the plotted page.
+    Spacing(f64),
+    /// Each fill gets lines as dense as its colour is dark (`tone`): white stays empty, light fills get sparse
+    /// lines, dark ones denser and then crossing lines; gradients vary along the shape.
+    Tone,
+}
+
+impl std::str::FromStr for HatchArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s.trim().eq_ignore_ascii_case("tone") {
+            return Ok(HatchArg::Tone);
+        }
+        match s.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok(HatchArg::Spacing(v)),
+            Ok(v) => Err(format!("the hatch spacing must be a positive number of mm, got {v}")),
+            Err(_) => Err(format!("expected a spacing in mm (such as 0.8) or `tone`, got {s:?}")),
+        }
+    }
+}
+
 /// Input flags shared by every command that reads a drawing.
 #[derive(Debug, Clone, Args)]
 pub struct InputArgs {
@@ -74,12 +100,18 @@ pub struct InputArgs {
     /// Plot SVG outlines in full, also where an opaque fill painted later hides them
     #[arg(long, help_heading = "Input")]
     pub no_occlusion: bool,
-    /// Shade every filled SVG area with parallel lines this far apart, mm (direction: --angle)
-    #[arg(long, value_name = "SPACING_MM", help_heading = "Input")]
-    pub hatch: Option<f64>,
-    /// With --hatch: add a second family of lines at right angles
+    /// Shade every filled SVG area with parallel lines: a spacing in mm on the plotted page, or `tone` to space
+    /// each fill's lines by how dark its colour is, crossing them for dark fills (pen: --pen-width, closest
+    /// spacing: --min-spacing, direction: --angle)
+    #[arg(long, value_name = "SPACING_MM|tone", help_heading = "Input")]
+    pub hatch: Option<HatchArg>,
+    /// With --hatch SPACING_MM: add a second family of lines at right angles
     #[arg(long, requires = "hatch", help_heading = "Input")]
     pub cross_hatch: bool,
+    /// How much the layout magnifies the drawing (set by the loader, 1 from the command line): hatch spacings and
+    /// the tone hatch's pen width are divided by it at import, so that they come out as asked on the page.
+    #[arg(skip = 1.0)]
+    pub hatch_scale: f64,
     /// Fill SVG strokes wider than the pen (--pen-width) with parallel passes
     #[arg(long, help_heading = "Input")]
     pub fill_strokes: bool,
@@ -102,6 +134,10 @@ impl InputArgs {
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             bail!("--tolerance must be a positive number of mm, got {}", self.tolerance);
         }
+        let scale = self.hatch_scale;
+        if !(scale.is_finite() && scale > 0.0) {
+            bail!("the layout's scale factor must be a positive number, got {scale}");
+        }
         Ok(SvgOptions {
             tolerance_mm: self.tolerance,
             layer_by: match self.layer_by {
@@ -113,11 +149,20 @@ impl InputArgs {
             layers: self.layers.clone(),
             occlusion: !self.no_occlusion,
             hatch: match self.hatch {
-                Some(s) if !(s.is_finite() && s > 0.0) => bail!("--hatch must be a positive spacing in mm, got {s}"),
-                Some(s) => {
-                    Some(FillHatch { spacing_mm: s, angle_deg: self.trace.angle, cross: self.cross_hatch, link: true })
+                Some(HatchArg::Spacing(s)) if !(s.is_finite() && s > 0.0) => {
+                    bail!("--hatch must be a positive spacing in mm, got {s}")
                 }
-                None => None,
+                Some(HatchArg::Spacing(s)) => Some(FillHatch {
+                    spacing_mm: s / scale,
+                    angle_deg: self.trace.angle,
+                    cross: self.cross_hatch,
+                    link: true,
+                }),
+                Some(HatchArg::Tone) | None => None,
+            },
+            tone_hatch: match self.hatch {
+                Some(HatchArg::Tone) => Some(self.tone_hatch(scale)?),
+                Some(HatchArg::Spacing(_)) | None => None,
             },
             fill_strokes: self.fill_strokes.then_some(self.trace.pen_width),
             text: match self.text {
@@ -139,6 +184,30 @@ impl InputArgs {
             pens: profile.pens.clone(),
             ..SvgOptions::default()
         })
+    }
+}
+
+impl InputArgs {
+    /// `--hatch tone`'s settings in document millimetres: the pen width and closest spacing asked for on the page,
+    /// divided by the layout's magnification `scale`.
+    fn tone_hatch(&self, scale: f64) -> Result<ToneHatch> {
+        if self.cross_hatch {
+            bail!(
+                "--cross-hatch goes with a --hatch spacing; with --hatch tone each fill's darkness decides its crossings"
+            );
+        }
+        let pen = self.trace.pen_width;
+        if !(pen.is_finite() && pen > 0.0) {
+            bail!("--pen-width must be a positive number of mm, got {pen}");
+        }
+        let min = self.trace.min_spacing.unwrap_or(1.5 * pen);
+        if !(min.is_finite() && min > 0.0) {
+            bail!("--min-spacing must be a positive number of mm, got {min}");
+        }
+        if !self.trace.angle.is_finite() {
+            bail!("--angle must be a finite number of degrees, got {}", self.trace.angle);
+        }
+        Ok(ToneHatch { pen_mm: pen / scale, min_spacing_mm: min / scale, angle_deg: self.trace.angle })
     }
 }
 
@@ -297,6 +366,11 @@ pub const FINEST_TOLERANCE_MM: f64 = 0.0001;
 /// chord error grows by the same factor, so the SVG is decoded once more at the tolerance divided by the factor
 /// (at least [`FINEST_TOLERANCE_MM`]) and laid out again — unless that finer drawing breaks the size limits, in
 /// which case the first one is kept with a warning. Warnings are printed once, for the decode that is kept.
+///
+/// `--hatch` spacings (and `--hatch tone`'s pen width) are page sizes: an SVG with `--hatch` is first decoded
+/// without hatching to learn the layout's factor, then decoded again with the hatch sizes divided by it
+/// ([`InputArgs::hatch_scale`]), so a 37 mm card fitted to 180 mm and hatched at 0.8 gets 0.8 mm between its lines
+/// on the page, not 3.9 mm.
 pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, layout: &LayoutArgs) -> Result<Decoded> {
     if path.to_str().is_some_and(|p| p.starts_with(GEN_PREFIX)) {
         let mut decoded = load_decoded(path, args, profile)?;
@@ -305,17 +379,19 @@ pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, la
     }
     let data = read_input(path)?;
     let shown = shown_name(path);
-    let mut decoded = decode_bytes(&data, path, &shown, args, profile)?;
+    // Only an SVG is flattened at --tolerance and hatched.
+    let is_svg = input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg;
+    let hatched = is_svg && args.hatch.is_some();
+    let first_args = if hatched { InputArgs { hatch: None, cross_hatch: false, ..args.clone() } } else { args.clone() };
+    let mut decoded = decode_bytes(&data, path, &shown, &first_args, profile)?;
     if let Err(e) = plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown) {
         warn_all(&decoded.warnings);
         return Err(e.into());
     }
     let factor = layout.apply(&mut decoded.drawing)?;
     let finer = (args.tolerance / factor).max(FINEST_TOLERANCE_MM);
-    // Only an SVG is flattened at --tolerance.
-    let is_svg = input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg;
-    if is_svg && finer < args.tolerance * (1.0 - 1e-9) {
-        let finer_args = InputArgs { tolerance: finer, ..args.clone() };
+    if hatched || (is_svg && finer < args.tolerance * (1.0 - 1e-9)) {
+        let finer_args = InputArgs { tolerance: finer.min(args.tolerance), hatch_scale: factor, ..args.clone() };
         let again = decode_bytes(&data, path, &shown, &finer_args, profile).and_then(|d| {
             plotter_path::geometry::limits::check_drawing(&d.drawing, &shown)?;
             Ok(d)
@@ -324,6 +400,11 @@ pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, la
             Ok(mut again) => {
                 layout.apply(&mut again.drawing)?;
                 decoded = again;
+            }
+            // The first decode has no hatching: it cannot stand in for the one asked for.
+            Err(e) if hatched => {
+                warn_all(&decoded.warnings);
+                return Err(e);
             }
             Err(e) => decoded.warnings.push(format!(
                 "{shown}: magnified {factor:.2}× by the layout, but flattening its curves at {finer:.4} mm fails \
@@ -546,6 +627,74 @@ mod tests {
         let e = format!("{e:#}");
         assert!(e.starts_with("up.gcode is a GIF image, which is not read here; the formats read are SVG"), "{e}");
         assert!(e.contains("PNG and JPEG") && e.contains("G-code") && e.contains("HP-GL"), "{e}");
+    }
+
+    /// A 37 × 20 mm card (a grey rectangle) fitted to a 200 mm square page with 10 mm margins is magnified
+    /// 180 / 37 = 4.865×. Hatched at 0.8 mm, its horizontal lines must lie 0.8 mm apart on the page (hatched before
+    /// the layout they were 0.8 · 4.865 = 3.89 mm apart); with `--hatch tone` its mid grey (#808080: darkness
+    /// 0.784) gets two crossing families 0.3 / (1 − √0.2159) = 0.5665 mm apart on the page, the pen being 0.3 mm.
+    #[test]
+    fn hatch_spacing_is_measured_on_the_laid_out_page() {
+        #[derive(clap::Parser)]
+        struct W {
+            #[command(flatten)]
+            input: InputArgs,
+            #[command(flatten)]
+            layout: LayoutArgs,
+        }
+        let dir = std::env::temp_dir().join(format!("plotter-hatch-fit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let card = dir.join("card.svg");
+        std::fs::write(
+            &card,
+            r##"<svg xmlns="http://www.w3.org/2000/svg" width="37mm" height="20mm" viewBox="0 0 37 20">
+<rect x="0" y="0" width="37" height="20" fill="#808080"/></svg>"##,
+        )
+        .unwrap();
+        let profile = MachineProfile::default_plotter();
+        let load = |flags: &[&str]| {
+            let base = ["t", "--paper", "200x200", "--margin", "10", "--fit", "--pen-width", "0.3"];
+            let w = <W as clap::Parser>::try_parse_from(base.iter().chain(flags)).unwrap();
+            load_laid_out(&card, &w.input, &profile, &w.layout).unwrap().drawing
+        };
+        // The gaps between neighbouring horizontal line heights, away from the card's edges.
+        let gaps = |d: &Drawing| {
+            let mut ys: Vec<f64> = d
+                .paths()
+                .flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1])).collect::<Vec<_>>())
+                .filter(|(a, b)| (a.y - b.y).abs() < 1e-9 && (a.x - b.x).abs() > 100.0)
+                .map(|(a, _)| a.y)
+                .collect();
+            ys.sort_by(f64::total_cmp);
+            ys.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
+            // The card's top and bottom edges are no hatch lines.
+            ys.pop();
+            ys.remove(0);
+            ys.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()
+        };
+        let spaced = gaps(&load(&["--hatch", "0.8", "--angle", "0"]));
+        assert!(spaced.len() > 100, "{} gaps", spaced.len());
+        assert!(spaced.iter().all(|g| (g - 0.8).abs() < 1e-5), "{spaced:?}");
+        let toned = gaps(&load(&["--hatch", "tone", "--angle", "0"]));
+        let want = 0.3 / (1.0 - (1.0f64 - 0.78414).sqrt());
+        assert!(toned.len() > 100 && toned.iter().all(|g| (g - want).abs() < 1e-3), "{want}: {toned:?}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn hatch_takes_a_spacing_or_tone_and_refuses_anything_else() {
+        assert_eq!("tone".parse::<HatchArg>(), Ok(HatchArg::Tone));
+        assert_eq!("0.8".parse::<HatchArg>(), Ok(HatchArg::Spacing(0.8)));
+        let e = "0".parse::<HatchArg>().unwrap_err();
+        assert!(e.contains("positive") && e.contains('0'), "{e}");
+        let e = "dense".parse::<HatchArg>().unwrap_err();
+        assert!(e.contains("\"dense\"") && e.contains("tone"), "{e}");
+        // Crossings are the tone's to decide.
+        let mut a = test_args();
+        a.hatch = Some(HatchArg::Tone);
+        a.cross_hatch = true;
+        let e = a.svg_options(&MachineProfile::default_plotter()).unwrap_err().to_string();
+        assert!(e.contains("--cross-hatch") && e.contains("--hatch tone"), "{e}");
     }
 
     fn test_args() -> InputArgs {

@@ -49,12 +49,35 @@ pub fn hatch(region: &Region, options: &FillHatch) -> Option<Vec<Vec<Point>>> {
     let mut out = Vec::new();
     let angles: &[f64] = if options.cross { &[0.0, 90.0] } else { &[0.0] };
     for extra in angles {
-        out.extend(family(region, bbox, options.spacing_mm, options.angle_deg + extra, options.link)?);
+        out.extend(family(region, bbox, options.spacing_mm, options.angle_deg + extra, options.link, None)?);
     }
     Some(out)
 }
 
-fn family(region: &Region, bbox: Rect, spacing: f64, angle_deg: f64, link: bool) -> Option<Vec<Vec<Point>>> {
+/// The hatch lines of `part`, a piece cut from a larger filled area `whole` (a band of a gradient), linked into
+/// zig-zags only where both ends of the link lie on `whole`'s boundary: a link along a cut between two pieces
+/// would ink a line the fill does not have (and one from each side of the cut). `None` as for [`hatch`].
+pub fn hatch_part(part: &Region, whole: &Region, options: &FillHatch) -> Option<Vec<Vec<Point>>> {
+    let Some(bbox) = part.bbox() else { return Some(Vec::new()) };
+    let mut out = Vec::new();
+    let angles: &[f64] = if options.cross { &[0.0, 90.0] } else { &[0.0] };
+    for extra in angles {
+        out.extend(family(part, bbox, options.spacing_mm, options.angle_deg + extra, options.link, Some(whole))?);
+    }
+    Some(out)
+}
+
+/// How far from `whole`'s boundary a link's end may lie and still count as on it, mm.
+const ON_BOUNDARY_MM: f64 = 1e-6;
+
+fn family(
+    region: &Region,
+    bbox: Rect,
+    spacing: f64,
+    angle_deg: f64,
+    link: bool,
+    whole: Option<&Region>,
+) -> Option<Vec<Vec<Point>>> {
     let a = angle_deg.to_radians();
     // Page Y points down, so "counter-clockwise as seen" has a negative y component.
     let d = Vec2::new(a.cos(), -a.sin());
@@ -119,15 +142,29 @@ fn family(region: &Region, bbox: Rect, spacing: f64, angle_deg: f64, link: bool)
             current_line = line;
         }
         let mut joined = None;
-        for (slot, &ci) in open.iter().enumerate() {
-            let end = *chains[ci].last().expect("chains are never empty");
-            // Enter the piece at whichever end is nearer the chain's end.
-            let (entry, exit) = if end.distance(s) <= end.distance(e) { (s, e) } else { (e, s) };
-            if end.distance(entry) <= 3.0 * spacing && inside_link(region, &edges, end, entry) {
-                chains[ci].push(entry);
-                chains[ci].push(exit);
-                joined = Some((slot, ci));
-                break;
+        let on_edge = |p: Point| whole.is_none_or(|w| w.boundary_distance(p) <= ON_BOUNDARY_MM);
+        'chains: for (slot, &ci) in open.iter().enumerate() {
+            let chain = &chains[ci];
+            let end = *chain.last().expect("chains are never empty");
+            // A chain of one piece may still be turned round: worth it when only its start is on the whole's edge.
+            let turnable = whole.is_some() && chain.len() == 2 && !on_edge(end) && on_edge(chain[0]);
+            let ends: &[(Point, bool)] = if turnable { &[(end, false), (chain[0], true)] } else { &[(end, false)] };
+            for &(end, turn) in ends {
+                // Enter the piece at whichever end is nearer the chain's end.
+                let (entry, exit) = if end.distance(s) <= end.distance(e) { (s, e) } else { (e, s) };
+                if end.distance(entry) <= 3.0 * spacing
+                    && on_edge(end)
+                    && on_edge(entry)
+                    && inside_link(region, &edges, end, entry)
+                {
+                    if turn {
+                        chains[ci].reverse();
+                    }
+                    chains[ci].push(entry);
+                    chains[ci].push(exit);
+                    joined = Some((slot, ci));
+                    break 'chains;
+                }
             }
         }
         match joined {
@@ -233,6 +270,31 @@ mod tests {
             let m = w[0].midpoint(w[1]);
             assert!(r.winding(m) != 0 || r.boundary_distance(m) < 1e-6, "link through the hole at {m:?}");
         }
+    }
+
+    #[test]
+    fn a_part_links_only_along_the_whole_areas_edge() {
+        // The square 0..10 cut at x = 5 into two parts (as two gradient bands would be), horizontal lines at
+        // y = 1 … 9 (0.5 offset from the edges would be y = 0.5 …; here the square starts at 0.5). Each part
+        // hatched alone links its rows along the cut too; as a part of the square it links only along the
+        // square's own left (or right) edge: no 1 mm link on x = 5.
+        let whole = Region::from_contours([square(0.5, 0.5, 10.0).as_slice()], FillRule::NonZero);
+        let left = Region::rect(Rect::new(0.5, 0.5, 5.5, 10.5));
+        let opts = FillHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false, link: true };
+        let links_on_cut = |lines: &[Vec<Point>]| {
+            lines
+                .iter()
+                .flat_map(|l| l.windows(2))
+                .filter(|w| (w[0].x - 5.5).abs() < 1e-9 && (w[1].x - 5.5).abs() < 1e-9)
+                .count()
+        };
+        let alone = hatch(&left, &opts).unwrap();
+        assert!(links_on_cut(&alone) >= 4, "{alone:?}");
+        let part = hatch_part(&left, &whole, &opts).unwrap();
+        assert_eq!(links_on_cut(&part), 0, "{part:?}");
+        // 10 rows of 5 mm, joined in pairs along the left edge: 5 strokes, 50 + 5 × 1 mm.
+        assert_eq!(part.len(), 5);
+        assert!((total(&part) - 55.0).abs() < 1e-6, "{}", total(&part));
     }
 
     #[test]

@@ -14,4 +14,5 @@ pub mod parallel;
 pub mod region;
 pub mod split;
 pub mod steps;
+pub mod tone_hatch;
 pub mod travel;

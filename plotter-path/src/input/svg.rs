@@ -163,6 +163,10 @@ pub struct SvgOptions {
     pub occlusion: bool,
     /// Shade filled areas with parallel lines.
     pub hatch: Option<FillHatch>,
+    /// Shade every filled area by its lightness (`--hatch tone`, see [`crate::geometry::tone_hatch`]): sparser
+    /// lines for light fills, denser and then crossing ones for dark fills, following gradients; wins over
+    /// [`SvgOptions::hatch`] and the pens' hatches.
+    pub tone_hatch: Option<crate::geometry::tone_hatch::ToneHatch>,
     /// Fill strokes wider than this pen width (mm) with parallel passes.
     pub fill_strokes: Option<f64>,
     /// How text is drawn.
@@ -193,6 +197,7 @@ impl Default for SvgOptions {
             layers: Vec::new(),
             occlusion: true,
             hatch: None,
+            tone_hatch: None,
             fill_strokes: None,
             text: TextMode::Outlines,
             images: None,

@@ -33,8 +33,10 @@ use crate::geometry::flatten::flatten_path;
 use crate::geometry::hatch::{FillHatch, hatch};
 use crate::geometry::limits::MAX_COORD_MM;
 use crate::geometry::region::{FillRule, Keep, Region, cut};
+use crate::geometry::tone_hatch::tone_hatch;
 use crate::input::raster;
 
+mod fill_paint;
 mod pattern;
 
 /// A fill hides what lies under it when its opacity is more than this.
@@ -430,10 +432,12 @@ impl<'a> Walker<'a> {
         {
             // Paper-coloured fills are not hatched: no ink belongs inside them.
             let fill_hatch = if paper { None } else { self.fill_hatch(layer, color) };
+            // `--hatch tone`: the fill's lightness decides its hatch (white and paper fills get none).
+            let tone = self.options.tone_hatch.filter(|_| !paper);
             let is_pattern = matches!(f.paint(), usvg::Paint::Pattern(_));
             // A translucent plain fill tints what lies beneath: the edge rule needs its area too.
             let tints = !hides && !is_pattern;
-            let needs_area = hides || tints || fill_hatch.is_some();
+            let needs_area = hides || tints || fill_hatch.is_some() || tone.is_some();
             let area = needs_area.then(|| self.area(p.data(), ctx.t, rule(r)));
             let uniform = uniform_color(f.paint());
             if let usvg::Paint::Pattern(pattern) = f.paint() {
@@ -444,7 +448,15 @@ impl<'a> Walker<'a> {
                 let own = self.flatten(p.data(), ctx.t);
                 outline = Some(Outline { lines: Self::cut_to_clips(own, &ctx.clips), color: uniform });
             }
-            if let (Some(h), Some(a)) = (&fill_hatch, &area) {
+            if let (Some(th), Some(a)) = (&tone, &area) {
+                if let Some(field) = fill_paint::tone_field(f.paint(), alpha, ctx.t, self.options.paper_color) {
+                    let ladder = raster::Ladder { pen_mm: th.pen_mm, min_spacing_mm: th.min_spacing_mm };
+                    match tone_hatch(a, &field, th.angle_deg, self.options.tolerance_mm, &fill_paint::rung_of(ladder)) {
+                        Some(l) => lines.extend(l),
+                        None => self.skipped.hatch_refused += 1,
+                    }
+                }
+            } else if let (Some(h), Some(a)) = (&fill_hatch, &area) {
                 match hatch(a, h) {
                     Some(l) => lines.extend(l),
                     None => self.skipped.hatch_refused += 1,

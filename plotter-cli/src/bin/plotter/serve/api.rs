@@ -313,7 +313,7 @@ fn input_args(settings: &Settings) -> Result<InputArgs, ApiError> {
             "hatch spacing {h} mm is not in {MIN_HATCH_MM}..{MAX_HATCH_MM} mm (0 turns hatching off)"
         )));
     }
-    args.hatch = (h > 0.0).then_some(h);
+    args.hatch = (h > 0.0).then_some(plotter_host::input::HatchArg::Spacing(h));
     args.cross_hatch = args.hatch.is_some() && settings.cross_hatch;
     args.no_occlusion = !settings.hidden_lines;
     Ok(args)
