@@ -12,6 +12,7 @@ pub mod page;
 pub mod prepare;
 pub mod progress;
 pub mod stepped;
+pub mod stops;
 
 use std::borrow::Cow;
 use std::path::Path;
@@ -25,6 +26,7 @@ use crate::link::journal::{Journal, JournalState};
 use crate::link::machine::PlotMachine;
 use crate::link::stream::{Quiet, StreamError, StreamStats};
 use progress::{PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents, Tracker};
+use stops::{PauseRequest, PauseWhy, PlotStop, StopWhy};
 
 /// A finished plot.
 #[derive(Debug)]
@@ -74,7 +76,8 @@ fn settle_alarm<M: PlotMachine + ?Sized>(
 
 /// Home (when `home`), plan `steps` from the position the machine reports (and back there at the end when
 /// `return_home`), and stream the plan, reporting to `events`, stopping for pen changes when the front end asks
-/// for them, and recording in the journal (if any).
+/// for them, and recording in the journal (if any). The layers' names may ask for pauses and delays (see
+/// [`stops`]); [`plot_with`] adds refills.
 #[allow(clippy::too_many_arguments)]
 pub fn plot<M: PlotMachine + ?Sized>(
     machine: &mut M,
@@ -83,6 +86,21 @@ pub fn plot<M: PlotMachine + ?Sized>(
     home: bool,
     return_home: bool,
     journal: Option<JournalSpec<'_>>,
+    events: &mut dyn PlotEvents,
+) -> crate::Result<JobOutcome> {
+    plot_with(machine, profile, steps, home, return_home, journal, &stops::StopOptions::default(), events)
+}
+
+/// [`plot`], stopping also where `options` say (refills after `--split-distance`).
+#[allow(clippy::too_many_arguments)]
+pub fn plot_with<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    home: bool,
+    return_home: bool,
+    journal: Option<JournalSpec<'_>>,
+    options: &stops::StopOptions,
     events: &mut dyn PlotEvents,
 ) -> crate::Result<JobOutcome> {
     settle_alarm(machine, home, events)?;
@@ -100,7 +118,8 @@ pub fn plot<M: PlotMachine + ?Sized>(
     };
     events.plot_started(&plan.first_pen, plan.pen_changes.len());
     let busy_before = machine.busy_ticks();
-    let run = Run { profile, steps, start, full: &plan, journal_path: journal.map(|j| j.path), return_home };
+    let stops = stops::plot_stops(profile, steps, &plan, options.split_mm);
+    let run = Run { profile, steps, start, full: &plan, journal_path: journal.map(|j| j.path), return_home, stops };
     let streamed = run.stream(machine, &plan, journal_file, None, events)?;
     Ok(streamed.outcome(plan, busy_before))
 }
@@ -131,7 +150,8 @@ pub fn resume<M: PlotMachine + ?Sized>(
     }
     let journal = Journal::append(journal_path, state)?;
     let busy_before = machine.busy_ticks();
-    let run = Run { profile, steps, start, full: &full, journal_path: Some(journal_path), return_home };
+    let stops = stops::plot_stops(profile, steps, &full, None);
+    let run = Run { profile, steps, start, full: &full, journal_path: Some(journal_path), return_home, stops };
     // The pen of the layer the plot continues with.
     let layer_pen = full.pen_changes.iter().rev().find(|c| c.block <= done);
     let first = PenChange {
@@ -176,6 +196,8 @@ struct Run<'a> {
     journal_path: Option<&'a Path>,
     /// The plan ends with the travel back to `start`.
     return_home: bool,
+    /// Where the plot stops besides pen changes, in block order.
+    stops: Vec<PlotStop>,
 }
 
 fn add(total: &mut StreamStats, s: &StreamStats) {
@@ -213,90 +235,114 @@ impl Run<'_> {
         let mut current = Cow::Borrowed(plan);
         let (mut pen_stops, mut skipped) = (0, Vec::new());
         let mut pending = if pause { ask_first.map(|c| (c, true)) } else { None };
+        // The block the plot stands before when it is one where the plot stops (a pen change, or a stop of
+        // `self.stops`); a fresh plan may stop before its very first block.
+        let mut cut = match &pending {
+            Some((c, _)) => Some(c.block),
+            None => self.stops.first().filter(|s| s.block == 0 && plan.preamble == 0).map(|s| s.block),
+        };
         loop {
-            if let Some((change, resumed)) = pending.take() {
-                pen_stops += 1;
-                let number = plan.pen_changes.iter().position(|c| c.block == change.block).map_or(0, |i| i + 1);
-                let park = if resumed { None } else { Some(self.park(machine)?) };
-                let req = PenChangeRequest {
-                    layer: change.layer,
-                    layer_name: change.layer_name.clone(),
-                    pen: change.pen.clone(),
-                    previous: (!resumed).then(|| change.previous.clone()),
-                    number,
-                    total: total_changes,
-                    park_mm: park.unwrap_or((f64::NAN, f64::NAN)),
-                };
-                let mut from = change.block;
-                match events.pen_change(&req) {
-                    PenChangeChoice::Continue => {}
-                    PenChangeChoice::SkipLayer => {
-                        skipped.push(change.layer_name.clone());
-                        match plan.pen_changes.iter().find(|c| c.block > change.block) {
-                            Some(next) => {
-                                pending = Some((next.clone(), false));
-                                continue;
+            if let Some(at) = cut.take() {
+                // The pen change here (if any), then the stops of `self.stops` here.
+                let mut from = None;
+                let (mut parked, mut changed) = (false, false);
+                if let Some((change, resumed)) = pending.take() {
+                    pen_stops += 1;
+                    changed = true;
+                    let number = plan.pen_changes.iter().position(|c| c.block == change.block).map_or(0, |i| i + 1);
+                    let park = if resumed { None } else { Some(self.park(machine)?) };
+                    parked = park.is_some();
+                    let req = PenChangeRequest {
+                        layer: change.layer,
+                        layer_name: change.layer_name.clone(),
+                        pen: change.pen.clone(),
+                        previous: (!resumed).then(|| change.previous.clone()),
+                        number,
+                        total: total_changes,
+                        park_mm: park.unwrap_or((f64::NAN, f64::NAN)),
+                    };
+                    match events.pen_change(&req) {
+                        PenChangeChoice::Continue => from = Some(change.block),
+                        PenChangeChoice::SkipLayer => {
+                            skipped.push(change.layer_name.clone());
+                            match plan.pen_changes.iter().find(|c| c.block > change.block) {
+                                Some(next) => {
+                                    pending = Some((next.clone(), false));
+                                    cut = Some(next.block);
+                                    continue;
+                                }
+                                None => break,
                             }
-                            None => from = self.full.blocks.len(),
+                        }
+                        PenChangeChoice::Stop => {
+                            return Err(Error::StoppedAtPenChange {
+                                layer: change.layer_name.clone(),
+                                pen: change.pen.label(),
+                                after: self.resume_hint(),
+                            });
                         }
                     }
-                    PenChangeChoice::Stop => {
-                        let hint = self
-                            .journal_path
-                            .map(|j| format!("\ncontinue with: plotter plot --resume {} --port <device>", j.display()))
-                            .unwrap_or_default();
-                        return Err(Error::StoppedAtPenChange {
-                            layer: change.layer_name.clone(),
-                            pen: change.pen.label(),
-                            after: hint,
-                        });
+                }
+                for stop in self.stops.iter().filter(|s| s.block == at) {
+                    from.get_or_insert(at);
+                    match &stop.why {
+                        StopWhy::Delay { ms } => dwell(machine, self.profile, *ms, &plan.first_pen)?,
+                        // A pen change here has already stopped the plot.
+                        StopWhy::Pause | StopWhy::Refill { .. } if changed => {}
+                        why @ (StopWhy::Pause | StopWhy::Refill { .. }) => {
+                            let park_mm = self.park(machine)?;
+                            parked = true;
+                            let pens = plan::layer_pens(self.profile, self.steps);
+                            let req = PauseRequest {
+                                why: match why {
+                                    StopWhy::Refill { part } => PauseWhy::Refill { part: *part },
+                                    _ => PauseWhy::Layer,
+                                },
+                                layer_name: stop.layer_name.clone(),
+                                pen: pens.get(stop.layer).cloned().unwrap_or_else(|| plan.first_pen.clone()),
+                                park_mm,
+                            };
+                            if events.plot_pause(&req) == PenChangeChoice::Stop {
+                                let hint = self.resume_hint();
+                                return Err(Error::Other(anyhow::anyhow!("stopped when asked to {}{hint}", req.ask())));
+                            }
+                        }
                     }
                 }
+                let Some(mut from) = from else { break };
                 if from >= self.full.blocks.len() {
                     break;
                 }
-                if !resumed && self.full.blocks[from].kind == MoveKind::Travel {
+                if changed && parked && self.full.blocks[from].kind == MoveKind::Travel {
                     // The carriage is parked: travel from there straight to the layer's first stroke.
                     from += 1;
                 }
-                let now = position_within_travel(machine, self.profile)?;
-                current =
-                    Cow::Owned(plan::plan_resume(self.profile, self.steps, self.start, from, now, self.return_home)?);
+                current = match (parked, tail(&current, from)) {
+                    // Only waited: the plan goes on where it stood, from rest.
+                    (false, Some(rest)) => Cow::Owned(rest),
+                    _ => {
+                        let now = position_within_travel(machine, self.profile)?;
+                        let p = plan::plan_resume(self.profile, self.steps, self.start, from, now, self.return_home)?;
+                        Cow::Owned(p)
+                    }
+                };
             }
-            // Stream up to the next pen change (or to the end).
+            // Stream up to the next stop (or to the end).
+            let done = current.resumed_from;
+            let change = if pause { current.pen_changes.iter().find(|c| c.block > done).cloned() } else { None };
             let next =
-                if pause { current.pen_changes.iter().find(|c| c.block > current.resumed_from).cloned() } else { None };
-            let part = match &next {
-                Some(c) => Cow::Owned(truncated(&current, c.block - current.resumed_from + current.preamble)),
+                self.stops.iter().map(|s| s.block).filter(|b| *b > done).chain(change.as_ref().map(|c| c.block)).min();
+            let part = match next {
+                Some(b) => Cow::Owned(truncated(&current, b - current.resumed_from + current.preamble)),
                 None => Cow::Borrowed(&*current),
             };
-            let mut tracker = Tracker::new(&part, self.profile, journal.take(), events).within(self.full, self.profile);
-            let result = machine.stream(&part, &mut tracker).map_err(|e| locate_refusal(e, &part, self.profile));
-            journal = tracker.journal.take();
-            let journal_error = tracker.error.take();
-            if journal_error.is_some() || result.is_err() {
-                // Every abort path leaves the pen up when the machine still answers (the journal stays for a
-                // resume).
-                let note = match machine.stop_and_lift(self.profile) {
-                    Ok(done) if done.is_empty() => String::new(),
-                    Ok(done) => format!("\n{done}"),
-                    Err(e) => format!("\n({e:#})"),
-                };
-                if let Some(e) = journal_error {
-                    return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) }.into());
-                }
-                if let Err(e) = result {
-                    let after = hint(&e, self.journal_path) + &note;
-                    return Err(stopped(e, after));
-                }
-            }
-            let s = result.map_err(|e| {
-                let after = hint(&e, self.journal_path);
-                stopped(e, after)
-            })?;
+            let s = self.stream_part(machine, &part, &mut journal, events)?;
             add(&mut stats, &s);
             match next {
-                Some(c) => pending = Some((c, false)),
+                Some(b) => {
+                    pending = change.filter(|c| c.block == b).map(|c| (c, false));
+                    cut = Some(b);
+                }
                 None => break,
             }
         }
@@ -305,6 +351,48 @@ impl Run<'_> {
         }
         machine.end()?;
         Ok(Streamed { stats, pen_stops, skipped })
+    }
+
+    /// How to continue a plot stopped on purpose: the resume command when a journal is kept.
+    fn resume_hint(&self) -> String {
+        self.journal_path
+            .map(|j| format!("\ncontinue with: plotter plot --resume {} --port <device>", j.display()))
+            .unwrap_or_default()
+    }
+
+    /// Stream `part`, reporting progress within the whole plot and keeping the journal; on any error, stop with
+    /// the pen up (the journal stays for a resume).
+    fn stream_part<M: PlotMachine + ?Sized>(
+        &self,
+        machine: &mut M,
+        part: &MotionPlan,
+        journal: &mut Option<Journal>,
+        events: &mut dyn PlotEvents,
+    ) -> crate::Result<StreamStats> {
+        let mut tracker = Tracker::new(part, self.profile, journal.take(), events).within(self.full, self.profile);
+        let result = machine.stream(part, &mut tracker).map_err(|e| locate_refusal(e, part, self.profile));
+        *journal = tracker.journal.take();
+        let journal_error = tracker.error.take();
+        if journal_error.is_some() || result.is_err() {
+            // Every abort path leaves the pen up when the machine still answers (the journal stays for a
+            // resume).
+            let note = match machine.stop_and_lift(self.profile) {
+                Ok(done) if done.is_empty() => String::new(),
+                Ok(done) => format!("\n{done}"),
+                Err(e) => format!("\n({e:#})"),
+            };
+            if let Some(e) = journal_error {
+                return Err(if note.is_empty() { e } else { e.context(note.trim().to_string()) }.into());
+            }
+            if let Err(e) = result {
+                let after = hint(&e, self.journal_path) + &note;
+                return Err(stopped(e, after));
+            }
+        }
+        result.map_err(|e| {
+            let after = hint(&e, self.journal_path);
+            stopped(e, after)
+        })
     }
 
     /// Move to the park position with the pen up; returns it (machine mm).
@@ -318,6 +406,62 @@ impl Run<'_> {
         let m = plotter_path::geometry::steps::StepMapper::new(self.profile).steps_to_machine(to);
         Ok((m.x, m.y))
     }
+}
+
+/// Wait `ms` milliseconds with the pen where it is, as dwells the machine runs (so a simulated plot counts them
+/// in its executed time): blocks of at most a second each.
+fn dwell<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+    ms: u32,
+    pen: &plotter_path::config::pens::LayerPen,
+) -> anyhow::Result<()> {
+    let at = position_within_travel(machine, profile)?;
+    let mut left = u64::from(ms) * u64::from(plotter_fw::TICK_HZ / 1000);
+    let mut blocks = Vec::new();
+    while left > 0 {
+        let ticks = u32::try_from(left.min(u64::from(plotter_fw::TICK_HZ))).unwrap_or(plotter_fw::TICK_HZ);
+        let block = plotter_fw::StepBlock::dwell(ticks);
+        blocks.push(plan::PlannedBlock { block, kind: MoveKind::Settle, stroke: 0, ticks });
+        left -= u64::from(ticks);
+    }
+    let total_ticks = blocks.iter().map(|b| u64::from(b.ticks)).sum();
+    let wait = MotionPlan {
+        blocks,
+        start: at,
+        end: at,
+        total_ticks,
+        draw_mm: 0.0,
+        travel_mm: 0.0,
+        resumed_from: 0,
+        preamble: 0,
+        first_pen: pen.clone(),
+        pen_changes: Vec::new(),
+    };
+    machine.stream(&wait, &mut Quiet).map_err(|e| anyhow::anyhow!("cannot wait {ms} ms: {e}"))?;
+    Ok(())
+}
+
+/// `plan` from block `from` (in the original plan's numbering) on, when the machine comes to rest before it
+/// (the block before ends at rest and it starts from rest); `None` otherwise.
+fn tail(plan: &MotionPlan, from: usize) -> Option<MotionPlan> {
+    let i = (from + plan.preamble).checked_sub(plan.resumed_from).filter(|i| *i > 0 && *i < plan.blocks.len())?;
+    if plan.blocks[i].block.entry_rate != 0 || plan.blocks[i - 1].block.exit_rate != 0 {
+        return None;
+    }
+    let blocks = plan.blocks[i..].to_vec();
+    Some(MotionPlan {
+        total_ticks: blocks.iter().map(|b| u64::from(b.ticks)).sum(),
+        blocks,
+        start: plan.position_after(i - 1),
+        resumed_from: from,
+        preamble: 0,
+        end: plan.end,
+        draw_mm: plan.draw_mm,
+        travel_mm: plan.travel_mm,
+        first_pen: plan.first_pen.clone(),
+        pen_changes: plan.pen_changes.clone(),
+    })
 }
 
 /// The first `len` blocks of `plan` (a part that ends with the pen up, before a pen change).

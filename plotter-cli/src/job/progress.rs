@@ -176,6 +176,11 @@ pub trait PlotEvents {
     fn pen_change(&mut self, _change: &PenChangeRequest) -> PenChangeChoice {
         PenChangeChoice::Continue
     }
+    /// The plot stands parked with the pen up for `pause` (a layer's `!`, a refill, fresh paper between copies):
+    /// go on, or stop (a skip counts as going on). The default front end goes on at once.
+    fn plot_pause(&mut self, _pause: &super::stops::PauseRequest) -> PenChangeChoice {
+        PenChangeChoice::Continue
+    }
     /// The plot starts with `first_pen` and has `pen_changes` pen changes ahead.
     fn plot_started(&mut self, _first_pen: &LayerPen, _pen_changes: usize) {}
     /// The machine reports an alarm (`what`); may it be unlocked (`$X` on GRBL)? The position may be wrong

@@ -6,6 +6,7 @@ pub mod color;
 pub mod gcode_template;
 pub mod heaters;
 pub mod interrupt;
+pub mod layer_codes;
 pub mod models;
 pub mod pens;
 pub mod profile;

@@ -68,8 +68,24 @@ pub fn table_index(pens: &[PenSpec], name: &str, color: Rgb) -> Option<usize> {
     by_name.or_else(|| pens.iter().position(|p| p.color.as_deref().and_then(parse_hex_color) == Some(color)))
 }
 
-/// Resolve the pen of a layer named `name` drawn with `pen`.
+/// Resolve the pen of a layer named `name` drawn with `pen`; the name's `+H` and `+S` codes
+/// ([`crate::config::layer_codes`]) then set its pen-down height and drawing speed for this layer.
 pub fn resolve(profile: &MachineProfile, name: &str, pen: &Pen) -> LayerPen {
+    let mut resolved = resolve_table(profile, name, pen);
+    let codes = crate::config::layer_codes::LayerCodes::parse(name);
+    if let Some(f) = codes.down_fraction() {
+        let p = &profile.pen;
+        resolved.down_z_mm += f * (p.up_z_mm - resolved.down_z_mm);
+        resolved.servo_down_deg += f * (p.servo_up_deg - resolved.servo_down_deg);
+    }
+    if let Some(f) = codes.speed_factor() {
+        resolved.draw_feed_mm_s *= f;
+    }
+    resolved
+}
+
+/// The pen of a layer named `name` drawn with `pen`, from the pen table or the profile's `[pen]`.
+fn resolve_table(profile: &MachineProfile, name: &str, pen: &Pen) -> LayerPen {
     let defaults = &profile.pen;
     match table_index(&profile.pens, name, pen.color) {
         Some(i) => {

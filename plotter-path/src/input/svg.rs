@@ -387,10 +387,11 @@ pub fn import_svg(
         layer.paths.extend(item.lines.into_iter().map(|l| Polyline::with_pen(l, item.pen)));
     }
     layers.retain(|l| !l.paths.is_empty());
+    warnings.extend(layers::read_codes(&mut layers, name));
     if !options.layers.is_empty() {
         let available: Vec<String> = layers.iter().map(|l| l.name.clone()).collect();
         for want in &options.layers {
-            if !available.iter().any(|a| a == want) {
+            if !available.iter().any(|a| a == want || layers::by_number(a, want)) {
                 return Err(SvgError::NoSuchLayer {
                     path: name.to_string(),
                     name: want.clone(),
@@ -398,7 +399,7 @@ pub fn import_svg(
                 });
             }
         }
-        layers.retain(|l| options.layers.contains(&l.name));
+        layers.retain(|l| options.layers.iter().any(|w| *w == l.name || layers::by_number(&l.name, w)));
     }
     let drawing = Drawing { layers, page_mm: Some(page_mm) };
     if drawing.is_empty() {

@@ -7,6 +7,9 @@
 
 use usvg::roxmltree;
 
+use crate::config::layer_codes::LayerCodes;
+use crate::geometry::drawing::Layer;
+
 /// The Inkscape namespace.
 pub(super) const INKSCAPE: &str = "http://www.inkscape.org/namespaces/inkscape";
 
@@ -55,6 +58,37 @@ pub(super) fn name_layer_groups(text: &str, xml: &roxmltree::Document<'_>, prefi
     Some(out)
 }
 
+/// Read the layer-name codes of `layers` (see [`crate::config::layer_codes`]): documentation layers (`%`) are
+/// taken out, and said once; a code out of range is said for its layer. Returns the warnings, each starting with
+/// `file` (the input as messages name it).
+pub(super) fn read_codes(layers: &mut Vec<Layer>, file: &str) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let mut documentation = Vec::new();
+    layers.retain(|l| {
+        let codes = LayerCodes::parse(&l.name);
+        for p in &codes.problems {
+            warnings.push(format!("{file}: layer '{}': {p}", l.name));
+        }
+        if codes.documentation {
+            documentation.push(format!("'{}'", l.name));
+        }
+        !codes.documentation
+    });
+    if !documentation.is_empty() {
+        warnings.push(format!(
+            "{file}: {} documentation layer(s) not plotted (a name starting with % marks one): {}",
+            documentation.len(),
+            documentation.join(", ")
+        ));
+    }
+    warnings
+}
+
+/// Whether `--layers` entry `wanted` selects the layer named `name` by its leading number (`--layers 1,3`).
+pub(super) fn by_number(name: &str, wanted: &str) -> bool {
+    LayerCodes::parse(name).selected_by_number(wanted)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -79,5 +113,44 @@ mod tests {
         // Nothing to name: None.
         let plain = "<svg xmlns=\"http://www.w3.org/2000/svg\"><g id=\"a\"/><rect/></svg>";
         assert!(name_layer_groups(plain, &roxmltree::Document::parse(plain).unwrap(), "p").is_none());
+    }
+}
+
+#[cfg(test)]
+mod code_tests {
+    use crate::input::svg::{ResourcePolicy, SvgError, SvgOptions, import_svg};
+
+    /// Four Inkscape layers, one 10 mm line each: "1 outline", "%notes" (documentation), "2+S50 detail",
+    /// "!3 fill".
+    const FOUR: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" width="100mm" height="100mm" viewBox="0 0 100 100">
+<g inkscape:groupmode="layer" inkscape:label="1 outline"><path d="M10 10 H20" stroke="black"/></g>
+<g inkscape:groupmode="layer" inkscape:label="%notes"><path d="M10 20 H20" stroke="black"/></g>
+<g inkscape:groupmode="layer" inkscape:label="2+S50 detail"><path d="M10 30 H20" stroke="black"/></g>
+<g inkscape:groupmode="layer" inkscape:label="!3 fill"><path d="M10 40 H20" stroke="black"/></g>
+</svg>"#;
+
+    fn names(layers: &[&str]) -> Result<(Vec<String>, Vec<String>), SvgError> {
+        let options = SvgOptions { layers: layers.iter().map(|s| s.to_string()).collect(), ..SvgOptions::default() };
+        let i = import_svg(FOUR.as_bytes(), "four.svg", &ResourcePolicy::DataUrlsOnly, &options)?;
+        Ok((i.drawing.layers.iter().map(|l| l.name.clone()).collect(), i.warnings))
+    }
+
+    #[test]
+    fn documentation_layers_are_left_out_once_said_and_numbers_select() {
+        let (all, warnings) = names(&[]).unwrap();
+        assert_eq!(all, ["1 outline", "2+S50 detail", "!3 fill"]);
+        let said: Vec<&String> = warnings.iter().filter(|w| w.contains("documentation")).collect();
+        assert_eq!(
+            said,
+            ["four.svg: 1 documentation layer(s) not plotted (a name starting with % marks one): '%notes'"]
+        );
+        // `--layers 1,3`: by number; a full name still works beside it.
+        assert_eq!(names(&["1", "3"]).unwrap().0, ["1 outline", "!3 fill"]);
+        assert_eq!(names(&["2+S50 detail"]).unwrap().0, ["2+S50 detail"]);
+        // A number no layer carries is refused naming the layers.
+        let e = names(&["4"]).unwrap_err().to_string();
+        assert!(e.contains("no layer named '4'; layers are: 1 outline, 2+S50 detail, !3 fill"), "{e}");
+        // The documentation layer cannot be selected: it is never plotted.
+        assert!(names(&["%notes"]).is_err());
     }
 }

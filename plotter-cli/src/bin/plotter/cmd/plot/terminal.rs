@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use plotter_host::job::progress::{
     JobProgress, LogCadence, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents,
 };
+use plotter_host::job::stops::PauseRequest;
 use plotter_host::link::stream::PauseChoice;
 use plotter_host::stop::Stop;
 use plotter_path::config::pens::LayerPen;
@@ -217,6 +218,36 @@ impl PlotEvents for Terminal {
             ),
             PenChange::None | PenChange::Auto => {}
         });
+    }
+
+    fn plot_pause(&mut self, p: &PauseRequest) -> PenChangeChoice {
+        self.bar.set_message("");
+        self.bar.suspend(|| {
+            eprintln!("\n{}; parked at X{:.1} Y{:.1} with the pen up", p.ask(), p.park_mm.0, p.park_mm.1);
+            match self.pen_change {
+                PenChange::Pause => {
+                    eprintln!("--pen-change pause: the plot stops here");
+                    return PenChangeChoice::Stop;
+                }
+                PenChange::None | PenChange::Auto => {
+                    eprintln!("nobody to ask (stdin is not a terminal, or --pen-change none): the plot goes on");
+                    return PenChangeChoice::Continue;
+                }
+                PenChange::Prompt => {}
+            }
+            let mut prompt = "[Enter] continue, [q] stop (the journal keeps the plot): ";
+            loop {
+                match ask(self.stop, prompt) {
+                    Some('\n') => return PenChangeChoice::Continue,
+                    Some('q' | 'Q') => return PenChangeChoice::Stop,
+                    Some(_) => prompt = "press Enter or q: ",
+                    None => {
+                        eprintln!("no answer (input closed or stopped): stopping");
+                        return PenChangeChoice::Stop;
+                    }
+                }
+            }
+        })
     }
 
     fn pen_change(&mut self, c: &PenChangeRequest) -> PenChangeChoice {

@@ -1,0 +1,300 @@
+//! Where a plot stops besides pen changes, worked out from the drawing and its plan before anything moves: a
+//! pause before a layer whose name starts with `!`, a delay before a layer whose name carries `+D<ms>` (the
+//! AxiDraw's layer codes, see [`plotter_path::config::layer_codes`]), and a refill after at most
+//! `--split-distance` millimetres drawn within a layer (always at a stroke boundary, so that fountain pens and
+//! brushes can be reloaded).
+
+use plotter_path::MachineProfile;
+use plotter_path::config::layer_codes::LayerCodes;
+use plotter_path::geometry::steps::{StepDrawing, StepMapper};
+use plotter_path::motion::plan::{MotionPlan, MoveKind};
+
+/// Stops a plot makes on request (beside those its layers' names ask for).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StopOptions {
+    /// `--split-distance`: refill after at most this many millimetres drawn within a layer.
+    pub split_mm: Option<f64>,
+}
+
+/// Why the plot stops.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StopWhy {
+    /// The layer's name asks for a pause before it (`!`).
+    Pause,
+    /// The pen has drawn what `--split-distance` allows: refill it before part `part` (2, 3, ...) of the layer.
+    Refill {
+        /// The part of the layer about to be drawn, counted from 1.
+        part: usize,
+    },
+    /// The layer's name asks for a delay before it (`+D`), milliseconds.
+    Delay {
+        /// How long, milliseconds.
+        ms: u32,
+    },
+}
+
+/// A stop before block `block` of the plan (in the original plan's numbering; the pen is up there).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlotStop {
+    /// The first block after the stop: the travel to the next stroke (or its pen drop when it needs no travel).
+    pub block: usize,
+    /// Index of the layer in [`StepDrawing::layers`].
+    pub layer: usize,
+    /// Its name.
+    pub layer_name: String,
+    /// Why.
+    pub why: StopWhy,
+}
+
+/// Why the plot waits for the user with the pen up.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PauseWhy {
+    /// Before a layer whose name starts with `!`.
+    Layer,
+    /// A refill before part `part` of the layer (`--split-distance`).
+    Refill {
+        /// The part about to be drawn, counted from 1.
+        part: usize,
+    },
+    /// Between copies (`--copies`): put in fresh paper for copy `copy` of `copies` (0: until stopped).
+    Paper {
+        /// The copy about to be drawn, counted from 1.
+        copy: u64,
+        /// Copies asked for (0: until stopped).
+        copies: u64,
+    },
+}
+
+/// A pause the plot is waiting in, parked with the pen up.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PauseRequest {
+    /// Why.
+    pub why: PauseWhy,
+    /// The layer about to be drawn (empty between copies).
+    pub layer_name: String,
+    /// Its pen.
+    pub pen: plotter_path::config::pens::LayerPen,
+    /// Where the carriage waits, machine mm (X, Y).
+    pub park_mm: (f64, f64),
+}
+
+impl PauseRequest {
+    /// What the user is asked to do, as a sentence: "refill pen black (#000000) for part 2 of layer \"a\"".
+    pub fn ask(&self) -> String {
+        match &self.why {
+            PauseWhy::Layer => format!("paused before layer {:?} (its name starts with !)", self.layer_name),
+            PauseWhy::Refill { part } => {
+                format!("refill pen {} for part {part} of layer {:?}", self.pen.label(), self.layer_name)
+            }
+            PauseWhy::Paper { copy, copies: 0 } => format!("put in fresh paper for copy {copy}"),
+            PauseWhy::Paper { copy, copies } => format!("put in fresh paper for copy {copy} of {copies}"),
+        }
+    }
+}
+
+/// The first block of stroke `stroke` in `plan` that the plot may stop before: its travel (the pen is up, or at
+/// the clearance height of a hop, there), else its first block.
+fn stroke_start(plan: &MotionPlan, stroke: usize) -> Option<usize> {
+    let first = plan.blocks.iter().position(|b| b.stroke == stroke)?;
+    let travel = plan.blocks[first..]
+        .iter()
+        .take_while(|b| b.stroke == stroke)
+        .position(|b| b.kind == MoveKind::Travel)
+        .map(|i| first + i);
+    Some(travel.unwrap_or(first))
+}
+
+/// Pen-down length of each stroke of `steps`, mm (the machine's axes, as drawn).
+pub fn stroke_lengths(profile: &MachineProfile, steps: &StepDrawing) -> Vec<f64> {
+    let (sx, sy) = StepMapper::new(profile).steps_per_mm();
+    steps
+        .strokes
+        .iter()
+        .map(|s| s.moves.iter().map(|d| (f64::from(d.dx) / sx).hypot(f64::from(d.dy) / sy)).sum())
+        .collect()
+}
+
+/// The stops of `plan` (planned from `steps`), in block order: per layer, its delay and pause (from its name's
+/// codes) before its first stroke, then a refill before each stroke that would take the layer's part past
+/// `split_mm` of drawn length (a part always holds at least one stroke, so a stroke longer than `split_mm` is
+/// drawn whole).
+pub fn plot_stops(
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    plan: &MotionPlan,
+    split_mm: Option<f64>,
+) -> Vec<PlotStop> {
+    let mut stops = Vec::new();
+    let lengths = split_mm.map(|_| stroke_lengths(profile, steps)).unwrap_or_default();
+    for (li, layer) in steps.layers.iter().enumerate() {
+        let end = steps.layers.get(li + 1).map_or(steps.strokes.len(), |n| n.first_stroke);
+        let codes = LayerCodes::parse(&layer.name);
+        let stop = |block: usize, why: StopWhy| PlotStop { block, layer: li, layer_name: layer.name.clone(), why };
+        if let Some(block) = stroke_start(plan, layer.first_stroke) {
+            if let Some(ms) = codes.delay_ms {
+                stops.push(stop(block, StopWhy::Delay { ms }));
+            }
+            if codes.pause {
+                stops.push(stop(block, StopWhy::Pause));
+            }
+        }
+        let Some(split) = split_mm else { continue };
+        let (mut drawn, mut part) = (0.0, 1);
+        for (si, &len) in lengths.iter().enumerate().take(end).skip(layer.first_stroke) {
+            if drawn > 0.0 && drawn + len > split {
+                part += 1;
+                drawn = 0.0;
+                if let Some(block) = stroke_start(plan, si) {
+                    stops.push(stop(block, StopWhy::Refill { part }));
+                }
+            }
+            drawn += len;
+        }
+    }
+    stops.sort_by_key(|s| s.block);
+    stops
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use plotter_path::geometry::steps::drawing_to_steps;
+    use plotter_path::kurbo::Point;
+    use plotter_path::motion::plan::{self, Lookahead};
+    use plotter_path::{Drawing, Layer, Polyline};
+
+    /// A horizontal line `len` mm long at height `y`, from X 20 mm.
+    fn line(y: f64, len: f64) -> Polyline {
+        Polyline::new(vec![Point::new(20.0, y), Point::new(20.0 + len, y)])
+    }
+
+    /// Layers "a" with lines of 30, 50, 20, 40 and 90 mm, and "!2+D250 b" with one of 10 mm.
+    fn drawing() -> Drawing {
+        let mut a = Layer::new("a");
+        a.paths =
+            [30.0, 50.0, 20.0, 40.0, 90.0].iter().enumerate().map(|(i, l)| line(10.0 + 5.0 * i as f64, *l)).collect();
+        let mut b = Layer::new("!2+D250 b");
+        b.paths = vec![line(80.0, 10.0)];
+        Drawing { layers: vec![a, b], page_mm: None }
+    }
+
+    #[test]
+    fn refills_split_a_layer_at_stroke_boundaries_and_codes_stop_before_their_layer() {
+        let profile = MachineProfile::default_plotter();
+        let steps = drawing_to_steps(&profile, &drawing()).unwrap();
+        let lengths = stroke_lengths(&profile, &steps);
+        assert_eq!(lengths, [30.0, 50.0, 20.0, 40.0, 90.0, 10.0]);
+        let full = plan::plan(&profile, &steps, plan::homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
+        let stops = plot_stops(&profile, &steps, &full, Some(100.0));
+        // At most 100 mm per part: 30 + 50 + 20 = 100 (part 1); 40 (part 2, + 90 would be 130); 90 (part 3). Layer
+        // "b" starts afresh: its 10 mm need no refill, and it has its delay and pause first.
+        let whys: Vec<(usize, &StopWhy)> = stops.iter().map(|s| (s.layer, &s.why)).collect();
+        assert_eq!(
+            whys,
+            [
+                (0, &StopWhy::Refill { part: 2 }),
+                (0, &StopWhy::Refill { part: 3 }),
+                (1, &StopWhy::Delay { ms: 250 }),
+                (1, &StopWhy::Pause),
+            ]
+        );
+        // Each stop is the travel to its stroke: strokes 3, 4 and 5.
+        for (s, stroke) in stops.iter().zip([3, 4, 5, 5]) {
+            assert_eq!((full.blocks[s.block].kind, full.blocks[s.block].stroke), (MoveKind::Travel, stroke));
+            assert!(full.blocks[..s.block].iter().all(|b| b.stroke < stroke));
+        }
+        // Without --split-distance: only the codes.
+        assert_eq!(plot_stops(&profile, &steps, &full, None).len(), 2);
+        // A split shorter than every stroke: a refill before each stroke but a layer's first.
+        assert_eq!(plot_stops(&profile, &steps, &full, Some(5.0)).len(), 4 + 2);
+    }
+
+    /// Records the pauses and says `answer` to each.
+    struct Pauses {
+        seen: Vec<PauseRequest>,
+        answer: crate::job::progress::PenChangeChoice,
+    }
+
+    impl crate::job::progress::PlotEvents for Pauses {
+        fn progress(&mut self, _: &crate::job::progress::JobProgress) {}
+        fn plot_pause(&mut self, p: &PauseRequest) -> crate::job::progress::PenChangeChoice {
+            self.seen.push(p.clone());
+            self.answer
+        }
+    }
+
+    /// Two layers named `first` (a 100 mm line along X from (20, 10)) and `second` (a 20 mm line at Y 30), one
+    /// pen; plotted on our simulated firmware: (the plan, the executed ticks, the pauses seen).
+    fn plot_named(first: &str, second: &str) -> (MotionPlan, u64, Vec<PauseRequest>) {
+        use crate::link::machine::PlotMachine as _;
+        let mut profile = MachineProfile::default_plotter();
+        profile.pens.clear();
+        let mut a = Layer::new(first);
+        a.paths = vec![line(10.0, 100.0)];
+        let mut b = Layer::new(second);
+        b.paths = vec![line(30.0, 20.0)];
+        let steps = drawing_to_steps(&profile, &Drawing { layers: vec![a, b], page_mm: None }).unwrap();
+        let cfg = plan::machine_config(&profile).unwrap();
+        let mut s =
+            crate::link::session::Session::connect(crate::link::sim::SimTransport::new(cfg, None), "sim").unwrap();
+        let mut events = Pauses { seen: vec![], answer: crate::job::progress::PenChangeChoice::Continue };
+        let out = crate::job::plot(&mut s, &profile, &steps, true, false, None, &mut events).unwrap();
+        let executed = s.busy_ticks() - out.busy_before;
+        (out.plan, executed, events.seen)
+    }
+
+    /// The drawing speed and the pen-down height of a layer's codes reach the plan, and its delay and pause the
+    /// plot. The 100 mm line from rest to rest at feed v and 1500 mm/s² takes 100/v + v/1500 s: 1.706 667 s at
+    /// the pen's 60 mm/s, 3.353 333 s at +S50 (30 mm/s). +H25 puts the pen down a quarter of the way from its
+    /// down Z (0 mm) to its up Z (4 mm): 1 mm, 400 steps at 400 steps/mm. +D250 adds 0.25 s before the second
+    /// layer, and ! parks and asks before it.
+    #[test]
+    fn layer_codes_reach_the_plan_and_the_plot() {
+        let draw_s = |p: &MotionPlan, stroke: usize| -> f64 {
+            let t: u32 =
+                p.blocks.iter().filter(|b| b.kind == MoveKind::Draw && b.stroke == stroke).map(|b| b.ticks).sum();
+            f64::from(t) / 1e6
+        };
+        let cruise = |p: &MotionPlan, stroke: usize| {
+            p.blocks
+                .iter()
+                .filter(|b| b.kind == MoveKind::Draw && b.stroke == stroke)
+                .map(|b| b.block.cruise_rate)
+                .max()
+                .unwrap()
+        };
+        let down_z = |p: &MotionPlan, stroke: usize| {
+            let i = p.blocks.iter().position(|b| b.kind == MoveKind::PenDown && b.stroke == stroke).unwrap();
+            p.position_after(i)[2]
+        };
+        let (plain, plain_ticks, none) = plot_named("1 a", "2 b");
+        assert!(none.is_empty());
+        // The drop and the lift meet the line at a corner speed of a few mm/s, which saves a few ms of ramp.
+        assert!((draw_s(&plain, 0) - (100.0 / 60.0 + 60.0 / 1500.0)).abs() < 5e-3, "{}", draw_s(&plain, 0));
+        assert_eq!(cruise(&plain, 0), 60 * 80, "60 mm/s at 80 steps/mm");
+        assert_eq!(down_z(&plain, 0), 0);
+        let (coded, coded_ticks, seen) = plot_named("1+S50+H25 a", "!2+D250 b");
+        assert!((draw_s(&coded, 0) - (100.0 / 30.0 + 30.0 / 1500.0)).abs() < 5e-3, "{}", draw_s(&coded, 0));
+        assert_eq!(cruise(&coded, 0), 30 * 80, "30 mm/s at 80 steps/mm");
+        assert_eq!(down_z(&coded, 0), 400);
+        // The second layer keeps the pen's own speed and height.
+        assert!((draw_s(&coded, 1) - draw_s(&plain, 1)).abs() < 1e-6);
+        assert_eq!(down_z(&coded, 1), 0);
+        assert_eq!(seen.len(), 1);
+        assert_eq!(seen[0].why, PauseWhy::Layer);
+        assert_eq!(seen[0].ask(), "paused before layer \"!2+D250 b\" (its name starts with !)");
+        // Executed on the simulator: the plan's own time (the slower first layer, the higher drop, the park and
+        // the way back) plus the delay.
+        let park_and_back = coded_ticks - coded.total_ticks - 250_000;
+        assert!(coded_ticks > coded.total_ticks + 250_000, "{coded_ticks} vs {}", coded.total_ticks);
+        assert!(park_and_back > 0 && plain_ticks == plain.total_ticks, "{park_and_back} {plain_ticks}");
+        // The delay alone: the same plan, executed 0.25 s longer, and the plot goes on from rest, so the pen,
+        // waiting at its clearance height (1 mm), is lifted to its up height (4 mm) and brought back: two 3 mm Z
+        // moves at 25 mm/s and 500 mm/s² (3/25 + 25/500 = 0.17 s each) with their 50 ms settles, 0.44 s; the
+        // travel that follows starts from rest (a few ms).
+        let (delayed, delayed_ticks, _) = plot_named("1 a", "2+D250 b");
+        assert_eq!(delayed.total_ticks, plain.total_ticks);
+        let extra = delayed_ticks - plain_ticks;
+        assert!(extra.abs_diff(250_000 + 440_000) < 5_000, "{extra}");
+    }
+}
