@@ -91,13 +91,13 @@ pub struct TraceArgs {
     /// Contrast around mid-gray: 1 keeps the picture's, 2 doubles it, below 1 flattens it
     #[arg(long, default_value_t = ToneCurve::default().contrast, help_heading = "Image tracing")]
     pub contrast: f64,
-    /// Closest spacing of hatch lines in mm for the tone scheme (default: 1.5 x the pen width)
+    /// Closest spacing of hatch lines in mm for the tone scheme (default: 1.5 x the pen width); tones darker than three crossed families reach there are filled solid, lines one pen width apart at black
     #[arg(long, help_heading = "Image tracing")]
     pub min_spacing: Option<f64>,
     /// Join every stipple dot into one continuous line (stipple mode)
     #[arg(long, help_heading = "Image tracing")]
     pub tsp: bool,
-    /// Number of hatched gray levels, 1-8 (hatch mode)
+    /// Number of hatched gray levels, 1-16 (hatch mode; 1-8 with the directions and density schemes)
     #[arg(long, default_value_t = HatchOptions::default().levels, help_heading = "Image tracing")]
     pub levels: u8,
     /// Hatch line spacing in mm (hatch mode, directions and density schemes; the tone scheme computes its own)

@@ -1,7 +1,8 @@
 //! Hatch mode: gray tones as parallel hatch lines clipped exactly to gray-level regions.
 //!
 //! The default scheme, [`HatchScheme::Tone`], reads the tone model ([`super::tone`]): the darkness range is cut
-//! into `levels` bands (band `j` holds the pixels whose darkness rounds to `j / levels`; band 0 is paper and gets
+//! into `levels` bands, even in CIE lightness (band `j` holds the pixels whose L* rounds to `100 · (1 − j / levels)`;
+//! band 0 is paper and gets
 //! nothing), and each band's region is hatched with the ladder rung for the band's mean darkness: one family at the
 //! spacing whose coverage `pen / spacing` equals it, then a second family crossing at 90°, then a third at 45°, each
 //! spacing computed so the crossed coverage `1 − (1 − c)^n` is the band's darkness. The bands do not nest; each
@@ -26,7 +27,7 @@
 use super::bitmap::Bitmap;
 use super::contour::trace_contours;
 use super::error::RasterError;
-use super::tone::{DarknessMap, Ladder, Rung};
+use super::tone::{DarknessMap, Ladder, Rung, lightness_cie, line_coverage, luminance_from_cie};
 use super::zigzag;
 use image::GrayImage;
 use kurbo::Point;
@@ -74,7 +75,7 @@ impl fmt::Display for HatchScheme {
 /// Hatch settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HatchOptions {
-    /// Number of gray levels that get hatching (1–8).
+    /// Number of gray levels that get hatching (1–16 with the tone scheme, 1–8 with the others).
     pub levels: u8,
     /// Line spacing of one level's family, in mm.
     pub spacing_mm: f64,
@@ -93,12 +94,14 @@ impl Default for HatchOptions {
 impl HatchOptions {
     /// Range checks.
     pub fn validate(&self) -> Result<(), RasterError> {
-        if !(1..=8).contains(&self.levels) {
-            return Err(RasterError::InvalidOption {
-                name: "--levels",
-                value: self.levels.to_string(),
-                reason: "must be 1 to 8",
-            });
+        // The tone scheme's bands are tones; the older schemes add a family (or halve the spacing) per level.
+        let (most, reason) = if self.scheme == HatchScheme::Tone {
+            (16, "must be 1 to 16")
+        } else {
+            (8, "must be 1 to 8 with the directions and density schemes")
+        };
+        if !(1..=most).contains(&self.levels) {
+            return Err(RasterError::InvalidOption { name: "--levels", value: self.levels.to_string(), reason });
         }
         if !(self.spacing_mm.is_finite() && self.spacing_mm > 0.0) {
             return Err(RasterError::InvalidOption {
@@ -195,7 +198,7 @@ pub fn hatch(
 pub struct ToneBand {
     /// Band number, 1 = lightest.
     pub band: usize,
-    /// Mean target darkness of the band's pixels.
+    /// Target darkness of the band: that of its pixels' mean L*.
     pub darkness: f64,
     /// The ladder rung drawn for it.
     pub rung: Rung,
@@ -212,10 +215,13 @@ pub struct ToneBand {
 /// Turns between the ladder's families, degrees from the base angle.
 const FAMILY_TURNS: [f64; 3] = [0.0, 90.0, 45.0];
 
-/// The band (0 = paper … `levels`) of a darkness.
+/// The band (0 = paper … `levels`) of a darkness. Bands split CIE lightness evenly (band `j` holds the tones whose
+/// L* rounds to `100 · (1 − j / levels)`), as the eye tells tones apart: split evenly in darkness instead, the
+/// darkest band would span L* 0 to 22 at four levels, and a near-black plotted at its mean looks dark gray.
 fn band_of(d: f32, levels: usize) -> usize {
+    let l = lightness_cie(1.0 - f64::from(d).clamp(0.0, 1.0));
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_precision_loss)]
-    let b = (f64::from(d) * levels as f64 + 0.5).floor().max(0.0) as usize;
+    let b = ((100.0 - l) / 100.0 * levels as f64 + 0.5).floor().max(0.0) as usize;
     b.min(levels)
 }
 
@@ -234,10 +240,11 @@ pub fn tone_hatch(
     let (w, h) = (map.width, map.height);
     let smooth = smoothed(map, ladder.min_spacing_mm / pixel_mm);
     let bands: Vec<u8> = smooth.iter().map(|&d| u8::try_from(band_of(d, n)).unwrap_or(u8::MAX)).collect();
+    // Each band is drawn at the darkness of its pixels' mean lightness (the mean L*, which the eye averages).
     let mut sums = vec![(0.0f64, 0usize); n + 1];
     for (&b, &d) in bands.iter().zip(&map.data) {
         let s = &mut sums[usize::from(b)];
-        s.0 += f64::from(d);
+        s.0 += lightness_cie(1.0 - f64::from(d));
         s.1 += 1;
     }
     let inked = Bitmap::from_fn(w, h, |x, y| bands[y * w + x] > 0);
@@ -247,27 +254,77 @@ pub fn tone_hatch(
             continue;
         }
         #[allow(clippy::cast_precision_loss)] // pixel counts are far below 2^53
-        let darkness = sum / count as f64;
-        let rung = ladder.rung(darkness);
+        let darkness = 1.0 - luminance_from_cie(sum / count as f64);
+        let rung = ladder.rung_to_black(darkness);
         if rung.families == 0 {
             continue;
         }
         let mask = Bitmap::from_fn(w, h, |x, y| usize::from(bands[y * w + x]) == band);
         let (region, specks_dropped) = region_of(&mask, min_area_px);
         let period = rung.spacing_mm / pixel_mm;
-        let families: Vec<LineFamily> = FAMILY_TURNS[..usize::from(rung.families)]
-            .iter()
-            .map(|t| LineFamily { angle: (angle_deg + t).to_radians(), period, phase: 0.0 })
-            .collect();
+        let pen_px = ladder.pen_mm / pixel_mm;
+        #[allow(clippy::cast_precision_loss)] // pixel counts are far below 2^53
+        let area = count as f64;
+        let target = line_coverage(pen_px, period) * area;
         let inside = |a: Point, b: Point| connector_inside(&inked, a, b);
+        let mut families = Vec::new();
         let mut strokes = Vec::new();
-        for f in &families {
-            let lines = line_spans(&region, f);
-            strokes.extend(zigzag::join(&lines, f, 2.0 * period.max(1.0), inside));
+        for t in &FAMILY_TURNS[..usize::from(rung.families)] {
+            let mut f = LineFamily { angle: (angle_deg + t).to_radians(), period, phase: 0.0 };
+            let mut s = family_strokes(&region, &f, pen_px, inside);
+            // The zig-zags' connectors and short spans add ink the spacing did not count: respace once so the
+            // family's ink matches its share of the band (never closer than the pen's width).
+            let ink = stroke_ink(&s, pen_px);
+            if ink > 0.0 && target > 0.0 {
+                let respaced = (period * ink / target).clamp(period / 2.0, period * 2.0).max(pen_px);
+                if (respaced - period).abs() > 1e-3 * period {
+                    f.period = respaced;
+                    s = family_strokes(&region, &f, pen_px, inside);
+                }
+            }
+            families.push(f);
+            strokes.extend(s);
         }
         out.push(ToneBand { band, darkness, rung, region, families, strokes, specks_dropped });
     }
     out
+}
+
+/// One family's strokes over a region, as the pen draws them: each span pulled in by the pen's radius at both ends
+/// (so its round caps end on the region's boundary instead of inking the next band), spans too short for that
+/// kept as a dot at their middle when the dot's ink (`π r²`) is no more than twice the span's (`w · length`), and
+/// the spans joined into zig-zags.
+fn family_strokes(
+    region: &[Vec<Point>],
+    f: &LineFamily,
+    pen_px: f64,
+    inside: impl Fn(Point, Point) -> bool,
+) -> Vec<Vec<Point>> {
+    let r = pen_px / 2.0;
+    let mut lines = line_spans(region, f);
+    for line in &mut lines {
+        line.spans = line
+            .spans
+            .iter()
+            .filter_map(|&(a, b)| {
+                if b - a > 2.0 * r {
+                    Some((a + r, b - r))
+                } else if 2.0 * pen_px * (b - a) >= std::f64::consts::PI * r * r {
+                    let m = (a + b) / 2.0;
+                    Some((m, m))
+                } else {
+                    None
+                }
+            })
+            .collect();
+    }
+    zigzag::join(&lines, f, 2.0 * f.period.max(1.0), inside)
+}
+
+/// The paper strokes `pen` wide cover, counting each stroke's two round caps and no overlaps.
+fn stroke_ink(strokes: &[Vec<Point>], pen: f64) -> f64 {
+    let caps = std::f64::consts::PI * pen * pen / 4.0;
+    strokes.iter().map(|s| s.windows(2).map(|e| e[0].distance(e[1])).sum::<f64>() * pen + caps).sum()
 }
 
 /// The darkness map blurred with a Gaussian of `sigma_px` (skipped below half a pixel), so that bands follow the
@@ -422,7 +479,8 @@ mod tests {
         let g = GrayImage::from_pixel(100, 100, Luma([128]));
         let (bands, strokes) = tone_strokes_mm(&g, 4, 0.3);
         assert_eq!(bands.len(), 1);
-        assert_eq!(bands[0].band, 3);
+        // L* 53.6: (100 − 53.6) / 100 · 4 = 1.86 rounds to band 2 of 4.
+        assert_eq!(bands[0].band, 2);
         assert_eq!(bands[0].rung.families, 2);
         assert!((bands[0].rung.spacing_mm - 0.3 / (1.0 - 0.216f64.sqrt())).abs() < 1e-3, "{:?}", bands[0].rung);
         // Rendered at 0.3 mm on a 0.02 mm grid, away from the 30 mm square's edges: the ink fraction.
@@ -448,13 +506,47 @@ mod tests {
         let (bands, strokes) = tone_strokes_mm(&g, 4, 0.3);
         // The square's edge, smoothed at the closest spacing (1.5 px), rings it with lighter bands.
         let darkest = bands.last().unwrap();
-        assert_eq!((darkest.band, darkest.rung.families, darkest.rung.spacing_mm), (4, 3, 0.45));
-        // 1 − (1 − 2/3)³ = 0.963 of the square, nothing around it.
+        // Black is past three crossed families (26/27 = 0.963): filled solid, lines one pen width apart.
+        assert_eq!((darkest.band, darkest.rung.families, darkest.rung.spacing_mm), (4, 1, 0.3));
         let mut grid = InkGrid::new(900, 900, 0.02);
         grid.draw(&strokes, 0.3);
         let f = grid.fraction(200, 700, 200, 700);
-        assert!((f - 26.0 / 27.0).abs() < 0.02, "ink fraction {f}");
+        // More than three crossed families give (26/27 = 0.963); the rest is the grid's cells on the lines' edges.
+        assert!(f > 0.975, "ink fraction {f}");
         assert_eq!(grid.fraction(0, 900, 0, 120), 0.0);
+    }
+
+    #[test]
+    fn bands_split_lightness_evenly() {
+        // L* 30 is luminance ((30 + 16) / 116)³ = 0.06236, darkness 0.93764: with 4 bands (100 − 30) / 100 · 4 =
+        // 2.8 rounds to band 3 (split evenly in darkness it would be 0.93764 · 4 = 3.75, band 4 with black).
+        let d30 = 1.0 - ((30.0f64 + 16.0) / 116.0).powi(3);
+        #[allow(clippy::cast_possible_truncation)]
+        let d30 = d30 as f32;
+        assert_eq!(band_of(d30, 4), 3);
+        // L* 10 (luminance 0.01126) with 8 bands: 90 / 100 · 8 = 7.2 → band 7; black is band 8, white band 0.
+        #[allow(clippy::cast_possible_truncation)]
+        let d10 = (1.0 - ((10.0f64 + 16.0) / 116.0).powi(3)) as f32;
+        assert_eq!(band_of(d10, 8), 7);
+        assert_eq!((band_of(1.0, 8), band_of(0.0, 8)), (8, 0));
+    }
+
+    #[test]
+    fn spans_end_a_pen_radius_inside_the_region_and_the_ink_matches_the_band() {
+        // A flat 200 × 200 px picture (0.1 mm px) of darkness 0.25 with a 0.3 mm (3 px) pen: horizontal lines 12 px
+        // apart. Every span is pulled in by 1.5 px at both ends, so with its round caps it ends on the picture's edge.
+        let map = DarknessMap { width: 200, height: 200, data: vec![0.25; 40_000] };
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        let bands = tone_hatch(&map, 16, &ladder, 0.0, 0.1, 0.0);
+        assert_eq!(bands.len(), 1);
+        let xs: Vec<f64> = bands[0].strokes.iter().flatten().map(|p| p.x).collect();
+        let (lo, hi) = xs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!((lo - 1.5).abs() < 1e-9 && (hi - 198.5).abs() < 1e-9, "{lo} {hi}");
+        // The ink (strokes 3 px wide, caps and connectors included) is the band's darkness times its area, 10⁴ px²,
+        // within a twentieth: the spacing was corrected for the connectors.
+        let ink = stroke_ink(&bands[0].strokes, 3.0);
+        let want = bands[0].darkness * 40_000.0;
+        assert!((ink - want).abs() < want / 20.0, "ink {ink} vs {want}");
     }
 
     proptest! {

@@ -116,6 +116,12 @@ pub fn lightness_cie(y: f64) -> f64 {
     if y > e { 116.0 * y.cbrt() - 16.0 } else { y * 24389.0 / 27.0 }
 }
 
+/// Linear luminance `y` (0–1, white = 1) of a CIE 1976 lightness L* (0–100): the inverse of [`lightness_cie`].
+pub fn luminance_from_cie(l: f64) -> f64 {
+    let l = l.clamp(0.0, 100.0);
+    if l > 8.0 { ((l + 16.0) / 116.0).powi(3) } else { l * 27.0 / 24389.0 }
+}
+
 /// Fraction of the paper covered by parallel lines `pen_mm` wide spaced `spacing_mm` apart: `min(1, w / s)`.
 pub fn line_coverage(pen_mm: f64, spacing_mm: f64) -> f64 {
     if spacing_mm <= 0.0 { 1.0 } else { (pen_mm / spacing_mm).min(1.0) }
@@ -182,6 +188,19 @@ impl Ladder {
         let spacing_mm = (self.pen_mm / c).max(self.min_spacing_mm);
         let coverage = 1.0 - (1.0 - line_coverage(self.pen_mm, spacing_mm)).powi(i32::from(n));
         Rung { families: n, spacing_mm, coverage }
+    }
+
+    /// The rung for `darkness` as [`Ladder::rung`], except past the ladder's darkest tone: there three crossed
+    /// families would stay gray (pen 0.3 mm, closest spacing 0.45 mm: 0.963 ink, L* 22 where black is 0), so the
+    /// tone is filled solid instead, one family of lines `pen / darkness` apart (down to touching at black), which
+    /// also spends a third of the ink.
+    pub fn rung_to_black(&self, darkness: f64) -> Rung {
+        let d = if darkness.is_nan() { 0.0 } else { darkness.min(1.0) };
+        if d <= self.darkest() {
+            return self.rung(d);
+        }
+        let spacing_mm = self.pen_mm / d;
+        Rung { families: 1, spacing_mm, coverage: line_coverage(self.pen_mm, spacing_mm) }
     }
 }
 
@@ -253,6 +272,12 @@ mod tests {
         assert!(close(lightness_cie(0.5), 76.069, 0.01));
         assert_eq!(lightness_cie(1.0), 100.0);
         assert_eq!(lightness_cie(0.0), 0.0);
+        // And back: L* 50 is ((50 + 16) / 116)³ = 0.18419; L* 4 is on the linear segment, 4 · 27 / 24389.
+        assert!(close(luminance_from_cie(50.0), 0.184_19, 1e-5));
+        assert!(close(luminance_from_cie(4.0), 108.0 / 24389.0, 1e-12));
+        for y in [0.001, 0.05, 0.2159, 0.5, 0.9] {
+            assert!(close(luminance_from_cie(lightness_cie(y)), y, 1e-12));
+        }
     }
 
     #[test]
@@ -276,5 +301,20 @@ mod tests {
         let r = l.rung(1.0);
         assert_eq!((r.families, r.spacing_mm), (3, 0.6));
         assert!(close(r.coverage, 0.875, 1e-12) && close(l.darkest(), 0.875, 1e-12));
+    }
+
+    #[test]
+    fn past_three_families_the_ladder_fills_solid_to_black() {
+        // Pen 0.3 mm, closest spacing 0.45 mm: three families reach 1 − (1/3)³ = 26/27 = 0.963 at most.
+        let l = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        assert_eq!(l.rung_to_black(0.5), l.rung(0.5));
+        assert_eq!(l.rung_to_black(26.0 / 27.0), l.rung(26.0 / 27.0));
+        // Darker: one family, 0.3 / 0.98 = 0.30612 mm apart, covering 0.98; black: lines touching, all ink.
+        let r = l.rung_to_black(0.98);
+        assert_eq!(r.families, 1);
+        assert!(close(r.spacing_mm, 0.306_122_4, 1e-6) && close(r.coverage, 0.98, 1e-12));
+        let r = l.rung_to_black(1.0);
+        assert_eq!((r.families, r.spacing_mm, r.coverage), (1, 0.3, 1.0));
+        assert_eq!(l.rung_to_black(0.0).families, 0);
     }
 }
