@@ -1,7 +1,7 @@
 //! The plot studio: several plotters served from one computer, fed from one job queue that survives a crash.
 //!
 //! It sits above the plot job: a job in the queue is a drawing with its layout and plot options, for one named
-//! machine or for the first idle machine whose work area fits it, and each machine's worker (to come) takes its
+//! machine or for the first idle machine whose work area fits it, and each machine's worker takes its
 //! next job from the queue and drives the same job API the `plot` command uses.
 //!
 //! - [`store`]: the SQLite database under the state directory that holds the machines, the jobs (with the
@@ -11,6 +11,12 @@
 //!   record its end — and what a crash leaves behind: a job that was plotting comes back *interrupted*, waiting for
 //!   the operator to confirm the paper is still in place, never restarted on its own.
 //! - [`lock`]: one process at a time opens a folder's queue;
+//! - [`machines`]: the machines as the user names them (`--machine`, a studio file);
+//! - [`job_args`]: a job's stored plot flags, read as `plotter plot` reads them, and whether its paper fits a
+//!   machine;
+//! - [`running`]: a running studio — the queue and the machines, and what the operator does to them;
+//! - [`status`]: what each machine is doing and what the operator asked of it;
+//! - [`worker`]: one thread per machine that owns its link and plots the jobs the queue gives it;
 //! - [`state`]: where a job is in its life (queued, plotting, paused, interrupted, done, failed, cancelled);
 //! - [`error`]: the studio's errors, each naming the job, machine or file concerned.
 //!
@@ -27,7 +33,12 @@
 //! ```
 
 pub mod error;
+pub mod job_args;
 pub mod lock;
+pub mod machines;
 pub mod queue;
+pub mod running;
 pub mod state;
+pub mod status;
 pub mod store;
+pub mod worker;

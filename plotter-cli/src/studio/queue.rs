@@ -618,6 +618,28 @@ impl Queue {
         })
     }
 
+    /// A job on its machine was cut short without an end the operator chose (its machine's port was lost, the
+    /// studio was stopped): it becomes interrupted, keeps its machine and waits for the operator as a job a crash
+    /// left behind does; `why` goes to its history's attempt.
+    pub fn interrupt(&mut self, id: i64, why: &str) -> Result<()> {
+        self.store.change(|tx| {
+            let s = summary(tx, id)?;
+            if !matches!(s.state, JobState::Plotting | JobState::Paused) {
+                return Err(StudioError::WrongState { id, state: s.state, action: "interrupted" });
+            }
+            let text = format!("interrupted: {}", cut(why, MAX_OUTCOME_BYTES - 16));
+            tx.execute("UPDATE jobs SET state = 'interrupted', resume = 0, stop_requested = 0 WHERE id = ?1", [id])
+                .and_then(|_| {
+                    tx.execute(
+                        "UPDATE history SET ended = ?2, outcome = ?3 WHERE job = ?1 AND ended IS NULL",
+                        params![id, now_ms(), text],
+                    )
+                })
+                .map_err(db("marking a job interrupted"))?;
+            Ok(())
+        })
+    }
+
     /// A job's attempts, oldest first.
     pub fn history(&self, id: i64) -> Result<Vec<Attempt>> {
         summary(self.store.conn(), id)?;
@@ -779,6 +801,26 @@ mod tests {
         assert_eq!((job.summary.id, job.summary.attempts), (first, 2));
         let h = q.history(first).unwrap();
         assert_eq!(h.iter().map(|a| a.outcome.as_deref()).collect::<Vec<_>>(), [Some("failed: port lost"), None]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_job_cut_short_by_its_port_is_interrupted_and_resumes_on_confirm() {
+        let dir = temp_dir("cut-short");
+        let mut q = Queue::open_in(&dir).unwrap();
+        q.add_machine("left", "/dev/ttyACM0", "ours", None).unwrap();
+        let id = q.add(&paper("a.svg", "A4").for_machine("left")).unwrap();
+        let waiting = q.add(&paper("b.svg", "A4").for_machine("left")).unwrap();
+        q.claim_next("left", &mut |_| true).unwrap().unwrap();
+        q.interrupt(id, "lost the port").unwrap();
+        let s = q.get(id).unwrap();
+        assert_eq!((s.state, s.claimed_by.as_deref()), (JobState::Interrupted, Some("left")));
+        assert_eq!(q.history(id).unwrap()[0].outcome.as_deref(), Some("interrupted: lost the port"));
+        assert!(matches!(q.claim_next("left", &mut |_| true), Err(StudioError::Busy { job, .. }) if job == id));
+        assert!(matches!(q.interrupt(waiting, "x"), Err(StudioError::WrongState { state: JobState::Queued, .. })));
+        q.confirm_resume(id).unwrap();
+        let again = q.claim_next("left", &mut |_| true).unwrap().unwrap();
+        assert_eq!((again.summary.id, again.summary.resume, again.summary.attempts), (id, true, 2));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

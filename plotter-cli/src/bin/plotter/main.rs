@@ -66,6 +66,8 @@ enum Command {
     Optimize(cmd::optimize::OptimizeCmdArgs),
     /// Run the local web app: drop a drawing on the page, plot it, watch it (http://127.0.0.1:8040/)
     Serve(cmd::serve::ServeArgs),
+    /// Queue a drawing on a running studio (`plotter serve --machine ...`), list, cancel or wait for its jobs
+    Queue(cmd::queue::QueueArgs),
 }
 
 fn main() {
@@ -94,6 +96,7 @@ fn main() {
         Command::Trace(args) => cmd::trace::run(args),
         Command::Optimize(args) => cmd::optimize::run(args),
         Command::Serve(args) => cmd::serve::run(args),
+        Command::Queue(args) => cmd::queue::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -13,6 +13,7 @@ pub(crate) mod plot;
 pub(crate) mod plot_as_written;
 pub(crate) mod preview;
 pub(crate) mod print;
+pub(crate) mod queue;
 pub(crate) mod resume;
 pub(crate) mod serve;
 pub(crate) mod sim;

@@ -53,6 +53,43 @@ pub(crate) struct ServeArgs {
     /// state directory, where `plotter resume --list` looks].
     #[arg(long)]
     pub(crate) journal_dir: Option<PathBuf>,
+    /// Run a studio: a plotter as NAME=DEVICE[,firmware=ours|grbl|ebb|auto][,profile=FILE or model][,paper=PAPER]
+    /// (repeat for each plotter; DEVICE `sim` is a simulated plotter). The page then shows every machine side by
+    /// side, fed from one job queue (`plotter queue add`).
+    #[arg(long = "machine", value_name = "NAME=DEVICE[,KEY=VALUE]")]
+    pub(crate) machines: Vec<String>,
+    /// Run a studio with the machines of this TOML file: `[[machines]]` tables with name, device, firmware,
+    /// profile and paper.
+    #[arg(long)]
+    pub(crate) studio: Option<PathBuf>,
+    /// The studio's folder, for its job queue (a database), the queued drawings and the plots' journals
+    /// [default: the studio folder of the user's state directory].
+    #[arg(long)]
+    pub(crate) state: Option<PathBuf>,
+}
+
+/// The studio the flags ask for (`None`: the single-machine app), opened in its folder.
+fn open_studio(args: &ServeArgs) -> anyhow::Result<Option<std::sync::Arc<plotter_host::studio::running::Studio>>> {
+    use plotter_host::studio::{machines, running};
+    if args.machines.is_empty() && args.studio.is_none() {
+        if args.state.is_some() {
+            anyhow::bail!("--state is the studio's folder: give the studio's machines with --machine or --studio");
+        }
+        return Ok(None);
+    }
+    let mut specs = match &args.studio {
+        Some(file) => machines::read_studio_file(file)?,
+        None => Vec::new(),
+    };
+    for m in &args.machines {
+        specs.push(machines::parse_machine(m)?);
+    }
+    let dir = match &args.state {
+        Some(dir) => dir.clone(),
+        None => plotter_host::state_dir::state_dir()?.join("studio"),
+    };
+    let options = running::StudioOptions { sim_speed: args.sim_speed, ..running::StudioOptions::default() };
+    Ok(Some(running::Studio::open(&dir, specs, options)?))
 }
 
 /// A duration flag's value, in (0, 3600] s.
@@ -118,6 +155,7 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
     // In (0, 1024] MB: far inside usize.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let max_upload = (args.max_upload_mb * 1_048_576.0) as usize;
+    let studio = open_studio(args)?;
     // Before the runtime's threads: a signal stops the plot with the pen up, then the server (see serve::shutdown).
     plotter_host::stop::Stop::install_signals().context("cannot take the termination signals")?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -142,6 +180,18 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
         let _ = std::io::stdout().flush();
         if args.open {
             open_browser(&url);
+        }
+        if let Some(studio) = studio {
+            return match serve::studio_app::serve(listener, studio, limits).await {
+                Some(ended) if ended.interrupted => {
+                    Err(plotter_host::stop::Stopped { cause: ended.cause, doing: "the studio's plots".into() }.into())
+                }
+                Some(ended) => {
+                    println!("plotter serve: ended on {}", ended.cause);
+                    Ok(())
+                }
+                None => Ok(()),
+            };
         }
         let config = serve::state::Config {
             local,

@@ -16,7 +16,9 @@
 //! - [`command`]: what the HTTP side asks the worker;
 //! - [`worker`]: the thread that owns the link to the machine and runs plots;
 //! - [`web_journal`]: the resume journals of the web app's serial plots;
-//! - [`shutdown`]: ending on a signal with the plot stopped and the pen up.
+//! - [`shutdown`]: ending on a signal with the plot stopped and the pen up;
+//! - [`studio_app`] and [`studio_api`]: the studio (`--machine`, `--studio`): several machines fed from one job
+//!   queue, with their API and page.
 //!
 //! The HTTP side never blocks on the machine: it sends commands to the worker and the worker reports through
 //! events, so a long plot, a homing cycle or a slow serial port never holds up a page.
@@ -35,6 +37,8 @@ pub(crate) mod pen_speed;
 pub(crate) mod safety;
 pub(crate) mod shutdown;
 pub(crate) mod state;
+pub(crate) mod studio_api;
+pub(crate) mod studio_app;
 pub(crate) mod web_journal;
 pub(crate) mod worker;
 

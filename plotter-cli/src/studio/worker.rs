@@ -1,0 +1,453 @@
+//! One machine's worker: a thread that owns the machine's link and plots the jobs the queue gives it.
+//!
+//! The worker opens the machine's port (or the simulated plotter) and greets its firmware; then, while the studio
+//! runs, it claims the machine's next job ([`super::queue::Queue::claim_next`]: its own jobs first, then the first
+//! job for any machine whose paper fits it), makes the job's drawing ready from its stored bytes and flags exactly
+//! as `plotter plot` does ([`crate::job::load::load_steps`]), and plots it through the same job API
+//! ([`crate::job::plot`]) with a journal in the studio's folder — or, for a job the operator confirmed after an
+//! interruption, continues it from that journal ([`crate::job::resume`]).
+//!
+//! While it plots it reports progress (per cent of the plan, time left from the plan, the pen's position) and
+//! honours the operator: pause (at the next pen-up) and resume, stop (at the next pen-up; the job ends
+//! cancelled), emergency stop (at once, pen up; cancelled).
+//!
+//! How a job ends: finished → done; stopped by the operator → cancelled; the port lost, or the studio ending
+//! under it → *interrupted*, held by the machine until the operator confirms the paper is still in place (then it
+//! resumes from its journal) or cancels it; anything else → failed, with the reason. A port that cannot be opened
+//! or is lost takes only its own machine off line: the worker reports it and tries again, waiting longer each time
+//! (up to the studio's `max_retry`), and the machine comes back when its port does.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use plotter_path::motion::plan::{self, Lookahead};
+use serde::{Deserialize, Serialize};
+
+use super::job_args::JobArgs;
+use super::machines::{MachineSpec, SIM_DEVICE};
+use super::queue::{Job, Outcome};
+use super::running::Studio;
+use super::state::JobState;
+use super::status::{Activity, Slot};
+use crate::Trouble;
+use crate::job::progress::{JobProgress, PlotEvents};
+use crate::job::{self, JobOutcome, JournalSpec};
+use crate::link::journal;
+use crate::link::machine::{Connected, Firmware, PlotMachine};
+use crate::link::paced::PacedSim;
+use crate::link::serial::SerialTransport;
+use crate::link::sim::SimTransport;
+use crate::link::stream::PauseChoice;
+use crate::stop::{Stop, StopCause};
+
+/// What the studio's journals record as their plot's source.
+pub const STUDIO_FRONT_END: &str = "plotter studio";
+
+/// The first wait before a failed port is tried again; it doubles up to the studio's `max_retry`.
+const FIRST_RETRY: Duration = Duration::from_millis(500);
+/// How often an idle worker looks at the queue even when nobody says there is work.
+const IDLE_LOOK: Duration = Duration::from_secs(1);
+/// At most this many progress updates a second reach the page.
+const PROGRESS_INTERVAL: Duration = Duration::from_millis(100);
+
+/// A studio journal's source record: enough to check that a resume continues the same job.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct JournalSource {
+    front_end: String,
+    job: i64,
+    drawing: String,
+    machine: String,
+    start: [i32; 4],
+}
+
+/// The machine's link (boxed: the simulator is large).
+enum Link {
+    Sim(Box<Connected<PacedSim>>),
+    Serial(Box<Connected<SerialTransport>>),
+}
+
+impl Link {
+    fn machine(&mut self) -> &mut dyn PlotMachine {
+        match self {
+            Link::Sim(c) => c.machine(),
+            Link::Serial(c) => c.machine(),
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Link::Sim(c) => c.describe(),
+            Link::Serial(c) => c.describe(),
+        }
+    }
+
+    /// The simulator's executed motion time since `busy_before`, seconds (in-process simulators only).
+    fn executed_s(&self, busy_before: u64) -> Option<f64> {
+        match self {
+            Link::Sim(c) => match &**c {
+                // Ticks of a microsecond: far below 2^53.
+                #[allow(clippy::cast_precision_loss)]
+                Connected::Ours(s) => {
+                    Some(s.transport.inner().sim().hal().busy_ticks().saturating_sub(busy_before) as f64 / 1e6)
+                }
+                _ => None,
+            },
+            Link::Serial(_) => None,
+        }
+    }
+}
+
+/// Start one worker thread per machine of `studio`.
+pub fn start(studio: &Arc<Studio>) -> std::io::Result<Vec<JoinHandle<()>>> {
+    studio
+        .slots()
+        .iter()
+        .map(|slot| {
+            let (studio, slot) = (Arc::clone(studio), Arc::clone(slot));
+            std::thread::Builder::new().name(format!("machine {}", slot.spec.name)).spawn(move || run(&studio, &slot))
+        })
+        .collect()
+}
+
+fn connect(spec: &MachineSpec, sim_speed: f64) -> crate::Result<Link> {
+    if spec.device == SIM_DEVICE {
+        let cfg = plan::machine_config(&spec.profile)?;
+        let transport = PacedSim::new(SimTransport::new(cfg, Some(spec.profile.link.baud)), sim_speed);
+        let firmware = if spec.firmware == Firmware::Auto { Firmware::Ours } else { spec.firmware };
+        let c = Connected::connect(transport, "simulated plotter", firmware, &spec.profile)?;
+        return Ok(Link::Sim(Box::new(c)));
+    }
+    let c = crate::link::connect::open_port(&spec.device, spec.profile.link.baud, spec.firmware, &spec.profile)?;
+    if let Connected::Grbl(g) = &c {
+        for m in g.settings.compare(&spec.profile) {
+            eprintln!("{}: warning: GRBL setting {m}", spec.name);
+        }
+    }
+    Ok(Link::Serial(Box::new(c)))
+}
+
+/// Set the machine's status; the studio's version moves only when something changed.
+fn set(studio: &Studio, slot: &Slot, change: impl FnOnce(&mut super::status::MachineStatus)) {
+    let changed = {
+        let mut s = slot.status();
+        let before = s.clone();
+        change(&mut s);
+        *s != before
+    };
+    if changed {
+        studio.touch();
+    }
+}
+
+/// The worker's loop, until the studio ends.
+fn run(studio: &Studio, slot: &Slot) {
+    let name = slot.spec.name.clone();
+    let mut link: Option<Link> = None;
+    let mut retry = FIRST_RETRY;
+    while !studio.ending() {
+        if link.is_none() {
+            set(studio, slot, |s| s.state = Activity::Connecting);
+            match connect(&slot.spec, studio.options().sim_speed) {
+                Ok(l) => {
+                    let what = l.describe();
+                    eprintln!("{name}: connected to {what}");
+                    set(studio, slot, |s| {
+                        s.state = Activity::Idle;
+                        s.connected = Some(what);
+                        s.error = None;
+                    });
+                    link = Some(l);
+                    retry = FIRST_RETRY;
+                }
+                Err(e) => {
+                    let message = format!("{e:#}; trying again in {:.1} s", retry.as_secs_f64());
+                    set(studio, slot, |s| {
+                        s.state = Activity::Offline;
+                        s.connected = None;
+                        s.error = Some(message);
+                    });
+                    let until = Instant::now() + retry;
+                    while Instant::now() < until && !studio.ending() {
+                        std::thread::sleep(Duration::from_millis(50));
+                    }
+                    retry = (retry * 2).min(studio.options().max_retry.max(FIRST_RETRY));
+                    continue;
+                }
+            }
+        }
+        let held = studio.queue().held_by(&name);
+        if let Ok(Some(j)) = &held
+            && j.state == JobState::Interrupted
+        {
+            set(studio, slot, |s| {
+                s.state = Activity::Waiting;
+                s.job = Some(j.id);
+                s.drawing = Some(j.drawing_name.clone());
+            });
+            studio.wait_for_work(IDLE_LOOK);
+            continue;
+        }
+        let claimed = studio.queue().claim_next(&name, &mut |j| Studio::fits(slot, j));
+        match claimed {
+            Ok(Some(job)) => {
+                if let Some(l) = link.as_mut() {
+                    let lost = run_job(studio, slot, l, &job);
+                    if lost {
+                        link = None;
+                    }
+                }
+                studio.wake_workers();
+            }
+            Ok(None) => {
+                set(studio, slot, |s| {
+                    s.state = Activity::Idle;
+                    s.job = None;
+                    s.drawing = None;
+                    s.remaining_s = None;
+                });
+                studio.wait_for_work(IDLE_LOOK);
+            }
+            Err(e) => {
+                set(studio, slot, |s| s.error = Some(format!("cannot take the next job: {e}")));
+                studio.wait_for_work(IDLE_LOOK);
+            }
+        }
+    }
+    set(studio, slot, |s| s.state = Activity::Stopped);
+}
+
+/// Plot `job` on `link` and record how it ended; true when the link was lost.
+fn run_job(studio: &Studio, slot: &Slot, link: &mut Link, job: &Job) -> bool {
+    let id = job.summary.id;
+    slot.clear();
+    set(studio, slot, |s| {
+        s.state = Activity::Plotting;
+        s.job = Some(id);
+        s.drawing = Some(job.summary.drawing_name.clone());
+        s.percent = 0.0;
+        s.remaining_s = None;
+        s.error = None;
+    });
+    let started = Instant::now();
+    let mut events = StudioEvents {
+        studio,
+        slot,
+        job: id,
+        paused_for: Duration::ZERO,
+        last_sent: None,
+        stop_sent: false,
+        operator_stop: false,
+    };
+    let result = plot_job(studio, slot, link, job, &mut events);
+    let plot_time = started.elapsed().saturating_sub(events.paused_for);
+    let operator_stop = events.operator_stop;
+    let mut lost = false;
+    let (recorded, last, error) = match result {
+        Ok(done) => {
+            let text = match done {
+                Some(o) => {
+                    let executed =
+                        link.executed_s(o.busy_before).map_or_else(String::new, |s| format!(", executed {s:.3} s"));
+                    format!(
+                        "job {id} done: {} blocks, {:.1} mm pen-down, planned {:.3} s{executed}",
+                        o.plan.blocks.len(),
+                        o.plan.draw_mm,
+                        o.plan.seconds()
+                    )
+                }
+                None => format!("job {id} done (its journal says it had finished)"),
+            };
+            (studio.queue().finish(id, &Outcome::Done, plot_time), text, None)
+        }
+        Err(e) => {
+            let text = format!("{e:#}");
+            let process_stop = Stop::process().stop_cause().is_some();
+            match Trouble::of(&e) {
+                Trouble::Link => {
+                    lost = true;
+                    let r = studio.queue().interrupt(id, &text);
+                    (
+                        r,
+                        format!("job {id} interrupted: {text}"),
+                        Some(format!("{text} (the machine reconnects when its port is back)")),
+                    )
+                }
+                Trouble::Stopped if (studio.ending() || process_stop) && !operator_stop => {
+                    let r = studio.queue().interrupt(id, "the studio was stopped");
+                    (r, format!("job {id} interrupted: the studio was stopped"), None)
+                }
+                Trouble::Stopped => {
+                    (studio.queue().finish(id, &Outcome::Cancelled, plot_time), format!("job {id} cancelled"), None)
+                }
+                Trouble::Machine | Trouble::Other => {
+                    let r = studio.queue().finish(id, &Outcome::Failed(text.clone()), plot_time);
+                    (r, format!("job {id} failed: {text}"), Some(text))
+                }
+            }
+        }
+    };
+    if let Err(e) = recorded {
+        eprintln!("{}: cannot record the end of job {id}: {e}", slot.spec.name);
+    }
+    eprintln!("{}: {last}", slot.spec.name);
+    set(studio, slot, |s| {
+        s.state = Activity::Idle;
+        s.last = Some(last);
+        s.error = error;
+        s.remaining_s = None;
+        if lost {
+            s.connected = None;
+        }
+    });
+    lost
+}
+
+/// Where a job's drawing is written for the loader: `drawings/<id>-<its file name>` in the studio's folder (the
+/// name keeps its extension, which tells the loader what kind of file it is).
+fn drawing_file(dir: &Path, job: &Job) -> anyhow::Result<PathBuf> {
+    let name = Path::new(&job.summary.drawing_name)
+        .file_name()
+        .and_then(|n| n.to_str())
+        .map(|n| n.chars().map(|c| if c.is_alphanumeric() || ".-_".contains(c) { c } else { '_' }).collect::<String>())
+        .filter(|n| !n.is_empty() && !n.starts_with('.'))
+        .unwrap_or_else(|| "drawing.svg".to_string());
+    let path = dir.join("drawings").join(format!("{}-{name}", job.summary.id));
+    std::fs::write(&path, &job.drawing).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    Ok(path)
+}
+
+/// The journal of job `id`.
+pub fn journal_of(dir: &Path, id: i64) -> PathBuf {
+    dir.join("journals").join(format!("job-{id}.journal"))
+}
+
+/// Make the job's drawing ready and plot it (or continue it from its journal). `None`: its journal says it had
+/// finished (the studio stopped before recording that).
+fn plot_job(
+    studio: &Studio,
+    slot: &Slot,
+    link: &mut Link,
+    job: &Job,
+    events: &mut StudioEvents<'_>,
+) -> anyhow::Result<Option<JobOutcome>> {
+    let id = job.summary.id;
+    let args = JobArgs::from_options(&job.summary.options)?;
+    let file = drawing_file(studio.dir(), job)?;
+    let profile = &slot.spec.profile;
+    let (steps, _) = crate::job::load::load_steps(&file, profile, &args.input, &args.layout, &args.optimize, None)?;
+    plan::check_work_area(profile, &steps).map_err(crate::Error::from)?;
+    let journal_path = journal_of(studio.dir(), id);
+    let back = args.optimize.return_home;
+    let machine = link.machine();
+    if job.summary.resume && journal_path.exists() {
+        let state = journal::load(&journal_path)?;
+        if state.complete {
+            return Ok(None);
+        }
+        let source: JournalSource = serde_json::from_str(&state.source)
+            .map_err(|e| anyhow::anyhow!("{}: not a journal of the studio ({e})", journal_path.display()))?;
+        if source.job != id {
+            anyhow::bail!("{}: the journal of job {}, not of job {id}", journal_path.display(), source.job);
+        }
+        let full = plan::plan_returning(profile, &steps, source.start, Lookahead::Whole, back)?;
+        if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
+            anyhow::bail!(
+                "job {id} no longer gives the plan its journal recorded (the machine's profile changed); cancel it \
+                 and queue it again"
+            );
+        }
+        let o = job::resume(machine, profile, &steps, source.start, &state, &journal_path, false, back, events)?;
+        return Ok(Some(o));
+    }
+    let record = |start: [i32; 4]| -> anyhow::Result<String> {
+        Ok(serde_json::to_string(&JournalSource {
+            front_end: STUDIO_FRONT_END.into(),
+            job: id,
+            drawing: job.summary.drawing_name.clone(),
+            machine: slot.spec.name.clone(),
+            start,
+        })?)
+    };
+    let spec = JournalSpec { path: &journal_path, source: &record };
+    Ok(Some(job::plot(machine, profile, &steps, true, back, Some(spec), events)?))
+}
+
+/// The studio's side of a plot: progress to the machine's status, the operator's requests to the job.
+struct StudioEvents<'a> {
+    studio: &'a Studio,
+    slot: &'a Slot,
+    job: i64,
+    /// Time spent paused (left out of the plot time).
+    paused_for: Duration,
+    last_sent: Option<Instant>,
+    /// A stop's pause was asked for already.
+    stop_sent: bool,
+    /// The operator stopped the job (not the studio ending).
+    operator_stop: bool,
+}
+
+impl PlotEvents for StudioEvents<'_> {
+    fn progress(&mut self, p: &JobProgress) {
+        // Counts far below 2^53: exact in f64.
+        #[allow(clippy::cast_precision_loss)]
+        let percent = if p.total == 0 { 100.0 } else { 100.0 * p.executed as f64 / p.total as f64 };
+        let due = self.last_sent.is_none_or(|t| t.elapsed() >= PROGRESS_INTERVAL) || p.executed == p.total;
+        {
+            let mut s = self.slot.status();
+            s.percent = percent;
+            s.remaining_s = Some(p.eta_s);
+            s.pen_mm = Some([p.pen_mm.x, p.pen_mm.y]);
+            s.pen_down = Some(p.pen_down);
+        }
+        if due {
+            self.last_sent = Some(Instant::now());
+            self.studio.touch();
+        }
+    }
+
+    fn pause_requested(&mut self) -> Option<bool> {
+        if self.slot.peek().stop && !self.stop_sent {
+            self.stop_sent = true;
+            return Some(false);
+        }
+        self.slot.take_pause().then_some(false)
+    }
+
+    fn paused(&mut self, _held: bool) -> PauseChoice {
+        let since = Instant::now();
+        let _ = self.studio.queue().set_paused(self.job, true);
+        set(self.studio, self.slot, |s| s.state = Activity::Paused);
+        let studio = self.studio;
+        let choice = self.slot.wait_for(Duration::from_millis(100), |r| {
+            if r.stop || r.estop || studio.ending() || Stop::process().stop_cause().is_some() {
+                return Some(PauseChoice::Abort);
+            }
+            if std::mem::take(&mut r.resume) {
+                return Some(PauseChoice::Resume);
+            }
+            None
+        });
+        self.paused_for += since.elapsed();
+        if choice == PauseChoice::Resume {
+            let _ = self.studio.queue().set_paused(self.job, false);
+            set(self.studio, self.slot, |s| s.state = Activity::Plotting);
+        } else {
+            let r = self.slot.peek();
+            self.operator_stop = r.stop || r.estop;
+        }
+        choice
+    }
+
+    fn stop_requested(&mut self) -> Option<StopCause> {
+        if self.slot.peek().estop {
+            self.operator_stop = true;
+            return Some(StopCause::Requested);
+        }
+        if self.studio.ending() {
+            return Some(StopCause::Requested);
+        }
+        Stop::process().stop_cause()
+    }
+}
