@@ -182,6 +182,7 @@ impl InputArgs {
             crop: self.crop,
             pen_width_mm: profile.pen.width_mm,
             pens: profile.pens.clone(),
+            hatch_scale: scale,
             ..SvgOptions::default()
         })
     }
@@ -367,8 +368,8 @@ pub const FINEST_TOLERANCE_MM: f64 = 0.0001;
 /// (at least [`FINEST_TOLERANCE_MM`]) and laid out again — unless that finer drawing breaks the size limits, in
 /// which case the first one is kept with a warning. Warnings are printed once, for the decode that is kept.
 ///
-/// `--hatch` spacings (and `--hatch tone`'s pen width) are page sizes: an SVG with `--hatch` is first decoded
-/// without hatching to learn the layout's factor, then decoded again with the hatch sizes divided by it
+/// `--hatch` spacings (and `--hatch tone`'s pen width, and the pen table's hatches) are page sizes: an SVG with
+/// `--hatch` (or a pen table with hatches) is first decoded without hatching to learn the layout's factor, then decoded again with the hatch sizes divided by it
 /// ([`InputArgs::hatch_scale`]), so a 37 mm card fitted to 180 mm and hatched at 0.8 gets 0.8 mm between its lines
 /// on the page, not 3.9 mm.
 pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, layout: &LayoutArgs) -> Result<Decoded> {
@@ -381,9 +382,12 @@ pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, la
     let shown = shown_name(path);
     // Only an SVG is flattened at --tolerance and hatched.
     let is_svg = input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg;
-    let hatched = is_svg && args.hatch.is_some();
+    let hatched = is_svg && (args.hatch.is_some() || profile.pens.iter().any(|p| p.hatch.is_some()));
     let first_args = if hatched { InputArgs { hatch: None, cross_hatch: false, ..args.clone() } } else { args.clone() };
-    let mut decoded = decode_bytes(&data, path, &shown, &first_args, profile)?;
+    // The pen table's hatches are left out of the first decode too.
+    let mut bare = profile.clone();
+    bare.pens.iter_mut().for_each(|p| p.hatch = None);
+    let mut decoded = decode_bytes(&data, path, &shown, &first_args, &bare)?;
     if let Err(e) = plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown) {
         warn_all(&decoded.warnings);
         return Err(e.into());
@@ -677,6 +681,21 @@ mod tests {
         assert!(spaced.iter().all(|g| (g - 0.8).abs() < 1e-5), "{spaced:?}");
         let toned = gaps(&load(&["--hatch", "tone", "--angle", "0"]));
         let want = 0.3 / (1.0 - (1.0f64 - 0.78414).sqrt());
+        assert!(toned.len() > 100 && toned.iter().all(|g| (g - want).abs() < 1e-3), "{want}: {toned:?}");
+        // The pen table's hatches are page sizes too: a grey pen hatching at 0.8 mm, then one hatching by tone.
+        let with_pen = |hatch: &str| {
+            let toml = format!(
+                "{}\n[[pens]]\nname = \"grey\"\ncolor = \"#808080\"\nwidth_mm = 0.3\nhatch = {{ {hatch}, angle_deg = 0 }}\n",
+                plotter_path::config::profile::DEFAULT_PROFILE_TOML
+            );
+            let profile = MachineProfile::from_toml(&toml, "t.toml").unwrap();
+            let base = ["t", "--paper", "200x200", "--margin", "10", "--fit", "--layer-by", "color"];
+            let w = <W as clap::Parser>::try_parse_from(base).unwrap();
+            load_laid_out(&card, &w.input, &profile, &w.layout).unwrap().drawing
+        };
+        let spaced = gaps(&with_pen("spacing_mm = 0.8"));
+        assert!(spaced.len() > 100 && spaced.iter().all(|g| (g - 0.8).abs() < 1e-5), "{spaced:?}");
+        let toned = gaps(&with_pen("tone = true"));
         assert!(toned.len() > 100 && toned.iter().all(|g| (g - want).abs() < 1e-3), "{want}: {toned:?}");
         std::fs::remove_dir_all(&dir).ok();
     }

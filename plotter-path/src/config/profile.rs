@@ -208,7 +208,8 @@ pub struct PenSpec {
     /// Drawing feed with this pen, mm/s.
     #[serde(default)]
     pub draw_feed_mm_s: Option<f64>,
-    /// Shade the filled areas of SVG layers drawn with this pen (`hatch = { spacing_mm = 0.8 }`); `--hatch`
+    /// Shade the filled areas of SVG layers drawn with this pen (`hatch = { spacing_mm = 0.8 }`, or
+    /// `hatch = { tone = true }` to space the lines by each fill's lightness at this pen's width); `--hatch`
     /// overrides it for every layer.
     #[serde(default)]
     pub hatch: Option<PenHatch>,
@@ -218,7 +219,8 @@ pub struct PenSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PenHatch {
-    /// Distance between neighbouring lines, mm.
+    /// Distance between neighbouring lines, mm (not read with `tone`).
+    #[serde(default)]
     pub spacing_mm: f64,
     /// Line direction, degrees counter-clockwise from +X on the page.
     #[serde(default = "PenHatch::default_angle")]
@@ -226,6 +228,9 @@ pub struct PenHatch {
     /// Add a second family of lines at right angles.
     #[serde(default)]
     pub cross: bool,
+    /// Space the lines by each fill's lightness instead (`--hatch tone` for this pen's layers, at its width).
+    #[serde(default)]
+    pub tone: bool,
 }
 
 impl PenHatch {
@@ -553,7 +558,9 @@ impl MachineProfile {
                 within(&f("servo_down_deg"), a, &limits::SERVO_ANGLE)?;
             }
             if let Some(h) = pen.hatch {
-                within(&f("hatch.spacing_mm"), h.spacing_mm, &limits::HATCH_SPACING)?;
+                if !h.tone {
+                    within(&f("hatch.spacing_mm"), h.spacing_mm, &limits::HATCH_SPACING)?;
+                }
                 if !h.angle_deg.is_finite() {
                     return Err(bad(&f("hatch.angle_deg"), "must be a finite number of degrees"));
                 }
@@ -739,6 +746,10 @@ mod tests {
         let bad = text.replace("spacing_mm = 0.5", "spacing_mm = 0");
         let err = MachineProfile::from_toml(&bad, "h.toml").unwrap_err().to_string();
         assert!(err.contains("pens[3] (gel).hatch.spacing_mm") && err.contains("0.01..=100 mm"), "{err}");
+        // A tone hatch needs no spacing.
+        let tone = text.replace("spacing_mm = 0.5", "tone = true");
+        let h = MachineProfile::from_toml(&tone, "h.toml").unwrap().pens.last().unwrap().hatch.unwrap();
+        assert!(h.tone && h.angle_deg == 45.0);
     }
 
     #[test]

@@ -167,6 +167,9 @@ pub struct SvgOptions {
     /// lines for light fills, denser and then crossing ones for dark fills, following gradients; wins over
     /// [`SvgOptions::hatch`] and the pens' hatches.
     pub tone_hatch: Option<crate::geometry::tone_hatch::ToneHatch>,
+    /// How much the layout magnifies the drawing: the pen table's hatch spacings and tone pen widths are page
+    /// sizes, divided by this at import so that they come out as asked on the page (1: no layout).
+    pub hatch_scale: f64,
     /// Fill strokes wider than this pen width (mm) with parallel passes.
     pub fill_strokes: Option<f64>,
     /// How text is drawn.
@@ -198,6 +201,7 @@ impl Default for SvgOptions {
             occlusion: true,
             hatch: None,
             tone_hatch: None,
+            hatch_scale: 1.0,
             fill_strokes: None,
             text: TextMode::Outlines,
             images: None,

@@ -801,7 +801,7 @@ fn pens_with_a_hatch_shade_their_layers_fills() {
         draw_feed_mm_s: None,
         hatch,
     };
-    let red_hatch = crate::config::profile::PenHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false };
+    let red_hatch = crate::config::profile::PenHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false, tone: false };
     let options = SvgOptions {
         layer_by: LayerBy::Color,
         pens: vec![pen("red gel", "#ff0000", Some(red_hatch)), pen("blue", "#0000ff", None)],

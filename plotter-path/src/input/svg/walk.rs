@@ -33,7 +33,7 @@ use crate::geometry::flatten::flatten_path;
 use crate::geometry::hatch::{FillHatch, hatch};
 use crate::geometry::limits::MAX_COORD_MM;
 use crate::geometry::region::{FillRule, Keep, Region, cut};
-use crate::geometry::tone_hatch::tone_hatch;
+use crate::geometry::tone_hatch::{ToneHatch, tone_hatch};
 use crate::input::raster;
 
 mod fill_paint;
@@ -313,13 +313,31 @@ impl<'a> Walker<'a> {
     }
 
     /// How the fills of an item in `layer` drawn in `color` are hatched: `--hatch` for all, else the hatch of the
-    /// layer's pen in the profile's pen table.
+    /// layer's pen in the profile's pen table (its spacing a page size, see [`SvgOptions::hatch_scale`]).
     fn fill_hatch(&self, layer: usize, color: Rgb) -> Option<FillHatch> {
         self.options.hatch.or_else(|| {
-            let name = &self.layer_names[layer];
-            let pen = crate::config::pens::table_index(&self.options.pens, name, color)?;
-            self.options.pens[pen].hatch.map(FillHatch::from)
+            let h = self.table_hatch(layer, color)?.1.filter(|h| !h.tone)?;
+            Some(FillHatch { spacing_mm: h.spacing_mm / self.options.hatch_scale, ..FillHatch::from(h) })
         })
+    }
+
+    /// The tone hatch of an item in `layer` drawn in `color`: `--hatch tone` for all, else the layer's pen's when
+    /// its hatch says `tone` (and no `--hatch` spacing is set for all), at the pen's width.
+    fn tone_hatch(&self, layer: usize, color: Rgb) -> Option<ToneHatch> {
+        if self.options.tone_hatch.is_some() || self.options.hatch.is_some() {
+            return self.options.tone_hatch;
+        }
+        let (width, h) = self.table_hatch(layer, color)?;
+        let h = h.filter(|h| h.tone)?;
+        let pen = width / self.options.hatch_scale;
+        Some(ToneHatch { pen_mm: pen, min_spacing_mm: 1.5 * pen, angle_deg: h.angle_deg })
+    }
+
+    /// The width (mm on the page) and hatch of the pen-table pen of `layer` / `color`.
+    fn table_hatch(&self, layer: usize, color: Rgb) -> Option<(f64, Option<crate::config::profile::PenHatch>)> {
+        let name = &self.layer_names[layer];
+        let pen = &self.options.pens[crate::config::pens::table_index(&self.options.pens, name, color)?];
+        Some((pen.width_mm.unwrap_or(self.options.pen_width_mm), pen.hatch))
     }
 
     /// Flatten usvg path data under `t` (px) into mm polylines.
@@ -433,7 +451,7 @@ impl<'a> Walker<'a> {
             // Paper-coloured fills are not hatched: no ink belongs inside them.
             let fill_hatch = if paper { None } else { self.fill_hatch(layer, color) };
             // `--hatch tone`: the fill's lightness decides its hatch (white and paper fills get none).
-            let tone = self.options.tone_hatch.filter(|_| !paper);
+            let tone = if paper { None } else { self.tone_hatch(layer, color) };
             let is_pattern = matches!(f.paint(), usvg::Paint::Pattern(_));
             // A translucent plain fill tints what lies beneath: the edge rule needs its area too.
             let tints = !hides && !is_pattern;
