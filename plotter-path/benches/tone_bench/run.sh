@@ -4,7 +4,8 @@
 # the eye's 1 mm blur, SSIM, ink length) and `plotter stats` (plot time, optimized order).
 #
 # Usage: plotter-path/benches/tone_bench/run.sh [PHOTO ...]   (default: every photo; see photos.py for the list)
-# Environment: TONE_BENCH_PEERS=0 skips the peers; TONE_BENCH_OURS="label:flags;..." replaces our style list.
+# Environment: TONE_BENCH_PEERS=0 skips the peers, TONE_BENCH_PEERS=reuse measures the peers' plots already under
+# target/tone-bench/peers without running them again; TONE_BENCH_OURS="label:flags;..." replaces our style list.
 # Needs python3 with venv and pip; the photos of the landscape come from Debian's mate-backgrounds package (fetched
 # with apt-get download, unpacked under target/, not installed). Everything is written under target/tone-bench/.
 set -euo pipefail
@@ -68,7 +69,9 @@ for photo in "${PHOTOS[@]}"; do
       echo "tone bench: ours $label on $photo failed: $(tail -1 "$OUT/ours/$photo/$label.log")" >&2
     fi
   done
-  if [ "$PEERS_OK" = 1 ] && [ "${TONE_BENCH_PEERS:-1}" != 0 ]; then
+  if [ "${TONE_BENCH_PEERS:-1}" = reuse ]; then
+    for f in "$OUT/peers/$photo"/*.svg; do [ -f "$f" ] && plots+=("$(basename "$f" .svg)=$f"); done
+  elif [ "$PEERS_OK" = 1 ] && [ "${TONE_BENCH_PEERS:-1}" != 0 ]; then
     mkdir -p "$OUT/peers-in/$photo"
     cp "$pic" "$OUT/peers-in/$photo/"
     "$VENV/bin/python" "$HERE/peers.py" "$OUT/peers-in/$photo" "$OUT/peers" "$WIDTH" "$PEN" 2>"$OUT/peers-$photo.log" || true
