@@ -441,6 +441,18 @@ fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineCo
             accel = accel.min(cfg.axis(axis).max_accel_mm_s2 / u);
         }
     }
+    // A path acceleration the host sets below the axes' (a pen's drawing acceleration, as saxi's) holds in every
+    // direction: a chord accelerating less than its axes allow along it carries such a cap, which then bounds the
+    // centripetal acceleration too.
+    for s in [&a, &b] {
+        let mut along = f32::MAX;
+        for axis in Axis::ALL {
+            along = along.min(cfg.axis(axis).max_accel_mm_s2 / s.unit[axis.index()].abs());
+        }
+        if s.accel < along {
+            accel = accel.min(s.accel);
+        }
+    }
     let speed_sqr = accel * radius;
     Junction { speed_sqr: speed_sqr.min(nominal_sqr), curve: Some(Curve { radius, speed_sqr }) }
 }
@@ -1186,10 +1198,11 @@ mod tests {
         // ends lie on the circle of the regular 18-gon of 0.2 mm sides: r = 0.2/(2·sin 10°) = 0.575 877 mm. (Were
         // the 1 mm chords taken, the ends would leave that circle.) The centre lies along +Y, whose 1500 mm/s²
         // give v² = 1500·0.575 877 = 863.8 mm²/s².
+        // (Chords whose acceleration no path cap lowers below their axes': the axes' limits alone apply.)
         let c = MachineConfig::xy_plotter();
         let segs: Vec<Seg> = [-70.0, -50.0, -30.0, -10.0, 10.0, 30.0, 50.0, 70.0]
             .iter()
-            .map(|&d: &f32| seg_deg(d, if d.abs() > 60.0 { 1.0 } else { 0.2 }))
+            .map(|&d: &f32| Seg { accel: f32::MAX, ..seg_deg(d, if d.abs() > 60.0 { 1.0 } else { 0.2 }) })
             .collect();
         let j = verdict(&segs, 4, &c);
         let curve = j.curve.unwrap();
@@ -1360,7 +1373,10 @@ mod tests {
         assert!(close(j.speed_sqr, 2317.78, 0.5), "{j:?}");
         // κ = 12°: 2·sin 6° = 0.209 057 ≤ 0.117 595 + 0.1: a curve of radius 1/sin 6° = 9.566 772 mm, its normal
         // along Y (1500 mm/s²: 14 350.2 mm²/s², above the chords' 100² mm²/s²).
-        let j = verdict(&kinked_runs(12.0, 0.0, 20, 0.125), 20, &c);
+        // (Chords whose acceleration no path cap lowers below their axes': the axes' limits alone apply.)
+        let uncapped: Vec<Seg> =
+            kinked_runs(12.0, 0.0, 20, 0.125).into_iter().map(|s| Seg { accel: f32::MAX, ..s }).collect();
+        let j = verdict(&uncapped, 20, &c);
         let curve = j.curve.unwrap();
         assert!(close(curve.radius, 9.566_772, 2e-3), "{j:?}");
         assert!(close(curve.speed_sqr, 14_350.2, 4.0) && j.speed_sqr == 10_000.0, "{j:?}");
