@@ -26,6 +26,10 @@ pub enum ModeArg {
     Squiggle,
     /// One spiral from the centre whose waves grow with darkness (turns twice --min-spacing apart)
     Spiral,
+    /// Evenly spaced streamlines along the picture's edges, closer where darker (crossed in the dark tones)
+    Flow,
+    /// Long scribbled strokes that keep heading for the darkest place nearby until the tone is met
+    Sketch,
 }
 
 /// How darker hatch levels add lines.
@@ -123,6 +127,8 @@ impl TraceArgs {
                 ModeArg::Stipple => Mode::Stipple,
                 ModeArg::Squiggle => Mode::Squiggle,
                 ModeArg::Spiral => Mode::Spiral,
+                ModeArg::Flow => Mode::Flow,
+                ModeArg::Sketch => Mode::Sketch,
             },
             width_mm: self.width,
             pitch_mm: self.pitch,

@@ -10,6 +10,8 @@
 //! - [`Mode::Stipple`]: pen dots spread by weighted Voronoi stippling, or one line through them ([`stipple`]).
 //! - [`Mode::Squiggle`]: rows of zig-zag waves growing with darkness, one stroke per row ([`squiggle`]).
 //! - [`Mode::Spiral`]: one spiral from the centre carrying the same waves ([`spiral`]).
+//! - [`Mode::Flow`]: evenly spaced streamlines along the picture's edges, spaced by tone ([`flow`]).
+//! - [`Mode::Sketch`]: long scribbled strokes that keep heading for the darkest place nearby ([`sketch`]).
 //!
 //! The tone styles (hatch, stipple) read one tone model ([`tone`]): the target darkness of every pixel after the
 //! tone curve, and the ink a pen of the given width lays down.
@@ -37,6 +39,7 @@ mod contour;
 pub mod edges;
 mod error;
 pub mod fidelity;
+pub mod flow;
 pub mod hatch;
 pub mod ink;
 pub mod lines;
@@ -44,6 +47,7 @@ mod load;
 pub mod outline;
 pub mod simplify;
 pub mod skeleton;
+pub mod sketch;
 pub mod spiral;
 pub mod squiggle;
 pub mod stipple;
@@ -94,6 +98,10 @@ pub enum Mode {
     Squiggle,
     /// One spiral from the centre whose waves follow darkness.
     Spiral,
+    /// Evenly spaced streamlines along the picture's edges, closer where darker.
+    Flow,
+    /// Long scribbled strokes heading for the darkest place nearby until the tone is met.
+    Sketch,
 }
 
 impl Mode {
@@ -107,12 +115,23 @@ impl Mode {
             Mode::Stipple => "stipple",
             Mode::Squiggle => "squiggle",
             Mode::Spiral => "spiral",
+            Mode::Flow => "flow",
+            Mode::Sketch => "sketch",
         }
     }
 
     /// Every mode, in documentation order.
-    pub const ALL: [Mode; 7] =
-        [Mode::Outline, Mode::Centerline, Mode::Edges, Mode::Hatch, Mode::Stipple, Mode::Squiggle, Mode::Spiral];
+    pub const ALL: [Mode; 9] = [
+        Mode::Outline,
+        Mode::Centerline,
+        Mode::Edges,
+        Mode::Hatch,
+        Mode::Stipple,
+        Mode::Squiggle,
+        Mode::Spiral,
+        Mode::Flow,
+        Mode::Sketch,
+    ];
 }
 
 impl fmt::Display for Mode {
@@ -126,7 +145,8 @@ impl FromStr for Mode {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Mode::ALL.into_iter().find(|m| m.name().eq_ignore_ascii_case(s)).ok_or_else(|| {
-            format!("unknown mode `{s}` (expected outline, centerline, edges, hatch, stipple, squiggle or spiral)")
+            let names: Vec<&str> = Mode::ALL.iter().map(|m| m.name()).collect();
+            format!("unknown mode `{s}` (expected one of: {})", names.join(", "))
         })
     }
 }
@@ -348,6 +368,16 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             let row = 2.0 * options.ladder().min_spacing_mm / prepared.pixel_mm;
             vec![("spiral".to_owned(), spiral::spiral(&map, options.pen.width_mm / prepared.pixel_mm, row))]
         }
+        Mode::Flow => {
+            let map = options.tone.darkness_map(&prepared.gray, options.invert);
+            let lines = flow::flow(&map, &options.ladder(), prepared.pixel_mm, options.hatch.angle_deg);
+            let lines = lines.iter().map(|l| simplify::simplify(l, options.simplify_px)).collect();
+            vec![("flow".to_owned(), lines)]
+        }
+        Mode::Sketch => {
+            let map = options.tone.darkness_map(&prepared.gray, options.invert);
+            vec![("sketch".to_owned(), sketch::sketch(&map, &options.ladder(), prepared.pixel_mm))]
+        }
         Mode::Hatch => {
             let spacing_px = options.hatch.spacing_mm / prepared.pixel_mm;
             let levels = hatch::hatch(&prepared.gray, &options.hatch, spacing_px, options.invert, options.min_area_px);
@@ -386,7 +416,9 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             Mode::Edges => format!("no edges found with Canny thresholds {}/{}", options.canny_low, options.canny_high),
             Mode::Hatch => "no pixel is dark enough for the lightest hatch level".to_owned(),
             Mode::Stipple => "the picture is too light for a single pen dot".to_owned(),
-            Mode::Squiggle | Mode::Spiral => format!("the picture is too light for a {} line", options.mode),
+            Mode::Squiggle | Mode::Spiral | Mode::Flow | Mode::Sketch => {
+                format!("the picture is too light for a {} line", options.mode)
+            }
             _ => "every region was too small to keep".to_owned(),
         };
         let reason = if dropped.is_empty() { reason } else { format!("{reason}; {}", dropped.join("; ")) };
@@ -458,7 +490,9 @@ mod tests {
     #[test]
     fn mode_parse() {
         assert_eq!("Hatch".parse::<Mode>(), Ok(Mode::Hatch));
-        assert!("sketch".parse::<Mode>().unwrap_err().contains("sketch"));
+        assert_eq!("Sketch".parse::<Mode>(), Ok(Mode::Sketch));
+        let e = "scribble".parse::<Mode>().unwrap_err();
+        assert!(e.contains("scribble") && Mode::ALL.iter().all(|m| e.contains(m.name())), "{e}");
     }
 
     #[test]

@@ -1,0 +1,440 @@
+//! Flow style: evenly spaced streamlines along the picture's structure, spaced by its tone (after Jobard and Lefer,
+//! "Creating Evenly-Spaced Streamlines of Arbitrary Density", 1997).
+//!
+//! **Direction.** The lines follow the edge-tangent field: the structure tensor of the darkness gradient
+//! (`gx², gx·gy, gy²`, each blurred with a Gaussian a few line spacings wide) has its strongest eigenvector across
+//! the edges, so the lines run along them (along a face's contour, around a sphere). Where the picture is flat the
+//! tensor is empty and a small bias turns the lines to the base angle.
+//!
+//! **Spacing.** The tone model's ladder ([`super::tone::Ladder`]) gives each point the number of line families and
+//! their spacing for its (smoothed) darkness: lighter tones one family along the field, darker ones a second family
+//! across it (+90°), then a third at +45°, all at the rung's spacing, so a flat tone of darkness `d` plots `d` of
+//! ink. Paper, and tones lighter than lines twenty minimum spacings apart, stay white.
+//!
+//! **Placement.** Each family is laid out on its own: a streamline is integrated both ways from a seed (midpoint
+//! steps of at most 0.4 spacing) until it leaves the picture, reaches a lighter rung, turns sharply, or comes
+//! within half the local spacing of a line already drawn; new seeds are tried one spacing to either side of every
+//! finished line, and the picture is then scanned for places no line reached.
+
+use super::tone::{DarknessMap, Ladder};
+use image::{ImageBuffer, Luma};
+use kurbo::{Point, Vec2};
+
+/// Turns between the families, degrees from the field's direction.
+const FAMILY_TURNS: [f64; 3] = [0.0, 90.0, 45.0];
+/// Tones whose line spacing would exceed this many minimum spacings are left as paper.
+const MAX_SPACING_FACTOR: f64 = 20.0;
+/// A streamline stops where it comes closer than this fraction of the local spacing to another line.
+const TEST_FRACTION: f64 = 0.5;
+/// A streamline stops where its direction turns more than this in one step (a vortex or a saddle of the field).
+const MAX_TURN_COS: f64 = 0.5;
+
+/// A 2-D field of `f32` values, one per pixel, read bilinearly between pixel centres.
+struct Field {
+    width: usize,
+    height: usize,
+    data: Vec<f32>,
+}
+
+impl Field {
+    fn at(&self, x: usize, y: usize) -> f32 {
+        self.data[y * self.width + x]
+    }
+
+    /// Bilinear value at `p` (pixel centres at half-integers), clamped at the borders.
+    fn sample(&self, p: Point) -> f64 {
+        #[allow(clippy::cast_precision_loss)]
+        let (mx, my) = ((self.width - 1) as f64, (self.height - 1) as f64);
+        let (x, y) = ((p.x - 0.5).clamp(0.0, mx), (p.y - 0.5).clamp(0.0, my));
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        #[allow(clippy::cast_precision_loss)]
+        let (fx, fy) = (x - x0 as f64, y - y0 as f64);
+        let top = f64::from(self.at(x0, y0)) * (1.0 - fx) + f64::from(self.at(x1, y0)) * fx;
+        let bottom = f64::from(self.at(x0, y1)) * (1.0 - fx) + f64::from(self.at(x1, y1)) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
+/// `data` blurred with a Gaussian of `sigma` pixels (unchanged below half a pixel).
+fn blur(width: usize, height: usize, data: Vec<f32>, sigma: f64) -> Vec<f32> {
+    if sigma.is_nan() || sigma < 0.5 {
+        return data;
+    }
+    let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else { return data };
+    let Some(img) = ImageBuffer::<Luma<f32>, Vec<f32>>::from_raw(w, h, data.clone()) else { return data };
+    #[allow(clippy::cast_possible_truncation)] // a blur radius of a few pixels
+    imageproc::filter::gaussian_blur_f32(&img, sigma as f32).into_raw()
+}
+
+/// The edge-tangent field: the structure tensor's components, blurred.
+struct Tangents {
+    xx: Field,
+    xy: Field,
+    yy: Field,
+}
+
+impl Tangents {
+    /// The tensor of `map`'s darkness gradient, blurred with `sigma` pixels, plus a bias across the lines of page
+    /// angle `angle` (radians) three times as strong as the picture's median structure, so that flat and merely noisy parts
+    /// follow that angle and only real edges turn the lines.
+    fn new(map: &DarknessMap, sigma: f64, angle: f64) -> Self {
+        let (w, h) = (map.width, map.height);
+        let d = blur(w, h, map.data.clone(), 1.0);
+        let at = |x: usize, y: usize| d[y * w + x];
+        let (mut xx, mut xy, mut yy) = (vec![0.0f32; w * h], vec![0.0f32; w * h], vec![0.0f32; w * h]);
+        for y in 0..h {
+            for x in 0..w {
+                let gx = (at((x + 1).min(w - 1), y) - at(x.saturating_sub(1), y)) / 2.0;
+                let gy = (at(x, (y + 1).min(h - 1)) - at(x, y.saturating_sub(1))) / 2.0;
+                let i = y * w + x;
+                xx[i] = gx * gx;
+                xy[i] = gx * gy;
+                yy[i] = gy * gy;
+            }
+        }
+        // The normal of a line at page angle a is (sin a, cos a) in pixel coordinates (Y down).
+        #[allow(clippy::cast_possible_truncation)]
+        let (s, c) = (angle.sin() as f32, angle.cos() as f32);
+        let (xx, xy, yy) = (blur(w, h, xx, sigma), blur(w, h, xy, sigma), blur(w, h, yy, sigma));
+        let mut traces: Vec<f32> = xx.iter().zip(&yy).step_by(7).map(|(a, b)| a + b).collect();
+        let mid = traces.len() / 2;
+        let bias = if traces.is_empty() { 0.0 } else { *traces.select_nth_unstable_by(mid, f32::total_cmp).1 };
+        let bias = (3.0 * bias).max(1e-6);
+        let field = |v: Vec<f32>, b: f32| Field { width: w, height: h, data: v.into_iter().map(|x| x + b).collect() };
+        Tangents { xx: field(xx, bias * s * s), xy: field(xy, bias * s * c), yy: field(yy, bias * c * c) }
+    }
+
+    /// The unit direction along the edges at `p` (either sign).
+    fn direction(&self, p: Point) -> Vec2 {
+        let (a, b, c) = (self.xx.sample(p), self.xy.sample(p), self.yy.sample(p));
+        // The gradient's direction is the tensor's major eigenvector, at θ = ½·atan2(2b, a − c); edges run across
+        // it, along (−sin θ, cos θ). The half angle comes from cos 2θ without trigonometry.
+        let (u, v) = (a - c, 2.0 * b);
+        let r = u.hypot(v);
+        if r <= 0.0 {
+            return Vec2::new(0.0, 1.0);
+        }
+        let cos2 = u / r;
+        let (cos, sin) = (((1.0 + cos2) / 2.0).max(0.0).sqrt(), ((1.0 - cos2) / 2.0).max(0.0).sqrt().copysign(v));
+        Vec2::new(-sin, cos)
+    }
+}
+
+/// Points of the finished streamlines of one family in a grid of buckets, for the distance tests.
+struct Grid {
+    cell: f64,
+    columns: usize,
+    rows: usize,
+    buckets: Vec<Vec<u32>>,
+    /// Point, its line, and its arc length along the line.
+    points: Vec<(Point, u32, f64)>,
+}
+
+impl Grid {
+    fn new(width: f64, height: f64, cell: f64) -> Self {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let (columns, rows) = ((width / cell).ceil().max(1.0) as usize, (height / cell).ceil().max(1.0) as usize);
+        Grid { cell, columns, rows, buckets: vec![Vec::new(); columns * rows], points: Vec::new() }
+    }
+
+    fn index(&self, v: f64, n: usize) -> usize {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let i = (v / self.cell).floor().max(0.0) as usize;
+        i.min(n - 1)
+    }
+
+    fn add(&mut self, p: Point, line: u32, arc: f64) {
+        let b = self.index(p.y, self.rows) * self.columns + self.index(p.x, self.columns);
+        if let Ok(i) = u32::try_from(self.points.len()) {
+            self.buckets[b].push(i);
+            self.points.push((p, line, arc));
+        }
+    }
+
+    /// Whether a point lies within `r` of `p`, not counting the points of `own` line less than `window` along it
+    /// from `arc`.
+    fn near(&self, p: Point, r: f64, own: Option<(u32, f64, f64)>) -> bool {
+        let (c0, c1) = (self.index(p.x - r, self.columns), self.index(p.x + r, self.columns));
+        let (r0, r1) = (self.index(p.y - r, self.rows), self.index(p.y + r, self.rows));
+        let r2 = r * r;
+        for row in r0..=r1 {
+            for col in c0..=c1 {
+                for &i in &self.buckets[row * self.columns + col] {
+                    let (q, line, arc) = self.points[i as usize];
+                    if (q - p).hypot2() < r2 {
+                        match own {
+                            Some((l, a, window)) if l == line && (arc - a).abs() < window => {}
+                            _ => return true,
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
+/// Per pixel: how many families the ladder asks for, and their spacing in pixels.
+struct Rungs {
+    width: usize,
+    height: usize,
+    families: Vec<u8>,
+    spacing: Vec<f32>,
+}
+
+impl Rungs {
+    fn new(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64) -> Self {
+        let smooth = blur(map.width, map.height, map.data.clone(), ladder.min_spacing_mm / pixel_mm);
+        let max_spacing = MAX_SPACING_FACTOR * ladder.min_spacing_mm;
+        let mut families = Vec::with_capacity(smooth.len());
+        let mut spacing = Vec::with_capacity(smooth.len());
+        for &d in &smooth {
+            let rung = ladder.rung(f64::from(d));
+            let paper = rung.families == 0 || rung.spacing_mm > max_spacing;
+            families.push(if paper { 0 } else { rung.families });
+            #[allow(clippy::cast_possible_truncation)] // a spacing of a few pixels
+            spacing.push((rung.spacing_mm / pixel_mm) as f32);
+        }
+        Rungs { width: map.width, height: map.height, families, spacing }
+    }
+
+    /// The spacing of family `k` (0-based) at `p`, or `None` where the picture is too light for it.
+    fn spacing(&self, p: Point, k: u8) -> Option<f64> {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let (x, y) = (p.x.floor().max(0.0) as usize, p.y.floor().max(0.0) as usize);
+        let i = y.min(self.height - 1) * self.width + x.min(self.width - 1);
+        (self.families[i] > k).then(|| f64::from(self.spacing[i]))
+    }
+}
+
+/// One family's streamlines.
+struct Family<'a> {
+    tangents: &'a Tangents,
+    rungs: &'a Rungs,
+    k: u8,
+    turn: Vec2,
+    width: f64,
+    height: f64,
+    grid: Grid,
+    lines: Vec<Vec<Point>>,
+}
+
+impl Family<'_> {
+    /// The family's direction at `p`, turned to agree with `prev`.
+    fn direction(&self, p: Point, prev: Vec2) -> Vec2 {
+        let t = self.tangents.direction(p);
+        // Rotate the field's direction by the family's turn.
+        let d = Vec2::new(t.x * self.turn.x - t.y * self.turn.y, t.x * self.turn.y + t.y * self.turn.x);
+        if d.dot(prev) < 0.0 { -d } else { d }
+    }
+
+    fn inside(&self, p: Point) -> bool {
+        (0.0..=self.width).contains(&p.x) && (0.0..=self.height).contains(&p.y)
+    }
+
+    /// A seed at `p` is usable: inside, dark enough for this family, and a full spacing from every line.
+    fn seed_ok(&self, p: Point) -> bool {
+        self.inside(p) && self.rungs.spacing(p, self.k).is_some_and(|s| !self.grid.near(p, 0.99 * s, None))
+    }
+
+    /// Follow the field from `seed` in direction `sign`, adding the points to the grid as line `id`.
+    fn trace(&mut self, seed: Point, start: Vec2, id: u32, sign: f64) -> Vec<Point> {
+        let mut out = Vec::new();
+        let (mut p, mut dir, mut arc) = (seed, start * sign, 0.0f64);
+        let limit = 4.0 * (self.width + self.height) * MAX_SPACING_FACTOR;
+        while arc.abs() < limit {
+            let Some(sep) = self.rungs.spacing(p, self.k) else { break };
+            let h = (0.4 * sep).clamp(0.5, 4.0);
+            let v1 = self.direction(p, dir);
+            let v2 = self.direction(p + v1 * (h / 2.0), v1);
+            let q = p + v2 * h;
+            if v2.dot(dir) < MAX_TURN_COS || !self.inside(q) {
+                break;
+            }
+            let Some(sep_q) = self.rungs.spacing(q, self.k) else { break };
+            let next_arc = arc + sign * h;
+            let r = TEST_FRACTION * sep_q;
+            if self.grid.near(q, r, Some((id, next_arc, 2.0 * r + 2.0 * h))) {
+                break;
+            }
+            self.grid.add(q, id, next_arc);
+            out.push(q);
+            (p, dir, arc) = (q, v2, next_arc);
+        }
+        out
+    }
+
+    /// A whole streamline through `seed` (both ways), or `None` if it is a lone point.
+    fn streamline(&mut self, seed: Point) -> Option<usize> {
+        let id = u32::try_from(self.lines.len()).ok()?;
+        self.grid.add(seed, id, 0.0);
+        let start = self.direction(seed, Vec2::new(1.0, 0.0));
+        let forward = self.trace(seed, start, id, 1.0);
+        let backward = self.trace(seed, start, id, -1.0);
+        let mut line: Vec<Point> = backward.into_iter().rev().collect();
+        line.push(seed);
+        line.extend(forward);
+        self.lines.push(line);
+        Some(self.lines.len() - 1)
+    }
+
+    /// Seeds one spacing to either side of line `i`, every half spacing along it.
+    fn grow_from(&mut self, i: usize) {
+        let mut queue = vec![i];
+        while let Some(i) = queue.pop() {
+            let line = self.lines[i].clone();
+            let mut since = f64::INFINITY;
+            for w in line.windows(2) {
+                let (a, b) = (w[0], w[1]);
+                let Some(sep) = self.rungs.spacing(a, self.k) else { continue };
+                since += a.distance(b);
+                if since < 0.5 * sep {
+                    continue;
+                }
+                since = 0.0;
+                let t = (b - a).normalize();
+                let n = Vec2::new(-t.y, t.x);
+                for side in [1.0, -1.0] {
+                    let s = a + n * (side * sep);
+                    if self.seed_ok(s)
+                        && let Some(j) = self.streamline(s)
+                    {
+                        queue.push(j);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Lay the family out: grow from every usable place, scanning the picture in reading order.
+    fn run(mut self) -> Vec<Vec<Point>> {
+        #[allow(clippy::cast_precision_loss)]
+        for y in 0..self.rungs.height {
+            for x in 0..self.rungs.width {
+                let p = Point::new(x as f64 + 0.5, y as f64 + 0.5);
+                if self.seed_ok(p)
+                    && let Some(i) = self.streamline(p)
+                {
+                    self.grow_from(i);
+                }
+            }
+        }
+        self.lines.retain(|l| l.len() >= 2);
+        self.lines
+    }
+}
+
+/// The flow strokes of a darkness map, pixel coordinates: the ladder's families laid out as streamlines of the
+/// edge-tangent field, the base direction `angle_deg` (page angle) where the picture is flat; `pixel_mm` converts
+/// the ladder's spacings to pixels.
+pub fn flow(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64, angle_deg: f64) -> Vec<Vec<Point>> {
+    if map.width == 0 || map.height == 0 || !(pixel_mm.is_finite() && pixel_mm > 0.0) {
+        return Vec::new();
+    }
+    let min_px = ladder.min_spacing_mm / pixel_mm;
+    let rungs = Rungs::new(map, ladder, pixel_mm);
+    let top = rungs.families.iter().copied().max().unwrap_or(0);
+    if top == 0 {
+        return Vec::new();
+    }
+    let tangents = Tangents::new(map, (2.0 * min_px).max(2.0), angle_deg.to_radians());
+    #[allow(clippy::cast_precision_loss)]
+    let (w, h) = (map.width as f64, map.height as f64);
+    let mut out = Vec::new();
+    for k in 0..top {
+        let turn = FAMILY_TURNS[usize::from(k)].to_radians();
+        let family = Family {
+            tangents: &tangents,
+            rungs: &rungs,
+            k,
+            turn: Vec2::new(turn.cos(), -turn.sin()),
+            width: w,
+            height: h,
+            grid: Grid::new(w, h, (2.0 * min_px).max(2.0)),
+            lines: Vec::new(),
+        };
+        out.extend(family.run());
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::raster::ink::InkGrid;
+
+    fn flat(w: usize, h: usize, d: f32) -> DarknessMap {
+        DarknessMap { width: w, height: h, data: vec![d; w * h] }
+    }
+
+    /// Ink fraction of `strokes` (pixel coordinates, pen `pen` px) in a `w × h` picture, `margin` px from its edges,
+    /// rendered at 0.2 px.
+    fn ink(strokes: &[Vec<Point>], pen: f64, w: usize, h: usize, margin: usize) -> f64 {
+        let mut g = InkGrid::new(w * 5, h * 5, 0.2);
+        g.draw(strokes, pen);
+        g.fraction(margin * 5, (w - margin) * 5, margin * 5, (h - margin) * 5)
+    }
+
+    #[test]
+    fn white_is_empty_and_a_flat_gray_gets_parallel_lines_of_its_tone() {
+        // Pen 0.3 mm on 0.3 mm pixels (1 px), closest spacing 0.45 mm (1.5 px).
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        assert!(flow(&flat(60, 60, 0.0), &ladder, 0.3, 0.0).is_empty());
+        // Darkness 0.3: one family at 0.3 / 0.3 = 1 mm = 3.33 px, straight at the base angle (0°: horizontal), so
+        // a 150 px tall picture holds 45 lines across the whole width.
+        let s = flow(&flat(150, 150, 0.3), &ladder, 0.3, 0.0);
+        let long: Vec<&Vec<Point>> = s.iter().filter(|l| l.len() > 10).collect();
+        assert!(long.len() >= 44 && long.len() <= 46, "{} lines", long.len());
+        for l in &long {
+            let (a, b) = (l[0], l[l.len() - 1]);
+            assert!((a.y - b.y).abs() < 1e-6 && a.x.min(b.x) < 1.0 && a.x.max(b.x) > 149.0, "{a:?} {b:?}");
+        }
+        let f = ink(&s, 1.0, 150, 150, 20);
+        assert!((f - 0.3).abs() < 0.02, "ink fraction {f}");
+    }
+
+    #[test]
+    fn darker_grays_cross_and_black_reaches_the_darkest_rung() {
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        // 0.8 is past one family (0.667): two families crossing, each 1 − √0.2 = 0.553 → 0.542 mm.
+        let f = ink(&flow(&flat(150, 150, 0.8), &ladder, 0.3, 30.0), 1.0, 150, 150, 20);
+        assert!((f - 0.8).abs() < 0.04, "ink fraction {f}");
+        // Black: three families at the closest spacing, 1 − (1/3)³ = 0.963.
+        let f = ink(&flow(&flat(150, 150, 1.0), &ladder, 0.3, 0.0), 1.0, 150, 150, 20);
+        assert!((f - ladder.darkest()).abs() < 0.04, "ink fraction {f} vs {}", ladder.darkest());
+    }
+
+    #[test]
+    fn lines_run_along_the_edges() {
+        // A dark disc on white with a soft rim: around the rim the lines run round the disc (across the radius).
+        let (w, h) = (160usize, 160usize);
+        let data = (0..w * h)
+            .map(|i| {
+                #[allow(clippy::cast_precision_loss)]
+                let r = ((i % w) as f64 + 0.5 - 80.0).hypot((i / w) as f64 + 0.5 - 80.0);
+                #[allow(clippy::cast_possible_truncation)]
+                let d = (0.6 - (r - 50.0) / 40.0).clamp(0.05, 0.6) as f32;
+                d
+            })
+            .collect();
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        let s = flow(&DarknessMap { width: w, height: h, data }, &ladder, 0.3, 0.0);
+        let (mut along, mut all) = (0usize, 0usize);
+        let c = Point::new(80.0, 80.0);
+        for l in &s {
+            for seg in l.windows(2) {
+                let m = seg[0].midpoint(seg[1]);
+                let r = m.distance(c);
+                if (55.0..65.0).contains(&r) {
+                    let t = (seg[1] - seg[0]).normalize();
+                    let radial = (m - c) / r;
+                    all += 1;
+                    along += usize::from(t.dot(radial).abs() < 0.26); // within 15° of the tangent
+                }
+            }
+        }
+        assert!(all > 100 && along * 10 >= all * 9, "{along} of {all} steps run round the disc");
+    }
+}

@@ -1,0 +1,426 @@
+//! Sketch style: the darkest-path scribble. Start where the picture still needs the most ink, draw a short straight
+//! line towards the darkest place nearby, lighten what the pen laid down, and keep going from the line's end while
+//! the picture asks for more; then start again where it is darkest. The result is long, continuous strokes, dense
+//! where the picture is dark.
+//!
+//! **Tone.** The picture is split into square cells about two minimum spacings wide, and into cells twice, four
+//! times … as wide; each cell asks for its mean target darkness ([`super::tone`]) as ink area. The pen's real ink is
+//! kept on a grid of half a pen width (a stroke inks every grid point within half the pen's width of it; ink is
+//! opaque, so a crossing adds nothing twice), and a cell's remaining darkness is what it asks for minus what is
+//! inked in it. Each place is judged at the smallest cells at least as wide as the line spacing its tone asks for,
+//! so one line never darkens a cell past its tone. A line is drawn only where the cells it reaches still lack more
+//! than a threshold — an ordered dither between 0 and one line's darkness, scaled down where the line runs over ink
+//! already laid — at points not yet inked (at least 30 % of its length), never across a cell that asks for no ink.
+//! So a flat gray ends close to its darkness (0.2, 0.5 and 0.8 within 0.04), white is never drawn, and black is
+//! filled until no line finds paper (over 0.9 of it inked).
+//!
+//! **Steps.** From the current point, 24 directions are tried at three lengths (4, 2 and 1 cells), longest first;
+//! the best direction of the first length that passes is drawn. A stroke ends when none passes. A length budget
+//! (twice the ink the whole picture asks for) bounds the work.
+
+use super::tone::{DarknessMap, Ladder};
+use kurbo::{Point, Vec2};
+use std::collections::BinaryHeap;
+
+/// The 4 × 4 ordered-dither (Bayer) matrix, values 0–15.
+const BAYER: [[u8; 4]; 4] = [[0, 8, 2, 10], [12, 4, 14, 6], [3, 11, 1, 9], [15, 7, 13, 5]];
+/// Directions tried from each point.
+const DIRECTIONS: usize = 24;
+/// Segment lengths tried, in cells, longest first.
+const LENGTHS: [f64; 3] = [4.0, 2.0, 1.0];
+
+/// Most levels of cells (each twice the size of the one below).
+const MAX_LEVELS: usize = 6;
+
+/// One level of square cells and the ink each still needs.
+struct Level {
+    /// Cell size in pixels.
+    cell: usize,
+    columns: usize,
+    rows: usize,
+    /// Ink area each cell still needs, square pixels (negative: more than asked).
+    owed: Vec<f64>,
+    /// One over each cell's area (edge cells are cut by the picture).
+    inverse_area: Vec<f64>,
+    /// Each cell's drawing threshold: how much darkness it must still lack for a line to cross it, an ordered
+    /// dither between 0 and one line's darkness across the cell, so that a flat tone is not rounded the same way in
+    /// every cell.
+    dither: Vec<f64>,
+}
+
+impl Level {
+    fn new(map: &DarknessMap, cell: usize, pen: f64) -> Self {
+        let (columns, rows) = (map.width.div_ceil(cell), map.height.div_ceil(cell));
+        let mut owed = vec![0.0; columns * rows];
+        for y in 0..map.height {
+            for x in 0..map.width {
+                owed[(y / cell) * columns + x / cell] += f64::from(map.data[y * map.width + x]);
+            }
+        }
+        #[allow(clippy::cast_precision_loss)]
+        let quantum = (pen / cell as f64).min(1.0);
+        let dither = (0..columns * rows)
+            .map(|i| quantum * (f64::from(BAYER[(i / columns) % 4][(i % columns) % 4]) + 0.5) / 16.0)
+            .collect();
+        #[allow(clippy::cast_precision_loss)]
+        let inverse_area = (0..columns * rows)
+            .map(|i| {
+                let (x0, y0) = ((i % columns) * cell, (i / columns) * cell);
+                1.0 / ((map.width - x0).min(cell) * (map.height - y0).min(cell)) as f64
+            })
+            .collect();
+        Level { cell, columns, rows, owed, inverse_area, dither }
+    }
+
+    /// The cell holding `p`.
+    fn cell_of(&self, p: Point) -> usize {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_precision_loss)]
+        let (cx, cy) = ((p.x / self.cell as f64).max(0.0) as usize, (p.y / self.cell as f64).max(0.0) as usize);
+        cy.min(self.rows - 1) * self.columns + cx.min(self.columns - 1)
+    }
+
+    /// How much more darkness cell `i` lacks than its threshold (a line may cross it when this is ≥ 0).
+    fn need(&self, i: usize) -> f64 {
+        self.owed[i] * self.inverse_area[i] - self.dither[i]
+    }
+
+    /// Cell `i`'s remaining darkness and its threshold.
+    fn parts(&self, i: usize) -> (f64, f64) {
+        (self.owed[i] * self.inverse_area[i], self.dither[i])
+    }
+}
+
+/// The remaining darkness at every scale and the ink laid so far.
+struct Canvas {
+    /// Cells of 1, 2, 4, … base cells.
+    levels: Vec<Level>,
+    /// For each base cell, the level that decides it: the smallest whose cells are at least as wide as the line
+    /// spacing its tone asks for, so one line's darkness across the cell never exceeds the tone.
+    level_of: Vec<u8>,
+    /// Whether the base cell asks for any ink at all (paper cells are never crossed).
+    asked: Vec<bool>,
+    /// Ink grid step in pixels.
+    q: f64,
+    ink_columns: usize,
+    ink_rows: usize,
+    ink: Vec<bool>,
+    width: f64,
+    height: f64,
+}
+
+impl Canvas {
+    fn new(map: &DarknessMap, cell: usize, q: f64, pen: f64) -> Self {
+        let levels: Vec<Level> = (0..MAX_LEVELS).map(|l| Level::new(map, cell << l, pen)).collect();
+        let base = &levels[0];
+        let asked = base.owed.iter().map(|&o| o > 0.0).collect();
+        let level_of = (0..base.owed.len())
+            .map(|i| {
+                let d = base.owed[i] * base.inverse_area[i];
+                let spacing = if d > 0.0 { pen / d } else { f64::INFINITY };
+                #[allow(clippy::cast_precision_loss)]
+                let l = (0..MAX_LEVELS).find(|&l| (cell << l) as f64 >= spacing).unwrap_or(MAX_LEVELS - 1);
+                u8::try_from(l).unwrap_or(0)
+            })
+            .collect();
+        #[allow(clippy::cast_precision_loss)]
+        let (width, height) = (map.width as f64, map.height as f64);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let (ink_columns, ink_rows) = ((width / q).ceil() as usize, (height / q).ceil() as usize);
+        Canvas {
+            levels,
+            level_of,
+            asked,
+            q,
+            ink_columns,
+            ink_rows,
+            ink: vec![false; ink_columns * ink_rows],
+            width,
+            height,
+        }
+    }
+
+    /// The remaining darkness and threshold at `p` (see [`Level::need`]), read at the level its base cell `i` uses.
+    fn parts_at(&self, p: Point, i: usize) -> (f64, f64) {
+        let level = &self.levels[usize::from(self.level_of[i])];
+        level.parts(level.cell_of(p))
+    }
+
+    /// The need of base cell `i`, at its centre.
+    fn need(&self, i: usize) -> f64 {
+        let level = &self.levels[usize::from(self.level_of[i])];
+        level.need(level.cell_of(self.centre(i)))
+    }
+
+    /// The centre of base cell `i`.
+    fn centre(&self, i: usize) -> Point {
+        let base = &self.levels[0];
+        #[allow(clippy::cast_precision_loss)]
+        let c = base.cell as f64;
+        #[allow(clippy::cast_precision_loss)]
+        let (x0, y0) = ((i % base.columns) as f64 * c, (i / base.columns) as f64 * c);
+        Point::new((x0 + (x0 + c).min(self.width)) / 2.0, (y0 + (y0 + c).min(self.height)) / 2.0)
+    }
+
+    fn inked(&self, p: Point) -> bool {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let (x, y) = ((p.x / self.q).max(0.0) as usize, (p.y / self.q).max(0.0) as usize);
+        self.ink[y.min(self.ink_rows - 1) * self.ink_columns + x.min(self.ink_columns - 1)]
+    }
+
+    /// The ink grid point of cell `i` nearest its centre that is not inked yet.
+    fn fresh_point(&self, i: usize) -> Option<Point> {
+        let base = &self.levels[0];
+        #[allow(clippy::cast_precision_loss)]
+        let c = base.cell as f64;
+        #[allow(clippy::cast_precision_loss)]
+        let (x0, y0) = ((i % base.columns) as f64 * c, (i / base.columns) as f64 * c);
+        let (x1, y1) = ((x0 + c).min(self.width), (y0 + c).min(self.height));
+        let centre = Point::new((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let (c0, c1, r0, r1) = (
+            (x0 / self.q) as usize,
+            (x1 / self.q).ceil() as usize,
+            (y0 / self.q) as usize,
+            (y1 / self.q).ceil() as usize,
+        );
+        let mut best: Option<Point> = None;
+        for row in r0..r1.min(self.ink_rows) {
+            for col in c0..c1.min(self.ink_columns) {
+                if self.ink[row * self.ink_columns + col] {
+                    continue;
+                }
+                #[allow(clippy::cast_precision_loss)]
+                let p = Point::new((col as f64 + 0.5) * self.q, (row as f64 + 0.5) * self.q);
+                if best.is_none_or(|b| p.distance(centre) < b.distance(centre)) {
+                    best = Some(p);
+                }
+            }
+        }
+        best
+    }
+
+    fn inside(&self, p: Point) -> bool {
+        (0.0..=self.width).contains(&p.x) && (0.0..=self.height).contains(&p.y)
+    }
+
+    /// The worth of the segment `a`→`b`, sampled every `step` past `a`: the sum of the cells' [`Canvas::need`] at the
+    /// samples not yet inked, divided by the number of samples. `None` when it is not worth drawing: it crosses a
+    /// cell that asks for no ink, fewer than 30 % of its samples are fresh paper, or its fresh samples lack less than
+    /// their thresholds on average.
+    fn score(&self, a: Point, b: Point, step: f64) -> Option<f64> {
+        let len = a.distance(b);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let n = (len / step).ceil().max(1.0) as usize;
+        let (mut remaining, mut thresholds, mut fresh) = (0.0, 0.0, 0usize);
+        for i in 0..n {
+            #[allow(clippy::cast_precision_loss)]
+            let p = a.lerp(b, (i as f64 + 1.0) / n as f64);
+            let c = self.levels[0].cell_of(p);
+            if !self.asked[c] {
+                return None;
+            }
+            if !self.inked(p) {
+                let (r, t) = self.parts_at(p, c);
+                remaining += r;
+                thresholds += t;
+                fresh += 1;
+            } else if (n - i - 1 + fresh) * 10 < n * 3 {
+                return None;
+            }
+        }
+        // A line over partly inked ground darkens its cells less: scale the thresholds by the fresh fraction.
+        #[allow(clippy::cast_precision_loss)]
+        let sum = remaining - thresholds * (1.0 + fresh as f64 / n as f64) / 2.0;
+        #[allow(clippy::cast_precision_loss)]
+        (fresh * 10 >= n * 3 && fresh > 0 && sum >= 0.0).then(|| sum / n as f64)
+    }
+
+    /// Ink every grid point within `r` of the segment `a`→`b`, charging each newly inked point to its cell.
+    fn draw(&mut self, a: Point, b: Point, r: f64) {
+        let q = self.q;
+        let d = b - a;
+        let len2 = d.hypot2();
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let range = |lo: f64, hi: f64, n: usize| {
+            let first = ((lo / q - 0.5).ceil().max(0.0)) as usize;
+            let last = ((hi / q - 0.5).floor()).min(n as f64 - 1.0);
+            (first, last)
+        };
+        let (r0, r1) = range(a.y.min(b.y) - r, a.y.max(b.y) + r, self.ink_rows);
+        let (c0, c1) = range(a.x.min(b.x) - r, a.x.max(b.x) + r, self.ink_columns);
+        if r1 < 0.0 || c1 < 0.0 {
+            return;
+        }
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let c1 = c1 as usize;
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let r1 = r1 as usize;
+        for row in r0..=r1 {
+            #[allow(clippy::cast_precision_loss)]
+            let y = (row as f64 + 0.5) * q;
+            // The part of the segment within r of this row, widened by r: a superset of the inked points.
+            let (xa, xb) = if d.y.abs() < 1e-12 {
+                (a.x.min(b.x), a.x.max(b.x))
+            } else {
+                let t0 = ((y - r - a.y) / d.y).clamp(0.0, 1.0);
+                let t1 = ((y + r - a.y) / d.y).clamp(0.0, 1.0);
+                let (u, v) = (a.x + d.x * t0, a.x + d.x * t1);
+                (u.min(v), u.max(v))
+            };
+            let (lo, hi) = range(xa - r, xb + r, self.ink_columns);
+            if hi < 0.0 {
+                continue;
+            }
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let hi = hi as usize;
+            for col in lo.max(c0)..=hi.min(c1) {
+                #[allow(clippy::cast_precision_loss)]
+                let p = Point::new((col as f64 + 0.5) * q, (row as f64 + 0.5) * q);
+                let t = if len2 > 0.0 { ((p - a).dot(d) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                let k = row * self.ink_columns + col;
+                if !self.ink[k] && (a + d * t).distance(p) <= r {
+                    self.ink[k] = true;
+                    for level in &mut self.levels {
+                        let c = level.cell_of(p);
+                        level.owed[c] -= q * q;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A cell's need as a heap key (larger first).
+#[allow(clippy::cast_possible_truncation)] // a fraction around 0..1
+fn key(remaining: f64) -> i64 {
+    (remaining * 1e9) as i64
+}
+
+/// The sketch strokes of a darkness map, pixel coordinates: the ladder gives the pen width and the minimum spacing
+/// in mm, `pixel_mm` converts them to pixels.
+pub fn sketch(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64) -> Vec<Vec<Point>> {
+    let mut out = Vec::new();
+    if map.width == 0 || map.height == 0 || !(pixel_mm.is_finite() && pixel_mm > 0.0) {
+        return out;
+    }
+    let pen = ladder.pen_mm / pixel_mm;
+    let min_px = ladder.min_spacing_mm / pixel_mm;
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let cell = (2.0 * min_px).round().max(2.0) as usize;
+    let q = (pen / 2.0).min(0.5);
+    #[allow(clippy::cast_precision_loss)]
+    let c = cell as f64;
+    let mut canvas = Canvas::new(map, cell, q, pen);
+    let step = pen.min(1.0);
+    let budget = 2.0 * canvas.levels[0].owed.iter().sum::<f64>() / pen;
+    let mut drawn = 0.0;
+    let mut heap: BinaryHeap<(i64, usize)> =
+        (0..canvas.asked.len()).map(|i| (key(canvas.need(i)), i)).filter(|&(k, _)| k >= 0).collect();
+    let dirs: Vec<Vec2> = (0..DIRECTIONS)
+        .map(|i| {
+            #[allow(clippy::cast_precision_loss)]
+            let a = std::f64::consts::TAU * i as f64 / DIRECTIONS as f64;
+            Vec2::new(a.cos(), a.sin())
+        })
+        .collect();
+    let mut done = vec![false; canvas.asked.len()];
+    while let Some((k, i)) = heap.pop() {
+        if drawn > budget {
+            break;
+        }
+        let now = key(canvas.need(i));
+        if now < k {
+            if now >= 0 {
+                heap.push((now, i));
+            }
+            continue;
+        }
+        if done[i] {
+            continue;
+        }
+        let Some(start) = canvas.fresh_point(i) else {
+            done[i] = true;
+            continue;
+        };
+        let mut stroke = vec![start];
+        let mut at = start;
+        while drawn <= budget {
+            let mut best: Option<(f64, Point)> = None;
+            for len in LENGTHS {
+                for d in &dirs {
+                    let b = at + *d * (len * c);
+                    if !canvas.inside(b) {
+                        continue;
+                    }
+                    let Some(s) = canvas.score(at, b, step) else { continue };
+                    if best.is_none_or(|(bs, _)| s > bs) {
+                        best = Some((s, b));
+                    }
+                }
+                if best.is_some() {
+                    break;
+                }
+            }
+            let Some((_, b)) = best else { break };
+            canvas.draw(at, b, pen / 2.0);
+            drawn += at.distance(b);
+            stroke.push(b);
+            at = b;
+        }
+        if stroke.len() >= 2 {
+            out.push(stroke);
+        } else {
+            // Nothing worth drawing from this cell: leave it as it is.
+            done[i] = true;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::raster::ink::InkGrid;
+
+    fn flat(w: usize, h: usize, d: f32) -> DarknessMap {
+        DarknessMap { width: w, height: h, data: vec![d; w * h] }
+    }
+
+    fn ink(strokes: &[Vec<Point>], pen: f64, w: usize, h: usize, margin: usize) -> f64 {
+        let mut g = InkGrid::new(w * 5, h * 5, 0.2);
+        g.draw(strokes, pen);
+        g.fraction(margin * 5, (w - margin) * 5, margin * 5, (h - margin) * 5)
+    }
+
+    #[test]
+    fn white_is_empty_and_flat_grays_get_their_ink() {
+        // Pen 0.3 mm on 0.3 mm pixels (1 px), cells 3 px.
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        assert!(sketch(&flat(60, 60, 0.0), &ladder, 0.3).is_empty());
+        for d in [0.2f32, 0.5, 0.8] {
+            let s = sketch(&flat(120, 120, d), &ladder, 0.3);
+            let f = ink(&s, 1.0, 120, 120, 10);
+            assert!((f - f64::from(d)).abs() < 0.04, "darkness {d}: ink fraction {f}");
+            // Long strokes: on average at least ten cells (30 px) each.
+            let length: f64 = s.iter().map(|l| l.windows(2).map(|w| w[0].distance(w[1])).sum::<f64>()).sum();
+            #[allow(clippy::cast_precision_loss)]
+            let mean = length / s.len() as f64;
+            assert!(mean >= 30.0, "darkness {d}: strokes {mean:.1} px long on average");
+        }
+    }
+
+    #[test]
+    fn a_black_square_is_filled_and_its_surroundings_stay_paper() {
+        // A black 60 × 60 square in a white 120 × 120 picture.
+        let (w, h) = (120usize, 120usize);
+        let data = (0..w * h)
+            .map(|i| if (30..90).contains(&(i % w)) && (30..90).contains(&(i / w)) { 1.0 } else { 0.0 })
+            .collect();
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        let s = sketch(&DarknessMap { width: w, height: h, data }, &ladder, 0.3);
+        let f = ink(&s, 1.0, w, h, 33);
+        assert!(f > 0.9, "ink fraction inside {f}");
+        // Strokes keep to the square's cells (the 3 px cells align with it) and the paper around them.
+        assert!(s.iter().flatten().all(|p| (29.5..=90.5).contains(&p.x) && (29.5..=90.5).contains(&p.y)));
+    }
+}
