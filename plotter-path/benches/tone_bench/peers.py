@@ -2,7 +2,8 @@
 bench can keep each peer's best. Every plot is written as an SVG whose page is the picture, WIDTH mm wide, drawn
 with one pen of PEN mm.
 
-Usage: peers.py PHOTOS_DIR OUT_DIR WIDTH PEN   (TONE_BENCH_QUICK=1: only the settings best on the first photos)
+Usage: peers.py PHOTOS_DIR OUT_DIR WIDTH PEN   (TONE_BENCH_QUICK=1: only the settings best on the first photos;
+TONE_BENCH_HATCHED=0 leaves hatched out: on a textured photo its finest pitch runs for many minutes)
 
 OUT_DIR/<photo>/<peer>-<style>-<setting>.svg; a peer that is missing or fails is reported and left out.
 """
@@ -106,7 +107,7 @@ def plotline_runs(photo, out, width_mm, pen_mm, exe):
     height_mm = width_mm * h / w
     quick = os.environ.get("TONE_BENCH_QUICK") == "1"
     for style, setting, extra, responses in PLOTLINE_RUNS:
-        if quick and not (style == "hatch" or setting.startswith(("s0.8", "s1.0")) or setting.startswith("fine")):
+        if quick and not (style == "hatch" or setting.startswith(("s0.8", "s1.0"))):
             continue
         for response in responses:
             label = f"plotline-{style}-{setting}-r{response}"
@@ -130,7 +131,8 @@ def main():
     for photo in sorted(photos.glob("*.png")):
         out = out_root / photo.stem
         out.mkdir(parents=True, exist_ok=True)
-        hatched_runs(photo, out, width_mm)
+        if os.environ.get("TONE_BENCH_HATCHED", "1") != "0":
+            hatched_runs(photo, out, width_mm)
         if Path(exe).exists():
             plotline_runs(photo, out, width_mm, pen_mm, exe)
         else:
