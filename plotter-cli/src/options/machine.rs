@@ -518,8 +518,8 @@ mod tests {
     #[test]
     fn pen_delay_down_is_added_to_the_settle() {
         let s = model(&["--model", "servo-grbl", "--pen-delay-down", "70"]);
-        // 150 + 70; the lift's clear time stays 50 ms.
-        assert_eq!((s.pen.settle_ms, s.pen.clear_ms), (220.0, Some(50.0)));
+        // 150 + 70; the lift's clear time is still the servo's own (no clear_ms: it follows from the rate).
+        assert_eq!((s.pen.settle_ms, s.pen.clear_ms), (220.0, None));
         // Both: the longer is added once.
         assert_eq!(model(&["--pen-delay-down", "30", "--pen-delay-up", "20"]).pen.settle_ms, 80.0);
     }

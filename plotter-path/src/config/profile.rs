@@ -135,11 +135,21 @@ pub struct PenProfile {
     /// during the travel (see [`crate::motion::hop`]). Capped at the pen-up height.
     #[serde(default = "default_clearance")]
     pub clearance_mm: f64,
-    /// Servo pens: how long after a lift command the tip is clear of the paper, milliseconds (0..=`settle_ms`;
-    /// default a third of `settle_ms`). Travel starts after it; a drop is taken to pass the same height this long
-    /// before its settle ends, so it is commanded while the carriage is still travelling.
+    /// Servo pens: how long after a lift command the tip is clear of the paper, milliseconds (0..=`settle_ms`).
+    /// Travel starts after it. Without it (the default) the time follows from the servo's rate and
+    /// `contact_fraction` (see [`crate::motion::servo`]); give it only for a lift slower than that.
     #[serde(default)]
     pub clear_ms: Option<f64>,
+    /// Servo pens: the fraction (0.05..=1) of the servo's travel from the pen-up to the pen-down position at which
+    /// the tip touches the paper. A drop is timed so that the carriage has arrived at the stroke's start when the
+    /// servo reaches it and the line starts then, the rest of the servo's travel overlapping the drawing; a lift
+    /// lets the carriage go once the servo is back past it. Default 0.7, cautiously early: a pen holder is set up
+    /// with its down position somewhat below where the tip meets the paper (so that the pen rests on it), and a
+    /// contact taken early errs towards a line whose first fraction of a millimetre the tip lands on a moment
+    /// late (the carriage starts from rest: 0.1 mm takes 16 ms at 760 mm/s²), never towards a tip that lands
+    /// while the carriage is still arriving and marks the paper before the line.
+    #[serde(default = "default_contact_fraction")]
+    pub contact_fraction: f64,
     /// Acceleration along the path while drawing, mm/s² (default: only the axes' limits). A cap below what the
     /// axes allow, for a pen that skips or a machine that shakes when it draws (saxi, for one, draws at 200 and
     /// travels at 400 mm/s²).
@@ -168,6 +178,14 @@ pub const DEFAULT_CLEARANCE_MM: f64 = 1.0;
 
 fn default_clearance() -> f64 {
     DEFAULT_CLEARANCE_MM
+}
+
+/// The fraction of a servo's down travel at which the tip touches the paper when a profile does not say (see
+/// [`PenProfile::contact_fraction`] for the reason of the value).
+pub const DEFAULT_CONTACT_FRACTION: f64 = 0.7;
+
+fn default_contact_fraction() -> f64 {
+    DEFAULT_CONTACT_FRACTION
 }
 
 /// Pen width assumed when a profile does not give one, mm.
@@ -520,6 +538,7 @@ impl MachineProfile {
         within("pen.settle_ms", self.pen.settle_ms, &limits::SETTLE)?;
         within("pen.width_mm", self.pen.width_mm, &limits::PEN_WIDTH)?;
         within("pen.clearance_mm", self.pen.clearance_mm, &limits::CLEARANCE)?;
+        within("pen.contact_fraction", self.pen.contact_fraction, &limits::CONTACT_FRACTION)?;
         within("homing.pull_off_mm", self.homing.pull_off_mm, &limits::PULL_OFF)?;
         within("homing.debounce_ms", self.homing.debounce_ms, &limits::DEBOUNCE)?;
         let z_travel = Range { hi: self.axes.z.travel_mm, why: "the Z travel (axes.z.travel_mm)", ..limits::Z_HEIGHT };
@@ -667,6 +686,9 @@ mod limits {
     pub(super) const PEN_WIDTH: Range = Range::new(0.0, 10.0, "mm");
     /// How far above the pen-down height the tip is clear (capped at the pen-up height when planned).
     pub(super) const CLEARANCE: Range = Range::new(0.01, 100.0, "mm");
+    /// Where a servo pen's tip meets the paper, as a fraction of its down travel: a tip that touches in the first
+    /// twentieth of the travel would drag on every hop.
+    pub(super) const CONTACT_FRACTION: Range = Range::new(0.05, 1.0, "");
     /// Pen heights, within the Z travel (the upper end is the profile's own `axes.z.travel_mm`).
     pub(super) const Z_HEIGHT: Range = Range::new(0.0, 10_000.0, "mm");
     /// Servo angles, as `M3 S<angle>` takes them.

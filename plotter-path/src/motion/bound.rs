@@ -27,10 +27,11 @@
 //!   final lift; with the curve model on, those joins are allowed up to the Z feed (and the travel feed on the
 //!   hop's side), as for the pen down. The clearance is taken as the plan rounds it to steps. Each part is a
 //!   bound of the part the plan's breakdown counts (its pen-up, pen-down and settle blocks), not only of the
-//!   total. A servo pen's hop waits at least the clear time for the lift and the settle time for the drop,
-//!   of which the travel may overlap no more than `settle − clear` (the drop is commanded before the carriage
-//!   arrives only when the rest of the travel fits in that): `2·clear` per stroke, and `2·settle − clear` once for
-//!   the plot's first lift and last lift. The drawing before a servo lift ends at rest (the servo block is a stop).
+//!   total. A servo pen's hop waits at least the clear time for the lift (the servo's travel back past the
+//!   contact fraction, [`crate::motion::servo`]) and, for the drop, its one-tick command and the narrowest
+//!   window in which the tip may touch (zero for a servo of known timing, a servo cycle on an EiBotBoard): per
+//!   stroke; and `2·settle − clear` once for the plot's first lift and last lift. The drawing before a servo
+//!   lift ends at rest (the servo block is a stop).
 //! * **Travel**: the pen-up hops span at least the travel lower bound's tree (see [`crate::optimize::bound`]),
 //!   each hop on its own: at no more than the travel feed and the travel acceleration (the axes' `√(a_x² + a_y²)`,
 //!   or `pen.travel_accel_mm_s2` where lower), from and into the corners with the pen's Z moves (up to the
@@ -161,10 +162,25 @@ pub(crate) fn lift_parts(profile: &MachineProfile) -> LiftParts {
     let secs = |ticks: u32| f64::from(ticks) / f64::from(plotter_fw::TICK_HZ);
     let settle = secs(crate::motion::plan::settle_ticks(profile));
     if profile.pen.uses_servo() {
-        // A servo pen moves no axis: its blocks are dwells. Per stroke the clear time of its lift and of its drop;
-        // once, the first and the last lift's settle beyond the clear time counted per stroke.
-        let clear = secs(crate::motion::plan::servo_clear_ticks(profile));
-        return LiftParts { per_stroke: [clear, clear, 0.0], once: [2.0 * settle - clear, 0.0, 0.0] };
+        // A servo pen moves no axis: its blocks are dwells. Per stroke the clear time of its lift and, for its
+        // drop, the command and the narrowest contact window (the carriage waits through it at the stroke's
+        // start); once, the first and the last lift's settle beyond the clear time counted per stroke. Each the
+        // least of every pen the profile names.
+        let timings = std::iter::once(profile.pen.servo_down_deg)
+            .chain(profile.pens.iter().filter_map(|p| p.servo_down_deg))
+            .map(|d| crate::motion::servo::ServoTiming::of(profile, d));
+        let (mut clear, mut window) = (u64::MAX, u64::MAX);
+        for t in timings {
+            clear = clear.min(t.clear_ticks());
+            window = window.min(t.least_window());
+        }
+        if profile.pen.clear_ms.is_some() {
+            clear = u64::from(crate::motion::plan::servo_clear_ticks(profile));
+        }
+        #[allow(clippy::cast_precision_loss, reason = "tick counts are far below 2^52")]
+        let secs = |t: u64| t as f64 / f64::from(plotter_fw::TICK_HZ);
+        let (clear, drop) = (secs(clear.max(1)), secs(1 + window));
+        return LiftParts { per_stroke: [clear, drop, 0.0], once: [2.0 * settle - clear, 0.0, 0.0] };
     }
     // The clearance as the plan rounds it to steps (at least one), capped (as the plan caps it) by every pen's
     // distance from the paper to the pen-up height, less the step either end may round away.
@@ -428,11 +444,12 @@ mod tests {
         }]);
         let b = plot_time_lower_bound(&p, &steps, min_hop_seconds(&p)(200f64.sqrt())).unwrap();
         // The servo block is a stop: the 100 mm line runs rest to rest. Lifts: the first and last lifts' 150 ms
-        // each, and the one stroke's clear time (50 ms, a third of the settle) for its drop (the rest of the drop
-        // may overlap the travel).
+        // each, less the one stroke's clear time (0.3 of the 150 ms swing to the contact fraction 0.7: 45 ms,
+        // and the tick the rounding slack adds), which is counted per stroke; and the stroke's drop command (one
+        // tick: a servo of known timing needs no wait beyond the contact, which the travel may overlap).
         let a = 1500f64.hypot(1500.0);
         assert!((b.draw_s - (100.0 / 60.0 + 60.0 / a)).abs() < 1e-9, "{b:?}");
-        assert!((b.lifts_s - 0.35).abs() < 1e-12, "{b:?}");
+        assert!((b.lifts_s - 0.300_001).abs() < 1e-9, "{b:?}");
         let planned = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
         // The hop from home runs rest to rest between the servo's blocks (the Z feed, 25 mm/s, is no servo's

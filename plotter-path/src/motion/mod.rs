@@ -6,3 +6,4 @@ pub mod gap;
 pub mod hop;
 pub mod plan;
 pub mod print_plan;
+pub mod servo;

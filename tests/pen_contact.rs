@@ -1,0 +1,321 @@
+//! A servo pen lands on the stroke (issue 39): on every firmware — our simulator, the GRBL emulator driven by the
+//! G-code program, the EBB emulator driven by the EBB program — the carriage is within 0.1 mm of a stroke's first
+//! point when the tip touches the paper, and within 0.1 mm of its last point when the tip leaves it, at the
+//! profile's default contact fraction and at 0.5.
+//!
+//! The tip's contact is read from each machine's own record, not from the planner: our simulator and the GRBL
+//! emulator log each servo command (time, angle), and the servo is taken to turn at the profile's rate (its
+//! up-to-down swing in `settle_ms`) towards the last commanded angle, touching at `contact_fraction` of the way
+//! from the up angle to the pen's down angle; the EBB emulator moves its servo once per 24 ms cycle at the `SC`
+//! slew rates and is told where the tip meets the paper (`set_pen_contact`), so the trace of its pen state is the
+//! contact itself. The carriage's position at those times comes from each machine's step trace.
+
+use plotter_fw::sim::Sim;
+use plotter_host::link::ebb::emulator::EbbEmulator;
+use plotter_host::link::ebb::messages::EbbVersion;
+use plotter_host::link::ebb::program::{MotionStyle, program as ebb_program};
+use plotter_host::link::grbl::emulator::GrblEmulator;
+use plotter_host::link::grbl::program::{declare_position, program as grbl_program};
+use plotter_path::geometry::steps::{StepDrawing, drawing_to_steps};
+use plotter_path::kurbo::Point;
+use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
+use plotter_path::{Drawing, MachineProfile, Polyline};
+
+/// The farthest the carriage may be from the stroke's end when the tip touches or leaves the paper, mm.
+const LANDING_MM: f64 = 0.1;
+
+fn profile(name: &str) -> MachineProfile {
+    let path = plotter_e2e::sample(name);
+    MachineProfile::from_toml(&std::fs::read_to_string(&path).unwrap(), name).unwrap()
+}
+
+/// Strokes whose hops are long (55 mm), middling (5 mm), short (1.5 mm, 0.5 mm), and a 0.3 mm stroke (lifted
+/// before its servo has gone fully down).
+fn drawing() -> Drawing {
+    let line = |pts: &[(f64, f64)]| Polyline::new(pts.iter().map(|&(x, y)| Point::new(x, y)).collect());
+    Drawing::single_layer(
+        "a",
+        vec![
+            line(&[(20.0, 20.0), (40.0, 20.0)]),
+            line(&[(40.5, 20.0), (40.5, 30.0)]),
+            line(&[(42.0, 30.0), (60.0, 30.0)]),
+            line(&[(60.0, 35.0), (60.0, 45.0), (70.0, 45.0)]),
+            line(&[(100.0, 80.0), (110.0, 80.0)]),
+            line(&[(110.5, 80.0), (110.8, 80.0)]),
+            line(&[(111.5, 80.0), (111.5, 90.0)]),
+        ],
+    )
+}
+
+fn steps_of(p: &MachineProfile) -> StepDrawing {
+    let steps = drawing_to_steps(p, &drawing()).unwrap();
+    assert_eq!(steps.strokes.len(), 7);
+    steps
+}
+
+/// The strokes' first and last points, steps.
+fn stroke_ends(steps: &StepDrawing) -> Vec<([i64; 2], [i64; 2])> {
+    steps
+        .strokes
+        .iter()
+        .map(|s| {
+            let mut end = s.start;
+            for d in &s.moves {
+                end = end.offset(*d);
+            }
+            ([i64::from(s.start.x), i64::from(s.start.y)], [i64::from(end.x), i64::from(end.y)])
+        })
+        .collect()
+}
+
+/// Distance in mm between two XY step positions.
+fn mm_between(p: &MachineProfile, a: [i64; 2], b: [i64; 2]) -> f64 {
+    #[allow(clippy::cast_precision_loss)]
+    let (dx, dy) = ((a[0] - b[0]) as f64 / p.axes.x.steps_per_mm, (a[1] - b[1]) as f64 / p.axes.y.steps_per_mm);
+    dx.hypot(dy)
+}
+
+/// Where the carriage is at each of `times` (ticks), from `(time, position)` samples in time order.
+fn position_at(samples: &[(u64, [i64; 2])], start: [i64; 2], t: u64) -> [i64; 2] {
+    let i = samples.partition_point(|s| s.0 <= t);
+    if i == 0 { start } else { samples[i - 1].1 }
+}
+
+/// The tip's contacts (times it touches, times it leaves, ticks) of a servo turning at `deg_per_tick` towards
+/// each commanded angle of `servo` (time, angle), touching at `fraction` of the way from `up` to the commanded
+/// down angle.
+fn servo_contacts(servo: &[(u64, f32)], up: f64, deg_per_tick: f64, fraction: f64) -> (Vec<u64>, Vec<u64>) {
+    let (mut touches, mut leaves) = (Vec::new(), Vec::new());
+    let mut angle = up;
+    let mut contact_at = up;
+    for (i, &(t, target)) in servo.iter().enumerate() {
+        let target = f64::from(target);
+        let next = servo.get(i + 1).map_or(u64::MAX, |c| c.0);
+        let is_drop = (target - up).abs() > 0.05;
+        if is_drop {
+            contact_at = up + fraction * (target - up);
+        }
+        // The angle's path from t to next: linear towards the target, then still.
+        let travel = (target - angle).abs();
+        let reaches = |a: f64| {
+            // Ticks from t until the angle passes a on its way to the target, if it does.
+            let (lo, hi) = (angle.min(target), angle.max(target));
+            (a > lo && a < hi || (a - target).abs() < 1e-12 && travel > 0.0).then(|| (a - angle).abs() / deg_per_tick)
+        };
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_precision_loss)]
+        if let Some(dt) = reaches(contact_at) {
+            let at = t + dt.ceil() as u64;
+            if at < next {
+                if is_drop { touches.push(at) } else { leaves.push(at) }
+            }
+        }
+        #[allow(clippy::cast_precision_loss)]
+        let span = next.saturating_sub(t) as f64 * deg_per_tick;
+        angle = if travel <= span { target } else { angle + span * (target - angle).signum() };
+    }
+    (touches, leaves)
+}
+
+/// Check the landings: each touch within 0.1 mm of its stroke's start, each leave of its end. Returns the worst
+/// distances (touch, leave), mm.
+fn check_landings(
+    p: &MachineProfile,
+    steps: &StepDrawing,
+    (touches, leaves): (&[u64], &[u64]),
+    samples: &[(u64, [i64; 2])],
+    start: [i64; 2],
+    what: &str,
+) -> (f64, f64) {
+    let ends = stroke_ends(steps);
+    assert_eq!(touches.len(), ends.len(), "{what}: one touch per stroke: {touches:?}");
+    // Every stroke is lifted: the last one too.
+    assert_eq!(leaves.len(), ends.len(), "{what}: one lift off the paper per stroke: {leaves:?}");
+    let (mut worst_touch, mut worst_leave) = (0.0f64, 0.0f64);
+    for (i, (&t, (first, _))) in touches.iter().zip(&ends).enumerate() {
+        let d = mm_between(p, position_at(samples, start, t), *first);
+        assert!(d <= LANDING_MM, "{what}: stroke {i}: the tip touched {d:.3} mm from the stroke's start");
+        worst_touch = worst_touch.max(d);
+    }
+    for (i, (&t, (_, last))) in leaves.iter().zip(&ends).enumerate() {
+        let d = mm_between(p, position_at(samples, start, t), *last);
+        assert!(d <= LANDING_MM, "{what}: stroke {i}: the tip left the paper {d:.3} mm from the stroke's end");
+        worst_leave = worst_leave.max(d);
+    }
+    eprintln!("{what}: worst touch {worst_touch:.4} mm, worst leave {worst_leave:.4} mm from the stroke's ends");
+    (worst_touch, worst_leave)
+}
+
+/// The servo-plotter profile at contact `fraction` (`None`: the profile's own).
+fn servo_kit(fraction: Option<f64>) -> MachineProfile {
+    let mut p = profile("servo-plotter.toml");
+    if let Some(f) = fraction {
+        p.pen.contact_fraction = f;
+    }
+    p
+}
+
+/// The servo's rate the profile states: its swing in its settle time, degrees per tick.
+fn kit_rate(p: &MachineProfile) -> f64 {
+    (p.pen.servo_down_deg - p.pen.servo_up_deg).abs() / (p.pen.settle_ms * 1000.0)
+}
+
+fn on_our_firmware(fraction: Option<f64>) -> f64 {
+    let p = servo_kit(fraction);
+    let steps = steps_of(&p);
+    let mut sim = Sim::new(plan::machine_config(&p).unwrap());
+    sim.feed(b"G28\n");
+    sim.run_until_idle();
+    sim.take_replies();
+    let start = sim.machine().stepper().position();
+    let plan = plan::plan(&p, &steps, start, Lookahead::Whole).unwrap();
+    let busy0 = sim.hal().busy_ticks();
+    plotter_e2e::play_framed(&mut sim, &plan);
+    assert_eq!(sim.hal().busy_ticks() - busy0, plan.total_ticks, "executed time = planned time");
+    let servo: Vec<(u64, f32)> = sim.hal().servo_trace().iter().map(|s| (s.0, s.1)).collect();
+    let samples: Vec<(u64, [i64; 2])> =
+        plotter_e2e::sim_positions(&sim).into_iter().map(|(t, q)| (t, [q[0], q[1]])).collect();
+    let contacts = servo_contacts(&servo, p.pen.servo_up_deg, kit_rate(&p), p.pen.contact_fraction);
+    let what = format!("our firmware, contact {}", p.pen.contact_fraction);
+    let at = [i64::from(start[0]), i64::from(start[1])];
+    check_landings(&p, &steps, (&contacts.0, &contacts.1), &samples, at, &what).0
+}
+
+fn on_grbl(fraction: Option<f64>) -> f64 {
+    let p = servo_kit(fraction);
+    let steps = steps_of(&p);
+    let start = plan::homed_position(&p).unwrap();
+    let plan: MotionPlan = plan::plan(&p, &steps, start, Lookahead::Whole).unwrap();
+    let prog = grbl_program(&p, &plan);
+    let mut emu = GrblEmulator::new(&p, None).unwrap();
+    emu.take_replies();
+    let lines = ["$H".to_string(), declare_position(&p, start)].into_iter().chain(prog.lines.iter().cloned());
+    for line in lines {
+        emu.feed(format!("{line}\n").as_bytes());
+        let mut replies = Vec::new();
+        while !replies.iter().any(|r: &String| r == "ok" || r.starts_with("error:")) {
+            emu.run_for(50);
+            replies.extend(emu.take_replies());
+        }
+        assert!(replies.iter().any(|r| r == "ok"), "{line}: {replies:?}");
+    }
+    while !emu.is_idle() {
+        emu.run_for(1000);
+    }
+    let sim = emu.backend();
+    let servo: Vec<(u64, f32)> = sim.hal().servo_trace().iter().map(|s| (s.0, s.1)).collect();
+    let samples: Vec<(u64, [i64; 2])> =
+        plotter_e2e::sim_positions(sim).into_iter().map(|(t, q)| (t, [q[0], q[1]])).collect();
+    let contacts = servo_contacts(&servo, p.pen.servo_up_deg, kit_rate(&p), p.pen.contact_fraction);
+    let what = format!("GRBL, contact {}", p.pen.contact_fraction);
+    let at = [i64::from(start[0]), i64::from(start[1])];
+    check_landings(&p, &steps, (&contacts.0, &contacts.1), &samples, at, &what).0
+}
+
+fn on_ebb(name: &str, fraction: Option<f64>) -> f64 {
+    let mut p = profile(name);
+    if let Some(f) = fraction {
+        p.pen.contact_fraction = f;
+    }
+    let e = p.ebb.unwrap();
+    let steps = steps_of(&p);
+    let plan = plan::plan(&p, &steps, [0; 4], Lookahead::Whole).unwrap();
+    let prog = ebb_program(&p, &plan, [0, 0], MotionStyle::Lm).unwrap();
+    let mut emu = EbbEmulator::new(EbbVersion(3, 0, 2));
+    // The tip meets the paper `contact_fraction` of the way from the up to the down pulse.
+    let (u, d) = (f64::from(e.pen_up_position), f64::from(e.pen_down_position));
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let contact = (u + p.pen.contact_fraction * (d - u)).round() as u16;
+    emu.set_pen_contact(Some(contact));
+    let setup = [
+        format!("SC,4,{}", e.pen_up_position),
+        format!("SC,5,{}", e.pen_down_position),
+        format!("SC,11,{}", e.pen_rate_up),
+        format!("SC,12,{}", e.pen_rate_down),
+    ];
+    for line in &setup {
+        emu.feed(format!("{line}\r").as_bytes());
+        emu.run_for(1);
+    }
+    // The whole program at once: the board reads a command whenever its queue has room.
+    let t0 = emu.busy_intervals();
+    let mut text = String::new();
+    for c in &prog.commands {
+        text.push_str(&c.line);
+        text.push('\r');
+    }
+    emu.feed(text.as_bytes());
+    let (mut touches, mut leaves, mut samples) = (Vec::new(), Vec::new(), Vec::new());
+    let mut was_up = emu.pen_up();
+    let xy = |m: [i64; 2]| [(m[0] + m[1]) / 2, (m[0] - m[1]) / 2];
+    loop {
+        emu.run_for(1);
+        let up = emu.pen_up();
+        if up != was_up {
+            if up {
+                leaves.push(emu.clock())
+            } else {
+                touches.push(emu.clock())
+            }
+            was_up = up;
+        }
+        samples.push((emu.clock(), xy(emu.position())));
+        if emu.is_idle() {
+            break;
+        }
+    }
+    // Executed time = planned time, to the board's whole-millisecond rounding of each servo command.
+    let busy = emu.busy_intervals() - t0;
+    assert!(busy.abs_diff(prog.intervals) <= 2 * prog.commands.len() as u64, "{busy} vs {}", prog.intervals);
+    #[allow(clippy::cast_precision_loss)]
+    let (planned, board) = (plan.total_ticks as f64 / 1e6, busy as f64 * 40e-6);
+    assert!((planned - board).abs() < 0.002, "planned {planned} s, the board ran {board} s");
+    let what = format!("EBB {name}, contact {}", p.pen.contact_fraction);
+    check_landings(&p, &steps, (&touches, &leaves), &samples, [0, 0], &what).0
+}
+
+#[test]
+fn the_tip_lands_on_the_stroke_on_our_firmware() {
+    on_our_firmware(None);
+    on_our_firmware(Some(0.5));
+}
+
+#[test]
+fn the_tip_lands_on_the_stroke_on_grbl() {
+    on_grbl(None);
+    on_grbl(Some(0.5));
+}
+
+#[test]
+fn the_tip_lands_on_the_stroke_on_the_ebb() {
+    for name in ["axidraw-v3.toml", "nextdraw.toml", "axidraw-saxi.toml"] {
+        on_ebb(name, None);
+        on_ebb(name, Some(0.5));
+    }
+}
+
+/// The check can fail: a plan made for a tip that touches at 0.9 of the way down, run on a servo whose tip
+/// touches at 0.5, lands it on the paper while the carriage is still arriving.
+#[test]
+fn a_plan_for_a_later_contact_lands_the_tip_off_the_stroke() {
+    let p = servo_kit(Some(0.9));
+    let steps = steps_of(&p);
+    let mut sim = Sim::new(plan::machine_config(&p).unwrap());
+    sim.feed(b"G28\n");
+    sim.run_until_idle();
+    sim.take_replies();
+    let start = sim.machine().stepper().position();
+    let plan = plan::plan(&p, &steps, start, Lookahead::Whole).unwrap();
+    plotter_e2e::play_framed(&mut sim, &plan);
+    let servo: Vec<(u64, f32)> = sim.hal().servo_trace().iter().map(|s| (s.0, s.1)).collect();
+    let samples: Vec<(u64, [i64; 2])> =
+        plotter_e2e::sim_positions(&sim).into_iter().map(|(t, q)| (t, [q[0], q[1]])).collect();
+    let (touches, _) = servo_contacts(&servo, p.pen.servo_up_deg, kit_rate(&p), 0.5);
+    let ends = stroke_ends(&steps);
+    let at = [i64::from(start[0]), i64::from(start[1])];
+    let worst = touches
+        .iter()
+        .zip(&ends)
+        .map(|(&t, (first, _))| mm_between(&p, position_at(&samples, at, t), *first))
+        .fold(0.0, f64::max);
+    assert!(worst > 1.0, "the early touch went unnoticed: {worst} mm");
+}
