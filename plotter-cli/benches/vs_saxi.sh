@@ -68,21 +68,22 @@ for f in "$@"; do
   read -r _ paths _ lifts _ _ _ s_draw _ s_travel _ s_pen _ <"$WORK/out.txt"
   t_ours=$(on_board "" "$PLOTTER" plot "$conv" --port PORT --firmware ebb --profile "$PROFILE" \
     --pen-change none)
+  # Our optimized plan (`plotter stats --json`): its pen lifts, its time and its parts, and the plot-time lower
+  # bound it proves for them (pen-down length at the draw feed and the profile's drawing acceleration with the
+  # least corner losses, each lift's settles, the shortest hops at the travel feed and acceleration): no plan can
+  # beat it.
+  read -r ours_lifts lb plan_s parts < <("$PLOTTER" stats "$conv" --profile "$PROFILE" --json 2>/dev/null |
+    python3 -c '
+import json, sys
+v = json.load(sys.stdin)
+p = v["est_time_parts_optimized"]
+print(v["pen_lifts_optimized"], v["est_time_lower_bound_s_optimized"], v["est_time_s_optimized"],
+      *[p[k] for k in ("draw_s", "draw_lower_bound_s", "travel_s", "travel_lower_bound_s", "lifts_s",
+                       "lifts_lower_bound_s")])')
   # The board's time beyond our plan's.
-  pad=$(awk '/planned time/ { p = $(NF - 1) } /EBB: board time/ { b = $4 } END { printf "%.3f", b - p }' \
-    "$WORK/out.txt" | tr -d ';')
-  # Our optimized plan's pen lifts and the plot-time lower bound `plotter stats` proves for it (pen-down length at
-  # the draw feed and the profile's drawing acceleration with the least corner losses, each lift's settles, the
-  # shortest hops at the travel feed and acceleration): no plan can beat it.
-  stats=$("$PLOTTER" stats "$conv" --profile "$PROFILE" 2>/dev/null | grep -A1 "^optimized" || true)
-  ours_lifts=$(echo "$stats" | awk '{ for (i = 1; i < NF; i++) if ($(i+1) == "pen" && $(i+2) == "lifts,") print $i }')
-  lb=$(echo "$stats" | awk '{ for (i = 1; i < NF; i++) if ($i == "bound" && $(i-1) == "lower" && $(i-3) == "time") {
-    n = split($(i+1), t, ":"); s = 0; for (j = 1; j <= n; j++) s = s * 60 + t[j]; print s } }')
-  printf '%-38s %7s %7s %9s %9s %6.3f %8s %6.3f\n' "${name:0:38}" "$paths" "$lifts/${ours_lifts:-?}" "$t_saxi" \
+  pad=$(echo "$t_ours - $plan_s" | bc -l)
+  printf '%-38s %7s %7s %9s %9s %6.3f %8.1f %6.3f\n' "${name:0:38}" "$paths" "$lifts/${ours_lifts:-?}" "$t_saxi" \
     "$t_ours" "$(echo "$t_ours / $t_saxi" | bc -l)" "${lb:-0}" "$(echo "${lb:-0} / $t_saxi" | bc -l)"
-  # `time parts, planned / lower bound: pen down P / B s (..), travel P / B s (..), lifts P / B s (..)`.
-  parts=$(echo "$stats" | awk -F'[:,]' '/time parts/ { for (i = 3; i <= 5; i++) { split($i, w, " ");
-    n = length(w); printf "%s %s ", w[n - 5], w[n - 3] } }')
   echo "$name $s_draw $s_travel $s_pen $parts $pad" >>"$WORK/parts.txt"
   sum_saxi=$(echo "$sum_saxi + $t_saxi" | bc -l)
   sum_ours=$(echo "$sum_ours + $t_ours" | bc -l)
