@@ -43,9 +43,13 @@ if [ "$PEERS_OK" = 1 ]; then
 fi
 if [ $# -gt 0 ]; then PHOTOS=("$@"); else PHOTOS=(); for f in "$OUT"/photos/*.png; do PHOTOS+=("$(basename "$f" .png)"); done; fi
 
-cargo build -q --release -p plotter-cli
-cargo bench -q -p plotter-path --bench tone --no-run 2>/dev/null
+# TONE_BENCH_NOBUILD=1 uses the plotter and tone measure binaries already built (target/release).
+if [ "${TONE_BENCH_NOBUILD:-0}" != 1 ]; then
+  cargo build -q --release -p plotter-cli
+  cargo bench -q -p plotter-path --bench tone --no-run 2>/dev/null
+fi
 PLOTTER=target/release/plotter
+TONE=$(ls -t target/release/deps/tone-* | grep -v '\.d$' | head -1)
 
 # Our styles: label:flags (flags after `plotter trace PHOTO --width W --pen-width P`).
 OURS="${TONE_BENCH_OURS:-hatch:--mode hatch;hatch-l8:--mode hatch --levels 8;stipple:--mode stipple;stipple-tsp:--mode stipple --tsp;squiggle:--mode squiggle;spiral:--mode spiral}"
@@ -77,7 +81,7 @@ for photo in "${PHOTOS[@]}"; do
     "$VENV/bin/python" "$HERE/peers.py" "$OUT/peers-in/$photo" "$OUT/peers" "$WIDTH" "$PEN" 2>"$OUT/peers-$photo.log" || true
     for f in "$OUT/peers/$photo"/*.svg; do [ -f "$f" ] && plots+=("$(basename "$f" .svg)=$f"); done
   fi
-  cargo bench -q -p plotter-path --bench tone -- --picture "$pic" --width "$WIDTH" --pen "$PEN" \
+  "$TONE" --picture "$pic" --width "$WIDTH" --pen "$PEN" \
     --out "$OUT/norm/$photo" "${plots[@]}" 2>"$OUT/measure-$photo.log" | tail -n +2 | while IFS=$'\t' read -r label err ssim ink paths; do
       t=$("$PLOTTER" stats --json "$OUT/norm/$photo/$label.svg" 2>/dev/null \
           | python3 -c 'import json,sys; print(round(json.load(sys.stdin)["est_time_s_optimized"], 1))' || echo nan)
