@@ -6,6 +6,7 @@
 //! A front end supplies a [`progress::PlotEvents`] (progress display, pause requests and decisions) and gets a
 //! [`JobOutcome`] or an error that says how to continue.
 
+pub mod copies;
 pub mod hpgl;
 pub mod load;
 pub mod page;
@@ -13,6 +14,7 @@ pub mod prepare;
 pub mod progress;
 pub mod stepped;
 pub mod stops;
+pub mod webhook;
 
 use std::borrow::Cow;
 use std::path::Path;
@@ -397,20 +399,25 @@ impl Run<'_> {
 
     /// Move to the park position with the pen up; returns it (machine mm).
     fn park<M: PlotMachine + ?Sized>(&self, machine: &mut M) -> anyhow::Result<(f64, f64)> {
-        let to = plan::park_position(self.profile)?;
-        let now = position_within_travel(machine, self.profile)?;
-        let travel = plan::plan_travel(self.profile, now, to)?;
-        if !travel.blocks.is_empty() {
-            machine.stream(&travel, &mut Quiet).map_err(|e| anyhow::anyhow!("cannot park for the pen change: {e}"))?;
-        }
-        let m = plotter_path::geometry::steps::StepMapper::new(self.profile).steps_to_machine(to);
-        Ok((m.x, m.y))
+        park(machine, self.profile)
     }
+}
+
+/// Move to the park position with the pen up; returns it (machine mm).
+pub(crate) fn park<M: PlotMachine + ?Sized>(machine: &mut M, profile: &MachineProfile) -> anyhow::Result<(f64, f64)> {
+    let to = plan::park_position(profile)?;
+    let now = position_within_travel(machine, profile)?;
+    let travel = plan::plan_travel(profile, now, to)?;
+    if !travel.blocks.is_empty() {
+        machine.stream(&travel, &mut Quiet).map_err(|e| anyhow::anyhow!("cannot park for the pen change: {e}"))?;
+    }
+    let m = plotter_path::geometry::steps::StepMapper::new(profile).steps_to_machine(to);
+    Ok((m.x, m.y))
 }
 
 /// Wait `ms` milliseconds with the pen where it is, as dwells the machine runs (so a simulated plot counts them
 /// in its executed time): blocks of at most a second each.
-fn dwell<M: PlotMachine + ?Sized>(
+pub(crate) fn dwell<M: PlotMachine + ?Sized>(
     machine: &mut M,
     profile: &MachineProfile,
     ms: u32,

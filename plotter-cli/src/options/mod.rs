@@ -5,3 +5,4 @@ pub mod layout;
 pub mod machine;
 pub mod optimize;
 pub mod trace;
+pub mod workflow;

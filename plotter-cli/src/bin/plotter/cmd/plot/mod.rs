@@ -29,6 +29,7 @@ use plotter_host::link::sim::SimTransport;
 use plotter_host::options::layout::{LayoutArgs, journal_args, refuse_quarter_turns};
 use plotter_host::options::machine::MachineArgs;
 use plotter_host::options::optimize::OptimizeArgs;
+use plotter_host::options::workflow::WorkflowArgs;
 use plotter_host::stop::Stop;
 use plotter_path::MachineProfile;
 use plotter_path::input::trajectory;
@@ -131,7 +132,9 @@ pub(crate) struct PlotArgs {
     #[arg(long, value_parser = sim_speed)]
     pub(crate) sim_speed: Option<f64>,
     #[command(flatten)]
-    pub(crate) input_args: InputArgs,
+    pub(crate) workflow: Box<WorkflowArgs>,
+    #[command(flatten)]
+    pub(crate) input_args: Box<InputArgs>,
     #[command(flatten)]
     pub(crate) layout: LayoutArgs,
     /// Path ordering. `plot` runs the optimizer to convergence (no time budget), so that a resumed plot rebuilds
@@ -370,19 +373,11 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     match connected.as_mut() {
         None => {
             let mut session = simulated.context("the simulated plotter is not connected")?;
-            let outcome = job::plot(
-                &mut session,
-                &profile,
-                &steps,
-                !args.no_home,
-                args.optimize.return_home,
-                None,
-                &mut terminal,
-            );
+            let outcome = with_workflow(args, &mut session, input, &profile, &steps, None, &mut terminal);
             terminal.bar.finish_and_clear();
-            let outcome = outcome?;
+            let (outcome, busy_before) = outcome?;
             let sim = session.transport.inner().sim();
-            let executed = sim.hal().busy_ticks() - outcome.busy_before;
+            let executed = sim.hal().busy_ticks() - busy_before;
             println!("{}", summary(&outcome, Some(executed), args.verbose));
             // The plot is done: the figures and the preview that follow are side outputs, which warn rather than
             // turn a finished plot into a failure.
@@ -416,10 +411,9 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
                 Ok(serde_json::to_string(&PlotSource::here(input, &profile.name, start)?)?)
             };
             let spec = JournalSpec { path: &journal_path, source: &source };
-            let back = args.optimize.return_home;
-            let outcome = job::plot(c.machine(), &profile, &steps, !args.no_home, back, Some(spec), &mut terminal);
+            let outcome = with_workflow(args, c.machine(), input, &profile, &steps, Some(spec), &mut terminal);
             terminal.bar.finish_and_clear();
-            let outcome = outcome?;
+            let (outcome, _) = outcome?;
             println!("{}", summary(&outcome, None, args.verbose));
             if let (Connected::Grbl(g), true) = (&c, args.verbose) {
                 println!("GRBL: at most {} bytes in flight (receive buffer {} bytes)", g.peak_in_flight, g.rx_bytes);
@@ -433,6 +427,59 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The plot with its workflow (`--copies`, `--split-distance`, `--webhook`): the last copy's outcome and the
+/// simulator's busy time before the first (see [`job::JobOutcome::busy_before`]). The webhook hears of pen
+/// changes and pauses as they come, and of the end; its deliveries are waited for once the plot is over.
+fn with_workflow<M: plotter_host::link::machine::PlotMachine + ?Sized>(
+    args: &PlotArgs,
+    machine: &mut M,
+    input: &Path,
+    profile: &MachineProfile,
+    steps: &plotter_path::geometry::steps::StepDrawing,
+    journal: Option<JournalSpec<'_>>,
+    terminal: &mut Terminal,
+) -> anyhow::Result<(job::JobOutcome, u64)> {
+    let copies = args.workflow.copies()?;
+    let stops = job::stops::StopOptions { split_mm: args.workflow.split_mm()? };
+    let hook = match &args.workflow.webhook {
+        Some(url) => Some(job::webhook::Webhook::new(url, &profile.name, &drawing_name(input))?),
+        None => None,
+    };
+    let (home, back) = (!args.no_home, args.optimize.return_home);
+    let result = match &hook {
+        Some(hook) => {
+            let mut events = job::webhook::HookedEvents { inner: terminal, hook };
+            job::copies::plot_copies(machine, profile, steps, home, back, journal, &stops, &copies, &mut events)
+        }
+        None => job::copies::plot_copies(machine, profile, steps, home, back, journal, &stops, &copies, terminal),
+    };
+    if let Some(hook) = hook {
+        match &result {
+            Ok(out) => {
+                let secs: f64 = out.copies.iter().map(|c| c.plan.seconds()).sum();
+                let mut text = format!(
+                    "{} cop{} plotted, {secs:.1} s planned",
+                    out.copies.len(),
+                    if out.copies.len() == 1 { "y" } else { "ies" }
+                );
+                if let Some(why) = &out.ended_early {
+                    text = format!("{text}; {why}");
+                }
+                hook.send("finished", &text);
+            }
+            Err(e) => hook.send("error", &format!("{e:#}")),
+        }
+        hook.finish();
+    }
+    let mut out = result?;
+    if let Some(why) = &out.ended_early {
+        eprintln!("{why}");
+    }
+    let busy_before = out.copies.first().map_or(0, |c| c.busy_before);
+    let last = out.copies.pop().context("no copy was plotted")?;
+    Ok((last, busy_before))
 }
 
 /// How a resumed plot reaches the machine: the options of `plot --resume` and `plotter resume` (everything else
