@@ -451,3 +451,150 @@ impl PlotEvents for StudioEvents<'_> {
         Stop::process().stop_cause()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::studio::machines::parse_machine;
+    use crate::studio::queue::NewJob;
+    use crate::studio::running::StudioOptions;
+    use crate::studio::status::Activity;
+    use serde_json::json;
+
+    const SQUARES: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="60mm" viewBox="0 0 60 60">
+      <rect x="10" y="10" width="40" height="40" fill="none" stroke="black"/>
+      <rect x="20" y="20" width="20" height="20" fill="none" stroke="black"/>
+      <path d="M 5 5 L 55 5 M 5 55 L 55 55 M 5 30 L 55 30" fill="none" stroke="black"/>
+    </svg>"#;
+
+    /// Many short blocks (circles), so the plot is never all queued on the firmware at once.
+    fn rings() -> String {
+        let circles: String = (1..=12)
+            .map(|r| format!(r#"<circle cx="30" cy="30" r="{}" fill="none" stroke="black"/>"#, 2 * r))
+            .collect();
+        format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="60mm" viewBox="0 0 60 60">{circles}</svg>"#
+        )
+    }
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("plotter-worker-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    /// Wait (at most 60 s) until `done` holds.
+    fn until(what: &str, mut done: impl FnMut() -> bool) {
+        let start = Instant::now();
+        while !done() {
+            assert!(start.elapsed() < Duration::from_secs(60), "still waiting for {what}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn state_of(studio: &Studio, id: i64) -> JobState {
+        studio.queue().get(id).unwrap().state
+    }
+
+    /// The plan `plotter plot` would run for the squares with `flags` on the default kit: blocks and seconds.
+    fn plan_alone(flags: &[&str]) -> (usize, f64) {
+        let dir = temp_dir("alone");
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("squares.svg");
+        std::fs::write(&file, SQUARES).unwrap();
+        let args = JobArgs::from_options(&json!({ "args": flags })).unwrap();
+        let profile = plotter_path::MachineProfile::default_plotter();
+        let (steps, _) =
+            crate::job::load::load_steps(&file, &profile, &args.input, &args.layout, &args.optimize, None).unwrap();
+        let p = plan::plan(&profile, &steps, plan::homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        (p.blocks.len(), p.seconds())
+    }
+
+    #[test]
+    fn each_machine_plots_its_own_job_and_a_dead_port_takes_no_other_down() {
+        let dir = temp_dir("two");
+        let machines = vec![
+            parse_machine("a=sim").unwrap(),
+            parse_machine("b=sim").unwrap(),
+            parse_machine("gone=/dev/no-such-plotter,firmware=ours").unwrap(),
+        ];
+        let options = StudioOptions { sim_speed: f64::INFINITY, max_retry: Duration::from_millis(500) };
+        let studio = Studio::open(&dir, machines, options).unwrap();
+        let workers = start(&studio).unwrap();
+        let flags = ["--paper", "a6", "--margin", "12"];
+        let job = |name: &str| NewJob::new(name, SQUARES.as_bytes().to_vec()).with_options(json!({ "args": flags }));
+        let for_b = studio.add(&job("b.svg").for_machine("b")).unwrap();
+        let for_gone = studio.add(&job("gone.svg").for_machine("gone")).unwrap();
+        until("b's job", || state_of(&studio, for_b) == JobState::Done);
+        let any = studio.add(&job("any.svg")).unwrap();
+        until("the any-machine job", || state_of(&studio, any) == JobState::Done);
+        // b plotted its own job; the any-machine job went to a machine that is up, never to the dead one.
+        assert_eq!(studio.queue().get(for_b).unwrap().claimed_by.as_deref(), Some("b"));
+        assert_ne!(studio.queue().get(any).unwrap().claimed_by.as_deref(), Some("gone"));
+        // Exactly the plan `plotter plot` makes of the same drawing and flags, executed in its planned time.
+        let (blocks, seconds) = plan_alone(&flags);
+        let last = studio.slot("b").unwrap().status().last.clone().unwrap();
+        let expected = format!("{blocks} blocks");
+        assert!(
+            last.contains(&expected) && last.contains(&format!("planned {seconds:.3} s, executed {seconds:.3} s")),
+            "{last}"
+        );
+        let h = studio.queue().history(for_b).unwrap();
+        assert_eq!(h.len(), 1);
+        assert_eq!(h[0].outcome.as_deref(), Some("done"));
+        // The dead port: reported by name, retried, its job waiting.
+        let gone = studio.slot("gone").unwrap().status().clone();
+        assert_eq!(gone.state, Activity::Offline);
+        let e = gone.error.unwrap();
+        assert!(e.contains("/dev/no-such-plotter") && e.contains("trying again in"), "{e}");
+        assert_eq!(state_of(&studio, for_gone), JobState::Queued);
+        studio.end();
+        for w in workers {
+            w.join().unwrap();
+        }
+        drop(studio);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn pause_resume_and_emergency_stop_reach_the_plot() {
+        let dir = temp_dir("controls");
+        let options = StudioOptions { sim_speed: 4.0, max_retry: Duration::from_millis(500) };
+        let studio = Studio::open(&dir, vec![parse_machine("a=sim").unwrap()], options).unwrap();
+        let workers = start(&studio).unwrap();
+        let job = NewJob::new("rings.svg", rings().into_bytes()).with_options(json!({ "args": ["--no-optimize"] }));
+        let first = studio.add(&job.clone().for_machine("a")).unwrap();
+        let slot = Arc::clone(studio.slot("a").unwrap());
+        until("the plot under way", || slot.status().percent > 5.0);
+        studio.pause("a").unwrap();
+        until("the pause", || slot.status().state == Activity::Paused);
+        assert_eq!(state_of(&studio, first), JobState::Paused);
+        let held = slot.status().percent;
+        std::thread::sleep(Duration::from_millis(300));
+        assert!((slot.status().percent - held).abs() < 1e-9, "nothing moves while paused");
+        assert_eq!(slot.status().pen_down, Some(false), "paused with the pen up");
+        studio.resume("a").unwrap();
+        until("the first job's end", || state_of(&studio, first) == JobState::Done);
+        // The plot time leaves the pause out.
+        let plot = studio.queue().history(first).unwrap()[0].plot_time.unwrap();
+        let second = studio.add(&job.for_machine("a")).unwrap();
+        until("the second plot under way", || {
+            let s = slot.status();
+            s.job == Some(second) && s.percent > 5.0
+        });
+        studio.estop("a").unwrap();
+        until("the stop", || state_of(&studio, second) == JobState::Cancelled);
+        let h = studio.queue().history(second).unwrap();
+        assert_eq!(h[0].outcome.as_deref(), Some("cancelled by the operator"));
+        until("the machine idle", || slot.status().state == Activity::Idle);
+        assert!(slot.status().percent < 100.0, "stopped before the end");
+        studio.end();
+        for w in workers {
+            w.join().unwrap();
+        }
+        assert!(plot > Duration::ZERO);
+        drop(studio);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
