@@ -58,6 +58,16 @@ pub enum ImagesArg {
     Edges,
     /// Hatch shading of the gray tones
     Hatch,
+    /// Pen dots, denser where darker
+    Stipple,
+    /// Rows of waves growing with darkness
+    Squiggle,
+    /// One spiral from the centre whose waves grow with darkness
+    Spiral,
+    /// Streamlines along the picture's edges, closer where darker
+    Flow,
+    /// Long scribbled strokes heading for the darkest place nearby
+    Sketch,
 }
 
 /// What `--hatch` asks for: one spacing for every fill, or each fill shaded by its lightness.
@@ -176,6 +186,11 @@ impl InputArgs {
                     ImagesArg::Centerline => Some(Mode::Centerline),
                     ImagesArg::Edges => Some(Mode::Edges),
                     ImagesArg::Hatch => Some(Mode::Hatch),
+                    ImagesArg::Stipple => Some(Mode::Stipple),
+                    ImagesArg::Squiggle => Some(Mode::Squiggle),
+                    ImagesArg::Spiral => Some(Mode::Spiral),
+                    ImagesArg::Flow => Some(Mode::Flow),
+                    ImagesArg::Sketch => Some(Mode::Sketch),
                 };
                 mode.map(|mode| ImageTrace { trace: raster::TraceOptions { mode, ..self.trace.options() } })
             },

@@ -48,6 +48,8 @@ pub(crate) fn run(args: &TraceCmdArgs) -> Result<()> {
 mod tests {
     use super::*;
     use clap::Parser;
+    use clap::ValueEnum;
+    use plotter_host::options::trace::ModeArg;
     use plotter_path::input::raster::{HatchOptions, HatchScheme, Mode, Threshold};
     use std::path::Path;
 
@@ -98,7 +100,12 @@ mod tests {
         );
         assert_eq!(w.cmd.layout.paper.as_deref(), Some("a4"));
         assert!(Wrap::try_parse_from(["trace", "in.png", "-o", "x.svg", "--threshold", "dark"]).is_err());
-        assert!(Wrap::try_parse_from(["trace", "in.png", "-o", "x.svg", "--mode", "sketch"]).is_err());
+        let e =
+            Wrap::try_parse_from(["trace", "in.png", "-o", "x.svg", "--mode", "scribble"]).err().unwrap().to_string();
+        for mode in ModeArg::value_variants() {
+            let name = mode.to_possible_value().unwrap().get_name().to_owned();
+            assert!(e.contains("scribble") && e.contains(&name), "{name} missing from: {e}");
+        }
     }
 
     #[test]
@@ -122,6 +129,41 @@ mod tests {
             svg.contains("<svg") && svg.matches("<polyline").count() + svg.matches("<polygon").count() >= 20,
             "{svg}"
         );
+    }
+
+    #[test]
+    fn every_listed_mode_traces_a_small_picture() {
+        // The photo sample (a sphere and a box on a wall), traced 40 mm wide at 0.5 mm pixels: 80 x 60 px.
+        let dir = std::env::temp_dir().join(format!("plotter-trace-modes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let input = sample("photo.png");
+        let mut traced = Vec::new();
+        for mode in ModeArg::value_variants() {
+            let name = mode.to_possible_value().unwrap().get_name().to_owned();
+            let out = dir.join(format!("{name}.svg"));
+            let w = Wrap::try_parse_from([
+                "trace",
+                input.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--mode",
+                &name,
+                "--width",
+                "40",
+                "--pitch",
+                "0.5",
+            ])
+            .unwrap();
+            run(&w.cmd).unwrap_or_else(|e| panic!("--mode {name}: {e}"));
+            let svg = std::fs::read_to_string(&out).unwrap();
+            assert!(svg.contains("<polyline") || svg.contains("<polygon") || svg.contains("<path"), "{name}: {svg}");
+            traced.push(name);
+        }
+        std::fs::remove_dir_all(&dir).ok();
+        assert_eq!(traced.len(), ModeArg::value_variants().len());
+        for name in ["flow", "sketch", "stipple", "squiggle", "spiral"] {
+            assert!(traced.iter().any(|t| t == name), "{name} is not offered: {traced:?}");
+        }
     }
 
     #[test]

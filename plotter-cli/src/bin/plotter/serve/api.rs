@@ -301,11 +301,14 @@ fn input_args(settings: &Settings) -> Result<InputArgs, ApiError> {
     }
     let mut args = <W as clap::Parser>::try_parse_from(["serve"]).map_err(|e| bad(e.to_string()))?.input;
     args.trace.mode = match settings.trace.as_str() {
-        "" | "outline" => ModeArg::Outline,
-        "centerline" => ModeArg::Centerline,
-        "edges" => ModeArg::Edges,
-        "hatch" => ModeArg::Hatch,
-        other => return Err(bad(format!("unknown tracing mode {other:?} (outline, centerline, edges, hatch)"))),
+        "" => ModeArg::Outline,
+        name => <ModeArg as clap::ValueEnum>::from_str(name, false).map_err(|_| {
+            let names: Vec<String> = <ModeArg as clap::ValueEnum>::value_variants()
+                .iter()
+                .filter_map(|m| clap::ValueEnum::to_possible_value(m).map(|v| v.get_name().to_owned()))
+                .collect();
+            bad(format!("unknown tracing mode {name:?} ({})", names.join(", ")))
+        })?,
     };
     let h = settings.hatch_mm;
     if !(h == 0.0 || (h.is_finite() && (MIN_HATCH_MM..=MAX_HATCH_MM).contains(&h))) {
