@@ -63,6 +63,13 @@ pub struct OptimizeArgs {
     /// Where closed paths may start
     #[arg(long, value_enum, default_value_t = SeamArg::Any, help_heading = "Optimization")]
     pub seam: SeamArg,
+    /// Start each closed path at a vertex picked at random (from --seed), so that long or repeated plots do not
+    /// wear one spot of the paper with every pen drop (instead of --seam)
+    #[arg(long, help_heading = "Optimization")]
+    pub random_start: bool,
+    /// Seed of --random-start: the same seed gives the same starts
+    #[arg(long, default_value_t = 1, requires = "random_start", help_heading = "Optimization")]
+    pub seed: u64,
     /// Minimum turn, degrees, of a vertex to count as a corner for --seam corners
     #[arg(long, default_value_t = 60.0, help_heading = "Optimization")]
     pub seam_angle: f64,
@@ -146,6 +153,7 @@ impl OptimizeArgs {
             reorder: !self.no_reorder,
             reverse: !self.no_reverse,
             seam: match self.seam {
+                _ if self.random_start => SeamMode::Random { seed: self.seed },
                 SeamArg::Keep => SeamMode::Keep,
                 SeamArg::Any => SeamMode::Any,
                 SeamArg::Corners => SeamMode::Corners { min_turn_deg: self.seam_angle },
