@@ -82,7 +82,7 @@ mod tests {
         let d = parse(&[]);
         assert_eq!(d.copies().unwrap(), Copies { count: 1, page_delay_s: 0.0, paper_pause: true });
         assert_eq!(d.split_mm().unwrap(), None);
-        let e = parse(&["--page-delay", "-1"]).copies().unwrap_err().to_string();
+        let e = parse(&["--page-delay=-1"]).copies().unwrap_err().to_string();
         assert!(e.starts_with("--page-delay -1: give a number of seconds"), "{e}");
         let e = parse(&["--split-distance", "0"]).split_mm().unwrap_err().to_string();
         assert!(e.starts_with("--split-distance 0: give the drawn length"), "{e}");
