@@ -219,16 +219,18 @@ mod tests {
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         let prog = program(&p, &plan);
         // The servo blocks carry the 50 ms settle; the plot starts by lifting the pen (its angle is not known). The
-        // first drop is commanded before the last 33 ms of the travel (the settle less the 16.7 ms clear time), a
-        // dwell completing the 50 ms; before the pen change the lift is whole and the travel after it flat.
+        // tip touches at 0.7 of the servo's swing, 35 ms after the drop is commanded, so the drop goes out before the
+        // travel's last 35 ms: the last 33 steps (0.4125 mm) of this deceleration take 33.3 ms, so 36 steps (0.45 mm)
+        // take 33.3·√(36/33) = 34.8 ms, and the line starts at contact, a 0.2 ms dwell written P0. Before the pen
+        // change the lift is whole and the travel after it flat.
         assert_eq!(
             prog.lines,
             [
                 "M3 S90 G4 P0.05",
-                "G1 X9.5875 Y9.5875 F7200",
+                "G1 X9.55 Y9.55 F7200",
                 "M3 S25 G4 P0",
                 "G1 X10 Y10",
-                "G4 P0.017",
+                "G4 P0",
                 "G1 X12.5 Y10 F3600",
                 "G1 X12.5 Y11.0125",
                 "M3 S90 G4 P0.05",
