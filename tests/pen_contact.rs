@@ -216,6 +216,12 @@ fn on_ebb(name: &str, fraction: Option<f64>) -> f64 {
     if let Some(f) = fraction {
         p.pen.contact_fraction = f;
     }
+    on_ebb_with(&p, name).0
+}
+
+/// [`on_ebb`] for a profile as given: the worst touch (mm) and the planned time (ticks).
+fn on_ebb_with(p: &MachineProfile, name: &str) -> (f64, u64) {
+    let p = p.clone();
     let e = p.ebb.unwrap();
     let steps = steps_of(&p);
     let plan = plan::plan(&p, &steps, [0; 4], Lookahead::Whole).unwrap();
@@ -270,7 +276,7 @@ fn on_ebb(name: &str, fraction: Option<f64>) -> f64 {
     let (planned, board) = (plan.total_ticks as f64 / 1e6, busy as f64 * 40e-6);
     assert!((planned - board).abs() < 0.002, "planned {planned} s, the board ran {board} s");
     let what = format!("EBB {name}, contact {}", p.pen.contact_fraction);
-    check_landings(&p, &steps, (&touches, &leaves), &samples, [0, 0], &what).0
+    (check_landings(&p, &steps, (&touches, &leaves), &samples, [0, 0], &what).0, plan.total_ticks)
 }
 
 #[test]
@@ -318,4 +324,27 @@ fn a_plan_for_a_later_contact_lands_the_tip_off_the_stroke() {
         .map(|(&t, (first, _))| mm_between(&p, position_at(&samples, at, t), *first))
         .fold(0.0, f64::max);
     assert!(worst > 1.0, "the early touch went unnoticed: {worst} mm");
+}
+
+/// `--pen-delay-up/--pen-delay-down` on an EBB: waits of their own after the tip is clear and after it touches;
+/// the tip still lands on each stroke's start and the board runs the plan. The wait after the touch holds the
+/// carriage at each stroke's start: exactly 100 ms more per stroke. The wait after the lift holds the carriage
+/// 40 ms before each travel, but the next drop may be commanded during it (the tip is clear then and touches as
+/// the carriage arrives), so it costs at most 40 ms per stroke and, with the servo rising longer, at least
+/// nothing.
+#[test]
+fn the_pen_delays_wait_after_the_lift_and_after_the_touch_on_the_ebb() {
+    let name = "axidraw-v3.toml";
+    let base = profile(name);
+    let with = |lift: f64, drop: f64| {
+        let mut p = base.clone();
+        (p.pen.lift_delay_ms, p.pen.drop_delay_ms) = (lift, drop);
+        on_ebb_with(&p, name).1
+    };
+    let strokes = stroke_ends(&steps_of(&base)).len() as u64;
+    let plain = with(0.0, 0.0);
+    let dropped = with(0.0, 100.0);
+    assert_eq!(dropped - plain, strokes * 100_000, "{strokes} strokes: {plain} then {dropped} ticks");
+    let lifted = with(40.0, 0.0);
+    assert!(lifted > plain && lifted - plain <= strokes * 40_000, "{strokes} strokes: {plain} then {lifted} ticks");
 }

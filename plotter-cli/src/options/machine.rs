@@ -258,7 +258,6 @@ impl MachineArgs {
         }
         let rates = self.pen_rate_raise.is_some() || self.pen_rate_lower.is_some();
         let positions = self.pen_pos_up.is_some() || self.pen_pos_down.is_some();
-        let clear_before = p.pen.servo_clear_ms();
         if let Some(e) = p.ebb.as_mut() {
             let servo = EbbServo::of(e.pen_pin);
             if let Some(v) = self.pen_pos_up {
@@ -308,13 +307,14 @@ impl MachineArgs {
             }
         }
         let (up, down) = (self.pen_delay_up.unwrap_or(0.0), self.pen_delay_down.unwrap_or(0.0));
-        if up > 0.0 || down > 0.0 {
-            // One settle serves lifts and drops: the longer delay is added to it.
-            let clear = if p.ebb.is_some() && (positions || rates) { p.pen.servo_clear_ms() } else { clear_before };
+        if p.pen.uses_servo() {
+            // A servo's settle time is its swing, which the drops are timed from: the delays are waits of their
+            // own, after the tip is clear and after it touches.
+            p.pen.lift_delay_ms += up;
+            p.pen.drop_delay_ms += down;
+        } else if up > 0.0 || down > 0.0 {
+            // A Z pen's one settle serves lifts and drops: the longer delay is added to it.
             p.pen.settle_ms += up.max(down);
-            if p.pen.uses_servo() && up > 0.0 {
-                p.pen.clear_ms = Some(clear + up);
-            }
         }
         Ok(())
     }
@@ -502,25 +502,31 @@ mod tests {
     }
 
     #[test]
-    fn pen_delay_up_is_added_to_the_settle_and_to_the_lift_before_travel() {
+    fn pen_delay_up_is_added_to_the_settle_or_waited_after_the_lift() {
         // The kit: 50 ms settle + 100; a Z pen's travel waits for the settle.
         assert_eq!(model(&["--pen-delay-up", "100"]).pen.settle_ms, 150.0);
-        // A servo pen: travel starts at clear_ms (50) + 100 after the lift.
+        // A servo pen: the swing keeps its 150 ms (the drops are timed from it); travel waits 100 ms more.
         let s = model(&["--model", "servo-grbl", "--pen-delay-up", "100ms"]);
-        assert_eq!((s.pen.settle_ms, s.pen.clear_ms), (250.0, Some(150.0)));
-        // The AxiDraw: 126 + 40, clear after 126 / 3 + 40.
+        assert_eq!(
+            (s.pen.settle_ms, s.pen.clear_ms, s.pen.lift_delay_ms, s.pen.drop_delay_ms),
+            (150.0, None, 100.0, 0.0)
+        );
+        // The AxiDraw: 126 ms settle unchanged, 40 ms after the lift.
         let v3 = model(&["--model", "axidraw-v3", "--pen-delay-up", "40"]);
-        assert_eq!(v3.pen.settle_ms, 166.0);
-        assert!(close(v3.pen.servo_clear_ms(), 42.0 + 40.0));
+        assert_eq!((v3.pen.settle_ms, v3.pen.lift_delay_ms), (126.0, 40.0));
         assert!(refused(&["--pen-delay-up", "10001"]).contains("10001 ms is outside 0..=10000 ms"));
     }
 
     #[test]
-    fn pen_delay_down_is_added_to_the_settle() {
+    fn pen_delay_down_is_added_to_the_settle_or_waited_after_the_touch() {
         let s = model(&["--model", "servo-grbl", "--pen-delay-down", "70"]);
-        // 150 + 70; the lift's clear time is still the servo's own (no clear_ms: it follows from the rate).
-        assert_eq!((s.pen.settle_ms, s.pen.clear_ms), (220.0, None));
-        // Both: the longer is added once.
+        assert_eq!(
+            (s.pen.settle_ms, s.pen.clear_ms, s.pen.lift_delay_ms, s.pen.drop_delay_ms),
+            (150.0, None, 0.0, 70.0)
+        );
+        let v3 = model(&["--model", "axidraw-v3", "--pen-delay-down", "70"]);
+        assert_eq!((v3.pen.settle_ms, v3.pen.drop_delay_ms), (126.0, 70.0));
+        // A Z pen: the longer is added once to its one settle.
         assert_eq!(model(&["--pen-delay-down", "30", "--pen-delay-up", "20"]).pen.settle_ms, 80.0);
     }
 

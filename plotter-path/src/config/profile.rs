@@ -150,6 +150,15 @@ pub struct PenProfile {
     /// while the carriage is still arriving and marks the paper before the line.
     #[serde(default = "default_contact_fraction")]
     pub contact_fraction: f64,
+    /// Servo pens: an extra wait after the tip is clear of the paper before travel starts, milliseconds
+    /// (0..=10000; default 0). The AxiDraw-style `--pen-delay-up`; the servo's own timing is unchanged.
+    #[serde(default)]
+    pub lift_delay_ms: f64,
+    /// Servo pens: an extra wait after the tip touches the paper before the line starts, milliseconds
+    /// (0..=10000; default 0). The AxiDraw-style `--pen-delay-down`, for an ink that needs a moment to flow; the
+    /// servo's own timing is unchanged.
+    #[serde(default)]
+    pub drop_delay_ms: f64,
     /// Acceleration along the path while drawing, mm/s² (default: only the axes' limits). A cap below what the
     /// axes allow, for a pen that skips or a machine that shakes when it draws (saxi, for one, draws at 200 and
     /// travels at 400 mm/s²).
@@ -539,6 +548,8 @@ impl MachineProfile {
         within("pen.width_mm", self.pen.width_mm, &limits::PEN_WIDTH)?;
         within("pen.clearance_mm", self.pen.clearance_mm, &limits::CLEARANCE)?;
         within("pen.contact_fraction", self.pen.contact_fraction, &limits::CONTACT_FRACTION)?;
+        within("pen.lift_delay_ms", self.pen.lift_delay_ms, &limits::SETTLE)?;
+        within("pen.drop_delay_ms", self.pen.drop_delay_ms, &limits::SETTLE)?;
         within("homing.pull_off_mm", self.homing.pull_off_mm, &limits::PULL_OFF)?;
         within("homing.debounce_ms", self.homing.debounce_ms, &limits::DEBOUNCE)?;
         let z_travel = Range { hi: self.axes.z.travel_mm, why: "the Z travel (axes.z.travel_mm)", ..limits::Z_HEIGHT };

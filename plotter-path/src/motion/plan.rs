@@ -432,13 +432,16 @@ pub(crate) fn settle_ticks(profile: &MachineProfile) -> u32 {
     ms_ticks(profile.pen.settle_ms)
 }
 
-/// A servo pen's clear time ([`crate::config::profile::PenProfile::servo_clear_ms`]) in ticks, at most the settle.
+/// A servo pen's clear time ([`crate::config::profile::PenProfile::servo_clear_ms`]) in ticks, at most the settle,
+/// and the profile's extra wait after it (`pen.lift_delay_ms`).
 pub(crate) fn servo_clear_ticks(profile: &MachineProfile) -> u32 {
-    ms_ticks(profile.pen.servo_clear_ms()).min(settle_ticks(profile))
+    ms_ticks(profile.pen.servo_clear_ms())
+        .min(settle_ticks(profile))
+        .saturating_add(ms_ticks(profile.pen.lift_delay_ms))
 }
 
 /// Milliseconds as a dwell in ticks.
-fn ms_ticks(ms: f64) -> u32 {
+pub(crate) fn ms_ticks(ms: f64) -> u32 {
     let t = (ms * 1000.0).round();
     // Clamped into the u32 range first.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]

@@ -46,11 +46,26 @@ pub struct ServoTiming {
     fall: f64,
     /// Where the tip meets the paper, as a fraction of the travel.
     contact: f64,
+    /// The profile's extra wait after the tip is clear, ticks (`pen.lift_delay_ms`).
+    lift_delay: u64,
+    /// The profile's extra wait after the tip touches, ticks (`pen.drop_delay_ms`).
+    drop_delay: u64,
 }
 
 impl ServoTiming {
     /// The timing of `profile`'s servo for a pen whose down angle is `down_deg`.
     pub fn of(profile: &MachineProfile, down_deg: f64) -> ServoTiming {
+        let timing = ServoTiming::of_servo(profile, down_deg);
+        let ticks = |ms: f64| u64::from(crate::motion::plan::ms_ticks(ms));
+        ServoTiming {
+            lift_delay: ticks(profile.pen.lift_delay_ms),
+            drop_delay: ticks(profile.pen.drop_delay_ms),
+            ..timing
+        }
+    }
+
+    /// The servo's own timing, without the profile's extra waits.
+    fn of_servo(profile: &MachineProfile, down_deg: f64) -> ServoTiming {
         let contact = profile.pen.contact_fraction;
         let (up_deg, profile_down) = (profile.pen.servo_up_deg, profile.pen.servo_down_deg);
         if let Some(e) = profile.ebb {
@@ -64,13 +79,14 @@ impl ServoTiming {
             let span = (p - u).abs();
             let per = |rate: u16| if rate == 0 || span <= 0.0 { 1.0 } else { f64::from(rate) / span };
             let cycle = u64::from(TICK_HZ) * 24 / 1000;
-            return ServoTiming { cycle, phased: true, rise: per(e.pen_rate_up), fall: per(e.pen_rate_down), contact };
+            let (rise, fall) = (per(e.pen_rate_up), per(e.pen_rate_down));
+            return ServoTiming { cycle, phased: true, rise, fall, contact, lift_delay: 0, drop_delay: 0 };
         }
         // One rate both ways: the profile's swing in its settle time.
         let settle = profile.pen.settle_ms * f64::from(TICK_HZ) / 1000.0;
         let (swing, span) = ((profile_down - up_deg).abs(), (down_deg - up_deg).abs());
         let per_tick = if settle < 1.0 || span <= 0.0 { 1.0 } else { (swing / settle / span).min(1.0) };
-        ServoTiming { cycle: 1, phased: false, rise: per_tick, fall: per_tick, contact }
+        ServoTiming { cycle: 1, phased: false, rise: per_tick, fall: per_tick, contact, lift_delay: 0, drop_delay: 0 }
     }
 
     /// The ticks each side of a time that the board's rounding may move it by.
@@ -78,10 +94,11 @@ impl ServoTiming {
         if self.phased { BOARD_MARGIN } else { 0 }
     }
 
-    /// Ticks from a lift command (the servo at its down position) until the tip is surely clear of the paper.
+    /// Ticks from a lift command (the servo at its down position) until the tip is surely clear of the paper,
+    /// and the profile's extra wait after that.
     pub fn clear_ticks(&self) -> u64 {
         let k = moves((1.0 - self.contact + EPS) / self.rise);
-        k * self.cycle + self.margin()
+        k * self.cycle + self.margin() + self.lift_delay
     }
 
     /// How far down the servo surely is (`x`) after the line has been drawn for `ticks` from the latest contact:
@@ -93,7 +110,8 @@ impl ServoTiming {
         x.min(1.0)
     }
 
-    /// The earliest and the latest tick, counted from a drop command, at which the tip touches the paper.
+    /// The earliest and the latest tick, counted from a drop command, at which the tip touches the paper (the
+    /// latest with the profile's extra wait after the touch: the line starts then).
     /// `lifted` is `(D, x₀)`: the drop comes `D` ticks after a lift that started from a servo at least `x₀` down
     /// (and at most fully down); `None` for a servo at rest at its up position.
     pub fn contact_window(&self, lifted: Option<(u64, f64)>) -> (u64, u64) {
@@ -114,17 +132,17 @@ impl ServoTiming {
         let (m_first, m_last) = (moves_from(x_hi + EPS), moves_from((x_lo - EPS).max(0.0)));
         if self.phased {
             let earliest = ((m_first - 1) * self.cycle + 1).saturating_sub(self.margin());
-            (earliest, m_last * self.cycle + self.margin())
+            (earliest, m_last * self.cycle + self.margin() + self.drop_delay)
         } else {
-            (m_first, m_last)
+            (m_first, m_last + self.drop_delay)
         }
     }
 
     /// The least a drop waits, after its one-tick command, before the line starts: the narrowest contact
     /// window (on a board of unknown phase at least one cycle and a margin less the command's tick; nothing for
-    /// a servo of known timing).
+    /// a servo of known timing), and the profile's extra wait after the touch.
     pub fn least_window(&self) -> u64 {
-        if self.phased { self.cycle + self.margin() - 1 } else { 0 }
+        (if self.phased { self.cycle + self.margin() - 1 } else { 0 }) + self.drop_delay
     }
 }
 
@@ -199,5 +217,24 @@ mod tests {
         // Dropped 30 ms after a lift from down: 1 or 2 lift moves (x 0.69998 or 0.39996), then 1 or 2 moves down:
         // the tip may touch as soon as the board's first servo move, at the latest 2 cycles and the margin on.
         assert_eq!(s.contact_window(Some((30_000, 1.0))), (0, 2 * 24_000 + 1000));
+    }
+
+    #[test]
+    fn the_profiles_delays_wait_after_the_clear_and_after_the_touch_not_in_the_swing() {
+        // AxiDraw V3 with 40 ms after the lift and 70 ms after the drop: the servo's own times as above, then the
+        // waits; the earliest contact (when the carriage must have arrived) does not move.
+        let mut p = sample("axidraw-v3.toml");
+        (p.pen.lift_delay_ms, p.pen.drop_delay_ms) = (40.0, 70.0);
+        let s = ServoTiming::of(&p, p.pen.servo_down_deg);
+        assert_eq!(s.clear_ticks(), 24_000 + 1000 + 40_000);
+        assert_eq!(s.contact_window(None), (72_001 - 1000, 96_000 + 1000 + 70_000));
+        assert_eq!(s.least_window(), 24_000 + 1000 - 1 + 70_000);
+        // The kit's continuous servo: 45 ms to clear + 40; contact at 105 ms, the line at 105 + 70.
+        let mut k = sample("servo-plotter.toml");
+        (k.pen.lift_delay_ms, k.pen.drop_delay_ms) = (40.0, 70.0);
+        let s = ServoTiming::of(&k, 30.0);
+        assert!((85_000..=85_001).contains(&s.clear_ticks()), "{}", s.clear_ticks());
+        let (a, b) = s.contact_window(None);
+        assert!(a == 105_000 && (175_000..=175_001).contains(&b), "{a} {b}");
     }
 }
