@@ -441,7 +441,7 @@ pub(crate) fn servo_clear_ticks(profile: &MachineProfile) -> u32 {
 }
 
 /// Milliseconds as a dwell in ticks.
-pub(crate) fn ms_ticks(ms: f64) -> u32 {
+fn ms_ticks(ms: f64) -> u32 {
     let t = (ms * 1000.0).round();
     // Clamped into the u32 range first.
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]

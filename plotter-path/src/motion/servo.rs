@@ -56,7 +56,9 @@ impl ServoTiming {
     /// The timing of `profile`'s servo for a pen whose down angle is `down_deg`.
     pub fn of(profile: &MachineProfile, down_deg: f64) -> ServoTiming {
         let timing = ServoTiming::of_servo(profile, down_deg);
-        let ticks = |ms: f64| u64::from(crate::motion::plan::ms_ticks(ms));
+        // Whole ticks, as the plan's dwells round them (the profile keeps each delay within 0..=10000 ms).
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "at most 10^7 ticks, not negative")]
+        let ticks = |ms: f64| (ms.max(0.0) * f64::from(TICK_HZ) / 1000.0).round() as u64;
         ServoTiming {
             lift_delay: ticks(profile.pen.lift_delay_ms),
             drop_delay: ticks(profile.pen.drop_delay_ms),
