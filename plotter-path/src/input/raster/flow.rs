@@ -363,19 +363,8 @@ pub fn flow(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64, angle_deg: f64) -
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::input::raster::ink::InkGrid;
-
-    fn flat(w: usize, h: usize, d: f32) -> DarknessMap {
-        DarknessMap { width: w, height: h, data: vec![d; w * h] }
-    }
-
-    /// Ink fraction of `strokes` (pixel coordinates, pen `pen` px) in a `w × h` picture, `margin` px from its edges,
-    /// rendered at 0.2 px.
-    fn ink(strokes: &[Vec<Point>], pen: f64, w: usize, h: usize, margin: usize) -> f64 {
-        let mut g = InkGrid::new(w * 5, h * 5, 0.2);
-        g.draw(strokes, pen);
-        g.fraction(margin * 5, (w - margin) * 5, margin * 5, (h - margin) * 5)
-    }
+    use crate::input::raster::ink::ink_in_picture as ink;
+    use crate::input::raster::tone::flat;
 
     #[test]
     fn white_is_empty_and_a_flat_gray_gets_parallel_lines_of_its_tone() {

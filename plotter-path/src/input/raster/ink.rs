@@ -93,6 +93,15 @@ impl InkGrid {
     }
 }
 
+/// For the styles' tests: the ink fraction of `strokes` (pixel coordinates, pen `pen` px) in a `w × h` picture,
+/// `margin` px from its edges, rendered at 0.2 px.
+#[cfg(test)]
+pub(crate) fn ink_in_picture(strokes: &[Vec<Point>], pen: f64, w: usize, h: usize, margin: usize) -> f64 {
+    let mut g = InkGrid::new(w * 5, h * 5, 0.2);
+    g.draw(strokes, pen);
+    g.fraction(margin * 5, (w - margin) * 5, margin * 5, (h - margin) * 5)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -204,6 +204,12 @@ impl Ladder {
     }
 }
 
+/// For the styles' tests: a `w × h` picture of darkness `d` everywhere.
+#[cfg(test)]
+pub(crate) fn flat(w: usize, h: usize, d: f32) -> DarknessMap {
+    DarknessMap { width: w, height: h, data: vec![d; w * h] }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
