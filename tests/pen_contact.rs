@@ -159,18 +159,26 @@ fn kit_rate(p: &MachineProfile) -> f64 {
     (p.pen.servo_down_deg - p.pen.servo_up_deg).abs() / (p.pen.settle_ms * 1000.0)
 }
 
-fn on_our_firmware(fraction: Option<f64>) -> f64 {
-    let p = servo_kit(fraction);
-    let steps = steps_of(&p);
-    let mut sim = Sim::new(plan::machine_config(&p).unwrap());
+/// `steps` planned for `p` from home and played on our simulated firmware: the plan, the simulator after it, the
+/// home position and the ticks the plot kept the machine busy.
+fn played_on_our_firmware(p: &MachineProfile, steps: &StepDrawing) -> (MotionPlan, Sim, [i32; 4], u64) {
+    let mut sim = Sim::new(plan::machine_config(p).unwrap());
     sim.feed(b"G28\n");
     sim.run_until_idle();
     sim.take_replies();
     let start = sim.machine().stepper().position();
-    let plan = plan::plan(&p, &steps, start, Lookahead::Whole).unwrap();
+    let plan = plan::plan(p, steps, start, Lookahead::Whole).unwrap();
     let busy0 = sim.hal().busy_ticks();
     plotter_e2e::play_framed(&mut sim, &plan);
-    assert_eq!(sim.hal().busy_ticks() - busy0, plan.total_ticks, "executed time = planned time");
+    let busy = sim.hal().busy_ticks() - busy0;
+    (plan, sim, start, busy)
+}
+
+fn on_our_firmware(fraction: Option<f64>) -> f64 {
+    let p = servo_kit(fraction);
+    let steps = steps_of(&p);
+    let (plan, sim, start, busy) = played_on_our_firmware(&p, &steps);
+    assert_eq!(busy, plan.total_ticks, "executed time = planned time");
     let servo: Vec<(u64, f32)> = sim.hal().servo_trace().iter().map(|s| (s.0, s.1)).collect();
     let samples: Vec<(u64, [i64; 2])> =
         plotter_e2e::sim_positions(&sim).into_iter().map(|(t, q)| (t, [q[0], q[1]])).collect();
@@ -305,13 +313,7 @@ fn the_tip_lands_on_the_stroke_on_the_ebb() {
 fn a_plan_for_a_later_contact_lands_the_tip_off_the_stroke() {
     let p = servo_kit(Some(0.9));
     let steps = steps_of(&p);
-    let mut sim = Sim::new(plan::machine_config(&p).unwrap());
-    sim.feed(b"G28\n");
-    sim.run_until_idle();
-    sim.take_replies();
-    let start = sim.machine().stepper().position();
-    let plan = plan::plan(&p, &steps, start, Lookahead::Whole).unwrap();
-    plotter_e2e::play_framed(&mut sim, &plan);
+    let (_, sim, start, _) = played_on_our_firmware(&p, &steps);
     let servo: Vec<(u64, f32)> = sim.hal().servo_trace().iter().map(|s| (s.0, s.1)).collect();
     let samples: Vec<(u64, [i64; 2])> =
         plotter_e2e::sim_positions(&sim).into_iter().map(|(t, q)| (t, [q[0], q[1]])).collect();
