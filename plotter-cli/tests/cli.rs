@@ -51,6 +51,39 @@ fn a_preview_that_cannot_be_written_warns_and_the_finished_plot_succeeds() {
     assert!(err.contains("warning: the plot finished, but its as-stepped preview was not written"), "{err}");
 }
 
+/// Seconds of an `m:ss.s` clock.
+fn clock_s(text: &str) -> f64 {
+    let (m, s) = text.split_once(':').unwrap_or_else(|| panic!("not a clock: {text}"));
+    m.parse::<f64>().unwrap() * 60.0 + s.parse::<f64>().unwrap()
+}
+
+#[test]
+fn copies_report_the_last_copy_against_its_plan_and_all_of_them_in_all() {
+    // Three copies with 0.5 s between them on the simulator: the summary's plot time is one copy's, equal to its
+    // plan (no "(planned ...)" beside it, which would mean the two differ); the copies line counts three and
+    // their time in all is 3 × one copy + 2 × 0.5 s, to the display's rounding (each clock to the tenth).
+    let dir = out_dir("copies-summary");
+    let o = run(plotter().current_dir(&dir).args([
+        "plot",
+        "gen:circle?r=5&cx=20&cy=20",
+        "--copies",
+        "3",
+        "--page-delay",
+        "0.5",
+        "--no-paper-pause",
+    ]));
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = out.lines().find(|l| l.starts_with("plot time ")).expect("a summary");
+    assert!(!first.contains("planned"), "one copy ran as planned: {first}");
+    let copies = out.lines().find(|l| l.starts_with("3 copies in ")).unwrap_or_else(|| panic!("{out}"));
+    let total = clock_s(copies["3 copies in ".len()..].split_whitespace().next().unwrap());
+    let each = clock_s(copies.split("each planned ").nth(1).unwrap().split(';').next().unwrap());
+    let one = clock_s(first["plot time ".len()..].split(':').take(2).collect::<Vec<_>>().join(":").as_str());
+    assert!((each - one).abs() < 1e-9, "{copies} vs {first}");
+    assert!((total - (3.0 * each + 1.0)).abs() <= 0.2 + 1e-9, "{copies}");
+}
+
 #[test]
 fn stats_json_has_the_documented_keys() {
     let o = run(plotter().args(["stats", "--json"]).arg(sample("duck.svg")));

@@ -9,7 +9,7 @@ mod summary;
 mod terminal;
 
 use hpgl::{export_hpgl, plot_hpgl};
-use summary::{print_lower_bound, summary};
+use summary::{copies_line, print_lower_bound, summary};
 use terminal::{PenChange, Terminal};
 
 use std::path::{Path, PathBuf};
@@ -375,10 +375,14 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             let mut session = simulated.context("the simulated plotter is not connected")?;
             let outcome = with_workflow(args, &mut session, input, &profile, &steps, None, &mut terminal);
             terminal.bar.finish_and_clear();
-            let (outcome, busy_before) = outcome?;
+            let (outcome, busy_before, copies) = outcome?;
             let sim = session.transport.inner().sim();
-            let executed = sim.hal().busy_ticks() - busy_before;
+            // The last copy's own run against its plan; all copies' run on the next line.
+            let executed = sim.hal().busy_ticks() - outcome.busy_before;
             println!("{}", summary(&outcome, Some(executed), args.verbose));
+            if let Some(line) = copies_line(copies, &outcome.plan, Some(sim.hal().busy_ticks() - busy_before)) {
+                println!("{line}");
+            }
             // The plot is done: the figures and the preview that follow are side outputs, which warn rather than
             // turn a finished plot into a failure.
             if let Some(d) = &drawing {
@@ -413,8 +417,11 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
             let spec = JournalSpec { path: &journal_path, source: &source };
             let outcome = with_workflow(args, c.machine(), input, &profile, &steps, Some(spec), &mut terminal);
             terminal.bar.finish_and_clear();
-            let (outcome, _) = outcome?;
+            let (outcome, _, copies) = outcome?;
             println!("{}", summary(&outcome, None, args.verbose));
+            if let Some(line) = copies_line(copies, &outcome.plan, None) {
+                println!("{line}");
+            }
             if let (Connected::Grbl(g), true) = (&c, args.verbose) {
                 println!("GRBL: at most {} bytes in flight (receive buffer {} bytes)", g.peak_in_flight, g.rx_bytes);
             }
@@ -429,8 +436,8 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     }
 }
 
-/// The plot with its workflow (`--copies`, `--split-distance`, `--webhook`): the last copy's outcome and the
-/// simulator's busy time before the first (see [`job::JobOutcome::busy_before`]). The webhook hears of pen
+/// The plot with its workflow (`--copies`, `--split-distance`, `--webhook`): the last copy's outcome, the
+/// simulator's busy time before the first (see [`job::JobOutcome::busy_before`]) and how many copies were plotted. The webhook hears of pen
 /// changes and pauses as they come, and of the end; its deliveries are waited for once the plot is over.
 fn with_workflow<M: plotter_host::link::machine::PlotMachine + ?Sized>(
     args: &PlotArgs,
@@ -440,7 +447,7 @@ fn with_workflow<M: plotter_host::link::machine::PlotMachine + ?Sized>(
     steps: &plotter_path::geometry::steps::StepDrawing,
     journal: Option<JournalSpec<'_>>,
     terminal: &mut Terminal,
-) -> anyhow::Result<(job::JobOutcome, u64)> {
+) -> anyhow::Result<(job::JobOutcome, u64, usize)> {
     let copies = args.workflow.copies()?;
     let stops = job::stops::StopOptions { split_mm: args.workflow.split_mm()? };
     let hook = match &args.workflow.webhook {
@@ -478,8 +485,9 @@ fn with_workflow<M: plotter_host::link::machine::PlotMachine + ?Sized>(
         eprintln!("{why}");
     }
     let busy_before = out.copies.first().map_or(0, |c| c.busy_before);
+    let plotted = out.copies.len();
     let last = out.copies.pop().context("no copy was plotted")?;
-    Ok((last, busy_before))
+    Ok((last, busy_before, plotted))
 }
 
 /// How a resumed plot reaches the machine: the options of `plot --resume` and `plotter resume` (everything else

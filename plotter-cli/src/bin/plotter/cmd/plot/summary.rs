@@ -57,6 +57,32 @@ pub(super) fn summary(outcome: &JobOutcome, executed_ticks: Option<u64>, verbose
     s
 }
 
+/// The line for several copies (`--copies`), after the last copy's [`summary`]: how many were plotted and, when
+/// the plotter's clock is known (`total_ticks`, from before the first copy to after the last), the time of all of
+/// them, page delays and paper changes included; else the plotting time they planned. `None` for a single copy.
+pub(super) fn copies_line(copies: usize, each: &MotionPlan, total_ticks: Option<u64>) -> Option<String> {
+    if copies < 2 {
+        return None;
+    }
+    // Display only (a copy count is far below 2^52).
+    #[allow(clippy::cast_precision_loss)]
+    let planned = each.seconds() * copies as f64;
+    Some(match total_ticks {
+        // Display only.
+        #[allow(clippy::cast_precision_loss)]
+        Some(t) => format!(
+            "{copies} copies in {} (each planned {}; page delays and paper changes included)",
+            clock(t as f64 / f64::from(TICK_HZ)),
+            clock(each.seconds())
+        ),
+        None => format!(
+            "{copies} copies: {} of plotting planned (each {}; page delays and paper changes come on top)",
+            clock(planned),
+            clock(each.seconds())
+        ),
+    })
+}
+
 /// The plan's and the link's figures (`--verbose`): blocks, lengths and times to the millisecond, bytes per
 /// block, resends, resyncs and queue underruns.
 fn details(outcome: &JobOutcome, executed_ticks: Option<u64>) -> String {
