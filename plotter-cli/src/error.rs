@@ -88,6 +88,15 @@ pub enum Error {
         /// How to continue.
         after: String,
     },
+    /// The user chose to stop at a pause the plot made on its own: before a layer whose name starts with `!`, or
+    /// to refill the pen (`--split-distance`).
+    #[error("stopped at the pause ({asked}){after}")]
+    StoppedAtPause {
+        /// What the pause asked for, as a sentence.
+        asked: String,
+        /// How to continue.
+        after: String,
+    },
     /// The link to the machine failed: the port went away or could not be read or written.
     #[error("{cause}{after}")]
     PortLost {
@@ -187,7 +196,10 @@ impl Error {
             | Error::PortUnavailable(_)
             | Error::FirmwareMismatch { .. }
             | Error::NoAnswer { .. } => Trouble::Link,
-            Error::Aborted { .. } | Error::StoppedAtOnce { .. } | Error::StoppedAtPenChange { .. } => Trouble::Stopped,
+            Error::Aborted { .. }
+            | Error::StoppedAtOnce { .. }
+            | Error::StoppedAtPenChange { .. }
+            | Error::StoppedAtPause { .. } => Trouble::Stopped,
             Error::Plan(_) | Error::BadInput(_) => Trouble::Other,
             Error::Other(e) => Trouble::of(e),
         }

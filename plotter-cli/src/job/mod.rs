@@ -305,8 +305,7 @@ impl Run<'_> {
                                 park_mm,
                             };
                             if events.plot_pause(&req) == PenChangeChoice::Stop {
-                                let hint = self.resume_hint();
-                                return Err(Error::Other(anyhow::anyhow!("stopped when asked to {}{hint}", req.ask())));
+                                return Err(Error::StoppedAtPause { asked: req.ask(), after: self.resume_hint() });
                             }
                         }
                     }

@@ -226,6 +226,16 @@ mod tests {
     /// Two layers named `first` (a 100 mm line along X from (20, 10)) and `second` (a 20 mm line at Y 30), one
     /// pen; plotted on our simulated firmware: (the plan, the executed ticks, the pauses seen).
     fn plot_named(first: &str, second: &str) -> (MotionPlan, u64, Vec<PauseRequest>) {
+        let (out, executed, seen) = plot_answering(first, second, crate::job::progress::PenChangeChoice::Continue);
+        (out.unwrap().plan, executed, seen)
+    }
+
+    /// [`plot_named`] answering every pause with `answer`: (the plot's result, the executed ticks, the pauses).
+    fn plot_answering(
+        first: &str,
+        second: &str,
+        answer: crate::job::progress::PenChangeChoice,
+    ) -> (crate::Result<crate::job::JobOutcome>, u64, Vec<PauseRequest>) {
         use crate::link::machine::PlotMachine as _;
         let mut profile = MachineProfile::default_plotter();
         profile.pens.clear();
@@ -237,10 +247,29 @@ mod tests {
         let cfg = plan::machine_config(&profile).unwrap();
         let mut s =
             crate::link::session::Session::connect(crate::link::sim::SimTransport::new(cfg, None), "sim").unwrap();
-        let mut events = Pauses { seen: vec![], answer: crate::job::progress::PenChangeChoice::Continue };
-        let out = crate::job::plot(&mut s, &profile, &steps, true, false, None, &mut events).unwrap();
-        let executed = s.busy_ticks() - out.busy_before;
-        (out.plan, executed, events.seen)
+        let mut events = Pauses { seen: vec![], answer };
+        let before = s.busy_ticks();
+        let out = crate::job::plot(&mut s, &profile, &steps, true, false, None, &mut events);
+        let executed = s.busy_ticks() - out.as_ref().map_or(before, |o| o.busy_before);
+        (out, executed, events.seen)
+    }
+
+    /// Stopping at a `!` layer's pause is the user's stop, typed as such (the exit status and the web app's words
+    /// for a stop come from it), saying what the pause asked; the first layer was drawn, the second not.
+    #[test]
+    fn stopping_at_a_layer_pause_is_a_typed_stop() {
+        use crate::error::{Error, Trouble};
+        let (out, _, seen) = plot_answering("1 a", "!2 b", crate::job::progress::PenChangeChoice::Stop);
+        assert_eq!(seen.len(), 1);
+        let err = out.unwrap_err();
+        assert_eq!(err.trouble(), Trouble::Stopped);
+        match &err {
+            Error::StoppedAtPause { asked, .. } => {
+                assert_eq!(asked, "paused before layer \"!2 b\" (its name starts with !)");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(err.to_string().starts_with("stopped at the pause (paused before layer \"!2 b\""), "{err}");
     }
 
     /// The drawing speed and the pen-down height of a layer's codes reach the plan, and its delay and pause the
