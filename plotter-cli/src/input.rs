@@ -68,6 +68,8 @@ pub enum ImagesArg {
     Flow,
     /// Long scribbled strokes heading for the darkest place nearby
     Sketch,
+    /// Cells hatched as dark as their mean tone
+    Mosaic,
 }
 
 /// What `--hatch` asks for: one spacing for every fill, or each fill shaded by its lightness.
@@ -191,6 +193,7 @@ impl InputArgs {
                     ImagesArg::Spiral => Some(Mode::Spiral),
                     ImagesArg::Flow => Some(Mode::Flow),
                     ImagesArg::Sketch => Some(Mode::Sketch),
+                    ImagesArg::Mosaic => Some(Mode::Mosaic),
                 };
                 mode.map(|mode| ImageTrace { trace: raster::TraceOptions { mode, ..self.trace.options() } })
             },

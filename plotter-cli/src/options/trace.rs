@@ -30,6 +30,8 @@ pub enum ModeArg {
     Flow,
     /// Long scribbled strokes that keep heading for the darkest place nearby until the tone is met
     Sketch,
+    /// Cells, smaller where the picture is darker or busier, each hatched as dark as its mean tone
+    Mosaic,
 }
 
 /// How darker hatch levels add lines.
@@ -110,6 +112,12 @@ pub struct TraceArgs {
     /// Hatch base angle in degrees, counter-clockwise (hatch mode)
     #[arg(long, default_value_t = HatchOptions::default().angle_deg, allow_negative_numbers = true, help_heading = "Image tracing")]
     pub angle: f64,
+    /// Also draw the outline of every shaded cell (mosaic mode; the outlines darken the picture beyond its tone)
+    #[arg(long, help_heading = "Image tracing")]
+    pub outline_cells: bool,
+    /// Largest mosaic cell in mm (default: 16 x --min-spacing); cells shrink to 4 x --min-spacing where the picture is dark or busy
+    #[arg(long, help_heading = "Image tracing")]
+    pub cell_size: Option<f64>,
     /// How darker hatch levels add lines (hatch mode)
     #[arg(long, value_enum, default_value_t = SchemeArg::Tone, help_heading = "Image tracing")]
     pub hatch_scheme: SchemeArg,
@@ -129,6 +137,7 @@ impl TraceArgs {
                 ModeArg::Spiral => Mode::Spiral,
                 ModeArg::Flow => Mode::Flow,
                 ModeArg::Sketch => Mode::Sketch,
+                ModeArg::Mosaic => Mode::Mosaic,
             },
             width_mm: self.width,
             pitch_mm: self.pitch,
@@ -150,6 +159,7 @@ impl TraceArgs {
             },
             min_spacing_mm: self.min_spacing,
             stipple: raster::stipple::StippleOptions { tsp: self.tsp, ..raster::stipple::StippleOptions::default() },
+            mosaic: raster::mosaic::MosaicOptions { outline: self.outline_cells, cell_mm: self.cell_size },
             hatch: HatchOptions {
                 levels: self.levels,
                 spacing_mm: self.spacing,

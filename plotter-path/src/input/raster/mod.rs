@@ -12,6 +12,7 @@
 //! - [`Mode::Spiral`]: one spiral from the centre carrying the same waves ([`spiral`]).
 //! - [`Mode::Flow`]: evenly spaced streamlines along the picture's edges, spaced by tone ([`flow`]).
 //! - [`Mode::Sketch`]: long scribbled strokes that keep heading for the darkest place nearby ([`sketch`]).
+//! - [`Mode::Mosaic`]: Voronoi cells, smaller where darker or detailed, each hatched at its mean tone ([`mosaic`]).
 //!
 //! The tone styles (hatch, stipple) read one tone model ([`tone`]): the target darkness of every pixel after the
 //! tone curve, and the ink a pen of the given width lays down.
@@ -44,6 +45,7 @@ pub mod hatch;
 pub mod ink;
 pub mod lines;
 mod load;
+pub mod mosaic;
 pub mod outline;
 pub mod simplify;
 pub mod skeleton;
@@ -102,6 +104,8 @@ pub enum Mode {
     Flow,
     /// Long scribbled strokes heading for the darkest place nearby until the tone is met.
     Sketch,
+    /// Voronoi cells, smaller where darker or detailed, each hatched at its mean tone.
+    Mosaic,
 }
 
 impl Mode {
@@ -117,11 +121,12 @@ impl Mode {
             Mode::Spiral => "spiral",
             Mode::Flow => "flow",
             Mode::Sketch => "sketch",
+            Mode::Mosaic => "mosaic",
         }
     }
 
     /// Every mode, in documentation order.
-    pub const ALL: [Mode; 9] = [
+    pub const ALL: [Mode; 10] = [
         Mode::Outline,
         Mode::Centerline,
         Mode::Edges,
@@ -131,6 +136,7 @@ impl Mode {
         Mode::Spiral,
         Mode::Flow,
         Mode::Sketch,
+        Mode::Mosaic,
     ];
 }
 
@@ -189,6 +195,8 @@ pub struct TraceOptions {
     pub min_spacing_mm: Option<f64>,
     /// Stipple settings (one line through the dots, relaxation rounds).
     pub stipple: stipple::StippleOptions,
+    /// Mosaic settings (cell outlines, largest cell).
+    pub mosaic: mosaic::MosaicOptions,
     /// Stops the tracing early with [`RasterError::Cancelled`] when set: checked between its stages (resizing,
     /// thresholding, tracing, scaling to millimetres).
     pub cancel: Cancel,
@@ -213,6 +221,7 @@ impl Default for TraceOptions {
             tone: ToneCurve::default(),
             min_spacing_mm: None,
             stipple: stipple::StippleOptions::default(),
+            mosaic: mosaic::MosaicOptions::default(),
             cancel: Cancel::never(),
         }
     }
@@ -268,6 +277,11 @@ impl TraceOptions {
             && !(s.is_finite() && s > 0.0)
         {
             return bad("--min-spacing", s, "must be a positive number of mm");
+        }
+        if let Some(c) = self.mosaic.cell_mm
+            && !(c.is_finite() && c > 0.0)
+        {
+            return bad("--cell-size", c, "must be a positive number of mm");
         }
         self.tone.validate()?;
         self.hatch.validate()
@@ -378,6 +392,12 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             let map = options.tone.darkness_map(&prepared.gray, options.invert);
             vec![("sketch".to_owned(), sketch::sketch(&map, &options.ladder(), prepared.pixel_mm))]
         }
+        Mode::Mosaic => {
+            let map = options.tone.darkness_map(&prepared.gray, options.invert);
+            let m =
+                mosaic::mosaic(&map, &options.ladder(), prepared.pixel_mm, options.hatch.angle_deg, &options.mosaic);
+            vec![("mosaic".to_owned(), m.strokes), ("mosaic cells".to_owned(), m.outlines)]
+        }
         Mode::Hatch => {
             let spacing_px = options.hatch.spacing_mm / prepared.pixel_mm;
             let levels = hatch::hatch(&prepared.gray, &options.hatch, spacing_px, options.invert, options.min_area_px);
@@ -416,7 +436,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             Mode::Edges => format!("no edges found with Canny thresholds {}/{}", options.canny_low, options.canny_high),
             Mode::Hatch => "no pixel is dark enough for the lightest hatch level".to_owned(),
             Mode::Stipple => "the picture is too light for a single pen dot".to_owned(),
-            Mode::Squiggle | Mode::Spiral | Mode::Flow | Mode::Sketch => {
+            Mode::Squiggle | Mode::Spiral | Mode::Flow | Mode::Sketch | Mode::Mosaic => {
                 format!("the picture is too light for a {} line", options.mode)
             }
             _ => "every region was too small to keep".to_owned(),

@@ -161,7 +161,7 @@ mod tests {
         }
         std::fs::remove_dir_all(&dir).ok();
         assert_eq!(traced.len(), ModeArg::value_variants().len());
-        for name in ["flow", "sketch", "stipple", "squiggle", "spiral"] {
+        for name in ["flow", "sketch", "stipple", "squiggle", "spiral", "mosaic"] {
             assert!(traced.iter().any(|t| t == name), "{name} is not offered: {traced:?}");
         }
     }

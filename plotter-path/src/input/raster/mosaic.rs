@@ -1,0 +1,487 @@
+//! Mosaic style: the picture cut into Voronoi cells, small where it is dark or detailed and large where it is light
+//! and flat, each cell hatched at its own mean darkness with the tone model's ladder ([`super::tone::Ladder`]).
+//!
+//! **Cells.** The picture is tiled with squares of the largest cell size; a square is split into four while its
+//! darkness (mean, or three times its spread for detail) asks for smaller cells, down to the smallest size. Each
+//! square left gets one seed, jittered about its middle, and the seeds' Voronoi cells (from a Delaunay triangulation
+//! by the `spade` crate, with a ring of seeds outside the picture so every cell is bounded) are clipped to the
+//! picture. The smallest cell is four closest spacings across, so even the darkest cell holds a few lines; the
+//! largest is sixteen by default.
+//!
+//! **Shading.** A cell's tone is the mean darkness of the pixel centres inside it (mean darkness, not mean
+//! lightness: the eye averages light). The ladder's rung for it gives the families and their spacing; each cell's
+//! lines run at an angle of its own (the mosaic's look, and neighbouring cells' lines do not line up into stripes),
+//! each span ends a pen radius inside the cell so the ink stays in it, and a family's spans are joined into one
+//! zig-zag (a cell is convex, so every connector stays inside). The connectors add ink the spacing did not count,
+//! so each family is respaced once to match its share. Cell outlines are optional: they add ink the tone did not
+//! ask for.
+
+use super::lines::{LineFamily, line_spans};
+use super::tone::{DarknessMap, Ladder, line_coverage};
+use super::zigzag;
+use kurbo::Point;
+use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
+
+/// Mosaic settings.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MosaicOptions {
+    /// Draw every shaded cell's outline as well (darker than the tone asks for, but shows the mosaic).
+    pub outline: bool,
+    /// Largest cell size in mm; `None` means sixteen times the closest line spacing.
+    pub cell_mm: Option<f64>,
+}
+
+/// The mosaic's strokes: the hatch of every cell, and the cell outlines if asked for.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mosaic {
+    /// The cells' zig-zag hatching, pixel coordinates.
+    pub strokes: Vec<Vec<Point>>,
+    /// Closed outlines of the shaded cells (empty unless outlines were asked for), pixel coordinates.
+    pub outlines: Vec<Vec<Point>>,
+    /// Number of cells the picture was cut into.
+    pub cells: usize,
+}
+
+/// Turns between the ladder's families, degrees from the cell's own angle.
+const FAMILY_TURNS: [f64; 3] = [0.0, 90.0, 45.0];
+
+/// Cut `map` into cells and hatch each at its mean darkness. `ladder` gives the pen and closest spacing (mm),
+/// `pixel_mm` converts them to pixels, `angle_deg` is the base angle every cell's own angle is turned from.
+pub fn mosaic(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64, angle_deg: f64, options: &MosaicOptions) -> Mosaic {
+    let (w, h) = (map.width, map.height);
+    if w == 0 || h == 0 || pixel_mm.is_nan() || pixel_mm <= 0.0 {
+        return Mosaic::default();
+    }
+    let min_px = (4.0 * ladder.min_spacing_mm / pixel_mm).max(2.0);
+    let max_px = (options.cell_mm.unwrap_or(16.0 * ladder.min_spacing_mm) / pixel_mm).max(min_px);
+    let sums = Sums::new(map);
+    let seeds = seeds(&sums, min_px, max_px);
+    let cells = cells(&seeds, w, h, max_px);
+    let pen_px = ladder.pen_mm / pixel_mm;
+    let mut out = Mosaic { cells: cells.len(), ..Mosaic::default() };
+    for (i, cell) in cells.iter().enumerate() {
+        let Some((mean, area)) = sums.mean_in(cell) else { continue };
+        let rung = ladder.rung_to_black(mean);
+        if rung.families == 0 {
+            continue;
+        }
+        let mut loop_ = cell.clone();
+        loop_.push(cell[0]);
+        let period = rung.spacing_mm / pixel_mm;
+        let target = line_coverage(pen_px, period) * area;
+        let turn = 180.0 * unit(i as u64, 1);
+        for t in &FAMILY_TURNS[..usize::from(rung.families)] {
+            let angle = (angle_deg + turn + t).to_radians();
+            let phase = period * unit(i as u64, 2 + t.to_bits());
+            let mut f = LineFamily { angle, period, phase };
+            let mut s = family_strokes(&loop_, &f, pen_px);
+            let ink = stroke_ink(&s, pen_px);
+            // Lines already touching cannot be closed up further: respaced, they could only lighten the cell.
+            if ink > 0.0 && target > 0.0 && period > pen_px {
+                f.period = (period * ink / target).clamp(period / 2.0, period * 2.0).max(pen_px);
+                f.phase = period * unit(i as u64, 2 + t.to_bits()) * f.period / period;
+                s = family_strokes(&loop_, &f, pen_px);
+            }
+            out.strokes.extend(s);
+        }
+        // A cell filled solid (lines a pen width apart) also gets its edge traced a pen radius inside: the lines'
+        // round ends leave slivers of paper along it.
+        if rung.spacing_mm <= ladder.pen_mm {
+            let mut edge = inset(cell, pen_px / 2.0);
+            if let Some(&first) = edge.first() {
+                edge.push(first);
+                out.strokes.push(edge);
+            }
+        }
+        if options.outline {
+            out.outlines.push(loop_);
+        }
+    }
+    out
+}
+
+/// Summed-area tables of the darkness and its square, for the mean and spread of any square, and a running sum
+/// along every row, for the mean over a cell's pixel centres.
+struct Sums {
+    width: usize,
+    height: usize,
+    /// `(width + 1) × (height + 1)`: sum of darkness over `[0, x) × [0, y)`.
+    area: Vec<f64>,
+    /// The same for darkness squared.
+    area2: Vec<f64>,
+    /// `(width + 1)` per row: sum of darkness over `[0, x)` of that row.
+    rows: Vec<f64>,
+}
+
+impl Sums {
+    fn new(map: &DarknessMap) -> Self {
+        let (w, h) = (map.width, map.height);
+        let mut area = vec![0.0; (w + 1) * (h + 1)];
+        let mut area2 = vec![0.0; (w + 1) * (h + 1)];
+        let mut rows = vec![0.0; (w + 1) * h];
+        for y in 0..h {
+            let (mut run, mut run2) = (0.0, 0.0);
+            for x in 0..w {
+                let d = f64::from(map.data[y * w + x]);
+                run += d;
+                run2 += d * d;
+                rows[y * (w + 1) + x + 1] = run;
+                area[(y + 1) * (w + 1) + x + 1] = area[y * (w + 1) + x + 1] + run;
+                area2[(y + 1) * (w + 1) + x + 1] = area2[y * (w + 1) + x + 1] + run2;
+            }
+        }
+        Sums { width: w, height: h, area, area2, rows }
+    }
+
+    /// Mean and standard deviation of the darkness over pixels `[x0, x1) × [y0, y1)`.
+    fn stats(&self, x0: usize, x1: usize, y0: usize, y1: usize) -> (f64, f64) {
+        let s = self.width + 1;
+        let box_sum = |t: &[f64]| t[y1 * s + x1] - t[y0 * s + x1] - t[y1 * s + x0] + t[y0 * s + x0];
+        #[allow(clippy::cast_precision_loss)] // pixel counts are far below 2^53
+        let n = ((x1 - x0) * (y1 - y0)).max(1) as f64;
+        let mean = box_sum(&self.area) / n;
+        let var = (box_sum(&self.area2) / n - mean * mean).max(0.0);
+        (mean, var.sqrt())
+    }
+
+    /// Mean darkness of the pixel centres inside the convex polygon `cell`, and their number (its area in
+    /// pixels); `None` when no centre lies inside.
+    fn mean_in(&self, cell: &[Point]) -> Option<(f64, f64)> {
+        let (lo, hi) = cell.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.y), b.max(p.y)));
+        let last = (hi - 0.5).floor();
+        if last < 0.0 || self.height == 0 {
+            return None;
+        }
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // both clamped to the picture's rows
+        let (r0, r1) = ((lo - 0.5).ceil().max(0.0) as usize, (last as usize).min(self.height - 1));
+        let (mut sum, mut count) = (0.0, 0usize);
+        for row in r0..=r1 {
+            #[allow(clippy::cast_precision_loss)]
+            let y = row as f64 + 0.5;
+            let Some((xa, xb)) = span_at(cell, y) else { continue };
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_precision_loss)]
+            let (c0, c1) = ((xa - 0.5).ceil().max(0.0) as usize, ((xb - 0.5).floor() + 1.0).min(self.width as f64));
+            if c1 <= 0.0 {
+                continue;
+            }
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let c1 = c1 as usize;
+            if c1 <= c0 {
+                continue;
+            }
+            let r = &self.rows[row * (self.width + 1)..];
+            sum += r[c1] - r[c0];
+            count += c1 - c0;
+        }
+        #[allow(clippy::cast_precision_loss)]
+        (count > 0).then(|| (sum / count as f64, count as f64))
+    }
+}
+
+/// Where the horizontal line at `y` crosses the convex polygon `cell`: its leftmost and rightmost points.
+fn span_at(cell: &[Point], y: f64) -> Option<(f64, f64)> {
+    let (mut a, mut b) = (f64::INFINITY, f64::NEG_INFINITY);
+    for i in 0..cell.len() {
+        let (p, q) = (cell[i], cell[(i + 1) % cell.len()]);
+        if (p.y <= y) != (q.y <= y) {
+            let x = p.x + (y - p.y) / (q.y - p.y) * (q.x - p.x);
+            a = a.min(x);
+            b = b.max(x);
+        }
+    }
+    (a <= b).then_some((a, b))
+}
+
+/// A number in `[0, 1)` from `i` and a salt (SplitMix64): the same picture always gives the same mosaic.
+fn unit(i: u64, salt: u64) -> f64 {
+    let mut z = i.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(salt.wrapping_mul(0xD1B5_4A32_D192_ED03));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    #[allow(clippy::cast_precision_loss)] // 53 bits of the hash
+    let u = (z >> 11) as f64 / (1u64 << 53) as f64;
+    u
+}
+
+/// The cell size the darkness of a square asks for: the largest for flat paper, the smallest for black or for a
+/// square whose tone spreads widely (an edge), in between by the square root so mid-tones already get small cells.
+fn wanted(mean: f64, spread: f64, min_px: f64, max_px: f64) -> f64 {
+    let t = mean.max(3.0 * spread).clamp(0.0, 1.0).sqrt();
+    max_px + (min_px - max_px) * t
+}
+
+/// One seed per square of the quadtree, jittered within the square's middle half.
+fn seeds(sums: &Sums, min_px: f64, max_px: f64) -> Vec<Point> {
+    let (w, h) = (sums.width, sums.height);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let top = max_px.round().max(1.0) as usize;
+    let mut out = Vec::new();
+    let mut stack = Vec::new();
+    for y in (0..h).step_by(top) {
+        for x in (0..w).step_by(top) {
+            stack.push((x, y, top));
+        }
+    }
+    while let Some((x, y, side)) = stack.pop() {
+        let (x1, y1) = ((x + side).min(w), (y + side).min(h));
+        let (mean, spread) = sums.stats(x, x1, y, y1);
+        #[allow(clippy::cast_precision_loss)]
+        let s = side as f64;
+        if s / 2.0 >= min_px && s > 1.4 * wanted(mean, spread, min_px, max_px) {
+            let half = side.div_ceil(2);
+            for (dx, dy) in [(0, 0), (half, 0), (0, half), (half, half)] {
+                if x + dx < w && y + dy < h {
+                    stack.push((x + dx, y + dy, half));
+                }
+            }
+            continue;
+        }
+        let n = out.len() as u64;
+        #[allow(clippy::cast_precision_loss)]
+        let (cx, cy, sx, sy) = (x as f64, y as f64, (x1 - x) as f64, (y1 - y) as f64);
+        out.push(Point::new(cx + sx * (0.25 + 0.5 * unit(n, 11)), cy + sy * (0.25 + 0.5 * unit(n, 12))));
+    }
+    out
+}
+
+struct Site {
+    at: Point2<f64>,
+    real: bool,
+}
+
+impl HasPosition for Site {
+    type Scalar = f64;
+    fn position(&self) -> Point2<f64> {
+        self.at
+    }
+}
+
+/// The Voronoi cells of `seeds` clipped to `[0, w] × [0, h]`, in the seeds' order (a cell clipped away entirely
+/// is left out). A ring of seeds `2 · ring_px` outside the picture bounds every real seed's cell.
+fn cells(seeds: &[Point], w: usize, h: usize, ring_px: f64) -> Vec<Vec<Point>> {
+    #[allow(clippy::cast_precision_loss)]
+    let (wf, hf) = (w as f64, h as f64);
+    let mut sites: Vec<Site> = seeds.iter().map(|p| Site { at: Point2::new(p.x, p.y), real: true }).collect();
+    let m = 2.0 * ring_px.max(1.0);
+    let step = ring_px.max(1.0);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let (nx, ny) = (((wf + 2.0 * m) / step).ceil() as usize, ((hf + 2.0 * m) / step).ceil() as usize);
+    for i in 0..=nx {
+        #[allow(clippy::cast_precision_loss)]
+        let x = -m + (wf + 2.0 * m) * i as f64 / nx as f64;
+        sites.push(Site { at: Point2::new(x, -m), real: false });
+        sites.push(Site { at: Point2::new(x, hf + m), real: false });
+    }
+    for j in 1..ny {
+        #[allow(clippy::cast_precision_loss)]
+        let y = -m + (hf + 2.0 * m) * j as f64 / ny as f64;
+        sites.push(Site { at: Point2::new(-m, y), real: false });
+        sites.push(Site { at: Point2::new(wf + m, y), real: false });
+    }
+    let Ok(dt) = DelaunayTriangulation::<Site>::bulk_load_stable(sites) else {
+        return Vec::new();
+    };
+    let mut out = Vec::with_capacity(seeds.len());
+    for v in dt.vertices() {
+        if !v.data().real {
+            continue;
+        }
+        let mut poly = Vec::new();
+        let mut bounded = true;
+        for e in v.out_edges() {
+            match e.face().as_inner() {
+                Some(f) => {
+                    let c = f.circumcenter();
+                    poly.push(Point::new(c.x, c.y));
+                }
+                None => bounded = false,
+            }
+        }
+        if !bounded || poly.len() < 3 {
+            continue;
+        }
+        let clipped = clip_to_box(&poly, wf, hf);
+        if clipped.len() >= 3 {
+            out.push(clipped);
+        }
+    }
+    out
+}
+
+/// The convex polygon `poly` clipped to `[0, w] × [0, h]`.
+fn clip_to_box(poly: &[Point], w: f64, h: f64) -> Vec<Point> {
+    let mut cur = poly.to_vec();
+    for (n, c) in [((1.0, 0.0), 0.0), ((-1.0, 0.0), -w), ((0.0, 1.0), 0.0), ((0.0, -1.0), -h)] {
+        cur = clip_half_plane(&cur, n, c);
+    }
+    cur
+}
+
+/// The part of the convex polygon `poly` where `n · p ≥ c` (Sutherland–Hodgman, one side).
+fn clip_half_plane(poly: &[Point], n: (f64, f64), c: f64) -> Vec<Point> {
+    let side = |p: Point| p.x * n.0 + p.y * n.1 - c;
+    let mut next = Vec::with_capacity(poly.len() + 2);
+    for i in 0..poly.len() {
+        let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+        let (sp, sq) = (side(p), side(q));
+        if sp >= 0.0 {
+            next.push(p);
+        }
+        if (sp >= 0.0) != (sq >= 0.0) {
+            next.push(p.lerp(q, sp / (sp - sq)));
+        }
+    }
+    next
+}
+
+/// The convex polygon `cell` shrunk by `r` on every side (empty when it is narrower than `2r`).
+fn inset(cell: &[Point], r: f64) -> Vec<Point> {
+    let twice_area: f64 = (0..cell.len())
+        .map(|i| {
+            let (p, q) = (cell[i], cell[(i + 1) % cell.len()]);
+            p.x * q.y - q.x * p.y
+        })
+        .sum();
+    let turn = twice_area.signum();
+    let mut cur = cell.to_vec();
+    for i in 0..cell.len() {
+        let (p, q) = (cell[i], cell[(i + 1) % cell.len()]);
+        let d = q - p;
+        let len = d.hypot();
+        if len <= 0.0 || cur.len() < 3 {
+            continue;
+        }
+        // The inward normal: left of the edge for a counter-clockwise polygon.
+        let n = (-d.y * turn / len, d.x * turn / len);
+        cur = clip_half_plane(&cur, n, p.x * n.0 + p.y * n.1 + r);
+    }
+    if cur.len() >= 3 { cur } else { Vec::new() }
+}
+
+/// One family's strokes in a convex cell (closed `loop_`): each span pulled in by the pen's radius at both ends so
+/// its round caps stay in the cell, a span too short for that kept as a dot when the dot's ink is at most twice the
+/// span's, and the spans joined into one zig-zag.
+fn family_strokes(loop_: &[Point], f: &LineFamily, pen_px: f64) -> Vec<Vec<Point>> {
+    let r = pen_px / 2.0;
+    let mut lines = line_spans(std::slice::from_ref(&loop_.to_vec()), f);
+    for line in &mut lines {
+        line.spans = line
+            .spans
+            .iter()
+            .filter_map(|&(a, b)| {
+                if b - a > 2.0 * r {
+                    Some((a + r, b - r))
+                } else if 2.0 * pen_px * (b - a) >= std::f64::consts::PI * r * r {
+                    let m = (a + b) / 2.0;
+                    Some((m, m))
+                } else {
+                    None
+                }
+            })
+            .collect();
+    }
+    // The cell is convex: a connector between two points inside it stays inside.
+    zigzag::join(&lines, f, f64::INFINITY, |_, _| true)
+}
+
+/// The paper strokes `pen` wide cover: each segment's rectangle, the two round caps of each stroke, and at each
+/// turn by `φ` the round join's wedge outside (`r² φ / 2`) less the overlap of the two rectangles inside
+/// (`r² tan(φ / 2)`, at most the shorter segment's rectangle beside the turn). At black the lines touch, and a
+/// zig-zag's connectors lie mostly over the ends of the lines they join: counted whole they would make the cell
+/// look darker than it is.
+fn stroke_ink(strokes: &[Vec<Point>], pen: f64) -> f64 {
+    let r = pen / 2.0;
+    let caps = std::f64::consts::PI * r * r;
+    let mut ink = 0.0;
+    for s in strokes {
+        ink += caps + s.windows(2).map(|e| e[0].distance(e[1])).sum::<f64>() * pen;
+        for j in s.windows(3) {
+            let (a, b) = (j[1] - j[0], j[2] - j[1]);
+            let (la, lb) = (a.hypot(), b.hypot());
+            if la <= 0.0 || lb <= 0.0 {
+                continue;
+            }
+            let phi = (a.dot(b) / (la * lb)).clamp(-1.0, 1.0).acos();
+            let overlap = (r * r * (phi / 2.0).tan()).min(r * la.min(lb) * 2.0);
+            ink += r * r * phi / 2.0 - overlap;
+        }
+    }
+    ink
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::raster::ink::{InkGrid, ink_in_picture};
+    use crate::input::raster::tone::flat;
+
+    const LADDER: Ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+
+    #[test]
+    fn a_white_picture_gets_nothing() {
+        let m = mosaic(&flat(120, 80, 0.0), &LADDER, 0.1, 45.0, &MosaicOptions { outline: true, cell_mm: None });
+        assert!(m.cells > 0);
+        assert!(m.strokes.is_empty() && m.outlines.is_empty(), "{} strokes", m.strokes.len());
+    }
+
+    #[test]
+    fn flat_greys_ink_their_darkness() {
+        // 0.1 mm pixels, pen 3 px: the ink over the whole 30 × 30 mm picture (no margin: spans end a pen radius
+        // inside every cell, the picture's edge included) matches the darkness.
+        for d in [0.15f32, 0.4, 0.7, 0.9] {
+            let m = mosaic(&flat(300, 300, d), &LADDER, 0.1, 45.0, &MosaicOptions::default());
+            let f = ink_in_picture(&m.strokes, 3.0, 300, 300, 0);
+            assert!((f - f64::from(d)).abs() <= 0.03, "darkness {d}: ink {f:.3} in {} cells", m.cells);
+        }
+    }
+
+    #[test]
+    fn flat_cells_are_larger_where_lighter() {
+        let light = mosaic(&flat(300, 300, 0.1), &LADDER, 0.1, 45.0, &MosaicOptions::default()).cells;
+        let dark = mosaic(&flat(300, 300, 0.9), &LADDER, 0.1, 45.0, &MosaicOptions::default()).cells;
+        // Largest cells 16 × 0.45 = 7.2 mm: 30 mm is 5 squares across (the last one cut short), 25 cells; at 0.9 the
+        // squares split twice, to 1.8 mm (the short ones less).
+        assert_eq!(light, 25);
+        assert!(dark >= 10 * light, "{dark} cells vs {light}");
+    }
+
+    #[test]
+    fn a_black_square_gets_the_darkest_rung_inside_and_nothing_far_outside() {
+        // A 20 × 20 mm black square in the middle of a 40 × 40 mm white picture, 0.1 mm pixels.
+        let mut map = flat(400, 400, 0.0);
+        for y in 100..300 {
+            for x in 100..300 {
+                map.data[y * 400 + x] = 1.0;
+            }
+        }
+        let m = mosaic(&map, &LADDER, 0.1, 0.0, &MosaicOptions::default());
+        let mut grid = InkGrid::new(2000, 2000, 0.2);
+        grid.draw(&m.strokes, 3.0);
+        // Inside, away from the edge by the smallest cell (1.8 mm = 18 px): solid, as black's rung (lines one pen
+        // width apart) gives.
+        let inner = grid.fraction(5 * 118, 5 * 282, 5 * 118, 5 * 282);
+        assert!(inner > 0.97, "inside {inner:.3}");
+        // Outside, beyond one smallest cell from the edge, nothing.
+        assert_eq!(grid.fraction(0, 2000, 0, 5 * 82), 0.0);
+        assert_eq!(grid.fraction(0, 2000, 5 * 318, 2000), 0.0);
+        assert_eq!(grid.fraction(0, 5 * 82, 0, 2000), 0.0);
+        assert_eq!(grid.fraction(5 * 318, 2000, 0, 2000), 0.0);
+    }
+
+    #[test]
+    fn cells_tile_the_picture_and_outlines_are_optional() {
+        let map = flat(200, 150, 0.5);
+        let m = mosaic(&map, &LADDER, 0.1, 45.0, &MosaicOptions { outline: true, cell_mm: Some(3.0) });
+        assert_eq!(m.outlines.len(), m.cells);
+        // The cells' areas (shoelace) add up to the picture's.
+        let area: f64 = m
+            .outlines
+            .iter()
+            .map(|l| l.windows(2).map(|e| e[0].x * e[1].y - e[1].x * e[0].y).sum::<f64>().abs() / 2.0)
+            .sum();
+        assert!((area - 200.0 * 150.0).abs() < 1e-6, "{area}");
+        // Every stroke point lies in the picture.
+        assert!(m.strokes.iter().flatten().all(|p| (0.0..=200.0).contains(&p.x) && (0.0..=150.0).contains(&p.y)));
+        assert!(mosaic(&map, &LADDER, 0.1, 45.0, &MosaicOptions::default()).outlines.is_empty());
+    }
+}
