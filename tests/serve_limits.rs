@@ -254,14 +254,22 @@ fn a_listen_address_off_loopback_needs_allow_remote() {
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(
         err.contains("refusing to listen on 0.0.0.0:0")
-            && err.contains("no authentication")
-            && err.contains("--allow-remote"),
+            && err.contains("--allow-remote")
+            && err.contains("--token-file"),
         "{err}"
     );
     assert!(refused.stdout.is_empty(), "nothing served: {}", String::from_utf8_lossy(&refused.stdout));
+    // --allow-remote alone: no token, so no start either (issue 41).
+    let refused = Command::new(plotter_bin())
+        .args(["serve", "--listen", "0.0.0.0:0", "--allow-remote"])
+        .stdin(Stdio::null())
+        .output_within(Duration::from_secs(20));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && err.contains("with no token") && err.contains("--generate-token"), "{err}");
+    assert!(refused.stdout.is_empty(), "nothing served: {}", String::from_utf8_lossy(&refused.stdout));
 
     let mut child = Command::new(plotter_bin())
-        .args(["serve", "--listen", "0.0.0.0:0", "--allow-remote"])
+        .args(["serve", "--listen", "0.0.0.0:0", "--allow-remote", "--generate-token"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -273,7 +281,9 @@ fn a_listen_address_off_loopback_needs_allow_remote() {
     let mut err = String::new();
     child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
     assert!(line.starts_with("plotter serve: http://127.0.0.1:"), "{line}");
-    assert!(err.contains("warning: listening on 0.0.0.0:") && err.contains("no authentication"), "{err}");
+    assert!(err.contains("listening on 0.0.0.0:") && err.contains("everyone must sign in"), "{err}");
+    let token = err.lines().find_map(|l| l.strip_prefix("plotter serve: operator token (queue and control): "));
+    assert!(token.is_some_and(|t| t.len() == 32), "the generated token is printed once: {err}");
 }
 
 /// `Command::output` with a deadline: a server that starts instead of refusing fails the test, not hangs it.

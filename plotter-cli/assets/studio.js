@@ -3,6 +3,11 @@
 
 const $ = (id) => document.getElementById(id);
 
+// Who this page is signed in as: 'operator', 'viewer', or 'open' (a server that asks for no token). A viewer
+// sees no queueing or control buttons (the server refuses them too), only the emergency stops.
+let role = 'open';
+const operates = () => role !== 'viewer';
+
 function say(text, error) {
   const m = $('message');
   m.textContent = text;
@@ -68,9 +73,11 @@ function machineCard(m) {
   const url = '/api/machines/' + encodeURIComponent(m.name) + '/';
   const controls = document.createElement('div');
   controls.className = 'row';
-  controls.appendChild(button('Pause', () => post(url + 'pause'), 'pause', 'pause at the next pen-up'));
-  controls.appendChild(button('Resume', () => post(url + 'resume'), 'resume'));
-  controls.appendChild(button('Stop', () => post(url + 'stop'), 'stop', 'end the job at the next pen-up'));
+  if (operates()) {
+    controls.appendChild(button('Pause', () => post(url + 'pause'), 'pause', 'pause at the next pen-up'));
+    controls.appendChild(button('Resume', () => post(url + 'resume'), 'resume'));
+    controls.appendChild(button('Stop', () => post(url + 'stop'), 'stop', 'end the job at the next pen-up'));
+  }
   controls.appendChild(button('Emergency stop', () => post(url + 'estop'), 'estop', 'stop at once, pen up'));
   card.appendChild(controls);
   return card;
@@ -88,6 +95,7 @@ function jobRow(j) {
   tr.appendChild(text('td', last && last.outcome ? last.outcome : ''));
   const td = document.createElement('td');
   const url = '/api/queue/' + j.id + '/';
+  if (!operates()) { tr.appendChild(td); return tr; }
   if (['queued', 'plotting', 'paused', 'interrupted'].includes(j.state)) td.appendChild(button('Cancel', () => post(url + 'cancel')));
   if (['failed', 'cancelled'].includes(j.state)) td.appendChild(button('Retry', () => post(url + 'retry')));
   if (j.state === 'interrupted') td.appendChild(button('Paper in place: resume', () => post(url + 'confirm')));
@@ -113,10 +121,25 @@ function listen() {
     $('status').textContent = 'live';
     show(JSON.parse(e.data));
   });
-  source.onerror = () => { $('status').textContent = 'reconnecting…'; };
+  source.onerror = () => {
+    $('status').textContent = 'reconnecting…';
+    // A session that ended (signed out elsewhere, expired, server restarted): back to the sign-in page.
+    fetch('/auth/me').then((r) => { if (r.status === 401) location.reload(); }).catch(() => {});
+  };
+}
+
+async function whoAmI() {
+  const r = await fetch('/auth/me').catch(() => null);
+  if (!r || !r.ok) return;
+  role = (await r.json()).role;
+  $('who').textContent = 'signed in: ' + role;
+  $('who').hidden = false;
+  $('signout').hidden = false;
+  $('add-panel').hidden = !operates();
 }
 
 $('stop-all').addEventListener('click', () => post('/api/stop-all').then(() => say('every machine stopped')).catch(() => {}));
+$('signout').addEventListener('click', () => post('/auth/signout').then(() => location.reload()).catch(() => {}));
 $('add').addEventListener('click', async () => {
   const file = $('file').files[0];
   if (!file) { say('pick a drawing first', true); return; }
@@ -126,4 +149,4 @@ $('add').addEventListener('click', async () => {
   const r = await post('/api/queue?' + q, await file.arrayBuffer(), 'application/octet-stream').catch(() => null);
   if (r) say('queued as job ' + r.id);
 });
-listen();
+whoAmI().finally(listen);

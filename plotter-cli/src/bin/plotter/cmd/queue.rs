@@ -29,9 +29,13 @@ pub(crate) struct ServerArgs {
     /// The studio's address, as `plotter serve` printed it.
     #[arg(long, default_value = "http://127.0.0.1:8040/")]
     pub(crate) server: String,
-    /// The operator's token, for a studio that asks for one (sent in the Authorization header).
-    #[arg(long)]
+    /// The token, for a studio that asks for one (sent in the Authorization header): the operator's to queue and
+    /// cancel, a viewer's to list and wait. Others on this computer can see a command line: prefer --token-file.
+    #[arg(long, conflicts_with = "token_file")]
     pub(crate) token: Option<String>,
+    /// File whose first line is the token (the file given to `plotter serve --token-file`).
+    #[arg(long, value_name = "FILE")]
+    pub(crate) token_file: Option<PathBuf>,
 }
 
 /// What to do to the queue.
@@ -111,7 +115,19 @@ impl Client {
             .timeout_global(Some(Duration::from_secs(60)))
             .build()
             .into();
-        Ok(Client { agent, base, token: s.token.clone() })
+        let token = match &s.token_file {
+            Some(file) => {
+                let text = std::fs::read_to_string(file)
+                    .with_context(|| format!("--token-file {}: cannot read it", file.display()))?;
+                let token = text.lines().next().unwrap_or("").trim().to_string();
+                if token.is_empty() {
+                    bail!("--token-file {}: its first line is empty; it should hold the token", file.display());
+                }
+                Some(token)
+            }
+            None => s.token.clone(),
+        };
+        Ok(Client { agent, base, token })
     }
 
     /// The answer's JSON, or an error with the server's message.
@@ -122,6 +138,15 @@ impl Client {
         let v: Value = serde_json::from_str(&text).unwrap_or(Value::String(text));
         if !status.is_success() {
             let message = v.get("error").and_then(Value::as_str).map_or_else(|| v.to_string(), str::to_string);
+            if status.as_u16() == 401 {
+                let hint = if self.token.is_some() {
+                    "the token given is not one it accepts; check --token/--token-file against the file given to \
+                     plotter serve --token-file"
+                } else {
+                    "it asks for a token: pass --token-file FILE (or --token TOKEN) with the operator's token"
+                };
+                bail!("{what}: the studio at {} refused: {hint} ({message})", self.base);
+            }
             bail!("{what}: the studio said {}: {message}", status.as_u16());
         }
         Ok(v)

@@ -1,6 +1,6 @@
 //! `plotter serve`: the local web app — drop a drawing on the page, adjust it, plot it on the simulator or a
-//! serial plotter (our firmware, GRBL or an EiBotBoard) and watch it. Listens on loopback; another address needs `--allow-remote`, since the app has no
-//! authentication.
+//! serial plotter (our firmware, GRBL or an EiBotBoard) and watch it. Listens on loopback; another address needs
+//! `--allow-remote` and a token to sign in with (`--token-file` or `--generate-token`; see `serve::auth`).
 
 use std::io::Write as _;
 use std::net::SocketAddr;
@@ -18,10 +18,24 @@ pub(crate) struct ServeArgs {
     /// Address to listen on. Anything but loopback needs --allow-remote.
     #[arg(long, default_value = "127.0.0.1:8040")]
     pub(crate) listen: SocketAddr,
-    /// Allow a --listen address other machines can reach. The app has no authentication: anyone who can reach
-    /// the address can drive the plotter (one page at a time) and see the drawing.
+    /// Allow a --listen address other machines can reach. Everyone must then sign in: give the operator's token
+    /// with --token-file, or --generate-token. A token is never made up silently, because one generated at every
+    /// start would change whenever the server restarts and is easily lost in a log.
     #[arg(long)]
     pub(crate) allow_remote: bool,
+    /// File whose first line is the operator's token (at least 16 characters): who has it may queue drawings and
+    /// control the machines. Pages sign in with it once; `plotter queue` sends it with --token-file. Given on
+    /// loopback too, the server asks for it there as well.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) token_file: Option<PathBuf>,
+    /// File whose first line is the viewers' token: who has it may watch the machines and the queue and press an
+    /// emergency stop, nothing more. Without it (and without --generate-token) only the operator signs in.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) viewer_token_file: Option<PathBuf>,
+    /// Make random tokens for the operator and the viewers (those not given by a file) and print them once, now,
+    /// on the error output; they last until the server stops.
+    #[arg(long)]
+    pub(crate) generate_token: bool,
     /// Open the page in the default browser.
     #[arg(long)]
     pub(crate) open: bool,
@@ -100,16 +114,66 @@ fn seconds(flag: &str, value: f64) -> anyhow::Result<Duration> {
     Ok(Duration::from_secs_f64(value))
 }
 
-/// Refuse an address other machines can reach unless `allow_remote` says so: the app has no authentication.
-fn check_listen(listen: SocketAddr, allow_remote: bool) -> anyhow::Result<()> {
-    if listen.ip().to_canonical().is_loopback() || allow_remote {
+/// Refuse an address other machines can reach unless `allow_remote` says so and a token (`signs_in`) will be asked
+/// of everyone who connects.
+fn check_listen(listen: SocketAddr, allow_remote: bool, signs_in: bool) -> anyhow::Result<()> {
+    if listen.ip().to_canonical().is_loopback() {
         return Ok(());
     }
-    anyhow::bail!(
-        "refusing to listen on {listen}: the web app has no authentication, so anyone who can reach that address \
-         could drive the plotter and see the drawing. Use a loopback address (the default is 127.0.0.1:8040), or \
-         pass --allow-remote if you mean it"
-    )
+    if !allow_remote {
+        anyhow::bail!(
+            "refusing to listen on {listen}: anyone who can reach that address could drive the plotter and see the \
+             drawing. Use a loopback address (the default is 127.0.0.1:8040), or pass --allow-remote with \
+             --token-file FILE (or --generate-token) so that everyone must sign in"
+        );
+    }
+    if !signs_in {
+        anyhow::bail!(
+            "refusing to listen on {listen} with no token: off loopback everyone must sign in. Give the operator's \
+             token with --token-file FILE (its first line, at least 16 characters, e.g. from `openssl rand -hex 16`), \
+             or --generate-token to have one made and printed now"
+        );
+    }
+    Ok(())
+}
+
+/// The tokens made at start, each with what it is for, to print once.
+type Made = Vec<(&'static str, String)>;
+
+/// The tokens the flags give (`None`: no sign-in), and those generated, to print once.
+fn tokens(args: &ServeArgs) -> anyhow::Result<(Option<serve::auth::Tokens>, Made)> {
+    use serve::auth;
+    let mut made = Vec::new();
+    let operator = match (&args.token_file, args.generate_token) {
+        (Some(file), _) => Some(auth::read_token_file(file, "--token-file")?),
+        (None, true) => {
+            let t = auth::random_token();
+            made.push(("operator token (queue and control)", t.clone()));
+            Some(t)
+        }
+        (None, false) => None,
+    };
+    let viewer = match (&args.viewer_token_file, args.generate_token) {
+        (Some(file), _) => Some(auth::read_token_file(file, "--viewer-token-file")?),
+        (None, true) => {
+            let t = auth::random_token();
+            made.push(("viewer token (watch and emergency stop)", t.clone()));
+            Some(t)
+        }
+        (None, false) => None,
+    };
+    let Some(operator) = operator else {
+        if viewer.is_some() {
+            anyhow::bail!(
+                "--viewer-token-file needs the operator's token too: add --token-file FILE or --generate-token"
+            );
+        }
+        return Ok((None, made));
+    };
+    if viewer.as_deref() == Some(operator.as_str()) {
+        anyhow::bail!("--viewer-token-file holds the operator's token: give the viewers a token of their own");
+    }
+    Ok((Some(auth::Tokens { operator, viewer }), made))
 }
 
 /// Run `plotter serve`.
@@ -130,7 +194,8 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
         claim_grace: seconds("claim-grace-s", args.claim_grace_s)?,
         ..serve::state::Limits::default()
     };
-    check_listen(args.listen, args.allow_remote)?;
+    let (tokens, made) = tokens(args)?;
+    check_listen(args.listen, args.allow_remote, tokens.is_some())?;
     // The built-in kit first (the page starts with it), then every built-in model, then the files named.
     let mut profiles = vec![MachineProfile::default_plotter()];
     for model in plotter_path::config::models::names().filter_map(plotter_path::config::models::find) {
@@ -169,10 +234,10 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot listen on {}", args.listen))?;
         let local = listener.local_addr()?;
         if !local.ip().to_canonical().is_loopback() {
-            eprintln!(
-                "warning: listening on {local} (--allow-remote): the web app has no authentication; anyone who can \
-                 reach this address can drive the plotter (one page at a time) and see the drawing"
-            );
+            eprintln!("plotter serve: listening on {local} (--allow-remote): everyone must sign in with a token");
+        }
+        for (what, token) in &made {
+            eprintln!("plotter serve: {what}: {token}");
         }
         let host = if local.ip().is_unspecified() { format!("127.0.0.1:{}", local.port()) } else { local.to_string() };
         let url = format!("http://{host}/");
@@ -182,7 +247,7 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
             open_browser(&url);
         }
         if let Some(studio) = studio {
-            return match serve::studio_app::serve(listener, studio, limits).await {
+            return match serve::studio_app::serve(listener, studio, limits, tokens).await {
                 Some(ended) if ended.interrupted => {
                     Err(plotter_host::stop::Stopped { cause: ended.cause, doing: "the studio's plots".into() }.into())
                 }
@@ -202,7 +267,7 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
             limits,
             journals,
         };
-        match serve::serve(listener, config).await {
+        match serve::serve(listener, config, tokens).await {
             // A plot cut short is a stopped plot (exit 5); an idle server asked to end has done its job.
             Some(ended) if ended.interrupted => {
                 Err(plotter_host::stop::Stopped { cause: ended.cause, doing: "a plot".into() }.into())
@@ -235,17 +300,68 @@ mod tests {
     use super::*;
 
     #[test]
-    fn only_loopback_listens_without_the_opt_in() {
+    fn only_loopback_listens_without_the_opt_in_and_a_token() {
         for local in ["127.0.0.1:8040", "127.8.9.10:0", "[::1]:8040", "[::ffff:127.0.0.1]:8040"] {
-            assert!(check_listen(local.parse().unwrap(), false).is_ok(), "{local}");
+            assert!(check_listen(local.parse().unwrap(), false, false).is_ok(), "{local}");
         }
         for remote in ["0.0.0.0:8040", "192.168.1.5:8040", "[::]:8040", "[2001:db8::1]:80"] {
             let addr: SocketAddr = remote.parse().unwrap();
-            let e = check_listen(addr, false).unwrap_err().to_string();
+            let e = check_listen(addr, false, true).unwrap_err().to_string();
             assert!(e.contains(&format!("refusing to listen on {addr}")) && e.contains("--allow-remote"), "{e}");
-            assert!(e.contains("no authentication"), "{e}");
-            assert!(check_listen(addr, true).is_ok(), "{remote}");
+            let e = check_listen(addr, true, false).unwrap_err().to_string();
+            assert!(e.contains("with no token") && e.contains("--token-file") && e.contains("--generate-token"), "{e}");
+            assert!(check_listen(addr, true, true).is_ok(), "{remote}");
         }
+    }
+
+    fn args(extra: &[&str]) -> ServeArgs {
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            serve: ServeArgs,
+        }
+        <Cli as clap::Parser>::parse_from(std::iter::once("serve").chain(extra.iter().copied())).serve
+    }
+
+    #[test]
+    fn tokens_come_from_files_or_are_generated_on_request() {
+        let dir = std::env::temp_dir().join(format!("plotter-serve-tokens-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (op, view) = (dir.join("op"), dir.join("view"));
+        std::fs::write(&op, "operator-token-0123456789\n").unwrap();
+        std::fs::write(&view, "viewer-token-0123456789\n").unwrap();
+        let (op_s, view_s) = (op.to_str().unwrap(), view.to_str().unwrap());
+        // Nothing asked: no sign-in.
+        let (t, made) = tokens(&args(&[])).unwrap();
+        assert!(t.is_none() && made.is_empty());
+        // Files: read, nothing printed.
+        let (t, made) = tokens(&args(&["--token-file", op_s, "--viewer-token-file", view_s])).unwrap();
+        let t = t.unwrap();
+        assert_eq!(
+            (t.operator.as_str(), t.viewer.as_deref()),
+            ("operator-token-0123456789", Some("viewer-token-0123456789"))
+        );
+        assert!(made.is_empty());
+        let (t, _) = tokens(&args(&["--token-file", op_s])).unwrap();
+        assert!(t.unwrap().viewer.is_none(), "no viewer token unless one is given or generated");
+        // Generated: both, distinct, printed.
+        let (t, made) = tokens(&args(&["--generate-token"])).unwrap();
+        let t = t.unwrap();
+        assert_eq!(made.len(), 2);
+        assert_eq!(made[0].1, t.operator);
+        assert_eq!(Some(&made[1].1), t.viewer.as_ref());
+        assert_ne!(Some(&t.operator), t.viewer.as_ref());
+        // A file and a generated viewer token.
+        let (t, made) = tokens(&args(&["--token-file", op_s, "--generate-token"])).unwrap();
+        assert_eq!(t.unwrap().operator, "operator-token-0123456789");
+        assert_eq!(made.len(), 1);
+        assert!(made[0].0.starts_with("viewer"));
+        // A viewer's token alone, or the operator's given to viewers: refused.
+        let e = tokens(&args(&["--viewer-token-file", view_s])).unwrap_err().to_string();
+        assert!(e.contains("--token-file"), "{e}");
+        let e = tokens(&args(&["--token-file", op_s, "--viewer-token-file", op_s])).unwrap_err().to_string();
+        assert!(e.contains("operator's token"), "{e}");
+        let _ = std::fs::remove_dir_all(dir);
     }
 
     #[test]

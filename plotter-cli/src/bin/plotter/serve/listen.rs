@@ -34,8 +34,8 @@ pub(crate) async fn serve(listener: TcpListener, router: axum::Router, limits: L
     let mut http = hyper::server::conn::http1::Builder::new();
     http.timer(TokioTimer::new()).header_read_timeout(limits.header_timeout).max_buf_size(MAX_BUFFER);
     loop {
-        let stream = match listener.accept().await {
-            Ok((stream, _)) => stream,
+        let (stream, peer) = match listener.accept().await {
+            Ok(accepted) => accepted,
             Err(e) => {
                 // Out of descriptors, or a connection reset before it was taken: wait a little rather than spin.
                 if !matches!(e.kind(), std::io::ErrorKind::ConnectionAborted | std::io::ErrorKind::ConnectionReset) {
@@ -51,7 +51,12 @@ pub(crate) async fn serve(listener: TcpListener, router: axum::Router, limits: L
         };
         // Events and small answers go out at once.
         let _ = stream.set_nodelay(true);
-        let connection = http.serve_connection(TokioIo::new(stream), TowerToHyperService::new(router.clone()));
+        // Each request carries the client's address (the sign-in's delay per address, see super::auth).
+        let service = tower::ServiceExt::map_request(router.clone(), move |mut req: axum::extract::Request<_>| {
+            req.extensions_mut().insert(axum::extract::ConnectInfo(peer));
+            req
+        });
+        let connection = http.serve_connection(TokioIo::new(stream), TowerToHyperService::new(service));
         tokio::spawn(async move {
             // A timed-out or broken connection is the client's business: nothing to report.
             let _ = connection.await;

@@ -12,6 +12,7 @@
 //! - [`pen_speed`]: the pen-height and speed sliders and what they change in the profile;
 //! - [`state`]: the shared state, the limits on clients, and what a page is sent;
 //! - [`safety`]: Host/Origin/Referer checks and control tokens;
+//! - [`auth`]: signing in with the operator's or a viewer's token (`--token-file`, needed off loopback);
 //! - [`control`]: which page drives the machine;
 //! - [`command`]: what the HTTP side asks the worker;
 //! - [`worker`]: the thread that owns the link to the machine and runs plots;
@@ -24,6 +25,7 @@
 //! events, so a long plot, a homing cycle or a slow serial port never holds up a page.
 
 pub(crate) mod api;
+pub(crate) mod auth;
 pub(crate) mod budget;
 pub(crate) mod command;
 pub(crate) mod control;
@@ -59,10 +61,19 @@ pub(crate) fn app(config: Config) -> (Arc<Shared>, axum::Router) {
     (shared, router)
 }
 
-/// Serve on `listener` until a stop signal (see [`shutdown`]); returns what stopped it.
-pub(crate) async fn serve(listener: tokio::net::TcpListener, config: Config) -> Option<shutdown::Ended> {
+/// Serve on `listener` until a stop signal (see [`shutdown`]); returns what stopped it. With `tokens`, every
+/// request must be signed in ([`auth`]).
+pub(crate) async fn serve(
+    listener: tokio::net::TcpListener,
+    config: Config,
+    tokens: Option<auth::Tokens>,
+) -> Option<shutdown::Ended> {
     let limits = config.limits;
-    let (shared, router) = app(config);
+    let local = config.local;
+    let (shared, mut router) = app(config);
+    if let Some(tokens) = tokens {
+        router = auth::protect(router, auth::Auth::new(tokens, local));
+    }
     tokio::select! {
         () = listen::serve(listener, router, limits) => None,
         cause = shutdown::on_stop(shared) => Some(cause),

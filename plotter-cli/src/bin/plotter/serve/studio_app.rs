@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use plotter_host::stop::Stop;
 use plotter_host::studio::running::Studio;
 
+use super::auth::{self, Tokens};
 use super::listen;
 use super::shutdown::Ended;
 use super::state::Limits;
@@ -16,8 +17,14 @@ use super::studio_api::{StudioState, router};
 /// How long the machines may take to stop and lift their pens before the server ends anyway.
 const STOP_GRACE: Duration = Duration::from_secs(30);
 
-/// Serve `studio` on `listener` until a stop signal; returns what stopped it.
-pub(crate) async fn serve(listener: tokio::net::TcpListener, studio: Arc<Studio>, limits: Limits) -> Option<Ended> {
+/// Serve `studio` on `listener` until a stop signal; returns what stopped it. With `tokens`, every request must be
+/// signed in ([`auth`]).
+pub(crate) async fn serve(
+    listener: tokio::net::TcpListener,
+    studio: Arc<Studio>,
+    limits: Limits,
+    tokens: Option<Tokens>,
+) -> Option<Ended> {
     let local = match listener.local_addr() {
         Ok(a) => a,
         Err(e) => {
@@ -32,7 +39,10 @@ pub(crate) async fn serve(listener: tokio::net::TcpListener, studio: Arc<Studio>
             return None;
         }
     };
-    let app = router(StudioState { studio: Arc::clone(&studio), local });
+    let mut app = router(StudioState { studio: Arc::clone(&studio), local });
+    if let Some(tokens) = tokens {
+        app = auth::protect(app, auth::Auth::new(tokens, local));
+    }
     let ended = tokio::select! {
         () = listen::serve(listener, app, limits) => None,
         ended = on_stop(Arc::clone(&studio)) => Some(ended),
