@@ -8,9 +8,10 @@
 //! settle time when it is non-zero. Between two strokes drawn with one pen the hop overlaps the pen's motion with
 //! the travel as the motion plan does ([`crate::motion::hop`]): a Z pen rises only to the clearance height
 //! (`G1 Z<clear>`, no dwell), travels with combined moves (`G0 X Y Z`) on which it climbs towards the pen-up height
-//! and comes back down to the clearance height, and drops from there; a servo pen waits only its clear time
-//! (`pen.clear_ms`) after the lift before travelling (the drop waits for the travel to end, as GRBL runs spindle
-//! words between moves). The first travel, from wherever the machine stands, is flat at the pen-up height. In a
+//! and comes back down to the clearance height, and drops from there; a servo pen waits only until its tip is
+//! clear after the lift before travelling, timed as the motion plan times it (the swing above the pen's contact
+//! fraction, or the profile's `pen.clear_ms`); the drop waits for the travel to end, as GRBL runs spindle words
+//! between moves. The first travel, from wherever the machine stands, is flat at the pen-up height. In a
 //! file the hops keep above the midpoint between the lowest pen-down height and the pen-up height (the clearance
 //! is raised to just above it when smaller): readers that tell travel from drawing by that midpoint, this
 //! project's G-code import among them, then see every hop as travel.
@@ -49,6 +50,19 @@ use crate::config::profile::PenCommand;
 use crate::geometry::steps::{StepDrawing, StepMapper, StepPos};
 use crate::motion::hop::{HopHeights, travel_waypoints};
 use crate::motion::plan::{layer_pens, park_position};
+use crate::motion::servo::ServoTiming;
+
+/// Seconds a servo lift waits before the travel: the profile's `pen.clear_ms` when it sets one, else until the tip
+/// is clear of the paper at the servo's rate from a pen whose down angle is `down_deg` (the motion plan's
+/// [`ServoTiming::clear_ticks`]: the part of the swing above the contact fraction, `pen.contact_fraction`).
+fn servo_clear_s(profile: &MachineProfile, down_deg: f64) -> f64 {
+    match profile.pen.clear_ms {
+        Some(ms) => ms / 1000.0,
+        // Display of at most a few seconds of ticks.
+        #[allow(clippy::cast_precision_loss)]
+        None => ServoTiming::of(profile, down_deg).clear_ticks() as f64 / f64::from(plotter_fw::TICK_HZ),
+    }
+}
 
 /// Format a millimetre value with at most `decimals` decimals, trailing zeros removed (`-0` printed as `0`).
 pub fn fmt_mm(v: f64, decimals: usize) -> String {
@@ -121,7 +135,11 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
     hop_profile.pen.clearance_mm = pen.clearance_mm.max(above_mid);
     let heights: Vec<HopHeights> =
         pens.iter().map(|p| HopHeights::new(&hop_profile, z_of(p.down_z_mm), z_of(pen.up_z_mm))).collect();
-    let servo_clear = fmt_mm(pen.servo_clear_ms() / 1000.0, 4);
+    // No dwell where the wait rounds to nothing (a servo the profile gives no swing time).
+    let servo_clear: Vec<Option<String>> = pens
+        .iter()
+        .map(|p| Some(fmt_mm(servo_clear_s(profile, p.servo_down_deg), 4)).filter(|s| s.as_str() != "0"))
+        .collect();
     // Without a park position the pen change waits above the homed corner.
     let park = park_position(profile).ok().map(|s| mapper.steps_to_machine(s));
     let mut out = String::new();
@@ -171,8 +189,8 @@ pub fn export(profile: &MachineProfile, steps: &StepDrawing) -> String {
                 }
                 PenCommand::Servo => {
                     put(&mut out, &up(layer, here));
-                    if pen.servo_clear_ms() > 0.0 {
-                        let _ = writeln!(out, "G4 P{servo_clear}");
+                    if let Some(wait) = &servo_clear[layer] {
+                        let _ = writeln!(out, "G4 P{wait}");
                     }
                 }
             }
@@ -314,11 +332,20 @@ mod tests {
                 "M2",
             ]
         );
-        // A servo pen waits only its clear time (a third of the settle) after the lift between them.
+        // A servo pen waits only until its tip is clear after the lift between them: the 30° → 90° swing takes the
+        // 50 ms settle, and the tip leaves the paper once the servo is back above 0.7 of its down travel, after
+        // 0.3 × 50 = 15 ms.
         let mut servo = p.clone();
         servo.pen.command = PenCommand::Servo;
         let g = export(&servo, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
-        assert!(g.contains("G1 X11 Y10 F3600\nM3 S90\nG4 P0.0167\nG0 X21 Y10 F7200\nM3 S30\nG4 P0.05\n"), "{g}");
+        assert!(g.contains("G1 X11 Y10 F3600\nM3 S90\nG4 P0.015\nG0 X21 Y10 F7200\nM3 S30\nG4 P0.05\n"), "{g}");
+        // At a contact fraction of 0.5, half the swing: 25 ms; a profile's own clear time wins.
+        servo.pen.contact_fraction = 0.5;
+        let g = export(&servo, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
+        assert!(g.contains("M3 S90\nG4 P0.025\nG0 X21"), "{g}");
+        servo.pen.clear_ms = Some(20.0);
+        let g = export(&servo, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
+        assert!(g.contains("M3 S90\nG4 P0.02\nG0 X21"), "{g}");
     }
 
     #[test]
