@@ -3,36 +3,64 @@
 //!
 //! Run: `cargo bench -p plotter-path --bench styles_speed`. Prints the median of 3 runs per style in seconds (the
 //! stipple's one line through its dots, `--tsp`, timed as the front end does it: the trace, then
-//! `optimize::one_line`), with the paths and pen-down metres.
+//! `optimize::one_line`), with the paths and pen-down metres. `STYLES=stipple,flow` runs only the styles whose names
+//! contain one of those words. `PICTURE=file.png` traces another photo, resized to about one megapixel (180 mm wide
+//! still); `FIDELITY=1` adds the tone measure of each style's plot against that picture (L* error and SSIM, see
+//! `plotter_path::input::raster::fidelity`), which is not timed.
 
 use std::time::Instant;
 
 use image::DynamicImage;
 use image::imageops::FilterType;
+use plotter_path::input::raster::fidelity::{MeasureOptions, measure};
 use plotter_path::input::raster::{self, Mode, TraceOptions};
 use plotter_path::optimize::one_line::join_into_one_line;
 
 fn main() {
-    let photo = concat!(env!("CARGO_MANIFEST_DIR"), "/../samples/photo.png");
-    let gray = match image::open(photo) {
+    let photo = std::env::var("PICTURE")
+        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../samples/photo.png").to_owned());
+    let fidelity = std::env::var("FIDELITY").is_ok_and(|v| v == "1");
+    let gray = match image::open(&photo) {
         Ok(i) => i.to_luma8(),
         Err(e) => {
             eprintln!("styles_speed: {photo}: {e}");
             std::process::exit(1);
         }
     };
-    let big = DynamicImage::ImageLuma8(image::imageops::resize(&gray, 1155, 866, FilterType::CatmullRom));
-    let cases: [(&str, Mode, bool); 6] = [
+    // About a megapixel at the picture's own shape (samples/photo.png: 1155 × 866).
+    let aspect = f64::from(gray.height()) / f64::from(gray.width().max(1));
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let (w, h) = ((1e6 / aspect).sqrt().round() as u32, ((1e6 * aspect).sqrt().round() as u32).max(1));
+    let big = image::imageops::resize(&gray, w, h, FilterType::CatmullRom);
+    let measure_opts = MeasureOptions::default();
+    let only: Vec<String> = std::env::var("STYLES")
+        .map(|s| s.split(',').map(str::to_owned).filter(|w| !w.is_empty()).collect())
+        .unwrap_or_default();
+    let cases: [(&str, Mode, bool); 8] = [
         ("hatch", Mode::Hatch, false),
         ("hatch --levels 8", Mode::Hatch, false),
         ("squiggle", Mode::Squiggle, false),
         ("spiral", Mode::Spiral, false),
         ("stipple", Mode::Stipple, false),
         ("stipple --tsp", Mode::Stipple, true),
+        ("flow", Mode::Flow, false),
+        ("sketch", Mode::Sketch, false),
     ];
-    println!("{:<20} {:>8} {:>8} {:>9}", "style (1155×866)", "s", "paths", "ink m");
+    println!(
+        "{:<20} {:>8} {:>8} {:>9} {:>8} {:>6}",
+        format!("style ({w}×{h})"),
+        "s",
+        "paths",
+        "ink m",
+        "L* err",
+        "SSIM"
+    );
+    let big_image = DynamicImage::ImageLuma8(big.clone());
     for (name, mode, tsp) in cases {
-        let mut opts = TraceOptions { mode, pitch_mm: Some(180.0 / 1155.0), ..TraceOptions::default() };
+        if !only.is_empty() && !only.iter().any(|w| name.contains(w.as_str())) {
+            continue;
+        }
+        let mut opts = TraceOptions { mode, pitch_mm: Some(180.0 / f64::from(w)), ..TraceOptions::default() };
         if name.contains("levels 8") {
             opts.hatch.levels = 8;
         }
@@ -41,7 +69,7 @@ fn main() {
         let mut last = None;
         for _ in 0..3 {
             let t = Instant::now();
-            let mut traced = match raster::trace(&big, &opts) {
+            let mut traced = match raster::trace(&big_image, &opts) {
                 Ok(t) => t,
                 Err(e) => {
                     eprintln!("styles_speed: {name}: {e}");
@@ -57,6 +85,18 @@ fn main() {
         let Some(traced) = last else { continue };
         times.sort_by(f64::total_cmp);
         let ink: f64 = traced.drawing.paths().map(|p| p.length()).sum::<f64>() / 1000.0;
-        println!("{name:<20} {:>8.2} {:>8} {:>9.1}", times[times.len() / 2], traced.drawing.path_count(), ink);
+        let (err, ssim) = if fidelity {
+            let strokes: Vec<_> = traced.drawing.paths().map(|p| p.points.clone()).collect();
+            let f = measure(&strokes, &big, &measure_opts);
+            (format!("{:.4}", f.lightness_error), format!("{:.3}", f.ssim))
+        } else {
+            (String::new(), String::new())
+        };
+        println!(
+            "{name:<20} {:>8.2} {:>8} {:>9.1} {err:>8} {ssim:>6}",
+            times[times.len() / 2],
+            traced.drawing.path_count(),
+            ink
+        );
     }
 }
