@@ -12,6 +12,10 @@
 //! * **Nearest predecessor**: each path's incoming hop costs at least the distance to its nearest other node (the
 //!   assignment-style bound, relaxed to one nearest neighbour per path).
 //!
+//! A third, tighter bound works on the paths' ends rather than whole paths, where an open path's two ends are
+//! entry and exit, one each: Held and Karp's penalized spanning trees, see [`super::held_karp`] (the plot-time bound
+//! uses it; the optimizer's report keeps the two cheap ones).
+//!
 //! The MST is found exactly with Borůvka's algorithm: every round, each component finds its nearest point in
 //! another component with a k-d tree that skips subtrees lying entirely inside the asking component, and all those
 //! cheapest edges are added. Ties are broken by point index so the chosen edges all belong to one MST. Rounds at
@@ -25,6 +29,7 @@
 use kurbo::Point;
 
 use super::cost::CostModel;
+use super::held_karp::{EndGraph, held_karp};
 use super::kdtree::KdTree;
 
 /// Both lower bounds on one layer's pen-up cost.
@@ -34,12 +39,14 @@ pub struct TravelBound {
     pub spanning_tree: f64,
     /// The nearest-predecessor bound.
     pub nearest: f64,
+    /// The Held–Karp bound on the paths' ends (see [`super::held_karp`]), when computed (0 otherwise).
+    pub held_karp: f64,
 }
 
 impl TravelBound {
-    /// The better (larger) of the two bounds.
+    /// The best (largest) of the bounds.
     pub fn value(&self) -> f64 {
-        self.spanning_tree.max(self.nearest)
+        self.spanning_tree.max(self.nearest).max(self.held_karp)
     }
 }
 
@@ -63,6 +70,8 @@ pub(crate) struct BoundParts {
     tree_edges: Vec<f64>,
     nearest: Vec<f64>,
     start_known: bool,
+    /// The paths' ends as the Held–Karp bound sees them.
+    graph: EndGraph,
 }
 
 impl BoundParts {
@@ -81,21 +90,40 @@ impl BoundParts {
         let nn: Vec<f64> = self.nearest.iter().map(|&d| f(d)).collect();
         let nn_sum: f64 = nn.iter().sum();
         if self.start_known {
-            TravelBound { spanning_tree: tree_cost, nearest: nn_sum }
+            TravelBound { spanning_tree: tree_cost, nearest: nn_sum, held_karp: 0.0 }
         } else {
             let worst = nn.iter().copied().fold(0.0, f64::max);
-            TravelBound { spanning_tree: tree_cost + f(0.0), nearest: nn_sum - worst + f(0.0) }
+            TravelBound { spanning_tree: tree_cost + f(0.0), nearest: nn_sum - worst + f(0.0), held_karp: 0.0 }
         }
+    }
+
+    /// [`mapped`](Self::mapped) with the Held–Karp bound too ([`held_karp`]): tighter, at some tens to a few
+    /// hundred spanning trees' cost.
+    pub(crate) fn mapped_tight(&self, f: &dyn Fn(f64) -> f64) -> TravelBound {
+        let mut b = self.mapped(f);
+        if !self.nearest.is_empty() {
+            b.held_karp = held_karp(&self.graph, f);
+        }
+        b
     }
 }
 
 /// Bound material for visiting `groups` paths whose entry points are `points` (each tagged in `group` with its
-/// path, `0..groups`; every path has at least one point), from `start` if known.
-pub(crate) fn bound_parts(points: &[Point], group: &[u32], groups: usize, start: Option<Point>) -> BoundParts {
+/// path, `0..groups`; every path has at least one point), from `start` if known. A path whose `both_ends` is set
+/// is open: its two points are its two ends, one where the pen goes down and the other where it comes up; the
+/// points of any other path are alternatives (a closed path's seams), any one of them both entry and exit.
+pub(crate) fn bound_parts(
+    points: &[Point],
+    group: &[u32],
+    groups: usize,
+    both_ends: &[bool],
+    start: Option<Point>,
+) -> BoundParts {
     let start_known = start.is_some();
     if groups == 0 {
         return BoundParts::default();
     }
+    let graph = end_graph(points, group, groups, both_ends, start);
     let total = groups + usize::from(start.is_some());
     let (Ok(total32), Ok(groups32)) = (u32::try_from(total), u32::try_from(groups)) else {
         return BoundParts::default();
@@ -159,7 +187,42 @@ pub(crate) fn bound_parts(points: &[Point], group: &[u32], groups: usize, start:
         // A single node: no hop between paths.
         nearest = vec![0.0; groups];
     }
-    BoundParts { tree_edges: edges, nearest, start_known }
+    BoundParts { tree_edges: edges, nearest, start_known, graph }
+}
+
+/// The Held–Karp graph of the paths (see [`bound_parts`] and [`held_karp`]): an open path's two ends are two nodes
+/// joined by a fixed edge, a closed path's seams one node, the start one more.
+fn end_graph(points: &[Point], group: &[u32], groups: usize, both_ends: &[bool], start: Option<Point>) -> EndGraph {
+    let mut g = EndGraph::default();
+    // The node of each group's first point, and (open paths) whether that point was seen.
+    let mut first: Vec<Option<u32>> = vec![None; groups];
+    let mut next = 0u32;
+    for (p, &gi) in points.iter().zip(group) {
+        let open = both_ends.get(gi as usize).copied().unwrap_or(false);
+        let node = match first[gi as usize] {
+            Some(a) if open => {
+                g.fixed.push((a, next));
+                next += 1;
+                next - 1
+            }
+            Some(a) => a,
+            None => {
+                first[gi as usize] = Some(next);
+                next += 1;
+                next - 1
+            }
+        };
+        g.points.push([p.x, p.y]);
+        g.node.push(node);
+    }
+    if let Some(s) = start {
+        g.points.push([s.x, s.y]);
+        g.node.push(next);
+        g.start = Some(next);
+        next += 1;
+    }
+    g.nodes = next as usize;
+    g
 }
 
 /// Lower bound on the hop cost of visiting `groups` paths (see [`bound_parts`]) under `cost`.
@@ -171,7 +234,7 @@ fn travel_lower_bound(
     start: Option<Point>,
     cost: &CostModel,
 ) -> TravelBound {
-    bound_parts(points, group, groups, start).under(cost)
+    bound_parts(points, group, groups, &vec![true; groups], start).under(cost)
 }
 
 #[cfg(test)]

@@ -164,6 +164,85 @@ impl KdTree {
     }
 }
 
+impl KdTree {
+    /// For every node, the least of `weights` (indexed by slot) over its points.
+    pub(crate) fn node_min(&self, weights: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.resize(self.nodes.len(), f64::INFINITY);
+        // Preorder: children come after their parent, so a reverse sweep sees children first.
+        for n in (0..self.nodes.len()).rev() {
+            let node = &self.nodes[n];
+            out[n] = if node.left == NONE {
+                weights[node.lo as usize..node.hi as usize].iter().copied().fold(f64::INFINITY, f64::min)
+            } else {
+                out[node.left as usize].min(out[node.right as usize])
+            };
+        }
+    }
+
+    /// The point whose slot label differs from `label` with the least cost `f(distance to q) + (w_self + its
+    /// weight)` (`weights` by slot, `node_min` from [`node_min`](Self::node_min), `f` non-decreasing), improving
+    /// `best = (cost, id)` under the lexicographic order (ties go to the smaller id). A subtree is skipped when
+    /// `f` of its box's distance plus its least weight already exceeds the best cost: no point in it can beat it.
+    #[allow(clippy::too_many_arguments, reason = "one query's inputs, each read in the inner loop")]
+    pub(crate) fn nearest_other_weighted(
+        &self,
+        q: [f64; 2],
+        label: u32,
+        (labels, node_labels): (&[u32], &[u32]),
+        (weights, node_min): (&[f64], &[f64]),
+        w_self: f64,
+        f: &dyn Fn(f64) -> f64,
+        best: &mut (f64, u32),
+    ) {
+        if !self.nodes.is_empty() {
+            self.weighted_rec(0, q, label, (labels, node_labels), (weights, node_min), w_self, f, best);
+        }
+    }
+
+    #[allow(clippy::too_many_arguments, reason = "the recursion of the query above")]
+    fn weighted_rec(
+        &self,
+        n: usize,
+        q: [f64; 2],
+        label: u32,
+        (labels, nl): (&[u32], &[u32]),
+        (weights, wmin): (&[f64], &[f64]),
+        w_self: f64,
+        f: &dyn Fn(f64) -> f64,
+        best: &mut (f64, u32),
+    ) {
+        if nl[n] == label {
+            return;
+        }
+        let node = &self.nodes[n];
+        if node.left == NONE {
+            for slot in node.lo as usize..node.hi as usize {
+                if labels[slot] == label {
+                    continue;
+                }
+                let p = self.pts[slot];
+                let d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
+                let c = f(d2.sqrt()) + (w_self + weights[slot]);
+                let id = self.ids[slot];
+                if c < best.0 || (c == best.0 && id < best.1) {
+                    *best = (c, id);
+                }
+            }
+            return;
+        }
+        let (l, r) = (node.left as usize, node.right as usize);
+        let lb = |c: usize| f(self.nodes[c].box_dist2(q).sqrt()) + (w_self + wmin[c]);
+        let (dl, dr) = (lb(l), lb(r));
+        let order = if dl <= dr { [(l, dl), (r, dr)] } else { [(r, dr), (l, dl)] };
+        for (child, d) in order {
+            if d <= best.0 {
+                self.weighted_rec(child, q, label, (labels, nl), (weights, wmin), w_self, f, best);
+            }
+        }
+    }
+}
+
 /// A [`KdTree`] whose points can be deleted, answering nearest-remaining-point queries. Every node counts its
 /// remaining points and keeps the bounding box of just those; a deletion updates counts and boxes on the way to the
 /// root (`O(depth)`), and a query skips empty subtrees and prunes on the shrunken boxes, so queries stay fast even

@@ -33,6 +33,7 @@
 
 pub mod bound;
 pub mod cost;
+mod held_karp;
 mod improve;
 mod kdtree;
 mod merge;
@@ -380,6 +381,7 @@ fn layer_bound_parts(paths: &[Polyline], ids: &[u32], seam: SeamMode, start: Opt
     let mut pts = Vec::with_capacity(2 * ids.len());
     let mut grp = Vec::with_capacity(2 * ids.len());
     let mut seams = Vec::new();
+    let mut both_ends = Vec::with_capacity(ids.len());
     for (g, &id) in ids.iter().enumerate() {
         let path = &paths[id as usize];
         let g = u32::try_from(g).unwrap_or(u32::MAX);
@@ -388,12 +390,14 @@ fn layer_bound_parts(paths: &[Polyline], ids: &[u32], seam: SeamMode, start: Opt
             seam::seam_candidates(path, seam, &mut seams);
             pts.extend(seams.iter().map(|&v| path.points[v as usize]));
             grp.extend(std::iter::repeat_n(g, seams.len()));
+            both_ends.push(false);
         } else {
+            both_ends.push(true);
             pts.extend([path.points[0], path.points[path.points.len() - 1]]);
             grp.extend([g, g]);
         }
     }
-    bound::bound_parts(&pts, &grp, ids.len(), start)
+    bound::bound_parts(&pts, &grp, ids.len(), &both_ends, start)
 }
 
 /// Lower bound on the pen-up cost of drawing `drawing`'s paths as they stand (no merging) in any order, with
@@ -416,16 +420,17 @@ pub fn travel_lower_bound(
     (dist, time)
 }
 
-/// Lower bound on the pen-up cost of `drawing` (as [`travel_lower_bound`]) when a hop of length `d` costs at least
-/// `min_hop(d)`; `min_hop` must be non-decreasing and ≥ 0. Lets the plot-time bound charge every hop its own
-/// acceleration-limited time instead of dividing the summed length by the feed.
+/// Lower bound on the pen-up cost of `drawing` (as [`travel_lower_bound`], and tightened by the Held–Karp bound on
+/// the paths' ends, see [`bound`]) when a hop of length `d` costs at least `min_hop(d)`; `min_hop` must be
+/// non-decreasing and ≥ 0. Lets the plot-time bound charge every hop its own acceleration-limited time instead of
+/// dividing the summed length by the feed.
 pub fn travel_lower_bound_mapped(
     drawing: &Drawing,
     seam: SeamMode,
     start: Option<Point>,
     min_hop: &dyn Fn(f64) -> f64,
 ) -> f64 {
-    drawing_bound_parts(drawing, seam, start).map(|parts| parts.mapped(min_hop).value()).sum()
+    drawing_bound_parts(drawing, seam, start).map(|parts| parts.mapped_tight(min_hop).value()).sum()
 }
 
 /// Bound material of every layer of `drawing` as it stands, the first from `start`.
