@@ -221,6 +221,18 @@ fn summary_row(r: &Row<'_>) -> rusqlite::Result<(JobSummary, String, String)> {
     ))
 }
 
+/// An attempt from a history row whose columns from `at` on are machine, started, ended, plot_ms, outcome.
+fn attempt_row(r: &Row<'_>, at: usize) -> rusqlite::Result<Attempt> {
+    let plot_ms: Option<i64> = r.get(at + 3)?;
+    Ok(Attempt {
+        machine: r.get(at)?,
+        started_ms: r.get(at + 1)?,
+        ended_ms: r.get(at + 2)?,
+        plot_time: plot_ms.map(|ms| Duration::from_millis(ms.try_into().unwrap_or(0))),
+        outcome: r.get(at + 4)?,
+    })
+}
+
 fn finish_summary((mut s, options, state): (JobSummary, String, String)) -> Result<JobSummary> {
     s.state = JobState::parse(&state)
         .ok_or_else(|| StudioError::Corrupt { what: format!("job {} in the unknown state \"{state}\"", s.id) })?;
@@ -640,25 +652,29 @@ impl Queue {
         })
     }
 
+    /// Every job's attempts, oldest first, by job number: one query for the whole queue (a page listing 200 jobs
+    /// asks once, not 200 times).
+    pub fn histories(&self) -> Result<std::collections::HashMap<i64, Vec<Attempt>>> {
+        let mut all: std::collections::HashMap<i64, Vec<Attempt>> = std::collections::HashMap::new();
+        let rows: Vec<(i64, Attempt)> = self
+            .store
+            .conn()
+            .prepare("SELECT job, machine, started, ended, plot_ms, outcome FROM history ORDER BY id")
+            .and_then(|mut s| s.query_map([], |r| Ok((r.get(0)?, attempt_row(r, 1)?)))?.collect())
+            .map_err(db("reading the jobs' history"))?;
+        for (job, attempt) in rows {
+            all.entry(job).or_default().push(attempt);
+        }
+        Ok(all)
+    }
+
     /// A job's attempts, oldest first.
     pub fn history(&self, id: i64) -> Result<Vec<Attempt>> {
         summary(self.store.conn(), id)?;
         self.store
             .conn()
             .prepare("SELECT machine, started, ended, plot_ms, outcome FROM history WHERE job = ?1 ORDER BY id")
-            .and_then(|mut s| {
-                s.query_map([id], |r| {
-                    let plot_ms: Option<i64> = r.get(3)?;
-                    Ok(Attempt {
-                        machine: r.get(0)?,
-                        started_ms: r.get(1)?,
-                        ended_ms: r.get(2)?,
-                        plot_time: plot_ms.map(|ms| Duration::from_millis(ms.try_into().unwrap_or(0))),
-                        outcome: r.get(4)?,
-                    })
-                })?
-                .collect()
-            })
+            .and_then(|mut s| s.query_map([id], |r| attempt_row(r, 0))?.collect())
             .map_err(db("reading a job's history"))
     }
 }

@@ -114,6 +114,8 @@ pub struct Studio {
     /// Bumped when a job is added or freed; idle workers wait on it.
     work: Mutex<u64>,
     work_signal: Condvar,
+    /// The last snapshot's version and JSON text ([`Studio::snapshot_json`]).
+    shared: Mutex<Option<(u64, Arc<str>)>>,
 }
 
 impl Studio {
@@ -138,6 +140,7 @@ impl Studio {
             ending: AtomicBool::new(false),
             work: Mutex::new(0),
             work_signal: Condvar::new(),
+            shared: Mutex::new(None),
         }))
     }
 
@@ -237,13 +240,14 @@ impl Studio {
     /// Every job with its history, in queue order.
     pub fn jobs(&self) -> Result<Vec<JobView>> {
         let q = self.queue();
-        q.list()?
+        let mut histories = q.histories()?;
+        Ok(q.list()?
             .into_iter()
             .map(|s| {
-                let h = q.history(s.id)?;
-                Ok(view(s, h))
+                let h = histories.remove(&s.id).unwrap_or_default();
+                view(s, h)
             })
-            .collect()
+            .collect())
     }
 
     /// The machines and the queue.
@@ -251,6 +255,23 @@ impl Studio {
         let version = self.version();
         let machines = self.slots.iter().map(|s| s.status().clone()).collect();
         Ok(Snapshot { version, machines, jobs: self.jobs()? })
+    }
+
+    /// The latest [`Studio::snapshot`] as JSON text, made once per change however many pages watch: the first
+    /// caller after a change reads the queue, the others (waiting meanwhile) share its text.
+    pub fn snapshot_json(&self) -> Result<Arc<str>> {
+        let mut shared = self.shared.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let now = self.version();
+        if let Some((version, text)) = shared.as_ref()
+            && *version == now
+        {
+            return Ok(Arc::clone(text));
+        }
+        let snap = self.snapshot()?;
+        // A snapshot is plain strings and numbers: it always serialises.
+        let text: Arc<str> = serde_json::to_string(&snap).unwrap_or_default().into();
+        *shared = Some((snap.version, Arc::clone(&text)));
+        Ok(text)
     }
 
     /// Cancels a job: a waiting one at once; one on a machine is stopped there (at once, with the pen up) and

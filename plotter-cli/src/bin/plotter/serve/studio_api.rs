@@ -221,9 +221,10 @@ async fn events(
         loop {
             let now = s.studio.version();
             if now != seen {
-                let snap = on_studio(&s, Studio::snapshot).await;
+                // One snapshot per change, shared by every watching page.
+                let snap = on_studio(&s, Studio::snapshot_json).await;
                 let data = match snap {
-                    Ok(v) => serde_json::to_string(&v).unwrap_or_default(),
+                    Ok(text) => text.to_string(),
                     Err(ApiError(_, message)) => json!({ "error": message }).to_string(),
                 };
                 let event = axum::response::sse::Event::default().event("studio").data(data);
