@@ -29,6 +29,10 @@ pub struct JobArgs {
     /// Path-order flags.
     #[command(flatten)]
     pub optimize: OptimizeArgs,
+    /// End each part of a layer after at most this many millimetres drawn (at the end of a stroke), and pause to
+    /// refill the pen: the machine waits with the pen up until it is resumed
+    #[arg(long, value_name = "MM", help_heading = "Workflow")]
+    pub split_distance: Option<f64>,
 }
 
 /// The flag words stored in `options` (none when it has no `args`); an error naming what is wrong otherwise.
@@ -56,7 +60,19 @@ impl JobArgs {
             StudioError::Invalid(format!("the job's flags {}: {first}", words.join(" ")))
         };
         let matches = JobArgs::command().try_get_matches_from(&words).map_err(refused)?;
-        <JobArgs as clap::FromArgMatches>::from_arg_matches(&matches).map_err(refused)
+        let args = <JobArgs as clap::FromArgMatches>::from_arg_matches(&matches).map_err(refused)?;
+        args.split_mm()?;
+        Ok(args)
+    }
+
+    /// The drawn length between refills (`--split-distance`), checked.
+    pub fn split_mm(&self) -> Result<Option<f64>> {
+        match self.split_distance {
+            Some(d) if !(d.is_finite() && d > 0.0) => Err(StudioError::Invalid(format!(
+                "the job's --split-distance {d}: give the drawn length per refill in mm, above 0"
+            ))),
+            d => Ok(d),
+        }
     }
 
     /// The flags' definitions, as a command of their own (no program name first, no help flag).

@@ -57,6 +57,8 @@ pub struct MachineStatus {
     pub pen_down: Option<bool>,
     /// How the last job ended, in words.
     pub last: Option<String>,
+    /// What the paused machine waits for the operator to do before it is resumed (a layer's pause, a refill).
+    pub prompt: Option<String>,
 }
 
 /// What the operator asked of a machine, taken by its worker.
@@ -99,6 +101,7 @@ impl Slot {
             pen_mm: None,
             pen_down: None,
             last: None,
+            prompt: None,
         };
         Slot { spec, status: Mutex::new(status), requests: Mutex::new(Requests::default()), signal: Condvar::new() }
     }

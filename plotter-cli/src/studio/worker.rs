@@ -32,7 +32,7 @@ use super::running::Studio;
 use super::state::JobState;
 use super::status::{Activity, Slot};
 use crate::Trouble;
-use crate::job::progress::{JobProgress, PlotEvents};
+use crate::job::progress::{JobProgress, PenChangeChoice, PlotEvents};
 use crate::job::{self, JobOutcome, JournalSpec};
 use crate::link::journal;
 use crate::link::machine::{Connected, Firmware, PlotMachine};
@@ -371,7 +371,8 @@ fn plot_job(
         })?)
     };
     let spec = JournalSpec { path: &journal_path, source: &record };
-    Ok(Some(job::plot(machine, profile, &steps, true, back, Some(spec), events)?))
+    let stops = job::stops::StopOptions { split_mm: args.split_mm()? };
+    Ok(Some(job::plot_with(machine, profile, &steps, true, back, Some(spec), &stops, events)?))
 }
 
 /// The studio's side of a plot: progress to the machine's status, the operator's requests to the job.
@@ -416,9 +417,39 @@ impl PlotEvents for StudioEvents<'_> {
     }
 
     fn paused(&mut self, _held: bool) -> PauseChoice {
+        self.wait_for_operator(None)
+    }
+
+    fn plot_pause(&mut self, pause: &job::stops::PauseRequest) -> PenChangeChoice {
+        // A layer's `!` or a refill: parked with the pen up until the operator resumes (or stops) the machine.
+        match self.wait_for_operator(Some(pause.ask())) {
+            PauseChoice::Resume => PenChangeChoice::Continue,
+            PauseChoice::Abort => PenChangeChoice::Stop,
+        }
+    }
+
+    fn stop_requested(&mut self) -> Option<StopCause> {
+        if self.slot.peek().estop {
+            self.operator_stop = true;
+            return Some(StopCause::Requested);
+        }
+        if self.studio.ending() {
+            return Some(StopCause::Requested);
+        }
+        Stop::process().stop_cause()
+    }
+}
+
+impl StudioEvents<'_> {
+    /// The job is paused (saying `prompt` to the operator, if any) until the operator resumes or stops it, or the
+    /// studio ends.
+    fn wait_for_operator(&mut self, prompt: Option<String>) -> PauseChoice {
         let since = Instant::now();
         let _ = self.studio.queue().set_paused(self.job, true);
-        set(self.studio, self.slot, |s| s.state = Activity::Paused);
+        set(self.studio, self.slot, |s| {
+            s.state = Activity::Paused;
+            s.prompt = prompt;
+        });
         let studio = self.studio;
         let choice = self.slot.wait_for(Duration::from_millis(100), |r| {
             if r.stop || r.estop || studio.ending() || Stop::process().stop_cause().is_some() {
@@ -432,23 +463,16 @@ impl PlotEvents for StudioEvents<'_> {
         self.paused_for += since.elapsed();
         if choice == PauseChoice::Resume {
             let _ = self.studio.queue().set_paused(self.job, false);
-            set(self.studio, self.slot, |s| s.state = Activity::Plotting);
+            set(self.studio, self.slot, |s| {
+                s.state = Activity::Plotting;
+                s.prompt = None;
+            });
         } else {
             let r = self.slot.peek();
             self.operator_stop = r.stop || r.estop;
+            set(self.studio, self.slot, |s| s.prompt = None);
         }
         choice
-    }
-
-    fn stop_requested(&mut self) -> Option<StopCause> {
-        if self.slot.peek().estop {
-            self.operator_stop = true;
-            return Some(StopCause::Requested);
-        }
-        if self.studio.ending() {
-            return Some(StopCause::Requested);
-        }
-        Stop::process().stop_cause()
     }
 }
 
@@ -549,6 +573,41 @@ mod tests {
         let e = gone.error.unwrap();
         assert!(e.contains("/dev/no-such-plotter") && e.contains("trying again in"), "{e}");
         assert_eq!(state_of(&studio, for_gone), JobState::Queued);
+        studio.end();
+        for w in workers {
+            w.join().unwrap();
+        }
+        drop(studio);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_refill_pause_parks_the_machine_until_the_operator_resumes_it() {
+        let dir = temp_dir("refill");
+        let options = StudioOptions { sim_speed: f64::INFINITY, max_retry: Duration::from_millis(500) };
+        let studio = Studio::open(&dir, vec![parse_machine("a=sim").unwrap()], options).unwrap();
+        let workers = start(&studio).unwrap();
+        // The rings in the file's order draw 2π × (2 + 4 + … + 18) = 565.5 mm before the 20 mm ring (125.7 mm),
+        // which would pass 600 mm: one refill there, and the last three rings (414.7 mm) fit in the second part.
+        let flags = json!({ "args": ["--no-optimize", "--split-distance", "600"] });
+        let id = studio.add(&NewJob::new("rings.svg", rings().into_bytes()).with_options(flags)).unwrap();
+        let slot = Arc::clone(studio.slot("a").unwrap());
+        until("the refill pause", || slot.status().state == Activity::Paused);
+        assert_eq!(state_of(&studio, id), JobState::Paused);
+        let prompt = slot.status().prompt.clone().unwrap();
+        assert!(prompt.contains("refill") && prompt.contains("part 2"), "{prompt}");
+        let held = slot.status().percent;
+        assert!(held > 0.0 && held < 100.0, "{held}");
+        std::thread::sleep(Duration::from_millis(300));
+        assert!((slot.status().percent - held).abs() < 1e-9, "nothing moves while it waits");
+        assert_eq!(slot.status().pen_down, Some(false), "waiting with the pen up");
+        studio.resume("a").unwrap();
+        until("the job's end", || state_of(&studio, id) == JobState::Done);
+        assert_eq!(slot.status().prompt, None);
+        let e = studio.add(
+            &NewJob::new("r.svg", rings().into_bytes()).with_options(json!({ "args": ["--split-distance", "0"] })),
+        );
+        assert!(e.unwrap_err().to_string().contains("--split-distance 0: give the drawn length per refill in mm"));
         studio.end();
         for w in workers {
             w.join().unwrap();
