@@ -272,3 +272,39 @@ fn urlencode(text: &str) -> String {
         })
         .collect()
 }
+
+/// An idle machine whose port goes away (the simulator ends, as a plotter's USB cable is pulled) shows offline
+/// without a job having to fail on it first.
+#[test]
+fn an_idle_machine_whose_port_goes_away_shows_offline() {
+    let dir = scratch("studio-unplugged");
+    let sim = SimPty::start(&dir, &["--fast"]);
+    let port = sim.port.clone();
+    let machine = format!("m={port},firmware=ours");
+    let state = dir.join("studio");
+    let served =
+        Served::start(&["--listen", "127.0.0.1:0", "--state", state.to_str().expect("utf-8"), "--machine", &machine]);
+    let machine_state = || {
+        let (status, studio) = http(&served.authority, "GET", "/api/studio", b"");
+        assert_eq!(status, 200, "{studio}");
+        studio["machines"][0].clone()
+    };
+    let start = Instant::now();
+    while machine_state()["state"] != "idle" {
+        assert!(start.elapsed() < Duration::from_secs(20), "not idle: {}", machine_state());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    drop(sim);
+    let gone = Instant::now();
+    loop {
+        let m = machine_state();
+        if m["state"] == "offline" {
+            let error = m["error"].as_str().unwrap_or_default().to_string();
+            assert!(error.contains(&port), "{m}");
+            eprintln!("offline {:.2} s after the port went: {error}", gone.elapsed().as_secs_f64());
+            break;
+        }
+        assert!(gone.elapsed() < Duration::from_secs(5), "still {m} 5 s after its port went");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}

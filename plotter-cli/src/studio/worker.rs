@@ -208,6 +208,12 @@ fn run(studio: &Studio, slot: &Slot) {
                     s.remaining_s = None;
                 });
                 studio.wait_for_work(IDLE_LOOK);
+                // An idle machine's port that is unplugged is noticed now, not when a job next fails on it: the
+                // worker drops the link and reconnects (the machine shows offline until the port is back).
+                if matches!(link, Some(Link::Serial(_))) && !Path::new(&slot.spec.device).exists() {
+                    eprintln!("{name}: {} is gone", slot.spec.device);
+                    link = None;
+                }
             }
             Err(e) => {
                 set(studio, slot, |s| s.error = Some(format!("cannot take the next job: {e}")));
