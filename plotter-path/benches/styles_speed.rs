@@ -1,7 +1,8 @@
 //! Speed of the tone styles: each traces a one-megapixel photo (samples/photo.png enlarged to 1155 × 866 pixels,
 //! 180 mm wide, so 0.156 mm per pixel, with a 0.3 mm pen) on one core. Target: each at most 1 s.
 //!
-//! Run: `cargo bench -p plotter-path --bench styles_speed`. Prints the median of 3 runs per style in seconds (the
+//! Run: `cargo bench -p plotter-path --bench styles_speed`. Prints the median of 3 runs per style in seconds, wall
+//! clock and on the core (the latter is what counts on a machine busy with other work) (the
 //! stipple's one line through its dots, `--tsp`, timed as the front end does it: the trace, then
 //! `optimize::one_line`), with the paths and pen-down metres. `STYLES=stipple,flow` runs only the styles whose names
 //! contain one of those words. `PICTURE=file.png` traces another photo, resized to about one megapixel (180 mm wide
@@ -15,6 +16,15 @@ use image::imageops::FilterType;
 use plotter_path::input::raster::fidelity::{MeasureOptions, measure};
 use plotter_path::input::raster::{self, Mode, TraceOptions};
 use plotter_path::optimize::one_line::join_into_one_line;
+
+/// The time this thread has run on a core so far, in seconds (Linux: /proc/thread-self/schedstat), so that other
+/// work on a busy machine does not count.
+fn cpu_seconds() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: u64 = text.split_whitespace().next()?.parse().ok()?;
+    #[allow(clippy::cast_precision_loss)]
+    Some(ns as f64 / 1e9)
+}
 
 fn main() {
     let photo = std::env::var("PICTURE")
@@ -47,9 +57,10 @@ fn main() {
         ("sketch", Mode::Sketch, false),
     ];
     println!(
-        "{:<20} {:>8} {:>8} {:>9} {:>8} {:>6}",
+        "{:<20} {:>8} {:>8} {:>8} {:>9} {:>8} {:>6}",
         format!("style ({w}×{h})"),
         "s",
+        "cpu s",
         "paths",
         "ink m",
         "L* err",
@@ -66,9 +77,11 @@ fn main() {
         }
         opts.stipple.tsp = tsp;
         let mut times = Vec::new();
+        let mut cpu = Vec::new();
         let mut last = None;
         for _ in 0..3 {
             let t = Instant::now();
+            let c = cpu_seconds();
             let mut traced = match raster::trace(&big_image, &opts) {
                 Ok(t) => t,
                 Err(e) => {
@@ -80,10 +93,15 @@ fn main() {
                 join_into_one_line(&mut traced.drawing);
             }
             times.push(t.elapsed().as_secs_f64());
+            if let (Some(a), Some(b)) = (c, cpu_seconds()) {
+                cpu.push(b - a);
+            }
             last = Some(traced);
         }
         let Some(traced) = last else { continue };
         times.sort_by(f64::total_cmp);
+        cpu.sort_by(f64::total_cmp);
+        let cpu = cpu.get(cpu.len() / 2).map_or_else(String::new, |c| format!("{c:.2}"));
         let ink: f64 = traced.drawing.paths().map(|p| p.length()).sum::<f64>() / 1000.0;
         let (err, ssim) = if fidelity {
             let strokes: Vec<_> = traced.drawing.paths().map(|p| p.points.clone()).collect();
@@ -93,7 +111,7 @@ fn main() {
             (String::new(), String::new())
         };
         println!(
-            "{name:<20} {:>8.2} {:>8} {:>9.1} {err:>8} {ssim:>6}",
+            "{name:<20} {:>8.2} {cpu:>8} {:>8} {:>9.1} {err:>8} {ssim:>6}",
             times[times.len() / 2],
             traced.drawing.path_count(),
             ink
