@@ -9,39 +9,18 @@
 //! Needs `chromium` (or `PLOTTER_CHROMIUM=/path`); without it the tests say so and pass, except under CI
 //! (`CI` set), where a missing browser is a failure.
 
-use std::io::{BufRead as _, BufReader};
-use std::net::TcpStream;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::Path;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use plotter_e2e::{Served, SimPty, sample, scratch, workspace_root};
-use serde_json::{Value, json};
-use tungstenite::{Message, WebSocket};
+use serde_json::json;
+
+mod browser;
+use browser::{Cdp, chromium};
 
 /// One browser at a time: the machine has two cores.
 static SERIAL: Mutex<()> = Mutex::new(());
-
-/// A child process killed when dropped.
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn chromium() -> Option<PathBuf> {
-    let path = std::env::var_os("PLOTTER_CHROMIUM").map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from);
-    if path.exists() {
-        return Some(path);
-    }
-    assert!(std::env::var_os("CI").is_none(), "{} is missing: CI must install chromium", path.display());
-    eprintln!("SKIP: {} not found (apt-get install chromium)", path.display());
-    None
-}
 
 /// `plotter serve` on an ephemeral loopback port at `sim_speed`.
 fn start_server(sim_speed: &str) -> (Served, String) {
@@ -50,117 +29,7 @@ fn start_server(sim_speed: &str) -> (Served, String) {
     (served, url)
 }
 
-/// A DevTools-protocol session with one page.
-struct Cdp {
-    ws: WebSocket<TcpStream>,
-    next_id: u64,
-    session: String,
-}
-
 impl Cdp {
-    /// Start Chromium headless with a fresh profile in `profile_dir` and attach to a blank page.
-    fn launch(browser: &Path, profile_dir: &Path) -> (Killed, Cdp) {
-        let mut child = Command::new(browser)
-            .args([
-                "--headless",
-                "--no-sandbox",
-                "--disable-gpu",
-                "--disable-background-networking",
-                "--disable-component-update",
-                "--disable-sync",
-                "--no-first-run",
-                "--window-size=1400,1000",
-                "--remote-debugging-port=0",
-            ])
-            .arg(format!("--user-data-dir={}", profile_dir.display()))
-            .arg("about:blank")
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("chromium starts");
-        let stderr = child.stderr.take().expect("stderr");
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                if let Some(url) = line.strip_prefix("DevTools listening on ") {
-                    let _ = tx.send(url.trim().to_string());
-                }
-            }
-        });
-        let child = Killed(child);
-        let url = rx.recv_timeout(Duration::from_secs(30)).expect("chromium prints its DevTools address");
-        let authority = url.trim_start_matches("ws://").split('/').next().expect("host:port").to_string();
-        let stream = TcpStream::connect(&authority).expect("connect to DevTools");
-        stream.set_read_timeout(Some(Duration::from_secs(30))).expect("timeout");
-        let (ws, _) = tungstenite::client(url.as_str(), stream).expect("DevTools WebSocket handshake");
-        let mut cdp = Cdp { ws, next_id: 0, session: String::new() };
-        let target = cdp.call("Target.createTarget", json!({ "url": "about:blank" }))["targetId"].clone();
-        let attached = cdp.call("Target.attachToTarget", json!({ "targetId": target, "flatten": true }));
-        cdp.session = attached["sessionId"].as_str().expect("session id").to_string();
-        cdp.call("Page.enable", json!({}));
-        cdp.call("Runtime.enable", json!({}));
-        (child, cdp)
-    }
-
-    /// Send a command and wait for its result (events in between are skipped).
-    fn call(&mut self, method: &str, params: Value) -> Value {
-        self.next_id += 1;
-        let id = self.next_id;
-        let mut msg = json!({ "id": id, "method": method, "params": params });
-        if !self.session.is_empty() {
-            msg["sessionId"] = json!(self.session);
-        }
-        self.ws.send(Message::text(msg.to_string())).expect("send to DevTools");
-        loop {
-            let reply = self.ws.read().expect("DevTools answers");
-            let Message::Text(text) = reply else { continue };
-            let v: Value = serde_json::from_str(text.as_str()).expect("DevTools sends JSON");
-            if v["id"] == json!(id) {
-                assert!(v["error"].is_null(), "{method} failed: {}", v["error"]);
-                return v["result"].clone();
-            }
-        }
-    }
-
-    /// Send a command to the browser itself (not the page) and wait for its result.
-    fn call_browser(&mut self, method: &str, params: Value) -> Value {
-        let session = std::mem::take(&mut self.session);
-        let result = self.call(method, params);
-        self.session = session;
-        result
-    }
-
-    /// Evaluate `expr` in the page; its value.
-    fn eval(&mut self, expr: &str) -> Value {
-        let r =
-            self.call("Runtime.evaluate", json!({ "expression": expr, "returnByValue": true, "awaitPromise": true }));
-        assert!(r["exceptionDetails"].is_null(), "{expr} threw: {}", r["exceptionDetails"]);
-        r["result"]["value"].clone()
-    }
-
-    /// Evaluate `expr` until it is true (bounded).
-    fn wait_for(&mut self, what: &str, expr: &str, limit: Duration) {
-        let t0 = Instant::now();
-        // While the page loads, the elements may not be there yet: that is "not yet", not an error.
-        let guarded = format!("(() => {{ try {{ return ({expr}); }} catch (_) {{ return false; }} }})()");
-        while self.eval(&guarded) != json!(true) {
-            let seen = ["#message", "#percent", "#activity"].map(|s| self.text(s)).join(" | ");
-            assert!(t0.elapsed() < limit, "timed out waiting for {what}; page says: {seen}");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-
-    fn click(&mut self, id: &str) {
-        self.eval(&format!("document.getElementById('{id}').click()"));
-    }
-
-    fn text(&mut self, selector: &str) -> String {
-        self.eval(&format!("(document.querySelector('{selector}')||{{}}).textContent||''"))
-            .as_str()
-            .unwrap_or("")
-            .to_string()
-    }
-
     /// Open the page, upload the duck through the file input, check the preview and the estimate, connect to the
     /// simulator.
     fn load_duck(&mut self, url: &str) {
@@ -204,34 +73,6 @@ impl Cdp {
             Duration::from_secs(20),
         );
     }
-
-    fn screenshot(&mut self, path: &Path) {
-        let data =
-            self.call("Page.captureScreenshot", json!({ "format": "png" }))["data"].as_str().unwrap_or("").to_string();
-        std::fs::write(path, base64_decode(&data)).expect("write the screenshot");
-    }
-}
-
-/// Standard base64 (as DevTools sends screenshots).
-fn base64_decode(s: &str) -> Vec<u8> {
-    let value = |c: u8| match c {
-        b'A'..=b'Z' => Some(c - b'A'),
-        b'a'..=b'z' => Some(c - b'a' + 26),
-        b'0'..=b'9' => Some(c - b'0' + 52),
-        b'+' => Some(62),
-        b'/' => Some(63),
-        _ => None,
-    };
-    let (mut out, mut acc, mut bits) = (Vec::new(), 0u32, 0);
-    for v in s.bytes().filter_map(value) {
-        acc = (acc << 6) | u32::from(v);
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push(u8::try_from((acc >> bits) & 0xff).unwrap_or(0));
-        }
-    }
-    out
 }
 
 fn percent(cdp: &mut Cdp) -> f64 {
