@@ -195,7 +195,9 @@ impl InputArgs {
                     ImagesArg::Sketch => Some(Mode::Sketch),
                     ImagesArg::Mosaic => Some(Mode::Mosaic),
                 };
-                mode.map(|mode| ImageTrace { trace: raster::TraceOptions { mode, ..self.trace.options() } })
+                mode.map(|mode| ImageTrace {
+                    trace: raster::TraceOptions { mode, ..self.trace.options_with_pens(&profile.pens) },
+                })
             },
             crop: self.crop,
             pen_width_mm: profile.pen.width_mm,
@@ -380,6 +382,40 @@ pub fn load_decoded(path: &Path, args: &InputArgs, profile: &MachineProfile) -> 
 /// `--scale` could cause (at most √(0.05/0.0001) ≈ 22 times the points of the default tolerance).
 pub const FINEST_TOLERANCE_MM: f64 = 0.0001;
 
+/// Whether decoding `data` (read from `path`) hatches filled areas: an SVG with `--hatch`, or with a pen table
+/// whose pens hatch. Their hatch sizes are page sizes, so such a drawing is decoded knowing the layout's factor
+/// ([`InputArgs::hatch_scale`], [`layout_factor`]).
+pub fn hatches_fills(path: &Path, data: &[u8], args: &InputArgs, profile: &MachineProfile) -> bool {
+    input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg
+        && (args.hatch.is_some() || profile.pens.iter().any(|p| p.hatch.is_some()))
+}
+
+/// `args` and `profile` without any hatching (`--hatch` off, the pen table's hatches left out).
+fn unhatched(args: &InputArgs, profile: &MachineProfile) -> (InputArgs, MachineProfile) {
+    let mut bare = profile.clone();
+    bare.pens.iter_mut().for_each(|p| p.hatch = None);
+    (InputArgs { hatch: None, cross_hatch: false, ..args.clone() }, bare)
+}
+
+/// How much `layout` magnifies the drawing in `data` (decoded without hatching, as the page would lay it out):
+/// the [`InputArgs::hatch_scale`] that makes its hatch sizes come out as asked on the page. For a front end that
+/// keeps the decoded drawing and lays it out later (the web app); [`load_laid_out`] does the same for a file.
+#[allow(clippy::too_many_arguments)]
+pub fn layout_factor(
+    data: &[u8],
+    name: &Path,
+    shown: &str,
+    resources: &ResourcePolicy,
+    args: &InputArgs,
+    profile: &MachineProfile,
+    layout: &LayoutArgs,
+    cancel: &Cancel,
+) -> Result<f64> {
+    let (args, bare) = unhatched(args, profile);
+    let mut drawing = decode_drawing(data, name, shown, resources, &args, &bare, cancel)?.drawing;
+    layout.apply(&mut drawing)
+}
+
 /// [`load_decoded`], then laid out by `layout`. An SVG's curves are flattened at `--tolerance` in the document's
 /// own size; when the layout then magnifies the drawing (`--fit` of a small icon onto a page, `--scale 4`) their
 /// chord error grows by the same factor, so the SVG is decoded once more at the tolerance divided by the factor
@@ -400,11 +436,8 @@ pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, la
     let shown = shown_name(path);
     // Only an SVG is flattened at --tolerance and hatched.
     let is_svg = input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg;
-    let hatched = is_svg && (args.hatch.is_some() || profile.pens.iter().any(|p| p.hatch.is_some()));
-    let first_args = if hatched { InputArgs { hatch: None, cross_hatch: false, ..args.clone() } } else { args.clone() };
-    // The pen table's hatches are left out of the first decode too.
-    let mut bare = profile.clone();
-    bare.pens.iter_mut().for_each(|p| p.hatch = None);
+    let hatched = hatches_fills(path, &data, args, profile);
+    let (first_args, bare) = if hatched { unhatched(args, profile) } else { (args.clone(), profile.clone()) };
     let mut decoded = decode_bytes(&data, path, &shown, &first_args, &bare)?;
     if let Err(e) = plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown) {
         warn_all(&decoded.warnings);
@@ -521,7 +554,8 @@ fn decode_kind(
         }
         InputKind::Image => {
             let image = raster::decode_image(data, name)?;
-            let options = raster::TraceOptions { cancel: cancel.clone(), ..args.trace.options() };
+            let options =
+                raster::TraceOptions { cancel: cancel.clone(), ..args.trace.options_with_pens(&profile.pens) };
             let mut traced = raster::trace_named(&image, shown, &options)?;
             crate::options::trace::join_stipples(&mut traced.drawing, &options);
             let warnings = traced.warnings.iter().map(|w| format!("{shown}: {w}")).collect();

@@ -419,7 +419,8 @@ async fn decode(
     settings: &Settings,
     profile: MachineProfile,
 ) -> Result<Loaded, ApiError> {
-    let input = input_args(settings)?;
+    let mut input = input_args(settings)?;
+    let layout = layout_args(settings)?;
     let memory = match &source {
         Source::Upload { name, bytes } => (budget::decode_estimate(name, bytes), name.clone()),
         Source::Gen(spec) => (budget::decode_estimate("gen.svg", b""), format!("gen:{spec}")),
@@ -429,6 +430,14 @@ async fn decode(
             Source::Upload { name, bytes } => {
                 // An upload may use only data: URLs inside it: no path on this machine is opened or looked up.
                 let only_data = plotter_path::input::svg::ResourcePolicy::DataUrlsOnly;
+                // Hatch sizes are page sizes: learn the layout's factor first (as `plotter plot` does).
+                if plotter_host::input::hatches_fills(Path::new(name), bytes, &input, &profile) {
+                    let path = Path::new(name);
+                    let factor = plotter_host::input::layout_factor(
+                        bytes, path, name, &only_data, &input, &profile, &layout, cancel,
+                    );
+                    input.hatch_scale = factor.map_err(|e| bad(format!("{e:#}")))?;
+                }
                 let decoded = decode_drawing(bytes, Path::new(name), name, &only_data, &input, &profile, cancel);
                 (name.clone(), decoded.map_err(|e| bad(format!("{e:#}")))?)
             }
@@ -544,9 +553,14 @@ async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) ->
     let wanted = input_args(&s)?;
     let retrace = {
         let mut i = shared.lock();
-        // Tracing, hatching and hidden lines are decided when the drawing is read: read it again when they change.
+        // Tracing, hatching and hidden lines are decided when the drawing is read: read it again when they change,
+        // and when the layout changes under hatching (its spacings are page sizes, divided by the layout's factor).
         let decoded_as = |a: &InputArgs| (a.trace.mode, a.hatch, a.cross_hatch, a.no_occlusion);
-        let retrace = i.loaded.as_ref().is_some_and(|l| decoded_as(&l.input) != decoded_as(&wanted));
+        let laid_out = |s: &Settings| format!("{:?}", layout_args(s).ok().map(|l| l.options().ok()));
+        let hatched = wanted.hatch.is_some() || i.machine_profile().pens.iter().any(|p| p.hatch.is_some());
+        let retrace = i.loaded.as_ref().is_some_and(|l| {
+            decoded_as(&l.input) != decoded_as(&wanted) || (hatched && laid_out(&i.settings) != laid_out(&s))
+        });
         i.settings = s.clone();
         retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.machine_profile()))).flatten()
     };

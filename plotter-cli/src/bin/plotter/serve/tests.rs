@@ -576,6 +576,31 @@ async fn custom_paper_hatching_and_hidden_lines_are_settings() {
 }
 
 #[tokio::test]
+async fn hatch_spacing_is_a_page_size_whatever_the_layout_magnifies() {
+    // A filled 20 mm square fitted onto A4 portrait within 10 mm margins is magnified 9.5 times to 190 mm; hatched
+    // at 1 mm on the page it gets 189 to 191 lines of 190 mm (at most 36.29 m) plus its 760 mm outline and the
+    // zig-zags' joins (at most 191 mm): not the 20 document lines, magnified, of hatching before the layout
+    // (3.8 m). Margins of 55 mm fit it to 100 mm: 99 to 101 lines of 100 mm plus 400 mm of outline and at most
+    // 101 mm of joins, hatched again for the new factor (the 190 lines kept from before would come to 19 m).
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    const SQUARE: &[u8] = br#"<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20">
+        <rect x="0" y="0" width="20" height="20" fill="black" stroke="black"/></svg>"#;
+    c.upload("square.svg", SQUARE).await;
+    let pen_down = |st: &Value| st["prepared"]["stats"]["pen_down_mm"].as_f64().unwrap();
+    let fit = |margin: f64| json!({ "paper": "a4", "fit": true, "margin": margin, "hatch_mm": 1.0 });
+    let (s, v) = c.post("/api/settings", fit(10.0)).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert!((36_600.0..=37_250.0).contains(&pen_down(&st)), "{} mm", pen_down(&st));
+    let (s, v) = c.post("/api/settings", fit(55.0)).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert!((10_250.0..=10_610.0).contains(&pen_down(&st)), "{} mm", pen_down(&st));
+}
+
+#[tokio::test]
 async fn the_export_downloads_as_an_attachment() {
     let (_, router) = test_app(1 << 20, 10.0);
     let mut c = Client::new(&router);
