@@ -6,6 +6,9 @@ use std::path::Path;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use plotter_path::Pen;
+use plotter_path::config::color::parse_hex_color;
+use plotter_path::config::profile::PenSpec;
+use plotter_path::input::raster::separate::{Colors, Ink};
 use plotter_path::input::raster::{self, HatchOptions, HatchScheme, Mode, Threshold, ToneCurve, TraceOptions};
 
 /// Tracing mode as a command-line value.
@@ -32,6 +35,18 @@ pub enum ModeArg {
     Sketch,
     /// Cells, smaller where the picture is darker or busier, each hatched as dark as its mean tone
     Mosaic,
+}
+
+/// How the picture's colours become pens.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
+pub enum ColorsArg {
+    /// One black pen shading the picture's gray
+    #[default]
+    Gray,
+    /// Cyan, magenta, yellow and black pens, black taking the gray the colours share
+    Cmyk,
+    /// The machine profile's pens (their colours from the pen table), each pixel's colour mixed from them
+    Pens,
 }
 
 /// How darker hatch levels add lines.
@@ -118,6 +133,9 @@ pub struct TraceArgs {
     /// Largest mosaic cell in mm (default: 16 x --min-spacing); cells shrink to 4 x --min-spacing where the picture is dark or busy
     #[arg(long, help_heading = "Image tracing")]
     pub cell_size: Option<f64>,
+    /// Separate the picture's colours into pens, one layer per pen plotted with a pen change, each shaded by its own share in the chosen style (hatch, stipple, squiggle, spiral, flow, sketch, mosaic) at its own angle
+    #[arg(long, value_enum, default_value_t = ColorsArg::Gray, help_heading = "Image tracing")]
+    pub colors: ColorsArg,
     /// How darker hatch levels add lines (hatch mode)
     #[arg(long, value_enum, default_value_t = SchemeArg::Tone, help_heading = "Image tracing")]
     pub hatch_scheme: SchemeArg,
@@ -160,6 +178,11 @@ impl TraceArgs {
             min_spacing_mm: self.min_spacing,
             stipple: raster::stipple::StippleOptions { tsp: self.tsp, ..raster::stipple::StippleOptions::default() },
             mosaic: raster::mosaic::MosaicOptions { outline: self.outline_cells, cell_mm: self.cell_size },
+            colors: match self.colors {
+                ColorsArg::Gray => Colors::Gray,
+                ColorsArg::Cmyk => Colors::Cmyk,
+                ColorsArg::Pens => Colors::Pens(Vec::new()),
+            },
             hatch: HatchOptions {
                 levels: self.levels,
                 spacing_mm: self.spacing,
@@ -171,6 +194,25 @@ impl TraceArgs {
                 },
             },
         }
+    }
+}
+
+impl TraceArgs {
+    /// The library options these flags mean, `--colors pens` taking the pens of `pens` (a profile's pen table)
+    /// that have a colour.
+    pub fn options_with_pens(&self, pens: &[PenSpec]) -> TraceOptions {
+        let mut options = self.options();
+        if options.colors == Colors::Pens(Vec::new()) {
+            let inks = pens
+                .iter()
+                .filter_map(|p| {
+                    let color = p.color.as_deref().and_then(parse_hex_color)?;
+                    Some(Ink { name: p.name.clone(), color })
+                })
+                .collect();
+            options.colors = Colors::Pens(inks);
+        }
+        options
     }
 }
 
@@ -191,5 +233,46 @@ pub fn trace_image(path: &Path, args: &TraceArgs) -> Result<raster::Traced> {
 pub fn join_stipples(drawing: &mut plotter_path::Drawing, options: &raster::TraceOptions) {
     if options.mode == raster::Mode::Stipple && options.stipple.tsp {
         plotter_path::optimize::one_line::join_into_one_line(drawing);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Wrap {
+        #[command(flatten)]
+        trace: TraceArgs,
+    }
+
+    fn pen(name: &str, color: Option<&str>) -> PenSpec {
+        PenSpec {
+            name: name.into(),
+            color: color.map(Into::into),
+            width_mm: None,
+            down_z_mm: None,
+            servo_down_deg: None,
+            draw_feed_mm_s: None,
+            hatch: None,
+        }
+    }
+
+    #[test]
+    fn colors_pens_takes_the_pen_tables_coloured_pens() {
+        let table = [pen("red 0.5", Some("#ff0000")), pen("plain", None), pen("blue", Some("#0000ff"))];
+        let args = Wrap::try_parse_from(["t", "--mode", "mosaic", "--colors", "pens"]).unwrap().trace;
+        let want = Colors::Pens(vec![
+            Ink { name: "red 0.5".into(), color: plotter_path::Rgb(255, 0, 0) },
+            Ink { name: "blue".into(), color: plotter_path::Rgb(0, 0, 255) },
+        ]);
+        assert_eq!(args.options_with_pens(&table).colors, want);
+        // Without a table (plain `trace`) the options say so when checked.
+        let e = args.options().validate().unwrap_err().to_string();
+        assert!(e.contains("--colors") && e.contains("pen table"), "{e}");
+        let args = Wrap::try_parse_from(["t", "--colors", "cmyk"]).unwrap().trace;
+        assert_eq!(args.options_with_pens(&table).colors, Colors::Cmyk);
+        assert_eq!(Wrap::try_parse_from(["t"]).unwrap().trace.options().colors, Colors::Gray);
     }
 }

@@ -14,6 +14,9 @@
 //! - [`Mode::Sketch`]: long scribbled strokes that keep heading for the darkest place nearby ([`sketch`]).
 //! - [`Mode::Mosaic`]: Voronoi cells, smaller where darker or detailed, each hatched at its mean tone ([`mosaic`]).
 //!
+//! With [`TraceOptions::colors`] set to CMYK or a set of pens, a tone style shades each ink's separation
+//! ([`separate`]) instead of the gray, one layer per ink in that ink's colour, each at its own line angle.
+//!
 //! The tone styles (hatch, stipple) read one tone model ([`tone`]): the target darkness of every pixel after the
 //! tone curve, and the ink a pen of the given width lays down.
 //!
@@ -47,6 +50,7 @@ pub mod lines;
 mod load;
 pub mod mosaic;
 pub mod outline;
+pub mod separate;
 pub mod simplify;
 pub mod skeleton;
 pub mod sketch;
@@ -197,6 +201,8 @@ pub struct TraceOptions {
     pub stipple: stipple::StippleOptions,
     /// Mosaic settings (cell outlines, largest cell).
     pub mosaic: mosaic::MosaicOptions,
+    /// One black pen for the gray picture, or the picture separated into CMYK or into pens, one layer per ink.
+    pub colors: separate::Colors,
     /// Stops the tracing early with [`RasterError::Cancelled`] when set: checked between its stages (resizing,
     /// thresholding, tracing, scaling to millimetres).
     pub cancel: Cancel,
@@ -222,6 +228,7 @@ impl Default for TraceOptions {
             min_spacing_mm: None,
             stipple: stipple::StippleOptions::default(),
             mosaic: mosaic::MosaicOptions::default(),
+            colors: separate::Colors::Gray,
             cancel: Cancel::never(),
         }
     }
@@ -283,6 +290,30 @@ impl TraceOptions {
         {
             return bad("--cell-size", c, "must be a positive number of mm");
         }
+        if self.colors != separate::Colors::Gray {
+            let value = if self.colors == separate::Colors::Cmyk { "cmyk" } else { "pens" };
+            let tone_style = match self.mode {
+                Mode::Outline | Mode::Centerline | Mode::Edges => false,
+                Mode::Hatch => self.hatch.scheme == HatchScheme::Tone,
+                _ => true,
+            };
+            if !tone_style {
+                return bad(
+                    "--colors",
+                    value,
+                    "shades colours with the tone styles only: hatch (tone scheme), stipple, squiggle, spiral, flow, \
+                     sketch or mosaic",
+                );
+            }
+            if self.colors == separate::Colors::Pens(Vec::new()) {
+                return bad(
+                    "--colors",
+                    value,
+                    "found no pen with a colour in the machine profile's pen table (give the profile with preview or plot, \
+                     or use --colors cmyk)",
+                );
+            }
+        }
         self.tone.validate()?;
         self.hatch.validate()
     }
@@ -324,6 +355,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
     let mut warnings = prepared.warnings.clone();
     let nothing = |reason: String| RasterError::NothingToDraw { input: input.to_owned(), reason };
     let layers: Vec<(String, Vec<Vec<Point>>)> = match options.mode {
+        _ if options.colors != separate::Colors::Gray => Vec::new(),
         Mode::Outline | Mode::Centerline => {
             let bitmap = binarize(&prepared.gray, options.threshold, options.invert);
             if bitmap.is_empty() {
@@ -350,55 +382,7 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             warnings.extend(w);
             vec![("edges".to_owned(), paths)]
         }
-        Mode::Hatch if options.hatch.scheme == HatchScheme::Tone => {
-            let map = options.tone.darkness_map(&prepared.gray, options.invert);
-            let bands = hatch::tone_hatch(
-                &map,
-                options.hatch.levels,
-                &options.ladder(),
-                options.hatch.angle_deg,
-                prepared.pixel_mm,
-                options.min_area_px,
-            );
-            let dropped: usize = bands.iter().map(|b| b.specks_dropped).sum();
-            if dropped > 0 {
-                warnings.push(RasterWarning::SpecksDropped { count: dropped, min_area_px: options.min_area_px });
-            }
-            bands.into_iter().map(|b| (format!("hatch {}", b.band), b.strokes)).collect()
-        }
-        Mode::Stipple => {
-            let map = options.tone.darkness_map(&prepared.gray, options.invert);
-            let dots =
-                stipple::stipple_dots(&map, options.pen.width_mm / prepared.pixel_mm, options.stipple.iterations);
-            vec![("stipple".to_owned(), stipple::strokes(&dots))]
-        }
-        Mode::Squiggle => {
-            let map = options.tone.darkness_map(&prepared.gray, options.invert);
-            let row = 2.0 * options.ladder().min_spacing_mm / prepared.pixel_mm;
-            vec![("squiggle".to_owned(), squiggle::squiggle(&map, options.pen.width_mm / prepared.pixel_mm, row))]
-        }
-        Mode::Spiral => {
-            let map = options.tone.darkness_map(&prepared.gray, options.invert);
-            let row = 2.0 * options.ladder().min_spacing_mm / prepared.pixel_mm;
-            vec![("spiral".to_owned(), spiral::spiral(&map, options.pen.width_mm / prepared.pixel_mm, row))]
-        }
-        Mode::Flow => {
-            let map = options.tone.darkness_map(&prepared.gray, options.invert);
-            let lines = flow::flow(&map, &options.ladder(), prepared.pixel_mm, options.hatch.angle_deg);
-            let lines = lines.iter().map(|l| simplify::simplify(l, options.simplify_px)).collect();
-            vec![("flow".to_owned(), lines)]
-        }
-        Mode::Sketch => {
-            let map = options.tone.darkness_map(&prepared.gray, options.invert);
-            vec![("sketch".to_owned(), sketch::sketch(&map, &options.ladder(), prepared.pixel_mm))]
-        }
-        Mode::Mosaic => {
-            let map = options.tone.darkness_map(&prepared.gray, options.invert);
-            let m =
-                mosaic::mosaic(&map, &options.ladder(), prepared.pixel_mm, options.hatch.angle_deg, &options.mosaic);
-            vec![("mosaic".to_owned(), m.strokes), ("mosaic cells".to_owned(), m.outlines)]
-        }
-        Mode::Hatch => {
+        Mode::Hatch if options.hatch.scheme != HatchScheme::Tone => {
             let spacing_px = options.hatch.spacing_mm / prepared.pixel_mm;
             let levels = hatch::hatch(&prepared.gray, &options.hatch, spacing_px, options.invert, options.min_area_px);
             let mut dropped = 0;
@@ -413,14 +397,30 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
             }
             out
         }
+        _ => {
+            shade(&options.tone.darkness_map(&prepared.gray, options.invert), options, prepared.pixel_mm, &mut warnings)
+        }
     };
+    let mut layers: Vec<(String, Pen, Vec<Vec<Point>>)> =
+        layers.into_iter().map(|(name, paths)| (name, options.pen, paths)).collect();
+    if options.colors != separate::Colors::Gray {
+        let rgb = separate::working_rgb(image, &prepared, options.blur_px);
+        for sep in separate::separate(&rgb, &options.tone, options.invert, &options.colors) {
+            options.cancel.check().map_err(cancelled)?;
+            let mut turned = options.clone();
+            turned.hatch.angle_deg += sep.angle_deg;
+            let paths = shade(&sep.map, &turned, prepared.pixel_mm, &mut warnings).into_iter().flat_map(|l| l.1);
+            let pen = Pen { color: sep.ink.color, ..options.pen };
+            layers.push((sep.ink.name, pen, paths.collect()));
+        }
+    }
     options.cancel.check().map_err(cancelled)?;
     let (w, h) = prepared.gray.dimensions();
     let s = prepared.pixel_mm;
     let mut drawing = Drawing { layers: Vec::new(), page_mm: Some((f64::from(w) * s, f64::from(h) * s)) };
-    for (name, paths) in layers {
+    for (name, pen, paths) in layers {
         let mut layer = Layer::new(name);
-        layer.pen = options.pen;
+        layer.pen = pen;
         layer.paths = paths
             .into_iter()
             .filter(|p| p.len() >= 2)
@@ -445,6 +445,58 @@ pub fn trace_named(image: &DynamicImage, input: &str, options: &TraceOptions) ->
         return Err(nothing(reason));
     }
     Ok(Traced { drawing, warnings, pixel_mm: s, size_px: (w, h) })
+}
+
+/// The tone styles: `map` shaded by `options.mode` (hatch with the tone scheme, stipple, squiggle, spiral, flow,
+/// sketch, mosaic), one or more named layers of strokes in pixel coordinates.
+fn shade(
+    map: &tone::DarknessMap,
+    options: &TraceOptions,
+    pixel_mm: f64,
+    warnings: &mut Vec<RasterWarning>,
+) -> Vec<(String, Vec<Vec<Point>>)> {
+    match options.mode {
+        Mode::Hatch => {
+            let bands = hatch::tone_hatch(
+                map,
+                options.hatch.levels,
+                &options.ladder(),
+                options.hatch.angle_deg,
+                pixel_mm,
+                options.min_area_px,
+            );
+            let dropped: usize = bands.iter().map(|b| b.specks_dropped).sum();
+            if dropped > 0 {
+                warnings.push(RasterWarning::SpecksDropped { count: dropped, min_area_px: options.min_area_px });
+            }
+            bands.into_iter().map(|b| (format!("hatch {}", b.band), b.strokes)).collect()
+        }
+        Mode::Stipple => {
+            let dots = stipple::stipple_dots(map, options.pen.width_mm / pixel_mm, options.stipple.iterations);
+            vec![("stipple".to_owned(), stipple::strokes(&dots))]
+        }
+        Mode::Squiggle => {
+            let row = 2.0 * options.ladder().min_spacing_mm / pixel_mm;
+            vec![("squiggle".to_owned(), squiggle::squiggle(map, options.pen.width_mm / pixel_mm, row))]
+        }
+        Mode::Spiral => {
+            let row = 2.0 * options.ladder().min_spacing_mm / pixel_mm;
+            vec![("spiral".to_owned(), spiral::spiral(map, options.pen.width_mm / pixel_mm, row))]
+        }
+        Mode::Flow => {
+            let lines = flow::flow(map, &options.ladder(), pixel_mm, options.hatch.angle_deg);
+            let lines = lines.iter().map(|l| simplify::simplify(l, options.simplify_px)).collect();
+            vec![("flow".to_owned(), lines)]
+        }
+        Mode::Sketch => {
+            vec![("sketch".to_owned(), sketch::sketch(map, &options.ladder(), pixel_mm))]
+        }
+        Mode::Mosaic => {
+            let m = mosaic::mosaic(map, &options.ladder(), pixel_mm, options.hatch.angle_deg, &options.mosaic);
+            vec![("mosaic".to_owned(), m.strokes), ("mosaic cells".to_owned(), m.outlines)]
+        }
+        Mode::Outline | Mode::Centerline | Mode::Edges => Vec::new(),
+    }
 }
 
 #[cfg(test)]
