@@ -148,12 +148,13 @@ fn penalized_tree(
 /// Candidate hops for the cheap search of penalties: from every point its `K` nearest points of other nodes, and
 /// the given tree edges; one entry per node pair, at its least cost `f(d)`, sorted by node pair.
 fn candidates(g: &EndGraph, tree: &KdTree, f: &dyn Fn(f64) -> f64, extra: &[(u32, u32, f64)]) -> Vec<(u32, u32, f64)> {
-    const K: usize = 24;
+    // Closed paths bring many points of one node each: more neighbours reach more nodes.
+    let k = if g.points.len() <= 4000 { 24 } else { 10 };
     let mut out: Vec<(u32, u32, f64)> = extra.to_vec();
     let mut found = Vec::new();
     for (i, p) in g.points.iter().enumerate() {
         let me = g.node[i];
-        tree.knn(*p, K, &|id| g.node[id as usize] != me, &mut found);
+        tree.knn(*p, k, &|id| g.node[id as usize] != me, &mut found);
         for &(d2, id) in &found {
             let other = g.node[id as usize];
             out.push((me.min(other), me.max(other), f(d2.sqrt())));
@@ -181,6 +182,7 @@ fn sparse_tree(g: &EndGraph, cands: &[(u32, u32, f64)], pi: &[f64], order: &mut 
         deg[a as usize] += 1;
         deg[b as usize] += 1;
     }
+    let mut components = n - g.fixed.len();
     order.clear();
     order.extend(
         cands
@@ -190,6 +192,9 @@ fn sparse_tree(g: &EndGraph, cands: &[(u32, u32, f64)], pi: &[f64], order: &mut 
     );
     order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
     for &(c, i) in order.iter() {
+        if components <= 1 {
+            break;
+        }
         let (a, b, _) = cands[i as usize];
         let (ra, rb) = (uf.find(a), uf.find(b));
         if ra != rb {
@@ -197,6 +202,7 @@ fn sparse_tree(g: &EndGraph, cands: &[(u32, u32, f64)], pi: &[f64], order: &mut 
             cost += c;
             deg[a as usize] += 1;
             deg[b as usize] += 1;
+            components -= 1;
         }
     }
     (cost, deg)
@@ -225,10 +231,13 @@ pub(crate) fn held_karp(g: &EndGraph, f: &dyn Fn(f64) -> f64) -> f64 {
     held_karp_steps(g, f, STEPS)
 }
 
-/// Subgradient steps per round of the search.
+/// Subgradient steps per round of the search, at most.
 const STEPS: usize = 150;
 
-/// Rounds of the search: each ends with one exact evaluation of its best penalties, whose tree's hops join the
+/// Candidate hops looked at over the whole search (each step sorts them all once): about a quarter of a second.
+const WORK: usize = 3_000_000;
+
+/// Rounds of the search (two on drawings of over 5000 points): each ends with one exact evaluation of its best penalties, whose tree's hops join the
 /// candidates.
 const ROUNDS: usize = 5;
 
@@ -249,11 +258,14 @@ pub(crate) fn held_karp_steps(g: &EndGraph, f: &dyn Fn(f64) -> f64, steps: usize
         return best;
     }
     let mut cands = candidates(g, &tree, f, &edges0);
+    // A large drawing gets fewer rounds, each exact evaluation costing a spanning tree of all its points.
+    let rounds = if g.points.len() > 5000 { 2 } else { ROUNDS };
+    let steps = steps.min(WORK / (rounds * cands.len().max(1))).max(5);
     #[allow(clippy::cast_precision_loss, reason = "node counts are far below 2^52")]
     let mut step = 0.05 * w0.abs() / n as f64;
     let mut dir = vec![0.0f64; n];
     let mut order = Vec::new();
-    for _ in 0..ROUNDS {
+    for _ in 0..rounds {
         let mut round_best = (f64::NEG_INFINITY, pi.clone());
         let mut since_better = 0usize;
         let patience = (steps / 10).max(2);
