@@ -75,7 +75,12 @@ fn the_page_signs_in_shows_three_machines_plotting_and_stops_one_while_two_finis
 
     // Not signed in: the sign-in form, and nothing of the studio.
     cdp.call("Page.navigate", json!({ "url": served.url }));
-    cdp.wait_for("the sign-in form", "!!document.getElementById('signin')", Duration::from_secs(10));
+    // Loaded, its script included (a form submitted before its handler is there would just reload the page).
+    cdp.wait_for(
+        "the sign-in form",
+        "!!document.getElementById('signin') && document.readyState === 'complete'",
+        Duration::from_secs(10),
+    );
     assert_eq!(cdp.eval("document.querySelectorAll('#machines, .machine, #jobs').length"), json!(0));
     let text = cdp.eval("document.body.innerText").as_str().unwrap_or("").to_string();
     assert!(!text.contains("grbl") && !text.contains("ebb"), "{text}");
