@@ -126,6 +126,16 @@ fn blur(img: &Reflectance, sigma: f64) -> Vec<f32> {
     imageproc::filter::gaussian_blur_f32(&buf, s).into_raw()
 }
 
+/// The lightness the eye sees in each cell of `img`: blurred by `opts.sigma_mm`, then CIE L* / 100 (0 = black,
+/// 1 = paper), row by row.
+pub fn seen_lightness(img: &Reflectance, opts: &MeasureOptions) -> Vec<f32> {
+    #[allow(clippy::cast_possible_truncation)] // L*/100 in [0, 1]
+    blur(img, opts.sigma_mm / opts.cell_mm)
+        .into_iter()
+        .map(|y| (lightness_cie(f64::from(y).clamp(0.0, 1.0)) / 100.0) as f32)
+        .collect()
+}
+
 /// Compare two reflectance images of the same size as the eye sees them: blurred by `sigma_mm`, in CIE L*.
 /// Returns `(lightness error, SSIM)`.
 ///
@@ -134,12 +144,8 @@ fn blur(img: &Reflectance, sigma: f64) -> Vec<f32> {
 pub fn compare(plot: &Reflectance, picture: &Reflectance, opts: &MeasureOptions) -> (f64, f64) {
     assert_eq!((plot.columns, plot.rows), (picture.columns, picture.rows), "the images must share one grid");
     let sigma = opts.sigma_mm / opts.cell_mm;
-    let to_l = |v: Vec<f32>| -> Vec<f32> {
-        #[allow(clippy::cast_possible_truncation)] // L*/100 in [0, 1]
-        v.into_iter().map(|y| (lightness_cie(f64::from(y).clamp(0.0, 1.0)) / 100.0) as f32).collect()
-    };
-    let a = to_l(blur(plot, sigma));
-    let b = to_l(blur(picture, sigma));
+    let a = seen_lightness(plot, opts);
+    let b = seen_lightness(picture, opts);
     if a.is_empty() {
         return (0.0, 1.0);
     }

@@ -1,12 +1,14 @@
 //! Spiral style: one Archimedean spiral from the picture's centre, its turns `row` apart, carrying a triangle wave
-//! whose amplitude and wavelength follow darkness exactly as the squiggle's rows do ([`super::squiggle::wave_for`]).
-//! The pen lifts only where the picture is paper and where the spiral leaves the picture (past its corners).
+//! whose amplitude and wavelength follow darkness exactly as the squiggle's rows do ([`super::squiggle::Waves`]).
+//! The pen lifts only where the picture is paper and where the spiral leaves the picture (past its corners). A wave
+//! point that would land on paper is pulled back onto the spiral's own line, so no wave reaches past a shape's edge
+//! by more than the pen's half width.
 //!
 //! The spiral `r = row · θ / 2π` is walked in steps of an eighth of the local wavelength (at most half a pixel); the
 //! wave's phase advances by step / wavelength, and each point is pushed out along the radius by the amplitude times
 //! a triangle wave of the phase.
 
-use super::squiggle::wave_for;
+use super::squiggle::Waves;
 use super::tone::DarknessMap;
 use kurbo::Point;
 use std::f64::consts::TAU;
@@ -34,6 +36,9 @@ pub fn spiral(map: &DarknessMap, pen: f64, row: f64) -> Vec<Vec<Point>> {
     let c = Point::new(w / 2.0, h / 2.0);
     let r_end = (w * w + h * h).sqrt() / 2.0 + row;
     let b = row / TAU;
+    let waves = Waves::new(pen, row);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let paper = |p: Point| p.x < 0.0 || p.y < 0.0 || map.at(p.x as usize, p.y as usize) <= 0.0;
     let (mut theta, mut phase) = (0.0f64, 0.0f64);
     let mut stroke: Vec<Point> = Vec::new();
     loop {
@@ -45,14 +50,17 @@ pub fn spiral(map: &DarknessMap, pen: f64, row: f64) -> Vec<Vec<Point>> {
         let on = Point::new(c.x + r * co, c.y + r * s);
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let dark = if on.x >= 0.0 && on.y >= 0.0 { map.at(on.x as usize, on.y as usize) } else { 0.0 };
-        let wave = wave_for(f64::from(dark), pen, row);
+        let wave = waves.wave(f64::from(dark));
         let step = wave.map_or(0.5, |(_, lambda)| (lambda / 8.0).min(0.5));
         let inside_picture = |p: Point| (0.0..=w).contains(&p.x) && (0.0..=h).contains(&p.y);
         match wave {
             Some((a, lambda)) => {
                 // Near the centre the radius is shorter than the amplitude: keep the wave off the other side.
                 let off = a.min(r) * triangle(phase);
-                let p = Point::new(c.x + (r + off) * co, c.y + (r + off) * s);
+                let mut p = Point::new(c.x + (r + off) * co, c.y + (r + off) * s);
+                if paper(p) {
+                    p = on;
+                }
                 if inside_picture(p) {
                     stroke.push(p);
                 } else if stroke.len() >= 2 {

@@ -190,19 +190,32 @@ impl Ladder {
         Rung { families: n, spacing_mm, coverage }
     }
 
-    /// The rung for `darkness` as [`Ladder::rung`], except past the ladder's darkest tone: there three crossed
-    /// families would stay gray (pen 0.3 mm, closest spacing 0.45 mm: 0.963 ink, L* 22 where black is 0), so the
-    /// tone is filled solid instead, one family of lines `pen / darkness` apart (down to touching at black), which
-    /// also spends a third of the ink.
+    /// The rung for `darkness` as [`Ladder::rung`], except past the ladder's darkest tone (pen 0.3 mm, closest
+    /// spacing 0.45 mm: 26/27 = 0.963 ink, L* 22 where black is 0): there the three families close in below the
+    /// closest spacing, each at coverage `c = 1 − (1 − d)^⅓` (spacing `pen / c`), so the paper left between them
+    /// is the `1 − d` the tone asks for, in holes the eye still averages. Once those holes would be narrower than a
+    /// tenth of the pen (`c ≥ 10/11`, darkness 0.99925) a pen's ink fills them anyway, and one family of touching
+    /// lines draws the black with a third of the ink.
+    ///
+    /// (One family `pen / d` apart, as this once was, leaves gaps of `pen · (1/d − 1)`: 0.006 mm at L* 17, which
+    /// no pen keeps open, so every tone past the darkest rung plotted as solid black.)
     pub fn rung_to_black(&self, darkness: f64) -> Rung {
         let d = if darkness.is_nan() { 0.0 } else { darkness.min(1.0) };
         if d <= self.darkest() {
             return self.rung(d);
         }
-        let spacing_mm = self.pen_mm / d;
-        Rung { families: 1, spacing_mm, coverage: line_coverage(self.pen_mm, spacing_mm) }
+        let c = 1.0 - (1.0 - d).cbrt();
+        if c >= SOLID_FAMILY_COVERAGE {
+            return Rung { families: 1, spacing_mm: self.pen_mm, coverage: 1.0 };
+        }
+        let spacing_mm = self.pen_mm / c;
+        let coverage = 1.0 - (1.0 - line_coverage(self.pen_mm, spacing_mm)).powi(i32::from(MAX_FAMILIES));
+        Rung { families: MAX_FAMILIES, spacing_mm, coverage }
     }
 }
+
+/// Past this coverage of one family (gaps a tenth of the pen wide), [`Ladder::rung_to_black`] draws solid.
+const SOLID_FAMILY_COVERAGE: f64 = 10.0 / 11.0;
 
 /// For the styles' tests: a `w × h` picture of darkness `d` everywhere.
 #[cfg(test)]
@@ -310,15 +323,18 @@ mod tests {
     }
 
     #[test]
-    fn past_three_families_the_ladder_fills_solid_to_black() {
+    fn past_three_families_the_ladder_closes_in_to_black() {
         // Pen 0.3 mm, closest spacing 0.45 mm: three families reach 1 − (1/3)³ = 26/27 = 0.963 at most.
         let l = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
         assert_eq!(l.rung_to_black(0.5), l.rung(0.5));
         assert_eq!(l.rung_to_black(26.0 / 27.0), l.rung(26.0 / 27.0));
-        // Darker: one family, 0.3 / 0.98 = 0.30612 mm apart, covering 0.98; black: lines touching, all ink.
-        let r = l.rung_to_black(0.98);
-        assert_eq!(r.families, 1);
-        assert!(close(r.spacing_mm, 0.306_122_4, 1e-6) && close(r.coverage, 0.98, 1e-12));
+        // Darker, 0.992 (L* 7.2): three families each covering 1 − ∛0.008 = 0.8, 0.3 / 0.8 = 0.375 mm apart.
+        let r = l.rung_to_black(0.992);
+        assert_eq!(r.families, 3);
+        assert!(close(r.spacing_mm, 0.375, 1e-9) && close(r.coverage, 0.992, 1e-12), "{r:?}");
+        // 0.9995: each would cover 1 − ∛0.0005 = 0.9206 > 10/11, gaps under 0.03 mm: one family of touching lines.
+        let r = l.rung_to_black(0.9995);
+        assert_eq!((r.families, r.spacing_mm, r.coverage), (1, 0.3, 1.0));
         let r = l.rung_to_black(1.0);
         assert_eq!((r.families, r.spacing_mm, r.coverage), (1, 0.3, 1.0));
         assert_eq!(l.rung_to_black(0.0).families, 0);
