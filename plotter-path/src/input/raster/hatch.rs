@@ -334,9 +334,12 @@ fn family_strokes(
             .spans
             .iter()
             .filter_map(|&(a, b)| {
-                // Half a pixel past each end: the neighbour across the boundary.
-                let ra = if yields(at(a - 0.5)) { r } else { 0.0 };
-                let rb = if yields(at(b + 0.5)) { r } else { 0.0 };
+                // Half a pixel past each end: the neighbour across the boundary. A hair further, so that an end on
+                // a pixel's centre (where a line along the region's edge meets its cut corner) does not probe a
+                // point on the pixel grid, which rounds down into the region itself on the lower side only.
+                let past = 0.5 + 1e-6;
+                let ra = if yields(at(a - past)) { r } else { 0.0 };
+                let rb = if yields(at(b + past)) { r } else { 0.0 };
                 if b - a > 2.0 * r {
                     Some((a + ra, b - rb))
                 } else if 2.0 * pen_px * (b - a) >= std::f64::consts::PI * r * r {
