@@ -34,6 +34,7 @@ use kurbo::Point;
 use std::fmt;
 use std::str::FromStr;
 
+use super::lines::pen_span;
 pub use super::lines::{LineFamily, LineSpans, clip_lines, line_spans};
 
 /// How darker levels add hatching.
@@ -340,14 +341,7 @@ fn family_strokes(
                 let past = 0.5 + 1e-6;
                 let ra = if yields(at(a - past)) { r } else { 0.0 };
                 let rb = if yields(at(b + past)) { r } else { 0.0 };
-                if b - a > 2.0 * r {
-                    Some((a + ra, b - rb))
-                } else if 2.0 * pen_px * (b - a) >= std::f64::consts::PI * r * r {
-                    let m = (a + b) / 2.0;
-                    Some((m, m))
-                } else {
-                    None
-                }
+                pen_span((a, b), pen_px, (ra, rb))
             })
             .collect();
     }

@@ -100,6 +100,22 @@ pub fn line_spans(loops: &[Vec<Point>], family: &LineFamily) -> Vec<LineSpans> {
     out
 }
 
+/// The span `(a, b)` of a line as a round-capped pen `pen_px` wide draws it, each end pulled in by `pull.0` and
+/// `pull.1` (the pen's radius where its cap must stay inside the region, else 0): the pulled span when the span is
+/// longer than the pen's width; else a dot at its middle when the dot's ink (`π r²`) is no more than twice the span's
+/// (`pen · length`); else nothing.
+pub fn pen_span((a, b): (f64, f64), pen_px: f64, pull: (f64, f64)) -> Option<(f64, f64)> {
+    let r = pen_px / 2.0;
+    if b - a > 2.0 * r {
+        Some((a + pull.0, b - pull.1))
+    } else if 2.0 * pen_px * (b - a) >= std::f64::consts::PI * r * r {
+        let m = (a + b) / 2.0;
+        Some((m, m))
+    } else {
+        None
+    }
+}
+
 /// The parts of the lines of `family` inside the even-odd region bounded by the closed `loops`, every other line
 /// reversed (boustrophedon).
 pub fn clip_lines(loops: &[Vec<Point>], family: &LineFamily) -> Vec<(Point, Point)> {
@@ -118,4 +134,20 @@ pub fn clip_lines(loops: &[Vec<Point>], family: &LineFamily) -> Vec<(Point, Poin
         out.extend(spans);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 3 px pen (radius 1.5): a 10 px span pulled in at one end only keeps its other end; a 2 px span is shorter
+    /// than the pen's width and becomes a dot at its middle, since the dot's ink (π · 1.5² ≈ 7.07 px²) is at most
+    /// twice the span's (2 · 3 · 2 = 12 px²); a 1 px span (2 · 3 · 1 = 6 px² < 7.07 px²) is dropped.
+    #[test]
+    fn a_pen_span_is_pulled_in_kept_as_a_dot_or_dropped() {
+        assert_eq!(pen_span((0.0, 10.0), 3.0, (1.5, 0.0)), Some((1.5, 10.0)));
+        assert_eq!(pen_span((0.0, 10.0), 3.0, (1.5, 1.5)), Some((1.5, 8.5)));
+        assert_eq!(pen_span((4.0, 6.0), 3.0, (1.5, 1.5)), Some((5.0, 5.0)));
+        assert_eq!(pen_span((4.0, 5.0), 3.0, (1.5, 1.5)), None);
+    }
 }

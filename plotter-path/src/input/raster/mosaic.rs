@@ -16,7 +16,7 @@
 //! so each family is respaced once to match its share. Cell outlines are optional: they add ink the tone did not
 //! ask for.
 
-use super::lines::{LineFamily, line_spans};
+use super::lines::{LineFamily, line_spans, pen_span};
 use super::tone::{DarknessMap, Ladder, line_coverage};
 use super::zigzag;
 use kurbo::Point;
@@ -365,20 +365,7 @@ fn family_strokes(loop_: &[Point], f: &LineFamily, pen_px: f64) -> Vec<Vec<Point
     let r = pen_px / 2.0;
     let mut lines = line_spans(std::slice::from_ref(&loop_.to_vec()), f);
     for line in &mut lines {
-        line.spans = line
-            .spans
-            .iter()
-            .filter_map(|&(a, b)| {
-                if b - a > 2.0 * r {
-                    Some((a + r, b - r))
-                } else if 2.0 * pen_px * (b - a) >= std::f64::consts::PI * r * r {
-                    let m = (a + b) / 2.0;
-                    Some((m, m))
-                } else {
-                    None
-                }
-            })
-            .collect();
+        line.spans = line.spans.iter().filter_map(|&span| pen_span(span, pen_px, (r, r))).collect();
     }
     // The cell is convex: a connector between two points inside it stays inside.
     zigzag::join(&lines, f, f64::INFINITY, |_, _| true)
