@@ -580,3 +580,24 @@ pub fn machine_paths(profile: &plotter_path::MachineProfile, drawing: &plotter_p
         .map(|p| p.points.iter().map(|q| profile.page_to_machine(*q)).map(|q| (q.x, q.y)).collect())
         .collect()
 }
+
+/// One HTTP/1.1 request to a local server, the connection closed after it: the answer's status (0 when it has
+/// none), its body after the headers, and the time from connecting to the answer's last byte.
+pub fn http_once(authority: &str, method: &str, path: &str, body: &[u8]) -> (u16, String, std::time::Duration) {
+    use std::io::{Read as _, Write as _};
+    let start = std::time::Instant::now();
+    let mut stream = std::net::TcpStream::connect(authority).expect("connect to the server");
+    stream.set_read_timeout(Some(std::time::Duration::from_secs(30))).expect("read timeout");
+    let head = format!(
+        "{method} {path} HTTP/1.1\r\nHost: {authority}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n",
+        body.len()
+    );
+    stream.write_all(head.as_bytes()).and_then(|()| stream.write_all(body)).expect("send the request");
+    let mut bytes = Vec::new();
+    stream.read_to_end(&mut bytes).expect("the server answers");
+    let took = start.elapsed();
+    let text = String::from_utf8_lossy(&bytes);
+    let status = text.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let body = text.split_once("\r\n\r\n").map_or("", |(_, b)| b).to_string();
+    (status, body, took)
+}

@@ -10,8 +10,6 @@
 //!
 //! `STUDIO_CRASH_SEED=N` replays a run.
 
-use std::io::{Read as _, Write as _};
-use std::net::TcpStream;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -63,19 +61,8 @@ impl Rng {
 
 /// One HTTP request to the server (the connection closed after it): status and JSON body.
 fn http(authority: &str, method: &str, path: &str, body: &[u8]) -> (u16, Value) {
-    let mut stream = TcpStream::connect(authority).expect("connect to plotter serve");
-    stream.set_read_timeout(Some(Duration::from_secs(30))).expect("read timeout");
-    let head = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {authority}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n",
-        body.len()
-    );
-    stream.write_all(head.as_bytes()).and_then(|()| stream.write_all(body)).expect("send the request");
-    let mut bytes = Vec::new();
-    stream.read_to_end(&mut bytes).expect("the server answers");
-    let text = String::from_utf8_lossy(&bytes);
-    let status = text.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
-    let json = text.split_once("\r\n\r\n").map_or("", |(_, b)| b);
-    (status, serde_json::from_str(json).unwrap_or(Value::Null))
+    let (status, body, _) = plotter_e2e::http_once(authority, method, path, body);
+    (status, serde_json::from_str(&body).unwrap_or(Value::Null))
 }
 
 fn start_server(state: &Path, port: &str, profile: &str) -> Served {

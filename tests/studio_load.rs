@@ -12,7 +12,7 @@
 //!
 //! The figures are printed; `STUDIO_LOAD_WATCHERS`, `STUDIO_LOAD_SCRIPTS` and `STUDIO_LOAD_JOBS` change the load.
 
-use std::io::{BufRead as _, BufReader, Read as _, Write as _};
+use std::io::{BufRead as _, BufReader, Write as _};
 use std::net::TcpStream;
 use std::path::Path;
 use std::sync::Arc;
@@ -40,21 +40,8 @@ fn count(var: &str, default: usize) -> usize {
 /// One HTTP request (the connection closed after it): status, JSON body and the time from connect to the answer's
 /// last byte.
 fn http(authority: &str, method: &str, path: &str, body: &[u8]) -> (u16, Value, Duration) {
-    let start = Instant::now();
-    let mut stream = TcpStream::connect(authority).expect("connect to plotter serve");
-    stream.set_read_timeout(Some(Duration::from_secs(30))).expect("read timeout");
-    let head = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {authority}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n",
-        body.len()
-    );
-    stream.write_all(head.as_bytes()).and_then(|()| stream.write_all(body)).expect("send the request");
-    let mut bytes = Vec::new();
-    stream.read_to_end(&mut bytes).expect("the server answers");
-    let took = start.elapsed();
-    let text = String::from_utf8_lossy(&bytes);
-    let status = text.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
-    let json = text.split_once("\r\n\r\n").map_or("", |(_, b)| b);
-    (status, serde_json::from_str(json).unwrap_or(Value::Null), took)
+    let (status, body, took) = plotter_e2e::http_once(authority, method, path, body);
+    (status, serde_json::from_str(&body).unwrap_or(Value::Null), took)
 }
 
 /// Queue `svg` named `name` for `machine`; the job's number and the answer time.
