@@ -522,6 +522,16 @@ mod tests {
         }
     }
 
+    /// End the studio, wait for its workers and remove its folder.
+    fn close(studio: Arc<Studio>, workers: Vec<JoinHandle<()>>, dir: &Path) {
+        studio.end();
+        for w in workers {
+            w.join().unwrap();
+        }
+        drop(studio);
+        std::fs::remove_dir_all(dir).ok();
+    }
+
     fn state_of(studio: &Studio, id: i64) -> JobState {
         studio.queue().get(id).unwrap().state
     }
@@ -579,12 +589,7 @@ mod tests {
         let e = gone.error.unwrap();
         assert!(e.contains("/dev/no-such-plotter") && e.contains("trying again in"), "{e}");
         assert_eq!(state_of(&studio, for_gone), JobState::Queued);
-        studio.end();
-        for w in workers {
-            w.join().unwrap();
-        }
-        drop(studio);
-        std::fs::remove_dir_all(&dir).ok();
+        close(studio, workers, &dir);
     }
 
     #[test]
@@ -614,12 +619,7 @@ mod tests {
             &NewJob::new("r.svg", rings().into_bytes()).with_options(json!({ "args": ["--split-distance", "0"] })),
         );
         assert!(e.unwrap_err().to_string().contains("--split-distance 0: give the drawn length per refill in mm"));
-        studio.end();
-        for w in workers {
-            w.join().unwrap();
-        }
-        drop(studio);
-        std::fs::remove_dir_all(&dir).ok();
+        close(studio, workers, &dir);
     }
 
     #[test]
@@ -654,12 +654,7 @@ mod tests {
         assert_eq!(h[0].outcome.as_deref(), Some("cancelled by the operator"));
         until("the machine idle", || slot.status().state == Activity::Idle);
         assert!(slot.status().percent < 100.0, "stopped before the end");
-        studio.end();
-        for w in workers {
-            w.join().unwrap();
-        }
+        close(studio, workers, &dir);
         assert!(plot > Duration::ZERO);
-        drop(studio);
-        std::fs::remove_dir_all(&dir).ok();
     }
 }
