@@ -432,6 +432,13 @@ pub(crate) fn settle_ticks(profile: &MachineProfile) -> u32 {
     ms_ticks(profile.pen.settle_ms)
 }
 
+/// Ticks a servo lift waits before the travel, for a pen whose servo moves as `timing` says: the profile's
+/// `pen.clear_ms` when it sets one ([`servo_clear_ticks`]), else until the tip is clear at the servo's rate
+/// ([`ServoTiming::clear_ticks`]); the profile's lift delay included either way.
+pub(crate) fn lift_clear_ticks(profile: &MachineProfile, timing: ServoTiming) -> u64 {
+    profile.pen.clear_ms.map_or(timing.clear_ticks(), |_| u64::from(servo_clear_ticks(profile)))
+}
+
 /// A servo pen's clear time ([`crate::config::profile::PenProfile::servo_clear_ms`]) in ticks, at most the settle,
 /// and the profile's extra wait after it (`pen.lift_delay_ms`).
 pub(crate) fn servo_clear_ticks(profile: &MachineProfile) -> u32 {
@@ -903,8 +910,7 @@ fn build_blocks<'c>(
                 let drawn = si.checked_sub(1).map_or(0, |p| {
                     servo::min_draw_ticks(profile, &steps.strokes[p], pens[steps.layer_of(p)].draw_feed_mm_s)
                 });
-                let clear =
-                    profile.pen.clear_ms.map_or(timing.clear_ticks(), |_| u64::from(servo_clear_ticks(profile)));
+                let clear = lift_clear_ticks(profile, timing);
                 let hop = ServoHop { timing, pressed: timing.pressed_after(drawn), clear: ticks_u32(clear) };
                 raw.servo_hop(lift, d, stroke.start, travel, si, hop);
             }

@@ -49,19 +49,18 @@ use crate::config::gcode_template::{Values, render};
 use crate::config::profile::PenCommand;
 use crate::geometry::steps::{StepDrawing, StepMapper, StepPos};
 use crate::motion::hop::{HopHeights, travel_waypoints};
-use crate::motion::plan::{layer_pens, park_position};
+use crate::motion::plan::{layer_pens, lift_clear_ticks, park_position};
 use crate::motion::servo::ServoTiming;
 
-/// Seconds a servo lift waits before the travel: the profile's `pen.clear_ms` when it sets one, else until the tip
-/// is clear of the paper at the servo's rate from a pen whose down angle is `down_deg` (the motion plan's
-/// [`ServoTiming::clear_ticks`]: the part of the swing above the contact fraction, `pen.contact_fraction`).
+/// Seconds a servo lift waits before the travel, as the motion plan times it for a pen whose down angle is
+/// `down_deg` ([`lift_clear_ticks`]: the profile's `pen.clear_ms`, else until the tip is clear of the paper at the
+/// servo's rate, the swing above `pen.contact_fraction`).
 fn servo_clear_s(profile: &MachineProfile, down_deg: f64) -> f64 {
-    match profile.pen.clear_ms {
-        Some(ms) => ms / 1000.0,
-        // Display of at most a few seconds of ticks.
-        #[allow(clippy::cast_precision_loss)]
-        None => ServoTiming::of(profile, down_deg).clear_ticks() as f64 / f64::from(plotter_fw::TICK_HZ),
-    }
+    let ticks = lift_clear_ticks(profile, ServoTiming::of(profile, down_deg));
+    // At most a few seconds of ticks.
+    #[allow(clippy::cast_precision_loss)]
+    let ticks = ticks as f64;
+    ticks / f64::from(plotter_fw::TICK_HZ)
 }
 
 /// Format a millimetre value with at most `decimals` decimals, trailing zeros removed (`-0` printed as `0`).
@@ -346,6 +345,13 @@ mod tests {
         servo.pen.clear_ms = Some(20.0);
         let g = export(&servo, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
         assert!(g.contains("M3 S90\nG4 P0.02\nG0 X21"), "{g}");
+        // The profile's lift delay comes after either, as in the motion plan: 20 + 40 ms, and 25 + 40 ms.
+        servo.pen.lift_delay_ms = 40.0;
+        let g = export(&servo, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
+        assert!(g.contains("M3 S90\nG4 P0.06\nG0 X21"), "{g}");
+        servo.pen.clear_ms = None;
+        let g = export(&servo, &StepDrawing { strokes: vec![dash(800), dash(1680)], layers: vec![] });
+        assert!(g.contains("M3 S90\nG4 P0.065\nG0 X21"), "{g}");
     }
 
     #[test]
