@@ -556,7 +556,7 @@ async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) ->
         // Tracing, hatching and hidden lines are decided when the drawing is read: read it again when they change,
         // and when the layout changes under hatching (its spacings are page sizes, divided by the layout's factor).
         let decoded_as = |a: &InputArgs| (a.trace.mode, a.hatch, a.cross_hatch, a.no_occlusion);
-        let laid_out = |s: &Settings| format!("{:?}", layout_args(s).ok().map(|l| l.options().ok()));
+        let laid_out = |s: &Settings| layout_args(s).ok().and_then(|l| l.options().ok());
         let hatched = wanted.hatch.is_some() || i.machine_profile().pens.iter().any(|p| p.hatch.is_some());
         let retrace = i.loaded.as_ref().is_some_and(|l| {
             decoded_as(&l.input) != decoded_as(&wanted) || (hatched && laid_out(&i.settings) != laid_out(&s))

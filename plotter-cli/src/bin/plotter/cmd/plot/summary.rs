@@ -64,9 +64,6 @@ pub(super) fn copies_line(copies: usize, each: &MotionPlan, total_ticks: Option<
     if copies < 2 {
         return None;
     }
-    // Display only (a copy count is far below 2^52).
-    #[allow(clippy::cast_precision_loss)]
-    let planned = each.seconds() * copies as f64;
     Some(match total_ticks {
         // Display only.
         #[allow(clippy::cast_precision_loss)]
@@ -75,9 +72,11 @@ pub(super) fn copies_line(copies: usize, each: &MotionPlan, total_ticks: Option<
             clock(t as f64 / f64::from(TICK_HZ)),
             clock(each.seconds())
         ),
+        // Display only (a copy count is far below 2^52).
+        #[allow(clippy::cast_precision_loss)]
         None => format!(
             "{copies} copies: {} of plotting planned (each {}; page delays and paper changes come on top)",
-            clock(planned),
+            clock(each.seconds() * copies as f64),
             clock(each.seconds())
         ),
     })
