@@ -44,32 +44,33 @@ pub enum TextArg {
     SingleStroke,
 }
 
-/// What happens to embedded SVG images.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
-pub enum ImagesArg {
-    /// Not drawn (with a warning)
-    #[default]
-    Skip,
-    /// Outlines of the ink regions
-    Outline,
-    /// Centre lines of line art
-    Centerline,
-    /// Canny edges
-    Edges,
-    /// Hatch shading of the gray tones
-    Hatch,
-    /// Pen dots, denser where darker
-    Stipple,
-    /// Rows of waves growing with darkness
-    Squiggle,
-    /// One spiral from the centre whose waves grow with darkness
-    Spiral,
-    /// Streamlines along the picture's edges, closer where darker
-    Flow,
-    /// Long scribbled strokes heading for the darkest place nearby
-    Sketch,
-    /// Cells hatched as dark as their mean tone
-    Mosaic,
+/// What happens to embedded SVG images: skipped (the default, with a warning) or traced in one of the library's
+/// modes, spelled and described as `--mode` spells them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ImagesArg(pub Option<Mode>);
+
+/// `skip`, then every mode, in the library's documentation order.
+const IMAGES_ARGS: [ImagesArg; Mode::ALL.len() + 1] = {
+    let mut out = [ImagesArg(None); Mode::ALL.len() + 1];
+    let mut i = 0;
+    while i < Mode::ALL.len() {
+        out[i + 1] = ImagesArg(Some(Mode::ALL[i]));
+        i += 1;
+    }
+    out
+};
+
+impl ValueEnum for ImagesArg {
+    fn value_variants<'a>() -> &'a [Self] {
+        &IMAGES_ARGS
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(match self.0 {
+            None => clap::builder::PossibleValue::new("skip").help("Not drawn (with a warning)"),
+            Some(mode) => clap::builder::PossibleValue::new(mode.name()).help(mode.summary()),
+        })
+    }
 }
 
 /// What `--hatch` asks for: one spacing for every fill, or each fill shaded by its lightness.
@@ -131,7 +132,7 @@ pub struct InputArgs {
     #[arg(long, value_enum, default_value_t = TextArg::Outlines, help_heading = "Input")]
     pub text: TextArg,
     /// Trace embedded SVG <image>s with this tracing mode (the image tracing flags apply)
-    #[arg(long, value_enum, default_value_t = ImagesArg::Skip, help_heading = "Input")]
+    #[arg(long, value_enum, default_value_t = ImagesArg(None), help_heading = "Input")]
     pub images: ImagesArg,
     /// Cut SVG geometry at the page edge (it is reported either way)
     #[arg(long, help_heading = "Input")]
@@ -182,20 +183,7 @@ impl InputArgs {
                 TextArg::SingleStroke => TextMode::SingleStroke,
             },
             images: {
-                let mode = match self.images {
-                    ImagesArg::Skip => None,
-                    ImagesArg::Outline => Some(Mode::Outline),
-                    ImagesArg::Centerline => Some(Mode::Centerline),
-                    ImagesArg::Edges => Some(Mode::Edges),
-                    ImagesArg::Hatch => Some(Mode::Hatch),
-                    ImagesArg::Stipple => Some(Mode::Stipple),
-                    ImagesArg::Squiggle => Some(Mode::Squiggle),
-                    ImagesArg::Spiral => Some(Mode::Spiral),
-                    ImagesArg::Flow => Some(Mode::Flow),
-                    ImagesArg::Sketch => Some(Mode::Sketch),
-                    ImagesArg::Mosaic => Some(Mode::Mosaic),
-                };
-                mode.map(|mode| ImageTrace {
+                self.images.0.map(|mode| ImageTrace {
                     trace: raster::TraceOptions { mode, ..self.trace.options_with_pens(&profile.pens) },
                 })
             },

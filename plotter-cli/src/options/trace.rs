@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use anyhow::Result;
+use clap::builder::PossibleValue;
 use clap::{Args, ValueEnum};
 use plotter_path::Pen;
 use plotter_path::config::color::parse_hex_color;
@@ -11,30 +12,30 @@ use plotter_path::config::profile::PenSpec;
 use plotter_path::input::raster::separate::{Colors, Ink};
 use plotter_path::input::raster::{self, HatchOptions, HatchScheme, Mode, Threshold, ToneCurve, TraceOptions};
 
-/// Tracing mode as a command-line value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
-pub enum ModeArg {
-    /// Closed outlines of the ink regions (with holes)
-    #[default]
-    Outline,
-    /// One stroke along the middle of each line (line art)
-    Centerline,
-    /// Canny edges chained into polylines (photos)
-    Edges,
-    /// Hatch shading of the gray tones
-    Hatch,
-    /// Pen dots, denser where the picture is darker (add --tsp for one continuous line)
-    Stipple,
-    /// Rows of zig-zag waves growing with darkness, one stroke per row (rows twice --min-spacing apart)
-    Squiggle,
-    /// One spiral from the centre whose waves grow with darkness (turns twice --min-spacing apart)
-    Spiral,
-    /// Evenly spaced streamlines along the picture's edges, closer where darker (crossed in the dark tones)
-    Flow,
-    /// Long scribbled strokes that keep heading for the darkest place nearby until the tone is met
-    Sketch,
-    /// Cells, smaller where the picture is darker or busier, each hatched as dark as its mean tone
-    Mosaic,
+/// Tracing mode as a command-line value: one of the library's modes, spelled and described as the library does
+/// (`Mode::name`, `Mode::summary`), so a new style needs no second list here.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ModeArg(pub Mode);
+
+/// Every mode as a command-line value, in the library's documentation order.
+const MODE_ARGS: [ModeArg; Mode::ALL.len()] = {
+    let mut out = [ModeArg(Mode::Outline); Mode::ALL.len()];
+    let mut i = 0;
+    while i < out.len() {
+        out[i] = ModeArg(Mode::ALL[i]);
+        i += 1;
+    }
+    out
+};
+
+impl ValueEnum for ModeArg {
+    fn value_variants<'a>() -> &'a [Self] {
+        &MODE_ARGS
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(self.0.name()).help(self.0.summary()))
+    }
 }
 
 /// How the picture's colours become pens.
@@ -65,7 +66,7 @@ pub enum SchemeArg {
 #[derive(Debug, Clone, Args)]
 pub struct TraceArgs {
     /// What to extract from the image
-    #[arg(long, value_enum, default_value_t = ModeArg::Outline, help_heading = "Image tracing")]
+    #[arg(long, value_enum, default_value_t = ModeArg(Mode::Outline), help_heading = "Image tracing")]
     pub mode: ModeArg,
     /// Drawing width in mm (the image is resampled to width / pitch pixels); default: one pitch per image pixel
     #[arg(long, help_heading = "Image tracing")]
@@ -145,18 +146,7 @@ impl TraceArgs {
     /// The library options these flags mean.
     pub fn options(&self) -> TraceOptions {
         TraceOptions {
-            mode: match self.mode {
-                ModeArg::Outline => Mode::Outline,
-                ModeArg::Centerline => Mode::Centerline,
-                ModeArg::Edges => Mode::Edges,
-                ModeArg::Hatch => Mode::Hatch,
-                ModeArg::Stipple => Mode::Stipple,
-                ModeArg::Squiggle => Mode::Squiggle,
-                ModeArg::Spiral => Mode::Spiral,
-                ModeArg::Flow => Mode::Flow,
-                ModeArg::Sketch => Mode::Sketch,
-                ModeArg::Mosaic => Mode::Mosaic,
-            },
+            mode: self.mode.0,
             width_mm: self.width,
             pitch_mm: self.pitch,
             pen: Pen { width_mm: self.pen_width, ..Pen::default() },

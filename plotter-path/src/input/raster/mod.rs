@@ -129,6 +129,32 @@ impl Mode {
         }
     }
 
+    /// What the mode draws, in a user's words (the help text of `--mode` and `--images`).
+    pub fn summary(self) -> &'static str {
+        match self {
+            Mode::Outline => "Closed outlines of the ink regions (with holes)",
+            Mode::Centerline => "One stroke along the middle of each line (line art)",
+            Mode::Edges => "Canny edges chained into polylines (photos)",
+            Mode::Hatch => "Hatch shading of the gray tones",
+            Mode::Stipple => "Pen dots, denser where the picture is darker (add --tsp for one continuous line)",
+            Mode::Squiggle => {
+                "Rows of zig-zag waves growing with darkness, one stroke per row (rows twice --min-spacing apart)"
+            }
+            Mode::Spiral => {
+                "One spiral from the centre whose waves grow with darkness (turns twice --min-spacing apart)"
+            }
+            Mode::Flow => {
+                "Evenly spaced streamlines along the picture's edges, closer where darker (crossed in the dark tones)"
+            }
+            Mode::Sketch => {
+                "Long scribbled strokes that keep heading for the darkest place nearby until the tone is met"
+            }
+            Mode::Mosaic => {
+                "Cells, smaller where the picture is darker or busier, each hatched as dark as its mean tone"
+            }
+        }
+    }
+
     /// Every mode, in documentation order.
     pub const ALL: [Mode; 10] = [
         Mode::Outline,

@@ -301,7 +301,7 @@ fn input_args(settings: &Settings) -> Result<InputArgs, ApiError> {
     }
     let mut args = <W as clap::Parser>::try_parse_from(["serve"]).map_err(|e| bad(e.to_string()))?.input;
     args.trace.mode = match settings.trace.as_str() {
-        "" => ModeArg::Outline,
+        "" => ModeArg::default(),
         name => <ModeArg as clap::ValueEnum>::from_str(name, false).map_err(|_| {
             let names: Vec<String> = <ModeArg as clap::ValueEnum>::value_variants()
                 .iter()
