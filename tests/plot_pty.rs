@@ -167,8 +167,9 @@ fn resume_after_killing_the_host_at_half() {
     let dir = scratch("resume");
     let svg = write_sample(&dir);
     let journal = dir.join("plot.journal");
-    // Real time, so that the plot takes long enough to be interrupted.
-    let sim = SimPty::start(&dir, &[]);
+    // Paced (four times real time, not as fast as it can run), so that the plot takes long enough to be
+    // interrupted.
+    let sim = SimPty::start(&dir, &["--pace", "4"]);
     let mut host = std::process::Command::new(plotter_bin())
         .args(["plot", svg.to_str().unwrap(), "--port", &sim.port, "--journal", journal.to_str().unwrap()])
         .current_dir(&dir)
@@ -288,4 +289,32 @@ fn home_and_jog_speak_millimetres_and_the_pen() {
     ok(&plotter(&dir, &[&["jog"][..], &link, &["down"]].concat()));
     let jog = ok(&plotter(&dir, &[&["jog"][..], &link, &["x", "12.5"]].concat()));
     assert_eq!(jog.trim(), "at X 12.50 Y 0.00 mm, pen down");
+}
+
+/// `plotter sim --pace N` runs the machine's clock N times as fast as the wall clock, still over the pty: a plot of
+/// several seconds of motion ends in well under half of that at --pace 10 (in real time it takes at least its
+/// motion time), and draws the same strokes as the simulator at its own speed. A pace of 0, or with --fast, is
+/// refused with what to give.
+#[test]
+fn a_paced_simulator_runs_its_clock_faster_than_real_time() {
+    let dir = scratch("pty-pace");
+    let circle = "gen:circle?r=25&cx=60&cy=60";
+    let fast = SimPty::start(&dir, &["--fast"]);
+    ok(&plotter(&dir, &["plot", circle, "--port", &fast.port]));
+    let fast = fast.stop();
+    let paced = SimPty::start(&dir, &["--pace", "10"]);
+    let start = Instant::now();
+    ok(&plotter(&dir, &["plot", circle, "--port", &paced.port]));
+    let wall = start.elapsed();
+    let paced = paced.stop();
+    let motion = Duration::from_micros(paced.busy_ticks);
+    eprintln!("{:.2} s of motion in {:.2} s at --pace 10", motion.as_secs_f64(), wall.as_secs_f64());
+    assert!(motion > Duration::from_secs(4), "the plot moves long enough to time: {motion:?}");
+    assert!(wall < motion / 2, "{motion:?} of motion took {wall:?} at --pace 10");
+    assert_eq!(paced.positions, fast.positions, "the same steps at any pace");
+    for (bad, says) in [(&["--pace", "0"][..], "0 is not in 1..=1000"), (&["--pace", "2", "--fast"], "--fast")] {
+        let out = plotter(&dir, &[&["sim", "--pty"], bad].concat());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(says), "{bad:?}: {stderr}");
+    }
 }

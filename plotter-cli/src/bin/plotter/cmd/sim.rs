@@ -3,7 +3,8 @@
 //!
 //! The pty is opened with nix's safe `openpty`; the simulator owns the master side. Bytes read from the master
 //! feed the simulator's serial line (optionally through line noise), its replies are written back. Time runs at
-//! wall-clock speed by default (a plot takes as long as on the machine) or as fast as possible with `--fast`. On
+//! wall-clock speed by default (a plot takes as long as on the machine), `--pace N` times as fast, or as fast as
+//! possible with `--fast`. On
 //! Ctrl-C (SIGINT), SIGTERM or SIGHUP, the step trace is written to `--trace` (one line per step: its time in µs and the position
 //! after it, `t x y z` in steps), followed by a summary line `# busy_ticks <motion time in µs> steps <count>`
 //! and whether the motors are powered (`# motors on <0|1>`: `M18` releases them).
@@ -69,6 +70,11 @@ pub(crate) struct SimArgs {
     /// Run as fast as possible instead of in real time.
     #[arg(long)]
     pub(crate) fast: bool,
+    /// Run the machine's clock this many times as fast as the wall clock (1, the default, is real time): a plot
+    /// that takes a minute on the machine takes 15 s at --pace 4, still streamed over the port as the host sends
+    /// it. For tests and rehearsals; --fast drops the pacing altogether.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000), conflicts_with_all = ["fast", "qemu"])]
+    pub(crate) pace: u32,
     /// Corrupt this fraction of the received bytes (flip a bit or drop the byte), to test recovery.
     #[arg(long, default_value_t = 0.0)]
     pub(crate) noise: f64,
@@ -446,7 +452,8 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
         if args.fast {
             sim.run_for(if args.grbl || args.ebb || args.hpgl { 5_000 } else { 50_000 });
         } else {
-            sim.run_for(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX));
+            let us = u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX);
+            sim.run_for(us.saturating_mul(u64::from(args.pace)));
         }
         pending_out = sim.take_output();
         if let Some(b) = babble.as_mut() {
