@@ -1,5 +1,6 @@
 //! The studio survives SIGKILL. One `plotter serve` drives our simulated firmware on a pseudo-terminal (a process
-//! of its own, so the machine keeps its state and its step trace while the server dies) with three queued jobs: one
+//! of its own, so the machine keeps its state and its step trace while the server dies; its clock runs at four
+//! times real time) with three queued jobs: one
 //! plots, two wait. Twenty times the server is killed with SIGKILL at a random moment (seeded; the seed and every
 //! moment are printed), the database is checked with SQLite's `PRAGMA integrity_check`, the server is started again
 //! on the same state folder, the queue must hold the same three jobs in the same order (none lost, none
@@ -21,6 +22,11 @@ use serde_json::Value;
 
 /// How many times the server is killed.
 const KILLS: usize = 20;
+
+/// The simulator's clock runs this many times as fast as the wall clock (`plotter sim --pace`): the server still
+/// streams to a real serial port, and every wait on the machine (a plot, its queue played out after a kill, homing)
+/// takes a quarter of the time. The kill moments are drawn in machine time and waited for in wall time.
+const PACE: u32 = 4;
 
 /// The job that plots through the kills: concentric circles near the home corner, each flattened into many short
 /// blocks, so that the firmware's queue (which it plays out after the server dies, before a resume can begin) holds
@@ -159,9 +165,9 @@ fn sigkill_at_twenty_random_moments_loses_no_job_and_draws_no_stroke_twice() {
         std::fs::write(dir.join(name), svg).expect("write drawing");
     }
     let t0 = Instant::now();
-    // The machine, in real time, outside the server.
+    // The machine, PACE times real time, outside the server.
     let profile = quick_homing_profile(&dir);
-    let sim = SimPty::start(&dir, &["--profile", &profile]);
+    let sim = SimPty::start(&dir, &["--pace", &PACE.to_string(), "--profile", &profile]);
     let state = dir.join("studio");
     let mut served = start_server(&state, &sim.port, &profile);
     let args = serde_json::to_string(&FLAGS).expect("JSON");
@@ -179,7 +185,7 @@ fn sigkill_at_twenty_random_moments_loses_no_job_and_draws_no_stroke_twice() {
         // A moment while a job is on the machine (the first, resumed, or a later one).
         let on = wait_for_a_plot(&served);
         let after = rng.millis(0, 500);
-        std::thread::sleep(after);
+        std::thread::sleep(after / PACE);
         let before = queue(&served);
         let status = served.stop_with(nix::sys::signal::Signal::SIGKILL, Duration::from_secs(10));
         assert!(!status.success(), "killed");
@@ -194,7 +200,7 @@ fn sigkill_at_twenty_random_moments_loses_no_job_and_draws_no_stroke_twice() {
         let interrupted: Vec<i64> = after_kill.iter().filter(|j| j.1 == "interrupted").map(|j| j.0).collect();
         assert!(interrupted.len() <= 1, "kill {kill}: {after_kill:?}");
         eprintln!(
-            "kill {kill} {} ms into {}: {before:?} -> {after_kill:?} ({:.1} s)",
+            "kill {kill} {} ms (machine time) into {}: {before:?} -> {after_kill:?} ({:.1} s)",
             after.as_millis(),
             on.map_or_else(|| "the idle studio".to_string(), |j| format!("job {j}'s plot")),
             t0.elapsed().as_secs_f64()
