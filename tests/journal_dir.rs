@@ -68,8 +68,8 @@ fn an_interrupted_plot_is_listed_and_resumed_by_number() {
     let dir = scratch("journal-dir-cut");
     std::fs::copy(sample("duck.svg"), dir.join("duck.svg")).unwrap();
     let state = dir.join("state");
-    // Real time: the 13 s duck is still plotting when SIGTERM comes.
-    let sim = SimPty::start(&dir, &[]);
+    // Paced at four times real time, the 13 s duck (3.3 s here) is still plotting when SIGTERM comes.
+    let sim = SimPty::start(&dir, &["--pace", "4"]);
     let child = Command::new(plotter_bin())
         .args(["plot", "duck.svg", "--port", &sim.port])
         .current_dir(&dir)

@@ -118,7 +118,7 @@ impl OnPty {
 #[test]
 fn one_r_resumes_the_plot_without_enter() {
     let dir = scratch("pause-key-r");
-    let mut plot = OnPty::start(&dir, &["--sim-speed", "2"]);
+    let mut plot = OnPty::start(&dir, &["--sim-speed", "4"]);
     let before = tcgetattr(&plot.slave).expect("tcgetattr").local_flags;
     assert!(before.contains(LocalFlags::ICANON | LocalFlags::ECHO));
     let waiting = plot.pause();
@@ -135,8 +135,8 @@ fn one_r_resumes_the_plot_without_enter() {
 fn one_a_aborts_with_the_pen_up() {
     let dir = scratch("pause-key-a");
     let log = dir.join("pen.log");
-    // The emulator runs in real time: the 13 s duck is still plotting when the Ctrl-C comes.
-    let sim = SimPty::start(&dir, &["--pen-log", log.to_str().unwrap()]);
+    // The emulator runs at four times real time: the 13 s duck (3.3 s here) is still plotting when the Ctrl-C comes.
+    let sim = SimPty::start(&dir, &["--pace", "4", "--pen-log", log.to_str().unwrap()]);
     let mut plot = OnPty::start(&dir, &["--port", &sim.port]);
     plot.pause();
     let (code, stdout, terminal) = plot.answer(b"a");

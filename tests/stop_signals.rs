@@ -6,7 +6,9 @@
 //!
 //! A single Ctrl-C during a plot is a pause request: with no terminal to answer the prompt (stdin is empty) the
 //! pause ends as an abort, which lifts the pen like the other two. The delays come from a fixed seed, so a failure
-//! replays.
+//! replays. The emulators' clocks run at `PACE` times real time (`plotter sim --pace`), and the random part of each
+//! delay is shortened by the same factor, so that a signal lands at the same point of the machine's work as in real
+//! time while the test waits a fraction of it.
 
 use std::io::Read as _;
 use std::path::Path;
@@ -18,6 +20,9 @@ use plotter_e2e::{SimPty, plotter, plotter_bin, sample, scratch};
 
 /// Signals per firmware.
 const SIGNALS: usize = 20;
+
+/// How many times as fast as the wall clock the emulators run.
+const PACE: u64 = 4;
 
 /// A small xorshift, for reproducible delays.
 struct Rng(u64);
@@ -53,13 +58,15 @@ fn complete(j: &Path) -> bool {
     std::fs::read_to_string(j).is_ok_and(|t| t.lines().any(|l| l.trim() == "complete"))
 }
 
-/// Interrupt plots on `sim` (its extra `plot` flags in `flags`) with SIGTERM, SIGHUP and SIGINT in turn, each after a
-/// random delay up to `max_delay_ms`, `SIGNALS` times; then let the plot finish from its journal.
+/// Interrupt plots on `sim` (its extra `plot` flags in `flags`) with SIGTERM, SIGHUP and SIGINT in turn, each 100 ms
+/// (the host's start) and a random part of up to `max_delay_ms` of machine time after the host started, `SIGNALS`
+/// times; then let the plot finish from its journal.
 fn interrupt_plots(name: &str, sim_args: &[&str], flags: &[&str], input: &str, seed: u64, max_delay_ms: u64) {
     let dir = scratch(&format!("signals-{name}"));
     let log = dir.join("pen.log");
     let mut args = sim_args.to_vec();
-    args.extend(["--pen-log", log.to_str().expect("utf-8")]);
+    let pace = PACE.to_string();
+    args.extend(["--pen-log", log.to_str().expect("utf-8"), "--pace", &pace]);
     let sim = SimPty::start(&dir, &args);
     let port = sim.port.clone();
     let journal = dir.join("plot.journal");
@@ -98,7 +105,7 @@ fn interrupt_plots(name: &str, sim_args: &[&str], flags: &[&str], input: &str, s
             .stderr(Stdio::piped())
             .spawn()
             .expect("plotter runs");
-        let delay = Duration::from_millis(100 + rng.below(max_delay_ms));
+        let delay = Duration::from_millis(100 + rng.below(max_delay_ms) / PACE);
         std::thread::sleep(delay);
         let signal = signals[sent % 3];
         let alive = child.try_wait().expect("wait").is_none();
