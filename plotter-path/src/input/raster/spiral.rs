@@ -4,9 +4,14 @@
 //! point that would land on paper is pulled back onto the spiral's own line, so no wave reaches past a shape's edge
 //! by more than the pen's half width.
 //!
-//! The spiral `r = row · θ / 2π` is walked in steps of an eighth of the local wavelength (at most half a pixel); the
-//! wave's phase advances by step / wavelength, and each point is pushed out along the radius by the amplitude times
-//! a triangle wave of the phase.
+//! The spiral `r = row · θ / 2π` is walked in steps that end on every quarter of the local wavelength (each peak and
+//! each crossing of the spiral's line, at most half a pixel apart); the wave's phase advances by step / wavelength,
+//! and each point is pushed out along the radius by the amplitude times a triangle wave of the phase.
+//!
+//! **Tone.** The turns' waves are not in phase with their neighbours' (a turn is no whole number of wavelengths
+//! long), so their wavelength for a darkness is read from the squiggle's table measured with neighbours at every
+//! phase ([`super::squiggle::Waves::unphased`]): read off the in-phase table the ramp plotted up to L* 12 too light
+//! in the middle.
 
 use super::squiggle::Waves;
 use super::tone::DarknessMap;
@@ -36,7 +41,7 @@ pub fn spiral(map: &DarknessMap, pen: f64, row: f64) -> Vec<Vec<Point>> {
     let c = Point::new(w / 2.0, h / 2.0);
     let r_end = (w * w + h * h).sqrt() / 2.0 + row;
     let b = row / TAU;
-    let waves = Waves::new(pen, row);
+    let waves = Waves::unphased(pen, row);
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let paper = |p: Point| p.x < 0.0 || p.y < 0.0 || map.at(p.x as usize, p.y as usize) <= 0.0;
     let (mut theta, mut phase) = (0.0f64, 0.0f64);
@@ -51,7 +56,13 @@ pub fn spiral(map: &DarknessMap, pen: f64, row: f64) -> Vec<Vec<Point>> {
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let dark = if on.x >= 0.0 && on.y >= 0.0 { map.at(on.x as usize, on.y as usize) } else { 0.0 };
         let wave = waves.wave(f64::from(dark));
-        let step = wave.map_or(0.5, |(_, lambda)| (lambda / 8.0).min(0.5));
+        // Steps land on every quarter of the wave (its peaks and its crossings of the spiral's line), at most half
+        // a pixel apart: a step across a peak would cut it short, and the band-filling waves would leave paper
+        // between the turns (at L* 7.5 the plot was L* 16).
+        let step = wave.map_or(0.5, |(_, lambda)| {
+            let to_quarter = ((4.0 * phase).floor() + 1.0) / 4.0 - phase;
+            (to_quarter * lambda).clamp(1e-6, 0.5)
+        });
         let inside_picture = |p: Point| (0.0..=w).contains(&p.x) && (0.0..=h).contains(&p.y);
         match wave {
             Some((a, lambda)) => {
@@ -97,6 +108,21 @@ mod tests {
         assert_eq!(triangle(0.5), 0.0);
         assert_eq!(triangle(0.75), -1.0);
         assert_eq!(triangle(1.125), 0.5);
+    }
+
+    #[test]
+    fn flat_grays_ink_their_darkness_though_the_turns_are_out_of_phase() {
+        // Pen 1 px, turns 3 px apart (the 0.3 mm pen on 0.3 mm pixels, rows twice the 0.45 mm closest spacing), a
+        // 240 × 240 picture of one darkness: the ink over the square 40..200 (whole turns, away from the centre's
+        // first turns and the corners) is that darkness. Read off the squiggle's in-phase table, and with steps
+        // that cut across the peaks, 0.5 plotted 0.474 and 0.8 plotted 0.744.
+        for d in [0.5f32, 0.8, 0.95] {
+            let s = spiral(&crate::input::raster::tone::flat(240, 240, d), 1.0, 3.0);
+            let mut grid = InkGrid::new(1200, 1200, 0.2);
+            grid.draw(&s, 1.0);
+            let f = grid.fraction(200, 1000, 200, 1000);
+            assert!((f - f64::from(d)).abs() < 0.03, "darkness {d}: ink fraction {f:.3}");
+        }
     }
 
     #[test]
