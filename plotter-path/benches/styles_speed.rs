@@ -46,7 +46,7 @@ fn main() {
     let only: Vec<String> = std::env::var("STYLES")
         .map(|s| s.split(',').map(str::to_owned).filter(|w| !w.is_empty()).collect())
         .unwrap_or_default();
-    let cases: [(&str, Mode, bool); 8] = [
+    let cases: [(&str, Mode, bool); 9] = [
         ("hatch", Mode::Hatch, false),
         ("hatch --levels 8", Mode::Hatch, false),
         ("squiggle", Mode::Squiggle, false),
@@ -55,6 +55,7 @@ fn main() {
         ("stipple --tsp", Mode::Stipple, true),
         ("flow", Mode::Flow, false),
         ("sketch", Mode::Sketch, false),
+        ("mosaic", Mode::Mosaic, false),
     ];
     println!(
         "{:<20} {:>8} {:>8} {:>8} {:>9} {:>8} {:>6}",

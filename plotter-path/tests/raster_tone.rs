@@ -26,7 +26,8 @@ const H: u32 = 134;
 const CELL_MM: f64 = 0.25;
 
 /// Every tone style (the line-art modes outline, centerline and edges do not shade).
-const STYLES: [Mode; 6] = [Mode::Hatch, Mode::Stipple, Mode::Squiggle, Mode::Spiral, Mode::Flow, Mode::Sketch];
+const STYLES: [Mode; 7] =
+    [Mode::Hatch, Mode::Stipple, Mode::Squiggle, Mode::Spiral, Mode::Flow, Mode::Sketch, Mode::Mosaic];
 
 fn options(mode: Mode) -> TraceOptions {
     TraceOptions { mode, pitch_mm: Some(PEN_MM), ..TraceOptions::default() }
@@ -48,9 +49,6 @@ fn bounds(mode: Mode, levels: u8) -> Bounds {
         (Mode::Hatch, 4) => Bounds { ramp: 12.5, ..met },
         // Sixteen bands: ±3.1 by construction, measured 3.0.
         (Mode::Hatch, _) => Bounds { ramp: 3.5, ..met },
-        // Not met yet: the spiral's turns are not in phase as the squiggle's rows are, so its band-filling waves
-        // leave more paper than the squiggle's table counts (L* 7.5 plots 28.2, mid-ramp 8-12 too light).
-        (Mode::Spiral, _) => Bounds { ramp: 21.5, ..met },
         // Not met yet (another engineer's style, being sped up): the dots never overlap, so the dark end stays gray
         // (L* 7.5 plots 34.6; mid-tones 12 too dark); black 0.918 ink.
         (Mode::Stipple, _) => Bounds { ramp: 28.0, ink: 0.91, ..met },
@@ -59,6 +57,10 @@ fn bounds(mode: Mode, levels: u8) -> Bounds {
         (Mode::Flow, _) => Bounds { ramp: 21.0, outside_mm: 0.85, ..met },
         // Not met yet: the scribble's dark end stays gray (L* 7.5 plots 32.1), and strokes overrun 0.28 mm.
         (Mode::Sketch, _) => Bounds { ramp: 25.5, ink: 0.93, outside_mm: 0.3 },
+        // Not met yet: the darkest cells (1.8 mm) plot a little light, L* 7.5 as 10.7 (measured +3.25); the cause is
+        // not yet traced (likely the three families' zig-zag connectors, which all run along a small cell's edge and
+        // overlap one another more than the respacing counts).
+        (Mode::Mosaic, _) => Bounds { ramp: 3.5, ..met },
         _ => met,
     }
 }

@@ -60,7 +60,7 @@ pub fn mosaic(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64, angle_deg: f64,
     let pen_px = ladder.pen_mm / pixel_mm;
     let mut out = Mosaic { cells: cells.len(), ..Mosaic::default() };
     for (i, cell) in cells.iter().enumerate() {
-        let Some((mean, area)) = sums.mean_in(cell) else { continue };
+        let Some((mean, area, whole)) = sums.mean_in(cell) else { continue };
         let rung = ladder.rung_to_black(mean);
         if rung.families == 0 {
             continue;
@@ -74,19 +74,19 @@ pub fn mosaic(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64, angle_deg: f64,
             let angle = (angle_deg + turn + t).to_radians();
             let phase = period * unit(i as u64, 2 + t.to_bits());
             let mut f = LineFamily { angle, period, phase };
-            let mut s = family_strokes(&loop_, &f, pen_px);
+            let mut s = family_strokes(&loop_, &f, pen_px, map);
             let ink = stroke_ink(&s, pen_px);
             // Lines already touching cannot be closed up further: respaced, they could only lighten the cell.
             if ink > 0.0 && target > 0.0 && period > pen_px {
                 f.period = (period * ink / target).clamp(period / 2.0, period * 2.0).max(pen_px);
                 f.phase = period * unit(i as u64, 2 + t.to_bits()) * f.period / period;
-                s = family_strokes(&loop_, &f, pen_px);
+                s = family_strokes(&loop_, &f, pen_px, map);
             }
             out.strokes.extend(s);
         }
-        // A cell filled solid (lines a pen width apart) also gets its edge traced a pen radius inside: the lines'
-        // round ends leave slivers of paper along it.
-        if rung.spacing_mm <= ladder.pen_mm {
+        // A cell filled solid (lines a pen width apart) and holding no paper also gets its edge traced a pen
+        // radius inside: the lines' round ends leave slivers of paper along it.
+        if rung.spacing_mm <= ladder.pen_mm && whole {
             let mut edge = inset(cell, pen_px / 2.0);
             if let Some(&first) = edge.first() {
                 edge.push(first);
@@ -111,6 +111,8 @@ struct Sums {
     area2: Vec<f64>,
     /// `(width + 1)` per row: sum of darkness over `[0, x)` of that row.
     rows: Vec<f64>,
+    /// `(width + 1)` per row: how many pixels of `[0, x)` of that row are not paper.
+    inked: Vec<u32>,
 }
 
 impl Sums {
@@ -119,18 +121,21 @@ impl Sums {
         let mut area = vec![0.0; (w + 1) * (h + 1)];
         let mut area2 = vec![0.0; (w + 1) * (h + 1)];
         let mut rows = vec![0.0; (w + 1) * h];
+        let mut inked = vec![0u32; (w + 1) * h];
         for y in 0..h {
-            let (mut run, mut run2) = (0.0, 0.0);
+            let (mut run, mut run2, mut count) = (0.0, 0.0, 0u32);
             for x in 0..w {
                 let d = f64::from(map.data[y * w + x]);
                 run += d;
                 run2 += d * d;
+                count += u32::from(d > 0.0);
                 rows[y * (w + 1) + x + 1] = run;
+                inked[y * (w + 1) + x + 1] = count;
                 area[(y + 1) * (w + 1) + x + 1] = area[y * (w + 1) + x + 1] + run;
                 area2[(y + 1) * (w + 1) + x + 1] = area2[y * (w + 1) + x + 1] + run2;
             }
         }
-        Sums { width: w, height: h, area, area2, rows }
+        Sums { width: w, height: h, area, area2, rows, inked }
     }
 
     /// Mean and standard deviation of the darkness over pixels `[x0, x1) × [y0, y1)`.
@@ -144,9 +149,11 @@ impl Sums {
         (mean, var.sqrt())
     }
 
-    /// Mean darkness of the pixel centres inside the convex polygon `cell`, and their number (its area in
-    /// pixels); `None` when no centre lies inside.
-    fn mean_in(&self, cell: &[Point]) -> Option<(f64, f64)> {
+    /// Mean darkness of the pixel centres inside the convex polygon `cell` that are not paper, their number (the
+    /// area the cell shades, in pixels), and whether that is all of the cell's pixels; `None` when no such centre
+    /// lies inside. Paper stays paper: a cell across a shape's edge shades only the shape's side, at the shape's
+    /// tone (averaged with the paper, a black square's edge cells plotted half dark and spilled 4 mm past it).
+    fn mean_in(&self, cell: &[Point]) -> Option<(f64, f64, bool)> {
         let (lo, hi) = cell.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.y), b.max(p.y)));
         let last = (hi - 0.5).floor();
         if last < 0.0 || self.height == 0 {
@@ -154,7 +161,7 @@ impl Sums {
         }
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // both clamped to the picture's rows
         let (r0, r1) = ((lo - 0.5).ceil().max(0.0) as usize, (last as usize).min(self.height - 1));
-        let (mut sum, mut count) = (0.0, 0usize);
+        let (mut sum, mut count, mut all) = (0.0, 0u64, 0usize);
         for row in r0..=r1 {
             #[allow(clippy::cast_precision_loss)]
             let y = row as f64 + 0.5;
@@ -170,11 +177,13 @@ impl Sums {
                 continue;
             }
             let r = &self.rows[row * (self.width + 1)..];
+            let k = &self.inked[row * (self.width + 1)..];
             sum += r[c1] - r[c0];
-            count += c1 - c0;
+            count += u64::from(k[c1] - k[c0]);
+            all += c1 - c0;
         }
         #[allow(clippy::cast_precision_loss)]
-        (count > 0).then(|| (sum / count as f64, count as f64))
+        (count > 0).then(|| (sum / count as f64, count as f64, count == all as u64))
     }
 }
 
@@ -358,17 +367,70 @@ fn inset(cell: &[Point], r: f64) -> Vec<Point> {
     if cur.len() >= 3 { cur } else { Vec::new() }
 }
 
-/// One family's strokes in a convex cell (closed `loop_`): each span pulled in by the pen's radius at both ends so
-/// its round caps stay in the cell, a span too short for that kept as a dot when the dot's ink is at most twice the
-/// span's, and the spans joined into one zig-zag.
-fn family_strokes(loop_: &[Point], f: &LineFamily, pen_px: f64) -> Vec<Vec<Point>> {
+/// One family's strokes in a convex cell (closed `loop_`): each span cut where it crosses paper pixels of `map`,
+/// each piece pulled in by the pen's radius at both ends so its round caps stay in the cell and off the paper, a
+/// piece too short for that kept as a dot when the dot's ink is at most twice the span's, and the pieces joined into
+/// one zig-zag by connectors that cross no paper (the cell is convex, so they stay inside it).
+fn family_strokes(loop_: &[Point], f: &LineFamily, pen_px: f64, map: &DarknessMap) -> Vec<Vec<Point>> {
     let r = pen_px / 2.0;
+    let (d, n) = f.frame();
     let mut lines = line_spans(std::slice::from_ref(&loop_.to_vec()), f);
     for line in &mut lines {
-        line.spans = line.spans.iter().filter_map(|&span| pen_span(span, pen_px, (r, r))).collect();
+        let v = line.v;
+        let at = |u: f64| Point::new(u * d.0 + v * n.0, u * d.1 + v * n.1);
+        line.spans = line
+            .spans
+            .iter()
+            .flat_map(|&span| off_paper(span, &at, map))
+            .filter_map(|span| pen_span(span, pen_px, (r, r)))
+            .collect();
     }
-    // The cell is convex: a connector between two points inside it stays inside.
-    zigzag::join(&lines, f, f64::INFINITY, |_, _| true)
+    lines.retain(|l| !l.spans.is_empty());
+    zigzag::join(&lines, f, f64::INFINITY, |a, b| crosses_no_paper(a, b, map))
+}
+
+/// Paper within this much of a span is found (pixels): a quarter pixel.
+const PAPER_STEP: f64 = 0.25;
+
+/// Whether the pixel under `p` is paper.
+fn paper_at(map: &DarknessMap, p: Point) -> bool {
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let (x, y) = (p.x.floor().max(0.0) as usize, p.y.floor().max(0.0) as usize);
+    map.at(x.min(map.width.saturating_sub(1)), y.min(map.height.saturating_sub(1))) <= 0.0
+}
+
+/// The pieces of the span `(a, b)` (along the line `at`) that lie off the paper of `map`, found at quarter-pixel
+/// steps.
+fn off_paper((a, b): (f64, f64), at: &impl Fn(f64) -> Point, map: &DarknessMap) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let n = ((b - a) / PAPER_STEP).ceil().max(1.0) as usize;
+    let mut start: Option<f64> = None;
+    for i in 0..=n {
+        #[allow(clippy::cast_precision_loss)]
+        let u = a + (b - a) * i as f64 / n as f64;
+        match (paper_at(map, at(u)), start) {
+            (false, None) => start = Some(u),
+            (true, Some(s)) => {
+                #[allow(clippy::cast_precision_loss)]
+                out.push((s, (u - (b - a) / n as f64 / 2.0).max(s)));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        out.push((s, b));
+    }
+    out
+}
+
+/// Whether the segment `a`→`b` crosses no paper pixel of `map` (checked every quarter pixel).
+fn crosses_no_paper(a: Point, b: Point, map: &DarknessMap) -> bool {
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let n = (a.distance(b) / PAPER_STEP).ceil().max(1.0) as usize;
+    #[allow(clippy::cast_precision_loss)]
+    (0..=n).all(|i| !paper_at(map, a.lerp(b, i as f64 / n as f64)))
 }
 
 /// The paper strokes `pen` wide cover: each segment's rectangle, the two round caps of each stroke, and at each
@@ -433,7 +495,7 @@ mod tests {
     }
 
     #[test]
-    fn a_black_square_gets_the_darkest_rung_inside_and_nothing_far_outside() {
+    fn a_black_square_gets_the_darkest_rung_inside_and_nothing_outside() {
         // A 20 × 20 mm black square in the middle of a 40 × 40 mm white picture, 0.1 mm pixels.
         let mut map = flat(400, 400, 0.0);
         for y in 100..300 {
@@ -448,11 +510,13 @@ mod tests {
         // width apart) gives.
         let inner = grid.fraction(5 * 118, 5 * 282, 5 * 118, 5 * 282);
         assert!(inner > 0.97, "inside {inner:.3}");
-        // Outside, beyond one smallest cell from the edge, nothing.
-        assert_eq!(grid.fraction(0, 2000, 0, 5 * 82), 0.0);
-        assert_eq!(grid.fraction(0, 2000, 5 * 318, 2000), 0.0);
-        assert_eq!(grid.fraction(0, 5 * 82, 0, 2000), 0.0);
-        assert_eq!(grid.fraction(5 * 318, 2000, 0, 2000), 0.0);
+        // Outside, beyond the pen's radius (1.5 px, a dot kept for a piece shorter than the pen) and the quarter
+        // pixel paper is found within, nothing: cells across the edge shade only the square's side (they once
+        // shaded the whole cell at its mean, up to a smallest cell, 18 px, past the edge).
+        assert_eq!(grid.fraction(0, 2000, 0, 5 * 98), 0.0);
+        assert_eq!(grid.fraction(0, 2000, 5 * 302, 2000), 0.0);
+        assert_eq!(grid.fraction(0, 5 * 98, 0, 2000), 0.0);
+        assert_eq!(grid.fraction(5 * 302, 2000, 0, 2000), 0.0);
     }
 
     #[test]
