@@ -52,9 +52,10 @@ fn bounds(mode: Mode, levels: u8) -> Bounds {
         // Not met yet (another engineer's style, being sped up): the dots never overlap, so the dark end stays gray
         // (L* 7.5 plots 34.6; mid-tones 12 too dark); black 0.918 ink.
         (Mode::Stipple, _) => Bounds { ramp: 28.0, ink: 0.91, ..met },
-        // Not met yet: flow's streamlines stop short of each other (mid-ramp −13, L* 7.5 plots 27.9) and a line
-        // leaving the square runs on 0.82 mm.
-        (Mode::Flow, _) => Bounds { ramp: 21.0, outside_mm: 0.85, ..met },
+        // Not met yet: where the field turns (mid-ramp the lines swing from along the ramp's isotones to the base
+        // angle) streamlines converge and diverge, so their spacing strays from the tone's (measured −5.9 at L* 32.5);
+        // the dark end plots L* 7.5 as 15.2 (+7.7). A line leaving the square runs on 0.82 mm.
+        (Mode::Flow, _) => Bounds { ramp: 8.0, outside_mm: 0.85, ..met },
         // Not met yet: the scribble's dark end stays gray (L* 7.5 plots 32.1), and strokes overrun 0.28 mm.
         (Mode::Sketch, _) => Bounds { ramp: 25.5, ink: 0.93, outside_mm: 0.3 },
         // Not met yet: the darkest cells (1.8 mm) plot a little light, L* 7.5 as 10.7 (measured +3.25); the cause is
