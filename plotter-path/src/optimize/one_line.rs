@@ -367,6 +367,25 @@ mod tests {
     }
 
     #[test]
+    fn a_line_through_the_line_dots_of_a_flat_gray_inks_its_darkness() {
+        use crate::input::raster::ink::ink_in_picture;
+        use crate::input::raster::stipple::line_dots;
+        use crate::input::raster::tone::DarknessMap;
+        // A flat gray of darkness 0.5 (and 0.2) over 200 × 200 px at a 2 px pen: the line routed through its dots
+        // inks the tone model's 0.5 of the paper within 0.03, seen 10 px in from the edges. (A line through the
+        // stipple's own dots, 6400 touches for 0.5, would ink about 0.8.) White gets no dots and so no line.
+        for d in [0.5f32, 0.2] {
+            let map = DarknessMap { width: 200, height: 200, data: vec![d; 40_000] };
+            let dots = line_dots(&map, 2.0, 8);
+            let line: Vec<Point> = tour(&dots).iter().map(|&i| dots[i]).collect();
+            let f = ink_in_picture(&[line], 2.0, 200, 200, 10);
+            assert!((f - f64::from(d)).abs() < 0.03, "darkness {d}: ink {f} from {} dots", dots.len());
+        }
+        let white = DarknessMap { width: 50, height: 50, data: vec![0.0; 2500] };
+        assert!(line_dots(&white, 2.0, 8).is_empty());
+    }
+
+    #[test]
     fn the_hilbert_index_follows_the_curve() {
         // The order-1 curve visits (0,0), (0,1), (1,1), (1,0); the order-2 curve's 16 cells each once, each step to
         // a side neighbour.

@@ -498,8 +498,7 @@ fn shade(
             bands.into_iter().map(|b| (format!("hatch {}", b.band), b.strokes)).collect()
         }
         Mode::Stipple => {
-            let dots = stipple::stipple_dots(map, options.pen.width_mm / pixel_mm, options.stipple.iterations);
-            vec![("stipple".to_owned(), stipple::strokes(&dots))]
+            vec![("stipple".to_owned(), stipple::stipple(map, options.pen.width_mm / pixel_mm, &options.stipple))]
         }
         Mode::Squiggle => {
             let row = 2.0 * options.ladder().min_spacing_mm / pixel_mm;
