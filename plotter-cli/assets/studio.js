@@ -71,6 +71,15 @@ function machineCard(m) {
   card.appendChild(bar);
   if (m.error) card.appendChild(text('p', m.error, 'error'));
   const url = '/api/machines/' + encodeURIComponent(m.name) + '/';
+  if (m.prompt) {
+    // Parked at a pen change, a refill or a layer's pause: what to do, and the button that goes on once it is done.
+    const ask = document.createElement('div');
+    ask.className = 'prompt';
+    ask.setAttribute('role', 'alert');
+    ask.appendChild(text('p', m.prompt));
+    if (operates()) ask.appendChild(button('Done: resume', () => post(url + 'resume'), 'resume', 'go on plotting'));
+    card.appendChild(ask);
+  }
   const controls = document.createElement('div');
   controls.className = 'row';
   if (operates()) {

@@ -20,9 +20,38 @@ pub struct CopiesOutcome {
     pub ended_early: Option<String>,
 }
 
+/// The key of the copy number in a journal's source record (a JSON object).
+const COPY_KEY: &str = "copy";
+
+/// The copy a journal's source record says was being drawn (1 when it names none).
+pub fn copy_of(source: &str) -> u64 {
+    serde_json::from_str::<serde_json::Value>(source)
+        .ok()
+        .and_then(|v| v.get(COPY_KEY).and_then(serde_json::Value::as_u64))
+        .filter(|c| *c >= 1)
+        .unwrap_or(1)
+}
+
+/// `source` with the copy being drawn recorded in it (a source that is no JSON object is left as it is).
+fn with_copy(source: String, copy: u64) -> String {
+    match serde_json::from_str::<serde_json::Value>(&source) {
+        Ok(serde_json::Value::Object(mut o)) => {
+            o.insert(COPY_KEY.into(), copy.into());
+            serde_json::Value::Object(o).to_string()
+        }
+        _ => source,
+    }
+}
+
+/// Whether the plans of a plot with `copies` end back where they started: each copy of several must, to start
+/// where the first did (a resume plans the same way to find the same plan).
+pub fn returns(return_home: bool, copies: &Copies) -> bool {
+    return_home || copies.count != 1
+}
+
 /// Plot `steps` as `copies` say: home before the first copy only (when `home`), every copy planned from the
 /// same start and back to it (so each draws exactly the same), the page delay and the paper pause between them.
-/// The journal (if any) records the copy being drawn.
+/// The journal (if any) records the copy being drawn, so that a resume goes on with the copies left.
 #[allow(clippy::too_many_arguments)]
 pub fn plot_copies<M: PlotMachine + ?Sized>(
     machine: &mut M,
@@ -35,10 +64,67 @@ pub fn plot_copies<M: PlotMachine + ?Sized>(
     copies: &Copies,
     events: &mut dyn PlotEvents,
 ) -> crate::Result<CopiesOutcome> {
-    let mut done = Vec::new();
-    let back = return_home || copies.count != 1;
-    let mut copy: u64 = 1;
+    let from = Copy { number: 1, home, done: Vec::new() };
+    copies_from(machine, profile, steps, from, return_home, journal, stops, copies, events)
+}
+
+/// Resume a plot of `copies` from its journal (see [`super::resume_with`]; `return_home` as the plot was given
+/// it, before [`returns`]): finish the copy the journal was drawing, then plot the copies left, with the page
+/// delay and the paper pause between them as in the plot.
+#[allow(clippy::too_many_arguments)]
+pub fn resume_copies<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    start: [i32; 4],
+    state: &crate::link::journal::JournalState,
+    journal_path: &std::path::Path,
+    trust_position: bool,
+    return_home: bool,
+    stops: &StopOptions,
+    copies: &Copies,
+    events: &mut dyn PlotEvents,
+) -> crate::Result<CopiesOutcome> {
+    let number = copy_of(&state.source);
+    let back = returns(return_home, copies);
+    let first =
+        super::resume_with(machine, profile, steps, start, state, journal_path, trust_position, back, stops, events)?;
+    // Every copy starts where the first did, so the same source record serves (its copy number is rewritten).
+    let source = |_: [i32; 4]| -> anyhow::Result<String> { Ok(state.source.clone()) };
+    let spec = JournalSpec { path: journal_path, source: &source };
+    // A copy found finished moved nothing, not even home: the next copy homes first (unless the position is
+    // trusted).
+    let home = first.drawn_before && !trust_position;
+    let from = Copy { number: number + 1, home, done: vec![first] };
+    copies_from(machine, profile, steps, from, return_home, Some(spec), stops, copies, events)
+}
+
+/// Where a run of copies starts: the copy to draw next, whether to home before it, the copies drawn.
+struct Copy {
+    number: u64,
+    home: bool,
+    done: Vec<JobOutcome>,
+}
+
+/// The copies from `from.number` on (each after the page delay and the paper pause when a copy came before it).
+#[allow(clippy::too_many_arguments)]
+fn copies_from<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    from: Copy,
+    return_home: bool,
+    journal: Option<JournalSpec<'_>>,
+    stops: &StopOptions,
+    copies: &Copies,
+    events: &mut dyn PlotEvents,
+) -> crate::Result<CopiesOutcome> {
+    let Copy { number: mut copy, mut home, mut done } = from;
+    let back = returns(return_home, copies);
     loop {
+        if copies.count != 0 && copy > copies.count {
+            return Ok(CopiesOutcome { copies: done, ended_early: None });
+        }
         if copy > 1 {
             if let Some(cause) = events.stop_requested() {
                 return Ok(CopiesOutcome {
@@ -67,11 +153,16 @@ pub fn plot_copies<M: PlotMachine + ?Sized>(
                 }
             }
         }
-        let out = plot_with(machine, profile, steps, home && copy == 1, back, journal, stops, events)?;
+        let out = match journal {
+            Some(j) => {
+                let source = |start: [i32; 4]| -> anyhow::Result<String> { Ok(with_copy((j.source)(start)?, copy)) };
+                let spec = JournalSpec { path: j.path, source: &source };
+                plot_with(machine, profile, steps, home, back, Some(spec), stops, events)?
+            }
+            None => plot_with(machine, profile, steps, home, back, None, stops, events)?,
+        };
+        home = false;
         done.push(out);
-        if copies.count != 0 && copy >= copies.count {
-            return Ok(CopiesOutcome { copies: done, ended_early: None });
-        }
         copy += 1;
     }
 }
@@ -168,5 +259,88 @@ mod tests {
         assert_eq!(out.copies.len(), 2);
         assert_eq!(out.ended_early.as_deref(), Some("stopped at the paper change before copy 3"));
         assert_eq!(counting.asked, ["put in fresh paper for copy 2", "put in fresh paper for copy 3"]);
+    }
+
+    /// Stops the plot as a stop signal would once `at` blocks of its `plot`-th plan are executed, and answers
+    /// every pause with "go on", keeping what was asked.
+    struct StopAt {
+        plot: u32,
+        at: usize,
+        plots: u32,
+        executed: usize,
+        asked: Vec<String>,
+    }
+
+    impl PlotEvents for StopAt {
+        fn progress(&mut self, p: &JobProgress) {
+            self.executed = p.executed;
+        }
+        fn plot_started(&mut self, _: &plotter_path::config::pens::LayerPen, _: usize) {
+            self.plots += 1;
+            self.executed = 0;
+        }
+        fn plot_pause(&mut self, p: &PauseRequest) -> PenChangeChoice {
+            self.asked.push(p.ask());
+            PenChangeChoice::Continue
+        }
+        fn stop_requested(&mut self) -> Option<crate::stop::StopCause> {
+            (self.plots == self.plot && self.executed >= self.at).then_some(crate::stop::StopCause::Requested)
+        }
+    }
+
+    /// A plot of two copies with refills every 100 mm, stopped early in its first copy (during its first line)
+    /// and resumed from its journal, keeps both: one layer of lines 30, 50, 20, 40 and 90 mm long refills before
+    /// the 40 (30 + 50 + 20 = 100 filled part 1) and before the 90 (40 + 90 > 100), so the first copy has its
+    /// two refills left, then the paper pause before copy 2 of 2, then copy 2's two refills: five pauses and two
+    /// copies in all. The journal knew which copy it was drawing.
+    #[test]
+    fn a_resume_keeps_the_refills_and_goes_on_with_the_copies_left() {
+        let profile = MachineProfile::default_plotter();
+        let lines = [30.0, 50.0, 20.0, 40.0, 90.0]
+            .iter()
+            .enumerate()
+            .map(|(i, len)| {
+                let y = 10.0 + 5.0 * f64::from(u32::try_from(i).unwrap());
+                Polyline::new(vec![Point::new(20.0, y), Point::new(20.0 + len, y)])
+            })
+            .collect();
+        let steps = drawing_to_steps(&profile, &Drawing::single_layer("l", lines)).unwrap();
+        let dir = std::env::temp_dir().join(format!("plotter-copies-resume-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let jp = dir.join("copies.journal");
+        let source = |start: [i32; 4]| Ok(serde_json::json!({ "start": start }).to_string());
+        let spec = JournalSpec { path: &jp, source: &source };
+        let stops = StopOptions { split_mm: Some(100.0) };
+        let copies = Copies { count: 2, page_delay_s: 0.0, paper_pause: true };
+        let mut s = Session::connect(SimTransport::new(plan::machine_config(&profile).unwrap(), None), "sim").unwrap();
+        // Blocks: travel, pen down, settle, the 30 mm line (3): stopped while it is drawn.
+        let mut stop = StopAt { plot: 1, at: 3, plots: 0, executed: 0, asked: vec![] };
+        let e = plot_copies(&mut s, &profile, &steps, true, false, Some(spec), &stops, &copies, &mut stop);
+        assert!(e.is_err() && stop.asked.is_empty(), "stopped before its first refill");
+        let state = crate::link::journal::load(&jp).unwrap();
+        assert!(!state.complete);
+        assert_eq!(copy_of(&state.source), 1);
+        let start: [i32; 4] = serde_json::from_str::<serde_json::Value>(&state.source).unwrap()["start"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| i32::try_from(v.as_i64().unwrap()).unwrap())
+            .collect::<Vec<_>>()
+            .try_into()
+            .unwrap();
+        let mut go_on = StopAt { plot: u32::MAX, at: 0, plots: 0, executed: 0, asked: vec![] };
+        let out =
+            resume_copies(&mut s, &profile, &steps, start, &state, &jp, false, false, &stops, &copies, &mut go_on)
+                .unwrap();
+        assert_eq!(out.copies.len(), 2, "the copy under way and the one left");
+        assert!(out.ended_early.is_none());
+        let refill = |part: u32| format!("refill pen black fineliner 0.3 (#000000) for part {part} of layer \"l\"");
+        let paper = "put in fresh paper for copy 2 of 2".to_string();
+        assert_eq!(go_on.asked, [refill(2), refill(3), paper, refill(2), refill(3)]);
+        // The second copy's journal says so, and it finished.
+        let state = crate::link::journal::load(&jp).unwrap();
+        assert!(state.complete);
+        assert_eq!(copy_of(&state.source), 2);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -44,6 +44,9 @@ pub struct JobOutcome {
     pub pen_stops: usize,
     /// Layers skipped at a pen change (by their names).
     pub skipped: Vec<String>,
+    /// A resume found the drawing already finished (all that was left was the way home with the pen up): it
+    /// marked the journal complete and moved nothing.
+    pub drawn_before: bool,
 }
 
 /// Where the journal goes and what it records as the plot's source. The record is opaque to the job: the front
@@ -129,7 +132,8 @@ pub fn plot_with<M: PlotMachine + ?Sized>(
 /// Resume the plot recorded in the journal at `journal_path` (already loaded as `state`, and checked by the caller
 /// to describe `steps` planned from `start`): let the firmware finish what it still holds, find the first block
 /// not certainly executed, home unless `trust_position`, and stream the rest (asking for the pen of the layer it
-/// continues with, when the drawing has several). Prints the resume point.
+/// continues with, when the drawing has several). Prints the resume point. [`resume_with`] also keeps the
+/// refills the plot was started with.
 #[allow(clippy::too_many_arguments)]
 pub fn resume<M: PlotMachine + ?Sized>(
     machine: &mut M,
@@ -142,9 +146,49 @@ pub fn resume<M: PlotMachine + ?Sized>(
     return_home: bool,
     events: &mut dyn PlotEvents,
 ) -> crate::Result<JobOutcome> {
+    let none = stops::StopOptions::default();
+    resume_with(machine, profile, steps, start, state, journal_path, trust_position, return_home, &none, events)
+}
+
+/// Whether nothing is left to draw from block `done` of `full` on: what remains (if anything) is only the way
+/// home with the pen up.
+pub fn drawn_from(full: &MotionPlan, done: usize) -> bool {
+    full.blocks.iter().skip(done).all(|b| matches!(b.kind, MoveKind::Travel | MoveKind::Settle))
+}
+
+/// [`resume`], stopping also where `options` say (the refills after `--split-distance` the plot was started
+/// with, at the same places as in the plot). A journal whose drawing was finished (only the way home left, the
+/// plot killed before it recorded its end) is marked complete without moving anything.
+#[allow(clippy::too_many_arguments)]
+pub fn resume_with<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+    steps: &StepDrawing,
+    start: [i32; 4],
+    state: &JournalState,
+    journal_path: &Path,
+    trust_position: bool,
+    return_home: bool,
+    options: &stops::StopOptions,
+    events: &mut dyn PlotEvents,
+) -> crate::Result<JobOutcome> {
     let full = plan::plan_returning(profile, steps, start, Lookahead::Whole, return_home)?;
     machine.begin()?;
     let done = machine.resume_point(state, &full)?;
+    if drawn_from(&full, done) {
+        eprintln!(
+            "the drawing was finished ({done} of {} blocks executed, the rest the way home): nothing to resume",
+            full.blocks.len()
+        );
+        Journal::append(journal_path, state)?.complete()?;
+        machine.end()?;
+        let mut plan = truncated(&full, 0);
+        plan.resumed_from = done;
+        let streamed = Streamed { stats: StreamStats::default(), pen_stops: 0, skipped: Vec::new() };
+        let mut out = streamed.outcome(plan, machine.busy_ticks());
+        out.drawn_before = true;
+        return Ok(out);
+    }
     eprintln!("resuming at block {done} of {} ({} certainly executed)", full.blocks.len(), state.executed);
     settle_alarm(machine, !trust_position, events)?;
     if !trust_position {
@@ -152,7 +196,7 @@ pub fn resume<M: PlotMachine + ?Sized>(
     }
     let journal = Journal::append(journal_path, state)?;
     let busy_before = machine.busy_ticks();
-    let stops = stops::plot_stops(profile, steps, &full, None);
+    let stops = stops::plot_stops(profile, steps, &full, options.split_mm);
     let run = Run { profile, steps, start, full: &full, journal_path: Some(journal_path), return_home, stops };
     // The pen of the layer the plot continues with.
     let layer_pen = full.pen_changes.iter().rev().find(|c| c.block <= done);
@@ -181,7 +225,14 @@ struct Streamed {
 impl Streamed {
     /// The job's outcome for `plan` (the plan streamed), with the simulator's busy time before it.
     fn outcome(self, plan: MotionPlan, busy_before: u64) -> JobOutcome {
-        JobOutcome { plan, stats: self.stats, busy_before, pen_stops: self.pen_stops, skipped: self.skipped }
+        JobOutcome {
+            plan,
+            stats: self.stats,
+            busy_before,
+            pen_stops: self.pen_stops,
+            skipped: self.skipped,
+            drawn_before: false,
+        }
     }
 }
 
@@ -908,6 +959,44 @@ mod tests {
         fn resume_point(&mut self, state: &JournalState, _: &MotionPlan) -> anyhow::Result<usize> {
             Ok(state.executed)
         }
+    }
+
+    /// A plot killed after its drawing was done, on its way home, before its end was recorded: the resume marks
+    /// the journal complete and moves nothing (the liar panics if asked to move); one block less executed (the
+    /// last pen-up not certainly done) is resumed as usual.
+    #[test]
+    fn a_journal_at_its_end_is_finished_without_moving() {
+        let profile = MachineProfile::default_plotter();
+        let steps = three_pens(&profile);
+        let start = plan::homed_position(&profile).unwrap();
+        let full = plan::plan_returning(&profile, &steps, start, Lookahead::Whole, true).unwrap();
+        let last_up = full.blocks.iter().rposition(|b| b.kind == MoveKind::PenUp).unwrap();
+        assert_eq!(full.blocks[last_up + 1].kind, MoveKind::Settle);
+        assert!(full.blocks[last_up + 2..].iter().all(|b| b.kind == MoveKind::Travel));
+        assert!(last_up + 2 < full.blocks.len(), "the way home is left");
+        let dir = std::env::temp_dir().join(format!("plotter-journal-end-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let jp = dir.join("end.journal");
+        let journal_at = |executed: usize| {
+            let mut j = Journal::create(&jp, "{}", full.geometry_hash(), full.blocks.len()).unwrap();
+            j.record(executed, executed, 0).unwrap();
+            drop(j);
+            crate::link::journal::load(&jp).unwrap()
+        };
+        let state = journal_at(last_up + 2);
+        assert!(!state.complete);
+        let mut ev = Script { answers: vec![], seen: vec![] };
+        let out = resume(&mut Liar { at: start }, &profile, &steps, start, &state, &jp, false, true, &mut ev).unwrap();
+        assert!(out.drawn_before && out.plan.blocks.is_empty());
+        assert!(crate::link::journal::load(&jp).unwrap().complete);
+        assert!(ev.seen.is_empty(), "no pen asked for");
+        let state = journal_at(last_up);
+        let moved = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let mut ev = Script { answers: vec![], seen: vec![] };
+            resume(&mut Liar { at: start }, &profile, &steps, start, &state, &jp, false, true, &mut ev)
+        }));
+        assert!(moved.is_err(), "the last pen-up is still to make: the resume moves");
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! Where a plot stops besides pen changes, worked out from the drawing and its plan before anything moves: a
-//! pause before a layer whose name starts with `!`, a delay before a layer whose name carries `+D<ms>` (the
-//! AxiDraw's layer codes, see [`plotter_path::config::layer_codes`]), and a refill after at most
+//! pause before a layer whose name starts with `!`, a delay after each pen drop in a layer whose name carries
+//! `+D<ms>` (the layer codes, see [`plotter_path::config::layer_codes`]), and a refill after at most
 //! `--split-distance` millimetres drawn within a layer (always at a stroke boundary, so that fountain pens and
 //! brushes can be reloaded).
 
@@ -26,17 +26,20 @@ pub enum StopWhy {
         /// The part of the layer about to be drawn, counted from 1.
         part: usize,
     },
-    /// The layer's name asks for a delay before it (`+D`), milliseconds.
+    /// The layer's name asks for a delay after each pen drop (`+D`), milliseconds: the pen waits on the paper
+    /// before it draws the stroke.
     Delay {
         /// How long, milliseconds.
         ms: u32,
     },
 }
 
-/// A stop before block `block` of the plan (in the original plan's numbering; the pen is up there).
+/// A stop before block `block` of the plan (in the original plan's numbering; the pen is up there, but for a
+/// delay after a pen drop, where the pen stands on the paper at rest).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlotStop {
-    /// The first block after the stop: the travel to the next stroke (or its pen drop when it needs no travel).
+    /// The first block after the stop: the travel to the next stroke (or its pen drop when it needs no travel);
+    /// for a delay, the stroke's first drawing block, after its pen drop has settled.
     pub block: usize,
     /// Index of the layer in [`StepDrawing::layers`].
     pub layer: usize,
@@ -114,8 +117,17 @@ pub fn stroke_lengths(profile: &MachineProfile, steps: &StepDrawing) -> Vec<f64>
         .collect()
 }
 
-/// The stops of `plan` (planned from `steps`), in block order: per layer, its delay and pause (from its name's
-/// codes) before its first stroke, then a refill before each stroke that would take the layer's part past
+/// The first drawing block of stroke `stroke` in `plan` when the pen stands on the paper at rest before it (its
+/// drop settled), where a delay after the drop may wait.
+fn after_drop(plan: &MotionPlan, stroke: usize) -> Option<usize> {
+    let i = plan.blocks.iter().position(|b| b.stroke == stroke && b.kind == MoveKind::Draw)?;
+    let before = plan.blocks.get(i.checked_sub(1)?)?;
+    (before.kind != MoveKind::Draw && before.block.exit_rate == 0 && plan.blocks[i].block.entry_rate == 0).then_some(i)
+}
+
+/// The stops of `plan` (planned from `steps`), in block order: per layer, its pause (from its name's codes) before
+/// its first stroke and its delay (`+D`) after each of its pen drops, then a refill before each stroke that would
+/// take the layer's part past
 /// `split_mm` of drawn length (a part always holds at least one stroke, so a stroke longer than `split_mm` is
 /// drawn whole).
 pub fn plot_stops(
@@ -130,12 +142,16 @@ pub fn plot_stops(
         let end = steps.layers.get(li + 1).map_or(steps.strokes.len(), |n| n.first_stroke);
         let codes = LayerCodes::parse(&layer.name);
         let stop = |block: usize, why: StopWhy| PlotStop { block, layer: li, layer_name: layer.name.clone(), why };
-        if let Some(block) = stroke_start(plan, layer.first_stroke) {
-            if let Some(ms) = codes.delay_ms {
-                stops.push(stop(block, StopWhy::Delay { ms }));
-            }
-            if codes.pause {
-                stops.push(stop(block, StopWhy::Pause));
+        if codes.pause
+            && let Some(block) = stroke_start(plan, layer.first_stroke)
+        {
+            stops.push(stop(block, StopWhy::Pause));
+        }
+        if let Some(ms) = codes.delay_ms {
+            for si in layer.first_stroke..end {
+                if let Some(block) = after_drop(plan, si) {
+                    stops.push(stop(block, StopWhy::Delay { ms }));
+                }
             }
         }
         let Some(split) = split_mm else { continue };
@@ -187,22 +203,26 @@ mod tests {
         let full = plan::plan(&profile, &steps, plan::homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
         let stops = plot_stops(&profile, &steps, &full, Some(100.0));
         // At most 100 mm per part: 30 + 50 + 20 = 100 (part 1); 40 (part 2, + 90 would be 130); 90 (part 3). Layer
-        // "b" starts afresh: its 10 mm need no refill, and it has its delay and pause first.
+        // "b" starts afresh: its 10 mm need no refill; it has its pause first and its delay after its pen drop.
         let whys: Vec<(usize, &StopWhy)> = stops.iter().map(|s| (s.layer, &s.why)).collect();
         assert_eq!(
             whys,
             [
                 (0, &StopWhy::Refill { part: 2 }),
                 (0, &StopWhy::Refill { part: 3 }),
-                (1, &StopWhy::Delay { ms: 250 }),
                 (1, &StopWhy::Pause),
+                (1, &StopWhy::Delay { ms: 250 }),
             ]
         );
-        // Each stop is the travel to its stroke: strokes 3, 4 and 5.
-        for (s, stroke) in stops.iter().zip([3, 4, 5, 5]) {
+        // Each stop but the delay is the travel to its stroke: strokes 3, 4 and 5.
+        for (s, stroke) in stops.iter().zip([3, 4, 5]) {
             assert_eq!((full.blocks[s.block].kind, full.blocks[s.block].stroke), (MoveKind::Travel, stroke));
             assert!(full.blocks[..s.block].iter().all(|b| b.stroke < stroke));
         }
+        // The delay: stroke 5's first drawing block, after its pen drop and settle.
+        let d = stops[3].block;
+        assert_eq!((full.blocks[d].kind, full.blocks[d].stroke), (MoveKind::Draw, 5));
+        assert_eq!((full.blocks[d - 2].kind, full.blocks[d - 1].kind), (MoveKind::PenDown, MoveKind::Settle));
         // Without --split-distance: only the codes.
         assert_eq!(plot_stops(&profile, &steps, &full, None).len(), 2);
         // A split shorter than every stroke: a refill before each stroke but a layer's first.
@@ -317,13 +337,39 @@ mod tests {
         let park_and_back = coded_ticks - coded.total_ticks - 250_000;
         assert!(coded_ticks > coded.total_ticks + 250_000, "{coded_ticks} vs {}", coded.total_ticks);
         assert!(park_and_back > 0 && plain_ticks == plain.total_ticks, "{park_and_back} {plain_ticks}");
-        // The delay alone: the same plan, executed 0.25 s longer, and the plot goes on from rest, so the pen,
-        // waiting at its clearance height (1 mm), is lifted to its up height (4 mm) and brought back: two 3 mm Z
-        // moves at 25 mm/s and 500 mm/s² (3/25 + 25/500 = 0.17 s each) with their 50 ms settles, 0.44 s; the
-        // travel that follows starts from rest (a few ms).
+        // The delay alone: the same plan, and the pen waits 0.25 s on the paper after its one drop in the second
+        // layer, where it stands at rest: executed exactly 0.25 s longer.
         let (delayed, delayed_ticks, _) = plot_named("1 a", "2+D250 b");
         assert_eq!(delayed.total_ticks, plain.total_ticks);
-        let extra = delayed_ticks - plain_ticks;
-        assert!(extra.abs_diff(250_000 + 440_000) < 5_000, "{extra}");
+        assert_eq!(delayed_ticks - plain_ticks, 250_000);
+    }
+
+    /// One layer named `name` with three 20 mm lines (at Y 10, 20 and 30 mm), each its own pen drop, plotted on
+    /// our simulated firmware: (the plan, the executed ticks).
+    fn three_strokes(name: &str) -> (MotionPlan, u64) {
+        use crate::link::machine::PlotMachine as _;
+        let profile = MachineProfile::default_plotter();
+        let mut l = Layer::new(name);
+        l.paths = vec![line(10.0, 20.0), line(20.0, 20.0), line(30.0, 20.0)];
+        let steps = drawing_to_steps(&profile, &Drawing { layers: vec![l], page_mm: None }).unwrap();
+        let cfg = plan::machine_config(&profile).unwrap();
+        let mut s =
+            crate::link::session::Session::connect(crate::link::sim::SimTransport::new(cfg, None), "sim").unwrap();
+        let mut events = Pauses { seen: vec![], answer: crate::job::progress::PenChangeChoice::Continue };
+        let out = crate::job::plot(&mut s, &profile, &steps, true, false, None, &mut events).unwrap();
+        let executed = s.busy_ticks() - out.busy_before;
+        (out.plan, executed)
+    }
+
+    /// `+D250` is 250 ms after each pen drop of its layer: three strokes plot 3 × 0.25 = 0.75 s longer than the
+    /// same layer without it (the plan itself unchanged), the pen each time on the paper before it draws.
+    #[test]
+    fn a_layer_delay_waits_after_each_pen_drop() {
+        let (plain, plain_ticks) = three_strokes("1 a");
+        let (delayed, delayed_ticks) = three_strokes("1+D250 a");
+        assert_eq!(plain.blocks.iter().filter(|b| b.kind == MoveKind::PenDown).count(), 3);
+        assert_eq!(delayed.total_ticks, plain.total_ticks);
+        assert_eq!(plain_ticks, plain.total_ticks);
+        assert_eq!(delayed_ticks - plain_ticks, 750_000);
     }
 }

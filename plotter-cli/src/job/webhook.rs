@@ -75,13 +75,19 @@ fn worker(url: String, rx: Receiver<HookEvent>) -> Vec<String> {
     failures
 }
 
+/// Whether `url` is an address the webhook can post to (plain `http://`); the error names the flag and the problem.
+pub fn check_url(url: &str) -> anyhow::Result<()> {
+    if !url.starts_with("http://") {
+        anyhow::bail!("--webhook {url}: give an http:// address (https is not supported)");
+    }
+    url.parse::<ureq::http::Uri>().map_err(|e| anyhow::anyhow!("--webhook {url}: not an address: {e}"))?;
+    Ok(())
+}
+
 impl Webhook {
     /// A webhook posting to `url` (plain `http://`) for `job` on `machine`.
     pub fn new(url: &str, machine: &str, job: &str) -> anyhow::Result<Webhook> {
-        if !url.starts_with("http://") {
-            anyhow::bail!("--webhook {url}: give an http:// address (https is not supported)");
-        }
-        url.parse::<ureq::http::Uri>().map_err(|e| anyhow::anyhow!("--webhook {url}: not an address: {e}"))?;
+        check_url(url)?;
         let (tx, rx) = channel();
         let owned = url.to_string();
         let thread = std::thread::Builder::new().name("webhook".into()).spawn(move || worker(owned, rx))?;
@@ -162,18 +168,18 @@ impl PlotEvents for HookedEvents<'_> {
     }
 }
 
+/// A local webhook receiver for tests.
 #[cfg(test)]
-mod tests {
-    use super::*;
+pub(crate) mod receiver {
     use std::io::{BufRead as _, BufReader, Read as _, Write as _};
     use std::net::TcpListener;
     use std::sync::{Arc, Mutex};
 
     /// What a receiver saw: (the status it answered, the body) per request.
-    type Seen = Arc<Mutex<Vec<(u16, String)>>>;
+    pub(crate) type Seen = Arc<Mutex<Vec<(u16, String)>>>;
 
     /// A local receiver: answers the first `fail` requests with 500, the rest with 200, and keeps the bodies.
-    fn receiver(fail: usize) -> (String, Seen) {
+    pub(crate) fn receiver(fail: usize) -> (String, Seen) {
         let listener = TcpListener::bind("127.0.0.1:0").unwrap();
         let url = format!("http://{}/hook", listener.local_addr().unwrap());
         let seen = Arc::new(Mutex::new(Vec::new()));
@@ -201,6 +207,13 @@ mod tests {
         });
         (url, seen)
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::receiver::receiver;
+    use super::*;
+    use std::net::TcpListener;
 
     #[test]
     fn an_event_is_posted_as_json() {

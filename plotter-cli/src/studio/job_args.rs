@@ -33,6 +33,11 @@ pub struct JobArgs {
     /// refill the pen: the machine waits with the pen up until it is resumed
     #[arg(long, value_name = "MM", help_heading = "Workflow")]
     pub split_distance: Option<f64>,
+    /// Send a JSON POST to this http:// address when the job finishes, fails, or waits for a pen change or a
+    /// pause (machine, job, event, times); a failed delivery is tried three more times and then only logged: it
+    /// never holds the plot up
+    #[arg(long, value_name = "URL", help_heading = "Workflow")]
+    pub webhook: Option<String>,
 }
 
 /// The flag words stored in `options` (none when it has no `args`); an error naming what is wrong otherwise.
@@ -62,6 +67,9 @@ impl JobArgs {
         let matches = JobArgs::command().try_get_matches_from(&words).map_err(refused)?;
         let args = <JobArgs as clap::FromArgMatches>::from_arg_matches(&matches).map_err(refused)?;
         args.split_mm()?;
+        if let Some(url) = &args.webhook {
+            crate::job::webhook::check_url(url).map_err(|e| StudioError::Invalid(format!("the job's {e}")))?;
+        }
         Ok(args)
     }
 

@@ -32,7 +32,7 @@ use super::running::Studio;
 use super::state::JobState;
 use super::status::{Activity, Slot};
 use crate::Trouble;
-use crate::job::progress::{JobProgress, PenChangeChoice, PlotEvents};
+use crate::job::progress::{JobProgress, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents};
 use crate::job::{self, JobOutcome, JournalSpec};
 use crate::link::journal;
 use crate::link::machine::{Connected, Firmware, PlotMachine};
@@ -329,8 +329,9 @@ pub fn journal_of(dir: &Path, id: i64) -> PathBuf {
     dir.join("journals").join(format!("job-{id}.journal"))
 }
 
-/// Make the job's drawing ready and plot it (or continue it from its journal). `None`: its journal says it had
-/// finished (the studio stopped before recording that).
+/// Make the job's drawing ready and plot it (or continue it from its journal), telling the job's webhook (if it
+/// has one) of its pen changes, pauses and end. `None`: its journal says it had finished (the studio stopped
+/// before recording that).
 fn plot_job(
     studio: &Studio,
     slot: &Slot,
@@ -338,8 +339,32 @@ fn plot_job(
     job: &Job,
     events: &mut StudioEvents<'_>,
 ) -> anyhow::Result<Option<JobOutcome>> {
-    let id = job.summary.id;
     let args = JobArgs::from_options(&job.summary.options)?;
+    let Some(url) = &args.webhook else { return plot_job_with(studio, slot, link, job, &args, events) };
+    let name = format!("{} (job {})", job.summary.drawing_name, job.summary.id);
+    let hook = job::webhook::Webhook::new(url, &slot.spec.name, &name)?;
+    let mut hooked = job::webhook::HookedEvents { inner: events, hook: &hook };
+    let result = plot_job_with(studio, slot, link, job, &args, &mut hooked);
+    match &result {
+        Ok(Some(o)) => hook.send("finished", &format!("plotted, {:.1} s planned", o.plan.seconds())),
+        Ok(None) => hook.send("finished", "its journal says it had finished"),
+        Err(e) => hook.send("error", &format!("{e:#}")),
+    }
+    // Not waited for: the deliveries go on on their own thread, failures are logged there.
+    drop(hook);
+    result
+}
+
+/// [`plot_job`] with `events` (the studio's, or the studio's with the webhook told).
+fn plot_job_with(
+    studio: &Studio,
+    slot: &Slot,
+    link: &mut Link,
+    job: &Job,
+    args: &JobArgs,
+    events: &mut dyn PlotEvents,
+) -> anyhow::Result<Option<JobOutcome>> {
+    let id = job.summary.id;
     let file = drawing_file(studio.dir(), job)?;
     let profile = &slot.spec.profile;
     let (steps, _) = crate::job::load::load_steps(&file, profile, &args.input, &args.layout, &args.optimize, None)?;
@@ -364,8 +389,20 @@ fn plot_job(
                  and queue it again"
             );
         }
-        let o = job::resume(machine, profile, &steps, source.start, &state, &journal_path, false, back, events)?;
-        return Ok(Some(o));
+        let stops = job::stops::StopOptions { split_mm: args.split_mm()? };
+        let o = job::resume_with(
+            machine,
+            profile,
+            &steps,
+            source.start,
+            &state,
+            &journal_path,
+            false,
+            back,
+            &stops,
+            events,
+        )?;
+        return Ok((!o.drawn_before).then_some(o));
     }
     let record = |start: [i32; 4]| -> anyhow::Result<String> {
         Ok(serde_json::to_string(&JournalSource {
@@ -379,6 +416,17 @@ fn plot_job(
     let spec = JournalSpec { path: &journal_path, source: &record };
     let stops = job::stops::StopOptions { split_mm: args.split_mm()? };
     Ok(Some(job::plot_with(machine, profile, &steps, true, back, Some(spec), &stops, events)?))
+}
+
+/// What the operator is asked to do at a pen change: "change to pen 2, red fineliner 0.5 (#ff0000), for layer
+/// \"red\"" (pen 1 is the one the plot starts with); a resumed plot asks for the pen of the layer it goes on with.
+fn pen_prompt(change: &PenChangeRequest) -> String {
+    match change.previous {
+        Some(_) => {
+            format!("change to pen {}, {}, for layer {:?}", change.number + 1, change.pen.label(), change.layer_name)
+        }
+        None => format!("load pen {} for layer {:?}, where the plot goes on", change.pen.label(), change.layer_name),
+    }
 }
 
 /// The studio's side of a plot: progress to the machine's status, the operator's requests to the job.
@@ -424,6 +472,18 @@ impl PlotEvents for StudioEvents<'_> {
 
     fn paused(&mut self, _held: bool) -> PauseChoice {
         self.wait_for_operator(None)
+    }
+
+    fn pen_change_mode(&self) -> PenChangeMode {
+        PenChangeMode::Pause
+    }
+
+    fn pen_change(&mut self, change: &PenChangeRequest) -> PenChangeChoice {
+        // Parked with the pen up, like a refill, until the operator has loaded the pen and resumes (or stops).
+        match self.wait_for_operator(Some(pen_prompt(change))) {
+            PauseChoice::Resume => PenChangeChoice::Continue,
+            PauseChoice::Abort => PenChangeChoice::Stop,
+        }
     }
 
     fn plot_pause(&mut self, pause: &job::stops::PauseRequest) -> PenChangeChoice {
@@ -619,6 +679,61 @@ mod tests {
             &NewJob::new("r.svg", rings().into_bytes()).with_options(json!({ "args": ["--split-distance", "0"] })),
         );
         assert!(e.unwrap_err().to_string().contains("--split-distance 0: give the drawn length per refill in mm"));
+        close(studio, workers, &dir);
+    }
+
+    /// Two Inkscape layers, a black 20 mm square and a red 20 mm line: one pen change, to the kit's red pen.
+    const TWO_PENS: &str = r##"<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape"
+      width="60mm" height="60mm" viewBox="0 0 60 60">
+      <g inkscape:groupmode="layer" inkscape:label="black"><rect x="10" y="10" width="20" height="20" fill="none"
+        stroke="#000000"/></g>
+      <g inkscape:groupmode="layer" inkscape:label="red"><path d="M 10 40 L 30 40" fill="none" stroke="#ff0000"/></g>
+    </svg>"##;
+
+    #[test]
+    fn a_pen_change_parks_the_machine_tells_the_webhook_and_goes_on_at_resume() {
+        let dir = temp_dir("pens");
+        let options = StudioOptions { sim_speed: f64::INFINITY, max_retry: Duration::from_millis(500) };
+        let studio = Studio::open(&dir, vec![parse_machine("a=sim").unwrap()], options).unwrap();
+        let workers = start(&studio).unwrap();
+        let (url, seen) = crate::job::webhook::receiver::receiver(0);
+        let flags = json!({ "args": ["--no-optimize", "--webhook", url] });
+        let id = studio.add(&NewJob::new("pens.svg", TWO_PENS.as_bytes().to_vec()).with_options(flags)).unwrap();
+        let slot = Arc::clone(studio.slot("a").unwrap());
+        until("the pen change", || slot.status().state == Activity::Paused);
+        assert_eq!(state_of(&studio, id), JobState::Paused);
+        let prompt = slot.status().prompt.clone().unwrap();
+        assert_eq!(prompt, "change to pen 2, red fineliner 0.5 (#ff0000), for layer \"red\"");
+        // The page reads it from the studio's snapshot, beside the machine's state.
+        let page: serde_json::Value = serde_json::from_str(&studio.snapshot_json().unwrap()).unwrap();
+        assert_eq!(page["machines"][0]["state"], "paused");
+        assert_eq!(page["machines"][0]["prompt"].as_str(), Some(prompt.as_str()));
+        // The square is drawn (80 of the 100 mm), the line not yet; nothing moves, the pen is up.
+        let held = slot.status().percent;
+        assert!(held > 0.0 && held < 100.0, "{held}");
+        std::thread::sleep(Duration::from_millis(300));
+        assert!((slot.status().percent - held).abs() < 1e-9, "nothing moves while it waits");
+        assert_eq!(slot.status().pen_down, Some(false), "waiting with the pen up");
+        until("the webhook's pen-change event", || !seen.lock().unwrap().is_empty());
+        studio.resume("a").unwrap();
+        until("the job's end", || state_of(&studio, id) == JobState::Done);
+        assert_eq!(slot.status().prompt, None);
+        until("the webhook's end event", || seen.lock().unwrap().len() == 2);
+        let events: Vec<(String, String)> = seen
+            .lock()
+            .unwrap()
+            .iter()
+            .map(|(_, body)| {
+                let v: serde_json::Value = serde_json::from_str(body).unwrap();
+                (v["event"].as_str().unwrap().to_string(), v["message"].as_str().unwrap().to_string())
+            })
+            .collect();
+        assert_eq!(events[0].0, "pen_change");
+        assert_eq!(events[0].1, "pen change 1/1: load pen red fineliner 0.5 (#ff0000) for layer \"red\"");
+        assert_eq!(events[1].0, "finished");
+        // Both layers drawn: 80 mm of square and 20 mm of line.
+        let last = slot.status().last.clone().unwrap();
+        assert!(last.contains("100.0 mm pen-down"), "{last}");
         close(studio, workers, &dir);
     }
 

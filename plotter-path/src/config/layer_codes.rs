@@ -9,8 +9,9 @@
 //! - After the number (or at the start), any run of codes, letters in either case, each followed by a whole
 //!   number: `+H<n>` the pen-down height for this layer, in per cent of the pen's range (0..=100, see
 //!   [`LayerCodes::down_fraction`]); `+S<n>` the pen-down speed, in per cent of the pen's drawing speed
-//!   (1..=110); `+D<n>` a delay before the layer starts, milliseconds (above 0). When a code is given twice, the
-//!   last one counts. A value outside its range is left out with a [`LayerCodes::problems`] entry.
+//!   (1..=110); `+D<n>` an extra delay after each pen drop in the layer, milliseconds (above 0). When a code is
+//!   given twice, the last one counts. A value outside its range is left out with a [`LayerCodes::problems`]
+//!   entry.
 //! - Whatever follows the codes is the layer's own text (`"1+S50 outline"` → `" outline"`).
 //!
 //! The AxiDraw's pen-down height is a position of its servo between its two ends; a profile here knows a pen-up and
@@ -31,7 +32,7 @@ pub struct LayerCodes {
     pub height_pct: Option<u8>,
     /// `+S`: the pen-down speed, per cent of the pen's drawing speed.
     pub speed_pct: Option<u8>,
-    /// `+D`: a delay before the layer starts, milliseconds.
+    /// `+D`: an extra delay after each pen drop in the layer, milliseconds.
     pub delay_ms: Option<u32>,
     /// The name after the codes.
     pub text: String,

@@ -562,7 +562,10 @@ pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Resu
         None => load_page(input, &profile, &original.input_args, &original.layout)?,
     };
     let (steps, _) = order_steps(page, input, &profile, &original.optimize, pen_at)?;
-    let back = original.optimize.return_home;
+    // As the plot planned it: several copies each end back where they started; the refills in the same places.
+    let copies = original.workflow.copies()?;
+    let stops = job::stops::StopOptions { split_mm: original.workflow.split_mm()? };
+    let back = job::copies::returns(original.optimize.return_home, &copies);
     let full = plan::plan_returning(&profile, &steps, source.start, plan::Lookahead::Whole, back)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
         bail!(
@@ -572,7 +575,8 @@ pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Resu
         );
     }
     let mut terminal = Terminal::new(args.pause_immediately, original.pen_change)?;
-    let outcome = job::resume(
+    // The copy the journal was drawing, then the copies left.
+    let outcome = job::copies::resume_copies(
         c.machine(),
         &profile,
         &steps,
@@ -580,11 +584,26 @@ pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Resu
         &state,
         journal_path,
         args.trust_position,
-        back,
+        original.optimize.return_home,
+        &stops,
+        &copies,
         &mut terminal,
     );
     terminal.bar.finish_and_clear();
+    let mut outcome = outcome?;
+    if let Some(why) = &outcome.ended_early {
+        eprintln!("{why}");
+    }
+    let plotted = outcome.copies.len();
+    let last = outcome.copies.pop().context("no copy was plotted")?;
+    if last.drawn_before && plotted == 1 {
+        println!("{}: the drawing had been finished; nothing was left to plot", journal_path.display());
+        return Ok(());
+    }
     // As verbose as the plot it resumes.
-    println!("{}", summary(&outcome?, None, original.verbose));
+    println!("{}", summary(&last, None, original.verbose));
+    if plotted > 1 {
+        println!("{plotted} copies plotted on resume (the one under way and the {} left)", plotted - 1);
+    }
     Ok(())
 }
