@@ -22,6 +22,13 @@
 //! least halve the component count, so the bound costs `O(E log E · log n)` for `E` points. The first round's
 //! answers are the nearest-predecessor distances.
 //!
+//! On a layer of a dozen paths or so, the tightest bound of all is the best order itself, found by trying every
+//! one (dynamic programming over subsets, see [`super::exact`]); the plot-time bound uses it where it is cheap.
+//!
+//! Where the layer starts: at the known start position for the first layer; a later layer starts where the
+//! previous one ended, which is one of the places where the previous layer's paths can be left (its open paths'
+//! ends, its closed paths' allowed seams), so the start node is that whole set of points.
+//!
 //! With the time cost, every length `d` is mapped through the cheapest time any hop of that length can take
 //! (monotone in `d`, so the same tree stays minimal). When the start position is not known (layers after the first,
 //! whose start depends on how earlier layers end), the first hop is only known to cost at least a zero-length hop.
@@ -29,6 +36,7 @@
 use kurbo::Point;
 
 use super::cost::CostModel;
+use super::exact::ExactLayer;
 use super::held_karp::{EndGraph, held_karp};
 use super::kdtree::KdTree;
 
@@ -41,12 +49,14 @@ pub struct TravelBound {
     pub nearest: f64,
     /// The Held–Karp bound on the paths' ends (see [`super::held_karp`]), when computed (0 otherwise).
     pub held_karp: f64,
+    /// The best order's own cost on a small layer (see [`super::exact`]), when computed (0 otherwise).
+    pub exact: f64,
 }
 
 impl TravelBound {
     /// The best (largest) of the bounds.
     pub fn value(&self) -> f64 {
-        self.spanning_tree.max(self.nearest).max(self.held_karp)
+        self.spanning_tree.max(self.nearest).max(self.held_karp).max(self.exact)
     }
 }
 
@@ -72,6 +82,8 @@ pub(crate) struct BoundParts {
     start_known: bool,
     /// The paths' ends as the Held–Karp bound sees them.
     graph: EndGraph,
+    /// The layer made ready for the exact solve, when it is small enough.
+    exact: Option<ExactLayer>,
 }
 
 impl BoundParts {
@@ -90,47 +102,58 @@ impl BoundParts {
         let nn: Vec<f64> = self.nearest.iter().map(|&d| f(d)).collect();
         let nn_sum: f64 = nn.iter().sum();
         if self.start_known {
-            TravelBound { spanning_tree: tree_cost, nearest: nn_sum, held_karp: 0.0 }
+            TravelBound { spanning_tree: tree_cost, nearest: nn_sum, ..TravelBound::default() }
         } else {
             let worst = nn.iter().copied().fold(0.0, f64::max);
-            TravelBound { spanning_tree: tree_cost + f(0.0), nearest: nn_sum - worst + f(0.0), held_karp: 0.0 }
+            TravelBound {
+                spanning_tree: tree_cost + f(0.0),
+                nearest: nn_sum - worst + f(0.0),
+                ..TravelBound::default()
+            }
         }
     }
 
-    /// [`mapped`](Self::mapped) with the Held–Karp bound too ([`held_karp`]): tighter, at some tens to a few
-    /// hundred spanning trees' cost.
+    /// [`mapped`](Self::mapped) with the Held–Karp bound too ([`held_karp`]), and on a small layer the exact
+    /// best order ([`super::exact`]): tighter, at some tens to a few hundred spanning trees' cost.
     pub(crate) fn mapped_tight(&self, f: &dyn Fn(f64) -> f64) -> TravelBound {
         let mut b = self.mapped(f);
         if !self.nearest.is_empty() {
             b.held_karp = held_karp(&self.graph, f);
+        }
+        if let Some(e) = &self.exact {
+            b.exact = e.least(f);
         }
         b
     }
 }
 
 /// Bound material for visiting `groups` paths whose entry points are `points` (each tagged in `group` with its
-/// path, `0..groups`; every path has at least one point), from `start` if known. A path whose `both_ends` is set
-/// is open: its two points are its two ends, one where the pen goes down and the other where it comes up; the
-/// points of any other path are alternatives (a closed path's seams), any one of them both entry and exit.
+/// path, `0..groups`; every path has at least one point), from one of the points `start` (empty: from anywhere).
+/// A path whose `both_ends` is set is open: its two points are its two ends, one where the pen goes down and the
+/// other where it comes up; the points of any other path are alternatives (a closed path's seams), any one of
+/// them both entry and exit.
 pub(crate) fn bound_parts(
     points: &[Point],
     group: &[u32],
     groups: usize,
     both_ends: &[bool],
-    start: Option<Point>,
+    start: &[Point],
 ) -> BoundParts {
-    let start_known = start.is_some();
+    let start_known = !start.is_empty();
     if groups == 0 {
         return BoundParts::default();
     }
     let graph = end_graph(points, group, groups, both_ends, start);
-    let total = groups + usize::from(start.is_some());
+    let exact = (groups <= super::exact::MAX_PATHS)
+        .then(|| exact_places(points, group, groups, both_ends))
+        .and_then(|places| ExactLayer::new(&places, start_known.then_some(start)));
+    let total = groups + usize::from(start_known);
     let (Ok(total32), Ok(groups32)) = (u32::try_from(total), u32::try_from(groups)) else {
         return BoundParts::default();
     };
     let mut coords: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
     let mut owner: Vec<u32> = group.to_vec();
-    if let Some(s) = start {
+    for s in start {
         coords.push([s.x, s.y]);
         owner.push(groups32);
     }
@@ -187,12 +210,22 @@ pub(crate) fn bound_parts(
         // A single node: no hop between paths.
         nearest = vec![0.0; groups];
     }
-    BoundParts { tree_edges: edges, nearest, start_known, graph }
+    BoundParts { tree_edges: edges, nearest, start_known, graph, exact }
+}
+
+/// Each path's places (its points) and whether it is open, for [`ExactLayer::new`].
+fn exact_places(points: &[Point], group: &[u32], groups: usize, both_ends: &[bool]) -> Vec<(Vec<Point>, bool)> {
+    let mut places: Vec<(Vec<Point>, bool)> =
+        (0..groups).map(|g| (Vec::new(), both_ends.get(g).copied().unwrap_or(false))).collect();
+    for (p, &g) in points.iter().zip(group) {
+        places[g as usize].0.push(*p);
+    }
+    places
 }
 
 /// The Held–Karp graph of the paths (see [`bound_parts`] and [`held_karp`]): an open path's two ends are two nodes
 /// joined by a fixed edge, a closed path's seams one node, the start one more.
-fn end_graph(points: &[Point], group: &[u32], groups: usize, both_ends: &[bool], start: Option<Point>) -> EndGraph {
+fn end_graph(points: &[Point], group: &[u32], groups: usize, both_ends: &[bool], start: &[Point]) -> EndGraph {
     let mut g = EndGraph::default();
     // The node of each group's first point, and (open paths) whether that point was seen.
     let mut first: Vec<Option<u32>> = vec![None; groups];
@@ -215,9 +248,11 @@ fn end_graph(points: &[Point], group: &[u32], groups: usize, both_ends: &[bool],
         g.points.push([p.x, p.y]);
         g.node.push(node);
     }
-    if let Some(s) = start {
-        g.points.push([s.x, s.y]);
-        g.node.push(next);
+    if !start.is_empty() {
+        for s in start {
+            g.points.push([s.x, s.y]);
+            g.node.push(next);
+        }
         g.start = Some(next);
         next += 1;
     }
@@ -234,7 +269,7 @@ fn travel_lower_bound(
     start: Option<Point>,
     cost: &CostModel,
 ) -> TravelBound {
-    bound_parts(points, group, groups, &vec![true; groups], start).under(cost)
+    bound_parts(points, group, groups, &vec![true; groups], start.as_slice()).under(cost)
 }
 
 #[cfg(test)]

@@ -33,6 +33,7 @@
 
 pub mod bound;
 pub mod cost;
+mod exact;
 mod held_karp;
 mod improve;
 mod kdtree;
@@ -376,8 +377,9 @@ fn add_opt(acc: &mut Option<f64>, v: Option<f64>) {
     }
 }
 
-/// Bound material for the paths `ids` of one layer: both ends of open paths, allowed seams of closed ones.
-fn layer_bound_parts(paths: &[Polyline], ids: &[u32], seam: SeamMode, start: Option<Point>) -> bound::BoundParts {
+/// Where the paths `ids` of one layer can be entered and left (both ends of open paths, allowed seams of closed
+/// ones), each point tagged with its path's place in `ids`, and whether each path is open.
+fn layer_places(paths: &[Polyline], ids: &[u32], seam: SeamMode) -> (Vec<Point>, Vec<u32>, Vec<bool>) {
     let mut pts = Vec::with_capacity(2 * ids.len());
     let mut grp = Vec::with_capacity(2 * ids.len());
     let mut seams = Vec::new();
@@ -397,6 +399,13 @@ fn layer_bound_parts(paths: &[Polyline], ids: &[u32], seam: SeamMode, start: Opt
             grp.extend([g, g]);
         }
     }
+    (pts, grp, both_ends)
+}
+
+/// Bound material for the paths `ids` of one layer (see [`layer_places`]), starting at one of `start` (empty:
+/// anywhere).
+fn layer_bound_parts(paths: &[Polyline], ids: &[u32], seam: SeamMode, start: &[Point]) -> bound::BoundParts {
+    let (pts, grp, both_ends) = layer_places(paths, ids, seam);
     bound::bound_parts(&pts, &grp, ids.len(), &both_ends, start)
 }
 
@@ -433,17 +442,26 @@ pub fn travel_lower_bound_mapped(
     drawing_bound_parts(drawing, seam, start).map(|parts| parts.mapped_tight(min_hop).value()).sum()
 }
 
-/// Bound material of every layer of `drawing` as it stands, the first from `start`.
+/// Bound material of every layer of `drawing` as it stands, the first from `start`; each later layer from where
+/// the layer before it (the last one with paths) can end: any place where one of its paths can be left. (The plan
+/// travels from the last stroke of a layer straight to the first of the next, so the pen is at one of those
+/// places when the layer begins; with no start the first drawn layer starts anywhere.)
 fn drawing_bound_parts(
     drawing: &Drawing,
     seam: SeamMode,
     start: Option<Point>,
 ) -> impl Iterator<Item = bound::BoundParts> + '_ {
-    drawing.layers.iter().enumerate().map(move |(li, layer)| {
+    let mut from: Vec<Point> = start.into_iter().collect();
+    drawing.layers.iter().map(move |layer| {
         let ids: Vec<u32> = (0..u32::try_from(layer.paths.len()).unwrap_or(0))
             .filter(|&i| layer.paths[i as usize].points.len() >= 2)
             .collect();
-        layer_bound_parts(&layer.paths, &ids, seam, if li == 0 { start } else { None })
+        let (pts, grp, both_ends) = layer_places(&layer.paths, &ids, seam);
+        let parts = bound::bound_parts(&pts, &grp, ids.len(), &both_ends, &from);
+        if !ids.is_empty() {
+            from = pts;
+        }
+        parts
     })
 }
 
@@ -550,7 +568,7 @@ pub fn optimize(drawing: &mut Drawing, opts: &OptimizeOptions) -> Result<Optimiz
         };
         // The lower bound does not depend on the order: it runs beside the improvement (on another core when the
         // layer is big enough to pay for a thread), which leaves the result unchanged.
-        let bound_start = if li == 0 { opts.start } else { None };
+        let bound_start = if li == 0 { opts.start.as_slice() } else { &[] };
         let bound_step = || opts.lower_bound.then(|| layer_bound_parts(&paths, &ids, opts.seam, bound_start));
         let improving = opts.improve && !out_of_work;
         let (improved, bound_parts) = if improving && ids.len() >= PARALLEL_BOUND_MIN_PATHS {
