@@ -11,7 +11,8 @@
 //!
 //! `v` and `a` depend on the direction, as in grbl: the programmed travel feed is capped so that no axis exceeds its
 //! own maximum rate, and the acceleration so that no axis exceeds its own limit (`v = min(F, vₓ/|uₓ|, v_y/|u_y|)` for
-//! the unit direction `u`). Every hop also pays a fixed lift + drop cost (two Z moves and two settle dwells). The
+//! the unit direction `u`), and lowered to the profile's travel acceleration (`pen.travel_accel_mm_s2`, a cap on
+//! the acceleration along the path) where it sets one, as the motion plan does. Every hop also pays a fixed lift + drop cost (two Z moves and two settle dwells). The
 //! short-hop branch grows like a square root, so many tiny hops weigh more than their summed length suggests —
 //! that is the point of optimizing time instead of distance.
 
@@ -43,6 +44,9 @@ pub struct TravelTimeModel {
     pub accel_x_mm_s2: f64,
     /// Y axis acceleration limit, mm/s².
     pub accel_y_mm_s2: f64,
+    /// The profile's cap on the acceleration along a travel move, mm/s² (infinite when it sets none): on a short
+    /// hop it decides the time, as the hop never reaches its feed.
+    pub travel_accel_mm_s2: f64,
     /// Fixed cost of one lift plus one drop (Z moves and settle dwells), seconds.
     pub lift_drop_s: f64,
 }
@@ -60,15 +64,16 @@ impl TravelTimeModel {
             max_feed_y_mm_s: profile.axes.y.max_feed_mm_s,
             accel_x_mm_s2: profile.axes.x.max_accel_mm_s2,
             accel_y_mm_s2: profile.axes.y.max_accel_mm_s2,
+            travel_accel_mm_s2: profile.pen.travel_accel_mm_s2.unwrap_or(f64::INFINITY),
             lift_drop_s: 2.0 * z_move + 2.0 * profile.pen.settle_ms / 1000.0,
         }
     }
 
     /// Time of the XY part of a hop from `a` to `b` (no lift/drop), seconds.
     ///
-    /// This runs for every candidate move of the improvement, so the common case skips the speed caps and the
-    /// length. Along the unit direction `u = (dx, dy)/d` the acceleration is `A = min(aₓ/uₓ, a_y/u_y)`, so
-    /// `d/A = max(dx/aₓ, dy/a_y)` (= `m`). The hop is a triangle when `d·A < v²`, i.e. `d² < v²·m`; the speed `v` is
+    /// This runs for every candidate move of the improvement, so the common case skips the speed caps (and the
+    /// length, unless the profile caps the travel acceleration). Along the unit direction `u = (dx, dy)/d` the
+    /// acceleration is `A = min(aₓ/uₓ, a_y/u_y, a_travel)`, so `d/A = max(dx/aₓ, dy/a_y, d/a_travel)` (= `m`). The hop is a triangle when `d·A < v²`, i.e. `d² < v²·m`; the speed `v` is
     /// never below `v₀ = min(F, vₓ, v_y)` (each axis cap `vᵢ/uᵢ ≥ vᵢ`), so `d² < v₀²·m` settles it without
     /// computing `v`, and the triangle's time `2·√(d/A)` is `2·√m`: one square root. Only longer hops take the full
     /// formula.
@@ -96,14 +101,17 @@ impl TravelTimeModel {
             v = v.min(self.max_feed_y_mm_s / uy);
             acc = acc.min(self.accel_y_mm_s2 / uy);
         }
-        trapezoid_time(d, v, acc)
+        trapezoid_time(d, v, acc.min(self.travel_accel_mm_s2))
     }
 
     /// The move time of a hop by `(dx, dy)` (absolute, `d2 = dx² + dy²`) when it is surely a triangle (see
     /// [`TravelTimeModel::move_time`]), given the reciprocals of the axis accelerations; `None` for a longer hop.
     #[inline]
     fn triangle(&self, dx: f64, dy: f64, d2: f64, inv_ax: f64, inv_ay: f64) -> Option<f64> {
-        let m = (dx * inv_ax).max(dy * inv_ay);
+        let mut m = (dx * inv_ax).max(dy * inv_ay);
+        if self.travel_accel_mm_s2.is_finite() {
+            m = m.max(d2.sqrt() / self.travel_accel_mm_s2);
+        }
         let v0 = self.feed_mm_s.min(self.max_feed_x_mm_s).min(self.max_feed_y_mm_s);
         (d2 < v0 * v0 * m).then(|| 2.0 * m.sqrt())
     }
@@ -118,7 +126,7 @@ impl TravelTimeModel {
     /// limits). Used by the lower bound, where the direction of a hop is not known.
     pub fn min_hop_time(&self, d: f64) -> f64 {
         let v = self.feed_mm_s.min(self.max_feed_x_mm_s.hypot(self.max_feed_y_mm_s));
-        let a = self.accel_x_mm_s2.hypot(self.accel_y_mm_s2);
+        let a = self.accel_x_mm_s2.hypot(self.accel_y_mm_s2).min(self.travel_accel_mm_s2);
         self.lift_drop_s + trapezoid_time(d, v, a)
     }
 }
@@ -257,6 +265,28 @@ mod tests {
     }
 
     #[test]
+    fn the_profiles_travel_acceleration_caps_every_hop() {
+        // The kit profile with pen.travel_accel_mm_s2 = 800: a 3-4-5 hop could accelerate at 1875 mm/s² on its
+        // axes (see above) but the cap holds it to 800: a triangle (v²/a = 18 mm > 5), 2·√(5/800) = 0.158 114 s
+        // (2·√(5/1875) = 0.103 280 s uncapped). Along X, 60 mm: 60/120 + 120/800 = 0.65 s.
+        let mut p = MachineProfile::default_plotter();
+        p.pen.travel_accel_mm_s2 = Some(800.0);
+        let m = TravelTimeModel::from_profile(&p);
+        let o = Point::ZERO;
+        let t = m.move_time(o, Point::new(3.0, 4.0));
+        assert!((t - 2.0 * (5.0f64 / 800.0).sqrt()).abs() < 1e-12, "{t}");
+        assert!((m.move_time(o, Point::new(60.0, 0.0)) - 0.65).abs() < 1e-12);
+        let c = HopCost::new(CostModel::Time(m)).cost(o, Point::new(3.0, 4.0));
+        assert!((c - (m.lift_drop_s + 2.0 * (5.0f64 / 800.0).sqrt())).abs() < 1e-12, "{c}");
+        // A cap above what the axes allow changes nothing.
+        p.pen.travel_accel_mm_s2 = Some(5000.0);
+        assert_eq!(
+            TravelTimeModel::from_profile(&p).move_time(o, Point::new(3.0, 4.0)),
+            model().move_time(o, Point::new(3.0, 4.0))
+        );
+    }
+
+    #[test]
     fn time_cost_weighs_many_short_hops_more_than_their_length() {
         let c = CostModel::Time(model());
         let o = Point::ZERO;
@@ -285,6 +315,7 @@ mod tests {
             v = v.min(m.max_feed_y_mm_s / uy);
             acc = acc.min(m.accel_y_mm_s2 / uy);
         }
+        let acc = acc.min(m.travel_accel_mm_s2);
         let cruise = d * acc >= v * v;
         (if cruise { d / v + v / acc } else { 2.0 * (d / acc).sqrt() }, cruise)
     }
@@ -293,8 +324,9 @@ mod tests {
     fn fast_move_time_agrees_with_the_definition() {
         // Kit profile, and one with a slow Y axis and an uncapped feed (the axis caps then decide the speed).
         let slow_y = TravelTimeModel { feed_mm_s: 500.0, max_feed_y_mm_s: 80.0, accel_y_mm_s2: 700.0, ..model() };
+        let capped = TravelTimeModel { travel_accel_mm_s2: 900.0, ..model() };
         let mut r = crate::optimize::rng::SplitMix64::new(11);
-        for m in [model(), slow_y] {
+        for m in [model(), slow_y, capped] {
             let mut cruises = 0;
             for k in 0..20_000 {
                 // Lengths from 1 µm to 400 mm on a log scale, any direction, plus exact axis directions.
@@ -318,8 +350,9 @@ mod tests {
     #[test]
     fn the_prepared_hop_cost_agrees_with_the_model() {
         let slow_y = TravelTimeModel { feed_mm_s: 500.0, max_feed_y_mm_s: 80.0, accel_y_mm_s2: 700.0, ..model() };
+        let capped = TravelTimeModel { travel_accel_mm_s2: 900.0, ..model() };
         let mut r = crate::optimize::rng::SplitMix64::new(5);
-        for model in [CostModel::Distance, CostModel::Time(model()), CostModel::Time(slow_y)] {
+        for model in [CostModel::Distance, CostModel::Time(model()), CostModel::Time(slow_y), CostModel::Time(capped)] {
             let prepared = HopCost::new(model);
             for k in 0..20_000 {
                 let a = Point::new(r.unit() * 300.0, r.unit() * 300.0);
