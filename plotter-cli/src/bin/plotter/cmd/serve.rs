@@ -23,6 +23,11 @@ pub(crate) struct ServeArgs {
     /// start would change whenever the server restarts and is easily lost in a log.
     #[arg(long)]
     pub(crate) allow_remote: bool,
+    /// With --allow-remote: a name people reach this server by (such as plotter.local or studio.example.org),
+    /// accepted besides its IP addresses, this computer's host name and that name under .local. Repeat it for
+    /// several. Names not given are refused, so that no other site can pose as this server.
+    #[arg(long, value_name = "NAME", requires = "allow_remote")]
+    pub(crate) host_name: Vec<String>,
     /// File whose first line is the operator's token (at least 16 characters): who has it may queue drawings and
     /// control the machines. Pages sign in with it once; `plotter queue` sends it with --token-file. Given on
     /// loopback too, the server asks for it there as well.
@@ -196,6 +201,10 @@ pub(crate) fn run(args: &ServeArgs) -> anyhow::Result<()> {
     };
     let (tokens, made) = tokens(args)?;
     check_listen(args.listen, args.allow_remote, tokens.is_some())?;
+    if args.allow_remote {
+        let names = serve::safety::host_names(serve::safety::system_host_name().as_deref(), &args.host_name)?;
+        serve::safety::accept_names(names);
+    }
     // The built-in kit first (the page starts with it), then every built-in model, then the files named.
     let mut profiles = vec![MachineProfile::default_plotter()];
     for model in plotter_path::config::models::names().filter_map(plotter_path::config::models::find) {

@@ -5,8 +5,12 @@
 //! (the `Origin` header names the other site), and DNS rebinding, where the attacker's own host name is made to
 //! resolve to 127.0.0.1 so the browser thinks the page is same-origin (the `Host` header then holds the attacker's
 //! name). So every request must carry a `Host` that is this server's own authority — an IP literal or `localhost`,
-//! with the port it listens on; names are refused, since a rebinding attack needs one — and, when an `Origin` is
-//! sent, it must be `http://` plus that same `Host`.
+//! with the port it listens on; other names are refused, since a rebinding attack needs one — and, when an
+//! `Origin` is sent, it must be `http://` plus that same `Host`.
+//!
+//! Off loopback (`--allow-remote`) people reach the server by name too (`plotter.local`): the names it is known by
+//! are accepted as well — the computer's own host name, that name under `.local` (mDNS), and those given with
+//! `--host-name` — and no other, so a rebinding name is still refused ([`accept_names`]).
 //!
 //! Browsers send no `Origin` on simple `GET`s (links, images, scripts) and older ones on few requests at all; then
 //! the other signs of where a request comes from are checked: a `Referer` must be a page of this same origin, and
@@ -21,6 +25,7 @@
 
 use std::hash::{BuildHasher as _, Hasher as _};
 use std::net::{IpAddr, SocketAddr};
+use std::sync::OnceLock;
 
 use axum::http::{HeaderMap, header};
 
@@ -59,10 +64,77 @@ impl std::fmt::Display for Refusal {
     }
 }
 
+/// The host names this server accepts in `Host` besides `localhost` (set once, at start, off loopback).
+static NAMES: OnceLock<Vec<String>> = OnceLock::new();
+
+/// Accept `names` (already checked with [`host_names`]) in the `Host` of every request from now on; called once,
+/// when the server listens off loopback.
+pub(crate) fn accept_names(names: Vec<String>) {
+    let _ = NAMES.set(names);
+}
+
+/// The names a server listening off loopback is known by: this computer's host name and that name under
+/// `.local` (when the system says it), then `given` (`--host-name`), each checked to be a host name; lowercase,
+/// each once. An error names the first bad one.
+pub(crate) fn host_names(system: Option<&str>, given: &[String]) -> anyhow::Result<Vec<String>> {
+    let mut names: Vec<String> = Vec::new();
+    let mut add = |n: &str| {
+        let n = n.trim_end_matches('.').to_ascii_lowercase();
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    };
+    if let Some(own) = system.map(str::trim).filter(|n| is_host_name(n)) {
+        add(own);
+        if !own.contains('.') {
+            add(&format!("{own}.local"));
+        }
+    }
+    for n in given {
+        if !is_host_name(n) {
+            anyhow::bail!(
+                "--host-name {n:?}: give a host name the server is reached by, such as plotter.local (letters, \
+                 digits and hyphens, in labels joined by dots; an IP address needs no --host-name)"
+            );
+        }
+        add(n);
+    }
+    Ok(names)
+}
+
+/// This computer's host name, as the system knows it (none when it cannot be read).
+pub(crate) fn system_host_name() -> Option<String> {
+    ["/proc/sys/kernel/hostname", "/etc/hostname"]
+        .iter()
+        .find_map(|f| std::fs::read_to_string(f).ok())
+        .map(|n| n.trim().to_string())
+        .filter(|n| !n.is_empty())
+}
+
+/// Whether `name` is a DNS host name (labels of letters, digits and inner hyphens, at most 63 bytes each and
+/// 253 in all, joined by dots, a trailing dot allowed), and not an IP literal.
+fn is_host_name(name: &str) -> bool {
+    let name = name.strip_suffix('.').unwrap_or(name);
+    let label = |l: &str| {
+        (1..=63).contains(&l.len())
+            && l.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-')
+            && !l.starts_with('-')
+            && !l.ends_with('-')
+    };
+    !name.is_empty() && name.len() <= 253 && name.split('.').all(label) && name.parse::<IpAddr>().is_err()
+}
+
 /// Whether `host` (a `Host` header value) names this server listening on `local`: `localhost` or an IP literal,
-/// with `local`'s port. A wildcard listen address (0.0.0.0, ::) accepts any IP literal, since the server then
-/// answers on every interface; a specific one accepts itself and loopback.
+/// with `local`'s port, or off loopback one of the names given to [`accept_names`]. A wildcard listen address
+/// (0.0.0.0, ::) accepts any IP literal, since the server then answers on every interface; a specific one
+/// accepts itself and loopback.
 pub(crate) fn host_is_ours(host: &str, local: SocketAddr) -> bool {
+    host_is_named(host, local, NAMES.get().map_or(&[], Vec::as_slice))
+}
+
+/// [`host_is_ours`] with `names` the names accepted besides `localhost` (taken only when `local` is off
+/// loopback).
+fn host_is_named(host: &str, local: SocketAddr, names: &[String]) -> bool {
     let Some((name, port)) = split_authority(host) else { return false };
     if port != local.port() {
         return false;
@@ -70,7 +142,10 @@ pub(crate) fn host_is_ours(host: &str, local: SocketAddr) -> bool {
     if name.eq_ignore_ascii_case("localhost") {
         return true;
     }
-    let Ok(ip) = name.parse::<IpAddr>() else { return false };
+    let Ok(ip) = name.parse::<IpAddr>() else {
+        let name = name.strip_suffix('.').unwrap_or(name);
+        return !local.ip().to_canonical().is_loopback() && names.iter().any(|n| n.eq_ignore_ascii_case(name));
+    };
     local.ip().is_unspecified() || ip == local.ip() || ip.is_loopback()
 }
 
@@ -164,6 +239,37 @@ mod tests {
         let specific: SocketAddr = "10.1.2.3:9000".parse().unwrap();
         assert!(host_is_ours("10.1.2.3:9000", specific));
         assert!(!host_is_ours("10.1.2.4:9000", specific));
+    }
+
+    /// Off loopback the names the server is known by are taken (its host name, that name under .local, the
+    /// --host-name ones; any case, a trailing dot), with the server's port only; any other name (a rebinding
+    /// attacker's) is still refused, and on loopback no name but localhost is taken.
+    #[test]
+    fn off_loopback_the_servers_own_names_are_accepted_and_no_others() {
+        let names = host_names(Some("studio-pc\n"), &["plotter.example.org".into(), "Plotter.LOCAL".into()]).unwrap();
+        assert_eq!(names, ["studio-pc", "studio-pc.local", "plotter.example.org", "plotter.local"]);
+        let any: SocketAddr = "0.0.0.0:8040".parse().unwrap();
+        let lan: SocketAddr = "192.168.1.5:8040".parse().unwrap();
+        for local in [any, lan] {
+            for ok in ["studio-pc:8040", "studio-pc.local:8040", "PLOTTER.local:8040", "plotter.local.:8040"] {
+                assert!(host_is_named(ok, local, &names), "{ok} on {local}");
+            }
+            for bad in ["plotter.local:9000", "rebind.attacker.example:8040", "studio-pc.attacker.example:8040"] {
+                assert!(!host_is_named(bad, local, &names), "{bad} on {local}");
+            }
+        }
+        let loopback: SocketAddr = "127.0.0.1:8040".parse().unwrap();
+        assert!(!host_is_named("plotter.local:8040", loopback, &names));
+        assert!(host_is_named("localhost:8040", loopback, &names));
+        // Without names (no --allow-remote, nothing given): names refused as before.
+        assert!(!host_is_named("plotter.local:8040", any, &[]));
+        // A dotted system name has no .local twin; bad names are refused with the flag named.
+        assert_eq!(host_names(Some("box.lan"), &[]).unwrap(), ["box.lan"]);
+        assert!(host_names(None, &[]).unwrap().is_empty());
+        for bad in ["", "192.168.1.5", "-x.local", "a..b", "pl otter", "x_y.local", "evil.com:80"] {
+            let e = host_names(None, &[bad.to_string()]).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--host-name {bad:?}: give a host name")), "{e}");
+        }
     }
 
     #[test]
