@@ -88,8 +88,10 @@ function fillSettings(st) {
   if (st.paper && ![...paper.options].some((o) => o.value === st.paper)) paper.add(new Option(st.paper, st.paper));
   set('paper', st.paper); set('orientation', st.orientation); set('margin', st.margin); set('rotate', String(((st.rotate % 4) + 4) % 4));
   set('fit', st.fit); set('center', st.center); set('optimize', st.optimize); set('trace', st.trace);
+  set('colors', st.colors);
   set('paper-width', st.paper_width); set('paper-height', st.paper_height); set('paper-unit', st.paper_unit);
-  set('hatch', st.hatch_mm); set('cross-hatch', st.cross_hatch); set('hidden-lines', st.hidden_lines);
+  set('hatch', st.hatch_mm); set('cross-hatch', st.cross_hatch); set('hatch-tone', st.hatch_tone);
+  set('hidden-lines', st.hidden_lines);
   showCustomPaper();
 }
 function showCustomPaper() { $('custom-paper').hidden = $('paper').value !== 'custom'; }
@@ -367,14 +369,15 @@ function sendSettings() {
   api('/api/settings', {
     paper: $('paper').value, orientation: $('orientation').value, margin: Number($('margin').value) || 0,
     fit: $('fit').checked, center: $('center').checked, rotate: Number($('rotate').value),
-    optimize: $('optimize').checked, trace: $('trace').value, layers,
+    optimize: $('optimize').checked, trace: $('trace').value, colors: $('colors').value, layers,
     paper_width: Number($('paper-width').value) || 0, paper_height: Number($('paper-height').value) || 0,
     paper_unit: $('paper-unit').value, hatch_mm: Number($('hatch').value) || 0,
-    cross_hatch: $('cross-hatch').checked, hidden_lines: $('hidden-lines').checked,
+    cross_hatch: $('cross-hatch').checked, hatch_tone: $('hatch-tone').checked,
+    hidden_lines: $('hidden-lines').checked,
   }).catch(() => {});
 }
-['paper', 'orientation', 'margin', 'rotate', 'fit', 'center', 'optimize', 'trace', 'paper-width', 'paper-height',
-  'paper-unit', 'hatch', 'cross-hatch', 'hidden-lines'].forEach((id) => { $(id).onchange = sendSettings; });
+['paper', 'orientation', 'margin', 'rotate', 'fit', 'center', 'optimize', 'trace', 'colors', 'paper-width',
+  'paper-height', 'paper-unit', 'hatch', 'cross-hatch', 'hatch-tone', 'hidden-lines'].forEach((id) => { $(id).onchange = sendSettings; });
 $('paper').addEventListener('change', showCustomPaper);
 
 $('profile').onchange = () => api('/api/profile', { name: $('profile').value }).catch(() => {});

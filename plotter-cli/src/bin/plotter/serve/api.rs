@@ -29,7 +29,7 @@ use plotter_host::link::jog::JogTarget;
 use plotter_host::link::machine::Firmware;
 use plotter_host::options::layout::{LayoutArgs, OrientationArg};
 use plotter_host::options::optimize::OptimizeArgs;
-use plotter_host::options::trace::ModeArg;
+use plotter_host::options::trace::{ColorsArg, ModeArg};
 
 use plotter_path::input::r#gen;
 use plotter_path::output::preview::plotting_pen;
@@ -310,13 +310,22 @@ fn input_args(settings: &Settings) -> Result<InputArgs, ApiError> {
             bad(format!("unknown tracing mode {name:?} ({})", names.join(", ")))
         })?,
     };
+    args.trace.colors = match settings.colors.as_str() {
+        "" => ColorsArg::default(),
+        name => <ColorsArg as clap::ValueEnum>::from_str(name, false)
+            .map_err(|_| bad(format!("unknown colour separation {name:?} (gray, cmyk, pens)")))?,
+    };
     let h = settings.hatch_mm;
     if !(h == 0.0 || (h.is_finite() && (MIN_HATCH_MM..=MAX_HATCH_MM).contains(&h))) {
         return Err(bad(format!(
             "hatch spacing {h} mm is not in {MIN_HATCH_MM}..{MAX_HATCH_MM} mm (0 turns hatching off)"
         )));
     }
-    args.hatch = (h > 0.0).then_some(plotter_host::input::HatchArg::Spacing(h));
+    args.hatch = if settings.hatch_tone {
+        Some(plotter_host::input::HatchArg::Tone)
+    } else {
+        (h > 0.0).then_some(plotter_host::input::HatchArg::Spacing(h))
+    };
     args.cross_hatch = args.hatch.is_some() && settings.cross_hatch;
     args.no_occlusion = !settings.hidden_lines;
     Ok(args)
@@ -555,17 +564,24 @@ async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) ->
         let mut i = shared.lock();
         // Tracing, hatching and hidden lines are decided when the drawing is read: read it again when they change,
         // and when the layout changes under hatching (its spacings are page sizes, divided by the layout's factor).
-        let decoded_as = |a: &InputArgs| (a.trace.mode, a.hatch, a.cross_hatch, a.no_occlusion);
+        let decoded_as = |a: &InputArgs| (a.trace.mode, a.trace.colors, a.hatch, a.cross_hatch, a.no_occlusion);
         let laid_out = |s: &Settings| layout_args(s).ok().and_then(|l| l.options().ok());
         let hatched = wanted.hatch.is_some() || i.machine_profile().pens.iter().any(|p| p.hatch.is_some());
         let retrace = i.loaded.as_ref().is_some_and(|l| {
             decoded_as(&l.input) != decoded_as(&wanted) || (hatched && laid_out(&i.settings) != laid_out(&s))
         });
-        i.settings = s.clone();
-        retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.machine_profile()))).flatten()
+        let before = std::mem::replace(&mut i.settings, s.clone());
+        retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.machine_profile(), before))).flatten()
     };
-    if let Some((source, profile)) = retrace {
-        let loaded = decode(&shared, source, &s, profile).await?;
+    if let Some((source, profile, before)) = retrace {
+        // A drawing the new settings cannot read (say `pens` with no coloured pen) keeps the settings it was read with.
+        let loaded = match decode(&shared, source, &s, profile).await {
+            Ok(loaded) => loaded,
+            Err(e) => {
+                shared.lock().settings = before;
+                return Err(e);
+            }
+        };
         shared.lock().loaded = Some(loaded);
     }
     reprepare(&shared).await
@@ -583,8 +599,33 @@ async fn choose_profile(State(shared): State<Arc<Shared>>, Json(b): Json<Profile
         .into_iter()
         .find(|p| p.name == b.name)
         .ok_or_else(|| bad(format!("no machine profile named {:?}", b.name)))?;
-    shared.lock().profile = profile;
+    let before = {
+        let mut i = shared.lock();
+        let before = i.machine_profile();
+        i.profile = profile;
+        before
+    };
+    reread_for_pens(&shared, &before).await?;
     reprepare(&shared).await
+}
+
+/// Reads the loaded drawing again after the machine profile changed from `before`, when what was read depends on
+/// the profile's pens: `--colors pens` separates a picture into them, and a pen with a hatch shades fills as the
+/// drawing is read. A drawing read otherwise is kept as it is.
+async fn reread_for_pens(shared: &Shared, before: &MachineProfile) -> Result<(), ApiError> {
+    let again = {
+        let i = shared.lock();
+        let now = i.machine_profile();
+        let hatching = |p: &MachineProfile| p.pens.iter().any(|pen| pen.hatch.is_some());
+        let pens_matter = i.settings.colors == "pens" || hatching(before) || hatching(&now);
+        let loaded = i.loaded.as_ref().filter(|_| pens_matter && before.pens != now.pens);
+        loaded.map(|l| (l.source.clone(), i.settings.clone(), now))
+    };
+    if let Some((source, settings, profile)) = again {
+        let loaded = decode(shared, source, &settings, profile).await?;
+        shared.lock().loaded = Some(loaded);
+    }
+    Ok(())
 }
 
 async fn upload_profile(
@@ -598,11 +639,14 @@ async fn upload_profile(
     let text = std::str::from_utf8(&bytes).map_err(|_| bad(format!("{name}: a machine profile is UTF-8 TOML text")))?;
     let profile = MachineProfile::from_toml(text, &name).map_err(|e| bad(e.to_string()))?;
     plotter_path::motion::plan::machine_config(&profile).map_err(|e| bad(format!("{name}: {e}")))?;
-    {
+    let before = {
         let mut i = shared.lock();
+        let before = i.machine_profile();
         i.uploaded_profile = Some(profile.clone());
         i.profile = profile;
-    }
+        before
+    };
+    reread_for_pens(&shared, &before).await?;
     reprepare(&shared).await
 }
 

@@ -106,10 +106,14 @@ pub(crate) struct Settings {
     pub(crate) rotate: i32,
     /// Path ordering on.
     pub(crate) optimize: bool,
-    /// Raster tracing mode: `outline`, `centerline`, `edges`, `hatch`.
+    /// Raster tracing mode: one of `--mode`'s names (`outline`, `hatch`, `stipple`, `mosaic`, ...).
     pub(crate) trace: String,
+    /// How a picture's colours become pens (`--colors`): `gray`, `cmyk` or `pens` (the machine profile's pens).
+    pub(crate) colors: String,
     /// Shade filled SVG areas with lines this far apart, mm (0: no hatching).
     pub(crate) hatch_mm: f64,
+    /// Shade each filled SVG area by its colour's lightness (`--hatch tone`) instead of one spacing for all.
+    pub(crate) hatch_tone: bool,
     /// With hatching: a second family of lines at right angles.
     pub(crate) cross_hatch: bool,
     /// Remove the lines an opaque fill painted later hides (the command line's default; off is `--no-occlusion`).
@@ -132,7 +136,9 @@ impl Default for Settings {
             rotate: 0,
             optimize: true,
             trace: "outline".into(),
+            colors: "gray".into(),
             hatch_mm: 0.0,
+            hatch_tone: false,
             cross_hatch: false,
             hidden_lines: true,
             layers: Vec::new(),

@@ -678,16 +678,20 @@ async fn the_preview_draws_each_layer_with_the_pen_that_plots_it() {
     assert_eq!(view["layers"][0]["width_mm"], 0.8);
 }
 
-/// A gzip file of `data` in stored (uncompressed) deflate blocks, as RFC 1952 and RFC 1951 lay them out.
-fn gzip_stored(data: &[u8]) -> Vec<u8> {
-    let crc = data.iter().fold(!0u32, |mut c, &b| {
+/// The CRC-32 of ISO 3309 (gzip's and PNG's), bit by bit.
+fn crc32(data: &[u8]) -> u32 {
+    data.iter().fold(!0u32, |mut c, &b| {
         c ^= u32::from(b);
         for _ in 0..8 {
             c = if c & 1 == 1 { (c >> 1) ^ 0xedb8_8320 } else { c >> 1 };
         }
         c
-    }) ^ !0u32;
-    let mut out = vec![0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 255];
+    }) ^ !0u32
+}
+
+/// `data` as stored (uncompressed) deflate blocks, as RFC 1951 lays them out.
+fn deflate_stored(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
     let chunks: Vec<&[u8]> = data.chunks(65_535).collect();
     for (i, chunk) in chunks.iter().enumerate() {
         out.push(u8::from(i + 1 == chunks.len()));
@@ -696,9 +700,108 @@ fn gzip_stored(data: &[u8]) -> Vec<u8> {
         out.extend((!len).to_le_bytes());
         out.extend(*chunk);
     }
-    out.extend(crc.to_le_bytes());
+    out
+}
+
+/// A gzip file of `data` in stored deflate blocks, as RFC 1952 lays it out.
+fn gzip_stored(data: &[u8]) -> Vec<u8> {
+    let mut out = vec![0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 255];
+    out.extend(deflate_stored(data));
+    out.extend(crc32(data).to_le_bytes());
     out.extend(u32::try_from(data.len()).unwrap().to_le_bytes());
     out
+}
+
+/// A `w` × `h` PNG of one 8-bit RGB colour, its pixels in a zlib stream of stored blocks (PNG specification §5, §10
+/// and RFC 1950), written here so the test depends on no encoder of ours.
+fn png_of_one_colour(w: u32, h: u32, rgb: [u8; 3]) -> Vec<u8> {
+    let chunk = |out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]| {
+        out.extend(u32::try_from(data.len()).unwrap().to_be_bytes());
+        let typed: Vec<u8> = kind.iter().chain(data).copied().collect();
+        out.extend(&typed);
+        out.extend(crc32(&typed).to_be_bytes());
+    };
+    let row: Vec<u8> = std::iter::once(0).chain((0..w).flat_map(|_| rgb)).collect();
+    let raw: Vec<u8> = (0..h).flat_map(|_| row.iter().copied()).collect();
+    let (a, b) = raw.iter().fold((1u32, 0u32), |(a, b), &x| {
+        let a = (a + u32::from(x)) % 65_521;
+        (a, (b + a) % 65_521)
+    });
+    let mut zlib = vec![0x78, 0x01];
+    zlib.extend(deflate_stored(&raw));
+    zlib.extend(((b << 16) | a).to_be_bytes());
+    let mut ihdr = Vec::new();
+    ihdr.extend(w.to_be_bytes());
+    ihdr.extend(h.to_be_bytes());
+    ihdr.extend([8, 2, 0, 0, 0]);
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    chunk(&mut out, b"IHDR", &ihdr);
+    chunk(&mut out, b"IDAT", &zlib);
+    chunk(&mut out, b"IEND", &[]);
+    out
+}
+
+/// The page's colour and fill-tone settings trace as `--colors` and `--hatch tone` do: an orange picture hatched
+/// in gray is one layer, and separated into CMYK it is magenta and yellow (orange has no cyan, and black takes only
+/// the gray the three inks share: none); with the XY kit's pens it is the red pen's.
+/// A white fill stays empty under the tone hatch (its 20 mm square's 80 mm outline only); a mid-gray fill (#808080: 0.784 of the paper inked, in linear light) gets
+/// 0.784 of its 400 mm² inked by 0.3 mm lines: 1045 mm as one family of lines, and up to 1600 mm as three crossing
+/// families (k families each covering 1 − 0.216^(1/k) of the paper: k · that · 400 / 0.3 mm), where one spacing of
+/// 1 mm gives it 400 mm.
+#[tokio::test]
+async fn the_page_separates_pictures_into_inks_and_hatches_fills_by_their_tone() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    // A flat picture has no outline to trace: hatch it from the start.
+    let (s, v) = c.post("/api/settings", json!({ "trace": "hatch" })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (s, v) = c.upload("orange.png", &png_of_one_colour(100, 100, [255, 128, 0])).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let layer_names = |st: &Value| -> Vec<String> {
+        st["drawing"]["layers"].as_array().unwrap().iter().map(|l| l["name"].as_str().unwrap().to_owned()).collect()
+    };
+    assert_eq!(layer_names(&c.get("/api/state").await.1).len(), 1);
+    let (s, v) = c.post("/api/settings", json!({ "trace": "hatch", "colors": "cmyk" })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    assert_eq!(layer_names(&c.get("/api/state").await.1), ["magenta", "yellow"]);
+    // The XY kit's pens are black, red and blue: orange (red light, a fifth of the green, no blue) is the red pen's;
+    // blue ink would take the red light orange reflects in full.
+    let (s, v) = c.post("/api/settings", json!({ "trace": "hatch", "colors": "pens" })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let names = layer_names(&c.get("/api/state").await.1);
+    assert!(
+        names.contains(&"red fineliner 0.5".to_owned()) && !names.contains(&"blue brush pen".to_owned()),
+        "{names:?}"
+    );
+    // A separation of a style that does not shade is refused by name, and the settings the drawing was read with stay.
+    let (s, v) = c.post("/api/settings", json!({ "trace": "outline", "colors": "cmyk" })).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "{v}");
+    assert!(v.to_string().contains("--colors"), "{v}");
+    let (_, st) = c.get("/api/state").await;
+    assert_eq!((&st["settings"]["trace"], &st["settings"]["colors"]), (&json!("hatch"), &json!("pens")));
+    let (s, v) = c.post("/api/settings", json!({ "trace": "hatch", "colors": "rgb" })).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "{v}");
+    assert!(v.to_string().contains(r#"unknown colour separation \"rgb\""#), "{v}");
+
+    let square = |fill: &str| {
+        format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="20mm" height="20mm" viewBox="0 0 20 20">
+            <rect x="0" y="0" width="20" height="20" fill="{fill}" stroke="black"/></svg>"#
+        )
+    };
+    let pen_down = |st: &Value| st["prepared"]["stats"]["pen_down_mm"].as_f64().unwrap();
+    c.upload("white.svg", square("white").as_bytes()).await;
+    let (s, v) = c.post("/api/settings", json!({ "hatch_tone": true })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    assert!((pen_down(&c.get("/api/state").await.1) - 80.0).abs() < 0.5);
+    c.upload("gray.svg", square("#808080").as_bytes()).await;
+    let hatched = pen_down(&c.get("/api/state").await.1) - 80.0;
+    assert!((0.95 * 1045.0..=1.05 * 1600.0).contains(&hatched), "{hatched} mm of hatching");
+    // One spacing for every fill: 19 or 20 lines of 20 mm at 1 mm, whatever the fill's gray, and their joins.
+    c.post("/api/settings", json!({ "hatch_mm": 1.0 })).await;
+    let hatched = pen_down(&c.get("/api/state").await.1) - 80.0;
+    assert!((380.0..=420.0 + 20.0).contains(&hatched), "{hatched} mm of hatching");
 }
 
 /// What the page's file picker offers besides SVG and images is decoded: a compressed SVG and HP-GL files.
