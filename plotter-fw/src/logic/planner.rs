@@ -368,22 +368,61 @@ fn circumradius(p: &[f32; NUM_AXES], q: &[f32; NUM_AXES]) -> Option<f32> {
     Some(sqrt(pp * qq * dd / (4.0 * cross_sq)))
 }
 
-/// The cornering verdict at vertex `j` (where `seg(j)` starts) of a sequence of `n` segments. Reads at most
-/// [`CURVE_SPAN_BLOCKS`] segments on either side (`seg(j − K) … seg(j + K − 1)`).
+/// Both of the profile's limits at a vertex: its junction-deviation speed and, where the vertex samples a smooth
+/// curve, that curve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct VertexLimits {
+    /// Junction-deviation speed² (capped by both blocks' nominal speeds); 0 at a stop or the start.
+    corner_sqr: f32,
+    /// Both blocks' nominal speeds, the lower, squared.
+    nominal_sqr: f32,
+    /// The curve the vertex samples (rules 1 to 3 of the module docs), `None` where it is a corner.
+    curve: Option<Curve>,
+}
+
+impl VertexLimits {
+    const REST: VertexLimits = VertexLimits { corner_sqr: 0.0, nominal_sqr: 0.0, curve: None };
+}
+
+/// The cornering verdict at vertex `j` (where `seg(j)` starts) of a sequence of `n` segments: the curve's speed
+/// where the vertex samples one, junction deviation's elsewhere. Reads at most [`CURVE_SPAN_BLOCKS`] segments on
+/// either side (`seg(j − K) … seg(j + K − 1)`).
 fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineConfig) -> Junction {
+    let l = vertex_limits(seg, n, j, cfg);
+    match l.curve {
+        Some(c) => Junction { speed_sqr: c.speed_sqr.min(l.nominal_sqr), curve: Some(c) },
+        None => Junction { speed_sqr: l.corner_sqr, curve: None },
+    }
+}
+
+/// The profile's vertex limit at vertex `j` (where `seg(j)` starts) of a sequence of `n` segments, speed²: the
+/// more permissive of its junction-deviation speed and, where the vertex samples a smooth curve, the curve's speed
+/// (each capped by both blocks' nominal speeds). The machine executes straight blocks, so it passes every vertex
+/// with a jump in velocity; how large a jump it takes is the machine's limit the profile states
+/// (`junction_deviation_mm`, `curve_deviation_mm`), and no planner within the profile passes a vertex faster than
+/// this. The planner itself takes the curve's speed where there is a curve ([`junction_at`], which reads the same
+/// limits); a lower bound on plot time takes this, with segments at the largest acceleration any direction allows.
+pub fn vertex_limit_sqr<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineConfig) -> f32 {
+    let l = vertex_limits(seg, n, j, cfg);
+    l.curve.map_or(l.corner_sqr, |c| l.corner_sqr.max(c.speed_sqr.min(l.nominal_sqr)))
+}
+
+/// Both limits at vertex `j` (see [`VertexLimits`], [`junction_at`]).
+fn vertex_limits<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineConfig) -> VertexLimits {
     if j == 0 || j >= n {
-        return Junction::REST;
+        return VertexLimits::REST;
     }
     let (a, b) = (seg(j - 1), seg(j));
     if a.fixed || b.fixed {
-        return Junction::REST;
+        return VertexLimits::REST;
     }
-    let corner = Junction { speed_sqr: deviation_speed_sqr(&a, &b, cfg.junction_deviation_mm), curve: None };
+    let nominal_sqr = (a.nominal * a.nominal).min(b.nominal * b.nominal);
+    let corner =
+        VertexLimits { corner_sqr: deviation_speed_sqr(&a, &b, cfg.junction_deviation_mm), nominal_sqr, curve: None };
     let dev = cfg.curve_deviation_mm;
     if !locally_smooth(&a, &b, dev) {
         return corner;
     }
-    let nominal_sqr = (a.nominal * a.nominal).min(b.nominal * b.nominal);
     let mut tangent = [0.0f32; NUM_AXES];
     for (t, (x, y)) in tangent.iter_mut().zip(a.unit.iter().zip(b.unit)) {
         *t = x + y;
@@ -394,10 +433,7 @@ fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineCo
     let q = span(seg, n, j, true, &tangent, dev, CURVE_SPAN_MM);
     let Some(radius) = circumradius(&p, &q) else {
         // A straight run.
-        return Junction {
-            speed_sqr: nominal_sqr,
-            curve: Some(Curve { radius: f32::INFINITY, speed_sqr: f32::INFINITY }),
-        };
+        return VertexLimits { curve: Some(Curve { radius: f32::INFINITY, speed_sqr: f32::INFINITY }), ..corner };
     };
     // Rule 3: the turn at the vertex against the circle's turn. Chords of a few steps have directions too rough
     // for that (±½ step at each end), so the turn is measured between chords at least KINK_SPAN_STEPS long,
@@ -454,7 +490,7 @@ fn junction_at<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineCo
         }
     }
     let speed_sqr = accel * radius;
-    Junction { speed_sqr: speed_sqr.min(nominal_sqr), curve: Some(Curve { radius, speed_sqr }) }
+    VertexLimits { curve: Some(Curve { radius, speed_sqr }), ..corner }
 }
 
 /// Cruise limit (speed²) of a chord of length `len` between vertices `start` and `end` (`None`: the sequence ends

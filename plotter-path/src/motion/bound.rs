@@ -8,23 +8,24 @@
 //!   junction speed of the 90° corner into the pen lift (junction deviation with the largest acceleration any
 //!   direction allows, an over-estimate) — or, with the curve model on, at up to the Z feed: the planner may take
 //!   a short chord's join with a Z move as a point of a curve, capped only by both moves' feeds. Each stroke is
-//!   drawn at its pen's feed. Where a stroke
-//!   turns by more than 90° it is a corner for the planner, whose speed there is at most junction deviation's
-//!   (computed here with the largest acceleration any direction allows, so it over-estimates); a reversal stops.
-//!   A profile without the curve model (`motion.curve_deviation_mm = 0`, saxi's rule) has the planner judge every
-//!   vertex so, and then every vertex caps the speed here too. The speeds at the caps are carried from
-//!   segment to segment (forward and backward passes), so each stroke's part is the least time its caps allow.
-//!   Each straight segment takes at least the fastest one-dimensional motion over its length that starts and
-//!   ends within those speeds and stays within the segment's own limits ([`segment_limits`]): on a straight
-//!   segment the pen's velocity and acceleration both point along it (a straight path has no normal
+//!   drawn at its pen's feed. The machine executes straight blocks, so it passes every vertex of a polyline with
+//!   a jump in velocity; how large a jump it takes is a machine limit the profile states
+//!   (`motion.junction_deviation_mm` and `motion.curve_deviation_mm`), like its axis speeds. So every vertex
+//!   inside a stroke is capped at the profile's vertex limit: the more permissive of its junction-deviation speed
+//!   and, where the vertex samples a smooth curve, the curve's centripetal speed, computed by the very function
+//!   the planner reads ([`plotter_fw::planner::vertex_limit_sqr`]) with every block at the largest acceleration
+//!   any direction allows (`√(a_x² + a_y²)`, or the drawing cap where lower), where the planner takes each
+//!   corner at the lower acceleration of its two blocks: an over-estimate, so the cap is never below the
+//!   planner's. A planner that passed a vertex faster would break the profile's limits. The speeds at the caps
+//!   are carried from segment to segment (forward and backward passes), so each stroke's part is the least time
+//!   its caps allow. Each straight segment takes at least the fastest one-dimensional motion over its length
+//!   that starts and ends within those speeds and stays within the segment's own limits ([`segment_limits`]): on
+//!   a straight segment the pen's velocity and acceleration both point along it (a straight path has no normal
 //!   acceleration), so an axis moving a share `|u_i|` of the path sees `|u_i|` of them, and no motion on the
 //!   machine's per-axis limits goes faster along direction `u` than `min_i v_i/|u_i|` (and the pen's feed) nor
 //!   speeds up or slows down faster than `min_i a_i/|u_i|` (and the profile's drawing acceleration,
-//!   `pen.draw_accel_mm_s2`, a limit along the path in any direction). That holds for any planner, whatever it
-//!   does at the vertices; a line along X on axes of equal limits is bounded at X's acceleration, not at the
-//!   diagonal's `√(a_x² + a_y²)`. The vertex caps above take the largest acceleration any direction allows,
-//!   `√(a_x² + a_y²)` or the drawing cap where lower (a corner's junction deviation takes the lower
-//!   acceleration of its two blocks, so that over-estimates it).
+//!   `pen.draw_accel_mm_s2`, a limit along the path in any direction). A line along X on axes of equal limits is
+//!   bounded at X's acceleration, not at the diagonal's `√(a_x² + a_y²)`.
 //! * **Pen lifts** (the hop overlaps them with the travel, see [`crate::motion::hop`]): per stroke a Z move of at
 //!   least the clearance off the paper (entered no faster than the 90° corner from the drawing allows, left no
 //!   faster than the corner into a travel that climbs at up to twice the hop slope), a Z move of at least the
@@ -43,8 +44,12 @@
 //!   or `pen.travel_accel_mm_s2` where lower), from and into the corners with the pen's Z moves (up to the
 //!   slower feed with the curve model on) ([`min_hop_seconds`]).
 //!
-//! Curvature limits inside strokes are left out, and so are the direction limits of the travel (the travel bound
+//! The cruise limit on a curve's chords (no faster than their ends) is left out, and so are the direction limits
+//! of the travel (the travel bound
 //! knows its hops' lengths, not their directions); each only adds time, so the bound is valid whatever the order; the gap between it and the plan is what any order and planner could gain.
+
+use plotter_fw::config::MachineConfig;
+use plotter_fw::planner::{self, PlanBlock, Seg};
 
 use crate::MachineProfile;
 use crate::geometry::steps::StepDrawing;
@@ -217,22 +222,28 @@ pub(crate) fn stroke_exit_speed(profile: &MachineProfile, accel: f64) -> f64 {
     }
 }
 
-/// The speed cap the bound puts at a stroke's vertex whose directions have cosine `cos`, mm/s: junction
-/// deviation's with the largest acceleration `accel` (sin(θ/2) for θ the angle between the reversed incoming and
-/// the outgoing direction; a reversal stops) where the turn exceeds 90° or `every_vertex`; `None` where the bound
-/// puts none there, and where the stroke goes straight on.
-pub(crate) fn vertex_cap(accel: f64, deviation: f64, cos: f64, every_vertex: bool) -> Option<f64> {
-    if !(cos < 0.0 || every_vertex) {
-        return None;
-    }
-    let sin_half = ((1.0 + cos) / 2.0).sqrt();
-    Some(if sin_half < 1e-4 {
-        0.0
-    } else if sin_half > 1.0 - 1e-12 {
-        f64::INFINITY
-    } else {
-        (accel * deviation * sin_half / (1.0 - sin_half)).sqrt()
-    })
+/// A stroke's drawing blocks as the bound's vertex caps see them: each block's geometry as the planner makes it,
+/// taken at the largest acceleration any direction allows, `accel` (an over-estimate of the planner's per-block
+/// one, so the caps over-estimate its junction speeds; the curve speed reads the axes' limits across the curve,
+/// which do not depend on it).
+pub(crate) fn vertex_segs(blocks: impl IntoIterator<Item = PlanBlock>, accel: f64) -> Vec<Seg> {
+    // One part in a million above the f64 figure, so its rounding to f32 never falls below the planner's.
+    #[allow(clippy::cast_possible_truncation, reason = "a physical acceleration, far inside f32")]
+    let accel = (accel * (1.0 + 1e-6)) as f32;
+    blocks
+        .into_iter()
+        .map(|mut b| {
+            b.acceleration = accel;
+            Seg::of(&b)
+        })
+        .collect()
+}
+
+/// The speed cap the bound puts at vertex `j` of a stroke's blocks `segs` (where `segs[j]` starts), mm/s: the
+/// profile's vertex limit ([`plotter_fw::planner::vertex_limit_sqr`], the one function the planner reads too),
+/// the more permissive of the junction-deviation speed and, on a smooth curve, the curve's speed.
+pub(crate) fn vertex_cap(cfg: &MachineConfig, segs: &[Seg], j: usize) -> f64 {
+    f64::from(planner::vertex_limit_sqr(&|k: usize| segs[k], segs.len(), j, cfg)).sqrt()
 }
 
 /// What the bound's per-direction limits give away to the planner's single-precision arithmetic: its blocks'
@@ -279,44 +290,34 @@ pub fn plot_time_lower_bound(
     steps: &StepDrawing,
     travel_lb_s: f64,
 ) -> Result<TimeBound, PlanError> {
-    // Only to refuse a profile the planner refuses.
-    machine_config(profile)?;
+    // Also to refuse a profile the planner refuses.
+    let cfg = machine_config(profile)?;
     let accel = path_accel(profile, profile.pen.draw_accel_mm_s2);
     let (sx, sy) = (profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm);
     // Each layer is drawn at its pen's feed.
     let feeds: Vec<f64> = crate::motion::plan::layer_pens(profile, steps).iter().map(|p| p.draw_feed_mm_s).collect();
-    let deviation = profile.motion.junction_deviation_mm;
     let mut bound = TimeBound::default();
     let lifts = lift_parts(profile);
     let v_lift = stroke_exit_speed(profile, accel);
-    // With no curve model (`motion.curve_deviation_mm = 0`) the planner judges every vertex by junction deviation
-    // alone, so every vertex caps the speed; otherwise only turns above 90° (a smooth curve's vertices are planned
-    // from its radius instead).
-    let every_vertex = profile.motion.curve_deviation_mm == 0.0;
     let mut strokes = 0usize;
     for (si, s) in steps.strokes.iter().enumerate() {
         let draw = feeds.get(steps.layer_of(si)).copied().unwrap_or(profile.pen.draw_feed_mm_s);
-        // The stroke's segments in mm, read as they go (a stroke may have millions: no copy of them is kept).
-        let mut segs =
-            s.moves.iter().filter(|d| !d.is_zero()).map(|d| (f64::from(d.dx) / sx, f64::from(d.dy) / sy)).peekable();
-        if segs.peek().is_none() {
+        #[allow(clippy::cast_possible_truncation, reason = "a physical feed, far inside f32")]
+        let feed32 = draw as f32;
+        // The stroke's blocks as the planner makes them (every moving delta makes one), for the vertex caps.
+        let segs = vertex_segs(s.moves.iter().filter_map(|d| PlanBlock::line(&cfg, [d.dx, d.dy, 0, 0], feed32)), accel);
+        if segs.is_empty() {
             continue;
         }
         strokes += 1;
-        // Each segment with its own limits (length, top speed, acceleration) and the cap at its end: a vertex's
-        // where the bound puts one, none (infinite) elsewhere, the speed into the lift at the stroke's end.
-        let mut pieces: Vec<(f64, f64, f64, f64)> = Vec::new();
-        while let Some((dx, dy)) = segs.next() {
+        // Each segment with its own limits (length, top speed, acceleration) and the cap at its end: the
+        // profile's vertex limit inside the stroke, the speed into the lift at its end.
+        let mut pieces: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(segs.len());
+        for (i, d) in s.moves.iter().filter(|d| !d.is_zero()).enumerate() {
+            let (dx, dy) = (f64::from(d.dx) / sx, f64::from(d.dy) / sy);
             let (top, a) = segment_limits(profile, dx, dy, draw, profile.pen.draw_accel_mm_s2);
-            let len = dx.hypot(dy);
-            let cap = match segs.peek() {
-                None => v_lift,
-                Some(&(nx, ny)) => {
-                    let cos = (dx * nx + dy * ny) / (len * nx.hypot(ny));
-                    vertex_cap(accel, deviation, cos, every_vertex).unwrap_or(f64::INFINITY)
-                }
-            };
-            pieces.push((len, top, a, cap));
+            let cap = if i + 1 == segs.len() { v_lift } else { vertex_cap(&cfg, &segs, i + 1) };
+            pieces.push((dx.hypot(dy), top, a, cap));
         }
         // The fastest speeds the caps, the top speeds on either side and the accelerations allow at the segments'
         // ends (forward and backward passes from rest at the start), then each segment at its fastest between
@@ -608,19 +609,174 @@ mod tests {
         };
         assert!((b.draw_s - tri(10.0) - tri(l2)).abs() < 5e-6, "{b:?}");
         assert!((b.draw_s - 0.7846).abs() < 1e-3, "{b:?}");
-        // With the curve model the 60° vertex may be a curve's: 20 mm from rest to rest at 50 mm/s, 6.25 mm to
-        // speed up, 6.25 mm to stop and 7.5 mm (plus the second leg's 0.5 µm) cruising: 0.65 s.
+        // With the curve model the 60° vertex is no curve's either (the circle tangent to both 10 mm legs strays
+        // 5·tan 15° = 1.34 mm from it, beyond the 0.1 mm curve deviation): the profile's vertex limit is the same
+        // junction-deviation speed, and the bound the same.
         p.motion.curve_deviation_mm = 0.1;
         let b = plot_time_lower_bound(&p, &stroke, 0.0).unwrap();
-        assert!((b.draw_s - (0.25 + 0.25 + (7.5 + l2 - 10.0) / 50.0)).abs() < 5e-6, "{b:?}");
-        // Both below what the planner makes of it (which corners here either way: two legs are no curve), the
-        // first within the rounding of rates to whole steps per second.
-        for (dev, slack) in [(0.0, 1.001), (0.1, 1.25)] {
+        assert!((b.draw_s - tri(10.0) - tri(l2)).abs() < 5e-6, "{b:?}");
+        // Both below what the planner makes of it, within the rounding of rates to whole steps per second.
+        for (dev, slack) in [(0.0, 1.001), (0.1, 1.001)] {
             p.motion.curve_deviation_mm = dev;
             let b = plot_time_lower_bound(&p, &stroke, 0.0).unwrap();
             let planned = plan(&p, &stroke, [0; 4], Lookahead::Whole).unwrap();
             let draw_s = planned.breakdown().draw_s();
             assert!(b.draw_s <= draw_s && draw_s < b.draw_s * slack, "{dev}: {b:?} vs {draw_s}");
+        }
+    }
+
+    /// Fastest motion over `len` mm from `v0` to `v1` at acceleration `a` under top speed `top` (speeds the length
+    /// can connect): a trapezoid, or a triangle when the length is too short to reach `top`. Written out apart
+    /// from the bound's own, for the hand-computed tests below.
+    fn trapezoid(len: f64, v0: f64, v1: f64, top: f64, a: f64) -> f64 {
+        let peak = ((2.0 * a * len + v0 * v0 + v1 * v1) / 2.0).sqrt();
+        if peak <= top {
+            return (2.0 * peak - v0 - v1) / a;
+        }
+        let ramps = (2.0 * top * top - v0 * v0 - v1 * v1) / (2.0 * a);
+        (2.0 * top - v0 - v1) / a + (len - ramps) / top
+    }
+
+    /// One stroke from (10, 10) mm with `moves` in steps.
+    fn stroke(moves: &[(i32, i32)]) -> StepDrawing {
+        StepDrawing::from_strokes(vec![StepStroke {
+            start: StepPos::new(800, 800),
+            moves: moves.iter().map(|&(dx, dy)| StepDelta { dx, dy }).collect(),
+        }])
+    }
+
+    #[test]
+    fn a_squares_right_angles_are_capped_at_the_junction_deviation_speed() {
+        // The built-in profile (80 steps/mm, 1500 mm/s² and 150 mm/s per axis, drawing at 60 mm/s, junction
+        // deviation 0.02 mm, the curve model on). A 10 mm square: each 90° vertex is a corner (no curve: the
+        // circle tangent to both 10 mm legs strays 5·tan 22.5° = 2.07 mm from it), passed at most at junction
+        // deviation's speed with the largest acceleration any direction allows, 1500·√2 = 2121.32 mm/s²:
+        // v² = 2121.32·0.02·√½/(1 − √½) = 102.43, v = 10.121 mm/s. Each side runs along one axis at that axis's
+        // 1500 mm/s² and 60 mm/s; the stroke starts at rest and ends at up to Z's 25 mm/s into the lift.
+        let p = MachineProfile::default_plotter();
+        let square = stroke(&[(800, 0), (0, 800), (-800, 0), (0, -800)]);
+        let b = plot_time_lower_bound(&p, &square, 0.0).unwrap();
+        let vc = 10.121;
+        // Sides: 0 → vc: 60/1500 + (60 − vc)/1500 + (10 − 1.2 − 1.1659)/60 = 0.200 49 s; vc → vc:
+        // 2·(60 − vc)/1500 + (10 − 2·1.1659)/60 = 0.194 31 s (×2); vc → 25: 0.033 25 + 0.023 33 + (10 − 1.1659 −
+        // 0.9917)/60 = 0.187 29 s. Less a microsecond each for the stepper's rounding.
+        let by_hand = 0.200_49 + 2.0 * 0.194_31 + 0.187_29 - 4e-6;
+        assert!((b.draw_s - by_hand).abs() < 5e-5, "{b:?} vs {by_hand}");
+        let formula = trapezoid(10.0, 0.0, vc, 60.0, 1500.0)
+            + 2.0 * trapezoid(10.0, vc, vc, 60.0, 1500.0)
+            + trapezoid(10.0, vc, 25.0, 60.0, 1500.0)
+            - 4e-6;
+        assert!((b.draw_s - formula).abs() < 5e-6, "{b:?} vs {formula}");
+        let planned = plan(&p, &square, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        assert!(b.draw_s <= planned.breakdown().draw_s(), "{b:?} vs {:?}", planned.breakdown());
+    }
+
+    #[test]
+    fn a_zig_zag_of_30_degree_turns_is_capped_at_each_turn() {
+        // Three legs of 10 mm at +15°, −15°, +15° (773 × ±207 steps: 10.0029 mm, 14.99°): each vertex turns by
+        // 29.98°, a corner (the circle tangent to both legs strays 5·tan 7.5° = 0.66 mm, beyond the 0.1 mm curve
+        // deviation), passed at junction deviation's speed with 2121.32 mm/s²: θ = 150.02° between the reversed
+        // incoming and the outgoing leg, sin(θ/2) = 0.965 97, v² = 2121.32·0.02·0.965 97/0.034 03 = 1204.4,
+        // v = 34.70 mm/s. Each leg: top speed 60 mm/s (X's 150/0.966 is more), acceleration X's
+        // 1500/0.965 97 = 1552.8 mm/s².
+        let p = MachineProfile::default_plotter();
+        let zig = stroke(&[(773, 207), (773, -207), (773, 207)]);
+        let b = plot_time_lower_bound(&p, &zig, 0.0).unwrap();
+        let len = 773f64.hypot(207.0) / 80.0;
+        let u = 773.0 / 773f64.hypot(207.0);
+        let sin_half = ((1.0 + (u * u - (1.0 - u * u))) / 2.0).sqrt();
+        let vc = (1500f64.hypot(1500.0) * 0.02 * sin_half / (1.0 - sin_half)).sqrt();
+        assert!((vc - 34.70).abs() < 0.01, "{vc}");
+        let a = 1500.0 / u;
+        assert!((a - 1552.8).abs() < 0.1, "{a}");
+        // 0 → vc: 60/a + (60 − vc)/a + (L − (3600 + 3600 − vc²)/2a)/60 = 0.038 64 + 0.016 29 + 0.134 54 =
+        // 0.189 47 s; vc → vc: 2·0.016 29 + (L − 2·0.771 36)/60 = 0.173 59 s; vc → 25: 0.016 29 + 0.022 54 +
+        // (L − 0.771 36 − 0.957 89)/60 = 0.176 73 s; less a microsecond each.
+        let by_hand = 0.189_47 + 0.173_59 + 0.176_73 - 3e-6;
+        assert!((b.draw_s - by_hand).abs() < 5e-5, "{b:?} vs {by_hand}");
+        let formula =
+            trapezoid(len, 0.0, vc, 60.0, a) + trapezoid(len, vc, vc, 60.0, a) + trapezoid(len, vc, 25.0, 60.0, a)
+                - 3e-6;
+        assert!((b.draw_s - formula).abs() < 5e-6, "{b:?} vs {formula}");
+        let planned = plan(&p, &zig, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        assert!(b.draw_s <= planned.breakdown().draw_s(), "{b:?} vs {:?}", planned.breakdown());
+    }
+
+    /// A circle of radius `r` mm centred at (20, 20) mm in `n` chords, from its rightmost point, on axes of
+    /// `spm` steps per mm.
+    fn circle(r: f64, n: usize, spm: f64) -> StepDrawing {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_precision_loss, reason = "small test geometry")]
+        let at = |k: usize| {
+            let t = std::f64::consts::TAU * k as f64 / n as f64;
+            (((20.0 + r * t.cos()) * spm).round() as i32, ((20.0 + r * t.sin()) * spm).round() as i32)
+        };
+        let moves = (1..=n).map(|k| StepDelta { dx: at(k).0 - at(k - 1).0, dy: at(k).1 - at(k - 1).1 }).collect();
+        let (x, y) = at(0);
+        StepDrawing::from_strokes(vec![StepStroke { start: StepPos::new(x, y), moves }])
+    }
+
+    #[test]
+    fn a_circles_vertices_are_capped_at_the_more_permissive_of_its_two_limits() {
+        // The built-in profile with a drawing acceleration of 500 mm/s², which then holds along and across the
+        // path (the curve's centripetal limit too). A circle of radius 2.5 mm.
+        let mut p = MachineProfile::default_plotter();
+        p.pen.draw_accel_mm_s2 = Some(500.0);
+        // The same at 1000 steps/mm, where a chord's direction is too fine for the steps to round away.
+        let mut fine_p = p.clone();
+        for axis in [&mut fine_p.axes.x, &mut fine_p.axes.y] {
+            axis.steps_per_mm = 1000.0;
+        }
+        let chord = |n: f64| 2.0 * 2.5 * (std::f64::consts::PI / n).sin();
+        // The caps at every vertex inside the stroke, and its drawing time from rest into the lift (25 mm/s),
+        // each chord at 500 mm/s² and up to 60 mm/s between caps `v`.
+        let caps = |p: &MachineProfile, steps: &StepDrawing| {
+            let cfg = machine_config(p).unwrap();
+            let s = &steps.strokes[0];
+            let segs =
+                vertex_segs(s.moves.iter().filter_map(|d| PlanBlock::line(&cfg, [d.dx, d.dy, 0, 0], 60.0)), 500.0);
+            (1..segs.len()).map(|j| vertex_cap(&cfg, &segs, j)).collect::<Vec<f64>>()
+        };
+        // The speed at vertex k is the least of the cap, what 500 mm/s² reaches from rest over k chords and what
+        // still slows to 25 mm/s over the n − k left; each chord the fastest motion between its ends' speeds.
+        #[allow(clippy::cast_precision_loss, reason = "a few chords")]
+        let time = |n: usize, v: f64| {
+            let c = chord(n as f64);
+            let at = |k: usize| match k {
+                0 => 0.0,
+                k if k == n => 25.0,
+                k => v.min((1000.0 * c * k as f64).sqrt()).min((625.0 + 1000.0 * c * (n - k) as f64).sqrt()),
+            };
+            (0..n).map(|k| trapezoid(c, at(k), at(k + 1), 60.0, 500.0)).sum::<f64>()
+        };
+        // 16 chords of 0.9755 mm turning 22.5°: vertices of a curve (the circle tangent to both chords strays
+        // 0.4877·tan 5.625° = 0.048 mm, within the 0.1 mm curve deviation) of radius 2.5 mm: v² = 500·2.5 = 1250,
+        // 35.36 mm/s; junction deviation (θ = 157.5°, sin 78.75° = 0.980 79) allows only v² = 500·0.02·51.05 =
+        // 510.5, 22.59 mm/s: the curve's speed is the more permissive, and caps every vertex. Chords from
+        // 35.36 mm/s over 0.9755 mm peak at √((975.5 + 2·1250)/2) = 41.69 mm/s: triangles of 0.025 33 s.
+        let c16 = circle(2.5, 16, 80.0);
+        for (j, v) in caps(&p, &c16).into_iter().enumerate() {
+            assert!((v - 35.36).abs() < 0.01 * 35.36, "16 chords, vertex {}: {v}", j + 1);
+        }
+        let b16 = plot_time_lower_bound(&p, &c16, 0.0).unwrap();
+        assert!((b16.draw_s - time(16, 35.36)).abs() < 0.01 * b16.draw_s, "{b16:?} vs {}", time(16, 35.36));
+        // 32 chords of 0.4901 mm turning 11.25°: the same curve speed, but junction deviation now allows
+        // v² = 500·0.02·sin 84.375°/(1 − sin 84.375°) = 2067, 45.46 mm/s: that caps each vertex instead.
+        let c32 = circle(2.5, 32, 1000.0);
+        for (j, v) in caps(&fine_p, &c32).into_iter().enumerate() {
+            assert!((v - 45.46).abs() < 0.01 * 45.46, "32 chords, vertex {}: {v}", j + 1);
+        }
+        let b32 = plot_time_lower_bound(&fine_p, &c32, 0.0).unwrap();
+        assert!((b32.draw_s - time(32, 45.46)).abs() < 0.01 * b32.draw_s, "{b32:?} vs {}", time(32, 45.46));
+        // A finely flattened circle (360 chords of 0.0436 mm): junction deviation allows far more than the
+        // 60 mm/s feed at every vertex, so none caps the bound (the planner takes the curve's 35.36 mm/s there):
+        // 15.71 mm from rest, up to 60 mm/s and down to 25 into the lift.
+        let fine = circle(2.5, 360, 1000.0);
+        let b360 = plot_time_lower_bound(&fine_p, &fine, 0.0).unwrap();
+        let t360 = trapezoid(360.0 * chord(360.0), 0.0, 25.0, 60.0, 500.0);
+        assert!((b360.draw_s - t360).abs() < 1e-3, "{b360:?} vs {t360}");
+        for (steps, b, p) in [(&c16, b16, &p), (&c32, b32, &fine_p), (&fine, b360, &fine_p)] {
+            let planned = plan(p, steps, [0; 4], Lookahead::Whole).unwrap();
+            assert!(b.draw_s <= planned.breakdown().draw_s(), "{b:?} vs {:?}", planned.breakdown());
         }
     }
 }

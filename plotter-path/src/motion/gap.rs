@@ -7,13 +7,16 @@
 //! the one before, and the difference is what that kind of constraint costs:
 //!
 //! 1. the bound itself: every block at the acceleration and top speed its own direction allows on the machine's
-//!    axes (and the profile's drawing acceleration and the pen's feed), caps only at the vertices the bound caps,
-//!    the stroke ending at the bound's speed into the lift;
+//!    axes (and the profile's drawing acceleration and the pen's feed), every vertex capped at the profile's
+//!    vertex limit as the bound takes it (the more permissive of junction deviation's and the curve's speed, at
+//!    the largest acceleration any direction allows), the stroke ending at the bound's speed into the lift;
 //! 2. *axis limits*: each block at the limits the planner gave it: the same physical limits as the bound's (in
 //!    the planner's single precision), and the stepper's highest step rate;
-//! 3. *corners*: the vertices the planner takes as corners, at their junction-deviation speed;
-//! 4. *curves*: the vertices the planner takes as points of a curve, at the curve's centripetal limit, and the
-//!    chords of curves cruising no faster than their ends;
+//! 3. *corners*: the vertices the planner takes as corners, at their junction-deviation speed with the lower
+//!    acceleration of their two blocks (what remains is that acceleration against the bound's largest);
+//! 4. *curves*: the vertices the planner takes as points of a curve, at the curve's centripetal limit where
+//!    junction deviation would allow more (finely flattened curves), and the chords of curves cruising no faster
+//!    than their ends;
 //! 5. *stroke ends*: each stroke entered and left at the speeds the plan has there (the pen's drop before it and
 //!    the lift after it);
 //! 6. the plan as the firmware runs it: the rest is *step timing* (speeds rounded down to whole steps per second,
@@ -135,8 +138,6 @@ pub fn time_gap(
     let verdicts: Vec<planner::Junction> = planner::junctions(&blocks, &cfg).collect();
     let feeds: Vec<f64> = layer_pens(profile, steps).iter().map(|p| p.draw_feed_mm_s).collect();
     let accel = bound::draw_accel(profile);
-    let deviation = profile.motion.junction_deviation_mm;
-    let every_vertex = profile.motion.curve_deviation_mm == 0.0;
     let v_lift = bound::stroke_exit_speed(profile, accel);
     let (sx, sy) = (profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm);
     // Rungs 2 to 5 summed over the strokes.
@@ -159,14 +160,9 @@ pub fn time_gap(
         let mut caps = vec![f64::INFINITY; run.len() + 1];
         caps[0] = 0.0;
         caps[run.len()] = v_lift;
-        for j in 1..run.len() {
-            let (a, b) = (&run[j - 1].steps, &run[j].steps);
-            let (ax, ay, bx, by) =
-                (f64::from(a[0]) / sx, f64::from(a[1]) / sy, f64::from(b[0]) / sx, f64::from(b[1]) / sy);
-            let cos = (ax * bx + ay * by) / (ax.hypot(ay) * bx.hypot(by));
-            if let Some(c) = bound::vertex_cap(accel, deviation, cos, every_vertex) {
-                caps[j] = c;
-            }
+        let segs = bound::vertex_segs(run.iter().copied(), accel);
+        for (j, cap) in caps.iter_mut().enumerate().take(run.len()).skip(1) {
+            *cap = bound::vertex_cap(&cfg, &segs, j);
         }
         // Rung 2: each block's own limits.
         let mut pieces: Vec<Piece> = run
@@ -303,14 +299,16 @@ mod tests {
         let gap = time_gap(&p, &steps, &planned, &b, false).unwrap();
         let above = planned.seconds() - b.total_s();
         assert!((gap.total_s() - above).abs() < 1e-9, "{gap:?} vs {above}");
-        // With the curve model on, the bound caps only turns above 90°, so it takes the square as one 160 mm run
-        // from rest to rest, each side at the 1500 mm/s² its axis allows (as the planner does: nothing for axis
-        // limits), less a microsecond of the stepper's rounding per side; the planner corners at
-        // √(1500·0.02·√½/(1 − √½)) = 8.51 mm/s (corners). No curves, no stroke ends (a servo pen: strokes run rest
-        // to rest on both sides).
+        // The bound caps each of the square's 90° vertices at the profile's vertex limit, junction deviation's
+        // speed with the largest acceleration any direction allows: √(1500·√2·0.02·√½/(1 − √½)) = 10.12 mm/s;
+        // each side at the 1500 mm/s² its axis allows (as the planner does: nothing for axis limits), less a
+        // microsecond of the stepper's rounding per side. The planner corners with the lower acceleration of its
+        // two blocks, 1500 mm/s²: √(1500·0.02·√½/(1 − √½)) = 8.51 mm/s; the difference is the corners' part. No
+        // curves, no stroke ends (a servo pen: strokes run rest to rest on both sides).
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let vp = (1500.0 * 0.02 * s / (1.0 - s)).sqrt();
-        assert!((vp - 8.51).abs() < 0.01, "{vp}");
+        let vb = (1500f64.hypot(1500.0) * 0.02 * s / (1.0 - s)).sqrt();
+        assert!((vp - 8.51).abs() < 0.01 && (vb - 10.12).abs() < 0.01, "{vp} {vb}");
         // A run of `len` mm at 60 mm/s and acceleration a from rest to rest.
         let run = |len: f64, a: f64| len / 60.0 + 60.0 / a;
         // A 40 mm side from u to w at 60 mm/s and acceleration a.
@@ -318,13 +316,14 @@ mod tests {
             let (du, dw) = ((3600.0 - u * u) / (2.0 * a), (3600.0 - w * w) / (2.0 * a));
             (60.0 - u) / a + (60.0 - w) / a + (40.0 - du - dw) / 60.0
         };
-        let bound_draw = run(160.0, 1500.0) + run(40.0, 1500.0) - 5e-6;
-        assert!((b.draw_s - bound_draw).abs() < 1e-5, "{b:?} vs {bound_draw}");
         // The square's sides go rest→v, v→v, v→v, v→rest.
-        let corners = side(0.0, vp, 1500.0) + 2.0 * side(vp, vp, 1500.0) + side(vp, 0.0, 1500.0) - run(160.0, 1500.0);
+        let square = |v: f64| side(0.0, v, 1500.0) + 2.0 * side(v, v, 1500.0) + side(v, 0.0, 1500.0);
+        let bound_draw = square(vb) + run(40.0, 1500.0) - 5e-6;
+        assert!((b.draw_s - bound_draw).abs() < 1e-5, "{b:?} vs {bound_draw}");
+        let corners = square(vp) - square(vb);
         assert!(gap.axis_limits_s.abs() < 1e-5, "{gap:?}");
         assert!((gap.corners_s - corners).abs() < 1e-5, "{gap:?} vs {corners}");
-        assert!(gap.corners_s > 0.05, "{gap:?}");
+        assert!(gap.corners_s > 0.005, "{gap:?}");
         assert!(gap.curves_s.abs() < 1e-9 && gap.stroke_ends_s.abs() < 1e-9, "{gap:?}");
         // Step timing: what rounding rates down to whole steps per second costs, a few ticks per block.
         assert!((0.0..1e-3).contains(&gap.step_timing_s), "{gap:?}");
