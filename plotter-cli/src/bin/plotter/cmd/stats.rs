@@ -33,8 +33,10 @@ pub(crate) struct StatsArgs {
     /// drops_s, settles_s, hops_s, travel_order_s)
     #[arg(long)]
     pub(crate) json: bool,
-    /// Also print the lower bounds (of the pen-up distance and of the plot time), where the plot time goes (pen
-    /// down, travel, lifts) against each part's bound, and what the time above the bound is spent on.
+    /// Also print the lower bounds (of the pen-up distance, and of the plot time at the machine's limits as its
+    /// profile states them: axis speeds and accelerations, and how fast it may pass each corner or curve point
+    /// of a line), where the plot time goes (pen down, travel, lifts) against each part's bound, and what the
+    /// time above the bound is spent on.
     #[arg(long, short = 'v')]
     pub(crate) verbose: bool,
     /// The machine the time estimate is for.
