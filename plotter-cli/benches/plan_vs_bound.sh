@@ -7,39 +7,14 @@
 # (seconds summed over the drawings, by cause, as `plotter stats --verbose` names them).
 #
 #   PLOTTER=target/release/plotter plotter-cli/benches/plan_vs_bound.sh [PROFILE.toml ...]
-#
-# The drawings come from the openclipart-svg package (apt-get install openclipart-svg).
 set -euo pipefail
-PLOTTER=${PLOTTER:-target/release/plotter}
-HERE=$(cd "$(dirname "$0")" && pwd)
-ROOT=$(cd "$HERE/../.." && pwd)
-OC=/usr/share/openclipart/svg
-DRAWINGS=(
-  "$OC/animals/bat_orlando_karam_.svg" "$OC/education/books/open_book_nae_02.svg"
-  "$OC/recreation/sports/volley-ball_andrea_bianc_01.svg" "$OC/computer/home13.svg"
-  "$OC/people/chibi_character_rick_.svg" "$OC/plants/sun_flower_ganson.svg" "$OC/food/desserts/cone2_ganson.svg"
-)
-for d in "${DRAWINGS[@]}"; do
-  [ -f "$d" ] || { echo "missing $d: apt-get install openclipart-svg" >&2; exit 1; }
-done
-if [ $# -eq 0 ]; then
-  set --
-  for p in "$ROOT"/samples/*.toml; do
-    # The printer's profile drives an extruder, not a pen.
-    grep -q '^\[axes\.e\]' "$p" || set -- "$@" "$p"
-  done
-fi
+# shellcheck source=bound_bench_drawings.sh
+source "$(dirname "$0")/bound_bench_drawings.sh"
 CAUSES="axis_limits corners curves stroke_ends step_timing lifts drops settles hops travel_order"
 printf '%-26s %-34s %9s %9s %7s\n' profile drawing plan_s bound_s ratio
-for profile in "$@"; do
+for profile in "${PROFILES[@]}"; do
   name=$(basename "$profile")
-  # A machine smaller than A4 landscape (the MiniKit) plots on paper its own size, 10 mm in.
-  layout=$(python3 -c '
-import sys, tomllib
-axes = tomllib.load(open(sys.argv[1], "rb")).get("axes", {})
-x, y = axes.get("x", {}).get("travel_mm", 1e9), axes.get("y", {}).get("travel_mm", 1e9)
-print("--paper %gx%gmm --margin 10" % (x, y) if x < 297 or y < 210 else "--paper a4 --landscape --margin 20")
-' "$profile")
+  layout=$(layout_for "$profile")
   rows=""
   for d in "${DRAWINGS[@]}"; do
     json=$("$PLOTTER" stats "$d" --profile "$profile" $layout --fit --json 2>/dev/null)

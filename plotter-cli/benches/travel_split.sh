@@ -13,33 +13,12 @@
 #
 #   PLOTTER=target/release/plotter plotter-cli/benches/travel_split.sh [PROFILE.toml ...]
 set -euo pipefail
-PLOTTER=${PLOTTER:-target/release/plotter}
-HERE=$(cd "$(dirname "$0")" && pwd)
-ROOT=$(cd "$HERE/../.." && pwd)
-OC=/usr/share/openclipart/svg
-DRAWINGS=(
-  "$OC/animals/bat_orlando_karam_.svg" "$OC/education/books/open_book_nae_02.svg"
-  "$OC/recreation/sports/volley-ball_andrea_bianc_01.svg" "$OC/computer/home13.svg"
-  "$OC/people/chibi_character_rick_.svg" "$OC/plants/sun_flower_ganson.svg" "$OC/food/desserts/cone2_ganson.svg"
-)
-for d in "${DRAWINGS[@]}"; do
-  [ -f "$d" ] || { echo "missing $d: apt-get install openclipart-svg" >&2; exit 1; }
-done
-if [ $# -eq 0 ]; then
-  set --
-  for p in "$ROOT"/samples/*.toml; do
-    grep -q '^\[axes\.e\]' "$p" || set -- "$@" "$p"
-  done
-fi
+# shellcheck source=bound_bench_drawings.sh
+source "$(dirname "$0")/bound_bench_drawings.sh"
 printf '%-26s %12s %8s %12s %12s\n' profile "travel order" hops "order found" "order left"
-for profile in "$@"; do
+for profile in "${PROFILES[@]}"; do
   name=$(basename "$profile")
-  layout=$(python3 -c '
-import sys, tomllib
-axes = tomllib.load(open(sys.argv[1], "rb")).get("axes", {})
-x, y = axes.get("x", {}).get("travel_mm", 1e9), axes.get("y", {}).get("travel_mm", 1e9)
-print("--paper %gx%gmm --margin 10" % (x, y) if x < 297 or y < 210 else "--paper a4 --landscape --margin 20")
-' "$profile")
+  layout=$(layout_for "$profile")
   rows=""
   for d in "${DRAWINGS[@]}"; do
     for budget in "" "--opt-work 0 --opt-kicks 20"; do
