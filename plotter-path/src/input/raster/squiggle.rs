@@ -37,10 +37,25 @@ pub fn full_band_coverage(lambda: f64, pen: f64, row: f64) -> f64 {
 /// row's wave, sampled at 64 × 64 points.
 pub fn measured_coverage(lambda: f64, pen: f64, row: f64) -> f64 {
     const N: u32 = 64;
-    let a = row / 2.0;
+    let segments = zigzag_segments(lambda, row, &[-1.0, 0.0, 1.0]);
     let r2 = pen * pen / 4.0;
+    let mut inked = 0u32;
+    for i in 0..N {
+        for j in 0..N {
+            let p = Point::new((f64::from(i) + 0.5) / f64::from(N) * lambda, (f64::from(j) + 0.5) / f64::from(N) * row);
+            inked += u32::from(within(&segments, p, r2));
+        }
+    }
+    f64::from(inked) / f64::from(N * N)
+}
+
+/// The legs of band-filling zig-zags of wavelength `lambda` (amplitude half the row pitch `row`), three
+/// wavelengths of each row whose band is `k` rows below the first band, for each `k` of `rows`: each leg as its
+/// start and its vector.
+fn zigzag_segments(lambda: f64, row: f64, rows: &[f64]) -> Vec<(Point, kurbo::Vec2)> {
+    let a = row / 2.0;
     let mut segments = Vec::new();
-    for k in [-1.0, 0.0, 1.0] {
+    for k in rows {
         let yc = row / 2.0 + k * row;
         for m in [-1.0, 0.0, 1.0] {
             let x0 = m * lambda;
@@ -54,18 +69,15 @@ pub fn measured_coverage(lambda: f64, pen: f64, row: f64) -> f64 {
             segments.extend(pts.windows(2).map(|w| (w[0], w[1] - w[0])));
         }
     }
-    let mut inked = 0u32;
-    for i in 0..N {
-        for j in 0..N {
-            let p = Point::new((f64::from(i) + 0.5) / f64::from(N) * lambda, (f64::from(j) + 0.5) / f64::from(N) * row);
-            let hit = segments.iter().any(|&(o, d)| {
-                let t = ((p - o).dot(d) / d.hypot2()).clamp(0.0, 1.0);
-                (o + d * t - p).hypot2() <= r2
-            });
-            inked += u32::from(hit);
-        }
-    }
-    f64::from(inked) / f64::from(N * N)
+    segments
+}
+
+/// Whether `p` lies within the squared distance `r2` of one of `segments` (a pen of radius √r2 drawing them).
+fn within(segments: &[(Point, kurbo::Vec2)], p: Point, r2: f64) -> bool {
+    segments.iter().any(|&(o, d)| {
+        let t = ((p - o).dot(d) / d.hypot2()).clamp(0.0, 1.0);
+        (o + d * t - p).hypot2() <= r2
+    })
 }
 
 /// The ink of band-filling zig-zags as [`measured_coverage`] counts it, except that each neighbour row's wave has a
@@ -78,27 +90,9 @@ pub fn measured_coverage(lambda: f64, pen: f64, row: f64) -> f64 {
 /// pen 1 on rows 3, 0.02 less) and a darkness needs a shorter wave.
 pub fn measured_coverage_unphased(lambda: f64, pen: f64, row: f64) -> f64 {
     const N: u32 = 64;
-    let a = row / 2.0;
+    let segments = zigzag_segments(lambda, row, &[0.0]);
     let r2 = pen * pen / 4.0;
-    let yc = row / 2.0;
-    let mut segments = Vec::new();
-    for m in [-1.0, 0.0, 1.0] {
-        let x0 = m * lambda;
-        let pts = [
-            Point::new(x0, yc),
-            Point::new(x0 + lambda / 4.0, yc - a),
-            Point::new(x0 + lambda / 2.0, yc),
-            Point::new(x0 + 3.0 * lambda / 4.0, yc + a),
-            Point::new(x0 + lambda, yc),
-        ];
-        segments.extend(pts.windows(2).map(|w| (w[0], w[1] - w[0])));
-    }
-    let hit = |p: Point| {
-        segments.iter().any(|&(o, d)| {
-            let t = ((p - o).dot(d) / d.hypot2()).clamp(0.0, 1.0);
-            (o + d * t - p).hypot2() <= r2
-        })
-    };
+    let hit = |p: Point| within(&segments, p, r2);
     let mut paper = 0.0;
     for j in 0..N {
         let y = (f64::from(j) + 0.5) / f64::from(N) * row;
