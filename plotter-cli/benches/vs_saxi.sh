@@ -23,6 +23,9 @@
 set -euo pipefail
 PLOTTER=${PLOTTER:-target/release/plotter}
 SAXI_DIR=${SAXI_DIR:-target/ci-node/node_modules/saxi}
+# node resolves a relative module path from the driver's folder, not from here: hand it an absolute one.
+[ -d "$SAXI_DIR" ] || { echo "no saxi at $SAXI_DIR (npm install --ignore-scripts saxi@0.15.0)" >&2; exit 1; }
+SAXI_DIR=$(cd "$SAXI_DIR" && pwd)
 HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
 PROFILE=${PROFILE:-$ROOT/samples/axidraw-saxi.toml}
