@@ -582,6 +582,14 @@ mod tests {
         }
     }
 
+    /// A studio of `machines` in `dir` with simulators at full speed and a 500 ms retry cap, its workers started.
+    fn open(dir: &Path, machines: Vec<MachineSpec>) -> (Arc<Studio>, Vec<JoinHandle<()>>) {
+        let options = StudioOptions { sim_speed: f64::INFINITY, max_retry: Duration::from_millis(500) };
+        let studio = Studio::open(dir, machines, options).unwrap();
+        let workers = start(&studio).unwrap();
+        (studio, workers)
+    }
+
     /// End the studio, wait for its workers and remove its folder.
     fn close(studio: Arc<Studio>, workers: Vec<JoinHandle<()>>, dir: &Path) {
         studio.end();
@@ -619,9 +627,7 @@ mod tests {
             parse_machine("b=sim").unwrap(),
             parse_machine("gone=/dev/no-such-plotter,firmware=ours").unwrap(),
         ];
-        let options = StudioOptions { sim_speed: f64::INFINITY, max_retry: Duration::from_millis(500) };
-        let studio = Studio::open(&dir, machines, options).unwrap();
-        let workers = start(&studio).unwrap();
+        let (studio, workers) = open(&dir, machines);
         let flags = ["--paper", "a6", "--margin", "12"];
         let job = |name: &str| NewJob::new(name, SQUARES.as_bytes().to_vec()).with_options(json!({ "args": flags }));
         let for_b = studio.add(&job("b.svg").for_machine("b")).unwrap();
@@ -655,9 +661,7 @@ mod tests {
     #[test]
     fn a_refill_pause_parks_the_machine_until_the_operator_resumes_it() {
         let dir = temp_dir("refill");
-        let options = StudioOptions { sim_speed: f64::INFINITY, max_retry: Duration::from_millis(500) };
-        let studio = Studio::open(&dir, vec![parse_machine("a=sim").unwrap()], options).unwrap();
-        let workers = start(&studio).unwrap();
+        let (studio, workers) = open(&dir, vec![parse_machine("a=sim").unwrap()]);
         // The rings in the file's order draw 2π × (2 + 4 + … + 18) = 565.5 mm before the 20 mm ring (125.7 mm),
         // which would pass 600 mm: one refill there, and the last three rings (414.7 mm) fit in the second part.
         let flags = json!({ "args": ["--no-optimize", "--split-distance", "600"] });
@@ -693,9 +697,7 @@ mod tests {
     #[test]
     fn a_pen_change_parks_the_machine_tells_the_webhook_and_goes_on_at_resume() {
         let dir = temp_dir("pens");
-        let options = StudioOptions { sim_speed: f64::INFINITY, max_retry: Duration::from_millis(500) };
-        let studio = Studio::open(&dir, vec![parse_machine("a=sim").unwrap()], options).unwrap();
-        let workers = start(&studio).unwrap();
+        let (studio, workers) = open(&dir, vec![parse_machine("a=sim").unwrap()]);
         let (url, seen) = crate::job::webhook::receiver::receiver(0);
         let flags = json!({ "args": ["--no-optimize", "--webhook", url] });
         let id = studio.add(&NewJob::new("pens.svg", TWO_PENS.as_bytes().to_vec()).with_options(flags)).unwrap();
