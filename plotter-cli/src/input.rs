@@ -121,11 +121,13 @@ pub struct InputArgs {
     /// With --hatch SPACING_MM: add a second family of lines at right angles
     #[arg(long, requires = "hatch", help_heading = "Input")]
     pub cross_hatch: bool,
-    /// How much the layout magnifies the drawing (set by the loader, 1 from the command line): hatch spacings and
-    /// the tone hatch's pen width are divided by it at import, so that they come out as asked on the page.
+    /// How much the layout magnifies the drawing (set by the loader, 1 from the command line): hatch spacings, the
+    /// tone hatch's pen width and the pen width --fill-strokes passes are spaced by are divided by it at import, so
+    /// that they come out as asked on the page.
     #[arg(skip = 1.0)]
     pub hatch_scale: f64,
-    /// Fill SVG strokes wider than the pen (--pen-width) with parallel passes
+    /// Fill SVG strokes wider than the pen (--pen-width) with parallel passes a pen width apart, both measured on
+    /// the plotted page
     #[arg(long, help_heading = "Input")]
     pub fill_strokes: bool,
     /// How SVG text is drawn
@@ -177,7 +179,7 @@ impl InputArgs {
                 Some(HatchArg::Tone) => Some(self.tone_hatch(scale)?),
                 Some(HatchArg::Spacing(_)) | None => None,
             },
-            fill_strokes: self.fill_strokes.then_some(self.trace.pen_width),
+            fill_strokes: self.fill_strokes.then_some(self.trace.pen_width / scale),
             text: match self.text {
                 TextArg::Outlines => TextMode::Outlines,
                 TextArg::SingleStroke => TextMode::SingleStroke,
@@ -370,15 +372,17 @@ pub fn load_decoded(path: &Path, args: &InputArgs, profile: &MachineProfile) -> 
 /// `--scale` could cause (at most √(0.05/0.0001) ≈ 22 times the points of the default tolerance).
 pub const FINEST_TOLERANCE_MM: f64 = 0.0001;
 
-/// Whether decoding `data` (read from `path`) hatches filled areas: an SVG with `--hatch`, or with a pen table
-/// whose pens hatch. Their hatch sizes are page sizes, so such a drawing is decoded knowing the layout's factor
-/// ([`InputArgs::hatch_scale`], [`layout_factor`]).
+/// Whether decoding `data` (read from `path`) hatches filled areas: an SVG with `--hatch`, with a pen table whose
+/// pens hatch, or with `--fill-strokes`. Their hatch sizes (and the passes' pen width) are page sizes, so such a
+/// drawing is decoded knowing the layout's factor ([`InputArgs::hatch_scale`], [`layout_factor`]).
 pub fn hatches_fills(path: &Path, data: &[u8], args: &InputArgs, profile: &MachineProfile) -> bool {
     input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg
-        && (args.hatch.is_some() || profile.pens.iter().any(|p| p.hatch.is_some()))
+        && (args.hatch.is_some() || args.fill_strokes || profile.pens.iter().any(|p| p.hatch.is_some()))
 }
 
-/// `args` and `profile` without any hatching (`--hatch` off, the pen table's hatches left out).
+/// `args` and `profile` without any hatching (`--hatch` off, the pen table's hatches left out). `--fill-strokes`
+/// stays on: its passes fill each wide stroke's outline, which reaches half the stroke's width past its middle
+/// line, so the layout (`--fit`) must see them to give the factor the hatched drawing is laid out with.
 fn unhatched(args: &InputArgs, profile: &MachineProfile) -> (InputArgs, MachineProfile) {
     let mut bare = profile.clone();
     bare.pens.iter_mut().for_each(|p| p.hatch = None);
@@ -738,6 +742,52 @@ mod tests {
         let toned = gaps(&with_pen("tone = true"));
         assert!(toned.len() > 100 && toned.iter().all(|g| (g - want).abs() < 1e-3), "{want}: {toned:?}");
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// `--fill-strokes` passes are a pen width apart on the page too. A 37 × 20 mm card framed by a 2 mm wide stroke
+    /// (its outline exactly the card) fitted to a 200 mm page with 10 mm margins is magnified 180 / 37 = 4.865×:
+    /// the frame, 9.73 mm wide on the page, is filled with passes at 45° 0.3 mm apart, the pen's width (filled
+    /// before the layout they were 0.3 · 4.865 = 1.46 mm apart). The layout must see the passes when it learns its
+    /// factor: without them the card is the stroke's middle line, 35 mm wide, and the passes come out
+    /// 0.3 · 35 / 37 = 0.284 mm apart.
+    #[test]
+    fn fill_strokes_passes_are_a_pen_width_apart_on_the_laid_out_page() {
+        #[derive(clap::Parser)]
+        struct W {
+            #[command(flatten)]
+            input: InputArgs,
+            #[command(flatten)]
+            layout: LayoutArgs,
+        }
+        let dir = std::env::temp_dir().join(format!("plotter-fill-strokes-fit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let card = dir.join("frame.svg");
+        std::fs::write(
+            &card,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="37mm" height="20mm" viewBox="0 0 37 20">
+<rect x="1" y="1" width="35" height="18" fill="none" stroke="black" stroke-width="2"/></svg>"#,
+        )
+        .unwrap();
+        let flags = ["t", "--paper", "200x200", "--margin", "10", "--fit", "--pen-width", "0.3", "--fill-strokes"];
+        let w = <W as clap::Parser>::try_parse_from(flags).unwrap();
+        let d = load_laid_out(&card, &w.input, &MachineProfile::default_plotter(), &w.layout).unwrap().drawing;
+        std::fs::remove_dir_all(&dir).ok();
+        let bounds = d.bbox().unwrap();
+        assert!((bounds.width() - 180.0).abs() < 1e-6, "{bounds:?}");
+        // The passes' places across their direction (x + y constant along a line at 45° on the page, y down), each
+        // once; every line across the frame meets it, so they follow one another at the spacing.
+        let mut vs: Vec<f64> = d
+            .paths()
+            .flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1])).collect::<Vec<_>>())
+            .filter(|(a, b)| a.distance(*b) > 1e-6 && ((a.x + a.y) - (b.x + b.y)).abs() < 1e-9)
+            .map(|(a, _)| (a.x + a.y) / std::f64::consts::SQRT_2)
+            .collect();
+        vs.sort_by(f64::total_cmp);
+        vs.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
+        let gaps: Vec<f64> = vs.windows(2).map(|w| w[1] - w[0]).collect();
+        // (180 + 97.3) / √2 = 196 mm across: 650 passes.
+        assert!(gaps.len() > 600, "{} passes", vs.len());
+        assert!(gaps.iter().all(|g| (g - 0.3).abs() < 1e-6), "{gaps:?}");
     }
 
     #[test]
