@@ -642,7 +642,9 @@ pub fn exit_speed_sqr(blocks: &[PlanBlock], i: usize) -> f32 {
 }
 
 /// The stepper block for a planned block exiting at `exit_speed_sqr`. Rates are rounded down, so the executed
-/// speeds and acceleration never exceed the plan.
+/// speeds and acceleration never exceed the plan. The acceleration is capped at what a frame carries
+/// ([`crate::protocol::ACCEL_MAX`] events/s²), not at the step rate's limit: an acceleration is no rate, and a
+/// block planned at `a` that ran at less would not reach the speeds its neighbours were planned with.
 pub fn to_step_block(block: &PlanBlock, exit_speed_sqr: f32) -> StepBlock {
     if let Some(f) = block.fixed {
         return f;
@@ -656,7 +658,7 @@ pub fn to_step_block(block: &PlanBlock, exit_speed_sqr: f32) -> StepBlock {
         entry_rate: rate(sqrt(block.entry_speed_sqr)).min(cruise),
         cruise_rate: cruise,
         exit_rate: rate(sqrt(exit_speed_sqr)).min(cruise),
-        accel: rate(block.acceleration).max(1),
+        accel: floor_u32(block.acceleration * k).clamp(1, crate::protocol::ACCEL_MAX),
         dwell_ticks: 0,
         servo: None,
     }
@@ -1470,6 +1472,26 @@ mod tests {
         let held = PlanBlock { fixed: Some(StepBlock::dwell(10)), ..y };
         assert_eq!(junction_speed_sqr(&x, &held, 0.02), 0.0);
         assert_eq!(junction_speed_sqr(&held, &x, 0.02), 0.0);
+    }
+
+    #[test]
+    fn a_stiff_machine_runs_its_blocks_at_the_planned_acceleration() {
+        // The HP 7475A's figures: 40 steps/mm, 381 mm/s, 19 613 mm/s². A 100 mm line along X from rest to rest:
+        // 4000 events, cruise 381·40 = 15 240 events/s, acceleration 19 613·40 = 784 520 events/s² (above the
+        // 250 000 steps/s step-rate limit, which caps rates, not accelerations). By hand: 4000/15 240 s of
+        // cruise plus one ramp's extra 15 240/784 520 s = 0.262 467 + 0.019 426 = 0.281 893 s. Capped at 250 000
+        // events/s² it took 0.262 467 + 0.060 960 = 0.323 427 s.
+        let mut c = MachineConfig::xy_plotter();
+        for axis in &mut c.axes[..2] {
+            (axis.steps_per_mm, axis.max_feed_mm_s, axis.max_accel_mm_s2) = (40.0, 381.0, 19_613.0);
+        }
+        let b = PlanBlock::line(&c, [4000, 0, 0, 0], 381.0).unwrap();
+        let s = to_step_block(&b, 0.0);
+        assert_eq!((s.cruise_rate, s.accel), (15_240, 784_520));
+        assert!(s.duration_ticks().abs_diff(281_893) <= 1, "{}", s.duration_ticks());
+        // Past what a frame carries, the frame's limit.
+        let stiff = PlanBlock { acceleration: 1e6, ..b };
+        assert_eq!(to_step_block(&stiff, 0.0).accel, crate::protocol::ACCEL_MAX);
     }
 
     #[test]

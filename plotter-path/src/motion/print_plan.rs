@@ -294,13 +294,13 @@ mod tests {
     #[test]
     fn retraction_time_and_steps_are_exact() {
         // From home: an E-only 2 mm retraction at 35 mm/s (E allows 120 mm/s, 5000 mm/s²). On the wire: cruise
-        // 35·93 = 3255 → 3248 steps/s (frame rate quantization), acceleration 5000·93 = 465 000 steps/s², capped
-        // by the planner at its MAX_RATE of 250 000. So: ramps 2·3248/250000 = 25.984 ms over 21.098 steps each,
-        // cruise (186 − 42.196)/3248 = 44.275 ms: 70.259 ms.
+        // 35·93 = 3255 → 3248 steps/s (frame rate quantization), acceleration 5000·93 = 465 000 steps/s² (a
+        // frame carries up to 2²⁴ − 1). So: ramps 2·3248/465000 = 13.970 ms over 11.343 steps each, cruise
+        // (186 − 22.686)/3248 = 50.282 ms: 64.252 ms.
         let p = plan("G28\nG1 E-2 F2100\n");
         assert_eq!(p.e_steps, -186);
         let t = p.total_ticks as f64;
-        assert!((t - 70_259.0).abs() < 3.0, "{t} {:?}", p.items);
+        assert!((t - 64_252.0).abs() < 3.0, "{t} {:?}", p.items);
         assert!(matches!(&p.items[0], PrintItem::Line { text, wait: true, .. } if text == "G28"));
     }
 
