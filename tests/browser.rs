@@ -1,6 +1,6 @@
 //! Headless Chromium driven over the DevTools protocol, for the page tests (`serve_browser`, `studio_browser`): a
 //! minimal client over a WebSocket that starts the browser, evaluates script in a page, waits for conditions and
-//! takes screenshots. Each test crate uses its own share of it.
+//! takes screenshots. Each page test uses its own share of it.
 #![allow(dead_code)]
 
 use std::io::{BufRead as _, BufReader};

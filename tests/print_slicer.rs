@@ -4,7 +4,7 @@
 //! the stepper's time equals our plan's estimate to the tick. Our estimate is printed next to PrusaSlicer's.
 //!
 //! The G-code is committed (prusa-slicer and its libraries are too heavy to install in CI); regenerate it with
-//! `cargo test -p plotter-e2e --test print_slicer -- --ignored regenerate` on a machine with
+//! `cargo test -p plotter-e2e --test e2e print_slicer::regenerate -- --ignored` on a machine with
 //! `apt-get install prusa-slicer`.
 
 use std::process::Command;

@@ -16,8 +16,7 @@ use std::time::{Duration, Instant};
 use plotter_e2e::{Served, SimPty, sample, scratch, workspace_root};
 use serde_json::json;
 
-mod browser;
-use browser::{Cdp, chromium};
+use crate::browser::{Cdp, chromium};
 
 /// One browser at a time: the machine has two cores.
 static SERIAL: Mutex<()> = Mutex::new(());
