@@ -149,20 +149,27 @@ pub(crate) struct LiftParts {
     pub(crate) per_stroke: [f64; 3],
     /// Once per plot: lift, drop, settle.
     pub(crate) once: [f64; 3],
+    /// The lift after a stroke whose end is surely a corner ([`stroke_end_may_curve`]), entered no faster than
+    /// that corner allows (the per-stroke lift where it makes no difference).
+    pub(crate) cornered_lift: f64,
 }
 
 impl LiftParts {
-    /// The lifts' part of the bound for `strokes` strokes (none without strokes).
-    pub(crate) fn total_s(&self, strokes: f64) -> f64 {
-        self.split(strokes).iter().sum()
+    /// The lifts' part of the bound for `strokes` strokes, `cornered` of them ending at a corner into their lift
+    /// (none without strokes).
+    pub(crate) fn total_s(&self, strokes: f64, cornered: f64) -> f64 {
+        self.split(strokes, cornered).iter().sum()
     }
 
-    /// Lifts, drops and settles for `strokes` strokes (nothing without strokes).
-    pub(crate) fn split(&self, strokes: f64) -> [f64; 3] {
+    /// Lifts, drops and settles for `strokes` strokes, `cornered` of them ending at a corner into their lift
+    /// (nothing without strokes).
+    pub(crate) fn split(&self, strokes: f64, cornered: f64) -> [f64; 3] {
         if strokes <= 0.0 {
             return [0.0; 3];
         }
-        core::array::from_fn(|i| strokes * self.per_stroke[i] + self.once[i])
+        let mut parts: [f64; 3] = core::array::from_fn(|i| strokes * self.per_stroke[i] + self.once[i]);
+        parts[0] -= cornered * (self.per_stroke[0] - self.cornered_lift);
+        parts
     }
 }
 
@@ -191,15 +198,13 @@ pub(crate) fn lift_parts(profile: &MachineProfile) -> LiftParts {
         #[allow(clippy::cast_precision_loss, reason = "tick counts are far below 2^52")]
         let secs = |t: u64| t as f64 / f64::from(plotter_fw::TICK_HZ);
         let (clear, drop) = (secs(clear.max(1)), secs(1 + window));
-        return LiftParts { per_stroke: [clear, drop, 0.0], once: [2.0 * settle - clear, 0.0, 0.0] };
+        return LiftParts {
+            per_stroke: [clear, drop, 0.0],
+            once: [2.0 * settle - clear, 0.0, 0.0],
+            cornered_lift: clear,
+        };
     }
-    // The clearance as the plan rounds it to steps (at least one), capped (as the plan caps it) by every pen's
-    // distance from the paper to the pen-up height, less the step either end may round away.
-    let (up, sz) = (profile.pen.up_z_mm, z.steps_per_mm);
-    let c_mm = std::iter::once(profile.pen.down_z_mm)
-        .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
-        .fold((profile.pen.clearance_mm * sz).round().max(1.0) / sz, |c, d| c.min((up - d).abs() - 1.0 / sz))
-        .max(0.0);
+    let c_mm = clearance_mm(profile);
     let (vz, az) = (z.max_feed_mm_s, z.max_accel_mm_s2);
     // Into the rise from the stroke, out of it into the hop, and into the drop: 90° corners, or (see
     // [`z_joins_may_curve`]) curve points taken at up to the slower move's feed.
@@ -210,15 +215,48 @@ pub(crate) fn lift_parts(profile: &MachineProfile) -> LiftParts {
     };
     let rise = min_time(c_mm, v_in, v_hop, vz, az);
     let drop = min_time(c_mm, v_hop, 0.0, vz, az);
-    LiftParts { per_stroke: [rise, drop, settle], once: [0.0, 0.0, settle] }
+    let cornered_lift = min_time(c_mm, corner(az), v_hop, vz, az);
+    LiftParts { per_stroke: [rise, drop, settle], once: [0.0, 0.0, settle], cornered_lift }
 }
 
-/// The fastest a stroke may end into its pen lift, mm/s, drawing at acceleration `accel` (see the module docs).
-pub(crate) fn stroke_exit_speed(profile: &MachineProfile, accel: f64) -> f64 {
-    match (profile.pen.uses_servo(), z_joins_may_curve(profile)) {
-        (true, _) => 0.0,
-        (false, true) => profile.axes.z.max_feed_mm_s,
-        (false, false) => corner_speed(accel, profile.motion.junction_deviation_mm),
+/// The pen's rise off the paper as the plan makes it, mm: the clearance rounded to steps (at least one), capped (as
+/// the plan caps it) by every pen's distance from the paper to the pen-up height, less the step either end may
+/// round away.
+fn clearance_mm(profile: &MachineProfile) -> f64 {
+    let (up, sz) = (profile.pen.up_z_mm, profile.axes.z.steps_per_mm);
+    std::iter::once(profile.pen.down_z_mm)
+        .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
+        .fold((profile.pen.clearance_mm * sz).round().max(1.0) / sz, |c, d| c.min((up - d).abs() - 1.0 / sz))
+        .max(0.0)
+}
+
+/// Whether the planner may take the join of a stroke whose last chord is `last_chord_mm` long with the pen's rise
+/// as a point of a curve (see [`z_joins_may_curve`]). A Z pen's rise is a Z-only move, so the stroke turns by
+/// exactly 90° into it, and a vertex is a curve point only where the circle tangent to both chords at half the
+/// shorter one stays within `motion.curve_deviation_mm` of it ([`plotter_fw::planner`]'s rule 1): for 90°, half
+/// the shorter chord times tan 22.5°. The rise is at least the clearance; a stroke whose last chord and clearance
+/// are both longer than `2·curve_deviation_mm / tan 22.5°` (0.483 mm at 0.1 mm) therefore ends at a corner (with
+/// a part in a thousand of slack for the planner's single precision).
+pub(crate) fn stroke_end_may_curve(profile: &MachineProfile, last_chord_mm: f64) -> bool {
+    if profile.pen.uses_servo() || !z_joins_may_curve(profile) {
+        return false;
+    }
+    let m = 0.5 * last_chord_mm.min(clearance_mm(profile));
+    m * std::f64::consts::FRAC_PI_8.tan() <= profile.motion.curve_deviation_mm * 1.001
+}
+
+/// The fastest a stroke whose last chord is `last_chord_mm` long may end into its pen lift, mm/s, drawing at
+/// acceleration `accel` (see the module docs): at rest before a servo's block; else up to the Z feed where the
+/// join may be a curve point ([`stroke_end_may_curve`]), and at most the 90° corner's junction speed with the
+/// lower of the drawing's and Z's acceleration (the rise is a Z-only move at Z's, and the planner takes a corner
+/// at the lower acceleration of its two blocks) where it is a corner.
+pub(crate) fn stroke_exit_speed(profile: &MachineProfile, accel: f64, last_chord_mm: f64) -> f64 {
+    if profile.pen.uses_servo() {
+        0.0
+    } else if stroke_end_may_curve(profile, last_chord_mm) {
+        profile.axes.z.max_feed_mm_s
+    } else {
+        corner_speed(accel.min(profile.axes.z.max_accel_mm_s2), profile.motion.junction_deviation_mm)
     }
 }
 
@@ -298,8 +336,7 @@ pub fn plot_time_lower_bound(
     let feeds: Vec<f64> = crate::motion::plan::layer_pens(profile, steps).iter().map(|p| p.draw_feed_mm_s).collect();
     let mut bound = TimeBound::default();
     let lifts = lift_parts(profile);
-    let v_lift = stroke_exit_speed(profile, accel);
-    let mut strokes = 0usize;
+    let (mut strokes, mut cornered) = (0usize, 0usize);
     for (si, s) in steps.strokes.iter().enumerate() {
         let draw = feeds.get(steps.layer_of(si)).copied().unwrap_or(profile.pen.draw_feed_mm_s);
         #[allow(clippy::cast_possible_truncation, reason = "a physical feed, far inside f32")]
@@ -310,6 +347,17 @@ pub fn plot_time_lower_bound(
             continue;
         }
         strokes += 1;
+        // Its end into the pen's lift: a corner unless its last chord is short.
+        let last_mm = s
+            .moves
+            .iter()
+            .rev()
+            .find(|d| !d.is_zero())
+            .map_or(0.0, |d| (f64::from(d.dx) / sx).hypot(f64::from(d.dy) / sy));
+        let v_lift = stroke_exit_speed(profile, accel, last_mm);
+        if !stroke_end_may_curve(profile, last_mm) {
+            cornered += 1;
+        }
         // Each segment with its own limits (length, top speed, acceleration) and the cap at its end: the
         // profile's vertex limit inside the stroke, the speed into the lift at its end.
         let mut pieces: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(segs.len());
@@ -336,7 +384,7 @@ pub fn plot_time_lower_bound(
     }
     #[allow(clippy::cast_precision_loss, reason = "stroke counts are far below 2^52")]
     {
-        bound.lifts_s = if strokes == 0 { 0.0 } else { lifts.total_s(strokes as f64) };
+        bound.lifts_s = if strokes == 0 { 0.0 } else { lifts.total_s(strokes as f64, cornered as f64) };
     }
     bound.travel_s = travel_lb_s;
     Ok(bound)
@@ -371,20 +419,33 @@ mod tests {
     #[test]
     fn with_the_curve_model_the_z_joins_go_at_the_feeds() {
         // The built-in profile plans with the curve model, so a short chord into the pen's rise may make that join
-        // a curve point, taken at up to the slower feed (Z's 25 mm/s): the rise of the 1 mm clearance may run at
-        // 25 mm/s throughout (0.04 s), the drop enter at 25 mm/s and stop at 500 mm/s² (0.04 + 25/1000 = 0.065 s),
-        // plus the drop's and the final lift's 50 ms settles: 0.205 s. The line may end at 25 mm/s into the rise:
-        // 100/60 + 60/(2a) + (60 − 25)²/(2a·60) with a = 1500, X's own acceleration (a line along X cannot speed
-        // up faster, whatever the diagonal's 1500·√2), less the microsecond the stepper's rounding may take off.
+        // a curve point, taken at up to the slower feed (Z's 25 mm/s). A line whose last chord is 0.25 mm (under
+        // 2·0.1/tan 22.5° = 0.483 mm): the rise of the 1 mm clearance may run at 25 mm/s throughout (0.04 s), the
+        // drop enter at 25 mm/s and stop at 500 mm/s² (0.04 + 25/1000 = 0.065 s), plus the drop's and the final
+        // lift's 50 ms settles: 0.205 s. The line may end at 25 mm/s into the rise: 100.25/60 + 60/(2a) +
+        // (60 − 25)²/(2a·60) with a = 1500, X's own acceleration (a line along X cannot speed up faster, whatever
+        // the diagonal's 1500·√2), less the microsecond per chord the stepper's rounding may take off.
         let p = MachineProfile::default_plotter();
-        let steps = StepDrawing::from_strokes(vec![StepStroke {
-            start: StepPos::new(800, 800),
-            moves: vec![StepDelta { dx: 8000, dy: 0 }],
-        }]);
-        let b = plot_time_lower_bound(&p, &steps, 0.0).unwrap();
+        let line = |moves: Vec<StepDelta>| {
+            StepDrawing::from_strokes(vec![StepStroke { start: StepPos::new(800, 800), moves }])
+        };
+        let short_end = line(vec![StepDelta { dx: 8000, dy: 0 }, StepDelta { dx: 20, dy: 0 }]);
+        let b = plot_time_lower_bound(&p, &short_end, 0.0).unwrap();
         assert!((b.lifts_s - 0.205).abs() < 1e-12, "{b:?}");
         let a = 1500.0;
-        let draw = 100.0 / 60.0 + 60.0 / (2.0 * a) + 35.0 * 35.0 / (2.0 * a * 60.0) - 1e-6;
+        let draw = 100.25 / 60.0 + 60.0 / (2.0 * a) + 35.0 * 35.0 / (2.0 * a * 60.0) - 2e-6;
+        assert!((b.draw_s - draw).abs() < 5e-6, "{b:?} vs {draw}");
+        // A line whose last chord is 100 mm turns by exactly 90° into the Z-only rise, a corner: it ends at the
+        // corner's speed with Z's 500 mm/s² (the lower of its two blocks'), v = √(500·0.02·√½/(1 − √½)) =
+        // 4.913 mm/s, and the rise starts from there: up to 25 mm/s within (625 − v²)/1000 mm, the rest of the
+        // 1 mm at 25 mm/s.
+        let b = plot_time_lower_bound(&p, &line(vec![StepDelta { dx: 8000, dy: 0 }]), 0.0).unwrap();
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let v = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
+        assert!((v - 4.913).abs() < 1e-3, "{v}");
+        let rise = (25.0 - v) / 500.0 + (1.0 - (625.0 - v * v) / 1000.0) / 25.0;
+        assert!((b.lifts_s - (rise + 0.065 + 0.1)).abs() < 1e-12, "{b:?} vs {}", rise + 0.165);
+        let draw = 100.0 / 60.0 + 60.0 / (2.0 * a) + (60.0 - v).powi(2) / (2.0 * a * 60.0) - 1e-6;
         assert!((b.draw_s - draw).abs() < 5e-6, "{b:?} vs {draw}");
         let a = 1500f64.hypot(1500.0);
         // A hop may start and end at 25 mm/s too: 100 mm less the slack, from 25 to 120 mm/s and back.
@@ -437,17 +498,18 @@ mod tests {
         let b = plot_time_lower_bound(&p, &steps, 0.1).unwrap();
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
         // Drawing along X: the plan and the bound accelerate at 1500 mm/s² (X alone), and the bound may leave at
-        // the 90° corner speed into the lift with the diagonal's acceleration, √(1500·√2·δ·√½/(1 − √½)); less the
-        // microsecond of the stepper's rounding.
+        // the 90° corner speed into the lift with the lower acceleration of the line's and the Z-only rise's (Z's
+        // 500 mm/s², as the planner takes a corner), √(500·δ·√½/(1 − √½)); less the microsecond of the stepper's
+        // rounding.
         let a = 1500.0;
         let s = std::f64::consts::FRAC_1_SQRT_2;
-        let v_lift = (1500f64.hypot(1500.0) * 0.02 * s / (1.0 - s)).sqrt();
+        let v_lift = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
         assert!((b.draw_s - min_time(100.0, 0.0, v_lift, 60.0, a) + 1e-6).abs() < 5e-6, "{b:?}");
         let by_hand = 100.0 / 60.0 + 60.0 / a / 2.0 + (60.0 - v_lift).powi(2) / (2.0 * a * 60.0) - 1e-6;
         assert!((b.draw_s - by_hand).abs() < 5e-6, "{b:?} vs {by_hand}");
-        // The plan is 3 ms slower: it leaves the line into the lift at the 90° corner with Z's 500 mm/s², the
-        // slower of the two blocks' (the bound takes the diagonal's, an over-estimate), and rounds its rates.
-        assert!(planned.breakdown().draw_s() - b.draw_s < 4e-3, "{:?} vs {b:?}", planned.breakdown());
+        // The plan leaves the line into the lift at that very corner: it is slower only by the rounding of its
+        // rates to whole steps per second.
+        assert!(planned.breakdown().draw_s() - b.draw_s < 1e-4, "{:?} vs {b:?}", planned.breakdown());
         // Lifts: the drop's and the final lift's 50 ms dwells, and 1 mm of Z (the clearance) off the paper and
         // onto it. Off: from the 90° corner √(500·0.02·√½/(1 − √½)) = 4.913 mm/s into the hop's corner (the
         // travel climbing at up to 2·0.051 65: sin(θ/2) = sin((90° + 5.897°)/2) = 0.742 66, √(10·0.742 66/0.257 34)
@@ -652,19 +714,21 @@ mod tests {
         // circle tangent to both 10 mm legs strays 5·tan 22.5° = 2.07 mm from it), passed at most at junction
         // deviation's speed with the largest acceleration any direction allows, 1500·√2 = 2121.32 mm/s²:
         // v² = 2121.32·0.02·√½/(1 − √½) = 102.43, v = 10.121 mm/s. Each side runs along one axis at that axis's
-        // 1500 mm/s² and 60 mm/s; the stroke starts at rest and ends at up to Z's 25 mm/s into the lift.
+        // 1500 mm/s² and 60 mm/s; the stroke starts at rest and ends into the lift at no more than the 90° corner
+        // with the Z-only rise, at Z's 500 mm/s² (the lower of the two blocks'): √(500·0.02·√½/(1 − √½)) =
+        // 4.913 mm/s.
         let p = MachineProfile::default_plotter();
         let square = stroke(&[(800, 0), (0, 800), (-800, 0), (0, -800)]);
         let b = plot_time_lower_bound(&p, &square, 0.0).unwrap();
-        let vc = 10.121;
+        let (vc, ve) = (10.121, 4.913_46);
         // Sides: 0 → vc: 60/1500 + (60 − vc)/1500 + (10 − 1.2 − 1.1659)/60 = 0.200 49 s; vc → vc:
-        // 2·(60 − vc)/1500 + (10 − 2·1.1659)/60 = 0.194 31 s (×2); vc → 25: 0.033 25 + 0.023 33 + (10 − 1.1659 −
-        // 0.9917)/60 = 0.187 29 s. Less a microsecond each for the stepper's rounding.
-        let by_hand = 0.200_49 + 2.0 * 0.194_31 + 0.187_29 - 4e-6;
+        // 2·(60 − vc)/1500 + (10 − 2·1.1659)/60 = 0.194 31 s (×2); vc → ve: 0.033 25 + 0.036 72 + (10 − 1.1659 −
+        // 1.1920)/60 = 0.197 35 s. Less a microsecond each for the stepper's rounding.
+        let by_hand = 0.200_49 + 2.0 * 0.194_31 + 0.197_35 - 4e-6;
         assert!((b.draw_s - by_hand).abs() < 5e-5, "{b:?} vs {by_hand}");
         let formula = trapezoid(10.0, 0.0, vc, 60.0, 1500.0)
             + 2.0 * trapezoid(10.0, vc, vc, 60.0, 1500.0)
-            + trapezoid(10.0, vc, 25.0, 60.0, 1500.0)
+            + trapezoid(10.0, vc, ve, 60.0, 1500.0)
             - 4e-6;
         assert!((b.draw_s - formula).abs() < 5e-6, "{b:?} vs {formula}");
         let planned = plan(&p, &square, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
@@ -690,13 +754,14 @@ mod tests {
         let a = 1500.0 / u;
         assert!((a - 1552.8).abs() < 0.1, "{a}");
         // 0 → vc: 60/a + (60 − vc)/a + (L − (3600 + 3600 − vc²)/2a)/60 = 0.038 64 + 0.016 29 + 0.134 54 =
-        // 0.189 47 s; vc → vc: 2·0.016 29 + (L − 2·0.771 36)/60 = 0.173 59 s; vc → 25: 0.016 29 + 0.022 54 +
-        // (L − 0.771 36 − 0.957 89)/60 = 0.176 73 s; less a microsecond each.
-        let by_hand = 0.189_47 + 0.173_59 + 0.176_73 - 3e-6;
+        // 0.189 47 s; vc → vc: 2·0.016 29 + (L − 2·0.771 36)/60 = 0.173 59 s; vc → ve (the 90° corner into the
+        // Z-only rise at Z's 500 mm/s², 4.913 mm/s): 0.016 29 + 0.035 47 + (L − 0.771 36 − 1.151 38)/60 =
+        // 0.186 44 s; less a microsecond each.
+        let by_hand = 0.189_47 + 0.173_59 + 0.186_44 - 3e-6;
         assert!((b.draw_s - by_hand).abs() < 5e-5, "{b:?} vs {by_hand}");
+        let ve = 4.913_46;
         let formula =
-            trapezoid(len, 0.0, vc, 60.0, a) + trapezoid(len, vc, vc, 60.0, a) + trapezoid(len, vc, 25.0, 60.0, a)
-                - 3e-6;
+            trapezoid(len, 0.0, vc, 60.0, a) + trapezoid(len, vc, vc, 60.0, a) + trapezoid(len, vc, ve, 60.0, a) - 3e-6;
         assert!((b.draw_s - formula).abs() < 5e-6, "{b:?} vs {formula}");
         let planned = plan(&p, &zig, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         assert!(b.draw_s <= planned.breakdown().draw_s(), "{b:?} vs {:?}", planned.breakdown());
@@ -727,8 +792,10 @@ mod tests {
             axis.steps_per_mm = 1000.0;
         }
         let chord = |n: f64| 2.0 * 2.5 * (std::f64::consts::PI / n).sin();
-        // The caps at every vertex inside the stroke, and its drawing time from rest into the lift (25 mm/s),
-        // each chord at 500 mm/s² and up to 60 mm/s between caps `v`.
+        // The caps at every vertex inside the stroke, and its drawing time from rest into the lift (`ve`: its last
+        // chord is longer than 0.483 mm, so it ends at the 90° corner with the Z-only rise, √(500·0.02·√½/(1 − √½))
+        // = 4.913 mm/s; a chord shorter than that may make the join a curve point, at up to Z's 25 mm/s), each
+        // chord at 500 mm/s² and up to 60 mm/s between caps `v`.
         let caps = |p: &MachineProfile, steps: &StepDrawing| {
             let cfg = machine_config(p).unwrap();
             let s = &steps.strokes[0];
@@ -737,14 +804,15 @@ mod tests {
             (1..segs.len()).map(|j| vertex_cap(&cfg, &segs, j)).collect::<Vec<f64>>()
         };
         // The speed at vertex k is the least of the cap, what 500 mm/s² reaches from rest over k chords and what
-        // still slows to 25 mm/s over the n − k left; each chord the fastest motion between its ends' speeds.
+        // still slows to `ve` over the n − k left; each chord the fastest motion between its ends' speeds.
         #[allow(clippy::cast_precision_loss, reason = "a few chords")]
         let time = |n: usize, v: f64| {
             let c = chord(n as f64);
+            let ve: f64 = if c > 0.483 { 4.913_46 } else { 25.0 };
             let at = |k: usize| match k {
                 0 => 0.0,
-                k if k == n => 25.0,
-                k => v.min((1000.0 * c * k as f64).sqrt()).min((625.0 + 1000.0 * c * (n - k) as f64).sqrt()),
+                k if k == n => ve,
+                k => v.min((1000.0 * c * k as f64).sqrt()).min((ve * ve + 1000.0 * c * (n - k) as f64).sqrt()),
             };
             (0..n).map(|k| trapezoid(c, at(k), at(k + 1), 60.0, 500.0)).sum::<f64>()
         };

@@ -138,11 +138,10 @@ pub fn time_gap(
     let verdicts: Vec<planner::Junction> = planner::junctions(&blocks, &cfg).collect();
     let feeds: Vec<f64> = layer_pens(profile, steps).iter().map(|p| p.draw_feed_mm_s).collect();
     let accel = bound::draw_accel(profile);
-    let v_lift = bound::stroke_exit_speed(profile, accel);
     let (sx, sy) = (profile.axes.x.steps_per_mm, profile.axes.y.steps_per_mm);
     // Rungs 2 to 5 summed over the strokes.
     let mut rung = [0.0f64; 4];
-    let mut drawn_strokes = 0u32;
+    let (mut drawn_strokes, mut cornered) = (0u32, 0u32);
     let mut i = 0;
     while i < blocks.len() {
         if kinds[i].0 != MoveKind::Draw {
@@ -155,6 +154,13 @@ pub fn time_gap(
         }
         drawn_strokes += 1;
         let run = &blocks[k0..i];
+        // The bound's speed into the lift, from the stroke's last chord (as the bound measures it).
+        let last = run[run.len() - 1].steps;
+        let last_mm = (f64::from(last[0]) / sx).hypot(f64::from(last[1]) / sy);
+        let v_lift = bound::stroke_exit_speed(profile, accel, last_mm);
+        if !bound::stroke_end_may_curve(profile, last_mm) {
+            cornered += 1;
+        }
         let feed = feeds.get(steps.layer_of(stroke)).copied().unwrap_or(profile.pen.draw_feed_mm_s);
         // The bound's caps: rest at the start, its corners inside, its speed into the lift at the end.
         let mut caps = vec![f64::INFINITY; run.len() + 1];
@@ -216,7 +222,7 @@ pub fn time_gap(
         };
         ticks[k] += u64::from(b.ticks);
     }
-    let share = bound::lift_parts(profile).split(f64::from(drawn_strokes));
+    let share = bound::lift_parts(profile).split(f64::from(drawn_strokes), f64::from(cornered));
     // The bound's lifts part is the sum of its shares; what rounding leaves between them goes to the settles.
     let rest = bound.lifts_s - share.iter().sum::<f64>();
     gap.lifts_s = secs(ticks[0]) - share[0];
