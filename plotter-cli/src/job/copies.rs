@@ -20,6 +20,20 @@ pub struct CopiesOutcome {
     pub ended_early: Option<String>,
 }
 
+impl CopiesOutcome {
+    /// The copies for a person (and a webhook's `finished` event): "3 copies plotted, 41.2 s planned", with why
+    /// they ended early, if they did.
+    pub fn summary(&self) -> String {
+        let secs: f64 = self.copies.iter().map(|c| c.plan.seconds()).sum();
+        let n = self.copies.len();
+        let text = format!("{n} cop{} plotted, {secs:.1} s planned", if n == 1 { "y" } else { "ies" });
+        match &self.ended_early {
+            Some(why) => format!("{text}; {why}"),
+            None => text,
+        }
+    }
+}
+
 /// The key of the copy number in a journal's source record (a JSON object).
 const COPY_KEY: &str = "copy";
 
@@ -126,6 +140,15 @@ fn copies_from<M: PlotMachine + ?Sized>(
             return Ok(CopiesOutcome { copies: done, ended_early: None });
         }
         if copy > 1 {
+            if home {
+                // A resume whose journal's copy was finished (stopped between copies): the machine's position is
+                // not known, so it homes before it parks for the paper (where a pen left down would draw).
+                super::settle_alarm(machine, true, events)?;
+                machine.begin()?;
+                machine.home()?;
+                machine.end()?;
+                home = false;
+            }
             if let Some(cause) = events.stop_requested() {
                 return Ok(CopiesOutcome {
                     copies: done,

@@ -123,6 +123,33 @@ impl Webhook {
     }
 }
 
+/// Run `plot` (a plot, or a resume from its journal) with `events`, and with the webhook at `url`, when there is
+/// one, told of its pen changes and pauses as they come and of its end: `finished` with `done`'s text, or `error`
+/// with the error's. The deliveries are waited for when `wait` (a command that ends with the plot), and otherwise
+/// go on on their own thread (a studio machine goes on to its next job). The outer error: the webhook could not
+/// be set up (the plot did not start); the inner result is the plot's.
+pub fn hooked<T, E: std::fmt::Display>(
+    url: Option<&str>,
+    machine: &str,
+    job: &str,
+    wait: bool,
+    events: &mut dyn PlotEvents,
+    plot: impl FnOnce(&mut dyn PlotEvents) -> Result<T, E>,
+    done: impl FnOnce(&T) -> String,
+) -> anyhow::Result<Result<T, E>> {
+    let Some(url) = url else { return Ok(plot(events)) };
+    let hook = Webhook::new(url, machine, job)?;
+    let result = plot(&mut HookedEvents { inner: events, hook: &hook });
+    match &result {
+        Ok(out) => hook.send("finished", &done(out)),
+        Err(e) => hook.send("error", &format!("{e:#}")),
+    }
+    if wait {
+        hook.finish();
+    }
+    Ok(result)
+}
+
 /// A front end's events with the webhook told of pen changes and pauses.
 pub struct HookedEvents<'a> {
     /// The front end.
@@ -245,6 +272,85 @@ mod tests {
         assert_eq!(seen.lock().unwrap().len(), 4, "one try and three retries");
         assert_eq!(failures.len(), 1);
         assert!(failures[0].contains("the 'pause' event was not delivered after 4 tries"), "{failures:?}");
+    }
+
+    /// A plot of two copies stopped during its first copy's line and resumed from its journal through [`hooked`]
+    /// (as `plotter resume` runs it, the plot's --webhook read back from the journal) tells the webhook again: the
+    /// paper change before copy 2 of 2, then the end with both copies.
+    #[test]
+    fn a_resumed_plot_tells_its_webhook_again() {
+        use crate::job::copies::{CopiesOutcome, plot_copies, resume_copies};
+        use crate::job::stops::StopOptions;
+        use crate::link::session::Session;
+        use crate::link::sim::SimTransport;
+        use crate::options::workflow::Copies;
+        use crate::stop::StopCause;
+        use plotter_path::MachineProfile;
+        use plotter_path::geometry::steps::drawing_to_steps;
+        use plotter_path::kurbo::Point;
+        use plotter_path::motion::plan;
+        use plotter_path::{Drawing, Polyline};
+
+        /// Stops once `stop_at` blocks are executed (when set); goes on at every pause.
+        struct Events {
+            stop_at: Option<usize>,
+            executed: usize,
+        }
+        impl PlotEvents for Events {
+            fn progress(&mut self, p: &JobProgress) {
+                self.executed = p.executed;
+            }
+            fn plot_pause(&mut self, _: &PauseRequest) -> PenChangeChoice {
+                PenChangeChoice::Continue
+            }
+            fn stop_requested(&mut self) -> Option<StopCause> {
+                self.stop_at.filter(|at| self.executed >= *at).map(|_| StopCause::Requested)
+            }
+        }
+        let profile = MachineProfile::default_plotter();
+        let line = Polyline::new(vec![Point::new(20.0, 40.0), Point::new(50.0, 40.0)]);
+        let steps = drawing_to_steps(&profile, &Drawing::single_layer("l", vec![line])).unwrap();
+        let dir = std::env::temp_dir().join(format!("plotter-hook-resume-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let jp = dir.join("line.journal");
+        let source =
+            |start: [i32; 4]| -> anyhow::Result<String> { Ok(serde_json::json!({ "start": start }).to_string()) };
+        let spec = crate::job::JournalSpec { path: &jp, source: &source };
+        let copies = Copies { count: 2, page_delay_s: 0.0, paper_pause: true };
+        let none = StopOptions::default();
+        let cfg = plan::machine_config(&profile).unwrap();
+        let mut s = Session::connect(SimTransport::new(cfg, None), "sim").unwrap();
+        // Blocks: travel, pen down, settle, the line (3): stopped while it is drawn.
+        let mut first = Events { stop_at: Some(3), executed: 0 };
+        assert!(plot_copies(&mut s, &profile, &steps, true, false, Some(spec), &none, &copies, &mut first).is_err());
+        let state = crate::link::journal::load(&jp).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&state.source).unwrap();
+        let start: [i32; 4] = serde_json::from_value(v["start"].clone()).unwrap();
+        let resume = |events: &mut dyn PlotEvents, s: &mut Session<SimTransport>| {
+            resume_copies(s, &profile, &steps, start, &state, &jp, false, false, &none, &copies, events)
+        };
+        let (url, seen) = receiver(0);
+        let mut go_on = Events { stop_at: None, executed: 0 };
+        let out = hooked(Some(&url), "m", "line.svg", true, &mut go_on, |e| resume(e, &mut s), CopiesOutcome::summary)
+            .unwrap()
+            .unwrap();
+        assert_eq!(out.copies.len(), 2, "the copy under way and the one left");
+        let planned: f64 = out.copies.iter().map(|c| c.plan.seconds()).sum();
+        let seen: Vec<(String, String)> = seen
+            .lock()
+            .unwrap()
+            .iter()
+            .map(|(_, body)| {
+                let v: serde_json::Value = serde_json::from_str(body).unwrap();
+                (v["event"].as_str().unwrap().to_string(), v["message"].as_str().unwrap().to_string())
+            })
+            .collect();
+        let expected = [
+            ("pause".to_string(), "put in fresh paper for copy 2 of 2".to_string()),
+            ("finished".to_string(), format!("2 copies plotted, {planned:.1} s planned")),
+        ];
+        assert_eq!(seen, expected);
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// The plot does not wait for the webhook: a receiver that takes every connection and never answers, and a

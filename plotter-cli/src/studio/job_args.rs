@@ -13,6 +13,7 @@ use super::error::{Result, StudioError};
 use crate::input::InputArgs;
 use crate::options::layout::LayoutArgs;
 use crate::options::optimize::OptimizeArgs;
+use crate::options::workflow::{Copies, WorkflowArgs};
 
 /// The key of the flag list in a job's options.
 pub const ARGS_KEY: &str = "args";
@@ -29,15 +30,10 @@ pub struct JobArgs {
     /// Path-order flags.
     #[command(flatten)]
     pub optimize: OptimizeArgs,
-    /// End each part of a layer after at most this many millimetres drawn (at the end of a stroke), and pause to
-    /// refill the pen: the machine waits with the pen up until it is resumed
-    #[arg(long, value_name = "MM", help_heading = "Workflow")]
-    pub split_distance: Option<f64>,
-    /// Send a JSON POST to this http:// address when the job finishes, fails, or waits for a pen change or a
-    /// pause (machine, job, event, times); a failed delivery is tried three more times and then only logged: it
-    /// never holds the plot up
-    #[arg(long, value_name = "URL", help_heading = "Workflow")]
-    pub webhook: Option<String>,
+    /// Workflow flags, as `plotter plot` takes them: copies with a page delay and a paper change between them,
+    /// refills after a drawn length, a webhook.
+    #[command(flatten)]
+    pub workflow: WorkflowArgs,
 }
 
 /// The flag words stored in `options` (none when it has no `args`); an error naming what is wrong otherwise.
@@ -67,7 +63,8 @@ impl JobArgs {
         let matches = JobArgs::command().try_get_matches_from(&words).map_err(refused)?;
         let args = <JobArgs as clap::FromArgMatches>::from_arg_matches(&matches).map_err(refused)?;
         args.split_mm()?;
-        if let Some(url) = &args.webhook {
+        args.copies()?;
+        if let Some(url) = &args.workflow.webhook {
             crate::job::webhook::check_url(url).map_err(|e| StudioError::Invalid(format!("the job's {e}")))?;
         }
         Ok(args)
@@ -75,12 +72,12 @@ impl JobArgs {
 
     /// The drawn length between refills (`--split-distance`), checked.
     pub fn split_mm(&self) -> Result<Option<f64>> {
-        match self.split_distance {
-            Some(d) if !(d.is_finite() && d > 0.0) => Err(StudioError::Invalid(format!(
-                "the job's --split-distance {d}: give the drawn length per refill in mm, above 0"
-            ))),
-            d => Ok(d),
-        }
+        self.workflow.split_mm().map_err(|e| StudioError::Invalid(format!("the job's {e}")))
+    }
+
+    /// The copies (`--copies`, `--page-delay`, `--no-paper-pause`), checked.
+    pub fn copies(&self) -> Result<Copies> {
+        self.workflow.copies().map_err(|e| StudioError::Invalid(format!("the job's {e}")))
     }
 
     /// The flags' definitions, as a command of their own (no program name first, no help flag).
@@ -135,6 +132,15 @@ mod tests {
         assert!(e.contains("must be a list"), "{e}");
         let e = JobArgs::from_options(&json!({"args": [3]})).unwrap_err().to_string();
         assert!(e.contains("holds 3"), "{e}");
+        // The workflow flags, as `plotter plot` reads them: 0 copies is until stopped.
+        let w = JobArgs::from_options(&json!({"args": ["--copies", "0", "--page-delay", "2.5", "--no-paper-pause"]}))
+            .unwrap();
+        assert_eq!(w.copies().unwrap(), Copies { count: 0, page_delay_s: 2.5, paper_pause: false });
+        assert_eq!(none.copies().unwrap(), Copies { count: 1, page_delay_s: 0.0, paper_pause: true });
+        let e = JobArgs::from_options(&json!({"args": ["--page-delay", "90000"]})).unwrap_err().to_string();
+        assert!(e.starts_with("the job's --page-delay 90000: give a number of seconds from 0 to 86400"), "{e}");
+        let e = JobArgs::from_options(&json!({"args": ["--copies", "-1"]})).unwrap_err().to_string();
+        assert!(e.contains("the job's flags --copies -1") && e.contains("'-1'"), "{e}");
     }
 
     #[test]

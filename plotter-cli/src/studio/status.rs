@@ -57,8 +57,11 @@ pub struct MachineStatus {
     pub pen_down: Option<bool>,
     /// How the last job ended, in words.
     pub last: Option<String>,
-    /// What the paused machine waits for the operator to do before it is resumed (a layer's pause, a refill).
+    /// What the paused machine waits for the operator to do before it is resumed (a layer's pause, a refill,
+    /// a pen change, fresh paper for the next copy).
     pub prompt: Option<String>,
+    /// Which copy of a job of several it draws: "copy 2 of 3", "copy 4 (until stopped)".
+    pub copy: Option<String>,
 }
 
 /// What the operator asked of a machine, taken by its worker.
@@ -102,6 +105,7 @@ impl Slot {
             pen_down: None,
             last: None,
             prompt: None,
+            copy: None,
         };
         Slot { spec, status: Mutex::new(status), requests: Mutex::new(Requests::default()), signal: Condvar::new() }
     }

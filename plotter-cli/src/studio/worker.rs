@@ -32,6 +32,7 @@ use super::running::Studio;
 use super::state::JobState;
 use super::status::{Activity, Slot};
 use crate::Trouble;
+use crate::job::copies::CopiesOutcome;
 use crate::job::progress::{JobProgress, PenChangeChoice, PenChangeMode, PenChangeRequest, PlotEvents};
 use crate::job::{self, JobOutcome, JournalSpec};
 use crate::link::journal;
@@ -235,6 +236,7 @@ fn run_job(studio: &Studio, slot: &Slot, link: &mut Link, job: &Job) -> bool {
         s.percent = 0.0;
         s.remaining_s = None;
         s.error = None;
+        s.copy = None;
     });
     let started = Instant::now();
     let mut events = StudioEvents {
@@ -245,26 +247,25 @@ fn run_job(studio: &Studio, slot: &Slot, link: &mut Link, job: &Job) -> bool {
         last_sent: None,
         stop_sent: false,
         operator_stop: false,
+        copies: 1,
+        next_copy: 1,
     };
     let result = plot_job(studio, slot, link, job, &mut events);
     let plot_time = started.elapsed().saturating_sub(events.paused_for);
     let operator_stop = events.operator_stop;
     let mut lost = false;
     let (recorded, last, error) = match result {
-        Ok(done) => {
-            let text = match done {
-                Some(o) => {
-                    let executed =
-                        link.executed_s(o.busy_before).map_or_else(String::new, |s| format!(", executed {s:.3} s"));
-                    format!(
-                        "job {id} done: {} blocks, {:.1} mm pen-down, planned {:.3} s{executed}",
-                        o.plan.blocks.len(),
-                        o.plan.draw_mm,
-                        o.plan.seconds()
-                    )
-                }
-                None => format!("job {id} done (its journal says it had finished)"),
+        Ok(Some(out)) => {
+            let text = format!("job {id} done: {}", done_text(&out, link));
+            // Copies stopped by the operator at a paper change: the end of "until stopped", else short of the count.
+            let outcome = match (&out.ended_early, events.copies) {
+                (Some(_), n) if n != 0 => Outcome::Cancelled,
+                _ => Outcome::Done,
             };
+            (studio.queue().finish(id, &outcome, plot_time), text, None)
+        }
+        Ok(None) => {
+            let text = format!("job {id} done (its journal says it had finished)");
             (studio.queue().finish(id, &Outcome::Done, plot_time), text, None)
         }
         Err(e) => {
@@ -303,6 +304,7 @@ fn run_job(studio: &Studio, slot: &Slot, link: &mut Link, job: &Job) -> bool {
         s.last = Some(last);
         s.error = error;
         s.remaining_s = None;
+        s.copy = None;
         if lost {
             s.connected = None;
         }
@@ -329,30 +331,63 @@ pub fn journal_of(dir: &Path, id: i64) -> PathBuf {
     dir.join("journals").join(format!("job-{id}.journal"))
 }
 
-/// Make the job's drawing ready and plot it (or continue it from its journal), telling the job's webhook (if it
-/// has one) of its pen changes, pauses and end. `None`: its journal says it had finished (the studio stopped
-/// before recording that).
+/// How a job's copies went, for the machine's card and log: "2 copies, 612 blocks, 160.0 mm pen-down, planned
+/// 20.100 s, executed 23.412 s" (the copies drawn here: one a resume found finished is not counted; executed, on
+/// a simulator, from the first copy's start and with the page delays and paper changes between copies), and why
+/// the copies ended early, if they did.
+fn done_text(out: &CopiesOutcome, link: &Link) -> String {
+    let drawn: Vec<&JobOutcome> = out.copies.iter().filter(|c| !c.drawn_before).collect();
+    let blocks: usize = drawn.iter().map(|c| c.plan.blocks.len()).sum();
+    let mm: f64 = drawn.iter().map(|c| c.plan.draw_mm).sum();
+    let planned: f64 = drawn.iter().map(|c| c.plan.seconds()).sum();
+    let executed = out
+        .copies
+        .first()
+        .and_then(|c| link.executed_s(c.busy_before))
+        .map_or_else(String::new, |s| format!(", executed {s:.3} s"));
+    let copies = match drawn.len() {
+        1 => String::new(),
+        n => format!("{n} copies, "),
+    };
+    let early = out.ended_early.as_ref().map_or_else(String::new, |why| format!("; {why}"));
+    format!("{copies}{blocks} blocks, {mm:.1} mm pen-down, planned {planned:.3} s{executed}{early}")
+}
+
+/// Make the job's drawing ready and plot its copies (or continue them from its journal), telling the job's
+/// webhook (if it has one) of its pen changes, pauses and end — a resumed job's too. `None`: its journal says it
+/// had finished (the studio stopped before recording that).
 fn plot_job(
     studio: &Studio,
     slot: &Slot,
     link: &mut Link,
     job: &Job,
     events: &mut StudioEvents<'_>,
-) -> anyhow::Result<Option<JobOutcome>> {
+) -> anyhow::Result<Option<CopiesOutcome>> {
     let args = JobArgs::from_options(&job.summary.options)?;
-    let Some(url) = &args.webhook else { return plot_job_with(studio, slot, link, job, &args, events) };
-    let name = format!("{} (job {})", job.summary.drawing_name, job.summary.id);
-    let hook = job::webhook::Webhook::new(url, &slot.spec.name, &name)?;
-    let mut hooked = job::webhook::HookedEvents { inner: events, hook: &hook };
-    let result = plot_job_with(studio, slot, link, job, &args, &mut hooked);
-    match &result {
-        Ok(Some(o)) => hook.send("finished", &format!("plotted, {:.1} s planned", o.plan.seconds())),
-        Ok(None) => hook.send("finished", "its journal says it had finished"),
-        Err(e) => hook.send("error", &format!("{e:#}")),
+    let copies = args.copies()?;
+    events.copies = copies.count;
+    // A resume goes on with the copy its journal was drawing.
+    let journal_path = journal_of(studio.dir(), job.summary.id);
+    if job.summary.resume
+        && let Ok(state) = journal::load(&journal_path)
+    {
+        events.resuming_copy(job::copies::copy_of(&state.source), state.complete);
     }
-    // Not waited for: the deliveries go on on their own thread, failures are logged there.
-    drop(hook);
-    result
+    let name = format!("{} (job {})", job.summary.drawing_name, job.summary.id);
+    let finished = |o: &Option<CopiesOutcome>| match o {
+        Some(o) => o.summary(),
+        None => "its journal says it had finished".to_string(),
+    };
+    let url = args.workflow.webhook.as_deref();
+    job::webhook::hooked(
+        url,
+        &slot.spec.name,
+        &name,
+        false,
+        events,
+        |events| plot_job_with(studio, slot, link, job, &args, events),
+        finished,
+    )?
 }
 
 /// [`plot_job`] with `events` (the studio's, or the studio's with the webhook told).
@@ -363,7 +398,7 @@ fn plot_job_with(
     job: &Job,
     args: &JobArgs,
     events: &mut dyn PlotEvents,
-) -> anyhow::Result<Option<JobOutcome>> {
+) -> anyhow::Result<Option<CopiesOutcome>> {
     let id = job.summary.id;
     let file = drawing_file(studio.dir(), job)?;
     let profile = &slot.spec.profile;
@@ -371,10 +406,14 @@ fn plot_job_with(
     plan::check_work_area(profile, &steps).map_err(crate::Error::from)?;
     let journal_path = journal_of(studio.dir(), id);
     let back = args.optimize.return_home;
+    let copies = args.copies()?;
+    let stops = job::stops::StopOptions { split_mm: args.split_mm()? };
     let machine = link.machine();
-    if job.summary.resume && journal_path.exists() {
+    let out = if job.summary.resume && journal_path.exists() {
         let state = journal::load(&journal_path)?;
-        if state.complete {
+        // A journal that finished its copy goes on with the copies left (it was stopped at a paper change).
+        let copy = job::copies::copy_of(&state.source);
+        if state.complete && copies.count != 0 && copy >= copies.count {
             return Ok(None);
         }
         let source: JournalSource = serde_json::from_str(&state.source)
@@ -382,15 +421,16 @@ fn plot_job_with(
         if source.job != id {
             anyhow::bail!("{}: the journal of job {}, not of job {id}", journal_path.display(), source.job);
         }
-        let full = plan::plan_returning(profile, &steps, source.start, Lookahead::Whole, back)?;
+        // As the plot planned it: several copies each end back where they started.
+        let full =
+            plan::plan_returning(profile, &steps, source.start, Lookahead::Whole, job::copies::returns(back, &copies))?;
         if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
             anyhow::bail!(
                 "job {id} no longer gives the plan its journal recorded (the machine's profile changed); cancel it \
                  and queue it again"
             );
         }
-        let stops = job::stops::StopOptions { split_mm: args.split_mm()? };
-        let o = job::resume_with(
+        job::copies::resume_copies(
             machine,
             profile,
             &steps,
@@ -400,22 +440,36 @@ fn plot_job_with(
             false,
             back,
             &stops,
+            &copies,
             events,
-        )?;
-        return Ok((!o.drawn_before).then_some(o));
-    }
-    let record = |start: [i32; 4]| -> anyhow::Result<String> {
-        Ok(serde_json::to_string(&JournalSource {
-            front_end: STUDIO_FRONT_END.into(),
-            job: id,
-            drawing: job.summary.drawing_name.clone(),
-            machine: slot.spec.name.clone(),
-            start,
-        })?)
+        )?
+    } else {
+        let record = |start: [i32; 4]| -> anyhow::Result<String> {
+            Ok(serde_json::to_string(&JournalSource {
+                front_end: STUDIO_FRONT_END.into(),
+                job: id,
+                drawing: job.summary.drawing_name.clone(),
+                machine: slot.spec.name.clone(),
+                start,
+            })?)
+        };
+        let spec = JournalSpec { path: &journal_path, source: &record };
+        job::copies::plot_copies(machine, profile, &steps, true, back, Some(spec), &stops, &copies, events)?
     };
-    let spec = JournalSpec { path: &journal_path, source: &record };
-    let stops = job::stops::StopOptions { split_mm: args.split_mm()? };
-    Ok(Some(job::plot_with(machine, profile, &steps, true, back, Some(spec), &stops, events)?))
+    // Copies that ended at a paper change because the studio is ending (not because the operator stopped them) are
+    // interrupted, to go on with the copies left when the studio is back.
+    let asked = slot.peek();
+    if let Some(why) = &out.ended_early
+        && !(asked.stop || asked.estop)
+    {
+        let cause = Stop::process().stop_cause().unwrap_or(StopCause::Requested);
+        let doing = format!("parked between copies ({why})");
+        return Err(crate::stop::Stopped { cause, doing }.into());
+    }
+    if out.copies.iter().all(|c| c.drawn_before) && out.ended_early.is_none() {
+        return Ok(None);
+    }
+    Ok(Some(out))
 }
 
 /// What the operator is asked to do at a pen change: "change to pen 2, red fineliner 0.5 (#ff0000), for layer
@@ -441,6 +495,10 @@ struct StudioEvents<'a> {
     stop_sent: bool,
     /// The operator stopped the job (not the studio ending).
     operator_stop: bool,
+    /// How many copies the job asks for (0: until stopped).
+    copies: u64,
+    /// The copy the next plan of the job draws.
+    next_copy: u64,
 }
 
 impl PlotEvents for StudioEvents<'_> {
@@ -486,8 +544,19 @@ impl PlotEvents for StudioEvents<'_> {
         }
     }
 
+    fn plot_started(&mut self, _first_pen: &plotter_path::config::pens::LayerPen, _pen_changes: usize) {
+        let copy = self.next_copy;
+        self.show_copy(copy);
+        self.next_copy = copy + 1;
+    }
+
     fn plot_pause(&mut self, pause: &job::stops::PauseRequest) -> PenChangeChoice {
-        // A layer's `!` or a refill: parked with the pen up until the operator resumes (or stops) the machine.
+        // A layer's `!`, a refill or fresh paper for the next copy: parked with the pen up until the operator
+        // resumes (or stops) the machine. The card counts the copy whose paper goes in.
+        if let job::stops::PauseWhy::Paper { copy, .. } = pause.why {
+            self.show_copy(copy);
+            self.next_copy = copy;
+        }
         match self.wait_for_operator(Some(pause.ask())) {
             PauseChoice::Resume => PenChangeChoice::Continue,
             PauseChoice::Abort => PenChangeChoice::Stop,
@@ -507,6 +576,24 @@ impl PlotEvents for StudioEvents<'_> {
 }
 
 impl StudioEvents<'_> {
+    /// A resume goes on with copy `copy`, or after it when its journal says it was `complete`.
+    fn resuming_copy(&mut self, copy: u64, complete: bool) {
+        self.next_copy = copy + 1;
+        if !complete {
+            self.show_copy(copy);
+        }
+    }
+
+    /// The card shows the machine at copy `copy` (for a job of several copies only).
+    fn show_copy(&self, copy: u64) {
+        let text = match self.copies {
+            1 => None,
+            0 => Some(format!("copy {copy} (until stopped)")),
+            n => Some(format!("copy {copy} of {n}")),
+        };
+        set(self.studio, self.slot, |s| s.copy = text);
+    }
+
     /// The job is paused (saying `prompt` to the operator, if any) until the operator resumes or stops it, or the
     /// studio ends.
     fn wait_for_operator(&mut self, prompt: Option<String>) -> PauseChoice {
@@ -736,6 +823,111 @@ mod tests {
         // Both layers drawn: 80 mm of square and 20 mm of line.
         let last = slot.status().last.clone().unwrap();
         assert!(last.contains("100.0 mm pen-down"), "{last}");
+        close(studio, workers, &dir);
+    }
+
+    /// A 20 mm square: 80 mm drawn per copy.
+    const SQUARE: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="60mm" viewBox="0 0 60 60">
+      <rect x="10" y="10" width="20" height="20" fill="none" stroke="black"/></svg>"#;
+
+    /// The events a webhook receiver saw: (event, message) each.
+    fn hook_events(seen: &crate::job::webhook::receiver::Seen) -> Vec<(String, String)> {
+        seen.lock()
+            .unwrap()
+            .iter()
+            .map(|(_, body)| {
+                let v: serde_json::Value = serde_json::from_str(body).unwrap();
+                (v["event"].as_str().unwrap().to_string(), v["message"].as_str().unwrap().to_string())
+            })
+            .collect()
+    }
+
+    /// Wait for the machine to park with a prompt; (the prompt, the card's copy).
+    fn parked(slot: &Slot) -> (String, Option<String>) {
+        until("the machine parked", || slot.status().state == Activity::Paused);
+        let s = slot.status();
+        (s.prompt.clone().unwrap(), s.copy.clone())
+    }
+
+    /// Three copies of the square with a 0.5 s page delay: the machine parks for fresh paper before copy 2 and
+    /// tells the webhook; the studio ends there (as a killed server would leave it, with copy 1's journal
+    /// finished) and is started again: the confirmed job homes, asks again for the paper of copy 2, then for copy
+    /// 3's, and draws exactly the two copies left: 2 × 80 = 160.0 mm pen-down, with at least the two page delays
+    /// (1 s) executed beyond the two copies' plans; the webhook hears the resumed job too.
+    #[test]
+    fn copies_park_for_fresh_paper_and_go_on_with_the_copies_left_after_a_restart() {
+        let dir = temp_dir("copies");
+        let (url, seen) = crate::job::webhook::receiver::receiver(0);
+        let (studio, workers) = open(&dir, vec![parse_machine("a=sim").unwrap()]);
+        let flags = json!({ "args": ["--no-optimize", "--copies", "3", "--page-delay", "0.5", "--webhook", url] });
+        let id = studio.add(&NewJob::new("square.svg", SQUARE.as_bytes().to_vec()).with_options(flags)).unwrap();
+        let slot = Arc::clone(studio.slot("a").unwrap());
+        let paper = |n: u32| format!("put in fresh paper for copy {n} of 3");
+        assert_eq!(parked(&slot), (paper(2), Some("copy 2 of 3".to_string())));
+        assert_eq!(state_of(&studio, id), JobState::Paused);
+        let page: serde_json::Value = serde_json::from_str(&studio.snapshot_json().unwrap()).unwrap();
+        assert_eq!(page["machines"][0]["copy"], "copy 2 of 3");
+        until("the webhook's paper event", || !seen.lock().unwrap().is_empty());
+        assert_eq!(hook_events(&seen), [("pause".to_string(), paper(2))]);
+        // The studio ends while the machine waits for paper: the job is interrupted, not done.
+        studio.end();
+        for w in workers {
+            w.join().unwrap();
+        }
+        drop(studio);
+        until("the webhook's error event", || seen.lock().unwrap().len() == 2);
+        assert_eq!(hook_events(&seen)[1].0, "error");
+        let (studio, workers) = open(&dir, vec![parse_machine("a=sim").unwrap()]);
+        assert_eq!(state_of(&studio, id), JobState::Interrupted);
+        let slot = Arc::clone(studio.slot("a").unwrap());
+        studio.confirm_resume(id).unwrap();
+        assert_eq!(parked(&slot), (paper(2), Some("copy 2 of 3".to_string())));
+        studio.resume("a").unwrap();
+        until("copy 2 drawn", || slot.status().prompt.as_deref() == Some(paper(3).as_str()));
+        assert_eq!(parked(&slot), (paper(3), Some("copy 3 of 3".to_string())));
+        studio.resume("a").unwrap();
+        until("the job's end", || state_of(&studio, id) == JobState::Done && slot.status().last.is_some());
+        let last = slot.status().last.clone().unwrap();
+        assert!(last.contains(": 2 copies, ") && last.contains(" 160.0 mm pen-down"), "{last}");
+        let number = |after: &str| -> f64 {
+            let rest = &last[last.find(after).unwrap() + after.len()..];
+            rest.split(' ').next().unwrap().parse().unwrap()
+        };
+        let (planned, executed) = (number("planned "), number("executed "));
+        assert!(executed - planned >= 1.0, "{last}");
+        assert_eq!(slot.status().copy, None);
+        until("the webhook's end", || seen.lock().unwrap().len() == 5);
+        let events = hook_events(&seen);
+        let names: Vec<&str> = events.iter().map(|e| e.0.as_str()).collect();
+        assert_eq!(names, ["pause", "error", "pause", "pause", "finished"]);
+        assert_eq!((events[2].1.clone(), events[3].1.clone()), (paper(2), paper(3)));
+        assert!(events[4].1.starts_with("3 copies plotted"), "{}", events[4].1);
+        close(studio, workers, &dir);
+    }
+
+    /// `--copies 0`: copies until the operator stops at a paper change. Three copies drawn (3 × 80 = 240.0 mm),
+    /// the card counting "copy 4 (until stopped)" at the fourth paper; stopped there, the job is done.
+    #[test]
+    fn copies_until_stopped_end_done_at_the_paper_change_the_operator_stops() {
+        let dir = temp_dir("until");
+        let (studio, workers) = open(&dir, vec![parse_machine("a=sim").unwrap()]);
+        let flags = json!({ "args": ["--no-optimize", "--copies", "0"] });
+        let id = studio.add(&NewJob::new("square.svg", SQUARE.as_bytes().to_vec()).with_options(flags)).unwrap();
+        let slot = Arc::clone(studio.slot("a").unwrap());
+        for n in 2..=4 {
+            let at = format!("put in fresh paper for copy {n}");
+            until("the next paper", || slot.status().prompt.as_deref() == Some(at.as_str()));
+            assert_eq!(parked(&slot), (at, Some(format!("copy {n} (until stopped)"))));
+            if n < 4 {
+                studio.resume("a").unwrap();
+            }
+        }
+        studio.stop("a").unwrap();
+        until("the job's end", || state_of(&studio, id) == JobState::Done && slot.status().last.is_some());
+        let last = slot.status().last.clone().unwrap();
+        assert!(last.contains(": 3 copies, ") && last.contains(" 240.0 mm pen-down"), "{last}");
+        assert!(last.ends_with("; stopped at the paper change before copy 4"), "{last}");
+        assert_eq!(studio.queue().history(id).unwrap()[0].outcome.as_deref(), Some("done"));
         close(studio, workers, &dir);
     }
 

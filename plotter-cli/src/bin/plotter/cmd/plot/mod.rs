@@ -450,36 +450,16 @@ fn with_workflow<M: plotter_host::link::machine::PlotMachine + ?Sized>(
 ) -> anyhow::Result<(job::JobOutcome, u64, usize)> {
     let copies = args.workflow.copies()?;
     let stops = job::stops::StopOptions { split_mm: args.workflow.split_mm()? };
-    let hook = match &args.workflow.webhook {
-        Some(url) => Some(job::webhook::Webhook::new(url, &profile.name, &drawing_name(input))?),
-        None => None,
-    };
     let (home, back) = (!args.no_home, args.optimize.return_home);
-    let result = match &hook {
-        Some(hook) => {
-            let mut events = job::webhook::HookedEvents { inner: terminal, hook };
-            job::copies::plot_copies(machine, profile, steps, home, back, journal, &stops, &copies, &mut events)
-        }
-        None => job::copies::plot_copies(machine, profile, steps, home, back, journal, &stops, &copies, terminal),
-    };
-    if let Some(hook) = hook {
-        match &result {
-            Ok(out) => {
-                let secs: f64 = out.copies.iter().map(|c| c.plan.seconds()).sum();
-                let mut text = format!(
-                    "{} cop{} plotted, {secs:.1} s planned",
-                    out.copies.len(),
-                    if out.copies.len() == 1 { "y" } else { "ies" }
-                );
-                if let Some(why) = &out.ended_early {
-                    text = format!("{text}; {why}");
-                }
-                hook.send("finished", &text);
-            }
-            Err(e) => hook.send("error", &format!("{e:#}")),
-        }
-        hook.finish();
-    }
+    let result = job::webhook::hooked(
+        args.workflow.webhook.as_deref(),
+        &profile.name,
+        &drawing_name(input),
+        true,
+        terminal,
+        |events| job::copies::plot_copies(machine, profile, steps, home, back, journal, &stops, &copies, events),
+        job::copies::CopiesOutcome::summary,
+    )?;
     let mut out = result?;
     if let Some(why) = &out.ended_early {
         eprintln!("{why}");
@@ -575,21 +555,32 @@ pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Resu
         );
     }
     let mut terminal = Terminal::new(args.pause_immediately, original.pen_change)?;
-    // The copy the journal was drawing, then the copies left.
-    let outcome = job::copies::resume_copies(
-        c.machine(),
-        &profile,
-        &steps,
-        source.start,
-        &state,
-        journal_path,
-        args.trust_position,
-        original.optimize.return_home,
-        &stops,
-        &copies,
+    // The copy the journal was drawing, then the copies left; the plot's webhook hears the resume's events.
+    let outcome = job::webhook::hooked(
+        original.workflow.webhook.as_deref(),
+        &profile.name,
+        &drawing_name(input),
+        true,
         &mut terminal,
+        |events| {
+            job::copies::resume_copies(
+                c.machine(),
+                &profile,
+                &steps,
+                source.start,
+                &state,
+                journal_path,
+                args.trust_position,
+                original.optimize.return_home,
+                &stops,
+                &copies,
+                events,
+            )
+        },
+        job::copies::CopiesOutcome::summary,
     );
     terminal.bar.finish_and_clear();
+    let outcome = outcome?;
     let mut outcome = outcome?;
     if let Some(why) = &outcome.ended_early {
         eprintln!("{why}");
