@@ -6,19 +6,23 @@
 //! the edges, so the lines run along them (along a face's contour, around a sphere). Where the picture is flat the
 //! tensor is empty and a small bias turns the lines to the base angle.
 //!
-//! **Spacing.** The tone model's ladder ([`super::tone::Ladder::rung_to_black`]) gives each point the number of line
-//! families and their spacing for its (smoothed) darkness: lighter tones one family along the field, darker ones a
-//! second family across it (+90°), then a third at +45°, all at the rung's spacing, so a flat tone of darkness `d`
-//! plots `d` of ink. Past the ladder's darkest rung (0.963 at the default spacing) the three families close in, up
-//! to 0.9 coverage each (0.999 together): the ladder's own black, one family of touching lines, would leave every
-//! gap between streamlines open. Paper, and tones lighter than lines twenty minimum spacings apart, stay white.
+//! **Spacing.** Each point's (smoothed) darkness `d` asks for up to three families of lines: one along the field,
+//! a second across it (+90°), a third at +45°, filled one after another ([`family_coverages`]): the first alone up
+//! to the most one family covers at the closest spacing, then the second while the first stays there, then the
+//! third, so that `1 − Π(1 − cₖ) = d` (the tone model's crossing rule) and every family's spacing `pen / cₖ` changes
+//! smoothly with the tone. Past the three at the closest spacing (0.963 at the default spacing) they close in
+//! together, up to 0.9 coverage each (0.999 together). Paper, and a family whose lines would be more than twenty
+//! minimum spacings apart, stay white; no line enters a paper pixel of the picture itself (before smoothing).
 //!
 //! **Placement.** Each family is laid out on its own: a streamline is integrated both ways from a seed (midpoint
-//! steps of at most 0.4 spacing) until it leaves the picture, reaches a lighter rung, turns sharply, or comes
-//! within 0.6 of the local spacing of a line already drawn (at half a spacing, lines converging where the field
-//! turns ran on side by side and plotted a ramp's mid-tones up to L* 13 too dark; at 0.8 they stopped short and
-//! everything plotted too light); new seeds are tried one spacing to either side of every
-//! finished line, and the picture is then scanned for places no line reached.
+//! steps of at most 0.4 spacing) until it leaves the picture, reaches a lighter tone than its family draws, turns
+//! sharply, or comes within 0.7 of the local spacing of a line already drawn; new seeds are tried one spacing to
+//! either side of every finished line, and the picture is then scanned for places no line reached, and a seed
+//! is taken where it is at least 0.7 spacings from every line. Where the field fans out or closes in, the spacing
+//! between neighbouring lines thus stays between 0.7 and 1.7 local spacings, about evenly on either side of one.
+//! (Lines stopping at 0.6 and seeds needing a whole spacing, 0.6 to 2 spacings, plotted a lightness ramp up to 7.7
+//! L* off, too dark where lines closed in and too light where they fanned out; 0.7 and 0.7 plot it within 4.5 L*
+//! but for its darkest end.)
 
 use super::tone::{DarknessMap, Ladder};
 use image::{ImageBuffer, Luma};
@@ -29,7 +33,10 @@ const FAMILY_TURNS: [f64; 3] = [0.0, 90.0, 45.0];
 /// Tones whose line spacing would exceed this many minimum spacings are left as paper.
 const MAX_SPACING_FACTOR: f64 = 20.0;
 /// A streamline stops where it comes closer than this fraction of the local spacing to another line.
-const TEST_FRACTION: f64 = 0.6;
+const TEST_FRACTION: f64 = 0.7;
+/// A new streamline may start where it is at least this fraction of the local spacing from every line (it starts one
+/// spacing from the line it grows from).
+const SEED_CLEARANCE: f64 = 0.7;
 /// The darkest tone flow draws: three families each covering 0.9 (`1 − 0.1³`), lines 1.11 pens apart.
 const CLOSEST_DARKNESS: f64 = 0.999;
 /// A streamline stops where its direction turns more than this in one step (a vortex or a saddle of the field).
@@ -182,30 +189,75 @@ impl Grid {
     }
 }
 
-/// Per pixel: how many families the ladder asks for, and their spacing in pixels.
+/// Per pixel: each family's spacing in pixels, infinite where the picture is too light for it.
 struct Rungs {
     width: usize,
     height: usize,
-    families: Vec<u8>,
-    spacing: Vec<f32>,
+    /// How many families any pixel asks for.
+    top: u8,
+    spacing: Vec<[f32; 3]>,
+    /// Whether each pixel is paper (darkness 0 before smoothing): no line enters one, so no ink lands past a
+    /// shape's edge (the smoothed tone reaches a few pixels past it, and lines once ran on 0.82 mm beyond a black
+    /// square).
+    paper: Vec<bool>,
+}
+
+/// The coverage of each of the three families for `darkness`, filled one after another: the first family alone
+/// up to the most one family covers (`cmax`, lines at the closest spacing), then the second while the first stays
+/// at `cmax`, then the third; past all three at `cmax` they close in together, each `1 − ∛(1 − d)`, up to
+/// [`CLOSEST_DARKNESS`]. Together they cover `1 − Π(1 − cₖ) = d`.
+///
+/// Why not the ladder's rungs (every family at one spacing): there a family's spacing jumps where a family is
+/// added (one family at 0.45 mm just lighter than 2/3 ink, two at 0.71 mm just darker), and a streamline that runs
+/// across the tones carries its spacing over the jump, which the spacing tests let it keep: on a lightness ramp the
+/// side lighter than each jump plotted up to 4 L* too light and the side darker up to 6 L* too dark. Filled one
+/// after another, every family's spacing changes smoothly with the tone.
+fn family_coverages(darkness: f64, cmax: f64) -> [f64; 3] {
+    let d = if darkness.is_nan() { 0.0 } else { darkness.clamp(0.0, CLOSEST_DARKNESS) };
+    let open = 1.0 - cmax;
+    if d <= cmax {
+        [d, 0.0, 0.0]
+    } else if d <= 1.0 - open * open {
+        [cmax, 1.0 - (1.0 - d) / open, 0.0]
+    } else if d <= 1.0 - open * open * open {
+        [cmax, cmax, 1.0 - (1.0 - d) / (open * open)]
+    } else {
+        let c = 1.0 - (1.0 - d).cbrt();
+        [c, c, c]
+    }
 }
 
 impl Rungs {
     fn new(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64) -> Self {
         let smooth = blur(map.width, map.height, map.data.clone(), ladder.min_spacing_mm / pixel_mm);
         let max_spacing = MAX_SPACING_FACTOR * ladder.min_spacing_mm;
-        let mut families = Vec::with_capacity(smooth.len());
-        let mut spacing = Vec::with_capacity(smooth.len());
-        for &d in &smooth {
-            // Past the ladder's darkest rung the three families close in, up to the last rung that keeps three
-            // (one family of touching lines, the ladder's black, leaves a streamline's gaps open).
-            let rung = ladder.rung_to_black(f64::from(d).min(CLOSEST_DARKNESS));
-            let paper = rung.families == 0 || rung.spacing_mm > max_spacing;
-            families.push(if paper { 0 } else { rung.families });
-            #[allow(clippy::cast_possible_truncation)] // a spacing of a few pixels
-            spacing.push((rung.spacing_mm / pixel_mm) as f32);
+        let cmax = ladder.max_family_coverage();
+        let mut top = 0u8;
+        let spacing = smooth
+            .iter()
+            .map(|&d| {
+                let mut out = [f32::INFINITY; 3];
+                for (k, (c, s)) in family_coverages(f64::from(d), cmax).into_iter().zip(&mut out).enumerate() {
+                    let mm = ladder.pen_mm / c;
+                    if c > 0.0 && mm <= max_spacing {
+                        #[allow(clippy::cast_possible_truncation)] // a spacing of a few pixels
+                        let px = (mm / pixel_mm) as f32;
+                        *s = px;
+                        #[allow(clippy::cast_possible_truncation)] // k < 3
+                        let n = k as u8 + 1;
+                        top = top.max(n);
+                    }
+                }
+                out
+            })
+            .collect();
+        Rungs {
+            width: map.width,
+            height: map.height,
+            top,
+            spacing,
+            paper: map.data.iter().map(|&d| d <= 0.0).collect(),
         }
-        Rungs { width: map.width, height: map.height, families, spacing }
     }
 
     /// The spacing of family `k` (0-based) at `p`, or `None` where the picture is too light for it.
@@ -213,7 +265,8 @@ impl Rungs {
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let (x, y) = (p.x.floor().max(0.0) as usize, p.y.floor().max(0.0) as usize);
         let i = y.min(self.height - 1) * self.width + x.min(self.width - 1);
-        (self.families[i] > k).then(|| f64::from(self.spacing[i]))
+        let s = self.spacing[i][usize::from(k)];
+        (s.is_finite() && !self.paper[i]).then(|| f64::from(s))
     }
 }
 
@@ -307,7 +360,7 @@ impl Family<'_> {
                 let n = Vec2::new(-t.y, t.x);
                 for side in [1.0, -1.0] {
                     let s = a + n * (side * offset * sep);
-                    if self.seed_ok(s, offset - 0.01)
+                    if self.seed_ok(s, SEED_CLEARANCE)
                         && let Some(j) = self.streamline(s)
                     {
                         queue.push(j);
@@ -323,7 +376,7 @@ impl Family<'_> {
         for y in 0..self.rungs.height {
             for x in 0..self.rungs.width {
                 let p = Point::new(x as f64 + 0.5, y as f64 + 0.5);
-                if self.seed_ok(p, 0.99)
+                if self.seed_ok(p, SEED_CLEARANCE)
                     && let Some(i) = self.streamline(p)
                 {
                     self.grow_from(i, 1.0);
@@ -345,7 +398,7 @@ pub fn flow(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64, angle_deg: f64) -
     }
     let min_px = ladder.min_spacing_mm / pixel_mm;
     let rungs = Rungs::new(map, ladder, pixel_mm);
-    let top = rungs.families.iter().copied().max().unwrap_or(0);
+    let top = rungs.top;
     if top == 0 {
         return Vec::new();
     }
@@ -404,6 +457,40 @@ mod tests {
         // close in to 0.9 coverage each, 1 − 0.1³ = 0.999: within 0.03 of black.
         let f = ink(&flow(&flat(150, 150, 1.0), &ladder, 0.3, 0.0), 1.0, 150, 150, 20);
         assert!(f > 0.97, "ink fraction {f}");
+    }
+
+    #[test]
+    fn families_fill_one_after_another_and_their_spacing_changes_smoothly() {
+        // Pen 0.3 mm, closest spacing 0.45 mm: one family covers at most 2/3.
+        let close = |a: [f64; 3], b: [f64; 3]| a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-9);
+        let cmax = 2.0 / 3.0;
+        assert!(close(family_coverages(0.5, cmax), [0.5, 0.0, 0.0]));
+        // 0.8: the first at 2/3 leaves 1/3 paper, the second covers 1 − 0.2 / (1/3) = 0.4 of it.
+        assert!(close(family_coverages(0.8, cmax), [cmax, 0.4, 0.0]));
+        // 0.9: two at 2/3 leave 1/9, the third covers 1 − 0.1 / (1/9) = 0.1.
+        assert!(close(family_coverages(0.9, cmax), [cmax, cmax, 0.1]));
+        // 0.992: past 26/27, all three 1 − ∛0.008 = 0.8; black stops at 0.999, 0.9 each.
+        assert!(close(family_coverages(0.992, cmax), [0.8, 0.8, 0.8]));
+        assert!(close(family_coverages(1.0, cmax), [0.9, 0.9, 0.9]));
+        // Across 2/3 the first family stays at 2/3 (the ladder's rungs jumped to 1 − √(1/3) = 0.42 there).
+        let (below, above) = (family_coverages(cmax - 1e-6, cmax), family_coverages(cmax + 1e-6, cmax));
+        assert!((below[0] - above[0]).abs() < 1e-5 && above[1] < 1e-5, "{below:?} {above:?}");
+    }
+
+    #[test]
+    fn no_line_runs_past_a_black_square() {
+        // A black 60 × 60 px square in a white 120 × 120 picture: every stroke point lies on the square's pixels
+        // (before, lines followed the smoothed tone and ran on 0.82 mm past it).
+        let (w, h) = (120usize, 120usize);
+        let data = (0..w * h)
+            .map(|i| if (30..90).contains(&(i % w)) && (30..90).contains(&(i / w)) { 1.0 } else { 0.0 })
+            .collect();
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.45 };
+        let s = flow(&DarknessMap { width: w, height: h, data }, &ladder, 0.3, 45.0);
+        let out: Vec<&Point> =
+            s.iter().flatten().filter(|p| !(30.0..=90.0).contains(&p.x) || !(30.0..=90.0).contains(&p.y)).collect();
+        assert!(out.is_empty(), "{} points outside, e.g. {:?}", out.len(), out.first());
+        assert!(ink(&s, 1.0, w, h, 33) > 0.97);
     }
 
     #[test]
