@@ -48,7 +48,8 @@ pub fn plotter(dir: &Path, args: &[&str]) -> Output {
 }
 
 /// The state directory the harness gives `plotter` (`PLOTTER_STATE_DIR`): one per test process, in the temporary
-/// folder, so that tests never write journals into the user's own state directory.
+/// folder, so that tests never write journals into the user's own state directory. Tests that read what is in it
+/// give `plotter` a state directory of their own instead.
 pub fn test_state_dir() -> PathBuf {
     std::env::temp_dir().join(format!("plotter-e2e-{}-state", std::process::id()))
 }
@@ -69,9 +70,13 @@ pub fn plotter_with_input(dir: &Path, args: &[&str], input: &str) -> Output {
     child.wait_with_output().expect("plotter exits")
 }
 
-/// A fresh scratch directory for one test.
+/// A fresh scratch directory for one test, `name` in its name. Every call gets a folder of its own, even for a
+/// name given before: the tests run side by side in one process, and two of them with the same name (or one
+/// helper that names its folder after its arguments) must not empty each other's folder mid-run.
 pub fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("plotter-e2e-{}-{name}", std::process::id()));
+    static COUNT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = COUNT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let d = std::env::temp_dir().join(format!("plotter-e2e-{}-{n}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("scratch dir");
     d
@@ -600,4 +605,22 @@ pub fn http_once(authority: &str, method: &str, path: &str, body: &[u8]) -> (u16
     let status = text.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
     let body = text.split_once("\r\n\r\n").map_or("", |(_, b)| b).to_string();
     (status, body, took)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::scratch;
+
+    #[test]
+    fn scratch_gives_each_call_its_own_empty_folder_even_under_one_name() {
+        let first = scratch("same-name");
+        std::fs::write(first.join("trace.txt"), "kept").unwrap();
+        let second = scratch("same-name");
+        assert_ne!(first, second);
+        assert!(second.is_dir() && std::fs::read_dir(&second).unwrap().next().is_none(), "{}", second.display());
+        assert_eq!(std::fs::read_to_string(first.join("trace.txt")).unwrap(), "kept", "the first folder is untouched");
+        for d in [first, second] {
+            std::fs::remove_dir_all(d).unwrap();
+        }
+    }
 }
