@@ -61,6 +61,7 @@ function machineCard(m) {
   row('Port', m.connected || m.device);
   row('Job', m.job ? '#' + m.job + ' ' + (m.drawing || '') : '–', 'job');
   row('Progress', m.job ? m.percent.toFixed(1) + ' %' : '–', 'percent');
+  if (m.copy) row('Copy', m.copy, 'copy');
   row('Remaining', m.job ? hms(m.remaining_s) : '–', 'remaining');
   row('Pen', m.pen_mm ? m.pen_mm[0].toFixed(1) + ', ' + m.pen_mm[1].toFixed(1) + ' mm ' + (m.pen_down ? 'down' : 'up') : '–', 'pen');
   if (m.last) row('Last', m.last);

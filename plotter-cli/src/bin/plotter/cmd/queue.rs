@@ -264,17 +264,23 @@ fn list(l: &ListArgs) -> anyhow::Result<()> {
     }
     println!("{:>5}  {:<11}  {:<10}  {:<10}  {:<24}  outcome", "job", "state", "for", "machine", "drawing");
     for j in jobs {
-        println!(
-            "{:>5}  {:<11}  {:<10}  {:<10}  {:<24}  {}",
-            j["id"],
-            j["state"].as_str().unwrap_or("?"),
-            j["machine"].as_str().unwrap_or("any"),
-            j["claimed_by"].as_str().unwrap_or("-"),
-            j["drawing"].as_str().unwrap_or("?"),
-            last_outcome(j)
-        );
+        println!("{}", list_row(j));
     }
     Ok(())
+}
+
+/// A job's line of `plotter queue list`, in the columns of its heading.
+fn list_row(j: &Value) -> String {
+    // A JSON number ignores the column's width: its text is padded.
+    let id = j["id"].as_i64().map_or_else(|| "?".to_string(), |i| i.to_string());
+    format!(
+        "{id:>5}  {:<11}  {:<10}  {:<10}  {:<24}  {}",
+        j["state"].as_str().unwrap_or("?"),
+        j["machine"].as_str().unwrap_or("any"),
+        j["claimed_by"].as_str().unwrap_or("-"),
+        j["drawing"].as_str().unwrap_or("?"),
+        last_outcome(j)
+    )
 }
 
 fn wait(w: &WaitArgs) -> anyhow::Result<()> {
@@ -343,5 +349,17 @@ mod tests {
         assert!(back.layout.fit && back.optimize.no_optimize);
         assert!((back.layout.rotate + 30.0).abs() < 1e-12);
         assert!(words_of(&["duck.svg"]).is_empty());
+        // The workflow flags go too: copies with a page delay.
+        let w = words_of(&["duck.svg", "--copies", "0", "--page-delay", "2", "--no-paper-pause"]);
+        assert_eq!(w, ["--copies", "0", "--page-delay", "2", "--no-paper-pause"]);
+        let back = JobArgs::from_options(&serde_json::json!({ "args": w })).unwrap();
+        assert_eq!((back.workflow.copies, back.workflow.page_delay), (0, 2.0));
+    }
+
+    #[test]
+    fn a_listed_job_lines_up_under_the_heading() {
+        let j = serde_json::json!({"id": 12, "state": "done", "machine": null, "claimed_by": "big",
+            "drawing": "duck.svg", "history": [{"outcome": "done"}]});
+        assert_eq!(list_row(&j), "   12  done         any         big         duck.svg                  done");
     }
 }
