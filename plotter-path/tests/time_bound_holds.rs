@@ -2,7 +2,9 @@
 //! (the sample profiles), the planned time — which the firmware executes to the tick — is never below the lower
 //! bound, each part of the plan (pen down, travel, lifts) is at least its part of the bound, and each cause of the
 //! time above the bound (`plotter stats --verbose`) is time the plan spends above it, as worded, adding up to the
-//! whole gap.
+//! whole gap. Rows of dashes along X or Y make hops along one axis, where the bound charges each hop that axis's
+//! own limits (its "hops" cause is the plan's travel less those charges, hop by hop, so it stays ≥ 0 only if
+//! every charge is a true least time).
 
 use plotter_path::config::models::MODELS;
 use plotter_path::geometry::steps::drawing_to_steps;
@@ -18,16 +20,44 @@ use proptest::prelude::*;
 #[derive(Debug, Clone)]
 enum Shape {
     Legs(Vec<(f64, f64)>),
-    Arc { centre: (f64, f64), radius: f64, from: f64, sweep: f64, chords: u32 },
+    Arc {
+        centre: (f64, f64),
+        radius: f64,
+        from: f64,
+        sweep: f64,
+        chords: u32,
+    },
+    /// Dashes of `dash` mm in a row along X (or Y), `gap` mm apart: one path per dash.
+    Row {
+        at: (f64, f64),
+        count: u32,
+        dash: f64,
+        gap: f64,
+        along_y: bool,
+    },
 }
 
 fn shape() -> impl Strategy<Value = Shape> {
     let point = (0.0..100.0f64, 0.0..100.0f64);
     prop_oneof![
         prop::collection::vec(point.clone(), 2..10).prop_map(Shape::Legs),
-        (point, 0.5..40.0f64, 0.0..6.3f64, -6.3..6.3f64, 3..80u32)
+        (point.clone(), 0.5..40.0f64, 0.0..6.3f64, -6.3..6.3f64, 3..80u32)
             .prop_map(|(centre, radius, from, sweep, chords)| Shape::Arc { centre, radius, from, sweep, chords }),
+        (point, 2..8u32, 0.2..5.0f64, 0.05..30.0f64, any::<bool>())
+            .prop_map(|(at, count, dash, gap, along_y)| Shape::Row { at, count, dash, gap, along_y }),
     ]
+}
+
+/// The paths of a shape.
+fn polylines(s: &Shape) -> Vec<Polyline> {
+    let Shape::Row { at, count, dash, gap, along_y } = s else { return vec![polyline(s)] };
+    (0..*count)
+        .map(|i| {
+            let a = f64::from(i) * (dash + gap);
+            let p = |t: f64| if *along_y { Point::new(at.0, at.1 + t) } else { Point::new(at.0 + t, at.1) };
+            Polyline::new(vec![p(a), p(a + dash)])
+        })
+        .collect()
 }
 
 fn polyline(s: &Shape) -> Polyline {
@@ -41,6 +71,7 @@ fn polyline(s: &Shape) -> Polyline {
                 })
                 .collect(),
         ),
+        Shape::Row { .. } => polylines(s).swap_remove(0),
     }
 }
 
@@ -52,7 +83,7 @@ fn profiles() -> Vec<(&'static str, MachineProfile)> {
 /// `shapes` as a drawing scaled into `profile`'s work area, 5 mm in from its edges, or `None` when it has no
 /// extent to scale.
 fn drawing_on(profile: &MachineProfile, shapes: &[Shape]) -> Option<Drawing> {
-    let mut d = Drawing::single_layer("random", shapes.iter().map(polyline).collect());
+    let mut d = Drawing::single_layer("random", shapes.iter().flat_map(polylines).collect());
     let r = d.bbox()?;
     if r.width() < 1e-3 || r.height() < 1e-3 {
         return None;

@@ -39,14 +39,26 @@
 //!   stroke; and `2·settle − clear` once for the plot's first lift and last lift. The drawing before a servo
 //!   lift ends at rest (the servo block is a stop).
 //! * **Travel**: the pen-up hops cost at least the travel lower bound (see [`crate::optimize::bound`]: the largest
-//!   of a spanning tree of the paths, their nearest predecessors, and Held and Karp's penalized trees on the paths'
-//!   ends, each valid for any order), each hop charged on its own: at no more than the travel feed and the travel acceleration (the axes' `√(a_x² + a_y²)`,
-//!   or `pen.travel_accel_mm_s2` where lower), from and into the corners with the pen's Z moves (up to the
-//!   slower feed with the curve model on) ([`min_hop_seconds`]).
+//!   of a spanning tree of the paths, their nearest predecessors, Held and Karp's penalized trees on the paths'
+//!   ends, and on a small layer the best order itself, each valid for any order), each hop charged on its own the
+//!   least time its X and Y distances allow ([`crate::motion::hop_time::HopTime`]): the largest of X's time over
+//!   `|dx|` at X's own limits, Y's over `|dy|` at Y's, and the path's over the straight distance at the travel
+//!   feed and the largest travel acceleration any direction allows (`√(a_x² + a_y²)`, or `pen.travel_accel_mm_s2`
+//!   where lower), each from and into the corners with the pen's Z moves (up to the slower feed with the curve
+//!   model on). The cost depends on the hop's direction but not on which way it is taken, which is all the
+//!   travel bound's trees need.
 //!
-//! The cruise limit on a curve's chords (no faster than their ends) is left out, and so are the direction limits
-//! of the travel (the travel bound
-//! knows its hops' lengths, not their directions); each only adds time, so the bound is valid whatever the order; the gap between it and the plan is what any order and planner could gain.
+//! The cruise limit on a curve's chords (no faster than their ends) is left out; it only adds time, so the bound is
+//! valid whatever the order; the gap between it and the plan is what any order and planner could gain.
+//!
+//! **The drawing bounded** is the one the plan draws. `plotter stats` bounds the optimized drawing, whose paths
+//! the optimizer may have joined: ends that meet within the merge tolerance, and consecutive paths whose gap is
+//! under the pen's width, drawn through with the pen down (a bridge). Both are decided from the pen (its width)
+//! and the drawing, never from the machine's limits, and both change the ink on the paper (a bridge is a line the
+//! pen draws), so the joined drawing is the input the machine is given, as a drawing merged by vpype's
+//! `linemerge` would be: the bound is of any order of its paths on this machine. Which gaps are bridged depends
+//! on the optimizer's order; the bound does not claim that another order, bridging other gaps, could not draw a
+//! different drawing faster.
 
 use plotter_fw::config::MachineConfig;
 use plotter_fw::planner::{self, PlanBlock, Seg};
@@ -98,7 +110,7 @@ fn corner_speed(a: f64, deviation: f64) -> f64 {
 /// The junction speed between a Z-only move and a travel that climbs or descends at up to twice the hop slope
 /// (the turn is less than 90° by up to `atan(2·s)`), at acceleration `a`: an over-estimate of what the plan's
 /// hops enter and leave their Z moves with.
-fn hop_corner_speed(profile: &MachineProfile, a: f64) -> f64 {
+pub(crate) fn hop_corner_speed(profile: &MachineProfile, a: f64) -> f64 {
     let tilt = (2.0 * crate::motion::hop::rise_slope(profile)).atan();
     let sin_half = ((std::f64::consts::FRAC_PI_2 + tilt) / 2.0).sin();
     (a * profile.motion.junction_deviation_mm * sin_half / (1.0 - sin_half)).sqrt()
@@ -107,37 +119,27 @@ fn hop_corner_speed(profile: &MachineProfile, a: f64) -> f64 {
 /// The largest acceleration along an XY path: `√(a_x² + a_y²)` from the axes' limits, lowered to the profile's
 /// cap for that kind of move (`pen.draw_accel_mm_s2` or `pen.travel_accel_mm_s2`) when it sets one — the plan caps
 /// every such block there ([`crate::motion::plan`]).
-fn path_accel(profile: &MachineProfile, cap: Option<f64>) -> f64 {
+pub(crate) fn path_accel(profile: &MachineProfile, cap: Option<f64>) -> f64 {
     let axes = profile.axes.x.max_accel_mm_s2.hypot(profile.axes.y.max_accel_mm_s2);
     cap.map_or(axes, |c| axes.min(c))
 }
 
-/// The least time a pen-up hop of at least `d` mm can take on `profile`, seconds (no lift): it starts and ends no
-/// faster than the corners with the pen's Z moves allow ([`hop_corner_speed`] with the largest travel
-/// acceleration; a servo pen's hop starts and ends at rest), reaches at most the travel feed and accelerates at
-/// most at the travel acceleration ([`path_accel`]). Its endpoints were rounded to steps, which may shorten it by
-/// up to two step diagonals. Non-decreasing in `d`, so it maps a travel lower bound's hop lengths to a time bound
-/// ([`crate::optimize::travel_lower_bound_mapped`]).
+/// The least time a pen-up hop of at least `d` mm can take on `profile` in any direction, seconds (no lift): the
+/// path's term of [`crate::motion::hop_time::HopTime`] (the travel feed, the largest travel acceleration any
+/// direction allows, from and into the corners with the pen's Z moves, two step diagonals short for the rounding
+/// of its ends). Non-decreasing in `d`, so it maps a travel lower bound's hop lengths to a time bound
+/// ([`crate::optimize::travel_lower_bound_mapped`]); the bound itself charges each hop by its X and Y distances
+/// ([`crate::motion::hop_time::HopTime::seconds`]).
 pub fn min_hop_seconds(profile: &MachineProfile) -> impl Fn(f64) -> f64 + use<> {
-    let accel = path_accel(profile, profile.pen.travel_accel_mm_s2);
-    let feed = profile.pen.travel_feed_mm_s;
-    // A servo's blocks are stops (its Z feed is bookkeeping only), whatever the curve model says of Z joins.
-    let v_end = if profile.pen.uses_servo() {
-        0.0
-    } else if z_joins_may_curve(profile) {
-        feed.min(profile.axes.z.max_feed_mm_s)
-    } else {
-        hop_corner_speed(profile, accel)
-    };
-    let slack = 2.0 * (1.0 / profile.axes.x.steps_per_mm).hypot(1.0 / profile.axes.y.steps_per_mm);
-    move |d: f64| min_time((d - slack).max(0.0), v_end, v_end, feed, accel)
+    let hop = crate::motion::hop_time::HopTime::of(profile);
+    move |d: f64| hop.along_path(d)
 }
 
 /// Whether the planner may take the vertex between an XY move and a Z move (a stroke's end into the pen's rise,
 /// the rise into the hop, the hop into the drop) as a point of a smooth curve rather than a 90° corner: with the
 /// curve model on (`motion.curve_deviation_mm > 0`) a short chord next to the Z move makes it one, and the speed
 /// there is then capped only by both moves' feeds. The bound then allows those feeds there.
-fn z_joins_may_curve(profile: &MachineProfile) -> bool {
+pub(crate) fn z_joins_may_curve(profile: &MachineProfile) -> bool {
     profile.motion.curve_deviation_mm > 0.0
 }
 
@@ -391,7 +393,8 @@ pub fn plot_time_lower_bound(
 }
 
 /// [`plot_time_lower_bound`] of `steps` (the step form of `drawing`) with the travel bound of `drawing`'s paths in
-/// any order from `start`, each hop charged [`min_hop_seconds`].
+/// any order from `start`, each hop charged the least time its X and Y distances allow
+/// ([`crate::motion::hop_time::HopTime`]).
 pub fn drawing_time_lower_bound(
     profile: &MachineProfile,
     steps: &StepDrawing,
@@ -399,7 +402,8 @@ pub fn drawing_time_lower_bound(
     seam: crate::optimize::SeamMode,
     start: Option<kurbo::Point>,
 ) -> Result<TimeBound, PlanError> {
-    let travel = crate::optimize::travel_lower_bound_mapped(drawing, seam, start, &min_hop_seconds(profile));
+    let hop = crate::motion::hop_time::HopTime::of(profile);
+    let travel = crate::optimize::travel_lower_bound_hops(drawing, seam, start, &hop);
     plot_time_lower_bound(profile, steps, travel)
 }
 
@@ -408,6 +412,46 @@ mod tests {
     use super::*;
     use crate::geometry::steps::{StepDelta, StepPos, StepStroke};
     use crate::motion::plan::{Lookahead, homed_position, plan};
+
+    /// A sample profile of samples/.
+    fn sample(name: &str) -> MachineProfile {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples").join(name);
+        MachineProfile::from_toml(&std::fs::read_to_string(&path).unwrap(), name).unwrap()
+    }
+
+    /// The travel part of the bound of one line from `a` to `b` (page mm), from `start`, on `p`.
+    fn travel_to_line(p: &MachineProfile, start: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+        use crate::geometry::drawing::{Drawing, Polyline};
+        use kurbo::Point;
+        let d = Drawing::single_layer("l", vec![Polyline::new(vec![Point::new(a.0, a.1), Point::new(b.0, b.1)])]);
+        let steps = crate::geometry::steps::drawing_to_steps(p, &d).unwrap();
+        let from = Some(Point::new(start.0, start.1));
+        drawing_time_lower_bound(p, &steps, &d, crate::optimize::SeamMode::Any, from).unwrap().travel_s
+    }
+
+    #[test]
+    fn a_hop_along_x_is_bounded_at_x_s_own_acceleration() {
+        // The servo kit (samples/servo-plotter.toml: 1500 mm/s² and 150 mm/s per axis, travel at 120 mm/s, a
+        // servo pen: hops from rest to rest). From (10, 10) to a line starting 30 mm along X: 30 mm less two X
+        // steps, 29.975 mm, at X's 1500 mm/s² up to 120 mm/s: ramps of 9.6 mm in 0.16 s, 20.375 mm cruising in
+        // 0.169 79 s: 0.329 79 s. The bound took the diagonal's 2121.3 mm/s² for it before: 0.306 27 s.
+        let p = sample("servo-plotter.toml");
+        let t = travel_to_line(&p, (10.0, 10.0), (40.0, 10.0), (60.0, 10.0));
+        assert!((t - 0.329_79).abs() < 1e-5, "{t}");
+        // A 30 × 40 mm diagonal: Y's 39.975 mm at 1500 mm/s² take 0.413 13 s, the path's 49.965 mm at the
+        // 120 mm/s travel feed and 2121.3 mm/s² take longer, 0.472 94 s (as before: the feed, not an axis, limits
+        // the diagonal).
+        let t = travel_to_line(&p, (10.0, 10.0), (40.0, 50.0), (60.0, 50.0));
+        assert!((t - 0.472_94).abs() < 1e-5, "{t}");
+        // The AxiDraw V3 (760 mm/s² and 155 mm/s per axis, travel at 165 mm/s, a servo pen): there Y's term is the
+        // larger on the same diagonal. Y: 39.975 mm up to 155 mm/s at 760 mm/s², ramps of 31.612 mm in
+        // 0.407 89 s, 8.363 mm cruising in 0.053 96 s: 0.461 85 s. The path, 49.965 mm up to 165 mm/s at
+        // 1074.8 mm/s²: ramps of 25.330 mm in 0.307 03 s, 24.634 mm cruising in 0.149 30 s: 0.456 33 s, all the
+        // bound took before.
+        let v3 = sample("axidraw-v3.toml");
+        let t = travel_to_line(&v3, (10.0, 10.0), (40.0, 50.0), (60.0, 50.0));
+        assert!((t - 0.461_85).abs() < 1e-5, "{t}");
+    }
 
     /// The built-in profile without the curve model: every join of an XY move and a Z move is a 90° corner.
     fn corners_only() -> MachineProfile {

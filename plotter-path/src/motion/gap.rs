@@ -25,11 +25,11 @@
 //! **Pen moves**: the plan's lift, drop and settle blocks against the bound's parts for them (a servo's drop and
 //! the dwell that completes it count together as the drop).
 //!
-//! **Travel**: *travel order* is what the plan's hops, each at the least time a hop of its length takes
-//! ([`crate::motion::bound::min_hop_seconds`]), cost above the bound's travel (a bound on the hops of any order:
-//! the best order's hops lie between the two, so this part is what order could win at most); *hops* is what the
-//! plan's travel takes above that (climbing over the paper with a Z pen, stopping for a servo's drop command, the
-//! hop's corners).
+//! **Travel**: *travel order* is what the plan's hops, each at the least time a hop of its X and Y distances
+//! takes ([`crate::motion::hop_time::HopTime`], the same cost the bound's travel charges), cost above the bound's
+//! travel (a bound on the hops of any order: the best order's hops lie between the two, so this part is what
+//! order could win at most); *hops* is what the plan's travel takes above that (climbing over the paper with a Z
+//! pen, stopping for a servo's drop command, the hop's corners).
 
 use plotter_fw::TICK_HZ;
 use plotter_fw::planner::{self, PlanBlock};
@@ -228,18 +228,18 @@ pub fn time_gap(
     gap.lifts_s = secs(ticks[0]) - share[0];
     gap.drops_s = secs(ticks[1]) - share[1];
     gap.settles_s = secs(ticks[2]) - share[2] - rest;
-    // Travel: each hop of the plan at the least time its length allows.
-    let hop = bound::min_hop_seconds(profile);
-    let mm = |dx: i32, dy: i32| (f64::from(dx) / sx).hypot(f64::from(dy) / sy);
+    // Travel: each hop of the plan at the least time its X and Y distances allow.
+    let hop = crate::motion::hop_time::HopTime::of(profile);
+    let secs = |dx: i32, dy: i32| hop.seconds(f64::from(dx) / sx, f64::from(dy) / sy);
     let (mut x, mut y) = (plan.start[0], plan.start[1]);
     let mut hops_s = 0.0;
     for s in &steps.strokes {
-        hops_s += hop(mm(s.start.x - x, s.start.y - y));
+        hops_s += secs(s.start.x - x, s.start.y - y);
         let end = s.moves.iter().fold(s.start, |p, d| p.offset(*d));
         (x, y) = (end.x, end.y);
     }
     if plan.end[0] != x || plan.end[1] != y {
-        hops_s += hop(mm(plan.end[0] - x, plan.end[1] - y));
+        hops_s += secs(plan.end[0] - x, plan.end[1] - y);
     }
     gap.travel_order_s = hops_s - bound.travel_s;
     gap.hops_s = parts.travel_s() - hops_s;
@@ -250,7 +250,8 @@ pub fn time_gap(
 mod tests {
     use super::*;
     use crate::geometry::steps::{StepDelta, StepPos, StepStroke};
-    use crate::motion::bound::{min_hop_seconds, plot_time_lower_bound};
+    use crate::motion::bound::plot_time_lower_bound;
+    use crate::motion::hop_time::HopTime;
     use crate::motion::plan::{Lookahead, homed_position, plan};
 
     fn piece(len: f64, accel: f64, top: f64) -> Piece {
@@ -333,11 +334,17 @@ mod tests {
         assert!(gap.curves_s.abs() < 1e-9 && gap.stroke_ends_s.abs() < 1e-9, "{gap:?}");
         // Step timing: what rounding rates down to whole steps per second costs, a few ticks per block.
         assert!((0.0..1e-3).contains(&gap.step_timing_s), "{gap:?}");
-        // Travel: from home (0, 0) to (10, 10) mm, then 10 mm from the square's start back at (10, 10) to the
-        // line at (90, 10): the bound was handed 0 s, so all of the hops' least time is travel order.
-        let hop = min_hop_seconds(&p);
-        let order = hop(200f64.sqrt()) + hop(80.0);
-        assert!((gap.travel_order_s - order).abs() < 1e-12, "{gap:?} vs {order}");
+        // Travel: from home (0, 0) to (10, 10) mm, then 80 mm along X from the square's start back at (10, 10) to
+        // the line at (90, 10): the bound was handed 0 s, so all of the hops' least time is travel order. Each hop
+        // from rest to rest (a servo pen) at the travel feed, 120 mm/s. The diagonal: 14.142 mm less two step
+        // diagonals at the diagonal's 2121.3 mm/s² (its X or Y alone, 9.975 mm at 1500 mm/s², take less, 0.163 s):
+        // 0.113 14 s of ramps over 6.788 mm and 7.318 mm cruising, 0.174 13 s. Along X, 79.975 mm at X's own
+        // 1500 mm/s²: 0.16 s of ramps over 9.6 mm, 70.375 mm cruising, 0.746 46 s (at the diagonal's acceleration,
+        // all the bound allowed before, 0.723 s).
+        let order = 0.174_13 + 0.746_46;
+        let hop = HopTime::of(&p);
+        assert!((hop.seconds(10.0, 10.0) + hop.seconds(80.0, 0.0) - order).abs() < 2e-5);
+        assert!((gap.travel_order_s - order).abs() < 2e-5, "{gap:?} vs {order}");
         assert!(gap.hops_s >= 0.0, "{gap:?}");
         // The servo's waits: two strokes, so the bound counts the first lift's and the last lift's settle and
         // one clear time for the hop's lift. The plan waits just that: its hop of 80 mm takes longer than the

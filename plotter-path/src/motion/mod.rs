@@ -4,6 +4,7 @@
 pub mod bound;
 pub mod gap;
 pub mod hop;
+pub mod hop_time;
 pub mod plan;
 pub mod print_plan;
 pub mod servo;

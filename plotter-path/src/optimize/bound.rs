@@ -16,11 +16,19 @@
 //! entry and exit, one each: Held and Karp's penalized spanning trees, see [`super::held_karp`] (the plot-time bound
 //! uses it; the optimizer's report keeps the two cheap ones).
 //!
-//! The MST is found exactly with Borůvka's algorithm: every round, each component finds its nearest point in
-//! another component with a k-d tree that skips subtrees lying entirely inside the asking component, and all those
-//! cheapest edges are added. Ties are broken by point index so the chosen edges all belong to one MST. Rounds at
-//! least halve the component count, so the bound costs `O(E log E · log n)` for `E` points. The first round's
-//! answers are the nearest-predecessor distances.
+//! The MST is found exactly with Borůvka's algorithm ([`super::boruvka`], the one the Held–Karp bound's trees are
+//! built with too), on the paths' ends with each open path's two ends joined from the start (a tree of those
+//! points containing every path's own join is a tree of the contracted nodes); its first round's answers are the
+//! nearest-predecessor costs.
+//!
+//! **Hop costs.** A hop costs at least its cost under a [`HopCost`]: its length (the optimizer's report), the
+//! cheapest time of a hop of that length, or (the plot-time bound) the least time of a hop of its X and Y
+//! distances on a machine whose axes each have their own limits ([`crate::motion::hop_time`]). Such a cost
+//! depends on the hop's direction, so the trees are built under the cost itself, not under distance. They stay
+//! bounds: every argument above charges each hop of an order at least the cost of the node pair it joins, and
+//! compares the order's hops with the least tree (or nearest neighbour) under those same pair costs; that needs
+//! only that a pair's cost is the least over its points and the same either way round (a cost of `|dx|` and
+//! `|dy|` is), not that it is a distance or obeys the triangle inequality.
 //!
 //! On a layer of a dozen paths or so, the tightest bound of all is the best order itself, found by trying every
 //! one (dynamic programming over subsets, see [`super::exact`]); the plot-time bound uses it where it is cheap.
@@ -29,15 +37,16 @@
 //! previous one ended, which is one of the places where the previous layer's paths can be left (its open paths'
 //! ends, its closed paths' allowed seams), so the start node is that whole set of points.
 //!
-//! With the time cost, every length `d` is mapped through the cheapest time any hop of that length can take
-//! (monotone in `d`, so the same tree stays minimal). When the start position is not known (layers after the first,
-//! whose start depends on how earlier layers end), the first hop is only known to cost at least a zero-length hop.
+//! When the start position is not known (layers after the first, whose start depends on how earlier layers end),
+//! the first hop is only known to cost at least a zero-length hop.
 
 use kurbo::Point;
 
+use super::boruvka::{Tree, spanning_tree};
 use super::cost::CostModel;
 use super::exact::ExactLayer;
-use super::held_karp::{EndGraph, held_karp};
+use super::held_karp::{EndGraph, HELD_KARP_STEPS, held_karp_from};
+use super::hop_cost::{ByLength, HopCost};
 use super::kdtree::KdTree;
 
 /// Both lower bounds on one layer's pen-up cost.
@@ -60,27 +69,12 @@ impl TravelBound {
     }
 }
 
-struct UnionFind(Vec<u32>);
-
-impl UnionFind {
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.0[x as usize] != x {
-            let up = self.0[self.0[x as usize] as usize];
-            self.0[x as usize] = up;
-            x = up;
-        }
-        x
-    }
-}
-
-/// Raw material of the bounds, independent of the cost model: the minimum spanning tree's edge lengths and each
-/// path's distance to its nearest other node (mm).
+/// Raw material of the bounds, independent of the cost model: the layer's travel graph and, on a small layer, the
+/// layer made ready for the exact solve.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct BoundParts {
-    tree_edges: Vec<f64>,
-    nearest: Vec<f64>,
     start_known: bool,
-    /// The paths' ends as the Held–Karp bound sees them.
+    /// The paths' ends as the spanning trees see them.
     graph: EndGraph,
     /// The layer made ready for the exact solve, when it is small enough.
     exact: Option<ExactLayer>,
@@ -95,33 +89,56 @@ impl BoundParts {
     /// Both bounds with every hop of length `d` costing `f(d)`, for any `f` that is non-decreasing and ≥ 0 (the
     /// cheapest any hop of length ≥ `d` can be).
     pub(crate) fn mapped(&self, f: &dyn Fn(f64) -> f64) -> TravelBound {
-        if self.nearest.is_empty() {
+        self.cheap(&ByLength(f))
+    }
+
+    /// The spanning-tree and nearest-predecessor bounds under `hop` (see the module docs).
+    pub(crate) fn cheap(&self, hop: &dyn HopCost) -> TravelBound {
+        let g = &self.graph;
+        if g.points.is_empty() {
             return TravelBound::default();
         }
-        let tree_cost: f64 = self.tree_edges.iter().map(|&d| f(d)).sum();
-        let nn: Vec<f64> = self.nearest.iter().map(|&d| f(d)).collect();
+        let tree = KdTree::build(&g.points);
+        let t = spanning_tree(g, &tree, &vec![0.0; g.nodes], hop);
+        self.cheap_from(&t, hop)
+    }
+
+    /// [`cheap`](Self::cheap) from the least tree `t` of the graph with no penalties.
+    fn cheap_from(&self, t: &Tree, hop: &dyn HopCost) -> TravelBound {
+        let g = &self.graph;
+        // Each path's cheapest hop from another node (the start, on no fixed edge, is its own component's root;
+        // its cheapest hop is no path's).
+        let nn: Vec<f64> = t.first.iter().filter(|x| Some(x.0) != g.start).map(|x| x.1).collect();
         let nn_sum: f64 = nn.iter().sum();
         if self.start_known {
-            TravelBound { spanning_tree: tree_cost, nearest: nn_sum, ..TravelBound::default() }
+            TravelBound { spanning_tree: t.cost, nearest: nn_sum, ..TravelBound::default() }
         } else {
             let worst = nn.iter().copied().fold(0.0, f64::max);
-            TravelBound {
-                spanning_tree: tree_cost + f(0.0),
-                nearest: nn_sum - worst + f(0.0),
-                ..TravelBound::default()
-            }
+            let free = hop.cost(0.0, 0.0);
+            TravelBound { spanning_tree: t.cost + free, nearest: nn_sum - worst + free, ..TravelBound::default() }
         }
     }
 
-    /// [`mapped`](Self::mapped) with the Held–Karp bound too ([`held_karp`]), and on a small layer the exact
+    /// [`mapped`](Self::mapped) with the Held–Karp bound too ([`super::held_karp`]), and on a small layer the exact
     /// best order ([`super::exact`]): tighter, at some tens to a few hundred spanning trees' cost.
     pub(crate) fn mapped_tight(&self, f: &dyn Fn(f64) -> f64) -> TravelBound {
-        let mut b = self.mapped(f);
-        if !self.nearest.is_empty() {
-            b.held_karp = held_karp(&self.graph, f);
+        self.tight(&ByLength(f))
+    }
+
+    /// [`cheap`](Self::cheap) with the Held–Karp bound too ([`super::held_karp`]), and on a small layer the exact best
+    /// order ([`super::exact`]), each hop charged its cost under `hop`.
+    pub(crate) fn tight(&self, hop: &dyn HopCost) -> TravelBound {
+        let g = &self.graph;
+        if g.points.is_empty() {
+            return TravelBound::default();
         }
+        // One least tree with no penalties serves both the cheap bounds and the Held–Karp search's first step.
+        let tree = KdTree::build(&g.points);
+        let t = spanning_tree(g, &tree, &vec![0.0; g.nodes], hop);
+        let mut b = self.cheap_from(&t, hop);
+        b.held_karp = held_karp_from(g, &tree, t, hop, HELD_KARP_STEPS);
         if let Some(e) = &self.exact {
-            b.exact = e.least(f);
+            b.exact = e.least(hop);
         }
         b
     }
@@ -140,77 +157,14 @@ pub(crate) fn bound_parts(
     start: &[Point],
 ) -> BoundParts {
     let start_known = !start.is_empty();
-    if groups == 0 {
+    if groups == 0 || u32::try_from(groups + 1).is_err() {
         return BoundParts::default();
     }
     let graph = end_graph(points, group, groups, both_ends, start);
     let exact = (groups <= super::exact::MAX_PATHS)
         .then(|| exact_places(points, group, groups, both_ends))
         .and_then(|places| ExactLayer::new(&places, start_known.then_some(start)));
-    let total = groups + usize::from(start_known);
-    let (Ok(total32), Ok(groups32)) = (u32::try_from(total), u32::try_from(groups)) else {
-        return BoundParts::default();
-    };
-    let mut coords: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
-    let mut owner: Vec<u32> = group.to_vec();
-    for s in start {
-        coords.push([s.x, s.y]);
-        owner.push(groups32);
-    }
-    let tree = KdTree::build(&coords);
-    let slot_group: Vec<u32> = (0..tree.len()).map(|s| owner[tree.id_at(s) as usize]).collect();
-    let mut uf = UnionFind((0..total32).collect());
-    let mut labels = slot_group.clone();
-    let mut node_labels = Vec::new();
-    let mut edges: Vec<f64> = Vec::with_capacity(total);
-    let mut nearest: Vec<f64> = Vec::new();
-    let mut components = total;
-    let none = (f64::INFINITY, u32::MAX, u32::MAX);
-    let mut best = vec![none; total];
-    while components > 1 {
-        tree.node_labels(&labels, &mut node_labels);
-        best.fill(none);
-        for slot in 0..tree.len() {
-            let c = labels[slot] as usize;
-            let id = tree.id_at(slot);
-            let mut found = (best[c].0, u32::MAX);
-            tree.nearest_other(tree.point_at(slot), labels[slot], &labels, &node_labels, &mut found);
-            if found.1 != u32::MAX {
-                let key = (found.0, id.min(found.1), id.max(found.1));
-                if key.0 < best[c].0 || (key.0 == best[c].0 && (key.1, key.2) < (best[c].1, best[c].2)) {
-                    best[c] = key;
-                }
-            }
-        }
-        if nearest.is_empty() {
-            nearest = best[..groups].iter().map(|b| b.0.sqrt()).collect();
-        }
-        let mut merged_any = false;
-        for &(d2, a, b) in &best {
-            if a == u32::MAX {
-                continue;
-            }
-            let ra = uf.find(owner[a as usize]);
-            let rb = uf.find(owner[b as usize]);
-            if ra != rb {
-                uf.0[ra as usize] = rb;
-                edges.push(d2.sqrt());
-                components -= 1;
-                merged_any = true;
-            }
-        }
-        if !merged_any {
-            break;
-        }
-        for (slot, l) in labels.iter_mut().enumerate() {
-            *l = uf.find(slot_group[slot]);
-        }
-    }
-    if nearest.is_empty() {
-        // A single node: no hop between paths.
-        nearest = vec![0.0; groups];
-    }
-    BoundParts { tree_edges: edges, nearest, start_known, graph, exact }
+    BoundParts { start_known, graph, exact }
 }
 
 /// Each path's places (its points) and whether it is open, for [`ExactLayer::new`].
@@ -223,7 +177,7 @@ fn exact_places(points: &[Point], group: &[u32], groups: usize, both_ends: &[boo
     places
 }
 
-/// The Held–Karp graph of the paths (see [`bound_parts`] and [`held_karp`]): an open path's two ends are two nodes
+/// The Held–Karp graph of the paths (see [`bound_parts`] and [`super::held_karp`]): an open path's two ends are two nodes
 /// joined by a fixed edge, a closed path's seams one node, the start one more.
 fn end_graph(points: &[Point], group: &[u32], groups: usize, both_ends: &[bool], start: &[Point]) -> EndGraph {
     let mut g = EndGraph::default();

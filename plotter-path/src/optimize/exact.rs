@@ -9,10 +9,13 @@
 //! known start, or every place the previous layer can end), or anywhere when nothing is known, its first hop then
 //! costing at least `f(0)`.
 //!
-//! **Why it is a bound.** Let `f(d)` be the least cost of a hop of length at least `d` (non-decreasing). Any order
-//! of the paths, with its choice of direction and seam, is one sequence of ways; its hops cost at least
-//! `f(distance from where one way leaves to where the next is entered)`, and with a relaxed closed path that
-//! distance is at least the least one between the two point sets. The recursion below computes the least such sum
+//! **Why it is a bound.** Let `c(dx, dy)` be the least cost of a hop of `|dx|` × `|dy|` mm, non-decreasing in
+//! each, and `f(d) ≤ c` the least cost of any hop at least `d` long ([`HopCost`]). Any order of the paths, with
+//! its choice of direction and seam, is one sequence of ways; each of its hops, from where one way leaves to where
+//! the next is entered, costs at least its `c`. Between two single points that is exact. Between point sets (a
+//! relaxed closed path, a set of starts) the hop is one of the pairs, so it costs at least both
+//! `c(least |dx|, least |dy|)` and `f(least distance)` over the pairs, each least taken on its own: the larger
+//! of the two is the cost used. The recursion below computes the least such sum
 //! over every sequence that draws each path once: `best[S][w]`, the least cost of drawing the paths of the set `S`
 //! ending with way `w` (whose path is in `S`), is the cost of reaching `w` first when `S` is `w`'s path alone,
 //! else the least `best[S − path(w)][v] + hop(v, w)` over the ways `v` of the other paths. The minimum over the
@@ -23,6 +26,8 @@
 //! [`MAX_WORK`]).
 
 use kurbo::Point;
+
+use super::hop_cost::HopCost;
 
 /// Most paths a layer may have for the exact solve.
 pub(crate) const MAX_PATHS: usize = 16;
@@ -47,24 +52,49 @@ pub(crate) struct ExactLayer {
     points: Vec<[f64; 2]>,
     ways: Vec<Way>,
     paths: usize,
-    /// Least distance from where each way is left to where each other way is entered (`W × W`, row = from).
-    between: Vec<f64>,
-    /// Least distance from the start to where each way is entered; `None`: the start is unknown.
-    from_start: Option<Vec<f64>>,
+    /// How far from where each way is left to where each other way is entered (`W × W`, row = from).
+    between: Vec<Apart>,
+    /// How far from the start to where each way is entered; `None`: the start is unknown.
+    from_start: Option<Vec<Apart>>,
 }
 
-/// Least distance between two point sets (indices into `pts`).
-fn set_distance(pts: &[[f64; 2]], a: &[u32], b: &[u32]) -> f64 {
-    let mut best = f64::INFINITY;
+/// How far apart two point sets are: the least `|dx|`, the least `|dy|` and the least distance over their pairs,
+/// each on its own (for single points, one pair's own).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Apart {
+    dx: f64,
+    dy: f64,
+    d: f64,
+}
+
+impl Apart {
+    /// Between no sets: never a hop.
+    const NEVER: Apart = Apart { dx: f64::INFINITY, dy: f64::INFINITY, d: f64::INFINITY };
+
+    /// The least cost of a hop between the two sets (see the module docs).
+    fn cost(&self, hop: &dyn HopCost) -> f64 {
+        if !self.d.is_finite() {
+            return f64::INFINITY;
+        }
+        hop.cost(self.dx, self.dy).max(hop.along(self.d))
+    }
+}
+
+/// How far apart two point sets are (indices into `pts`).
+fn set_apart(pts: &[[f64; 2]], a: &[u32], b: &[u32]) -> Apart {
+    let mut best = Apart::NEVER;
     for &i in a {
         let p = pts[i as usize];
         for &j in b {
             let q = pts[j as usize];
-            let (dx, dy) = (p[0] - q[0], p[1] - q[1]);
-            best = best.min(dx * dx + dy * dy);
+            let (dx, dy) = ((p[0] - q[0]).abs(), (p[1] - q[1]).abs());
+            best.dx = best.dx.min(dx);
+            best.dy = best.dy.min(dy);
+            best.d = best.d.min(dx * dx + dy * dy);
         }
     }
-    best.sqrt()
+    best.d = best.d.sqrt();
+    best
 }
 
 impl ExactLayer {
@@ -110,11 +140,11 @@ impl ExactLayer {
         if pairs > MAX_PAIRS {
             return None;
         }
-        let mut between = vec![f64::INFINITY; w * w];
+        let mut between = vec![Apart::NEVER; w * w];
         for (i, a) in ways.iter().enumerate() {
             for (j, b) in ways.iter().enumerate() {
                 if a.path != b.path {
-                    between[i * w + j] = set_distance(&points, &a.exit, &b.entry);
+                    between[i * w + j] = set_apart(&points, &a.exit, &b.entry);
                 }
             }
         }
@@ -123,23 +153,23 @@ impl ExactLayer {
             let mut all = points.clone();
             all.extend(s.iter().map(|p| [p.x, p.y]));
             let ids: Vec<u32> = (first..all.len()).filter_map(|i| u32::try_from(i).ok()).collect();
-            ways.iter().map(|x| set_distance(&all, &ids, &x.entry)).collect()
+            ways.iter().map(|x| set_apart(&all, &ids, &x.entry)).collect()
         });
         Some(ExactLayer { points, ways, paths: n, between, from_start })
     }
 
-    /// The least cost of drawing every path of the layer once, each hop of length `d` costing `f(d)` (`f`
-    /// non-decreasing, ≥ 0); see the module docs.
-    pub(crate) fn least(&self, f: &dyn Fn(f64) -> f64) -> f64 {
+    /// The least cost of drawing every path of the layer once, each hop costing at least its cost under `cost`;
+    /// see the module docs.
+    pub(crate) fn least(&self, cost: &dyn HopCost) -> f64 {
         let (n, w) = (self.paths, self.ways.len());
         if w == 0 {
             return 0.0;
         }
-        let hop: Vec<f64> = self.between.iter().map(|&d| if d.is_finite() { f(d) } else { f64::INFINITY }).collect();
+        let hop: Vec<f64> = self.between.iter().map(|a| a.cost(cost)).collect();
         let full = (1usize << n) - 1;
         let mut best = vec![f64::INFINITY; (full + 1) * w];
         for (k, way) in self.ways.iter().enumerate() {
-            let first = self.from_start.as_ref().map_or_else(|| f(0.0), |s| f(s[k]));
+            let first = self.from_start.as_ref().map_or_else(|| cost.cost(0.0, 0.0), |s| s[k].cost(cost));
             best[(1usize << way.path) * w + k] = first;
         }
         for set in 1..=full {
@@ -182,6 +212,7 @@ impl ExactLayer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::optimize::hop_cost::ByLength;
 
     fn p(x: f64, y: f64) -> Point {
         Point::new(x, y)
@@ -193,11 +224,11 @@ mod tests {
         // from the outer end to the other inner end (counted by hand).
         let places = vec![(vec![p(0.0, 1.0), p(0.0, 11.0)], true), (vec![p(0.0, -1.0), p(0.0, -11.0)], true)];
         let e = ExactLayer::new(&places, Some(&[Point::ZERO])).unwrap();
-        assert!((e.least(&|d| d) - 13.0).abs() < 1e-9);
+        assert!((e.least(&ByLength(&|d| d)) - 13.0).abs() < 1e-9);
         // Unknown start, each hop costing 1 more than its length: the first hop is f(0) = 1, then one segment is
         // drawn inwards and the hop across the 2 mm between the inner ends costs f(2) = 3.
         let free = ExactLayer::new(&places, None).unwrap();
-        assert!((free.least(&|d| d + 1.0) - (1.0 + 3.0)).abs() < 1e-9);
+        assert!((free.least(&ByLength(&|d| d + 1.0)) - (1.0 + 3.0)).abs() < 1e-9);
     }
 
     #[test]
@@ -211,7 +242,7 @@ mod tests {
         let e = ExactLayer::new(&places, Some(&[p(-1.0, 0.0)])).unwrap();
         assert_eq!(e.way_count(), 4 + 2);
         let want = 221f64.sqrt() + 1.0;
-        assert!((e.least(&|d| d) - want).abs() < 1e-9, "{}", e.least(&|d| d));
+        assert!((e.least(&ByLength(&|d| d)) - want).abs() < 1e-9, "{}", e.least(&ByLength(&|d| d)));
     }
 
     #[test]
@@ -220,7 +251,7 @@ mod tests {
         // (100, 0).
         let places = vec![(vec![p(98.0, 0.0), p(90.0, 0.0)], true)];
         let e = ExactLayer::new(&places, Some(&[p(0.0, 0.0), p(100.0, 0.0)])).unwrap();
-        assert!((e.least(&|d| d) - 2.0).abs() < 1e-9);
+        assert!((e.least(&ByLength(&|d| d)) - 2.0).abs() < 1e-9);
     }
 
     #[test]

@@ -4,8 +4,12 @@
 //!
 //! **The graph.** Every open path gives two nodes, its two ends, joined by a *fixed edge* (the path itself, drawn
 //! pen-down: it costs no travel). Every closed path gives one node whose position is the set of its allowed seams.
-//! The start position, when known, is one more node. A hop between two nodes costs at least `f(d)`, `d` the
-//! least distance between their point sets, `f` the cheapest a hop of that length can be (non-decreasing).
+//! The start position, when known, is one more node. A hop between two nodes costs at least `c(a, b)`, the least
+//! hop cost ([`HopCost`]) between a point `a` of one and a point `b` of the other. The cost may depend on the
+//! hop's direction (a machine whose axes have their own limits, [`crate::motion::hop_time`]); all the argument
+//! below needs is that it is symmetric (a hop from `a` to `b` costs what the hop back does, true of any cost of
+//! `|dx|` and `|dy|`): then a route's hops, read as undirected edges, each cost at least their edge's cost, and
+//! no triangle inequality or other geometry is used.
 //!
 //! **Why any order costs at least the bound.** Any drawing order is a route: start → hop → one end of a path →
 //! its fixed edge → its other end → hop → … (a closed path is entered and left at its one node). Close the route
@@ -13,14 +17,14 @@
 //! cycle every node has exactly two edges. Give every node `x` a penalty `π_x` of any sign (D none) and add
 //! `π_u + π_v` to every edge `uv`: the cycle's cost grows by exactly `2·Σπ`. Remove D's two edges: what is left is
 //! a spanning tree of the other nodes that contains every fixed edge, so its penalized cost is at least `W(π)`,
-//! the least penalized spanning tree containing the fixed edges (found exactly: Borůvka's algorithm from the
+//! the least penalized spanning tree containing the fixed edges (found exactly by [`super::boruvka`], from the
 //! components the fixed edges make, each component asking the k-d tree for its cheapest penalized hop). D's two
 //! edges cost `π_start` and `π_last ≥ min over x ≠ start of π_x`. So every route's hops cost at least
 //!
 //! `L(π) = W(π) + π_start + min_{x ≠ start} π_x − 2·Σπ`,
 //!
-//! and with an unknown start (both ends of the route free, the first hop costing at least `f(0)`):
-//! `L(π) = W(π) + (the two least π) − 2·Σπ + f(0)`. With `π = 0` this is the spanning-tree bound; the penalties
+//! and with an unknown start (both ends of the route free, the first hop costing at least `c(0)`, a hop of no
+//! length): `L(π) = W(π) + (the two least π) − 2·Σπ + c(0)`. With `π = 0` this is the spanning-tree bound; the penalties
 //! are then moved by subgradient steps (a node with more than two tree edges gets dearer, a leaf cheaper), which
 //! pushes the tree towards a route, and the best `L` seen is the bound. Every `L(π)` is a bound, so stopping after
 //! any number of steps is safe; a small margin for floating-point rounding is taken off.
@@ -30,9 +34,11 @@
 //! only those exact values count. The number of steps is fixed (never a clock), so the bound depends only on the
 //! input.
 
+use super::boruvka::{Tree, UnionFind, spanning_tree};
+use super::hop_cost::HopCost;
 use super::kdtree::KdTree;
 
-/// The travel graph of one layer for [`held_karp`].
+/// The travel graph of one layer for the Held–Karp bound ([`held_karp_from`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct EndGraph {
     /// Every place a hop may start or end (page mm).
@@ -47,107 +53,16 @@ pub(crate) struct EndGraph {
     pub(crate) start: Option<u32>,
 }
 
-struct UnionFind(Vec<u32>);
-
-impl UnionFind {
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.0[x as usize] != x {
-            let up = self.0[self.0[x as usize] as usize];
-            self.0[x as usize] = up;
-            x = up;
-        }
-        x
-    }
-}
-
-/// The least spanning tree of the graph's nodes containing the fixed edges, each hop costing `f(d) + π_u + π_v`:
-/// its cost and every node's number of tree edges.
-fn penalized_tree(
-    g: &EndGraph,
-    tree: &KdTree,
-    pi: &[f64],
-    f: &dyn Fn(f64) -> f64,
-) -> (f64, Vec<u32>, Vec<(u32, u32, f64)>) {
-    let n = g.nodes;
-    let Ok(n32) = u32::try_from(n) else { return (0.0, vec![0; n], Vec::new()) };
-    let mut uf = UnionFind((0..n32).collect());
-    let mut deg = vec![0u32; n];
-    let mut cost = 0.0;
-    let mut edges = Vec::new();
-    let mut components = n;
-    for &(a, b) in &g.fixed {
-        let (ra, rb) = (uf.find(a), uf.find(b));
-        if ra != rb {
-            uf.0[ra as usize] = rb;
-            components -= 1;
-        }
-        cost += pi[a as usize] + pi[b as usize];
-        deg[a as usize] += 1;
-        deg[b as usize] += 1;
-    }
-    let slot_node: Vec<u32> = (0..tree.len()).map(|s| g.node[tree.id_at(s) as usize]).collect();
-    let weights: Vec<f64> = slot_node.iter().map(|&x| pi[x as usize]).collect();
-    let mut wmin = Vec::new();
-    tree.node_min(&weights, &mut wmin);
-    let mut labels: Vec<u32> = slot_node.iter().map(|&x| uf.find(x)).collect();
-    let mut node_labels = Vec::new();
-    let none = (f64::INFINITY, u32::MAX, u32::MAX);
-    let mut best = vec![none; n];
-    while components > 1 {
-        tree.node_labels(&labels, &mut node_labels);
-        best.fill(none);
-        for slot in 0..tree.len() {
-            let c = labels[slot] as usize;
-            let id = tree.id_at(slot);
-            let mut found = (best[c].0, u32::MAX);
-            let q = tree.point_at(slot);
-            tree.nearest_other_weighted(
-                q,
-                labels[slot],
-                (&labels, &node_labels),
-                (&weights, &wmin),
-                weights[slot],
-                f,
-                &mut found,
-            );
-            if found.1 != u32::MAX {
-                let key = (found.0, id.min(found.1), id.max(found.1));
-                if key.0 < best[c].0 || (key.0 == best[c].0 && (key.1, key.2) < (best[c].1, best[c].2)) {
-                    best[c] = key;
-                }
-            }
-        }
-        let mut merged_any = false;
-        for &(c, a, b) in &best {
-            if a == u32::MAX {
-                continue;
-            }
-            let (na, nb) = (g.node[a as usize], g.node[b as usize]);
-            let (ra, rb) = (uf.find(na), uf.find(nb));
-            if ra != rb {
-                uf.0[ra as usize] = rb;
-                cost += c;
-                deg[na as usize] += 1;
-                deg[nb as usize] += 1;
-                let d = c - (pi[na as usize] + pi[nb as usize]);
-                edges.push((na.min(nb), na.max(nb), d));
-                components -= 1;
-                merged_any = true;
-            }
-        }
-        if !merged_any {
-            break;
-        }
-        for (slot, l) in labels.iter_mut().enumerate() {
-            *l = uf.find(slot_node[slot]);
-        }
-    }
-    (cost, deg, edges)
+/// The least spanning tree of the graph's nodes containing the fixed edges, each hop costing its hop cost plus
+/// `π_u + π_v` ([`spanning_tree`]): its cost, every node's number of tree edges, and its hops.
+fn penalized_tree(g: &EndGraph, tree: &KdTree, pi: &[f64], hop: &dyn HopCost) -> (f64, Vec<u32>, Vec<(u32, u32, f64)>) {
+    let t = spanning_tree(g, tree, pi, hop);
+    (t.cost, t.deg, t.edges)
 }
 
 /// Candidate hops for the cheap search of penalties: from every point its `K` nearest points of other nodes, and
-/// the given tree edges; one entry per node pair, at its least cost `f(d)`, sorted by node pair.
-fn candidates(g: &EndGraph, tree: &KdTree, f: &dyn Fn(f64) -> f64, extra: &[(u32, u32, f64)]) -> Vec<(u32, u32, f64)> {
+/// the given tree edges; one entry per node pair, at its least hop cost, sorted by node pair.
+fn candidates(g: &EndGraph, tree: &KdTree, hop: &dyn HopCost, extra: &[(u32, u32, f64)]) -> Vec<(u32, u32, f64)> {
     // Closed paths bring many points of one node each: more neighbours reach more nodes.
     let k = if g.points.len() <= 4000 { 24 } else { 10 };
     let mut out: Vec<(u32, u32, f64)> = extra.to_vec();
@@ -155,9 +70,10 @@ fn candidates(g: &EndGraph, tree: &KdTree, f: &dyn Fn(f64) -> f64, extra: &[(u32
     for (i, p) in g.points.iter().enumerate() {
         let me = g.node[i];
         tree.knn(*p, k, &|id| g.node[id as usize] != me, &mut found);
-        for &(d2, id) in &found {
+        for &(_, id) in &found {
             let other = g.node[id as usize];
-            out.push((me.min(other), me.max(other), f(d2.sqrt())));
+            let q = g.points[id as usize];
+            out.push((me.min(other), me.max(other), hop.cost((p[0] - q[0]).abs(), (p[1] - q[1]).abs())));
         }
     }
     out.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)).then(a.2.total_cmp(&b.2)));
@@ -225,14 +141,15 @@ fn lagrangian(g: &EndGraph, pi: &[f64], w: f64, deg: &mut [u32], free_start: f64
     l - 1e-9 * (w.abs() + pi.iter().map(|p| p.abs()).sum::<f64>() + free_start)
 }
 
-/// The best Held–Karp bound found on the hops of any route through `g` (see the module docs), each hop of length
-/// `d` costing at least `f(d)` (`f` non-decreasing, ≥ 0).
-pub(crate) fn held_karp(g: &EndGraph, f: &dyn Fn(f64) -> f64) -> f64 {
-    held_karp_steps(g, f, STEPS)
+/// The best Held–Karp bound found on the hops of any route through `g` (see the module docs), each hop costing at
+/// least its cost under `hop`.
+#[cfg(test)]
+fn held_karp(g: &EndGraph, hop: &dyn HopCost) -> f64 {
+    held_karp_steps(g, hop, HELD_KARP_STEPS)
 }
 
 /// Subgradient steps per round of the search, at most.
-const STEPS: usize = 150;
+pub(crate) const HELD_KARP_STEPS: usize = 150;
 
 /// Candidate hops looked at over the whole search (each step sorts them all once): about a quarter of a second.
 const WORK: usize = 3_000_000;
@@ -241,23 +158,36 @@ const WORK: usize = 3_000_000;
 /// candidates.
 const ROUNDS: usize = 5;
 
-/// [`held_karp`] with `steps` subgradient steps per round. The penalties are searched on a sparse graph of
-/// candidate hops (cheap, but its trees may cost more than the complete graph's); each round's best penalties are
-/// then evaluated exactly on the complete graph (Borůvka with the k-d tree), and only exact values are returned.
-pub(crate) fn held_karp_steps(g: &EndGraph, f: &dyn Fn(f64) -> f64, steps: usize) -> f64 {
+/// [`held_karp`] with `steps` subgradient steps per round.
+#[cfg(test)]
+fn held_karp_steps(g: &EndGraph, hop: &dyn HopCost, steps: usize) -> f64 {
+    if g.nodes < 2 || g.points.is_empty() {
+        return 0.0;
+    }
+    let tree = KdTree::build(&g.points);
+    let t0 = spanning_tree(g, &tree, &vec![0.0; g.nodes], hop);
+    held_karp_from(g, &tree, t0, hop, steps)
+}
+
+/// The best Held–Karp bound found on the hops of any route through `g` (see the module docs), each hop costing at
+/// least its cost under `hop`, with `steps` subgradient steps per round, from the k-d tree `tree` of `g.points`
+/// and the least tree with no penalties `t0` ([`spanning_tree`]), which the caller has built for its own bounds.
+/// The penalties are searched on a sparse graph of candidate hops (cheap, but its trees may cost more than the
+/// complete graph's); each round's best penalties are then evaluated exactly on the complete graph (Borůvka with
+/// the k-d tree), and only exact values are returned.
+pub(crate) fn held_karp_from(g: &EndGraph, tree: &KdTree, t0: Tree, hop: &dyn HopCost, steps: usize) -> f64 {
     let n = g.nodes;
     if n < 2 || g.points.is_empty() {
         return 0.0;
     }
-    let tree = KdTree::build(&g.points);
-    let free_start = if g.start.is_none() { f(0.0) } else { 0.0 };
+    let free_start = if g.start.is_none() { hop.cost(0.0, 0.0) } else { 0.0 };
     let mut pi = vec![0.0f64; n];
-    let (w0, mut deg0, edges0) = penalized_tree(g, &tree, &pi, f);
+    let (w0, mut deg0, edges0) = (t0.cost, t0.deg, t0.edges);
     let mut best = lagrangian(g, &pi, w0, &mut deg0, free_start).max(0.0);
     if steps == 0 || deg0.iter().all(|&d| d == 2) {
         return best;
     }
-    let mut cands = candidates(g, &tree, f, &edges0);
+    let mut cands = candidates(g, tree, hop, &edges0);
     // A large drawing gets fewer rounds, each exact evaluation costing a spanning tree of all its points.
     let rounds = if g.points.len() > 5000 { 2 } else { ROUNDS };
     let steps = steps.min(WORK / (rounds * cands.len().max(1))).max(5);
@@ -291,7 +221,7 @@ pub(crate) fn held_karp_steps(g: &EndGraph, f: &dyn Fn(f64) -> f64, steps: usize
             }
         }
         pi = round_best.1;
-        let (w, mut deg, edges) = penalized_tree(g, &tree, &pi, f);
+        let (w, mut deg, edges) = penalized_tree(g, tree, &pi, hop);
         best = best.max(lagrangian(g, &pi, w, &mut deg, free_start));
         // Hops the exact tree took that the candidates lacked steer the next round.
         let before = cands.len();
@@ -308,6 +238,8 @@ pub(crate) fn held_karp_steps(g: &EndGraph, f: &dyn Fn(f64) -> f64, steps: usize
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::optimize::hop_cost::ByLength;
 
     fn dist(l: f64) -> f64 {
         l
@@ -338,9 +270,9 @@ mod tests {
         // from it. The spanning tree joins the start to both inner ends: 2 mm. A route draws one segment and must
         // come back from its outer end, 11 mm out, to the other one: at best 1 + 12 = 13 mm (to the inner end).
         let g = segments(&[([0.0, 1.0], [0.0, 11.0]), ([0.0, -1.0], [0.0, -11.0])], Some([0.0, 0.0]));
-        let tree = held_karp_steps(&g, &dist, 0);
+        let tree = held_karp_steps(&g, &ByLength(&dist), 0);
         assert!((tree - 2.0).abs() < 1e-6, "{tree}");
-        let hk = held_karp(&g, &dist);
+        let hk = held_karp(&g, &ByLength(&dist));
         assert!(hk <= 13.0 && hk > 12.99, "{hk}");
     }
 
@@ -356,9 +288,9 @@ mod tests {
             ([-1.0, 0.0], [-11.0, 0.0]),
         ];
         let g = segments(&segs, Some([0.0, 0.0]));
-        assert!((held_karp_steps(&g, &dist, 0) - 4.0).abs() < 1e-6);
+        assert!((held_karp_steps(&g, &ByLength(&dist), 0) - 4.0).abs() < 1e-6);
         let route = 1.0 + 2.0 * 242f64.sqrt() + 2f64.sqrt();
-        let hk = held_karp(&g, &dist);
+        let hk = held_karp(&g, &ByLength(&dist));
         assert!(hk <= route && hk > 25.0, "{hk}");
     }
 
@@ -368,7 +300,7 @@ mod tests {
         // times 1 mm, and so does the spanning tree: the bound is exact at once.
         let segs: Vec<_> = (0..10).map(|i| ([f64::from(2 * i + 1), 0.0], [f64::from(2 * i + 2), 0.0])).collect();
         let g = segments(&segs, Some([0.0, 0.0]));
-        let hk = held_karp(&g, &dist);
+        let hk = held_karp(&g, &ByLength(&dist));
         assert!((hk - 10.0).abs() < 1e-6, "{hk}");
     }
 }

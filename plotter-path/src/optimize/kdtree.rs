@@ -20,6 +20,14 @@ struct KdNode {
 }
 
 impl KdNode {
+    /// How far `q` lies from the box along X and along Y (0 inside it on that axis).
+    #[inline]
+    fn box_gaps(&self, q: [f64; 2]) -> (f64, f64) {
+        let dx = (self.min[0] - q[0]).max(q[0] - self.max[0]).max(0.0);
+        let dy = (self.min[1] - q[1]).max(q[1] - self.max[1]).max(0.0);
+        (dx, dy)
+    }
+
     #[inline]
     fn box_dist2(&self, q: [f64; 2]) -> f64 {
         let dx = (self.min[0] - q[0]).max(q[0] - self.max[0]).max(0.0);
@@ -116,52 +124,6 @@ impl KdTree {
             };
         }
     }
-
-    /// Nearest point to `q` whose slot label differs from `label`, improving `best = (squared distance, id)` under
-    /// the lexicographic order (ties go to the smaller id). `labels` is indexed by slot, `node_labels` from
-    /// [`node_labels`](Self::node_labels).
-    pub(crate) fn nearest_other(
-        &self,
-        q: [f64; 2],
-        label: u32,
-        labels: &[u32],
-        node_labels: &[u32],
-        best: &mut (f64, u32),
-    ) {
-        if !self.nodes.is_empty() {
-            self.other_rec(0, q, label, labels, node_labels, best);
-        }
-    }
-
-    fn other_rec(&self, n: usize, q: [f64; 2], label: u32, labels: &[u32], nl: &[u32], best: &mut (f64, u32)) {
-        if nl[n] == label {
-            return;
-        }
-        let node = &self.nodes[n];
-        if node.left == NONE {
-            let range = node.lo as usize..node.hi as usize;
-            for (slot, &l) in range.clone().zip(&labels[range]) {
-                if l == label {
-                    continue;
-                }
-                let p = self.pts[slot];
-                let d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
-                let id = self.ids[slot];
-                if d2 < best.0 || (d2 == best.0 && id < best.1) {
-                    *best = (d2, id);
-                }
-            }
-            return;
-        }
-        let (l, r) = (node.left as usize, node.right as usize);
-        let (dl, dr) = (self.nodes[l].box_dist2(q), self.nodes[r].box_dist2(q));
-        let order = if dl <= dr { [(l, dl), (r, dr)] } else { [(r, dr), (l, dl)] };
-        for (child, d) in order {
-            if d <= best.0 {
-                self.other_rec(child, q, label, labels, nl, best);
-            }
-        }
-    }
 }
 
 impl KdTree {
@@ -180,10 +142,11 @@ impl KdTree {
         }
     }
 
-    /// The point whose slot label differs from `label` with the least cost `f(distance to q) + (w_self + its
-    /// weight)` (`weights` by slot, `node_min` from [`node_min`](Self::node_min), `f` non-decreasing), improving
-    /// `best = (cost, id)` under the lexicographic order (ties go to the smaller id). A subtree is skipped when
-    /// `f` of its box's distance plus its least weight already exceeds the best cost: no point in it can beat it.
+    /// The point whose slot label differs from `label` with the least cost `f(|dx|, |dy|) + (w_self + its
+    /// weight)` for its offset from `q` (`weights` by slot, `node_min` from [`node_min`](Self::node_min), `f`
+    /// non-decreasing in each distance), improving `best = (cost, id)` under the lexicographic order (ties go to
+    /// the smaller id). A subtree is skipped when `f` of its box's distances along X and Y plus its least weight
+    /// already exceeds the best cost: no point in it can beat it.
     #[allow(clippy::too_many_arguments, reason = "one query's inputs, each read in the inner loop")]
     pub(crate) fn nearest_other_weighted(
         &self,
@@ -192,7 +155,7 @@ impl KdTree {
         (labels, node_labels): (&[u32], &[u32]),
         (weights, node_min): (&[f64], &[f64]),
         w_self: f64,
-        f: &dyn Fn(f64) -> f64,
+        f: &dyn Fn(f64, f64) -> f64,
         best: &mut (f64, u32),
     ) {
         if !self.nodes.is_empty() {
@@ -209,7 +172,7 @@ impl KdTree {
         (labels, nl): (&[u32], &[u32]),
         (weights, wmin): (&[f64], &[f64]),
         w_self: f64,
-        f: &dyn Fn(f64) -> f64,
+        f: &dyn Fn(f64, f64) -> f64,
         best: &mut (f64, u32),
     ) {
         if nl[n] == label {
@@ -222,8 +185,7 @@ impl KdTree {
                     continue;
                 }
                 let p = self.pts[slot];
-                let d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]);
-                let c = f(d2.sqrt()) + (w_self + weights[slot]);
+                let c = f((p[0] - q[0]).abs(), (p[1] - q[1]).abs()) + (w_self + weights[slot]);
                 let id = self.ids[slot];
                 if c < best.0 || (c == best.0 && id < best.1) {
                     *best = (c, id);
@@ -232,7 +194,10 @@ impl KdTree {
             return;
         }
         let (l, r) = (node.left as usize, node.right as usize);
-        let lb = |c: usize| f(self.nodes[c].box_dist2(q).sqrt()) + (w_self + wmin[c]);
+        let lb = |c: usize| {
+            let (gx, gy) = self.nodes[c].box_gaps(q);
+            f(gx, gy) + (w_self + wmin[c])
+        };
         let (dl, dr) = (lb(l), lb(r));
         let order = if dl <= dr { [(l, dl), (r, dr)] } else { [(r, dr), (l, dl)] };
         for (child, d) in order {
@@ -466,26 +431,33 @@ mod tests {
         let labels: Vec<u32> = (0..tree.len()).map(|s| tree.id_at(s) / 10).collect();
         let mut nl = Vec::new();
         tree.node_labels(&labels, &mut nl);
-        for slot in 0..tree.len() {
-            let q = tree.point_at(slot);
-            let mut best = (f64::INFINITY, u32::MAX);
-            tree.nearest_other(q, labels[slot], &labels, &nl, &mut best);
-            let brute = (0..tree.len())
-                .filter(|&s| labels[s] != labels[slot])
-                .map(|s| {
-                    let p = tree.point_at(s);
-                    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2), tree.id_at(s))
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
-                .unwrap();
-            assert_eq!(best, brute);
+        let zero = vec![0.0; tree.len()];
+        let mut wmin = Vec::new();
+        tree.node_min(&zero, &mut wmin);
+        // The squared distance, and a cost that weighs Y twice as much as X and takes the larger.
+        let costs: [&dyn Fn(f64, f64) -> f64; 2] = [&|dx, dy| dx * dx + dy * dy, &|dx, dy| dx.max(2.0 * dy)];
+        for f in costs {
+            for slot in 0..tree.len() {
+                let q = tree.point_at(slot);
+                let mut best = (f64::INFINITY, u32::MAX);
+                tree.nearest_other_weighted(q, labels[slot], (&labels, &nl), (&zero, &wmin), 0.0, f, &mut best);
+                let brute = (0..tree.len())
+                    .filter(|&s| labels[s] != labels[slot])
+                    .map(|s| {
+                        let p = tree.point_at(s);
+                        (f((p[0] - q[0]).abs(), (p[1] - q[1]).abs()), tree.id_at(s))
+                    })
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                    .unwrap();
+                assert_eq!(best, brute);
+            }
         }
         // A single label everywhere: the root is uniform and nothing is found.
         let same = vec![4; tree.len()];
         tree.node_labels(&same, &mut nl);
         assert_eq!(nl[0], 4);
         let mut best = (f64::INFINITY, u32::MAX);
-        tree.nearest_other([0.0, 0.0], 4, &same, &nl, &mut best);
+        tree.nearest_other_weighted([0.0, 0.0], 4, (&same, &nl), (&zero, &wmin), 0.0, costs[0], &mut best);
         assert_eq!(best.1, u32::MAX);
     }
 }

@@ -32,9 +32,11 @@
 //! ```
 
 pub mod bound;
+mod boruvka;
 pub mod cost;
 mod exact;
 mod held_karp;
+pub mod hop_cost;
 mod improve;
 mod kdtree;
 mod merge;
@@ -440,6 +442,17 @@ pub fn travel_lower_bound_mapped(
     min_hop: &dyn Fn(f64) -> f64,
 ) -> f64 {
     drawing_bound_parts(drawing, seam, start).map(|parts| parts.mapped_tight(min_hop).value()).sum()
+}
+
+/// Lower bound on the pen-up cost of `drawing` (as [`travel_lower_bound_mapped`]) when a hop costs at least its
+/// cost under `hop`, which may depend on the hop's direction (see [`hop_cost::HopCost`]).
+pub fn travel_lower_bound_hops(
+    drawing: &Drawing,
+    seam: SeamMode,
+    start: Option<Point>,
+    hop: &dyn hop_cost::HopCost,
+) -> f64 {
+    drawing_bound_parts(drawing, seam, start).map(|parts| parts.tight(hop).value()).sum()
 }
 
 /// Bound material of every layer of `drawing` as it stands, the first from `start`; each later layer from where
