@@ -34,9 +34,10 @@ pub(crate) struct StatsArgs {
     #[arg(long)]
     pub(crate) json: bool,
     /// Also print the lower bounds (of the pen-up distance, and of the plot time at the machine's limits as its
-    /// profile states them: axis speeds and accelerations, and how fast it may pass each corner or curve point
-    /// of a line), where the plot time goes (pen down, travel, lifts) against each part's bound, and what the
-    /// time above the bound is spent on.
+    /// profile states them: each axis's speed and acceleration, and how fast it may pass each corner or curve
+    /// point of a line), where the plot time goes (pen down, travel, lifts) against each part's bound, and what
+    /// the time above the bound is spent on. The optimized plot's bound is for the drawing as optimized: paths
+    /// joined where their ends meet or a gap narrower than the pen is drawn through count as one line.
     #[arg(long, short = 'v')]
     pub(crate) verbose: bool,
     /// The machine the time estimate is for.
