@@ -32,6 +32,11 @@ const ZIGZAG: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="60mm" hei
   <polyline points="5,10 15,40 25,10 35,40 45,10 55,40" fill="none" stroke="black"/>
 </svg>"#;
 
+/// A 2 mm line: a copy takes a moment.
+const DASH: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="60mm" viewBox="0 0 60 60">
+  <path d="M 10 10 L 12 10" fill="none" stroke="black"/>
+</svg>"#;
+
 /// A token file readable by its owner only.
 fn token_file(dir: &Path, name: &str, token: &str) -> PathBuf {
     use std::os::unix::fs::PermissionsExt as _;
@@ -151,6 +156,38 @@ fn the_page_signs_in_shows_three_machines_plotting_and_stops_one_while_two_finis
         Duration::from_secs(10),
     );
     let at_stop = cdp.eval(SEEN);
+    // While the other two finish, the stopped machine takes a job of two copies of a 2 mm line: it parks for the
+    // second copy's paper, its card says so with a "Done: resume" button, and pressing it plots the second copy.
+    let parked_at = Instant::now();
+    let path = dir.join("dash.svg");
+    std::fs::write(&path, DASH).expect("write the drawing");
+    cdp.call("DOM.setFileInputFiles", json!({ "nodeId": input, "files": [utf8(&path)] }));
+    cdp.eval(
+        "document.getElementById('machine').value = 'ours'; \
+         document.getElementById('flags').value = '--paper a6 --margin 15 --copies 2'; \
+         document.getElementById('add').click()",
+    );
+    let card = "document.querySelector('.machine[data-name=\"ours\"]')";
+    cdp.wait_for(
+        "the parked machine's prompt and its button on its card",
+        &format!(
+            "{card}.querySelector('.prompt p')?.textContent === 'put in fresh paper for copy 2 of 2' && \
+             {card}.querySelector('.prompt button')?.textContent === 'Done: resume' && \
+             {card}.querySelector('.state').textContent === 'paused' && \
+             {card}.querySelector('.copy').textContent === 'copy 2 of 2'"
+        ),
+        Duration::from_secs(30),
+    );
+    cdp.eval(&format!("{card}.querySelector('.prompt button').click()"));
+    cdp.wait_for(
+        "the two-copy job done once resumed, its prompt gone",
+        &format!(
+            "!{card}.querySelector('.prompt') && [...document.querySelectorAll('#jobs tr')].some((r) => \
+             r.children[0].textContent === '#4' && r.children[3].textContent === 'done')"
+        ),
+        Duration::from_secs(30),
+    );
+    eprintln!("parked, resumed and done: {:.1} s", parked_at.elapsed().as_secs_f64());
     // The other two finish.
     cdp.wait_for(
         "the other two jobs done",
