@@ -441,6 +441,8 @@ impl Sim {
 #[cfg(test)]
 mod framed;
 #[cfg(test)]
+mod homing_tests;
+#[cfg(test)]
 mod numbers;
 #[cfg(test)]
 mod printer_tests;

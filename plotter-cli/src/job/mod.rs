@@ -299,6 +299,8 @@ impl Run<'_> {
                 // The pen change here (if any), then the stops of `self.stops` here.
                 let mut from = None;
                 let (mut parked, mut changed) = (false, false);
+                // The rest of the plan after a pen lowered in full for a delay (`StopWhy::DropThenDelay`).
+                let mut dropped = None;
                 if let Some((change, resumed)) = pending.take() {
                     pen_stops += 1;
                     changed = true;
@@ -340,6 +342,19 @@ impl Run<'_> {
                     from.get_or_insert(at);
                     match &stop.why {
                         StopWhy::Delay { ms } => dwell(machine, self.profile, *ms, &plan.first_pen)?,
+                        StopWhy::DropThenDelay { ms, draw } => {
+                            // Travel to the stroke's start with the pen up and lower it there in full (the
+                            // resume's preamble: it ends at rest once the drop has settled), wait, then draw
+                            // from rest.
+                            let now = position_within_travel(machine, self.profile)?;
+                            let p =
+                                plan::plan_resume(self.profile, self.steps, self.start, *draw, now, self.return_home)?;
+                            let s = self.stream_part(machine, &truncated(&p, p.preamble), &mut journal, events)?;
+                            add(&mut stats, &s);
+                            dwell(machine, self.profile, *ms, &plan.first_pen)?;
+                            from = Some(*draw);
+                            dropped = tail(&p, *draw);
+                        }
                         // A pen change here has already stopped the plot.
                         StopWhy::Pause | StopWhy::Refill { .. } if changed => {}
                         why @ (StopWhy::Pause | StopWhy::Refill { .. }) => {
@@ -365,19 +380,24 @@ impl Run<'_> {
                 if from >= self.full.blocks.len() {
                     break;
                 }
-                if changed && parked && self.full.blocks[from].kind == MoveKind::Travel {
-                    // The carriage is parked: travel from there straight to the layer's first stroke.
-                    from += 1;
-                }
-                current = match (parked, tail(&current, from)) {
-                    // Only waited: the plan goes on where it stood, from rest.
-                    (false, Some(rest)) => Cow::Owned(rest),
-                    _ => {
-                        let now = position_within_travel(machine, self.profile)?;
-                        let p = plan::plan_resume(self.profile, self.steps, self.start, from, now, self.return_home)?;
-                        Cow::Owned(p)
+                if let Some(rest) = dropped {
+                    current = Cow::Owned(rest);
+                } else {
+                    if changed && parked && self.full.blocks[from].kind == MoveKind::Travel {
+                        // The carriage is parked: travel from there straight to the layer's first stroke.
+                        from += 1;
                     }
-                };
+                    current = match (parked, tail(&current, from)) {
+                        // Only waited: the plan goes on where it stood, from rest.
+                        (false, Some(rest)) => Cow::Owned(rest),
+                        _ => {
+                            let now = position_within_travel(machine, self.profile)?;
+                            let p =
+                                plan::plan_resume(self.profile, self.steps, self.start, from, now, self.return_home)?;
+                            Cow::Owned(p)
+                        }
+                    };
+                }
             }
             // Stream up to the next stop (or to the end).
             let done = current.resumed_from;
@@ -775,6 +795,51 @@ mod tests {
         assert!(i64::from(lo) <= x && x <= i64::from(hi), "{lo} <= {x} <= {hi}");
         assert_eq!(sim.physical_position()[2], 1600);
         assert!(user.notices.is_empty(), "{:?}", user.notices);
+    }
+
+    /// A plot stopped at once mid-stroke on the XY kit (its Z switch below the pen's touch) and resumed from its
+    /// journal: the stop reset the firmware while X and Y drew, so Z's position is still known and the resume's
+    /// homing keeps it (the pen stays up while X and Y home). The pen first goes down where the resumed plan lowers
+    /// it, at its stroke's start; the homing used to seek Z's switch, 2 mm below the paper, wherever the carriage
+    /// stood: a dot on the drawing at every resume.
+    #[test]
+    fn a_resume_after_a_stop_mid_stroke_lowers_the_pen_only_at_its_stroke() {
+        let profile = MachineProfile::default_plotter();
+        let (mut s, steps, _) = zigzag_on_sim(&profile);
+        let dir = std::env::temp_dir().join(format!("plotter-resume-dot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let jp = dir.join("zigzag.journal");
+        let source = |start: [i32; 4]| Ok(format!("{start:?}"));
+        let spec = JournalSpec { path: &jp, source: &source };
+        let mut user = Presses { at: 23, presses: 2, executed: 0, notices: vec![] };
+        let e = plot(&mut s, &profile, &steps, true, false, Some(spec), &mut user).unwrap_err();
+        assert!(matches!(e, Error::StoppedAtOnce { .. }), "{e:?}");
+        let state = crate::link::journal::load(&jp).unwrap();
+        let from = s.transport.sim().hal().steps().len();
+        let stopped_at = s.transport.sim().physical_position();
+        let start = plan::homed_position(&profile).unwrap();
+        let mut ev = Script { answers: vec![], seen: vec![] };
+        let out = resume(&mut s, &profile, &steps, start, &state, &jp, false, false, &mut ev).unwrap();
+        assert!(crate::link::journal::load(&jp).unwrap().complete);
+        // Where the resumed plan lowers the pen (machine steps: the switches sit one pull-off beyond the travel,
+        // so after homing the simulator's physical steps are machine steps).
+        let down = out.plan.blocks.iter().position(|b| b.kind == MoveKind::PenDown).unwrap();
+        let at = out.plan.position_after(down);
+        // The first step of the resume that takes Z below the simulator's pen-down line (halfway between the
+        // pen's 0 and 4 mm: 800 steps).
+        let sim = s.transport.sim().hal();
+        let mut pos = sim.physical_position();
+        for e in sim.steps()[from..].iter().rev() {
+            pos[e.axis.index()] -= if e.forward { 1 } else { -1 };
+        }
+        assert_eq!(pos, stopped_at);
+        assert!(pos[2] >= 800, "the stop lifted the pen: {pos:?}");
+        let first_down = sim.steps()[from..].iter().find_map(|e| {
+            pos[e.axis.index()] += if e.forward { 1 } else { -1 };
+            (pos[2] < 800).then_some((pos[0], pos[1]))
+        });
+        assert_eq!(first_down, Some((i64::from(at[0]), i64::from(at[1]))), "stopped at {stopped_at:?}");
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

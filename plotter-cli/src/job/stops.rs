@@ -32,10 +32,21 @@ pub enum StopWhy {
         /// How long, milliseconds.
         ms: u32,
     },
+    /// The layer's delay after each pen drop (`+D`) on a stroke whose drop the plan blends into its travel (a
+    /// servo pen lowered while the carriage still moves, so the pen never stands on the paper at rest before the
+    /// stroke): the plot travels to the stroke's start with the pen up, lowers the pen in full (its whole settle),
+    /// waits, then draws from block `draw`.
+    DropThenDelay {
+        /// How long, milliseconds.
+        ms: u32,
+        /// The stroke's first drawing block.
+        draw: usize,
+    },
 }
 
 /// A stop before block `block` of the plan (in the original plan's numbering; the pen is up there, but for a
-/// delay after a pen drop, where the pen stands on the paper at rest).
+/// delay after a pen drop, where the pen stands on the paper at rest; a delay after a blended drop stops before
+/// the stroke's travel).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlotStop {
     /// The first block after the stop: the travel to the next stroke (or its pen drop when it needs no travel);
@@ -117,10 +128,15 @@ pub fn stroke_lengths(profile: &MachineProfile, steps: &StepDrawing) -> Vec<f64>
         .collect()
 }
 
+/// The first drawing block of stroke `stroke` in `plan`.
+fn first_draw(plan: &MotionPlan, stroke: usize) -> Option<usize> {
+    plan.blocks.iter().position(|b| b.stroke == stroke && b.kind == MoveKind::Draw)
+}
+
 /// The first drawing block of stroke `stroke` in `plan` when the pen stands on the paper at rest before it (its
 /// drop settled), where a delay after the drop may wait.
 fn after_drop(plan: &MotionPlan, stroke: usize) -> Option<usize> {
-    let i = plan.blocks.iter().position(|b| b.stroke == stroke && b.kind == MoveKind::Draw)?;
+    let i = first_draw(plan, stroke)?;
     let before = plan.blocks.get(i.checked_sub(1)?)?;
     (before.kind != MoveKind::Draw && before.block.exit_rate == 0 && plan.blocks[i].block.entry_rate == 0).then_some(i)
 }
@@ -151,6 +167,8 @@ pub fn plot_stops(
             for si in layer.first_stroke..end {
                 if let Some(block) = after_drop(plan, si) {
                     stops.push(stop(block, StopWhy::Delay { ms }));
+                } else if let (Some(block), Some(draw)) = (stroke_start(plan, si), first_draw(plan, si)) {
+                    stops.push(stop(block, StopWhy::DropThenDelay { ms, draw }));
                 }
             }
         }
@@ -359,6 +377,161 @@ mod tests {
         let out = crate::job::plot(&mut s, &profile, &steps, true, false, None, &mut events).unwrap();
         let executed = s.busy_ticks() - out.busy_before;
         (out.plan, executed)
+    }
+
+    /// Three 20 mm lines (at Y 10, 20 and 30 mm) in one layer named `name`, plotted with `profile` on `machine`:
+    /// (the plan, the machine's executed ticks).
+    fn three_on(
+        profile: &MachineProfile,
+        machine: &mut dyn crate::link::machine::PlotMachine,
+        name: &str,
+    ) -> (MotionPlan, u64) {
+        let mut l = Layer::new(name);
+        l.paths = vec![line(10.0, 20.0), line(20.0, 20.0), line(30.0, 20.0)];
+        let steps = drawing_to_steps(profile, &Drawing { layers: vec![l], page_mm: None }).unwrap();
+        let mut events = Pauses { seen: vec![], answer: crate::job::progress::PenChangeChoice::Continue };
+        let out = crate::job::plot(machine, profile, &steps, true, false, None, &mut events).unwrap();
+        (out.plan, machine.busy_ticks() - out.busy_before)
+    }
+
+    /// `+D250` on servo pens, on every dialect that runs a servo pen: our firmware and GRBL with the kit's servo
+    /// (`--model servo-grbl`), an EBB with the AxiDraw V3. Their drops are commanded while the carriage still
+    /// travels (`pen.contact_fraction`), the plan holding the pen where it touches until its latest contact, so
+    /// each stroke's wait comes after that hold: three strokes execute 3 × 250 ms = 750 000 ticks longer (exactly
+    /// on ours and GRBL), the plan unchanged.
+    #[test]
+    fn a_layer_delay_waits_after_each_servo_drop_on_every_dialect() {
+        use crate::link::ebb::emulator::EbbEmulator;
+        use crate::link::ebb::emulator_transport::EbbTransport;
+        use crate::link::ebb::messages::EbbVersion;
+        use crate::link::ebb::session::EbbSession;
+        use crate::link::grbl::emulator::{Faults, GrblEmulator};
+        use crate::link::grbl::emulator_transport::EmulatorTransport;
+        use crate::link::grbl::session::GrblSession;
+        use crate::link::grbl::settings::GrblSettings;
+        use crate::link::machine::PlotMachine;
+        let servo = plotter_path::config::models::find("servo-grbl").unwrap().profile();
+        let v3 = plotter_path::config::models::find("axidraw-v3").unwrap().profile();
+        let ours = |p: &MachineProfile| -> Box<dyn PlotMachine> {
+            let cfg = plan::machine_config(p).unwrap();
+            Box::new(
+                crate::link::session::Session::connect(crate::link::sim::SimTransport::new(cfg, None), "sim").unwrap(),
+            )
+        };
+        let grbl = |p: &MachineProfile| -> Box<dyn PlotMachine> {
+            let cfg = plan::machine_config(p).unwrap();
+            let emu = GrblEmulator::with_settings(cfg, GrblSettings::for_profile(p), None, Faults::default());
+            Box::new(GrblSession::connect(EmulatorTransport::new(emu), "emulator", p).unwrap())
+        };
+        let ebb = |p: &MachineProfile| -> Box<dyn PlotMachine> {
+            let emu = EbbEmulator::new(EbbVersion(3, 0, 2));
+            Box::new(EbbSession::connect(EbbTransport::new(emu), "ebb", p).unwrap())
+        };
+        type Connect = dyn Fn(&MachineProfile) -> Box<dyn PlotMachine>;
+        let runs: [(&str, &MachineProfile, &Connect); 3] =
+            [("ours", &servo, &ours), ("grbl", &servo, &grbl), ("ebb", &v3, &ebb)];
+        for (dialect, profile, machine) in runs {
+            let (plain, plain_ticks) = three_on(profile, machine(profile).as_mut(), "1 a");
+            let (delayed, delayed_ticks) = three_on(profile, machine(profile).as_mut(), "1+D250 a");
+            assert!(plain.blocks.iter().any(|b| b.block.servo.is_some()), "{dialect}: a servo pen");
+            assert_eq!(plain.blocks.iter().filter(|b| b.kind == MoveKind::PenDown).count(), 3, "{dialect}");
+            assert_eq!(delayed.total_ticks, plain.total_ticks, "{dialect}");
+            // The EBB times its moves and waits in whole intervals and milliseconds, rounding each part of the
+            // plan it is sent on its own: a part ends at each of the three waits, each within a millisecond.
+            let slack = if dialect == "ebb" { 3 * 1000 } else { 0 };
+            assert!(delayed_ticks.abs_diff(plain_ticks + 750_000) <= slack, "{dialect}: {delayed_ticks} {plain_ticks}");
+        }
+    }
+
+    /// Should a plan ever blend a servo drop into its stroke (a travel's last part joining the first drawing block
+    /// at speed, with no hold between them), the layer's delay still waits: its stop (`DropThenDelay`) comes
+    /// before the stroke's travel, and the plot travels there with the pen up, lowers it in full and waits. Run
+    /// here on our simulated firmware with the kit's servo (settle 150 ms) for each of three strokes: from each
+    /// drop command, the carriage stands still for the whole settle and the 250 ms, 400 000 ticks at least, at
+    /// the stroke's start; without the stops its next step comes within 10 ms (the drop is commanded while it
+    /// travels). Stop blocks and drawing blocks as `plot_stops` finds them for a blended stroke.
+    #[test]
+    fn a_drop_then_delay_stop_lowers_the_pen_in_full_at_the_stroke_start_and_waits() {
+        use crate::link::machine::PlotMachine as _;
+        let profile = plotter_path::config::models::find("servo-grbl").unwrap().profile();
+        assert_eq!((profile.pen.settle_ms, profile.pen.servo_down_deg), (150.0, 30.0));
+        let mut l = Layer::new("1+D250 a");
+        l.paths = vec![line(10.0, 20.0), line(20.0, 20.0), line(30.0, 20.0)];
+        let steps = drawing_to_steps(&profile, &Drawing { layers: vec![l], page_mm: None }).unwrap();
+        // (From each drop command to the carriage's next step, ticks; where the carriage stood then, steps.)
+        let waits = |blended: bool| -> Vec<(u64, (i64, i64))> {
+            let cfg = plan::machine_config(&profile).unwrap();
+            let mut s =
+                crate::link::session::Session::connect(crate::link::sim::SimTransport::new(cfg, None), "sim").unwrap();
+            s.begin().unwrap();
+            s.home().unwrap();
+            let start = plan::homed_position(&profile).unwrap();
+            let full = plan::plan(&profile, &steps, start, Lookahead::Whole).unwrap();
+            let stops = if blended {
+                (0..3)
+                    .map(|si| PlotStop {
+                        block: stroke_start(&full, si).unwrap(),
+                        layer: 0,
+                        layer_name: "1+D250 a".into(),
+                        why: StopWhy::DropThenDelay { ms: 250, draw: first_draw(&full, si).unwrap() },
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            let run = crate::job::Run {
+                profile: &profile,
+                steps: &steps,
+                start,
+                full: &full,
+                journal_path: None,
+                return_home: false,
+                stops,
+            };
+            let mut events = Pauses { seen: vec![], answer: crate::job::progress::PenChangeChoice::Continue };
+            run.stream(&mut s, &full, None, None, &mut events).unwrap();
+            let sim = s.transport.sim().hal();
+            let mut pos = sim.physical_position();
+            for e in sim.steps().iter().rev() {
+                pos[e.axis.index()] -= if e.forward { 1 } else { -1 };
+            }
+            let mut at = Vec::new();
+            for e in sim.steps() {
+                pos[e.axis.index()] += if e.forward { 1 } else { -1 };
+                at.push((e.time, (pos[0], pos[1]), e.axis.index() < 2));
+            }
+            sim.servo_trace()
+                .iter()
+                .filter(|(_, deg, _)| *deg == 30.0)
+                .map(|&(t, _, _)| {
+                    let stood = at.iter().rev().find(|a| a.0 <= t).map_or((0, 0), |a| a.1);
+                    let next = at.iter().find(|a| a.2 && a.0 > t).map_or(u64::MAX, |a| a.0 - t);
+                    (next, stood)
+                })
+                .collect()
+        };
+        // Where plot_stops puts them: a stroke whose first drawing block the plan enters at speed (as if blended)
+        // gets its delay before its travel. The plan: per stroke a travel, the drop command, the travel's last
+        // part, the hold until the latest contact, then the line (blocks 5, 11 and 17), the lift after it.
+        let mut blended =
+            plan::plan(&profile, &steps, plan::homed_position(&profile).unwrap(), Lookahead::Whole).unwrap();
+        let found = |p: &MotionPlan| -> Vec<(usize, StopWhy)> {
+            plot_stops(&profile, &steps, p, None).into_iter().map(|s| (s.block, s.why)).collect()
+        };
+        let delay = StopWhy::Delay { ms: 250 };
+        assert_eq!(found(&blended), [(5, delay.clone()), (11, delay.clone()), (17, delay.clone())]);
+        blended.blocks[11].block.entry_rate = 1000;
+        let then = StopWhy::DropThenDelay { ms: 250, draw: 11 };
+        assert_eq!(found(&blended), [(5, delay.clone()), (7, then), (17, delay)]);
+        let plain = waits(false);
+        assert_eq!(plain.len(), 3);
+        assert!(plain.iter().all(|w| w.0 < 10_000), "the carriage travels on as the pen drops: {plain:?}");
+        let delayed = waits(true);
+        assert_eq!(delayed.len(), 3, "one drop per stroke: {delayed:?}");
+        // The lines start at X 20 mm and Y 10, 20, 30 mm: 80 steps/mm.
+        let starts: Vec<(i64, i64)> = delayed.iter().map(|w| w.1).collect();
+        assert_eq!(starts, [(1600, 800), (1600, 1600), (1600, 2400)]);
+        assert!(delayed.iter().all(|w| w.0 >= 400_000), "{delayed:?}");
     }
 
     /// `+D250` is 250 ms after each pen drop of its layer: three strokes plot 3 × 0.25 = 0.75 s longer than the

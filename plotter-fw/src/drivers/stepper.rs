@@ -529,6 +529,22 @@ impl Stepper {
         !self.act.live && self.queued == 0
     }
 
+    /// Axes stepping right now: those of the executing block (or, between two blocks, of the next one), none while
+    /// a feed hold has stopped. A halt without deceleration may lose these axes' steps, and only these.
+    pub fn moving_axes(&self) -> u8 {
+        if self.hold == HoldState::Stopped {
+            return 0;
+        }
+        let steps = if self.act.live {
+            &self.ring[self.act.slot & SLOT_MASK].block.steps
+        } else if self.queued > 0 {
+            &self.ring[self.first & SLOT_MASK].block.steps
+        } else {
+            return 0;
+        };
+        Axis::ALL.iter().filter(|a| steps[a.index()] != 0).fold(0, |m, a| m | a.bit())
+    }
+
     /// Blocks completed since start.
     pub fn completed(&self) -> u32 {
         self.completed

@@ -11,10 +11,28 @@
 //! 4. debounce dwell, **pull off** again, check the release, and set the position: this pulled-off point is
 //!    machine 0 (or the travel, for a switch at the maximum end). The switch thus trips exactly one pull-off
 //!    beyond the travel, so no move within the travel ever touches it (it would be a hard-limit alarm).
-
+//!
+//! # Z first, and never onto the paper
+//! X and Y may only move with the pen up, so Z comes first. Where Z's switch sits decides how:
+//! - **at the maximum end**, homing Z lifts the pen: Z is homed first, always;
+//! - **at the minimum end** (the XY kit: the switch below the pen's touch), seeking it lowers the pen wherever
+//!   the carriage stands — a dot on the drawing. So a full cycle ([`HomingCycle::plan`]) homes Z there only when
+//!   it must and may:
+//!   - Z's position is **known** (homed since start, and not lost since): it is kept; Z goes up to the pen-up
+//!     height, then X and Y home ([`HomingCycle::keeping_z`]). A plot stopped mid-stroke (the host resets the
+//!     firmware while X and Y move, then lifts the pen) keeps Z: only the axes stepping at a reset lose their
+//!     steps, and a stroke does not step Z;
+//!   - Z's position was **lost** (a reset or an alarm while Z was stepping: its true height may differ from the
+//!     count by the steps the halt lost): it is homed where the carriage stands only when the profile says the
+//!     pen is still clear of the paper at the switch (`homing.pen_clear_at_z_switch`); otherwise the cycle is
+//!     refused ([`ErrorCode::HomingWouldMark`](crate::errors::ErrorCode::HomingWouldMark)) and nothing moves —
+//!     moving X and Y first could drag a lowered pen. The operator lifts the pen clear or moves the carriage off
+//!     the paper and asks for Z alone (`G28 Z`), which always homes it;
+//!   - Z was **never homed** since the firmware started: nothing is known to keep or to refuse, and Z is homed
+//!     where the carriage stands (a machine is switched on with its carriage at the home corner).
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
-use crate::errors::AlarmCode;
+use crate::errors::{AlarmCode, ErrorCode};
 use crate::fmath::{round_i32, round_u32};
 use crate::planner::{PlanBlock, to_step_block};
 use crate::step_block::{StepBlock, Switches, TICK_HZ};
@@ -65,6 +83,37 @@ impl HomingCycle {
         let z = mask & Axis::Z.bit();
         let xy = mask & (Axis::X.bit() | Axis::Y.bit() | Axis::E.bit());
         HomingCycle { groups: [z, xy], group: 0, phase: Phase::Seek, homed: 0 }
+    }
+
+    /// The cycle `G28` runs for the axes in `mask` (0 = all), given the axes whose position is known (`homed`) and
+    /// those whose position was known and then lost (`lost`); see the module docs for the order and its reason. A
+    /// full cycle keeps a known Z whose switch is at the minimum end, and is refused when such a Z was lost and the
+    /// pen touches the paper before its switch. Naming Z (`G28 Z`) always homes it.
+    pub fn plan(config: &MachineConfig, mask: u8, homed: u8, lost: u8) -> Result<Self, ErrorCode> {
+        let z = config.axis(Axis::Z);
+        let z_seeks_down = z.is_limited() && !z.home_at_max;
+        if mask != 0 || !z_seeks_down {
+            return Ok(Self::new(config, mask));
+        }
+        let zb = Axis::Z.bit();
+        if homed & zb != 0 {
+            Ok(Self::keeping_z(config))
+        } else if lost & zb != 0 && !config.homing.pen_clear_at_z_switch {
+            Err(ErrorCode::HomingWouldMark)
+        } else {
+            Ok(Self::new(config, 0))
+        }
+    }
+
+    /// A cycle of every limited axis that keeps Z's known position: Z goes straight to the pen-up height (no seek
+    /// towards its switch, which would lower the pen), then X and Y home as usual.
+    pub fn keeping_z(config: &MachineConfig) -> Self {
+        let mut cycle = Self::new(config, 0);
+        if cycle.groups[0] != 0 {
+            cycle.phase = Phase::PenUp;
+            cycle.homed = cycle.groups[0];
+        }
+        cycle
     }
 
     /// Axes homed so far.
@@ -190,6 +239,40 @@ mod tests {
         assert_eq!((b.steps, m), ([0, 0, 800, 0], NO_STOP));
         // Still pressed after the pull-off → alarm.
         assert_eq!(h.next(&c, 0, Axis::Z.bit(), &pos), HomingStep::Alarm(AlarmCode::HomingNotReleased));
+    }
+
+    /// The XY kit's Z switch is at the minimum end, below the pen's touch. A full cycle with Z known starts with
+    /// the lift to the pen-up height (4 mm = 1600 steps from Z 0.5 mm = 200 steps: +1400), not a seek downwards,
+    /// then seeks X and Y (1.5 × 420 mm and 1.5 × 297 mm at 80 steps/mm); a lost Z is refused unless the profile
+    /// says the pen is clear at the switch; a Z never homed, or named on its own, is sought (−1.5 × 10 mm × 400).
+    #[test]
+    fn a_full_cycle_keeps_a_known_z_and_refuses_a_lost_one() {
+        let mut c = MachineConfig::xy_plotter();
+        let (z, all) = (Axis::Z.bit(), 0b111);
+        let pos = [5000, 4000, 200, 0];
+        let z_seek = [0, 0, -6000, 0];
+        let first = |h: &mut HomingCycle, c: &MachineConfig| match h.next(c, 0, 0, &pos) {
+            HomingStep::Move(b, m) => (b.steps, m),
+            other => panic!("{other:?}"),
+        };
+        let mut kept = HomingCycle::plan(&c, 0, all, 0).unwrap();
+        assert_eq!(first(&mut kept, &c), ([0, 0, 1400, 0], NO_STOP));
+        assert_eq!(kept.homed(), z, "Z counts as homed: its position is known");
+        let xy = Switches::Homing { axes: Axis::X.bit() | Axis::Y.bit() };
+        assert_eq!(first(&mut kept, &c), ([-50_400, -35_640, 0, 0], xy));
+        assert_eq!(HomingCycle::plan(&c, 0, 0, z).unwrap_err(), ErrorCode::HomingWouldMark);
+        let mut named = HomingCycle::plan(&c, z, 0, z).unwrap();
+        assert_eq!(first(&mut named, &c), (z_seek, Switches::Homing { axes: z }));
+        let mut fresh = HomingCycle::plan(&c, 0, 0, 0).unwrap();
+        assert_eq!(first(&mut fresh, &c), (z_seek, Switches::Homing { axes: z }));
+        c.homing.pen_clear_at_z_switch = true;
+        let mut clear = HomingCycle::plan(&c, 0, 0, z).unwrap();
+        assert_eq!(first(&mut clear, &c), (z_seek, Switches::Homing { axes: z }));
+        // A switch at the maximum end lifts the pen: Z is sought upwards, known or not.
+        let mut up = MachineConfig::xy_plotter();
+        up.axes[Axis::Z.index()].home_at_max = true;
+        let mut h = HomingCycle::plan(&up, 0, all, z).unwrap();
+        assert_eq!(first(&mut h, &up), ([0, 0, 6000, 0], Switches::Homing { axes: z }));
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! the stepper and the program's target.
 
 use crate::config::MachineConfig;
-use crate::errors::AlarmCode;
+use crate::errors::{AlarmCode, ErrorCode};
 use crate::hal::{Endstops, StepPins, StepTimer};
 use crate::homing::{HomingCycle, HomingStep};
 
@@ -26,12 +26,14 @@ pub(crate) struct Homing {
     result: Option<Result<(), AlarmCode>>,
     /// Mask of homed axes.
     homed: u8,
+    /// Axes that were homed and then lost their position (a reset or an alarm while they stepped).
+    lost: u8,
 }
 
 impl Homing {
     /// Nothing homed.
     pub(crate) const fn new() -> Self {
-        Homing { cycle: None, result: None, homed: 0 }
+        Homing { cycle: None, result: None, homed: 0, lost: 0 }
     }
 
     /// Mask of homed axes.
@@ -54,9 +56,11 @@ impl Homing {
         self.result.take()
     }
 
-    /// Start a cycle for the axes of `mask` (0: all).
-    pub(crate) fn start(&mut self, cfg: &MachineConfig, mask: u8) {
-        self.cycle = Some(HomingCycle::new(cfg, mask));
+    /// Start a cycle for the axes of `mask` (0: all), in the order [`HomingCycle::plan`] gives (a known Z is kept);
+    /// refused, with nothing started, when it would lower the pen onto the paper.
+    pub(crate) fn start(&mut self, cfg: &MachineConfig, mask: u8) -> Result<(), ErrorCode> {
+        self.cycle = Some(HomingCycle::plan(cfg, mask, self.homed, self.lost)?);
+        Ok(())
     }
 
     /// An alarm stopped everything: the cycle ends (a homing alarm becomes its result) and nothing is homed.
@@ -65,16 +69,21 @@ impl Homing {
         if self.result.is_none() && matches!(code, AlarmCode::HomingNotFound | AlarmCode::HomingNotReleased) {
             self.result = Some(Err(code));
         }
-        self.homed = 0;
+        self.lose(self.homed);
     }
 
-    /// A reset: no cycle, no result; `lost_steps` (it stopped while moving) also forgets what was homed.
-    pub(crate) fn reset(&mut self, lost_steps: bool) {
+    /// The axes of `mask` may have lost steps (they were stepping when the motion stopped without deceleration):
+    /// their positions are no longer known.
+    pub(crate) fn lose(&mut self, mask: u8) {
+        self.lost |= self.homed & mask;
+        self.homed &= !mask;
+    }
+
+    /// A reset: no cycle, no result. What was homed stays homed but for the axes [`Homing::lose`] was told of
+    /// (those stepping when the reset stopped them); a feed hold that had stopped loses nothing.
+    pub(crate) fn reset(&mut self) {
         self.cycle = None;
         self.result = None;
-        if lost_steps {
-            self.homed = 0;
-        }
     }
 
     /// Advance the running cycle while the stepper is idle: start its next move, or set positions; `Some` once
@@ -107,6 +116,7 @@ impl Homing {
                 }
                 HomingStep::Done(mask) => {
                     self.homed |= mask;
+                    self.lost &= !mask;
                     self.cycle = None;
                     self.result = Some(Ok(()));
                     program.set_target_steps(motion.stepper().position(), cfg);

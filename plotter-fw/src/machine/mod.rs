@@ -201,7 +201,11 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
         // Feed hold and reset act at once; status, resume and the rest of a reset wait for `poll`.
         match self.link.receive(b) {
             Some(RT_FEED_HOLD) => self.motion.feed_hold(),
-            Some(RT_RESET) => self.motion.halt(&mut self.hal),
+            Some(RT_RESET) => {
+                // Stopped without deceleration: the axes stepping now may lose steps (and only they).
+                self.homing.lose(self.motion.stepper().moving_axes());
+                self.motion.halt(&mut self.hal);
+            }
             _ => {}
         }
     }
@@ -310,13 +314,12 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
     fn service_realtime(&mut self) {
         let rt = self.link.take_realtime();
         if rt & link::RT_FLAG_RESET != 0 {
-            let moving = !self.motion.drained() || self.homing.is_running();
             self.motion.abort(&mut self.hal);
             self.motion.stepper_mut().clear_fault();
             self.link.reset(self.motion.stepper().completed());
             self.alarm = None;
-            // Stopped without deceleration while moving: steps may have been lost.
-            self.homing.reset(moving);
+            // (The axes that were stepping lost their home when the reset byte arrived, in `receive`.)
+            self.homing.reset();
             self.program.reset_modes();
             self.program_paused = false;
             self.heaters.reset();
@@ -481,7 +484,10 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             return Outcome::Blocked;
         }
         let mask = Axis::ALL.iter().filter(|a| w.has(a.letter() as u8)).fold(0, |m, a| m | a.bit());
-        self.homing.start(&self.cfg, mask);
+        if let Err(code) = self.homing.start(&self.cfg, mask) {
+            self.reply_error(code, format_args!(": lift the pen clear or move the carriage off the paper, then G28 Z"));
+            return Outcome::Done;
+        }
         self.run_homing();
         if self.homing.has_result() { self.home(w) } else { Outcome::Blocked }
     }

@@ -61,6 +61,10 @@ pub struct HomingConfig {
     pub pull_off_mm: f32,
     /// Switch debounce: dwell after each contact before moving again, ms.
     pub debounce_ms: f32,
+    /// Z's switch (at the minimum end) trips while the pen is still clear of the paper, so homing Z where the
+    /// carriage stands leaves no mark. `false` (the cautious default) when the pen touches first: then a lost Z
+    /// is not homed where the carriage stands (see [`crate::homing`]).
+    pub pen_clear_at_z_switch: bool,
 }
 
 /// Pen lift on the Z axis.
@@ -150,7 +154,13 @@ impl MachineConfig {
             ],
             junction_deviation_mm: 0.02,
             curve_deviation_mm: 0.1,
-            homing: HomingConfig { seek_mm_s: 40.0, locate_mm_s: 4.0, pull_off_mm: 2.0, debounce_ms: 5.0 },
+            homing: HomingConfig {
+                seek_mm_s: 40.0,
+                locate_mm_s: 4.0,
+                pull_off_mm: 2.0,
+                debounce_ms: 5.0,
+                pen_clear_at_z_switch: false,
+            },
             pen: PenConfig { up_z_mm: 4.0, down_z_mm: 0.0, servo_up_deg: 90.0, servo_down_deg: 30.0 },
             rx_buffer_bytes: 256,
             queue_blocks: 32,

@@ -72,6 +72,9 @@ pub enum ErrorCode {
     AmbiguousE = 14,
     /// Extrusion refused: the hot end is below the minimum extrusion temperature.
     ColdExtrusion = 15,
+    /// Homing refused: Z's height was lost and its switch lies past the pen's touch, so homing it where the
+    /// carriage stands would press the pen onto the paper (see [`crate::homing`]).
+    HomingWouldMark = 16,
 }
 
 impl ErrorCode {
@@ -98,6 +101,9 @@ impl ErrorCode {
             ErrorCode::OutOfRange => "number out of range",
             ErrorCode::AmbiguousE => "ambiguous number: a number runs into an E word (put a space before E)",
             ErrorCode::ColdExtrusion => "cold extrusion prevented",
+            ErrorCode::HomingWouldMark => {
+                "homing refused: the pen's height is lost and homing Z here would press the pen onto the paper"
+            }
         }
     }
 }
@@ -234,6 +240,7 @@ mod tests {
             ErrorCode::OutOfRange,
             ErrorCode::AmbiguousE,
             ErrorCode::ColdExtrusion,
+            ErrorCode::HomingWouldMark,
         ];
         for (i, e) in all.iter().enumerate() {
             assert_eq!(usize::from(e.code()), i + 1);

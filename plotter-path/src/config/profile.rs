@@ -305,6 +305,11 @@ pub struct HomingProfile {
     pub pull_off_mm: f64,
     /// Switch debounce, milliseconds.
     pub debounce_ms: f64,
+    /// Whether the pen is still clear of the paper when Z reaches a switch at the minimum end. Default `false`
+    /// (cautious: the pen touches first), and then a Z whose height was lost is not homed where the carriage
+    /// stands, which would press the pen onto the drawing.
+    #[serde(default)]
+    pub pen_clear_at_z_switch: bool,
 }
 
 /// Serial link and firmware buffer sizes.

@@ -105,6 +105,7 @@ pub fn machine_config(profile: &MachineProfile) -> Result<MachineConfig, PlanErr
             locate_mm_s: f(profile.homing.locate_mm_s),
             pull_off_mm: f(profile.homing.pull_off_mm),
             debounce_ms: f(profile.homing.debounce_ms),
+            pen_clear_at_z_switch: profile.homing.pen_clear_at_z_switch,
         },
         pen: PenConfig {
             up_z_mm: f(profile.pen.up_z_mm),
