@@ -7,10 +7,15 @@ use std::io::{BufRead as _, BufReader};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 use tungstenite::{Message, WebSocket};
+
+/// One browser at a time, held by each page test while its browser runs: a headless Chromium takes much of a
+/// two-core machine, and the page tests time what the page shows.
+pub(crate) static ONE_BROWSER: Mutex<()> = Mutex::new(());
 
 /// A child process killed when dropped.
 pub(crate) struct Killed(Child);

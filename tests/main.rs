@@ -39,3 +39,4 @@ mod stats_wording;
 mod stop_signals;
 mod stream_hpgl;
 mod studio_crash;
+mod studio_three;

@@ -10,16 +10,12 @@
 //! (`CI` set), where a missing browser is a failure.
 
 use std::path::Path;
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use plotter_e2e::{Served, SimPty, sample, scratch, workspace_root};
 use serde_json::json;
 
-use crate::browser::{Cdp, chromium};
-
-/// One browser at a time: the machine has two cores.
-static SERIAL: Mutex<()> = Mutex::new(());
+use crate::browser::{Cdp, ONE_BROWSER, chromium};
 
 /// `plotter serve` on an ephemeral loopback port at `sim_speed`.
 fn start_server(sim_speed: &str) -> (Served, String) {
@@ -129,7 +125,7 @@ fn check_pen(p: &Pen) {
 
 #[test]
 fn upload_preview_plot_to_the_end_on_the_simulator() {
-    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _one = ONE_BROWSER.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let Some(browser) = chromium() else { return };
     let (_server, url) = start_server("4");
     let profile = scratch("chromium-plot");
@@ -252,7 +248,7 @@ fn new_controls(cdp: &mut Cdp, scratch_dir: &Path) {
 
 #[test]
 fn pause_and_resume_from_the_page() {
-    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _one = ONE_BROWSER.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let Some(browser) = chromium() else { return };
     let (_server, url) = start_server("3");
     let profile = scratch("chromium-pause");
@@ -332,7 +328,7 @@ fn hpgl_controls(cdp: &mut Cdp) {
 /// got, and finishes from there; the journal then says the plot is complete and the offer goes.
 #[test]
 fn an_interrupted_serial_plot_resumes_from_the_page() {
-    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _one = ONE_BROWSER.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let Some(browser) = chromium() else { return };
     let dir = scratch("chromium-resume");
     let sim = SimPty::start(&dir, &[]);
