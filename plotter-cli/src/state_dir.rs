@@ -132,13 +132,14 @@ impl JournalEntry {
     }
 }
 
-/// The journals in `dir` of plots that did not finish, the most recent first. Files that are not readable
-/// journals are skipped; a missing folder has none.
+/// The journals in `dir` of plots that did not finish (a plot of several copies finishes with its last), the
+/// most recent first. Files that are not readable journals are skipped; a missing folder has none.
 pub fn resumable(dir: &Path) -> Result<Vec<JournalEntry>, StateDirError> {
     let mut out = Vec::new();
     for (path, modified) in journal_files(dir)? {
         let Ok(state) = journal::load(&path) else { continue };
-        if state.complete {
+        // A finished journal of a plot that still owes copies (stopped or killed at a paper change) is resumable.
+        if state.complete && crate::job::copies::copies_left(&state.source).is_none() {
             continue;
         }
         let source: Option<serde_json::Value> = serde_json::from_str(&state.source).ok();
@@ -158,13 +159,14 @@ pub fn resumable(dir: &Path) -> Result<Vec<JournalEntry>, StateDirError> {
 }
 
 /// Remove the journals in `dir` of plots that finished more than `keep` ago (by the file's time); returns how
-/// many were removed. Unfinished plots' journals are never removed.
+/// many were removed. Unfinished plots' journals (a plot owing copies among them) are never removed.
 pub fn prune_finished(dir: &Path, keep: Duration) -> Result<usize, StateDirError> {
     let now = SystemTime::now();
     let mut removed = 0;
     for (path, modified) in journal_files(dir)? {
         let old = now.duration_since(modified).is_ok_and(|age| age > keep);
-        if old && journal::load(&path).is_ok_and(|s| s.complete) {
+        let finished = |s: journal::JournalState| s.complete && crate::job::copies::copies_left(&s.source).is_none();
+        if old && journal::load(&path).is_ok_and(finished) {
             std::fs::remove_file(&path).map_err(|source| StateDirError::Io { path: path.clone(), source })?;
             removed += 1;
         }
@@ -267,17 +269,27 @@ mod tests {
         j.record(10, 10, 10).unwrap();
         j.complete().unwrap();
         drop(j);
+        // Copy 1 of 2 finished, stopped at the paper change: the plot still owes copy 2.
+        let owed = journal_in(&dir, "owed.svg", "XY kit");
+        let owed_src = r#"{"drawing":"owed.svg","machine":"XY kit","args":[],"copy":1,"copies":2}"#;
+        let mut j = Journal::create(&owed, owed_src, 4, 10).unwrap();
+        j.record(10, 10, 10).unwrap();
+        j.complete().unwrap();
+        drop(j);
         std::fs::write(dir.join("junk.journal"), "not a journal\n").unwrap();
         std::fs::write(dir.join("notes.txt"), "x").unwrap();
         let list = resumable(&dir).unwrap();
         let seen: Vec<_> = list.iter().map(|e| (e.drawing.as_str(), e.machine.as_str(), e.percent())).collect();
-        assert_eq!(seen, [("b.svg", "XY kit", 25.0), ("a.svg", "XY kit", 25.0)]);
-        assert_eq!(list[0].path, b);
+        assert_eq!(seen.len(), 3);
+        assert!(seen.contains(&("owed.svg", "XY kit", 100.0)), "{seen:?}");
+        let unfinished: Vec<_> = seen.into_iter().filter(|e| e.0 != "owed.svg").collect();
+        assert_eq!(unfinished, [("b.svg", "XY kit", 25.0), ("a.svg", "XY kit", 25.0)]);
+        assert!(list.iter().position(|e| e.path == b) < list.iter().position(|e| e.path == a));
         // Finished journals go once older than the time kept; unfinished ones stay whatever their age.
         assert_eq!(prune_finished(&dir, KEEP_FINISHED).unwrap(), 0);
         assert!(done.exists());
         assert_eq!(prune_finished(&dir, Duration::ZERO).unwrap(), 1);
-        assert!(!done.exists() && a.exists() && b.exists());
+        assert!(!done.exists() && a.exists() && b.exists() && owed.exists());
         assert!(resumable(&dir.join("missing")).unwrap().is_empty());
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -46,15 +46,32 @@ pub fn copy_of(source: &str) -> u64 {
         .unwrap_or(1)
 }
 
-/// `source` with the copy being drawn recorded in it (a source that is no JSON object is left as it is).
-fn with_copy(source: String, copy: u64) -> String {
+/// The key of the plot's copy count (0 = until stopped) in a journal's source record.
+const COPIES_KEY: &str = "copies";
+
+/// `source` with the copy being drawn and the plot's copy count recorded in it (a source that is no JSON object
+/// is left as it is).
+fn with_copy(source: String, copy: u64, count: u64) -> String {
     match serde_json::from_str::<serde_json::Value>(&source) {
         Ok(serde_json::Value::Object(mut o)) => {
             o.insert(COPY_KEY.into(), copy.into());
+            o.insert(COPIES_KEY.into(), count.into());
             serde_json::Value::Object(o).to_string()
         }
         _ => source,
     }
+}
+
+/// The copies a journal's plot still owes once the copy it records is finished: `Some((next copy, count))` when
+/// its source record counts more copies than the one it was drawing, so that a plot stopped or killed at a paper
+/// change is still there to resume. A plot of one copy, one that runs until stopped (it ends where it is stopped)
+/// and a journal that records no count owe none.
+pub fn copies_left(source: &str) -> Option<(u64, u64)> {
+    let count = serde_json::from_str::<serde_json::Value>(source)
+        .ok()
+        .and_then(|v| v.get(COPIES_KEY).and_then(serde_json::Value::as_u64))?;
+    let copy = copy_of(source);
+    (count != 0 && copy < count).then_some((copy + 1, count))
 }
 
 /// Whether the plans of a plot with `copies` end back where they started: each copy of several must, to start
@@ -178,7 +195,9 @@ fn copies_from<M: PlotMachine + ?Sized>(
         }
         let out = match journal {
             Some(j) => {
-                let source = |start: [i32; 4]| -> anyhow::Result<String> { Ok(with_copy((j.source)(start)?, copy)) };
+                let source = |start: [i32; 4]| -> anyhow::Result<String> {
+                    Ok(with_copy((j.source)(start)?, copy, copies.count))
+                };
                 let spec = JournalSpec { path: j.path, source: &source };
                 plot_with(machine, profile, steps, home, back, Some(spec), stops, events)?
             }
@@ -311,6 +330,18 @@ mod tests {
         }
     }
 
+    /// The start position a test's journal source record holds.
+    fn start_of(source: &str) -> [i32; 4] {
+        serde_json::from_str::<serde_json::Value>(source).unwrap()["start"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| i32::try_from(v.as_i64().unwrap()).unwrap())
+            .collect::<Vec<_>>()
+            .try_into()
+            .unwrap()
+    }
+
     /// A plot of two copies with refills every 100 mm, stopped early in its first copy (during its first line)
     /// and resumed from its journal, keeps both: one layer of lines 30, 50, 20, 40 and 90 mm long refills before
     /// the 40 (30 + 50 + 20 = 100 filled part 1) and before the 90 (40 + 90 > 100), so the first copy has its
@@ -343,14 +374,7 @@ mod tests {
         let state = crate::link::journal::load(&jp).unwrap();
         assert!(!state.complete);
         assert_eq!(copy_of(&state.source), 1);
-        let start: [i32; 4] = serde_json::from_str::<serde_json::Value>(&state.source).unwrap()["start"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| i32::try_from(v.as_i64().unwrap()).unwrap())
-            .collect::<Vec<_>>()
-            .try_into()
-            .unwrap();
+        let start = start_of(&state.source);
         let mut go_on = StopAt { plot: u32::MAX, at: 0, plots: 0, executed: 0, asked: vec![] };
         let out =
             resume_copies(&mut s, &profile, &steps, start, &state, &jp, false, false, &stops, &copies, &mut go_on)
@@ -364,6 +388,48 @@ mod tests {
         let state = crate::link::journal::load(&jp).unwrap();
         assert!(state.complete);
         assert_eq!(copy_of(&state.source), 2);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A plot of three copies stopped at its first paper change has finished its journal's copy, yet owes
+    /// copies 2 and 3: the journal says so, and its resume asks for both papers and draws both (three copies in
+    /// all, the first found finished). A plot of one copy, and one until stopped, owe none.
+    #[test]
+    fn a_plot_stopped_at_a_paper_change_still_owes_its_copies() {
+        let profile = MachineProfile::default_plotter();
+        let line = Polyline::new(vec![Point::new(20.0, 40.0), Point::new(50.0, 40.0)]);
+        let steps = drawing_to_steps(&profile, &Drawing::single_layer("l", vec![line])).unwrap();
+        let dir = std::env::temp_dir().join(format!("plotter-copies-owed-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let jp = dir.join("copies.journal");
+        let source = |start: [i32; 4]| Ok(serde_json::json!({ "start": start }).to_string());
+        let spec = JournalSpec { path: &jp, source: &source };
+        let copies = Copies { count: 3, page_delay_s: 0.0, paper_pause: true };
+        let mut s = Session::connect(SimTransport::new(plan::machine_config(&profile).unwrap(), None), "sim").unwrap();
+        let mut stop = Paper { answer: PenChangeChoice::Stop, asked: vec![] };
+        let stops = StopOptions::default();
+        let out = plot_copies(&mut s, &profile, &steps, true, false, Some(spec), &stops, &copies, &mut stop).unwrap();
+        assert_eq!(out.copies.len(), 1);
+        assert_eq!(out.ended_early.as_deref(), Some("stopped at the paper change before copy 2"));
+        let state = crate::link::journal::load(&jp).unwrap();
+        assert!(state.complete, "copy 1 finished");
+        assert_eq!(copies_left(&state.source), Some((2, 3)));
+        let start = start_of(&state.source);
+        let mut go_on = Paper { answer: PenChangeChoice::Continue, asked: vec![] };
+        let out =
+            resume_copies(&mut s, &profile, &steps, start, &state, &jp, false, false, &stops, &copies, &mut go_on)
+                .unwrap();
+        assert_eq!(out.copies.len(), 3, "copy 1 found finished, then copies 2 and 3");
+        assert!(out.copies[0].drawn_before && !out.copies[1].drawn_before && !out.copies[2].drawn_before);
+        assert_eq!(go_on.asked, ["put in fresh paper for copy 2 of 3", "put in fresh paper for copy 3 of 3"]);
+        let state = crate::link::journal::load(&jp).unwrap();
+        assert!(state.complete);
+        assert_eq!(copies_left(&state.source), None, "copy 3 of 3 was the last");
+        // One copy, and until stopped, owe nothing; a record without a count (older journals) neither.
+        assert_eq!(copies_left(&with_copy("{}".into(), 1, 1)), None);
+        assert_eq!(copies_left(&with_copy("{}".into(), 4, 0)), None);
+        assert_eq!(copies_left(r#"{"copy": 1}"#), None);
+        assert_eq!(copies_left(&with_copy("{}".into(), 2, 5)), Some((3, 5)));
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -489,7 +489,8 @@ pub(crate) struct ResumeLink<'a> {
 /// `args.port` (a finished plot is said to be finished, and that is a success).
 pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Result<()> {
     let state = journal::load(journal_path)?;
-    if state.complete {
+    // A plot stopped or killed at a paper change finished its copy but still owes the copies left.
+    if state.complete && job::copies::copies_left(&state.source).is_none() {
         println!("{}: that plot already finished; nothing to resume", journal_path.display());
         return Ok(());
     }
