@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::{Context as _, bail};
 use plotter_fw::framing::{self, rt_sequence};
-use plotter_fw::protocol::{RT_STATUS, Reply};
+use plotter_fw::protocol::{RT_FEED_HOLD, RT_STATUS, Reply};
 
 use super::Transport;
 use super::wait::{Wait, WaitError};
@@ -448,14 +448,43 @@ impl<T: Transport> Session<T> {
         bail!("{}: {line:?} could not be delivered intact after 10 attempts", self.name)
     }
 
-    /// Stop everything and raise the pen, for abort paths: a reset (the queue is dropped, the carriage stops where it
-    /// is; framed mode ends), then `G0 Z<up_z_mm>` in machine coordinates. Fails when the firmware does not answer.
+    /// Stop everything and raise the pen, for abort paths: a feed hold brings the axes to rest first (as GRBL
+    /// senders do before a reset: the firmware forgets the position of every axis stepping when a reset arrives,
+    /// and a Z forgotten on a machine whose Z switch lies below the paper cannot be homed without marking it), then
+    /// a reset (the queue is dropped, the carriage stays where it came to rest; framed mode ends), then
+    /// `G0 Z<up_z_mm>` in machine coordinates. Fails when the firmware does not answer.
     pub fn stop_and_lift(&mut self, up_z_mm: f64) -> anyhow::Result<()> {
+        self.hold_to_rest();
         self.reset()?;
         self.command(&format!("G90 G0 Z{up_z_mm:.3}"), COMMAND_TIMEOUT)?;
         // Wait for the lift to finish.
         self.wait_idle(Duration::from_millis(50))?;
         Ok(())
+    }
+
+    /// A feed hold until the machine reports itself at rest (`Hold:0`, idle, in alarm), for at most
+    /// [`COMMAND_TIMEOUT`] (a deceleration takes a fraction of a second); best effort: a machine that does not
+    /// answer, or is not moving, is left as it is for the reset that follows.
+    fn hold_to_rest(&mut self) {
+        let moving = |s: &Status| matches!(s.state.as_str(), "Run" | "Hold:1");
+        match self.status() {
+            Ok(s) if moving(&s) => {}
+            _ => return,
+        }
+        if self.send_realtime(RT_FEED_HOLD).is_err() {
+            return;
+        }
+        let deadline = self.transport.now() + COMMAND_TIMEOUT;
+        while self.transport.now() < deadline {
+            match self.status() {
+                Ok(s) if moving(&s) => {}
+                _ => return,
+            }
+            // Let time pass (virtual for the simulator: receiving advances it).
+            if self.transport.recv_line(Duration::from_millis(20)).is_err() {
+                return;
+            }
+        }
     }
 
     /// Reset the firmware (0x18) and wait for its banner: motion stops where it is, the queue is dropped, framed mode
@@ -573,6 +602,25 @@ mod tests {
         assert!(st.is_idle());
         let e = s.command("G1 X-5 F600", COMMAND_TIMEOUT).unwrap_err().to_string();
         assert!(e.contains("refused"), "{e}");
+    }
+
+    /// A stop while the XY kit's pen is lowering (a slow Z move, 1 mm/s from 4 mm towards the paper) brings Z to
+    /// rest with a feed hold before the reset, so Z keeps its position: the next `G28` keeps it (up to the pen-up
+    /// height, 1600 steps, then X and Y home) instead of being refused (error 16: a Z lost by a reset mid-move on a
+    /// machine whose Z switch lies below the paper cannot be homed without marking it).
+    #[test]
+    fn a_stop_while_z_moves_keeps_its_position_for_homing() {
+        let t = SimTransport::new(MachineConfig::xy_plotter(), None);
+        let mut s = Session::connect(t, "sim").unwrap();
+        s.home().unwrap();
+        s.command("G1 Z0 F60", COMMAND_TIMEOUT).unwrap();
+        let _ = s.transport.recv_line(Duration::from_millis(500)).unwrap();
+        assert_eq!(s.status().unwrap().state, "Run", "Z is moving");
+        s.stop_and_lift(4.0).unwrap();
+        let st = s.status().unwrap();
+        assert!(st.is_idle() && st.steps[2] == 1600, "{st:?}");
+        s.home().unwrap();
+        assert_eq!(s.status().unwrap().steps, [0, 0, 1600, 0]);
     }
 
     #[test]
