@@ -31,8 +31,8 @@
 //! assert!(report.pen_up_lower_bound_mm.unwrap() <= report.pen_up_after_mm);
 //! ```
 
-pub mod bound;
 mod boruvka;
+pub mod bound;
 pub mod cost;
 mod exact;
 mod held_karp;

@@ -90,7 +90,7 @@ pub(super) fn draw_edges(items: &mut [Item], paper: Rgb) -> usize {
 /// Most difference per channel (of 255) between two colours that count as the same for the edge rule: about 2 in
 /// CIE ΔE, what an eye can just tell apart side by side, so an edge drawn between them would be ink the picture
 /// does not show.
-pub const SAME_COLOR_STEP: u8 = 4;
+pub(crate) const SAME_COLOR_STEP: u8 = 4;
 
 /// Whether two paint colours count as the same ([`SAME_COLOR_STEP`]); no colour (a gradient) matches only itself.
 fn alike(a: Option<Rgb>, b: Option<Rgb>) -> bool {
