@@ -130,8 +130,9 @@ impl SimPty {
     }
 
     /// Start `plotter sim --qemu` (the firmware image on the emulated board); the trace goes to `dir`. The image
-    /// is built first if needed.
+    /// is built first if needed (one emulator starts at a time: [`QEMU_START`]).
     pub fn start_qemu(dir: &Path) -> SimPty {
+        let _one = qemu_start();
         let trace = dir.join("trace-qemu.txt");
         let mut child = Command::new(plotter_bin())
             .args(["sim", "--qemu", "--trace"])
@@ -260,6 +261,17 @@ impl RawPort {
         }
         out
     }
+}
+
+/// Held while a `plotter sim --qemu` starts, until it prints its device: it builds the firmware image when the
+/// image is missing or stale, then boots the emulator. Tests run side by side in one process (tests/main.rs), and
+/// two of them starting at once would build the same image together and boot two emulators on a loaded machine;
+/// one at a time, every later start finds the image built.
+pub static QEMU_START: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Take [`QEMU_START`] (a test that panicked while holding it left nothing half done that matters here).
+pub fn qemu_start() -> std::sync::MutexGuard<'static, ()> {
+    QEMU_START.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// Whether `qemu-system-arm` can run here. Absent outside CI: the caller skips with a message; absent in CI

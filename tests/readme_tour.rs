@@ -163,6 +163,8 @@ fn exec_line(command: &str) -> String {
 /// printed.
 fn start_emulator(dir: &Path, command: &str) -> Result<(Background, String), String> {
     let fast = if command.contains("--qemu") { "" } else { " --fast" };
+    // One emulator board starts at a time, as tests/plot_qemu.rs's do (the image is built by the first).
+    let _one = command.contains("--qemu").then(plotter_e2e::qemu_start);
     let mut child = shell(dir, &format!("{}{fast}", exec_line(command)))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
