@@ -132,6 +132,33 @@ impl JournalEntry {
     }
 }
 
+/// The key of the copy being drawn in a journal's source record (a JSON object), as the plot job writes it.
+pub const COPY_KEY: &str = "copy";
+
+/// The key of the plot's copy count (0 = until stopped) in a journal's source record.
+pub const COPIES_KEY: &str = "copies";
+
+/// The copy a journal's source record says was being drawn (1 when it names none).
+pub fn copy_of(source: &str) -> u64 {
+    serde_json::from_str::<serde_json::Value>(source)
+        .ok()
+        .and_then(|v| v.get(COPY_KEY).and_then(serde_json::Value::as_u64))
+        .filter(|c| *c >= 1)
+        .unwrap_or(1)
+}
+
+/// The copies a journal's plot still owes once the copy it records is finished: `Some((next copy, count))` when
+/// its source record counts more copies than the one it was drawing, so that a plot stopped or killed at a paper
+/// change is still there to resume. A plot of one copy, one that runs until stopped (it ends where it is stopped)
+/// and a journal that records no count owe none.
+pub fn copies_left(source: &str) -> Option<(u64, u64)> {
+    let count = serde_json::from_str::<serde_json::Value>(source)
+        .ok()
+        .and_then(|v| v.get(COPIES_KEY).and_then(serde_json::Value::as_u64))?;
+    let copy = copy_of(source);
+    (count != 0 && copy < count).then_some((copy + 1, count))
+}
+
 /// The journals in `dir` of plots that did not finish (a plot of several copies finishes with its last), the
 /// most recent first. Files that are not readable journals are skipped; a missing folder has none.
 pub fn resumable(dir: &Path) -> Result<Vec<JournalEntry>, StateDirError> {
@@ -139,7 +166,7 @@ pub fn resumable(dir: &Path) -> Result<Vec<JournalEntry>, StateDirError> {
     for (path, modified) in journal_files(dir)? {
         let Ok(state) = journal::load(&path) else { continue };
         // A finished journal of a plot that still owes copies (stopped or killed at a paper change) is resumable.
-        if state.complete && crate::job::copies::copies_left(&state.source).is_none() {
+        if state.complete && copies_left(&state.source).is_none() {
             continue;
         }
         let source: Option<serde_json::Value> = serde_json::from_str(&state.source).ok();
@@ -165,7 +192,7 @@ pub fn prune_finished(dir: &Path, keep: Duration) -> Result<usize, StateDirError
     let mut removed = 0;
     for (path, modified) in journal_files(dir)? {
         let old = now.duration_since(modified).is_ok_and(|age| age > keep);
-        let finished = |s: journal::JournalState| s.complete && crate::job::copies::copies_left(&s.source).is_none();
+        let finished = |s: journal::JournalState| s.complete && copies_left(&s.source).is_none();
         if old && journal::load(&path).is_ok_and(finished) {
             std::fs::remove_file(&path).map_err(|source| StateDirError::Io { path: path.clone(), source })?;
             removed += 1;

@@ -10,6 +10,7 @@ use super::stops::{PauseRequest, PauseWhy, StopOptions};
 use super::{JobOutcome, JournalSpec, dwell, park, plot_with};
 use crate::link::machine::PlotMachine;
 use crate::options::workflow::Copies;
+use crate::state_dir::{COPIES_KEY, COPY_KEY, copy_of};
 
 /// What the copies did.
 #[derive(Debug)]
@@ -34,23 +35,8 @@ impl CopiesOutcome {
     }
 }
 
-/// The key of the copy number in a journal's source record (a JSON object).
-const COPY_KEY: &str = "copy";
-
-/// The copy a journal's source record says was being drawn (1 when it names none).
-pub fn copy_of(source: &str) -> u64 {
-    serde_json::from_str::<serde_json::Value>(source)
-        .ok()
-        .and_then(|v| v.get(COPY_KEY).and_then(serde_json::Value::as_u64))
-        .filter(|c| *c >= 1)
-        .unwrap_or(1)
-}
-
-/// The key of the plot's copy count (0 = until stopped) in a journal's source record.
-const COPIES_KEY: &str = "copies";
-
 /// `source` with the copy being drawn and the plot's copy count recorded in it (a source that is no JSON object
-/// is left as it is).
+/// is left as it is); [`crate::state_dir::copy_of`] and [`crate::state_dir::copies_left`] read them back.
 fn with_copy(source: String, copy: u64, count: u64) -> String {
     match serde_json::from_str::<serde_json::Value>(&source) {
         Ok(serde_json::Value::Object(mut o)) => {
@@ -60,18 +46,6 @@ fn with_copy(source: String, copy: u64, count: u64) -> String {
         }
         _ => source,
     }
-}
-
-/// The copies a journal's plot still owes once the copy it records is finished: `Some((next copy, count))` when
-/// its source record counts more copies than the one it was drawing, so that a plot stopped or killed at a paper
-/// change is still there to resume. A plot of one copy, one that runs until stopped (it ends where it is stopped)
-/// and a journal that records no count owe none.
-pub fn copies_left(source: &str) -> Option<(u64, u64)> {
-    let count = serde_json::from_str::<serde_json::Value>(source)
-        .ok()
-        .and_then(|v| v.get(COPIES_KEY).and_then(serde_json::Value::as_u64))?;
-    let copy = copy_of(source);
-    (count != 0 && copy < count).then_some((copy + 1, count))
 }
 
 /// Whether the plans of a plot with `copies` end back where they started: each copy of several must, to start
@@ -215,6 +189,7 @@ mod tests {
     use crate::job::progress::JobProgress;
     use crate::link::session::Session;
     use crate::link::sim::SimTransport;
+    use crate::state_dir::copies_left;
     use plotter_path::geometry::steps::drawing_to_steps;
     use plotter_path::kurbo::Point;
     use plotter_path::motion::plan;

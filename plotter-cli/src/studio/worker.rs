@@ -371,7 +371,7 @@ fn plot_job(
     if job.summary.resume
         && let Ok(state) = journal::load(&journal_path)
     {
-        events.resuming_copy(job::copies::copy_of(&state.source), state.complete);
+        events.resuming_copy(crate::state_dir::copy_of(&state.source), state.complete);
     }
     let name = format!("{} (job {})", job.summary.drawing_name, job.summary.id);
     let finished = |o: &Option<CopiesOutcome>| match o {
@@ -412,7 +412,7 @@ fn plot_job_with(
     let out = if job.summary.resume && journal_path.exists() {
         let state = journal::load(&journal_path)?;
         // A journal that finished its copy goes on with the copies left (it was stopped at a paper change).
-        let copy = job::copies::copy_of(&state.source);
+        let copy = crate::state_dir::copy_of(&state.source);
         if state.complete && copies.count != 0 && copy >= copies.count {
             return Ok(None);
         }

@@ -490,7 +490,7 @@ pub(crate) struct ResumeLink<'a> {
 pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Result<()> {
     let state = journal::load(journal_path)?;
     // A plot stopped or killed at a paper change finished its copy but still owes the copies left.
-    if state.complete && job::copies::copies_left(&state.source).is_none() {
+    if state.complete && plotter_host::state_dir::copies_left(&state.source).is_none() {
         println!("{}: that plot already finished; nothing to resume", journal_path.display());
         return Ok(());
     }
