@@ -65,6 +65,7 @@ use plotter_fw::planner::{self, PlanBlock, Seg};
 
 use crate::MachineProfile;
 use crate::geometry::steps::StepDrawing;
+use crate::motion::piece_time::{fastest_piece, hop_corner_speed, path_accel, z_joins_may_curve};
 use crate::motion::plan::{PlanError, machine_config};
 
 /// The parts of a plot-time lower bound, seconds.
@@ -85,43 +86,11 @@ impl TimeBound {
     }
 }
 
-/// Fastest motion over `len` starting at ≤ `v0`, ending at ≤ `v1`, top speed `v`, acceleration `a`.
-fn min_time(len: f64, v0: f64, v1: f64, v: f64, a: f64) -> f64 {
-    if len <= 0.0 {
-        return 0.0;
-    }
-    // Entry and exit speeds the length can connect.
-    let v0 = v0.min(v).min((v1 * v1 + 2.0 * a * len).sqrt());
-    let v1 = v1.min(v).min((v0 * v0 + 2.0 * a * len).sqrt());
-    let peak = ((2.0 * a * len + v0 * v0 + v1 * v1) / 2.0).sqrt().min(v);
-    let d_acc = (peak * peak - v0 * v0) / (2.0 * a);
-    let d_dec = (peak * peak - v1 * v1) / (2.0 * a);
-    let cruise = (len - d_acc - d_dec).max(0.0);
-    (peak - v0) / a + (peak - v1) / a + cruise / v
-}
-
 /// The 90° junction speed of junction deviation `deviation` at acceleration `a`: the fastest a move may enter or
 /// leave a perpendicular one (XY travel into a pen drop, a stroke into the lift).
 fn corner_speed(a: f64, deviation: f64) -> f64 {
     let s = std::f64::consts::FRAC_1_SQRT_2;
     (a * deviation * s / (1.0 - s)).sqrt()
-}
-
-/// The junction speed between a Z-only move and a travel that climbs or descends at up to twice the hop slope
-/// (the turn is less than 90° by up to `atan(2·s)`), at acceleration `a`: an over-estimate of what the plan's
-/// hops enter and leave their Z moves with.
-pub(crate) fn hop_corner_speed(profile: &MachineProfile, a: f64) -> f64 {
-    let tilt = (2.0 * crate::motion::hop::rise_slope(profile)).atan();
-    let sin_half = ((std::f64::consts::FRAC_PI_2 + tilt) / 2.0).sin();
-    (a * profile.motion.junction_deviation_mm * sin_half / (1.0 - sin_half)).sqrt()
-}
-
-/// The largest acceleration along an XY path: `√(a_x² + a_y²)` from the axes' limits, lowered to the profile's
-/// cap for that kind of move (`pen.draw_accel_mm_s2` or `pen.travel_accel_mm_s2`) when it sets one — the plan caps
-/// every such block there ([`crate::motion::plan`]).
-pub(crate) fn path_accel(profile: &MachineProfile, cap: Option<f64>) -> f64 {
-    let axes = profile.axes.x.max_accel_mm_s2.hypot(profile.axes.y.max_accel_mm_s2);
-    cap.map_or(axes, |c| axes.min(c))
 }
 
 /// The least time a pen-up hop of at least `d` mm can take on `profile` in any direction, seconds (no lift): the
@@ -133,14 +102,6 @@ pub(crate) fn path_accel(profile: &MachineProfile, cap: Option<f64>) -> f64 {
 pub fn min_hop_seconds(profile: &MachineProfile) -> impl Fn(f64) -> f64 + use<> {
     let hop = crate::motion::hop_time::HopTime::of(profile);
     move |d: f64| hop.along_path(d)
-}
-
-/// Whether the planner may take the vertex between an XY move and a Z move (a stroke's end into the pen's rise,
-/// the rise into the hop, the hop into the drop) as a point of a smooth curve rather than a 90° corner: with the
-/// curve model on (`motion.curve_deviation_mm > 0`) a short chord next to the Z move makes it one, and the speed
-/// there is then capped only by both moves' feeds. The bound then allows those feeds there.
-pub(crate) fn z_joins_may_curve(profile: &MachineProfile) -> bool {
-    profile.motion.curve_deviation_mm > 0.0
 }
 
 /// The pen's moves as the bound counts them, seconds: per stroke its lift, drop and settle, and once per plot
@@ -215,17 +176,17 @@ pub(crate) fn lift_parts(profile: &MachineProfile) -> LiftParts {
     } else {
         (corner(az), hop_corner_speed(profile, az))
     };
-    let rise = min_time(c_mm, v_in, v_hop, vz, az);
-    let drop = min_time(c_mm, v_hop, 0.0, vz, az);
-    let cornered_lift = min_time(c_mm, corner(az), v_hop, vz, az);
+    let rise = fastest_piece(c_mm, v_in, v_hop, vz, az);
+    let drop = fastest_piece(c_mm, v_hop, 0.0, vz, az);
+    let cornered_lift = fastest_piece(c_mm, corner(az), v_hop, vz, az);
     // The plot's last lift goes all the way to the pen-up height and stops there for the settle: once, what it
     // takes beyond the rise its stroke is charged, whichever way that stroke ends into it.
     let up_mm = std::iter::once(profile.pen.down_z_mm)
         .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
         .fold(f64::INFINITY, |s, d| s.min((profile.pen.up_z_mm - d).abs() - 1.0 / z.steps_per_mm))
         .max(c_mm);
-    let last = (min_time(up_mm, v_in, 0.0, vz, az) - rise)
-        .min(min_time(up_mm, corner(az), 0.0, vz, az) - cornered_lift)
+    let last = (fastest_piece(up_mm, v_in, 0.0, vz, az) - rise)
+        .min(fastest_piece(up_mm, corner(az), 0.0, vz, az) - cornered_lift)
         .max(0.0);
     LiftParts { per_stroke: [rise, drop, settle], once: [last, 0.0, settle], cornered_lift }
 }
@@ -326,11 +287,6 @@ pub(crate) fn draw_accel(profile: &MachineProfile) -> f64 {
     path_accel(profile, profile.pen.draw_accel_mm_s2)
 }
 
-/// Fastest motion over `len` mm starting at ≤ `v0`, ending at ≤ `v1`, top speed `v`, acceleration `a`, seconds.
-pub(crate) fn fastest_piece(len: f64, v0: f64, v1: f64, v: f64, a: f64) -> f64 {
-    min_time(len, v0, v1, v, a)
-}
-
 /// Lower bound on the time to plot `steps` (strokes as the plan draws them) whose pen-up hops take at least
 /// `travel_lb_s` (e.g. [`crate::optimize::travel_lower_bound_mapped`] with [`min_hop_seconds`]). See the module
 /// docs.
@@ -390,7 +346,7 @@ pub fn plot_time_lower_bound(
             v[i] = v[i].min((v[i + 1] * v[i + 1] + 2.0 * a * len).sqrt());
         }
         for (i, &(len, top, a, _)) in pieces.iter().enumerate() {
-            bound.draw_s += (min_time(len, v[i], v[i + 1], top, a) - BLOCK_TICK_SLACK_S).max(0.0);
+            bound.draw_s += (fastest_piece(len, v[i], v[i + 1], top, a) - BLOCK_TICK_SLACK_S).max(0.0);
         }
     }
     #[allow(clippy::cast_precision_loss, reason = "stroke counts are far below 2^52")]
@@ -550,11 +506,11 @@ mod tests {
     #[test]
     fn one_dimensional_minimum_times() {
         // 100 mm at 60 mm/s, 1500 mm/s²: ramps of 1.2 mm each, 0.04 s each; 97.6 mm cruise → 1.6667 + 0.04.
-        assert!((min_time(100.0, 0.0, 0.0, 60.0, 1500.0) - (100.0 / 60.0 + 0.04)).abs() < 1e-12);
+        assert!((fastest_piece(100.0, 0.0, 0.0, 60.0, 1500.0) - (100.0 / 60.0 + 0.04)).abs() < 1e-12);
         // Too short to reach the feed: triangle, 2·√(L/a).
-        assert!((min_time(1.0, 0.0, 0.0, 60.0, 1500.0) - 2.0 * (1.0f64 / 1500.0).sqrt()).abs() < 1e-12);
+        assert!((fastest_piece(1.0, 0.0, 0.0, 60.0, 1500.0) - 2.0 * (1.0f64 / 1500.0).sqrt()).abs() < 1e-12);
         // Entering at full speed and leaving at rest: only the deceleration ramp.
-        assert!((min_time(100.0, 60.0, 0.0, 60.0, 1500.0) - (100.0 / 60.0 + 0.02)).abs() < 1e-12);
+        assert!((fastest_piece(100.0, 60.0, 0.0, 60.0, 1500.0) - (100.0 / 60.0 + 0.02)).abs() < 1e-12);
     }
 
     #[test]
@@ -597,7 +553,7 @@ mod tests {
         let a = 1500.0;
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let v_lift = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
-        assert!((b.draw_s - min_time(100.0, 0.0, v_lift, 60.0, a) + 1e-6).abs() < 5e-6, "{b:?}");
+        assert!((b.draw_s - fastest_piece(100.0, 0.0, v_lift, 60.0, a) + 1e-6).abs() < 5e-6, "{b:?}");
         let by_hand = 100.0 / 60.0 + 60.0 / a / 2.0 + (60.0 - v_lift).powi(2) / (2.0 * a * 60.0) - 1e-6;
         assert!((b.draw_s - by_hand).abs() < 5e-6, "{b:?} vs {by_hand}");
         // The plan leaves the line into the lift at that very corner: it is slower only by the rounding of its
@@ -629,7 +585,9 @@ mod tests {
         let b = plot_time_lower_bound(&p, &zig, 0.0).unwrap();
         assert_eq!(b.travel_s, 0.0);
         assert!(
-            (b.draw_s - 2.0 * min_time(10.0, 0.0, 0.0, 60.0, a) - min_time(10.0, 0.0, v_lift, 60.0, a) + 3e-6).abs()
+            (b.draw_s - 2.0 * fastest_piece(10.0, 0.0, 0.0, 60.0, a) - fastest_piece(10.0, 0.0, v_lift, 60.0, a)
+                + 3e-6)
+                .abs()
                 < 5e-6
         );
         let planned = plan(&p, &zig, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
@@ -702,12 +660,12 @@ mod tests {
         let t = (3100f64.sqrt() - 10.0) / 1500.0;
         // Entering at 60 mm/s, 1 mm before a 10 mm/s exit at 1500 mm/s²: the entry is at most √(10² + 2·1500·1),
         // and the whole millimetre is deceleration from there to 10.
-        assert!((min_time(1.0, 60.0, 10.0, 60.0, 1500.0) - t).abs() < 1e-12);
+        assert!((fastest_piece(1.0, 60.0, 10.0, 60.0, 1500.0) - t).abs() < 1e-12);
         // The mirror: from 10 mm/s the exit reaches at most √3100 in 1 mm.
-        assert!((min_time(1.0, 10.0, 60.0, 60.0, 1500.0) - t).abs() < 1e-12);
+        assert!((fastest_piece(1.0, 10.0, 60.0, 60.0, 1500.0) - t).abs() < 1e-12);
         // From 10 to 20 mm/s over 1 mm: a triangle peaking at √((2·1500·1 + 10² + 20²)/2) = √1750, below the feed.
         let t = (2.0 * 1750f64.sqrt() - 30.0) / 1500.0;
-        assert!((min_time(1.0, 10.0, 20.0, 60.0, 1500.0) - t).abs() < 1e-12);
+        assert!((fastest_piece(1.0, 10.0, 20.0, 60.0, 1500.0) - t).abs() < 1e-12);
     }
 
     #[test]
@@ -727,7 +685,8 @@ mod tests {
         let vz = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
         let vh = hop_corner_speed(&p, 500.0);
         // The clearance `c` up and down, and the plot's last lift on to the pen-up height `u` mm from the paper.
-        let lifts = |c: f64, u: f64| min_time(u, vz, 0.0, 25.0, 500.0) + min_time(c, vh, 0.0, 25.0, 500.0) + 0.1;
+        let lifts =
+            |c: f64, u: f64| fastest_piece(u, vz, 0.0, 25.0, 500.0) + fastest_piece(c, vh, 0.0, 25.0, 500.0) + 0.1;
         let at = |p: &MachineProfile| plot_time_lower_bound(p, &steps, 0.0).unwrap().lifts_s;
         // 1 mm of clearance, 4 mm from the paper to the pen-up height (less the step, of 400 per mm, that rounding
         // both heights may take off the span).

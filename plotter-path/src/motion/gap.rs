@@ -37,6 +37,7 @@ use plotter_fw::planner::{self, PlanBlock};
 use crate::MachineProfile;
 use crate::geometry::steps::StepDrawing;
 use crate::motion::bound::{self, TimeBound};
+use crate::motion::piece_time;
 use crate::motion::plan::{MotionPlan, MoveKind, PlanError, layer_pens, planner_blocks};
 
 /// A plan's time above its lower bound, by cause, seconds. The parts add up to the plan's time less the bound's.
@@ -114,7 +115,7 @@ fn fastest(pieces: &[Piece], caps: &[f64]) -> f64 {
     for (i, p) in pieces.iter().enumerate().rev() {
         v[i] = v[i].min((v[i + 1] * v[i + 1] + 2.0 * p.accel * p.len).sqrt());
     }
-    pieces.iter().enumerate().map(|(i, p)| bound::fastest_piece(p.len, v[i], v[i + 1], p.top, p.accel)).sum()
+    pieces.iter().enumerate().map(|(i, p)| piece_time::fastest_piece(p.len, v[i], v[i + 1], p.top, p.accel)).sum()
 }
 
 /// Seconds of `ticks` of the step timer (any plot's tick count fits f64's mantissa).

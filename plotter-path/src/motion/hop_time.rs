@@ -40,7 +40,7 @@
 //! `bx`, `by` from a point holds no point cheaper than the cost of `(bx, by)`.
 
 use crate::MachineProfile;
-use crate::motion::bound::{fastest_piece, hop_corner_speed, path_accel, z_joins_may_curve};
+use crate::motion::piece_time::{fastest_piece, hop_corner_speed, path_accel, z_joins_may_curve};
 
 /// One axis's limits for a hop: top speed, acceleration, and the distance its steps' rounding may take off.
 #[derive(Debug, Clone, Copy, PartialEq)]

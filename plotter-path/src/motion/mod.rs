@@ -5,6 +5,7 @@ pub mod bound;
 pub mod gap;
 pub mod hop;
 pub mod hop_time;
+pub(crate) mod piece_time;
 pub mod plan;
 pub mod print_plan;
 pub mod servo;

@@ -14,9 +14,24 @@
 //! The first round's answers, each component's cheapest hop to any other before any hop is added, are kept too:
 //! with no penalties and no start among the components, each is a path's nearest predecessor.
 
-use super::held_karp::EndGraph;
 use super::hop_cost::HopCost;
 use super::kdtree::KdTree;
+
+/// The travel graph of one layer (see the module docs), for the spanning trees here and the Held–Karp bound
+/// ([`super::held_karp::held_karp_from`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct EndGraph {
+    /// Every place a hop may start or end (page mm).
+    pub(crate) points: Vec<[f64; 2]>,
+    /// The node of each point.
+    pub(crate) node: Vec<u32>,
+    /// Number of nodes.
+    pub(crate) nodes: usize,
+    /// The two ends of every open path (distinct nodes, each in at most one pair).
+    pub(crate) fixed: Vec<(u32, u32)>,
+    /// The start position's node, when the start is known.
+    pub(crate) start: Option<u32>,
+}
 
 /// A least spanning tree (see the module docs).
 #[derive(Debug, Clone, Default, PartialEq)]

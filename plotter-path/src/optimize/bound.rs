@@ -42,10 +42,10 @@
 
 use kurbo::Point;
 
-use super::boruvka::{Tree, spanning_tree};
+use super::boruvka::{EndGraph, Tree, spanning_tree};
 use super::cost::CostModel;
 use super::exact::ExactLayer;
-use super::held_karp::{EndGraph, HELD_KARP_STEPS, held_karp_from};
+use super::held_karp::{HELD_KARP_STEPS, held_karp_from};
 use super::hop_cost::{ByLength, HopCost};
 use super::kdtree::KdTree;
 

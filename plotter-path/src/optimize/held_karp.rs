@@ -34,24 +34,9 @@
 //! only those exact values count. The number of steps is fixed (never a clock), so the bound depends only on the
 //! input.
 
-use super::boruvka::{Tree, UnionFind, spanning_tree};
+use super::boruvka::{EndGraph, Tree, UnionFind, spanning_tree};
 use super::hop_cost::HopCost;
 use super::kdtree::KdTree;
-
-/// The travel graph of one layer for the Held–Karp bound ([`held_karp_from`]).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct EndGraph {
-    /// Every place a hop may start or end (page mm).
-    pub(crate) points: Vec<[f64; 2]>,
-    /// The node of each point.
-    pub(crate) node: Vec<u32>,
-    /// Number of nodes.
-    pub(crate) nodes: usize,
-    /// The two ends of every open path (distinct nodes, each in at most one pair).
-    pub(crate) fixed: Vec<(u32, u32)>,
-    /// The start position's node, when the start is known.
-    pub(crate) start: Option<u32>,
-}
 
 /// The least spanning tree of the graph's nodes containing the fixed edges, each hop costing its hop cost plus
 /// `π_u + π_v` ([`spanning_tree`]): its cost, every node's number of tree edges, and its hops.
