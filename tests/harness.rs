@@ -99,6 +99,8 @@ pub struct SimPty {
     /// Device path to pass as `--port`.
     pub port: String,
     trace: PathBuf,
+    /// An emulated board's hold on [`QEMU_BOARD`], released once the board is gone (after `Drop` stops it).
+    _board: Option<std::sync::MutexGuard<'static, ()>>,
 }
 
 impl SimPty {
@@ -119,7 +121,7 @@ impl SimPty {
         let mut line = String::new();
         let stdout = child.stdout.take().expect("stdout");
         BufReader::new(stdout).read_line(&mut line).expect("sim prints its port");
-        SimPty { child: Some(child), port: line.trim().to_string(), trace }
+        SimPty { child: Some(child), port: line.trim().to_string(), trace, _board: None }
     }
 
     /// A figure from a summary line `# <line> … <key> <value> …`.
@@ -130,9 +132,9 @@ impl SimPty {
     }
 
     /// Start `plotter sim --qemu` (the firmware image on the emulated board); the trace goes to `dir`. The image
-    /// is built first if needed (one emulator starts at a time: [`QEMU_START`]).
+    /// is built first if needed; one board runs at a time ([`QEMU_BOARD`]).
     pub fn start_qemu(dir: &Path) -> SimPty {
-        let _one = qemu_start();
+        let board = qemu_board();
         let trace = dir.join("trace-qemu.txt");
         let mut child = Command::new(plotter_bin())
             .args(["sim", "--qemu", "--trace"])
@@ -145,7 +147,7 @@ impl SimPty {
         let stdout = child.stdout.take().expect("stdout");
         BufReader::new(stdout).read_line(&mut line).expect("sim prints its port");
         assert!(line.starts_with("/dev/"), "plotter sim --qemu printed {line:?} instead of a pty path");
-        SimPty { child: Some(child), port: line.trim().to_string(), trace }
+        SimPty { child: Some(child), port: line.trim().to_string(), trace, _board: Some(board) }
     }
 
     /// The trace file (written as the steps happen by `sim --qemu`; on exit by `sim --pty`).
@@ -263,15 +265,15 @@ impl RawPort {
     }
 }
 
-/// Held while a `plotter sim --qemu` starts, until it prints its device: it builds the firmware image when the
-/// image is missing or stale, then boots the emulator. Tests run side by side in one process (tests/main.rs), and
-/// two of them starting at once would build the same image together and boot two emulators on a loaded machine;
-/// one at a time, every later start finds the image built.
-pub static QEMU_START: std::sync::Mutex<()> = std::sync::Mutex::new(());
+/// Held by each `plotter sim --qemu` board from its start (which builds the firmware image when it is missing or
+/// stale) until it is stopped. Tests run side by side in one process (tests/main.rs); two boards at once would build
+/// the same image together, and each emulator takes a core to itself, so that a board booting beside another on a
+/// loaded machine missed the 12 s handshake. One at a time, every later board finds the image built.
+pub static QEMU_BOARD: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-/// Take [`QEMU_START`] (a test that panicked while holding it left nothing half done that matters here).
-pub fn qemu_start() -> std::sync::MutexGuard<'static, ()> {
-    QEMU_START.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+/// Take [`QEMU_BOARD`] (a test that panicked while holding it left nothing half done that matters here).
+pub fn qemu_board() -> std::sync::MutexGuard<'static, ()> {
+    QEMU_BOARD.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// Whether `qemu-system-arm` can run here. Absent outside CI: the caller skips with a message; absent in CI

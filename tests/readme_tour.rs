@@ -127,8 +127,13 @@ fn copy_tree(from: &Path, to: &Path) {
     }
 }
 
-/// A background program (an emulator or the web app), killed when dropped.
-struct Background(Child);
+/// A background program (an emulator or the web app), killed when dropped; an emulated board holds
+/// [`plotter_e2e::QEMU_BOARD`] until then.
+struct Background(
+    Child,
+    #[allow(dead_code, reason = "held, never read: released when the emulator is gone")]
+    Option<std::sync::MutexGuard<'static, ()>>,
+);
 
 impl Drop for Background {
     fn drop(&mut self) {
@@ -163,8 +168,8 @@ fn exec_line(command: &str) -> String {
 /// printed.
 fn start_emulator(dir: &Path, command: &str) -> Result<(Background, String), String> {
     let fast = if command.contains("--qemu") { "" } else { " --fast" };
-    // One emulator board starts at a time, as tests/plot_qemu.rs's do (the image is built by the first).
-    let _one = command.contains("--qemu").then(plotter_e2e::qemu_start);
+    // One emulated board at a time, as tests/plot_qemu.rs's (the image is built by the first).
+    let board = command.contains("--qemu").then(plotter_e2e::qemu_board);
     let mut child = shell(dir, &format!("{}{fast}", exec_line(command)))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -178,7 +183,7 @@ fn start_emulator(dir: &Path, command: &str) -> Result<(Background, String), Str
     if !device.starts_with("/dev/") {
         return Err(format!("printed {device:?} instead of a device"));
     }
-    Ok((Background(child), device))
+    Ok((Background(child, board), device))
 }
 
 /// Start `plotter serve …`, fetch its page, stop it with SIGTERM; the exit status and what it printed.
