@@ -139,7 +139,7 @@ pub(crate) fn spanning_tree(g: &EndGraph, tree: &KdTree, pi: &[f64], hop: &dyn H
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::optimize::hop_cost::ByLength;
     use crate::optimize::rng::SplitMix64;
@@ -150,8 +150,9 @@ mod tests {
         EndGraph { points: pts.to_vec(), node: (0..n).collect(), nodes: pts.len(), fixed: Vec::new(), start: None }
     }
 
-    /// Prim's algorithm over every pair, O(n²), under `cost`.
-    fn prim(pts: &[[f64; 2]], cost: &dyn Fn(f64, f64) -> f64) -> f64 {
+    /// Prim's algorithm over every pair, O(n²), under `cost` (of `|dx|`, `|dy|`): the least spanning tree's cost,
+    /// the independent answer the trees here and in [`super::super::bound`] are checked against.
+    pub(crate) fn prim(pts: &[[f64; 2]], cost: &dyn Fn(f64, f64) -> f64) -> f64 {
         let n = pts.len();
         let mut in_tree = vec![false; n];
         let mut dist = vec![f64::INFINITY; n];

@@ -292,22 +292,8 @@ mod tests {
         let pts: Vec<Point> = (0..300).map(|_| Point::new(r.unit() * 100.0, r.unit() * 100.0)).collect();
         let grp: Vec<u32> = (0..300).collect();
         let b = travel_lower_bound(&pts, &grp, 300, None, &CostModel::Distance);
-        // Prim's algorithm, O(n²).
-        let n = pts.len();
-        let mut in_tree = vec![false; n];
-        let mut dist = vec![f64::INFINITY; n];
-        dist[0] = 0.0;
-        let mut total = 0.0;
-        for _ in 0..n {
-            let u = (0..n).filter(|&i| !in_tree[i]).min_by(|&a, &b| dist[a].total_cmp(&dist[b])).unwrap();
-            in_tree[u] = true;
-            total += dist[u];
-            for v in 0..n {
-                if !in_tree[v] {
-                    dist[v] = dist[v].min(pts[u].distance(pts[v]));
-                }
-            }
-        }
+        let pts: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+        let total = super::super::boruvka::tests::prim(&pts, &|dx, dy| dx.hypot(dy));
         assert!((b.spanning_tree - total).abs() < 1e-9, "{} vs {total}", b.spanning_tree);
     }
 
