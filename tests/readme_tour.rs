@@ -316,10 +316,15 @@ fn every_tour_command_runs_as_pasted() {
         if p.command.starts_with("alias ") {
             continue;
         }
-        // The example device paths this line names, replaced by the emulators started for them.
+        // The example device paths this line names, replaced by the emulators started for them, in one pass: a real
+        // device may look like another line's example (`/dev/pts/9`), so a replacement must not be replaced again.
         let mut command = p.command.clone();
-        for (example, real) in &devices {
-            command = command.replace(example.as_str(), real);
+        let named: Vec<(&String, &String)> = devices.iter().filter(|(ex, _)| p.command.contains(ex.as_str())).collect();
+        for (i, (example, _)) in named.iter().enumerate() {
+            command = command.replace(example.as_str(), &format!("\u{0}{i}\u{0}"));
+        }
+        for (i, (_, real)) in named.iter().enumerate() {
+            command = command.replace(&format!("\u{0}{i}\u{0}"), real);
         }
         let started = Instant::now();
         let result = if p.command.starts_with("plotter sim --pty") || p.command.starts_with("plotter sim --qemu") {
