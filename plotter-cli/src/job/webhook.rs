@@ -234,6 +234,18 @@ pub(crate) mod receiver {
         });
         (url, seen)
     }
+
+    /// The events a receiver saw: (event, message) each, in order.
+    pub(crate) fn events(seen: &Seen) -> Vec<(String, String)> {
+        seen.lock()
+            .unwrap()
+            .iter()
+            .map(|(_, body)| {
+                let v: serde_json::Value = serde_json::from_str(body).unwrap();
+                (v["event"].as_str().unwrap().to_string(), v["message"].as_str().unwrap().to_string())
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]
@@ -336,15 +348,7 @@ mod tests {
             .unwrap();
         assert_eq!(out.copies.len(), 2, "the copy under way and the one left");
         let planned: f64 = out.copies.iter().map(|c| c.plan.seconds()).sum();
-        let seen: Vec<(String, String)> = seen
-            .lock()
-            .unwrap()
-            .iter()
-            .map(|(_, body)| {
-                let v: serde_json::Value = serde_json::from_str(body).unwrap();
-                (v["event"].as_str().unwrap().to_string(), v["message"].as_str().unwrap().to_string())
-            })
-            .collect();
+        let seen = super::receiver::events(&seen);
         let expected = [
             ("pause".to_string(), "put in fresh paper for copy 2 of 2".to_string()),
             ("finished".to_string(), format!("2 copies plotted, {planned:.1} s planned")),

@@ -808,15 +808,7 @@ mod tests {
         until("the job's end", || state_of(&studio, id) == JobState::Done);
         assert_eq!(slot.status().prompt, None);
         until("the webhook's end event", || seen.lock().unwrap().len() == 2);
-        let events: Vec<(String, String)> = seen
-            .lock()
-            .unwrap()
-            .iter()
-            .map(|(_, body)| {
-                let v: serde_json::Value = serde_json::from_str(body).unwrap();
-                (v["event"].as_str().unwrap().to_string(), v["message"].as_str().unwrap().to_string())
-            })
-            .collect();
+        let events = crate::job::webhook::receiver::events(&seen);
         assert_eq!(events[0].0, "pen_change");
         assert_eq!(events[0].1, "pen change 1/1: load pen red fineliner 0.5 (#ff0000) for layer \"red\"");
         assert_eq!(events[1].0, "finished");
@@ -829,18 +821,6 @@ mod tests {
     /// A 20 mm square: 80 mm drawn per copy.
     const SQUARE: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="60mm" viewBox="0 0 60 60">
       <rect x="10" y="10" width="20" height="20" fill="none" stroke="black"/></svg>"#;
-
-    /// The events a webhook receiver saw: (event, message) each.
-    fn hook_events(seen: &crate::job::webhook::receiver::Seen) -> Vec<(String, String)> {
-        seen.lock()
-            .unwrap()
-            .iter()
-            .map(|(_, body)| {
-                let v: serde_json::Value = serde_json::from_str(body).unwrap();
-                (v["event"].as_str().unwrap().to_string(), v["message"].as_str().unwrap().to_string())
-            })
-            .collect()
-    }
 
     /// Wait for the machine to park with a prompt; (the prompt, the card's copy).
     fn parked(slot: &Slot) -> (String, Option<String>) {
@@ -868,7 +848,7 @@ mod tests {
         let page: serde_json::Value = serde_json::from_str(&studio.snapshot_json().unwrap()).unwrap();
         assert_eq!(page["machines"][0]["copy"], "copy 2 of 3");
         until("the webhook's paper event", || !seen.lock().unwrap().is_empty());
-        assert_eq!(hook_events(&seen), [("pause".to_string(), paper(2))]);
+        assert_eq!(crate::job::webhook::receiver::events(&seen), [("pause".to_string(), paper(2))]);
         // The studio ends while the machine waits for paper: the job is interrupted, not done.
         studio.end();
         for w in workers {
@@ -876,7 +856,7 @@ mod tests {
         }
         drop(studio);
         until("the webhook's error event", || seen.lock().unwrap().len() == 2);
-        assert_eq!(hook_events(&seen)[1].0, "error");
+        assert_eq!(crate::job::webhook::receiver::events(&seen)[1].0, "error");
         let (studio, workers) = open(&dir, vec![parse_machine("a=sim").unwrap()]);
         assert_eq!(state_of(&studio, id), JobState::Interrupted);
         let slot = Arc::clone(studio.slot("a").unwrap());
@@ -897,7 +877,7 @@ mod tests {
         assert!(executed - planned >= 1.0, "{last}");
         assert_eq!(slot.status().copy, None);
         until("the webhook's end", || seen.lock().unwrap().len() == 5);
-        let events = hook_events(&seen);
+        let events = crate::job::webhook::receiver::events(&seen);
         let names: Vec<&str> = events.iter().map(|e| e.0.as_str()).collect();
         assert_eq!(names, ["pause", "error", "pause", "pause", "finished"]);
         assert_eq!((events[2].1.clone(), events[3].1.clone()), (paper(2), paper(3)));
