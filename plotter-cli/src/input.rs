@@ -677,32 +677,38 @@ mod tests {
         assert!(e.contains("PNG and JPEG") && e.contains("G-code") && e.contains("HP-GL"), "{e}");
     }
 
+    /// The input and layout flags of a plot, parsed on their own.
+    #[derive(clap::Parser)]
+    struct PageFlags {
+        #[command(flatten)]
+        input: InputArgs,
+        #[command(flatten)]
+        layout: LayoutArgs,
+    }
+
+    /// A 37 × 20 mm card whose SVG holds `body`, written to a fresh folder: (the folder, the file).
+    fn card_svg(name: &str, body: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+        let dir = std::env::temp_dir().join(format!("plotter-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let card = dir.join("card.svg");
+        let svg = format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="37mm" height="20mm" viewBox="0 0 37 20">{body}</svg>"#
+        );
+        std::fs::write(&card, svg).unwrap();
+        (dir, card)
+    }
+
     /// A 37 × 20 mm card (a grey rectangle) fitted to a 200 mm square page with 10 mm margins is magnified
     /// 180 / 37 = 4.865×. Hatched at 0.8 mm, its horizontal lines must lie 0.8 mm apart on the page (hatched before
     /// the layout they were 0.8 · 4.865 = 3.89 mm apart); with `--hatch tone` its mid grey (#808080: darkness
     /// 0.784) gets two crossing families 0.3 / (1 − √0.2159) = 0.5665 mm apart on the page, the pen being 0.3 mm.
     #[test]
     fn hatch_spacing_is_measured_on_the_laid_out_page() {
-        #[derive(clap::Parser)]
-        struct W {
-            #[command(flatten)]
-            input: InputArgs,
-            #[command(flatten)]
-            layout: LayoutArgs,
-        }
-        let dir = std::env::temp_dir().join(format!("plotter-hatch-fit-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let card = dir.join("card.svg");
-        std::fs::write(
-            &card,
-            r##"<svg xmlns="http://www.w3.org/2000/svg" width="37mm" height="20mm" viewBox="0 0 37 20">
-<rect x="0" y="0" width="37" height="20" fill="#808080"/></svg>"##,
-        )
-        .unwrap();
+        let (dir, card) = card_svg("hatch-fit", r##"<rect x="0" y="0" width="37" height="20" fill="#808080"/>"##);
         let profile = MachineProfile::default_plotter();
         let load = |flags: &[&str]| {
             let base = ["t", "--paper", "200x200", "--margin", "10", "--fit", "--pen-width", "0.3"];
-            let w = <W as clap::Parser>::try_parse_from(base.iter().chain(flags)).unwrap();
+            let w = <PageFlags as clap::Parser>::try_parse_from(base.iter().chain(flags)).unwrap();
             load_laid_out(&card, &w.input, &profile, &w.layout).unwrap().drawing
         };
         // The gaps between neighbouring horizontal line heights, away from the card's edges.
@@ -734,7 +740,7 @@ mod tests {
             );
             let profile = MachineProfile::from_toml(&toml, "t.toml").unwrap();
             let base = ["t", "--paper", "200x200", "--margin", "10", "--fit", "--layer-by", "color"];
-            let w = <W as clap::Parser>::try_parse_from(base).unwrap();
+            let w = <PageFlags as clap::Parser>::try_parse_from(base).unwrap();
             load_laid_out(&card, &w.input, &profile, &w.layout).unwrap().drawing
         };
         let spaced = gaps(&with_pen("spacing_mm = 0.8"));
@@ -752,24 +758,10 @@ mod tests {
     /// 0.3 · 35 / 37 = 0.284 mm apart.
     #[test]
     fn fill_strokes_passes_are_a_pen_width_apart_on_the_laid_out_page() {
-        #[derive(clap::Parser)]
-        struct W {
-            #[command(flatten)]
-            input: InputArgs,
-            #[command(flatten)]
-            layout: LayoutArgs,
-        }
-        let dir = std::env::temp_dir().join(format!("plotter-fill-strokes-fit-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let card = dir.join("frame.svg");
-        std::fs::write(
-            &card,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="37mm" height="20mm" viewBox="0 0 37 20">
-<rect x="1" y="1" width="35" height="18" fill="none" stroke="black" stroke-width="2"/></svg>"#,
-        )
-        .unwrap();
+        let frame = r#"<rect x="1" y="1" width="35" height="18" fill="none" stroke="black" stroke-width="2"/>"#;
+        let (dir, card) = card_svg("fill-strokes-fit", frame);
         let flags = ["t", "--paper", "200x200", "--margin", "10", "--fit", "--pen-width", "0.3", "--fill-strokes"];
-        let w = <W as clap::Parser>::try_parse_from(flags).unwrap();
+        let w = <PageFlags as clap::Parser>::try_parse_from(flags).unwrap();
         let d = load_laid_out(&card, &w.input, &MachineProfile::default_plotter(), &w.layout).unwrap().drawing;
         std::fs::remove_dir_all(&dir).ok();
         let bounds = d.bbox().unwrap();
@@ -812,6 +804,6 @@ mod tests {
             #[command(flatten)]
             input: InputArgs,
         }
-        <W as clap::Parser>::parse_from(["t"]).input
+        <PageFlags as clap::Parser>::parse_from(["t"]).input
     }
 }
