@@ -28,8 +28,16 @@
 //!     refused ([`ErrorCode::HomingWouldMark`](crate::errors::ErrorCode::HomingWouldMark)) and nothing moves —
 //!     moving X and Y first could drag a lowered pen. The operator lifts the pen clear or moves the carriage off
 //!     the paper and asks for Z alone (`G28 Z`), which always homes it;
-//!   - Z was **never homed** since the firmware started: nothing is known to keep or to refuse, and Z is homed
-//!     where the carriage stands (a machine is switched on with its carriage at the home corner).
+//!   - Z was **never homed** since the firmware started: a plain `G28` homes it where the carriage stands (a
+//!     machine is switched on with its carriage at the home corner, and every G-code sender starts with `G28`).
+//!     But a power cycle, a board swapped or flashed mid-plot also leave Z never homed, with the carriage over
+//!     the drawing and the pen perhaps on it. The firmware cannot tell the two apart; the host can, so it says
+//!     which: **`G28 P1`** ("the carriage may stand over a drawing", what the host's resume sends) treats a Z
+//!     never homed like a lost one — refused, nothing moves. The host then lifts the pen, homes X and Y alone
+//!     (`G28 X Y`: Z untouched), travels to the spot its profile names for homing Z off the paper, and homes Z
+//!     there (`G28 Z`); without such a spot it asks the user to move the carriage off the paper and home Z.
+//!     Refusing every first `G28` instead would make each power-up need that spot or the user's hands, on the
+//!     machine whose carriage is usually where the last plot left it at home.
 use crate::axis::{Axis, NUM_AXES};
 use crate::config::MachineConfig;
 use crate::errors::{AlarmCode, ErrorCode};
@@ -88,17 +96,19 @@ impl HomingCycle {
     /// The cycle `G28` runs for the axes in `mask` (0 = all), given the axes whose position is known (`homed`) and
     /// those whose position was known and then lost (`lost`); see the module docs for the order and its reason. A
     /// full cycle keeps a known Z whose switch is at the minimum end, and is refused when such a Z was lost and the
-    /// pen touches the paper before its switch. Naming Z (`G28 Z`) always homes it.
-    pub fn plan(config: &MachineConfig, mask: u8, homed: u8, lost: u8) -> Result<Self, ErrorCode> {
+    /// pen touches the paper before its switch — or was never homed, when `over_drawing` (`G28 P1`: the carriage
+    /// may stand over a drawing, as after a power cycle mid-plot). Naming Z (`G28 Z`) always homes it.
+    pub fn plan(config: &MachineConfig, mask: u8, homed: u8, lost: u8, over_drawing: bool) -> Result<Self, ErrorCode> {
         let z = config.axis(Axis::Z);
         let z_seeks_down = z.is_limited() && !z.home_at_max;
         if mask != 0 || !z_seeks_down {
             return Ok(Self::new(config, mask));
         }
         let zb = Axis::Z.bit();
+        let unknown = if over_drawing { zb } else { lost & zb };
         if homed & zb != 0 {
             Ok(Self::keeping_z(config))
-        } else if lost & zb != 0 && !config.homing.pen_clear_at_z_switch {
+        } else if unknown != 0 && !config.homing.pen_clear_at_z_switch {
             Err(ErrorCode::HomingWouldMark)
         } else {
             Ok(Self::new(config, 0))
@@ -255,24 +265,50 @@ mod tests {
             HomingStep::Move(b, m) => (b.steps, m),
             other => panic!("{other:?}"),
         };
-        let mut kept = HomingCycle::plan(&c, 0, all, 0).unwrap();
+        let mut kept = HomingCycle::plan(&c, 0, all, 0, false).unwrap();
         assert_eq!(first(&mut kept, &c), ([0, 0, 1400, 0], NO_STOP));
         assert_eq!(kept.homed(), z, "Z counts as homed: its position is known");
         let xy = Switches::Homing { axes: Axis::X.bit() | Axis::Y.bit() };
         assert_eq!(first(&mut kept, &c), ([-50_400, -35_640, 0, 0], xy));
-        assert_eq!(HomingCycle::plan(&c, 0, 0, z).unwrap_err(), ErrorCode::HomingWouldMark);
-        let mut named = HomingCycle::plan(&c, z, 0, z).unwrap();
+        assert_eq!(HomingCycle::plan(&c, 0, 0, z, false).unwrap_err(), ErrorCode::HomingWouldMark);
+        let mut named = HomingCycle::plan(&c, z, 0, z, false).unwrap();
         assert_eq!(first(&mut named, &c), (z_seek, Switches::Homing { axes: z }));
-        let mut fresh = HomingCycle::plan(&c, 0, 0, 0).unwrap();
+        let mut fresh = HomingCycle::plan(&c, 0, 0, 0, false).unwrap();
         assert_eq!(first(&mut fresh, &c), (z_seek, Switches::Homing { axes: z }));
         c.homing.pen_clear_at_z_switch = true;
-        let mut clear = HomingCycle::plan(&c, 0, 0, z).unwrap();
+        let mut clear = HomingCycle::plan(&c, 0, 0, z, false).unwrap();
         assert_eq!(first(&mut clear, &c), (z_seek, Switches::Homing { axes: z }));
         // A switch at the maximum end lifts the pen: Z is sought upwards, known or not.
         let mut up = MachineConfig::xy_plotter();
         up.axes[Axis::Z.index()].home_at_max = true;
-        let mut h = HomingCycle::plan(&up, 0, all, z).unwrap();
+        let mut h = HomingCycle::plan(&up, 0, all, z, false).unwrap();
         assert_eq!(first(&mut h, &up), ([0, 0, 6000, 0], Switches::Homing { axes: z }));
+    }
+
+    /// `G28 P1` (the carriage may stand over a drawing: the host's resume after a power cycle) refuses a Z never
+    /// homed on the kit, whose pen touches 2 mm before its switch, where a plain `G28` seeks it (−6000 steps);
+    /// a known Z is still kept (+1400 to the pen-up height), `G28 Z` still homes it, and a profile whose pen
+    /// clears the paper at the switch homes it where the carriage stands.
+    #[test]
+    fn over_a_drawing_a_z_never_homed_is_refused_like_a_lost_one() {
+        let mut c = MachineConfig::xy_plotter();
+        let (z, all) = (Axis::Z.bit(), 0b111);
+        let pos = [5000, 4000, 200, 0];
+        let first = |h: &mut HomingCycle, c: &MachineConfig| match h.next(c, 0, 0, &pos) {
+            HomingStep::Move(b, m) => (b.steps, m),
+            other => panic!("{other:?}"),
+        };
+        let z_seek = ([0, 0, -6000, 0], Switches::Homing { axes: z });
+        assert_eq!(HomingCycle::plan(&c, 0, 0, 0, true).unwrap_err(), ErrorCode::HomingWouldMark);
+        assert_eq!(
+            HomingCycle::plan(&c, 0, Axis::X.bit() | Axis::Y.bit(), 0, true).unwrap_err(),
+            ErrorCode::HomingWouldMark
+        );
+        assert_eq!(first(&mut HomingCycle::plan(&c, 0, 0, 0, false).unwrap(), &c), z_seek);
+        assert_eq!(first(&mut HomingCycle::plan(&c, 0, all, 0, true).unwrap(), &c), ([0, 0, 1400, 0], NO_STOP));
+        assert_eq!(first(&mut HomingCycle::plan(&c, z, 0, 0, true).unwrap(), &c), z_seek);
+        c.homing.pen_clear_at_z_switch = true;
+        assert_eq!(first(&mut HomingCycle::plan(&c, 0, 0, 0, true).unwrap(), &c), z_seek);
     }
 
     #[test]

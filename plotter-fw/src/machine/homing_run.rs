@@ -57,9 +57,10 @@ impl Homing {
     }
 
     /// Start a cycle for the axes of `mask` (0: all), in the order [`HomingCycle::plan`] gives (a known Z is kept);
-    /// refused, with nothing started, when it would lower the pen onto the paper.
-    pub(crate) fn start(&mut self, cfg: &MachineConfig, mask: u8) -> Result<(), ErrorCode> {
-        self.cycle = Some(HomingCycle::plan(cfg, mask, self.homed, self.lost)?);
+    /// refused, with nothing started, when it would lower the pen onto the paper (`over_drawing`: `G28 P1`, a Z
+    /// never homed counts as lost).
+    pub(crate) fn start(&mut self, cfg: &MachineConfig, mask: u8, over_drawing: bool) -> Result<(), ErrorCode> {
+        self.cycle = Some(HomingCycle::plan(cfg, mask, self.homed, self.lost, over_drawing)?);
         Ok(())
     }
 

@@ -484,7 +484,9 @@ impl<H: Hal, const RX: usize, const Q: usize, T: Heaters> Machine<H, RX, Q, T> {
             return Outcome::Blocked;
         }
         let mask = Axis::ALL.iter().filter(|a| w.has(a.letter() as u8)).fold(0, |m, a| m | a.bit());
-        if let Err(code) = self.homing.start(&self.cfg, mask) {
+        // `P1`: the carriage may stand over a drawing (the host's resume), see `crate::homing`.
+        let over_drawing = w.get(b'P').is_some_and(|p| p != 0);
+        if let Err(code) = self.homing.start(&self.cfg, mask, over_drawing) {
             self.reply_error(code, format_args!(": lift the pen clear or move the carriage off the paper, then G28 Z"));
             return Outcome::Done;
         }
