@@ -63,7 +63,10 @@ impl Transport for Cut {
 }
 
 fn drawing() -> (MachineProfile, StepDrawing) {
-    let profile = MachineProfile::default_plotter();
+    let mut profile = MachineProfile::default_plotter();
+    // The restarted firmware knows nothing of Z, whose switch lies below the paper: the resume homes Z at this spot
+    // off the drawing (pen lifted, X and Y homed first) instead of refusing.
+    profile.homing.z_home_xy_mm = Some([400.0, 280.0]);
     let imported =
         import_svg(SAMPLE_SVG.as_bytes(), "sample.svg", &ResourcePolicy::DataUrlsOnly, &SvgOptions::default()).unwrap();
     let steps = drawing_to_steps(&profile, &imported.drawing).unwrap();

@@ -10,6 +10,8 @@ pub mod copies;
 pub mod hpgl;
 pub mod load;
 pub mod page;
+#[cfg(test)]
+mod power_cycle_tests;
 pub mod prepare;
 pub mod progress;
 pub mod stepped;
@@ -192,7 +194,12 @@ pub fn resume_with<M: PlotMachine + ?Sized>(
     eprintln!("resuming at block {done} of {} ({} certainly executed)", full.blocks.len(), state.executed);
     settle_alarm(machine, !trust_position, events)?;
     if !trust_position {
-        machine.home()?;
+        // The carriage may stand over the drawing with the pen's height unknown (a power cycle mid-plot): homing
+        // never lowers the pen there (see `crate::link::home_axes`).
+        if let Some(done) = machine.home_over_drawing(profile)? {
+            eprintln!("{done}");
+            events.notice(&done);
+        }
     }
     let journal = Journal::append(journal_path, state)?;
     let busy_before = machine.busy_ticks();

@@ -44,6 +44,24 @@ pub trait PlotMachine {
     fn firmware(&self) -> Firmware;
     /// Run the homing cycle; afterwards the machine stands at the profile's homed position.
     fn home(&mut self) -> anyhow::Result<()>;
+    /// Home where the carriage may stand over a drawing (a resume): the firmware keeps a known pen height and
+    /// never homes Z onto the paper (see [`super::home_axes`]); returns what was done beyond a plain homing, for
+    /// the user. Others: [`PlotMachine::home`].
+    fn home_over_drawing(&mut self, _profile: &MachineProfile) -> anyhow::Result<Option<String>> {
+        self.home().map(|()| None)
+    }
+    /// Home only the named axes (`plotter home --z`); none named: [`PlotMachine::home`]. Only our firmware homes
+    /// axes one by one.
+    fn home_axes(&mut self, axes: super::home_axes::HomeAxes) -> anyhow::Result<()> {
+        if axes.is_all() {
+            return self.home();
+        }
+        anyhow::bail!(
+            "{} ({:?} firmware) homes all its axes at once: run `plotter home` without --x, --y or --z",
+            self.name(),
+            self.firmware()
+        )
+    }
     /// The current position, steps of the plot's coordinates.
     fn position(&mut self) -> anyhow::Result<MachinePos>;
     /// Stream `plan` (which starts where the machine stands); returns when it has been executed.
@@ -93,6 +111,14 @@ impl<T: Transport + 'static> PlotMachine for Session<T> {
 
     fn home(&mut self) -> anyhow::Result<()> {
         Session::home(self)
+    }
+
+    fn home_over_drawing(&mut self, profile: &MachineProfile) -> anyhow::Result<Option<String>> {
+        Session::home_over_drawing(self, profile)
+    }
+
+    fn home_axes(&mut self, axes: super::home_axes::HomeAxes) -> anyhow::Result<()> {
+        Session::home_axes(self, axes)
     }
 
     fn position(&mut self) -> anyhow::Result<MachinePos> {

@@ -11,6 +11,7 @@ pub mod console;
 pub mod ebb;
 pub mod faults;
 pub mod grbl;
+pub mod home_axes;
 pub mod hpgl;
 pub mod jog;
 pub mod journal;

@@ -511,7 +511,12 @@ impl<T: Transport> Session<T> {
 
     /// Run the homing cycle (`G28`, sent checked).
     pub fn home(&mut self) -> anyhow::Result<()> {
-        match self.command_checked_within("G28", HOMING_TIMEOUT, true) {
+        self.home_with("G28")
+    }
+
+    /// Run a homing line (`G28` with its axis letters or `P1`, sent checked); see `plotter_fw::homing`.
+    pub fn home_with(&mut self, line: &str) -> anyhow::Result<()> {
+        match self.command_checked_within(line, HOMING_TIMEOUT, true) {
             Ok(_) => Ok(()),
             Err(e) if e.downcast_ref::<WaitError>().is_some_and(|w| matches!(w, WaitError::Stopped(_))) => {
                 // Stopped while homing: the firmware stops the cycle where it is (the pen went up first).

@@ -310,6 +310,12 @@ pub struct HomingProfile {
     /// stands, which would press the pen onto the drawing.
     #[serde(default)]
     pub pen_clear_at_z_switch: bool,
+    /// Where Z may be homed when its height is unknown on a machine whose pen touches before its Z switch (a
+    /// power cycle mid-plot): machine X and Y, mm, a spot off the paper where the pen may touch the bed. The
+    /// resume then lifts the pen, homes X and Y, travels there and homes Z. Absent (the default): the resume
+    /// refuses and asks the user to move the carriage off the paper and home Z (`plotter home --z`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z_home_xy_mm: Option<[f64; 2]>,
 }
 
 /// Serial link and firmware buffer sizes.
@@ -608,6 +614,14 @@ impl MachineProfile {
                 && (0.0..=self.axes.y.travel_mm).contains(&park.y_mm))
         {
             return Err(bad("park", "must lie within the X and Y travel"));
+        }
+        if let Some([x, y]) = self.homing.z_home_xy_mm
+            && !(x.is_finite()
+                && y.is_finite()
+                && (0.0..=self.axes.x.travel_mm).contains(&x)
+                && (0.0..=self.axes.y.travel_mm).contains(&y))
+        {
+            return Err(bad("homing.z_home_xy_mm", "must lie within the X and Y travel"));
         }
         within("link.baud", f64::from(self.link.baud), &limits::BAUD)?;
         within("link.rx_buffer_bytes", f64::from(self.link.rx_buffer_bytes), &limits::RX_BUFFER)?;
