@@ -3,8 +3,10 @@
 //! so a slow or absent receiver never holds the plot up: each has a short timeout and is tried three more times
 //! (after 0.5, 1 and 2 s); a delivery that still fails is reported as a warning.
 //!
-//! The body: `{"machine": ..., "job": ..., "event": "finished" | "error" | "pen_change" | "pause", "message": ...,
-//! "time": <seconds since 1970>, "elapsed_s": <seconds since the plot started>}`.
+//! The body: `{"machine": ..., "job": ..., "event": "finished" | "stopped" | "error" | "pen_change" | "pause",
+//! "message": ..., "time": <seconds since 1970>, "elapsed_s": <seconds since the plot started>}`. `stopped`: the
+//! plot ended before it finished because it was asked to — the user's stop, a signal, a studio shutting down — and
+//! its journal keeps it to resume (the message says why and where); `error`: it failed.
 
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
@@ -28,7 +30,7 @@ pub struct HookEvent {
     pub machine: String,
     /// The job (the drawing's name, or the queue's job).
     pub job: String,
-    /// `finished`, `error`, `pen_change` or `pause`.
+    /// `finished`, `stopped`, `error`, `pen_change` or `pause`.
     pub event: String,
     /// What happened, for a person.
     pub message: String,
@@ -123,12 +125,32 @@ impl Webhook {
     }
 }
 
+/// How a plot's error reaches its webhook: a stop (see [`crate::Trouble::Stopped`]: the user's, a signal's, a
+/// studio shutting down) is the event `stopped` — nothing went wrong, and the plot can be resumed — anything else
+/// `error`.
+pub trait PlotEnd: std::fmt::Display {
+    /// Whether the plot was stopped rather than failed.
+    fn stopped(&self) -> bool;
+}
+
+impl PlotEnd for anyhow::Error {
+    fn stopped(&self) -> bool {
+        crate::Trouble::of(self) == crate::Trouble::Stopped
+    }
+}
+
+impl PlotEnd for crate::Error {
+    fn stopped(&self) -> bool {
+        self.trouble() == crate::Trouble::Stopped
+    }
+}
+
 /// Run `plot` (a plot, or a resume from its journal) with `events`, and with the webhook at `url`, when there is
-/// one, told of its pen changes and pauses as they come and of its end: `finished` with `done`'s text, or `error`
-/// with the error's. The deliveries are waited for when `wait` (a command that ends with the plot), and otherwise
+/// one, told of its pen changes and pauses as they come and of its end: `finished` with `done`'s text, `stopped`
+/// or `error` with the error's (see [`PlotEnd`]). The deliveries are waited for when `wait` (a command that ends with the plot), and otherwise
 /// go on on their own thread (a studio machine goes on to its next job). The outer error: the webhook could not
 /// be set up (the plot did not start); the inner result is the plot's.
-pub fn hooked<T, E: std::fmt::Display>(
+pub fn hooked<T, E: PlotEnd>(
     url: Option<&str>,
     machine: &str,
     job: &str,
@@ -142,7 +164,7 @@ pub fn hooked<T, E: std::fmt::Display>(
     let result = plot(&mut HookedEvents { inner: events, hook: &hook });
     match &result {
         Ok(out) => hook.send("finished", &done(out)),
-        Err(e) => hook.send("error", &format!("{e:#}")),
+        Err(e) => hook.send(if e.stopped() { "stopped" } else { "error" }, &format!("{e:#}")),
     }
     if wait {
         hook.finish();

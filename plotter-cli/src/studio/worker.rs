@@ -463,7 +463,11 @@ fn plot_job_with(
         && !(asked.stop || asked.estop)
     {
         let cause = Stop::process().stop_cause().unwrap_or(StopCause::Requested);
-        let doing = format!("parked between copies ({why})");
+        // A shutdown is no job error: the webhook hears `stopped` with this, and the job keeps its copies owed.
+        let doing = format!(
+            "the studio was shutting down, parked between copies ({why}); the job goes on with the copies left once \
+             the studio is back"
+        );
         return Err(crate::stop::Stopped { cause, doing }.into());
     }
     if out.copies.iter().all(|c| c.drawn_before) && out.ended_early.is_none() {
@@ -855,8 +859,16 @@ mod tests {
             w.join().unwrap();
         }
         drop(studio);
-        until("the webhook's error event", || seen.lock().unwrap().len() == 2);
-        assert_eq!(crate::job::webhook::receiver::events(&seen)[1].0, "error");
+        until("the webhook's stopped event", || seen.lock().unwrap().len() == 2);
+        assert_eq!(
+            crate::job::webhook::receiver::events(&seen)[1],
+            (
+                "stopped".to_string(),
+                "stopped by a stop request while the studio was shutting down, parked between copies (stopped at the \
+                 paper change before copy 2); the job goes on with the copies left once the studio is back"
+                    .to_string()
+            )
+        );
         let (studio, workers) = open(&dir, vec![parse_machine("a=sim").unwrap()]);
         assert_eq!(state_of(&studio, id), JobState::Interrupted);
         let slot = Arc::clone(studio.slot("a").unwrap());
@@ -879,7 +891,7 @@ mod tests {
         until("the webhook's end", || seen.lock().unwrap().len() == 5);
         let events = crate::job::webhook::receiver::events(&seen);
         let names: Vec<&str> = events.iter().map(|e| e.0.as_str()).collect();
-        assert_eq!(names, ["pause", "error", "pause", "pause", "finished"]);
+        assert_eq!(names, ["pause", "stopped", "pause", "pause", "finished"]);
         assert_eq!((events[2].1.clone(), events[3].1.clone()), (paper(2), paper(3)));
         assert!(events[4].1.starts_with("3 copies plotted"), "{}", events[4].1);
         close(studio, workers, &dir);
