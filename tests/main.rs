@@ -38,5 +38,6 @@ mod serve_limits;
 mod stats_wording;
 mod stop_signals;
 mod stream_hpgl;
+mod studio_browser;
 mod studio_crash;
 mod studio_three;

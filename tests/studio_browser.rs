@@ -13,8 +13,7 @@ use std::time::{Duration, Instant};
 use plotter_e2e::{Served, SimPty, plotter, sample, scratch};
 use serde_json::json;
 
-mod browser;
-use browser::{Cdp, chromium};
+use crate::browser::{Cdp, ONE_BROWSER, chromium};
 
 /// The operator's token of these tests' studios.
 const OPERATOR: &str = "studio-operator-0123456789abcdef";
@@ -58,6 +57,7 @@ const SEEN: &str = "[...document.querySelectorAll('.machine')].map((c) => c.data
 
 #[test]
 fn the_page_signs_in_shows_three_machines_plotting_and_stops_one_while_two_finish() {
+    let _one = ONE_BROWSER.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let Some(browser) = chromium() else { return };
     let t0 = Instant::now();
     let dir = scratch("studio-browser");
