@@ -45,8 +45,13 @@
 //!   `|dx|` at X's own limits, Y's over `|dy|` at Y's, and the path's over the straight distance at the travel
 //!   feed and the largest travel acceleration any direction allows (`√(a_x² + a_y²)`, or `pen.travel_accel_mm_s2`
 //!   where lower), each from and into the corners with the pen's Z moves (up to the slower feed with the curve
-//!   model on). The cost depends on the hop's direction but not on which way it is taken, which is all the
-//!   travel bound's trees need.
+//!   model on, on a hop short enough that its joins may be curve points). Each hop is charged too what its length
+//!   forces the pen's moves to add to the lifts part: a Z pen's rise and drop into and out of the corners of a
+//!   long hop, a servo's wider drop window after a lift the hop is too short to finish; the plot's first hop and
+//!   one after each pen change, which start with the pen fully up, are given back the most a lift may add
+//!   ([`crate::motion::hop_time::HopTime::lift_excess`]). So this part bounds the plan's travel together with
+//!   its pen moves' time above the lifts part. The cost depends on the hop's direction but not on which way it is
+//!   taken, which is all the travel bound's trees need.
 //!
 //! The cruise limit on a curve's chords (no faster than their ends) is left out; it only adds time, so the bound is
 //! valid whatever the order; the gap between it and the plan is what any order and planner could gain.
@@ -65,7 +70,9 @@ use plotter_fw::planner::{self, PlanBlock, Seg};
 
 use crate::MachineProfile;
 use crate::geometry::steps::StepDrawing;
-use crate::motion::piece_time::{fastest_piece, hop_corner_speed, path_accel, z_joins_may_curve};
+use crate::motion::piece_time::{
+    clearance_mm, corner_speed, fastest_piece, path_accel, servo_waits, z_join_speeds, z_joins_may_curve,
+};
 use crate::motion::plan::{PlanError, machine_config};
 
 /// The parts of a plot-time lower bound, seconds.
@@ -84,13 +91,6 @@ impl TimeBound {
     pub fn total_s(&self) -> f64 {
         self.draw_s + self.lifts_s + self.travel_s
     }
-}
-
-/// The 90° junction speed of junction deviation `deviation` at acceleration `a`: the fastest a move may enter or
-/// leave a perpendicular one (XY travel into a pen drop, a stroke into the lift).
-fn corner_speed(a: f64, deviation: f64) -> f64 {
-    let s = std::f64::consts::FRAC_1_SQRT_2;
-    (a * deviation * s / (1.0 - s)).sqrt()
 }
 
 /// The least time a pen-up hop of at least `d` mm can take on `profile` in any direction, seconds (no lift): the
@@ -147,17 +147,7 @@ pub(crate) fn lift_parts(profile: &MachineProfile) -> LiftParts {
         // drop, the command and the narrowest contact window (the carriage waits through it at the stroke's
         // start); once, the first and the last lift's settle beyond the clear time counted per stroke. Each the
         // least of every pen the profile names.
-        let timings = std::iter::once(profile.pen.servo_down_deg)
-            .chain(profile.pens.iter().filter_map(|p| p.servo_down_deg))
-            .map(|d| crate::motion::servo::ServoTiming::of(profile, d));
-        let (mut clear, mut window) = (u64::MAX, u64::MAX);
-        for t in timings {
-            clear = clear.min(t.clear_ticks());
-            window = window.min(t.least_window());
-        }
-        if profile.pen.clear_ms.is_some() {
-            clear = u64::from(crate::motion::plan::servo_clear_ticks(profile));
-        }
+        let (clear, window) = servo_waits(profile);
         #[allow(clippy::cast_precision_loss, reason = "tick counts are far below 2^52")]
         let secs = |t: u64| t as f64 / f64::from(plotter_fw::TICK_HZ);
         let (clear, drop) = (secs(clear.max(1)), secs(1 + window));
@@ -170,12 +160,9 @@ pub(crate) fn lift_parts(profile: &MachineProfile) -> LiftParts {
     let c_mm = clearance_mm(profile);
     let (vz, az) = (z.max_feed_mm_s, z.max_accel_mm_s2);
     // Into the rise from the stroke, out of it into the hop, and into the drop: 90° corners, or (see
-    // [`z_joins_may_curve`]) curve points taken at up to the slower move's feed.
-    let (v_in, v_hop) = if z_joins_may_curve(profile) {
-        (vz, vz.min(profile.pen.travel_feed_mm_s))
-    } else {
-        (corner(az), hop_corner_speed(profile, az))
-    };
+    // [`z_joins_may_curve`]) curve points taken at up to the slower move's feed. (A long hop's joins are surely
+    // corners: the hop's cost charges what that adds, [`crate::motion::hop_time`].)
+    let (v_in, v_hop) = z_join_speeds(profile);
     let rise = fastest_piece(c_mm, v_in, v_hop, vz, az);
     let drop = fastest_piece(c_mm, v_hop, 0.0, vz, az);
     let cornered_lift = fastest_piece(c_mm, corner(az), v_hop, vz, az);
@@ -189,17 +176,6 @@ pub(crate) fn lift_parts(profile: &MachineProfile) -> LiftParts {
         .min(fastest_piece(up_mm, corner(az), 0.0, vz, az) - cornered_lift)
         .max(0.0);
     LiftParts { per_stroke: [rise, drop, settle], once: [last, 0.0, settle], cornered_lift }
-}
-
-/// The pen's rise off the paper as the plan makes it, mm: the clearance rounded to steps (at least one), capped (as
-/// the plan caps it) by every pen's distance from the paper to the pen-up height, less the step either end may
-/// round away.
-fn clearance_mm(profile: &MachineProfile) -> f64 {
-    let (up, sz) = (profile.pen.up_z_mm, profile.axes.z.steps_per_mm);
-    std::iter::once(profile.pen.down_z_mm)
-        .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
-        .fold((profile.pen.clearance_mm * sz).round().max(1.0) / sz, |c, d| c.min((up - d).abs() - 1.0 / sz))
-        .max(0.0)
 }
 
 /// Whether the planner may take the join of a stroke whose last chord is `last_chord_mm` long with the pen's rise
@@ -369,13 +345,33 @@ pub fn drawing_time_lower_bound(
 ) -> Result<TimeBound, PlanError> {
     let hop = crate::motion::hop_time::HopTime::of(profile);
     let travel = crate::optimize::travel_lower_bound_hops(drawing, seam, start, &hop);
-    plot_time_lower_bound(profile, steps, travel)
+    // The hops that do not start with a lift from the paper (the first, and one after each pen change) are charged
+    // at most the hop cost's lift excess for a lift they do not have.
+    let unlifted = lifted_hops(profile, steps).iter().filter(|l| !**l).count().max(1);
+    #[allow(clippy::cast_precision_loss, reason = "stroke counts are far below 2^52")]
+    let excess = unlifted as f64 * hop.lift_excess();
+    plot_time_lower_bound(profile, steps, (travel - excess).max(0.0))
+}
+
+/// Whether each stroke's hop starts with a lift of the pen from the paper: every stroke's but the first's and but
+/// those after a pen change (where the pen goes fully up and the hop starts from there), as the plan makes them.
+pub(crate) fn lifted_hops(profile: &MachineProfile, steps: &StepDrawing) -> Vec<bool> {
+    let pens = crate::motion::plan::layer_pens(profile, steps);
+    (0..steps.strokes.len())
+        .map(|si| {
+            si > 0 && {
+                let (a, b) = (steps.layer_of(si - 1), steps.layer_of(si));
+                a == b || pens[a].same_pen(&pens[b])
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::steps::{StepDelta, StepPos, StepStroke};
+    use crate::motion::piece_time::hop_corner_speed;
     use crate::motion::plan::{Lookahead, homed_position, plan};
 
     /// A sample profile of samples/.
@@ -413,9 +409,14 @@ mod tests {
         // 0.407 89 s, 8.363 mm cruising in 0.053 96 s: 0.461 85 s. The path, 49.965 mm up to 165 mm/s at
         // 1074.8 mm/s²: ramps of 25.330 mm in 0.307 03 s, 24.634 mm cruising in 0.149 30 s: 0.456 33 s, all the
         // bound took before.
+        // Its hop's travel is that; the hop (the plot's first, with no lift before it) is charged beyond it what
+        // the servo's drop window adds after a full lift, less the most a lift may add to a hop
+        // ([`crate::motion::hop_time::HopTime::lift_excess`]).
         let v3 = sample("axidraw-v3.toml");
+        let hop = crate::motion::hop_time::HopTime::of(&v3);
+        assert!((hop.travel_seconds(30.0, 40.0) - 0.461_85).abs() < 1e-5, "{}", hop.travel_seconds(30.0, 40.0));
         let t = travel_to_line(&v3, (10.0, 10.0), (40.0, 50.0), (60.0, 50.0));
-        assert!((t - 0.461_85).abs() < 1e-5, "{t}");
+        assert!((t - (hop.seconds(30.0, 40.0) - hop.lift_excess())).abs() < 1e-9, "{t}");
     }
 
     #[test]
@@ -497,10 +498,16 @@ mod tests {
         let draw = 100.0 / 60.0 + 60.0 / (2.0 * a) + (60.0 - v).powi(2) / (2.0 * a * 60.0) - 1e-6;
         assert!((b.draw_s - draw).abs() < 5e-6, "{b:?} vs {draw}");
         let a = 1500f64.hypot(1500.0);
-        // A hop may start and end at 25 mm/s too: 100 mm less the slack, from 25 to 120 mm/s and back.
-        let len = 100.0 - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0);
-        let t = 2.0 * (120.0 - 25.0) / a + (len - (120.0 * 120.0 - 625.0) / a) / 120.0;
-        assert!((min_hop_seconds(&p)(100.0) - t).abs() < 1e-9, "{} vs {t}", min_hop_seconds(&p)(100.0));
+        // A hop shorter than 1.0947 mm may start and end at 25 mm/s too (its joins may be curve points): 1 mm less
+        // the slack, from 25 mm/s and back, never reaching the feed.
+        let len = 1.0 - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0);
+        let t = 2.0 * (((a * len + 625.0).sqrt()) - 25.0) / a;
+        assert!((min_hop_seconds(&p)(1.0) - t).abs() < 1e-9, "{} vs {t}", min_hop_seconds(&p)(1.0));
+        // A longer one has corners at both joins (5.3707 mm/s, [`crate::motion::hop_time`]), and its rise and
+        // drop pay for them (0.015 07 and 0.014 98 s): 100 mm less the slack from 5.3707 to 120 mm/s and back.
+        let (len, v) = (100.0 - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0), 5.3707);
+        let t = 2.0 * (120.0 - v) / a + (len - (120.0 * 120.0 - v * v) / a) / 120.0 + 0.015_07 + 0.014_98;
+        assert!((min_hop_seconds(&p)(100.0) - t).abs() < 2e-5, "{} vs {t}", min_hop_seconds(&p)(100.0));
     }
 
     #[test]
@@ -518,11 +525,12 @@ mod tests {
         let p = corners_only();
         let hop = min_hop_seconds(&p);
         // a = 1500·√2; the corners with the Z moves, a turn of 90° less the travel's tilt (up to twice the hop
-        // slope 0.051 65: atan 0.1033 = 5.897°), v₁ = √(a·0.02·sin(θ/2)/(1 − sin(θ/2))) with
-        // sin(θ/2) = sin(47.949°) = 0.742 66; the slack two step diagonals.
+        // slope 0.051 65: atan 0.1033 = 5.897°), v₁ = √(a_z·0.02·sin(θ/2)/(1 − sin(θ/2))) with
+        // sin(θ/2) = sin(47.949°) = 0.742 66 at Z's 500 mm/s² (the planner corners at the lower acceleration of
+        // its two blocks, and one is Z's); the slack two step diagonals.
         let a = 1500f64.hypot(1500.0);
         let s = 0.742_66;
-        let v1 = (a * 0.02 * s / (1.0 - s)).sqrt();
+        let v1 = (500.0f64 * 0.02 * s / (1.0 - s)).sqrt();
         let slack = 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0);
         // 100 mm: ramp up from v₁ to 120, ramp down to v₁, cruise the rest.
         let len = 100.0 - slack;
@@ -640,10 +648,11 @@ mod tests {
         assert!(b.total_s() <= planned.seconds(), "{b:?} vs {}", planned.seconds());
         // The plan's own drawing time is no shorter: its blocks accelerate at 500 along X.
         assert!(b.draw_s <= planned.breakdown().draw_s(), "{b:?} vs {:?}", planned.breakdown());
-        // Travel: a 100 mm hop at 800 mm/s² between corners with the Z moves, v₁ = √(800·0.02·s/(1 − s)) with
-        // s = 0.742 66 (see `min_hop_by_hand`), up to the 120 mm/s feed and back down, less the slack.
+        // Travel: a 100 mm hop at 800 mm/s² between corners with the Z moves, v₁ = √(500·0.02·s/(1 − s)) with
+        // s = 0.742 66 at Z's 500 mm/s² (see `min_hop_by_hand`), up to the 120 mm/s feed and back down, less the
+        // slack.
         let (a, s): (f64, f64) = (800.0, 0.742_66);
-        let v1 = (a * 0.02 * s / (1.0 - s)).sqrt();
+        let v1 = (500.0 * 0.02 * s / (1.0 - s)).sqrt();
         let len = 100.0 - 2.0 * (1.0f64 / 80.0).hypot(1.0 / 80.0);
         let t = 2.0 * (120.0 - v1) / a + (len - (120.0 * 120.0 - v1 * v1) / a) / 120.0;
         assert!((min_hop_seconds(&p)(100.0) - t).abs() < 1e-5, "{} vs {t}", min_hop_seconds(&p)(100.0));

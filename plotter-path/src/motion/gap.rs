@@ -26,10 +26,12 @@
 //! the dwell that completes it count together as the drop).
 //!
 //! **Travel**: *travel order* is what the plan's hops, each at the least time a hop of its X and Y distances
-//! takes ([`crate::motion::hop_time::HopTime`], the same cost the bound's travel charges), cost above the bound's
-//! travel (a bound on the hops of any order: the best order's hops lie between the two, so this part is what
-//! order could win at most); *hops* is what the plan's travel takes above that (climbing over the paper with a Z
-//! pen, stopping for a servo's drop command, the hop's corners).
+//! takes ([`crate::motion::hop_time::HopTime`], the same cost the bound's travel charges, with what its length
+//! adds to the pen's moves), cost above the bound's travel (a bound on the hops of any order: the best order's
+//! hops lie between the two, so this part is what order could win at most); *hops* is what the plan's travel
+//! takes above that (climbing over the paper with a Z pen, stopping for a servo's drop command). What a hop's
+//! length adds to the pen's moves (a Z pen's corners at a long hop's joins; a servo's drop window after a lift,
+//! taken at the plan's own travel time of the hop) is charged to the hop, so it is taken off the lifts and drops.
 
 use plotter_fw::TICK_HZ;
 use plotter_fw::planner::{self, PlanBlock};
@@ -229,21 +231,47 @@ pub fn time_gap(
     gap.lifts_s = secs(ticks[0]) - share[0];
     gap.drops_s = secs(ticks[1]) - share[1];
     gap.settles_s = secs(ticks[2]) - share[2] - rest;
-    // Travel: each hop of the plan at the least time its X and Y distances allow.
+    // Travel: each hop of the plan at the least time its X and Y distances allow, and what its length adds to
+    // the pen's moves (taken off the pen's causes and charged here, as the bound's travel charges it).
     let hop = crate::motion::hop_time::HopTime::of(profile);
-    let secs = |dx: i32, dy: i32| hop.seconds(f64::from(dx) / sx, f64::from(dy) / sy);
+    let lifted = bound::lifted_hops(profile, steps);
+    // The plan's travel into each stroke (the travel after the plot's final lift is the way home).
+    let final_lift = plan.blocks.iter().rposition(|b| b.kind == MoveKind::PenUp).unwrap_or(plan.blocks.len());
+    let mut travel_ticks = vec![0u64; steps.strokes.len()];
+    for b in plan.blocks[..final_lift].iter().filter(|b| b.kind == MoveKind::Travel) {
+        if let Some(t) = travel_ticks.get_mut(b.stroke) {
+            *t += u64::from(b.ticks);
+        }
+    }
     let (mut x, mut y) = (plan.start[0], plan.start[1]);
-    let mut hops_s = 0.0;
-    for s in &steps.strokes {
-        hops_s += secs(s.start.x - x, s.start.y - y);
+    // The hops' charges, what of them the bound leaves out (a lift the hop does not have) and what goes to the
+    // pen's causes.
+    let (mut charged, mut unlifted, mut pen) = (0.0, 0.0, [0.0f64; 2]);
+    for (si, s) in steps.strokes.iter().enumerate() {
+        let (dx, dy) = (f64::from(s.start.x - x) / sx, f64::from(s.start.y - y) / sy);
+        let least = hop.travel_seconds(dx, dy);
+        charged += hop.seconds(dx, dy);
+        let len = dx.hypot(dy);
+        if lifted[si] {
+            let e = hop.pen_extra(len, secs(travel_ticks[si]));
+            pen[0] += e.lift_s;
+            pen[1] += e.drop_s + e.drop_after_lift_s;
+        } else {
+            let e = hop.pen_extra(len, least);
+            unlifted += e.after_lift_s();
+            pen[1] += e.drop_s;
+        }
         let end = s.moves.iter().fold(s.start, |p, d| p.offset(*d));
         (x, y) = (end.x, end.y);
     }
     if plan.end[0] != x || plan.end[1] != y {
-        hops_s += secs(plan.end[0] - x, plan.end[1] - y);
+        // The way home: travel alone, from the final lift to rest.
+        charged += hop.travel_seconds(f64::from(plan.end[0] - x) / sx, f64::from(plan.end[1] - y) / sy);
     }
-    gap.travel_order_s = hops_s - bound.travel_s;
-    gap.hops_s = parts.travel_s() - hops_s;
+    gap.lifts_s -= pen[0];
+    gap.drops_s -= pen[1];
+    gap.travel_order_s = charged - unlifted - bound.travel_s;
+    gap.hops_s = parts.travel_s() - (charged - unlifted - pen[0] - pen[1]);
     Ok(gap)
 }
 

@@ -39,8 +39,13 @@
 //! costs is a bound on any route's hops whatever the costs' geometry, and a subtree of a k-d tree whose box lies
 //! `bx`, `by` from a point holds no point cheaper than the cost of `(bx, by)`.
 
+use plotter_fw::TICK_HZ;
+
 use crate::MachineProfile;
-use crate::motion::piece_time::{fastest_piece, hop_corner_speed, path_accel, z_joins_may_curve};
+use crate::motion::piece_time::{
+    clearance_mm, corner_speed, fastest_piece, hop_corner_speed, path_accel, servo_timings, servo_waits, z_join_speeds,
+    z_joins_may_curve,
+};
 
 /// One axis's limits for a hop: top speed, acceleration, and the distance its steps' rounding may take off.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,11 +55,124 @@ struct AxisLimit {
     slack: f64,
 }
 
+/// What a hop adds to the pen's moves beyond the lifts part's shares (see the module docs), seconds.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct PenExtra {
+    /// The lift out of the paper into the hop (a Z pen's rise into a corner): only on a hop that starts with a
+    /// lift from the paper.
+    pub(crate) lift_s: f64,
+    /// The drop (a Z pen's drop out of a corner): on every hop into a stroke.
+    pub(crate) drop_s: f64,
+    /// The drop's wait that only a lift just before it forces (a servo's wider contact window): only on a hop
+    /// that starts with a lift from the paper.
+    pub(crate) drop_after_lift_s: f64,
+}
+
+impl PenExtra {
+    /// All of it.
+    pub(crate) fn total_s(&self) -> f64 {
+        self.lift_s + self.drop_s + self.drop_after_lift_s
+    }
+
+    /// The part a hop that does not start with a lift from the paper does not have.
+    pub(crate) fn after_lift_s(&self) -> f64 {
+        self.lift_s + self.drop_after_lift_s
+    }
+}
+
+/// A Z pen's corners at the joins of a long hop (curve model on): see the module docs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ZCorners {
+    /// Hops longer than this (mm, as the drawing gives them) have corners at both joins.
+    from_mm: f64,
+    /// The speed at those corners, mm/s.
+    speed: f64,
+    /// What the corner adds to the rise before the hop and to the drop after it, seconds.
+    rise_s: f64,
+    drop_s: f64,
+}
+
+/// A servo pen's least time from the end of the lift's clear wait to the line's start, as a function of the
+/// travel between (see the module docs): `least[i]` is for a travel of at least `i · GRID` ticks, less the drop's
+/// share of the lifts part; beyond the table it is the travel plus `tail`.
+#[derive(Debug, Clone, PartialEq)]
+struct ServoWindow {
+    least: Vec<f64>,
+    tail: f64,
+}
+
+/// The servo table's step, ticks (0.1 ms).
+const GRID: u64 = 100;
+
+impl ServoWindow {
+    /// The table of `profile`'s servo (see [`ServoWindow`]).
+    fn of(profile: &MachineProfile) -> ServoWindow {
+        let (_, window) = servo_waits(profile);
+        // The drop's share of the lifts part: the command's tick and the narrowest window.
+        let share = 1 + window;
+        #[allow(clippy::cast_precision_loss, reason = "tick counts are far below 2^52")]
+        let secs = |t: u64, minus: u64| (t as f64 - minus as f64) / f64::from(TICK_HZ);
+        let mut tables: Vec<(Vec<f64>, f64)> = Vec::new();
+        for timing in servo_timings(profile) {
+            let clear = crate::motion::plan::lift_clear_ticks(profile, timing).max(1);
+            let window = |d: u64| timing.contact_window(Some((d, 1.0)));
+            let up = timing.contact_window(None);
+            // The least drop time D (from the lift command) whose earliest contact comes at or after the
+            // carriage's arrival, clear + τ: D + earliest(D) never falls as D grows, so D only moves on, to the
+            // least D that reaches (a search between the last D and one the deficit further on, which reaches).
+            let reaches = |d: u64, tau: u64| d + window(d).0 >= clear + tau;
+            let mut d = clear;
+            let mut least = Vec::new();
+            let mut tau = 0u64;
+            loop {
+                if !reaches(d, tau) {
+                    let (mut lo, mut hi) = (d, clear + tau);
+                    while hi - lo > 1 {
+                        let mid = lo + (hi - lo) / 2;
+                        if reaches(mid, tau) { hi = mid } else { lo = mid }
+                    }
+                    d = hi;
+                }
+                let w = window(d);
+                // From lift command to line start D + latest(D), less the clear wait and the drop's share.
+                least.push(secs(d + w.1, clear + share));
+                if w == up && d + w.0 == clear + tau {
+                    // The servo is all the way up and the drop waits for nothing else: every later drop sees the
+                    // same window at D = clear + τ − earliest, and the line starts τ plus a constant after the
+                    // clear wait.
+                    let tail = secs(d + w.1, clear + share + tau);
+                    tables.push((least, tail));
+                    break;
+                }
+                tau += GRID;
+            }
+        }
+        let n = tables.iter().map(|t| t.0.len()).max().unwrap_or(0);
+        #[allow(clippy::cast_precision_loss, reason = "table indices are small")]
+        let at = |t: &(Vec<f64>, f64), i: usize| {
+            t.0.get(i).copied().unwrap_or((i as u64 * GRID) as f64 / f64::from(TICK_HZ) + t.1)
+        };
+        let least = (0..n).map(|i| tables.iter().map(|t| at(t, i)).fold(f64::INFINITY, f64::min)).collect();
+        let tail = tables.iter().map(|t| t.1).fold(f64::INFINITY, f64::min);
+        ServoWindow { least, tail }
+    }
+
+    /// The least time of the travel and the drop's wait beyond its share, for a travel of at least `travel_s`
+    /// seconds: never below the travel, never falling as it grows.
+    fn with_travel(&self, travel_s: f64) -> f64 {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "a hop's ticks, far in range")]
+        let i = (travel_s.max(0.0) * f64::from(TICK_HZ) / GRID as f64).floor() as usize;
+        #[allow(clippy::cast_precision_loss, reason = "table indices are small")]
+        let least = self.least.get(i).copied().unwrap_or((i as u64 * GRID) as f64 / f64::from(TICK_HZ) + self.tail);
+        travel_s.max(least)
+    }
+}
+
 /// The least time of a pen-up hop on one profile (see the module docs), seconds; build once with
 /// [`HopTime::of`], then ask [`HopTime::seconds`] per hop.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct HopTime {
-    /// The speed the hop may start and end at, mm/s.
+    /// The speed the hop may start and end at, mm/s (a Z pen's short hop, see [`ZCorners`] for a long one).
     v_end: f64,
     /// The travel feed, mm/s.
     feed: f64,
@@ -64,6 +182,10 @@ pub struct HopTime {
     slack: f64,
     /// X's and Y's limits.
     axes: [AxisLimit; 2],
+    /// A Z pen's corners at a long hop's joins, where its short hops' joins may be curve points.
+    corners: Option<ZCorners>,
+    /// A servo pen's drop window after the lift.
+    servo: Option<ServoWindow>,
 }
 
 impl HopTime {
@@ -73,13 +195,17 @@ impl HopTime {
         let accel = path_accel(profile, cap);
         let feed = profile.pen.travel_feed_mm_s;
         let servo = profile.pen.uses_servo();
+        let z = &profile.axes.z;
+        // The corner between a Z move and a travel, at Z's acceleration (the planner corners at the lower of its
+        // two blocks', and a Z-only block has Z's), with a part in 10⁵ for the planner's single precision.
+        let corner = hop_corner_speed(profile, z.max_accel_mm_s2.min(accel)) * (1.0 + 1e-5);
         // A servo's blocks are stops (its Z feed is bookkeeping only), whatever the curve model says of Z joins.
         let v_end = if servo {
             0.0
         } else if z_joins_may_curve(profile) {
-            feed.min(profile.axes.z.max_feed_mm_s)
+            feed.min(z.max_feed_mm_s)
         } else {
-            hop_corner_speed(profile, accel)
+            corner
         };
         let tilt = if servo { 1.0 } else { (2.0 * crate::motion::hop::rise_slope(profile)).hypot(1.0) };
         let axis = |a: &crate::config::profile::AxisProfile| AxisLimit {
@@ -88,27 +214,111 @@ impl HopTime {
             slack: 2.0 / a.steps_per_mm,
         };
         let (x, y) = (&profile.axes.x, &profile.axes.y);
-        HopTime {
-            v_end,
-            feed,
-            accel,
-            slack: 2.0 * (1.0 / x.steps_per_mm).hypot(1.0 / y.steps_per_mm),
-            axes: [axis(x), axis(y)],
+        let slack = 2.0 * (1.0 / x.steps_per_mm).hypot(1.0 / y.steps_per_mm);
+        let corners =
+            (!servo && z_joins_may_curve(profile)).then(|| z_corners(profile, corner.min(v_end), slack)).flatten();
+        let servo = servo.then(|| ServoWindow::of(profile));
+        HopTime { v_end, feed, accel, slack, axes: [axis(x), axis(y)], corners, servo }
+    }
+
+    /// The speed a hop of `len` mm may start and end at.
+    fn v_end_of(&self, len: f64) -> f64 {
+        match self.corners {
+            Some(c) if len > c.from_mm => c.speed,
+            _ => self.v_end,
         }
     }
 
-    /// The least time of a hop of `dx` × `dy` mm (signs ignored): the largest of X's, Y's and the path's terms.
+    /// The least time of a hop of `dx` × `dy` mm (signs ignored): its travel ([`travel_seconds`]) and what it
+    /// adds to the pen's moves ([`pen_extra`]).
+    ///
+    /// [`travel_seconds`]: Self::travel_seconds
+    /// [`pen_extra`]: Self::pen_extra
     pub fn seconds(&self, dx: f64, dy: f64) -> f64 {
-        let along =
-            |d: f64, a: &AxisLimit| fastest_piece((d.abs() - a.slack).max(0.0), self.v_end, self.v_end, a.top, a.accel);
-        self.along_path(dx.hypot(dy)).max(along(dx, &self.axes[0])).max(along(dy, &self.axes[1]))
+        let travel = self.travel_seconds(dx, dy);
+        travel + self.pen_extra(dx.hypot(dy), travel).total_s()
+    }
+
+    /// The least time of the travel blocks alone of a hop of `dx` × `dy` mm: the largest of X's, Y's and the
+    /// path's terms.
+    pub fn travel_seconds(&self, dx: f64, dy: f64) -> f64 {
+        let v = self.v_end_of(dx.hypot(dy));
+        let along = |d: f64, a: &AxisLimit| fastest_piece((d.abs() - a.slack).max(0.0), v, v, a.top, a.accel);
+        self.path_term(dx.hypot(dy)).max(along(dx, &self.axes[0])).max(along(dy, &self.axes[1]))
+    }
+
+    /// The path's term of the travel of a hop `d` mm long.
+    fn path_term(&self, d: f64) -> f64 {
+        let v = self.v_end_of(d);
+        fastest_piece((d - self.slack).max(0.0), v, v, self.feed, self.accel)
+    }
+
+    /// What a hop of `len` mm whose travel takes `travel_s` seconds adds to the pen's moves beyond the lifts
+    /// part's shares (see the module docs).
+    pub(crate) fn pen_extra(&self, len: f64, travel_s: f64) -> PenExtra {
+        if let Some(c) = self.corners.filter(|c| len > c.from_mm) {
+            return PenExtra { lift_s: c.rise_s, drop_s: c.drop_s, drop_after_lift_s: 0.0 };
+        }
+        match &self.servo {
+            Some(w) => PenExtra { drop_after_lift_s: w.with_travel(travel_s) - travel_s, ..PenExtra::default() },
+            None => PenExtra::default(),
+        }
+    }
+
+    /// The most [`seconds`](Self::seconds) charges any hop for a lift from the paper just before it: what the
+    /// plot's first hop (from where the machine stands, the pen up) and a hop after a pen change (the pen fully
+    /// up) are charged without having it.
+    pub fn lift_excess(&self) -> f64 {
+        let corner = self.corners.map_or(0.0, |c| c.rise_s);
+        let window = self.servo.as_ref().map_or(0.0, |w| {
+            #[allow(clippy::cast_precision_loss, reason = "table indices are small")]
+            let grid = |i: usize| (i as u64 * GRID) as f64 / f64::from(TICK_HZ);
+            w.least.iter().enumerate().map(|(i, l)| l - grid(i)).fold(w.tail, f64::max).max(0.0)
+        });
+        corner.max(window)
     }
 
     /// The path's term alone: the least time of a hop at least `d` mm long in any direction (the least of
     /// [`seconds`](Self::seconds) over the hops of that length). Non-decreasing in `d`.
     pub fn along_path(&self, d: f64) -> f64 {
-        fastest_piece((d - self.slack).max(0.0), self.v_end, self.v_end, self.feed, self.accel)
+        let travel = self.path_term(d);
+        travel + self.pen_extra(d, travel).total_s()
     }
+}
+
+/// A Z pen's corners at a long hop's joins (see the module docs), with `speed` the corner's and `slack` what the
+/// steps' rounding may take off a hop's length; `None` where every hop's joins may be curve points.
+fn z_corners(profile: &MachineProfile, speed: f64, slack: f64) -> Option<ZCorners> {
+    let (z, s) = (&profile.axes.z, crate::motion::hop::rise_slope(profile));
+    // The shortest chord beside a join that makes it surely a corner: the planner's curve rule 1 takes a vertex
+    // of turn φ as a curve point while half the shorter chord times tan(φ/4) is within the curve deviation; the
+    // hop's blocks tilt by at most atan(2s), so φ ≥ 90° − atan(2s); a part in a thousand for single precision.
+    let turn = std::f64::consts::FRAC_PI_2 - (2.0 * s).atan();
+    let chord = 2.0 * profile.motion.curve_deviation_mm * 1.001 / (turn / 4.0).tan();
+    // The rise (and the drop) is at least the clearance; the first (and last) travel block runs at least to the
+    // hop's middle or to where it reaches the pen-up height (`top / s` along it), less half a step diagonal of
+    // its bend's rounding.
+    let c_mm = clearance_mm(profile);
+    let sz = z.steps_per_mm;
+    let c_steps = (profile.pen.clearance_mm * sz).round().max(1.0) / sz;
+    let top = std::iter::once(profile.pen.down_z_mm)
+        .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
+        .map(|d| (profile.pen.up_z_mm - d).abs() - 1.0 / sz - c_steps)
+        .fold(f64::INFINITY, f64::min)
+        .max(0.0);
+    let r = 0.5 * (1.0 / profile.axes.x.steps_per_mm).hypot(1.0 / profile.axes.y.steps_per_mm);
+    if c_mm <= chord || top / s - r <= chord {
+        return None;
+    }
+    let (v_in, v_hop) = z_join_speeds(profile);
+    let speed = speed.min(v_hop);
+    let (vz, az) = (z.max_feed_mm_s, z.max_accel_mm_s2);
+    // The rise from a stroke's end at the most the lifts part allows there (a curve point's, or a corner's), into
+    // the corner rather than at the lifts part's speed: the least of both differences.
+    let rise = |v0: f64| fastest_piece(c_mm, v0, speed, vz, az) - fastest_piece(c_mm, v0, v_hop, vz, az);
+    let rise_s = rise(v_in).min(rise(corner_speed(az, profile.motion.junction_deviation_mm))).max(0.0);
+    let drop_s = (fastest_piece(c_mm, speed, 0.0, vz, az) - fastest_piece(c_mm, v_hop, 0.0, vz, az)).max(0.0);
+    Some(ZCorners { from_mm: 2.0 * (chord + r) + slack, speed, rise_s, drop_s })
 }
 
 impl crate::optimize::hop_cost::HopCost for HopTime {
@@ -174,8 +384,10 @@ mod tests {
         // 2 mm along X: 1.975 mm from rest to rest at 1500 mm/s², never reaching the feed: 2·√(1.975/1500) =
         // 0.072 572 s.
         assert!((hop.seconds(2.0, 0.0) - 0.072_572).abs() < 1e-6, "{}", hop.seconds(2.0, 0.0));
-        // Within the rounding slack: nothing is certain.
-        assert_eq!(hop.seconds(0.02, 0.02), 0.0);
+        // Within the rounding slack: nothing is certain of the travel (the servo's drop wait may add a tick or
+        // two after a lift).
+        assert_eq!(hop.travel_seconds(0.02, 0.02), 0.0);
+        assert!(hop.seconds(0.02, 0.02) < 3e-6, "{}", hop.seconds(0.02, 0.02));
         let mut last = 0.0;
         for i in 0..200 {
             let x = f64::from(i) * 0.37;
@@ -187,17 +399,99 @@ mod tests {
 
     #[test]
     fn a_z_pen_s_axes_allow_for_the_hop_s_tilt() {
-        // The XY kit (a Z pen, the curve model on): its hops start and end at up to Z's 25 mm/s, and X's limits
-        // count √(1 + 4s²) higher for the slope s = 0.051 67 of its climb: 1.005 32.
+        // The XY kit (a Z pen, the curve model on): its short hops start and end at up to Z's 25 mm/s, and X's
+        // limits count √(1 + 4s²) higher for the slope s = 0.051 67 of its climb: 1.005 32.
         let p = MachineProfile::default_plotter();
         let s = crate::motion::hop::rise_slope(&p);
         assert!((s - 0.051_67).abs() < 1e-5, "{s}");
         let k = (1.0 + 4.0 * s * s).sqrt();
         let hop = HopTime::of(&p);
-        let by_hand = fastest_piece(30.0 - 2.0 / 80.0, 25.0, 25.0, 120.0 * k, 1500.0 * k);
-        assert_eq!(hop.seconds(30.0, 0.0), by_hand);
-        // 29.975 mm from 25 to 120·k = 120.639 mm/s at 1507.99 mm/s²: ramps 2·(14 553.8 − 625)/3015.98 =
-        // 9.2367 mm in all, 2·95.639/1507.99 = 0.126 84 s; cruise 20.738 mm, 0.171 90 s: 0.298 75 s.
-        assert!((by_hand - 0.298_75).abs() < 2e-5, "{by_hand}");
+        let by_hand = fastest_piece(1.0 - 2.0 / 80.0, 25.0, 25.0, 120.0 * k, 1500.0 * k);
+        assert_eq!(hop.seconds(1.0, 0.0), by_hand);
+        // 0.975 mm from 25 mm/s and back at 1507.99 mm/s², never reaching the feed: a peak of
+        // √(1507.99 · 0.975 + 625) = 45.774 mm/s, 2 · 20.774 / 1507.99 = 0.027 55 s.
+        assert!((by_hand - 0.027_55).abs() < 1e-5, "{by_hand}");
+    }
+
+    #[test]
+    fn a_long_hop_of_the_xy_kit_pays_its_z_corners_a_short_one_may_curve() {
+        // The XY kit (samples/xy-plotter.toml): Z at 25 mm/s and 500 mm/s², a 1 mm clearance, junction deviation
+        // 0.02 mm, curve deviation 0.1 mm, the hop climbing at s = 0.051 67.
+        let p = MachineProfile::default_plotter();
+        let hop = HopTime::of(&p);
+        // A join between the rise and the hop is a curve point only while half its shorter chord times tan(φ/4)
+        // is within 0.1 mm, with the turn φ ≥ 90° − atan(2s) = 84.10°: chords up to 2 · 0.1 · 1.001 / tan 21.03° =
+        // 0.520 96 mm. The rise is 1 mm; the hop's first block runs to its middle (or far up to the pen-up
+        // height), less half a step diagonal (0.008 84 mm) of rounding: a hop longer than 2 · (0.520 96 +
+        // 0.008 84) mm plus two step diagonals of its ends' rounding (0.035 36 mm), 1.094 75 mm, has corners at
+        // both joins.
+        let k = (1.0 + 4.0 * 0.051_67f64.powi(2)).sqrt();
+        let curve = fastest_piece(1.09 - 0.025, 25.0, 25.0, 120.0 * k, 1500.0 * k);
+        assert!((hop.seconds(1.09, 0.0) - curve).abs() < 1e-6, "{}", hop.seconds(1.09, 0.0));
+        // The corner: v² = 500 · 0.02 · sin h / (1 − sin h), sin h = √((1 + sin atan 2s) / 2) = 0.742 56: 5.3707
+        // mm/s. A 30 mm hop along X: 29.975 mm at X's limits (× 1.005 32 for the climb's tilt) from 5.3707 to
+        // 5.3707 mm/s: ramps 2 · (14 553.8 − 28.845) / 3015.98 = 9.632 mm, 0.152 88 s; cruise 20.343 mm at
+        // 120.639 mm/s, 0.168 63 s: 0.321 50 s.
+        assert!((hop.travel_seconds(30.0, 0.0) - 0.321_50).abs() < 1e-5, "{}", hop.travel_seconds(30.0, 0.0));
+        // The rise's 1 mm into the corner rather than at 25 mm/s: from the 90° corner out of a stroke (4.9135
+        // mm/s), a triangle peaking at 22.945 mm/s, 0.071 21 s, against 0.056 14 s into 25 mm/s: 0.015 07 s (from
+        // a curve point at 25 mm/s, 0.055 41 − 0.04 = 0.015 41 s, the larger). The drop's 1 mm from the corner to
+        // rest: a triangle peaking at 22.680 mm/s, 0.079 98 s, against 0.065 s from 25 mm/s: 0.014 98 s.
+        let e = hop.pen_extra(30.0, 0.0);
+        assert!((e.lift_s - 0.015_07).abs() < 1e-5 && (e.drop_s - 0.014_98).abs() < 1e-5, "{e:?}");
+        let t = hop.seconds(30.0, 0.0);
+        assert!((t - (0.321_50 + 0.015_07 + 0.014_98)).abs() < 2e-5, "{t}");
+        // Before, the joins ran at 25 mm/s whatever the hop's length: 0.298 75 s.
+        assert!(t > 0.298_75 + 0.05);
+        // The plot's first hop starts with no lift from the paper: it is charged the rise's part at most.
+        assert!((hop.lift_excess() - e.lift_s).abs() < 1e-12);
+        // Never falling with the length, across the step at 1.094 75 mm too.
+        let mut last = 0.0;
+        for i in 0..400 {
+            let d = f64::from(i) * 0.005;
+            let t = hop.seconds(d, 0.0);
+            assert!(t >= last && hop.along_path(d) <= t, "{d}: {t} < {last}");
+            last = t;
+        }
+    }
+
+    #[test]
+    fn a_short_hop_on_an_ebb_pays_the_drop_window_a_lift_leaves() {
+        // AxiDraw V3 (its MiniKit shares the servo): the EBB's 24 ms servo cycle of unknown phase, 1 ms of margin
+        // each side; the servo rises 1618/5393 = 0.300 02 and lowers 0.200 07 of its travel per cycle, the tip
+        // touching at 0.7. The lifts part charges each hop's lift 25 ms (one move, at most a cycle after the
+        // command, and the margin) and its drop 25 ms (the command's tick and the narrowest window).
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples/axidraw-v3.toml");
+        let p = MachineProfile::from_toml(&std::fs::read_to_string(&path).unwrap(), "axidraw-v3.toml").unwrap();
+        let hop = HopTime::of(&p);
+        // A drop commanded D ms after the lift's command finds the servo after 1 to 2 lift moves while D is 25 to
+        // 47 ms: 0.7 or 0.4 down, so the tip touches from the board's first move (earliest 0) to 2 cycles and
+        // the margin on (latest 49 ms). The carriage leaves 25 ms after the lift and must arrive by the earliest
+        // contact, so a hop of no length has D = 25 ms and the line starts at 25 + 49 = 74 ms: 24 ms beyond the
+        // two shares.
+        assert!((hop.seconds(0.0, 0.0) - 0.024).abs() < 1e-9, "{}", hop.seconds(0.0, 0.0));
+        // 0.2 mm along X: 0.175 mm (less two steps) from rest to rest at 760 mm/s², 2·√(0.175/760) = 30.35 ms.
+        // Arriving by the earliest contact needs D + earliest(D) ≥ 25 + 30.3 ms: with the earliest 0 until 2
+        // lift moves surely came (D ≥ 49 ms, earliest 23.001 ms), D = 49 ms; up to 3 lift moves may have come
+        // then (the servo 0.1 down), 3 cycles down and the margin: latest 73 ms. The line starts at 122 ms:
+        // 72 ms after the two shares' 50, where the bound took the travel alone (30.35 ms) before.
+        assert!((hop.travel_seconds(0.2, 0.0) - 0.030_35).abs() < 1e-5, "{}", hop.travel_seconds(0.2, 0.0));
+        assert!((hop.seconds(0.2, 0.0) - 0.072).abs() < 1e-9, "{}", hop.seconds(0.2, 0.0));
+        // 1 mm: 71.6 ms of travel; D = 73 ms (3 lift moves surely came, earliest 47.001 ms), latest 4 cycles and
+        // the margin, 97 ms: 170 ms, 120 ms after the shares.
+        assert!((hop.seconds(1.0, 0.0) - 0.12).abs() < 1e-9, "{}", hop.seconds(1.0, 0.0));
+        // 30 mm: the servo is all the way up long before; the window is the one after a full lift, 97 − 71.001
+        // ms, a millisecond above its share (on the 0.1 ms grid of the travel's time, floored).
+        let t = hop.travel_seconds(30.0, 0.0);
+        assert!(hop.seconds(30.0, 0.0) - t < 0.001 && hop.seconds(30.0, 0.0) - t > 0.000_9, "{t}");
+        // The first hop has no lift before it: it is charged the most a lift adds to any hop, 49 ms at most.
+        assert!((hop.lift_excess() - 0.048_999).abs() < 1e-9, "{}", hop.lift_excess());
+        let mut last = 0.0;
+        for i in 0..400 {
+            let d = f64::from(i) * 0.05;
+            let t = hop.seconds(d, 0.0);
+            assert!(t >= last && hop.along_path(d) <= t, "{d}: {t} < {last}");
+            last = t;
+        }
     }
 }

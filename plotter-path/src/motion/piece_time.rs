@@ -1,7 +1,8 @@
 //! The time bound's pieces of motion: the fastest a straight piece can be covered between given speeds, the
-//! acceleration an XY path may use, and the speeds at the joins between XY moves and a Z pen's moves. Read by the
-//! stroke bound ([`crate::motion::bound`]), the hop cost ([`crate::motion::hop_time`]) and the gap's causes
-//! ([`crate::motion::gap`]), which is why they live below all three.
+//! acceleration an XY path may use, the speeds at the joins between XY moves and a Z pen's moves, the Z pen's rise
+//! as the plan makes it, and the servo pen's least waits. Read by the stroke bound ([`crate::motion::bound`]), the
+//! hop cost ([`crate::motion::hop_time`]) and the gap's causes ([`crate::motion::gap`]), which is why they live
+//! below all three.
 
 use crate::MachineProfile;
 
@@ -43,4 +44,60 @@ pub(crate) fn path_accel(profile: &MachineProfile, cap: Option<f64>) -> f64 {
 /// there is then capped only by both moves' feeds. The bound then allows those feeds there.
 pub(crate) fn z_joins_may_curve(profile: &MachineProfile) -> bool {
     profile.motion.curve_deviation_mm > 0.0
+}
+
+/// The 90° junction speed of junction deviation `deviation` at acceleration `a`: the fastest a move may enter or
+/// leave a perpendicular one (XY travel into a pen drop, a stroke into the lift).
+pub(crate) fn corner_speed(a: f64, deviation: f64) -> f64 {
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    (a * deviation * s / (1.0 - s)).sqrt()
+}
+
+/// A Z pen's rise off the paper as the plan makes it, mm: the clearance rounded to steps (at least one), capped (as
+/// the plan caps it) by every pen's distance from the paper to the pen-up height, less the step either end may
+/// round away.
+pub(crate) fn clearance_mm(profile: &MachineProfile) -> f64 {
+    let (up, sz) = (profile.pen.up_z_mm, profile.axes.z.steps_per_mm);
+    std::iter::once(profile.pen.down_z_mm)
+        .chain(profile.pens.iter().filter_map(|p| p.down_z_mm))
+        .fold((profile.pen.clearance_mm * sz).round().max(1.0) / sz, |c, d| c.min((up - d).abs() - 1.0 / sz))
+        .max(0.0)
+}
+
+/// The speeds the lifts part of the bound allows a Z pen at its joins, mm/s: `(into the rise from a stroke that
+/// may end on a curve point, between the rise or the drop and the hop)`: 90° corners, or with the curve model on
+/// (see [`z_joins_may_curve`]) curve points taken at up to the slower move's feed.
+pub(crate) fn z_join_speeds(profile: &MachineProfile) -> (f64, f64) {
+    let z = &profile.axes.z;
+    if z_joins_may_curve(profile) {
+        (z.max_feed_mm_s, z.max_feed_mm_s.min(profile.pen.travel_feed_mm_s))
+    } else {
+        (
+            corner_speed(z.max_accel_mm_s2, profile.motion.junction_deviation_mm),
+            hop_corner_speed(profile, z.max_accel_mm_s2),
+        )
+    }
+}
+
+/// A servo pen's least waits per stroke as the bound counts them, ticks: `(clear, window)`, the clear time of its
+/// lift (the profile's `pen.clear_ms` where set, else the servo's travel back past the contact fraction) and the
+/// narrowest contact window of its drop ([`crate::motion::servo::ServoTiming::least_window`]), each the least of
+/// every pen the profile names.
+pub(crate) fn servo_waits(profile: &MachineProfile) -> (u64, u64) {
+    let (mut clear, mut window) = (u64::MAX, u64::MAX);
+    for t in servo_timings(profile) {
+        clear = clear.min(t.clear_ticks());
+        window = window.min(t.least_window());
+    }
+    if profile.pen.clear_ms.is_some() {
+        clear = u64::from(crate::motion::plan::servo_clear_ticks(profile));
+    }
+    (clear, window)
+}
+
+/// The servo timing of every pen the profile names (its own pen first).
+pub(crate) fn servo_timings(profile: &MachineProfile) -> impl Iterator<Item = crate::motion::servo::ServoTiming> + '_ {
+    std::iter::once(profile.pen.servo_down_deg)
+        .chain(profile.pens.iter().filter_map(|p| p.servo_down_deg))
+        .map(|d| crate::motion::servo::ServoTiming::of(profile, d))
 }
