@@ -50,11 +50,6 @@ fn bounds(mode: Mode, levels: u8) -> Bounds {
         // Sixteen bands: ±3.1 by construction, measured −3.45 at 24 fine cells per pen and −3.55 on the measure's
         // jittered grid (the cells' centres read −3.0).
         (Mode::Hatch, _) => Bounds { ramp: 3.6, ..met },
-        // Not met yet: where the field turns (mid-ramp the lines swing from along the ramp's isotones to the base
-        // angle) streamlines converge and diverge, so their spacing strays from the tone's by up to 0.7 … 1.7 times
-        // (measured −4.3 at L* 32.5); at the dark end, where each family leaves a quarter pen between its lines, that
-        // spread opens holes where all three miss: L* 7.5 plots as 14.0 (+6.5). Black square ink 0.991, nothing out.
-        (Mode::Flow, _) => Bounds { ramp: 7.0, ..met },
         // Not met yet: the scribble's lines over partly inked ground add less than their share, and the dither that
         // fades out toward the dark end leaves the dark tones a little dark (L* 32.5 plots 26.5, measured −6.0) and
         // the darkest a little light (L* 7.5 plots 12.2, +4.7). Black square ink 0.978, nothing outside.
