@@ -289,7 +289,14 @@ fn locally_smooth(a: &Seg, b: &Seg, curve_deviation_mm: f32) -> bool {
 
 /// Follow the path from vertex `j` (where `seg(j)` starts) backwards (`forward == false`, through `seg(j − 1)`,
 /// `seg(j − 2)`, …) or forwards (`seg(j)`, `seg(j + 1)`, …); returns the vector from the vertex to the span's end.
-/// The span aims at `target` mm.
+/// The span ends `target` mm along the path from the vertex, or sooner where the path stops being one smooth
+/// curve (a corner, a fixed block, a chord turned more than 60° from `tangent`, [`CURVE_SPAN_BLOCKS`] chords).
+/// With `exact` (the radius's span) the chord the end falls on is cut there: on the arc of the curve through it
+/// when the chord is a chord of that curve ([`arc_offset`]), else on the chord itself (a long straight line after
+/// a curve); so the span measures the same stretch of a curve however finely it was flattened. Without it (the
+/// kink rule's chords, rule 3) a chord is taken whole up to twice `target`, and one reaching further is cut on
+/// itself at `target`.
+#[allow(clippy::too_many_arguments, reason = "the span's place, direction and extent, each a plain number")]
 fn span<F: Fn(usize) -> Seg>(
     seg: &F,
     n: usize,
@@ -298,11 +305,14 @@ fn span<F: Fn(usize) -> Seg>(
     tangent: &[f32; NUM_AXES],
     dev: f32,
     target: f32,
+    exact: bool,
 ) -> [f32; NUM_AXES] {
     let mut v = [0.0f32; NUM_AXES];
     let mut len = 0.0f32;
     let sign = if forward { 1.0 } else { -1.0 };
-    let mut prev: Option<Seg> = None;
+    // The chord before the current one along the span: at first the one across the vertex.
+    let across = if forward { j.checked_sub(1) } else { (j < n).then_some(j) };
+    let mut prev: Option<Seg> = across.map(seg);
     for count in 0..CURVE_SPAN_BLOCKS {
         let k = if forward {
             j + count
@@ -316,7 +326,9 @@ fn span<F: Fn(usize) -> Seg>(
             break;
         }
         let s = seg(k);
-        if let Some(p) = prev {
+        if count > 0
+            && let Some(p) = prev
+        {
             // Crossing the vertex between `p` and `s` (in path order: s then p when going back).
             let smooth = if forward { locally_smooth(&p, &s, dev) } else { locally_smooth(&s, &p, dev) };
             if !smooth || dot(&s.unit, tangent) < SPAN_MIN_COS {
@@ -326,19 +338,70 @@ fn span<F: Fn(usize) -> Seg>(
         if s.fixed {
             break;
         }
-        // A whole chord keeps the span end on the curve; a chord reaching far past the span (a long straight
-        // line) is cut at the span length.
-        let take = if len + s.len <= 2.0 * target { s.len } else { target - len };
-        for (vi, u) in v.iter_mut().zip(s.unit) {
-            *vi += sign * u * take;
+        if len + s.len <= if exact { target } else { 2.0 * target } {
+            for (vi, u) in v.iter_mut().zip(s.unit) {
+                *vi += sign * u * s.len;
+            }
+            len += s.len;
+            if len >= target {
+                break;
+            }
+            prev = Some(s);
+            continue;
         }
-        len += take;
-        if len >= target {
-            break;
+        // The span ends inside this chord, `take` mm along it.
+        let take = target - len;
+        let bulge = prev.filter(|p| exact && !p.fixed).and_then(|p| {
+            // In path order: the earlier chord, then the later.
+            let (early, late) = if forward { (&p, &s) } else { (&s, &p) };
+            arc_offset(early, late, forward, take, dev)
+        });
+        for (i, vi) in v.iter_mut().enumerate() {
+            *vi += sign * s.unit[i] * take + bulge.map_or(0.0, |b| b[i]);
         }
-        prev = Some(s);
+        break;
     }
     v
+}
+
+/// Where the arc of a curve lies off one of its chords: the curve passes through the chords `early` and `late`
+/// (consecutive in path order, meeting at a vertex), and the span being measured ends `take` mm along the later
+/// chord going forward (`forward`), or the earlier one going back, from the shared vertex. Returns the offset
+/// from that point on the chord to the arc (the circle through the far end of `early`, the vertex and the far
+/// end of `late`, bulging away from its centre); `None` when the chords do not bend, or when the cut chord is not
+/// a chord of that circle within `dev` (its sagitta larger: a long straight line leaving a curve).
+fn arc_offset(early: &Seg, late: &Seg, forward: bool, take: f32, dev: f32) -> Option<[f32; NUM_AXES]> {
+    let mut p = [0.0f32; NUM_AXES];
+    let mut q = [0.0f32; NUM_AXES];
+    for i in 0..NUM_AXES {
+        p[i] = -early.unit[i] * early.len;
+        q[i] = late.unit[i] * late.len;
+    }
+    let r = circumradius(&p, &q)?;
+    let cut = if forward { late } else { early };
+    let half = 0.5 * cut.len;
+    if half >= r {
+        return None;
+    }
+    // Distance of the arc from the chord `x` from its middle: √(r² − x²) − √(r² − c²/4), written without the
+    // cancellation of two nearly equal roots.
+    let height = |x: f32| (half * half - x * x) / (sqrt(r * r - x * x) + sqrt(r * r - half * half));
+    if height(0.0) > dev {
+        return None;
+    }
+    let h = height(take - half);
+    // The bend's direction along the path (later minus earlier direction) points to the centre; its part across
+    // the cut chord, reversed, is the way the arc bulges.
+    let mut inward: [f32; NUM_AXES] = core::array::from_fn(|i| late.unit[i] - early.unit[i]);
+    let along = dot(&inward, &cut.unit);
+    for (w, u) in inward.iter_mut().zip(cut.unit) {
+        *w -= along * u;
+    }
+    let norm = sqrt(dot(&inward, &inward));
+    if norm <= 1e-9 {
+        return None;
+    }
+    Some(core::array::from_fn(|i| -h * inward[i] / norm))
 }
 
 /// The pairs of distinct axes (index pairs), for cross products in any number of dimensions (the array's type
@@ -429,8 +492,8 @@ fn vertex_limits<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &Machine
     }
     let tl = sqrt(dot(&tangent, &tangent));
     tangent.iter_mut().for_each(|t| *t /= tl);
-    let p = span(seg, n, j, false, &tangent, dev, CURVE_SPAN_MM);
-    let q = span(seg, n, j, true, &tangent, dev, CURVE_SPAN_MM);
+    let p = span(seg, n, j, false, &tangent, dev, CURVE_SPAN_MM, true);
+    let q = span(seg, n, j, true, &tangent, dev, CURVE_SPAN_MM, true);
     let Some(radius) = circumradius(&p, &q) else {
         // A straight run.
         return VertexLimits { curve: Some(Curve { radius: f32::INFINITY, speed_sqr: f32::INFINITY }), ..corner };
@@ -447,8 +510,8 @@ fn vertex_limits<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &Machine
         }
     }
     let short = KINK_SPAN_STEPS * step;
-    let pa = span(seg, n, j, false, &tangent, dev, short);
-    let qb = span(seg, n, j, true, &tangent, dev, short);
+    let pa = span(seg, n, j, false, &tangent, dev, short, false);
+    let qb = span(seg, n, j, true, &tangent, dev, short, false);
     let (la, lb) = (sqrt(dot(&pa, &pa)), sqrt(dot(&qb, &qb)));
     let mut turn_sq = 0.0f32;
     for i in 0..NUM_AXES {
@@ -1141,10 +1204,23 @@ mod tests {
         assert!((r / 2.505e8 - 1.0).abs() < 1e-2, "{r}");
     }
 
-    /// `span` over the segments `segs` from vertex `j`.
+    /// `span` over the segments `segs` from vertex `j`, whole chords (the kink rule's span).
     fn span_of(segs: &[Seg], j: usize, forward: bool, tangent: [f32; 2], dev: f32, target: f32) -> [f32; 2] {
+        span_in(segs, j, forward, tangent, dev, target, false)
+    }
+
+    /// `span` over the segments `segs` from vertex `j`, `exact` or of whole chords.
+    fn span_in(
+        segs: &[Seg],
+        j: usize,
+        forward: bool,
+        tangent: [f32; 2],
+        dev: f32,
+        target: f32,
+        exact: bool,
+    ) -> [f32; 2] {
         let seq = |k: usize| segs[k];
-        let v = span(&seq, segs.len(), j, forward, &[tangent[0], tangent[1], 0.0, 0.0], dev, target);
+        let v = span(&seq, segs.len(), j, forward, &[tangent[0], tangent[1], 0.0, 0.0], dev, target, exact);
         assert_eq!(v[2..], [0.0, 0.0]);
         [v[0], v[1]]
     }
@@ -1226,6 +1302,60 @@ mod tests {
         let long = [seg_xy(1.0, 0.0, 6.0)];
         assert!(close2(span_of(&long, 0, true, x, 0.1, 3.0), [6.0, 0.0]));
         assert!(close2(span_of(&long, 1, false, x, 0.1, 3.0), [-6.0, 0.0]));
+    }
+
+    #[test]
+    fn the_radius_span_ends_exactly_at_its_length_on_the_arc() {
+        let x = [1.0, 0.0];
+        // Straight chords: the span ends at the target, not at the end of a chord up to twice as long.
+        let long = [seg_xy(0.6, 0.8, 5.5), seg_xy(0.6, 0.8, 7.0)];
+        assert!(close2(span_in(&long, 0, true, [0.6, 0.8], 0.1, 3.0, true), [1.8, 2.4]));
+        let line = [seg_xy(1.0, 0.0, 0.5); 10];
+        assert!(close2(span_in(&line, 5, true, x, 0.1, 1.2, true), [1.2, 0.0]));
+        assert!(close2(span_in(&line, 5, false, x, 0.1, 1.2, true), [-1.2, 0.0]));
+        // Chords of the circle of radius 5 through the origin centred on (0, 5): 1 mm and then 3 mm (sagitta
+        // 5 − √(25 − 2.25) = 0.230 mm, within 0.3). Two mm along the path from the origin is 1 mm into the second
+        // chord, 0.5 mm before its middle: the arc lies √(25 − 0.25) − √(25 − 2.25) = 0.205 mm off the chord
+        // there, outwards, so the span ends on the circle (x² + (y − 5)² = 25), 2.0105 mm from the vertex (the chord
+        // 1 mm along the last one and pushed out onto the arc).
+        let at = |t: f32| [5.0 * t.sin(), 5.0 - 5.0 * t.cos()];
+        let chord = |a: f32, b: f32| {
+            let (p, q) = (at(a), at(b));
+            let len = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt();
+            seg_xy((q[0] - p[0]) / len, (q[1] - p[1]) / len, len)
+        };
+        let (t1, t2) = (2.0 * 0.1f32.asin(), 2.0 * 0.1f32.asin() + 2.0 * 0.3f32.asin());
+        let before: Vec<Seg> = (0..4).map(|i| chord(-0.1 * (4 - i) as f32, -0.1 * (3 - i) as f32)).collect();
+        let mut segs = before.clone();
+        segs.extend([chord(0.0, t1), chord(t1, t2)]);
+        let end = span_in(&segs, 4, true, x, 0.3, 2.0, true);
+        assert!(close(end[0].powi(2) + (end[1] - 5.0).powi(2), 25.0, 2e-3), "{end:?} is off the circle");
+        let r = (end[0].powi(2) + end[1].powi(2)).sqrt();
+        assert!(close(r, 2.0105, 1e-3), "{r}");
+    }
+
+    #[test]
+    fn a_curves_radius_is_measured_on_the_arc_however_coarse_its_chords() {
+        // The circle of radius 5 mm above: four chords of 0.1 rad (0.4998 mm) before the vertex at the origin,
+        // a 1 mm chord and a 3.1 mm one after it (sagitta 5 − √(25 − 1.55²) = 0.246 mm, within the 0.3 mm curve
+        // deviation). Every span end lies on the circle, so its radius is 5 mm: v² = a·r with Y's 1500 mm/s²
+        // (the normal is along Y at the vertex, the chords' own acceleration uncapped) = 7500 mm²/s². (Cut on the
+        // 3.1 mm chord itself, 1 mm into it, the forward end lay 0.216 mm inside the circle: r = 3.92 mm.)
+        let mut c = MachineConfig::xy_plotter();
+        c.curve_deviation_mm = 0.3;
+        let at = |t: f32| [5.0 * t.sin(), 5.0 - 5.0 * t.cos()];
+        let chord = |a: f32, b: f32| {
+            let (p, q) = (at(a), at(b));
+            let len = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt();
+            Seg { accel: f32::MAX, nominal: 150.0, ..seg_xy((q[0] - p[0]) / len, (q[1] - p[1]) / len, len) }
+        };
+        let (t1, t2) = (2.0 * 0.1f32.asin(), 2.0 * 0.1f32.asin() + 2.0 * 0.31f32.asin());
+        let mut segs: Vec<Seg> = (0..4).map(|i| chord(-0.1 * (4 - i) as f32, -0.1 * (3 - i) as f32)).collect();
+        segs.extend([chord(0.0, t1), chord(t1, t2)]);
+        let j = verdict(&segs, 4, &c);
+        let curve = j.curve.unwrap();
+        assert!(close(curve.radius, 5.0, 5e-3), "{j:?}");
+        assert!(close(curve.speed_sqr, 7500.0, 10.0), "{j:?}");
     }
 
     #[test]
