@@ -13,7 +13,7 @@ use plotter_path::geometry::steps::StepMapper;
 use plotter_path::geometry::tone_hatch::ToneHatch;
 use plotter_path::input::raster::Mode;
 use plotter_path::input::skipped::Skipped;
-use plotter_path::input::svg::{self, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
+use plotter_path::input::svg::{self, FillStrokes, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
 use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use plotter_path::{Drawing, MachineProfile};
 
@@ -127,7 +127,7 @@ pub struct InputArgs {
     #[arg(skip = 1.0)]
     pub hatch_scale: f64,
     /// Fill SVG strokes wider than the pen (--pen-width) with parallel passes a pen width apart, both measured on
-    /// the plotted page
+    /// the plotted page, in the direction --angle gives
     #[arg(long, help_heading = "Input")]
     pub fill_strokes: bool,
     /// How SVG text is drawn
@@ -152,6 +152,9 @@ impl InputArgs {
         let scale = self.hatch_scale;
         if !(scale.is_finite() && scale > 0.0) {
             bail!("the layout's scale factor must be a positive number, got {scale}");
+        }
+        if (self.fill_strokes || self.hatch.is_some()) && !self.trace.angle.is_finite() {
+            bail!("--angle must be a finite number of degrees, got {}", self.trace.angle);
         }
         Ok(SvgOptions {
             tolerance_mm: self.tolerance,
@@ -179,7 +182,9 @@ impl InputArgs {
                 Some(HatchArg::Tone) => Some(self.tone_hatch(scale)?),
                 Some(HatchArg::Spacing(_)) | None => None,
             },
-            fill_strokes: self.fill_strokes.then_some(self.trace.pen_width / scale),
+            fill_strokes: self
+                .fill_strokes
+                .then_some(FillStrokes { pen_mm: self.trace.pen_width / scale, angle_deg: self.trace.angle }),
             text: match self.text {
                 TextArg::Outlines => TextMode::Outlines,
                 TextArg::SingleStroke => TextMode::SingleStroke,
@@ -701,7 +706,7 @@ mod tests {
     /// A 37 × 20 mm card (a grey rectangle) fitted to a 200 mm square page with 10 mm margins is magnified
     /// 180 / 37 = 4.865×. Hatched at 0.8 mm, its horizontal lines must lie 0.8 mm apart on the page (hatched before
     /// the layout they were 0.8 · 4.865 = 3.89 mm apart); with `--hatch tone` its mid grey (#808080: darkness
-    /// 0.784) gets two crossing families 0.3 / (1 − √0.2159) = 0.5665 mm apart on the page, the pen being 0.3 mm.
+    /// 0.784, less its outline's share) gets two crossing families 0.5615 mm apart on the page, the pen being 0.3 mm.
     #[test]
     fn hatch_spacing_is_measured_on_the_laid_out_page() {
         let (dir, card) = card_svg("hatch-fit", r##"<rect x="0" y="0" width="37" height="20" fill="#808080"/>"##);
@@ -730,7 +735,11 @@ mod tests {
         assert!(spaced.len() > 100, "{} gaps", spaced.len());
         assert!(spaced.iter().all(|g| (g - 0.8).abs() < 1e-5), "{spaced:?}");
         let toned = gaps(&load(&["--hatch", "tone", "--angle", "0"]));
-        let want = 0.3 / (1.0 - (1.0f64 - 0.78414).sqrt());
+        // The card's outline inks half a pen width along its 554.6 mm edge of its 17,513 mm² on the page: a share
+        // f = 0.00475 the hatch leaves out, (0.78414 − f) / (1 − f) = 0.78311.
+        let (w, h) = (180.0f64, 180.0 * 20.0 / 37.0);
+        let f = 2.0 * (w + h) * 0.15 / (w * h);
+        let want = 0.3 / (1.0 - (1.0 - (0.78414 - f) / (1.0 - f)).sqrt());
         assert!(toned.len() > 100 && toned.iter().all(|g| (g - want).abs() < 1e-3), "{want}: {toned:?}");
         // The pen table's hatches are page sizes too: a grey pen hatching at 0.8 mm, then one hatching by tone.
         let with_pen = |hatch: &str| {
@@ -780,6 +789,41 @@ mod tests {
         // (180 + 97.3) / √2 = 196 mm across: 650 passes.
         assert!(gaps.len() > 600, "{} passes", vs.len());
         assert!(gaps.iter().all(|g| (g - 0.3).abs() < 1e-6), "{gaps:?}");
+    }
+
+    /// `--fill-strokes` passes run the way `--angle` says, with or without `--hatch`. The 2 mm frame of the
+    /// 37 × 20 mm card, fitted to 180 mm, is filled with passes at 30° counter-clockwise from +X as seen: direction
+    /// (cos 30°, −sin 30°) = (0.8660, −0.5) on the page (y down), so along a pass x·sin 30° + y·cos 30° stays put,
+    /// and neighbouring passes lie 0.3 mm apart across that direction. (They ran at 45° whatever --angle said.)
+    #[test]
+    fn fill_strokes_passes_follow_the_angle_given() {
+        use plotter_path::kurbo::Point;
+        let frame = r#"<rect x="1" y="1" width="35" height="18" fill="none" stroke="black" stroke-width="2"/>"#;
+        let (dir, card) = card_svg("fill-strokes-angle", frame);
+        let (sin, cos) = 30f64.to_radians().sin_cos();
+        for extra in [&[][..], &["--hatch", "tone"], &["--hatch", "0.8"]] {
+            let base = ["t", "--paper", "200x200", "--margin", "10", "--fit", "--pen-width", "0.3", "--fill-strokes"];
+            let flags: Vec<&str> = base.iter().chain(extra).copied().chain(["--angle", "30"]).collect();
+            let w = <PageFlags as clap::Parser>::try_parse_from(flags).unwrap();
+            let d = load_laid_out(&card, &w.input, &MachineProfile::default_plotter(), &w.layout).unwrap().drawing;
+            // Every long segment that is not the frame's middle line (along x or y) is a pass.
+            let passes: Vec<(Point, Point)> = d
+                .paths()
+                .flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1])).collect::<Vec<_>>())
+                .filter(|(a, b)| a.distance(*b) > 2.0 && (a.x - b.x).abs() > 1e-6 && (a.y - b.y).abs() > 1e-6)
+                .collect();
+            assert!(passes.len() > 300, "{extra:?}: {} passes", passes.len());
+            for (a, b) in &passes {
+                let u = (*b - *a) / a.distance(*b);
+                assert!((u.x.abs() - cos).abs() < 1e-6 && (u.y.abs() - sin).abs() < 1e-6, "{extra:?}: {u:?}");
+                assert!(u.x * u.y < 0.0, "{extra:?}: {u:?} runs down to the right");
+            }
+            let mut vs: Vec<f64> = passes.iter().map(|(a, _)| a.x * sin + a.y * cos).collect();
+            vs.sort_by(f64::total_cmp);
+            vs.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
+            assert!(vs.windows(2).all(|w| (w[1] - w[0] - 0.3).abs() < 1e-6), "{extra:?}: {vs:?}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -150,6 +150,16 @@ pub struct ImageTrace {
     pub trace: TraceOptions,
 }
 
+/// How strokes wider than the pen are filled (`--fill-strokes`): with parallel passes a pen width apart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FillStrokes {
+    /// The pen's width, mm in the document (a page width divided by [`SvgOptions::hatch_scale`]): the passes'
+    /// spacing; strokes wider than 1.5 of it are filled.
+    pub pen_mm: f64,
+    /// Direction of the passes, degrees counter-clockwise from +X as seen on the page.
+    pub angle_deg: f64,
+}
+
 /// Import settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SvgOptions {
@@ -170,8 +180,8 @@ pub struct SvgOptions {
     /// How much the layout magnifies the drawing: the pen table's hatch spacings and tone pen widths are page
     /// sizes, divided by this at import so that they come out as asked on the page (1: no layout).
     pub hatch_scale: f64,
-    /// Fill strokes wider than this pen width (mm) with parallel passes.
-    pub fill_strokes: Option<f64>,
+    /// Fill strokes wider than the pen with parallel passes a pen width apart.
+    pub fill_strokes: Option<FillStrokes>,
     /// How text is drawn.
     pub text: TextMode,
     /// Trace embedded raster images; `None` skips them with a warning.

@@ -1087,11 +1087,7 @@ fn wide_strokes_filled_with_pen_wide_passes() {
     // 0.5 mm pen and passes at angle 0, the passes lie on y = 4.5, 5.0, 5.5, 6.0 (4 × 10 mm), linked by 3 × 0.5 mm,
     // plus the 10 mm centre line: 51.5 mm.
     let svg = mm_doc(r#"<line x1="0" y1="5.25" x2="10" y2="5.25" stroke="black" stroke-width="2"/>"#);
-    let opts = SvgOptions {
-        fill_strokes: Some(0.5),
-        hatch: Some(FillHatch { spacing_mm: 1.0, angle_deg: 0.0, cross: false, link: true }),
-        ..SvgOptions::default()
-    };
+    let opts = SvgOptions { fill_strokes: Some(FillStrokes { pen_mm: 0.5, angle_deg: 0.0 }), ..SvgOptions::default() };
     assert_len(&import_with(&svg, &opts).drawing, 51.5);
     // Strokes no wider than 1.5 pens are left as their centre line.
     let thin = svg.replace(r#"stroke-width="2""#, r#"stroke-width="0.7""#);

@@ -33,9 +33,10 @@ use crate::geometry::flatten::flatten_path;
 use crate::geometry::hatch::{FillHatch, hatch};
 use crate::geometry::limits::MAX_COORD_MM;
 use crate::geometry::region::{FillRule, Keep, Region, cut};
-use crate::geometry::tone_hatch::{ToneHatch, tone_hatch};
+use crate::geometry::tone_hatch::{MIN_BAND_PENS, ToneField, ToneHatch, tone_hatch};
 use crate::input::raster;
 
+mod blend;
 mod fill_paint;
 mod pattern;
 
@@ -142,6 +143,8 @@ pub(super) struct Walker<'a> {
     name: &'a str,
     /// Shapes painted by pattern fills so far (bounded by [`pattern::MAX_PATTERN_SHAPES`]).
     pattern_shapes: usize,
+    /// Opaque plain fills `--hatch tone` shades, hatched run by run once the walk is done ([`blend`]).
+    tone_fills: Vec<blend::ToneFill>,
 }
 
 fn affine(t: &usvg::Transform) -> Affine {
@@ -234,6 +237,7 @@ impl<'a> Walker<'a> {
             font: None,
             name,
             pattern_shapes: 0,
+            tone_fills: Vec::new(),
         }
     }
 
@@ -252,6 +256,8 @@ impl<'a> Walker<'a> {
         for node in root.children() {
             self.walk(node, &ctx);
         }
+        let fills = std::mem::take(&mut self.tone_fills);
+        self.skipped.hatch_refused += blend::hatch_runs(fills, &mut self.items);
     }
 
     /// One element (and what it contains); nothing once the import is cancelled (the caller then reports it).
@@ -409,20 +415,19 @@ impl<'a> Walker<'a> {
                 Some(Some(Some(d))) => self.flatten(&d, ctx.t),
                 Some(Some(None)) => Vec::new(),
             };
-            let wide = self.options.fill_strokes.is_some_and(|pen| width_mm > pen * 1.5)
+            let wide = self.options.fill_strokes.is_some_and(|f| width_mm > f.pen_mm * 1.5)
                 || (self.options.occlusion && width_mm > WIDE_STROKE_PENS * self.options.pen_width_mm);
             let outline_ok = !wide || within_reach(p.data(), ctx.t, width_mm);
             if !outline_ok {
                 self.skipped.far_outlines += 1;
             }
-            if let Some(pen) = self.options.fill_strokes
+            if let Some(fs) = self.options.fill_strokes
                 && outline_ok
-                && width_mm > pen * 1.5
-                && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), narrow(scale_mm / pen * 4.0))
+                && width_mm > fs.pen_mm * 1.5
+                && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), narrow(scale_mm / fs.pen_mm * 4.0))
             {
                 let area = self.area(&outline, ctx.t, FillRule::NonZero);
-                let angle_deg = self.options.hatch.map_or(45.0, |h| h.angle_deg);
-                let passes = FillHatch { spacing_mm: pen, angle_deg, cross: false, link: true };
+                let passes = FillHatch { spacing_mm: fs.pen_mm, angle_deg: fs.angle_deg, cross: false, link: true };
                 match hatch(&area, &passes) {
                     Some(h) => lines.extend(h),
                     None => self.skipped.hatch_refused += 1,
@@ -444,6 +449,8 @@ impl<'a> Walker<'a> {
         let layer = self.item_layer(ctx, color);
         let mut paints = Vec::new();
         let mut outline = None;
+        // An opaque plain fill's darkness and tone hatch, when it is shaded after the walk.
+        let mut deferred_tone = None;
         if let Some((_, hides, visible, r, paper, alpha)) = fill
             && visible
             && let Some(f) = p.fill()
@@ -467,12 +474,21 @@ impl<'a> Walker<'a> {
                 outline = Some(Outline { lines: Self::cut_to_clips(own, &ctx.clips), color: uniform });
             }
             if let (Some(th), Some(a)) = (&tone, &area) {
-                if let Some(field) = fill_paint::tone_field(f.paint(), alpha, ctx.t, self.options.paper_color) {
-                    let ladder = raster::Ladder { pen_mm: th.pen_mm, min_spacing_mm: th.min_spacing_mm };
-                    match tone_hatch(a, &field, th.angle_deg, self.options.tolerance_mm, &fill_paint::rung_of(ladder)) {
-                        Some(l) => lines.extend(l),
-                        None => self.skipped.hatch_refused += 1,
+                match fill_paint::tone_field(f.paint(), alpha, ctx.t, self.options.paper_color) {
+                    // An opaque plain fill-only shape is shaded with the run of fills it belongs to, after the walk.
+                    Some(ToneField::Flat(d)) if hides && stroke.is_none() && uniform.is_some() => {
+                        deferred_tone = Some((d, *th));
                     }
+                    Some(field) => {
+                        let ladder = raster::Ladder { pen_mm: th.pen_mm, min_spacing_mm: th.min_spacing_mm };
+                        let rung = fill_paint::rung_of(ladder, fill_paint::edge_ink(a, th.pen_mm));
+                        let min_band = MIN_BAND_PENS * th.pen_mm;
+                        match tone_hatch(a, &field, th.angle_deg, self.options.tolerance_mm, min_band, &rung) {
+                            Some(l) => lines.extend(l),
+                            None => self.skipped.hatch_refused += 1,
+                        }
+                    }
+                    None => {}
                 }
             } else if let (Some(h), Some(a)) = (&fill_hatch, &area) {
                 match hatch(a, h) {
@@ -499,6 +515,16 @@ impl<'a> Walker<'a> {
             }
         }
         paints.retain(|p| !p.area.is_empty());
+        if let (Some((darkness, hatch)), Some(fill_paint)) = (deferred_tone, paints.first()) {
+            self.tone_fills.push(blend::ToneFill {
+                item: self.items.len(),
+                layer,
+                area: fill_paint.area.clone(),
+                color: fill.map_or(color, |f| f.0),
+                darkness,
+                hatch,
+            });
+        }
         let lines = Self::cut_to_clips(lines, &ctx.clips);
         let pen = Pen { color, width_mm };
         self.items.push(Item { layer, pen, lines, outline, paints, element: describe(tag, p.id()) });
