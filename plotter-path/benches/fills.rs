@@ -13,7 +13,10 @@
 //! the pen's width in black on white (opaque ink: overlaps do not darken further). Both are blurred with the same
 //! Gaussian (`--sigma` mm: the eye at reading distance) and compared in CIE L*: the mean |ΔL*| / 100 over the
 //! page, and over the drawn part of it (pixels where either side is darker than L* 99.5), with the ink length.
-//! One tab-separated line per drawing and method.
+//! The drawn part's error is also split by sign: `too_dark` is the mean of (L* wanted − L* plotted) where the plot
+//! is darker than the picture, `too_light` where it is lighter (both / 100, over all drawn pixels, so they add up
+//! to `error_drawn`). One tab-separated line per drawing and method. `--dump DIR` writes, per drawing and method,
+//! the blurred picture and plot as PNGs, the plot's ink unblurred, and a map of the signed error (red: plot too dark, blue: too light).
 
 // Pixel counts and indices of a page-sized picture: far inside every integer type.
 #![allow(
@@ -39,11 +42,20 @@ struct Args {
     sigma_mm: f64,
     cell_mm: f64,
     spacing_mm: f64,
+    dump: Option<PathBuf>,
     files: Vec<PathBuf>,
 }
 
 fn parse() -> Result<Args, String> {
-    let mut a = Args { width_mm: 180.0, pen_mm: 0.3, sigma_mm: 1.0, cell_mm: 0.1, spacing_mm: 0.8, files: Vec::new() };
+    let mut a = Args {
+        width_mm: 180.0,
+        pen_mm: 0.3,
+        sigma_mm: 1.0,
+        cell_mm: 0.1,
+        spacing_mm: 0.8,
+        dump: None,
+        files: Vec::new(),
+    };
     let mut it = std::env::args().skip(1);
     let number = |flag: &str, v: Option<String>| -> Result<f64, String> {
         let v = v.ok_or_else(|| format!("{flag} needs a value"))?;
@@ -60,6 +72,7 @@ fn parse() -> Result<Args, String> {
             "--sigma" => a.sigma_mm = number("--sigma", it.next())?,
             "--cell" => a.cell_mm = number("--cell", it.next())?,
             "--spacing" => a.spacing_mm = number("--spacing", it.next())?,
+            "--dump" => a.dump = Some(PathBuf::from(it.next().ok_or("--dump needs a folder")?)),
             f if f.starts_with("--") => return Err(format!("unknown flag {f}")),
             f => a.files.push(PathBuf::from(f)),
         }
@@ -132,23 +145,65 @@ fn blur(g: &Grey, sigma: f64) -> Vec<f64> {
     out
 }
 
-/// (mean |ΔL*| / 100 over the page, over the drawn pixels).
-fn lightness_error(a: &[f64], b: &[f64]) -> (f64, f64) {
-    let (mut page, mut drawn, mut n_drawn) = (0.0, 0.0, 0usize);
+/// How far a plot's lightness is from its picture's, each / 100.
+struct Errors {
+    /// Mean |ΔL*| over the page.
+    page: f64,
+    /// Mean |ΔL*| over the drawn pixels.
+    drawn: f64,
+    /// The part of `drawn` where the plot is darker.
+    too_dark: f64,
+    /// The part of `drawn` where the plot is lighter.
+    too_light: f64,
+}
+
+/// The error of plot `a` against picture `b` (both linear luminance).
+fn lightness_error(a: &[f64], b: &[f64]) -> Errors {
+    let (mut page, mut dark, mut light, mut n_drawn) = (0.0, 0.0, 0.0, 0usize);
     for (&x, &y) in a.iter().zip(b) {
         let (la, lb) = (lightness_cie(x.clamp(0.0, 1.0)), lightness_cie(y.clamp(0.0, 1.0)));
-        let d = (la - lb).abs() / 100.0;
-        page += d;
+        let d = (la - lb) / 100.0;
+        page += d.abs();
         if la < 99.5 || lb < 99.5 {
-            drawn += d;
+            if d < 0.0 {
+                dark -= d;
+            } else {
+                light += d;
+            }
             n_drawn += 1;
         }
     }
-    (page / a.len() as f64, if n_drawn == 0 { 0.0 } else { drawn / n_drawn as f64 })
+    let n = n_drawn.max(1) as f64;
+    Errors { page: page / a.len() as f64, drawn: (dark + light) / n, too_dark: dark / n, too_light: light / n }
+}
+
+/// Writes `y` (linear luminance) as a grey PNG.
+fn write_grey(path: &Path, w: usize, h: usize, y: &[f64]) -> Result<(), String> {
+    let img = image::GrayImage::from_fn(w as u32, h as u32, |x, yy| {
+        let v = y[yy as usize * w + x as usize].clamp(0.0, 1.0);
+        let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+        image::Luma([(s * 255.0).round() as u8])
+    });
+    img.save(path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Writes the signed lightness error of `plot` against `picture` as a PNG: red where the plot is darker, blue
+/// where it is lighter, full colour at 25 L*.
+fn write_error(path: &Path, w: usize, h: usize, plot: &[f64], picture: &[f64]) -> Result<(), String> {
+    let img = image::RgbImage::from_fn(w as u32, h as u32, |x, yy| {
+        let i = yy as usize * w + x as usize;
+        let d = (lightness_cie(plot[i].clamp(0.0, 1.0)) - lightness_cie(picture[i].clamp(0.0, 1.0))) / 25.0;
+        let k = (d.abs().min(1.0) * 255.0).round() as u8;
+        if d < 0.0 { image::Rgb([255, 255 - k, 255 - k]) } else { image::Rgb([255 - k, 255 - k, 255]) }
+    });
+    img.save(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    println!("drawing\tmethod\terror_page\terror_drawn\tink_m\tstrokes\tseconds");
+    println!("drawing\tmethod\terror_page\terror_drawn\ttoo_dark\ttoo_light\tink_m\tstrokes\tseconds");
+    if let Some(dir) = &args.dump {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
     for file in &args.files {
         let name = file.file_stem().map_or_else(|| file.display().to_string(), |s| s.to_string_lossy().into_owned());
         let plain = match load_svg(file, &SvgOptions::default()) {
@@ -173,6 +228,9 @@ fn run(args: &Args) -> Result<(), String> {
         };
         let sigma_px = args.sigma_mm / args.cell_mm;
         let ref_blur = blur(&refr, sigma_px);
+        if let Some(dir) = &args.dump {
+            write_grey(&dir.join(format!("{name}.picture.png")), w, h, &ref_blur)?;
+        }
         let methods: [(&str, SvgOptions); 3] = [
             ("outlines", SvgOptions::default()),
             (
@@ -211,8 +269,21 @@ fn run(args: &Args) -> Result<(), String> {
             let mut grid = InkGrid::new(w, h, args.cell_mm);
             grid.draw(&strokes, args.pen_mm);
             let plot = Grey { w, h, y: grid.ink.iter().map(|&i| if i { 0.0 } else { 1.0 }).collect() };
-            let (page, drawn) = lightness_error(&blur(&plot, sigma_px), &ref_blur);
-            println!("{name}\t{label}\t{page:.4}\t{drawn:.4}\t{ink_m:.1}\t{}\t{secs:.2}", strokes.len());
+            let plot_blur = blur(&plot, sigma_px);
+            let e = lightness_error(&plot_blur, &ref_blur);
+            if let Some(dir) = &args.dump {
+                write_grey(&dir.join(format!("{name}.{label}.png")), w, h, &plot_blur)?;
+                write_grey(&dir.join(format!("{name}.{label}.ink.png")), w, h, &plot.y)?;
+                write_error(&dir.join(format!("{name}.{label}.error.png")), w, h, &plot_blur, &ref_blur)?;
+            }
+            println!(
+                "{name}\t{label}\t{:.4}\t{:.4}\t{:.4}\t{:.4}\t{ink_m:.1}\t{}\t{secs:.2}",
+                e.page,
+                e.drawn,
+                e.too_dark,
+                e.too_light,
+                strokes.len()
+            );
         }
     }
     Ok(())

@@ -31,9 +31,11 @@ fi
 for f in "${FILES[@]}"; do [ -f "$f" ] || { echo "fills bench: no $f (apt-get install openclipart-svg)" >&2; exit 1; }; done
 cargo bench -q -p plotter-path --bench fills -- "${FILES[@]}" | tee "$OUT/results.tsv"
 # Summary: mean error per method, and tone against --hatch 0.8 per drawing.
-awk -F'\t' 'NR > 1 { page[$2] += $3; drawn[$2] += $4; n[$2]++; e[$1, $2] = $4; names[$1] = 1 }
+awk -F'\t' 'NR > 1 { page[$2] += $3; drawn[$2] += $4; dark[$2] += $5; light[$2] += $6; ink[$2] += $7; n[$2]++
+    e[$1, $2] = $4; names[$1] = 1 }
   END {
-    for (m in n) printf "mean %-10s page %.4f  drawn %.4f  (%d drawings)\n", m, page[m] / n[m], drawn[m] / n[m], n[m]
+    for (m in n) printf "mean %-10s page %.4f  drawn %.4f (too dark %.4f, too light %.4f)  ink %.1f m  (%d drawings)\n",
+      m, page[m] / n[m], drawn[m] / n[m], dark[m] / n[m], light[m] / n[m], ink[m] / n[m], n[m]
     worse = 0
     for (d in names) if (e[d, "hatch-tone"] > 0.5 * e[d, "hatch-0.8"]) { worse++; printf "above half of --hatch 0.8: %s\n", d }
     printf "drawings where tone > half of --hatch 0.8 (drawn part): %d\n", worse

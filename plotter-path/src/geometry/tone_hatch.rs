@@ -39,9 +39,11 @@ pub const FAMILY_TURNS: [f64; 3] = [0.0, 90.0, 45.0];
 /// Widest darkness range one gradient band covers.
 pub const BAND_STEP: f64 = 1.0 / 32.0;
 
-/// Narrowest a gradient band is on the page, mm, along the gradient: lines cut at a band's edges put their pen's
-/// round ends into the neighbour band, which darkens bands narrower than a few line spacings.
-pub const MIN_BAND_MM: f64 = 2.0;
+/// Narrowest a band of one darkness is, in pen widths (2.1 mm for a 0.3 mm pen), along a gradient or across a
+/// blend's band: lines cut at a band's edges put their pen's round ends into the neighbour band, which darkens
+/// bands narrower than a few line spacings. A pen width, as the spacings are, so the bands are as wide on the
+/// plotted page however much the layout magnifies the drawing.
+pub const MIN_BAND_PENS: f64 = 7.0;
 
 /// Most bands one gradient fill is cut into (a repeating gradient with many periods across a shape).
 pub const MAX_BANDS: usize = 512;
@@ -114,14 +116,16 @@ struct Band {
 }
 
 /// The tone hatch of `region` shaded as `field`: every part hatched at the rung `rung(darkness)` gives it —
-/// (number of crossing families 0–3, spacing in mm) — lines at `angle_deg` and then [`FAMILY_TURNS`]. Circles of
-/// radial gradients are drawn as polygons within `tolerance_mm`. `None` when some band would take more than
+/// (number of crossing families 0–3, spacing in mm) — lines at `angle_deg` and then [`FAMILY_TURNS`]. A
+/// gradient's bands are at least `min_band_mm` wide along it (see [`MIN_BAND_PENS`]). Circles of radial gradients
+/// are drawn as polygons within `tolerance_mm`. `None` when some band would take more than
 /// [`super::hatch::MAX_LINES`] lines.
 pub fn tone_hatch(
     region: &Region,
     field: &ToneField,
     angle_deg: f64,
     tolerance_mm: f64,
+    min_band_mm: f64,
     rung: &dyn Fn(f64) -> (u8, f64),
 ) -> Option<Vec<Vec<Point>>> {
     let Some(bbox) = region.bbox() else { return Some(Vec::new()) };
@@ -134,7 +138,7 @@ pub fn tone_hatch(
                 let d = g.darkness.last().copied().unwrap_or(0.0);
                 return hatch_at(region, region, d, angle_deg, rung);
             };
-            let min_dt = MIN_BAND_MM / geo.page_len;
+            let min_dt = min_band_mm / geo.page_len;
             for band in bands(&g.darkness, g.spread, geo.t_min, geo.t_max, geo.t_floor, min_dt) {
                 if band.darkness < PAPER {
                     continue;
@@ -147,6 +151,28 @@ pub fn tone_hatch(
                     out.extend(hatch_at(&part, region, band.darkness, angle_deg, rung)?);
                 }
             }
+        }
+    }
+    Some(out)
+}
+
+/// The tone hatch of an area made of `parts` of their own flat darkness each (a blend's bands, see
+/// `input::svg::walk::blend`): each hatched at its rung as [`tone_hatch`] hatches a gradient's band, its lines
+/// joined only along `whole`'s edges, not along the cuts between parts. One part is hatched as the whole.
+/// `None` when some part would take more than [`super::hatch::MAX_LINES`] lines.
+pub fn tone_hatch_parts(
+    whole: &Region,
+    parts: &[(Region, f64)],
+    angle_deg: f64,
+    rung: &dyn Fn(f64) -> (u8, f64),
+) -> Option<Vec<Vec<Point>>> {
+    if let [(only, d)] = parts {
+        return hatch_at(only, only, *d, angle_deg, rung);
+    }
+    let mut out = Vec::new();
+    for (part, d) in parts {
+        if !part.is_empty() {
+            out.extend(hatch_at(part, whole, *d, angle_deg, rung)?);
         }
     }
     Some(out)
@@ -465,13 +491,13 @@ mod tests {
         // 10 × 10 square from (0.5, 0.5), angle 0: darkness 0.25 → one family at 2 mm: lines y = 2, 4, 6, 8, 10,
         // 5 × 10 mm plus 4 links of 2 mm = 58 mm in one zig-zag.
         let r = Region::from_contours([square(0.5, 0.5, 10.0).as_slice()], FillRule::NonZero);
-        let lines = tone_hatch(&r, &ToneField::Flat(0.25), 0.0, 0.01, &rung).unwrap();
+        let lines = tone_hatch(&r, &ToneField::Flat(0.25), 0.0, 0.01, 2.0, &rung).unwrap();
         assert_eq!(lines.len(), 1);
         assert!((total(&lines) - 58.0).abs() < 1e-6, "{}", total(&lines));
         // Darkness 0.8 → two families at 1 mm: 10 + 10 lines of 10 mm and 9 + 9 links of 1 mm.
-        let lines = tone_hatch(&r, &ToneField::Flat(0.8), 0.0, 0.01, &rung).unwrap();
+        let lines = tone_hatch(&r, &ToneField::Flat(0.8), 0.0, 0.01, 2.0, &rung).unwrap();
         assert!((total(&lines) - 218.0).abs() < 1e-6, "{}", total(&lines));
-        assert!(tone_hatch(&r, &ToneField::Flat(0.0), 0.0, 0.01, &rung).unwrap().is_empty());
+        assert!(tone_hatch(&r, &ToneField::Flat(0.0), 0.0, 0.01, 2.0, &rung).unwrap().is_empty());
     }
 
     #[test]
@@ -487,7 +513,7 @@ mod tests {
             spread: Spread::Pad,
             darkness,
         });
-        let lines = tone_hatch(&r, &field, 90.0, 0.01, &|d| rung(d)).unwrap();
+        let lines = tone_hatch(&r, &field, 90.0, 0.01, 2.0, &|d| rung(d)).unwrap();
         let mut xs: Vec<f64> = lines.iter().flatten().map(|p| p.x).collect();
         xs.sort_by(f64::total_cmp);
         xs.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
@@ -518,7 +544,7 @@ mod tests {
             spread: Spread::Pad,
             darkness,
         });
-        let lines = tone_hatch(&r, &field, 0.0, 0.01, &rung).unwrap();
+        let lines = tone_hatch(&r, &field, 0.0, 0.01, 2.0, &rung).unwrap();
         assert!(!lines.is_empty());
         for p in lines.iter().flatten() {
             assert!(p.to_vec2().hypot() <= 10.0 + 0.02, "ink at {p:?}, outside the gradient's circle");

@@ -13,6 +13,7 @@ use kurbo::{Affine, Point};
 
 use super::{affine, rgb};
 use crate::geometry::drawing::Rgb;
+use crate::geometry::region::Region;
 use crate::geometry::tone_hatch::{GradientField, GradientShape, Spread, ToneField};
 use crate::input::raster::tone::{Ladder, srgb_to_linear};
 use crate::input::svg::MM_PER_PX;
@@ -108,12 +109,46 @@ pub(super) fn tone_field(paint: &usvg::Paint, alpha: f32, t: Affine, paper: Rgb)
     }
 }
 
-/// The ladder's rung for a darkness, as the tone hatch asks for it: (families, spacing mm).
-pub(super) fn rung_of(ladder: Ladder) -> impl Fn(f64) -> (u8, f64) {
+/// The ladder's rung for a darkness, as the tone hatch asks for it: (families, spacing mm). Past the ladder's
+/// darkest rung the families close in down to solid black ([`Ladder::rung_to_black`]), as the image styles'
+/// do: a black fill plots black, not L* 22.
+///
+/// `edge` is the share of the fill the line along its edge already inks ([`edge_ink`]): the hatch lays down
+/// the rest, coverage `c` with `edge + c · (1 − edge) = darkness`, so a fill's outline (or stroke) and its hatch
+/// together ink the fill's darkness, and a fill lighter than its own outline gets no hatch.
+pub(super) fn rung_of(ladder: Ladder, edge: f64) -> impl Fn(f64) -> (u8, f64) {
     move |d| {
-        let r = ladder.rung(d);
+        let d = if edge <= 0.0 {
+            d
+        } else if edge < 1.0 {
+            ((d - edge) / (1.0 - edge)).max(0.0)
+        } else {
+            0.0
+        };
+        let r = ladder.rung_to_black(d);
         (r.families, r.spacing_mm)
     }
+}
+
+/// The share of `region` (mm) a pen `pen_mm` wide inks inside it when drawn along its edge: half a pen width
+/// along the perimeter, over the area (at most 1).
+pub(super) fn edge_ink(region: &Region, pen_mm: f64) -> f64 {
+    let a = area(region);
+    if a <= 0.0 { 1.0 } else { (perimeter(region) * pen_mm / 2.0 / a).min(1.0) }
+}
+
+/// The length of a region's contours, mm.
+pub(super) fn perimeter(r: &Region) -> f64 {
+    r.contours().map(|c| c.iter().zip(c.iter().cycle().skip(1)).map(|(a, b)| a.distance(*b)).sum::<f64>()).sum()
+}
+
+/// The area of a region, mm² (its contours' signed areas: holes run the other way round).
+pub(super) fn area(r: &Region) -> f64 {
+    let signed: f64 = r
+        .contours()
+        .map(|c| c.iter().zip(c.iter().cycle().skip(1)).map(|(a, b)| a.x * b.y - b.x * a.y).sum::<f64>() / 2.0)
+        .sum();
+    signed.abs()
 }
 
 #[cfg(test)]
@@ -154,11 +189,15 @@ mod tests {
         );
         assert_eq!(white.len(), 1);
         assert!(white[0].len() == 2 && (white[0][1] - white[0][0] - kurbo::Vec2::new(1.0, 0.0)).hypot() < 1e-9);
-        // Black: three families 0.45 mm apart, 1 − (1 − 0.3/0.45)³ = 0.963 of the paper inked (inside, away from
-        // the outline).
+        // Black: past the ladder's darkest rung (three families 0.45 mm apart ink 1 − (1 − 0.3/0.45)³ = 0.963, L*
+        // 22) one family of touching lines, 0.3 mm apart: the paper inked all over (inside, away from the outline;
+        // the 0.02 mm grid leaves a hair between touching lines), with 20 · 20 / 0.3 = 1333 mm of lines plus the
+        // 80 mm outline and the joins (67 × 0.3 mm), where the three families took twice that.
         let lines = plotted(r#"<rect x="10" y="10" width="20" height="20" fill="black"/>"#);
         let f = ink(&lines, 12.0, 28.0, 12.0, 28.0);
-        assert!((f - (1.0 - (1.0f64 / 3.0).powi(3))).abs() < 0.03, "{f}");
+        assert!(f > 0.97, "{f}");
+        let length: f64 = lines.iter().flat_map(|l| l.windows(2)).map(|w| w[0].distance(w[1])).sum();
+        assert!(length > 1333.0 && length < 1333.0 + 80.0 + 21.0, "{length} mm");
         // Joined into zig-zags: the outline plus about one stroke per family.
         assert!(lines.len() <= 6, "{} strokes", lines.len());
     }
@@ -174,6 +213,32 @@ mod tests {
         let lines = plotted(r#"<rect x="10" y="10" width="20" height="20" fill="black" fill-opacity="0.25"/>"#);
         let f = ink(&lines, 12.0, 28.0, 12.0, 28.0);
         assert!((f - 0.4775).abs() < 0.03, "{f}");
+    }
+
+    #[test]
+    fn a_blend_of_thin_steps_inks_its_darkness() {
+        // A blend: 40 rectangles x 10..30, each from y = 10 down to y = 30 − 0.5 i, grey 128 + i painted in that
+        // order, so the band y = 29.5 − 0.5 i .. 30 − 0.5 i shows grey 128 + i: strips 0.5 mm tall, thinner than the
+        // line spacing. Over y 14..28 the ink must be the mean darkness 1 − linear(grey) of the strips there (the
+        // outline's share, 80 mm × 0.15 mm over 400 mm², is taken from the hatch: −0.03 · (1 − darkness)).
+        // Hatched strip by strip, each piece of line inked a pen dot and each strip's joins ran along its edge.
+        let body: String = (0..40)
+            .map(|i| {
+                let h = 20.0 - 0.5 * f64::from(i);
+                format!(r#"<rect x="10" y="10" width="20" height="{h}" fill="rgb({g},{g},{g})"/>"#, g = 128 + i)
+            })
+            .collect();
+        let lines = plotted(&body);
+        let darkness = |y: f64| {
+            // The strip at y shows grey 128 + i with i = ⌊(30 − y) / 0.5⌋ (y 10..10.5 is the top rectangle's).
+            #[allow(clippy::cast_possible_truncation)]
+            let i = (((30.0 - y) / 0.5).floor() as i32).min(39);
+            1.0 - srgb_to_linear(f64::from(128 + i) / 255.0)
+        };
+        let want = (0..1400).map(|k| darkness(14.0 + 14.0 * (f64::from(k) + 0.5) / 1400.0)).sum::<f64>() / 1400.0;
+        let want = want - 0.03 * (1.0 - want);
+        let got = ink(&lines, 12.0, 28.0, 14.0, 28.0);
+        assert!((got - want).abs() < 0.03, "ink {got}, darkness {want}");
     }
 
     #[test]
