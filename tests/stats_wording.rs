@@ -43,7 +43,7 @@ fn no_part_of_the_plot_time_reads_below_its_bound_and_no_sign_is_doubled() {
     let parts: Vec<&str> = shown.lines().filter(|l| l.contains("time parts, planned (lower bound):")).collect();
     assert_eq!(parts.len(), 2, "before and after ordering: {shown}");
     for line in parts {
-        // Each of pen down, travel and lifts: `NAME T s (bound B s, P % above)`.
+        // Each of pen down, lifts, and travel with lifts: `NAME T s (bound B s, P % above)`.
         assert_eq!(line.matches("% above)").count(), 3, "{line}");
         assert!(!line.contains("below") && !line.contains("+-") && !line.contains("-"), "{line}");
     }

@@ -28,16 +28,18 @@ pub(crate) struct StatsArgs {
     /// (count per reason: invisible, same_colour_fill, image_not_traced, pattern_too_fine…),
     /// pen_up_mm_from_home, pen_up_mm_optimized, pen_up_lower_bound_mm, pen_lifts_optimized, est_time_s,
     /// est_time_lower_bound_s, est_time_s_optimized, est_time_lower_bound_s_optimized, and est_time_parts /
-    /// est_time_parts_optimized: draw_s, travel_s, lifts_s, their *_lower_bound_s, and above_lower_bound_s: the
+    /// est_time_parts_optimized: draw_s, travel_s, lifts_s, their *_lower_bound_s (travel_lower_bound_s bounds
+    /// travel_s plus what lifts_s spends above lifts_lower_bound_s: a hop's length decides some pen moves), and
+    /// above_lower_bound_s: the
     /// time above the bound by cause, axis_limits_s, corners_s, curves_s, stroke_ends_s, step_timing_s, lifts_s,
     /// drops_s, settles_s, hops_s, travel_order_s)
     #[arg(long)]
     pub(crate) json: bool,
     /// Also print the lower bounds (of the pen-up distance, and of the plot time at the machine's limits as its
     /// profile states them: each axis's speed and acceleration, and how fast it may pass each corner or curve
-    /// point of a line), where the plot time goes (pen down, travel, lifts) against each part's bound, and what
-    /// the time above the bound is spent on. The optimized plot's bound is for the drawing as optimized: paths
-    /// joined where their ends meet or a gap narrower than the pen is drawn through count as one line.
+    /// point of a line), where the plot time goes (pen down, lifts, travel and lifts) against each part's bound,
+    /// and what the time above the bound is spent on. The optimized plot's bound is for the drawing as optimized:
+    /// paths joined where their ends meet or a gap narrower than the pen is drawn through count as one line.
     #[arg(long, short = 'v')]
     pub(crate) verbose: bool,
     /// The machine the time estimate is for.
@@ -282,12 +284,12 @@ mod tests {
             tail,
             [
                 "plot time     2:05.3 (profile 'XY'), lower bound 1:17.2",
-                "              time parts, planned (lower bound): pen down 80.0 s (bound 70.0 s, 14.3 % above), travel \
-                 6.0 s (bound 3.0 s, 100.0 % above), lifts 4.0 s (bound 4.2 s, 4.8 % below)",
+                "              time parts, planned (lower bound): pen down 80.0 s (bound 70.0 s, 14.3 % above), lifts \
+                 4.0 s (bound 4.2 s, 4.8 % below), travel and lifts 10.0 s (bound 7.2 s, 38.9 % above)",
                 "optimized     pen up 40.00 mm (saves 60.0 % of 100.00 mm), lower bound 35.00 mm, 2 pen lifts, plot \
                  time 1:30.0 (saves 0:35.3), lower bound 1:17.2 (16.6 % above)",
-                "              time parts, planned (lower bound): pen down 80.0 s (bound 70.0 s, 14.3 % above), travel \
-                 6.0 s (bound 3.0 s, 100.0 % above), lifts 4.0 s (bound 4.2 s, 4.8 % below)",
+                "              time parts, planned (lower bound): pen down 80.0 s (bound 70.0 s, 14.3 % above), lifts \
+                 4.0 s (bound 4.2 s, 4.8 % below), travel and lifts 10.0 s (bound 7.2 s, 38.9 % above)",
             ]
         );
     }

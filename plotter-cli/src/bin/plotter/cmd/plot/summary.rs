@@ -113,8 +113,8 @@ fn details(outcome: &JobOutcome, executed_ticks: Option<u64>) -> String {
 }
 
 /// With `--verbose`: print the plot-time lower bound next to the planned time, and both split into drawing,
-/// travel and lifts (see [`plotter_path::motion::bound`]); the order's travel bound is taken from `start`, where
-/// the order started. Without it, nothing (and nothing is computed).
+/// lifts, and travel with lifts (see [`plotter_path::motion::bound`] and `time_parts::line`); the order's travel
+/// bound is taken from `start`, where the order started. Without it, nothing (and nothing is computed).
 pub(super) fn print_lower_bound(
     profile: &plotter_path::MachineProfile,
     steps: &plotter_path::geometry::steps::StepDrawing,
@@ -133,7 +133,7 @@ pub(super) fn print_lower_bound(
     let above = percent_above(plan.seconds(), b.total_s())
         .map_or(String::new(), |p| format!(": planned time is {} % above it", fixed(p, 1)));
     println!(
-        "lower bound {} s (pen down {} s, {} lifts {} s, travel {} s){above}",
+        "lower bound {} s (pen down {} s, {} lifts {} s, travel with the pen moves its hops force {} s){above}",
         fixed(b.total_s(), 3),
         fixed(b.draw_s, 1),
         steps.strokes.len(),
