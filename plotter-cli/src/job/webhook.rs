@@ -147,9 +147,9 @@ impl PlotEnd for crate::Error {
 
 /// Run `plot` (a plot, or a resume from its journal) with `events`, and with the webhook at `url`, when there is
 /// one, told of its pen changes and pauses as they come and of its end: `finished` with `done`'s text, `stopped`
-/// or `error` with the error's (see [`PlotEnd`]). The deliveries are waited for when `wait` (a command that ends with the plot), and otherwise
-/// go on on their own thread (a studio machine goes on to its next job). The outer error: the webhook could not
-/// be set up (the plot did not start); the inner result is the plot's.
+/// or `error` with the error's (see [`PlotEnd`]). The deliveries are waited for when `wait` (a command that ends
+/// with the plot), and otherwise go on on their own thread (a studio machine goes on to its next job). The outer
+/// error: the webhook could not be set up (the plot did not start); the inner result is the plot's.
 pub fn hooked<T, E: PlotEnd>(
     url: Option<&str>,
     machine: &str,
