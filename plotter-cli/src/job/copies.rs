@@ -136,7 +136,7 @@ fn copies_from<M: PlotMachine + ?Sized>(
                 // not known, so it homes before it parks for the paper (where a pen left down would draw).
                 super::settle_alarm(machine, true, events)?;
                 machine.begin()?;
-                machine.home()?;
+                super::home_for_plot(machine, profile, events)?;
                 machine.end()?;
                 home = false;
             }

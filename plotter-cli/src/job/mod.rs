@@ -81,6 +81,25 @@ fn settle_alarm<M: PlotMachine + ?Sized>(
     Ok(())
 }
 
+/// Home before a plot. When the profile names a spot off the paper for homing Z (`[homing] z_home_xy_mm`), a Z
+/// the firmware does not know (switched on since it was homed) is homed there, as a resume does (see
+/// [`crate::link::home_axes`]): a machine just switched on may stand over the fresh sheet, and on one whose pen
+/// touches before its Z switch a plain cycle would press a dot into it. Without a spot, the plain cycle.
+pub(crate) fn home_for_plot<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+    events: &mut dyn PlotEvents,
+) -> anyhow::Result<()> {
+    if profile.homing.z_home_xy_mm.is_none() {
+        return machine.home();
+    }
+    if let Some(done) = machine.home_over_drawing(profile)? {
+        eprintln!("{done}");
+        events.notice(&done);
+    }
+    Ok(())
+}
+
 /// Home (when `home`), plan `steps` from the position the machine reports (and back there at the end when
 /// `return_home`), and stream the plan, reporting to `events`, stopping for pen changes when the front end asks
 /// for them, and recording in the journal (if any). The layers' names may ask for pauses and delays (see
@@ -115,7 +134,7 @@ pub fn plot_with<M: PlotMachine + ?Sized>(
     // cannot forge).
     machine.begin()?;
     if home {
-        machine.home()?;
+        home_for_plot(machine, profile, events)?;
     }
     let start = position_within_travel(machine, profile)?;
     let plan = plan::plan_returning(profile, steps, start, Lookahead::Whole, return_home)?;

@@ -135,7 +135,8 @@ fn a_resume_after_a_power_cycle_never_lowers_the_pen_onto_the_drawing() {
     let mut profile = MachineProfile::default_plotter();
     assert!(!profile.homing.pen_clear_at_z_switch);
     profile.homing.z_home_xy_mm = Some([400.0, 280.0]);
-    let travelling: fn([i64; NUM_AXES]) -> bool = |p| p[2] >= 1500 && p[0] >= 150 * 80;
+    // (Off the homing trip to the spot and back, along y = 0.7 x: the travel between the strokes runs along y = x − 80.)
+    let travelling: fn([i64; NUM_AXES]) -> bool = |p| p[2] >= 1500 && p[0] >= 150 * 80 && p[1] < 90 * 80;
     let drawing: fn([i64; NUM_AXES]) -> bool = |p| p[2] <= 0 && p[0] >= 60 * 80 && p[1] < 100 * 80;
     for (when, name) in [(travelling, "travel"), (drawing, "stroke")] {
         let (stopped_at, drawn, resumed) = cut_and_resume(&profile, when, name);
@@ -149,4 +150,32 @@ fn a_resume_after_a_power_cycle_never_lowers_the_pen_onto_the_drawing() {
     let (_, _, resumed) = cut_and_resume(&profile, travelling, "no-spot");
     let e = resumed.unwrap_err();
     assert!(e.contains("the pen's height is unknown") && e.contains("`plotter home --z`"), "{e}");
+}
+
+/// A new plot (not a resume) on a kit just switched on, its carriage left over the sheet at (100, 80) mm with the
+/// pen resting on it: with a homing spot in the profile, Z is homed there — the pen presses past its touch only at
+/// the spot and touches the paper only where the plot draws. Without a spot the plain cycle seeks Z where the
+/// carriage stands (the firmware cannot tell a switch-on from a power cycle), pressing there.
+#[test]
+fn a_new_plot_on_a_machine_just_switched_on_homes_z_at_the_spot() {
+    let mut profile = MachineProfile::default_plotter();
+    profile.homing.z_home_xy_mm = Some([400.0, 280.0]);
+    let steps = two_strokes(&profile);
+    let mut s = Session::connect(sim_at(&profile, [0; NUM_AXES]), "sim").unwrap();
+    plot(&mut s, &profile, &steps, true, false, None, &mut Quiet).unwrap();
+    let (drawn, _) = touches([0; NUM_AXES], s.transport.sim().hal().steps());
+    let over_the_sheet = [100 * 80, 80 * 80, 0, 0];
+    let run = |profile: &MachineProfile| {
+        let mut s = Session::connect(sim_at(profile, over_the_sheet), "sim").unwrap();
+        plot(&mut s, profile, &steps, true, false, None, &mut Quiet).unwrap();
+        touches(over_the_sheet, s.transport.sim().hal().steps())
+    };
+    let (touch, press) = run(&profile);
+    let astray: Vec<_> = touch.iter().filter(|p| !drawn.contains(*p) && **p != SPOT).collect();
+    assert!(astray.is_empty(), "the pen touched at {astray:?}");
+    assert_eq!(press, HashSet::from([SPOT]));
+    assert!(touch.len() > 1000, "the strokes were drawn ({} positions)", touch.len());
+    profile.homing.z_home_xy_mm = None;
+    let (_, press) = run(&profile);
+    assert_eq!(press, HashSet::from([[100 * 80, 80 * 80]]));
 }

@@ -15,7 +15,10 @@
 //!    with the pen at its up height);
 //! 4. travels back to where X and Y homed, as a full `G28` would leave the machine.
 //!
-//! Without a spot it refuses, moving nothing, and says how to go on: raise the pen and move the carriage off the
+//! A new plot homes this way too when the profile names a spot: a machine just switched on may stand over the
+//! fresh sheet (see `crate::job`'s homing before a plot).
+//!
+//! Without a spot a resume refuses, moving nothing, and says how to go on: raise the pen and move the carriage off the
 //! paper, then `plotter home --z`. Why not the spot by default, or at the home corner: the kit's A3 frame has no
 //! place a sheet cannot cover, and only the user knows where the paper lies.
 
@@ -25,6 +28,7 @@ use plotter_fw::errors::ErrorCode;
 use plotter_path::MachineProfile;
 
 use super::Transport;
+use super::refused::Refused;
 use super::session::{COMMAND_TIMEOUT, Session};
 
 /// The axes `plotter home --x/--y/--z` names; none named is the full cycle.
@@ -61,8 +65,7 @@ impl HomeAxes {
 
 /// Whether `e` is our firmware refusing a homing that would press the pen onto the paper (error 16).
 fn refused_as_marking(e: &anyhow::Error) -> bool {
-    let code = ErrorCode::HomingWouldMark.code();
-    format!("{e:#}").contains(&format!("refused: error {code}:"))
+    Refused::has_code(e, ErrorCode::HomingWouldMark.code())
 }
 
 /// What `plotter resume` says when Z's height is unknown and the profile names no spot off the paper to home it.
@@ -109,7 +112,7 @@ impl<T: Transport> Session<T> {
         self.command_checked(&format!("G0 X{hx:.6} Y{hy:.6}"), COMMAND_TIMEOUT)?;
         self.wait_idle(Duration::from_millis(50))?;
         Ok(Some(format!(
-            "the pen's height was unknown (the firmware restarted since the plot stopped): lifted the pen {lift} mm, \
+            "the pen's height was unknown (the firmware restarted since Z was last homed): lifted the pen {lift} mm, \
              homed X and Y, then homed Z off the paper at X{x} Y{y} mm ([homing] z_home_xy_mm)"
         )))
     }

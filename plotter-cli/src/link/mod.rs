@@ -19,6 +19,7 @@ pub mod machine;
 pub mod manual;
 pub mod paced;
 pub mod print;
+pub mod refused;
 pub mod serial;
 pub mod session;
 pub mod sim;

@@ -8,6 +8,7 @@ use plotter_fw::framing::{self, rt_sequence};
 use plotter_fw::protocol::{RT_FEED_HOLD, RT_STATUS, Reply};
 
 use super::Transport;
+use super::refused::Refused;
 use super::wait::{Wait, WaitError};
 
 /// What the firmware says about itself.
@@ -310,6 +311,11 @@ impl<T: Transport> Session<T> {
         bail!("{}: could not leave framed mode", self.name)
     }
 
+    /// The firmware's `error:<code> <text>` answer to `line`, as a typed error.
+    fn refused(&self, line: &str, code: u8, text: &str) -> Refused {
+        Refused { machine: self.name.clone(), line: line.to_string(), code, text: text.to_string() }
+    }
+
     /// Send one G-code line (unsequenced) and wait for its `ok`; returns the report lines before it. `error:` and
     /// alarms are errors.
     pub fn command(&mut self, line: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
@@ -326,7 +332,7 @@ impl<T: Transport> Session<T> {
             };
             match Reply::parse(&l) {
                 Reply::Ok => return Ok(out),
-                Reply::Error { code, text } => bail!("{}: {line:?} refused: error {code}: {text}", self.name),
+                Reply::Error { code, text } => return Err(self.refused(line, code, text).into()),
                 Reply::Alarm { code, text } => bail!("{}: alarm {code} ({text}) during {line:?}", self.name),
                 Reply::Banner(_) => bail!("{}: the firmware restarted during {line:?}", self.name),
                 Reply::Status(_) | Reply::Resend(_) | Reply::Completed(_) => {}
@@ -433,7 +439,7 @@ impl<T: Transport> Session<T> {
                         seq = self.status()?.seq;
                         break;
                     }
-                    Reply::Error { code, text } => bail!("{}: {line:?} refused: error {code}: {text}", self.name),
+                    Reply::Error { code, text } => return Err(self.refused(line, code, text).into()),
                     Reply::Alarm { code, text } => bail!("{}: alarm {code} ({text}) during {line:?}", self.name),
                     Reply::Banner(_) => bail!("{}: the firmware restarted during {line:?}", self.name),
                     Reply::Resend(n) => {

@@ -312,8 +312,10 @@ pub struct HomingProfile {
     pub pen_clear_at_z_switch: bool,
     /// Where Z may be homed when its height is unknown on a machine whose pen touches before its Z switch (a
     /// power cycle mid-plot): machine X and Y, mm, a spot off the paper where the pen may touch the bed. The
-    /// resume then lifts the pen, homes X and Y, travels there and homes Z. Absent (the default): the resume
-    /// refuses and asks the user to move the carriage off the paper and home Z (`plotter home --z`).
+    /// resume then lifts the pen, homes X and Y, travels there and homes Z; so does a new plot's homing when the
+    /// machine was switched on since Z was homed (its carriage may stand over the fresh sheet). Absent (the
+    /// default): the resume refuses and asks the user to move the carriage off the paper and home Z (`plotter
+    /// home --z`), and a new plot homes Z where the carriage stands.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub z_home_xy_mm: Option<[f64; 2]>,
 }
