@@ -133,7 +133,7 @@ pub struct InputArgs {
     /// How SVG text is drawn
     #[arg(long, value_enum, default_value_t = TextArg::Outlines, help_heading = "Input")]
     pub text: TextArg,
-    /// Trace embedded SVG <image>s with this tracing mode (the image tracing flags apply)
+    /// Trace the images embedded in an SVG with this tracing mode (the image tracing flags apply)
     #[arg(long, value_enum, default_value_t = ImagesArg(None), help_heading = "Input")]
     pub images: ImagesArg,
     /// Cut SVG geometry at the page edge (it is reported either way)

@@ -3,7 +3,7 @@
 //! as a plotter would, and has time to pause it.
 //!
 //! The simulator itself runs on virtual time as fast as it can; this wrapper only hands it slices of at most
-//! [`SLICE`] of virtual time and sleeps whenever virtual time is ahead of `wall elapsed × speed`. After a pause
+//! `SLICE` of virtual time and sleeps whenever virtual time is ahead of `wall elapsed × speed`. After a pause
 //! (nobody asked for replies for a while) the pace restarts from the current instant instead of rushing to catch up.
 
 use std::io;

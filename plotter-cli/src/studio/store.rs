@@ -8,7 +8,7 @@
 //!
 //! The file is written in WAL mode with `synchronous=FULL`: a change that returned is on disk, even if the process
 //! is killed the next instant or the power goes, and a reader never sees half of a change. Every change the queue
-//! makes goes through [`Store::change`], one `BEGIN IMMEDIATE` transaction.
+//! makes goes through `Store::change`, one `BEGIN IMMEDIATE` transaction.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;

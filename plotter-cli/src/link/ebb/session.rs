@@ -463,7 +463,7 @@ impl<T: Transport> EbbSession<T> {
     }
 
     /// Wait until every queued command has run (`QG` polled every 20 ms); `limit` bounds the wait (derive it from
-    /// the work queued: [`work_limit`]). Says what it waits for once it takes long; obeys the stop flag as the
+    /// the work queued: `work_limit`). Says what it waits for once it takes long; obeys the stop flag as the
     /// session's waits do now.
     pub fn drain(&mut self, limit: Duration) -> anyhow::Result<()> {
         let what = if self.version.has_qg() { "QG" } else { "QM" };
