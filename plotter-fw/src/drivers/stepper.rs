@@ -650,7 +650,19 @@ impl Stepper {
         self.carry = None;
         let act = &mut self.act;
         if act.n == 0 {
-            // A dwell: the hold stops at its end.
+            // A dwell: the hold stops at its end; but a servo block between two moves (a drop commanded on the
+            // way) hands the hold on to the move after it, which the carriage enters at its planned entry rate.
+            let servo = self.ring[act.slot & SLOT_MASK].block.servo.is_some();
+            if servo && self.queued > 0 {
+                let entry = self.ring[self.first & SLOT_MASK].block.entry_rate;
+                #[allow(clippy::cast_precision_loss, reason = "rates are below 2^24, exact in f32")]
+                let v = entry as f32;
+                let mut carry = (entry > 0).then_some(Carry { v_sq: v * v, planned_exit: entry });
+                for i in 0..self.queued {
+                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
+                }
+                self.carry = carry;
+            }
             return;
         }
         let slot = &mut self.ring[act.slot & SLOT_MASK];
@@ -944,8 +956,14 @@ fn set_dir<H: StepPins>(hal: &mut H, axis: Axis, axes: u8, levels: u8) {
 
 /// A hold decelerating through a block boundary: re-time the queued block `q` to keep slowing down from the rate
 /// reached (`carry`, converted by the ratio of the planned junction rates). Returns the rate carried out of `q`,
-/// `None` when the hold stops within it or before it (a dwell, a block without acceleration, no speed left).
+/// `None` when the hold stops within it or before it (a dwell, a block without acceleration, no speed left). A
+/// servo block the carriage enters moving (a pen drop commanded on the way, between two moves) is no stop: the
+/// hold runs through it (the servo is set as planned) and carries the same rate on into the move after it.
 fn continue_hold(carry: Carry, q: &mut Queued) -> Option<Carry> {
+    if q.block.servo.is_some() && q.block.is_dwell() && carry.v_sq > 0.0 && carry.planned_exit > 0 {
+        q.hold = true;
+        return Some(carry);
+    }
     if carry.v_sq <= 0.0 || carry.planned_exit == 0 || q.block.is_dwell() || q.block.accel == 0 {
         return None;
     }
@@ -1470,6 +1488,62 @@ mod tests {
         let (s, hal) = hold_carried_into(StepBlock { accel: 20_000, ..StepBlock::dwell(10) });
         assert!(s.is_held());
         assert_eq!((s.completed(), s.pending(), hal.pos[0]), (1, 1, 3000));
+    }
+
+    #[test]
+    fn a_hold_runs_through_a_servo_block_between_two_moves_into_the_move_after_it() {
+        // A drop commanded on the way: the first move leaves off at 4000 events/s, the 1-tick servo block, the
+        // next move enters at 4000 and decelerates to rest over its 400 events (4000²/(2·20 000)). A hold with
+        // event 2900 scheduled needs 399 more events: 100 in the first move, then (v² = 12·10⁶ carried through
+        // the servo block) √(12·10⁶)² / 40 000 = 300 events into the last move, where it stops: the carriage
+        // slows down across the servo command instead of stopping dead at it, and the servo is set on the way.
+        let last = StepBlock {
+            steps: [400, 0, 0, 0],
+            entry_rate: 4000,
+            cruise_rate: 4000,
+            exit_rate: 0,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        let first = StepBlock {
+            steps: [3000, 0, 0, 0],
+            entry_rate: 0,
+            cruise_rate: 4000,
+            exit_rate: 4000,
+            accel: 20_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        s.push(first, Switches::Limits).unwrap();
+        s.push(StepBlock::servo(300, 1), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..2899 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.feed_hold();
+        // The last move arrives while the hold decelerates: it is re-timed as its continuation when pushed.
+        s.push(last, Switches::Limits).unwrap();
+        while s.tick(&mut hal).is_some() {}
+        assert!(s.is_held());
+        assert_eq!((s.completed(), hal.pos[0]), (2, 3299));
+        // A hold during the servo block itself hands the move's entry rate on: 4000²/40 000 = 400 events, less
+        // the last (the rate reaches zero there), as a hold at the move's first event would.
+        let mut s = Stepper::new(0, 0);
+        let mut hal = Rec::default();
+        s.push(first, Switches::Limits).unwrap();
+        s.push(StepBlock::servo(300, 1), Switches::Limits).unwrap();
+        s.start(&mut hal);
+        for _ in 0..3000 {
+            s.tick(&mut hal).unwrap();
+        }
+        s.push(last, Switches::Limits).unwrap();
+        s.feed_hold();
+        while s.tick(&mut hal).is_some() {}
+        assert!(s.is_held());
+        assert_eq!(hal.pos[0], 3000 + 399, "{}", s.completed());
     }
 
     #[test]
