@@ -18,7 +18,8 @@ use plotter_host::link::grbl::emulator::GrblEmulator;
 use plotter_host::link::grbl::program::{declare_position, program as grbl_program};
 use plotter_path::geometry::steps::{StepDrawing, drawing_to_steps};
 use plotter_path::kurbo::Point;
-use plotter_path::motion::plan::{self, Lookahead, MotionPlan};
+use plotter_path::motion::plan::{self, Lookahead, MotionPlan, MoveKind};
+use plotter_path::motion::servo::ServoSync;
 use plotter_path::{Drawing, MachineProfile, Polyline};
 
 /// The farthest the carriage may be from the stroke's end when the tip touches or leaves the paper, mm.
@@ -189,7 +190,8 @@ fn on_our_firmware(fraction: Option<f64>) -> f64 {
 }
 
 fn on_grbl(fraction: Option<f64>) -> f64 {
-    let p = servo_kit(fraction);
+    // GRBL runs `M3` only once its moves have ended: the plan stops the travel where it commands the drop.
+    let p = MachineProfile { servo_sync: ServoSync::AtRest, ..servo_kit(fraction) };
     let steps = steps_of(&p);
     let start = plan::homed_position(&p).unwrap();
     let plan: MotionPlan = plan::plan(&p, &steps, start, Lookahead::Whole).unwrap();
@@ -291,6 +293,46 @@ fn on_ebb_with(p: &MachineProfile, name: &str) -> (f64, u64) {
 fn the_tip_lands_on_the_stroke_on_our_firmware() {
     on_our_firmware(None);
     on_our_firmware(Some(0.5));
+}
+
+/// Our firmware runs the servo pen's drop while the carriage travels (issue 39): each drop the plan commands on the
+/// way (a servo block between two travel blocks) finds the carriage moving in the simulator's step trace — its
+/// last step before the command and its first after both within 2 ms (a carriage that stopped for the command
+/// would take √(2 / 120 000 steps/s²) = 4.1 ms for its first step from rest) —, and the carriage goes on
+/// moving while the servo swings down to the paper.
+#[test]
+fn the_carriage_moves_while_the_servo_swings_on_our_firmware() {
+    let p = servo_kit(None);
+    let steps = steps_of(&p);
+    let (plan, sim, _, _) = played_on_our_firmware(&p, &steps);
+    let on_the_way = (1..plan.blocks.len() - 1)
+        .filter(|&i| {
+            let kind = |j: usize| plan.blocks[j].kind;
+            kind(i) == MoveKind::PenDown && kind(i - 1) == MoveKind::Travel && kind(i + 1) == MoveKind::Travel
+        })
+        .count();
+    // The first hop (from home), the 5 mm and the 55 mm ones at least; the shortest fit in the servo's swing.
+    assert!(on_the_way >= 3, "{on_the_way} drops commanded on the way");
+    let times: Vec<u64> = plotter_e2e::sim_positions(&sim).into_iter().map(|(t, _)| t).collect();
+    let up = p.pen.servo_up_deg;
+    let mut moving = 0;
+    for &(t, angle, _) in sim.hal().servo_trace() {
+        if (f64::from(angle) - up).abs() < 0.05 {
+            continue;
+        }
+        let after = times.partition_point(|&s| s <= t);
+        let (before, next) = (times[..after].last().copied(), times.get(after).copied());
+        if let (Some(b), Some(n)) = (before, next)
+            && t - b <= 2000
+            && n - t <= 2000
+        {
+            moving += 1;
+            // Still moving during the swing: steps in the servo's 105 ms to the touch.
+            let swing = times.partition_point(|&s| s <= t + 105_000) - after;
+            assert!(swing > 0, "no step while the servo swung down after {t}");
+        }
+    }
+    assert_eq!(moving, on_the_way, "drops commanded with the carriage moving");
 }
 
 #[test]

@@ -129,6 +129,8 @@ pub fn plot_with<M: PlotMachine + ?Sized>(
     options: &stops::StopOptions,
     events: &mut dyn PlotEvents,
 ) -> crate::Result<JobOutcome> {
+    // Planned for the firmware it runs on: whether a servo pen's drop may be commanded while the carriage moves.
+    let profile = &*crate::link::machine::profile_for(profile, machine.firmware());
     settle_alarm(machine, home, events)?;
     // Our firmware: framed mode for everything the plot acts on (verified replies, real-time commands noise
     // cannot forge).
@@ -193,6 +195,8 @@ pub fn resume_with<M: PlotMachine + ?Sized>(
     options: &stops::StopOptions,
     events: &mut dyn PlotEvents,
 ) -> crate::Result<JobOutcome> {
+    // Planned for the firmware it runs on, as the plot was (see `plot_with`).
+    let profile = &*crate::link::machine::profile_for(profile, machine.firmware());
     let full = plan::plan_returning(profile, steps, start, Lookahead::Whole, return_home)?;
     machine.begin()?;
     let done = machine.resume_point(state, &full)?;

@@ -10,6 +10,7 @@ use anyhow::Context as _;
 
 use plotter_path::MachineProfile;
 use plotter_path::motion::plan::{MachinePos, MotionPlan};
+use plotter_path::motion::servo::ServoSync;
 
 use super::Transport;
 use super::ebb::session::EbbSession;
@@ -34,6 +35,28 @@ pub enum Firmware {
     /// A vintage HP-GL plotter (HP 7475A and kin), sent the HP-GL export under a buffer handshake (by `plotter plot`
     /// and `plotter serve`, which drive it through an HP-GL session of their own).
     Hpgl,
+}
+
+impl Firmware {
+    /// How this firmware runs a servo pen's command among the moves, which the plan is made for: GRBL stops the
+    /// motion for `M3` (its spindle sync); ours and the EiBotBoard queue it between two moves without stopping the
+    /// motors; `auto` plans as for the simulated plotter (ours).
+    pub fn servo_sync(self) -> ServoSync {
+        match self {
+            Firmware::Grbl => ServoSync::AtRest,
+            Firmware::Auto | Firmware::Ours | Firmware::Ebb | Firmware::Hpgl => ServoSync::InMotion,
+        }
+    }
+}
+
+/// `profile` for a plot on `firmware`: with the servo timing the plan must be made for
+/// ([`MachineProfile::servo_sync`]).
+pub fn profile_for(profile: &MachineProfile, firmware: Firmware) -> std::borrow::Cow<'_, MachineProfile> {
+    let sync = firmware.servo_sync();
+    if profile.servo_sync == sync {
+        return std::borrow::Cow::Borrowed(profile);
+    }
+    std::borrow::Cow::Owned(MachineProfile { servo_sync: sync, ..profile.clone() })
 }
 
 /// What a plot job needs from a machine.

@@ -422,8 +422,9 @@ fn plot_job_with(
             anyhow::bail!("{}: the journal of job {}, not of job {id}", journal_path.display(), source.job);
         }
         // As the plot planned it: several copies each end back where they started.
+        let p = crate::link::machine::profile_for(profile, machine.firmware());
         let full =
-            plan::plan_returning(profile, &steps, source.start, Lookahead::Whole, job::copies::returns(back, &copies))?;
+            plan::plan_returning(&p, &steps, source.start, Lookahead::Whole, job::copies::returns(back, &copies))?;
         if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
             anyhow::bail!(
                 "job {id} no longer gives the plan its journal recorded (the machine's profile changed); cancel it \

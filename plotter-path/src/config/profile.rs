@@ -377,6 +377,11 @@ pub struct MachineProfile {
     /// G-code export templates (`[gcode]`: header, footer, pen up and down, layer start and end, tool change).
     #[serde(default)]
     pub gcode: crate::config::gcode_template::GcodeTemplate,
+    /// Whether the firmware plotted with runs a servo pen's drop while the carriage moves: never read from a
+    /// profile file; the host sets it from the firmware it talks to (our firmware and the EiBotBoard do, GRBL
+    /// stops). See [`crate::motion::servo::ServoSync`].
+    #[serde(skip)]
+    pub servo_sync: crate::motion::servo::ServoSync,
 }
 
 /// The settings of an EiBotBoard machine (AxiDraw, NextDraw, iDraw): its pen servo in the board's own units

@@ -13,12 +13,15 @@
 //! ([`crate::motion::servo`]): the travel starts once the lifting servo has passed the point where the tip meets
 //! the paper (`pen.contact_fraction` of its travel), and the drop is commanded during the travel, the servo turning
 //! back wherever the lift has taken it, so that the carriage has arrived at the stroke's start by the earliest time
-//! the tip may touch; a dwell holds it there until the latest, and the line starts. Servo blocks carry no steps, so
-//! the drop command splits the travel: the travel stops, the servo is commanded (a 1-tick block), the last part
-//! follows; the split is only made where it pays. On an EBB (a profile with an `[ebb]` section), whose servo
-//! command is a queue entry between two moves that does not stop the motors, the travel does not stop for the
-//! command: it is planned whole and cut, and the carriage passes the command at the speed it has there
-//! (`RawPlan::flying_servo_hop`).
+//! the tip may touch; a dwell holds it there until the latest, and the line starts. How the drop meets the travel
+//! depends on the firmware ([`MachineProfile::servo_sync`], see [`ServoSync`]):
+//!
+//! * where the servo command is a queue entry between two moves that does not stop the motors (our firmware's
+//!   servo step block, the EBB's `SP`), the travel does not stop for the command: it is planned whole from rest to
+//!   rest and cut where the rest of it arrives by the earliest contact, and the carriage passes the command (a
+//!   1-tick servo block) at the speed it has there (`RawPlan::flying_servo_hop`);
+//! * where the motion stops for it (GRBL's `M3`), the drop command splits the travel: the travel stops, the servo
+//!   is commanded, the last part follows from rest; the split is only made where it pays.
 //!
 //! Every move becomes a [`PlanBlock`] of the firmware's own planner
 //! ([`plotter_fw::planner`]: per-axis limits, junction deviation, reverse/forward passes), planned here over the
@@ -47,7 +50,7 @@ use crate::config::profile::{AxisProfile, HomeEnd};
 use crate::geometry::parallel::for_each_mut;
 use crate::geometry::steps::{PenHeightsError, StepDrawing, StepMapper, StepPos};
 use crate::motion::hop::{self, HopHeights};
-use crate::motion::servo::{self, ServoTiming};
+use crate::motion::servo::{self, ServoSync, ServoTiming};
 
 /// Errors planning a drawing.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -253,6 +256,13 @@ impl MotionPlan {
         #[allow(clippy::cast_precision_loss)]
         let t = self.total_ticks as f64;
         t / f64::from(TICK_HZ)
+    }
+
+    /// The first servo block the carriage runs into moving (the block before it ends above rest): a drop
+    /// commanded on the way, which only a firmware that runs the servo between moves can execute as planned
+    /// ([`ServoSync::InMotion`]). `None` when every servo block comes with the carriage at rest.
+    pub fn servo_in_motion(&self) -> Option<usize> {
+        self.blocks.windows(2).position(|w| w[1].block.servo.is_some() && w[0].block.exit_rate > 0).map(|i| i + 1)
     }
 
     /// Exact execution time of the blocks from `from` on (ticks).
@@ -583,7 +593,8 @@ struct RawPlan<'c> {
     changes: Vec<PenChange>,
     /// The profile's path acceleration caps (drawing, travel), mm/s²; `f32::MAX` where it sets none.
     accel_caps: [f32; 2],
-    /// A servo drop may be commanded while the carriage moves (see [`RawPlan::servo_hop`]).
+    /// A servo drop may be commanded while the carriage moves (see [`RawPlan::servo_hop`]): the firmware does not
+    /// stop for it ([`ServoSync::InMotion`]).
     flying_drop: bool,
 }
 
@@ -600,7 +611,7 @@ impl<'c> RawPlan<'c> {
             settle: settle_ticks(profile),
             changes: Vec::new(),
             accel_caps: [cap(profile.pen.draw_accel_mm_s2), cap(profile.pen.travel_accel_mm_s2)],
-            flying_drop: profile.ebb.is_some(),
+            flying_drop: profile.servo_sync == ServoSync::InMotion,
         }
     }
 
@@ -1558,6 +1569,76 @@ mod tests {
             assert_eq!(r.position_after(r.preamble - 1), full.position_after(side2 - 1));
             assert_eq!(r.blocks[r.preamble].kind, Draw);
         }
+    }
+
+    /// Two 10 mm strokes along X on the servo kit (`samples/servo-plotter.toml`), the second 30 mm on from the
+    /// first's end, planned for a firmware that runs the servo `sync`: the plan and its blocks from the lift after
+    /// the first stroke up to the second stroke's first line (the hop).
+    fn kit_hop(sync: ServoSync) -> (MotionPlan, std::ops::Range<usize>) {
+        let mut p = MachineProfile::from_toml(include_str!("../../../samples/servo-plotter.toml"), "kit").unwrap();
+        p.servo_sync = sync;
+        let l = |x: f64| Polyline::new(vec![Point::new(x, 20.0), Point::new(x + 10.0, 20.0)]);
+        let steps = drawing_to_steps(&p, &Drawing::single_layer("a", vec![l(20.0), l(60.0)])).unwrap();
+        let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
+        let kind_at = |k: MoveKind, stroke: usize| plan.blocks.iter().position(|b| b.kind == k && b.stroke == stroke);
+        let lift = kind_at(MoveKind::Draw, 0).unwrap() + 1;
+        let line = kind_at(MoveKind::Draw, 1).unwrap();
+        (plan, lift..line)
+    }
+
+    /// The servo kit's numbers, by hand: the travel is 30 mm along X (2400 steps at 80/mm) at 120 mm/s (9600
+    /// steps/s) and 1500 mm/s² (120 000 steps/s²): 384 steps of ramp each way (80 ms each), 1632 of cruise
+    /// (170 ms), 330 ms from rest to rest. The servo turns 60° in 150 ms, the tip touching at 0.7: a lift is clear
+    /// after 45 ms, a drop from the top touches 105 ms after its command.
+    const KIT_CLEAR: u64 = 45_000;
+    const KIT_CONTACT: u64 = 105_000;
+
+    #[test]
+    fn the_servo_kit_runs_its_hop_through_the_drop_on_a_firmware_that_does_not_stop_for_it() {
+        let (plan, hop) = kit_hop(ServoSync::InMotion);
+        use MoveKind::*;
+        let kinds: Vec<MoveKind> = plan.blocks[hop.clone()].iter().map(|b| b.kind).collect();
+        assert_eq!(kinds, [PenUp, Travel, PenDown, Travel, Settle]);
+        let b = |i: usize| plan.blocks[hop.start + i].block;
+        // One rest-to-rest move, cut where the drop is commanded: the carriage passes the 1-tick servo block at
+        // the rate the first part leaves off with and the second part starts with.
+        assert_eq!((b(0).servo, b(2)), (Some(900), StepBlock::servo(300, 1)));
+        assert!(b(1).entry_rate == 0 && b(3).exit_rate == 0, "{:?} {:?}", b(1), b(3));
+        assert!(b(1).exit_rate > 0 && b(1).exit_rate == b(3).entry_rate, "{:?} {:?}", b(1), b(3));
+        assert_eq!(b(1).steps[0] + b(3).steps[0], 2400);
+        // The drop is commanded where the rest of the travel takes the 105 ms the tip needs to touch, to within
+        // a step (104 µs at the cruise): the carriage arrives as the tip touches.
+        let last = u64::from(b(2).duration_ticks() + b(3).duration_ticks());
+        assert!((KIT_CONTACT - 105..=KIT_CONTACT).contains(&last), "{last}");
+        // Lift command to line: the clear time, then the 330 ms move; the drop costs nothing (less than a step).
+        let t: u64 = plan.blocks[hop].iter().map(|b| u64::from(b.ticks)).sum();
+        assert!((KIT_CLEAR + 330_000..=KIT_CLEAR + 330_000 + 110).contains(&t), "{t}");
+        assert_eq!(plan.servo_in_motion(), Some(hop_drop(&plan)));
+    }
+
+    /// The first drop commanded during a travel (the servo block between two travel blocks).
+    fn hop_drop(plan: &MotionPlan) -> usize {
+        (1..plan.blocks.len())
+            .find(|&i| plan.blocks[i].kind == MoveKind::PenDown && plan.blocks[i + 1].kind == MoveKind::Travel)
+            .unwrap()
+    }
+
+    #[test]
+    fn on_a_firmware_that_stops_for_the_servo_the_kits_hop_stops_where_the_drop_is_commanded() {
+        // GRBL: the travel stops, the drop is commanded, the rest follows from rest and must arrive within the
+        // 105 ms to the touch: a triangle of 2·√(e / 120 000 steps/s²) ≤ 104 999 µs (the command takes a tick),
+        // e = 330 steps (4.125 mm); the first 2070 steps take 80 + 135.625 + 80 ms from rest to rest.
+        let (plan, hop) = kit_hop(ServoSync::AtRest);
+        use MoveKind::*;
+        let kinds: Vec<MoveKind> = plan.blocks[hop.clone()].iter().map(|b| b.kind).collect();
+        assert_eq!(kinds, [PenUp, Travel, PenDown, Travel, Settle]);
+        let b = |i: usize| plan.blocks[hop.start + i].block;
+        assert_eq!(b(1).exit_rate, 0, "the first part ends at rest");
+        assert_eq!(b(3).entry_rate, 0, "the last part starts from rest");
+        assert_eq!((b(1).steps[0], b(3).steps[0]), (2070, 330));
+        let t: u64 = plan.blocks[hop].iter().map(|b| u64::from(b.ticks)).sum();
+        assert!((KIT_CLEAR + 295_625 + KIT_CONTACT..=KIT_CLEAR + 295_625 + KIT_CONTACT + 100).contains(&t), "{t}");
+        assert_eq!(plan.servo_in_motion(), None);
     }
 
     #[test]

@@ -415,6 +415,13 @@ impl<T: Transport> GrblSession<T> {
     /// when every line has been executed (a status report asked for after the last `ok` says Idle); the same
     /// loop watches the tail, so a hold there is told and timed like one mid-plot.
     pub fn stream(&mut self, plan: &MotionPlan, control: &mut dyn Control) -> Result<StreamStats, StreamError> {
+        // GRBL stops the motion for `M3` (its spindle sync): a drop planned on the way would land early.
+        if let Some(i) = plan.servo_in_motion() {
+            return Err(StreamError::Link(anyhow::anyhow!(
+                "block {i}: the plan commands the pen servo while the carriage moves, which GRBL cannot do (it stops \
+                 for M3); it was planned for another firmware"
+            )));
+        }
         let prog = program(&self.profile, plan);
         let n = prog.lines.len();
         let bytes: Vec<Vec<u8>> = prog.lines.iter().map(|l| format!("{l}\n").into_bytes()).collect();

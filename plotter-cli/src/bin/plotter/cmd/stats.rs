@@ -14,6 +14,7 @@ use plotter_path::output::stats::{Stats, fixed, percent_above, unsigned_zero};
 use plotter_path::{Drawing, MachineProfile};
 
 use plotter_host::input::Source;
+use plotter_host::link::machine::Firmware;
 use plotter_host::options::machine::MachineArgs;
 use plotter_host::options::optimize::{OptimizeArgs, optimize_quietly};
 
@@ -45,6 +46,11 @@ pub(crate) struct StatsArgs {
     /// The machine the time estimate is for.
     #[command(flatten)]
     pub(crate) machine: MachineArgs,
+    /// The firmware the time estimate is for: ours and ebb run a servo pen's drop while the carriage travels, grbl
+    /// stops the carriage where the drop is commanded (its M3 waits for the moves before it to end); auto plans as
+    /// `plot` without --port does (the simulated plotter, our firmware).
+    #[arg(long, value_enum, default_value_t = Firmware::Auto)]
+    pub(crate) firmware: Firmware,
     #[command(flatten)]
     pub(crate) optimize: OptimizeArgs,
 }
@@ -76,7 +82,8 @@ fn estimate(
 
 /// Run `plotter stats`.
 pub(crate) fn run(args: &StatsArgs) -> Result<()> {
-    let profile = args.machine.load()?;
+    let mut profile = args.machine.load()?;
+    profile.servo_sync = args.firmware.servo_sync();
     let decoded = args.source.load_decoded(&profile)?;
     let (drawing, skipped) = (decoded.drawing, decoded.skipped);
     let stats = Stats::of(&drawing);

@@ -435,7 +435,8 @@ fn resume_plot(
     let state = plotter_host::link::journal::load(path)?;
     let record: WebJournal = serde_json::from_str(&state.source)
         .map_err(|e| anyhow::anyhow!("{}: not a journal of this web app ({e})", path.display()))?;
-    let full = plan::plan_returning(profile, steps, record.start, plan::Lookahead::Whole, false)?;
+    let planned = plotter_host::link::machine::profile_for(profile, machine.firmware());
+    let full = plan::plan_returning(&planned, steps, record.start, plan::Lookahead::Whole, false)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
         anyhow::bail!(
             "{} is no longer the plot that was interrupted: its layout, pens, speeds or machine changed since; set \

@@ -359,8 +359,9 @@ pub(crate) fn run(args: &PlotArgs) -> anyhow::Result<()> {
     }
     // The plan's time and its dwell before anything moves (planned from home here; the job plans again from the
     // position the machine reports, which differs by the first travel at most).
+    let firmware = connected.as_mut().map_or(Firmware::Ours, |c| c.machine().firmware());
     let ahead = plan::plan_returning(
-        &profile,
+        &plotter_host::link::machine::profile_for(&profile, firmware),
         &steps,
         plan::homed_position(&profile)?,
         plan::Lookahead::Whole,
@@ -547,7 +548,8 @@ pub(crate) fn resume(args: &ResumeLink<'_>, journal_path: &Path) -> anyhow::Resu
     let copies = original.workflow.copies()?;
     let stops = job::stops::StopOptions { split_mm: original.workflow.split_mm()? };
     let back = job::copies::returns(original.optimize.return_home, &copies);
-    let full = plan::plan_returning(&profile, &steps, source.start, plan::Lookahead::Whole, back)?;
+    let planned = plotter_host::link::machine::profile_for(&profile, c.machine().firmware());
+    let full = plan::plan_returning(&planned, &steps, source.start, plan::Lookahead::Whole, back)?;
     if full.geometry_hash() != state.plan_hash || full.blocks.len() != state.blocks {
         bail!(
             "{} no longer gives the plan recorded in {} (the input or the profile changed)",
