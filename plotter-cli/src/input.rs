@@ -13,7 +13,9 @@ use plotter_path::geometry::steps::StepMapper;
 use plotter_path::geometry::tone_hatch::ToneHatch;
 use plotter_path::input::raster::Mode;
 use plotter_path::input::skipped::Skipped;
-use plotter_path::input::svg::{self, FillStrokes, ImageTrace, LayerBy, ResourcePolicy, SvgOptions, TextMode};
+use plotter_path::input::svg::{
+    self, FillStrokes, ImageTrace, LayerBy, ResourcePolicy, ScaleRange, SvgOptions, TextMode,
+};
 use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use plotter_path::{Drawing, MachineProfile};
 
@@ -379,7 +381,7 @@ pub const FINEST_TOLERANCE_MM: f64 = 0.0001;
 
 /// Whether decoding `data` (read from `path`) hatches filled areas: an SVG with `--hatch`, with a pen table whose
 /// pens hatch, or with `--fill-strokes`. Their hatch sizes (and the passes' pen width) are page sizes, so such a
-/// drawing is decoded knowing the layout's factor ([`InputArgs::hatch_scale`], [`layout_factor`]).
+/// drawing is decoded knowing the layout's factor ([`InputArgs::hatch_scale`], [`decode_for_layout`]).
 pub fn hatches_fills(path: &Path, data: &[u8], args: &InputArgs, profile: &MachineProfile) -> bool {
     input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg
         && (args.hatch.is_some() || args.fill_strokes || profile.pens.iter().any(|p| p.hatch.is_some()))
@@ -394,11 +396,14 @@ fn unhatched(args: &InputArgs, profile: &MachineProfile) -> (InputArgs, MachineP
     (InputArgs { hatch: None, cross_hatch: false, ..args.clone() }, bare)
 }
 
-/// How much `layout` magnifies the drawing in `data` (decoded without hatching, as the page would lay it out):
-/// the [`InputArgs::hatch_scale`] that makes its hatch sizes come out as asked on the page. For a front end that
-/// keeps the decoded drawing and lays it out later (the web app); [`load_laid_out`] does the same for a file.
+/// Decode `data` for a front end that keeps the decoded drawing and lays it out by `layout` later (the web app),
+/// with the page sizes [`load_laid_out`] gives a file: an SVG whose import measures something on the page (hatch
+/// spacings, `--hatch tone`'s and `--fill-strokes`' pen width, an opaque stroke wide enough on the page to hide what
+/// lies under it, see [`Decoded::scales`]) is decoded once to learn the layout's factor, then again at that factor
+/// when the first decode does not hold for it. Returns the decoded drawing (not laid out) and the factor its page
+/// sizes were measured at ([`InputArgs::hatch_scale`]).
 #[allow(clippy::too_many_arguments)]
-pub fn layout_factor(
+pub fn decode_for_layout(
     data: &[u8],
     name: &Path,
     shown: &str,
@@ -407,10 +412,25 @@ pub fn layout_factor(
     profile: &MachineProfile,
     layout: &LayoutArgs,
     cancel: &Cancel,
-) -> Result<f64> {
-    let (args, bare) = unhatched(args, profile);
-    let mut drawing = decode_drawing(data, name, shown, resources, &args, &bare, cancel)?.drawing;
-    layout.apply(&mut drawing)
+) -> Result<(Decoded, f64)> {
+    let hatched = hatches_fills(name, data, args, profile);
+    let (first_args, bare) = if hatched { unhatched(args, profile) } else { (args.clone(), profile.clone()) };
+    let first = decode_drawing(data, name, shown, resources, &first_args, &bare, cancel)?;
+    if !hatched && first.scales.is_everything() {
+        return Ok((first, args.hatch_scale));
+    }
+    let mut laid_out = first.drawing.clone();
+    let factor = match layout.apply(&mut laid_out) {
+        Ok(f) => f,
+        // Without hatching the first decode stands; the layout's complaint comes when the drawing is laid out.
+        Err(_) if !hatched => return Ok((first, args.hatch_scale)),
+        Err(e) => return Err(e),
+    };
+    if !hatched && first.scales.holds_for(factor) {
+        return Ok((first, args.hatch_scale));
+    }
+    let again = InputArgs { hatch_scale: factor, ..args.clone() };
+    Ok((decode_drawing(data, name, shown, resources, &again, profile, cancel)?, factor))
 }
 
 /// [`load_decoded`], then laid out by `layout`. An SVG's curves are flattened at `--tolerance` in the document's
@@ -442,7 +462,10 @@ pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, la
     }
     let factor = layout.apply(&mut decoded.drawing)?;
     let finer = (args.tolerance / factor).max(FINEST_TOLERANCE_MM);
-    if hatched || (is_svg && finer < args.tolerance * (1.0 - 1e-9)) {
+    // Opaque strokes hide what lies under them by their width on the page: decode again when the layout's factor
+    // would change that for any of them (a 0.5 mm border on a card enlarged 4.9× is 2.4 mm wide on the page).
+    let rescaled = is_svg && !decoded.scales.holds_for(factor);
+    if hatched || rescaled || (is_svg && finer < args.tolerance * (1.0 - 1e-9)) {
         let finer_args = InputArgs { tolerance: finer.min(args.tolerance), hatch_scale: factor, ..args.clone() };
         let again = decode_bytes(&data, path, &shown, &finer_args, profile).and_then(|d| {
             plotter_path::geometry::limits::check_drawing(&d.drawing, &shown)?;
@@ -501,12 +524,15 @@ pub struct Decoded {
     pub warnings: Vec<String>,
     /// What the import left out, per reason (SVG imports count it; other inputs warn only).
     pub skipped: Skipped,
+    /// The layout factors the decode holds for as it is (an SVG's opaque strokes hide what lies under them by
+    /// their width on the page); every factor for other inputs.
+    pub scales: ScaleRange,
 }
 
 impl Decoded {
     /// A drawing whose import counts nothing as skipped.
     pub fn plain(drawing: Drawing, warnings: Vec<String>) -> Self {
-        Decoded { drawing, warnings, skipped: Skipped::default() }
+        Decoded { drawing, warnings, skipped: Skipped::default(), scales: ScaleRange::default() }
     }
 }
 
@@ -547,7 +573,12 @@ fn decode_kind(
         InputKind::Svg => {
             let options = SvgOptions { cancel: cancel.clone(), ..args.svg_options(profile)? };
             let imported = svg::import_svg(data, shown, resources, &options)?;
-            Ok(Decoded { drawing: imported.drawing, warnings: imported.warnings, skipped: imported.skipped })
+            Ok(Decoded {
+                drawing: imported.drawing,
+                warnings: imported.warnings,
+                skipped: imported.skipped,
+                scales: imported.scales,
+            })
         }
         InputKind::Image => {
             let image = raster::decode_image(data, name)?;
@@ -823,6 +854,48 @@ mod tests {
             vs.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
             assert!(vs.windows(2).all(|w| (w[1] - w[0] - 0.3).abs() < 1e-6), "{extra:?}: {vs:?}");
         }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The lengths of the drawing's horizontal paths (y constant), longest first.
+    fn horizontal_lengths(d: &Drawing) -> Vec<f64> {
+        let mut out: Vec<f64> = d
+            .paths()
+            .filter(|p| p.points.len() >= 2 && p.points.iter().all(|q| (q.y - p.points[0].y).abs() < 1e-9))
+            .map(|p| p.points.windows(2).map(|w| w[0].distance(w[1])).sum())
+            .collect();
+        out.sort_by(|a, b| b.total_cmp(a));
+        out
+    }
+
+    /// An opaque stroke hides what lies under it by its width on the page, the pen being 0.3 mm (four pens:
+    /// 1.2 mm). On the 37 × 20 mm card, a thin line across its middle lies under a 0.5 mm black stroke down its
+    /// middle; fitted to 180 mm (4.865×) the stroke is 0.5 · 180 / 37 = 2.432 mm wide on the page, so the line
+    /// splits into two pieces of (180 − 2.432) / 2 = 88.784 mm. (Judged in the document's 0.5 mm it stayed whole.)
+    /// The other way: a card ten times that size (370 mm, its stroke 5 mm) shrunk to 180 mm has a 2.432 mm stroke
+    /// too, and with a 0.7 mm pen (2.8 mm) that no longer hides: the line stays whole at 180 mm.
+    #[test]
+    fn a_stroke_hides_what_lies_under_it_by_its_width_on_the_page() {
+        let body = r#"<path d="M0 10H37" stroke="black" stroke-width="0.1" fill="none"/>
+            <path d="M18.5 0V20" stroke="black" stroke-width="0.5" fill="none"/>"#;
+        let (dir, card) = card_svg("wide-stroke-fit", body);
+        let flags = ["t", "--paper", "200x200", "--margin", "10", "--fit"];
+        let w = <PageFlags as clap::Parser>::try_parse_from(flags).unwrap();
+        let d = load_laid_out(&card, &w.input, &MachineProfile::default_plotter(), &w.layout).unwrap().drawing;
+        let pieces = horizontal_lengths(&d);
+        let want = (180.0 - 0.5 * 180.0 / 37.0) / 2.0;
+        assert_eq!(pieces.len(), 2, "{pieces:?}");
+        assert!(pieces.iter().all(|l| (l - want).abs() < 0.01), "{want}: {pieces:?}");
+        // Shrunk: ten times the card, a 0.7 mm pen.
+        let big = dir.join("big.svg");
+        let svg = std::fs::read_to_string(&card).unwrap().replace("37mm", "370mm").replace("20mm", "200mm");
+        std::fs::write(&big, svg).unwrap();
+        let toml = plotter_path::config::profile::DEFAULT_PROFILE_TOML.replacen("width_mm = 0.3", "width_mm = 0.7", 1);
+        let profile = MachineProfile::from_toml(&toml, "t.toml").unwrap();
+        assert_eq!(profile.pen.width_mm, 0.7);
+        let d = load_laid_out(&big, &w.input, &profile, &w.layout).unwrap().drawing;
+        let whole = horizontal_lengths(&d);
+        assert!(whole.len() == 1 && (whole[0] - 180.0).abs() < 1e-6, "{whole:?}");
         std::fs::remove_dir_all(&dir).ok();
     }
 

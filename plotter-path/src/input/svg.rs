@@ -47,9 +47,11 @@ mod grid;
 pub mod hershey;
 mod layers;
 mod occlude;
+mod page_scale;
 pub mod resources;
 mod walk;
 
+pub use page_scale::ScaleRange;
 pub use resources::ResourcePolicy;
 
 use std::collections::HashMap;
@@ -178,7 +180,8 @@ pub struct SvgOptions {
     /// [`SvgOptions::hatch`] and the pens' hatches.
     pub tone_hatch: Option<crate::geometry::tone_hatch::ToneHatch>,
     /// How much the layout magnifies the drawing: the pen table's hatch spacings and tone pen widths are page
-    /// sizes, divided by this at import so that they come out as asked on the page (1: no layout).
+    /// sizes, divided by this at import so that they come out as asked on the page, and a stroke's width times
+    /// this is its width on the page, which decides whether it hides what lies under it (1: no layout).
     pub hatch_scale: f64,
     /// Fill strokes wider than the pen with parallel passes a pen width apart.
     pub fill_strokes: Option<FillStrokes>,
@@ -190,8 +193,8 @@ pub struct SvgOptions {
     pub crop: bool,
     /// The paper's colour: fill-only shapes of this colour draw an outline only where they lie on another colour.
     pub paper_color: Rgb,
-    /// The pen's width, mm: opaque strokes wider than four times this hide what lies under them, as fills do
-    /// (thinner ones would only nick the lines they cross).
+    /// The pen's width, mm on the page: opaque strokes wider than four times this on the page hide what lies under
+    /// them, as fills do (thinner ones would only nick the lines they cross).
     pub pen_width_mm: f64,
     /// The profile's pen table: a layer whose pen (matched by name, then colour, see
     /// [`crate::config::pens::table_index`]) has a `hatch` gets its fills shaded, unless [`SvgOptions::hatch`]
@@ -233,6 +236,10 @@ pub struct Imported {
     pub warnings: Vec<String>,
     /// How many elements were left out (wholly or in part), per reason: the summary beside the warnings.
     pub skipped: Skipped,
+    /// The layout factors this import holds for as it is ([`SvgOptions::hatch_scale`] among them): laid out by
+    /// another factor, some opaque stroke would hide what lies under it on the page where it now does not, or the
+    /// other way round, and the drawing should be decoded again at that factor.
+    pub scales: ScaleRange,
 }
 
 /// Load and import an SVG file; it may reference image files beside it ([`ResourcePolicy::beside`]).
@@ -363,6 +370,7 @@ pub fn import_svg(
         ));
     }
     let layer_names = std::mem::take(&mut walker.layer_names);
+    let scales = walker.scales;
     let mut items = std::mem::take(&mut walker.items);
     if let Some(w) = bounds::cut_far(&mut items) {
         warnings.push(format!("{name}: {w}"));
@@ -420,7 +428,7 @@ pub fn import_svg(
         let detail = if warnings.is_empty() { String::new() } else { format!(" ({})", warnings.join("; ")) };
         return Err(SvgError::Empty { path: name.to_string(), detail });
     }
-    Ok(Imported { drawing, warnings, skipped: summary })
+    Ok(Imported { drawing, warnings, skipped: summary, scales })
 }
 
 /// Refuse a root `width` or `height` beyond ±[`crate::geometry::limits::MAX_COORD_MM`] (1 km) before usvg works

@@ -1258,3 +1258,31 @@ fn the_skipped_summary_counts_each_item_left_out_with_its_reason() {
     let plain = import(&mm_doc(r#"<line x1="0" y1="90" x2="7" y2="90" stroke="black"/>"#));
     assert!(plain.skipped.is_empty(), "{}", plain.skipped);
 }
+
+/// Blends are outlined at their own edge only, without `--hatch tone` too. Three opaque greys, each 6 of 255
+/// lighter than the one painted right before it (a step the edge rule alone sees as an edge): A, a 30 mm square
+/// (120 mm round), B inside it, and C reaching 10 mm past A's right side. Inside the blend nothing is outlined: A
+/// shows 110 mm (C hides 10 mm of its right side), B none, C only the 30 mm that lies past A (top, right and bottom
+/// of its 10 × 10 mm part outside). D, black, painted next, is no step of the blend: its 40 mm outline is whole.
+/// 180 mm in all; every step's outline drawn, it was 280 mm (B 70, C 60).
+#[test]
+fn blend_steps_are_not_outlined_inside_their_blend() {
+    let svg = mm_doc(
+        r##"<rect x="10" y="10" width="30" height="30" fill="#808080"/>
+            <rect x="15" y="15" width="20" height="20" fill="#868686"/>
+            <rect x="30" y="20" width="20" height="10" fill="#8c8c8c"/>
+            <rect x="60" y="10" width="10" height="10" fill="#000000"/>"##,
+    );
+    let d = import_with(&svg, &SvgOptions::default()).drawing;
+    assert_len(&d, 180.0);
+    // A step painted with another shape between it and the one before starts a run of its own: the same greys with
+    // a black square between B and C outline C's part over A and B too (+ its 30 mm inside, + the square's 40 mm).
+    let svg = mm_doc(
+        r##"<rect x="10" y="10" width="30" height="30" fill="#808080"/>
+            <rect x="15" y="15" width="20" height="20" fill="#868686"/>
+            <rect x="80" y="80" width="10" height="10" fill="#000000"/>
+            <rect x="30" y="20" width="20" height="10" fill="#8c8c8c"/>"##,
+    );
+    let d = import_with(&svg, &SvgOptions::default()).drawing;
+    assert_len(&d, 110.0 + 60.0 + 40.0);
+}

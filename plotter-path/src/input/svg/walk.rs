@@ -16,10 +16,11 @@
 //! than half opaque (its opacity times its least gradient stop opacity): a fainter one lets the eye see the lines
 //! through it. A fill-only shape's outline is drawn where its colour differs from what lies beneath
 //! ([`super::edges`]): a white shape draws nothing on the paper and its outline on black. Paper-coloured fills
-//! are never hatched. An opaque stroke wider than four pen widths hides what lies under its outline too (a thick
-//! border over text); thinner strokes do not: every crossing would cut a gap into the line beneath that is hardly
-//! wider than the pen's own blot there, costing two lifts for nothing visible (a mm-unit drawing's default 1 mm
-//! stroke //! is such a line).
+//! are never hatched. An opaque stroke wider than four pen widths on the plotted page (its width in the document
+//! times [`SvgOptions::hatch_scale`]) hides what lies under its outline too (a thick border over text); thinner
+//! strokes do not: every crossing would cut a gap into the line beneath that is hardly wider than the pen's own blot
+//! there, costing two lifts for nothing visible (a mm-unit drawing's default 1 mm stroke is such a line). Each such
+//! choice is recorded in [`Walker::scales`], so that a layout by another factor can have the drawing decoded again.
 
 use std::collections::HashMap;
 
@@ -27,6 +28,7 @@ use kurbo::{Affine, PathEl, Point};
 use usvg::tiny_skia_path;
 
 use super::hershey::{self, HersheyFont};
+use super::page_scale::ScaleRange;
 use super::{LayerBy, MM_PER_PX, SvgOptions, TextMode};
 use crate::geometry::drawing::{Pen, Rgb};
 use crate::geometry::flatten::flatten_path;
@@ -145,6 +147,11 @@ pub(super) struct Walker<'a> {
     pattern_shapes: usize,
     /// Opaque plain fills `--hatch tone` shades, hatched run by run once the walk is done ([`blend`]).
     tone_fills: Vec<blend::ToneFill>,
+    /// Opaque plain fill-only shapes not shaded by `--hatch tone`: the steps of blends among them are not outlined
+    /// inside their blend once the walk is done ([`blend`]).
+    blend_steps: Vec<blend::Step>,
+    /// The layout factors the walk's page-size choices hold for.
+    pub(super) scales: ScaleRange,
 }
 
 fn affine(t: &usvg::Transform) -> Affine {
@@ -238,6 +245,8 @@ impl<'a> Walker<'a> {
             name,
             pattern_shapes: 0,
             tone_fills: Vec::new(),
+            blend_steps: Vec::new(),
+            scales: ScaleRange::default(),
         }
     }
 
@@ -258,6 +267,7 @@ impl<'a> Walker<'a> {
         }
         let fills = std::mem::take(&mut self.tone_fills);
         self.skipped.hatch_refused += blend::hatch_runs(fills, &mut self.items);
+        blend::drop_step_edges(std::mem::take(&mut self.blend_steps), &mut self.items);
     }
 
     /// One element (and what it contains); nothing once the import is cancelled (the caller then reports it).
@@ -415,8 +425,15 @@ impl<'a> Walker<'a> {
                 Some(Some(Some(d))) => self.flatten(&d, ctx.t),
                 Some(Some(None)) => Vec::new(),
             };
+            // A wide opaque stroke hides what lies under it, as a fill does: wide on the page, where the pen draws.
+            let opaque = stroke_paint_opaque && s.opacity().get() * ctx.opacity >= 1.0;
+            let hiding_limit = WIDE_STROKE_PENS * self.options.pen_width_mm;
+            let hides = width_mm * self.options.hatch_scale > hiding_limit;
+            if self.options.occlusion && opaque {
+                self.scales.wider_than(width_mm, hiding_limit, self.options.hatch_scale);
+            }
             let wide = self.options.fill_strokes.is_some_and(|f| width_mm > f.pen_mm * 1.5)
-                || (self.options.occlusion && width_mm > WIDE_STROKE_PENS * self.options.pen_width_mm);
+                || (self.options.occlusion && hides);
             let outline_ok = !wide || within_reach(p.data(), ctx.t, width_mm);
             if !outline_ok {
                 self.skipped.far_outlines += 1;
@@ -433,12 +450,10 @@ impl<'a> Walker<'a> {
                     None => self.skipped.hatch_refused += 1,
                 }
             }
-            // A wide opaque stroke hides what lies under it, as a fill does.
-            let opaque = stroke_paint_opaque && s.opacity().get() * ctx.opacity >= 1.0;
             if self.options.occlusion
                 && opaque
                 && outline_ok
-                && width_mm > WIDE_STROKE_PENS * self.options.pen_width_mm
+                && hides
                 && let Some(outline) = p.data().stroke(&s.to_tiny_skia(), narrow(scale_mm / self.options.tolerance_mm))
             {
                 stroke_area = Some(self.area(&outline, ctx.t, FillRule::NonZero));
@@ -451,6 +466,8 @@ impl<'a> Walker<'a> {
         let mut outline = None;
         // An opaque plain fill's darkness and tone hatch, when it is shaded after the walk.
         let mut deferred_tone = None;
+        // An opaque plain fill-only shape's colour: it may be a step of a blend ([`blend`]).
+        let mut step_color = None;
         if let Some((_, hides, visible, r, paper, alpha)) = fill
             && visible
             && let Some(f) = p.fill()
@@ -465,6 +482,9 @@ impl<'a> Walker<'a> {
             let needs_area = hides || tints || fill_hatch.is_some() || tone.is_some();
             let area = needs_area.then(|| self.area(p.data(), ctx.t, rule(r)));
             let uniform = uniform_color(f.paint());
+            if hides && stroke.is_none() && !is_pattern {
+                step_color = uniform;
+            }
             if let usvg::Paint::Pattern(pattern) = f.paint() {
                 // The tiles are the fill: painted now, before the shape's stroke; the shape itself has no edge.
                 let area = self.area(p.data(), ctx.t, rule(r));
@@ -524,6 +544,8 @@ impl<'a> Walker<'a> {
                 darkness,
                 hatch,
             });
+        } else if let (Some(color), false) = (step_color, paints.is_empty()) {
+            self.blend_steps.push(blend::Step { item: self.items.len(), layer, color });
         }
         let lines = Self::cut_to_clips(lines, &ctx.clips);
         let pen = Pen { color, width_mm };

@@ -22,7 +22,7 @@ use axum::response::sse::{KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use futures_util::stream::{self, Stream};
-use plotter_host::input::{InputArgs, decode_drawing};
+use plotter_host::input::InputArgs;
 use plotter_host::job::page::view;
 use plotter_host::job::prepare::{LayerChoice, prepare};
 use plotter_host::link::jog::JogTarget;
@@ -439,16 +439,15 @@ async fn decode(
             Source::Upload { name, bytes } => {
                 // An upload may use only data: URLs inside it: no path on this machine is opened or looked up.
                 let only_data = plotter_path::input::svg::ResourcePolicy::DataUrlsOnly;
-                // Hatch sizes are page sizes: learn the layout's factor first (as `plotter plot` does).
-                if plotter_host::input::hatches_fills(Path::new(name), bytes, &input, &profile) {
-                    let path = Path::new(name);
-                    let factor = plotter_host::input::layout_factor(
-                        bytes, path, name, &only_data, &input, &profile, &layout, cancel,
-                    );
-                    input.hatch_scale = factor.map_err(|e| bad(format!("{e:#}")))?;
-                }
-                let decoded = decode_drawing(bytes, Path::new(name), name, &only_data, &input, &profile, cancel);
-                (name.clone(), decoded.map_err(|e| bad(format!("{e:#}")))?)
+                // Hatch sizes, pen widths and how wide a stroke is are page sizes: measured at the layout's factor
+                // (as `plotter plot` does).
+                let path = Path::new(name);
+                let decoded = plotter_host::input::decode_for_layout(
+                    bytes, path, name, &only_data, &input, &profile, &layout, cancel,
+                );
+                let (decoded, factor) = decoded.map_err(|e| bad(format!("{e:#}")))?;
+                input.hatch_scale = factor;
+                (name.clone(), decoded)
             }
             Source::Gen(spec) => {
                 let drawing = r#gen::from_spec(spec).map_err(|e| bad(format!("cannot generate {spec}: {e}")))?;
@@ -568,7 +567,9 @@ async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) ->
         let laid_out = |s: &Settings| layout_args(s).ok().and_then(|l| l.options().ok());
         let hatched = wanted.hatch.is_some() || i.machine_profile().pens.iter().any(|p| p.hatch.is_some());
         let retrace = i.loaded.as_ref().is_some_and(|l| {
-            decoded_as(&l.input) != decoded_as(&wanted) || (hatched && laid_out(&i.settings) != laid_out(&s))
+            // Strokes hide what lies under them by their width on the page, too.
+            let page_sized = hatched || !l.decoded.scales.is_everything();
+            decoded_as(&l.input) != decoded_as(&wanted) || (page_sized && laid_out(&i.settings) != laid_out(&s))
         });
         let before = std::mem::replace(&mut i.settings, s.clone());
         retrace.then(|| i.loaded.as_ref().map(|l| (l.source.clone(), i.machine_profile(), before))).flatten()
@@ -618,7 +619,9 @@ async fn reread_for_pens(shared: &Shared, before: &MachineProfile) -> Result<(),
         let now = i.machine_profile();
         let hatching = |p: &MachineProfile| p.pens.iter().any(|pen| pen.hatch.is_some());
         let pens_matter = i.settings.colors == "pens" || hatching(before) || hatching(&now);
-        let loaded = i.loaded.as_ref().filter(|_| pens_matter && before.pens != now.pens);
+        // An opaque stroke hides what lies under it when it is four pen widths wide on the page.
+        let width_matters = |l: &&Loaded| !l.decoded.scales.is_everything() && before.pen.width_mm != now.pen.width_mm;
+        let loaded = i.loaded.as_ref().filter(|l| (pens_matter && before.pens != now.pens) || width_matters(l));
         loaded.map(|l| (l.source.clone(), i.settings.clone(), now))
     };
     if let Some((source, settings, profile)) = again {

@@ -826,3 +826,28 @@ async fn svgz_hpgl_and_plt_uploads_are_decoded() {
     let page = fetch(&c, "/").await.2;
     assert!(page.contains("accept=\".svg,.svgz,") && page.contains(".hpgl,.hgl,.plt,"), "the picker offers them");
 }
+
+/// The page measures strokes on the plotted page as `plotter plot` does, hatching or not. A 37 × 20 mm card: a thin
+/// line across its middle under a 0.5 mm black stroke down its middle. As it is (57 mm of ink) the stroke is under
+/// four 0.3 mm pens wide and the line stays whole; fitted to 180 mm (200 mm paper, 10 mm margins: 4.865×) the stroke
+/// is 2.432 mm wide on the page and hides 2.432 mm of the 180 mm line: 177.568 + 97.297 (the stroke, 20 mm tall) =
+/// 274.865 mm of ink. (Read once at the document's size, the page kept the line whole: 277.297 mm.)
+#[tokio::test]
+async fn the_page_measures_strokes_at_the_page_scale() {
+    let (_, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let card = r#"<svg xmlns="http://www.w3.org/2000/svg" width="37mm" height="20mm" viewBox="0 0 37 20">
+        <path d="M0 10H37" stroke="black" stroke-width="0.1" fill="none"/>
+        <path d="M18.5 0V20" stroke="black" stroke-width="0.5" fill="none"/></svg>"#;
+    let (s, v) = c.upload("card.svg", card.as_bytes()).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let pen_down = |st: &Value| st["prepared"]["stats"]["pen_down_mm"].as_f64().unwrap();
+    let ink = pen_down(&c.get("/api/state").await.1);
+    assert!((ink - 57.0).abs() < 1e-6, "{ink} mm");
+    let (s, v) = c.post("/api/settings", json!({ "paper": "200x200", "margin": 10.0, "fit": true })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let ink = pen_down(&c.get("/api/state").await.1);
+    let want = 180.0 - 0.5 * 180.0 / 37.0 + 20.0 * 180.0 / 37.0;
+    assert!((ink - want).abs() < 0.01, "{ink} mm, want {want}");
+}

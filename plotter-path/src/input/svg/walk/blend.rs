@@ -47,13 +47,60 @@ pub(super) const BLEND_STEP: u8 = 8;
 
 /// Whether `b`, painted right after `a`, continues `a`'s run.
 fn continues(a: &ToneFill, b: &ToneFill) -> bool {
+    b.hatch == a.hatch && steps_on((a.item, a.layer, a.color), (b.item, b.layer, b.color))
+}
+
+/// Whether shape `b` (its item, layer and colour) is the next step of a blend after shape `a`: painted right after
+/// it in the same layer, its colour at most [`BLEND_STEP`] away in every channel.
+fn steps_on(a: (usize, usize, Rgb), b: (usize, usize, Rgb)) -> bool {
     let near = |x: u8, y: u8| x.abs_diff(y) <= BLEND_STEP;
-    b.item == a.item + 1
-        && b.layer == a.layer
-        && b.hatch == a.hatch
-        && near(a.color.0, b.color.0)
-        && near(a.color.1, b.color.1)
-        && near(a.color.2, b.color.2)
+    let ((ai, al, ac), (bi, bl, bc)) = (a, b);
+    bi == ai + 1 && bl == al && near(ac.0, bc.0) && near(ac.1, bc.1) && near(ac.2, bc.2)
+}
+
+/// An opaque plain fill-only shape outside `--hatch tone`, a possible step of a blend. Its outline is drawn where
+/// it reaches past the steps beneath it in its run (the blend's own edge), not inside the run: a plotted line
+/// there would draw a contour at each step of what the picture shows as a smooth shading (openclipart's gull
+/// steps its greys by 6 of 255, beyond the edge rule's [`super::super::edges`] tolerance of 4).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Step {
+    /// The shape's index among the walk's items; its first paint is its fill's area.
+    pub(super) item: usize,
+    /// The shape's layer.
+    pub(super) layer: usize,
+    /// Its colour.
+    pub(super) color: Rgb,
+}
+
+/// Cut the outlines of `steps` (in paint order) to the blend runs' edges, as `--hatch tone` does for its runs.
+pub(super) fn drop_step_edges(steps: Vec<Step>, items: &mut [Item]) {
+    let mut start = 0;
+    for end in 1..=steps.len() {
+        let (a, b) = (steps[end - 1], steps.get(end));
+        if b.is_none_or(|b| !steps_on((a.item, a.layer, a.color), (b.item, b.layer, b.color))) {
+            let run: Vec<usize> = steps[start..end].iter().map(|s| s.item).collect();
+            if run.len() > 1 {
+                cut_inner_edges(&run, items, |items, k| items[run[k]].paints.first().map(|p| p.area.clone()));
+            }
+            start = end;
+        }
+    }
+}
+
+/// Cut the outline of each shape of a run (item indices, bottom to top) to where it reaches past the shapes beneath
+/// it in the run; `area` gives the area of the run's `k`-th shape.
+fn cut_inner_edges(run: &[usize], items: &mut [Item], area: impl Fn(&[Item], usize) -> Option<Region>) {
+    let mut below = Region::default();
+    for (k, &i) in run.iter().enumerate() {
+        if let Some(outline) = items[i].outline.as_mut()
+            && !below.is_empty()
+        {
+            outline.lines = cut(std::mem::take(&mut outline.lines), &[&below], Keep::Outside);
+        }
+        if let Some(a) = area(items, k) {
+            below = below.union(&a);
+        }
+    }
 }
 
 /// Hatch `fills` (in paint order) run by run, their lines added to `items`; returns how many runs were not
@@ -85,15 +132,8 @@ fn hatch_run(run: &[ToneFill], items: &mut [Item]) -> bool {
     } else {
         // The steps' own edges inside the run are its shading, which the bands draw: an outline there would be
         // ink the picture does not have. Where a step reaches past the steps beneath, its edge is the run's.
-        let mut below = Region::default();
-        for f in run {
-            if let Some(outline) = items[f.item].outline.as_mut()
-                && !below.is_empty()
-            {
-                outline.lines = cut(std::mem::take(&mut outline.lines), &[&below], Keep::Outside);
-            }
-            below = below.union(&f.area);
-        }
+        let indices: Vec<usize> = run.iter().map(|f| f.item).collect();
+        cut_inner_edges(&indices, items, |_, k| Some(run[k].area.clone()));
         let (whole, bands) = bands(run, MIN_BAND_PENS * th.pen_mm);
         let rung = rung_of(ladder, edge_ink(&whole, th.pen_mm));
         tone_hatch_parts(&whole, &bands, th.angle_deg, &rung)
