@@ -206,10 +206,11 @@ impl TraceArgs {
     }
 }
 
-/// Trace the image at `path` with `args`, printing the tracer's warnings to stderr. `traced.drawing` is the result
-/// in mm (origin at the image's top-left corner, `page_mm` = the image size), ready for layout.
-pub fn trace_image(path: &Path, args: &TraceArgs) -> Result<raster::Traced> {
-    let options = args.options();
+/// Trace the image at `path` with `args` (`--colors pens` separating it into the coloured pens of `pens`, a pen
+/// table), printing the tracer's warnings to stderr. `traced.drawing` is the result in mm (origin at the image's
+/// top-left corner, `page_mm` = the image size), ready for layout.
+pub fn trace_image(path: &Path, args: &TraceArgs, pens: &[PenSpec]) -> Result<raster::Traced> {
+    let options = args.options_with_pens(pens);
     let mut traced = raster::trace_file(path, &options)?;
     join_stipples(&mut traced.drawing, &options);
     for w in &traced.warnings {

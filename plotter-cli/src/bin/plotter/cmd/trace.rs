@@ -5,8 +5,13 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
+use anyhow::bail;
 use clap::Args;
-use plotter_host::options::trace::{TraceArgs, trace_image};
+use clap::builder::PossibleValuesParser;
+use plotter_host::options::machine::MachineArgs;
+use plotter_host::options::trace::{ColorsArg, TraceArgs, trace_image};
+use plotter_path::config::models;
+use plotter_path::config::profile::PenSpec;
 use plotter_path::output::svg_out::to_svg_string;
 
 use plotter_host::input::write_output;
@@ -24,11 +29,37 @@ pub(crate) struct TraceCmdArgs {
     pub(crate) trace: TraceArgs,
     #[command(flatten)]
     pub(crate) layout: LayoutArgs,
+    /// Built-in machine model whose pens (their colours from its pen table) --colors pens separates the picture
+    /// into [default: xy-kit]
+    #[arg(long, help_heading = "Image tracing", value_parser = PossibleValuesParser::new(models::names()))]
+    pub(crate) model: Option<String>,
+    /// Machine profile (TOML) whose pen table --colors pens separates the picture into; with --model, its keys
+    /// replace the model's
+    #[arg(long, help_heading = "Image tracing")]
+    pub(crate) profile: Option<PathBuf>,
+}
+
+/// The pens `--colors pens` separates into: the pen table of `--model`/`--profile`, else the built-in default
+/// machine's; refused by name when none of them has a colour.
+fn separation_pens(args: &TraceCmdArgs) -> Result<Vec<PenSpec>> {
+    if args.trace.colors != ColorsArg::Pens {
+        return Ok(Vec::new());
+    }
+    let machine = MachineArgs { model: args.model.clone(), profile: args.profile.clone(), ..MachineArgs::default() };
+    let profile = machine.load()?;
+    if !profile.pens.iter().any(|p| p.color.is_some()) {
+        bail!(
+            "--colors pens: the machine profile {:?} has no pen with a colour in its pen table: give a model              (--model) or a profile (--profile) whose [[pens]] have colours, or use --colors cmyk",
+            profile.name
+        );
+    }
+    Ok(profile.pens)
 }
 
 /// Run `plotter trace`.
 pub(crate) fn run(args: &TraceCmdArgs) -> Result<()> {
-    let traced = trace_image(&args.input, &args.trace)?;
+    let pens = separation_pens(args)?;
+    let traced = trace_image(&args.input, &args.trace, &pens)?;
     let mut drawing = traced.drawing;
     let (paths, length) = (drawing.path_count(), drawing.paths().map(|p| p.length()).sum::<f64>());
     args.layout.apply(&mut drawing)?;
@@ -41,6 +72,10 @@ pub(crate) fn run(args: &TraceCmdArgs) -> Result<()> {
         traced.pixel_mm,
         args.trace.options().mode
     );
+    if !pens.is_empty() {
+        let names: Vec<&str> = pens.iter().filter(|p| p.color.is_some()).map(|p| p.name.as_str()).collect();
+        eprintln!("separated into the pens {} (--model or --profile chooses others)", names.join(", "));
+    }
     Ok(())
 }
 
@@ -164,6 +199,34 @@ mod tests {
         for name in ["flow", "sketch", "stipple", "squiggle", "spiral", "mosaic"] {
             assert!(traced.iter().any(|t| t == name), "{name} is not offered: {traced:?}");
         }
+    }
+
+    /// `--colors pens` with no machine given separates into the built-in default machine's coloured pens (the
+    /// xy-kit's black, red and blue), one layer each named after its pen; a profile without coloured pens is refused
+    /// naming --model and --profile. (It was refused, pointing at preview and plot, whatever the machine.)
+    #[test]
+    fn colors_pens_takes_the_default_machines_pens_or_the_one_given() {
+        let out = std::env::temp_dir().join(format!("plotter-trace-pens-{}.svg", std::process::id()));
+        let input = sample("photo.png");
+        let flags = ["trace", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--mode", "mosaic"];
+        let w = Wrap::try_parse_from(flags.iter().chain(&["--colors", "pens", "--width", "40"])).unwrap();
+        run(&w.cmd).unwrap();
+        let svg = std::fs::read_to_string(&out).unwrap();
+        std::fs::remove_file(&out).ok();
+        let layers: Vec<&str> = svg.split("inkscape:label=\"").skip(1).filter_map(|s| s.split('"').next()).collect();
+        assert!(!layers.is_empty(), "{svg}");
+        let pens = ["black fineliner 0.3", "red fineliner 0.5", "blue brush pen"];
+        assert!(layers.iter().all(|l| pens.contains(l)), "{layers:?}");
+        // A profile whose pens have no colour.
+        let toml = std::env::temp_dir().join(format!("plotter-trace-pens-{}.toml", std::process::id()));
+        let text = std::fs::read_to_string(sample("xy-plotter.toml")).unwrap();
+        std::fs::write(&toml, text.lines().filter(|l| !l.starts_with("color =")).collect::<Vec<_>>().join("\n"))
+            .unwrap();
+        let w = Wrap::try_parse_from(flags.iter().chain(&["--colors", "pens", "--profile", toml.to_str().unwrap()]))
+            .unwrap();
+        let e = format!("{:#}", run(&w.cmd).unwrap_err());
+        std::fs::remove_file(&toml).ok();
+        assert!(e.contains("--colors pens") && e.contains("--model") && e.contains("--profile"), "{e}");
     }
 
     #[test]
