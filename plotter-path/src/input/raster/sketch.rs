@@ -149,6 +149,8 @@ struct Canvas {
     pixels: (usize, usize),
     /// Ink grid step in pixels.
     q: f64,
+    /// One over `q`.
+    inverse_q: f64,
     ink_columns: usize,
     ink_rows: usize,
     ink: Vec<bool>,
@@ -196,6 +198,7 @@ impl Canvas {
             paper,
             pixels: (map.width, map.height),
             q,
+            inverse_q: 1.0 / q,
             ink_columns,
             ink_rows,
             ink: vec![false; ink_columns * ink_rows],
@@ -230,9 +233,11 @@ impl Canvas {
         Point::new((x0 + (x0 + c).min(self.width)) / 2.0, (y0 + (y0 + c).min(self.height)) / 2.0)
     }
 
+    /// Whether the ink grid point nearest `p` is inked (a float-to-integer cast saturates: a point left of or above
+    /// the picture reads its first column or row).
     fn inked(&self, p: Point) -> bool {
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let (x, y) = ((p.x / self.q).max(0.0) as usize, (p.y / self.q).max(0.0) as usize);
+        let (x, y) = ((p.x * self.inverse_q) as usize, (p.y * self.inverse_q) as usize);
         self.ink[y.min(self.ink_rows - 1) * self.ink_columns + x.min(self.ink_columns - 1)]
     }
 
@@ -334,6 +339,8 @@ impl Canvas {
     /// Ink every grid point within `r` of the segment `a`→`b`, charging each newly inked point to its cell.
     fn draw(&mut self, a: Point, b: Point, r: f64) {
         let q = self.q;
+        #[allow(clippy::cast_precision_loss)]
+        let (cell, columns, rows) = (self.levels[0].cell as f64, self.levels[0].columns, self.levels[0].rows);
         let d = b - a;
         let len2 = d.hypot2();
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
@@ -376,9 +383,11 @@ impl Canvas {
                 let k = row * self.ink_columns + col;
                 if !self.ink[k] && (a + d * t).distance(p) <= r {
                     self.ink[k] = true;
-                    for level in &mut self.levels {
-                        let c = level.cell_of(p);
-                        level.owed[c] -= q * q;
+                    // The base cell holding p; a level's cell is its coordinates halved once per level.
+                    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                    let (bx, by) = (((p.x / cell) as usize).min(columns - 1), ((p.y / cell) as usize).min(rows - 1));
+                    for (l, level) in self.levels.iter_mut().enumerate() {
+                        level.owed[(by >> l) * level.columns + (bx >> l)] -= q * q;
                     }
                 }
             }
