@@ -470,6 +470,15 @@ pub fn vertex_limit_sqr<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &
     l.curve.map_or(l.corner_sqr, |c| l.corner_sqr.max(c.speed_sqr.min(l.nominal_sqr)))
 }
 
+/// The speed² the planner itself allows at vertex `j` (where `seg(j)` starts) of a sequence of `n` segments: a
+/// curve's centripetal speed where the vertex samples a smooth curve, junction deviation's at a corner, each capped
+/// by both blocks' nominal speeds (what [`link_all`] sets before the chords' curve caps). Reads at most
+/// [`CURVE_SPAN_BLOCKS`] segments on either side (`seg(j − K) … seg(j + K − 1)`), so the verdict is the same in
+/// any longer sequence holding those segments.
+pub fn junction_limit_sqr<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineConfig) -> f32 {
+    junction_at(seg, n, j, cfg).speed_sqr
+}
+
 /// Both limits at vertex `j` (see [`VertexLimits`], [`junction_at`]).
 fn vertex_limits<F: Fn(usize) -> Seg>(seg: &F, n: usize, j: usize, cfg: &MachineConfig) -> VertexLimits {
     if j == 0 || j >= n {

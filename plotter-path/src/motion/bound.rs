@@ -225,11 +225,23 @@ pub(crate) fn vertex_segs(blocks: impl IntoIterator<Item = PlanBlock>, accel: f6
         .collect()
 }
 
-/// The speed cap the bound puts at vertex `j` of a stroke's blocks `segs` (where `segs[j]` starts), mm/s: the
-/// profile's vertex limit ([`plotter_fw::planner::vertex_limit_sqr`], the one function the planner reads too),
-/// the more permissive of the junction-deviation speed and, on a smooth curve, the curve's speed.
+/// The speed cap the bound puts at vertex `j` of a stroke's blocks `segs` (where `segs[j]` starts), mm/s. A vertex
+/// whose verdict reads only the stroke's own blocks (at least [`planner::CURVE_SPAN_BLOCKS`] of them on either
+/// side) is capped at the planner's own limit there ([`plotter_fw::planner::junction_limit_sqr`]): on a smooth
+/// curve its centripetal speed, which no plan within the profile exceeds (a curve's centripetal acceleration is
+/// the profile's limit, however finely the curve was cut; junction deviation's larger speed between the short
+/// chords of a fine cut is a per-vertex rule, not a limit of the machine), at a corner junction deviation's. Nearer
+/// a stroke's ends the plan's verdict also reads the pen's moves around the stroke, so the cap there is the more
+/// permissive of both limits ([`plotter_fw::planner::vertex_limit_sqr`]), whichever the plan finds.
 pub(crate) fn vertex_cap(cfg: &MachineConfig, segs: &[Seg], j: usize) -> f64 {
-    f64::from(planner::vertex_limit_sqr(&|k: usize| segs[k], segs.len(), j, cfg)).sqrt()
+    let seg = |k: usize| segs[k];
+    let k = planner::CURVE_SPAN_BLOCKS;
+    let v2 = if j >= k && j + k <= segs.len() {
+        planner::junction_limit_sqr(&seg, segs.len(), j, cfg)
+    } else {
+        planner::vertex_limit_sqr(&seg, segs.len(), j, cfg)
+    };
+    f64::from(v2).sqrt()
 }
 
 /// What the bound's per-direction limits give away to the planner's single-precision arithmetic: its blocks'
@@ -902,12 +914,24 @@ mod tests {
         let b32 = plot_time_lower_bound(&fine_p, &c32, 0.0).unwrap();
         assert!((b32.draw_s - time(32, 45.46)).abs() < 0.01 * b32.draw_s, "{b32:?} vs {}", time(32, 45.46));
         // A finely flattened circle (360 chords of 0.0436 mm): junction deviation allows far more than the
-        // 60 mm/s feed at every vertex, so none caps the bound (the planner takes the curve's 35.36 mm/s there):
-        // 15.71 mm from rest, up to 60 mm/s and down to 25 into the lift.
+        // 60 mm/s feed at every vertex, but the vertices 16 to 344, whose verdict reads only the stroke's chords,
+        // are capped at the curve's 35.36 mm/s, as the planner takes them (the first and last 15 at the feed:
+        // their verdict in the plan reads the pen's moves too). Speeds carried over each 0.0436 mm chord at
+        // 500 mm/s², from rest, into the lift at 25 mm/s. (Capped at the feed alone it was 0.342 s, up to 60 mm/s.)
         let fine = circle(2.5, 360, 1000.0);
         let b360 = plot_time_lower_bound(&fine_p, &fine, 0.0).unwrap();
-        let t360 = trapezoid(360.0 * chord(360.0), 0.0, 25.0, 60.0, 500.0);
-        assert!((b360.draw_s - t360).abs() < 1e-3, "{b360:?} vs {t360}");
+        let c = chord(360.0);
+        let mut at: Vec<f64> = (0..=360).map(|k| if (16..=344).contains(&k) { 1250f64.sqrt() } else { 60.0 }).collect();
+        (at[0], at[360]) = (0.0, 25.0);
+        for k in 1..=360 {
+            at[k] = at[k].min((at[k - 1] * at[k - 1] + 1000.0 * c).sqrt());
+        }
+        for k in (0..360).rev() {
+            at[k] = at[k].min((at[k + 1] * at[k + 1] + 1000.0 * c).sqrt());
+        }
+        let t360: f64 = (0..360).map(|k| trapezoid(c, at[k], at[k + 1], 60.0, 500.0)).sum();
+        assert!((b360.draw_s - t360).abs() < 0.005 * t360, "{b360:?} vs {t360}");
+        assert!(b360.draw_s > 0.4, "{b360:?}");
         for (steps, b, p) in [(&c16, b16, &p), (&c32, b32, &fine_p), (&fine, b360, &fine_p)] {
             let planned = plan(p, steps, [0; 4], Lookahead::Whole).unwrap();
             assert!(b.draw_s <= planned.breakdown().draw_s(), "{b:?} vs {:?}", planned.breakdown());

@@ -404,7 +404,9 @@ mod tests {
         // The bound and the plan differ by the axes' limits along the arc and the rounding only.
         assert!(gap.corners_s.abs() < 1e-6, "{gap:?}");
         assert!(gap.curves_s.abs() < 1e-6, "{gap:?}");
-        // At 5 mm/s² the curve's limit √(a_n·20) falls below the feed and costs curve time, still no corners.
+        // At 100 mm/s² the curve's limit √(a_n·20) = 44.7 mm/s falls below the feed: the bound holds the
+        // vertices whose verdict reads only the stroke's chords (16 to 48) at that speed as the planner does, so
+        // what is left above the bound on the curve is its ends' and chords' share, still no corners.
         let mut slow = p.clone();
         slow.pen.draw_accel_mm_s2 = Some(100.0);
         (slow.axes.x.max_accel_mm_s2, slow.axes.y.max_accel_mm_s2) = (100.0, 100.0);
@@ -412,7 +414,7 @@ mod tests {
         let b = plot_time_lower_bound(&slow, &steps, 0.0).unwrap();
         let gap = time_gap(&slow, &steps, &planned, &b, false).unwrap();
         assert!(gap.corners_s.abs() < 1e-6, "{gap:?}");
-        assert!(gap.curves_s > 0.01, "{gap:?}");
+        assert!(gap.curves_s.abs() < 0.005, "{gap:?}");
         assert!((gap.total_s() - (planned.seconds() - b.total_s())).abs() < 1e-9);
     }
 }
