@@ -1259,12 +1259,13 @@ fn the_skipped_summary_counts_each_item_left_out_with_its_reason() {
     assert!(plain.skipped.is_empty(), "{}", plain.skipped);
 }
 
-/// Blends are outlined at their own edge only, without `--hatch tone` too. Three opaque greys, each 6 of 255
-/// lighter than the one painted right before it (a step the edge rule alone sees as an edge): A, a 30 mm square
+/// Hatched blends are outlined at their own edge only, with `--hatch SPACING` too. Three opaque greys, each 6 of
+/// 255 lighter than the one painted right before it (a step the edge rule alone sees as an edge): A, a 30 mm square
 /// (120 mm round), B inside it, and C reaching 10 mm past A's right side. Inside the blend nothing is outlined: A
 /// shows 110 mm (C hides 10 mm of its right side), B none, C only the 30 mm that lies past A (top, right and bottom
 /// of its 10 × 10 mm part outside). D, black, painted next, is no step of the blend: its 40 mm outline is whole.
-/// 180 mm in all; every step's outline drawn, it was 280 mm (B 70, C 60).
+/// 180 mm in all; every step's outline drawn, it was 280 mm (B 70, C 60), as it stays without hatching. The hatch
+/// runs along y = 0, 1000, ... mm: no line of it meets the shapes.
 #[test]
 fn blend_steps_are_not_outlined_inside_their_blend() {
     let svg = mm_doc(
@@ -1273,8 +1274,12 @@ fn blend_steps_are_not_outlined_inside_their_blend() {
             <rect x="30" y="20" width="20" height="10" fill="#8c8c8c"/>
             <rect x="60" y="10" width="10" height="10" fill="#000000"/>"##,
     );
-    let d = import_with(&svg, &SvgOptions::default()).drawing;
-    assert_len(&d, 180.0);
+    let hatched = SvgOptions {
+        hatch: Some(FillHatch { spacing_mm: 1000.0, angle_deg: 0.0, ..FillHatch::default() }),
+        ..SvgOptions::default()
+    };
+    assert_len(&import_with(&svg, &hatched).drawing, 180.0);
+    assert_len(&import_with(&svg, &SvgOptions::default()).drawing, 280.0);
     // A step painted with another shape between it and the one before starts a run of its own: the same greys with
     // a black square between B and C outline C's part over A and B too (+ its 30 mm inside, + the square's 40 mm).
     let svg = mm_doc(
@@ -1283,6 +1288,5 @@ fn blend_steps_are_not_outlined_inside_their_blend() {
             <rect x="80" y="80" width="10" height="10" fill="#000000"/>
             <rect x="30" y="20" width="20" height="10" fill="#8c8c8c"/>"##,
     );
-    let d = import_with(&svg, &SvgOptions::default()).drawing;
-    assert_len(&d, 110.0 + 60.0 + 40.0);
+    assert_len(&import_with(&svg, &hatched).drawing, 110.0 + 60.0 + 40.0);
 }

@@ -147,8 +147,8 @@ pub(super) struct Walker<'a> {
     pattern_shapes: usize,
     /// Opaque plain fills `--hatch tone` shades, hatched run by run once the walk is done ([`blend`]).
     tone_fills: Vec<blend::ToneFill>,
-    /// Opaque plain fill-only shapes not shaded by `--hatch tone`: the steps of blends among them are not outlined
-    /// inside their blend once the walk is done ([`blend`]).
+    /// Opaque plain fill-only shapes hatched at one spacing (`--hatch SPACING`, a pen's hatch): the steps of blends
+    /// among them are not outlined inside their blend once the walk is done ([`blend`]).
     blend_steps: Vec<blend::Step>,
     /// The layout factors the walk's page-size choices hold for.
     pub(super) scales: ScaleRange,
@@ -482,7 +482,9 @@ impl<'a> Walker<'a> {
             let needs_area = hides || tints || fill_hatch.is_some() || tone.is_some();
             let area = needs_area.then(|| self.area(p.data(), ctx.t, rule(r)));
             let uniform = uniform_color(f.paint());
-            if hides && stroke.is_none() && !is_pattern {
+            // Only where the fill is hatched: the hatch shades the blend, and an outline per step would draw
+            // contours the picture does not have. With outlines alone they are the only shading there is.
+            if hides && stroke.is_none() && !is_pattern && fill_hatch.is_some() {
                 step_color = uniform;
             }
             if let usvg::Paint::Pattern(pattern) = f.paint() {

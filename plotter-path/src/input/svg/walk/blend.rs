@@ -58,10 +58,12 @@ fn steps_on(a: (usize, usize, Rgb), b: (usize, usize, Rgb)) -> bool {
     bi == ai + 1 && bl == al && near(ac.0, bc.0) && near(ac.1, bc.1) && near(ac.2, bc.2)
 }
 
-/// An opaque plain fill-only shape outside `--hatch tone`, a possible step of a blend. Its outline is drawn where
-/// it reaches past the steps beneath it in its run (the blend's own edge), not inside the run: a plotted line
-/// there would draw a contour at each step of what the picture shows as a smooth shading (openclipart's gull
-/// steps its greys by 6 of 255, beyond the edge rule's [`super::super::edges`] tolerance of 4).
+/// An opaque plain fill-only shape hatched at one spacing (`--hatch SPACING`), a possible step of a blend. Its
+/// outline is drawn where it reaches past the steps beneath it in its run (the blend's own edge), not inside the
+/// run: the hatch shades the blend, and a plotted line there would draw a contour at each step of what the picture
+/// shows as a smooth shading (openclipart's gull steps its greys by 6 of 255, beyond the edge rule's
+/// [`super::super::edges`] tolerance of 4). Without hatching the steps' outlines are kept: they are the only
+/// shading the plot has (the fills bench's outlines-only error grows from 0.3906 to 0.3961 without them).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Step {
     /// The shape's index among the walk's items; its first paint is its fill's area.
