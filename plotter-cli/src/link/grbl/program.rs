@@ -215,6 +215,8 @@ mod tests {
         let mut p = MachineProfile::default_plotter();
         p.pen.command = plotter_path::config::profile::PenCommand::Servo;
         p.pen.servo_down_deg = 25.0;
+        // Planned for GRBL, which stops the motion for `M3`.
+        p.servo_sync = plotter_path::motion::servo::ServoSync::AtRest;
         let steps = drawing_to_steps(&p, &two_layers()).unwrap();
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         let prog = program(&p, &plan);

@@ -1190,6 +1190,8 @@ mod tests {
         let mut profile = MachineProfile::default_plotter();
         profile.pen.command = plotter_path::config::profile::PenCommand::Servo;
         (profile.pen.servo_up_deg, profile.pen.servo_down_deg) = (90.0, 25.0);
+        // Planned for GRBL, which stops the motion for `M3`.
+        profile.servo_sync = plotter_path::motion::servo::ServoSync::AtRest;
         let cfg = plotter_path::motion::plan::machine_config(&profile).unwrap();
         // Plan lines: `M3 S90 G4 …`, then per square travel, `M3 S25 G4 …`, four strokes, `M3 S90 G4 …`. The servo acts
         // once the queue has run empty, so the `ok` of G-code line 20 (G21, G90, then the third square's first
