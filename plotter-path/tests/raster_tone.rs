@@ -47,9 +47,6 @@ fn bounds(mode: Mode, levels: u8) -> Bounds {
     match (mode, levels) {
         // Four bands each span 25 L*, drawn at their mean: the staircase is ±12.5 by construction (measured 8.3).
         (Mode::Hatch, 4) => Bounds { ramp: 12.5, ..met },
-        // Sixteen bands: ±3.1 by construction, measured −3.45 at 24 fine cells per pen and −3.55 on the measure's
-        // jittered grid (the cells' centres read −3.0).
-        (Mode::Hatch, _) => Bounds { ramp: 3.6, ..met },
         _ => met,
     }
 }
