@@ -15,6 +15,7 @@ use kurbo::Point;
 use plotter_path::input::raster::fidelity::{MeasureOptions, Reflectance, plot_reflectance, seen_lightness};
 use plotter_path::input::raster::tone::luminance_from_cie;
 use plotter_path::input::raster::{Mode, RasterError, TraceOptions, trace};
+use plotter_path::optimize::one_line::join_into_one_line;
 use proptest::prelude::*;
 
 /// Pen width and pixel pitch, mm.
@@ -65,14 +66,22 @@ fn cases() -> Vec<(String, TraceOptions)> {
     let mut fine = options(Mode::Hatch);
     fine.hatch.levels = 16;
     out.insert(1, ("hatch --levels 16".to_owned(), fine));
+    let mut tsp = options(Mode::Stipple);
+    tsp.stipple.tsp = true;
+    out.insert(3, ("stipple --tsp".to_owned(), tsp));
     out
 }
 
-/// The traced strokes in mm (the picture's frame, origin at its top-left corner); no strokes when there is nothing
-/// to draw.
+/// The traced strokes in mm (the picture's frame, origin at its top-left corner), stipple's `--tsp` dots joined into
+/// one line as the front end joins them; no strokes when there is nothing to draw.
 fn strokes_mm(picture: &GrayImage, opts: &TraceOptions) -> Vec<Vec<Point>> {
     match trace(&DynamicImage::ImageLuma8(picture.clone()), opts) {
-        Ok(t) => t.drawing.paths().map(|p| p.points.clone()).collect(),
+        Ok(mut t) => {
+            if opts.stipple.tsp {
+                join_into_one_line(&mut t.drawing);
+            }
+            t.drawing.paths().map(|p| p.points.clone()).collect()
+        }
         Err(RasterError::NothingToDraw { .. }) => Vec::new(),
         Err(e) => panic!("{}: {e}", opts.mode),
     }
