@@ -859,7 +859,7 @@ mod tests {
     }
 
     #[test]
-    fn a_circles_vertices_are_capped_at_the_more_permissive_of_its_two_limits() {
+    fn a_circles_vertices_are_capped_as_the_planner_caps_them() {
         // The built-in profile with a drawing acceleration of 500 mm/s², which then holds along and across the
         // path (the curve's centripetal limit too). A circle of radius 2.5 mm.
         let mut p = MachineProfile::default_plotter();
