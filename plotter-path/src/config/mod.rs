@@ -10,3 +10,5 @@ pub mod layer_codes;
 pub mod models;
 pub mod pens;
 pub mod profile;
+pub mod servo_sync;
+pub mod servo_sync;

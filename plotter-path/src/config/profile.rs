@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::heaters::HeatersProfile;
 use crate::config::models::Model;
+use crate::config::servo_sync::ServoSync;
 
 /// Errors loading a machine profile.
 #[derive(Debug, thiserror::Error)]
@@ -379,9 +380,9 @@ pub struct MachineProfile {
     pub gcode: crate::config::gcode_template::GcodeTemplate,
     /// Whether the firmware plotted with runs a servo pen's drop while the carriage moves: never read from a
     /// profile file; the host sets it from the firmware it talks to (our firmware and the EiBotBoard do, GRBL
-    /// stops). See [`crate::motion::servo::ServoSync`].
+    /// stops). See [`ServoSync`].
     #[serde(skip)]
-    pub servo_sync: crate::motion::servo::ServoSync,
+    pub servo_sync: ServoSync,
 }
 
 /// The settings of an EiBotBoard machine (AxiDraw, NextDraw, iDraw): its pen servo in the board's own units
