@@ -11,4 +11,3 @@ pub mod models;
 pub mod pens;
 pub mod profile;
 pub mod servo_sync;
-pub mod servo_sync;
