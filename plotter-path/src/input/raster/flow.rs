@@ -370,11 +370,11 @@ impl Rungs {
                     return f32::INFINITY;
                 }
                 let d = f64::from(self.target[i]);
-                let c = family_coverages(d, cmax);
+                // The last two make up the whole darkness: no coverages to work out (a cube root per dark pixel).
                 let through = if k >= 2 {
                     d.clamp(0.0, CLOSEST_DARKNESS)
                 } else {
-                    1.0 - c[..=k].iter().map(|c| 1.0 - c).product::<f64>()
+                    1.0 - family_coverages(d, cmax)[..=k].iter().map(|c| 1.0 - c).product::<f64>()
                 };
                 let p = f64::from(paper_left[i]);
                 if p <= 1.0 - through {
@@ -442,10 +442,11 @@ struct Family<'a> {
     height: f64,
     grid: Grid,
     lines: Vec<Vec<Point>>,
-    /// Pixels between the places the scan for unreached gaps tries: half the closest spacing (a gap that takes a
-    /// seed 0.7 spacings clear of its sides is 1.4 spacings wide, so a scan at half of one still finds it, and
-    /// tries a quarter as many places as every pixel on a 1 MP photo).
-    scan_step: usize,
+    /// Pixels between the places the scan for unreached gaps tries, across and down: half the closest spacing, in
+    /// fractions of a pixel, at least one (a gap that takes a seed 0.7 spacings clear of its sides is 1.4 spacings
+    /// wide, so a scan at half of one still finds it). On a 1 MP photo (closest spacing 2.88 px) it tries 1.44 px
+    /// apart, half as many places as every pixel; rounded down to whole pixels it had tried every one.
+    scan_step: f64,
 }
 
 impl Family<'_> {
@@ -543,11 +544,14 @@ impl Family<'_> {
     /// within the clearance the place is turned down as the whole test would (exactly the same lines), for one
     /// distance instead of a search of the nearby buckets.
     fn run(mut self) -> Vec<Vec<Point>> {
-        for y in (0..self.rungs.height).step_by(self.scan_step) {
+        let step = self.scan_step.max(1.0);
+        // The places along `n` pixels: from the first pixel's centre, every `step` pixels.
+        #[allow(clippy::cast_precision_loss)]
+        let places = move |n: usize| (0..).map(move |i| 0.5 + f64::from(i) * step).take_while(move |&v| v < n as f64);
+        for y in places(self.rungs.height) {
             let mut last_near: Option<Point> = None;
-            for x in (0..self.rungs.width).step_by(self.scan_step) {
-                #[allow(clippy::cast_precision_loss)]
-                let p = Point::new(x as f64 + 0.5, y as f64 + 0.5);
+            for x in places(self.rungs.width) {
+                let p = Point::new(x, y);
                 if !self.inside(p) {
                     continue;
                 }
@@ -587,8 +591,7 @@ pub fn flow(map: &DarknessMap, ladder: &Ladder, pixel_mm: f64, angle_deg: f64) -
     let tangents = Tangents::new(map, (2.0 * min_px).max(2.0), angle_deg.to_radians());
     #[allow(clippy::cast_precision_loss)]
     let (w, h) = (map.width as f64, map.height as f64);
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // a few pixels
-    let scan_step = (min_px / 2.0).floor().max(1.0) as usize;
+    let scan_step = (min_px / 2.0).max(1.0);
     let mut rungs = rungs;
     let mut ink = ink_grid(map.width, map.height, rungs.pen_px);
     let mut out: Vec<Vec<Point>> = Vec::new();
@@ -664,7 +667,7 @@ mod tests {
             height: 40.0,
             grid: Grid::new(40.0, 40.0, 3.0),
             lines: Vec::new(),
-            scan_step: 1,
+            scan_step: 1.0,
         };
         family.streamline(Point::new(20.5, 10.5));
         let line = &family.lines[0];
@@ -682,6 +685,24 @@ mod tests {
         ys.sort_by(f64::total_cmp);
         assert_eq!(ys.len(), 13, "{ys:?}");
         assert!((ys[4] - 13.5).abs() < 1e-9 && (ys[12] - 39.5).abs() < 1e-9, "{ys:?}");
+    }
+
+    #[test]
+    fn the_scan_tries_places_half_the_closest_spacing_apart_in_fractions_of_a_pixel() {
+        // Pen 0.3 mm on 0.3 mm pixels, closest spacing 0.9 mm (3 px): the scan tries rows 1.5 px apart from the
+        // first pixel's centre, 0.5, 2, 3.5 … 12.5, 14. Darkness 0.3 (one family of horizontal lines) in rows 0–9
+        // and 14–29, paper in rows 10–13, which no line enters or seeds across: the lower band's first line is the
+        // scan's first seed there, on the first row it tries in pixel row 14, y = 14 (rounded down to whole pixels
+        // the scan tried every row, and seeded it at 14.5).
+        let ladder = Ladder { pen_mm: 0.3, min_spacing_mm: 0.9 };
+        let (w, h) = (30usize, 30usize);
+        let data = (0..w * h).map(|i| if (10..14).contains(&(i / w)) { 0.0 } else { 0.3 }).collect();
+        let map = DarknessMap { width: w, height: h, data };
+        let lines = flow(&map, &ladder, 0.3, 0.0);
+        assert!(lines.iter().flatten().all(|p| !(10.0..14.0).contains(&p.y)), "{lines:?}");
+        let below = lines.iter().flatten().map(|p| p.y).filter(|&y| y > 12.0).fold(f64::INFINITY, f64::min);
+        assert!((below - 14.0).abs() < 1e-9, "{below}");
+        assert!(lines.iter().any(|l| l.iter().all(|p| (p.y - 14.0).abs() < 1e-9) && l.len() >= 10), "{lines:?}");
     }
 
     #[test]
