@@ -204,8 +204,9 @@ fn floor_index(v: f64) -> Option<usize> {
     (v >= 0.0).then_some(v as usize)
 }
 
-/// A number in `[0, 1)` from `key` and a salt (SplitMix64): the same cell always looks at the same point.
-fn unit(key: u64, salt: u64) -> f64 {
+/// A number in `[0, 1)` from `key` and a salt (SplitMix64's mixer), the same for the same pair: the same cell
+/// always looks at the same point, the same picture always gives the same mosaic.
+pub(super) fn unit(key: u64, salt: u64) -> f64 {
     let mut z = key.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(salt.wrapping_mul(0xD1B5_4A32_D192_ED03));
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

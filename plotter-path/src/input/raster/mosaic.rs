@@ -16,7 +16,7 @@
 //! so each family is respaced once to match its share. Cell outlines are optional: they add ink the tone did not
 //! ask for.
 
-use super::ink::InkGrid;
+use super::ink::{InkGrid, unit};
 use super::lines::{LineFamily, line_spans, pen_span};
 use super::tone::{DarknessMap, Ladder, line_coverage};
 use super::zigzag;
@@ -219,17 +219,6 @@ fn span_at(cell: &[Point], y: f64) -> Option<(f64, f64)> {
         }
     }
     (a <= b).then_some((a, b))
-}
-
-/// A number in `[0, 1)` from `i` and a salt (SplitMix64): the same picture always gives the same mosaic.
-fn unit(i: u64, salt: u64) -> f64 {
-    let mut z = i.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(salt.wrapping_mul(0xD1B5_4A32_D192_ED03));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    #[allow(clippy::cast_precision_loss)] // 53 bits of the hash
-    let u = (z >> 11) as f64 / (1u64 << 53) as f64;
-    u
 }
 
 /// The cell size the darkness of a square asks for: the largest for flat paper, the smallest for black or for a
