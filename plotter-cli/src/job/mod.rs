@@ -93,6 +93,16 @@ pub(crate) fn home_for_plot<M: PlotMachine + ?Sized>(
     if profile.homing.z_home_xy_mm.is_none() {
         return machine.home();
     }
+    home_over_drawing(machine, profile, events)
+}
+
+/// Home where the carriage may stand over a drawing ([`PlotMachine::home_over_drawing`]), telling the user
+/// what was done beyond a plain homing.
+fn home_over_drawing<M: PlotMachine + ?Sized>(
+    machine: &mut M,
+    profile: &MachineProfile,
+    events: &mut dyn PlotEvents,
+) -> anyhow::Result<()> {
     if let Some(done) = machine.home_over_drawing(profile)? {
         eprintln!("{done}");
         events.notice(&done);
@@ -219,10 +229,7 @@ pub fn resume_with<M: PlotMachine + ?Sized>(
     if !trust_position {
         // The carriage may stand over the drawing with the pen's height unknown (a power cycle mid-plot): homing
         // never lowers the pen there (see `crate::link::home_axes`).
-        if let Some(done) = machine.home_over_drawing(profile)? {
-            eprintln!("{done}");
-            events.notice(&done);
-        }
+        home_over_drawing(machine, profile, events)?;
     }
     let journal = Journal::append(journal_path, state)?;
     let busy_before = machine.busy_ticks();
