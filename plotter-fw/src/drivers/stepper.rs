@@ -11,12 +11,15 @@
 //! Timing and the block contract are in [`crate::step_block`]: a block's step times are an integer recurrence
 //! computed when the block is pushed ([`Stepper::push`], main context), so the timer interrupt ([`Stepper::tick`])
 //! does integer adds, compares and pin writes only. A feed hold computes its deceleration the same way when it is
-//! requested ([`Stepper::feed_hold`]).
+//! requested ([`Stepper::feed_hold`]); near a servo pen's drop commanded on the way it lands the pen on the stroke
+//! instead ([`landing`]).
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::fmath::sqrt;
 use crate::hal::{Endstops, StepPins, StepTimer};
 use crate::step_block::{Cursor, Profile, StepBlock, StepTimes, Switches};
+
+mod landing;
 
 /// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
 /// frozen; the planner keeps re-planning the rest.
@@ -247,6 +250,13 @@ struct Queued {
     hold: bool,
     /// Event after which the hold stops ([`NO_STOP`]: none).
     stop_at: u32,
+    /// A move planned to end moving (`exit_rate > 0` when pushed; a resume's re-profiling does not change it).
+    exits_moving: bool,
+    /// A servo block pushed after a move planned to end moving: a pen drop commanded on the way ([`landing`]).
+    flying: bool,
+    /// A move pushed right after a [`Queued::flying`] servo block: the rest of the travel the tip lands at the end
+    /// of ([`landing`]).
+    lands: bool,
 }
 
 impl Queued {
@@ -472,6 +482,9 @@ impl Stepper {
             switches: Switches::Limits,
             hold: false,
             stop_at: NO_STOP,
+            exits_moving: false,
+            flying: false,
+            lands: false,
         };
         Stepper {
             act: Active::idle(),
@@ -578,6 +591,7 @@ impl Stepper {
                 }
             }
         }
+        let (flying, lands) = self.pushed_after(&block);
         let mut q = Queued {
             block,
             profile: block.profile(),
@@ -589,14 +603,17 @@ impl Stepper {
             switches,
             hold: false,
             stop_at: NO_STOP,
+            exits_moving: n > 0 && block.exit_rate > 0,
+            flying,
+            lands,
         };
-        if self.hold == HoldState::Decelerating {
-            self.carry = self.carry.and_then(|c| continue_hold(c, &mut q));
-        }
         q.prepare();
         // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
         self.ring[nth_after(self.first, self.queued)] = q;
         self.queued += 1;
+        if self.hold == HoldState::Decelerating {
+            self.hold_pushed();
+        }
         Ok(())
     }
 
@@ -648,6 +665,10 @@ impl Stepper {
         }
         self.hold = HoldState::Decelerating;
         self.carry = None;
+        if self.lands_now() {
+            // The pen is landing: the hold stops where the tip lands, at the end of the travel ([`landing`]).
+            return;
+        }
         let act = &mut self.act;
         if act.n == 0 {
             // A dwell: the hold stops at its end; but a servo block between two moves (a drop commanded on the
@@ -657,11 +678,8 @@ impl Stepper {
                 let entry = self.ring[self.first & SLOT_MASK].block.entry_rate;
                 #[allow(clippy::cast_precision_loss, reason = "rates are below 2^24, exact in f32")]
                 let v = entry as f32;
-                let mut carry = (entry > 0).then_some(Carry { v_sq: v * v, planned_exit: entry });
-                for i in 0..self.queued {
-                    carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
-                }
-                self.carry = carry;
+                let carry = (entry > 0).then_some(Carry { v_sq: v * v, planned_exit: entry });
+                self.carry = self.hold_through(0, carry);
             }
             return;
         }
@@ -686,11 +704,8 @@ impl Stepper {
         }
         act.arm(k, slot.profile.times());
         if let Some(v_sq) = left {
-            let mut carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
-            for i in 0..self.queued {
-                carry = carry.and_then(|c| continue_hold(c, &mut self.ring[nth_after(self.first, i)]));
-            }
-            self.carry = carry;
+            let carry = Some(Carry { v_sq, planned_exit: slot.block.exit_rate });
+            self.carry = self.hold_through(0, carry);
         }
     }
 
@@ -713,6 +728,9 @@ impl Stepper {
         }
         self.hold = HoldState::Running;
         self.carry = None;
+        // Everything queued restarts from rest: a drop queued before the move it lands at would now be commanded
+        // with that move still to run from rest, longer than planned.
+        self.defer_queued_drops();
         for i in 0..self.queued {
             let q = &mut self.ring[nth_after(self.first, i)];
             q.block.entry_rate = 0;
@@ -958,9 +976,10 @@ fn set_dir<H: StepPins>(hal: &mut H, axis: Axis, axes: u8, levels: u8) {
 /// reached (`carry`, converted by the ratio of the planned junction rates). Returns the rate carried out of `q`,
 /// `None` when the hold stops within it or before it (a dwell, a block without acceleration, no speed left). A
 /// servo block the carriage enters moving (a pen drop commanded on the way, between two moves) is no stop: the
-/// hold runs through it (the servo is set as planned) and carries the same rate on into the move after it.
+/// hold runs through it (the servo is set as planned) and carries the same rate on into the move after it — unless
+/// that move is queued too, when the drop is deferred past it ([`landing`]).
 fn continue_hold(carry: Carry, q: &mut Queued) -> Option<Carry> {
-    if q.block.servo.is_some() && q.block.is_dwell() && carry.v_sq > 0.0 && carry.planned_exit > 0 {
+    if landing::runs_through(&carry, q) {
         q.hold = true;
         return Some(carry);
     }
@@ -1491,12 +1510,14 @@ mod tests {
     }
 
     #[test]
-    fn a_hold_runs_through_a_servo_block_between_two_moves_into_the_move_after_it() {
+    fn a_hold_near_a_servo_block_between_two_moves_defers_the_drop_or_lets_it_land() {
         // A drop commanded on the way: the first move leaves off at 4000 events/s, the 1-tick servo block, the
-        // next move enters at 4000 and decelerates to rest over its 400 events (4000²/(2·20 000)). A hold with
-        // event 2900 scheduled needs 399 more events: 100 in the first move, then (v² = 12·10⁶ carried through
-        // the servo block) √(12·10⁶)² / 40 000 = 300 events into the last move, where it stops: the carriage
-        // slows down across the servo command instead of stopping dead at it, and the servo is set on the way.
+        // next move enters at 4000 and decelerates to rest over its 400 events (4000²/(2·20 000), 0.2 s). A hold
+        // with event 2900 scheduled needs 399 more events: 100 in the first move, then (v² = 12·10⁶)
+        // √(12·10⁶)² / 40 000 = 300 events into the last move, where it stops. The last move arrives while the hold
+        // decelerates, the drop still queued: the move takes the drop's place and the drop waits behind it, its
+        // dwell 1 + the move's planned 0.2 s (the carriage slows down across the junction instead of stopping dead
+        // at the command, and the pen is not dropped short of the stroke: `landing`).
         let last = StepBlock {
             steps: [400, 0, 0, 0],
             entry_rate: 4000,
@@ -1506,8 +1527,6 @@ mod tests {
             dwell_ticks: 0,
             servo: None,
         };
-        let mut s = Stepper::new(0, 0);
-        let mut hal = Rec::default();
         let first = StepBlock {
             steps: [3000, 0, 0, 0],
             entry_rate: 0,
@@ -1517,33 +1536,49 @@ mod tests {
             dwell_ticks: 0,
             servo: None,
         };
-        s.push(first, Switches::Limits).unwrap();
-        s.push(StepBlock::servo(300, 1), Switches::Limits).unwrap();
-        s.start(&mut hal);
-        for _ in 0..2899 {
-            s.tick(&mut hal).unwrap();
-        }
-        s.feed_hold();
-        // The last move arrives while the hold decelerates: it is re-timed as its continuation when pushed.
-        s.push(last, Switches::Limits).unwrap();
-        while s.tick(&mut hal).is_some() {}
-        assert!(s.is_held());
+        // The last move is pushed before the hold (`None`) or the given number of events after it.
+        let held = |hold_after: u32, late: Option<u32>, last: StepBlock| {
+            let mut s = Stepper::new(0, 0);
+            let mut hal = Rec::default();
+            s.push(first, Switches::Limits).unwrap();
+            s.push(StepBlock::servo(300, 1), Switches::Limits).unwrap();
+            s.start(&mut hal);
+            for _ in 0..hold_after {
+                s.tick(&mut hal).unwrap();
+            }
+            if late.is_none() {
+                s.push(last, Switches::Limits).unwrap();
+            }
+            s.feed_hold();
+            if let Some(late) = late {
+                for _ in 0..late {
+                    s.tick(&mut hal).unwrap();
+                }
+                s.push(last, Switches::Limits).unwrap();
+            }
+            while s.tick(&mut hal).is_some() {}
+            assert!(s.is_held());
+            (s, hal)
+        };
+        let (s, hal) = held(2899, Some(0), last);
+        assert_eq!((s.completed(), hal.pos[0]), (1, 3299));
+        let drop = &s.ring[s.first & SLOT_MASK];
+        assert_eq!(drop.block.servo, Some(300));
+        assert!(drop.block.dwell_ticks.abs_diff(1 + 200_000) <= 1 + 50, "{}", drop.block.dwell_ticks);
+        // The same move pushed once the drop has started (the host late with it): the hold runs through the drop
+        // into the move, as before (the command is out).
+        let (s, hal) = held(2899, Some(101), last);
         assert_eq!((s.completed(), hal.pos[0]), (2, 3299));
-        // A hold during the servo block itself hands the move's entry rate on: 4000²/40 000 = 400 events, less
-        // the last (the rate reaches zero there), as a hold at the move's first event would.
-        let mut s = Stepper::new(0, 0);
-        let mut hal = Rec::default();
-        s.push(first, Switches::Limits).unwrap();
-        s.push(StepBlock::servo(300, 1), Switches::Limits).unwrap();
-        s.start(&mut hal);
-        for _ in 0..3000 {
-            s.tick(&mut hal).unwrap();
+        // A hold during the servo block itself, the move queued: the pen is landing; the move runs as planned to
+        // its end, where the hold stops.
+        for late in [None, Some(0)] {
+            let (s, hal) = held(3000, late, last);
+            assert_eq!((s.completed(), hal.pos[0]), (3, 3400), "{late:?}");
         }
-        s.push(last, Switches::Limits).unwrap();
-        s.feed_hold();
-        while s.tick(&mut hal).is_some() {}
-        assert!(s.is_held());
-        assert_eq!(hal.pos[0], 3000 + 399, "{}", s.completed());
+        // Unless the move does not end at rest (no plan of ours): the hold hands the move's entry rate on,
+        // 4000²/40 000 = 400 events, less the last (the rate reaches zero there), as a hold at its first event.
+        let (s, hal) = held(3000, None, StepBlock { steps: [1000, 0, 0, 0], exit_rate: 4000, ..last });
+        assert_eq!((s.completed(), hal.pos[0]), (2, 3000 + 399));
     }
 
     #[test]

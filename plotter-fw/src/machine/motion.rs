@@ -127,14 +127,15 @@ impl<const Q: usize> MotionQueue<Q> {
         self.start(hal);
     }
 
-    /// Move planned blocks to the stepper while it holds fewer than two, then make sure it runs.
+    /// Move planned blocks to the stepper while it holds fewer than two (or its last is a pen drop commanded on the
+    /// way, which takes the move it lands at with it: [`Stepper::awaits_landing_move`]), then make sure it runs.
     pub(crate) fn feed<H: StepPins + Endstops + StepTimer>(&mut self, hal: &mut H) {
-        while self.stepper.pending() < 2 && !self.stepper.is_held() {
+        while (self.stepper.pending() < 2 || self.stepper.awaits_landing_move()) && !self.stepper.is_held() {
             let Some(head) = self.planner.pop_front() else { break };
             let exit = self.planner.front().map_or(0.0, |b| b.entry_speed_sqr);
             self.first_entry_sqr = exit;
             let block = to_step_block(&head, exit);
-            // Cannot fail: the stepper holds fewer than two blocks and its queue takes two.
+            // Cannot fail: the stepper has room (fewer than two held, or room after a drop).
             let _ = self.stepper.push(block, Switches::Limits);
         }
         self.start(hal);
