@@ -12,7 +12,7 @@
 //! computed when the block is pushed ([`Stepper::push`], main context), so the timer interrupt ([`Stepper::tick`])
 //! does integer adds, compares and pin writes only. A feed hold computes its deceleration the same way when it is
 //! requested ([`Stepper::feed_hold`]); near a servo pen's drop commanded on the way it lands the pen on the stroke
-//! instead ([`landing`]).
+//! instead (`stepper/landing.rs`, and [`Stepper::awaits_landing_move`]).
 
 use crate::axis::{Axis, NUM_AXES};
 use crate::fmath::sqrt;
