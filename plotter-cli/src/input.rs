@@ -20,7 +20,7 @@ use plotter_path::input::{gcode_in, r#gen, hpgl_in, raster, trajectory};
 use plotter_path::{Drawing, MachineProfile};
 
 use crate::options::layout::LayoutArgs;
-use crate::options::trace::TraceArgs;
+use crate::options::trace::{PENS_FROM_FLAGS, TraceArgs};
 
 /// How SVG shapes are grouped into layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Default)]
@@ -103,7 +103,7 @@ impl std::str::FromStr for HatchArg {
 /// Input flags shared by every command that reads a drawing.
 #[derive(Debug, Clone, Args)]
 pub struct InputArgs {
-    /// Maximum chord error when flattening SVG curves, mm
+    /// Maximum chord error when flattening SVG curves, mm on the plotted page
     #[arg(long, default_value_t = svg::DEFAULT_TOLERANCE_MM, help_heading = "Input")]
     pub tolerance: f64,
     /// How SVG shapes are grouped into layers (pens)
@@ -125,9 +125,13 @@ pub struct InputArgs {
     pub cross_hatch: bool,
     /// How much the layout magnifies the drawing (set by the loader, 1 from the command line): hatch spacings, the
     /// tone hatch's pen width and the pen width --fill-strokes passes are spaced by are divided by it at import, so
-    /// that they come out as asked on the page.
+    /// that they come out as asked on the page, and so is --tolerance when it magnifies.
     #[arg(skip = 1.0)]
     pub hatch_scale: f64,
+    /// What the user of this front end can do when `--colors pens` finds no pen with a colour in the machine
+    /// profile (set by the front end: the command line's flags, [`PENS_FROM_FLAGS`], unless it says otherwise).
+    #[arg(skip = PENS_FROM_FLAGS)]
+    pub pens_hint: &'static str,
     /// Fill SVG strokes wider than the pen (--pen-width) with parallel passes a pen width apart, both measured on
     /// the plotted page, in the direction --angle gives
     #[arg(long, help_heading = "Input")]
@@ -159,7 +163,7 @@ impl InputArgs {
             bail!("--angle must be a finite number of degrees, got {}", self.trace.angle);
         }
         Ok(SvgOptions {
-            tolerance_mm: self.tolerance,
+            tolerance_mm: document_tolerance(self.tolerance, scale),
             layer_by: match self.layer_by {
                 LayerByArg::Auto => LayerBy::Auto,
                 LayerByArg::Group => LayerBy::Group,
@@ -191,10 +195,9 @@ impl InputArgs {
                 TextArg::Outlines => TextMode::Outlines,
                 TextArg::SingleStroke => TextMode::SingleStroke,
             },
-            images: {
-                self.images.0.map(|mode| ImageTrace {
-                    trace: raster::TraceOptions { mode, ..self.trace.options_with_pens(&profile.pens) },
-                })
+            images: match self.images.0 {
+                Some(mode) => Some(ImageTrace { trace: raster::TraceOptions { mode, ..self.trace_options(profile)? } }),
+                None => None,
             },
             crop: self.crop,
             pen_width_mm: profile.pen.width_mm,
@@ -206,6 +209,12 @@ impl InputArgs {
 }
 
 impl InputArgs {
+    /// The tracing options for pictures, `--colors pens` separating into the coloured pens of `profile` and
+    /// refused, saying what to do ([`InputArgs::pens_hint`]), when it has none.
+    fn trace_options(&self, profile: &MachineProfile) -> Result<raster::TraceOptions> {
+        self.trace.options_for_profile(&profile.name, &profile.pens, self.pens_hint)
+    }
+
     /// `--hatch tone`'s settings in document millimetres: the pen width and closest spacing asked for on the page,
     /// divided by the layout's magnification `scale`.
     fn tone_hatch(&self, scale: f64) -> Result<ToneHatch> {
@@ -396,12 +405,19 @@ fn unhatched(args: &InputArgs, profile: &MachineProfile) -> (InputArgs, MachineP
     (InputArgs { hatch: None, cross_hatch: false, ..args.clone() }, bare)
 }
 
-/// Decode `data` for a front end that keeps the decoded drawing and lays it out by `layout` later (the web app),
-/// with the page sizes [`load_laid_out`] gives a file: an SVG whose import measures something on the page (hatch
-/// spacings, `--hatch tone`'s and `--fill-strokes`' pen width, an opaque stroke wide enough on the page to hide what
-/// lies under it, see [`Decoded::scales`]) is decoded once to learn the layout's factor, then again at that factor
-/// when the first decode does not hold for it. Returns the decoded drawing (not laid out) and the factor its page
-/// sizes were measured at ([`InputArgs::hatch_scale`]).
+/// Decode `data` for a layout by `layout`, as every front end does: `plot`, `preview` and the other commands
+/// ([`load_laid_out`]) and the web app, which keeps the decoded drawing and lays it out later. Returns the decoded
+/// drawing (not laid out) and the factor its page sizes were measured at ([`InputArgs::hatch_scale`]).
+///
+/// Some of an SVG's import is measured on the plotted page: hatch spacings, `--hatch tone`'s and `--fill-strokes`'
+/// pen width, whether an opaque stroke is wide enough to hide what lies under it or a pattern's tiles are wider than
+/// the pen, and the chords its curves are flattened into, which must stay within `--tolerance` of the curve on the
+/// page: when the layout magnifies the drawing (`--fit` of a small icon onto a page, `--scale 4`) their error grows
+/// by the same factor ([`Decoded::scales`]). Such an SVG is decoded once (without hatching) to learn the layout's
+/// factor, then again at that factor when the first decode does not hold for it (curves then flattened at the
+/// tolerance divided by the factor, at least [`FINEST_TOLERANCE_MM`]); a 37 mm card fitted to 180 mm and hatched at
+/// 0.8 gets 0.8 mm between its lines on the page, not 3.9 mm. When that second decode fails (it breaks the size
+/// limits, say), the first one is kept with a warning, unless it lacks the hatching asked for.
 #[allow(clippy::too_many_arguments)]
 pub fn decode_for_layout(
     data: &[u8],
@@ -415,7 +431,7 @@ pub fn decode_for_layout(
 ) -> Result<(Decoded, f64)> {
     let hatched = hatches_fills(name, data, args, profile);
     let (first_args, bare) = if hatched { unhatched(args, profile) } else { (args.clone(), profile.clone()) };
-    let first = decode_drawing(data, name, shown, resources, &first_args, &bare, cancel)?;
+    let mut first = decode_drawing(data, name, shown, resources, &first_args, &bare, cancel)?;
     if !hatched && first.scales.is_everything() {
         return Ok((first, args.hatch_scale));
     }
@@ -430,19 +446,24 @@ pub fn decode_for_layout(
         return Ok((first, args.hatch_scale));
     }
     let again = InputArgs { hatch_scale: factor, ..args.clone() };
-    Ok((decode_drawing(data, name, shown, resources, &again, profile, cancel)?, factor))
+    match decode_drawing(data, name, shown, resources, &again, profile, cancel) {
+        Ok(decoded) => Ok((decoded, factor)),
+        // The first decode has no hatching: it cannot stand in for the one asked for.
+        Err(e) if hatched => Err(e),
+        Err(e) => {
+            first.warnings.push(format!(
+                "{shown}: laid out {factor:.2}× by the layout, but decoding it again for that size fails ({e:#}): \
+                 kept as decoded at its own size, so curves may show chords up to {:.3} mm and wide strokes and \
+                 pattern tiles are judged by their size in the document",
+                args.tolerance * factor.max(1.0)
+            ));
+            Ok((first, args.hatch_scale))
+        }
+    }
 }
 
-/// [`load_decoded`], then laid out by `layout`. An SVG's curves are flattened at `--tolerance` in the document's
-/// own size; when the layout then magnifies the drawing (`--fit` of a small icon onto a page, `--scale 4`) their
-/// chord error grows by the same factor, so the SVG is decoded once more at the tolerance divided by the factor
-/// (at least [`FINEST_TOLERANCE_MM`]) and laid out again — unless that finer drawing breaks the size limits, in
-/// which case the first one is kept with a warning. Warnings are printed once, for the decode that is kept.
-///
-/// `--hatch` spacings (and `--hatch tone`'s pen width, and the pen table's hatches) are page sizes: an SVG with
-/// `--hatch` (or a pen table with hatches) is first decoded without hatching to learn the layout's factor, then decoded again with the hatch sizes divided by it
-/// ([`InputArgs::hatch_scale`]), so a 37 mm card fitted to 180 mm and hatched at 0.8 gets 0.8 mm between its lines
-/// on the page, not 3.9 mm.
+/// [`load_decoded`], then laid out by `layout`, the page sizes of an SVG measured on the laid-out page
+/// ([`decode_for_layout`]). Warnings are printed once, for the decode that is kept.
 pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, layout: &LayoutArgs) -> Result<Decoded> {
     if path.to_str().is_some_and(|p| p.starts_with(GEN_PREFIX)) {
         let mut decoded = load_decoded(path, args, profile)?;
@@ -451,46 +472,26 @@ pub fn load_laid_out(path: &Path, args: &InputArgs, profile: &MachineProfile, la
     }
     let data = read_input(path)?;
     let shown = shown_name(path);
-    // Only an SVG is flattened at --tolerance and hatched.
-    let is_svg = input_kind(path, &data[..data.len().min(512)]) == InputKind::Svg;
-    let hatched = hatches_fills(path, &data, args, profile);
-    let (first_args, bare) = if hatched { unhatched(args, profile) } else { (args.clone(), profile.clone()) };
-    let mut decoded = decode_bytes(&data, path, &shown, &first_args, &bare)?;
-    if let Err(e) = plotter_path::geometry::limits::check_drawing(&decoded.drawing, &shown) {
-        warn_all(&decoded.warnings);
-        return Err(e.into());
-    }
-    let factor = layout.apply(&mut decoded.drawing)?;
-    let finer = (args.tolerance / factor).max(FINEST_TOLERANCE_MM);
-    // Opaque strokes hide what lies under them by their width on the page: decode again when the layout's factor
-    // would change that for any of them (a 0.5 mm border on a card enlarged 4.9× is 2.4 mm wide on the page).
-    let rescaled = is_svg && !decoded.scales.holds_for(factor);
-    if hatched || rescaled || (is_svg && finer < args.tolerance * (1.0 - 1e-9)) {
-        let finer_args = InputArgs { tolerance: finer.min(args.tolerance), hatch_scale: factor, ..args.clone() };
-        let again = decode_bytes(&data, path, &shown, &finer_args, profile).and_then(|d| {
-            plotter_path::geometry::limits::check_drawing(&d.drawing, &shown)?;
-            Ok(d)
-        });
-        match again {
-            Ok(mut again) => {
-                layout.apply(&mut again.drawing)?;
-                decoded = again;
-            }
-            // The first decode has no hatching: it cannot stand in for the one asked for.
-            Err(e) if hatched => {
-                warn_all(&decoded.warnings);
-                return Err(e);
-            }
-            Err(e) => decoded.warnings.push(format!(
-                "{shown}: magnified {factor:.2}× by the layout, but flattening its curves at {finer:.4} mm fails \
-                 ({e:#}): kept at {} mm, so curves may show chords up to {:.3} mm",
-                args.tolerance,
-                args.tolerance * factor
-            )),
-        }
-    }
+    let resources = resources_beside(path);
+    let (mut decoded, _) = decode_for_layout(&data, path, &shown, &resources, args, profile, layout, &Cancel::never())?;
+    layout.apply(&mut decoded.drawing)?;
     warn_all(&decoded.warnings);
     Ok(decoded)
+}
+
+/// The flattening tolerance an SVG's curves are decoded at, mm in the document, for chords within `tolerance` of
+/// the curve on the page once the layout magnifies the drawing `scale` times: divided by the magnification, at least
+/// [`FINEST_TOLERANCE_MM`] (unless `tolerance` asks for finer); a shrinking layout keeps it (its chords shrink with
+/// the drawing).
+fn document_tolerance(tolerance: f64, scale: f64) -> f64 {
+    (tolerance / scale.max(1.0)).max(FINEST_TOLERANCE_MM.min(tolerance))
+}
+
+/// The layout factors for which an SVG flattened at `used` mm in the document keeps its chords within `tolerance`
+/// on the page: up to `tolerance / used`, or every factor when `used` is as fine as [`document_tolerance`] goes.
+fn flattening_scales(tolerance: f64, used: f64) -> ScaleRange {
+    let finest = used <= FINEST_TOLERANCE_MM.min(tolerance);
+    ScaleRange { up_to: if finest { f64::INFINITY } else { tolerance / used }, ..ScaleRange::default() }
 }
 
 /// How an input is named in messages: its path, or `<stdin>` for `-`.
@@ -498,11 +499,14 @@ fn shown_name(path: &Path) -> String {
     if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() }
 }
 
-/// Decode `data` read from `path` (warnings returned, not printed). A file may use images beside it; stdin has no
-/// folder, so only data: URLs.
+/// What an SVG read from `path` may reference: images beside it; stdin has no folder, so only data: URLs.
+fn resources_beside(path: &Path) -> ResourcePolicy {
+    if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) }
+}
+
+/// Decode `data` read from `path` (warnings returned, not printed), with the resources [`resources_beside`] allows.
 fn decode_bytes(data: &[u8], path: &Path, shown: &str, args: &InputArgs, profile: &MachineProfile) -> Result<Decoded> {
-    let resources = if path == Path::new("-") { ResourcePolicy::DataUrlsOnly } else { ResourcePolicy::beside(path) };
-    decode_drawing(data, path, shown, &resources, args, profile, &Cancel::never())
+    decode_drawing(data, path, shown, &resources_beside(path), args, profile, &Cancel::never())
 }
 
 fn load_unchecked(path: &Path, shown: &str, args: &InputArgs, profile: &MachineProfile) -> Result<Decoded> {
@@ -525,7 +529,8 @@ pub struct Decoded {
     /// What the import left out, per reason (SVG imports count it; other inputs warn only).
     pub skipped: Skipped,
     /// The layout factors the decode holds for as it is (an SVG's opaque strokes hide what lies under them by
-    /// their width on the page); every factor for other inputs.
+    /// their width on the page, its pattern tiles are drawn by theirs, its curves are flattened for chords within
+    /// `--tolerance` on the page: see [`decode_for_layout`]); every factor for other inputs.
     pub scales: ScaleRange,
 }
 
@@ -573,17 +578,19 @@ fn decode_kind(
         InputKind::Svg => {
             let options = SvgOptions { cancel: cancel.clone(), ..args.svg_options(profile)? };
             let imported = svg::import_svg(data, shown, resources, &options)?;
+            let flattened = flattening_scales(args.tolerance, options.tolerance_mm);
+            let ScaleRange { above, up_to } = imported.scales;
             Ok(Decoded {
                 drawing: imported.drawing,
                 warnings: imported.warnings,
                 skipped: imported.skipped,
-                scales: imported.scales,
+                scales: ScaleRange { above, up_to: up_to.min(flattened.up_to) },
             })
         }
         InputKind::Image => {
             let image = raster::decode_image(data, name)?;
-            let options =
-                raster::TraceOptions { cancel: cancel.clone(), ..args.trace.options_with_pens(&profile.pens) };
+            let options = args.trace_options(profile).with_context(|| shown.to_owned())?;
+            let options = raster::TraceOptions { cancel: cancel.clone(), ..options };
             let mut traced = raster::trace_named(&image, shown, &options)?;
             crate::options::trace::join_stipples(&mut traced.drawing, &options);
             let warnings = traced.warnings.iter().map(|w| format!("{shown}: {w}")).collect();
@@ -896,6 +903,79 @@ mod tests {
         let d = load_laid_out(&big, &w.input, &profile, &w.layout).unwrap().drawing;
         let whole = horizontal_lengths(&d);
         assert!(whole.len() == 1 && (whole[0] - 180.0).abs() < 1e-6, "{whole:?}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Total pen-down length, mm.
+    fn ink(d: &Drawing) -> f64 {
+        d.paths().map(plotter_path::Polyline::length).sum()
+    }
+
+    /// A pattern fill is drawn when its tiles are wider than the 0.3 mm pen on the page. The 37 × 20 mm card is
+    /// framed by a thin line (114 mm) and holds a 5 × 2.5 mm rect filled with 0.25 mm tiles, each with a line across
+    /// its middle: 10 rows of 5 mm, 50 mm. As it is the tiles are 0.25 mm, not drawn: 114 mm of ink. Fitted to
+    /// 180 mm (4.865×) they are 1.216 mm: (114 + 50) · 180 / 37 = 797.84 mm (judged in the document they were left
+    /// out: 554.59 mm). The other way: a 370 × 200 mm poster (a 1140 mm frame) with 0.5 mm tiles over a 10 × 5 mm
+    /// rect (10 rows of 10 mm) draws them as it is, 1240 mm, and not once shrunk to 180 mm (0.243 mm tiles):
+    /// 1140 · 180 / 370 = 554.59 mm (drawn, they made it 603.24 mm).
+    #[test]
+    fn pattern_tiles_are_drawn_by_their_width_on_the_page() {
+        let tiles = |size: f64, x: f64, w: f64| {
+            format!(
+                r#"<defs><pattern id="p" patternUnits="userSpaceOnUse" width="{size}" height="{size}">
+                  <path d="M0 {}H{size}" stroke="black" stroke-width="0.05"/></pattern></defs>
+                <rect x="{x}" y="{x}" width="{w}" height="{}" fill="url(#p)"/>"#,
+                size / 2.0,
+                w / 2.0
+            )
+        };
+        let frame = r#"<rect x="0" y="0" width="37" height="20" fill="none" stroke="black" stroke-width="0.1"/>"#;
+        let (dir, card) = card_svg("pattern-fit", &format!("{frame}{}", tiles(0.25, 5.0, 5.0)));
+        let poster = dir.join("poster.svg");
+        let body = format!("{}{}", frame.replace("37", "370").replace("20", "200"), tiles(0.5, 50.0, 10.0));
+        let svg = format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="370mm" height="200mm" viewBox="0 0 370 200">{body}</svg>"#
+        );
+        std::fs::write(&poster, svg).unwrap();
+        let profile = MachineProfile::default_plotter();
+        assert_eq!(profile.pen.width_mm, 0.3);
+        let ink_of = |file: &Path, fit: bool| {
+            let flags = ["t", "--paper", "200x200", "--margin", "10", "--fit"];
+            let w = <PageFlags as clap::Parser>::try_parse_from(if fit { &flags[..] } else { &flags[..1] }).unwrap();
+            ink(&load_laid_out(file, &w.input, &profile, &w.layout).unwrap().drawing)
+        };
+        let cases = [
+            (&card, false, 114.0),
+            (&card, true, 164.0 * 180.0 / 37.0),
+            (&poster, false, 1240.0),
+            (&poster, true, 1140.0 * 180.0 / 370.0),
+        ];
+        for (file, fit, want) in cases {
+            let got = ink_of(file, fit);
+            assert!((got - want).abs() < 1e-3, "{} fit {fit}: {got} mm of ink, want {want}", file.display());
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// `--colors pens` with a machine profile whose pens have no colour is refused naming what the command line
+    /// offers: `--model`, `--profile`, `--colors cmyk` (it pointed at preview and plot, which read the picture
+    /// with that very profile), for a picture and for an SVG whose images are traced.
+    #[test]
+    fn colors_pens_without_coloured_pens_names_the_machine_flags() {
+        let toml = plotter_path::config::profile::DEFAULT_PROFILE_TOML;
+        let plain: Vec<&str> = toml.lines().filter(|l| !l.trim_start().starts_with("color =")).collect();
+        let mut profile = MachineProfile::from_toml(&plain.join("\n"), "plain.toml").unwrap();
+        profile.name = "plain pens".into();
+        let photo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples/photo.png");
+        let (dir, card) = card_svg("pens-hint", r#"<path d="M0 10H37" stroke="black"/>"#);
+        for (file, extra) in [(&photo, &[][..]), (&card, &["--images", "mosaic"][..])] {
+            let flags = ["t", "--mode", "mosaic", "--colors", "pens"];
+            let w = <PageFlags as clap::Parser>::try_parse_from(flags.iter().chain(extra)).unwrap();
+            let e = format!("{:#}", load_laid_out(file, &w.input, &profile, &w.layout).unwrap_err());
+            assert!(e.contains("machine profile \"plain pens\" has no pen with a colour"), "{e}");
+            assert!(e.contains("(--model)") && e.contains("(--profile)") && e.contains("--colors cmyk"), "{e}");
+            assert!(!e.contains("preview"), "{e}");
+        }
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -187,7 +187,28 @@ impl TraceArgs {
     }
 }
 
+/// What the command line tells the user to do when `--colors pens` finds no pen with a colour in the machine
+/// profile: the flags that choose the machine (`plot`, `stats`, `optimize`, `trace` take them), or another
+/// separation. Other front ends say what they offer ([`TraceArgs::options_for_profile`]).
+pub const PENS_FROM_FLAGS: &str = "give a model (--model) or a profile (--profile) whose [[pens]] have colours for \
+                                   --colors pens, or use --colors cmyk";
+
 impl TraceArgs {
+    /// [`TraceArgs::options_with_pens`] with the pen table of the machine profile named `profile` (`pens`), refused
+    /// when `--colors pens` finds no pen with a colour in it: the message names the profile and ends with
+    /// `what_to_do`, how the user of this front end gives other pens ([`PENS_FROM_FLAGS`] on the command line, the
+    /// page's machine choice in the web app).
+    pub fn options_for_profile(&self, profile: &str, pens: &[PenSpec], what_to_do: &str) -> Result<TraceOptions> {
+        let options = self.options_with_pens(pens);
+        if options.colors == Colors::Pens(Vec::new()) {
+            anyhow::bail!(
+                "separating the picture into the machine's pens: the machine profile {profile:?} has no pen with a \
+                 colour in its pen table: {what_to_do}"
+            );
+        }
+        Ok(options)
+    }
+
     /// The library options these flags mean, `--colors pens` taking the pens of `pens` (a profile's pen table)
     /// that have a colour.
     pub fn options_with_pens(&self, pens: &[PenSpec]) -> TraceOptions {

@@ -18,6 +18,12 @@ use crate::options::workflow::{Copies, WorkflowArgs};
 /// The key of the flag list in a job's options.
 pub const ARGS_KEY: &str = "args";
 
+/// What a queued job's `--colors pens` says when the machine's profile has no pen with a colour: a job chooses its
+/// machine, not the machine's profile (the studio's operator gives each machine its profile).
+pub const PENS_FROM_STUDIO: &str = "queue the job for a machine whose profile has coloured pens (plotter queue add \
+                                    --machine NAME; a machine's profile is the profile= of plotter serve --machine), \
+                                    or with --colors cmyk";
+
 /// The flags of a queued job.
 #[derive(clap::Args, Debug, Clone)]
 pub struct JobArgs {
@@ -61,7 +67,8 @@ impl JobArgs {
             StudioError::Invalid(format!("the job's flags {}: {first}", words.join(" ")))
         };
         let matches = JobArgs::command().try_get_matches_from(&words).map_err(refused)?;
-        let args = <JobArgs as clap::FromArgMatches>::from_arg_matches(&matches).map_err(refused)?;
+        let mut args = <JobArgs as clap::FromArgMatches>::from_arg_matches(&matches).map_err(refused)?;
+        args.input.pens_hint = PENS_FROM_STUDIO;
         args.split_mm()?;
         args.copies()?;
         if let Some(url) = &args.workflow.webhook {
@@ -116,6 +123,22 @@ pub fn paper_fits(paper: Option<Paper>, profile: &MachineProfile, loaded: Option
 mod tests {
     use super::*;
     use serde_json::json;
+
+    /// A job's `--colors pens` on a machine whose profile has no coloured pen is refused naming what the job can
+    /// choose: its machine (`--machine`), or `--colors cmyk`; not `--model` or `--profile`, which `plotter queue
+    /// add` does not take.
+    #[test]
+    fn colors_pens_on_a_machine_without_coloured_pens_names_the_jobs_choices() {
+        let toml = plotter_path::config::profile::DEFAULT_PROFILE_TOML;
+        let plain: Vec<&str> = toml.lines().filter(|l| !l.trim_start().starts_with("color =")).collect();
+        let profile = MachineProfile::from_toml(&plain.join("\n"), "plain.toml").unwrap();
+        let a = JobArgs::from_options(&json!({"args": ["--mode", "mosaic", "--colors", "pens"]})).unwrap();
+        let photo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples/photo.png");
+        let e = crate::input::load_laid_out(&photo, &a.input, &profile, &a.layout).unwrap_err();
+        let e = format!("{e:#}");
+        assert!(e.contains("has no pen with a colour") && e.contains("queue add --machine"), "{e}");
+        assert!(e.contains("--colors cmyk") && !e.contains("--model") && !e.contains("--profile"), "{e}");
+    }
 
     #[test]
     fn stored_words_read_back_as_plot_reads_them() {

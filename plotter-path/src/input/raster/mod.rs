@@ -335,8 +335,8 @@ impl TraceOptions {
                 return bad(
                     "--colors",
                     value,
-                    "found no pen with a colour in the machine profile's pen table (give the profile with preview or plot, \
-                     or use --colors cmyk)",
+                    "found no pen with a colour in the pen table given to separate into (the front end passes the \
+                     machine profile's coloured pens)",
                 );
             }
         }

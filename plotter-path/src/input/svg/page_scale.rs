@@ -1,6 +1,7 @@
 //! The layout factors an import holds for. Some of the import's choices compare a size in the document with a size
 //! on the plotted page: an opaque stroke hides what lies under it when it is wider than four pen widths on the page
-//! ([`super::walk`]). The import makes them at [`super::SvgOptions::hatch_scale`], and records here the range of
+//! ([`super::walk`]), and a pattern fill is drawn when its tiles are wider than the pen on the page
+//! (`walk::pattern`). The import makes them at [`super::SvgOptions::hatch_scale`], and records here the range of
 //! factors that would make every one of them the same way; a front end that lays the drawing out by a factor outside
 //! it decodes the drawing again at that factor.
 

@@ -5,11 +5,10 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use anyhow::bail;
 use clap::Args;
 use clap::builder::PossibleValuesParser;
 use plotter_host::options::machine::MachineArgs;
-use plotter_host::options::trace::{ColorsArg, TraceArgs, trace_image};
+use plotter_host::options::trace::{ColorsArg, PENS_FROM_FLAGS, TraceArgs, trace_image};
 use plotter_path::config::models;
 use plotter_path::config::profile::PenSpec;
 use plotter_path::output::svg_out::to_svg_string;
@@ -47,12 +46,7 @@ fn separation_pens(args: &TraceCmdArgs) -> Result<Vec<PenSpec>> {
     }
     let machine = MachineArgs { model: args.model.clone(), profile: args.profile.clone(), ..MachineArgs::default() };
     let profile = machine.load()?;
-    if !profile.pens.iter().any(|p| p.color.is_some()) {
-        bail!(
-            "--colors pens: the machine profile {:?} has no pen with a colour in its pen table: give a model              (--model) or a profile (--profile) whose [[pens]] have colours, or use --colors cmyk",
-            profile.name
-        );
-    }
+    args.trace.options_for_profile(&profile.name, &profile.pens, PENS_FROM_FLAGS)?;
     Ok(profile.pens)
 }
 

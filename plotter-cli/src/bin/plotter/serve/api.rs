@@ -293,6 +293,10 @@ fn clean_name(name: &str) -> Result<String, ApiError> {
     Ok(base.to_string())
 }
 
+/// What the page offers when "machine's pens" meets a machine profile without a coloured pen.
+const PENS_FROM_PAGE: &str = "choose a machine profile whose pens have colours under Machine (or upload one with \
+                              Upload profile), or set Picture colours to cmyk";
+
 fn input_args(settings: &Settings) -> Result<InputArgs, ApiError> {
     #[derive(clap::Parser)]
     struct W {
@@ -328,6 +332,7 @@ fn input_args(settings: &Settings) -> Result<InputArgs, ApiError> {
     };
     args.cross_hatch = args.hatch.is_some() && settings.cross_hatch;
     args.no_occlusion = !settings.hidden_lines;
+    args.pens_hint = PENS_FROM_PAGE;
     Ok(args)
 }
 
@@ -567,7 +572,8 @@ async fn settings(State(shared): State<Arc<Shared>>, Json(s): Json<Settings>) ->
         let laid_out = |s: &Settings| layout_args(s).ok().and_then(|l| l.options().ok());
         let hatched = wanted.hatch.is_some() || i.machine_profile().pens.iter().any(|p| p.hatch.is_some());
         let retrace = i.loaded.as_ref().is_some_and(|l| {
-            // Strokes hide what lies under them by their width on the page, too.
+            // Strokes hide what lies under them by their width on the page too, pattern tiles are drawn by theirs,
+            // and an SVG's curves are flattened for the page (an enlarged circle flattened again, finer).
             let page_sized = hatched || !l.decoded.scales.is_everything();
             decoded_as(&l.input) != decoded_as(&wanted) || (page_sized && laid_out(&i.settings) != laid_out(&s))
         });

@@ -851,3 +851,82 @@ async fn the_page_measures_strokes_at_the_page_scale() {
     let want = 180.0 - 0.5 * 180.0 / 37.0 + 20.0 * 180.0 / 37.0;
     assert!((ink - want).abs() < 0.01, "{ink} mm, want {want}");
 }
+
+/// The page flattens an SVG's curves for the plotted page as `plotter stats` does. A 10 × 5 mm card, framed by a
+/// thin line, holds a 1 mm circle centred at (2.5, 2.5). Fitted to 180 mm (200 mm paper, 10 mm margins) it is
+/// magnified k = 180 / 10 = 18×: a circle of R = 18 mm on the page, whose chords must miss it by at most the
+/// 0.05 mm tolerance: a chord spanning θ misses it by R(1 − cos θ/2), so at least π / acos(1 − 0.05/18) = 42.1, 43
+/// chords. (Flattened at the document's size, 39 chords missed it by up to 0.146 mm on the page.) The vertices lie
+/// on SVG's four cubic Béziers, off the true circle by up to 0.0273 % of R (3e-4 R allowed), so each chord's
+/// midpoint lies within 0.05 + 3e-4 R of it. And the ink is what `plotter stats` reads for the same card and flags.
+#[tokio::test]
+async fn the_page_flattens_curves_for_an_enlarged_drawing() {
+    let (shared, router) = test_app(1 << 20, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let card = r#"<svg xmlns="http://www.w3.org/2000/svg" width="10mm" height="5mm" viewBox="0 0 10 5">
+        <rect x="0" y="0" width="10" height="5" fill="none" stroke="black" stroke-width="0.05"/>
+        <circle cx="2.5" cy="2.5" r="1" fill="none" stroke="black" stroke-width="0.05"/></svg>"#;
+    let (s, v) = c.upload("card.svg", card.as_bytes()).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (s, v) = c.post("/api/settings", json!({ "paper": "200x200", "margin": 10.0, "fit": true })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let drawing = shared.lock().prepared.as_ref().unwrap().drawing.clone();
+    // The frame is the drawing's box: it gives the magnification and where the circle is, independently of it.
+    let b = drawing.bbox().unwrap();
+    let k = b.width() / 10.0;
+    assert!((k - 18.0).abs() < 1e-9, "{k}");
+    let (centre, r) = (plotter_path::kurbo::Point::new(b.x0 + 2.5 * k, b.y0 + 2.5 * k), k);
+    let circle: Vec<_> = drawing.paths().filter(|p| p.points.iter().all(|q| q.distance(centre) < r + 0.1)).collect();
+    assert_eq!(circle.len(), 1);
+    let points = &circle[0].points;
+    let cubic = 3e-4 * r;
+    let off = points.iter().map(|q| (q.distance(centre) - r).abs()).fold(0.0, f64::max);
+    assert!(off <= cubic, "vertices up to {off} mm off the circle");
+    let worst = points.windows(2).map(|w| r - w[0].midpoint(w[1]).distance(centre)).fold(0.0, f64::max);
+    assert!(points.len() > 43 && worst <= 0.05 + cubic, "{} points, worst chord {worst} mm", points.len());
+    // `plotter stats` with the same flags: the ink of `load_laid_out`.
+    let dir = std::env::temp_dir().join(format!("plotter-serve-flatten-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("card.svg");
+    std::fs::write(&file, card).unwrap();
+    #[derive(clap::Parser)]
+    struct W {
+        #[command(flatten)]
+        input: plotter_host::input::InputArgs,
+        #[command(flatten)]
+        layout: plotter_host::options::layout::LayoutArgs,
+    }
+    let w = <W as clap::Parser>::parse_from(["w", "--paper", "200x200", "--margin", "10", "--fit"]);
+    let profile = plotter_path::MachineProfile::default_plotter();
+    let cli = plotter_host::input::load_laid_out(&file, &w.input, &profile, &w.layout).unwrap().drawing;
+    std::fs::remove_dir_all(&dir).ok();
+    let ink = |d: &plotter_path::Drawing| d.paths().map(plotter_path::Polyline::length).sum::<f64>();
+    let page = c.get("/api/state").await.1["prepared"]["stats"]["pen_down_mm"].as_f64().unwrap();
+    assert!((ink(&drawing) - ink(&cli)).abs() < 1e-9 && (page - ink(&cli)).abs() < 1e-6, "{page} vs {}", ink(&cli));
+}
+
+/// "Machine's pens" with a machine profile whose pens have no colour is refused naming what the page offers: the
+/// Machine profile choice, Upload profile, Picture colours (it named preview and plot, commands of the command line).
+#[tokio::test]
+async fn the_page_says_what_to_do_when_the_machine_has_no_coloured_pen() {
+    let (_, router) = test_app(1 << 22, 10.0);
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let toml = plotter_path::config::profile::DEFAULT_PROFILE_TOML;
+    let plain: Vec<&str> = toml.lines().filter(|l| !l.trim_start().starts_with("color =")).collect();
+    let plain = plain.join("\n");
+    let name = plotter_path::MachineProfile::from_toml(&plain, "plain.toml").unwrap().name;
+    let upload = c.request("POST", "/api/profile/upload?name=plain.toml").body(Body::from(plain)).unwrap();
+    let (s, v) = c.send(upload).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let (s, v) = c.post("/api/settings", json!({ "trace": "mosaic", "colors": "pens" })).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let photo = include_bytes!("../../../../../samples/photo.png");
+    let (s, v) = c.upload("photo.png", photo).await;
+    assert_eq!(s, StatusCode::BAD_REQUEST, "{v}");
+    let e = v["error"].as_str().unwrap();
+    assert!(e.contains(&format!("machine profile {name:?} has no pen with a colour")), "{e}");
+    assert!(e.contains("under Machine") && e.contains("Upload profile") && e.contains("Picture colours"), "{e}");
+    assert!(!e.contains("--") && !e.contains("preview"), "{e}");
+}

@@ -5,10 +5,13 @@
 //! and, when the content reaches beyond it, to the tile. The tiles' shapes are walked like any other, so they are
 //! outlined, hide what lies under them and are hidden by what comes later by the same rules.
 //!
-//! Only the tiles whose rectangle meets the shape's bounding box are painted. A pattern whose tiles are narrower
-//! than the pen is not drawn (a pen cannot draw detail finer than itself; the lines would merge into a blot), nor
-//! one that would bring the shapes painted by the document's patterns beyond [`MAX_PATTERN_SHAPES`] (patterns
-//! inside patterns multiply); both are reported.
+//! Only the tiles whose rectangle meets the shape's bounding box are painted. A pattern whose tiles are no wider
+//! than the pen on the plotted page (their size in the document times [`super::SvgOptions::hatch_scale`], the
+//! layout's factor) is not drawn: a pen cannot draw detail finer than itself, the lines would merge into a blot.
+//! That choice is recorded in the walk's [`super::Walker::scales`], so that a layout by a factor on the other side
+//! of it has the drawing decoded again (a card of fine tiles enlarged onto a page draws them; a poster of tiles a
+//! little wider than the pen, shrunk, does not). Nor is a pattern drawn that would bring the shapes painted by the
+//! document's patterns beyond [`MAX_PATTERN_SHAPES`] (patterns inside patterns multiply); both are reported.
 
 use kurbo::{Affine, Point, Rect, Vec2};
 
@@ -50,12 +53,17 @@ impl Walker<'_> {
         let tiles = ni * nj;
         let shapes_per_tile = super::count_shapes(pattern.root()).max(1);
         let shown = format!("{element} filled with pattern \"{}\"", pattern.id());
-        if w_mm.min(h_mm) < self.options.pen_width_mm {
+        // Judged on the page, where the pen draws them: drawn when wider than the pen there.
+        let (page, pen) = (self.options.hatch_scale, self.options.pen_width_mm);
+        self.scales.wider_than(w_mm.min(h_mm), pen, page);
+        if w_mm.min(h_mm) * page <= pen {
             self.skipped.fine_patterns += 1;
             self.warnings.push(format!(
-                "{}: {shown}: not drawn, its {tiles:.0} tile(s) of {w_mm:.3} × {h_mm:.3} mm are finer than the \
-                 {} mm pen",
-                self.name, self.options.pen_width_mm
+                "{}: {shown}: not drawn, its {tiles:.0} tile(s) of {:.3} × {:.3} mm on the page are no wider than \
+                 the {pen} mm pen",
+                self.name,
+                w_mm * page,
+                h_mm * page
             ));
             return;
         }
@@ -107,5 +115,53 @@ impl Walker<'_> {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::Drawing;
+    use crate::input::svg::{Imported, ResourcePolicy, ScaleRange, SvgOptions, import_svg};
+
+    /// A 100 mm document: a 7 mm line, and a 5 × 2.5 mm rect filled with 0.25 mm tiles, each holding a line across
+    /// its middle: 10 rows of 20 tiles, 10 × 5 = 50 mm of lines when drawn.
+    fn tiled(scale: f64) -> Imported {
+        let svg = r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
+            <defs><pattern id="p" patternUnits="userSpaceOnUse" width="0.25" height="0.25">
+              <path d="M0 0.125H0.25" stroke="black" stroke-width="0.05"/></pattern></defs>
+            <line x1="0" y1="90" x2="7" y2="90" stroke="black"/>
+            <rect x="5" y="5" width="5" height="2.5" fill="url(#p)"/></svg>"#;
+        let options = SvgOptions { hatch_scale: scale, ..SvgOptions::default() };
+        import_svg(svg.as_bytes(), "t.svg", &ResourcePolicy::DataUrlsOnly, &options).unwrap()
+    }
+
+    fn ink(d: &Drawing) -> f64 {
+        d.paths().map(crate::geometry::drawing::Polyline::length).sum()
+    }
+
+    /// The 0.25 mm tiles against the 0.3 mm pen on the page: 0.25 mm at 1× and 0.275 mm at 1.1× (not drawn, the
+    /// line alone: 7 mm), 0.325 mm at 1.3× and 0.5 mm at 2× (drawn: 57 mm in the document). The choice flips at
+    /// 0.3 / 0.25 = 1.2×, which the import records: up to 1.2× when not drawn, above it when drawn (and then up to
+    /// 24×, where the tiles' 0.05 mm lines would be four pens, 1.2 mm, wide and hide what lies under them).
+    #[test]
+    fn tiles_are_drawn_by_their_width_on_the_page() {
+        assert_eq!(SvgOptions::default().pen_width_mm, 0.3);
+        for (scale, want, drawn) in [(1.0, 7.0, false), (1.1, 7.0, false), (1.3, 57.0, true), (2.0, 57.0, true)] {
+            let imported = tiled(scale);
+            let got = ink(&imported.drawing);
+            assert!((got - want).abs() < 1e-3, "{scale}×: {got} mm of ink, expected {want}");
+            let warned = imported.warnings.iter().any(|w| w.contains("pattern \"p\"") && w.contains("no wider"));
+            assert_eq!(warned, !drawn, "{scale}×: {:?}", imported.warnings);
+            let ScaleRange { above, up_to } = imported.scales;
+            if drawn {
+                assert!((above - 1.2).abs() < 1e-5 && (up_to - 24.0).abs() < 1e-5, "{scale}×: {:?}", imported.scales);
+            } else {
+                assert!(above == 0.0 && (up_to - 1.2).abs() < 1e-5, "{scale}×: {:?}", imported.scales);
+            }
+        }
+        // The warning gives the tiles' size on the page, and counts those meeting the rect's box, x 5..10 and
+        // y 5..7.5: tiles 20 ..= 40 across (the last starts on the box's edge) and 20 ..= 30 down, 21 × 11 = 231.
+        let w = tiled(1.1).warnings.join("; ");
+        assert!(w.contains("231 tile(s) of 0.275 × 0.275 mm on the page"), "{w}");
     }
 }
