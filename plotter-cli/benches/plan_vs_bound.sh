@@ -6,18 +6,35 @@
 # drawing, and per profile the ratio of the sums and the worst drawing, then where the time above the bound goes
 # (seconds summed over the drawings, by cause, as `plotter stats --verbose` names them).
 #
-#   PLOTTER=target/release/plotter plotter-cli/benches/plan_vs_bound.sh [PROFILE.toml ...]
+# A servo pen plans (and is bounded) otherwise on GRBL, whose M3 stops the carriage for the drop: a servo profile
+# that drives no EiBotBoard gets a second row, `NAME@grbl`, planned with `--firmware grbl` (`PROFILE.toml:grbl`
+# names one as an argument).
+#
+#   PLOTTER=target/release/plotter plotter-cli/benches/plan_vs_bound.sh [PROFILE.toml[:grbl] ...]
 set -euo pipefail
 # shellcheck source=bound_bench_drawings.sh
 source "$(dirname "$0")/bound_bench_drawings.sh"
+if [ $# -eq 0 ]; then
+  for p in "${PROFILES[@]}"; do
+    if grep -q '^command = "servo"' "$p" && ! grep -q '^\[ebb\]' "$p"; then
+      PROFILES+=("$p:grbl")
+    fi
+  done
+fi
 CAUSES="axis_limits corners curves stroke_ends step_timing lifts drops settles hops travel_order"
 printf '%-26s %-34s %9s %9s %7s\n' profile drawing plan_s bound_s ratio
-for profile in "${PROFILES[@]}"; do
+for entry in "${PROFILES[@]}"; do
+  profile=${entry%:grbl}
   name=$(basename "$profile")
+  firmware=()
+  if [ "$entry" != "$profile" ]; then
+    firmware=(--firmware grbl)
+    name="$name@grbl"
+  fi
   layout=$(layout_for "$profile")
   rows=""
   for d in "${DRAWINGS[@]}"; do
-    json=$("$PLOTTER" stats "$d" --profile "$profile" $layout --fit --json 2>/dev/null)
+    json=$("$PLOTTER" stats "$d" --profile "$profile" "${firmware[@]}" $layout --fit --json 2>/dev/null)
     row=$(printf '%s' "$json" | python3 -c '
 import json, sys
 v = json.load(sys.stdin)

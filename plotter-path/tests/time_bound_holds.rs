@@ -1,7 +1,8 @@
 //! The plot-time lower bound stays a bound (issue 39, item 5): on random drawings and every built-in machine model
-//! (the sample profiles), the planned time — which the firmware executes to the tick — is never below the lower
-//! bound, each part of the plan (pen down, lifts; travel with the pen's time above the lifts part) is at least its
-//! part of the bound, and each cause of the
+//! (the sample profiles; a servo pen's also planned for GRBL, where the carriage stops for the drop), the planned
+//! time — which the firmware executes to the tick — is never below the lower bound, each part of the plan (pen
+//! down, lifts; travel with the pen's time above the lifts part) is at least its part of the bound, and each cause
+//! of the
 //! time above the bound (`plotter stats --verbose`) is time the plan spends above it, as worded, adding up to the
 //! whole gap. Rows of dashes along X or Y make hops along one axis, where the bound charges each hop that axis's
 //! own limits (its "hops" cause is the plan's travel less those charges, hop by hop, so it stays ≥ 0 only if
@@ -13,6 +14,7 @@ use plotter_path::kurbo::Point;
 use plotter_path::motion::bound::drawing_time_lower_bound;
 use plotter_path::motion::gap::time_gap;
 use plotter_path::motion::plan::{Lookahead, homed_position, plan_returning};
+use plotter_path::motion::servo::ServoSync;
 use plotter_path::optimize::SeamMode;
 use plotter_path::{Drawing, MachineProfile, Polyline};
 use proptest::prelude::*;
@@ -76,9 +78,18 @@ fn polyline(s: &Shape) -> Polyline {
     }
 }
 
-/// Every built-in model that plots with a pen (the printer's extruder plans another way).
-fn profiles() -> Vec<(&'static str, MachineProfile)> {
-    MODELS.iter().map(|m| (m.name, m.profile())).filter(|(_, p)| p.axes.e.is_none()).collect()
+/// Every built-in model that plots with a pen (the printer's extruder plans another way); a servo pen's also as
+/// planned for GRBL, which stops the carriage for the pen's drop ([`ServoSync::AtRest`]).
+fn profiles() -> Vec<(String, MachineProfile)> {
+    let pens = MODELS.iter().map(|m| (m.name.to_string(), m.profile())).filter(|(_, p)| p.axes.e.is_none());
+    pens.flat_map(|(name, p)| {
+        let grbl = p
+            .pen
+            .uses_servo()
+            .then(|| (format!("{name} on GRBL"), MachineProfile { servo_sync: ServoSync::AtRest, ..p.clone() }));
+        std::iter::once((name, p)).chain(grbl)
+    })
+    .collect()
 }
 
 /// `shapes` as a drawing scaled into `profile`'s work area, 5 mm in from its edges, or `None` when it has no

@@ -251,13 +251,12 @@ pub fn time_gap(
         let (dx, dy) = (f64::from(s.start.x - x) / sx, f64::from(s.start.y - y) / sy);
         let least = hop.travel_seconds(dx, dy);
         charged += hop.seconds(dx, dy);
-        let len = dx.hypot(dy);
         if lifted[si] {
-            let e = hop.pen_extra(len, secs(travel_ticks[si]));
+            let e = hop.pen_extra(dx, dy, secs(travel_ticks[si]));
             pen[0] += e.lift_s;
             pen[1] += e.drop_s + e.drop_after_lift_s;
         } else {
-            let e = hop.pen_extra(len, least);
+            let e = hop.pen_extra(dx, dy, least);
             unlifted += e.after_lift_s();
             pen[1] += e.drop_s;
         }

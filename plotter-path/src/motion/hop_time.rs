@@ -33,6 +33,29 @@
 //! `√(1 + 4s²)`: the X and Y terms of a Z pen take their limits that much higher (0.5 % at the XY kit's
 //! 0.052). A servo pen's hop is one straight block (or collinear parts of it): no bend.
 //!
+//! **A drop the motion stops for.** Where the firmware runs a servo command only with the carriage at rest
+//! ([`ServoSync::AtRest`], GRBL's `M3`), the drop cannot be commanded on the way: the hop's travel either arrives
+//! whole and the drop is commanded there, or it stops part way (a split), the drop is commanded, and the rest
+//! follows from rest, arriving by the tip's earliest contact ([`crate::motion::plan`]). Count time `t` from the end
+//! of the lift's clear wait (`c` ticks after the lift command); a drop commanded then has its earliest and latest
+//! contact `E(t)`, `L(t)` after the command ([`crate::motion::servo::ServoTiming::contact_window`], the servo
+//! taken as fully down when lifted: the earliest latest), both never falling as `t` grows (the servo has risen
+//! further). A hop whose first part takes `t₁` and whose second takes `t₂` (zero without a split) starts its
+//! line at `t₁ + max(L(t₁), t₂ + 1 tick)` with `t₂ + 1 tick ≤ E(t₁)`: the line starts no sooner than
+//! `t₁ + L(t₁)`, and the second part lasts under `E(t₁)`. Each part is a motion from rest to rest, which covers
+//! along one axis (or the path) at most `ℓ(t) = a·t²/4` in `t ≤ 2v/a` and `v·t − v²/a` beyond, for the term's
+//! top speed `v` and acceleration `a` (with a tick more for the rounding of a block's duration); the two parts
+//! together cover the term's distance `d` (taken short as above). So a split at `t₁` needs
+//! `ℓ(t₁) + ℓ(E(t₁)) ≥ d`, which holds from some least `t₁*` on (both sides grow with `t₁`), and the line starts
+//! no sooner than `t₁* + L(t₁*)`: the best split can do no better. On a servo of one steady rate lifted from fully
+//! down, `E(t) = L(t) = min(t, W)` with `W` the drop from fully up (the servo has risen `t` past the contact and
+//! comes back as fast): while the halves of the hop take `T(d/2) ≤ W` the least is the even split, `2·T(d/2)`; a
+//! longer hop is best cut where its last `ℓ(W)` mm start, `T(d − ℓ(W)) + W`, against the whole travel `T(d)` the
+//! drop in motion needs (a 30 mm hop along X on the servo kit: 0.2956 + 0.105 s, 71 ms above its 0.3298 s of
+//! travel). The time is tabled on the 0.1 ms grid of `t₁` (each cell charged the latest `E` and the least
+//! `t + L` within it), the least over the profile's pens, each term (X, Y, the path) on its own and the largest
+//! taken, less the drop's share of the lifts part.
+//!
 //! **One cost, symmetric.** The time depends on `|dx|` and `|dy|` only, so a hop from `a` to `b` costs what the
 //! hop from `b` to `a` costs, and it never falls when either distance grows. That is all the travel bound's
 //! spanning trees, penalized trees and exact search need ([`crate::optimize::bound`]): a tree of symmetric hop
@@ -42,6 +65,7 @@
 use plotter_fw::TICK_HZ;
 
 use crate::MachineProfile;
+use crate::config::servo_sync::ServoSync;
 use crate::motion::piece_time::{
     clearance_mm, corner_speed, fastest_piece, hop_corner_speed, path_accel, servo_timings, servo_waits, z_join_speeds,
     z_joins_may_curve,
@@ -168,6 +192,104 @@ impl ServoWindow {
     }
 }
 
+/// A servo pen's drop on a firmware that stops the motion for it (see the module docs): per pen, a table of the
+/// drop's earliest and latest contact by when (after the lift's clear wait) it is commanded.
+#[derive(Debug, Clone, PartialEq)]
+struct RestDrop {
+    /// One table per pen the profile names.
+    pens: Vec<RestTable>,
+    /// The drop's share of the lifts part (its command's tick and the narrowest window), seconds.
+    share: f64,
+}
+
+/// One pen's drop at rest, seconds; cell `j` holds the drops commanded `j·GRID` to `(j + 1)·GRID` ticks after
+/// the lift's clear wait.
+#[derive(Debug, Clone, PartialEq)]
+struct RestTable {
+    /// The earliest contact of a drop commanded at the cell's end: the latest of any drop in the cell.
+    earliest: Vec<f64>,
+    /// The cell's start plus the latest contact of a drop commanded then: the least line start of any drop in the
+    /// cell, counted from the clear wait's end.
+    start: Vec<f64>,
+    /// From the table's end on (the servo all the way up): the latest earliest contact and the least latest.
+    up: (f64, f64),
+    /// The latest contact of any drop (from fully up).
+    most_latest: f64,
+}
+
+/// The most cells of a [`RestTable`]: 10 s.
+const REST_CELLS: usize = 100_000;
+
+/// The farthest a motion from rest to rest goes in `t` seconds at top speed `v` and acceleration `a`, mm.
+fn rest_reach(t: f64, v: f64, a: f64) -> f64 {
+    if t <= 2.0 * v / a { a * t * t / 4.0 } else { v * t - v * v / a }
+}
+
+impl RestDrop {
+    /// The tables of `profile`'s servo pens.
+    fn of(profile: &MachineProfile) -> RestDrop {
+        let (_, window) = servo_waits(profile);
+        let pens = servo_timings(profile)
+            .map(|timing| {
+                let clear = crate::motion::plan::lift_clear_ticks(profile, timing).max(1);
+                let window = |t: u64| timing.contact_window(Some((clear + t, 1.0)));
+                let up = timing.contact_window(None);
+                let (mut earliest, mut start) = (Vec::new(), Vec::new());
+                let mut t = 0;
+                // Until the servo is all the way up; a servo that does not move (a down angle equal to the up
+                // angle) never gets there: cut at REST_CELLS, the tail taking the earliest contact from fully up
+                // (the latest there is) and the latest at the cut (the least after it).
+                while window(t) != up && earliest.len() < REST_CELLS {
+                    earliest.push(secs(window(t + GRID).0));
+                    start.push(secs(t + window(t).1));
+                    t += GRID;
+                }
+                RestTable { earliest, start, up: (secs(up.0), secs(window(t).1)), most_latest: secs(up.1) }
+            })
+            .collect();
+        RestDrop { pens, share: secs(1 + window) }
+    }
+
+    /// The least time from the lift's clear wait to the line's start, less the drop's share, of a hop whose
+    /// terms (X, Y, the path) are `(distance, top speed, acceleration)`: see the module docs.
+    fn seconds(&self, terms: &[(f64, f64, f64)]) -> f64 {
+        let tick = 1.0 / f64::from(TICK_HZ);
+        let least = |t: &RestTable, (d, v, a): (f64, f64, f64)| {
+            let reach = |s: f64| rest_reach(s + tick, v, a);
+            #[allow(clippy::cast_precision_loss, reason = "table indices are small")]
+            let end = |j: usize| ((j as u64 + 1) * GRID) as f64 * tick;
+            let fits = |j: usize| reach(end(j)) + reach(t.earliest[j]) >= d;
+            let (mut lo, mut hi) = (0, t.earliest.len());
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if fits(mid) { hi = mid } else { lo = mid + 1 }
+            }
+            if let Some(s) = t.start.get(lo) {
+                return *s;
+            }
+            // The servo all the way up: the first part covers what the last, under the earliest contact, cannot.
+            #[allow(clippy::cast_precision_loss, reason = "table indices are small")]
+            let sat = (t.start.len() as u64 * GRID) as f64 * tick;
+            let first = fastest_piece((d - reach(t.up.0)).max(0.0), 0.0, 0.0, v, a) - tick;
+            first.max(sat) + t.up.1
+        };
+        let most = |t: &RestTable| terms.iter().map(|&term| least(t, term)).fold(0.0, f64::max);
+        self.pens.iter().map(most).fold(f64::INFINITY, f64::min) - self.share
+    }
+
+    /// The most [`RestDrop::seconds`] exceeds the hop's travel: the latest contact from fully up, less the share.
+    fn excess(&self) -> f64 {
+        self.pens.iter().map(|t| t.most_latest).fold(0.0, f64::max) - self.share
+    }
+}
+
+/// `ticks` in seconds.
+fn secs(ticks: u64) -> f64 {
+    #[allow(clippy::cast_precision_loss, reason = "tick counts are far below 2^52")]
+    let s = ticks as f64 / f64::from(TICK_HZ);
+    s
+}
+
 /// The least time of a pen-up hop on one profile (see the module docs), seconds; build once with
 /// [`HopTime::of`], then ask [`HopTime::seconds`] per hop.
 #[derive(Debug, Clone, PartialEq)]
@@ -184,8 +306,10 @@ pub struct HopTime {
     axes: [AxisLimit; 2],
     /// A Z pen's corners at a long hop's joins, where its short hops' joins may be curve points.
     corners: Option<ZCorners>,
-    /// A servo pen's drop window after the lift.
+    /// A servo pen's drop window after the lift, where the drop is commanded on the way.
     servo: Option<ServoWindow>,
+    /// A servo pen's drop where the motion stops for it ([`ServoSync::AtRest`]).
+    rest: Option<RestDrop>,
 }
 
 impl HopTime {
@@ -217,8 +341,10 @@ impl HopTime {
         let slack = 2.0 * (1.0 / x.steps_per_mm).hypot(1.0 / y.steps_per_mm);
         let corners =
             (!servo && z_joins_may_curve(profile)).then(|| z_corners(profile, corner.min(v_end), slack)).flatten();
-        let servo = servo.then(|| ServoWindow::of(profile));
-        HopTime { v_end, feed, accel, slack, axes: [axis(x), axis(y)], corners, servo }
+        let at_rest = profile.servo_sync == ServoSync::AtRest;
+        let rest = (servo && at_rest).then(|| RestDrop::of(profile));
+        let servo = (servo && !at_rest).then(|| ServoWindow::of(profile));
+        HopTime { v_end, feed, accel, slack, axes: [axis(x), axis(y)], corners, servo, rest }
     }
 
     /// The speed a hop of `len` mm may start and end at.
@@ -236,7 +362,7 @@ impl HopTime {
     /// [`pen_extra`]: Self::pen_extra
     pub fn seconds(&self, dx: f64, dy: f64) -> f64 {
         let travel = self.travel_seconds(dx, dy);
-        travel + self.pen_extra(dx.hypot(dy), travel).total_s()
+        travel + self.pen_extra(dx, dy, travel).total_s()
     }
 
     /// The least time of the travel blocks alone of a hop of `dx` × `dy` mm: the largest of X's, Y's and the
@@ -253,11 +379,18 @@ impl HopTime {
         fastest_piece((d - self.slack).max(0.0), v, v, self.feed, self.accel)
     }
 
-    /// What a hop of `len` mm whose travel takes `travel_s` seconds adds to the pen's moves beyond the lifts
-    /// part's shares (see the module docs).
-    pub(crate) fn pen_extra(&self, len: f64, travel_s: f64) -> PenExtra {
+    /// What a hop of `dx` × `dy` mm whose travel takes `travel_s` seconds adds to the pen's moves beyond the
+    /// lifts part's shares (see the module docs).
+    pub(crate) fn pen_extra(&self, dx: f64, dy: f64, travel_s: f64) -> PenExtra {
+        let len = dx.hypot(dy);
         if let Some(c) = self.corners.filter(|c| len > c.from_mm) {
             return PenExtra { lift_s: c.rise_s, drop_s: c.drop_s, drop_after_lift_s: 0.0 };
+        }
+        if let Some(r) = &self.rest {
+            let [x, y] = self.axes;
+            let term = |d: f64, a: &AxisLimit| ((d.abs() - a.slack).max(0.0), a.top, a.accel);
+            let terms = [term(dx, &x), term(dy, &y), ((len - self.slack).max(0.0), self.feed, self.accel)];
+            return PenExtra { drop_after_lift_s: (r.seconds(&terms) - travel_s).max(0.0), ..PenExtra::default() };
         }
         match &self.servo {
             Some(w) => PenExtra { drop_after_lift_s: w.with_travel(travel_s) - travel_s, ..PenExtra::default() },
@@ -275,14 +408,19 @@ impl HopTime {
             let grid = |i: usize| (i as u64 * GRID) as f64 / f64::from(TICK_HZ);
             w.least.iter().enumerate().map(|(i, l)| l - grid(i)).fold(w.tail, f64::max).max(0.0)
         });
-        corner.max(window)
+        let rest = self.rest.as_ref().map_or(0.0, |r| r.excess().max(0.0));
+        corner.max(window).max(rest)
     }
 
     /// The path's term alone: the least time of a hop at least `d` mm long in any direction (the least of
     /// [`seconds`](Self::seconds) over the hops of that length). Non-decreasing in `d`.
     pub fn along_path(&self, d: f64) -> f64 {
         let travel = self.path_term(d);
-        travel + self.pen_extra(d, travel).total_s()
+        let extra = match &self.rest {
+            Some(r) => (r.seconds(&[((d - self.slack).max(0.0), self.feed, self.accel)]) - travel).max(0.0),
+            None => self.pen_extra(d, 0.0, travel).total_s(),
+        };
+        travel + extra
     }
 }
 
@@ -363,6 +501,39 @@ mod tests {
     }
 
     #[test]
+    fn on_grbl_a_hop_stops_for_the_drop_and_is_charged_the_best_split() {
+        // The servo kit planned for GRBL, whose M3 waits for the moves before it: the drop is commanded with the
+        // carriage at rest. The servo turns 1/150 000 of its swing per tick, so a drop commanded t after the
+        // lift's clear wait (the servo 0.3 up, at the contact) touches t later (it rose t past the contact),
+        // at most W = 0.7 × 150 ms = 105 ms (from fully up, 150 ms after the lift).
+        let grbl = MachineProfile { servo_sync: ServoSync::AtRest, ..servo_kit() };
+        let hop = HopTime::of(&grbl);
+        // 30 mm along X (29.975 mm less the steps' rounding; X's 1500 mm/s² and the 120 mm/s feed): the halves,
+        // 14.99 mm each, take 0.2049 s > W, so the best split leaves the last ℓ(W) = 1500·0.105²/4 = 4.1344 mm
+        // to follow the drop: T(25.8406 mm) = 25.8406/120 + 120/1500 = 0.295 34 s, then W: 0.400 34 s (less the
+        // drop's 1-tick share the lifts part counts), where the drop in motion needs the travel alone, 0.329 79 s.
+        // (The plan's hop: 445.6 ms less the 45 ms clear wait, 400.6 ms.)
+        let t = hop.seconds(30.0, 0.0);
+        assert!((t - 0.400_34).abs() < 1e-5, "{t}");
+        assert!((HopTime::of(&servo_kit()).seconds(30.0, 0.0) - 0.329_79).abs() < 1e-5);
+        // 2 mm along X (1.975 mm): the halves take T(0.9875) = 2·√(0.9875/1500) = 51.32 ms ≤ W, so the even split,
+        // 102.63 ms, against the travel's 72.57 ms; the table's 0.1 ms grid takes up to two cells off.
+        let t = hop.seconds(2.0, 0.0);
+        let even = 2.0 * 2.0 * (0.9875f64 / 1500.0).sqrt();
+        assert!(t <= even && t > even - 3e-4, "{t} vs {even}");
+        // A hop with no lift before it (the first, one after a pen change) is given back at most the drop from
+        // fully up of the kit's slowest pen: its brush, down at 25°, swings 65° at the same rate, 0.7 × 162.5 ms.
+        assert!((hop.lift_excess() - 0.113_75).abs() < 1e-5, "{}", hop.lift_excess());
+        let mut last = 0.0;
+        for i in 0..400 {
+            let d = f64::from(i) * 0.1;
+            let t = hop.seconds(d, 0.3 * d);
+            assert!(t >= last && hop.along_path(d.hypot(0.3 * d)) <= t, "{d}: {t} < {last}");
+            last = t;
+        }
+    }
+
+    #[test]
     fn a_30_by_40_diagonal_is_bounded_by_its_path_at_the_travel_feed() {
         let hop = HopTime::of(&servo_kit());
         // Y covers 40 − 0.025 = 39.975 mm at 1500 mm/s² up to 120 mm/s: 0.16 s of ramps (9.6 mm), 30.375 mm at
@@ -437,7 +608,7 @@ mod tests {
         // mm/s), a triangle peaking at 22.945 mm/s, 0.071 21 s, against 0.056 14 s into 25 mm/s: 0.015 07 s (from
         // a curve point at 25 mm/s, 0.055 41 − 0.04 = 0.015 41 s, the larger). The drop's 1 mm from the corner to
         // rest: a triangle peaking at 22.680 mm/s, 0.079 98 s, against 0.065 s from 25 mm/s: 0.014 98 s.
-        let e = hop.pen_extra(30.0, 0.0);
+        let e = hop.pen_extra(30.0, 0.0, 0.0);
         assert!((e.lift_s - 0.015_07).abs() < 1e-5 && (e.drop_s - 0.014_98).abs() < 1e-5, "{e:?}");
         let t = hop.seconds(30.0, 0.0);
         assert!((t - (0.321_50 + 0.015_07 + 0.014_98)).abs() < 2e-5, "{t}");
