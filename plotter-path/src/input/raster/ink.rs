@@ -225,6 +225,53 @@ pub(crate) fn ink_in_picture(strokes: &[Vec<Point>], pen: f64, w: usize, h: usiz
     g.fraction(margin * 5, (w - margin) * 5, margin * 5, (h - margin) * 5)
 }
 
+/// For the styles' tests: the linear lightness ramp the tone tests plot (`tests/raster_tone.rs`) as a `w × h` px
+/// darkness map: L* 100 at the left edge to 0 at the right, each column at the L* of its middle, stored as an 8-bit
+/// sRGB gray as a picture file holds it and read back through the default tone curve.
+#[cfg(test)]
+pub(crate) fn lightness_ramp(w: usize, h: usize) -> super::tone::DarknessMap {
+    use super::tone::{luminance_from_cie, srgb_to_linear};
+    let column = |x: usize| {
+        #[allow(clippy::cast_precision_loss)]
+        let y = luminance_from_cie(100.0 * (1.0 - (x as f64 + 0.5) / w as f64));
+        let v = if y <= 0.003_130_8 { 12.92 * y } else { 1.055 * y.powf(1.0 / 2.4) - 0.055 };
+        #[allow(clippy::cast_possible_truncation)] // a value in [0, 1]
+        let d = (1.0 - srgb_to_linear((v * 255.0).round() / 255.0)) as f32;
+        d
+    };
+    let row: Vec<f32> = (0..w).map(column).collect();
+    super::tone::DarknessMap { width: w, height: h, data: row.repeat(h) }
+}
+
+/// For the styles' tests: the L* `map` asks for and the L* `strokes` plot (pixel coordinates, pen `pen` px, rendered
+/// on a jittered grid of a fifth of a pixel, as the tone measure sees them) in bands `band` px wide across the map,
+/// `margin` px in from its edges: `(asked, plotted)` per band, each from the band's mean reflectance.
+#[cfg(test)]
+pub(crate) fn band_lightness(
+    strokes: &[Vec<Point>],
+    pen: f64,
+    map: &super::tone::DarknessMap,
+    band: usize,
+    margin: usize,
+) -> Vec<(f64, f64)> {
+    use super::tone::lightness_cie;
+    let (w, h) = (map.width, map.height);
+    let mut g = InkGrid::jittered(w * 5, h * 5, 0.2);
+    g.draw(strokes, pen);
+    (margin..w.saturating_sub(margin + band - 1))
+        .step_by(band)
+        .map(|x0| {
+            let asked: f64 = (margin..h - margin)
+                .flat_map(|y| (x0..x0 + band).map(move |x| f64::from(map.data[y * w + x])))
+                .sum::<f64>();
+            #[allow(clippy::cast_precision_loss)]
+            let asked = asked / (band * (h - 2 * margin)) as f64;
+            let ink = g.fraction(x0 * 5, (x0 + band) * 5, margin * 5, (h - margin) * 5);
+            (lightness_cie(1.0 - asked), lightness_cie(1.0 - ink))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
