@@ -19,6 +19,17 @@
 //!
 //! Uniform parameter steps cost a few more points than curvature-adaptive subdivision on very uneven curves, but
 //! they are branch-free, need no recursion and run at tens of millions of segments per second.
+//!
+//! Turns (issue 39): the chord error alone lets a tight bend of a curve — a petal's tip of 0.2 mm radius — fall
+//! between two chords that meet at 80° at 0.05 mm, where the motion planner sees a corner rather than the
+//! curve, and plans it at the corner's speed instead of the curve's centripetal limit `sqrt(a·r)` (see
+//! `plotter_fw::planner`'s curve rules). So the flattening also keeps consecutive chords of one curve within
+//! [`MAX_TURN_RAD`] of each other: the pieces on both sides of a vertex that turns more are halved (in
+//! parameter), round after round, until every vertex that still does has both its chords shorter than
+//! [`MIN_SPLIT_CHORD_MM`] (a cusp), or the curve has [`MAX_PIECES_PER_CURVE`] pieces. A piece's chord error only shrinks when it is halved, so the tolerance bound holds
+//! as before; only bends of radius below about `tolerance / (1 − cos(MAX_TURN_RAD / 2))` (5.8 mm at 0.05 mm)
+//! gain points, and the planner sees them as finely cut as a fine tolerance would (each chord turning at most
+//! 15°), so a drawing plans alike at a coarse and a fine tolerance.
 
 use kurbo::{Arc, CubicBez, ParamCurve, PathEl, Point, QuadBez, Vec2};
 
@@ -29,6 +40,19 @@ pub const MIN_TOLERANCE: f64 = 1e-6;
 
 /// Upper limit on pieces per curve segment, so a degenerate (huge) curve cannot exhaust memory.
 pub const MAX_PIECES_PER_CURVE: usize = 1 << 16;
+
+/// Largest turn between consecutive chords of one curve, radians (15°; see the module docs): about what a
+/// 0.002 mm tolerance gives a 0.2 mm bend (16°), fine enough for the planner to read the bend's radius.
+pub const MAX_TURN_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
+
+/// A piece whose chord is shorter than this (mm) is not halved for its turn: a finer cut than a plotter's step
+/// (0.0125 mm at 80 steps/mm) tells the planner nothing more, and a cusp turns sharply however fine the cut.
+pub const MIN_SPLIT_CHORD_MM: f64 = 0.01;
+
+/// Most rounds of halving pieces for their turn. Each round halves the parameter span of the pieces it splits,
+/// so their chords (at most the curve's largest speed `‖B'‖` times the span) fall below [`MIN_SPLIT_CHORD_MM`]
+/// within about 30 rounds for any curve inside [`MAX_COORD_MM`]; this only guards that argument.
+const MAX_SPLIT_ROUNDS: usize = 64;
 
 fn pieces_for(max_second_derivative: f64, tolerance: f64) -> usize {
     let n = (max_second_derivative / (8.0 * tolerance)).sqrt().ceil();
@@ -63,32 +87,77 @@ pub fn quad_pieces(q: &QuadBez, tolerance: f64) -> usize {
     pieces_for(2.0 * d, tolerance)
 }
 
-/// Append the flattened points of `c` (excluding its start point, including its end point) to `out`.
-pub fn flatten_cubic(c: &CubicBez, tolerance: f64, out: &mut Vec<Point>) {
-    let n = cubic_pieces(c, tolerance);
-    out.reserve(n);
-    // Power-basis evaluation: B(t) = a t³ + b t² + c t + d.
+/// Whether the chords `a`→`b` and `b`→`c` turn by more than [`MAX_TURN_RAD`] at `b` (a chord of length 0 never
+/// does).
+fn turns_sharply(a: Point, b: Point, c: Point) -> bool {
+    let (u, v) = (b - a, c - b);
+    let lengths = u.hypot() * v.hypot();
+    lengths > 0.0 && u.dot(v) < MAX_TURN_RAD.cos() * lengths
+}
+
+/// The cut of a curve `eval` over the parameters 0..1 (ending exactly at `end`) into `n` equal-parameter pieces,
+/// as (parameter, point) pairs from 0 to 1, with the pieces beside a vertex that turns by more than
+/// [`MAX_TURN_RAD`] halved until none does (see the module docs). Every piece spans at most `1 / n` of the
+/// parameter, so Wang's bound for `n` pieces holds for each.
+fn cut(eval: impl Fn(f64) -> Point, n: usize, end: Point) -> Vec<(f64, Point)> {
+    let inv = 1.0 / n as f64;
+    let mut cuts: Vec<(f64, Point)> = (0..n).map(|i| (i as f64 * inv, eval(i as f64 * inv))).collect();
+    cuts.push((1.0, end));
+    let mut split = Vec::new();
+    for _ in 0..MAX_SPLIT_ROUNDS {
+        // split[i]: the piece from cuts[i] to cuts[i + 1] is halved this round.
+        split.clear();
+        split.resize(cuts.len() - 1, false);
+        for (i, w) in cuts.windows(3).enumerate() {
+            if turns_sharply(w[0].1, w[1].1, w[2].1) {
+                split[i] = true;
+                split[i + 1] = true;
+            }
+        }
+        for (s, w) in split.iter_mut().zip(cuts.windows(2)) {
+            *s &= w[0].1.distance(w[1].1) >= MIN_SPLIT_CHORD_MM;
+        }
+        let more = split.iter().filter(|s| **s).count();
+        if more == 0 || cuts.len() - 1 + more > MAX_PIECES_PER_CURVE {
+            break;
+        }
+        let mut next = Vec::with_capacity(cuts.len() + more);
+        for (w, s) in cuts.windows(2).zip(&split) {
+            next.push(w[0]);
+            if *s {
+                let t = 0.5 * (w[0].0 + w[1].0);
+                next.push((t, eval(t)));
+            }
+        }
+        next.extend(cuts.last().copied());
+        cuts = next;
+    }
+    cuts
+}
+
+/// Append the points of [`cut`] after its start point (so ending at `end`) to `out`.
+fn append_cut(eval: impl Fn(f64) -> Point, n: usize, end: Point, out: &mut Vec<Point>) {
+    let cuts = cut(eval, n, end);
+    out.extend(cuts[1..].iter().map(|c| c.1));
+}
+
+/// The cubic `c` as a function of its parameter (power-basis evaluation: `B(t) = a t³ + b t² + c t + d`).
+fn cubic_eval(c: &CubicBez) -> impl Fn(f64) -> Point {
     let (p0, p1, p2, p3) = (c.p0.to_vec2(), c.p1.to_vec2(), c.p2.to_vec2(), c.p3.to_vec2());
     let a = p3 - p0 + 3.0 * (p1 - p2);
     let b = 3.0 * (p0 - 2.0 * p1 + p2);
     let cc = 3.0 * (p1 - p0);
-    let inv = 1.0 / n as f64;
-    for i in 1..n {
-        let t = i as f64 * inv;
-        out.push((((a * t + b) * t + cc) * t + p0).to_point());
-    }
-    out.push(c.p3);
+    move |t| (((a * t + b) * t + cc) * t + p0).to_point()
+}
+
+/// Append the flattened points of `c` (excluding its start point, including its end point) to `out`.
+pub fn flatten_cubic(c: &CubicBez, tolerance: f64, out: &mut Vec<Point>) {
+    append_cut(cubic_eval(c), cubic_pieces(c, tolerance), c.p3, out);
 }
 
 /// Append the flattened points of `q` (excluding its start point, including its end point) to `out`.
 pub fn flatten_quad(q: &QuadBez, tolerance: f64, out: &mut Vec<Point>) {
-    let n = quad_pieces(q, tolerance);
-    out.reserve(n);
-    let inv = 1.0 / n as f64;
-    for i in 1..n {
-        out.push(q.eval(i as f64 * inv));
-    }
-    out.push(q.p2);
+    append_cut(|t| q.eval(t), quad_pieces(q, tolerance), q.p2, out);
 }
 
 /// Number of equal-angle pieces that keep the elliptical arc within `tolerance` of its chords.
@@ -109,14 +178,16 @@ fn arc_point(arc: &Arc, theta: f64) -> Point {
     arc.center + Vec2::new(local.x * rc - local.y * rs, local.x * rs + local.y * rc)
 }
 
+/// The elliptical arc as a function of the fraction of its sweep.
+fn arc_eval(arc: &Arc) -> impl Fn(f64) -> Point {
+    move |s| arc_point(arc, arc.start_angle + arc.sweep_angle * s)
+}
+
 /// Append the flattened points of an elliptical arc (excluding its start point, including its end) to `out`.
 pub fn flatten_arc(arc: &Arc, tolerance: f64, out: &mut Vec<Point>) {
-    let n = arc_pieces(arc, tolerance);
-    out.reserve(n);
-    for i in 1..=n {
-        let theta = arc.start_angle + arc.sweep_angle * (i as f64 / n as f64);
-        out.push(arc_point(arc, theta));
-    }
+    let eval = arc_eval(arc);
+    let end = eval(1.0);
+    append_cut(eval, arc_pieces(arc, tolerance), end, out);
 }
 
 /// Flatten a path (move/line/quad/cubic/close elements, already in millimetres) into polylines.
@@ -218,13 +289,43 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
-    /// Check every emitted chord of a curve flattened at equal parameter steps.
-    fn assert_within(curve: impl Fn(f64) -> Point, points: &[Point], tolerance: f64) -> Result<(), TestCaseError> {
-        let n = points.len() - 1;
-        for i in 0..n {
-            let (t0, t1) = (i as f64 / n as f64, (i + 1) as f64 / n as f64);
-            let err = sampled_chord_error(&curve, t0, t1, points[i], points[i + 1]);
+    /// The turn (radians, 0..π) between the chords `a`→`b` and `b`→`c`, from their directions' angles.
+    fn turn(a: Point, b: Point, c: Point) -> f64 {
+        let d = (c - b).atan2() - (b - a).atan2();
+        (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+    }
+
+    /// Check a cut (parameter, point pairs, in order) of `curve`: every chord within `tolerance` of the curve over
+    /// its parameter span, and every vertex turning by at most [`MAX_TURN_RAD`] unless both its chords are
+    /// shorter than [`MIN_SPLIT_CHORD_MM`] (a cusp).
+    fn assert_cut_within(
+        curve: impl Fn(f64) -> Point,
+        cuts: &[(f64, Point)],
+        tolerance: f64,
+    ) -> Result<(), TestCaseError> {
+        let n = cuts.len() - 1;
+        prop_assert!(n < MAX_PIECES_PER_CURVE, "{n} pieces");
+        for (i, w) in cuts.windows(2).enumerate() {
+            prop_assert!(w[0].0 < w[1].0, "parameters out of order at {i}");
+            let err = sampled_chord_error(&curve, w[0].0, w[1].0, w[0].1, w[1].1);
             prop_assert!(err <= tolerance * (1.0 + 1e-9), "chord {i}/{n}: error {err} > {tolerance}");
+        }
+        for (i, w) in cuts.windows(3).enumerate() {
+            let (a, b, c) = (w[0].1, w[1].1, w[2].1);
+            let phi = turn(a, b, c).abs();
+            let cusp = a.distance(b) < MIN_SPLIT_CHORD_MM && b.distance(c) < MIN_SPLIT_CHORD_MM;
+            prop_assert!(phi <= MAX_TURN_RAD + 1e-9 || cusp, "vertex {}/{n} turns {}°", i + 1, phi.to_degrees());
+        }
+        Ok(())
+    }
+
+    /// Check that `points` (a flattening's output after its start point) are the cut's points, ending at `end`.
+    fn assert_emits(points: &[Point], cuts: &[(f64, Point)], end: Point) -> Result<(), TestCaseError> {
+        let n = cuts.len() - 1;
+        prop_assert_eq!(points.len(), n);
+        prop_assert_eq!(points[n - 1], end);
+        for (p, c) in points[..n - 1].iter().zip(&cuts[1..n]) {
+            prop_assert_eq!(*p, c.1);
         }
         Ok(())
     }
@@ -269,19 +370,21 @@ mod tests {
         #[test]
         fn cubic_chord_error_within_tolerance(p0 in pt(), p1 in pt(), p2 in pt(), p3 in pt(), tol in 0.001f64..1.0) {
             let c = CubicBez::new(p0, p1, p2, p3);
-            let mut pts = vec![p0];
+            let mut pts = Vec::new();
             flatten_cubic(&c, tol, &mut pts);
-            prop_assert_eq!(*pts.last().unwrap(), p3);
-            assert_within(|t| c.eval(t), &pts, tol)?;
+            let cuts = cut(cubic_eval(&c), cubic_pieces(&c, tol), p3);
+            assert_emits(&pts, &cuts, p3)?;
+            assert_cut_within(|t| c.eval(t), &cuts, tol)?;
         }
 
         #[test]
         fn quad_chord_error_within_tolerance(p0 in pt(), p1 in pt(), p2 in pt(), tol in 0.001f64..1.0) {
             let q = QuadBez::new(p0, p1, p2);
-            let mut pts = vec![p0];
+            let mut pts = Vec::new();
             flatten_quad(&q, tol, &mut pts);
-            prop_assert_eq!(*pts.last().unwrap(), p2);
-            assert_within(|t| q.eval(t), &pts, tol)?;
+            let cuts = cut(|t| q.eval(t), quad_pieces(&q, tol), p2);
+            assert_emits(&pts, &cuts, p2)?;
+            assert_cut_within(|t| q.eval(t), &cuts, tol)?;
         }
 
         #[test]
@@ -290,9 +393,11 @@ mod tests {
             start in -7.0f64..7.0, sweep in -6.3f64..6.3, tol in 0.001f64..1.0,
         ) {
             let arc = Arc::new(c, Vec2::new(rx, ry), start, sweep, rot);
-            let mut pts = vec![arc_point(&arc, start)];
+            let mut pts = Vec::new();
             flatten_arc(&arc, tol, &mut pts);
-            assert_within(|t| arc_point(&arc, start + sweep * t), &pts, tol)?;
+            let cuts = cut(arc_eval(&arc), arc_pieces(&arc, tol), arc_point(&arc, start + sweep));
+            assert_emits(&pts, &cuts, arc_point(&arc, start + sweep))?;
+            assert_cut_within(|t| arc_point(&arc, start + sweep * t), &cuts, tol)?;
         }
 
         /// The bound is not wildly pessimistic: a circle needs no more than ~1.5× the optimal chord count.
@@ -324,6 +429,37 @@ mod tests {
         assert_eq!(paths[1].last(), Some(&Point::new(30.0, 0.0)));
         // Quadratic with ‖P0 − 2P1 + P2‖ = 20: n = ceil(sqrt(40 / 0.08)) = 23 pieces.
         assert_eq!(paths[1].len(), 24);
+    }
+
+    #[test]
+    fn a_tight_tip_is_cut_into_chords_turning_at_most_fifteen_degrees() {
+        // The parabola y = x² / (2 · 0.2) for x in −1.5..1.5, a petal's tip of radius 0.2 mm: the quadratic
+        // (−1.5, 5.625), (0, −5.625), (1.5, 5.625), x = 3t − 1.5 uniform in t. ‖P0 − 2P1 + P2‖ = 22.5, so at
+        // 0.05 mm n = ⌈√(45 / 0.4)⌉ = 11 pieces of Δx = 3/11, with vertices at x = ±1.5/11 beside the tip: the flat
+        // middle chord meets the next, of slope (1.5 + 4.5) / 11 / 0.4 = 1.364, at atan 1.364 = 53.75°.
+        let q = QuadBez::new((-1.5, 5.625), (0.0, -5.625), (1.5, 5.625));
+        let n = quad_pieces(&q, 0.05);
+        assert_eq!(n, 11);
+        let uniform: Vec<Point> = (0..=n).map(|i| q.eval(i as f64 / n as f64)).collect();
+        assert!((turn(uniform[5], uniform[6], uniform[7]).to_degrees() - 53.75).abs() < 0.01);
+        // Flattened, no vertex turns more than 15°, and no chord strays more than 0.05 mm: the middle piece is
+        // cut in eighths (Δx = 3/88, the tip's chords 0.0342 mm long, turning by about 2 · atan(3/88 / 0.4) =
+        // 9.7°), each piece beside it in a half and two quarters, the next ones in halves, the outer three on
+        // each side kept: 8 + 2 · (3 + 2 + 3) = 24 pieces.
+        let mut pts = vec![q.p0];
+        flatten_quad(&q, 0.05, &mut pts);
+        let cuts = cut(|t| q.eval(t), n, q.p2);
+        assert_cut_within(|t| q.eval(t), &cuts, 0.05).unwrap();
+        assert_eq!(cuts.len() - 1, 24);
+        assert_eq!(pts.len(), 25);
+        let shortest = cuts.windows(2).map(|w| w[0].1.distance(w[1].1)).fold(f64::INFINITY, f64::min);
+        assert!((shortest - 0.034_21).abs() < 1e-4, "{shortest}");
+        // The same at 0.002 mm: n = ⌈√(45 / 0.016)⌉ = 54, Δx = 3/54, a vertex at the tip whose chords climb
+        // atan(3/54 / 0.4) = 7.91° either side, a turn of 15.8°: its two pieces are halved (then turning by at
+        // most 10.8°), nothing else: 56 pieces.
+        let fine = cut(|t| q.eval(t), quad_pieces(&q, 0.002), q.p2);
+        assert_cut_within(|t| q.eval(t), &fine, 0.002).unwrap();
+        assert_eq!(fine.len() - 1, 56);
     }
 
     #[test]
