@@ -145,7 +145,8 @@ function fillStats(s) {
     items.push(['paths', st.paths], ['pen down', st.pen_down_mm.toFixed(1) + ' mm'], ['pen up', st.pen_up_mm.toFixed(1) + ' mm']);
     if (s.prepared.pen_up_before_mm != null) items.push(['ordering', s.prepared.pen_up_before_mm.toFixed(1) + ' → ' + s.prepared.pen_up_after_mm.toFixed(1) + ' mm travel']);
     if (st.bbox_mm) items.push(['size', (st.bbox_mm[2] - st.bbox_mm[0]).toFixed(1) + ' × ' + (st.bbox_mm[3] - st.bbox_mm[1]).toFixed(1) + ' mm']);
-    items.push(['estimated time', s.prepared.estimate_s != null ? fmtTime(s.prepared.estimate_s) : 'cannot plot']);
+    const on = s.prepared.estimate_for ? ' on ' + s.prepared.estimate_for : '';
+    items.push(['estimated time', s.prepared.estimate_s != null ? fmtTime(s.prepared.estimate_s) + on : 'cannot plot']);
   }
   items.push(['profile', s.profile]);
   $('stats').replaceChildren(...items.flatMap(([k, v]) => {

@@ -6,7 +6,8 @@
 use anyhow::{Context as _, bail};
 use plotter_path::geometry::cancel::Cancel;
 use plotter_path::geometry::steps::{StepDrawing, drawing_to_steps};
-use plotter_path::motion::plan::{self, Lookahead};
+use plotter_path::motion::plan::{self, Lookahead, PlanError};
+use plotter_path::motion::servo::ServoSync;
 use plotter_path::optimize::OptimizeReport;
 use plotter_path::output::stats::Stats;
 use plotter_path::{Drawing, MachineProfile, Pen};
@@ -37,6 +38,10 @@ pub struct Prepared {
     /// Plot time planned by the firmware's planner from the homed position, seconds (`None` with the reason in
     /// `warnings` when the planner refuses the drawing, e.g. outside the work area).
     pub estimate_s: Option<f64>,
+    /// The firmware timing `estimate_s` was planned for: whether a servo pen's drop is commanded on the way (our
+    /// firmware, the EBB) or with the carriage at rest (GRBL); the profile's
+    /// [`MachineProfile::servo_sync`] as the front end set it from the firmware it knows.
+    pub estimate_sync: ServoSync,
     /// What path ordering did (`None` when it is off).
     pub optimize: Option<OptimizeReport>,
     /// What the user should know: unknown layer names, work-area problems.
@@ -80,16 +85,36 @@ pub fn prepare(
     cancel.check()?;
     let steps = drawing_to_steps(profile, &drawing).context("cannot convert the drawing to machine steps")?;
     cancel.check()?;
-    let estimate_s = match plan::check_work_area(profile, &steps)
-        .and_then(|()| plan::plan(profile, &steps, plan::homed_position(profile)?, Lookahead::Whole))
-    {
-        Ok(p) => Some(p.seconds()),
+    let estimate_s = match plan_seconds(profile, &steps) {
+        Ok(t) => Some(t),
         Err(e) => {
             warnings.push(format!("cannot plot on '{}': {e}", profile.name));
             None
         }
     };
-    Ok(Prepared { stats: Stats::of(&drawing), drawing, steps, estimate_s, optimize: report, warnings })
+    let estimate_sync = profile.servo_sync;
+    Ok(Prepared { stats: Stats::of(&drawing), drawing, steps, estimate_s, estimate_sync, optimize: report, warnings })
+}
+
+/// The plot time of `steps` on `profile` as the firmware's planner makes it from the homed position, seconds;
+/// the planner's error for a drawing it refuses (outside the work area).
+pub fn plan_seconds(profile: &MachineProfile, steps: &StepDrawing) -> Result<f64, PlanError> {
+    plan::check_work_area(profile, steps)?;
+    Ok(plan::plan(profile, steps, plan::homed_position(profile)?, Lookahead::Whole)?.seconds())
+}
+
+impl Prepared {
+    /// The same drawing estimated for `profile`, whose servo timing ([`MachineProfile::servo_sync`]) the firmware
+    /// now known has set: `None` when the estimate was already made for that timing (or the drawing cannot be
+    /// planned, whose warning stays), else a copy whose estimate is planned again.
+    #[must_use]
+    pub fn estimated_for(&self, profile: &MachineProfile) -> Option<Prepared> {
+        if self.estimate_sync == profile.servo_sync || self.estimate_s.is_none() {
+            return None;
+        }
+        let estimate_s = plan_seconds(profile, &self.steps).ok();
+        Some(Prepared { estimate_s, estimate_sync: profile.servo_sync, ..self.clone() })
+    }
 }
 
 #[cfg(test)]
@@ -163,6 +188,26 @@ mod tests {
         let e = prepare(two_layers(), &profile, &[hide("a"), hide("b")], &layout, &no_optimize(), &Cancel::never())
             .unwrap_err();
         assert!(e.to_string().contains("nothing to plot"), "{e}");
+    }
+
+    #[test]
+    fn a_servo_pens_estimate_is_planned_again_for_grbl() {
+        // The servo kit: planned as given (for our firmware), its drop is commanded on the way; GRBL stops the
+        // carriage for it, so the estimate for a GRBL machine is GRBL's plan, longer by the hops' stops.
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../samples/servo-plotter.toml");
+        let kit = MachineProfile::from_toml(&std::fs::read_to_string(path).unwrap(), "servo-plotter.toml").unwrap();
+        let p = prepare(two_layers(), &kit, &[], &LayoutArgs::default(), &no_optimize(), &Cancel::never()).unwrap();
+        assert_eq!(p.estimate_sync, ServoSync::InMotion);
+        assert!(p.estimated_for(&kit).is_none(), "already planned for that timing");
+        let grbl = MachineProfile { servo_sync: ServoSync::AtRest, ..kit.clone() };
+        let q = p.estimated_for(&grbl).unwrap();
+        let planned = |p: &MachineProfile| {
+            plan::plan(p, &q.steps, plan::homed_position(p).unwrap(), Lookahead::Whole).unwrap().seconds()
+        };
+        assert_eq!(p.estimate_s, Some(planned(&kit)));
+        assert_eq!((q.estimate_s, q.estimate_sync), (Some(planned(&grbl)), ServoSync::AtRest));
+        // The 40 mm hop along X between the squares alone stops some 70 ms for its drop on GRBL.
+        assert!(q.estimate_s.unwrap() > p.estimate_s.unwrap() + 0.07, "{:?} vs {:?}", q.estimate_s, p.estimate_s);
     }
 
     #[test]

@@ -17,6 +17,7 @@ use plotter_path::{Drawing, MachineProfile, Polyline};
 use plotter_host::link::grbl::emulator::GrblEmulator;
 use plotter_host::link::grbl::emulator_transport::EmulatorTransport;
 use plotter_host::link::grbl::session::GrblSession;
+use plotter_host::link::machine::Firmware;
 use plotter_host::link::session::Session;
 use plotter_host::link::sim::SimTransport;
 use plotter_host::link::stream::{self, Quiet, StreamOptions};
@@ -132,7 +133,9 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut grbl = GrblSession::connect(EmulatorTransport::new(emu), "GRBL emulator", &profile)?;
     grbl.home()?;
     let start = grbl.position()?;
-    let gplan = plan::plan(&profile, &steps, start, Lookahead::Whole)?;
+    // Planned for GRBL, as a plot on it is (a servo pen's drop stops the carriage there).
+    let grbl_profile = plotter_host::link::machine::profile_for(&profile, Firmware::Grbl);
+    let gplan = plan::plan(&grbl_profile, &steps, start, Lookahead::Whole)?;
     let busy0 = grbl.transport.emulator().backend().hal().busy_ticks();
     let t = Instant::now();
     let gstats = grbl.stream(&gplan, &mut Quiet)?;

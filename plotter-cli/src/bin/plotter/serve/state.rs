@@ -8,7 +8,9 @@ use std::time::Duration;
 use plotter_host::input::{Decoded, InputArgs};
 use plotter_host::job::page::PageView;
 use plotter_host::job::prepare::Prepared;
+use plotter_host::link::machine::{Firmware, profile_for};
 use plotter_path::MachineProfile;
+use plotter_path::motion::servo::ServoSync;
 use plotter_path::output::preview::plotting_pen;
 use serde::{Deserialize, Serialize};
 
@@ -203,6 +205,10 @@ pub(crate) struct MachineState {
     pub(crate) hpgl: bool,
     /// Plots on the connected machine keep a resume journal (a serial port of our firmware, GRBL or an EBB).
     pub(crate) journaled: bool,
+    /// The firmware of the machine last connected (`None` before any): estimates are planned for it
+    /// ([`Inner::machine_profile`]).
+    #[serde(skip)]
+    pub(crate) firmware: Option<Firmware>,
     /// Last error.
     pub(crate) error: Option<String>,
 }
@@ -240,10 +246,13 @@ pub(crate) struct Inner {
 }
 
 impl Inner {
-    /// The profile plots are planned and run with: the chosen one with the sliders applied.
+    /// The profile plots are planned and run with: the chosen one with the sliders applied, timed for the firmware
+    /// of the machine last connected ([`profile_for`]; before any, for our firmware's simulator, the one a
+    /// connection without a port gets).
     pub(crate) fn machine_profile(&self) -> MachineProfile {
         // The sliders were applied to this profile when they were set; a later profile they do not fit keeps its own.
-        self.pen_speed.apply(&self.profile).unwrap_or_else(|_| self.profile.clone())
+        let p = self.pen_speed.apply(&self.profile).unwrap_or_else(|_| self.profile.clone());
+        profile_for(&p, self.machine.firmware.unwrap_or(Firmware::Ours)).into_owned()
     }
 }
 
@@ -332,6 +341,7 @@ impl Shared {
                     motors_off: false,
                     hpgl: false,
                     journaled: false,
+                    firmware: None,
                     error: None,
                 },
                 progress: None,
@@ -415,6 +425,7 @@ impl Shared {
             prepared: i.prepared.as_ref().map(|p| PreparedInfo {
                 stats: serde_json::to_value(&p.stats).unwrap_or_default(),
                 estimate_s: p.estimate_s,
+                estimate_for: estimate_for(&i.profile, p.estimate_sync),
                 pen_up_before_mm: p.optimize.as_ref().map(|r| r.pen_up_before_mm),
                 pen_up_after_mm: p.optimize.as_ref().map(|r| r.pen_up_after_mm),
                 warnings: p.warnings.clone(),
@@ -510,6 +521,14 @@ pub(crate) struct LayerInfo {
     pub(crate) paths: usize,
 }
 
+/// Which firmware an estimate planned with `sync` is for, where it matters: a servo pen on `profile`.
+fn estimate_for(profile: &MachineProfile, sync: ServoSync) -> Option<&'static str> {
+    profile.pen.uses_servo().then_some(match sync {
+        ServoSync::AtRest => "GRBL",
+        ServoSync::InMotion => "our firmware or an EiBotBoard",
+    })
+}
+
 /// Figures of the prepared plot.
 #[derive(Debug, Clone, Serialize)]
 pub(crate) struct PreparedInfo {
@@ -517,6 +536,9 @@ pub(crate) struct PreparedInfo {
     pub(crate) stats: serde_json::Value,
     /// Planned time, seconds.
     pub(crate) estimate_s: Option<f64>,
+    /// The firmware the planned time is for, where it matters (a servo pen: GRBL stops the carriage for the
+    /// pen's drop, our firmware and the EBB drop it on the way); `None` for a Z pen.
+    pub(crate) estimate_for: Option<&'static str>,
     /// Pen-up travel before ordering, mm.
     pub(crate) pen_up_before_mm: Option<f64>,
     /// Pen-up travel after ordering, mm.

@@ -16,12 +16,17 @@ const HOST: &str = "127.0.0.1:8040";
 const DUCK: &[u8] = include_bytes!("../../../../../samples/duck.svg");
 
 fn test_app(max_upload: usize, sim_speed: f64) -> (Arc<Shared>, Router) {
+    test_app_with(max_upload, sim_speed, plotter_path::MachineProfile::default_plotter())
+}
+
+/// [`test_app`] serving `profile`.
+fn test_app_with(max_upload: usize, sim_speed: f64, profile: plotter_path::MachineProfile) -> (Arc<Shared>, Router) {
     super::app(Config {
         local: HOST.parse().unwrap(),
         max_upload,
         sim_speed,
         extra_ports: Vec::new(),
-        profiles: vec![plotter_path::MachineProfile::default_plotter()],
+        profiles: vec![profile],
         limits: super::state::Limits::default(),
         journals: None,
     })
@@ -850,6 +855,39 @@ async fn the_page_measures_strokes_at_the_page_scale() {
     let ink = pen_down(&c.get("/api/state").await.1);
     let want = 180.0 - 0.5 * 180.0 / 37.0 + 20.0 * 180.0 / 37.0;
     assert!((ink - want).abs() < 0.01, "{ink} mm, want {want}");
+}
+
+#[tokio::test]
+async fn a_servo_pens_estimate_is_planned_again_for_the_grbl_machine_connected() {
+    use plotter_host::link::machine::{Firmware, profile_for};
+    use plotter_path::motion::plan::{self, Lookahead};
+    // The servo kit: our firmware (and the EBB) command the pen's drop while the carriage travels; GRBL's M3
+    // waits for the moves before it to end, so there the carriage stops where the drop is commanded.
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../samples/servo-plotter.toml");
+    let kit = plotter_path::MachineProfile::from_toml(&std::fs::read_to_string(path).unwrap(), "servo-plotter.toml")
+        .unwrap();
+    let (shared, router) = test_app_with(1 << 20, 10.0, kit.clone());
+    let mut c = Client::new(&router);
+    c.claim().await;
+    let (s, v) = c.upload("duck.svg", DUCK).await;
+    assert_eq!(s, StatusCode::OK, "{v}");
+    let st = wait_state(&c, "a prepared drawing", |s| !s["prepared"].is_null()).await;
+    let steps = shared.lock().prepared.as_ref().unwrap().steps.clone();
+    let planned = |p: &plotter_path::MachineProfile| {
+        plan::plan(p, &steps, plan::homed_position(p).unwrap(), Lookahead::Whole).unwrap().seconds()
+    };
+    let (ours, grbl) = (planned(&kit), planned(&profile_for(&kit, Firmware::Grbl)));
+    // Six strokes, six hops that stop for the drop on GRBL: some 70 ms each on a long hop.
+    assert!(grbl - ours > 0.1, "ours {ours} s, GRBL {grbl} s");
+    // Before a machine is connected: planned for our firmware, and said so.
+    assert_eq!(st["prepared"]["estimate_s"].as_f64(), Some(ours), "{st}");
+    assert_eq!(st["prepared"]["estimate_for"], "our firmware or an EiBotBoard", "{st}");
+    // A GRBL controller connected: the estimate is GRBL's plan, and so are the next preparations'.
+    super::worker::firmware_known(&shared, Firmware::Grbl);
+    let (_, st) = c.get("/api/state").await;
+    assert_eq!(st["prepared"]["estimate_s"].as_f64(), Some(grbl), "{st}");
+    assert_eq!(st["prepared"]["estimate_for"], "GRBL", "{st}");
+    assert_eq!(shared.lock().machine_profile(), profile_for(&kit, Firmware::Grbl).into_owned());
 }
 
 /// The page flattens an SVG's curves for the plotted page as `plotter stats` does. A 10 × 5 mm card, framed by a

@@ -71,6 +71,23 @@ struct Worker {
     profile: MachineProfile,
 }
 
+/// The machine connected runs `firmware`: plots and estimates are planned for it from now on
+/// ([`super::state::Inner::machine_profile`]), and the prepared drawing's estimate, when it was planned for
+/// another servo timing, is planned again (unless the drawing was prepared again meanwhile).
+pub(crate) fn firmware_known(shared: &Shared, firmware: Firmware) {
+    let (prepared, profile) = {
+        let mut i = shared.lock();
+        i.machine.firmware = Some(firmware);
+        (i.prepared.clone(), i.machine_profile())
+    };
+    let Some(old) = prepared else { return };
+    let Some(new) = old.estimated_for(&profile) else { return };
+    let mut i = shared.lock();
+    if i.prepared.as_ref().is_some_and(|p| Arc::ptr_eq(p, &old)) {
+        i.prepared = Some(Arc::new(new));
+    }
+}
+
 /// Run the worker until every sender is gone.
 pub(crate) fn run(shared: Arc<Shared>, commands: Receiver<Command>) {
     let mut w = Worker { shared, link: None, profile: MachineProfile::default_plotter() };
@@ -104,9 +121,10 @@ impl Worker {
                 self.set_activity("connecting");
                 self.profile = *profile;
                 match self.connect(port.as_deref(), firmware, hpgl) {
-                    Ok((link, name)) => {
+                    Ok((mut link, name)) => {
                         self.shared.hub.log("info", format!("connected to {name}"));
                         let (is_hpgl, on_port) = (matches!(link, Link::Hpgl(_)), matches!(link, Link::Serial(_)));
+                        firmware_known(&self.shared, on_link!(&mut link, c => c.machine().firmware(), _h => Firmware::Hpgl));
                         self.link = Some(link);
                         let mut i = self.shared.lock();
                         i.machine.connected = Some(name);
