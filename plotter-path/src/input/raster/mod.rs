@@ -46,6 +46,7 @@ pub mod fidelity;
 pub mod flow;
 pub mod hatch;
 pub mod ink;
+pub mod join;
 pub mod lines;
 mod load;
 pub mod mosaic;
@@ -483,7 +484,7 @@ fn shade(
 ) -> Vec<(String, Vec<Vec<Point>>)> {
     match options.mode {
         Mode::Hatch => {
-            let bands = hatch::tone_hatch(
+            let hatched = hatch::tone_hatch(
                 map,
                 options.hatch.levels,
                 &options.ladder(),
@@ -491,11 +492,11 @@ fn shade(
                 pixel_mm,
                 options.min_area_px,
             );
-            let dropped: usize = bands.iter().map(|b| b.specks_dropped).sum();
+            let dropped: usize = hatched.bands.iter().map(|b| b.specks_dropped).sum();
             if dropped > 0 {
                 warnings.push(RasterWarning::SpecksDropped { count: dropped, min_area_px: options.min_area_px });
             }
-            bands.into_iter().map(|b| (format!("hatch {}", b.band), b.strokes)).collect()
+            vec![("hatch".to_owned(), hatched.strokes)]
         }
         Mode::Stipple => {
             vec![("stipple".to_owned(), stipple::stipple(map, options.pen.width_mm / pixel_mm, &options.stipple))]
