@@ -864,8 +864,8 @@ async fn a_servo_pens_estimate_is_planned_again_for_the_grbl_machine_connected()
     // The servo kit: our firmware (and the EBB) command the pen's drop while the carriage travels; GRBL's M3
     // waits for the moves before it to end, so there the carriage stops where the drop is commanded.
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../samples/servo-plotter.toml");
-    let kit = plotter_path::MachineProfile::from_toml(&std::fs::read_to_string(path).unwrap(), "servo-plotter.toml")
-        .unwrap();
+    let kit =
+        plotter_path::MachineProfile::from_toml(&std::fs::read_to_string(path).unwrap(), "servo-plotter.toml").unwrap();
     let (shared, router) = test_app_with(1 << 20, 10.0, kit.clone());
     let mut c = Client::new(&router);
     c.claim().await;

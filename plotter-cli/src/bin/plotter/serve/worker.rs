@@ -124,7 +124,10 @@ impl Worker {
                     Ok((mut link, name)) => {
                         self.shared.hub.log("info", format!("connected to {name}"));
                         let (is_hpgl, on_port) = (matches!(link, Link::Hpgl(_)), matches!(link, Link::Serial(_)));
-                        firmware_known(&self.shared, on_link!(&mut link, c => c.machine().firmware(), _h => Firmware::Hpgl));
+                        firmware_known(
+                            &self.shared,
+                            on_link!(&mut link, c => c.machine().firmware(), _h => Firmware::Hpgl),
+                        );
                         self.link = Some(link);
                         let mut i = self.shared.lock();
                         i.machine.connected = Some(name);
