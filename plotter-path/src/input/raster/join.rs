@@ -52,7 +52,7 @@ pub fn join(strokes: &[Vec<Point>], max_link: f64, inside: impl Fn(Point, Point)
     let spans: Vec<(Point, Point)> = strokes.iter().flat_map(|s| s.chunks_exact(2).map(|p| (p[0], p[1]))).collect();
     let spans = &spans[..];
     let n = spans.len();
-    let end = |e: End| if e % 2 == 0 { spans[e / 2].0 } else { spans[e / 2].1 };
+    let end = |e: End| if e.is_multiple_of(2) { spans[e / 2].0 } else { spans[e / 2].1 };
     // The far end of the span an end belongs to.
     let other = |e: End| e ^ 1;
     // (best first, length, end, end, a new link to test)
