@@ -19,6 +19,7 @@ use crate::fmath::sqrt;
 use crate::hal::{Endstops, StepPins, StepTimer};
 use crate::step_block::{Cursor, Profile, StepBlock, StepTimes, Switches};
 
+mod catch_up;
 mod landing;
 
 /// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
@@ -464,6 +465,9 @@ pub struct Stepper {
     homing_hits: u8,
     /// Last: the block ring (the fields the slow path reads at a block end come before it, at short offsets).
     ring: [Queued; SLOTS],
+    /// After a resume: the rate the last block handed over ends at, short of its plan, which the next pushed move
+    /// starts from (`None`: none; main context only, see `catch_up.rs`).
+    shortfall: Option<Carry>,
 }
 
 impl Stepper {
@@ -496,6 +500,7 @@ impl Stepper {
             limit_mask,
             hold: HoldState::Running,
             carry: None,
+            shortfall: None,
             fault: None,
             completed: 0,
             homing_hits: 0,
@@ -591,6 +596,7 @@ impl Stepper {
                 }
             }
         }
+        let block = self.catch_up(block);
         let (flying, lands) = self.pushed_after(&block);
         let mut q = Queued {
             block,
@@ -645,6 +651,7 @@ impl Stepper {
         self.act = Active::idle();
         self.hold = HoldState::Running;
         self.carry = None;
+        self.shortfall = None;
     }
 
     /// Clear a latched fault (after reset).
@@ -731,6 +738,7 @@ impl Stepper {
         // Everything queued restarts from rest: a drop queued before the move it lands at would now be commanded
         // with that move still to run from rest, longer than planned.
         self.defer_queued_drops();
+        self.note_resumed();
         for i in 0..self.queued {
             let q = &mut self.ring[nth_after(self.first, i)];
             q.block.entry_rate = 0;

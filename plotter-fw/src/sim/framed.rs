@@ -143,3 +143,44 @@ fn lone_realtime_bytes_are_data_and_sequences_act() {
     let r = run(&mut sim, &[RT_RESET, RT_RESET]);
     assert!(r.iter().any(|l| l.starts_with("plotter-fw")), "{r:?}");
 }
+
+/// After a feed hold and its resume, the blocks the host planned for the uninterrupted run (here a straight line
+/// at a constant 2000 events/s, eight 400-step blocks that enter and leave at that rate) start from the rate the
+/// resumed ones end at, never with a jump: the stepper re-profiles them to accelerate (20 000 events/s²) from it.
+/// Before, the first block pushed after the resume entered at its planned 2000 events/s right after a block the
+/// resume had brought to rest: 0 → 1900 events/s from one step to the next.
+#[test]
+fn after_a_resume_the_host_s_blocks_accelerate_from_the_rate_the_resumed_ones_end_at() {
+    let mut sim = framed_sim();
+    let mut enc = Encoder::new();
+    let mut out = [0u8; MAX_FRAME];
+    let mut bytes = Vec::new();
+    for seq in 1..9u32 {
+        let b = StepBlock {
+            entry_rate: if seq == 1 { 0 } else { 2000 },
+            exit_rate: if seq == 8 { 0 } else { 2000 },
+            ..block(400)
+        };
+        let n = enc.encode(&b, seq, &mut out).unwrap();
+        bytes.extend(&out[..n]);
+    }
+    sim.feed(&bytes);
+    // 150 ms in: the first block is done (its ramp to 2000/s takes 100 steps), the second runs.
+    sim.run_for(150_000);
+    sim.feed(&rt_sequence(RT_FEED_HOLD));
+    sim.run_for(1_000_000);
+    assert_eq!(sim.machine().state(), MachineState::Held);
+    sim.feed(&rt_sequence(RT_RESUME));
+    sim.run_until_idle();
+    assert_eq!(sim.physical_position()[0], 3200);
+    let xs: Vec<u64> = sim.hal().steps().iter().filter(|e| e.axis == crate::axis::Axis::X).map(|e| e.time).collect();
+    assert_eq!(xs.len(), 3200);
+    // The rate over four steps (the tick's rounding is ±1 µs on 2 ms there), and the acceleration between two
+    // such windows: the blocks' 20 000 events/s², read up to 1.37× over four steps at the start of a ramp from
+    // rest (the stepper's piecewise step times; the first block's own ramp reads 27 337), held at 1.5×. The jump
+    // read 867 917 events/s² before.
+    let rate = |k: usize| 4e6 / (xs[k + 4] - xs[k]) as f64;
+    let acc = |k: usize| (rate(k + 4) - rate(k)) / ((xs[k + 6] - xs[k + 2]) as f64 / 1e6);
+    let worst = (0..xs.len() - 8).map(acc).fold(0.0f64, f64::max);
+    assert!(worst <= 30_000.0, "an acceleration of {worst:.0} events/s²");
+}
