@@ -82,3 +82,55 @@ fn rest_after(q: &Queued, before: Option<Carry>) -> Option<Carry> {
     }
     (q.block.exit_rate > 0).then_some(Carry { v_sq: 0.0, planned_exit: q.block.exit_rate })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 50-event move along X at `entry → cruise → exit` events/s, 20 000 events/s².
+    fn mv(entry: u32, exit: u32) -> StepBlock {
+        StepBlock {
+            steps: [50, 0, 0, 0],
+            entry_rate: entry,
+            cruise_rate: 2000,
+            exit_rate: exit,
+            accel: 20_000,
+            ..StepBlock::dwell(0)
+        }
+    }
+
+    fn resumed(planned_exit: u32) -> Stepper {
+        let mut s = Stepper::new(0, 0);
+        s.shortfall = Some(Carry { v_sq: 0.0, planned_exit });
+        s
+    }
+
+    #[test]
+    fn a_move_after_a_resume_starts_from_rest_and_reaches_what_its_length_allows() {
+        let mut s = resumed(2000);
+        // From rest over 50 events at 20 000/s²: √(2 · 20 000 · 50) = 1414.2 events/s, short of the planned 2000.
+        let b = s.catch_up(mv(2000, 2000));
+        assert_eq!((b.entry_rate, b.cruise_rate, b.exit_rate), (0, 2000, 1414));
+        // The next move was planned to enter at 1000 where this one left at 2000: it enters at 1414 · ½ = 707, and
+        // √(707² + 2 · 20 000 · 50) = 1581.1 reaches its planned exit of 1000, which ends the shortfall.
+        let b = s.catch_up(mv(1000, 1000));
+        assert_eq!((b.entry_rate, b.exit_rate), (707, 1000));
+        assert!(s.shortfall.is_none());
+        // From then on the host's blocks run as planned.
+        assert_eq!(s.catch_up(mv(1000, 500)), mv(1000, 500));
+    }
+
+    #[test]
+    fn a_servo_block_between_moves_passes_the_shortfall_on_and_any_other_dwell_ends_it() {
+        let mut s = resumed(2000);
+        assert_eq!(s.catch_up(StepBlock::servo(300, 1)), StepBlock::servo(300, 1));
+        assert_eq!(s.catch_up(mv(2000, 0)).entry_rate, 0, "passed on through the servo block");
+        let mut s = resumed(2000);
+        assert_eq!(s.catch_up(StepBlock::dwell(1000)), StepBlock::dwell(1000));
+        assert_eq!(s.catch_up(mv(2000, 0)), mv(2000, 0), "a dwell is a stop: the plan starts from rest there");
+        // A move planned from rest ends it too.
+        let mut s = resumed(2000);
+        assert_eq!(s.catch_up(mv(0, 2000)), mv(0, 2000));
+        assert!(s.shortfall.is_none());
+    }
+}
