@@ -306,6 +306,16 @@ struct Carry {
     planned_exit: u32,
 }
 
+impl Carry {
+    /// The rate carried, in the units of `next`, the block after: converted by the ratio of the planned junction
+    /// rates (`next`'s planned entry meets this carry's planned exit; events per mm differ from block to block).
+    fn rate_into(&self, next: &StepBlock) -> f32 {
+        #[allow(clippy::cast_precision_loss, reason = "rates are below 2^24, exact in f32")]
+        let ratio = next.entry_rate as f32 / self.planned_exit as f32;
+        sqrt(self.v_sq) * ratio
+    }
+}
+
 /// The executing block's state (the block itself stays in its ring slot).
 ///
 /// The interrupt's fast path runs while `countdown > 0`: it emits an event, counts down and returns the next
@@ -994,8 +1004,7 @@ fn continue_hold(carry: Carry, q: &mut Queued) -> Option<Carry> {
     if carry.v_sq <= 0.0 || carry.planned_exit == 0 || q.block.is_dwell() || q.block.accel == 0 {
         return None;
     }
-    let ratio = q.block.entry_rate as f32 / carry.planned_exit as f32;
-    let v = sqrt(carry.v_sq) * ratio;
+    let v = carry.rate_into(&q.block);
     let n = q.block.events();
     let (times, left) = StepTimes::hold(q.profile.times().cursor().time(), n, v, q.block.accel);
     if times.events() == 0 && left.is_none() {

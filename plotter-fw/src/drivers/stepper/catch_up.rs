@@ -51,8 +51,7 @@ impl Stepper {
         #[allow(clippy::cast_precision_loss, reason = "rates and events are below 2^24, exact in f32")]
         let (entry, exit, accel, n) =
             (block.entry_rate as f32, block.exit_rate as f32, block.accel as f32, block.events() as f32);
-        #[allow(clippy::cast_precision_loss, reason = "rates are below 2^24, exact in f32")]
-        let reached = sqrt(s.v_sq) * entry / s.planned_exit as f32;
+        let reached = s.rate_into(&block);
         if reached >= entry {
             self.shortfall = None;
             return block;
