@@ -16,6 +16,7 @@
 
 use super::hop_cost::HopCost;
 use super::kdtree::KdTree;
+use crate::geometry::union_find::UnionFind;
 
 /// The travel graph of one layer (see the module docs), for the spanning trees here and the Held–Karp bound
 /// ([`super::held_karp::held_karp_from`]).
@@ -45,21 +46,6 @@ pub(crate) struct Tree {
     /// The first round: each component's node that asked (its root) and its cheapest hop's cost, penalties
     /// included; empty when the fixed edges already join everything.
     pub(crate) first: Vec<(u32, f64)>,
-}
-
-/// Disjoint sets of nodes, each pointing towards its set's root (path halving).
-pub(crate) struct UnionFind(pub(crate) Vec<u32>);
-
-impl UnionFind {
-    /// The root of `x`'s set.
-    pub(crate) fn find(&mut self, mut x: u32) -> u32 {
-        while self.0[x as usize] != x {
-            let up = self.0[self.0[x as usize] as usize];
-            self.0[x as usize] = up;
-            x = up;
-        }
-        x
-    }
 }
 
 /// The least spanning tree of `g` containing its fixed edges, each hop costing its hop cost under `hop` plus its

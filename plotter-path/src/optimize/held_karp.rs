@@ -34,9 +34,10 @@
 //! only those exact values count. The number of steps is fixed (never a clock), so the bound depends only on the
 //! input.
 
-use super::boruvka::{EndGraph, Tree, UnionFind, spanning_tree};
+use super::boruvka::{EndGraph, Tree, spanning_tree};
 use super::hop_cost::HopCost;
 use super::kdtree::KdTree;
+use crate::geometry::union_find::UnionFind;
 
 /// The least spanning tree of the graph's nodes containing the fixed edges, each hop costing its hop cost plus
 /// `π_u + π_v` ([`spanning_tree`]): its cost, every node's number of tree edges, and its hops.

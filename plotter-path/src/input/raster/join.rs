@@ -5,7 +5,7 @@
 //! band's zig-zags are short and the plot lifts the pen at every band edge. Here the zig-zags of all bands are taken
 //! apart into their spans and joined again as one set: the zig-zags' own links, and every pair of span ends closer
 //! than the longest link, are candidates, granted best first, each end once, never closing a loop (a union–find of
-//! the chains), and a new link only where the caller's `inside` test accepts the straight connector. The best links
+//! the chains, [`crate::geometry::union_find`]), and a new link only where the caller's `inside` test accepts the straight connector. The best links
 //! are a **row going on** (two parallel spans whose ends face each other along the line, as where a row of one band
 //! stops at the next band's edge and a row of the same direction starts across it) and the zig-zags' own turns,
 //! shorter first; then the rest (other turns, links to a dot or to another family), shorter first. Every span is
@@ -17,21 +17,10 @@
 
 use kurbo::Point;
 
+use crate::geometry::union_find::UnionFind;
+
 /// A span's two ends are `2 · span` and `2 · span + 1` (its start and its end).
 type End = usize;
-
-/// Disjoint sets of spans (the chains built so far), with path halving.
-struct Chains(Vec<usize>);
-
-impl Chains {
-    fn root(&mut self, mut x: usize) -> usize {
-        while self.0[x] != x {
-            self.0[x] = self.0[self.0[x]];
-            x = self.0[x];
-        }
-        x
-    }
-}
 
 /// Whether the link from end `e` (of the span running `from → e`) to end `f` (of the span running `f → to`)
 /// carries a row straight on: the spans are parallel, and the link leaves the first span forwards and enters the
@@ -79,18 +68,20 @@ pub fn join(strokes: &[Vec<Point>], max_link: f64, inside: impl Fn(Point, Point)
     }
     ranked.sort_unstable();
     let mut link: Vec<Option<End>> = vec![None; 2 * n];
-    let mut chains = Chains((0..n).collect());
+    // The chains built so far, as disjoint sets of spans (the key's ends are below 2^32, so are the spans).
+    let mut chains = UnionFind((0..u32::try_from(n).unwrap_or(u32::MAX)).collect());
     for (k, new) in ranked {
         #[allow(clippy::cast_possible_truncation)] // the key's low words are the two ends, each below 2^32
-        let (e, f) = ((k >> 32) as u32 as End, k as u32 as End);
+        let (ei, fi) = ((k >> 32) as u32, k as u32);
+        let (e, f) = (ei as End, fi as End);
         if link[e].is_some() || link[f].is_some() {
             continue;
         }
-        let (ce, cf) = (chains.root(e / 2), chains.root(f / 2));
+        let (ce, cf) = (chains.find(ei / 2), chains.find(fi / 2));
         if ce == cf || (new && !inside(end(e), end(f))) {
             continue;
         }
-        chains.0[ce] = cf;
+        chains.0[ce as usize] = cf;
         link[e] = Some(f);
         link[f] = Some(e);
     }
