@@ -85,7 +85,7 @@ fn position_at(samples: &[(u64, [i64; 2])], start: [i64; 2], t: u64) -> [i64; 2]
 /// The tip's contacts (times it touches, times it leaves, ticks) of a servo turning at `deg_per_tick` towards
 /// each commanded angle of `servo` (time, angle), touching at `fraction` of the way from `up` to the commanded
 /// down angle.
-fn servo_contacts(servo: &[(u64, f32)], up: f64, deg_per_tick: f64, fraction: f64) -> (Vec<u64>, Vec<u64>) {
+pub(crate) fn servo_contacts(servo: &[(u64, f32)], up: f64, deg_per_tick: f64, fraction: f64) -> (Vec<u64>, Vec<u64>) {
     let (mut touches, mut leaves) = (Vec::new(), Vec::new());
     let mut angle = up;
     let mut contact_at = up;
@@ -119,7 +119,7 @@ fn servo_contacts(servo: &[(u64, f32)], up: f64, deg_per_tick: f64, fraction: f6
 
 /// Check the landings: each touch within 0.1 mm of its stroke's start, each leave of its end. Returns the worst
 /// distances (touch, leave), mm.
-fn check_landings(
+pub(crate) fn check_landings(
     p: &MachineProfile,
     steps: &StepDrawing,
     (touches, leaves): (&[u64], &[u64]),
@@ -156,7 +156,7 @@ fn servo_kit(fraction: Option<f64>) -> MachineProfile {
 }
 
 /// The servo's rate the profile states: its swing in its settle time, degrees per tick.
-fn kit_rate(p: &MachineProfile) -> f64 {
+pub(crate) fn kit_rate(p: &MachineProfile) -> f64 {
     (p.pen.servo_down_deg - p.pen.servo_up_deg).abs() / (p.pen.settle_ms * 1000.0)
 }
 
