@@ -12,15 +12,18 @@
 //! computed when the block is pushed ([`Stepper::push`], main context), so the timer interrupt ([`Stepper::tick`])
 //! does integer adds, compares and pin writes only. A feed hold computes its deceleration the same way when it is
 //! requested ([`Stepper::feed_hold`]); near a servo pen's drop commanded on the way it lands the pen on the stroke
-//! instead (`stepper/landing.rs`, and [`Stepper::awaits_landing_move`]).
+//! instead (`stepper/landing.rs`, and [`Stepper::awaits_landing_move`]), waiting for the servo when the hold let it
+//! swing on (`stepper/servo.rs`, [`Stepper::model_servo`]).
 
 use crate::axis::{Axis, NUM_AXES};
+use crate::config::PenConfig;
 use crate::fmath::sqrt;
 use crate::hal::{Endstops, StepPins, StepTimer};
 use crate::step_block::{Cursor, Profile, StepBlock, StepTimes, Switches};
 
 mod catch_up;
 mod landing;
+mod servo;
 
 /// Depth of the stepper's own queue (the executing block is held separately). Blocks handed to the stepper are
 /// frozen; the planner keeps re-planning the rest.
@@ -258,6 +261,9 @@ struct Queued {
     /// A move pushed right after a [`Queued::flying`] servo block: the rest of the travel the tip lands at the end
     /// of ([`landing`]).
     lands: bool,
+    /// A servo block commanded while the previous command's swing is planned to be still under way: the ticks it
+    /// waits when a hold defers it, the swing from that command's target to its own ([`servo`]; 0: none).
+    swing_wait: u32,
 }
 
 impl Queued {
@@ -478,6 +484,8 @@ pub struct Stepper {
     /// After a resume: the rate the last block handed over ends at, short of its plan, which the next pushed move
     /// starts from (`None`: none; main context only, see `catch_up.rs`).
     shortfall: Option<Carry>,
+    /// The servo pen's modelled angle (`None`: no servo rate configured; main context only, see `servo.rs`).
+    servo: Option<servo::ServoModel>,
 }
 
 impl Stepper {
@@ -499,6 +507,7 @@ impl Stepper {
             exits_moving: false,
             flying: false,
             lands: false,
+            swing_wait: 0,
         };
         Stepper {
             act: Active::idle(),
@@ -511,10 +520,18 @@ impl Stepper {
             hold: HoldState::Running,
             carry: None,
             shortfall: None,
+            servo: None,
             fault: None,
             completed: 0,
             homing_hits: 0,
         }
+    }
+
+    /// Model the servo pen's angle with `pen`'s angles and swing time (`servo.rs`): a drop a feed hold defers while
+    /// the lift before it still swings then waits for the servo. Without it (or when `pen` gives no rate) a
+    /// deferred drop waits the plan's time only.
+    pub fn model_servo(&mut self, pen: &PenConfig) {
+        self.servo = servo::ServoModel::new(pen.servo_up_deg, pen.servo_down_deg, pen.servo_swing_ms);
     }
 
     /// Position in steps, as counted from emitted steps.
@@ -606,6 +623,7 @@ impl Stepper {
                 }
             }
         }
+        let planned_entry = block.entry_rate;
         let block = self.catch_up(block);
         let (flying, lands) = self.pushed_after(&block);
         let mut q = Queued {
@@ -622,13 +640,20 @@ impl Stepper {
             exits_moving: n > 0 && block.exit_rate > 0,
             flying,
             lands,
+            swing_wait: 0,
         };
         q.prepare();
+        if let Some(servo) = &mut self.servo {
+            let ticks = if n == 0 { block.dwell_ticks.max(1) } else { q.profile.duration_ticks() };
+            q.swing_wait = servo.pushed(&block, ticks);
+        }
         // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
         self.ring[nth_after(self.first, self.queued)] = q;
         self.queued += 1;
-        if self.hold == HoldState::Decelerating {
-            self.hold_pushed();
+        match self.hold {
+            HoldState::Decelerating => self.hold_pushed(),
+            HoldState::Running if lands && block.entry_rate < planned_entry => self.slowed_landing_pushed(),
+            _ => {}
         }
         Ok(())
     }
@@ -662,6 +687,9 @@ impl Stepper {
         self.hold = HoldState::Running;
         self.carry = None;
         self.shortfall = None;
+        if let Some(servo) = &mut self.servo {
+            servo.forget();
+        }
     }
 
     /// Clear a latched fault (after reset).

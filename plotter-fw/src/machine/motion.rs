@@ -50,6 +50,8 @@ impl<const Q: usize> MotionQueue<Q> {
         } else {
             0
         };
+        let mut stepper = Stepper::new(invert, limits);
+        stepper.model_servo(&cfg.pen);
         MotionQueue {
             planner: Deque::new(),
             linker: Linker::new(),
@@ -57,7 +59,7 @@ impl<const Q: usize> MotionQueue<Q> {
             first_entry_sqr: 0.0,
             hold_replanned: false,
             resume_after_hold: false,
-            stepper: Stepper::new(invert, limits),
+            stepper,
             timer_running: false,
         }
     }

@@ -78,6 +78,11 @@ pub struct PenConfig {
     pub servo_up_deg: f32,
     /// Servo pens: the angle (degrees, 0..=180) putting the pen on the paper.
     pub servo_down_deg: f32,
+    /// Servo pens: the time, ms (0..=10000), the servo takes to swing from `servo_up_deg` to `servo_down_deg` or
+    /// back, its rate (the host sends the profile's `pen.settle_ms`; the default mirrors the sample's). The stepper
+    /// models the servo's angle with it, to hold a drop that a feed hold delayed until the servo is down
+    /// ([`crate::stepper::Stepper::model_servo`]); 0 models nothing.
+    pub servo_swing_ms: f32,
 }
 
 /// Everything the firmware needs to know about the machine.
@@ -161,7 +166,13 @@ impl MachineConfig {
                 debounce_ms: 5.0,
                 pen_clear_at_z_switch: false,
             },
-            pen: PenConfig { up_z_mm: 4.0, down_z_mm: 0.0, servo_up_deg: 90.0, servo_down_deg: 30.0 },
+            pen: PenConfig {
+                up_z_mm: 4.0,
+                down_z_mm: 0.0,
+                servo_up_deg: 90.0,
+                servo_down_deg: 30.0,
+                servo_swing_ms: 50.0,
+            },
             rx_buffer_bytes: 256,
             queue_blocks: 32,
             soft_limits: true,
@@ -232,6 +243,9 @@ impl MachineConfig {
                 return err(field, "must be an angle from 0 to 180 degrees");
             }
         }
+        if !(self.pen.servo_swing_ms.is_finite() && (0.0..=10_000.0).contains(&self.pen.servo_swing_ms)) {
+            return err("pen.servo_swing_ms", "must lie in 0..=10000 ms");
+        }
         if self.rx_buffer_bytes < 64 || self.queue_blocks == 0 {
             return err("link", "rx_buffer_bytes must be at least 64 and queue_blocks positive");
         }
@@ -264,5 +278,16 @@ mod tests {
         let mut c = MachineConfig::xy_plotter();
         c.pen.up_z_mm = 11.0;
         assert_eq!(c.validate().unwrap_err().field, "pen.up_z_mm");
+        for swing in [-1.0, 10_001.0, f32::NAN, f32::INFINITY] {
+            let mut c = MachineConfig::xy_plotter();
+            c.pen.servo_swing_ms = swing;
+            let e = c.validate().unwrap_err();
+            assert_eq!(std::format!("{e}"), "pen.servo_swing_ms: must lie in 0..=10000 ms");
+        }
+        for swing in [0.0, 10_000.0] {
+            let mut c = MachineConfig::xy_plotter();
+            c.pen.servo_swing_ms = swing;
+            assert_eq!(c.validate(), Ok(()));
+        }
     }
 }

@@ -115,6 +115,8 @@ pub fn machine_config(profile: &MachineProfile) -> Result<MachineConfig, PlanErr
             down_z_mm: f(profile.pen.down_z_mm),
             servo_up_deg: f(profile.pen.servo_up_deg),
             servo_down_deg: f(profile.pen.servo_down_deg),
+            // The profile's servo turns its up-to-down swing in `settle_ms` (motion::servo's model).
+            servo_swing_ms: f(profile.pen.settle_ms),
         },
         rx_buffer_bytes: profile.link.rx_buffer_bytes,
         queue_blocks: profile.link.queue_blocks,

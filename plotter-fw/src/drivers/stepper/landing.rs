@@ -25,7 +25,11 @@
 //!   to rest, the drop with its full settle, then `C`: the tip lands on the stroke's start. The same swap is made
 //!   when `B` is pushed while the hold decelerates through a queued `S` ([`Stepper::hold_pushed`]), and by a
 //!   resume that finds `S` and `B` queued behind a stop ([`Stepper::defer_queued_drops`]: everything queued then
-//!   restarts from rest, so `B` would take longer than planned after the drop).
+//!   restarts from rest, so `B` would take longer than planned after the drop), and when `S` and `B` are pushed
+//!   after a resume that made the move before `S` end at rest (a hold during the lift: `B` then starts slower than
+//!   planned, [`Stepper::slowed_landing_pushed`]).
+//! - A drop the hold delays while the lift before it still swings (a short hop) waits for the modelled servo
+//!   when deferred (`servo.rs`).
 //! - `B` is never missing when it matters: the motion queue hands `B` to the stepper together with `S`
 //!   ([`Stepper::awaits_landing_move`]), which the 1-tick `S` needs anyway (it ends one tick after it starts). Only
 //!   when the host has not sent `B` yet does a hold through `S` keep the old run-through: once `S` has started,
@@ -118,12 +122,14 @@ impl Stepper {
     }
 
     /// Swap the `i`th queued block (a flying drop) with its landing move after it: the drop waits `1 +` the move's
-    /// planned duration, what it had from its command to the move's end.
+    /// planned duration, what it had from its command to the move's end, or the servo's swing when it was
+    /// commanded in the lift's swing ([`Queued::swing_wait`], `servo.rs`), whichever is longer.
     pub(super) fn defer_drop(&mut self, i: usize) {
         let (s_slot, b_slot) = (self.queued_slot(i), self.queued_slot(i + 1));
         let mut s = self.ring[s_slot];
         let mut b = self.ring[b_slot];
-        s.block.dwell_ticks = s.block.dwell_ticks.max(1).saturating_add(b.profile.duration_ticks());
+        let planned = s.block.dwell_ticks.max(1).saturating_add(b.profile.duration_ticks());
+        s.block.dwell_ticks = planned.max(s.swing_wait);
         // Commanded at rest now, at the end of the move.
         s.flying = false;
         s.hold = false;
@@ -131,6 +137,15 @@ impl Stepper {
         b.lands = false;
         self.ring[s_slot] = b;
         self.ring[b_slot] = s;
+    }
+
+    /// The landing move just pushed (the last queued, no hold under way) starts slower than planned (a resume's
+    /// shortfall, `catch_up.rs`: the move before the drop was made to end at rest): with the drop still queued, it
+    /// is deferred behind the move, which would take longer than planned after the command.
+    pub(super) fn slowed_landing_pushed(&mut self) {
+        if self.queued >= 2 && self.ring[self.queued_slot(self.queued - 2)].flying {
+            self.defer_drop(self.queued - 2);
+        }
     }
 
     /// At a resume, before everything queued is re-profiled from rest: defer each queued drop whose landing move is
@@ -159,6 +174,7 @@ pub(super) fn runs_through(carry: &Carry, q: &Queued) -> bool {
 mod tests {
     use super::super::Stepper;
     use crate::axis::Axis;
+    use crate::config::{MachineConfig, PenConfig};
     use crate::hal::{Endstops, StepPins};
     use crate::step_block::{StepBlock, Switches};
     use std::vec::Vec;
@@ -239,17 +255,30 @@ mod tests {
     /// the last is a drop awaiting its landing move; B `late` by one step event after the hold when given), a feed
     /// hold requested after `hold_after` timer events, resumed [`PAUSE`] after it stopped.
     fn play(hold_after: Option<u32>, late: bool) -> Trace {
-        let blocks = blocks();
+        play_blocks(&blocks(), None, hold_after, late.then_some(2))
+    }
+
+    /// [`play`] for `blocks` on a stepper modelling `pen`'s servo (when given), the block at index `late` (when
+    /// given) handed over only one step event after the hold.
+    fn play_blocks(
+        blocks: &[StepBlock],
+        pen: Option<PenConfig>,
+        hold_after: Option<u32>,
+        late: Option<usize>,
+    ) -> Trace {
         let mut s = Stepper::new(0, 0);
+        if let Some(pen) = pen {
+            s.model_servo(&pen);
+        }
         let mut hal = Trace::default();
         let mut next = 0;
         let mut events = 0u32;
         let mut due: Option<u64> = None;
         loop {
-            let b_arrived = !late || hold_after.is_some_and(|h| events > h);
+            let b_arrived = late.is_none() || hold_after.is_some_and(|h| events > h);
             while next < blocks.len()
                 && (s.pending() < 2 || s.awaits_landing_move())
-                && (next != 2 || b_arrived)
+                && (Some(next) != late || b_arrived)
                 && s.has_room()
             {
                 s.push(blocks[next], Switches::Limits).unwrap();
@@ -350,6 +379,155 @@ mod tests {
             let hal = play(Some(k), true);
             let (_, at) = check(&hal, &std::format!("B late, hold after event {k}"));
             assert_eq!(at, B_END, "hold after event {k}");
+        }
+    }
+
+    /// A short hop after a stroke, in events of 1000/s at 50 000/s², on a servo that swings 90° ↔ 30° in 150 ms
+    /// (0.4°/ms): the pen down (a 1-tick servo block, the stroke before), the lift `L` to 90° with `lift` ticks for
+    /// the tip to clear, the travel's first part A, [60, 15] from rest to 1000/s (10 events in 20 ms, then 50 at
+    /// 1000/s: 70 ms), the drop S to 30° (1 tick), the rest B, [20, 5] from 1000/s to rest (10 events at 1000/s, 10
+    /// down in 20 ms: 30 ms), a [`HOP_SETTLE`] dwell and the stroke C, [0, 30] from rest to rest. C starts at
+    /// [`HOP_END`]; a step with y > 20 is the stroke's.
+    fn hop(lift: u32) -> [StepBlock; 7] {
+        let mv = |steps: [i32; 2], entry: u32, exit: u32| StepBlock {
+            steps: [steps[0], steps[1], 0, 0],
+            entry_rate: entry,
+            cruise_rate: 1000,
+            exit_rate: exit,
+            accel: 50_000,
+            dwell_ticks: 0,
+            servo: None,
+        };
+        [
+            StepBlock::servo(300, 1),
+            StepBlock::servo(900, lift),
+            mv([60, 15], 0, 1000),
+            StepBlock::servo(300, 1),
+            mv([20, 5], 1000, 0),
+            StepBlock::dwell(HOP_SETTLE_TICKS),
+            mv([0, 30], 0, 0),
+        ]
+    }
+
+    /// Where [`hop`]'s A ends and the drop is planned.
+    const HOP_A_END: [i64; 2] = [60, 15];
+    /// Where B ends: the stroke's start.
+    const HOP_END: [i64; 2] = [80, 20];
+    /// The settle dwell after B, ticks.
+    const HOP_SETTLE_TICKS: u32 = 40_000;
+    const HOP_SETTLE: u64 = HOP_SETTLE_TICKS as u64;
+
+    /// The kit's servo: 90° up, 30° down, the swing in 150 ms.
+    fn kit_pen() -> PenConfig {
+        PenConfig { servo_swing_ms: 150.0, ..MachineConfig::xy_plotter().pen }
+    }
+
+    /// Checks a played [`hop`]: every step once, B's path before the drop's command, the stroke after it. Returns
+    /// the drop command's time and place (the pen-down and the lift commands before it at 0 and 1), and the time of
+    /// C's first step.
+    fn check_hop(hal: &Trace, what: &str) -> (u64, [i64; 2], u64) {
+        assert_eq!(hal.servo.len(), 3, "{what}: three servo commands");
+        assert_eq!(hal.servo[..2], [(0, [0, 0]), (1, [0, 0])], "{what}: the pen down, then the lift");
+        let (t_cmd, at) = hal.servo[2];
+        assert!(at == HOP_A_END || at == HOP_END, "{what}: the drop was commanded at {at:?}");
+        let first_c = hal.steps.iter().find(|s| s.1[1] > HOP_END[1]).unwrap().0;
+        // Nothing but B's path to the stroke's start before C.
+        for &(t, p) in hal.steps.iter().filter(|s| s.1[1] <= HOP_END[1]) {
+            assert!(t < first_c && p[0] <= HOP_END[0], "{what}: a step to {p:?} at {t}");
+        }
+        // Every step made, once: 80 along X, 20 + 30 along Y.
+        assert_eq!((hal.pos, hal.counts), ([80, 50], [80, 50]), "{what}");
+        (t_cmd, at, first_c)
+    }
+
+    /// C's first step from rest at 50 000/s²: √(2 / 50 000) s = 6325 ticks (6324.6 rounded up by the step times).
+    fn c_first_interval() -> u64 {
+        let [.., c] = hop(1);
+        let mut s = Stepper::new(0, 0);
+        s.push(c, Switches::Limits).unwrap();
+        let first = u64::from(s.start(&mut Trace::default()).unwrap());
+        assert!(first.abs_diff(6325) <= 1, "{first}");
+        first
+    }
+
+    #[test]
+    fn without_a_hold_the_servo_model_changes_no_timing() {
+        // The lift at tick 1, A's 70 ms after the 45 ms clear: the drop at 1 + 45 000 + A's duration, where A ends;
+        // the stroke after B, the settle and C's first interval; the same trace with the servo modelled or not.
+        let blocks = hop(45_000);
+        let hal = play_blocks(&blocks, Some(kit_pen()), None, None);
+        let (t_cmd, at, first_c) = check_hop(&hal, "no hold");
+        let (a, b) = (u64::from(blocks[2].duration_ticks()), u64::from(blocks[4].duration_ticks()));
+        assert!(a.abs_diff(70_000) <= 20 && b.abs_diff(30_000) <= 20, "{a} {b}");
+        assert_eq!((t_cmd, at), (1 + 45_000 + a, HOP_A_END));
+        assert_eq!(first_c, t_cmd + 1 + b + HOP_SETTLE + c_first_interval());
+        let plain = play_blocks(&blocks, None, None, None);
+        assert_eq!((hal.steps, hal.servo), (plain.steps, plain.servo));
+    }
+
+    #[test]
+    fn a_hold_between_a_lift_and_a_drop_in_its_swing_keeps_the_carriage_at_the_stroke_until_the_servo_is_down() {
+        // The drop is planned 45 000 + 70 000 = 115 000 ticks after the lift, with the servo at 30° + 0.4°/ms ×
+        // 115 ms = 76°, still rising: its contact comes soon. A hold after event k (1: the pen-down's end, the lift
+        // running; 2..=61: A's events 0..=59 out; 62: A done, the drop out) before the drop stops the carriage and
+        // the servo goes on up: after the [`PAUSE`] (300 ms, longer than the 150 ms swing) it is at 90°. The drop,
+        // deferred behind B, is commanded on the stroke's start and C's first step comes only when the modelled
+        // servo is back down, the whole swing (150 000 ticks) later, then the settle and C's first interval. A hold
+        // once the drop is out (k = 62) lets B land as planned: the servo is where the plan has it.
+        let blocks = hop(45_000);
+        let b = u64::from(blocks[4].duration_ticks());
+        let c_first = c_first_interval();
+        let mut deferred = 0;
+        for k in 1..=62 {
+            let what = std::format!("hold after event {k}");
+            let hal = play_blocks(&blocks, Some(kit_pen()), Some(k), None);
+            let (t_cmd, at, first_c) = check_hop(&hal, &what);
+            if k == 62 {
+                assert_eq!(at, HOP_A_END, "{what}");
+                assert_eq!(first_c, t_cmd + 1 + b + PAUSE + HOP_SETTLE + c_first, "{what}");
+                continue;
+            }
+            assert_eq!(at, HOP_END, "{what}: the drop deferred to the stroke's start");
+            // The modelled servo: from 30° at the lift's command (tick 1), up at 90° by 150 001; still there at the
+            // command, which follows the pause.
+            assert!(t_cmd >= 1 + 150_000 + PAUSE, "{what}: the drop at {t_cmd}");
+            assert_eq!(first_c, t_cmd + 150_000 + HOP_SETTLE + c_first, "{what}: C at {first_c}, drop at {t_cmd}");
+            deferred += 1;
+        }
+        assert_eq!(deferred, 61);
+        // The landing move handed over late (after the hold, while it decelerates) defers the drop the same way.
+        for k in 45..=60 {
+            let what = std::format!("B late, hold after event {k}");
+            let (t_cmd, at, first_c) = check_hop(&play_blocks(&blocks, Some(kit_pen()), Some(k), Some(4)), &what);
+            assert_eq!(at, HOP_END, "{what}");
+            assert_eq!(first_c, t_cmd + 150_000 + HOP_SETTLE + c_first, "{what}");
+        }
+    }
+
+    #[test]
+    fn a_hold_after_the_lift_has_swung_up_keeps_the_plans_wait() {
+        // The lift given 80 000 ticks to clear: the drop planned 80 000 + 70 000 = 150 000 ticks after it, with the
+        // servo up. A hold in A (after events 2..=61) defers the drop as without the model, waiting 1 + B's planned
+        // time, what it had from its command to B's end; a hold during the lift too (after event 1), which stops at
+        // the lift's end, A then ending at rest: B, pushed after the resume, starts from rest (10 events up, 10
+        // down: 40 ms) and would end after the planned contact behind a drop commanded on the way, so the drop
+        // waits behind it, 1 + B's time as pushed.
+        let blocks = hop(80_000);
+        let b = u64::from(blocks[4].duration_ticks());
+        let b_from_rest = u64::from(StepBlock { entry_rate: 0, ..blocks[4] }.duration_ticks());
+        assert!(b_from_rest.abs_diff(40_000) <= 20, "{b_from_rest}");
+        let c_first = c_first_interval();
+        for k in 1..=61 {
+            let what = std::format!("hold after event {k}");
+            let hal = play_blocks(&blocks, Some(kit_pen()), Some(k), None);
+            let (t_cmd, at, first_c) = check_hop(&hal, &what);
+            assert_eq!(at, HOP_END, "{what}: the drop deferred to the stroke's start");
+            let b = if k == 1 { b_from_rest } else { b };
+            assert_eq!(first_c, t_cmd + 1 + b + HOP_SETTLE + c_first, "{what}: C at {first_c}, drop at {t_cmd}");
+            if k > 1 {
+                let plain = play_blocks(&blocks, None, Some(k), None);
+                assert_eq!((&hal.steps, &hal.servo), (&plain.steps, &plain.servo), "{what}: as without the model");
+            }
         }
     }
 }
