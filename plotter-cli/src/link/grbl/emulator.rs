@@ -72,7 +72,8 @@ pub struct Faults {
     pub error_on_line: Option<(u64, u8)>,
     /// Once this many G-code lines have been answered `ok`, act on this real-time byte as if it had arrived on
     /// the serial line or from the controller's own buttons: `!` (the Hold button), `~` (Cycle Start) or `0x18`
-    /// (Reset / Abort).
+    /// (Reset / Abort). Pressed while the machine runs: when the moves answered wait for the cycle to start, once
+    /// it has.
     pub realtime_after_lines: Option<(u64, u8)>,
 }
 
@@ -103,8 +104,8 @@ pub struct PenState {
 /// What the line being executed waits for.
 #[derive(Debug, Clone, PartialEq)]
 enum Waiting {
-    /// Backend lines still to send, then each one's `ok`.
-    Backend { lines: VecDeque<String>, sent: bool },
+    /// Backend lines still to send, then each one's `ok`; `flow` says when they may go.
+    Backend { lines: VecDeque<String>, sent: bool, flow: Flow },
     /// The homing cycle (`$H`).
     Homing { sent: bool },
     /// `M0`/`M1`: the planner to empty, then the pause.
@@ -113,6 +114,18 @@ enum Waiting {
     End,
     /// `G92`: the backend's answer, then the offset is recorded.
     Offset { line: String, given: [Option<f64>; 3], sent: bool },
+}
+
+/// How a G-code line meets the motion before it ([`GrblEmulator::process`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Flow {
+    /// A move: planned at once, it waits for the cycle to start when the machine stands still.
+    Queues,
+    /// A dwell or a spindle (servo) word: GRBL runs it only once the planner has emptied (its
+    /// `protocol_buffer_synchronize`, in `mc_dwell` and `spindle_sync`), whatever the dwell's length.
+    Syncs,
+    /// Anything else (modal words, a jog, which starts at once).
+    Runs,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -145,6 +158,9 @@ pub struct GrblEmulator {
     needs_reset: bool,
     /// Asleep after `$SLP`: only a soft reset wakes it.
     sleeping: bool,
+    /// Motion lines wait in the backend's planner (held there) for GRBL's cycle start: see
+    /// [`GrblEmulator::process`].
+    queued: bool,
     homed: bool,
     paused: bool,
     status_wanted: bool,
@@ -256,6 +272,7 @@ impl GrblEmulator {
             alarm: None,
             needs_reset: false,
             sleeping: false,
+            queued: false,
             homed: false,
             paused: false,
             status_wanted: false,
@@ -359,8 +376,13 @@ impl GrblEmulator {
     fn receive(&mut self, b: u8) {
         match b {
             RT_STATUS => self.status_wanted = true,
-            RT_FEED_HOLD => self.backend.feed(&[plotter_fw::protocol::RT_FEED_HOLD]),
+            RT_FEED_HOLD => {
+                // A hold while moves wait for the cycle to start holds them (`Hold:0`) until `~`.
+                self.queued = false;
+                self.backend.feed(&[plotter_fw::protocol::RT_FEED_HOLD]);
+            }
             RT_CYCLE_START => {
+                self.queued = false;
                 if self.paused {
                     self.paused = false;
                 } else {
@@ -410,6 +432,7 @@ impl GrblEmulator {
         self.rx.clear();
         self.current = None;
         self.paused = false;
+        self.queued = false;
         self.feed_set = false;
         self.g92 = [0.0; 3];
         if self.needs_reset {
@@ -486,6 +509,10 @@ impl GrblEmulator {
         }
         if self.paused {
             return "Hold:0";
+        }
+        if self.queued {
+            // GRBL is idle while its planned moves wait for the cycle to start.
+            return "Idle";
         }
         match self.backend.machine().state() {
             MachineState::Homing => "Home",
@@ -584,7 +611,7 @@ impl GrblEmulator {
             }
             let Some(cur) = self.current.as_mut() else { continue };
             match &mut cur.waiting {
-                Waiting::Backend { lines, sent } => {
+                Waiting::Backend { lines, sent, .. } => {
                     *sent = false;
                     let more = !lines.is_empty();
                     match err {
@@ -612,12 +639,7 @@ impl GrblEmulator {
                                 self.raise_alarm(1, true);
                                 self.critical_event();
                             }
-                            if let Some((n, byte)) = self.faults.realtime_after_lines
-                                && self.ok_gcode_lines >= n
-                            {
-                                self.faults.realtime_after_lines = None;
-                                self.receive(byte);
-                            }
+                            self.press_due_button();
                         }
                     }
                 }
@@ -647,8 +669,42 @@ impl GrblEmulator {
         }
     }
 
-    /// Run the line handling: answer status requests, start the next line, push backend lines.
+    /// The button press of [`Faults::realtime_after_lines`], once its lines have been answered and no move
+    /// waits for the cycle to start (the press comes while the machine runs them).
+    fn press_due_button(&mut self) {
+        if let Some((n, byte)) = self.faults.realtime_after_lines
+            && self.ok_gcode_lines >= n
+            && !self.queued
+        {
+            self.faults.realtime_after_lines = None;
+            self.receive(byte);
+        }
+    }
+
+    /// Run the line handling: answer status requests, start the next lines, push backend lines; then start the
+    /// cycle.
+    ///
+    /// As GRBL's main loop (`protocol_main_loop`, `protocol_auto_cycle_start`): a motion line that arrives while
+    /// the machine stands still is planned but does not start it; the lines after it are parsed and planned
+    /// too, and the cycle starts once no complete line is left to parse, or a line must wait (for the planner
+    /// to empty: `M3`, `G4`, `M0`, `M2`; for room in the planner). So the moves after a stop are planned
+    /// together: a corner between two of them is taken at its junction speed, not from rest. The backend's
+    /// planner hands a block to its stepper (frozen) as soon as the stepper runs short, so the waiting moves are
+    /// held there (a feed hold on a stepper at rest) until the cycle starts.
     fn process(&mut self) {
+        loop {
+            self.process_lines();
+            if !self.queued {
+                return;
+            }
+            self.queued = false;
+            self.backend.feed(&[plotter_fw::protocol::RT_RESUME]);
+            self.backend.run_for(0);
+            self.press_due_button();
+        }
+    }
+
+    fn process_lines(&mut self) {
         loop {
             self.collect_backend();
             if self.status_wanted {
@@ -658,7 +714,13 @@ impl GrblEmulator {
             let motion_idle = self.backend_motion_idle();
             if let Some(cur) = self.current.as_mut() {
                 match &mut cur.waiting {
-                    Waiting::Backend { lines, sent } if !*sent && !lines.is_empty() => {
+                    Waiting::Backend { flow: Flow::Syncs, sent: false, .. } if !motion_idle => {}
+                    Waiting::Backend { lines, sent, flow } if !*sent && !lines.is_empty() => {
+                        if *flow == Flow::Queues && !self.queued && motion_idle {
+                            // Nothing moves: the move waits for the cycle to start.
+                            self.queued = true;
+                            self.backend.feed(&[plotter_fw::protocol::RT_FEED_HOLD]);
+                        }
                         if let Some(l) = lines.pop_front() {
                             self.backend.feed(format!("{l}\n").as_bytes());
                         }
@@ -834,7 +896,14 @@ impl GrblEmulator {
             }
             return Ok(Waiting::Offset { line: out.trim().to_string(), given, sent: false });
         }
-        Ok(Waiting::Backend { lines: VecDeque::from([out.trim().to_string()]), sent: false })
+        let flow = if dwell || seen & (1 << (b'M' - b'A')) != 0 {
+            Flow::Syncs
+        } else if motion.is_some() || axes {
+            Flow::Queues
+        } else {
+            Flow::Runs
+        };
+        Ok(Waiting::Backend { lines: VecDeque::from([out.trim().to_string()]), sent: false, flow })
     }
 
     fn system_command(&mut self, cmd: &str) {
@@ -949,7 +1018,8 @@ impl GrblEmulator {
         let mode = if relative { "G91" } else { "G90" };
         let lines = VecDeque::from([format!("{mode} G1 {axes}F{f}"), "G90".to_string()]);
         if let Some(c) = self.current.as_mut() {
-            c.waiting = Waiting::Backend { lines, sent: false };
+            // A jog starts at once (GRBL's `jog_execute`).
+            c.waiting = Waiting::Backend { lines, sent: false, flow: Flow::Runs };
         }
     }
 }
@@ -972,6 +1042,33 @@ mod tests {
             }
         }
         e.take_replies()
+    }
+
+    /// The motion time of `lines` sent at once to an unlocked controller standing still, ticks.
+    fn motion_ticks(lines: &str) -> u64 {
+        let mut e = emu();
+        assert_eq!(say(&mut e, "$X").last().map(String::as_str), Some("ok"));
+        let before = e.backend().hal().busy_ticks();
+        let replies = say(&mut e, lines);
+        assert!(replies.iter().all(|r| r == "ok"), "{replies:?}");
+        e.backend().hal().busy_ticks() - before
+    }
+
+    #[test]
+    fn moves_sent_together_are_planned_together_and_a_dwell_stops_them() {
+        // Two 10 mm moves at 60 mm/s (F3600) with a 90° corner, on the kit (1500 mm/s², $11 = 0.02 mm). GRBL starts
+        // the cycle only once no complete line is left to parse, so the second move is planned before the first
+        // starts and the corner is taken at its junction speed: v² = a·δ·s/(1 − s), s = sin 45° → v = 8.510 mm/s.
+        // Each move: 0 → 60 mm/s in 40 ms (1.2 mm), 60 → 8.51 mm/s in 34.33 ms (1.176 mm), 7.624 mm at 60 mm/s in
+        // 127.07 ms: 201.40 ms, 402.79 ms both; from rest to rest at the corner 2 × 206.67 = 413.33 ms.
+        let cornered = motion_ticks("G1 X10 F3600\nG1 X10 Y10");
+        assert!(cornered.abs_diff(402_790) <= 50, "{cornered} ticks, 402 790 by hand");
+        // A dwell, even of no length, waits for the planner to empty first (GRBL's `mc_dwell`), as a spindle word
+        // does: the carriage stops at the corner.
+        for between in ["G4 P0", "M3 S90"] {
+            let stopped = motion_ticks(&format!("G1 X10 F3600\n{between}\nG1 X10 Y10"));
+            assert!(stopped.abs_diff(413_333) <= 50, "{between}: {stopped} ticks, 413 333 by hand");
+        }
     }
 
     #[test]

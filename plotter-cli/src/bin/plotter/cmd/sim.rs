@@ -11,9 +11,9 @@
 //!
 //! With `--grbl` the pty serves the project's GRBL 1.1 emulator ([`plotter_host::link::grbl::emulator`])
 //! instead, set up from the profile; its trace adds `# grbl peak_rx <bytes> overflow <bytes> lines <n> errors
-//! <n>` and `# position x y z` (steps). `--grbl-fault` injects `hard-limit@N` (an `ALARM:1` after N lines),
-//! `error@N:CODE` (line N answered `error:CODE`), or a press of the controller's Hold (`hold@N`) or Reset
-//! (`reset@N`) button once N lines have been answered.
+//! <n>`, `# position x y z` (steps) and a line `# servo <time µs> <angle °>` per servo command. `--grbl-fault`
+//! injects `hard-limit@N` (an `ALARM:1` after N lines), `error@N:CODE` (line N answered `error:CODE`), or a press
+//! of the controller's Hold (`hold@N`) or Reset (`reset@N`) button once N lines have been answered.
 //!
 //! With `--ebb` the pty serves the project's EiBotBoard emulator ([`plotter_host::link::ebb::emulator`]) running
 //! firmware `--ebb-version` (2.8.1 or 3.0.2); its trace lists the motor positions instead (`t m1 m2 pen`, time in
@@ -482,6 +482,9 @@ pub(crate) fn run(args: &SimArgs) -> anyhow::Result<()> {
                 "# grbl peak_rx {} overflow {} lines {} errors {}\n# position {} {} {}",
                 st.peak_rx, st.overflow_bytes, st.lines, st.errors, p[0], p[1], p[2]
             )?;
+            for (t, angle, _) in g.backend().hal().servo_trace() {
+                writeln!(f, "# servo {t} {angle}")?;
+            }
         }
     }
     if let Some(n) = &noise {
