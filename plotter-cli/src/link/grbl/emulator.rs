@@ -33,11 +33,16 @@
 //! The GRBL side (buffer, replies, codes, states, settings) is this file's own, written from GRBL's interface
 //! documentation. Coordinates: machine 0 is the homed (pulled-off) switch position, positive into the work area
 //! (real GRBL uses negative machine space; the sender never relies on either, it works in `G92` coordinates).
+//! The lines meet the motion as in GRBL's main loop: moves that arrive while the machine stands still are planned
+//! together and start once no complete line is left to parse or a line must wait, and `G4` and `M3`/`M5` wait
+//! for the planner to empty (see the emulator's `process`).
 //!
 //! - `$SLP` sleep: motors off, state `Sleep`, every line left unanswered until a soft reset, which wakes it in
 //!   alarm (it cannot know where it is) whatever `$22` says.
 //!
 //! Not emulated: arcs (G2/G3: `error:20`), the `Bf:` buffer field, probing, overrides, coolant, check mode (`$C`), startup lines (`$N`).
+//! Dwells run for exactly `P`, as the plans time them; GRBL 1.1 itself dwells in whole steps of 50 ms
+//! (`DWELL_TIME_STEP`: ⌈20·P⌉ steps, so `G4 P0.045` takes 50 ms), which neither side models yet.
 //! Settings changed with `$n=` are listed at once but drive the motion only after a soft reset.
 
 use std::collections::VecDeque;
