@@ -270,7 +270,8 @@ const SERVO_HOPS_SVG: &str = r##"<svg xmlns="http://www.w3.org/2000/svg" width="
 /// The servo kit (samples/servo-plotter.toml) on GRBL over a pty (issue 39): `plotter plot --firmware grbl` plans
 /// for GRBL, whose `M3` waits for the moves before it to end (each hop stops where the drop is commanded), the
 /// emulator runs that plan in the planned time (GRBL plans the lines after a stop together before it starts them,
-/// so the corner after a drop is taken at its junction speed, as planned), and the tip touches each stroke within 0.1 mm of its start and
+/// so the corner after a drop is taken at its junction speed, as planned; it dwells in whole 50 ms steps, as
+/// planned), and the tip touches each stroke within 0.1 mm of its start and
 /// leaves it within 0.1 mm of its end (the measure of tests/pen_contact.rs, on the servo commands and steps the
 /// emulator logged).
 #[test]
@@ -320,12 +321,13 @@ fn the_servo_kit_on_grbl_runs_its_plan_and_lands_on_each_stroke() {
     }
     let homing = emu.backend().hal().busy_ticks();
     let ran = trace.busy_ticks - homing;
-    // GRBL runs the plan's G-code, not its step blocks, so not to the tick: a dwell is written in whole
-    // milliseconds (the settle of 0.119 ms after the first and the fifth landing is `G4 P0`), and the emulator plans
+    // GRBL runs the plan's G-code, not its step blocks, so not to the tick: the plan's stops of a tick (each
+    // drop's command, and a landing's wait under half a millisecond, `G4 P0`) take none, and the emulator plans
     // its own blocks at the exact feed while the plan's rates are rounded down to the 9 significant bits our wire
     // frames carry (the 40.7 mm travel to the fifth stroke cruises at 7280 planned, 7287.6 events/s exact: 0.27 ms
-    // longer). Together −0.60 ms here; allowed: the design's 0.1 % (3.6 ms). A corner taken from rest instead of
-    // at its junction speed costs 10.5 ms.
+    // longer). Together −0.35 ms here; allowed: the design's 0.1 % (3.8 ms). A corner taken from rest instead of
+    // at its junction speed costs 10.5 ms, a dwell timed to the millisecond instead of GRBL's 50 ms steps up to
+    // 50 ms.
     assert!(
         ran.abs_diff(planned.total_ticks) * 1000 <= planned.total_ticks,
         "executed {ran} ticks, planned {}",

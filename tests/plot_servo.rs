@@ -149,8 +149,9 @@ fn grbl_program_of_a_servo_plan_runs_on_the_emulator() {
     assert_eq!((lifts, m3 - lifts), (STROKES + 1, STROKES), "{:?}", prog.lines);
     assert!(!prog.lines.iter().any(|l| l.contains("M5")), "{:?}", prog.lines);
     // The first lift, the lifts before the two pen changes and the last keep their whole 150 ms; the four lifts
-    // between strokes of one pen (black frame to horizon, red circle to rays) wait the 50 ms clear time only.
-    let whole = prog.lines.iter().filter(|l| l.as_str() == "M3 S90 G4 P0.15").count();
+    // between strokes of one pen (black frame to horizon, red circle to rays) wait the 50 ms clear time only
+    // (each written a millisecond short of its whole 50 ms steps, which GRBL dwells in).
+    let whole = prog.lines.iter().filter(|l| l.as_str() == "M3 S90 G4 P0.149").count();
     assert_eq!(whole, 4, "{:?}", prog.lines);
     let mut emu = GrblEmulator::new(&servo, None).unwrap();
     emu.take_replies();

@@ -21,7 +21,9 @@
 //!   rest and cut where the rest of it arrives by the earliest contact, and the carriage passes the command (a
 //!   1-tick servo block) at the speed it has there (`RawPlan::flying_servo_hop`);
 //! * where the motion stops for it (GRBL's `M3`), the drop command splits the travel: the travel stops, the servo
-//!   is commanded, the last part follows from rest; the split is only made where it pays.
+//!   is commanded, the last part follows from rest; the split is only made where it pays. GRBL dwells in whole
+//!   steps of 50 ms, so every dwell of a plan for it (the lift's wait, the landing's, the settle) is timed so
+//!   ([`grbl_dwell_ticks`]), and the drop's timing follows from those.
 //!
 //! Every move becomes a [`PlanBlock`] of the firmware's own planner
 //! ([`plotter_fw::planner`]: per-axis limits, junction deviation, reverse/forward passes), planned here over the
@@ -440,6 +442,17 @@ pub fn check_work_area(profile: &MachineProfile, steps: &StepDrawing) -> Result<
     Ok(())
 }
 
+/// GRBL 1.1 dwells (`G4 P<seconds>`) in whole steps of 50 ms: its `delay_sec` (nuts_bolts.c) waits ⌈20·P⌉
+/// steps of `DWELL_TIME_STEP` (config.h), so `G4 P0.045` takes 50 ms. A plan for GRBL ([`ServoSync::AtRest`])
+/// times each dwell as [`grbl_dwell_ticks`] does.
+pub const GRBL_DWELL_STEP_TICKS: u32 = TICK_HZ / 20;
+
+/// What GRBL dwells for a dwell of `ticks` as the GRBL program writes it (in whole milliseconds, so that what is
+/// under half a millisecond is `P0`, no dwell): the whole [`GRBL_DWELL_STEP_TICKS`] steps that cover it.
+pub fn grbl_dwell_ticks(ticks: u32) -> u32 {
+    if ticks < TICK_HZ / 2000 { 0 } else { ticks.div_ceil(GRBL_DWELL_STEP_TICKS).saturating_mul(GRBL_DWELL_STEP_TICKS) }
+}
+
 /// Settle dwell in ticks.
 pub(crate) fn settle_ticks(profile: &MachineProfile) -> u32 {
     ms_ticks(profile.pen.settle_ms)
@@ -610,7 +623,12 @@ impl<'c> RawPlan<'c> {
             cfg,
             raw: RawBlocks { blocks: Vec::with_capacity(capacity), fixed: Vec::new() },
             pos,
-            settle: settle_ticks(profile),
+            // GRBL dwells in steps of 50 ms.
+            settle: if profile.servo_sync == ServoSync::AtRest {
+                grbl_dwell_ticks(settle_ticks(profile))
+            } else {
+                settle_ticks(profile)
+            },
             changes: Vec::new(),
             accel_caps: [cap(profile.pen.draw_accel_mm_s2), cap(profile.pen.travel_accel_mm_s2)],
             flying_drop: profile.servo_sync == ServoSync::InMotion,
@@ -700,7 +718,10 @@ impl<'c> RawPlan<'c> {
         let n = i64::from(delta.dx.unsigned_abs().max(delta.dy.unsigned_abs()));
         let ticks =
             |a: StepPos, b: StepPos| u64::from(self.rest_to_rest_ticks(StepPos::new(b.x - a.x, b.y - a.y), feed));
-        let drop_at = |k: i64| u64::from(clear) + ticks(from, at(k, n));
+        // GRBL's dwells, the lift's wait among them, come in whole steps of 50 ms ([`grbl_dwell_ticks`]).
+        let dwell = |t: u64| u64::from(grbl_dwell_ticks(ticks_u32(t)));
+        let clear = if lift.is_some() { dwell(u64::from(clear)).max(1) } else { 0 };
+        let drop_at = |k: i64| clear + ticks(from, at(k, n));
         // The longest last part that arrives by the earliest contact (durations grow with the length).
         let fits = |k: i64| ticks(at(k, n), to) + u64::from(DROP_TICK) <= window(drop_at(k)).0;
         let (mut lo, mut hi) = (0i64, n);
@@ -708,27 +729,37 @@ impl<'c> RawPlan<'c> {
             let mid = (lo + hi + 1) / 2;
             if fits(mid) { lo = mid } else { hi = mid - 1 }
         }
+        // The wait from the drop to the line: the drop's dwell up to the latest contact in place, or the last part
+        // and a dwell for what is left of it.
+        let after_drop = |k: i64| {
+            let latest = window(drop_at(k)).1;
+            if k == 0 {
+                return dwell(latest);
+            }
+            let t2 = ticks(at(k, n), to) + u64::from(DROP_TICK);
+            t2 + dwell(latest.saturating_sub(t2))
+        };
         // The split pays when the line starts sooner than after the whole travel and a drop in place.
-        let start = |k: i64| drop_at(k) + window(drop_at(k)).1.max(ticks(at(k, n), to) + u64::from(DROP_TICK));
+        let start = |k: i64| drop_at(k) + after_drop(k);
         let k = if lo > 0 && start(lo) < start(0) { lo } else { 0 };
         let split = at(k, n);
         let d = drop_at(k);
         let (_, latest) = window(d);
         let t2 = ticks(split, to);
         if let Some(u) = lift {
-            self.fixed(StepBlock::servo(u, clear), MoveKind::PenUp, stroke - 1);
+            self.fixed(StepBlock::servo(u, ticks_u32(clear)), MoveKind::PenUp, stroke - 1);
         }
         self.line_to(split, feed, MoveKind::Travel, stroke);
         if split == to {
-            self.fixed(StepBlock::servo(down, ticks_u32(latest)), MoveKind::PenDown, stroke);
+            self.fixed(StepBlock::servo(down, ticks_u32(dwell(latest))), MoveKind::PenDown, stroke);
             return;
         }
         self.fixed(StepBlock::servo(down, DROP_TICK), MoveKind::PenDown, stroke);
         self.line_to(to, feed, MoveKind::Travel, stroke);
-        let rest = latest.saturating_sub(u64::from(DROP_TICK) + t2);
-        if rest > 0 {
-            self.fixed(StepBlock::dwell(ticks_u32(rest)), MoveKind::Settle, stroke);
-        }
+        // Always a dwell, a stop (GRBL's `G4` waits for the planner to empty, even `P0`): the line starts from rest,
+        // not joined to the travel.
+        let rest = dwell(latest.saturating_sub(u64::from(DROP_TICK) + t2)).max(1);
+        self.fixed(StepBlock::dwell(ticks_u32(rest)), MoveKind::Settle, stroke);
     }
 
     /// [`RawPlan::servo_hop`] on a board that runs the servo command between two queued moves without stopping the
@@ -1629,7 +1660,9 @@ mod tests {
     fn on_a_firmware_that_stops_for_the_servo_the_kits_hop_stops_where_the_drop_is_commanded() {
         // GRBL: the travel stops, the drop is commanded, the rest follows from rest and must arrive within the
         // 105 ms to the touch: a triangle of 2·√(e / 120 000 steps/s²) ≤ 104 999 µs (the command takes a tick),
-        // e = 330 steps (4.125 mm); the first 2070 steps take 80 + 135.625 + 80 ms from rest to rest.
+        // e = 330 steps (4.125 mm): 104 881 µs; the first 2070 steps take 80 + 135.625 + 80 ms from rest to rest.
+        // GRBL dwells in whole 50 ms steps: the lift's 45 ms wait is 50 ms, and the 0.12 ms left between the
+        // arrival and the touch is no dwell (`G4 P0`, a stop of a tick).
         let (plan, hop) = kit_hop(ServoSync::AtRest);
         use MoveKind::*;
         let kinds: Vec<MoveKind> = plan.blocks[hop.clone()].iter().map(|b| b.kind).collect();
@@ -1638,8 +1671,9 @@ mod tests {
         assert_eq!(b(1).exit_rate, 0, "the first part ends at rest");
         assert_eq!(b(3).entry_rate, 0, "the last part starts from rest");
         assert_eq!((b(1).steps[0], b(3).steps[0]), (2070, 330));
+        assert_eq!((b(0).duration_ticks(), b(4).duration_ticks()), (50_000, 1));
         let t: u64 = plan.blocks[hop].iter().map(|b| u64::from(b.ticks)).sum();
-        assert!((KIT_CLEAR + 295_625 + KIT_CONTACT..=KIT_CLEAR + 295_625 + KIT_CONTACT + 100).contains(&t), "{t}");
+        assert!((50_000 + 295_625 + 104_881..=50_000 + 295_625 + 104_881 + 100).contains(&t), "{t}");
         assert_eq!(plan.servo_in_motion(), None);
     }
 

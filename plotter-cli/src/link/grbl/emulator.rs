@@ -41,8 +41,9 @@
 //!   alarm (it cannot know where it is) whatever `$22` says.
 //!
 //! Not emulated: arcs (G2/G3: `error:20`), the `Bf:` buffer field, probing, overrides, coolant, check mode (`$C`), startup lines (`$N`).
-//! Dwells run for exactly `P`, as the plans time them; GRBL 1.1 itself dwells in whole steps of 50 ms
-//! (`DWELL_TIME_STEP`: ⌈20·P⌉ steps, so `G4 P0.045` takes 50 ms), which neither side models yet.
+//! Dwells run as GRBL 1.1 runs them, in whole steps of 50 ms (`DWELL_TIME_STEP`: ⌈20·P⌉ steps, so `G4 P0.045`
+//! takes 50 ms), P read as the nearest single-precision number (GRBL's own reading may differ in the last bit,
+//! which matters only at exact multiples of 0.05 s; the sender writes none).
 //! Settings changed with `$n=` are listed at once but drive the motion only after a soft reset.
 
 use std::collections::VecDeque;
@@ -869,8 +870,11 @@ impl GrblEmulator {
                     if w.value < 0.0 {
                         return Err(4);
                     }
-                    // GRBL's dwell is in seconds, the core's in milliseconds.
-                    out += &format!("P{} ", w.value * 1000.0);
+                    // GRBL's dwell is in seconds, the core's in milliseconds; GRBL dwells in whole steps of 50 ms,
+                    // ⌈20·P⌉ of them, in single precision (`delay_sec`).
+                    #[allow(clippy::cast_possible_truncation, reason = "a dwell's seconds, far inside f32")]
+                    let steps = (20.0 * w.value as f32).ceil();
+                    out += &format!("P{} ", f64::from(steps) * 50.0);
                 }
                 b'N' | b'T' => {}
                 _ => return Err(20),
@@ -1073,6 +1077,14 @@ mod tests {
         for between in ["G4 P0", "M3 S90"] {
             let stopped = motion_ticks(&format!("G1 X10 F3600\n{between}\nG1 X10 Y10"));
             assert!(stopped.abs_diff(413_333) <= 50, "{between}: {stopped} ticks, 413 333 by hand");
+        }
+    }
+
+    #[test]
+    fn dwells_come_in_whole_steps_of_50_ms() {
+        // GRBL's `delay_sec`: ⌈20·P⌉ steps of 50 ms.
+        for (p, ticks) in [("0", 0), ("0.0001", 50_000), ("0.045", 50_000), ("0.049", 50_000), ("0.051", 100_000)] {
+            assert_eq!(motion_ticks(&format!("G4 P{p}")), ticks, "G4 P{p}");
         }
     }
 

@@ -7,16 +7,17 @@
 //! drawing are `G1` at the profile's travel feed and the pen's drawing feed (F in mm/min, written when it
 //! changes), travel with a `Z` where the plan's hop moves the pen on the way; the pen is a Z move at the Z axis's
 //! maximum rate, or `M3 S<angle>` for a servo pen, down and up alike (with its settle dwell on the same line,
-//! `M3 S90 G4 P0.15`, as the plan's servo block carries both); a settle dwell is `G4 P<seconds>`. A servo pen is
+//! `M3 S90 G4 P0.149`, as the plan's servo block carries both); a settle dwell is `G4 P<seconds>`, written so
+//! that GRBL, which dwells in whole steps of 50 ms, dwells what the plan made for it times
+//! ([`plotter_path::motion::plan::grbl_dwell_ticks`]). A servo pen is
 //! never lifted with `M5`: on stock GRBL, whose spindle PWM drives the hobby servo, `M5` stops the pulses and the
 //! pen may fall onto the paper; `M3 S<pen.servo_up_deg>` holds it up on GRBL servo builds and on our firmware
 //! alike (see [`plotter_path::output::gcode_out`]).
 
 use std::fmt::Write as _;
 
-use plotter_fw::TICK_HZ;
 use plotter_path::MachineProfile;
-use plotter_path::motion::plan::{MotionPlan, MoveKind};
+use plotter_path::motion::plan::{GRBL_DWELL_STEP_TICKS, MotionPlan, MoveKind, grbl_dwell_ticks};
 use plotter_path::output::gcode_out::{decimals_for, fmt_mm};
 
 /// The program of a plan.
@@ -33,9 +34,15 @@ fn mm(steps: i32, spm: f64) -> f64 {
     f64::from(steps) / spm
 }
 
-/// A dwell of `ticks` as GRBL's `P` (seconds, to the millisecond).
+/// A dwell of `ticks` as GRBL's `P` (seconds), for GRBL to dwell what [`grbl_dwell_ticks`] says: `P0` under half a
+/// millisecond, else its whole 50 ms steps less a millisecond, since GRBL takes ⌈20·P⌉ steps of P read in single
+/// precision, which for some exact multiples comes out one step over (`P1.3` dwells 1.35 s).
 fn seconds(ticks: u32) -> String {
-    fmt_mm(f64::from(ticks) / f64::from(TICK_HZ), 3)
+    let steps = grbl_dwell_ticks(ticks) / GRBL_DWELL_STEP_TICKS;
+    if steps == 0 {
+        return "0".into();
+    }
+    fmt_mm(f64::from(steps) * 0.05 - 0.001, 3)
 }
 
 /// Write `plan` (which starts at `plan.start`, in steps of the plot's work coordinates) as G-code lines.
@@ -192,17 +199,17 @@ mod tests {
             [
                 "G1 X10 Y10 Z3.27 F7200",
                 "G1 Z0 F1500",
-                "G4 P0.05",
+                "G4 P0.049",
                 "G1 X12.5 Y10 F3600",
                 "G1 X12.5 Y11.0125",
                 "G1 Z4 F1500",
-                "G4 P0.05",
+                "G4 P0.049",
                 "G1 X20 Y10 F7200",
                 "G1 Z1 F1500",
-                "G4 P0.05",
+                "G4 P0.049",
                 "G1 X21 Y10 F600",
                 "G1 Z4 F1500",
-                "G4 P0.05",
+                "G4 P0.049",
             ]
         );
         let safe: Vec<usize> = prog.safe_after.iter().enumerate().filter(|(_, s)| **s).map(|(i, _)| i).collect();
@@ -220,7 +227,7 @@ mod tests {
         let steps = drawing_to_steps(&p, &two_layers()).unwrap();
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         let prog = program(&p, &plan);
-        // The servo blocks carry the 50 ms settle; the plot starts by lifting the pen (its angle is not known). The
+        // The servo blocks carry the 50 ms settle (written 0.049 s: GRBL dwells in whole 50 ms steps); the plot starts by lifting the pen (its angle is not known). The
         // tip touches at 0.7 of the servo's swing, 35 ms after the drop is commanded, so the drop goes out before the
         // travel's last 35 ms: the last 33 steps (0.4125 mm) of this deceleration take 33.3 ms, so 36 steps (0.45 mm)
         // take 33.3·√(36/33) = 34.8 ms, and the line starts at contact, a 0.2 ms dwell written P0. Before the pen
@@ -228,24 +235,34 @@ mod tests {
         assert_eq!(
             prog.lines,
             [
-                "M3 S90 G4 P0.05",
+                "M3 S90 G4 P0.049",
                 "G1 X9.55 Y9.55 F7200",
                 "M3 S25 G4 P0",
                 "G1 X10 Y10",
                 "G4 P0",
                 "G1 X12.5 Y10 F3600",
                 "G1 X12.5 Y11.0125",
-                "M3 S90 G4 P0.05",
+                "M3 S90 G4 P0.049",
                 "G1 X20 Y10 F7200",
-                "M3 S25 G4 P0.05",
+                "M3 S25 G4 P0.049",
                 "G1 X21 Y10 F3600",
-                "M3 S90 G4 P0.05",
+                "M3 S90 G4 P0.049",
             ]
         );
         assert_eq!(declare_position(&p, [8, 0, 1600, 0]), "G92 X0.1 Y0");
         // At the profile's up angle (90°), whatever Z says; never `M5`, which lets a stock GRBL's servo go limp.
         assert_eq!(lift(&p, 0).unwrap(), ["M3 S90"], "a servo pen is lifted whatever Z says");
         assert!(prog.lines.iter().all(|l| !l.contains("M5")));
+    }
+
+    #[test]
+    fn dwells_are_written_for_grbls_50_ms_steps() {
+        // GRBL dwells ⌈20·P⌉ steps of 50 ms: each dwell is written a millisecond short of the steps that cover it,
+        // out of reach of single precision's rounding, and what is under half a millisecond is no dwell.
+        let cases = [(1, "0"), (499, "0"), (500, "0.049"), (45_000, "0.049"), (50_000, "0.049"), (50_001, "0.099")];
+        for (ticks, p) in cases.into_iter().chain([(150_000, "0.149"), (1_300_000, "1.299")]) {
+            assert_eq!(seconds(ticks), p, "{ticks}");
+        }
     }
 
     #[test]
