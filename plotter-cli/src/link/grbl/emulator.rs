@@ -167,6 +167,8 @@ pub struct GrblEmulator {
     /// Motion lines wait in the backend's planner (held there) for GRBL's cycle start: see
     /// [`GrblEmulator::process`].
     queued: bool,
+    /// The last line sent to the backend waited for the planner to empty ([`Flow::Syncs`]).
+    synced: bool,
     homed: bool,
     paused: bool,
     status_wanted: bool,
@@ -279,6 +281,7 @@ impl GrblEmulator {
             needs_reset: false,
             sleeping: false,
             queued: false,
+            synced: false,
             homed: false,
             paused: false,
             status_wanted: false,
@@ -439,6 +442,7 @@ impl GrblEmulator {
         self.current = None;
         self.paused = false;
         self.queued = false;
+        self.synced = false;
         self.feed_set = false;
         self.g92 = [0.0; 3];
         if self.needs_reset {
@@ -696,7 +700,11 @@ impl GrblEmulator {
     /// to empty: `M3`, `G4`, `M0`, `M2`; for room in the planner). So the moves after a stop are planned
     /// together: a corner between two of them is taken at its junction speed, not from rest. The backend's
     /// planner hands a block to its stepper (frozen) as soon as the stepper runs short, so the waiting moves are
-    /// held there (a feed hold on a stepper at rest) until the cycle starts.
+    /// held there (a feed hold on a stepper at rest) until the cycle starts. Only after a line that waited for
+    /// the planner to empty (`M3`, `G4`): there a sender has filled the receive buffer with the lines after it
+    /// while it waited, whatever the pace of the link. Elsewhere (a plot's first move) what is received when
+    /// hangs on the host's timing, and GRBL re-plans the block it runs as more arrive, which the backend cannot:
+    /// the moves start at once, the first ones planned alone, whatever the timing.
     fn process(&mut self) {
         loop {
             self.process_lines();
@@ -722,11 +730,12 @@ impl GrblEmulator {
                 match &mut cur.waiting {
                     Waiting::Backend { flow: Flow::Syncs, sent: false, .. } if !motion_idle => {}
                     Waiting::Backend { lines, sent, flow } if !*sent && !lines.is_empty() => {
-                        if *flow == Flow::Queues && !self.queued && motion_idle {
+                        if *flow == Flow::Queues && !self.queued && motion_idle && self.synced {
                             // Nothing moves: the move waits for the cycle to start.
                             self.queued = true;
                             self.backend.feed(&[plotter_fw::protocol::RT_FEED_HOLD]);
                         }
+                        self.synced = *flow == Flow::Syncs;
                         if let Some(l) = lines.pop_front() {
                             self.backend.feed(format!("{l}\n").as_bytes());
                         }
@@ -1065,12 +1074,12 @@ mod tests {
 
     #[test]
     fn moves_sent_together_are_planned_together_and_a_dwell_stops_them() {
-        // Two 10 mm moves at 60 mm/s (F3600) with a 90° corner, on the kit (1500 mm/s², $11 = 0.02 mm). GRBL starts
-        // the cycle only once no complete line is left to parse, so the second move is planned before the first
-        // starts and the corner is taken at its junction speed: v² = a·δ·s/(1 − s), s = sin 45° → v = 8.510 mm/s.
+        // Two 10 mm moves at 60 mm/s (F3600) with a 90° corner, on the kit (1500 mm/s², $11 = 0.02 mm), after a
+        // dwell (a sync, as a servo's drop is). GRBL starts the cycle only once no complete line is left to
+        // parse, so the second move is planned before the first starts and the corner is taken at its junction speed: v² = a·δ·s/(1 − s), s = sin 45° → v = 8.510 mm/s.
         // Each move: 0 → 60 mm/s in 40 ms (1.2 mm), 60 → 8.51 mm/s in 34.33 ms (1.176 mm), 7.624 mm at 60 mm/s in
         // 127.07 ms: 201.40 ms, 402.79 ms both; from rest to rest at the corner 2 × 206.67 = 413.33 ms.
-        let cornered = motion_ticks("G1 X10 F3600\nG1 X10 Y10");
+        let cornered = motion_ticks("G4 P0\nG1 X10 F3600\nG1 X10 Y10");
         assert!(cornered.abs_diff(402_790) <= 50, "{cornered} ticks, 402 790 by hand");
         // A dwell, even of no length, waits for the planner to empty first (GRBL's `mc_dwell`), as a spindle word
         // does: the carriage stops at the corner.
