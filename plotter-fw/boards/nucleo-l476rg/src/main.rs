@@ -9,7 +9,7 @@
 //! provides the vector table and start-up. The HAL's blocking, interrupt-friendly style matches the core's three
 //! entry points exactly (receive, timer, poll): the core owns all timing and scheduling, so an async executor
 //! (embassy) would add code and a second scheduler without doing anything the core needs, and the image has to
-//! fit the project's flash budget (72 KiB). The hot paths (step pins, the TIM2 compare channels, the USART2 DMA ring) are register writes in
+//! fit the project's flash budget (76 KiB). The hot paths (step pins, the TIM2 compare channels, the USART2 DMA ring) are register writes in
 //! [`regs`].
 //!
 //! **Wiring of the core**: USART2's idle-line and DMA1 channel 6's half/complete interrupts hand received bytes
