@@ -267,6 +267,12 @@ struct Queued {
 }
 
 impl Queued {
+    /// Its execution time, ticks, as queued (its step times, possibly re-timed; a dwell takes at least one tick,
+    /// as [`StepBlock::duration_ticks`] has it).
+    fn duration_ticks(&self) -> u32 {
+        if self.n == 0 { self.block.dwell_ticks.max(1) } else { self.profile.duration_ticks() }
+    }
+
     /// Compute the executing state at the block's first event and the interval to it (main context, whenever the
     /// block's step times or stop change while it is queued).
     fn prepare(&mut self) {
@@ -644,8 +650,7 @@ impl Stepper {
         };
         q.prepare();
         if let Some(servo) = &mut self.servo {
-            let ticks = if n == 0 { block.dwell_ticks.max(1) } else { q.profile.duration_ticks() };
-            q.swing_wait = servo.pushed(&block, ticks);
+            q.swing_wait = servo.pushed(&block, q.duration_ticks());
         }
         // Never the executing block's slot: that one is just before `first`, and at most one block is queued.
         self.ring[nth_after(self.first, self.queued)] = q;
@@ -1052,6 +1057,21 @@ fn continue_hold(carry: Carry, q: &mut Queued) -> Option<Carry> {
     carried
 }
 
+/// A move for the stepper's tests: `steps` ([X, Y] events) entered at `entry`, cruising at `cruise` and left at
+/// `exit` events/s, with `accel` events/s².
+#[cfg(test)]
+fn test_move(steps: [i32; 2], entry: u32, cruise: u32, exit: u32, accel: u32) -> StepBlock {
+    StepBlock {
+        steps: [steps[0], steps[1], 0, 0],
+        entry_rate: entry,
+        cruise_rate: cruise,
+        exit_rate: exit,
+        accel,
+        dwell_ticks: 0,
+        servo: None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1244,15 +1264,7 @@ mod tests {
 
     /// 3000 X events toward 4000 events/s at 20 000 events/s², entering and leaving at the given rates.
     fn ramp_3000(entry: u32, exit: u32) -> StepBlock {
-        StepBlock {
-            steps: [3000, 0, 0, 0],
-            entry_rate: entry,
-            cruise_rate: 4000,
-            exit_rate: exit,
-            accel: 20_000,
-            dwell_ticks: 0,
-            servo: None,
-        }
+        super::test_move([3000, 0], entry, 4000, exit, 20_000)
     }
 
     #[test]

@@ -88,14 +88,7 @@ mod tests {
 
     /// A 50-event move along X at `entry → cruise → exit` events/s, 20 000 events/s².
     fn mv(entry: u32, exit: u32) -> StepBlock {
-        StepBlock {
-            steps: [50, 0, 0, 0],
-            entry_rate: entry,
-            cruise_rate: 2000,
-            exit_rate: exit,
-            accel: 20_000,
-            ..StepBlock::dwell(0)
-        }
+        super::super::test_move([50, 0], entry, 2000, exit, 20_000)
     }
 
     fn resumed(planned_exit: u32) -> Stepper {

@@ -128,7 +128,7 @@ impl Stepper {
         let (s_slot, b_slot) = (self.queued_slot(i), self.queued_slot(i + 1));
         let mut s = self.ring[s_slot];
         let mut b = self.ring[b_slot];
-        let planned = s.block.dwell_ticks.max(1).saturating_add(b.profile.duration_ticks());
+        let planned = s.duration_ticks().saturating_add(b.duration_ticks());
         s.block.dwell_ticks = planned.max(s.swing_wait);
         // Commanded at rest now, at the end of the move.
         s.flying = false;
@@ -172,7 +172,7 @@ pub(super) fn runs_through(carry: &Carry, q: &Queued) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::super::Stepper;
+    use super::super::{Stepper, test_move};
     use crate::axis::Axis;
     use crate::config::{MachineConfig, PenConfig};
     use crate::hal::{Endstops, StepPins};
@@ -221,27 +221,13 @@ mod tests {
         }
     }
 
-    /// A move of `steps` ([X, Y] events) cruising at 1000 events/s, entered at `entry` and left at `exit`, with
-    /// `accel` events/s².
-    fn move_at(steps: [i32; 2], entry: u32, exit: u32, accel: u32) -> StepBlock {
-        StepBlock {
-            steps: [steps[0], steps[1], 0, 0],
-            entry_rate: entry,
-            cruise_rate: 1000,
-            exit_rate: exit,
-            accel,
-            dwell_ticks: 0,
-            servo: None,
-        }
-    }
-
     /// A servo pen's hop cut for a drop on the way, then its stroke, in events of 1000/s at 5000/s²: the travel
     /// [700, 175] from rest to rest (100 events up to 1000/s in 0.2 s, 500 cruising in 0.5 s, 100 down in 0.2 s)
     /// cut after 600 events into A (0.7 s, ending at 1000/s) and B (100 events from 1000/s to rest: 0.2 s), the
     /// drop S (1 tick) between them, a 0.1 s settle dwell and the stroke C, [0, 300] from rest to rest (0.5 s). The
     /// stroke starts at [700, 175]; a step with y > 175 is the stroke's.
     fn blocks() -> [StepBlock; 5] {
-        let mv = |steps, entry, exit| move_at(steps, entry, exit, 5000);
+        let mv = |steps, entry, exit| test_move(steps, entry, 1000, exit, 5000);
         [
             mv([600, 150], 0, 1000),
             StepBlock::servo(300, 1),
@@ -395,7 +381,7 @@ mod tests {
     /// down in 20 ms: 30 ms), a [`HOP_SETTLE`] dwell and the stroke C, [0, 30] from rest to rest. C starts at
     /// [`HOP_END`]; a step with y > 20 is the stroke's.
     fn hop(lift: u32) -> [StepBlock; 7] {
-        let mv = |steps, entry, exit| move_at(steps, entry, exit, 50_000);
+        let mv = |steps, entry, exit| test_move(steps, entry, 1000, exit, 50_000);
         [
             StepBlock::servo(300, 1),
             StepBlock::servo(900, lift),
