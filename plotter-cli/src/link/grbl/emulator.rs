@@ -1076,7 +1076,8 @@ mod tests {
     fn moves_sent_together_are_planned_together_and_a_dwell_stops_them() {
         // Two 10 mm moves at 60 mm/s (F3600) with a 90° corner, on the kit (1500 mm/s², $11 = 0.02 mm), after a
         // dwell (a sync, as a servo's drop is). GRBL starts the cycle only once no complete line is left to
-        // parse, so the second move is planned before the first starts and the corner is taken at its junction speed: v² = a·δ·s/(1 − s), s = sin 45° → v = 8.510 mm/s.
+        // parse, so the second move is planned before the first starts and the corner is taken at its junction
+        // speed: v² = a·δ·s/(1 − s), s = sin 45° → v = 8.510 mm/s.
         // Each move: 0 → 60 mm/s in 40 ms (1.2 mm), 60 → 8.51 mm/s in 34.33 ms (1.176 mm), 7.624 mm at 60 mm/s in
         // 127.07 ms: 201.40 ms, 402.79 ms both; from rest to rest at the corner 2 × 206.67 = 413.33 ms.
         let cornered = motion_ticks("G4 P0\nG1 X10 F3600\nG1 X10 Y10");

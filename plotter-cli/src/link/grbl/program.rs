@@ -227,11 +227,11 @@ mod tests {
         let steps = drawing_to_steps(&p, &two_layers()).unwrap();
         let plan = plan(&p, &steps, homed_position(&p).unwrap(), Lookahead::Whole).unwrap();
         let prog = program(&p, &plan);
-        // The servo blocks carry the 50 ms settle (written 0.049 s: GRBL dwells in whole 50 ms steps); the plot starts by lifting the pen (its angle is not known). The
-        // tip touches at 0.7 of the servo's swing, 35 ms after the drop is commanded, so the drop goes out before the
-        // travel's last 35 ms: the last 33 steps (0.4125 mm) of this deceleration take 33.3 ms, so 36 steps (0.45 mm)
-        // take 33.3·√(36/33) = 34.8 ms, and the line starts at contact, a 0.2 ms dwell written P0. Before the pen
-        // change the lift is whole and the travel after it flat.
+        // The servo blocks carry the 50 ms settle (written 0.049 s: GRBL dwells in whole 50 ms steps); the plot starts
+        // by lifting the pen (its angle is not known). The tip touches at 0.7 of the servo's swing, 35 ms after the
+        // drop is commanded, so the drop goes out before the travel's last 35 ms: the last 33 steps (0.4125 mm) of this
+        // deceleration take 33.3 ms, so 36 steps (0.45 mm) take 33.3·√(36/33) = 34.8 ms, and the line starts at
+        // contact, a 0.2 ms dwell written P0. Before the pen change the lift is whole and the travel after it flat.
         assert_eq!(
             prog.lines,
             [
